@@ -1,0 +1,751 @@
+"""Parse *.urbs files with lark, resolve names, lay out bits and check every rule.
+
+Every problem becomes a SchemaError with file:line:column and a one-line hint; callers never see a
+lark or Python traceback for a bad schema.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from importlib.resources import files
+from pathlib import Path
+
+from lark import Lark, Token, Tree
+from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
+
+from .errors import Location, SchemaError, SchemaErrors
+from .model import (
+    MAILBOXES,
+    MAX_MAILBOX_SIZE,
+    ArrayType,
+    BytesType,
+    CheckType,
+    ChecksumDecl,
+    ConstDecl,
+    CrcTier,
+    EnumDecl,
+    EnumMember,
+    Field,
+    FieldType,
+    IntType,
+    Mailbox,
+    MessageDecl,
+    NodeDecl,
+    Schema,
+)
+
+_GRAMMAR = files("urb_codegen").joinpath("grammar.lark").read_text(encoding="utf-8")
+_PARSER = Lark(_GRAMMAR, parser="lalr", propagate_positions=True, maybe_placeholders=False)
+
+_INT_RE = re.compile(r"^([ui])([0-9]+)$")
+
+_TOKEN_HINTS = {
+    "STRING": 'every item needs a documentation string in double quotes, e.g. "what this is"',
+    "NAME": "a name (letters, digits, underscores) is expected here",
+    "INTEGER": "a number is expected here",
+    "HEX": "a number is expected here",
+    "RBRACE": "close the block with `}`",
+    "LBRACE": "open the block with `{`",
+    "COLON": "write fields as `name: type \"doc\"`",
+}
+
+
+@dataclass
+class _Raw:
+    """A parsed but unresolved schema file."""
+
+    path: Path
+    source: str
+    tree: Tree[Token]
+    name: str
+    imports: list[tuple[str, Location]]
+
+
+def _loc(path: Path, node: Tree[Token] | Token) -> Location:
+    if isinstance(node, Token):
+        return Location(path, node.line or 1, node.column or 1)
+    meta = node.meta
+    return Location(path, getattr(meta, "line", 1), getattr(meta, "column", 1))
+
+
+def _syntax_error(path: Path, exc: UnexpectedInput) -> SchemaError:
+    line = getattr(exc, "line", 1) or 1
+    column = getattr(exc, "column", 1) or 1
+    if isinstance(exc, UnexpectedToken) and exc.token.type == "$END":
+        return SchemaError(Location(path, line, column), "unexpected end of file", "a block is not closed: add `}`")
+    if isinstance(exc, UnexpectedEOF):
+        return SchemaError(Location(path, line, column), "unexpected end of file", "a block is not closed: add `}`")
+    if isinstance(exc, UnexpectedCharacters):
+        ch = exc.char
+        return SchemaError(
+            Location(path, line, column),
+            f"unexpected character {ch!r}",
+            "remove it; comments start with `#` and strings use double quotes",
+        )
+    if isinstance(exc, UnexpectedToken):
+        expected = sorted(exc.expected)
+        hint = next((_TOKEN_HINTS[e] for e in expected if e in _TOKEN_HINTS), None)
+        shown = ", ".join(_describe(e) for e in expected[:6])
+        tok = exc.token
+        return SchemaError(
+            Location(path, line, column),
+            f"unexpected {tok.type.lower()} {str(tok)!r}; expected {shown}",
+            hint or "see spec/schema/README.md for the syntax of each item",
+        )
+    return SchemaError(Location(path, line, column), "syntax error", "see spec/schema/README.md")
+
+
+def _describe(terminal: str) -> str:
+    literal = {
+        "LBRACE": "'{'", "RBRACE": "'}'", "COLON": "':'", "EQUAL": "'='", "LSQB": "'['", "RSQB": "']'",
+        "STRING": "a doc string", "NAME": "a name", "INTEGER": "a number", "HEX": "a number",
+    }
+    return literal.get(terminal, terminal.lower().replace("__anon", "token"))
+
+
+def parse_file(path: Path) -> _Raw:
+    """Parse one file into a raw tree, or raise SchemaError."""
+    try:
+        source = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise SchemaError(Location(path, 1, 1), f"cannot read schema: {exc.strerror}", "check the path") from None
+    try:
+        tree = _PARSER.parse(source)
+    except UnexpectedInput as exc:
+        raise _syntax_error(path, exc) from None
+    schema_decl = tree.children[0]
+    assert isinstance(schema_decl, Tree)
+    name_tok = schema_decl.children[0]
+    assert isinstance(name_tok, Token)
+    imports = []
+    for item in tree.children[1:]:
+        if isinstance(item, Tree) and item.data == "import_decl":
+            tok = item.children[0]
+            assert isinstance(tok, Token)
+            imports.append((str(tok), _loc(path, tok)))
+    return _Raw(path, source, tree, str(name_tok), imports)
+
+
+def _int(node: Tree[Token] | Token) -> int:
+    tok = node.children[0] if isinstance(node, Tree) else node
+    assert isinstance(tok, Token)
+    return int(str(tok), 0)
+
+
+def _doc(node: Tree[Token] | Token) -> str:
+    tok = node.children[0] if isinstance(node, Tree) else node
+    assert isinstance(tok, Token)
+    return _unquote(str(tok))
+
+
+def _unquote(s: str) -> str:
+    return s[1:-1].replace('\\"', '"').replace("\\\\", "\\")
+
+
+class _Builder:
+    """Resolves one raw schema against its already-built imports."""
+
+    def __init__(self, raw: _Raw, imports: list[Schema]) -> None:
+        self.raw = raw
+        self.path = raw.path
+        self.schema = Schema(raw.name, "", raw.path, raw.source, imports=imports)
+        self.errors: list[SchemaError] = []
+        self._names: dict[str, Location] = {}
+
+    # --- helpers ---------------------------------------------------------------------------
+    def err(self, node: Tree[Token] | Token | Location, message: str, hint: str) -> None:
+        loc = node if isinstance(node, Location) else _loc(self.path, node)
+        self.errors.append(SchemaError(loc, message, hint))
+
+    def declare(self, name_tok: Token) -> bool:
+        name = str(name_tok)
+        if name in self._names or self._lookup_imported(name) is not None:
+            where = self._names.get(name)
+            self.err(
+                name_tok,
+                f"duplicate name '{name}'" + (f" (first declared at {where})" if where else " (declared in an import)"),
+                "give each constant, checksum, enum, message and node its own name",
+            )
+            return False
+        self._names[name] = _loc(self.path, name_tok)
+        return True
+
+    def _lookup_imported(self, name: str) -> object | None:
+        for imp in self.schema.imports:
+            for table in (imp.consts, imp.enums, imp.checksums, imp.messages, imp.nodes):
+                if name in table:
+                    return table[name]
+        return None
+
+    def lookup(self, name: str) -> object | None:
+        s = self.schema
+        for table in (s.consts, s.enums, s.checksums, s.messages):
+            if name in table:
+                return table[name]
+        return self._lookup_imported(name)
+
+    # --- build -----------------------------------------------------------------------------
+    def build(self) -> Schema:
+        tree = self.raw.tree
+        decl = tree.children[0]
+        assert isinstance(decl, Tree)
+        self.schema.doc = _doc(decl.children[1])
+        items = [c for c in tree.children[1:] if isinstance(c, Tree)]
+        # Declare messages first so fields may refer to messages declared later.
+        pending: list[tuple[Tree[Token], MessageDecl]] = []
+        for item in items:
+            if item.data == "message_decl":
+                name_tok = item.children[0]
+                assert isinstance(name_tok, Token)
+                if self.declare(name_tok):
+                    msg = MessageDecl(str(name_tok), _doc(item.children[1]), _loc(self.path, name_tok), [], self.raw.name)
+                    self.schema.messages[msg.name] = msg
+                    pending.append((item, msg))
+        for item in items:
+            if item.data == "const_decl":
+                self.build_const(item)
+            elif item.data == "checksum_decl":
+                self.build_checksum(item)
+            elif item.data == "enum_decl":
+                self.build_enum(item)
+        for item, msg in pending:
+            self.build_fields(item, msg)
+        self.check_cycles()
+        if not self.errors:
+            for _, msg in pending:
+                self.layout(msg)
+        for item in items:
+            if item.data == "node_decl":
+                self.build_node(item)
+        if self.errors:
+            raise SchemaErrors(self.errors)
+        return self.schema
+
+    def build_const(self, item: Tree[Token]) -> None:
+        name_tok, value, doc = item.children
+        assert isinstance(name_tok, Token)
+        if self.declare(name_tok):
+            self.schema.consts[str(name_tok)] = ConstDecl(str(name_tok), _int(value), _doc(doc), _loc(self.path, name_tok))
+
+    def build_checksum(self, item: Tree[Token]) -> None:
+        name_tok = item.children[0]
+        assert isinstance(name_tok, Token)
+        tiers: list[CrcTier] = []
+        tier_nodes = [c for c in item.children[2:] if isinstance(c, Tree)]
+        for i, tnode in enumerate(tier_nodes):
+            tname = tnode.children[0]
+            assert isinstance(tname, Token)
+            params: dict[str, int] = {}
+            for p in tnode.children[1:]:
+                assert isinstance(p, Tree)
+                key = p.children[0]
+                assert isinstance(key, Token)
+                if str(key) in params:
+                    self.err(key, f"'{key}' given twice in tier '{tname}'", "keep one value per parameter")
+                params[str(key)] = _int(p.children[1])
+            for required in ("width", "poly", "init", "xorout"):
+                if required not in params:
+                    self.err(tname, f"tier '{tname}' has no '{required}'", f"add `{required} <number>` to the tier")
+            width = params.get("width", 8)
+            if width not in (8, 16, 32):
+                self.err(tname, f"CRC width {width} is not supported", "use width 8, 16 or 32")
+                width = 8
+            for key in ("poly", "init", "xorout"):
+                if params.get(key, 0) >= (1 << width):
+                    self.err(tname, f"{key} {params[key]:#x} does not fit in {width} bits", f"use a value below {1 << width:#x}")
+            if params.get("poly", 1) % 2 == 0:
+                self.err(tname, "CRC polynomial must have its x^0 term (odd value)", "write the polynomial in normal form, e.g. 0x2F")
+            last = i == len(tier_nodes) - 1
+            max_cov = params.get("max_covered")
+            if last and max_cov is not None:
+                self.err(tname, "the last tier must cover frames of any length", "remove `max_covered` from the last tier")
+            if not last and max_cov is None:
+                self.err(tname, "only the last tier may leave `max_covered` out", "add `max_covered <bytes>` to this tier")
+            tiers.append(CrcTier(str(tname), width, params.get("poly", 1), params.get("init", 0), params.get("xorout", 0), max_cov))
+        if self.declare(name_tok):
+            self.schema.checksums[str(name_tok)] = ChecksumDecl(
+                str(name_tok), _doc(item.children[1]), _loc(self.path, name_tok), tiers, self.raw.name
+            )
+
+    def int_type(self, name: str) -> IntType | None:
+        if name == "bool":
+            return IntType(1, False, True)
+        m = _INT_RE.match(name)
+        if not m:
+            return None
+        return IntType(int(m.group(2)), m.group(1) == "i")
+
+    def check_int_width(self, tok: Token, t: IntType) -> bool:
+        if t.bits < 1 or t.bits > 32:
+            self.err(tok, f"bit field '{tok}' is wider than 32 bits" if t.bits > 32 else f"'{tok}' has no bits",
+                     "integers are u1..u32 or i2..i32; split wider values into two fields")
+            return False
+        if t.signed and t.bits < 2:
+            self.err(tok, "a signed field needs at least 2 bits", "use u1 or bool for a single bit")
+            return False
+        return True
+
+    def build_enum(self, item: Tree[Token]) -> None:
+        name_tok, base_tok, doc = item.children[:3]
+        assert isinstance(name_tok, Token) and isinstance(base_tok, Token)
+        base = self.int_type(str(base_tok))
+        if base is None or base.is_bool:
+            self.err(base_tok, f"enum base '{base_tok}' is not an integer type", "use an unsigned type such as u8 or u4")
+            base = IntType(8, False)
+        elif not self.check_int_width(base_tok, base):
+            base = IntType(8, False)
+        members: list[EnumMember] = []
+        seen_names: set[str] = set()
+        seen_values: dict[int, str] = {}
+        for m in item.children[3:]:
+            assert isinstance(m, Tree)
+            mname, mval, mdoc = m.children
+            assert isinstance(mname, Token)
+            value = _int(mval)
+            if str(mname) in seen_names:
+                self.err(mname, f"duplicate enum member '{mname}'", "give every member its own name")
+            if value in seen_values:
+                self.err(mname, f"value {value} is already used by '{seen_values[value]}'", "give every member its own value")
+            if not base.min <= value <= base.max:
+                self.err(mname, f"value {value} does not fit in {base.name}", f"use a value in {base.min}..{base.max} or widen the base type")
+            seen_names.add(str(mname))
+            seen_values[value] = str(mname)
+            members.append(EnumMember(str(mname), value, _doc(mdoc), _loc(self.path, mname)))
+        if self.declare(name_tok):
+            self.schema.enums[str(name_tok)] = EnumDecl(str(name_tok), base, _doc(doc), _loc(self.path, name_tok), members, self.raw.name)
+
+    # --- fields ----------------------------------------------------------------------------
+    def resolve_type(self, tnode: Tree[Token], msg: MessageDecl) -> FieldType | None:
+        kind = tnode.data
+        if kind in ("named_type", "array_type"):
+            tok = tnode.children[0]
+            assert isinstance(tok, Token)
+            name = str(tok)
+            elem: IntType | EnumDecl | MessageDecl | ChecksumDecl | None
+            it = self.int_type(name)
+            if it is not None:
+                if not self.check_int_width(tok, it):
+                    return None
+                elem = it
+            else:
+                found = self.lookup(name)
+                if isinstance(found, (EnumDecl, MessageDecl, ChecksumDecl)):
+                    elem = found
+                else:
+                    self.err(tok, f"unknown type '{name}'",
+                             "use u1..u32, i2..i32, bool, bytes[...], or an enum, message or checksum declared in this schema or an import")
+                    return None
+            if isinstance(elem, MessageDecl) and elem is msg:
+                self.err(tok, f"message '{msg.name}' contains itself", "a message cannot contain itself; remove the field")
+                return None
+            if kind == "array_type":
+                count = _int(tnode.children[1])
+                if isinstance(elem, ChecksumDecl):
+                    self.err(tok, "a check cannot be an array", "declare one check field")
+                    return None
+                if count < 1 or count > 256:
+                    self.err(tok, f"array of {count} elements", "arrays hold 1..256 elements")
+                    return None
+                return ArrayType(elem, count)
+            if isinstance(elem, ChecksumDecl):
+                return CheckType(elem, "", "")
+            return elem
+        if kind == "bytes_counted":
+            count_tok = tnode.children[0]
+            assert isinstance(count_tok, Token)
+            max_len = _int(tnode.children[1])
+            if not self.check_payload_max(tnode, max_len):
+                return None
+            return BytesType(max_len, str(count_tok))
+        if kind == "bytes_tail":
+            max_len = _int(tnode.children[0])
+            if not self.check_payload_max(tnode, max_len):
+                return None
+            return BytesType(max_len, None)
+        raise AssertionError(kind)
+
+    def check_payload_max(self, node: Tree[Token], max_len: int) -> bool:
+        if max_len > MAX_MAILBOX_SIZE:
+            self.err(node, f"payload over {MAX_MAILBOX_SIZE} bytes (bytes[<= {max_len}])",
+                     f"URB mailboxes hold at most {MAX_MAILBOX_SIZE} bytes; lower the bound")
+            return False
+        if max_len < 1:
+            self.err(node, "a byte payload needs a bound of at least 1", "write bytes[<= N] with N in 1..32")
+            return False
+        return True
+
+    def build_fields(self, item: Tree[Token], msg: MessageDecl) -> None:
+        seen: dict[str, Location] = {}
+        for fnode in item.children[2:]:
+            assert isinstance(fnode, Tree)
+            name_tok = fnode.children[0]
+            tnode = fnode.children[1]
+            assert isinstance(name_tok, Token) and isinstance(tnode, Tree)
+            name = str(name_tok)
+            if name != "_" and name in seen:
+                self.err(name_tok, f"duplicate field '{name}' (first at {seen[name]})", "rename one of the fields")
+                continue
+            seen[name] = _loc(self.path, name_tok)
+            ftype = self.resolve_type(tnode, msg)
+            opts = fnode.children[2:-1]
+            doc = _doc(fnode.children[-1])
+            if ftype is None:
+                continue
+            f = Field(name, ftype, doc, _loc(self.path, name_tok))
+            for opt in opts:
+                assert isinstance(opt, Tree)
+                self.apply_option(f, opt)
+            msg.fields.append(f)
+        self.check_message_shape(item, msg)
+
+    def apply_option(self, f: Field, opt: Tree[Token]) -> None:
+        kind = opt.data
+        scalar = isinstance(f.type, (IntType, EnumDecl))
+        numeric = isinstance(f.type, IntType) and not f.type.is_bool or (
+            isinstance(f.type, ArrayType) and isinstance(f.type.element, IntType) and not f.type.element.is_bool
+        )
+        if kind == "opt_fixed":
+            val = opt.children[0]
+            if not scalar:
+                self.err(opt, f"field '{f.name}' cannot have a fixed value", "only integer, bool and enum fields take `= value`")
+                return
+            value = self.fixed_value(val, f)
+            if value is None:
+                return
+            it = f.int_type
+            if not it.min <= value <= it.max:
+                self.err(opt, f"fixed value {value} does not fit in {it.name}", f"use a value in {it.min}..{it.max}")
+                return
+            f.fixed = value
+        elif kind == "opt_range":
+            lo, hi = (int(str(c.children[0]), 0) for c in opt.children if isinstance(c, Tree))
+            if not isinstance(f.type, IntType) or f.type.is_bool:
+                self.err(opt, f"field '{f.name}' cannot have a range", "only integer fields take `in lo..hi`")
+                return
+            if lo > hi or lo < f.type.min or hi > f.type.max:
+                self.err(opt, f"range {lo}..{hi} is empty or outside {f.type.name} ({f.type.min}..{f.type.max})",
+                         "write `in lo..hi` with lo <= hi inside the type's range")
+                return
+            f.range = (lo, hi)
+        elif kind in ("opt_unit", "opt_scale", "opt_offset"):
+            if not numeric:
+                self.err(opt, f"field '{f.name}' cannot carry units or scaling",
+                         "units, scale and offset apply to integer fields and integer arrays")
+                return
+            tok = opt.children[0]
+            assert isinstance(tok, Token)
+            if kind == "opt_unit":
+                f.unit = _unquote(str(tok))
+            elif kind == "opt_scale":
+                f.scale = float(str(tok))
+                if f.scale == 0.0:
+                    self.err(opt, "scale 0 loses every value", "use a non-zero scale")
+            else:
+                f.offset = float(str(tok))
+        elif kind == "opt_covers":
+            first, last = (str(c) for c in opt.children)
+            if not isinstance(f.type, CheckType):
+                self.err(opt, f"field '{f.name}' is not a check", "`covers` belongs to a field whose type is a checksum")
+                return
+            f.type = CheckType(f.type.checksum, first, last)
+        elif kind == "opt_implicit":
+            f.implicit = True
+        elif kind == "opt_position":
+            f.position = _int(opt.children[0])
+
+    def fixed_value(self, val: Tree[Token] | Token, f: Field) -> int | None:
+        if isinstance(val, Tree):
+            return _int(val)
+        name = str(val)
+        if isinstance(f.type, EnumDecl):
+            member = next((m for m in f.type.members if m.name == name), None)
+            if member is None:
+                self.err(val, f"'{name}' is not a member of enum {f.type.name}", "use one of: " + ", ".join(m.name for m in f.type.members))
+                return None
+            f.fixed_name = name
+            return member.value
+        const = self.lookup(name)
+        if isinstance(const, ConstDecl):
+            f.fixed_name = name
+            return const.value
+        self.err(val, f"unknown constant '{name}'", "declare it with `const NAME = value \"doc\"`")
+        return None
+
+    def check_message_shape(self, item: Tree[Token], msg: MessageDecl) -> None:
+        name_loc = msg.loc
+        fields = msg.fields
+        names = [f.name for f in fields]
+        checks = [f for f in fields if isinstance(f.type, CheckType)]
+        bytes_fields = [f for f in fields if isinstance(f.type, BytesType)]
+        if len(checks) > 1:
+            self.err(checks[1].loc, "a message has at most one check field", "remove the extra check")
+        if len(bytes_fields) > 1:
+            self.err(bytes_fields[1].loc, "a message has at most one byte payload", "merge the payloads into one bytes field")
+        for f in bytes_fields[:1]:
+            after = fields[fields.index(f) + 1:]
+            if any(not isinstance(a.type, CheckType) for a in after):
+                self.err(f.loc, "the byte payload must be the last field (only the check may follow)",
+                         "move fixed-size fields before the payload")
+            assert isinstance(f.type, BytesType)
+            if f.type.count_field is not None:
+                cname = f.type.count_field
+                counter = next((c for c in fields[: fields.index(f)] if c.name == cname), None)
+                if counter is None:
+                    self.err(f.loc, f"length field '{cname}' is not an earlier field of {msg.name}",
+                             "declare the length field (an unsigned integer) before the payload")
+                elif not isinstance(counter.type, IntType) or counter.type.signed or counter.type.is_bool:
+                    self.err(f.loc, f"length field '{cname}' must be an unsigned integer", "declare it as u8 (or uN)")
+                elif counter.type.max < f.type.max_len and (counter.range is None or counter.range[1] < f.type.max_len):
+                    pass  # a narrower counter simply bounds the payload lower; allowed
+                elif counter.range is not None and counter.range[1] > f.type.max_len:
+                    self.err(f.loc, f"length field '{cname}' allows {counter.range[1]} but the payload holds {f.type.max_len}",
+                             "make the range of the length field match the payload bound")
+        for f in checks[:1]:
+            assert isinstance(f.type, CheckType)
+            if fields[-1] is not f:
+                self.err(f.loc, "the check must be the last field", "move the check to the end of the message")
+            if not f.type.first:
+                self.err(f.loc, f"check '{f.name}' does not say what it covers",
+                         f"add `covers {names[0]}..{names[max(0, len(names) - 2)]}` (every field before the check)")
+                continue
+            if f.type.first not in names or f.type.last not in names:
+                missing = f.type.first if f.type.first not in names else f.type.last
+                self.err(f.loc, f"check covers unknown field '{missing}'", "name fields of this message in `covers first..last`")
+                continue
+            i0, i1 = names.index(f.type.first), names.index(f.type.last)
+            if i0 > i1:
+                self.err(f.loc, "check range runs backwards", "write `covers first..last` in declaration order")
+                continue
+            idx = fields.index(f)
+            uncovered = [g.name for j, g in enumerate(fields[:idx]) if not i0 <= j <= i1]
+            if uncovered:
+                self.err(f.loc, f"missing checksum coverage: {', '.join(uncovered)} not covered by '{f.name}'",
+                         f"write `covers {names[0]}..{names[idx - 1]}` so every field before the check is protected")
+            if i1 >= idx:
+                self.err(f.loc, "a check cannot cover itself", f"end the range at '{names[idx - 1]}'")
+        implicit = [f for f in fields if f.implicit]
+        if implicit:
+            if not checks:
+                self.err(implicit[0].loc, "an implicit field only matters to a check, and this message has none",
+                         "remove `implicit` or add a check that covers the field")
+            if fields[: len(implicit)] != implicit:
+                self.err(implicit[0].loc, "implicit fields must come first", "move implicit fields to the start of the message")
+        _ = item, name_loc
+
+    def check_cycles(self) -> None:
+        def contains(m: MessageDecl) -> list[MessageDecl]:
+            out = []
+            for f in m.fields:
+                t = f.type
+                if isinstance(t, ArrayType):
+                    t = t.element  # type: ignore[assignment]
+                if isinstance(t, MessageDecl):
+                    out.append(t)
+            return out
+
+        reported: set[str] = set()
+        for start in self.schema.messages.values():
+            stack: list[tuple[MessageDecl, list[str]]] = [(start, [start.name])]
+            while stack:
+                cur, path = stack.pop()
+                for nxt in contains(cur):
+                    if nxt is start:
+                        cycle = " -> ".join([*path, start.name])
+                        if start.name not in reported:
+                            reported.update(path)
+                            self.err(start.loc, f"circular reference: {cycle}",
+                                     "a message cannot contain itself through other messages; break the cycle")
+                    elif nxt.name not in path and nxt.schema == self.raw.name:
+                        stack.append((nxt, [*path, nxt.name]))
+
+    # --- layout ----------------------------------------------------------------------------
+    def field_bits(self, t: FieldType) -> int:
+        if isinstance(t, IntType):
+            return t.bits
+        if isinstance(t, EnumDecl):
+            return t.bits
+        if isinstance(t, MessageDecl):
+            if t.bytes_field is not None or t.check_field is not None or t.implicit_fields:
+                return -1
+            return t.fixed_bits
+        if isinstance(t, ArrayType):
+            elem = self.field_bits(t.element)
+            return -1 if elem < 0 else elem * t.count
+        return 0
+
+    def layout(self, msg: MessageDecl) -> None:
+        if msg.fixed_bits or not msg.fields:
+            return
+        for f in msg.fields:
+            t = f.type
+            inner = t.element if isinstance(t, ArrayType) else t
+            if isinstance(inner, MessageDecl):
+                self.layout(inner)
+        cursor = {True: 0, False: 0}  # implicit prefix and wire part are laid out separately
+        occupied: list[tuple[int, int, Field]] = []
+        for f in msg.fields:
+            if isinstance(f.type, (BytesType, CheckType)):
+                continue
+            bits = self.field_bits(f.type)
+            if bits < 0:
+                self.err(f.loc, f"field '{f.name}' nests a message with a payload or check",
+                         "nested messages must be fixed-size: no bytes[] and no check inside")
+                continue
+            start = cursor[f.implicit] if f.position is None else f.position
+            for (s, e, other) in occupied:
+                if other.implicit == f.implicit and start < e and s < start + bits:
+                    self.err(f.loc, f"bit field '{f.name}' (bits {start}..{start + bits - 1}) overlaps '{other.name}' (bits {s}..{e - 1})",
+                             "move the field with `@ <bit>` or drop the explicit position")
+            f.bit_offset = start
+            f.bit_width = bits
+            occupied.append((start, start + bits, f))
+            cursor[f.implicit] = max(cursor[f.implicit], start + bits)
+        msg.implicit_bits = cursor[True]
+        msg.fixed_bits = cursor[False]
+        if msg.implicit_bits % 8:
+            self.err(msg.loc, f"implicit fields of {msg.name} take {msg.implicit_bits} bits, not whole bytes",
+                     "pad the implicit fields to a multiple of 8 bits with `_: uN`")
+        if msg.fixed_bits % 8:
+            self.err(msg.loc, f"fixed part of {msg.name} takes {msg.fixed_bits} bits, not whole bytes",
+                     f"add `_: u{8 - msg.fixed_bits % 8} \"reserved\"` so the message ends on a byte boundary")
+        for f in msg.fields:
+            if not isinstance(f.type, IntType) or f.type.is_bool or f.type.bits % 8 or f.position is not None:
+                continue
+            if f.bit_offset % 8 and not f.implicit:
+                self.err(f.loc, f"{f.type.name} field '{f.name}' starts at bit {f.bit_offset}, inside a byte",
+                         "byte-sized integers (u8/u16/u32, i8/i16/i32) must start on a byte boundary; reorder or pad")
+        if msg.fixed_bits // 8 + msg.max_payload > 255:
+            self.err(msg.loc, f"{msg.name} is longer than 255 bytes", "split the message")
+
+    # --- nodes -----------------------------------------------------------------------------
+    def build_node(self, item: Tree[Token]) -> None:
+        kind_tok, name_tok, class_val, doc = item.children[:4]
+        assert isinstance(kind_tok, Token) and isinstance(name_tok, Token)
+        kind = str(kind_tok)
+        class_id = _int(class_val)
+        if not 0 <= class_id <= 255:
+            self.err(name_tok, f"class {class_id} does not fit in 8 bits", "node classes are 0..255")
+        mailboxes: list[Mailbox] = []
+        for mnode in item.children[4:]:
+            assert isinstance(mnode, Tree)
+            dir_tok, num_val, msg_tok = mnode.children[:3]
+            assert isinstance(dir_tok, Token) and isinstance(msg_tok, Token)
+            rate = None
+            rest = mnode.children[3:]
+            if len(rest) == 2:
+                rate_tok = rest[0]
+                assert isinstance(rate_tok, Token)
+                rate = float(str(rate_tok))
+            mdoc = _doc(rest[-1])
+            number = _int(num_val)
+            direction = str(dir_tok)
+            loc = _loc(self.path, dir_tok)
+            if not 0 <= number < MAILBOXES:
+                self.err(dir_tok, f"{direction} {number} does not exist", f"mailboxes are numbered 0..{MAILBOXES - 1}")
+                continue
+            if number == 0 and kind == "node":
+                what = "identification (Identification)" if direction == "outbox" else "commands (Command)"
+                self.err(dir_tok, f"{direction} 0 is reserved for {what}", "number your mailboxes from 1; every node gets mailbox 0 from urb_core")
+                continue
+            dup = next((m for m in mailboxes if m.direction == direction and m.number == number), None)
+            if dup is not None:
+                self.err(dir_tok, f"duplicate mailbox number: {direction} {number} is already declared at {dup.loc}",
+                         "give each inbox and each outbox its own number")
+                continue
+            found = self.lookup(str(msg_tok))
+            if not isinstance(found, MessageDecl):
+                self.err(msg_tok, f"unknown message '{msg_tok}'", "declare the message in this schema or an import")
+                continue
+            if not found.is_fixed_size:
+                self.err(msg_tok, f"message '{found.name}' has a payload, check or implicit field and cannot be a mailbox",
+                         "mailbox messages are fixed-size layouts; the link adds the check")
+                continue
+            if found.fixed_size > MAX_MAILBOX_SIZE:
+                self.err(msg_tok, f"payload over {MAX_MAILBOX_SIZE} bytes: {found.name} takes {found.fixed_size} bytes",
+                         f"mailboxes hold at most {MAX_MAILBOX_SIZE} bytes; split the message over two mailboxes")
+                continue
+            if found.fixed_size == 0:
+                self.err(msg_tok, f"message '{found.name}' is empty", "give the mailbox message at least one field")
+                continue
+            mailboxes.append(Mailbox(direction, number, found, rate, mdoc, loc))
+        if kind == "node":
+            ident = self.lookup("Identification")
+            command = self.lookup("Command")
+            if not isinstance(ident, MessageDecl) or not isinstance(command, MessageDecl):
+                self.err(name_tok, "nodes need urb_core's Identification and Command messages", "add `import urb_core`")
+            else:
+                mailboxes[:0] = [
+                    Mailbox("outbox", 0, ident, None, "Identification (urb_core)", _loc(self.path, name_tok)),
+                    Mailbox("inbox", 0, command, None, "Commands (urb_core)", _loc(self.path, name_tok)),
+                ]
+        elif kind == "bridge":
+            for direction in ("outbox", "inbox"):
+                if not any(m.direction == direction and m.number == 0 for m in mailboxes):
+                    self.err(name_tok, f"a bridge must declare its {direction} 0", f"add `{direction} 0 <Message> \"doc\"`")
+        if self.declare(name_tok):
+            self.schema.nodes[str(name_tok)] = NodeDecl(str(name_tok), kind, class_id, _doc(doc), _loc(self.path, name_tok), mailboxes, self.raw.name)
+
+
+def load(paths: list[Path]) -> list[Schema]:
+    """Parse, resolve and check schema files; imports resolve among them and their folders.
+
+    Raises SchemaErrors (with every problem found) when any file is wrong.
+    """
+    raws: dict[str, _Raw] = {}
+    errors: list[SchemaError] = []
+    queue = [p.resolve() for p in paths]
+    explicit = set(queue)
+    seen: set[Path] = set()
+    while queue:
+        path = queue.pop(0)
+        if path in seen:
+            continue
+        seen.add(path)
+        try:
+            raw = parse_file(path)
+        except SchemaError as exc:
+            errors.append(exc)
+            continue
+        if raw.name in raws:
+            errors.append(SchemaError(Location(path, 1, 1), f"schema '{raw.name}' is also defined in {raws[raw.name].path}",
+                                      "give each schema file its own `schema` name"))
+            continue
+        raws[raw.name] = raw
+        for name, _loc_ in raw.imports:
+            if name not in raws:
+                queue.extend(p for p in sorted(path.parent.glob("*.urbs")) if p not in seen)
+    if errors:
+        raise SchemaErrors(errors)
+    built: dict[str, Schema] = {}
+    visiting: list[str] = []
+
+    def build(name: str, at: Location | None) -> Schema | None:
+        if name in built:
+            return built[name]
+        raw = raws.get(name)
+        if raw is None:
+            assert at is not None
+            errors.append(SchemaError(at, f"unknown schema '{name}'", "put the imported .urbs file in the same folder"))
+            return None
+        if name in visiting:
+            assert at is not None
+            errors.append(SchemaError(at, f"circular import: {' -> '.join([*visiting, name])}", "remove one of the imports"))
+            return None
+        visiting.append(name)
+        imports = [s for s in (build(n, loc) for n, loc in raw.imports) if s is not None]
+        visiting.pop()
+        builder = _Builder(raw, imports)
+        try:
+            schema = builder.build()
+        except SchemaErrors as exc:
+            errors.extend(exc.errors)
+            return None
+        built[name] = schema
+        return schema
+
+    for raw in list(raws.values()):
+        build(raw.name, None)
+    if errors:
+        raise SchemaErrors(errors)
+    return [s for s in built.values() if s.path.resolve() in explicit] or list(built.values())
