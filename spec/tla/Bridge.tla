@@ -1,0 +1,214 @@
+-------------------------------- MODULE Bridge --------------------------------
+(***************************************************************************)
+(* Request ordering in one URB bridge (paper Sec. V-A, V-B, V-D).           *)
+(*                                                                         *)
+(* The CPU submits read/write requests addressed to (node, mailbox).  The  *)
+(* bridge keeps them in arrival order in a ring of response slots; each    *)
+(* request is answered exactly once, in arrival order, with no             *)
+(* retransmission.  Memory is split in two bounded pools:                 *)
+(*   - QueueLen data slots (a 32-byte payload buffer each), held by a      *)
+(*     request from admission until its response has left the bridge;     *)
+(*   - HostWindow response slots (header only: seq, status), one per       *)
+(*     outstanding request.  The host never has more than HostWindow       *)
+(*     requests outstanding on a bridge, so this ring never overflows.     *)
+(* A request whose header is bad (BAD_REQUEST), whose length differs from  *)
+(* the mailbox size learnt at discovery (SIZE_MISMATCH), or that finds all *)
+(* data slots taken (BUSY) is answered at admission: its response is       *)
+(* decided at once but is placed in the response ring in arrival order,   *)
+(* so it never overtakes an earlier request.  The downlink serves the      *)
+(* pending requests in arrival order; a transaction ends OK or with the    *)
+(* error that names its cause.                                             *)
+(***************************************************************************)
+EXTENDS Naturals, Sequences, FiniteSets
+
+CONSTANTS
+    Present,     \* downlink addresses that acknowledge (nodes on the bus)
+    Requests,    \* request headers the host may submit: [addr, box, op, len]
+    Size,        \* Size[addr][box]: mailbox size learnt at discovery
+    Faults,      \* downlink failure causes explored (subset of DownlinkFaults)
+    QueueLen,    \* bridge data slots
+    HostWindow,  \* host's bound on outstanding requests = response slots
+    MaxReq       \* number of requests submitted in a behaviour
+
+SeqMod == 16     \* the uplink sequence number has 4 bits
+
+Statuses == {"OK", "TIMEOUT", "CHECKSUM", "BUSY", "NO_NODE", "SIZE_MISMATCH",
+             "BAD_REQUEST", "BUS_STUCK", "NODE_BUSY"}
+DownlinkFaults == {"TIMEOUT", "CHECKSUM", "BUS_STUCK", "NODE_BUSY"}
+AdmissionErrors == {"BUSY", "SIZE_MISMATCH", "BAD_REQUEST"}
+NoData == <<>>
+
+ASSUME /\ Faults \subseteq DownlinkFaults
+       /\ QueueLen \in Nat \ {0} /\ HostWindow \in Nat \ {0}
+       /\ QueueLen <= HostWindow /\ HostWindow < SeqMod
+       /\ MaxReq \in Nat
+
+(* Content of outbox `box` of node `addr`: it names the mailbox it came     *)
+(* from, so a response carrying another mailbox's data is detected.        *)
+Outbox(addr, box) == <<addr, box>>
+
+(* Header validation done at admission (no downlink traffic).              *)
+AdmissionStatus(r) ==
+    IF r.box \notin 0..7 \/ r.len \notin 1..32 THEN "BAD_REQUEST"
+    ELSE IF r.addr \in Present /\ r.len # Size[r.addr][r.box]
+         THEN "SIZE_MISMATCH" ELSE "OK"
+
+VARIABLES
+    sent,     \* sent[i]: the i-th request submitted by the host (with its id)
+    queue,    \* the bridge's response ring, in arrival order: entries
+              \*   [id, status ("PENDING" or final), data]
+    out,      \* the response stream the host has received, in order
+    applied,  \* ghost: ids of write requests a node has stored in its inbox
+    cause,    \* ghost: cause[id] = what really happened to request id
+    full      \* ghost: ids that found all data slots taken at admission
+
+vars == <<sent, queue, out, applied, cause, full>>
+
+Entry == [id: 1..MaxReq, status: Statuses \cup {"PENDING"}, data: Seq(Nat)]
+Response == [id: 1..MaxReq, seq: 0..SeqMod - 1, status: Statuses, data: Seq(Nat)]
+
+DataSlotsUsed == Cardinality({k \in DOMAIN queue :
+                               queue[k].status \notin AdmissionErrors})
+
+TypeOK ==
+    /\ sent \in Seq(Requests \X (1..MaxReq)) /\ Len(sent) <= MaxReq
+    /\ queue \in Seq(Entry) /\ out \in Seq(Response)
+    /\ applied \subseteq 1..MaxReq /\ full \subseteq 1..MaxReq
+    /\ cause \in [1..MaxReq -> Statuses \cup {"NONE"}]
+
+Init ==
+    /\ sent = <<>> /\ queue = <<>> /\ out = <<>>
+    /\ applied = {} /\ full = {}
+    /\ cause = [i \in 1..MaxReq |-> "NONE"]
+
+Req(id) == sent[id][1]
+
+(***************************************************************************)
+(* Host: submit a request, if fewer than HostWindow are outstanding.       *)
+(* Bridge: admit it in the same step (the uplink is a FIFO; its delays are *)
+(* the subject of UsbUplink).  Admission decides BAD_REQUEST,              *)
+(* SIZE_MISMATCH and BUSY at once; otherwise the request takes a data      *)
+(* slot and waits for the downlink.                                        *)
+(***************************************************************************)
+SubmitAndAdmit ==
+    /\ Len(sent) < MaxReq
+    /\ Len(sent) - Len(out) < HostWindow
+    /\ \E r \in Requests :
+         LET id == Len(sent) + 1
+             st == IF AdmissionStatus(r) # "OK" THEN AdmissionStatus(r)
+                   ELSE IF DataSlotsUsed >= QueueLen THEN "BUSY"
+                   ELSE "PENDING"
+         IN /\ sent' = Append(sent, <<r, id>>)
+            /\ queue' = Append(queue, [id |-> id, status |-> st, data |-> NoData])
+            /\ cause' = IF st = "PENDING" THEN cause ELSE [cause EXCEPT ![id] = st]
+            /\ full' = IF st = "BUSY" THEN full \cup {id} ELSE full
+    /\ UNCHANGED <<out, applied>>
+
+(* Position of the oldest request still waiting for the downlink.          *)
+FirstPending == CHOOSE k \in DOMAIN queue :
+                   /\ queue[k].status = "PENDING"
+                   /\ \A j \in 1..k - 1 : queue[j].status # "PENDING"
+HasPending == \E k \in DOMAIN queue : queue[k].status = "PENDING"
+
+(***************************************************************************)
+(* Bridge: one downlink transaction for the oldest pending request.  No    *)
+(* acknowledge: NO_NODE.  Otherwise OK, or one of the faults: TIMEOUT (no  *)
+(* answer in time), CHECKSUM (CRC mismatch; a node discards a corrupt      *)
+(* write), BUS_STUCK (bus-clear performed), NODE_BUSY (write NACKed: both  *)
+(* inbox buffers in use).  A read returns the addressed outbox; a write    *)
+(* stores into the addressed inbox.  No retransmission.                    *)
+(***************************************************************************)
+Serve ==
+    /\ HasPending
+    /\ LET k == FirstPending
+           id == queue[k].id
+           r == Req(id)
+       IN \E st \in IF r.addr \notin Present THEN {"NO_NODE"}
+                    ELSE {"OK"} \cup (Faults \ (IF r.op = "read"
+                                                  THEN {"NODE_BUSY"} ELSE {})) :
+            /\ queue' = [queue EXCEPT ![k] =
+                   [id |-> id, status |-> st,
+                    data |-> IF st = "OK" /\ r.op = "read"
+                               THEN Outbox(r.addr, r.box) ELSE NoData]]
+            /\ applied' = IF st = "OK" /\ r.op = "write"
+                            THEN applied \cup {id} ELSE applied
+            /\ cause' = [cause EXCEPT ![id] = st]
+    /\ UNCHANGED <<sent, out, full>>
+
+(***************************************************************************)
+(* Bridge: the oldest response, once final, leaves on the uplink carrying *)
+(* the request's sequence number; its slots are freed.                     *)
+(***************************************************************************)
+Emit ==
+    /\ queue # <<>> /\ Head(queue).status # "PENDING"
+    /\ LET e == Head(queue) IN
+         out' = Append(out, [id |-> e.id, seq |-> e.id % SeqMod,
+                             status |-> e.status, data |-> e.data])
+    /\ queue' = Tail(queue)
+    /\ UNCHANGED <<sent, applied, cause, full>>
+
+(* All requests submitted and answered: the run is over. *)
+Done ==
+    /\ Len(sent) = MaxReq /\ queue = <<>>
+    /\ UNCHANGED vars
+
+Next == SubmitAndAdmit \/ Serve \/ Emit \/ Done
+
+Spec == Init /\ [][Next]_vars /\ WF_vars(Serve) /\ WF_vars(Emit)
+
+-----------------------------------------------------------------------------
+Answered(id) == \E k \in DOMAIN out : out[k].id = id
+
+(* Nothing is dropped: every submitted request is in the bridge or answered. *)
+NoSilentDrop ==
+    \A id \in 1..Len(sent) : Answered(id) \/ \E k \in DOMAIN queue : queue[k].id = id
+
+(* No request is answered twice. *)
+AtMostOneResponse ==
+    \A k, j \in DOMAIN out : k # j => out[k].id # out[j].id
+
+(* Responses leave in request order. *)
+ResponsesInRequestOrder ==
+    \A k, j \in DOMAIN out : k < j => out[k].id <= out[j].id
+
+(* The k-th response answers the k-th request: it echoes its sequence      *)
+(* number; a successful read carries the addressed outbox's data, any      *)
+(* other response carries no data.                                         *)
+ResponseMatchesRequest ==
+    \A k \in DOMAIN out :
+        LET r == Req(out[k].id) IN
+        /\ out[k].seq = k % SeqMod
+        /\ out[k].data = IF out[k].status = "OK" /\ r.op = "read"
+                           THEN Outbox(r.addr, r.box) ELSE NoData
+
+(* An error response names what really happened. *)
+ErrorNamesCause ==
+    \A k \in DOMAIN out : out[k].status # "OK" => out[k].status = cause[out[k].id]
+
+(* OK for a write means the node stored it; a write answered CHECKSUM,     *)
+(* NODE_BUSY, NO_NODE or an admission error was not stored.  (TIMEOUT and  *)
+(* BUS_STUCK leave it unknown: the host must not assume either.)           *)
+WriteStatusTruthful ==
+    \A k \in DOMAIN out :
+        Req(out[k].id).op = "write" =>
+           /\ out[k].status = "OK" => out[k].id \in applied
+           /\ out[k].status \in {"CHECKSUM", "NODE_BUSY", "NO_NODE"} \cup AdmissionErrors
+                 => out[k].id \notin applied
+
+(* BUSY is only answered when every data slot was taken. *)
+BusyOnlyWhenFull ==
+    \A k \in DOMAIN out : out[k].status = "BUSY" => out[k].id \in full
+
+(* The response ring never holds more than HostWindow entries, and the    *)
+(* data slots never more than QueueLen.                                    *)
+BoundedMemory == Len(queue) <= HostWindow /\ DataSlotsUsed <= QueueLen
+
+(* Liveness: every submitted request is eventually answered. *)
+EveryRequestAnswered == \A id \in 1..MaxReq : (id <= Len(sent)) ~> Answered(id)
+
+THEOREM Spec => [](TypeOK /\ NoSilentDrop /\ AtMostOneResponse
+                          /\ ResponsesInRequestOrder /\ ResponseMatchesRequest
+                          /\ ErrorNamesCause /\ WriteStatusTruthful
+                          /\ BusyOnlyWhenFull /\ BoundedMemory)
+THEOREM Spec => EveryRequestAnswered
+=============================================================================

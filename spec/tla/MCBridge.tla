@@ -1,0 +1,16 @@
+------------------------------- MODULE MCBridge -------------------------------
+(* Model values for Bridge: node 1 on the bus (outbox/inbox 1 of 2 bytes), *)
+(* address 2 absent.  Requests: a good read and a good write to node 1, a  *)
+(* read of the absent node, a wrong length and a bad mailbox number.       *)
+EXTENDS Bridge
+
+MCPresent == {1}
+MCSize == [n \in {1} |-> [b \in 0..7 |-> 2]]
+MCRequests ==
+    { [addr |-> 1, box |-> 1, op |-> "read",  len |-> 2],
+      [addr |-> 1, box |-> 1, op |-> "write", len |-> 2],
+      [addr |-> 2, box |-> 1, op |-> "read",  len |-> 2],
+      [addr |-> 1, box |-> 1, op |-> "read",  len |-> 3],
+      [addr |-> 1, box |-> 9, op |-> "write", len |-> 2] }
+MCFaults == {"TIMEOUT", "CHECKSUM", "BUS_STUCK", "NODE_BUSY"}
+=============================================================================

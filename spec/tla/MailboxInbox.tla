@@ -1,0 +1,229 @@
+----------------------------- MODULE MailboxInbox -----------------------------
+(***************************************************************************)
+(* One double-buffered INBOX of a URB node (paper Sec. IV-A, Fig. 2).       *)
+(*                                                                         *)
+(* Writer: the downlink interrupt (ISR) storing a bridge write.            *)
+(* Reader: the node application (URB_LockInbox / URB_ReleaseInbox).        *)
+(* The ISR is never preempted by the application; the application can be  *)
+(* preempted by the ISR between any two of its steps; one bus write spans  *)
+(* several ISR invocations (one per I2C byte) and the application runs     *)
+(* between them.  A bus write ends with a valid checksum (commit), or is   *)
+(* cut short / fails its checksum (abort: nothing is published).  Every    *)
+(* step below is ONE memory access of the firmware; the firmware           *)
+(* implements each action as written and cites its name.                   *)
+(*                                                                         *)
+(* Shared variables:                                                       *)
+(*   front   : buffer holding the latest committed message (ISR writes).  *)
+(*   isr_idx : buffer the ISR is filling, NONE when idle (ISR writes).     *)
+(*   app_idx : buffer the application claims/owns, NONE if none (app).     *)
+(*                                                                         *)
+(* Change to the initial design, found by TLC (see README): after claiming *)
+(* a buffer the application re-reads front (AppLockCheckFront).  Without   *)
+(* it, an ISR write that began on the claimed buffer and was ABORTED       *)
+(* between the app's load of front and its claim leaves a half-written     *)
+(* buffer that the app then reads as a torn, never-committed message.      *)
+(***************************************************************************)
+EXTENDS Naturals, Sequences
+
+CONSTANTS
+    MsgLen,     \* bytes per message (>= 2 so that tearing is observable)
+    MaxWrites,  \* number of bus write transactions explored (incl. NACKed)
+    MaxRetry    \* lock attempts after the first before URB_BUSY
+
+ASSUME MsgLen \in Nat \ {0, 1} /\ MaxWrites \in Nat \ {0} /\ MaxRetry \in Nat
+
+NONE == 2           \* index value meaning "no buffer" (fits the C uint8_t)
+Bufs == {0, 1}
+Tags == 0..MaxWrites \* transaction ids; 0 = the value set up by URB_SetupInbox
+
+VARIABLES
+    buf,       \* buf[i][k]: transaction id of byte k of buffer i
+    front,     \* shared: latest committed buffer (ISR writes, app reads)
+    isrIdx,    \* shared: buffer the ISR is filling or NONE (ISR writes)
+    appIdx,    \* shared: buffer claimed by the app or NONE (app writes)
+    isrPc,     \* ISR state: "idle" or "fill" (inside a bus write)
+    isrByte,   \* ISR local: next byte to store
+    txs,       \* number of bus write transactions started (the tag of the next)
+    appPc,     \* application program counter
+    a,         \* application local: buffer being locked / read
+    tries,     \* application local: failed lock attempts in this lock call
+    appGot,    \* bytes the application has read from its locked buffer
+    committed, \* ghost: tag of the most recently committed message
+    aborted,   \* ghost: tags of aborted (corrupt / cut short) transactions
+    appSnap    \* ghost: `committed` at the application's linearization point
+
+vars == <<buf, front, isrIdx, appIdx, isrPc, isrByte, txs, appPc, a, tries,
+          appGot, committed, aborted, appSnap>>
+
+TypeOK ==
+    /\ buf \in [Bufs -> [1..MsgLen -> Tags]]
+    /\ front \in Bufs /\ isrIdx \in Bufs \cup {NONE} /\ appIdx \in Bufs \cup {NONE}
+    /\ isrPc \in {"idle", "fill"} /\ isrByte \in 1..MsgLen + 1
+    /\ txs \in 0..MaxWrites
+    /\ appPc \in {"idle", "claim", "checkIsr", "checkFront", "read"}
+    /\ a \in Bufs /\ tries \in 0..MaxRetry
+    /\ appGot \in Seq(Tags) /\ Len(appGot) <= MsgLen
+    /\ committed \in Tags /\ aborted \subseteq Tags /\ appSnap \in Tags
+
+Init ==
+    /\ buf = [i \in Bufs |-> [k \in 1..MsgLen |-> 0]]
+    /\ front = 0 /\ isrIdx = NONE /\ appIdx = NONE
+    /\ isrPc = "idle" /\ isrByte = 1 /\ txs = 0
+    /\ appPc = "idle" /\ a = 0 /\ tries = 0 /\ appGot = <<>>
+    /\ committed = 0 /\ aborted = {} /\ appSnap = 0
+
+(***************************************************************************)
+(* ISR, bridge starts writing this inbox: t := 1 - front; if app_idx = t   *)
+(* the write is NACKed (the bridge reports NODE_BUSY) and nothing changes; *)
+(* else isr_idx := t.  Atomic: the ISR is not preempted.                   *)
+(***************************************************************************)
+IsrWriteBegin ==
+    /\ isrPc = "idle" /\ txs < MaxWrites
+    /\ txs' = txs + 1
+    /\ IF appIdx = 1 - front
+         THEN UNCHANGED <<isrIdx, isrPc, isrByte>>          \* NACK
+         ELSE /\ isrIdx' = 1 - front
+              /\ isrPc' = "fill" /\ isrByte' = 1
+    /\ UNCHANGED <<buf, front, appIdx, appPc, a, tries, appGot, committed,
+                   aborted, appSnap>>
+
+(***************************************************************************)
+(* ISR, one I2C byte: buf[isr_idx][k] := byte.                             *)
+(***************************************************************************)
+IsrWriteByte ==
+    /\ isrPc = "fill" /\ isrByte <= MsgLen
+    /\ buf' = [buf EXCEPT ![isrIdx][isrByte] = txs]
+    /\ isrByte' = isrByte + 1
+    /\ UNCHANGED <<front, isrIdx, appIdx, isrPc, txs, appPc, a, tries, appGot,
+                   committed, aborted, appSnap>>
+
+(***************************************************************************)
+(* ISR, end of a complete transaction with a valid checksum:              *)
+(* front := isr_idx; isr_idx := NONE (publish, in this order).             *)
+(***************************************************************************)
+IsrWriteCommit ==
+    /\ isrPc = "fill" /\ isrByte = MsgLen + 1
+    /\ front' = isrIdx /\ isrIdx' = NONE
+    /\ isrPc' = "idle"
+    /\ committed' = txs
+    /\ UNCHANGED <<buf, appIdx, isrByte, txs, appPc, a, tries, appGot,
+                   aborted, appSnap>>
+
+(***************************************************************************)
+(* ISR, transaction cut short (timeout, bus error) or checksum mismatch,  *)
+(* after any number of bytes: isr_idx := NONE, nothing is published.       *)
+(***************************************************************************)
+IsrWriteAbort ==
+    /\ isrPc = "fill"
+    /\ isrIdx' = NONE /\ isrPc' = "idle"
+    /\ aborted' = aborted \cup {txs}
+    /\ UNCHANGED <<buf, front, appIdx, isrByte, txs, appPc, a, tries, appGot,
+                   committed, appSnap>>
+
+(***************************************************************************)
+(* URB_LockInbox, step 1: a := front (load).                               *)
+(***************************************************************************)
+AppLockLoadFront ==
+    /\ appPc = "idle"
+    /\ a' = front
+    /\ appPc' = "claim"
+    /\ UNCHANGED <<buf, front, isrIdx, appIdx, isrPc, isrByte, txs, tries,
+                   appGot, committed, aborted, appSnap>>
+
+(***************************************************************************)
+(* URB_LockInbox, step 2: app_idx := a (store).  From now on the ISR       *)
+(* NACKs any write that would start on buffer a.                           *)
+(***************************************************************************)
+AppLockClaim ==
+    /\ appPc = "claim"
+    /\ appIdx' = a
+    /\ appPc' = "checkIsr"
+    /\ UNCHANGED <<buf, front, isrIdx, a, isrPc, isrByte, txs, tries, appGot,
+                   committed, aborted, appSnap>>
+
+(* Failed attempt: app_idx := NONE, then retry from step 1, or give up     *)
+(* with URB_BUSY after MaxRetry retries (the app never waits).             *)
+LockFail ==
+    /\ appIdx' = NONE
+    /\ IF tries < MaxRetry
+         THEN appPc' = "idle" /\ tries' = tries + 1     \* retry from step 1
+         ELSE appPc' = "idle" /\ tries' = 0             \* URB_BUSY
+
+(***************************************************************************)
+(* URB_LockInbox, step 3: load isr_idx; if the ISR is filling buffer a     *)
+(* (it began before our claim), fail this attempt.                         *)
+(***************************************************************************)
+AppLockCheckIsr ==
+    /\ appPc = "checkIsr"
+    /\ IF isrIdx = a
+         THEN LockFail
+         ELSE appPc' = "checkFront" /\ UNCHANGED <<appIdx, tries>>
+    /\ UNCHANGED <<buf, front, isrIdx, a, isrPc, isrByte, txs, appGot,
+                   committed, aborted, appSnap>>
+
+(***************************************************************************)
+(* URB_LockInbox, step 4 (added after TLC): load front again; if it is no  *)
+(* longer a, a newer message was committed since step 1 and buffer a may   *)
+(* hold an aborted half-write: fail this attempt.  Otherwise the app owns  *)
+(* buf[a]; this load is the linearization point of the read.               *)
+(***************************************************************************)
+AppLockCheckFront ==
+    /\ appPc = "checkFront"
+    /\ IF front # a
+         THEN LockFail /\ UNCHANGED <<appGot, appSnap>>
+         ELSE /\ appPc' = "read" /\ appGot' = <<>> /\ tries' = 0
+              /\ appSnap' = committed
+              /\ UNCHANGED appIdx
+    /\ UNCHANGED <<buf, front, isrIdx, a, isrPc, isrByte, txs, committed,
+                   aborted>>
+
+(***************************************************************************)
+(* The application loads one byte of its locked buffer.                    *)
+(***************************************************************************)
+AppReadByte ==
+    /\ appPc = "read" /\ Len(appGot) < MsgLen
+    /\ appGot' = Append(appGot, buf[a][Len(appGot) + 1])
+    /\ UNCHANGED <<buf, front, isrIdx, appIdx, isrPc, isrByte, txs, appPc, a,
+                   tries, committed, aborted, appSnap>>
+
+(***************************************************************************)
+(* URB_ReleaseInbox: app_idx := NONE (possibly before reading all bytes).  *)
+(***************************************************************************)
+AppRelease ==
+    /\ appPc = "read"
+    /\ appIdx' = NONE
+    /\ appPc' = "idle" /\ appGot' = <<>>
+    /\ UNCHANGED <<buf, front, isrIdx, isrPc, isrByte, txs, a, tries,
+                   committed, aborted, appSnap>>
+
+IsrNext == IsrWriteBegin \/ IsrWriteByte \/ IsrWriteCommit \/ IsrWriteAbort
+AppNext == AppLockLoadFront \/ AppLockClaim \/ AppLockCheckIsr
+           \/ AppLockCheckFront \/ AppReadByte \/ AppRelease
+Next == IsrNext \/ AppNext
+
+Spec == Init /\ [][Next]_vars
+
+-----------------------------------------------------------------------------
+AppHolds == appPc = "read"
+
+(* The application never loses its lock: while it holds buf[a], app_idx    *)
+(* still names a, the ISR is not filling a and a stays the published one's *)
+(* twin only through a commit of the other buffer.                         *)
+AppLockExclusive == AppHolds => (appIdx = a /\ isrIdx # a)
+
+(* The bytes the application reads under one lock come from one write.   *)
+AppReadNotTorn == \A i, j \in DOMAIN appGot : appGot[i] = appGot[j]
+
+(* ...from the most recently committed write at the linearization point.  *)
+AppReadFresh == appGot # <<>> => appGot[1] = appSnap
+
+(* The application never sees bytes of an aborted (corrupt) transaction.  *)
+NoAbortedDelivered == \A i \in DOMAIN appGot : appGot[i] \notin aborted
+
+(* The interrupt never waits: it can always take its next step (a new     *)
+(* transaction is NACKed at once rather than delayed).                    *)
+IsrWaitFree == txs < MaxWrites \/ isrPc # "idle" => ENABLED IsrNext
+
+THEOREM Spec => [](TypeOK /\ AppLockExclusive /\ AppReadNotTorn
+                          /\ AppReadFresh /\ NoAbortedDelivered /\ IsrWaitFree)
+=============================================================================

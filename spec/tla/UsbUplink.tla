@@ -1,0 +1,194 @@
+------------------------------- MODULE UsbUplink -------------------------------
+(***************************************************************************)
+(* The pipelined USB uplink of one bridge (paper Sec. V-C, Fig. 9).         *)
+(*                                                                         *)
+(* Time is a sequence of 1-ms frames (the 1-kHz OS tick = the USB frame).  *)
+(* In every frame, in any order and interleaved with the application's    *)
+(* submissions:                                                            *)
+(*   UsbWrite       the USBManager write thread wakes on the tick and      *)
+(*                  sends ONE bulk-OUT transfer holding up to MaxBatch of  *)
+(*                  the buffered requests (batch n); the rest stay queued  *)
+(*                  on the host for the next frame, never dropped;         *)
+(*   BridgeProcess  the bridge runs batch n over the downlink and stores   *)
+(*                  its responses in its CURRENT response buffer;          *)
+(*   UsbRead        the bulk-IN read issued by batch n-1's write callback  *)
+(*                  fetches the bridge's PREVIOUS response buffer (n-1);   *)
+(*   Callback       the read thread invokes callbacks in order, matching   *)
+(*                  each response to the oldest outstanding request.       *)
+(* So write n and read n-1 share a frame: the bridge double-buffers its    *)
+(* responses.  Tick ends the frame; real-time premises: every thread runs  *)
+(* once per frame and a batch fits the downlink in one frame (the         *)
+(* downlink itself is Bridge.tla's subject).  Latency is counted in frames *)
+(* touched: submitted in frame s, callback in frame c => c - s + 1.        *)
+(***************************************************************************)
+EXTENDS Naturals, Sequences, FiniteSets
+
+CONSTANTS
+    MaxBatch,    \* requests per bulk-OUT transfer
+    MaxSubmit,   \* requests the application may submit between two writes
+    MaxReq,      \* requests submitted in a behaviour
+    MaxLatency   \* bound on callback latency in frames (paper: 3 ms)
+
+ASSUME MaxBatch \in Nat \ {0} /\ MaxSubmit \in Nat \ {0} /\ MaxReq \in Nat
+       /\ MaxLatency \in Nat
+
+SeqMod == 16                      \* 4-bit sequence number
+Ids == 1..MaxReq
+AgeCap == MaxLatency + MaxReq + 1 \* ages saturate here (keeps the model finite)
+
+VARIABLES
+    nextId,    \* requests submitted so far (ids 1..nextId)
+    budget,    \* submissions since the last UsbWrite
+    hostQ,     \* host: requests buffered by USBManager, not yet sent
+    expect,    \* host: ids sent and not yet called back, in send order
+    rx,        \* bridge: batch received this frame, not yet processed
+    txPrev,    \* bridge: responses of batch n-1 (read in this frame)
+    txCur,     \* bridge: responses of batch n (being produced)
+    hostRx,    \* host: responses read, awaiting their callback
+    done,      \* ids whose callback has run
+    cbLog,     \* callback log: [req (expected id), resp (response's id)]
+    age,       \* age[id]: frames since submission, frozen at callback
+    deferred,  \* deferred[id]: writes that left id queued (batch full)
+    wrote, readDone  \* this frame's write / read has happened
+
+vars == <<nextId, budget, hostQ, expect, rx, txPrev, txCur, hostRx, done,
+          cbLog, age, deferred, wrote, readDone>>
+
+Resp == [id: Ids, seq: 0..SeqMod - 1]
+
+TypeOK ==
+    /\ nextId \in 0..MaxReq /\ budget \in 0..MaxSubmit
+    /\ hostQ \in Seq(Ids) /\ expect \in Seq(Ids) /\ rx \in Seq(Ids)
+    /\ Len(rx) <= MaxBatch
+    /\ txPrev \in Seq(Resp) /\ txCur \in Seq(Resp) /\ hostRx \in Seq(Resp)
+    /\ done \subseteq Ids /\ cbLog \in Seq([req: Ids, resp: Ids])
+    /\ age \in [Ids -> 0..AgeCap] /\ deferred \in [Ids -> 0..MaxReq]
+    /\ wrote \in BOOLEAN /\ readDone \in BOOLEAN
+
+Init ==
+    /\ nextId = 0 /\ budget = 0
+    /\ hostQ = <<>> /\ expect = <<>> /\ rx = <<>>
+    /\ txPrev = <<>> /\ txCur = <<>> /\ hostRx = <<>>
+    /\ done = {} /\ cbLog = <<>>
+    /\ age = [i \in Ids |-> 0] /\ deferred = [i \in Ids |-> 0]
+    /\ wrote = FALSE /\ readDone = FALSE
+
+Min(x, y) == IF x < y THEN x ELSE y
+Take(s, n) == SubSeq(s, 1, Min(n, Len(s)))
+Drop(s, n) == SubSeq(s, Min(n, Len(s)) + 1, Len(s))
+Range(s) == {s[k] : k \in DOMAIN s}
+
+(***************************************************************************)
+(* Application: submitRequest() appends to USBManager's buffer.            *)
+(***************************************************************************)
+Submit ==
+    /\ nextId < MaxReq /\ budget < MaxSubmit
+    /\ nextId' = nextId + 1 /\ budget' = budget + 1
+    /\ hostQ' = Append(hostQ, nextId + 1)
+    /\ UNCHANGED <<expect, rx, txPrev, txCur, hostRx, done, cbLog, age,
+                   deferred, wrote, readDone>>
+
+(***************************************************************************)
+(* Write thread (once per frame, on the tick): one bulk-OUT transfer with  *)
+(* the first MaxBatch buffered requests; the others stay buffered.         *)
+(***************************************************************************)
+UsbWrite ==
+    /\ ~wrote
+    /\ LET batch == Take(hostQ, MaxBatch)
+           rest == Drop(hostQ, MaxBatch)
+       IN /\ rx' = batch
+          /\ hostQ' = rest
+          /\ expect' = expect \o batch
+          /\ deferred' = [i \in Ids |-> IF i \in Range(rest)
+                                          THEN deferred[i] + 1 ELSE deferred[i]]
+    /\ wrote' = TRUE /\ budget' = 0
+    /\ UNCHANGED <<nextId, txPrev, txCur, hostRx, done, cbLog, age, readDone>>
+
+(***************************************************************************)
+(* Bridge: run the received batch over the downlink, in order; responses  *)
+(* (echoing the sequence numbers) go to the CURRENT response buffer.       *)
+(***************************************************************************)
+BridgeProcess ==
+    /\ rx # <<>>
+    /\ txCur' = txCur \o [k \in DOMAIN rx |-> [id |-> rx[k], seq |-> rx[k] % SeqMod]]
+    /\ rx' = <<>>
+    /\ UNCHANGED <<nextId, budget, hostQ, expect, txPrev, hostRx, done, cbLog,
+                   age, deferred, wrote, readDone>>
+
+(***************************************************************************)
+(* Read (once per frame): the bulk-IN transfer fetches the PREVIOUS        *)
+(* response buffer (batch n-1), while batch n may be in progress.          *)
+(***************************************************************************)
+UsbRead ==
+    /\ ~readDone
+    /\ hostRx' = hostRx \o txPrev
+    /\ txPrev' = <<>>
+    /\ readDone' = TRUE
+    /\ UNCHANGED <<nextId, budget, hostQ, expect, rx, txCur, done, cbLog, age,
+                   deferred, wrote>>
+
+(***************************************************************************)
+(* Read thread: invoke the callback of the oldest outstanding request with *)
+(* the oldest unread response (matching by order; the 4-bit sequence      *)
+(* number is checked by the host).                                         *)
+(***************************************************************************)
+Callback ==
+    /\ hostRx # <<>> /\ expect # <<>>
+    /\ LET r == Head(hostRx)
+           id == Head(expect)
+       IN /\ cbLog' = Append(cbLog, [req |-> id, resp |-> r.id])
+          /\ done' = done \cup {id}
+    /\ hostRx' = Tail(hostRx) /\ expect' = Tail(expect)
+    /\ UNCHANGED <<nextId, budget, hostQ, rx, txPrev, txCur, age, deferred,
+                   wrote, readDone>>
+
+(***************************************************************************)
+(* Frame boundary: this frame's write, read, processing and callbacks are *)
+(* over; the current response buffer becomes the previous one.            *)
+(***************************************************************************)
+Tick ==
+    /\ wrote /\ readDone /\ rx = <<>> /\ hostRx = <<>>
+    /\ wrote' = FALSE /\ readDone' = FALSE
+    /\ txPrev' = txCur /\ txCur' = <<>>
+    /\ age' = [i \in Ids |-> IF i <= nextId /\ i \notin done
+                               THEN Min(age[i] + 1, AgeCap) ELSE age[i]]
+    /\ UNCHANGED <<nextId, budget, hostQ, expect, rx, hostRx, done, cbLog,
+                   deferred>>
+
+Next == Submit \/ UsbWrite \/ BridgeProcess \/ UsbRead \/ Callback \/ Tick
+
+Spec == Init /\ [][Next]_vars /\ WF_vars(Tick) /\ WF_vars(UsbWrite)
+        /\ WF_vars(UsbRead) /\ WF_vars(BridgeProcess) /\ WF_vars(Callback)
+
+-----------------------------------------------------------------------------
+Submitted == 1..nextId
+InFlight == Range(hostQ) \cup Range(rx) \cup {r.id : r \in Range(txPrev)}
+            \cup {r.id : r \in Range(txCur)} \cup {r.id : r \in Range(hostRx)}
+
+(* Nothing is lost: every submitted request is somewhere in the pipeline  *)
+(* or has had its callback.                                                *)
+NothingLost == \A id \in Submitted : id \in InFlight \/ id \in done
+
+(* Every callback receives the response to its own request.               *)
+ResponsesMatched ==
+    \A k \in DOMAIN cbLog : cbLog[k].req = cbLog[k].resp
+
+(* Latency, counted in frames touched (c - s + 1), is at most MaxLatency  *)
+(* plus one frame for every time the request was left behind by a full    *)
+(* batch.  Checked for requests still waiting too, so it fails as soon as *)
+(* a frame ends without the callback that was due.                         *)
+LatencyBound == \A id \in Submitted : age[id] + 1 <= MaxLatency + deferred[id]
+
+(* Within the budget (MaxSubmit <= MaxBatch) nothing is deferred: the     *)
+(* paper's strict bound of MaxLatency frames.                              *)
+StrictLatency == \A id \in Submitted : age[id] + 1 <= MaxLatency
+
+(* At most two batches are in flight on the bridge (write n, read n-1).    *)
+PipelineDepth == (txPrev # <<>> /\ txCur # <<>>) => rx = <<>>
+
+(* Liveness: every submitted request gets its callback.                    *)
+EveryCallbackRuns == \A id \in Ids : (id <= nextId) ~> (id \in done)
+
+THEOREM Spec => [](TypeOK /\ NothingLost /\ ResponsesMatched /\ LatencyBound)
+THEOREM MaxSubmit <= MaxBatch => (Spec => []StrictLatency)
+=============================================================================
