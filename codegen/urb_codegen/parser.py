@@ -251,9 +251,9 @@ class _Builder:
             if width not in (8, 16, 32):
                 self.err(tname, f"CRC width {width} is not supported", "use width 8, 16 or 32")
                 width = 8
-            for key in ("poly", "init", "xorout"):
-                if params.get(key, 0) >= (1 << width):
-                    self.err(tname, f"{key} {params[key]:#x} does not fit in {width} bits", f"use a value below {1 << width:#x}")
+            for param in ("poly", "init", "xorout"):
+                if params.get(param, 0) >= (1 << width):
+                    self.err(tname, f"{param} {params[param]:#x} does not fit in {width} bits", f"use a value below {1 << width:#x}")
             if params.get("poly", 1) % 2 == 0:
                 self.err(tname, "CRC polynomial must have its x^0 term (odd value)", "write the polynomial in normal form, e.g. 0x2F")
             last = i == len(tier_nodes) - 1
@@ -537,9 +537,7 @@ class _Builder:
         def contains(m: MessageDecl) -> list[MessageDecl]:
             out = []
             for f in m.fields:
-                t = f.type
-                if isinstance(t, ArrayType):
-                    t = t.element  # type: ignore[assignment]
+                t = f.type.element if isinstance(f.type, ArrayType) else f.type
                 if isinstance(t, MessageDecl):
                     out.append(t)
             return out

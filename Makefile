@@ -1,0 +1,49 @@
+# URB top-level build. The two commands a newcomer needs:
+#   make demo    the main job
+#   make check   the whole test suite (what CI runs)
+# Each concern adds its own targets in mk/<concern>.mk and appends the ones that guard
+# correctness to CHECK_TARGETS.
+
+SHELL := /bin/bash
+PYTHON ?= python3
+PYTEST := tools/run-pytest
+CHECK_TARGETS :=
+
+.DEFAULT_GOAL := help
+.PHONY: help setup gen gen-check lint test-py check demo bench clean
+
+help:
+	@echo "make demo       run the main job (installs what is missing first)"
+	@echo "make check      run every check CI runs (installs what is missing first)"
+	@echo "make gen        regenerate gen/c and gen/python from spec/schema"
+	@echo "make gen-check  fail when the committed generated files are stale"
+	@echo "make bench      run the benchmarks (prints ratio tables)"
+
+setup:
+	@tools/setup.sh
+
+gen: setup
+	urb gen
+
+gen-check:
+	urb gen --check
+
+lint: setup
+	$(PYTHON) -m mypy --strict host/urb codegen/urb_codegen gen/python/urb_msgs tools
+
+test-py: setup
+	$(PYTEST) -q tests --ignore=tests/test_c_codecs.py
+
+include $(wildcard mk/*.mk)
+
+check: setup gen-check lint test-py $(CHECK_TARGETS)
+	@echo "make check: all checks passed"
+
+demo: setup
+	urb demo
+
+bench: setup
+	$(PYTHON) bench/codec_bench.py
+
+clean:
+	rm -rf build

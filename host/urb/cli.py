@@ -1,0 +1,51 @@
+"""The `urb` command line: one entry point, one module per command family."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+
+from . import __version__
+from . import cli_schema
+
+DESCRIPTION = """\
+URB, the Universal Robot Bus: schema compiler, codecs and tools.
+
+Commands:
+  gen            generate the C and Python codecs from the schemas
+  schema check   check schema files and report every error with its location
+  schema show    show the wire layout of messages and nodes
+  demo           round-trip every message through the Python and C codecs
+
+Run `urb COMMAND --help` for the options of one command."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The full argument parser (also used to render help in the docs)."""
+    parser = argparse.ArgumentParser(
+        prog="urb", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--version", action="version", version=f"urb {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    cli_schema.register(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run one command; returns the process exit status (0 ok, 1 failed check, 2 usage error)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "run", None):
+        parser.print_help()
+        return 2
+    try:
+        status: int = args.run(args)
+    except KeyboardInterrupt:
+        print("urb: interrupted", file=sys.stderr)
+        return 130
+    return status
+
+
+if __name__ == "__main__":
+    sys.exit(main())

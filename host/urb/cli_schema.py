@@ -1,0 +1,174 @@
+"""`urb gen`, `urb schema check`, `urb schema show`: the schema compiler's commands."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from rich.console import Console
+from rich.table import Table
+
+from urb_codegen.errors import SchemaError, SchemaErrors
+from urb_codegen.generate import C_DIR, PY_DIR, SCHEMA_DIR, check_fresh, generate, schema_files
+from urb_codegen.model import ArrayType, BytesType, CheckType, EnumDecl, IntType, MessageDecl, Schema
+from urb_codegen.parser import load
+
+_Sub = "argparse._SubParsersAction[argparse.ArgumentParser]"
+
+
+def register(sub: Any) -> None:
+    """Add the schema commands to the `urb` parser."""
+    fmt = argparse.RawDescriptionHelpFormatter
+    gen = sub.add_parser(
+        "gen", help="generate C and Python codecs", formatter_class=fmt,
+        description="Generate the C codecs (gen/c/) and Python codecs (gen/python/urb_msgs/) from every\n"
+        "schema in the schema folder. With --check, generate into a temporary folder and fail\n"
+        "(exit 1) when the committed files differ: the staleness check CI runs.",
+    )
+    gen.add_argument("--schemas", type=Path, default=SCHEMA_DIR, metavar="DIR", help="schema folder (default: spec/schema)")
+    gen.add_argument("--c-out", type=Path, default=C_DIR, metavar="DIR", help="C output folder (default: gen/c)")
+    gen.add_argument("--py-out", type=Path, default=PY_DIR, metavar="DIR", help="Python output folder (default: gen/python/urb_msgs)")
+    gen.add_argument("--check", action="store_true", help="do not write; exit 1 if the committed output is stale")
+    gen.set_defaults(run=run_gen)
+
+    schema = sub.add_parser("schema", help="check or show schemas", formatter_class=fmt,
+                            description="Check schema files or show their wire layouts.")
+    ssub = schema.add_subparsers(dest="schema_command", metavar="SUBCOMMAND")
+    check = ssub.add_parser(
+        "check", help="check schema files", formatter_class=fmt,
+        description="Parse and check schema files. Every error is printed as file:line:column with the\n"
+        "source line, a caret and a one-line hint. Exit status 0 when all files are valid, 1 otherwise.",
+    )
+    check.add_argument("files", nargs="*", type=Path, metavar="FILE", help="schema files (default: every bundled schema)")
+    check.set_defaults(run=run_check)
+    show = ssub.add_parser(
+        "show", help="show message and node layouts", formatter_class=fmt,
+        description="Show the wire layout of a message (bit offsets, types, units, fingerprint) or the\n"
+        "mailboxes of a node. Without NAME, list every message and node.",
+    )
+    show.add_argument("name", nargs="?", metavar="NAME", help="message or node name")
+    show.add_argument("--schemas", type=Path, default=SCHEMA_DIR, metavar="DIR", help="schema folder (default: spec/schema)")
+    show.set_defaults(run=run_show)
+    schema.set_defaults(run=lambda args: (schema.print_help(), 2)[1])
+
+
+def _load(paths: list[Path]) -> list[Schema] | None:
+    """Load schemas, printing errors (never a traceback) and returning None on failure."""
+    err = Console(stderr=True, highlight=False)
+    if not paths:
+        err.print("urb: no schema files found; pass files or --schemas DIR with *.urbs files")
+        return None
+    try:
+        return load(paths)
+    except SchemaErrors as exc:
+        err.print(exc.render(), markup=False)
+        err.print(f"\n{len(exc.errors)} error(s)", markup=False)
+    except SchemaError as exc:
+        err.print(exc.render(), markup=False)
+    return None
+
+
+def run_gen(args: argparse.Namespace) -> int:
+    schemas = _load(schema_files(args.schemas))
+    if schemas is None:
+        return 1
+    if args.check:
+        result = check_fresh(schemas, args.c_out, args.py_out)
+        if result.fresh:
+            print("urb gen --check: generated files are up to date")
+            return 0
+        for label, paths in (("changed", result.changed), ("missing", result.missing), ("not generated", result.extra)):
+            for p in paths:
+                print(f"  {label}: {p}", file=sys.stderr)
+        print("urb gen --check: generated files are stale; run `urb gen` (or `make gen`) and commit the result",
+              file=sys.stderr)
+        return 1
+    written = generate(schemas, args.c_out, args.py_out)
+    print(f"urb gen: wrote {len(written)} files from {len(schemas)} schema(s)")
+    return 0
+
+
+def run_check(args: argparse.Namespace) -> int:
+    paths = list(args.files) or schema_files()
+    missing = [p for p in paths if not p.exists()]
+    if missing:
+        for p in missing:
+            print(f"urb schema check: {p}: no such file", file=sys.stderr)
+        return 1
+    schemas = _load(paths)
+    if schemas is None:
+        return 1
+    for s in schemas:
+        print(f"{s.path}: ok ({len(s.messages)} messages, {len(s.enums)} enums, {len(s.nodes)} nodes)")
+    return 0
+
+
+def _type_name(t: object) -> str:
+    if isinstance(t, IntType):
+        return t.name
+    if isinstance(t, EnumDecl):
+        return f"{t.name} ({t.base.name})"
+    if isinstance(t, MessageDecl):
+        return t.name
+    if isinstance(t, ArrayType):
+        return f"{_type_name(t.element)}[{t.count}]"
+    if isinstance(t, BytesType):
+        return f"bytes[{t.count_field + ' ' if t.count_field else ''}<= {t.max_len}]"
+    if isinstance(t, CheckType):
+        return f"{t.checksum.name} over {t.first}..{t.last}"
+    return str(t)
+
+
+def run_show(args: argparse.Namespace) -> int:
+    schemas = _load(schema_files(args.schemas))
+    if schemas is None:
+        return 1
+    console = Console(highlight=False)
+    messages = {m.name: m for s in schemas for sch in [*s.imports, s] for m in sch.messages.values()}
+    nodes = {n.name: n for s in schemas for sch in [*s.imports, s] for n in sch.nodes.values()}
+    if args.name is None:
+        table = Table(title="Messages")
+        for col in ("name", "schema", "bytes", "fingerprint", "doc"):
+            table.add_column(col)
+        for m in messages.values():
+            size = str(m.min_size) if m.min_size == m.max_size else f"{m.min_size}..{m.max_size}"
+            table.add_row(m.name, m.schema, size, f"{m.fingerprint:08x}", m.doc)
+        console.print(table)
+        ntable = Table(title="Nodes")
+        for col in ("name", "class", "fingerprint", "mailboxes", "doc"):
+            ntable.add_column(col)
+        for n in nodes.values():
+            boxes = ", ".join(f"{b.direction[:-3]}{b.number}:{b.message.name}({b.size})" for b in n.mailboxes)
+            ntable.add_row(n.name, f"0x{n.class_id:02x}", f"{n.fingerprint:08x}", boxes, n.doc)
+        console.print(ntable)
+        return 0
+    if args.name in messages:
+        m = messages[args.name]
+        size = f"{m.min_size}" if m.min_size == m.max_size else f"{m.min_size}..{m.max_size}"
+        table = Table(title=f"{m.name}: {m.doc}", caption=f"{size} bytes, fingerprint {m.fingerprint:08x}")
+        for col in ("bits", "field", "type", "value", "unit", "doc"):
+            table.add_column(col)
+        for f in m.fields:
+            if isinstance(f.type, (BytesType, CheckType)):
+                bits = "payload" if isinstance(f.type, BytesType) else "check"
+            else:
+                bits = f"{f.bit_offset}..{f.bit_offset + f.bit_width - 1}" + (" (implicit)" if f.implicit else "")
+            value = f"= {f.fixed_name or f.fixed}" if f.fixed is not None else (f"{f.range[0]}..{f.range[1]}" if f.range else "")
+            unit = (f.unit or "") + (f" x{f.scale:g}" if f.scale is not None else "") + (f" {f.offset:+g}" if f.offset else "")
+            table.add_row(bits, f.name, _type_name(f.type), value, unit, f.doc)
+        console.print(table)
+        return 0
+    if args.name in nodes:
+        n = nodes[args.name]
+        table = Table(title=f"{n.name} (class 0x{n.class_id:02x}): {n.doc}", caption=f"layout fingerprint {n.fingerprint:08x}")
+        for col in ("mailbox", "message", "bytes", "rate", "doc"):
+            table.add_column(col)
+        for b in n.mailboxes:
+            rate = f"{b.rate_hz:g} Hz" if b.rate_hz else ""
+            table.add_row(f"{b.direction} {b.number}", b.message.name, str(b.size), rate, b.doc)
+        console.print(table)
+        return 0
+    print(f"urb schema show: no message or node named {args.name!r}; run `urb schema show` for the list", file=sys.stderr)
+    return 1
