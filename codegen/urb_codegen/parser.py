@@ -69,13 +69,17 @@ def _loc(path: Path, node: Tree[Token] | Token) -> Location:
     return Location(path, getattr(meta, "line", 1), getattr(meta, "column", 1))
 
 
-def _syntax_error(path: Path, exc: UnexpectedInput) -> SchemaError:
+def _end_of(source: str) -> tuple[int, int]:
+    """Line and column just after the last non-blank character."""
+    lines = source.rstrip().splitlines() or [""]
+    return len(lines), len(lines[-1]) + 1
+
+
+def _syntax_error(path: Path, source: str, exc: UnexpectedInput) -> SchemaError:
     line = getattr(exc, "line", 1) or 1
     column = getattr(exc, "column", 1) or 1
-    if isinstance(exc, UnexpectedToken) and exc.token.type == "$END":
-        return SchemaError(Location(path, line, column), "unexpected end of file", "a block is not closed: add `}`")
-    if isinstance(exc, UnexpectedEOF):
-        return SchemaError(Location(path, line, column), "unexpected end of file", "a block is not closed: add `}`")
+    if isinstance(exc, UnexpectedEOF) or (isinstance(exc, UnexpectedToken) and exc.token.type == "$END"):
+        return SchemaError(Location(path, *_end_of(source)), "unexpected end of file", "a block is not closed: add `}`")
     if isinstance(exc, UnexpectedCharacters):
         ch = exc.char
         return SchemaError(
@@ -113,7 +117,7 @@ def parse_file(path: Path) -> _Raw:
     try:
         tree = _PARSER.parse(source)
     except UnexpectedInput as exc:
-        raise _syntax_error(path, exc) from None
+        raise _syntax_error(path, source, exc) from None
     schema_decl = tree.children[0]
     assert isinstance(schema_decl, Tree)
     name_tok = schema_decl.children[0]

@@ -56,17 +56,16 @@ def register(sub: Any) -> None:
 
 def _load(paths: list[Path]) -> list[Schema] | None:
     """Load schemas, printing errors (never a traceback) and returning None on failure."""
-    err = Console(stderr=True, highlight=False)
     if not paths:
-        err.print("urb: no schema files found; pass files or --schemas DIR with *.urbs files")
+        print("urb: no schema files found; pass files or --schemas DIR with *.urbs files", file=sys.stderr)
         return None
     try:
         return load(paths)
     except SchemaErrors as exc:
-        err.print(exc.render(), markup=False)
-        err.print(f"\n{len(exc.errors)} error(s)", markup=False)
+        print(exc.render(), file=sys.stderr)
+        print(f"\n{len(exc.errors)} error(s)", file=sys.stderr)
     except SchemaError as exc:
-        err.print(exc.render(), markup=False)
+        print(exc.render(), file=sys.stderr)
     return None
 
 
