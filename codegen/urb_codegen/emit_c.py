@@ -1,0 +1,647 @@
+"""C emitter: plain structs and byte-wise codecs for every message, node tables, CRCs.
+
+The model (model.py) already holds every bit offset; this module only turns each field into C
+statements (range check, pack, unpack) and hands them to the Jinja2 templates `templates/c_*.j2`,
+which own the shape of every file. Design choices the generated code relies on:
+
+* Every field is read and written with `urb_get_bits`/`urb_put_bits` (byte-wise, LSB-first), so
+  there are no packed structs, no buffer casts and no unaligned access (Cortex-M0 safe).
+* Nested messages and arrays are flattened into the enclosing codec: an array becomes a loop whose
+  bit offset grows by the element width. Only `encode`/`decode` are public per message.
+* Encoders validate the whole struct before writing, so on any error the output buffer is untouched.
+* Decoders classify errors in the wire order: SHORT, LONG, CHECKSUM, then RANGE.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from jinja2 import Environment, FileSystemLoader, StrictUndefined
+
+from .model import (
+    MAILBOXES,
+    ArrayType,
+    BytesType,
+    CheckType,
+    ChecksumDecl,
+    CrcTier,
+    EnumDecl,
+    Field,
+    IntType,
+    MessageDecl,
+    NodeDecl,
+    Schema,
+)
+
+RUNTIME_VERSION = 1
+TEST_SUPPORT_DIR = "test"  # test-only sources (stdio), kept out of the product folder's *.c
+
+# C99 keywords and the names <stdbool.h>/<stdint.h> take; a field named like one gets a trailing "_".
+_C_RESERVED = frozenset(
+    "auto break case char const continue default do double else enum extern float for goto if inline int long "
+    "register restrict return short signed sizeof static struct switch typedef union unsigned void volatile "
+    "while _Bool _Complex _Imaginary bool true false NULL".split()
+)
+
+_ERROR_CODES = [
+    ("OK", 0, "Success"),
+    ("SHORT", -1, "The frame is shorter than the message (or than its length field says)"),
+    ("LONG", -2, "The frame is longer than the message (or than its length field says)"),
+    ("CHECKSUM", -3, "The frame check does not match"),
+    ("RANGE", -4, "A value is outside its range, its width, its enum, its fixed value, or padding is not zero"),
+    ("CAPACITY", -5, "The output buffer is too small"),
+    ("ARGUMENT", -6, "A NULL pointer, or invalid implicit members given to a decoder"),
+]
+
+
+def snake(name: str) -> str:
+    """`UplinkReadRequest` -> `uplink_read_request`; `USBHeader` -> `usb_header`."""
+    return re.sub(r"(?<=[a-z0-9])(?=[A-Z])|(?<=[A-Z])(?=[A-Z][a-z])", "_", name).lower()
+
+
+def _member(f: Field) -> str:
+    return f.name + "_" if f.name in _C_RESERVED else f.name
+
+
+def _comment(text: str) -> str:
+    """Text safe inside a C block comment."""
+    return text.replace("*/", "* /").replace("/*", "/ *")
+
+
+def _ctype(t: IntType) -> str:
+    if t.is_bool:
+        return "bool"
+    size = 8 if t.bits <= 8 else 16 if t.bits <= 16 else 32
+    return f"{'int' if t.signed else 'uint'}{size}_t"
+
+
+def _ctype_limits(t: IntType) -> tuple[int, int]:
+    size = 8 if t.bits <= 8 else 16 if t.bits <= 16 else 32
+    return (-(1 << (size - 1)), (1 << (size - 1)) - 1) if t.signed else (0, (1 << size) - 1)
+
+
+def _literal(value: int, signed: bool) -> str:
+    if not signed:
+        return f"{value}u"
+    return f"({value + 1} - 1)" if value == -(1 << 31) else str(value)
+
+
+def msg_c(m: MessageDecl) -> str:
+    """C name stem of a message: `urb_uplink_read_request`."""
+    return "urb_" + snake(m.name)
+
+
+def enum_c(e: EnumDecl) -> str:
+    return "urb_" + snake(e.name)
+
+
+def file_stem(s: Schema) -> str:
+    return s.name if s.name.startswith("urb_") else "urb_" + s.name
+
+
+# --- field statements ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _At:
+    """A bit offset in C: a constant plus loop terms such as `48u * i0`."""
+
+    const: int
+    terms: tuple[str, ...] = ()
+
+    def plus(self, n: int) -> _At:
+        return _At(self.const + n, self.terms)
+
+    def index(self, stride: int, var: str) -> _At:
+        return _At(self.const, (*self.terms, f"{stride}u * {var}"))
+
+    def c(self) -> str:
+        parts = [*self.terms, f"{self.const}u"] if self.const or not self.terms else list(self.terms)
+        return " + ".join(parts)
+
+
+@dataclass(frozen=True)
+class _Leaf:
+    """One scalar on the wire: its field, C lvalue (None for fixed fields) and position."""
+
+    field: Field
+    itype: IntType
+    enum: EnumDecl | None
+    member: str | None
+    at: _At
+    width: int
+
+
+@dataclass(frozen=True)
+class _Op:
+    """What to do at each leaf: `validate` (member checks), `pack` or `unpack`."""
+
+    kind: str
+    buf: str = "buf"
+    error: str = "URB_ERR_RANGE"
+    assigns: str = ""  # ACSL locations an array loop writes besides its index
+
+
+def _statements(fields: list[Field], prefix: str, at: _At, depth: int, op: _Op) -> list[str]:
+    """C statements applying `op` to every field of `fields` (flattening structs and arrays)."""
+    out: list[str] = []
+    for f in fields:
+        if isinstance(f.type, (BytesType, CheckType)):
+            continue
+        pos = at.plus(f.bit_offset)
+        if f.is_padding:
+            out += _padding(pos, f.bit_width, op)
+        else:
+            member = None if f.fixed is not None else prefix + _member(f)
+            out += _typed(f, f.type, member, pos, f.bit_width, depth, op)
+    return out
+
+
+def _typed(f: Field, t: object, member: str | None, at: _At, width: int, depth: int, op: _Op) -> list[str]:
+    if isinstance(t, IntType):
+        return _scalar(_Leaf(f, t, None, member, at, width), op)
+    if isinstance(t, EnumDecl):
+        return _scalar(_Leaf(f, t.base, t, member, at, width), op)
+    if isinstance(t, MessageDecl):
+        return _statements(t.fields, f"{member}.", at, depth, op)
+    assert isinstance(t, ArrayType), t
+    stride = width // t.count
+    var = f"i{depth}"
+    body = _typed(f, t.element, f"{member}[{var}]", at.index(stride, var), stride, depth + 1, op)
+    if not body:
+        return []
+    assigns = ", ".join(x for x in (var, op.assigns) if x)
+    return [
+        f"/*@ loop invariant 0 <= {var} <= {t.count};",
+        f"    loop assigns {assigns};",
+        f"    loop variant {t.count} - {var}; */",
+        f"for (size_t {var} = 0u; {var} < {t.count}u; {var}++) {{",
+        *("    " + line for line in body),
+        "}",
+    ]
+
+
+def _padding(at: _At, width: int, op: _Op) -> list[str]:
+    """Padding is zero: encoders clear the buffer first, decoders check it in 32-bit chunks."""
+    if op.kind != "unpack":
+        return []
+    return [
+        f"if (urb_get_bits({op.buf}, {at.plus(done).c()}, {min(32, width - done)}u) != 0u) {{ return {op.error}; }}"
+        for done in range(0, width, 32)
+    ]
+
+
+def _limits(leaf: _Leaf, with_width: bool) -> list[str]:
+    """Conditions that make a member invalid, leaving out those its C type already rules out."""
+    t = leaf.itype
+    if t.is_bool or leaf.member is None:
+        return []
+    if leaf.enum is not None:  # members fit the base type, so membership covers the width too
+        return [f"!{enum_c(leaf.enum)}_is_valid({leaf.member})"]
+    lo, hi = (t.min, t.max) if with_width else _ctype_limits(t)
+    if leaf.field.range is not None:
+        lo, hi = max(lo, leaf.field.range[0]), min(hi, leaf.field.range[1])
+    cmin, cmax = _ctype_limits(t)
+    conds = []
+    if lo > cmin:
+        conds.append(f"{leaf.member} < {_literal(lo, t.signed)}")
+    if hi < cmax:
+        conds.append(f"{leaf.member} > {_literal(hi, t.signed)}")
+    return conds
+
+
+def _scalar(leaf: _Leaf, op: _Op) -> list[str]:
+    t, m, w, at = leaf.itype, leaf.member, leaf.width, leaf.at.c()
+    mask = (1 << w) - 1
+    if op.kind == "validate":
+        return _reject(_limits(leaf, with_width=True), op.error)
+    if op.kind == "pack":
+        if leaf.field.fixed is not None:
+            value = f"{leaf.field.fixed & mask}u"
+        elif t.is_bool:
+            value = f"({m} ? 1u : 0u)"
+        else:
+            value = f"(uint32_t){m}"
+        return [f"urb_put_bits({op.buf}, {at}, {w}u, {value});"]
+    raw = f"urb_get_bits({op.buf}, {at}, {w}u)"
+    if m is None:
+        name = leaf.field.fixed_name or str(leaf.field.fixed)
+        fixed = leaf.field.fixed
+        assert fixed is not None
+        return [f"if ({raw} != {fixed & mask}u) {{ return {op.error}; }}  /* fixed: {_comment(name)} */"]
+    if t.is_bool:
+        value = f"({raw} != 0u)"
+    elif t.signed:
+        value = f"({_ctype(t)})urb_sign_extend({raw}, {w}u)"
+    else:
+        value = f"({_ctype(t)}){raw}"
+    return [f"{m} = {value};", *_reject(_limits(leaf, with_width=False), op.error)]
+
+
+def _reject(conds: list[str], error: str) -> list[str]:
+    """`if (a || b) { return error; }`, or nothing without conditions."""
+    if not conds:
+        return []
+    test = " || ".join(f"({c})" for c in conds) if len(conds) > 1 else conds[0]
+    return [f"if ({test}) {{ return {error}; }}"]
+
+
+# --- JSON printing for the test driver -----------------------------------------------------------
+
+
+def _print_statements(fields: list[Field], prefix: str, depth: int) -> list[str]:
+    """C statements printing the members of `fields` as JSON object entries (test support)."""
+    out: list[str] = []
+    first = True
+    for f in fields:
+        if f.is_padding or f.fixed is not None or isinstance(f.type, CheckType):
+            continue
+        key = f'"{"" if first else ","}\\"{f.name}\\":"'
+        first = False
+        out.append(f"fputs({key}, out);")
+        member = prefix + _member(f)
+        if isinstance(f.type, BytesType):
+            length = f"{prefix}{f.type.count_field}" if f.type.count_field else f"{member}_len"
+            out.append(f"urb_test_print_hex(out, {member}, {length});")
+        else:
+            out += _print_value(f.type, member, depth)
+    return out
+
+
+def _print_value(t: object, member: str, depth: int) -> list[str]:
+    if isinstance(t, (IntType, EnumDecl)):
+        it = t if isinstance(t, IntType) else t.base
+        if it.is_bool:
+            return [f'fputs({member} ? "true" : "false", out);']
+        if it.signed:
+            return [f'fprintf(out, "%ld", (long){member});']
+        return [f'fprintf(out, "%lu", (unsigned long){member});']
+    if isinstance(t, MessageDecl):
+        return ["fputc('{', out);", *_print_statements(t.fields, member + ".", depth), "fputc('}', out);"]
+    assert isinstance(t, ArrayType), t
+    var = f"i{depth}"
+    return [
+        "fputc('[', out);",
+        f"for (size_t {var} = 0u; {var} < {t.count}u; {var}++) {{",
+        f"    if ({var} > 0u) {{ fputc(',', out); }}",
+        *("    " + line for line in _print_value(t.element, f"{member}[{var}]", depth + 1)),
+        "}",
+        "fputc(']', out);",
+    ]
+
+
+# --- view models for the templates ---------------------------------------------------------------
+
+
+@dataclass
+class CPayload:
+    member: str  # the data array
+    max_len: int
+    len_member: str  # member holding the length: the count field or `<field>_len`
+    counted: bool
+    count_at: int  # bit offset of the count field (counted only)
+    count_width: int
+    needs_len_check: bool  # the length member's own bounds do not already keep it <= max_len
+
+
+@dataclass
+class CMessage:
+    decl: MessageDecl
+    fn: str
+    type: str
+    macro: str
+    members: list[tuple[str, str]]  # (declaration, doc)
+    notes: list[str]  # wire facts that are not members: fixed fields, implicit prefix
+    validate: list[str]
+    pack: list[str]
+    unpack: list[str]
+    implicit_validate: list[str]
+    implicit_pack: list[str]
+    implicit_unpack: list[str]  # test support: prefix bytes -> implicit members
+    payload: CPayload | None
+    checksum: str | None  # C stem of the checksum functions
+    print_body: list[str]
+
+    @property
+    def needs_size_fn(self) -> bool:
+        return self.checksum is not None and self.payload is not None
+
+
+@dataclass
+class CEnum:
+    decl: EnumDecl
+    type: str
+    macro: str
+    value_type: str
+    valid_expr: str
+
+
+@dataclass
+class CTier:
+    tier: CrcTier
+    fn: str
+    macro: str
+    ctype: str
+    above: int | None  # covered bytes beyond which this tier applies (None: from zero)
+
+    @property
+    def top_bit(self) -> int:
+        return 1 << (self.tier.width - 1)
+
+    @property
+    def mask(self) -> int:
+        return (1 << self.tier.width) - 1
+
+
+@dataclass
+class CChecksum:
+    decl: ChecksumDecl
+    fn: str
+    macro: str
+    tiers: list[CTier]
+    max_size: int
+
+
+@dataclass
+class CNode:
+    decl: NodeDecl
+    fn: str
+    macro: str
+    mailboxes: list[tuple[str, int, int, str]]  # (direction, number, size, message) sorted
+    numbers: list[tuple[str, int]]  # (macro suffix, number)
+
+
+@dataclass
+class CSchema:
+    schema: Schema
+    stem: str
+    source: str
+    includes: list[str]
+    consts: list[tuple[str, int, str]]
+    enums: list[CEnum] = field(default_factory=list)
+    messages: list[CMessage] = field(default_factory=list)
+    nodes: list[CNode] = field(default_factory=list)
+
+
+class _Names:
+    """Every global C identifier the emitter creates, so two schema items never map to one name."""
+
+    def __init__(self) -> None:
+        self.seen: dict[str, str] = {}
+
+    def add(self, name: str, what: str) -> str:
+        if name in self.seen:
+            raise ValueError(f"C name {name} is used by both {self.seen[name]} and {what}; rename one of them")
+        self.seen[name] = what
+        return name
+
+
+def _enum_view(e: EnumDecl, names: _Names) -> CEnum:
+    values = sorted(m.value for m in e.members)
+    runs: list[tuple[int, int]] = []
+    for v in values:
+        if runs and runs[-1][1] == v - 1:
+            runs[-1] = (runs[-1][0], v)
+        else:
+            runs.append((v, v))
+    lo_type = -(1 << 31) if e.base.signed else 0
+    parts = []
+    for lo, hi in runs:
+        lit_lo, lit_hi = _literal(lo, e.base.signed), _literal(hi, e.base.signed)
+        if lo == hi:
+            parts.append(f"(value == {lit_lo})")
+        elif lo == lo_type:
+            parts.append(f"(value <= {lit_hi})")
+        else:
+            parts.append(f"((value >= {lit_lo}) && (value <= {lit_hi}))")
+    macro = "URB_" + snake(e.name).upper()
+    for m in e.members:
+        names.add(f"{macro}_{m.name}", f"enum {e.name}")
+    return CEnum(e, names.add(enum_c(e) + "_t", f"enum {e.name}"), macro,
+                 "int32_t" if e.base.signed else "uint32_t", " || ".join(parts))
+
+
+def _field_doc(f: Field) -> str:
+    extra = []
+    if isinstance(f.type, EnumDecl):
+        extra.append(enum_c(f.type) + "_t")
+    if f.range is not None:
+        extra.append(f"range {f.range[0]}..{f.range[1]}")
+    if f.unit is not None:
+        extra.append(f"unit {f.unit}")
+    if f.scale is not None:
+        extra.append(f"scale {f.scale:g}")
+    if f.offset is not None:
+        extra.append(f"offset {f.offset:g}")
+    if f.implicit:
+        extra.append("implicit: not sent, covered by the check; set it before decoding")
+    return _comment(f.doc + (f" [{'; '.join(extra)}]" if extra else ""))
+
+
+def _member_decl(f: Field) -> list[tuple[str, str]]:
+    t = f.type
+    name = _member(f)
+    if isinstance(t, BytesType):
+        decls = [(f"uint8_t {name}[{t.max_len}]", _comment(f.doc))]
+        if t.count_field is None:
+            decls.append((f"uint8_t {name}_len", f"Bytes used in {name} (0..{t.max_len})"))
+        return decls
+    dims = ""
+    while isinstance(t, ArrayType):
+        dims += f"[{t.count}]"
+        t = t.element
+    if isinstance(t, MessageDecl):
+        ctype = msg_c(t) + "_t"
+    else:
+        assert isinstance(t, (IntType, EnumDecl))
+        ctype = _ctype(t if isinstance(t, IntType) else t.base)
+    return [(f"{ctype} {name}{dims}", _field_doc(f))]
+
+
+def _message_view(m: MessageDecl, names: _Names) -> CMessage:
+    fn = msg_c(m)
+    macro = fn.upper()
+    names.add(fn + "_t", f"message {m.name}")
+    for suffix in ("_encode", "_decode"):
+        names.add(fn + suffix, f"message {m.name}")
+    for suffix in ("_SIZE", "_MIN_SIZE", "_MAX_SIZE", "_FINGERPRINT"):
+        names.add(macro + suffix, f"message {m.name}")
+
+    members: list[tuple[str, str]] = []
+    notes: list[str] = []
+    for f in m.fields:
+        if f.fixed is not None:
+            notes.append(f"{f.name} = {f.fixed_name or f.fixed} on the wire (written by encode, checked by decode)")
+        if not f.is_padding and f.fixed is None and not isinstance(f.type, CheckType):
+            members += _member_decl(f)
+    local = [d.split()[-1].split("[")[0] for d, _ in members]
+    dup = {n for n in local if local.count(n) > 1}
+    if dup:
+        raise ValueError(f"{m.loc}: message {m.name} would have two C members named {sorted(dup)[0]}")
+
+    payload = None
+    bf = m.bytes_field
+    if bf is not None:
+        assert isinstance(bf.type, BytesType)
+        counter = next((f for f in m.fields if f.name == bf.type.count_field), None)
+        if counter is not None:
+            assert isinstance(counter.type, IntType)
+            bound = counter.type.max if counter.range is None else min(counter.type.max, counter.range[1])
+        else:
+            bound = 255  # the uint8_t `<field>_len` member
+        payload = CPayload(
+            _member(bf), bf.type.max_len,
+            _member(counter) if counter else _member(bf) + "_len",
+            counter is not None,
+            counter.bit_offset if counter else 0,
+            counter.bit_width if counter else 0,
+            bound > bf.type.max_len,
+        )
+    implicit = m.implicit_fields
+    if implicit:
+        notes.append(f"implicit prefix of {m.implicit_size} byte(s) ({', '.join(f.name for f in implicit)}): "
+                     "not sent, but covered by the check")
+    wire = [f for f in m.fields if not f.implicit]
+    checksum = m.checksum
+    buf_fixed = f"buf[0 .. {m.fixed_size - 1}]" if m.fixed_size else ""
+    return CMessage(
+        decl=m, fn=fn, type=fn + "_t", macro=macro, members=members, notes=notes,
+        validate=_statements(m.fields, "msg->", _At(0), 0, _Op("validate")),
+        pack=_statements(wire, "msg->", _At(0), 0, _Op("pack", assigns=buf_fixed)),
+        unpack=_statements(wire, "msg->", _At(0), 0, _Op("unpack", assigns="*msg")),
+        implicit_validate=_statements(implicit, "msg->", _At(0), 0, _Op("validate", error="URB_ERR_ARGUMENT")),
+        implicit_pack=_statements(implicit, "msg->", _At(0), 0,
+                                  _Op("pack", buf="prefix", assigns=f"prefix[0 .. {m.implicit_size - 1}]")),
+        implicit_unpack=_statements(implicit, "msg->", _At(0), 0, _Op("unpack", buf="prefix", assigns="*msg")),
+        payload=payload,
+        checksum=None if checksum is None else "urb_" + checksum.name,
+        print_body=_print_statements(m.fields, "msg->", 0),
+    )
+
+
+def _checksum_view(cs: ChecksumDecl, names: _Names) -> CChecksum:
+    fn = "urb_" + cs.name
+    tiers: list[CTier] = []
+    above: int | None = None
+    for t in cs.tiers:
+        tfn = f"urb_{t.name}_{cs.name}"
+        names.add(tfn, f"checksum {cs.name}")
+        names.add(tfn + "_byte", f"checksum {cs.name}")
+        tiers.append(CTier(t, tfn, tfn.upper(), f"uint{t.width}_t", above))
+        if t.max_covered is not None:
+            above = t.max_covered if above is None else max(above, t.max_covered)
+    for suffix in ("", "_size", "_payload_len"):
+        names.add(fn + suffix, f"checksum {cs.name}")
+    return CChecksum(cs, fn, fn.upper(), tiers, max(t.width for t in cs.tiers) // 8)
+
+
+def _node_view(n: NodeDecl, names: _Names) -> CNode:
+    fn = "urb_node_" + snake(n.name)
+    macro = fn.upper()
+    boxes = sorted(n.mailboxes, key=lambda b: (b.direction != "outbox", b.number))
+    numbers = []
+    for b in boxes:
+        same = [o for o in boxes if o.direction == b.direction and o.message is b.message]
+        suffix = f"{b.direction.upper()}_{snake(b.message.name).upper()}" + (f"_{b.number}" if len(same) > 1 else "")
+        numbers.append((suffix, b.number))
+        names.add(f"{macro}_{suffix}", f"node {n.name}")
+        names.add(f"{macro}_{b.direction.upper()}{b.number}_SIZE", f"node {n.name}")
+    for suffix in ("_CLASS", "_FINGERPRINT"):
+        names.add(macro + suffix, f"node {n.name}")
+    for table in ("_inbox_sizes", "_outbox_sizes"):
+        names.add(fn + table, f"node {n.name}")
+    return CNode(n, fn, macro, [(b.direction, b.number, b.size, b.message.name) for b in boxes], numbers)
+
+
+def _relative(path: Path, out_dir: Path) -> str:
+    """Schema path relative to the tree holding both it and the output (stable across checkouts)."""
+    path, out_dir = path.resolve(), out_dir.resolve()
+    root = Path(os.path.commonpath([path, out_dir]))
+    return path.relative_to(root).as_posix()
+
+
+# --- entry point ---------------------------------------------------------------------------------
+
+
+def _environment() -> Environment:
+    env = Environment(
+        loader=FileSystemLoader(str(Path(__file__).parent / "templates")),
+        undefined=StrictUndefined,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        keep_trailing_newline=True,
+        autoescape=False,
+    )
+    env.globals.update(runtime_version=RUNTIME_VERSION, error_codes=_ERROR_CODES, mailboxes=MAILBOXES)
+    env.filters["comment"] = _comment
+    env.filters["u"] = lambda value: f"{value}u"
+    return env
+
+
+def _all_schemas(schemas: list[Schema]) -> list[Schema]:
+    """The given schemas and their imports, imports first, each once."""
+    out: list[Schema] = []
+
+    def visit(s: Schema) -> None:
+        if any(o.name == s.name for o in out):
+            return
+        for dep in s.imports:
+            visit(dep)
+        out.append(s)
+
+    for s in schemas:
+        visit(s)
+    return out
+
+
+def emit_c(schemas: list[Schema], out_dir: Path) -> list[Path]:
+    """Write urb_runtime.[ch], urb_<schema>.[ch] and test/urb_test_support.[ch]; return their paths."""
+    env = _environment()
+    names = _Names()
+    ordered = _all_schemas(schemas)
+    views: list[CSchema] = []
+    checksums: list[CChecksum] = []
+    for s in ordered:
+        view = CSchema(
+            schema=s,
+            stem=names.add(file_stem(s), f"schema {s.name}"),
+            source=f"{_relative(s.path, out_dir)}, schema fingerprint {s.source_hash}",
+            includes=[file_stem(i) + ".h" for i in s.imports],
+            consts=[(names.add("URB_" + c.name, f"const {c.name}"), c.value, _comment(c.doc)) for c in s.consts.values()],
+        )
+        view.enums = [_enum_view(e, names) for e in s.enums.values()]
+        view.messages = [_message_view(m, names) for m in s.messages.values()]
+        view.nodes = [_node_view(n, names) for n in s.nodes.values()]
+        checksums += [_checksum_view(c, names) for c in s.checksums.values()]
+        views.append(view)
+    runtime_sources = ", ".join(v.source for v in views if v.schema.checksums) or "no schema"
+
+    runtime_title = "URB runtime: error codes, bit access and frame checks shared by every codec."
+    files: dict[str, str] = {}
+    for ext in ("h", "c"):
+        files[f"urb_runtime.{ext}"] = env.get_template(f"c_runtime_{ext}.j2").render(
+            title=runtime_title, guard="URB_RUNTIME_H" if ext == "h" else None, source=runtime_sources,
+            checksums=checksums,
+        )
+        for v in views:
+            files[f"{v.stem}.{ext}"] = env.get_template(f"c_schema_{ext}.j2").render(
+                title=f"{v.schema.name}: {_comment(v.schema.doc)}.", guard=v.stem.upper() + "_H" if ext == "h" else None,
+                source=v.source, s=v,
+            )
+        files[f"{TEST_SUPPORT_DIR}/urb_test_support.{ext}"] = env.get_template(f"c_test_{ext}.j2").render(
+            title="URB codec test support: codecs by name, JSON printers, CRC entry points (tests only).",
+            guard="URB_TEST_SUPPORT_H" if ext == "h" else None, source=", ".join(v.source for v in views),
+            schemas=views, checksums=checksums,
+        )
+
+    written = []
+    for rel, text in files.items():
+        path = out_dir / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if not path.exists() or path.read_text(encoding="utf-8") != text:
+            path.write_text(text, encoding="utf-8")
+        written.append(path)
+    return written
