@@ -183,9 +183,6 @@ LatencyBound == \A id \in Submitted : age[id] + 1 <= MaxLatency + deferred[id]
 (* paper's strict bound of MaxLatency frames.                              *)
 StrictLatency == \A id \in Submitted : age[id] + 1 <= MaxLatency
 
-(* At most two batches are in flight on the bridge (write n, read n-1).    *)
-PipelineDepth == (txPrev # <<>> /\ txCur # <<>>) => rx = <<>>
-
 (* Liveness: every submitted request gets its callback.                    *)
 EveryCallbackRuns == \A id \in Ids : (id <= nextId) ~> (id \in done)
 

