@@ -14,7 +14,6 @@ which own the shape of every file. Design choices the generated code relies on:
 
 from __future__ import annotations
 
-import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -530,6 +529,7 @@ def _checksum_view(cs: ChecksumDecl, names: _Names) -> CChecksum:
         tfn = f"urb_{t.name}_{cs.name}"
         names.add(tfn, f"checksum {cs.name}")
         names.add(tfn + "_byte", f"checksum {cs.name}")
+        names.add(tfn + "_final", f"checksum {cs.name}")
         tiers.append(CTier(t, tfn, tfn.upper(), f"uint{t.width}_t", above))
         if t.max_covered is not None:
             above = t.max_covered if above is None else max(above, t.max_covered)
@@ -554,13 +554,6 @@ def _node_view(n: NodeDecl, names: _Names) -> CNode:
     for table in ("_inbox_sizes", "_outbox_sizes"):
         names.add(fn + table, f"node {n.name}")
     return CNode(n, fn, macro, [(b.direction, b.number, b.size, b.message.name) for b in boxes], numbers)
-
-
-def _relative(path: Path, out_dir: Path) -> str:
-    """Schema path relative to the tree holding both it and the output (stable across checkouts)."""
-    path, out_dir = path.resolve(), out_dir.resolve()
-    root = Path(os.path.commonpath([path, out_dir]))
-    return path.relative_to(root).as_posix()
 
 
 # --- entry point ---------------------------------------------------------------------------------
@@ -608,7 +601,8 @@ def emit_c(schemas: list[Schema], out_dir: Path) -> list[Path]:
         view = CSchema(
             schema=s,
             stem=names.add(file_stem(s), f"schema {s.name}"),
-            source=f"{_relative(s.path, out_dir)}, schema fingerprint {s.source_hash}",
+            # Same wording as the Python emitter; no directories, so output does not depend on where it goes.
+            source=f"{s.path.name} (schema {s.name}, source fingerprint {s.source_hash})",
             includes=[file_stem(i) + ".h" for i in s.imports],
             consts=[(names.add("URB_" + c.name, f"const {c.name}"), c.value, _comment(c.doc)) for c in s.consts.values()],
         )

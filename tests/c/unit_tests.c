@@ -1,0 +1,160 @@
+/*
+ * Unit tests for the generated C codecs: the paths codec_driver cannot reach because it only
+ * encodes structs that came out of a decoder (invalid members, NULL pointers, invalid implicit
+ * members), plus the runtime helpers. Prints one line per failure and exits non-zero on any.
+ * Built with sanitizers by tests/test_c_codecs.py.
+ */
+
+#include <stdio.h>
+#include <string.h>
+
+#include "urb_core.h"
+#include "urb_runtime.h"
+#include "urb_sensorhex.h"
+
+static int failures;
+
+#define CHECK(cond)                                                                  \
+    do {                                                                             \
+        if (!(cond)) {                                                               \
+            printf("FAIL %s:%d: %s\n", __FILE__, __LINE__, #cond);                   \
+            failures++;                                                              \
+        }                                                                            \
+    } while (0)
+
+static void test_bits(void)
+{
+    uint8_t buf[6] = {0};
+    urb_put_bits(buf, 5u, 13u, 0x1ABCu); /* straddles three bytes */
+    CHECK(urb_get_bits(buf, 5u, 13u) == 0x1ABCu);
+    CHECK(buf[0] == 0x80u && buf[1] == 0x57u && buf[2] == 0x03u);
+    urb_put_bits(buf, 8u, 32u, 0xDEADBEEFu);
+    CHECK(urb_get_bits(buf, 8u, 32u) == 0xDEADBEEFu);
+    CHECK(buf[0] == 0x80u); /* bits outside the field are kept */
+    urb_put_bits(buf, 0u, 3u, 0xFFFFFFFFu); /* only the low `width` bits are written */
+    CHECK(buf[0] == 0x87u);
+    CHECK(urb_sign_extend(0x7FFu, 12u) == 2047);
+    CHECK(urb_sign_extend(0x800u, 12u) == -2048);
+    CHECK(urb_sign_extend(0xFFFu, 12u) == -1);
+    CHECK(urb_sign_extend(0x80000000u, 32u) == INT32_MIN);
+    CHECK(urb_sign_extend(0x7FFFFFFFu, 32u) == INT32_MAX);
+    CHECK(urb_sign_extend(0x2u, 2u) == -2);
+}
+
+static void test_checks(void)
+{
+    static const uint8_t digits[] = {'1', '2', '3', '4', '5', '6', '7', '8', '9'};
+    CHECK(urb_crc8_link_check_final(urb_crc8_link_check(digits, 9u, URB_CRC8_LINK_CHECK_INIT)) == 0xDFu);
+    CHECK(urb_crc16_link_check_final(urb_crc16_link_check(digits, 9u, URB_CRC16_LINK_CHECK_INIT)) == 0x29B1u);
+    /* The tier follows the covered length, prefix included. */
+    CHECK(urb_link_check(NULL, 0u, digits, 9u) == 0xDFu);
+    CHECK(urb_link_check_size(14u) == 1u && urb_link_check_size(15u) == 2u);
+    /* Tail payloads: every frame length maps to the one payload length that produces it, or to an error. */
+    for (uint8_t implicit = 0u; implicit < 3u; implicit++) {
+        for (uint8_t fixed = 0u; fixed < 4u; fixed++) {
+            for (size_t length = 0u; length < 60u; length++) {
+                int32_t expected = -1;
+                for (size_t p = 0u; p < 60u; p++) {
+                    if (fixed + p + urb_link_check_size(implicit + fixed + p) == length) {
+                        expected = (int32_t)p;
+                    }
+                }
+                int32_t const got = urb_link_check_payload_len(length, implicit, fixed);
+                if (expected >= 0) {
+                    CHECK(got == expected);
+                } else {
+                    CHECK(got == (length < fixed + 1u ? URB_ERR_SHORT : URB_ERR_LONG));
+                }
+            }
+        }
+    }
+    CHECK(urb_link_check_payload_len((size_t)1 << 20, 0u, 0u) == URB_ERR_LONG);
+}
+
+static void test_arguments(void)
+{
+    urb_uplink_read_request_t msg = {0};
+    uint8_t buf[8] = {0};
+    CHECK(urb_uplink_read_request_encode(NULL, buf, sizeof buf) == URB_ERR_ARGUMENT);
+    CHECK(urb_uplink_read_request_encode(&msg, NULL, sizeof buf) == URB_ERR_ARGUMENT);
+    CHECK(urb_uplink_read_request_decode(NULL, buf, 4u) == URB_ERR_ARGUMENT);
+    CHECK(urb_uplink_read_request_decode(&msg, NULL, 4u) == URB_ERR_ARGUMENT);
+}
+
+/* Encoding an invalid struct fails with URB_ERR_RANGE and leaves the buffer untouched. */
+static void test_encode_range(void)
+{
+    uint8_t buf[40];
+    memset(buf, 0x5A, sizeof buf);
+
+    urb_uplink_read_request_t req = {.address = 33u, .mailbox = 1u, .seq = 3u, .length = 6u};
+    CHECK(urb_uplink_read_request_encode(&req, buf, sizeof buf) == 4);
+    req.address = 128u; /* u7 */
+    CHECK(urb_uplink_read_request_encode(&req, buf, sizeof buf) == URB_ERR_RANGE);
+    req.address = 33u;
+    req.length = 0u; /* in 1..32 */
+    CHECK(urb_uplink_read_request_encode(&req, buf, sizeof buf) == URB_ERR_RANGE);
+    req.length = 33u;
+    CHECK(urb_uplink_read_request_encode(&req, buf, sizeof buf) == URB_ERR_RANGE);
+
+    memset(buf, 0x5A, sizeof buf);
+    urb_uplink_response_t resp = {.seq = 1u, .status = 9u, .data_len = 0u}; /* 9 is no Status */
+    CHECK(urb_uplink_response_encode(&resp, buf, sizeof buf) == URB_ERR_RANGE);
+    resp.status = URB_STATUS_OK;
+    resp.data_len = 33u; /* bytes[<= 32] */
+    CHECK(urb_uplink_response_encode(&resp, buf, sizeof buf) == URB_ERR_RANGE);
+    for (size_t k = 0u; k < sizeof buf; k++) {
+        CHECK(buf[k] == 0x5Au);
+    }
+
+    urb_battery_status_t battery;
+    memset(&battery, 0, sizeof battery);
+    CHECK(urb_battery_status_encode(&battery, buf, sizeof buf) == URB_BATTERY_STATUS_SIZE);
+    battery.packs[2].charge = 101u; /* in 0..100, inside an array of nested messages */
+    CHECK(urb_battery_status_encode(&battery, buf, sizeof buf) == URB_ERR_RANGE);
+
+    urb_motor_config_t config;
+    memset(&config, 0, sizeof config);
+    config.mode = 3u; /* not a MotorMode */
+    CHECK(urb_motor_config_encode(&config, buf, sizeof buf) == URB_ERR_RANGE);
+
+    urb_identification_t ident;
+    memset(&ident, 0, sizeof ident);
+    ident.outbox_sizes[7] = 64u; /* u6 array element */
+    CHECK(urb_identification_encode(&ident, buf, sizeof buf) == URB_ERR_RANGE);
+}
+
+/* Implicit members are the caller's input to decode: invalid ones are an argument error. */
+static void test_implicit(void)
+{
+    static const uint8_t frame[] = {0xe8, 0x03, 0x24, 0xfa, 0xe0, 0x2e, 0x62}; /* tests/vectors/core.json */
+    urb_downlink_read_response_t msg;
+    memset(&msg, 0, sizeof msg);
+    msg.select.mailbox = 1u;
+    msg.select.read = true;
+    CHECK(urb_downlink_read_response_decode(&msg, frame, sizeof frame) == (int32_t)sizeof frame);
+    CHECK(msg.data_len == 6u && msg.data[0] == 0xe8u && msg.select.mailbox == 1u);
+    msg.select.mailbox = 2u; /* another selection: the check fails */
+    CHECK(urb_downlink_read_response_decode(&msg, frame, sizeof frame) == URB_ERR_CHECKSUM);
+    msg.select.mailbox = 8u; /* u3 */
+    CHECK(urb_downlink_read_response_decode(&msg, frame, sizeof frame) == URB_ERR_ARGUMENT);
+}
+
+static void test_node_tables(void)
+{
+    CHECK(urb_node_motor_driver_inbox_sizes[URB_NODE_MOTOR_DRIVER_INBOX_MOTOR_CONFIG] == URB_MOTOR_CONFIG_SIZE);
+    CHECK(urb_node_motor_driver_outbox_sizes[0] == URB_IDENTIFICATION_SIZE);
+    CHECK(URB_NODE_MOTOR_DRIVER_CLASS == URB_MOTOR_CLASS);
+}
+
+int main(void)
+{
+    test_bits();
+    test_checks();
+    test_arguments();
+    test_encode_range();
+    test_implicit();
+    test_node_tables();
+    printf("%s (%d failures)\n", failures == 0 ? "PASS" : "FAIL", failures);
+    return failures == 0 ? 0 : 1;
+}
