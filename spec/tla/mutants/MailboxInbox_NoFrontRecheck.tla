@@ -3,6 +3,7 @@
 (* re-check of front (step 4).  The read linearizes at its only load of     *)
 (* front (step 1).  TLC finds an aborted ISR write on the claimed buffer:  *)
 (* the application reads a half-written, never-committed message.          *)
+(* Expected: NoAbortedDelivered.                                           *)
 EXTENDS MailboxInbox
 
 MutLoadFront ==
