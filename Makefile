@@ -29,7 +29,7 @@ gen-check:
 	urb gen --check
 
 lint: setup
-	$(PYTHON) -m mypy --strict host/urb codegen/urb_codegen gen/python/urb_msgs tools
+	$(PYTHON) -m mypy --strict host/urb codegen/urb_codegen gen/python/urb_msgs sim/urb_sim tools
 
 test-py: setup
 	$(PYTEST) -q tests --ignore=tests/test_c_codecs.py
