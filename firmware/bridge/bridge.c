@@ -1,0 +1,575 @@
+/*
+ * URB bridge core: admission, the request FIFO, serving on the downlink or locally (address 0),
+ * emitting responses in order, discovery and the SYNC heartbeat.
+ *
+ * Memory follows Bridge.tla: a ring of response slots (header only) in arrival order, and a FIFO
+ * of data slots (payload buffers) held from admission until the response has left. Admission
+ * errors take a response slot but no data slot, so they keep their place in the answer order
+ * without using a payload buffer. Data slots are allocated in ring order and freed in ring order
+ * (responses leave in order), so they form a FIFO inside the ring: head = oldest not yet emitted,
+ * head + served = oldest not yet served (Bridge.tla FirstPending, found in O(1)).
+ */
+#include "bridge_internal.h"
+
+#include "urb_core.h"
+#include "urb_runtime.h"
+
+/* ===== Small helpers ========================================================================== */
+
+static uint8_t ring_index(uint8_t head, uint8_t offset)
+{
+    uint8_t i = (uint8_t)(head + offset);
+    if (i >= URB_BRIDGE_RING_MAX) {
+        i = (uint8_t)(i - URB_BRIDGE_RING_MAX);
+    }
+    return i;
+}
+
+/* Wrap without a division: Cortex-M0+ has no divide instruction. */
+static uint8_t slot_index(const urb_bridge_t *b, uint8_t offset)
+{
+    uint8_t i = (uint8_t)(b->slot_head + offset);
+    if (i >= b->cfg.fifo_depth) {
+        i = (uint8_t)(i - b->cfg.fifo_depth);
+    }
+    return i;
+}
+
+static void mark(const urb_bridge_t *b, uint8_t id, bool level)
+{
+    if (b->hal->mark != NULL) {
+        b->hal->mark(b->hal->ctx, id, level);
+    }
+}
+
+static void set_present(urb_bridge_t *b, uint8_t a, bool on)
+{
+    uint8_t const bit = (uint8_t)(1u << (a & 7u));
+    if (on) {
+        b->present[a >> 3] = (uint8_t)(b->present[a >> 3] | bit);
+    } else {
+        b->present[a >> 3] = (uint8_t)(b->present[a >> 3] & (uint8_t)~bit);
+    }
+}
+
+/* ===== What the bridge knows about its nodes ================================================== */
+
+static void node_forget(urb_bridge_t *b, uint8_t a)
+{
+    uint8_t const k = b->node_of[a & 0x7Fu];
+    if (k != 0u) {
+        b->nodes[k - 1u].address = 0u;
+        b->node_of[a & 0x7Fu] = 0u;
+    }
+}
+
+/* Remember the mailbox sizes a node reported in its Identification (outbox 0). */
+static void node_learn(urb_bridge_t *b, uint8_t a, const uint8_t *frame)
+{
+    urb_identification_t id;
+    if (urb_identification_decode(&id, frame, URB_IDENTIFICATION_SIZE) < 0) {
+        node_forget(b, a); /* unreadable identification: sizes unknown, requests go to the node */
+        return;
+    }
+    uint8_t k = b->node_of[a];
+    /* loop bound: URB_BRIDGE_MAX_NODES entries */
+    for (uint8_t i = 0u; (k == 0u) && (i < URB_BRIDGE_MAX_NODES); i++) {
+        if (b->nodes[i].address == 0u) {
+            k = (uint8_t)(i + 1u);
+        }
+    }
+    if (k == 0u) {
+        return; /* table full: this node's sizes stay unknown (checked by the node itself) */
+    }
+    urb_bridge_node_t *n = &b->nodes[k - 1u];
+    n->address = a;
+    /* loop bound: 8 mailboxes */
+    for (uint8_t i = 0u; i < 8u; i++) {
+        n->in[i] = id.inbox_sizes[i];
+        n->out[i] = id.outbox_sizes[i];
+    }
+    b->node_of[a] = k;
+}
+
+/* Mailbox size learnt for (a, box, dir), or -1 when unknown. */
+static int16_t known_size(const urb_bridge_t *b, uint8_t a, uint8_t box, bool read)
+{
+    if (a == URB_BRIDGE_ADDRESS) {
+        return read ? (int16_t)urb_node_bridge_outbox_sizes[box] : (int16_t)urb_node_bridge_inbox_sizes[box];
+    }
+    uint8_t const k = b->node_of[a];
+    if (k == 0u) {
+        return -1;
+    }
+    return read ? (int16_t)b->nodes[k - 1u].out[box] : (int16_t)b->nodes[k - 1u].in[box];
+}
+
+/* ===== Admission ============================================================================== */
+
+/* Bridge.tla: AdmissionStatus. Header validation without downlink traffic. An address the last
+ * scan did not find is NOT refused: a node may appear after the scan; the downlink decides. */
+static uint8_t admission_status(const urb_bridge_t *b, uint8_t a, uint8_t box, bool read, uint8_t len)
+{
+    if ((a != URB_BRIDGE_ADDRESS) && ((a < b->dl.first_address) || (a > b->dl.last_address))) {
+        return URB_STATUS_BAD_REQUEST; /* reserved downlink address */
+    }
+    int16_t const size = known_size(b, a, box, read);
+    if ((size >= 0) && (size != (int16_t)len)) {
+        return URB_STATUS_SIZE_MISMATCH; /* includes mailboxes the node does not use (size 0) */
+    }
+    return URB_STATUS_OK;
+}
+
+static bool emit_entry(urb_bridge_t *b, const urb_bridge_resp_t *e);
+
+/* Bridge.tla: SubmitAndAdmit. `status` is OK for a well-formed request, BAD_REQUEST for a frame
+ * that passed its check but breaks a schema rule. */
+static void admit(urb_bridge_t *b, uint8_t uplink, uint8_t seq, uint8_t status, uint8_t a, uint8_t box, bool read,
+                  uint8_t len, const uint8_t *data)
+{
+    if (b->ring_count >= URB_BRIDGE_RING_MAX) {
+        /* The host has more requests outstanding than its window (Bridge.tla HostWindow): outside
+         * the contract, and there is no slot left even for a BUSY. Counted, not answered. */
+        b->stats.window_overflow++;
+        return;
+    }
+    if (status == URB_STATUS_OK) {
+        status = admission_status(b, a, box, read, len);
+    }
+    if (status == URB_STATUS_OK) {
+#if defined(URB_MUTANT_FIFO_OFF_BY_ONE)
+        bool const full = (uint8_t)(b->slot_count + 1u) >= b->cfg.fifo_depth; /* mutant: one slot never used */
+#else
+        bool const full = b->slot_count >= b->cfg.fifo_depth;
+#endif
+        if (full) {
+#ifdef URB_MUTANT_DROP_WHEN_FULL
+            return; /* mutant: silent drop */
+#else
+            status = URB_STATUS_BUSY; /* Bridge.tla: BUSY only when every data slot is taken */
+            b->stats.busy++;
+#endif
+        }
+    }
+    urb_bridge_resp_t *e = &b->ring[ring_index(b->ring_head, b->ring_count)];
+    e->seq = (uint8_t)(seq & 0x0Fu);
+    e->uplink = uplink;
+    if (status == URB_STATUS_OK) {
+        uint8_t const s = slot_index(b, b->slot_count);
+        urb_bridge_slot_t *d = &b->slots[s];
+        d->address = a;
+        d->mailbox = box;
+        d->length = len;
+        d->read = read;
+        d->resp = ring_index(b->ring_head, b->ring_count);
+        /* loop bound: 32 bytes */
+        for (uint8_t i = 0u; (!read) && (i < len) && (i < 32u); i++) {
+            d->data[i] = data[i];
+        }
+        e->status = URB_BRIDGE_PENDING;
+        e->slot = s;
+        b->slot_count++;
+    } else {
+        e->status = status;
+        e->slot = URB_BRIDGE_NO_SLOT;
+#ifdef URB_MUTANT_REORDER
+        /* mutant (Bridge_BusyOvertakes): an admission error leaves at once, ahead of earlier requests */
+        (void)emit_entry(b, e);
+        return;
+#endif
+    }
+    b->ring_count++;
+}
+
+bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t len)
+{
+    uint8_t const seq = (uint8_t)(frame[1] >> 4);
+    if ((frame[0] & 1u) != 0u) {
+        urb_uplink_read_request_t q;
+        int32_t const r = urb_uplink_read_request_decode(&q, frame, len);
+        if ((r == URB_ERR_CHECKSUM) || (r == URB_ERR_SHORT) || (r == URB_ERR_LONG)) {
+            return false;
+        }
+        b->stats.frames++;
+        /* A range error in a frame whose check passed: it was meant as a request, answer it. */
+        admit(b, uplink, seq, (r < 0) ? URB_STATUS_BAD_REQUEST : URB_STATUS_OK, q.address, q.mailbox, true, q.length,
+              NULL);
+        return true;
+    }
+    urb_uplink_write_request_t q;
+    int32_t const r = urb_uplink_write_request_decode(&q, frame, len);
+    if ((r == URB_ERR_CHECKSUM) || (r == URB_ERR_SHORT) || (r == URB_ERR_LONG)) {
+        return false;
+    }
+    b->stats.frames++;
+    admit(b, uplink, seq, (r < 0) ? URB_STATUS_BAD_REQUEST : URB_STATUS_OK, q.address, q.mailbox, false, q.length,
+          q.data);
+    return true;
+}
+
+/* ===== Serving ================================================================================ */
+
+static urb_bridge_slot_t *oldest_pending(urb_bridge_t *b)
+{
+    if (b->slot_served >= b->slot_count) {
+        return NULL;
+    }
+    return &b->slots[slot_index(b, b->slot_served)];
+}
+
+/* Bridge.tla: Serve (second half): the outcome of the oldest pending request is final. */
+static void complete(urb_bridge_t *b, uint8_t status)
+{
+    urb_bridge_slot_t *d = oldest_pending(b);
+    if (d == NULL) {
+        return;
+    }
+    if ((status == URB_STATUS_OK) && d->read && (d->address != URB_BRIDGE_ADDRESS) && (d->mailbox == 0u) &&
+        (d->length == URB_IDENTIFICATION_SIZE)) {
+        node_learn(b, d->address, d->data); /* the host read an identification: learn the sizes too */
+    }
+    b->ring[d->resp].status = status;
+    b->slot_served++;
+}
+
+static void start_scan(urb_bridge_t *b, bool for_request)
+{
+    b->scanning = true;
+    b->scan_for_request = for_request;
+    b->scan_addr = b->dl.first_address;
+}
+
+/* Serve a request to address 0. Returns true when it completed at once, false when it occupies the
+ * downlink (SCAN, BUS_CLEAR) or the downlink could not start yet. */
+static bool serve_local(urb_bridge_t *b, urb_bridge_slot_t *d, uint32_t now)
+{
+    if (d->read && (d->mailbox == URB_NODE_BRIDGE_OUTBOX_BRIDGE_INFO)) {
+        urb_bridge_info_t info;
+        info.downlink = b->dl.kind;
+        info.bitrate_kbps = b->dl.bitrate_kbps;
+        info.fifo_depth = b->cfg.fifo_depth;
+        info.heartbeat_us = b->cfg.heartbeat_us;
+        info.fw_major = URB_BRIDGE_FW_MAJOR;
+        info.fw_minor = URB_BRIDGE_FW_MINOR;
+        info.fw_patch = URB_BRIDGE_FW_PATCH;
+        complete(b, (urb_bridge_info_encode(&info, d->data, sizeof d->data) < 0) ? URB_STATUS_BAD_REQUEST
+                                                                                  : URB_STATUS_OK);
+        return true;
+    }
+    if (d->read && (d->mailbox == URB_NODE_BRIDGE_OUTBOX_BRIDGE_SCAN)) {
+        urb_bridge_scan_t scan;
+        /* loop bound: 128 addresses */
+        for (uint8_t a = 0u; a < 128u; a++) {
+            scan.present[a] = (b->present[a >> 3] & (1u << (a & 7u))) != 0u;
+        }
+        complete(b, (urb_bridge_scan_encode(&scan, d->data, sizeof d->data) < 0) ? URB_STATUS_BAD_REQUEST
+                                                                                  : URB_STATUS_OK);
+        return true;
+    }
+    if ((!d->read) && (d->mailbox == URB_NODE_BRIDGE_INBOX_BRIDGE_COMMAND)) {
+        urb_bridge_command_t cmd;
+        if (urb_bridge_command_decode(&cmd, d->data, d->length) < 0) {
+            complete(b, URB_STATUS_BAD_REQUEST); /* unknown opcode */
+            return true;
+        }
+        switch (cmd.opcode) {
+        case URB_BRIDGE_OPCODE_SCAN:
+            start_scan(b, true); /* answered when the scan is over, so later reads see the new map */
+            return false;
+        case URB_BRIDGE_OPCODE_SET_HEARTBEAT:
+            b->cfg.heartbeat_us = cmd.value;
+            b->hb_done = b->hb_ticks; /* ticks of the old period do not trigger a SYNC */
+            b->hal->heartbeat_period(b->hal->ctx, cmd.value);
+            complete(b, URB_STATUS_OK);
+            return true;
+        case URB_BRIDGE_OPCODE_BUS_CLEAR: {
+            urb_downlink_txn_t t = {URB_DL_CLEAR, 0u, 0u, 0u, 0u, false, NULL};
+            if (b->dl.begin(b->dl.ctx, &t, now)) {
+                b->activity = URBB_ACT_REQUEST;
+                mark(b, URB_MARK_SERVE, true);
+            }
+            return false;
+        }
+        default:
+            complete(b, URB_STATUS_OK); /* NOP */
+            return true;
+        }
+    }
+    complete(b, URB_STATUS_BAD_REQUEST); /* unreachable: admission checked the mailbox size */
+    return true;
+}
+
+/* Discovery.tla: ScanAddress(b), first half: probe the next address by reading its outbox 0. */
+static void scan_begin(urb_bridge_t *b, uint32_t now)
+{
+    urb_downlink_txn_t t = {URB_DL_READ, b->scan_addr, 0u, (uint8_t)URB_IDENTIFICATION_SIZE, 0u, true, b->scan_buf};
+    if (b->dl.begin(b->dl.ctx, &t, now)) {
+        b->activity = URBB_ACT_SCAN;
+    }
+}
+
+/* Discovery.tla: ScanAddress(b), second half. Acknowledged: present, and its identification gives
+ * the mailbox sizes. Not acknowledged: absent and forgotten; the scan goes on (a gap never ends it). */
+static void scan_done(urb_bridge_t *b, uint8_t status)
+{
+    uint8_t const a = b->scan_addr;
+    /* The node answered its address (even if the read then failed its check): NoPhantoms holds
+     * because TIMEOUT and BUS_STUCK, where we cannot tell, count as absent. */
+    bool const acked = (status == URB_STATUS_OK) || (status == URB_STATUS_CHECKSUM) ||
+                       (status == URB_STATUS_BAD_REQUEST) || (status == URB_STATUS_SIZE_MISMATCH);
+    set_present(b, a, acked);
+    if (status == URB_STATUS_OK) {
+        node_learn(b, a, b->scan_buf);
+    } else {
+        node_forget(b, a);
+    }
+    bool last = a >= b->dl.last_address;
+#ifdef URB_MUTANT_SCAN_STOP_AT_GAP
+    last = last || !acked; /* mutant (Discovery_StopAtFirstGap) */
+#endif
+    if (last) {
+        b->scanning = false;
+        b->stats.scans++;
+        if (b->scan_for_request) {
+            complete(b, URB_STATUS_OK);
+        }
+    } else {
+        b->scan_addr = (uint8_t)(a + 1u);
+    }
+}
+
+/* The downlink reported the outcome of what we asked it to do. */
+static void activity_done(urb_bridge_t *b, uint8_t status)
+{
+    uint8_t const act = b->activity;
+    b->activity = URBB_ACT_NONE;
+    if (act == URBB_ACT_REQUEST) {
+        mark(b, URB_MARK_SERVE, false);
+        complete(b, status); /* Bridge.tla: Serve */
+    } else if (act == URBB_ACT_SCAN) {
+        scan_done(b, status);
+    } else if (act == URBB_ACT_SYNC) {
+        mark(b, URB_MARK_SYNC, false);
+    } else {
+        /* nothing was running */
+    }
+}
+
+/* The SYNC heartbeat goes first: its timing matters to every node (paper Sec. V-E), and a
+ * transaction in progress delays it by at most one transaction. Ticks that pass while the
+ * downlink is busy are not queued: the counter skips, so nodes can tell a missed SYNC. */
+static bool start_sync(urb_bridge_t *b, uint32_t now)
+{
+    uint8_t const ticks = b->hb_ticks;
+    if (ticks == b->hb_done) {
+        return false;
+    }
+    if (b->cfg.heartbeat_us == 0u) {
+        b->hb_done = ticks;
+        return false;
+    }
+    urb_downlink_txn_t t = {URB_DL_SYNC, 0u, 0u, 0u, ticks, false, NULL};
+    if (!b->dl.begin(b->dl.ctx, &t, now)) {
+        return true;
+    }
+    b->stats.syncs_missed += (uint8_t)(ticks - b->hb_done - 1u);
+    b->hb_done = ticks;
+    b->stats.syncs++;
+    b->activity = URBB_ACT_SYNC;
+    mark(b, URB_MARK_SYNC, true);
+    return true;
+}
+
+/* Start the next downlink activity: SYNC, else the next scan address, else the oldest pending
+ * request (Bridge.tla: Serve, first half). Local requests complete at once and the next one is
+ * tried, at most one per data slot. */
+static void start_next(urb_bridge_t *b, uint32_t now)
+{
+    if (start_sync(b, now)) {
+        return;
+    }
+    if (b->scanning) {
+        scan_begin(b, now);
+        return;
+    }
+    /* loop bound: URB_BRIDGE_FIFO_MAX pending requests */
+    for (uint8_t i = 0u; i < URB_BRIDGE_FIFO_MAX; i++) {
+        urb_bridge_slot_t *d = oldest_pending(b);
+        if (d == NULL) {
+            return;
+        }
+        if (d->address == URB_BRIDGE_ADDRESS) {
+            if (!serve_local(b, d, now)) {
+                return;
+            }
+            continue;
+        }
+        urb_downlink_txn_t t = {d->read ? (uint8_t)URB_DL_READ : (uint8_t)URB_DL_WRITE, d->address, d->mailbox,
+                                d->length, 0u, false, d->data};
+        if (b->dl.begin(b->dl.ctx, &t, now)) {
+            b->activity = URBB_ACT_REQUEST;
+            mark(b, URB_MARK_SERVE, true);
+        }
+        return;
+    }
+}
+
+/* ===== Emitting =============================================================================== */
+
+/* Encode one final response and hand it to its uplink; false when the uplink has no room. */
+static bool emit_entry(urb_bridge_t *b, const urb_bridge_resp_t *e)
+{
+    urb_uplink_response_t r;
+    uint8_t frame[URB_UPLINK_RESPONSE_MAX_SIZE];
+    r.seq = e->seq;
+    r.status = e->status;
+    r.data_len = 0u;
+    if ((e->status == URB_STATUS_OK) && (e->slot != URB_BRIDGE_NO_SLOT) && b->slots[e->slot].read) {
+        const urb_bridge_slot_t *d = &b->slots[e->slot];
+        r.data_len = d->length; /* Bridge.tla ResponseMatchesRequest: data only for an OK read */
+        /* loop bound: 32 bytes */
+        for (uint8_t i = 0u; i < d->length; i++) {
+            r.data[i] = d->data[i];
+        }
+    }
+    int32_t const n = urb_uplink_response_encode(&r, frame, sizeof frame);
+    if (n < 0) {
+        return true; /* cannot happen for a valid entry; never wedge the ring on it */
+    }
+    if (!urbb_uplink_send(b, e->uplink, frame, (uint8_t)n)) {
+        return false;
+    }
+    b->stats.responses++;
+    mark(b, URB_MARK_EMIT, true);
+    mark(b, URB_MARK_EMIT, false);
+    return true;
+}
+
+/* Bridge.tla: Emit. The oldest response leaves once final; its slots are freed. */
+static void emit(urb_bridge_t *b)
+{
+    /* loop bound: URB_BRIDGE_RING_MAX responses */
+    for (uint8_t i = 0u; (i < URB_BRIDGE_RING_MAX) && (b->ring_count > 0u); i++) {
+        urb_bridge_resp_t *e = &b->ring[b->ring_head];
+        if (e->status == URB_BRIDGE_PENDING) {
+            return;
+        }
+        if (!emit_entry(b, e)) {
+            return; /* uplink full: try again at the next poll, order kept */
+        }
+        if (e->slot != URB_BRIDGE_NO_SLOT) {
+            b->slot_head = slot_index(b, 1u);
+            b->slot_count--;
+            b->slot_served--;
+        }
+        b->ring_head = ring_index(b->ring_head, 1u);
+        b->ring_count--;
+    }
+}
+
+/* ===== Public API ============================================================================= */
+
+void urb_bridge_default_config(urb_bridge_config_t *cfg)
+{
+    cfg->fifo_depth = (uint8_t)URB_BRIDGE_FIFO_MAX;
+    cfg->baud = 115200u;
+    cfg->idle_gap_us = 0u; /* 0: two byte times at `baud` */
+    cfg->heartbeat_us = 1000u;
+    cfg->scan_at_start = true;
+}
+
+int32_t urb_bridge_init(urb_bridge_t *b, const urb_bridge_config_t *cfg, const urb_bridge_hal_t *hal,
+                        const urb_downlink_t *dl)
+{
+    if ((b == NULL) || (cfg == NULL) || (hal == NULL) || (dl == NULL) || (hal->now_us == NULL) ||
+        (hal->heartbeat_period == NULL) || (hal->uart_tx_kick == NULL) || (dl->begin == NULL) ||
+        (dl->poll == NULL) || (cfg->fifo_depth == 0u) || (cfg->fifo_depth > URB_BRIDGE_FIFO_MAX) ||
+        (cfg->baud == 0u) || (dl->first_address == 0u) || (dl->first_address > dl->last_address) ||
+        (dl->last_address > 0x7Fu)) {
+        return URB_ERR_ARGUMENT;
+    }
+    b->cfg = *cfg;
+    b->hal = hal;
+    b->dl = *dl;
+    if (b->cfg.idle_gap_us == 0u) {
+        b->cfg.idle_gap_us = (20000000u + cfg->baud - 1u) / cfg->baud; /* 2 x 10 bits, rounded up */
+    }
+    b->hb_ticks = 0u;
+    b->hb_done = 0u;
+    b->ring_head = 0u;
+    b->ring_count = 0u;
+    b->slot_head = 0u;
+    b->slot_count = 0u;
+    b->slot_served = 0u;
+    b->activity = URBB_ACT_NONE;
+    b->scanning = false;
+    b->scan_for_request = false;
+    b->scan_addr = 0u;
+    /* loop bound: 16 bytes */
+    for (uint8_t i = 0u; i < 16u; i++) {
+        b->present[i] = 0u;
+    }
+    /* loop bound: 128 addresses */
+    for (uint8_t i = 0u; i < 128u; i++) {
+        b->node_of[i] = 0u;
+    }
+    /* loop bound: URB_BRIDGE_MAX_NODES */
+    for (uint8_t i = 0u; i < URB_BRIDGE_MAX_NODES; i++) {
+        b->nodes[i].address = 0u;
+    }
+    urb_bridge_stats_t const zero = {0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u};
+    b->stats = zero;
+    urbb_uplink_init(b);
+    if (cfg->scan_at_start) {
+        start_scan(b, false);
+    }
+    hal->heartbeat_period(hal->ctx, cfg->heartbeat_us);
+    return URB_OK;
+}
+
+void urb_bridge_poll(urb_bridge_t *b)
+{
+    uint32_t const now = b->hal->now_us(b->hal->ctx);
+    urbb_uart_drain(b); /* Bridge.tla: SubmitAndAdmit for every complete RS232 frame */
+    int8_t const r = b->dl.poll(b->dl.ctx, now);
+    if (r >= 0) {
+        activity_done(b, (uint8_t)r);
+    } else if ((r == URB_DOWNLINK_IDLE) && (b->activity != URBB_ACT_NONE)) {
+        activity_done(b, URB_STATUS_TIMEOUT); /* the downlink lost our transaction: never wedge */
+    } else {
+        /* still running, or nothing to report */
+    }
+    if (b->activity == URBB_ACT_NONE) {
+        start_next(b, now);
+    }
+    emit(b);
+}
+
+bool urb_bridge_idle(const urb_bridge_t *b)
+{
+    bool const rx_empty = b->rx_head == b->rx_tail;
+    bool const sync_due = (b->hb_ticks != b->hb_done);
+    bool const work = (b->slot_served < b->slot_count) || b->scanning || sync_due;
+    bool const head_final = (b->ring_count > 0u) && (b->ring[b->ring_head].status != URB_BRIDGE_PENDING);
+    return rx_empty && (b->activity == URBB_ACT_NONE) && !work && !head_final;
+}
+
+void urb_bridge_heartbeat(urb_bridge_t *b)
+{
+    b->hb_ticks = (uint8_t)(b->hb_ticks + 1u); /* only the ISR writes it: no lost update */
+}
+
+const urb_bridge_stats_t *urb_bridge_stats(const urb_bridge_t *b)
+{
+    return &b->stats;
+}
+
+bool urb_bridge_present(const urb_bridge_t *b, uint8_t address)
+{
+    return (b->present[(address & 0x7Fu) >> 3] & (1u << (address & 7u))) != 0u;
+}
+
+uint8_t urb_bridge_outstanding(const urb_bridge_t *b)
+{
+    return b->ring_count;
+}
