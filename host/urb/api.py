@@ -1,0 +1,756 @@
+"""The URB host API: every node looks directly attached, whichever bridge it sits behind
+(paper Sec. IV-C, Fig. 5).
+
+    urb = URBInterface.instance()
+    urb.add_bus_manager(RS232Manager("/dev/ttyS0"))         # opens, discovers the downlink
+    motor = urb.find_node("MotorDriver", 0)                  # a NodeAccessor
+
+    def on_feedback(req: NodeRequest) -> None:
+        if req.ok:
+            fb = req.message(MotorFeedback)                  # decoded, typed
+        else:
+            print(req.flags.describe(), req.error)           # e.g. NO_NODE, UPLINK_TIMEOUT
+
+    req = motor.new_request().read(1).set_callback(on_feedback)
+    motor.submit_request(req)                                # callback on the dispatcher thread
+
+Blocking conveniences for scripts (`motor.read_message(MotorFeedback)`, `motor.write(1, cmd)`)
+raise `RequestFailed`; asyncio ones (`await motor.aread(1)`) likewise. Nothing is retransmitted.
+Every request carries its timestamps (`submitted_ns`, `sent_ns`, `completed_ns`, `callback_ns`)
+in the manager's clock, so latency is measurable from the API (paper Figs. 15, 16).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, TypeVar
+
+import urb_msgs
+from urb_msgs import DecodeError, Message, NodeInfo
+from urb_msgs.urb_core import (
+    BRIDGE,
+    BRIDGE_ADDRESS,
+    BridgeCommand,
+    BridgeInfo,
+    BridgeOpcode,
+    BridgeScan,
+    Identification,
+    Status,
+)
+
+from .errors import (
+    DuplicateNodeError,
+    ErrorFlag,
+    FingerprintMismatchError,
+    NoBridgeError,
+    NodeNotFoundError,
+    RequestFailed,
+    UnknownClassError,
+    URBError,
+    hint,
+)
+from .managers.base import BusManager, Transfer, decode_message, encode_message
+
+M = TypeVar("M", bound=Message)
+Callback = Callable[["NodeRequest"], object]
+
+DUPLICATE = "DUPLICATE"
+MISMATCH = "MISMATCH"
+UNKNOWN_CLASS = "UNKNOWN_CLASS"
+
+
+# --------------------------------------------------------------------------------------------
+# NodeRequest
+# --------------------------------------------------------------------------------------------
+
+class NodeRequest:
+    """One read or write of one mailbox of one node, and (once complete) its outcome.
+
+    Build it with `read`/`write` (or the typed `read_message`/`write_message`), optionally
+    `set_callback`, then `NodeAccessor.submit_request`. A request is submitted once; make a new
+    one for the next cycle (`NodeAccessor.new_request`). In the callback, `ok` tells success;
+    otherwise `flags` holds exactly one `ErrorFlag` and `error` explains it.
+    """
+
+    def __init__(self, node: NodeAccessor) -> None:
+        self.node = node
+        self._mailbox: int | None = None
+        self._read = True
+        self._size = 0
+        self._payload = b""
+        self._callback: Callback | None = None
+        self._transfer: Transfer | None = None
+        self._finished = False
+        self.callback_ns: int | None = None
+        """When the callback was invoked (manager clock)."""
+
+    # -- building -----------------------------------------------------------------------------
+    def read(self, mbox: int, size: int | None = None) -> NodeRequest:
+        """Read outbox `mbox`; `size` defaults to the schema's size (a different size is refused
+        with HOST_SIZE_MISMATCH when submitted)."""
+        _check_mbox(mbox)
+        mb = self.node.info.mailbox("outbox", mbox)
+        self._mailbox, self._read = mbox, True
+        self._size = size if size is not None else (mb.size if mb is not None else 0)
+        if not 0 <= self._size <= 32:
+            raise ValueError(f"size = {self._size}: a mailbox holds 1..32 bytes")
+        return self
+
+    def write(self, mbox: int, data: bytes | Message) -> NodeRequest:
+        """Write inbox `mbox` with raw bytes or a message (encoded here)."""
+        _check_mbox(mbox)
+        payload = encode_message(data) if isinstance(data, Message) else bytes(data)
+        if not 1 <= len(payload) <= 32:
+            raise ValueError(f"{len(payload)} data bytes: a mailbox holds 1..32 bytes")
+        self._mailbox, self._read, self._size, self._payload = mbox, False, len(payload), payload
+        return self
+
+    def read_message(self, cls: type[Message], mbox: int | None = None) -> NodeRequest:
+        """Read the outbox that holds `cls` (found in the schema when `mbox` is omitted)."""
+        return self.read(self.node.mailbox_of(cls, "outbox") if mbox is None else mbox)
+
+    def write_message(self, msg: Message, mbox: int | None = None) -> NodeRequest:
+        """Write `msg` to the inbox that takes its type (found in the schema when omitted)."""
+        return self.write(self.node.mailbox_of(type(msg), "inbox") if mbox is None else mbox, msg)
+
+    def set_callback(self, fn: Callback | None) -> NodeRequest:
+        """`fn(request)` runs once when the request completes (on the manager's dispatcher)."""
+        self._callback = fn
+        return self
+
+    # -- outcome ------------------------------------------------------------------------------
+    @property
+    def mailbox(self) -> int:
+        if self._mailbox is None:
+            raise ValueError("the request has no mailbox yet: call read() or write() first")
+        return self._mailbox
+
+    @property
+    def is_read(self) -> bool:
+        return self._read
+
+    @property
+    def size(self) -> int:
+        return self._size
+
+    @property
+    def done(self) -> bool:
+        """The request completed and its callback (if any) has returned."""
+        return self._finished
+
+    @property
+    def flags(self) -> ErrorFlag:
+        """`ErrorFlag.NONE` on success, else the one flag naming the failure."""
+        return self._transfer.flags if self._transfer is not None and self._transfer.done else ErrorFlag.NONE
+
+    @property
+    def ok(self) -> bool:
+        return self._transfer is not None and self._transfer.done and self._transfer.flags == ErrorFlag.NONE
+
+    @property
+    def status(self) -> Status | None:
+        """The bridge's status, when the bridge answered."""
+        return self._transfer.status if self._transfer is not None else None
+
+    @property
+    def error(self) -> str | None:
+        """What went wrong and what to do, or None on success."""
+        if self._transfer is None or not self._transfer.done or self.ok:
+            return None
+        return f"{self.node.label} {'outbox' if self._read else 'inbox'} {self._mailbox}: {self.flags.describe()}: {hint(self.flags)}"
+
+    @property
+    def data(self) -> bytes | None:
+        """Outbox contents of a successful read (None otherwise)."""
+        return self._transfer.response if self._transfer is not None else None
+
+    def message(self, cls: type[M] | None = None) -> Any:
+        """The read data decoded with the schema's message for this outbox (or `cls`).
+
+        Typed use: ``req.message(MotorFeedback)`` returns a `MotorFeedback`. Raises
+        `RequestFailed` when the request failed and `URBError` when the data do not decode."""
+        if not self.ok or self.data is None:
+            raise RequestFailed(self.error or "the request has not completed", self.flags)
+        target: type[Message]
+        if cls is not None:
+            target = cls
+        else:
+            mb = self.node.info.mailbox("outbox", self.mailbox)
+            if mb is None:
+                raise URBError(f"{self.node.label} has no outbox {self.mailbox} in the schema; read raw bytes (.data)")
+            target = mb.message
+        try:
+            return decode_message(target, self.data)
+        except DecodeError as exc:
+            raise URBError(f"{self.node.label} outbox {self.mailbox}: the data do not decode as {target.NAME}: {exc}") from None
+
+    # timestamps (manager clock, ns)
+    @property
+    def submitted_ns(self) -> int | None:
+        return self._transfer.submitted_ns if self._transfer is not None else None
+
+    @property
+    def sent_ns(self) -> int | None:
+        return self._transfer.sent_ns if self._transfer is not None else None
+
+    @property
+    def completed_ns(self) -> int | None:
+        """When the response was received and matched (or the failure decided)."""
+        return self._transfer.completed_ns if self._transfer is not None else None
+
+    @property
+    def latency_ns(self) -> int | None:
+        """Round trip as the paper measures it: submission to callback invocation."""
+        t = self._transfer
+        if t is None or self.callback_ns is None:
+            return None
+        return self.callback_ns - t.submitted_ns
+
+    @property
+    def response_latency_ns(self) -> int | None:
+        """Submission to response received (without the dispatcher hand-off)."""
+        t = self._transfer
+        if t is None or t.completed_ns is None:
+            return None
+        return t.completed_ns - t.submitted_ns
+
+    def wait(self, timeout_s: float = 1.0) -> bool:
+        """Block until the request is done (callback returned); False on timeout."""
+        return self.node.manager.wait_until(lambda: self._finished, timeout_s)
+
+    def raise_for_error(self) -> NodeRequest:
+        """Raise `RequestFailed` unless the request succeeded."""
+        if not self.ok:
+            raise RequestFailed(self.error or f"{self.node.label}: request not complete", self.flags)
+        return self
+
+    def __repr__(self) -> str:
+        kind = "read" if self._read else "write"
+        state = self.flags.describe() if self._transfer is not None and self._transfer.done else "pending"
+        return f"<NodeRequest {self.node.label} {kind} {self._mailbox} {state}>"
+
+    # -- internal -----------------------------------------------------------------------------
+    def _make_transfer(self) -> Transfer:
+        if self._mailbox is None:
+            raise ValueError("call read() or write() on the request before submitting it")
+        if self._transfer is not None:
+            raise RuntimeError("this NodeRequest was already submitted; make a new one with node.new_request()")
+        t = Transfer(address=self.node.address, mailbox=self._mailbox, read=self._read,
+                     length=self._size, data=self._payload, on_done=self._on_done, owner=self)
+        self._transfer = t
+        return t
+
+    def _on_done(self, t: Transfer) -> None:
+        self.callback_ns = self.node.manager.now_ns()
+        try:
+            self.node._note(self)
+            cb = self._callback or self.node._default_callback
+            if cb is not None:
+                cb(self)
+        finally:
+            self._finished = True
+
+
+def _check_mbox(mbox: int) -> None:
+    if not isinstance(mbox, int) or not 0 <= mbox <= 7:
+        raise ValueError(f"mailbox {mbox!r}: mailboxes are numbered 0..7")
+
+
+# --------------------------------------------------------------------------------------------
+# Discovery table rows
+# --------------------------------------------------------------------------------------------
+
+@dataclass(eq=False)
+class NodeRecord:
+    """One row of the system table: one node that answered on one (bridge, address)."""
+
+    bridge: BusManager
+    address: int
+    ident: Identification
+    info: NodeInfo | None
+    """The schema's node type for its class (None: class unknown to this host)."""
+    flags: set[str] = field(default_factory=set)
+    active: bool = True
+    """False once a rediscovery no longer found it: requests complete UNKNOWN_NODE."""
+
+    @property
+    def class_id(self) -> int:
+        return self.ident.class_id
+
+    @property
+    def index(self) -> int:
+        return self.ident.index
+
+    @property
+    def name(self) -> str:
+        return self.info.name if self.info is not None else f"class 0x{self.ident.class_id:02x}"
+
+    @property
+    def fingerprint(self) -> int:
+        return self.ident.fingerprint
+
+    @property
+    def expected_fingerprint(self) -> int | None:
+        return self.info.fingerprint if self.info is not None else None
+
+    @property
+    def firmware(self) -> str:
+        return f"{self.ident.fw_major}.{self.ident.fw_minor}.{self.ident.fw_patch}"
+
+    @property
+    def usable(self) -> bool:
+        return self.active and not self.flags
+
+    @property
+    def label(self) -> str:
+        return f"{self.name}:{self.index}"
+
+    @property
+    def location(self) -> str:
+        return f"{self.bridge.name} address {self.address}"
+
+
+@dataclass
+class BridgeReport:
+    """What discovery found on one bridge."""
+
+    manager: BusManager
+    info: BridgeInfo | None = None
+    present: list[int] = field(default_factory=list)
+    records: list[NodeRecord] = field(default_factory=list)
+    problems: list[str] = field(default_factory=list)
+    error: str | None = None
+    """Set when discovery failed as a whole (no bridge answering, bridge lost)."""
+
+
+# --------------------------------------------------------------------------------------------
+# NodeAccessor
+# --------------------------------------------------------------------------------------------
+
+class NodeAccessor:
+    """Access to one discovered node, as if directly attached (whatever bridge it is behind)."""
+
+    def __init__(self, interface: URBInterface, record: NodeRecord) -> None:
+        if record.info is None:
+            raise UnknownClassError(f"{record.name} is not declared in the host's schema")
+        self.interface = interface
+        self.record = record
+        self.info: NodeInfo = record.info
+        self._default_callback: Callback | None = None
+        self._stats_lock = threading.Lock()
+        self.completed = 0
+        self.failed = 0
+
+    @property
+    def manager(self) -> BusManager:
+        return self.record.bridge
+
+    @property
+    def address(self) -> int:
+        return self.record.address
+
+    @property
+    def label(self) -> str:
+        return self.record.label
+
+    def new_request(self) -> NodeRequest:
+        return NodeRequest(self)
+
+    def set_callback(self, fn: Callback | None) -> None:
+        """Default callback for requests that have none of their own."""
+        self._default_callback = fn
+
+    def mailbox_of(self, cls: type[Message], direction: str) -> int:
+        """The number of the `direction` mailbox holding `cls` in the schema."""
+        boxes = [m.number for m in self.info.mailboxes if m.direction == direction and m.message is cls]
+        if len(boxes) != 1:
+            have = ", ".join(f"{m.direction} {m.number} {m.message.NAME}" for m in self.info.mailboxes)
+            what = "no" if not boxes else "more than one"
+            raise ValueError(f"{self.info.name} has {what} {direction} of type {cls.NAME}; pass mbox= explicitly ({have})")
+        return boxes[0]
+
+    def submit_request(self, req: NodeRequest) -> NodeRequest:
+        """Send the request; its callback runs once it completes. Returns the request."""
+        if req.node is not self:
+            raise ValueError("the request belongs to another node; make it with this node's new_request()")
+        t = req._make_transfer()
+        refused = self._refusal(req)
+        if refused:
+            self.manager.reject(t, refused)
+        else:
+            self.manager.submit(t)
+        return req
+
+    def _refusal(self, req: NodeRequest) -> ErrorFlag:
+        rec = self.record
+        if not rec.active:
+            return ErrorFlag.UNKNOWN_NODE
+        if MISMATCH in rec.flags:
+            return ErrorFlag.FINGERPRINT_MISMATCH
+        mb = self.info.mailbox("outbox" if req.is_read else "inbox", req.mailbox)
+        if mb is None or mb.size != req.size:
+            return ErrorFlag.HOST_SIZE_MISMATCH
+        return ErrorFlag.NONE
+
+    def _note(self, req: NodeRequest) -> None:
+        with self._stats_lock:
+            self.completed += 1
+            if not req.ok:
+                self.failed += 1
+        if req.flags & ErrorFlag.BRIDGE_LOST:
+            self.interface._bridge_lost(self.manager)
+
+    # -- blocking conveniences ----------------------------------------------------------------
+    def request(self, req: NodeRequest, timeout_s: float = 1.0) -> NodeRequest:
+        """Submit and wait; raises `RequestFailed` unless it succeeded."""
+        self.submit_request(req)
+        if not req.wait(timeout_s):
+            raise RequestFailed(f"{self.label}: no completion within {timeout_s} s "
+                                f"(the manager is not running?)", ErrorFlag.UPLINK_TIMEOUT)
+        return req.raise_for_error()
+
+    def read(self, mbox: int, timeout_s: float = 1.0) -> Message:
+        """Read outbox `mbox` and decode it with the schema's message."""
+        msg: Message = self.request(self.new_request().read(mbox), timeout_s).message()
+        return msg
+
+    def read_raw(self, mbox: int, size: int | None = None, timeout_s: float = 1.0) -> bytes:
+        data = self.request(self.new_request().read(mbox, size), timeout_s).data
+        assert data is not None
+        return data
+
+    def read_message(self, cls: type[M], mbox: int | None = None, timeout_s: float = 1.0) -> M:
+        """Read the outbox holding `cls` and return it, typed."""
+        out: M = self.request(self.new_request().read_message(cls, mbox), timeout_s).message(cls)
+        return out
+
+    def write(self, mbox: int, data: bytes | Message, timeout_s: float = 1.0) -> None:
+        """Write inbox `mbox`; raises `RequestFailed` unless the node stored it."""
+        self.request(self.new_request().write(mbox, data), timeout_s)
+
+    def write_message(self, msg: Message, mbox: int | None = None, timeout_s: float = 1.0) -> None:
+        self.request(self.new_request().write_message(msg, mbox), timeout_s)
+
+    # -- asyncio conveniences -----------------------------------------------------------------
+    async def asubmit(self, req: NodeRequest) -> NodeRequest:
+        """Submit and await completion (any outcome); the request's own callback still runs."""
+        loop = asyncio.get_running_loop()
+        fut: asyncio.Future[NodeRequest] = loop.create_future()
+        user_cb = req._callback or self._default_callback
+
+        def done(r: NodeRequest) -> None:
+            if user_cb is not None:
+                user_cb(r)
+            loop.call_soon_threadsafe(lambda: None if fut.done() else fut.set_result(r))
+
+        req.set_callback(done)
+        self.submit_request(req)
+        return await fut
+
+    async def aread(self, mbox: int) -> Message:
+        req = (await self.asubmit(self.new_request().read(mbox))).raise_for_error()
+        msg: Message = req.message()
+        return msg
+
+    async def aread_message(self, cls: type[M], mbox: int | None = None) -> M:
+        req = (await self.asubmit(self.new_request().read_message(cls, mbox))).raise_for_error()
+        out: M = req.message(cls)
+        return out
+
+    async def awrite(self, mbox: int, data: bytes | Message) -> None:
+        (await self.asubmit(self.new_request().write(mbox, data))).raise_for_error()
+
+    def __repr__(self) -> str:
+        return f"<NodeAccessor {self.label} at {self.record.location}>"
+
+
+# --------------------------------------------------------------------------------------------
+# Discovery (a chain of callbacks, so it runs in real time and in virtual time alike)
+# --------------------------------------------------------------------------------------------
+
+class _Discovery:
+    """BridgeInfo (address 0, outbox 0), optional SCAN command, BridgeScan (outbox 1), then
+    outbox 0 of every present address (Discovery.tla `ScanAddress`: gaps never end a scan)."""
+
+    def __init__(self, manager: BusManager, schema: Mapping[int, NodeInfo], rescan: bool,
+                 on_done: Callable[[BridgeReport], None]) -> None:
+        self.m = manager
+        self.schema = schema
+        self.rescan = rescan
+        self.on_done = on_done
+        self.report = BridgeReport(manager)
+        self._outstanding = 0
+        self._finished = False
+
+    def start(self) -> None:
+        self._send(0, 0, True, BRIDGE.sizes("outbox")[0], self._got_info)
+
+    def _send(self, addr: int, box: int, read: bool, length: int, cb: Callable[[Transfer], None],
+              data: bytes = b"") -> None:
+        self._outstanding += 1
+
+        def done(t: Transfer) -> None:
+            self._outstanding -= 1
+            cb(t)
+            self._maybe_finish()
+
+        self.m.submit(Transfer(addr, box, read, length, data=data, on_done=done))
+
+    def _fail(self, text: str) -> None:
+        if self.report.error is None:
+            self.report.error = text
+
+    def _got_info(self, t: Transfer) -> None:
+        if not t.ok or t.response is None:
+            if t.flags & (ErrorFlag.UPLINK_TIMEOUT | ErrorFlag.UPLINK_CHECKSUM | ErrorFlag.BRIDGE_LOST):
+                lost = f" ({self.m.lost_reason})" if self.m.lost_reason else ""
+                self._fail(f"no URB bridge answered on {self.m.name}{lost}: check that the bridge is powered "
+                           f"and connected, and that the baud rate matches its firmware")
+            else:
+                self._fail(f"the bridge on {self.m.name} refused its identification read: {t.flags.describe()}")
+            return
+        try:
+            info = decode_message(BridgeInfo, t.response)
+        except DecodeError as exc:
+            self._fail(f"{self.m.name}: the device answers, but not as a URB bridge of this protocol version ({exc})")
+            return
+        self.report.info = info
+        if info.fifo_depth:
+            self.m.set_window(min(info.fifo_depth, 15))
+        if self.rescan:
+            cmd = encode_message(BridgeCommand(opcode=BridgeOpcode.SCAN))
+            self._send(BRIDGE_ADDRESS, 0, False, len(cmd), self._got_scan_ack, data=cmd)
+        self._send(BRIDGE_ADDRESS, 1, True, BRIDGE.sizes("outbox")[1], self._got_scan)
+
+    def _got_scan_ack(self, t: Transfer) -> None:
+        if not t.ok:
+            self.report.problems.append(f"the bridge did not accept SCAN ({t.flags.describe()}); using its last scan")
+
+    def _got_scan(self, t: Transfer) -> None:
+        if not t.ok or t.response is None:
+            self._fail(f"reading the scan map of {self.m.name} failed: {t.flags.describe()}: {hint(t.flags)}")
+            return
+        scan = decode_message(BridgeScan, t.response)
+        self.report.present = [a for a in range(1, 128) if scan.present[a]]
+        for addr in self.report.present:
+            self._send(addr, 0, True, Identification.SIZE, self._ident_callback(addr))
+
+    def _ident_callback(self, addr: int) -> Callable[[Transfer], None]:
+        return lambda t: self._got_ident(addr, t)
+
+    def _got_ident(self, addr: int, t: Transfer) -> None:
+        if not t.ok or t.response is None:
+            self.report.problems.append(
+                f"{self.m.name} address {addr}: identification read failed ({t.flags.describe()}: {hint(t.flags)}); "
+                f"rescan when the node is back")
+            return
+        try:
+            ident = decode_message(Identification, t.response)
+        except DecodeError as exc:
+            self.report.problems.append(f"{self.m.name} address {addr}: identification does not decode ({exc})")
+            return
+        rec = NodeRecord(self.m, addr, ident, self.schema.get(ident.class_id))
+        if rec.info is None:
+            rec.flags.add(UNKNOWN_CLASS)
+        elif ident.fingerprint != rec.info.fingerprint:
+            rec.flags.add(MISMATCH)
+        elif list(ident.inbox_sizes) != rec.info.sizes("inbox") or list(ident.outbox_sizes) != rec.info.sizes("outbox"):
+            rec.flags.add(MISMATCH)
+            self.report.problems.append(f"{rec.label} at {rec.location}: fingerprint matches but mailbox sizes differ")
+        self.report.records.append(rec)
+
+    def _maybe_finish(self) -> None:
+        if self._outstanding == 0 and not self._finished:
+            self._finished = True
+            self.report.records.sort(key=lambda r: r.address)
+            self.on_done(self.report)
+
+
+# --------------------------------------------------------------------------------------------
+# URBInterface
+# --------------------------------------------------------------------------------------------
+
+class URBInterface:
+    """The entry point: register bridges, find nodes. One per process (`instance()`), or
+    constructed directly (tests, several simulated systems)."""
+
+    _instance: ClassVar[URBInterface | None] = None
+    _instance_lock: ClassVar[threading.Lock] = threading.Lock()
+
+    def __init__(self, schema: Mapping[str, NodeInfo] | Iterable[NodeInfo] | None = None) -> None:
+        """`schema`: the node types this host knows (default: every bundled schema, urb_msgs.NODES)."""
+        nodes = list(schema.values()) if isinstance(schema, Mapping) else list(schema or urb_msgs.NODES.values())
+        self.schema: dict[int, NodeInfo] = {n.class_id: n for n in nodes if n.kind == "node"}
+        self.reports: dict[int, BridgeReport] = {}
+        self._records: list[NodeRecord] = []
+        self._accessors: dict[int, NodeAccessor] = {}
+        self._lock = threading.RLock()
+        self._lost_reported: set[int] = set()
+        self.on_bridge_lost: Callable[[BusManager, str], None] | None = None
+        """Called once (on the dispatcher) when a bridge is found lost; reset by `reconnect`."""
+
+    @classmethod
+    def instance(cls) -> URBInterface:
+        """The process-wide interface (the paper's singleton)."""
+        with cls._instance_lock:
+            if cls._instance is None:
+                cls._instance = cls()
+            return cls._instance
+
+    # -- bridges ------------------------------------------------------------------------------
+    def add_bus_manager(self, manager: BusManager, *, timeout_s: float = 3.0, rescan: bool = True) -> BridgeReport:
+        """Register a bridge: start its manager and discover its downlink (blocking).
+
+        Raises `PortError` (cannot open), `NoBridgeError` (nothing answers) or `DiscoveryError`."""
+        manager.start()
+        box: list[BridgeReport] = []
+        self.start_discovery(manager, box.append, rescan=rescan)
+        if not manager.wait_until(lambda: bool(box), timeout_s):
+            raise NoBridgeError(f"discovery on {manager.name} did not finish within {timeout_s} s: "
+                                f"check that the bridge is powered and connected")
+        report = box[0]
+        if report.error is not None:
+            raise NoBridgeError(report.error)
+        return report
+
+    def start_discovery(self, manager: BusManager, on_done: Callable[[BridgeReport], None], *,
+                        rescan: bool = True) -> None:
+        """Non-blocking discovery for event-driven callers (the simulation): `on_done(report)`
+        runs when the bridge's table is complete and merged into the system table."""
+        manager.start()
+
+        def finished(report: BridgeReport) -> None:
+            if report.error is None:
+                self._merge(report)
+            on_done(report)
+
+        _Discovery(manager, self.schema, rescan, finished).start()
+
+    def reconnect(self, manager: BusManager, *, timeout_s: float = 3.0, rescan: bool = True) -> BridgeReport:
+        """After BRIDGE_LOST: reopen the uplink and rediscover that bridge. Accessors to nodes
+        found again keep working; nodes not found again answer UNKNOWN_NODE."""
+        manager.reconnect()
+        with self._lock:
+            self._lost_reported.discard(id(manager))
+        box: list[BridgeReport] = []
+        _Discovery(manager, self.schema, rescan, box.append).start()
+        if not manager.wait_until(lambda: bool(box), timeout_s):
+            raise NoBridgeError(f"no URB bridge answered on {manager.name} within {timeout_s} s after reconnecting")
+        if box[0].error is not None:
+            raise NoBridgeError(box[0].error)
+        self._merge(box[0])
+        return box[0]
+
+    def close(self) -> None:
+        """Close every registered manager."""
+        for report in list(self.reports.values()):
+            report.manager.close()
+
+    def _merge(self, report: BridgeReport) -> None:
+        """Replace the bridge's rows, keep accessors of nodes found again, recompute flags."""
+        with self._lock:
+            key = id(report.manager)
+            self.reports[key] = report
+            old = [r for r in self._records if r.bridge is report.manager]
+            keep = [r for r in self._records if r.bridge is not report.manager]
+            new: list[NodeRecord] = []
+            for rec in report.records:
+                prev = next((o for o in old if o.active and o.class_id == rec.class_id and o.index == rec.index
+                             and o.fingerprint == rec.fingerprint), None)
+                if prev is not None:  # same node again: update in place, accessors stay valid
+                    old.remove(prev)
+                    prev.address, prev.ident, prev.info = rec.address, rec.ident, rec.info
+                    prev.flags = set(rec.flags)
+                    rec = prev
+                new.append(rec)
+            for gone in old:
+                gone.active = False
+            self._records = keep + new
+            self._flag_duplicates()
+
+    def _flag_duplicates(self) -> None:
+        """Discovery.tla `Flags`: same (class, index) anywhere in the system => DUPLICATE, all rows."""
+        counts: dict[tuple[int, int], int] = {}
+        for r in self._records:
+            counts[(r.class_id, r.index)] = counts.get((r.class_id, r.index), 0) + 1
+        for r in self._records:
+            if counts[(r.class_id, r.index)] > 1:
+                r.flags.add(DUPLICATE)
+            else:
+                r.flags.discard(DUPLICATE)
+
+    def _bridge_lost(self, manager: BusManager) -> None:
+        with self._lock:
+            if id(manager) in self._lost_reported:
+                return
+            self._lost_reported.add(id(manager))
+        if self.on_bridge_lost is not None:
+            self.on_bridge_lost(manager, manager.lost_reason or "lost")
+
+    # -- nodes --------------------------------------------------------------------------------
+    def nodes(self) -> list[NodeRecord]:
+        """Every row of the system table (class, index, bridge, address, fingerprint, firmware,
+        flags), in registration then address order; duplicates are separate rows."""
+        with self._lock:
+            return [r for r in self._records if r.active]
+
+    def find_node(self, cls: int | str | NodeInfo, index: int = 0) -> NodeAccessor:
+        """The accessor of the node with class `cls` (class id, schema name or NodeInfo) and
+        `index`. Raises `NodeNotFoundError`, `DuplicateNodeError`, `FingerprintMismatchError`
+        or `UnknownClassError` with what to do next."""
+        class_id, name = self._resolve_class(cls)
+        with self._lock:
+            rows = [r for r in self._records if r.active and r.class_id == class_id and r.index == index]
+            if not rows:
+                found = ", ".join(f"{r.label} ({r.location})" for r in self._records if r.active) or "no nodes"
+                bridges = ", ".join(rep.manager.name for rep in self.reports.values()) or "no bridges registered"
+                raise NodeNotFoundError(
+                    f"no {name} with index {index} was discovered (bridges: {bridges}; found: {found}). "
+                    f"Check that the node is powered and its index, then rediscover (urb scan PORT).")
+            if len(rows) > 1:
+                where = "; ".join(r.location for r in rows)
+                raise DuplicateNodeError(
+                    f"{name}:{index} answers at {len(rows)} places ({where}): two nodes have the same class and "
+                    f"index. Give each a distinct index (URB_SetIndex) and rediscover.")
+            rec = rows[0]
+            if MISMATCH in rec.flags:
+                assert rec.info is not None
+                raise FingerprintMismatchError(
+                    f"{rec.label} at {rec.location} reports layout fingerprint 0x{rec.fingerprint:08x}, but the "
+                    f"host's schema {rec.info.schema_file} gives 0x{rec.info.fingerprint:08x}: the node firmware "
+                    f"and this host were built from different schemas. Rebuild one of them from the same "
+                    f"{rec.info.schema_file} (urb gen), then flash or reinstall.",
+                    node_fingerprint=rec.fingerprint, schema_fingerprint=rec.info.fingerprint,
+                    schema_file=rec.info.schema_file)
+            acc = self._accessors.get(id(rec))
+            if acc is None:
+                acc = NodeAccessor(self, rec)
+                self._accessors[id(rec)] = acc
+            return acc
+
+    def _resolve_class(self, cls: int | str | NodeInfo) -> tuple[int, str]:
+        if isinstance(cls, NodeInfo):
+            return cls.class_id, cls.name
+        if isinstance(cls, int):
+            info = self.schema.get(cls)
+            if info is None:
+                known = ", ".join(f"{i.name} (0x{c:02x})" for c, i in sorted(self.schema.items()))
+                raise UnknownClassError(f"class 0x{cls:02x} is not declared in the host's schema; known: {known}")
+            return cls, info.name
+        for c, info in self.schema.items():
+            if info.name.lower() == cls.lower():
+                return c, info.name
+        known = ", ".join(i.name for i in self.schema.values())
+        raise UnknownClassError(f"no node type named {cls!r} in the host's schema; known: {known}")
+
+
+__all__ = [
+    "BridgeReport",
+    "NodeAccessor",
+    "NodeRecord",
+    "NodeRequest",
+    "URBInterface",
+]

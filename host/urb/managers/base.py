@@ -1,0 +1,375 @@
+"""What every bus manager shares: the transfer record, the clock and transport interfaces, the
+manager interface `URBInterface` talks to, and the threaded runtime used by the real-time managers.
+
+Layering (see host/urb/README.md):
+
+* protocol cores (`rs232_core.Rs232Core`, `usb_core.UsbCore`): pure state machines, fed bytes and
+  timestamps, asked for bytes to send; no threads, no I/O, no clock of their own;
+* runtime adapters: `RS232Manager` and `USBManager` drive a core in real time with threads;
+  `SimManager` drives it from a `Clock` (virtual time in the simulation).
+"""
+
+from __future__ import annotations
+
+import queue
+import threading
+import time
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, Protocol, TypeVar, runtime_checkable
+
+from urb_msgs import Message
+from urb_msgs.urb_core import Status
+
+from ..errors import ErrorFlag
+
+NS_PER_MS = 1_000_000
+NS_PER_S = 1_000_000_000
+
+M = TypeVar("M", bound=Message)
+
+
+def encode_message(msg: Message) -> bytes:
+    """`msg.encode()`, typed (the generated classes define it; the base class does not)."""
+    out = getattr(msg, "encode")()
+    assert isinstance(out, bytes)
+    return out
+
+
+def decode_message(cls: type[M], data: bytes) -> M:
+    """`cls.decode(data)`, typed; raises the codec's `DecodeError` subclasses."""
+    out = getattr(cls, "decode")(data)
+    assert isinstance(out, cls)
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# The transfer: one uplink request and, once complete, its outcome
+# --------------------------------------------------------------------------------------------
+
+@dataclass(eq=False)
+class Transfer:
+    """One uplink request (read or write of one mailbox at one downlink address) and its outcome.
+
+    Created by the API (`NodeRequest`) or by discovery; owned by a core from `submit` until it
+    completes, then handed back through the manager's completion path. Times are nanoseconds of
+    the manager's clock (`time.monotonic_ns()` for the real-time managers, virtual time in the
+    simulation).
+    """
+
+    address: int
+    mailbox: int
+    read: bool
+    length: int
+    data: bytes = b""
+    """Write payload (empty for reads)."""
+    on_done: Callable[[Transfer], None] | None = None
+    """Called once, on the manager's dispatcher, when the transfer completes."""
+    owner: Any = None
+    """Opaque back-reference for the API (the `NodeRequest`)."""
+
+    seq: int = -1
+    """4-bit sequence number, set when the request is put on the wire."""
+    submitted_ns: int = 0
+    sent_ns: int | None = None
+    completed_ns: int | None = None
+    flags: ErrorFlag = ErrorFlag.NONE
+    status: Status | None = None
+    """The bridge's status, when a response arrived."""
+    response: bytes | None = None
+    """Mailbox contents of a successful read."""
+    done: bool = False
+    garbage: bool = field(default=False, repr=False)
+    """Internal: corrupt bytes were seen while this transfer was the oldest one pending."""
+
+    @property
+    def ok(self) -> bool:
+        """Completed without error."""
+        return self.done and self.flags == ErrorFlag.NONE
+
+    def response_size(self, status: Status) -> int:
+        """Bytes of the response frame answering this request with `status` (wire rule: data
+        only for an OK read; a 1-byte check up to 14 covered bytes, else 2)."""
+        covered = 1 + (self.length if self.read and status == Status.OK else 0)
+        return covered + (1 if covered <= 14 else 2)
+
+    def request_size(self) -> int:
+        """Bytes of the request frame."""
+        covered = 3 + (0 if self.read else self.length)
+        return covered + (1 if covered <= 14 else 2)
+
+
+def finish(t: Transfer, now: int, flags: ErrorFlag, status: Status | None = None, data: bytes | None = None) -> Transfer:
+    """Mark `t` complete (exactly once) and return it."""
+    assert not t.done, "a transfer completes exactly once (Bridge.tla AtMostOneResponse)"
+    t.done = True
+    t.completed_ns = now
+    t.flags = flags
+    t.status = status
+    t.response = data
+    return t
+
+
+# --------------------------------------------------------------------------------------------
+# Interfaces the runtime adapters need (documented in host/urb/README.md)
+# --------------------------------------------------------------------------------------------
+
+@runtime_checkable
+class Clock(Protocol):
+    """A source of time and of timed callbacks (virtual time in the simulation).
+
+    `call_at` may run `fn` late but never early; the managers treat every wake-up as a hint and
+    re-check their deadlines, so spurious or duplicate wake-ups are harmless and nothing needs
+    cancelling.
+    """
+
+    def now_ns(self) -> int:
+        """Current time in nanoseconds."""
+        ...
+
+    def call_at(self, when_ns: int, fn: Callable[[], None]) -> None:
+        """Run `fn()` once, at `when_ns` or as soon as possible after it."""
+        ...
+
+
+@runtime_checkable
+class DrivableClock(Clock, Protocol):
+    """A clock the caller may run forward (for blocking calls in virtual time)."""
+
+    def run_until(self, predicate: Callable[[], bool], limit_ns: int) -> bool:
+        """Process events until `predicate()` holds (True) or time reaches `limit_ns` (False)."""
+        ...
+
+
+@runtime_checkable
+class ByteTransport(Protocol):
+    """A full-duplex byte stream: an RS232 uplink.
+
+    `send` puts one request frame on the line, its bytes back to back (one `write()`); received
+    bytes are pushed to the receiver in arrival order, in chunks of any size.
+    """
+
+    def send(self, data: bytes) -> None:
+        ...
+
+    def set_receiver(self, receiver: Callable[[bytes], None]) -> None:
+        ...
+
+
+@runtime_checkable
+class FrameTransport(Protocol):
+    """A per-frame transfer pipe: a USB uplink.
+
+    Once per 1-ms frame the manager calls `write_batch` with one bulk-OUT transfer (a
+    `UsbBatchHeader` and its requests); the transport pushes every bulk-IN transfer it completes
+    (the bridge's previous response buffer: write n and read n-1 share a frame) to the receiver.
+    """
+
+    def write_batch(self, data: bytes) -> None:
+        ...
+
+    def set_batch_receiver(self, receiver: Callable[[bytes], None]) -> None:
+        ...
+
+
+class Core(Protocol):
+    """What the runtimes need from a protocol core (implemented by Rs232Core and UsbCore)."""
+
+    lost_reason: str | None
+
+    def submit(self, t: Transfer, now: int) -> None: ...
+    def poll(self, now: int) -> None: ...
+    def next_deadline(self) -> int | None: ...
+    def take_completed(self) -> list[Transfer]: ...
+    def link_lost(self, now: int, reason: str) -> None: ...
+    def reset(self, now: int) -> None: ...
+    def set_window(self, window: int) -> None: ...
+    def busy(self) -> bool: ...
+
+
+# --------------------------------------------------------------------------------------------
+# The manager interface URBInterface uses
+# --------------------------------------------------------------------------------------------
+
+@dataclass
+class ManagerStats:
+    """Counters a manager keeps (all since start or the last reconnect)."""
+
+    submitted: int = 0
+    completed: int = 0
+    failed: int = 0
+    stray_bytes: int = 0
+
+
+class BusManager(ABC):
+    """One bridge, reached through one uplink. Register it with `URBInterface.add_bus_manager`."""
+
+    name: str
+    """How the bridge is named in tables and messages (the port path for RS232)."""
+
+    @abstractmethod
+    def start(self) -> None:
+        """Open the uplink and start the runtime; raises `PortError` with a hint on failure."""
+
+    @abstractmethod
+    def close(self) -> None:
+        """Stop the runtime and close the uplink; pending requests complete with BRIDGE_LOST."""
+
+    @abstractmethod
+    def submit(self, t: Transfer) -> None:
+        """Queue one transfer (thread-safe). Its `on_done` runs exactly once, on the dispatcher."""
+
+    @abstractmethod
+    def reject(self, t: Transfer, flags: ErrorFlag) -> None:
+        """Complete `t` with `flags` without sending it (host-side refusal); `on_done` still runs
+        on the dispatcher, like any completion."""
+
+    @abstractmethod
+    def now_ns(self) -> int:
+        """The manager's clock."""
+
+    @abstractmethod
+    def wait_until(self, predicate: Callable[[], bool], timeout_s: float) -> bool:
+        """Block until `predicate()` holds or `timeout_s` passes (virtual time for SimManager)."""
+
+    @abstractmethod
+    def reconnect(self) -> None:
+        """Reopen the uplink after the bridge was lost (or restarted) and reset the protocol."""
+
+    @property
+    @abstractmethod
+    def lost_reason(self) -> str | None:
+        """Why the bridge is considered lost, or None while it is usable."""
+
+    def set_window(self, window: int) -> None:
+        """Bound the requests outstanding on the bridge (learnt from BridgeInfo.fifo_depth)."""
+
+    def __enter__(self) -> BusManager:
+        self.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+# --------------------------------------------------------------------------------------------
+# Real-time runtime: core under a lock, a dispatcher thread for callbacks
+# --------------------------------------------------------------------------------------------
+
+class ThreadedManager(BusManager):
+    """Shared real-time machinery: the core behind a lock, a dispatcher thread that runs
+    callbacks in completion order, and a condition for the blocking conveniences."""
+
+    def __init__(self, core: Core, name: str) -> None:
+        self.name = name
+        self._core = core
+        self._lock = threading.RLock()
+        self._changed = threading.Condition(self._lock)
+        self._dispatch_q: queue.SimpleQueue[Transfer | None] = queue.SimpleQueue()
+        self._dispatcher: threading.Thread | None = None
+        self._running = False
+        self.stats = ManagerStats()
+
+    # -- subclass hooks --------------------------------------------------------------------
+    def _wake_io(self) -> None:
+        """Tell the I/O threads there may be something to send."""
+
+    # -- BusManager --------------------------------------------------------------------------
+    def now_ns(self) -> int:
+        return time.monotonic_ns()
+
+    @property
+    def lost_reason(self) -> str | None:
+        return self._core.lost_reason
+
+    def set_window(self, window: int) -> None:
+        with self._lock:
+            self._core.set_window(window)
+        self._wake_io()
+
+    def submit(self, t: Transfer) -> None:
+        now = self.now_ns()
+        with self._lock:
+            t.submitted_ns = now
+            self.stats.submitted += 1
+            self._core.submit(t, now)
+            self._collect()
+        self._wake_io()
+
+    def reject(self, t: Transfer, flags: ErrorFlag) -> None:
+        now = self.now_ns()
+        with self._lock:
+            t.submitted_ns = now
+            self.stats.submitted += 1
+            self.stats.completed += 1
+            self.stats.failed += 1
+            self._dispatch_q.put(finish(t, now, flags))
+
+    def wait_until(self, predicate: Callable[[], bool], timeout_s: float) -> bool:
+        if threading.current_thread() is self._dispatcher:
+            raise RuntimeError("a blocking URB call inside a callback would deadlock the dispatcher; "
+                               "submit a request with a callback instead")
+        deadline = time.monotonic() + timeout_s
+        with self._changed:
+            while not predicate():
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    return False
+                self._changed.wait(min(left, 0.05))
+        return True
+
+    def _start_dispatcher(self) -> None:
+        self._running = True
+        self._dispatcher = threading.Thread(target=self._dispatch_loop, name=f"urb-dispatch {self.name}", daemon=True)
+        self._dispatcher.start()
+
+    def _stop_dispatcher(self) -> None:
+        self._running = False
+        if self._dispatcher is not None:
+            self._dispatch_q.put(None)
+            if threading.current_thread() is not self._dispatcher:
+                self._dispatcher.join(timeout=2.0)
+            self._dispatcher = None
+
+    def _collect(self) -> None:
+        """Move completed transfers from the core to the dispatcher (lock held)."""
+        for t in self._core.take_completed():
+            self.stats.completed += 1
+            if t.flags:
+                self.stats.failed += 1
+            self._dispatch_q.put(t)
+
+    def _dispatch_loop(self) -> None:
+        while True:
+            t = self._dispatch_q.get()
+            if t is None:
+                return
+            if t.on_done is not None:
+                try:
+                    t.on_done(t)
+                except Exception as exc:  # a user callback must not kill the dispatcher
+                    _report_callback_error(exc)
+            with self._changed:
+                self._changed.notify_all()
+
+    def _drain_completions_inline(self) -> None:
+        """Run callbacks of transfers completed during close (dispatcher already stopped)."""
+        while True:
+            try:
+                t = self._dispatch_q.get_nowait()
+            except queue.Empty:
+                return
+            if t is not None and t.on_done is not None:
+                try:
+                    t.on_done(t)
+                except Exception as exc:
+                    _report_callback_error(exc)
+
+
+def _report_callback_error(exc: Exception) -> None:
+    import sys
+    import traceback
+
+    print("urb: exception in a request callback (the dispatcher goes on):", file=sys.stderr)
+    traceback.print_exception(exc, file=sys.stderr)

@@ -1,0 +1,196 @@
+"""RS232Manager: a bridge on a serial port, driven in real time (paper Sec. V-B).
+
+Three threads, as in the paper's separate read and write paths:
+
+* the *writer* waits for requests and writes each frame with one `write()` (so its bytes are back
+  to back on the line: the bridge's idle-gap rule relies on it);
+* the *reader* feeds received bytes to the core and applies timeouts every few milliseconds;
+* the *dispatcher* (from `ThreadedManager`) runs callbacks in request order, so a slow callback
+  delays other callbacks but never the wire.
+
+The protocol itself is `Rs232Core` (sans-IO); this module only moves bytes and time.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import threading
+
+import serial
+
+from ..errors import PortError
+from .base import NS_PER_MS, ThreadedManager
+from .rs232_core import Rs232Core
+
+READ_POLL_S = 0.002
+"""How often the reader wakes without input to apply timeouts."""
+
+
+class RS232Manager(ThreadedManager):
+    """A URB bridge on a serial port (a real UART, a USB serial adapter, or a pseudo-terminal)."""
+
+    def __init__(self, port: str, baud: int = 115200, *, window: int = 4, timeout_s: float = 0.1,
+                 lost_after_s: float = 0.5, name: str | None = None) -> None:
+        """`port`: device path (e.g. /dev/ttyS0). `window`: requests outstanding on the bridge
+        before discovery tells its FIFO depth. `timeout_s`: a request without response after
+        this long completes UPLINK_TIMEOUT. `lost_after_s`: silence with requests outstanding
+        after which the bridge is declared lost (BRIDGE_LOST). Nothing is opened until `start`."""
+        core = Rs232Core(window=window, timeout_ns=int(timeout_s * 1e9), lost_after_ns=int(lost_after_s * 1e9))
+        super().__init__(core, name or port)
+        self.port = port
+        self.baud = baud
+        self._rs = core
+        self._serial: serial.Serial | None = None
+        self._reader: threading.Thread | None = None
+        self._writer: threading.Thread | None = None
+        self._io_running = False
+        self._wake = threading.Event()
+
+    # -- lifecycle ------------------------------------------------------------------------------
+    def start(self) -> None:
+        """Open the port and start the threads; raises `PortError` saying what to do."""
+        if self._serial is not None:
+            return
+        self._serial = open_serial(self.port, self.baud)
+        self._io_running = True
+        self._start_dispatcher()
+        self._start_io()
+
+    def _start_io(self) -> None:
+        self._io_running = True
+        self._reader = threading.Thread(target=self._read_loop, name=f"urb-read {self.port}", daemon=True)
+        self._writer = threading.Thread(target=self._write_loop, name=f"urb-write {self.port}", daemon=True)
+        self._reader.start()
+        self._writer.start()
+
+    def _stop_io(self) -> None:
+        self._io_running = False
+        self._wake.set()
+        for th in (self._reader, self._writer):
+            if th is not None and th is not threading.current_thread():
+                th.join(timeout=2.0)
+        self._reader = self._writer = None
+        if self._serial is not None:
+            try:
+                self._serial.close()
+            except (OSError, serial.SerialException):
+                pass
+            self._serial = None
+
+    def close(self) -> None:
+        """Stop the threads and close the port; outstanding requests complete BRIDGE_LOST."""
+        self._stop_io()
+        with self._lock:
+            self._core.link_lost(self.now_ns(), "closed by the application")
+            self._collect()
+        self._stop_dispatcher()
+        self._drain_completions_inline()
+
+    def reconnect(self) -> None:
+        """Reopen the port (same path: a restarted bridge, a re-plugged adapter) and reset the
+        protocol. Raises `PortError` when the port cannot be opened yet."""
+        self._stop_io()
+        with self._lock:
+            self._core.reset(self.now_ns())
+            self._collect()
+        self._serial = open_serial(self.port, self.baud)
+        if self._dispatcher is None:
+            self._start_dispatcher()
+        self._start_io()
+
+    # -- threads --------------------------------------------------------------------------------
+    def _wake_io(self) -> None:
+        self._wake.set()
+
+    def _lost(self, exc: BaseException) -> None:
+        with self._lock:
+            self._core.link_lost(self.now_ns(), f"{self.port}: {describe_io_error(exc)}")
+            self._collect()
+        self._io_running = False
+        with self._changed:
+            self._changed.notify_all()
+
+    def _write_loop(self) -> None:
+        ser = self._serial
+        assert ser is not None
+        while self._io_running:
+            self._wake.wait(READ_POLL_S * 5)
+            self._wake.clear()
+            while self._io_running:
+                with self._lock:
+                    frames = self._rs.frames_to_send(self.now_ns())
+                if not frames:
+                    break
+                try:
+                    for frame in frames:
+                        ser.write(frame)  # one write() per frame: its bytes go back to back
+                except (OSError, serial.SerialException) as exc:
+                    self._lost(exc)
+                    return
+
+    def _read_loop(self) -> None:
+        ser = self._serial
+        assert ser is not None
+        while self._io_running:
+            try:
+                waiting = ser.in_waiting
+                data = ser.read(waiting if waiting > 0 else 1)
+            except (OSError, serial.SerialException, TypeError) as exc:
+                if self._io_running:
+                    self._lost(exc)
+                return
+            now = self.now_ns()
+            with self._lock:
+                if data:
+                    self._rs.receive(data, now)
+                self._rs.poll(now)
+                self._collect()
+                more = self._rs.has_queued
+            if more:
+                self._wake.set()
+
+
+def open_serial(port: str, baud: int) -> serial.Serial:
+    """Open `port` raw 8N1 at `baud`, or raise `PortError` with what to do next."""
+    try:
+        ser = serial.Serial(port, baud, timeout=READ_POLL_S, write_timeout=1.0, exclusive=True)
+    except serial.SerialException as exc:
+        raise PortError(port_error_message(port, exc)) from None
+    except (OSError, ValueError) as exc:
+        raise PortError(port_error_message(port, exc)) from None
+    try:
+        ser.reset_input_buffer()
+    except (OSError, serial.SerialException):
+        pass
+    return ser
+
+
+def port_error_message(port: str, exc: BaseException) -> str:
+    """A one-paragraph explanation of why `port` cannot be used and what to do."""
+    code = getattr(exc, "errno", None)
+    if code is None and isinstance(exc.__context__, OSError):
+        code = exc.__context__.errno
+    text = str(exc)
+    if code == errno.ENOENT or "No such file" in text:
+        return (f"{port}: no such port. Check the path and the cable; serial ports are usually "
+                f"/dev/ttyS*, /dev/ttyUSB* or /dev/ttyACM* (`ls /dev/tty[SUA]*`).")
+    if code == errno.EACCES or "Permission denied" in text:
+        user = os.environ.get("USER", "$USER")
+        return (f"{port}: permission denied. Add yourself to the group owning the port "
+                f"(`ls -l {port}`; usually: sudo usermod -aG dialout {user}) and log in again.")
+    if code == errno.EBUSY or "busy" in text.lower() or "exclusively" in text.lower():
+        return f"{port}: the port is in use by another program (close it, or find it with `fuser {port}`)."
+    if isinstance(exc, ValueError):
+        return f"{port}: invalid serial setting ({exc}); check --baud."
+    return f"{port}: cannot open the port: {describe_io_error(exc)}."
+
+
+def describe_io_error(exc: BaseException) -> str:
+    code = getattr(exc, "errno", None)
+    if code == errno.EIO or "returned no data" in str(exc):
+        return "the device went away (I/O error: unplugged, or the bridge process ended)"
+    return str(exc) or type(exc).__name__
+
+
+__all__ = ["RS232Manager", "open_serial", "port_error_message", "NS_PER_MS"]

@@ -1,0 +1,320 @@
+"""SimManager: the protocol cores driven by a `Clock` instead of threads (virtual time).
+
+The simulation (sim/, issue 6) plugs its simulated buses in through the two transport
+interfaces of `base.py`; until then, and for unit tests, this module provides a `VirtualClock`
+and loopback transports that put a `BridgeModel` at the other end of a simulated RS232 line
+(with byte times at the configured baud rate) or USB pipe (1-ms frames).
+
+Everything runs on the clock's thread: callbacks are invoked from the event loop, never nested
+inside `submit` (they are queued and run once the current step is over).
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+from collections import deque
+from collections.abc import Callable
+
+from ..errors import ErrorFlag
+from .base import (
+    NS_PER_MS,
+    NS_PER_S,
+    BusManager,
+    ByteTransport,
+    Clock,
+    DrivableClock,
+    FrameTransport,
+    ManagerStats,
+    Transfer,
+    finish,
+)
+from .loopback import BridgeModel
+from .rs232_core import Rs232Core
+from .usb_core import UsbCore
+
+
+class VirtualClock:
+    """A discrete-event clock: `call_at` queues, `run_until` / `run_for` advance time."""
+
+    def __init__(self, start_ns: int = 0) -> None:
+        self._now = start_ns
+        self._events: list[tuple[int, int, Callable[[], None]]] = []
+        self._order = itertools.count()
+
+    def now_ns(self) -> int:
+        return self._now
+
+    def call_at(self, when_ns: int, fn: Callable[[], None]) -> None:
+        heapq.heappush(self._events, (max(when_ns, self._now), next(self._order), fn))
+
+    def step(self) -> bool:
+        """Run the next event (advancing time to it); False when none is queued."""
+        if not self._events:
+            return False
+        when, _, fn = heapq.heappop(self._events)
+        self._now = when
+        fn()
+        return True
+
+    def run_until(self, predicate: Callable[[], bool], limit_ns: int) -> bool:
+        while not predicate():
+            if not self._events or self._events[0][0] > limit_ns:
+                self._now = max(self._now, limit_ns)
+                return predicate()
+            self.step()
+        return True
+
+    def run_for(self, duration_ns: int) -> None:
+        """Run every event up to now + duration_ns and leave the clock there."""
+        end = self._now + duration_ns
+        self.run_until(lambda: False, end)
+
+
+# --------------------------------------------------------------------------------------------
+# Loopback transports: a BridgeModel at the far end
+# --------------------------------------------------------------------------------------------
+
+class LoopbackByteTransport:
+    """A simulated RS232 line (8N1 at `baud`, full duplex) to a `BridgeModel`.
+
+    Fault injection: `corrupt_response(index, xor)` flips bits in a byte of the response stream
+    (counted from now), `drop_requests(n)` loses the next n request frames, `unplug()` stops the
+    bridge answering (a cable pulled)."""
+
+    def __init__(self, clock: Clock, bridge: BridgeModel, baud: int | None = 115200) -> None:
+        self.clock = clock
+        self.bridge = bridge
+        self.byte_ns = 10 * NS_PER_S // baud if baud else 0
+        self._receiver: Callable[[bytes], None] | None = None
+        self._tx_free = 0  # host -> bridge line busy until
+        self._rx_free = 0  # bridge -> host line busy until
+        self._corrupt: dict[int, int] = {}
+        self._resp_bytes = 0
+        self._drop = 0
+        self.connected = True
+
+    def set_receiver(self, receiver: Callable[[bytes], None]) -> None:
+        self._receiver = receiver
+
+    def send(self, data: bytes) -> None:
+        now = self.clock.now_ns()
+        start = max(now, self._tx_free)
+        self._tx_free = start + len(data) * self.byte_ns
+        if self._drop:
+            self._drop -= 1
+            return
+        self.clock.call_at(self._tx_free, lambda: self._at_bridge(data))
+
+    def corrupt_response(self, index: int = 0, xor: int = 0x01) -> None:
+        self._corrupt[self._resp_bytes + index] = xor
+
+    def drop_requests(self, n: int = 1) -> None:
+        self._drop += n
+
+    def unplug(self) -> None:
+        self.connected = False
+
+    def plug(self) -> None:
+        self.connected = True
+
+    def _at_bridge(self, data: bytes) -> None:
+        if not self.connected:
+            return
+        self.bridge.receive(data, self.clock.now_ns())
+        self._bridge_step()
+
+    def _bridge_step(self) -> None:
+        now = self.clock.now_ns()
+        out = bytearray(self.bridge.process(now))
+        for i in range(len(out)):
+            xor = self._corrupt.pop(self._resp_bytes + i, 0)
+            out[i] ^= xor
+        self._resp_bytes += len(out)
+        if out and self.connected:
+            start = max(now, self._rx_free)
+            self._rx_free = start + len(out) * self.byte_ns
+            payload = bytes(out)
+            self.clock.call_at(self._rx_free, lambda: self._deliver(payload))
+        nxt = self.bridge.next_event_ns()
+        if nxt is not None:
+            self.clock.call_at(max(nxt, now + 1), self._bridge_step)
+
+    def _deliver(self, data: bytes) -> None:
+        if self._receiver is not None and self.connected:
+            self._receiver(data)
+
+
+class LoopbackFrameTransport:
+    """A simulated USB pipe to a `BridgeModel`: each bulk-OUT runs the batch at once; the
+    bulk-IN issued by its completion returns the bridge's previous buffer `in_delay_ns` later
+    (within the same 1-ms frame)."""
+
+    def __init__(self, clock: Clock, bridge: BridgeModel, in_delay_ns: int = NS_PER_MS // 2) -> None:
+        self.clock = clock
+        self.bridge = bridge
+        self.in_delay_ns = in_delay_ns
+        self._receiver: Callable[[bytes], None] | None = None
+        self.connected = True
+        self.corrupt_next_in = False
+
+    def set_batch_receiver(self, receiver: Callable[[bytes], None]) -> None:
+        self._receiver = receiver
+
+    def write_batch(self, data: bytes) -> None:
+        if not self.connected:
+            return
+        now = self.clock.now_ns()
+        self.bridge.usb_out(data, now)
+        self.clock.call_at(now + self.in_delay_ns, self._read)
+
+    def _read(self) -> None:
+        data = self.bridge.usb_in()
+        if data is None or self._receiver is None or not self.connected:
+            return
+        if self.corrupt_next_in:
+            self.corrupt_next_in = False
+            data = bytes([data[0] ^ 0x10]) + data[1:]
+        self._receiver(data)
+
+
+# --------------------------------------------------------------------------------------------
+# SimManager
+# --------------------------------------------------------------------------------------------
+
+class SimManager(BusManager):
+    """A bus manager driven by a `Clock` (virtual time), over a `ByteTransport` (RS232 core) or
+    a `FrameTransport` (USB core, one batch per 1-ms frame)."""
+
+    def __init__(self, clock: Clock, transport: ByteTransport | FrameTransport, *, name: str = "sim",
+                 window: int = 4, timeout_ns: int | None = None, lost_after_ns: int = 500 * NS_PER_MS) -> None:
+        self.name = name
+        self.clock = clock
+        self.transport = transport
+        self.stats = ManagerStats()
+        self._usb = isinstance(transport, FrameTransport)
+        self._rs232_core: Rs232Core | None = None
+        self._usb_core: UsbCore | None = None
+        if self._usb:
+            self._usb_core = UsbCore(timeout_ns=timeout_ns or 10 * NS_PER_MS, lost_after_ns=lost_after_ns)
+        else:
+            self._rs232_core = Rs232Core(window=window, timeout_ns=timeout_ns or 100 * NS_PER_MS,
+                                         lost_after_ns=lost_after_ns)
+        self._pending_cb: deque[Transfer] = deque()
+        self._dispatching = False
+        self._ticking = False
+        self._timer_at: set[int] = set()
+        self._started = False
+
+    @property
+    def core(self) -> Rs232Core | UsbCore:
+        core = self._usb_core if self._usb_core is not None else self._rs232_core
+        assert core is not None
+        return core
+
+    # -- BusManager ---------------------------------------------------------------------------
+    def start(self) -> None:
+        if self._started:
+            return
+        self._started = True
+        if isinstance(self.transport, FrameTransport):
+            self.transport.set_batch_receiver(self._on_batch)
+        else:
+            self.transport.set_receiver(self._on_bytes)
+
+    def close(self) -> None:
+        self.core.link_lost(self.clock.now_ns(), "closed")
+        self._after_step()
+
+    def now_ns(self) -> int:
+        return self.clock.now_ns()
+
+    @property
+    def lost_reason(self) -> str | None:
+        return self.core.lost_reason
+
+    def set_window(self, window: int) -> None:
+        self.core.set_window(max(1, min(window, 15 if not self._usb else 14)))
+
+    def submit(self, t: Transfer) -> None:
+        now = self.clock.now_ns()
+        t.submitted_ns = now
+        self.stats.submitted += 1
+        self.core.submit(t, now)
+        self._after_step()
+
+    def reject(self, t: Transfer, flags: ErrorFlag) -> None:
+        """Complete `t` on the host without sending it (queued like any completion)."""
+        now = self.clock.now_ns()
+        t.submitted_ns = now
+        self._pending_cb.append(finish(t, now, flags))
+        self._after_step()
+
+    def wait_until(self, predicate: Callable[[], bool], timeout_s: float) -> bool:
+        if predicate():
+            return True
+        if isinstance(self.clock, DrivableClock):
+            return self.clock.run_until(predicate, self.clock.now_ns() + int(timeout_s * NS_PER_S))
+        raise RuntimeError("this clock cannot be driven from a blocking call; use callbacks "
+                           "(URBInterface.start_discovery, NodeRequest.set_callback) in the simulation")
+
+    def reconnect(self) -> None:
+        self.core.reset(self.clock.now_ns())
+        self._after_step()
+
+    # -- driving the core ---------------------------------------------------------------------
+    def _on_bytes(self, data: bytes) -> None:
+        assert self._rs232_core is not None
+        self._rs232_core.receive(data, self.clock.now_ns())
+        self._after_step()
+
+    def _on_batch(self, data: bytes) -> None:
+        assert self._usb_core is not None
+        self._usb_core.receive_batch(data, self.clock.now_ns())
+        self._after_step()
+
+    def _on_timer(self, when: int) -> None:
+        self._timer_at.discard(when)
+        self.core.poll(self.clock.now_ns())
+        self._after_step()
+
+    def _frame_tick(self) -> None:
+        assert self._usb_core is not None and isinstance(self.transport, FrameTransport)
+        now = self.clock.now_ns()
+        self._usb_core.poll(now)
+        out = self._usb_core.frame_out(now)
+        if out is not None:
+            self.transport.write_batch(out)
+        self._ticking = False
+        self._after_step()
+
+    def _after_step(self) -> None:
+        """Send what may be sent, arm timers, run callbacks (never nested)."""
+        now = self.clock.now_ns()
+        if self._rs232_core is not None:
+            assert isinstance(self.transport, ByteTransport)
+            for frame in self._rs232_core.frames_to_send(now):
+                self.transport.send(frame)
+        elif self._usb_core is not None and self._usb_core.busy() and not self._ticking:
+            self._ticking = True
+            nxt = (now // NS_PER_MS + 1) * NS_PER_MS  # the next 1-ms frame boundary
+            self.clock.call_at(nxt, self._frame_tick)
+        deadline = self.core.next_deadline()
+        if deadline is not None and deadline not in self._timer_at:
+            self._timer_at.add(deadline)
+            self.clock.call_at(deadline, lambda: self._on_timer(deadline))
+        for t in self.core.take_completed():
+            self.stats.completed += 1
+            if t.flags:
+                self.stats.failed += 1
+            self._pending_cb.append(t)
+        if self._dispatching:
+            return
+        self._dispatching = True
+        try:
+            while self._pending_cb:
+                t = self._pending_cb.popleft()
+                if t.on_done is not None:
+                    t.on_done(t)
+        finally:
+            self._dispatching = False

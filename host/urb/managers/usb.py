@@ -1,0 +1,195 @@
+"""USBManager: a bridge on a USB uplink, driven in real time (paper Sec. V-C, Fig. 9).
+
+A frame thread wakes on every 1-ms boundary (absolute deadlines, so wake-up jitter does not
+accumulate), takes ONE batch from `UsbCore.frame_out` and hands it to the transport as one bulk-OUT
+transfer. The transport pushes every bulk-IN transfer (the bridge's previous response buffer) to
+the core; callbacks run on the dispatcher thread. With write n and read n-1 in flight in the same
+frame, a request's callback runs at most 3 frames after its submission (UsbUplink.tla
+`StrictLatency`), one more per frame it was deferred because a batch was full.
+
+The transport is pluggable (`FrameTransport`): `CharDeviceTransport` for a kernel driver that
+exposes the bridge as a character device (write = bulk-OUT, read = bulk-IN, one transfer per
+call), `LoopbackFrameTransport` for tests, and the simulation's USB model (through SimManager).
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+from collections.abc import Callable
+
+from ..errors import PortError
+from .base import NS_PER_MS, ThreadedManager
+from .loopback import BridgeModel
+from .usb_core import UsbCore
+
+FRAME_NS = NS_PER_MS
+
+
+class USBManager(ThreadedManager):
+    """A URB bridge on a USB uplink, over any `FrameTransport` (or a device path)."""
+
+    def __init__(self, transport: object, *, max_batch: int = 14, timeout_s: float = 0.01,
+                 lost_after_s: float = 0.5, name: str | None = None) -> None:
+        """`transport`: a `FrameTransport`, or a device path (str) opened with
+        `CharDeviceTransport`. `max_batch`: requests per 1-ms batch. `timeout_s`: responses not
+        back this long after their batch was written complete UPLINK_TIMEOUT."""
+        core = UsbCore(max_batch=max_batch, timeout_ns=int(timeout_s * 1e9), lost_after_ns=int(lost_after_s * 1e9))
+        if isinstance(transport, str):
+            label = transport
+            transport = CharDeviceTransport(transport)
+        else:
+            label = type(transport).__name__
+        super().__init__(core, name or label)
+        from .base import FrameTransport
+
+        if not isinstance(transport, FrameTransport):
+            raise TypeError("USBManager needs a FrameTransport (write_batch, set_batch_receiver) or a device path")
+        self.transport: FrameTransport = transport
+        self._usb = core
+        self._thread: threading.Thread | None = None
+        self._io_running = False
+
+    def start(self) -> None:
+        if self._thread is not None:
+            return
+        opener = getattr(self.transport, "open", None)
+        if callable(opener):
+            opener()
+        self.transport.set_batch_receiver(self._on_in)
+        self._start_dispatcher()
+        self._start_io()
+
+    def _start_io(self) -> None:
+        self._io_running = True
+        self._thread = threading.Thread(target=self._frame_loop, name=f"urb-usb {self.name}", daemon=True)
+        self._thread.start()
+
+    def _stop_io(self) -> None:
+        self._io_running = False
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join(timeout=2.0)
+        self._thread = None
+
+    def close(self) -> None:
+        self._stop_io()
+        closer = getattr(self.transport, "close", None)
+        if callable(closer):
+            closer()
+        with self._lock:
+            self._core.link_lost(self.now_ns(), "closed by the application")
+            self._collect()
+        self._stop_dispatcher()
+        self._drain_completions_inline()
+
+    def reconnect(self) -> None:
+        self._stop_io()
+        for name in ("close", "open"):
+            fn = getattr(self.transport, name, None)
+            if callable(fn):
+                fn()
+        with self._lock:
+            self._core.reset(self.now_ns())
+            self._collect()
+        if self._dispatcher is None:
+            self._start_dispatcher()
+        self._start_io()
+
+    def _on_in(self, data: bytes) -> None:
+        with self._lock:
+            self._usb.receive_batch(data, self.now_ns())
+            self._collect()
+
+    def _frame_loop(self) -> None:
+        next_frame = (time.monotonic_ns() // FRAME_NS + 1) * FRAME_NS
+        while self._io_running:
+            delay = next_frame - time.monotonic_ns()
+            if delay > 0:
+                time.sleep(delay / 1e9)
+            now = self.now_ns()
+            next_frame += FRAME_NS
+            if next_frame <= now:  # overslept: skip to the next boundary, never burst
+                next_frame = (now // FRAME_NS + 1) * FRAME_NS
+            with self._lock:
+                self._usb.poll(now)
+                out = self._usb.frame_out(now)
+                self._collect()
+            if out is not None:
+                try:
+                    self.transport.write_batch(out)
+                except OSError as exc:
+                    with self._lock:
+                        self._core.link_lost(self.now_ns(), f"{self.name}: {exc}")
+                        self._collect()
+                    self._io_running = False
+                    return
+
+
+class CharDeviceTransport:
+    """A bridge behind a kernel driver's character device (or any file descriptor that keeps
+    transfer boundaries, e.g. a SOCK_SEQPACKET socket): `write()` = one bulk-OUT, each `read()`
+    = one bulk-IN, pushed to the receiver from a reader thread."""
+
+    def __init__(self, path: str | None = None, fd: int | None = None) -> None:
+        self.path = path
+        self.fd = fd
+        self._receiver: Callable[[bytes], None] | None = None
+        self._thread: threading.Thread | None = None
+        self._running = False
+
+    def open(self) -> None:
+        if self.fd is None:
+            assert self.path is not None
+            try:
+                self.fd = os.open(self.path, os.O_RDWR)
+            except OSError as exc:
+                raise PortError(f"{self.path}: cannot open the USB bridge device ({exc.strerror}); "
+                                f"check the kernel driver is loaded and the device permissions") from None
+        self._running = True
+        self._thread = threading.Thread(target=self._read_loop, name="urb-usb-in", daemon=True)
+        self._thread.start()
+
+    def close(self) -> None:
+        self._running = False
+        if self.fd is not None and self.path is not None:
+            os.close(self.fd)
+            self.fd = None
+
+    def set_batch_receiver(self, receiver: Callable[[bytes], None]) -> None:
+        self._receiver = receiver
+
+    def write_batch(self, data: bytes) -> None:
+        assert self.fd is not None
+        os.write(self.fd, data)
+
+    def _read_loop(self) -> None:
+        while self._running and self.fd is not None:
+            try:
+                data = os.read(self.fd, 4096)
+            except OSError:
+                return
+            if not data:
+                return
+            if self._receiver is not None:
+                self._receiver(data)
+
+
+class LoopbackUsbTransport:
+    """Real-time loopback: a `BridgeModel` answering each bulk-OUT at once (the bulk-IN returns
+    the bridge's previous buffer, as the hardware does)."""
+
+    def __init__(self, bridge: BridgeModel) -> None:
+        self.bridge = bridge
+        self._receiver: Callable[[bytes], None] | None = None
+        self._lock = threading.Lock()
+
+    def set_batch_receiver(self, receiver: Callable[[bytes], None]) -> None:
+        self._receiver = receiver
+
+    def write_batch(self, data: bytes) -> None:
+        with self._lock:
+            self.bridge.usb_out(data, time.monotonic_ns())
+            back = self.bridge.usb_in()
+        if back is not None and self._receiver is not None:
+            self._receiver(back)
