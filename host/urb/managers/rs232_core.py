@@ -120,7 +120,7 @@ class Rs232Core:
         self.lost_reason: str | None = None
         self._queued: deque[Transfer] = deque()
         self._m = ResponseMatcher()
-        self._next_seq = 0
+        self._next_seq = 1  # the n-th request carries n mod 16, as Bridge.tla's Emit (id % SeqMod)
         self._last_rx_ns = 0
         self._active_since = 0
         """When the in-flight list last went from empty to non-empty."""

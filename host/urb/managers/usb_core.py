@@ -64,7 +64,7 @@ class UsbCore:
         self._awaiting: deque[_Batch] = deque()
         self._completed: list[Transfer] = []
         self._frame = 0
-        self._next_seq = 0
+        self._next_seq = 1  # the n-th request carries n mod 16, as Bridge.tla's Emit (id % SeqMod)
         self._last_in_ns = 0
         self._active_since = 0
 
