@@ -60,7 +60,7 @@ TypeOK ==
     /\ front \in Bufs /\ isrIdx \in Bufs \cup {NONE} /\ appIdx \in Bufs \cup {NONE}
     /\ isrPc \in {"idle", "fill"} /\ isrByte \in 1..MsgLen + 1
     /\ txs \in 0..MaxWrites
-    /\ appPc \in {"idle", "claim", "checkIsr", "checkFront", "read"}
+    /\ appPc \in {"idle", "claim", "checkIsr", "checkFront", "unclaim", "read"}
     /\ a \in Bufs /\ tries \in 0..MaxRetry
     /\ appGot \in Seq(Tags) /\ Len(appGot) <= MsgLen
     /\ committed \in Tags /\ aborted \subseteq Tags /\ appSnap \in Tags
@@ -141,13 +141,8 @@ AppLockClaim ==
     /\ UNCHANGED <<buf, front, isrIdx, a, isrPc, isrByte, txs, tries, appGot,
                    committed, aborted, appSnap>>
 
-(* Failed attempt: app_idx := NONE, then retry from step 1, or give up     *)
-(* with URB_BUSY after MaxRetry retries (the app never waits).             *)
-LockFail ==
-    /\ appIdx' = NONE
-    /\ IF tries < MaxRetry
-         THEN appPc' = "idle" /\ tries' = tries + 1     \* retry from step 1
-         ELSE appPc' = "idle" /\ tries' = 0             \* URB_BUSY
+(* A failed check sends the application to AppLockUnclaim.                  *)
+LockFail == appPc' = "unclaim" /\ UNCHANGED <<appIdx, tries>>
 
 (***************************************************************************)
 (* URB_LockInbox, step 3: load isr_idx; if the ISR is filling buffer a     *)
@@ -178,6 +173,18 @@ AppLockCheckFront ==
                    aborted>>
 
 (***************************************************************************)
+(* Failed attempt: app_idx := NONE (store), then retry from step 1, or     *)
+(* give up with URB_BUSY after MaxRetry retries (the app never waits).     *)
+(***************************************************************************)
+AppLockUnclaim ==
+    /\ appPc = "unclaim"
+    /\ appIdx' = NONE
+    /\ appPc' = "idle"
+    /\ tries' = IF tries < MaxRetry THEN tries + 1 ELSE 0   \* else: URB_BUSY
+    /\ UNCHANGED <<buf, front, isrIdx, isrPc, isrByte, txs, a, appGot,
+                   committed, aborted, appSnap>>
+
+(***************************************************************************)
 (* The application loads one byte of its locked buffer.                    *)
 (***************************************************************************)
 AppReadByte ==
@@ -198,7 +205,7 @@ AppRelease ==
 
 IsrNext == IsrWriteBegin \/ IsrWriteByte \/ IsrWriteCommit \/ IsrWriteAbort
 AppNext == AppLockLoadFront \/ AppLockClaim \/ AppLockCheckIsr
-           \/ AppLockCheckFront \/ AppReadByte \/ AppRelease
+           \/ AppLockCheckFront \/ AppLockUnclaim \/ AppReadByte \/ AppRelease
 Next == IsrNext \/ AppNext
 
 Spec == Init /\ [][Next]_vars

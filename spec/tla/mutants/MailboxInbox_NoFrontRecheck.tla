@@ -21,7 +21,7 @@ MutCheckIsr ==
     /\ UNCHANGED <<buf, front, isrIdx, a, isrPc, isrByte, txs, committed,
                    aborted, appSnap>>
 
-MutNext == IsrNext \/ MutLoadFront \/ AppLockClaim \/ MutCheckIsr
+MutNext == IsrNext \/ MutLoadFront \/ AppLockClaim \/ MutCheckIsr \/ AppLockUnclaim
            \/ AppReadByte \/ AppRelease
 MutSpec == Init /\ [][MutNext]_vars
 =============================================================================
