@@ -83,9 +83,8 @@ def _default(f: Field) -> str:
     if isinstance(t, IntType):
         return "False" if t.is_bool else "0"
     if isinstance(t, EnumDecl):
-        first = min(t.members, key=lambda m: m.value if m.value != 0 else -1)
-        zero = next((m for m in t.members if m.value == 0), first)
-        return f"{t.name}.{zero.name}"
+        default = next((m for m in t.members if m.value == 0), t.members[0])  # zero when the enum has it
+        return f"{t.name}.{default.name}"
     if isinstance(t, MessageDecl):
         return f"field(default_factory={t.name})"
     if isinstance(t, ArrayType):

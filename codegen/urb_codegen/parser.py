@@ -401,7 +401,7 @@ class _Builder:
                 assert isinstance(opt, Tree)
                 self.apply_option(f, opt)
             msg.fields.append(f)
-        self.check_message_shape(item, msg)
+        self.check_message_shape(msg)
 
     def apply_option(self, f: Field, opt: Tree[Token]) -> None:
         kind = opt.data
@@ -476,8 +476,7 @@ class _Builder:
         self.err(val, f"unknown constant '{name}'", "declare it with `const NAME = value \"doc\"`")
         return None
 
-    def check_message_shape(self, item: Tree[Token], msg: MessageDecl) -> None:
-        name_loc = msg.loc
+    def check_message_shape(self, msg: MessageDecl) -> None:
         fields = msg.fields
         names = [f.name for f in fields]
         checks = [f for f in fields if isinstance(f.type, CheckType)]
@@ -500,8 +499,6 @@ class _Builder:
                              "declare the length field (an unsigned integer) before the payload")
                 elif not isinstance(counter.type, IntType) or counter.type.signed or counter.type.is_bool:
                     self.err(f.loc, f"length field '{cname}' must be an unsigned integer", "declare it as u8 (or uN)")
-                elif counter.type.max < f.type.max_len and (counter.range is None or counter.range[1] < f.type.max_len):
-                    pass  # a narrower counter simply bounds the payload lower; allowed
                 elif counter.range is not None and counter.range[1] > f.type.max_len:
                     self.err(f.loc, f"length field '{cname}' allows {counter.range[1]} but the payload holds {f.type.max_len}",
                              "make the range of the length field match the payload bound")
@@ -535,7 +532,6 @@ class _Builder:
                          "remove `implicit` or add a check that covers the field")
             if fields[: len(implicit)] != implicit:
                 self.err(implicit[0].loc, "implicit fields must come first", "move implicit fields to the start of the message")
-        _ = item, name_loc
 
     def check_cycles(self) -> None:
         def contains(m: MessageDecl) -> list[MessageDecl]:
