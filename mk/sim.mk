@@ -1,0 +1,31 @@
+# Time-accurate SensoRHex simulation (sim/, firmware/hal/sim/). Included by the top-level Makefile.
+#   make sim-lib      build build/sim/liburbsim.so (C core + firmware + simulation HALs), if stale
+#   make test-sim     build the library and run the C unit tests of the core under ASan+UBSan
+#                     (the Python tests in tests/sim/ run in the main pytest run of `make check`)
+#   make sim-report   the full run: `urb sim sensorhex` (HTML summary in build/sim/report/)
+#   make sim-bench    simulated seconds per wall-clock second, and scaling with the node count
+PYTHON ?= python3
+
+SIM_BUILD := build/sim
+SIM_CORE := sim/core
+SIM_SAN_FLAGS := -std=c99 -g -O1 -Wall -Wextra -Werror -Wpedantic -Wconversion \
+	-fsanitize=address,undefined -fno-sanitize-recover=all
+
+.PHONY: sim-lib test-sim sim-report sim-bench
+sim-lib:
+	$(PYTHON) -m urb_sim.build
+
+$(SIM_BUILD)/test_core: tests/sim/test_core.c $(wildcard $(SIM_CORE)/*.c $(SIM_CORE)/*.h)
+	@mkdir -p $(@D)
+	$(CC) $(SIM_SAN_FLAGS) -I$(SIM_CORE) tests/sim/test_core.c $(wildcard $(SIM_CORE)/*.c) -lm -o $@
+
+test-sim: sim-lib $(SIM_BUILD)/test_core
+	$(SIM_BUILD)/test_core
+
+sim-report: setup
+	urb sim sensorhex
+
+sim-bench: setup
+	$(PYTHON) bench/sim_speed.py
+
+CHECK_TARGETS += test-sim

@@ -1,0 +1,83 @@
+/*
+ * kernel.h: the discrete-event kernel of the URB simulation.
+ *
+ * Virtual time is a uint64_t count of nanoseconds since the start of the run (584 years of range).
+ * Events are (time, callback, context, argument) records kept in a binary min-heap ordered by time,
+ * with ties broken by insertion order: two events scheduled for the same instant run in the order
+ * they were scheduled. Nothing else (pointer values, hash order, wall-clock time) influences the
+ * order, so a run is a pure function of its inputs and seed.
+ *
+ * State lives in a caller-owned urbsim_kernel_t; there are no globals, so any number of kernels
+ * (simulated worlds) can live in one process. The heap array grows with realloc (the simulation is
+ * host code; only the firmware under test is heap-free).
+ *
+ * Cancellation is not supported on purpose: a component that may change its mind schedules its
+ * events with a generation number in `arg` and ignores stale ones. This keeps pop O(log n) with no
+ * tombstones and keeps the trace independent of cancellation bookkeeping.
+ */
+#ifndef URBSIM_KERNEL_H
+#define URBSIM_KERNEL_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+/** Virtual time in nanoseconds. */
+typedef uint64_t urbsim_ns_t;
+
+#define URBSIM_NS_PER_US 1000ull
+#define URBSIM_NS_PER_MS 1000000ull
+#define URBSIM_NS_PER_S 1000000000ull
+#define URBSIM_NEVER UINT64_MAX
+
+/** An event callback. `now` equals the event's time; `arg` is what was passed to schedule. */
+typedef void (*urbsim_event_fn)(void *ctx, uint64_t arg, urbsim_ns_t now);
+
+typedef struct {
+    urbsim_ns_t t;   /**< when the event fires */
+    uint64_t seq;    /**< insertion sequence number: the tie-breaker */
+    urbsim_event_fn fn;
+    void *ctx;
+    uint64_t arg;
+} urbsim_event_t;
+
+typedef struct {
+    urbsim_event_t *heap; /**< heap[0] is the earliest event */
+    size_t len;
+    size_t cap;
+    urbsim_ns_t now;      /**< time of the event being run, or the last run_until limit */
+    uint64_t next_seq;
+    uint64_t executed;    /**< events run so far (for the speed benchmark) */
+    bool stop;            /**< set by urbsim_kernel_stop() from inside a callback */
+} urbsim_kernel_t;
+
+/** Initialise an empty kernel at time 0. Returns false when the initial allocation fails. */
+bool urbsim_kernel_init(urbsim_kernel_t *k);
+
+/** Free the heap. The kernel may be initialised again afterwards. */
+void urbsim_kernel_free(urbsim_kernel_t *k);
+
+/**
+ * Schedule fn(ctx, arg, t) at virtual time t. A time in the past (t < now) is clamped to now: an
+ * event can never run before the one that scheduled it. Returns false only when the heap cannot
+ * grow (out of memory); the event is then not scheduled. O(log n).
+ */
+bool urbsim_kernel_at(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg);
+
+/** Schedule relative to now: urbsim_kernel_at(k, now + delay, ...). */
+bool urbsim_kernel_after(urbsim_kernel_t *k, urbsim_ns_t delay, urbsim_event_fn fn, void *ctx, uint64_t arg);
+
+/** Time of the earliest pending event, or URBSIM_NEVER when none is pending. O(1). */
+urbsim_ns_t urbsim_kernel_next_time(const urbsim_kernel_t *k);
+
+/**
+ * Run every event with time <= limit, in (time, sequence) order, then set now = limit. Returns
+ * early, with now at the stopping event's time, when a callback calls urbsim_kernel_stop(); the
+ * return value is then true. Events scheduled by callbacks for times <= limit run in the same call.
+ */
+bool urbsim_kernel_run_until(urbsim_kernel_t *k, urbsim_ns_t limit);
+
+/** Ask run_until to return after the current callback (used for host wake-ups). */
+void urbsim_kernel_stop(urbsim_kernel_t *k);
+
+#endif /* URBSIM_KERNEL_H */

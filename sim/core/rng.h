@@ -1,0 +1,48 @@
+/*
+ * rng.h: the simulation's only source of randomness.
+ *
+ * xoshiro256** (Blackman and Vigna) seeded through splitmix64. Every random draw in the simulation
+ * goes through one of these generators, so a run is reproducible from its seed. Each device gets
+ * its own stream, derived from the world seed and a stable stream name (urbsim_rng_derive), so
+ * adding a node or reordering events in one device does not change the draws of another: the
+ * crystal error of node 3 stays the same whether or not the scenario also has node 4.
+ */
+#ifndef URBSIM_RNG_H
+#define URBSIM_RNG_H
+
+#include <stdint.h>
+
+typedef struct {
+    uint64_t s[4];
+    /* Box-Muller produces normals in pairs; the spare is kept so draws stay reproducible. */
+    double spare;
+    int has_spare;
+} urbsim_rng_t;
+
+/** Seed a generator from a 64-bit seed (any value, 0 included). */
+void urbsim_rng_seed(urbsim_rng_t *r, uint64_t seed);
+
+/** Seed a generator for the stream `name` (a NUL-terminated label such as "node/rs232/2/clock")
+ *  and number `index` of the world seeded with `seed`. Distinct names give independent streams. */
+void urbsim_rng_derive(urbsim_rng_t *r, uint64_t seed, const char *name, uint64_t index);
+
+/** Next 64 uniformly distributed bits. */
+uint64_t urbsim_rng_u64(urbsim_rng_t *r);
+
+/** Uniform double in [0, 1), 53 bits of precision. */
+double urbsim_rng_uniform(urbsim_rng_t *r);
+
+/** Uniform integer in [0, n) without modulo bias (Lemire's method); n = 0 returns 0. */
+uint64_t urbsim_rng_below(urbsim_rng_t *r, uint64_t n);
+
+/** Normally distributed double with the given mean and standard deviation (Box-Muller). */
+double urbsim_rng_normal(urbsim_rng_t *r, double mean, double sd);
+
+/**
+ * Number of Bernoulli(p) trials up to and including the next success (geometric distribution),
+ * used to place bit errors: with bit error rate p, the next flipped bit is this many bits ahead.
+ * p <= 0 returns UINT64_MAX (never); p >= 1 returns 1.
+ */
+uint64_t urbsim_rng_geometric(urbsim_rng_t *r, double p);
+
+#endif /* URBSIM_RNG_H */

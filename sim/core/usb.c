@@ -1,0 +1,268 @@
+/* usb.c: full-speed host controller frames, bulk transactions and the Fig. 9 driver. See usb.h. */
+#include "usb.h"
+
+#include <math.h>
+#include <string.h>
+
+void urbsim_usb_init(urbsim_usb_bus_t *u, urbsim_kernel_t *k, urbsim_trace_t *tr, const char *name,
+                     urbsim_clock_t *clock, urbsim_ns_t phase_ns)
+{
+    memset(u, 0, sizeof *u);
+    u->k = k;
+    u->tr = tr;
+    strncpy(u->name, name, sizeof u->name - 1u);
+    u->clock = clock;
+    u->bitrate = 12e6;
+    u->max_packet = 64;
+    u->phase_ns = phase_ns % URBSIM_NS_PER_MS;
+    u->hc_irq_ns = 20 * URBSIM_NS_PER_US;
+    u->eof_guard_ns = 4 * URBSIM_NS_PER_US;
+}
+
+int urbsim_usb_attach(urbsim_usb_bus_t *u, urbsim_usb_dev_t *d)
+{
+    if (u->n_devs >= URBSIM_USB_MAX_DEVS) {
+        return -1;
+    }
+    d->attached = true;
+    if (d->in_size == 0u) {
+        d->in_size = URBSIM_USB_MAX_XFER;
+    }
+    u->devs[u->n_devs] = d;
+    return (int)u->n_devs++;
+}
+
+/* Bits added by bit stuffing: a 0 after every run of six 1s, bytes sent LSB first. */
+static uint32_t stuffed_bits(const uint8_t *data, uint32_t n)
+{
+    uint32_t ones = 0, extra = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        for (uint32_t bit = 0; bit < 8u; bit++) {
+            if ((data[i] >> bit) & 1u) {
+                if (++ones == 6u) {
+                    extra++;
+                    ones = 0;
+                }
+            } else {
+                ones = 0;
+            }
+        }
+    }
+    return extra;
+}
+
+static uint32_t packet_bits(const uint8_t *data, uint32_t n)
+{
+    return 35u + 8u + (35u + 8u * n + (data ? stuffed_bits(data, n) : 0u)) + 8u + 19u + 8u;
+}
+
+uint32_t urbsim_usb_transfer_bits(const urbsim_usb_bus_t *u, const uint8_t *data, uint32_t len)
+{
+    uint32_t bits = 0, off = 0;
+    do {
+        uint32_t n = len - off < u->max_packet ? len - off : u->max_packet;
+        bits += packet_bits(data ? data + off : NULL, n);
+        off += n;
+        if (n == u->max_packet && off == len) {
+            bits += packet_bits(NULL, 0); /* zero-length packet ends an exact multiple */
+        }
+    } while (off < len);
+    return bits;
+}
+
+urbsim_ns_t urbsim_usb_bits_ns(const urbsim_usb_bus_t *u, uint32_t bits)
+{
+    return (urbsim_ns_t)llround((double)bits * 1e9 / u->bitrate);
+}
+
+static bool push_urb(urbsim_usb_bus_t *u, uint32_t dev, bool in, const uint8_t *data, uint32_t len)
+{
+    if (u->urb_len >= URBSIM_USB_MAX_URBS || len > URBSIM_USB_MAX_XFER || dev >= u->n_devs) {
+        return false;
+    }
+    urbsim_usb_urb_t *r = &u->urbs[(u->urb_head + u->urb_len) % URBSIM_USB_MAX_URBS];
+    r->dev = (uint8_t)dev;
+    r->in = in;
+    r->len = (uint16_t)len;
+    r->submitted = u->k->now;
+    if (data && len) {
+        memcpy(r->data, data, len);
+    }
+    u->urb_len++;
+    return true;
+}
+
+bool urbsim_usb_write(urbsim_usb_bus_t *u, uint32_t dev, const uint8_t *data, uint32_t len)
+{
+    urbsim_trace(u->tr, URBSIM_TR_FRAME, u->k->now, u->name, "urb_out", ",\"dev\":%u,\"len\":%u", dev, len);
+    return push_urb(u, dev, false, data, len);
+}
+
+bool urbsim_usb_read(urbsim_usb_bus_t *u, uint32_t dev)
+{
+    if (dev >= u->n_devs) {
+        return false;
+    }
+    return push_urb(u, dev, true, NULL, u->devs[dev]->in_size);
+}
+
+/* Event kinds. */
+enum { EV_SOF, EV_TXN, EV_OUT_DONE, EV_IN_DONE, EV_CALLBACK };
+
+static void ev_usb(void *ctx, uint64_t arg, urbsim_ns_t now);
+
+/* Virtual time of the start of frame number f, from the controller's clock. */
+static urbsim_ns_t sof_time(urbsim_usb_bus_t *u, uint64_t f)
+{
+    double local = (double)u->phase_ns + (double)f * (double)URBSIM_NS_PER_MS;
+    return u->clock ? urbsim_clock_virtual_at(u->clock, local) : (urbsim_ns_t)local;
+}
+
+void urbsim_usb_run(urbsim_usb_bus_t *u)
+{
+    if (u->running) {
+        return;
+    }
+    u->running = true;
+    /* The first frame boundary at or after now. */
+    uint64_t f = 0;
+    while (sof_time(u, f) < u->k->now) {
+        f++;
+    }
+    u->frame = f;
+    urbsim_kernel_at(u->k, sof_time(u, f), ev_usb, u, EV_SOF);
+}
+
+/* Run the transaction at the head of this frame's snapshot, at the bus cursor `now`. */
+static void run_txn(urbsim_usb_bus_t *u, urbsim_ns_t now)
+{
+    if (u->cursor_budget == 0u || u->urb_len == 0u) {
+        return;
+    }
+    urbsim_usb_urb_t *r = &u->urbs[u->urb_head];
+    urbsim_usb_dev_t *d = u->devs[r->dev];
+    urbsim_ns_t limit = u->next_sof_t - u->eof_guard_ns;
+    uint32_t bits;
+    uint32_t n = 0;
+    uint8_t buf[URBSIM_USB_MAX_XFER];
+    if (r->in) {
+        if (now + urbsim_usb_bits_ns(u, URBSIM_USB_NAK_BITS) > limit) {
+            d->deferred++;
+            return;
+        }
+        n = d->on_in ? d->on_in(d->ctx, buf, r->len, now) : 0u;
+        if (n > r->len) {
+            n = r->len;
+        }
+        bits = n ? urbsim_usb_transfer_bits(u, buf, n) : URBSIM_USB_NAK_BITS;
+    } else {
+        bits = urbsim_usb_transfer_bits(u, r->data, r->len);
+        if (now + urbsim_usb_bits_ns(u, bits) > limit) {
+            d->deferred++; /* does not fit in what is left of the frame: next frame */
+            return;
+        }
+    }
+    urbsim_usb_urb_t taken = *r;
+    u->urb_head = (u->urb_head + 1u) % URBSIM_USB_MAX_URBS;
+    u->urb_len--;
+    u->cursor_budget--;
+    urbsim_ns_t end = now + urbsim_usb_bits_ns(u, bits);
+    u->busy_bits += bits;
+    if (taken.in && n == 0u) {
+        d->naks++;
+        urbsim_trace(u->tr, URBSIM_TR_BUS, now, u->name, "in_nak", ",\"dev\":%u", taken.dev);
+        /* Retried in the next frame: back into the queue, keeping its submission time. */
+        urbsim_usb_urb_t *again = &u->urbs[(u->urb_head + u->urb_len) % URBSIM_USB_MAX_URBS];
+        *again = taken;
+        u->urb_len++;
+    } else if (u->done_len < URBSIM_USB_MAX_DONE) {
+        urbsim_usb_urb_t *c = &u->done[(u->done_head + u->done_len) % URBSIM_USB_MAX_DONE];
+        *c = taken;
+        if (taken.in) {
+            memcpy(c->data, buf, n);
+            c->len = (uint16_t)n;
+            d->ins++;
+        } else {
+            d->outs++;
+        }
+        u->done_len++;
+        urbsim_trace(u->tr, URBSIM_TR_BUS, now, u->name, taken.in ? "in" : "out", ",\"dev\":%u,\"len\":%u,\"end\":%llu",
+                     taken.dev, (unsigned)c->len, (unsigned long long)end);
+        urbsim_kernel_at(u->k, end, ev_usb, u, taken.in ? EV_IN_DONE : EV_OUT_DONE);
+    }
+    urbsim_kernel_at(u->k, end, ev_usb, u, EV_TXN);
+}
+
+/* The oldest completed transfer (completions are handled in transaction order). */
+static urbsim_usb_urb_t *done_head(urbsim_usb_bus_t *u)
+{
+    return &u->done[u->done_head];
+}
+
+static void ev_usb(void *ctx, uint64_t arg, urbsim_ns_t now)
+{
+    urbsim_usb_bus_t *u = ctx;
+    switch ((int)(arg & 0xFFu)) {
+    case EV_SOF: {
+        u->frames++;
+        u->sof_t = now;
+        u->next_sof_t = sof_time(u, u->frame + 1u);
+        urbsim_kernel_at(u->k, u->next_sof_t, ev_usb, u, EV_SOF);
+        urbsim_ns_t sof_end = now + urbsim_usb_bits_ns(u, URBSIM_USB_SOF_BITS);
+        uint16_t fn = (uint16_t)(u->frame & 0x7FFu);
+        urbsim_trace(u->tr, URBSIM_TR_BUS, now, u->name, "sof", ",\"frame\":%u", fn);
+        for (uint32_t i = 0; i < u->n_devs; i++) {
+            if (u->devs[i]->attached && u->devs[i]->on_sof) {
+                u->devs[i]->on_sof(u->devs[i]->ctx, fn, sof_end);
+            }
+        }
+        /* The frame's schedule: every URB submitted before this SOF, in submission order. */
+        uint32_t n = 0;
+        while (n < u->urb_len && u->urbs[(u->urb_head + n) % URBSIM_USB_MAX_URBS].submitted < now) {
+            n++;
+        }
+        u->cursor_budget = n;
+        u->frame++;
+        if (n) {
+            urbsim_kernel_at(u->k, sof_end, ev_usb, u, EV_TXN);
+        }
+        break;
+    }
+    case EV_TXN:
+        run_txn(u, now);
+        break;
+    case EV_OUT_DONE:
+    case EV_IN_DONE: {
+        /* Device side sees OUT data at the end of the transaction; the host controller raises the
+         * completion interrupt hc_irq_ns later. */
+        urbsim_usb_urb_t *c = &u->done[(u->done_head + u->done_pending) % URBSIM_USB_MAX_DONE];
+        u->done_pending++;
+        urbsim_usb_dev_t *d = u->devs[c->dev];
+        if (!c->in && d->attached && d->on_out) {
+            d->on_out(d->ctx, c->data, c->len, now);
+        }
+        urbsim_kernel_at(u->k, now + u->hc_irq_ns, ev_usb, u, EV_CALLBACK);
+        break;
+    }
+    default: {
+        /* Driver completion callback (write or read), oldest first. */
+        urbsim_usb_urb_t *c = done_head(u);
+        urbsim_usb_dev_t *d = u->devs[c->dev];
+        if (c->in) {
+            urbsim_trace(u->tr, URBSIM_TR_FRAME, now, u->name, "read_cb", ",\"dev\":%u,\"len\":%u", c->dev, c->len);
+            if (d->host_read) {
+                d->host_read(d->hctx, c->data, c->len, now);
+            }
+        } else {
+            urbsim_trace(u->tr, URBSIM_TR_FRAME, now, u->name, "write_cb", ",\"dev\":%u", c->dev);
+            if (d->auto_read) {
+                urbsim_usb_read(u, c->dev); /* Fig. 9: the write callback issues the read */
+            }
+        }
+        u->done_head = (u->done_head + 1u) % URBSIM_USB_MAX_DONE;
+        u->done_len--;
+        u->done_pending--;
+        break;
+    }
+    }
+}

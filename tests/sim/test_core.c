@@ -1,0 +1,641 @@
+/*
+ * Unit tests of the simulation core (sim/core): event ordering, PRNG reproducibility, clock
+ * conversions, and the wire time of every bus model against values computed by hand in the
+ * comments. Built with ASan and UBSan by `make test-sim` (mk/sim.mk).
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "clock.h"
+#include "i2c.h"
+#include "kernel.h"
+#include "rng.h"
+#include "trace.h"
+#include "uart.h"
+#include "usb.h"
+
+static int failures;
+static int checks;
+
+#define CHECK(cond)                                                                    \
+    do {                                                                               \
+        checks++;                                                                      \
+        if (!(cond)) {                                                                 \
+            failures++;                                                                \
+            fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond);   \
+        }                                                                              \
+    } while (0)
+
+#define CHECK_EQ(a, b)                                                                         \
+    do {                                                                                       \
+        unsigned long long va_ = (unsigned long long)(a), vb_ = (unsigned long long)(b);       \
+        checks++;                                                                              \
+        if (va_ != vb_) {                                                                      \
+            failures++;                                                                        \
+            fprintf(stderr, "%s:%d: %s == %llu, expected %s == %llu\n", __FILE__, __LINE__, #a, \
+                    va_, #b, vb_);                                                             \
+        }                                                                                      \
+    } while (0)
+
+/* ---------------------------------------------------------------- kernel */
+
+typedef struct {
+    uint64_t order[16];
+    urbsim_ns_t at[16];
+    int n;
+    urbsim_kernel_t *k;
+} log_t;
+
+static void note(void *ctx, uint64_t arg, urbsim_ns_t now)
+{
+    log_t *l = ctx;
+    l->order[l->n] = arg;
+    l->at[l->n] = now;
+    l->n++;
+    if (arg == 100u) {
+        urbsim_kernel_at(l->k, now, note, l, 101u); /* same instant: runs after already queued ties */
+    }
+}
+
+static void test_kernel(void)
+{
+    urbsim_kernel_t k;
+    CHECK(urbsim_kernel_init(&k));
+    log_t l = {.n = 0, .k = &k};
+    urbsim_kernel_at(&k, 50, note, &l, 2);
+    urbsim_kernel_at(&k, 10, note, &l, 1);
+    urbsim_kernel_at(&k, 50, note, &l, 100);
+    urbsim_kernel_at(&k, 50, note, &l, 3);
+    urbsim_kernel_at(&k, 70, note, &l, 4);
+    CHECK_EQ(urbsim_kernel_next_time(&k), 10);
+    urbsim_kernel_run_until(&k, 60);
+    /* ties at 50 in insertion order, the event scheduled from a callback after them */
+    CHECK_EQ(l.n, 5);
+    CHECK_EQ(l.order[0], 1);
+    CHECK_EQ(l.order[1], 2);
+    CHECK_EQ(l.order[2], 100);
+    CHECK_EQ(l.order[3], 3);
+    CHECK_EQ(l.order[4], 101);
+    CHECK_EQ(k.now, 60);
+    /* the past is clamped to now */
+    urbsim_kernel_at(&k, 5, note, &l, 7);
+    urbsim_kernel_run_until(&k, 60);
+    CHECK_EQ(l.at[5], 60);
+    /* growth past the initial capacity keeps order */
+    urbsim_kernel_t k2;
+    CHECK(urbsim_kernel_init(&k2));
+    static uint64_t seen[5000];
+    for (uint64_t i = 0; i < 5000; i++) {
+        urbsim_kernel_at(&k2, (i * 7919u) % 1000u, note, &l, i);
+    }
+    urbsim_ns_t last = 0;
+    int ok = 1;
+    for (int i = 0; i < 5000; i++) {
+        urbsim_ns_t t = urbsim_kernel_next_time(&k2);
+        if (t < last) {
+            ok = 0;
+        }
+        last = t;
+        l.n = 0;
+        /* pop one by running to its time with a fresh log */
+        k2.stop = false;
+        uint64_t before = k2.executed;
+        urbsim_kernel_run_until(&k2, t);
+        seen[i] = k2.executed - before;
+        if (l.n > 16) {
+            ok = 0;
+        }
+        i += (int)seen[i] - 1;
+    }
+    CHECK(ok);
+    CHECK_EQ(k2.executed, 5000);
+    urbsim_kernel_free(&k2);
+    urbsim_kernel_free(&k);
+}
+
+/* ---------------------------------------------------------------- rng */
+
+static void test_rng(void)
+{
+    urbsim_rng_t a, b, c;
+    urbsim_rng_seed(&a, 42);
+    urbsim_rng_seed(&b, 42);
+    urbsim_rng_derive(&c, 42, "node", 1);
+    int same = 1;
+    for (int i = 0; i < 1000; i++) {
+        uint64_t x = urbsim_rng_u64(&a);
+        if (x != urbsim_rng_u64(&b)) {
+            same = 0;
+        }
+    }
+    CHECK(same);
+    urbsim_rng_t d;
+    urbsim_rng_derive(&d, 42, "node", 2);
+    CHECK(urbsim_rng_u64(&c) != urbsim_rng_u64(&d));
+    /* moments of the normal and geometric draws */
+    double sum = 0, sq = 0;
+    for (int i = 0; i < 100000; i++) {
+        double x = urbsim_rng_normal(&a, 3.0, 2.0);
+        sum += x;
+        sq += x * x;
+    }
+    double mean = sum / 1e5, var = sq / 1e5 - mean * mean;
+    CHECK(fabs(mean - 3.0) < 0.05);
+    CHECK(fabs(sqrt(var) - 2.0) < 0.05);
+    double gsum = 0;
+    for (int i = 0; i < 100000; i++) {
+        gsum += (double)urbsim_rng_geometric(&a, 0.01);
+    }
+    CHECK(fabs(gsum / 1e5 - 100.0) < 2.0);
+    CHECK_EQ(urbsim_rng_geometric(&a, 0.0), UINT64_MAX);
+    int in_range = 1;
+    for (int i = 0; i < 10000; i++) {
+        if (urbsim_rng_below(&a, 7) >= 7u) {
+            in_range = 0;
+        }
+    }
+    CHECK(in_range);
+}
+
+/* ---------------------------------------------------------------- clock */
+
+static void test_clock(void)
+{
+    urbsim_rng_t r;
+    urbsim_rng_seed(&r, 1);
+    urbsim_clock_cfg_t cfg = urbsim_clock_default_cfg();
+    cfg.ppm0 = 100.0; /* runs fast by 100 ppm */
+    urbsim_clock_t c;
+    urbsim_clock_init(&c, &cfg, &r);
+    /* after 1 s of virtual time, local time is 1 s + 100 us */
+    CHECK(fabs(urbsim_clock_local_ns(&c, URBSIM_NS_PER_S) - 1000100000.0) < 1e-3);
+    /* 48 MHz timer: 48 004 800 ticks after 1 s */
+    CHECK_EQ(urbsim_clock_ticks(&c, URBSIM_NS_PER_S), 48004800u);
+    /* tick 48 000 000 is reached at 1 s / (1 + 1e-4) = 999 900 009.999 ns -> 999 900 010 */
+    urbsim_ns_t t = urbsim_clock_virtual_at_tick(&c, 48000000u);
+    CHECK_EQ(t, 999900010u);
+    CHECK(urbsim_clock_ticks(&c, t) >= 48000000u);
+    CHECK(urbsim_clock_ticks(&c, t - 1u) < 48000000u);
+    /* interrupt latency: 15 cycles at 48 MHz = 312.5 ns, at +100 ppm 312.47 -> 312 */
+    CHECK_EQ(urbsim_clock_irq_latency(&c, 0), 312u);
+    /* reset restarts local time at zero */
+    urbsim_clock_reset(&c, 5 * URBSIM_NS_PER_MS);
+    CHECK(fabs(urbsim_clock_local_ns(&c, 6 * URBSIM_NS_PER_MS) - 1000100.0) < 1e-6);
+    /* wander: deterministic from the seed and independent of how often the clock is queried */
+    cfg.ppm0 = 0.0;
+    cfg.wander_ppm = 2.0;
+    cfg.wander_tau_s = 1.0;
+    urbsim_clock_t w1, w2;
+    urbsim_clock_init(&w1, &cfg, &r);
+    urbsim_clock_init(&w2, &cfg, &r);
+    for (urbsim_ns_t q = 0; q < 3 * URBSIM_NS_PER_S; q += URBSIM_NS_PER_MS) {
+        (void)urbsim_clock_local_ns(&w1, q);
+        (void)urbsim_clock_irq_latency(&w1, q);
+    }
+    CHECK(urbsim_clock_local_ns(&w1, 3 * URBSIM_NS_PER_S) == urbsim_clock_local_ns(&w2, 3 * URBSIM_NS_PER_S));
+    CHECK(fabs(urbsim_clock_error_ppm(&w2, 2 * URBSIM_NS_PER_S)) < 20.0);
+}
+
+/* ---------------------------------------------------------------- UART */
+
+typedef struct {
+    urbsim_ns_t t[64];
+    uint8_t b[64];
+    uint32_t flags[64];
+    int n;
+} rxlog_t;
+
+static void uart_rx(void *ctx, uint8_t byte, uint32_t flags, urbsim_ns_t t)
+{
+    rxlog_t *l = ctx;
+    l->t[l->n] = t;
+    l->flags[l->n] = flags;
+    l->b[l->n++] = byte;
+}
+
+static void test_uart(void)
+{
+    urbsim_kernel_t k;
+    urbsim_trace_t tr;
+    urbsim_rng_t r;
+    urbsim_kernel_init(&k);
+    urbsim_trace_init(&tr);
+    urbsim_rng_seed(&r, 3);
+    urbsim_uart_line_t u;
+    urbsim_uart_init(&u, &k, &tr, "uart", 115200.0, 0.0, NULL, &r);
+    rxlog_t l = {.n = 0};
+    u.rx = uart_rx;
+    u.rx_ctx = &l;
+    /* 115200 Bd: bit 8680.556 ns, character (10 bits) 86805.6 -> 86806 ns, the receiver sees the
+     * byte in the middle of the stop bit, 9.5 bits = 82465.3 -> 82465 ns after its start bit. */
+    CHECK_EQ(urbsim_uart_char_ns(&u), 86806u);
+    const uint8_t req[4] = {0x21, 0x31, 0x06, 0x99};
+    CHECK_EQ(urbsim_uart_send(&u, req, 4), 4u);
+    urbsim_kernel_run_until(&k, URBSIM_NS_PER_MS);
+    CHECK_EQ(l.n, 4);
+    CHECK_EQ(l.t[0], 82465u);
+    CHECK_EQ(l.t[1], 86806u + 82465u);
+    CHECK_EQ(l.t[3], 3u * 86806u + 82465u);
+    CHECK(memcmp(l.b, req, 4) == 0);
+    /* a 12-byte response (10-byte payload): the last byte arrives 11 * 86806 + 82465 = 1 037 331 ns
+     * after the first start bit: the paper's 12-byte budget just exceeds 1 ms of line time. */
+    l.n = 0;
+    urbsim_ns_t t0 = k.now;
+    uint8_t resp[12] = {0};
+    urbsim_uart_send(&u, resp, 12);
+    urbsim_kernel_run_until(&k, t0 + 2 * URBSIM_NS_PER_MS);
+    CHECK_EQ(l.t[11] - t0, 11u * 86806u + 82465u);
+    /* 48 MHz baud divider: 48e6 / (16 * 26) = 115384.6 Bd (+0.16 %), character 86666.7 ns */
+    urbsim_uart_line_t q;
+    urbsim_uart_init(&q, &k, &tr, "uart48", 115200.0, 48e6, NULL, &r);
+    CHECK(fabs(urbsim_uart_baud_actual(&q) - 115384.615) < 0.01);
+    CHECK_EQ(urbsim_uart_char_ns(&q), 86667u);
+    /* sender clock error stretches bits: a clock 1000 ppm slow sends 0.1 % longer characters */
+    urbsim_clock_cfg_t cfg = urbsim_clock_default_cfg();
+    cfg.ppm0 = -1000.0;
+    urbsim_clock_t slow;
+    urbsim_clock_init(&slow, &cfg, &r);
+    urbsim_uart_line_t s;
+    urbsim_uart_init(&s, &k, &tr, "slow", 115200.0, 0.0, &slow, &r);
+    rxlog_t ls = {.n = 0};
+    s.rx = uart_rx;
+    s.rx_ctx = &ls;
+    t0 = k.now;
+    urbsim_uart_send(&s, req, 1);
+    urbsim_kernel_run_until(&k, t0 + URBSIM_NS_PER_MS);
+    CHECK_EQ(ls.t[0] - t0, 82548u); /* 82465.28 / 0.999 = 82547.8 */
+    /* bit errors at rate 1: every character has a framing error */
+    urbsim_uart_set_faults(&u, 1.0, 0.0);
+    l.n = 0;
+    urbsim_uart_send(&u, req, 2);
+    urbsim_kernel_run_until(&k, k.now + URBSIM_NS_PER_MS);
+    CHECK_EQ(l.n, 2);
+    CHECK(l.flags[0] & URBSIM_UART_FRAMING);
+    /* loss rate 1: nothing arrives */
+    urbsim_uart_set_faults(&u, 0.0, 1.0);
+    l.n = 0;
+    urbsim_uart_send(&u, req, 3);
+    urbsim_kernel_run_until(&k, k.now + URBSIM_NS_PER_MS);
+    CHECK_EQ(l.n, 0);
+    CHECK_EQ(u.lost, 3u);
+    urbsim_kernel_free(&k);
+}
+
+/* ---------------------------------------------------------------- I2C */
+
+typedef struct {
+    urbsim_ns_t latency, isr; /* fixed ISR entry latency and handler time */
+    uint8_t regs[8];
+    uint8_t rx[16];
+    int n_rx, n_tx, stops, addr_hits;
+    urbsim_ns_t t_addr_hw, t_addr_isr;
+    bool nack_after;          /* NACK written bytes from the 3rd on */
+    urbsim_kernel_t *k;
+} tslave_t;
+
+static urbsim_ns_t ts_window(void *ctx, urbsim_ns_t t_irq, urbsim_ns_t *end)
+{
+    tslave_t *s = ctx;
+    *end = t_irq + s->latency + s->isr;
+    return t_irq + s->latency;
+}
+static bool ts_addr(void *ctx, bool read, bool gc, urbsim_ns_t t_hw)
+{
+    tslave_t *s = ctx;
+    (void)read;
+    (void)gc;
+    s->addr_hits++;
+    s->t_addr_hw = t_hw;
+    s->t_addr_isr = s->k->now;
+    return true;
+}
+static bool ts_rx(void *ctx, uint8_t byte, urbsim_ns_t t_hw)
+{
+    tslave_t *s = ctx;
+    (void)t_hw;
+    s->rx[s->n_rx++ & 15] = byte;
+    return !(s->nack_after && s->n_rx >= 3);
+}
+static uint8_t ts_tx(void *ctx, urbsim_ns_t t_hw)
+{
+    tslave_t *s = ctx;
+    (void)t_hw;
+    return s->regs[s->n_tx++ & 7];
+}
+static void ts_nack(void *ctx, urbsim_ns_t t_hw)
+{
+    (void)ctx;
+    (void)t_hw;
+}
+static void ts_stop(void *ctx, urbsim_ns_t t_hw)
+{
+    tslave_t *s = ctx;
+    (void)t_hw;
+    s->stops++;
+}
+
+static void tslave_setup(urbsim_i2c_slave_t *sl, tslave_t *s, uint8_t addr, urbsim_kernel_t *k)
+{
+    memset(sl, 0, sizeof *sl);
+    sl->ctx = s;
+    sl->address = addr;
+    sl->general_call = true;
+    sl->powered = true;
+    sl->isr_window = ts_window;
+    sl->on_address = ts_addr;
+    sl->on_rx = ts_rx;
+    sl->on_tx = ts_tx;
+    sl->on_tx_nack = ts_nack;
+    sl->on_stop = ts_stop;
+    s->k = k;
+}
+
+/* A scripted master: ops 'S' start, 'W' write next byte, 'R' read (ack), 'L' read last (nack),
+ * 'P' stop, issued back to back from the completion callbacks with no latency. */
+typedef struct {
+    urbsim_i2c_bus_t *bus;
+    const char *ops;
+    const uint8_t *bytes;
+    int pc, nb;
+    int ev[32];
+    uint8_t got[32];
+    urbsim_ns_t t[32];
+    int n;
+} tmaster_t;
+
+static void tm_next(tmaster_t *m)
+{
+    for (;;) {
+        char op = m->ops[m->pc];
+        if (op == '\0') {
+            return;
+        }
+        m->pc++;
+        switch (op) {
+        case 'S': urbsim_i2c_start(m->bus); return;
+        case 'W': urbsim_i2c_write(m->bus, m->bytes[m->nb++]); return;
+        case 'R': urbsim_i2c_read(m->bus, true); return;
+        case 'L': urbsim_i2c_read(m->bus, false); return;
+        default: urbsim_i2c_stop(m->bus); break; /* no completion: continue */
+        }
+    }
+}
+
+static void tm_event(void *ctx, int ev, uint8_t byte, urbsim_ns_t t)
+{
+    tmaster_t *m = ctx;
+    m->ev[m->n] = ev;
+    m->got[m->n] = byte;
+    m->t[m->n++] = t;
+    tm_next(m);
+}
+
+static void test_i2c(void)
+{
+    urbsim_kernel_t k;
+    urbsim_trace_t tr;
+    urbsim_rng_t r;
+    urbsim_kernel_init(&k);
+    urbsim_trace_init(&tr);
+    urbsim_rng_seed(&r, 4);
+    urbsim_i2c_bus_t bus;
+    urbsim_i2c_init(&bus, &k, &tr, "i2c", 400e3, &r);
+    CHECK_EQ(bus.t_bit, 2500u);
+    CHECK_EQ(urbsim_i2c_byte_ns(&bus), 22500u); /* the schema README's 22.5 us per byte */
+    tslave_t s1 = {.latency = 1000, .isr = 2000, .regs = {0xAB, 0xCD, 0xEF}};
+    urbsim_i2c_slave_t sl1;
+    tslave_setup(&sl1, &s1, 0x10, &k);
+    urbsim_i2c_attach(&bus, &sl1);
+    tmaster_t m = {.bus = &bus};
+    bus.master = tm_event;
+    bus.master_ctx = &m;
+
+    /* Write 2 bytes to 0x10: START 2500; address 8 bits -> t8 = 22500, the slave's ISR runs at
+     * 23500 and releases SCL at 25500, ACK bit ends 28000; byte 1: t8 = 48000, ACK ends
+     * 48000 + 3000 + 2500 = 53500; byte 2 ends 79000; STOP 81500; bus free at 82800. */
+    static const uint8_t wr[] = {0x20, 0x55, 0x66};
+    m.ops = "SWWWP";
+    m.bytes = wr;
+    tm_next(&m);
+    urbsim_kernel_run_until(&k, URBSIM_NS_PER_MS);
+    CHECK_EQ(m.n, 4);
+    CHECK_EQ(m.ev[0], URBSIM_I2C_START);
+    CHECK_EQ(m.t[0], 2500u);
+    CHECK_EQ(m.ev[1], URBSIM_I2C_ACK);
+    CHECK_EQ(m.t[1], 28000u);
+    CHECK_EQ(s1.t_addr_hw, 22500u);
+    CHECK_EQ(s1.t_addr_isr, 23500u);
+    CHECK_EQ(m.t[2], 53500u);
+    CHECK_EQ(m.t[3], 79000u);
+    CHECK_EQ(s1.n_rx, 2);
+    CHECK_EQ(s1.rx[0], 0x55u);
+    CHECK_EQ(s1.stops, 1);
+    CHECK_EQ(bus.bus_free_at, 82800u);
+    CHECK_EQ(bus.stretch_ns, 3u * 3000u);
+
+    /* Read 2 bytes from 0x10 (times after t0): START ends 2500; address ACK at 28000; the slave's
+     * data request ISR runs at 29000 and loads at 31000: the read waits (stretch) and ends at
+     * 31000 + 22500 = 53500; second byte requested at 53500, ready 56500, read ends 79000. */
+    m.n = 0;
+    m.pc = 0;
+    m.nb = 0;
+    static const uint8_t rd[] = {0x21};
+    m.ops = "SWRLP";
+    m.bytes = rd;
+    s1.n_tx = 0;
+    urbsim_ns_t t0 = k.now;
+    tm_next(&m);
+    urbsim_kernel_run_until(&k, t0 + URBSIM_NS_PER_MS);
+    CHECK_EQ(m.n, 4);
+    CHECK_EQ(m.t[0] - t0, 2500u);
+    CHECK_EQ(m.t[1] - t0, 28000u);
+    CHECK_EQ(m.ev[2], URBSIM_I2C_BYTE);
+    CHECK_EQ(m.got[2], 0xABu);
+    CHECK_EQ(m.t[2] - t0, 53500u);
+    CHECK_EQ(m.got[3], 0xCDu);
+    CHECK_EQ(m.t[3] - t0, 79000u);
+
+    /* Repeated START costs 1.5 bit times (3750 ns). */
+    m.n = 0;
+    m.pc = 0;
+    m.nb = 0;
+    static const uint8_t sel[] = {0x20, 0x81, 0x21};
+    m.ops = "SWWSWLP";
+    m.bytes = sel;
+    s1.n_tx = 0;
+    tm_next(&m);
+    urbsim_kernel_run_until(&k, k.now + URBSIM_NS_PER_MS);
+    CHECK_EQ(m.n, 6);
+    CHECK_EQ(m.t[3] - m.t[2], 3750u);
+
+    /* No slave at 0x11: NACK after 9 bit times with no stretching. */
+    m.n = 0;
+    m.pc = 0;
+    m.nb = 0;
+    static const uint8_t none[] = {0x22};
+    m.ops = "SWP";
+    m.bytes = none;
+    tm_next(&m);
+    urbsim_kernel_run_until(&k, k.now + URBSIM_NS_PER_MS);
+    CHECK_EQ(m.ev[1], URBSIM_I2C_NACK);
+    CHECK_EQ(m.t[1] - m.t[0], 22500u);
+
+    /* General call with a second, slower slave: the ACK waits for the slowest (latency 1500 +
+     * handler 4000 = 5500 ns of stretching). Each slave's handler runs at its own instant. */
+    tslave_t s2 = {.latency = 1500, .isr = 4000};
+    urbsim_i2c_slave_t sl2;
+    tslave_setup(&sl2, &s2, 0x12, &k);
+    urbsim_i2c_attach(&bus, &sl2);
+    m.n = 0;
+    m.pc = 0;
+    m.nb = 0;
+    static const uint8_t gc[] = {0x00, 0xA5, 0x07};
+    m.ops = "SWWWP";
+    m.bytes = gc;
+    t0 = k.now;
+    tm_next(&m);
+    urbsim_kernel_run_until(&k, t0 + URBSIM_NS_PER_MS);
+    CHECK_EQ(m.t[1] - t0, 2500u + 20000u + 5500u + 2500u);
+    CHECK_EQ(s1.t_addr_isr - s1.t_addr_hw, 1000u);
+    CHECK_EQ(s2.t_addr_isr - s2.t_addr_hw, 1500u);
+    CHECK_EQ(s2.rx[1], 0x07u);
+
+    /* SDA stuck low: START fails after one bit time; a bus clear with enough pulses frees it. */
+    urbsim_i2c_stick_sda(&bus, URBSIM_NEVER, 5);
+    m.n = 0;
+    m.pc = 0;
+    m.nb = 0;
+    m.ops = "S";
+    tm_next(&m);
+    urbsim_kernel_run_until(&k, k.now + URBSIM_NS_PER_MS);
+    CHECK_EQ(m.ev[0], URBSIM_I2C_ERROR);
+    CHECK(!(urbsim_i2c_lines(&bus) & URBSIM_I2C_SDA));
+    for (int p = 0; p < 5; p++) {
+        urbsim_i2c_drive(&bus, URBSIM_I2C_SDA);
+        k.now += 5000;
+        urbsim_i2c_drive(&bus, URBSIM_I2C_SDA | URBSIM_I2C_SCL);
+        k.now += 5000;
+    }
+    CHECK(urbsim_i2c_lines(&bus) & URBSIM_I2C_SDA);
+    urbsim_i2c_release(&bus);
+
+    /* SCL stuck low forever: an operation never completes. */
+    urbsim_i2c_stick_scl(&bus, URBSIM_NEVER);
+    m.n = 0;
+    m.pc = 0;
+    m.nb = 0;
+    m.ops = "SW";
+    m.bytes = wr;
+    tm_next(&m);
+    urbsim_kernel_run_until(&k, k.now + 10 * URBSIM_NS_PER_MS);
+    CHECK_EQ(m.n, 0);
+    CHECK(!(urbsim_i2c_lines(&bus) & URBSIM_I2C_SCL));
+    urbsim_kernel_free(&k);
+}
+
+/* ---------------------------------------------------------------- USB */
+
+typedef struct {
+    urbsim_ns_t t_out, t_in_req, t_read;
+    uint32_t out_len, read_len;
+    uint8_t in_data[64];
+    uint32_t in_len;
+    int sofs;
+} tdev_t;
+
+static void td_sof(void *ctx, uint16_t f, urbsim_ns_t t)
+{
+    tdev_t *d = ctx;
+    (void)f;
+    (void)t;
+    d->sofs++;
+}
+static void td_out(void *ctx, const uint8_t *data, uint32_t len, urbsim_ns_t t)
+{
+    tdev_t *d = ctx;
+    (void)data;
+    d->t_out = t;
+    d->out_len = len;
+}
+static uint32_t td_in(void *ctx, uint8_t *buf, uint32_t cap, urbsim_ns_t t)
+{
+    tdev_t *d = ctx;
+    d->t_in_req = t;
+    uint32_t n = d->in_len < cap ? d->in_len : cap;
+    memcpy(buf, d->in_data, n);
+    return n;
+}
+static void td_read(void *ctx, const uint8_t *data, uint32_t len, urbsim_ns_t t)
+{
+    tdev_t *d = ctx;
+    (void)data;
+    d->t_read = t;
+    d->read_len = len;
+}
+
+static void test_usb(void)
+{
+    urbsim_kernel_t k;
+    urbsim_trace_t tr;
+    urbsim_kernel_init(&k);
+    urbsim_trace_init(&tr);
+    urbsim_usb_bus_t u;
+    urbsim_usb_init(&u, &k, &tr, "usb", NULL, 250 * URBSIM_NS_PER_US); /* SOF at 0.25 ms + n ms */
+    tdev_t td = {.in_len = 10};
+    urbsim_usb_dev_t dev = {.ctx = &td, .on_sof = td_sof, .on_out = td_out, .on_in = td_in,
+                            .host_read = td_read, .hctx = &td, .auto_read = true, .in_size = 512};
+    CHECK_EQ(urbsim_usb_attach(&u, &dev), 0);
+    /* Hand-computed bits: 10 zero bytes: 35 + 8 + (35 + 80) + 8 + 19 + 8 = 193 bits = 16083 ns at
+     * 12 Mb/s. 64 bytes of 0xFF: 64 * 8 / 6 = 85 stuffed bits -> 113 + 512 + 85 = 710 bits, plus
+     * a zero-length packet (113 bits). 512 zero bytes: 8 packets of 625 + ZLP 113 = 5113 bits. */
+    uint8_t zeros[512] = {0}, ones[64];
+    memset(ones, 0xFF, sizeof ones);
+    CHECK_EQ(urbsim_usb_transfer_bits(&u, zeros, 10), 193u);
+    CHECK_EQ(urbsim_usb_bits_ns(&u, 193), 16083u);
+    CHECK_EQ(urbsim_usb_transfer_bits(&u, ones, 64), 710u + 113u);
+    CHECK_EQ(urbsim_usb_transfer_bits(&u, zeros, 512), 8u * 625u + 113u);
+    urbsim_usb_run(&u);
+    /* Submit an OUT at 0.1 ms (before the SOF at 0.25 ms): it runs in that frame after the SOF
+     * packet (43 bits = 3583 ns): OUT of 10 bytes ends at 250000 + 3583 + 16083 = 269666 ns. The
+     * write callback (20 us later) submits the IN, served in the next frame: IN token at
+     * 1250000 + 3583 = 1253583, 10 bytes end 1269666, read callback at 1289666. */
+    urbsim_kernel_run_until(&k, 100 * URBSIM_NS_PER_US);
+    CHECK(urbsim_usb_write(&u, 0, zeros, 10));
+    urbsim_kernel_run_until(&k, 3 * URBSIM_NS_PER_MS);
+    CHECK_EQ(td.t_out, 269666u);
+    CHECK_EQ(td.out_len, 10u);
+    CHECK_EQ(td.t_in_req, 1253583u);
+    CHECK_EQ(td.t_read, 1289666u);
+    CHECK_EQ(td.read_len, 10u);
+    CHECK(td.sofs >= 3);
+    /* An OUT submitted just after a SOF waits for the next frame ("the next USB cycle"). */
+    urbsim_kernel_run_until(&k, 3 * URBSIM_NS_PER_MS + 250 * URBSIM_NS_PER_US + 1u);
+    CHECK(urbsim_usb_write(&u, 0, zeros, 10));
+    urbsim_kernel_run_until(&k, 6 * URBSIM_NS_PER_MS);
+    CHECK_EQ(td.t_out, 4u * URBSIM_NS_PER_MS + 269666u);
+    /* A device with nothing to send is NAKed and the IN retried in the next frame. */
+    td.in_len = 0;
+    urbsim_kernel_run_until(&k, 6 * URBSIM_NS_PER_MS + 100 * URBSIM_NS_PER_US);
+    CHECK(urbsim_usb_read(&u, 0));
+    urbsim_kernel_run_until(&k, 7 * URBSIM_NS_PER_MS + 100 * URBSIM_NS_PER_US);
+    CHECK(dev.naks >= 1u);
+    td.in_len = 3;
+    urbsim_kernel_run_until(&k, 9 * URBSIM_NS_PER_MS);
+    CHECK_EQ(td.read_len, 3u);
+    CHECK_EQ(td.t_in_req, 7u * URBSIM_NS_PER_MS + 250000u + 3583u);
+    urbsim_kernel_free(&k);
+}
+
+int main(void)
+{
+    test_kernel();
+    test_rng();
+    test_clock();
+    test_uart();
+    test_i2c();
+    test_usb();
+    printf("sim core: %d checks, %d failed\n", checks, failures);
+    return failures ? 1 : 0;
+}
