@@ -1,0 +1,307 @@
+/*
+ * I2C slave downlink: one call per bus event, O(1) each (at most one CRC byte update, whose
+ * bit loop is bounded by 8). The contract is the one in spec/schema/README.md ("Frames"), which
+ * the bridge implements as master:
+ *
+ *   write inbox m:  START addr+W  select(m, read=0)  data[size]  check  STOP
+ *     NACK select     inbox m not set up, or reserved bits set      (bridge: BAD_REQUEST)
+ *     NACK data[0]    IsrWriteBegin refused: both buffers in use    (bridge: NODE_BUSY; fault OVERRUN)
+ *     NACK last check the check failed, nothing stored              (bridge: CHECKSUM; fault CHECKSUM)
+ *     NACK extra byte more than size + check bytes                  (bridge: SIZE_MISMATCH)
+ *     commit          only at STOP / repeated START after exactly size + check bytes with a good
+ *                     check; any other end (short write, bus error, stuck bus) aborts.
+ *   select outbox m: START addr+W  select(m, read=1)  STOP|Sr    (NACK: outbox m not set up)
+ *   read:            START addr+R  data[size] check 0xFF...      (check covers m|0x80, then data)
+ *   SYNC:            START 0x00+W  0xA5 counter                  (time-stamped at the address match)
+ *
+ * The check is link_check: CRC-8 when the covered length (select + data) is at most 14 bytes,
+ * else CRC-16 sent little-endian.
+ *
+ * Seeded bugs for the mutant check: URB_MUTANT_COMMIT_BAD_CHECK (a failed check still commits),
+ * URB_MUTANT_READ_CHECK_NO_SELECT (the read check leaves out the implicit select byte).
+ */
+#include "urb_node_internal.h"
+
+#include "urb_core.h"
+#include "urb_runtime.h"
+
+#define URB_SELECT_READ 0x80u     /* MailboxSelect.read */
+#define URB_SELECT_RESERVED 0x78u /* MailboxSelect._ (must be zero) */
+#define URB_SELECT_MAILBOX 0x07u  /* MailboxSelect.mailbox */
+
+/* The tier follows the covered length 1 + size (select byte + data). */
+static bool crc_is_8(uint8_t size)
+{
+    return (1u + (unsigned)size) <= URB_CRC8_LINK_CHECK_MAX_COVERED;
+}
+
+static uint8_t check_len(uint8_t size)
+{
+    return crc_is_8(size) ? 1u : 2u;
+}
+
+static uint16_t crc_init(uint8_t size)
+{
+    return crc_is_8(size) ? (uint16_t)URB_CRC8_LINK_CHECK_INIT : (uint16_t)URB_CRC16_LINK_CHECK_INIT;
+}
+
+static uint16_t crc_update(uint8_t size, uint16_t crc, uint8_t byte)
+{
+    if (crc_is_8(size)) {
+        return urb_crc8_link_check_byte((uint8_t)crc, byte);
+    }
+    return urb_crc16_link_check_byte(crc, byte);
+}
+
+/* Byte k (0: low) of the finished check, as sent on the wire (little-endian). */
+static uint8_t check_byte(uint8_t size, uint16_t crc, uint8_t k)
+{
+    if (crc_is_8(size)) {
+        return urb_crc8_link_check_final((uint8_t)crc);
+    }
+    uint16_t const fin = urb_crc16_link_check_final(crc);
+    return (uint8_t)((k == 0u) ? (fin & 0xFFu) : (fin >> 8));
+}
+
+/* Ends the transaction in progress. `clean`: a STOP, repeated START or end of read, which
+ * commits a complete write; otherwise (bus error, stuck bus) a complete write is aborted too. */
+static void end_transaction(urb_node_t *node, bool clean)
+{
+    urb_node_i2c_t *i2c = &node->i2c;
+    uint8_t const m = i2c->mailbox;
+    switch (i2c->state) {
+    case URB_I2C_ST_DATA:
+    case URB_I2C_ST_CHECK:
+        if (i2c->count != 0u) {
+            urb_isr_write_abort(node, m); /* cut short: MailboxInbox.tla IsrWriteAbort */
+        }
+        break;
+    case URB_I2C_ST_DONE:
+        if (clean) {
+            urb_isr_write_commit(node, m); /* MailboxInbox.tla IsrWriteCommit */
+        } else {
+            urb_isr_write_abort(node, m); /* MailboxInbox.tla IsrWriteAbort */
+        }
+        break;
+    case URB_I2C_ST_READ: {
+        uint8_t const size = node->outbox[m].size;
+        urb_isr_read_end(node, m); /* MailboxOutbox.tla IsrReadEnd */
+        if ((m == 0u) && (i2c->count >= (uint8_t)(size + check_len(size)))) {
+            node->id_done = node->id_reads; /* a complete identification read (clears the fault flag) */
+        }
+        break;
+    }
+    default:
+        break; /* nothing held: IDLE, SELECT, SELECTED, SYNC, IGNORE */
+    }
+    i2c->state = URB_I2C_ST_IDLE;
+}
+
+/* Refuses the current byte and everything after it until STOP / START. */
+static uint16_t refuse(urb_node_t *node)
+{
+    node->i2c.state = URB_I2C_ST_IGNORE;
+    return URB_I2C_NACK;
+}
+
+static uint16_t rx_select(urb_node_t *node, uint8_t byte)
+{
+    urb_node_i2c_t *i2c = &node->i2c;
+    uint8_t const m = (uint8_t)(byte & URB_SELECT_MAILBOX);
+    if ((byte & URB_SELECT_RESERVED) != 0u) {
+        return refuse(node); /* strict decoding: reserved bits must be zero */
+    }
+    if ((byte & URB_SELECT_READ) != 0u) {
+        if (node->outbox[m].size == 0u) {
+            return refuse(node);
+        }
+        i2c->selected = m; /* kept until the next read select */
+        i2c->state = URB_I2C_ST_SELECTED;
+        return URB_I2C_ACK;
+    }
+    uint8_t const size = node->inbox[m].size;
+    if (size == 0u) {
+        return refuse(node);
+    }
+    i2c->mailbox = m;
+    i2c->count = 0u;
+    i2c->check_ok = 1u;
+    i2c->crc = crc_update(size, crc_init(size), byte);
+    i2c->state = URB_I2C_ST_DATA;
+    return URB_I2C_ACK;
+}
+
+static uint16_t rx_data(urb_node_t *node, uint8_t byte)
+{
+    urb_node_i2c_t *i2c = &node->i2c;
+    uint8_t const m = i2c->mailbox;
+    uint8_t const size = node->inbox[m].size;
+    if (i2c->count == 0u) {
+        if (!urb_isr_write_begin(node, m)) { /* MailboxInbox.tla IsrWriteBegin refused: NACK */
+            urb_isr_fault(node, URB_NODE_FAULT_OVERRUN);
+            return refuse(node);
+        }
+    }
+    urb_isr_write_byte(node, m, i2c->count, byte); /* MailboxInbox.tla IsrWriteByte */
+    i2c->crc = crc_update(size, i2c->crc, byte);
+    i2c->count++;
+    if (i2c->count == size) {
+        i2c->state = URB_I2C_ST_CHECK;
+    }
+    return URB_I2C_ACK;
+}
+
+static uint16_t rx_check(urb_node_t *node, uint8_t byte)
+{
+    urb_node_i2c_t *i2c = &node->i2c;
+    uint8_t const m = i2c->mailbox;
+    uint8_t const size = node->inbox[m].size;
+    uint8_t const k = (uint8_t)(i2c->count - size);
+    if (byte != check_byte(size, i2c->crc, k)) {
+        i2c->check_ok = 0u;
+    }
+    i2c->count++;
+    if (k + 1u < check_len(size)) {
+        return URB_I2C_ACK; /* the verdict is given on the last check byte */
+    }
+#if !defined(URB_MUTANT_COMMIT_BAD_CHECK)
+    if (i2c->check_ok == 0u) {
+        urb_isr_write_abort(node, m); /* MailboxInbox.tla IsrWriteAbort: corrupt, nothing published */
+        urb_isr_fault(node, URB_NODE_FAULT_CHECKSUM);
+        return refuse(node);
+    }
+#endif
+    i2c->state = URB_I2C_ST_DONE; /* commit waits for STOP / repeated START */
+    return URB_I2C_ACK;
+}
+
+static uint16_t rx_sync(urb_node_t *node, uint8_t byte)
+{
+    urb_node_i2c_t *i2c = &node->i2c;
+    if (i2c->sync_ok == 0u) {
+        if (byte != URB_SYNC_MAGIC) {
+            return refuse(node); /* another general-call command: not ours */
+        }
+        i2c->sync_ok = 1u;
+        return URB_I2C_ACK;
+    }
+    urb_pll_sync(node, i2c->sync_t, byte);
+    i2c->state = URB_I2C_ST_IGNORE; /* a SYNC has exactly two bytes */
+    return URB_I2C_ACK;
+}
+
+static uint16_t rx_byte(urb_node_t *node, uint8_t byte)
+{
+    switch (node->i2c.state) {
+    case URB_I2C_ST_SELECT:
+        return rx_select(node, byte);
+    case URB_I2C_ST_DATA:
+        return rx_data(node, byte);
+    case URB_I2C_ST_CHECK:
+        return rx_check(node, byte);
+    case URB_I2C_ST_DONE:
+        urb_isr_write_abort(node, node->i2c.mailbox); /* more than size + check bytes: long write */
+        return refuse(node);
+    case URB_I2C_ST_SYNC:
+        return rx_sync(node, byte);
+    default:
+        return refuse(node); /* IDLE, SELECTED (a select has one byte), READ, IGNORE */
+    }
+}
+
+static uint16_t tx_byte(urb_node_t *node)
+{
+    urb_node_i2c_t *i2c = &node->i2c;
+    if (i2c->state != URB_I2C_ST_READ) {
+        return 0xFFu; /* not in a read: release SDA (reads as 0xFF) */
+    }
+    uint8_t const m = i2c->mailbox;
+    uint8_t const size = node->outbox[m].size;
+    uint8_t const count = i2c->count;
+    if (count < size) {
+        uint8_t const b = urb_isr_read_byte(node, m, count); /* MailboxOutbox.tla IsrReadByte */
+        i2c->crc = crc_update(size, i2c->crc, b);
+        i2c->count++;
+        return b;
+    }
+    uint8_t const cl = check_len(size);
+    if (count < (uint8_t)(size + cl)) {
+        i2c->count++;
+        return check_byte(size, i2c->crc, (uint8_t)(count - size));
+    }
+    return 0xFFu; /* the master clocks more than size + check bytes */
+}
+
+static uint16_t addr_read(urb_node_t *node)
+{
+    urb_node_i2c_t *i2c = &node->i2c;
+    uint8_t const m = i2c->selected;
+    uint8_t const size = node->outbox[m].size;
+    urb_isr_read_begin(node, m); /* MailboxOutbox.tla IsrReadBegin */
+    if (m == 0u) {
+        node->id_reads = (uint8_t)(node->id_reads + 1u);
+    }
+    i2c->mailbox = m;
+    i2c->count = 0u;
+#if defined(URB_MUTANT_READ_CHECK_NO_SELECT)
+    i2c->crc = crc_init(size);
+#else
+    i2c->crc = crc_update(size, crc_init(size), (uint8_t)(m | URB_SELECT_READ)); /* implicit select */
+#endif
+    i2c->state = URB_I2C_ST_READ;
+    return URB_I2C_ACK;
+}
+
+static uint16_t general_call(urb_node_t *node)
+{
+    urb_node_hal_t const *hal = node->hal;
+    urb_node_i2c_t *i2c = &node->i2c;
+    /* t_d: hardware capture at the address match when the port has one (no latency jitter) */
+    i2c->sync_t = (hal->sync_capture != NULL) ? hal->sync_capture(hal->ctx) : hal->now(hal->ctx);
+    i2c->sync_ok = 0u;
+    i2c->state = URB_I2C_ST_SYNC;
+    if (hal->mark != NULL) {
+        hal->mark(hal->ctx, URB_NODE_MARK_SYNC);
+    }
+    return URB_I2C_ACK;
+}
+
+uint16_t urb_node_i2c_event(urb_node_t *node, urb_i2c_event_t event, uint8_t byte)
+{
+    if ((node == NULL) || (node->started == 0u)) {
+        return (event == URB_I2C_TX_BYTE) ? 0xFFu : URB_I2C_NACK;
+    }
+    switch (event) {
+    case URB_I2C_ADDR_WRITE:
+        end_transaction(node, true); /* a repeated START ends the previous transaction */
+        node->i2c.state = URB_I2C_ST_SELECT;
+        return URB_I2C_ACK;
+    case URB_I2C_ADDR_READ:
+        end_transaction(node, true);
+        return addr_read(node);
+    case URB_I2C_GENERAL_CALL:
+        end_transaction(node, true);
+        return general_call(node);
+    case URB_I2C_RX_BYTE:
+        return rx_byte(node, byte);
+    case URB_I2C_TX_BYTE:
+        return tx_byte(node);
+    case URB_I2C_TX_NACK:
+        if (node->i2c.state == URB_I2C_ST_READ) {
+            end_transaction(node, true); /* the master took what it wanted: end of the read */
+        }
+        return URB_I2C_ACK;
+    case URB_I2C_STOP:
+        end_transaction(node, true);
+        return URB_I2C_ACK;
+    case URB_I2C_BUS_ERROR:
+        end_transaction(node, false);
+        return URB_I2C_ACK;
+    case URB_I2C_STUCK:
+        end_transaction(node, false);
+        urb_isr_fault(node, URB_NODE_FAULT_STUCK_BUS);
+        return URB_I2C_ACK;
+    default:
+        return URB_I2C_NACK;
+    }
+}

@@ -1,0 +1,341 @@
+/*
+ * Double-buffered mailboxes: spec/tla/MailboxOutbox.tla and spec/tla/MailboxInbox.tla, action by
+ * action. Each shared access is one statement and carries the name of the TLA+ action it
+ * implements; URB_STEP marks the points where a test can preempt the application (the states
+ * TLC explores between two application actions).
+ *
+ * Shared variables and their single writers (see urb_node.h):
+ *   outbox: front (application), isr_idx (interrupt)
+ *   inbox:  front (interrupt), isr_idx (interrupt), app_idx (application)
+ * fresh[b] of an inbox belongs to buffer b like its data bytes: only the side that owns buffer b
+ * under the algorithm touches it (the interrupt at commit, the application while holding b).
+ *
+ * Seeded bugs for the mutant check (tests/firmware/node/run_mutants.sh), never in a real build:
+ *   URB_MUTANT_SINGLE_BUFFER          both sides use the published buffer (single buffering)
+ *   URB_MUTANT_OUTBOX_NO_BUSY_CHECK   AppLockCheck skipped
+ *   URB_MUTANT_INBOX_NO_FRONT_RECHECK AppLockCheckFront skipped (the design TLC refuted)
+ *   URB_MUTANT_INBOX_NO_NACK          IsrWriteBegin never refuses
+ */
+#include "urb_node_internal.h"
+
+/* MaxRetry of MailboxInbox.tla: attempts after the first before URB_NODE_ERR_BUSY. */
+#define URB_INBOX_MAX_RETRY 2u
+
+/* Mailbox 0 buffers inside urb_node_t.mb0: outbox 0 first, then inbox 0. */
+#define URB_MB0_INBOX_OFFSET (2u * URB_NODE_OUTBOX0_SIZE)
+
+uint8_t *urb_outbox_buf(urb_node_t *node, uint8_t n, uint8_t b)
+{
+    urb_node_outbox_t const *ob = &node->outbox[n];
+    uint8_t *base = (n == 0u) ? node->mb0 : node->storage;
+    return base + ob->offset + ((b != 0u) ? ob->size : 0u);
+}
+
+uint8_t *urb_inbox_buf(urb_node_t *node, uint8_t n, uint8_t b)
+{
+    urb_node_inbox_t const *ib = &node->inbox[n];
+    uint8_t *base = (n == 0u) ? node->mb0 : node->storage;
+    return base + ib->offset + ((b != 0u) ? ib->size : 0u);
+}
+
+/* ===== Outbox: application writes, interrupt reads (MailboxOutbox.tla) ===================== */
+
+int urb_lock_outbox_any(urb_node_t *node, uint8_t n, uint8_t **data)
+{
+    urb_node_outbox_t *ob = &node->outbox[n];
+    if (ob->size == 0u) {
+        return URB_NODE_ERR_SETUP;
+    }
+    if (ob->held != URB_NONE) {
+        return URB_NODE_ERR_STATE; /* double lock: the model's application holds one lock at a time */
+    }
+#if defined(URB_MUTANT_SINGLE_BUFFER)
+    uint8_t const w = ob->front;
+#else
+    uint8_t const w = (uint8_t)(1u - ob->front); /* MailboxOutbox.tla: AppLockPick */
+#endif
+    URB_STEP(node, URB_STEP_OUT_LOCK_PICK);
+#if !defined(URB_MUTANT_OUTBOX_NO_BUSY_CHECK)
+    if (ob->isr_idx == w) { /* MailboxOutbox.tla: AppLockCheck (the ISR still sends buffer w) */
+        URB_STEP(node, URB_STEP_OUT_LOCK_CHECK);
+        return URB_NODE_ERR_BUSY;
+    }
+#endif
+    URB_STEP(node, URB_STEP_OUT_LOCK_CHECK);
+    ob->held = w; /* application local: the app owns buf[w] */
+    URB_NODE_BARRIER(); /* the caller's stores into buf[w] stay after the check */
+    *data = urb_outbox_buf(node, n, w);
+    return URB_NODE_OK;
+}
+
+int urb_release_outbox_any(urb_node_t *node, uint8_t n)
+{
+    urb_node_outbox_t *ob = &node->outbox[n];
+    if (ob->size == 0u) {
+        return URB_NODE_ERR_SETUP;
+    }
+    if (ob->held == URB_NONE) {
+        return URB_NODE_ERR_STATE;
+    }
+    URB_NODE_BARRIER(); /* every data byte is stored before the buffer is published */
+    ob->front = ob->held; /* MailboxOutbox.tla: AppRelease (one single store) */
+    ob->held = URB_NONE;
+    URB_STEP(node, URB_STEP_OUT_RELEASE);
+    return URB_NODE_OK;
+}
+
+void urb_isr_read_begin(urb_node_t *node, uint8_t n)
+{
+    urb_node_outbox_t *ob = &node->outbox[n];
+    ob->isr_idx = ob->front; /* MailboxOutbox.tla: IsrReadBegin (linearization point of the read) */
+    URB_NODE_BARRIER();
+}
+
+uint8_t urb_isr_read_byte(urb_node_t *node, uint8_t n, uint8_t k)
+{
+    urb_node_outbox_t const *ob = &node->outbox[n];
+    if (ob->isr_idx == URB_NONE) {
+        return 0xFFu; /* no read in progress (defensive: the state machine never asks then) */
+    }
+    return urb_outbox_buf(node, n, ob->isr_idx)[k]; /* MailboxOutbox.tla: IsrReadByte */
+}
+
+void urb_isr_read_end(urb_node_t *node, uint8_t n)
+{
+    urb_node_outbox_t *ob = &node->outbox[n];
+    URB_NODE_BARRIER();
+    ob->isr_idx = URB_NONE; /* MailboxOutbox.tla: IsrReadEnd */
+}
+
+/* ===== Inbox: interrupt writes, application reads (MailboxInbox.tla) ======================= */
+
+bool urb_isr_write_begin(urb_node_t *node, uint8_t n)
+{
+    urb_node_inbox_t *ib = &node->inbox[n];
+#if defined(URB_MUTANT_SINGLE_BUFFER)
+    uint8_t const t = ib->front;
+#else
+    uint8_t const t = (uint8_t)(1u - ib->front); /* MailboxInbox.tla: IsrWriteBegin (t := 1 - front) */
+#endif
+#if !defined(URB_MUTANT_INBOX_NO_NACK)
+    if (ib->app_idx == t) { /* MailboxInbox.tla: IsrWriteBegin (app holds t: NACK, nothing changes) */
+        return false;
+    }
+#endif
+    ib->isr_idx = t; /* MailboxInbox.tla: IsrWriteBegin (isr_idx := t) */
+    URB_NODE_BARRIER();
+    return true;
+}
+
+void urb_isr_write_byte(urb_node_t *node, uint8_t n, uint8_t k, uint8_t byte)
+{
+    urb_node_inbox_t const *ib = &node->inbox[n];
+    if (ib->isr_idx == URB_NONE) {
+        return; /* defensive: the state machine only stores after a successful begin */
+    }
+    urb_inbox_buf(node, n, ib->isr_idx)[k] = byte; /* MailboxInbox.tla: IsrWriteByte */
+}
+
+void urb_isr_write_commit(urb_node_t *node, uint8_t n)
+{
+    urb_node_inbox_t *ib = &node->inbox[n];
+    uint8_t const b = ib->isr_idx;
+    if (b == URB_NONE) {
+        return;
+    }
+    ib->fresh[b] = 1u; /* part of buffer b's contents: the interrupt owns b until the publish below */
+    URB_NODE_BARRIER(); /* data and fresh flag are stored before the publish */
+    ib->front = b;          /* MailboxInbox.tla: IsrWriteCommit (front := isr_idx) */
+    ib->isr_idx = URB_NONE; /* MailboxInbox.tla: IsrWriteCommit (isr_idx := NONE), in this order */
+}
+
+void urb_isr_write_abort(urb_node_t *node, uint8_t n)
+{
+    urb_node_inbox_t *ib = &node->inbox[n];
+    ib->isr_idx = URB_NONE; /* MailboxInbox.tla: IsrWriteAbort (nothing published) */
+}
+
+int urb_lock_inbox_any(urb_node_t *node, uint8_t n, const uint8_t **data)
+{
+    urb_node_inbox_t *ib = &node->inbox[n];
+    if (ib->size == 0u) {
+        return URB_NODE_ERR_SETUP;
+    }
+    if (ib->app_idx != URB_NONE) {
+        return URB_NODE_ERR_STATE; /* double lock */
+    }
+    /* bound: 1 + URB_INBOX_MAX_RETRY = 3 attempts (MaxRetry of the model), then BUSY */
+    for (uint8_t attempt = 0u; attempt <= URB_INBOX_MAX_RETRY; attempt++) {
+        uint8_t const a = ib->front; /* MailboxInbox.tla: AppLockLoadFront */
+        URB_STEP(node, URB_STEP_IN_LOAD_FRONT);
+        ib->app_idx = a; /* MailboxInbox.tla: AppLockClaim (from now on the ISR NACKs writes to a) */
+        URB_STEP(node, URB_STEP_IN_CLAIM);
+        if (ib->isr_idx == a) { /* MailboxInbox.tla: AppLockCheckIsr (a write to a is in progress) */
+            ib->app_idx = URB_NONE; /* MailboxInbox.tla: LockFail (retry from step 1) */
+            URB_STEP(node, URB_STEP_IN_LOCK_FAIL);
+            continue;
+        }
+        URB_STEP(node, URB_STEP_IN_CHECK_ISR);
+#if !defined(URB_MUTANT_INBOX_NO_FRONT_RECHECK)
+        if (ib->front != a) { /* MailboxInbox.tla: AppLockCheckFront (a commit landed since step 1) */
+            ib->app_idx = URB_NONE; /* MailboxInbox.tla: LockFail (retry from step 1) */
+            URB_STEP(node, URB_STEP_IN_LOCK_FAIL);
+            continue;
+        }
+#endif
+        /* MailboxInbox.tla: AppLockCheckFront passed: the app owns buf[a] (linearization point) */
+        URB_STEP(node, URB_STEP_IN_CHECK_FRONT);
+        URB_NODE_BARRIER(); /* the caller's loads from buf[a] stay after the checks */
+        *data = urb_inbox_buf(node, n, a);
+        int const result = (ib->fresh[a] != 0u) ? URB_NODE_NEW : URB_NODE_OK;
+        ib->fresh[a] = 0u;
+        return result;
+    }
+    return URB_NODE_ERR_BUSY; /* MailboxInbox.tla: LockFail after MaxRetry retries */
+}
+
+int urb_release_inbox_any(urb_node_t *node, uint8_t n)
+{
+    urb_node_inbox_t *ib = &node->inbox[n];
+    if (ib->size == 0u) {
+        return URB_NODE_ERR_SETUP;
+    }
+    if (ib->app_idx == URB_NONE) {
+        return URB_NODE_ERR_STATE;
+    }
+    URB_NODE_BARRIER(); /* every load from the buffer is done before it is handed back */
+    ib->app_idx = URB_NONE; /* MailboxInbox.tla: AppRelease */
+    URB_STEP(node, URB_STEP_IN_RELEASE);
+    return URB_NODE_OK;
+}
+
+/* ===== Setup ================================================================================ */
+
+void urb_mailbox_reset(urb_node_t *node)
+{
+    /* bound: URB_NODE_MAILBOXES = 8 */
+    for (uint8_t n = 0u; n < URB_NODE_MAILBOXES; n++) {
+        urb_node_outbox_t *ob = &node->outbox[n];
+        ob->offset = 0u;
+        ob->size = 0u;
+        ob->front = 0u;
+        ob->isr_idx = URB_NONE;
+        ob->held = URB_NONE;
+        urb_node_inbox_t *ib = &node->inbox[n];
+        ib->offset = 0u;
+        ib->size = 0u;
+        ib->front = 0u;
+        ib->isr_idx = URB_NONE;
+        ib->app_idx = URB_NONE;
+        ib->fresh[0] = 0u;
+        ib->fresh[1] = 0u;
+    }
+    node->outbox[0].size = URB_NODE_OUTBOX0_SIZE;
+    node->inbox[0].offset = URB_MB0_INBOX_OFFSET;
+    node->inbox[0].size = URB_NODE_INBOX0_SIZE;
+    /* bound: sizeof mb0 = 62 */
+    for (uint8_t k = 0u; k < (uint8_t)sizeof node->mb0; k++) {
+        node->mb0[k] = 0u;
+    }
+}
+
+/* Common checks of the two setup functions; carves 2 * size zeroed bytes into *offset. */
+static int setup_carve(urb_node_t *node, uint8_t n, uint8_t size, uint8_t current, uint16_t *offset)
+{
+    if ((node == NULL) || (n == 0u) || (n >= URB_NODE_MAILBOXES) || (size == 0u) || (size > URB_NODE_MAX_SIZE)) {
+        return URB_NODE_ERR_ARG;
+    }
+    if (node->started != 0u) {
+        return URB_NODE_ERR_STATE; /* sizes are fixed before the node goes on the bus */
+    }
+    if (current != 0u) {
+        return URB_NODE_ERR_SETUP;
+    }
+    uint16_t const need = (uint16_t)(2u * size);
+    if ((node->storage == NULL) || (need > (uint16_t)(node->storage_len - node->storage_used))) {
+        return URB_NODE_ERR_NOMEM;
+    }
+    *offset = node->storage_used;
+    /* bound: 2 * URB_NODE_MAX_SIZE = 64 */
+    for (uint16_t k = 0u; k < need; k++) {
+        node->storage[node->storage_used + k] = 0u;
+    }
+    node->storage_used = (uint16_t)(node->storage_used + need);
+    return URB_NODE_OK;
+}
+
+int urb_node_setup_inbox(urb_node_t *node, uint8_t n, uint8_t size)
+{
+    uint16_t offset = 0u;
+    int const rc = setup_carve(node, n, size, (node != NULL && n < URB_NODE_MAILBOXES) ? node->inbox[n].size : 0u,
+                               &offset);
+    if (rc == URB_NODE_OK) {
+        node->inbox[n].offset = offset;
+        node->inbox[n].size = size;
+    } else {
+        urb_setup_error(node, rc);
+    }
+    return rc;
+}
+
+int urb_node_setup_outbox(urb_node_t *node, uint8_t n, uint8_t size)
+{
+    uint16_t offset = 0u;
+    int const rc = setup_carve(node, n, size, (node != NULL && n < URB_NODE_MAILBOXES) ? node->outbox[n].size : 0u,
+                               &offset);
+    if (rc == URB_NODE_OK) {
+        node->outbox[n].offset = offset;
+        node->outbox[n].size = size;
+    } else {
+        urb_setup_error(node, rc);
+    }
+    return rc;
+}
+
+uint8_t urb_node_inbox_size(const urb_node_t *node, uint8_t n)
+{
+    return ((node == NULL) || (n >= URB_NODE_MAILBOXES)) ? 0u : node->inbox[n].size;
+}
+
+uint8_t urb_node_outbox_size(const urb_node_t *node, uint8_t n)
+{
+    return ((node == NULL) || (n >= URB_NODE_MAILBOXES)) ? 0u : node->outbox[n].size;
+}
+
+/* ===== Public application-side wrappers (mailboxes 1..7) ==================================== */
+
+int urb_node_lock_inbox(urb_node_t *node, uint8_t n, const uint8_t **data)
+{
+    if ((node == NULL) || (data == NULL) || (n == 0u) || (n >= URB_NODE_MAILBOXES)) {
+        return URB_NODE_ERR_ARG; /* inbox 0 belongs to the library (commands) */
+    }
+    return urb_lock_inbox_any(node, n, data);
+}
+
+int urb_node_release_inbox(urb_node_t *node, uint8_t n)
+{
+    if ((node == NULL) || (n == 0u) || (n >= URB_NODE_MAILBOXES)) {
+        return URB_NODE_ERR_ARG;
+    }
+    return urb_release_inbox_any(node, n);
+}
+
+int urb_node_lock_outbox(urb_node_t *node, uint8_t n, uint8_t **data)
+{
+    if ((node == NULL) || (data == NULL) || (n == 0u) || (n >= URB_NODE_MAILBOXES)) {
+        return URB_NODE_ERR_ARG; /* outbox 0 belongs to the library (identification) */
+    }
+    return urb_lock_outbox_any(node, n, data);
+}
+
+int urb_node_release_outbox(urb_node_t *node, uint8_t n)
+{
+    if ((node == NULL) || (n == 0u) || (n >= URB_NODE_MAILBOXES)) {
+        return URB_NODE_ERR_ARG;
+    }
+    int const rc = urb_release_outbox_any(node, n);
+    if (rc == URB_NODE_OK) {
+        urb_node_mark_acquired(node); /* no-op outside app_update or once marked */
+    }
+    return rc;
+}

@@ -1,0 +1,105 @@
+/*
+ * Internals shared by the node library's translation units. Not a public header.
+ *
+ * Files: urb_mailbox.c (the two TLA+ mailbox algorithms), urb_i2c.c (downlink byte state
+ * machine), urb_pll.c (heartbeat timer and SYNC PLL), urb_node.c (lifecycle, main loop, inbox 0
+ * commands, outbox 0 identification, faults).
+ */
+#ifndef URB_NODE_INTERNAL_H
+#define URB_NODE_INTERNAL_H
+
+#include "urb_node.h"
+
+/* "No buffer": the NONE of MailboxInbox.tla / MailboxOutbox.tla (fits the uint8_t indices). */
+#define URB_NONE 2u
+
+/* Compiler barrier. The index variables are volatile, so the compiler keeps their accesses in
+ * program order, but it may move plain buffer accesses across them; the barrier pins the data
+ * copies before a publish and after a lock. Cortex-M0+ has no cache or store buffer, so no DMB.
+ * A port for a core that reorders memory (or a C11 build) can override it. */
+#ifndef URB_NODE_BARRIER
+#define URB_NODE_BARRIER() __asm__ __volatile__("" ::: "memory")
+#endif
+
+/* Application-side steps, named after their TLA+ actions. Tests build the library with
+ * URB_NODE_TESTING and define urb_node_test_step(): it runs after every step that touches
+ * shared state, so a test can run interrupt events at every point the application can be
+ * preempted (exhaustive interleavings, tests/firmware/node/test_interleave.c). */
+enum {
+    URB_STEP_OUT_LOCK_PICK = 1,     /* MailboxOutbox.tla: AppLockPick */
+    URB_STEP_OUT_LOCK_CHECK = 2,    /* MailboxOutbox.tla: AppLockCheck (lock granted or BUSY) */
+    URB_STEP_OUT_RELEASE = 3,       /* MailboxOutbox.tla: AppRelease */
+    URB_STEP_IN_LOAD_FRONT = 4,     /* MailboxInbox.tla: AppLockLoadFront */
+    URB_STEP_IN_CLAIM = 5,          /* MailboxInbox.tla: AppLockClaim */
+    URB_STEP_IN_CHECK_ISR = 6,      /* MailboxInbox.tla: AppLockCheckIsr (passed) */
+    URB_STEP_IN_CHECK_FRONT = 7,    /* MailboxInbox.tla: AppLockCheckFront (passed: linearization point) */
+    URB_STEP_IN_LOCK_FAIL = 8,      /* MailboxInbox.tla: LockFail (app_idx := NONE) */
+    URB_STEP_IN_RELEASE = 9         /* MailboxInbox.tla: AppRelease */
+};
+
+#if defined(URB_NODE_TESTING)
+void urb_node_test_step(urb_node_t *node, uint8_t step);
+#define URB_STEP(node, step) urb_node_test_step((node), (uint8_t)(step))
+#else
+#define URB_STEP(node, step) ((void)0)
+#endif
+
+/* I2C downlink states (urb_node_i2c_t.state). */
+enum {
+    URB_I2C_ST_IDLE = 0,    /* no transaction: bytes are NACKed, reads return 0xFF */
+    URB_I2C_ST_SELECT = 1,  /* addressed for writing: the next byte is MailboxSelect */
+    URB_I2C_ST_DATA = 2,    /* receiving data of inbox `mailbox` */
+    URB_I2C_ST_CHECK = 3,   /* receiving the check */
+    URB_I2C_ST_DONE = 4,    /* size + check bytes received, check passed: commit at STOP/restart */
+    URB_I2C_ST_SELECTED = 5, /* read select received: nothing more expected */
+    URB_I2C_ST_READ = 6,    /* sending outbox `mailbox` */
+    URB_I2C_ST_SYNC = 7,    /* general call: SYNC magic, then counter */
+    URB_I2C_ST_IGNORE = 8   /* refused or finished: NACK until STOP/START */
+};
+
+/* ----- mailbox algorithms (urb_mailbox.c) ----- */
+
+/* Buffer b of outbox n / inbox n. */
+uint8_t *urb_outbox_buf(urb_node_t *node, uint8_t n, uint8_t b);
+uint8_t *urb_inbox_buf(urb_node_t *node, uint8_t n, uint8_t b);
+
+/* Interrupt side, inbox n: begin (false: refused, NACK), store byte k, commit, abort. */
+bool urb_isr_write_begin(urb_node_t *node, uint8_t n);
+void urb_isr_write_byte(urb_node_t *node, uint8_t n, uint8_t k, uint8_t byte);
+void urb_isr_write_commit(urb_node_t *node, uint8_t n);
+void urb_isr_write_abort(urb_node_t *node, uint8_t n);
+
+/* Interrupt side, outbox n: begin (latch front), byte k, end. */
+void urb_isr_read_begin(urb_node_t *node, uint8_t n);
+uint8_t urb_isr_read_byte(urb_node_t *node, uint8_t n, uint8_t k);
+void urb_isr_read_end(urb_node_t *node, uint8_t n);
+
+/* Application side for any mailbox, 0 included (the library's own use of mailbox 0). */
+int urb_lock_inbox_any(urb_node_t *node, uint8_t n, const uint8_t **data);
+int urb_release_inbox_any(urb_node_t *node, uint8_t n);
+int urb_lock_outbox_any(urb_node_t *node, uint8_t n, uint8_t **data);
+int urb_release_outbox_any(urb_node_t *node, uint8_t n);
+
+/* Resets all mailboxes to "not set up" and sets up mailbox 0 (urb_node_init). */
+void urb_mailbox_reset(urb_node_t *node);
+
+/* ----- heartbeat (urb_pll.c) ----- */
+
+/* Applies the configuration to the PLL and arms the first heartbeat (urb_node_init, no interrupt yet). */
+void urb_pll_start(urb_node_t *node);
+/* A SYNC with counter `counter` was time-stamped at tick t_d (I2C interrupt). */
+void urb_pll_sync(urb_node_t *node, uint32_t t_d, uint8_t counter);
+/* Signed difference a - b of two ticks less than 2^31 apart, without implementation-defined casts. */
+int32_t urb_tick_diff(uint32_t a, uint32_t b);
+
+/* ----- setup ----- */
+
+/* Records the first setup error of bootup (urb_node_init returns it); ignored after start. */
+void urb_setup_error(urb_node_t *node, int rc);
+
+/* ----- faults ----- */
+
+/* Interrupt side: count one fault of `code` (delivered to the fault hook by urb_node_poll). */
+void urb_isr_fault(urb_node_t *node, urb_node_fault_t code);
+
+#endif /* URB_NODE_INTERNAL_H */
