@@ -54,7 +54,7 @@ int32_t urb_uplink_read_request_encode(const urb_uplink_read_request_t *msg, uin
     urb_put_bits(buf, 8u, 3u, (uint32_t)msg->mailbox);
     urb_put_bits(buf, 12u, 4u, (uint32_t)msg->seq);
     urb_put_bits(buf, 16u, 8u, (uint32_t)msg->length);
-    urb_put_bits(buf, 24u, 8u, urb_link_check(NULL, 0u, buf, 3u));
+    urb_put_le(buf, 3u, 1u, urb_link_check(NULL, 0u, buf, 3u));
     return (int32_t)size;
 }
 
@@ -69,7 +69,7 @@ int32_t urb_uplink_read_request_decode(urb_uplink_read_request_t *msg, const uin
     if (length > URB_UPLINK_READ_REQUEST_MAX_SIZE) {
         return URB_ERR_LONG;
     }
-    if (urb_get_bits(buf, 24u, 8u) != urb_link_check(NULL, 0u, buf, 3u)) {
+    if (urb_get_le(buf, 3u, 1u) != urb_link_check(NULL, 0u, buf, 3u)) {
         return URB_ERR_CHECKSUM;
     }
     if (urb_get_bits(buf, 0u, 1u) != 1u) { return URB_ERR_RANGE; }  /* fixed: 1 */
@@ -113,13 +113,12 @@ int32_t urb_uplink_write_request_encode(const urb_uplink_write_request_t *msg, u
     urb_put_bits(buf, 12u, 4u, (uint32_t)msg->seq);
     urb_put_bits(buf, 16u, 8u, (uint32_t)msg->length);
     /*@ loop invariant 0 <= k <= payload_len;
-        loop assigns k, buf[3 .. 34];
+        loop assigns k, buf[3 .. 3 + payload_len - 1];
         loop variant payload_len - k; */
     for (size_t k = 0u; k < payload_len; k++) {
         buf[3u + k] = msg->data[k];
     }
-    urb_put_bits(buf, 8u * (3u + payload_len), (uint8_t)(8u * check_size),
-                 urb_link_check(NULL, 0u, buf, 3u + payload_len));
+    urb_put_le(buf, 3u + payload_len, check_size, urb_link_check(NULL, 0u, buf, 3u + payload_len));
     return (int32_t)size;
 }
 
@@ -146,8 +145,7 @@ int32_t urb_uplink_write_request_decode(urb_uplink_write_request_t *msg, const u
     if (length > 3u + payload_len + check_size) {
         return URB_ERR_LONG;
     }
-    if (urb_get_bits(buf, 8u * (3u + payload_len), (uint8_t)(8u * check_size)) !=
-        urb_link_check(NULL, 0u, buf, 3u + payload_len)) {
+    if (urb_get_le(buf, 3u + payload_len, check_size) != urb_link_check(NULL, 0u, buf, 3u + payload_len)) {
         return URB_ERR_CHECKSUM;
     }
     if (urb_get_bits(buf, 0u, 1u) != 0u) { return URB_ERR_RANGE; }  /* fixed: 0 */
@@ -193,13 +191,12 @@ int32_t urb_uplink_response_encode(const urb_uplink_response_t *msg, uint8_t *bu
     urb_put_bits(buf, 0u, 4u, (uint32_t)msg->seq);
     urb_put_bits(buf, 4u, 4u, (uint32_t)msg->status);
     /*@ loop invariant 0 <= k <= payload_len;
-        loop assigns k, buf[1 .. 32];
+        loop assigns k, buf[1 .. 1 + payload_len - 1];
         loop variant payload_len - k; */
     for (size_t k = 0u; k < payload_len; k++) {
         buf[1u + k] = msg->data[k];
     }
-    urb_put_bits(buf, 8u * (1u + payload_len), (uint8_t)(8u * check_size),
-                 urb_link_check(NULL, 0u, buf, 1u + payload_len));
+    urb_put_le(buf, 1u + payload_len, check_size, urb_link_check(NULL, 0u, buf, 1u + payload_len));
     return (int32_t)size;
 }
 
@@ -230,8 +227,7 @@ int32_t urb_uplink_response_decode(urb_uplink_response_t *msg, const uint8_t *bu
     if (length > 1u + payload_len + check_size) {
         return URB_ERR_LONG;
     }
-    if (urb_get_bits(buf, 8u * (1u + payload_len), (uint8_t)(8u * check_size)) !=
-        urb_link_check(NULL, 0u, buf, 1u + payload_len)) {
+    if (urb_get_le(buf, 1u + payload_len, check_size) != urb_link_check(NULL, 0u, buf, 1u + payload_len)) {
         return URB_ERR_CHECKSUM;
     }
     msg->seq = (uint8_t)urb_get_bits(buf, 0u, 4u);
@@ -269,7 +265,7 @@ int32_t urb_usb_batch_header_encode(const urb_usb_batch_header_t *msg, uint8_t *
     }
     urb_put_bits(buf, 0u, 16u, (uint32_t)msg->frame);
     urb_put_bits(buf, 16u, 8u, (uint32_t)msg->count);
-    urb_put_bits(buf, 24u, 8u, urb_link_check(NULL, 0u, buf, 3u));
+    urb_put_le(buf, 3u, 1u, urb_link_check(NULL, 0u, buf, 3u));
     return (int32_t)size;
 }
 
@@ -284,7 +280,7 @@ int32_t urb_usb_batch_header_decode(urb_usb_batch_header_t *msg, const uint8_t *
     if (length > URB_USB_BATCH_HEADER_MAX_SIZE) {
         return URB_ERR_LONG;
     }
-    if (urb_get_bits(buf, 24u, 8u) != urb_link_check(NULL, 0u, buf, 3u)) {
+    if (urb_get_le(buf, 3u, 1u) != urb_link_check(NULL, 0u, buf, 3u)) {
         return URB_ERR_CHECKSUM;
     }
     msg->frame = (uint16_t)urb_get_bits(buf, 0u, 16u);
@@ -361,13 +357,12 @@ int32_t urb_downlink_write_encode(const urb_downlink_write_t *msg, uint8_t *buf,
     urb_put_bits(buf, 0u, 3u, (uint32_t)msg->select.mailbox);
     urb_put_bits(buf, 7u, 1u, (msg->select.read ? 1u : 0u));
     /*@ loop invariant 0 <= k <= payload_len;
-        loop assigns k, buf[1 .. 32];
+        loop assigns k, buf[1 .. 1 + payload_len - 1];
         loop variant payload_len - k; */
     for (size_t k = 0u; k < payload_len; k++) {
         buf[1u + k] = msg->data[k];
     }
-    urb_put_bits(buf, 8u * (1u + payload_len), (uint8_t)(8u * check_size),
-                 urb_link_check(NULL, 0u, buf, 1u + payload_len));
+    urb_put_le(buf, 1u + payload_len, check_size, urb_link_check(NULL, 0u, buf, 1u + payload_len));
     return (int32_t)size;
 }
 
@@ -398,8 +393,7 @@ int32_t urb_downlink_write_decode(urb_downlink_write_t *msg, const uint8_t *buf,
     if (length > 1u + payload_len + check_size) {
         return URB_ERR_LONG;
     }
-    if (urb_get_bits(buf, 8u * (1u + payload_len), (uint8_t)(8u * check_size)) !=
-        urb_link_check(NULL, 0u, buf, 1u + payload_len)) {
+    if (urb_get_le(buf, 1u + payload_len, check_size) != urb_link_check(NULL, 0u, buf, 1u + payload_len)) {
         return URB_ERR_CHECKSUM;
     }
     msg->select.mailbox = (uint8_t)urb_get_bits(buf, 0u, 3u);
@@ -474,7 +468,7 @@ int32_t urb_downlink_read_response_encode(const urb_downlink_read_response_t *ms
         return URB_ERR_CAPACITY;
     }
     /*@ loop invariant 0 <= k <= payload_len;
-        loop assigns k, buf[0 .. 31];
+        loop assigns k, buf[0 .. 0 + payload_len - 1];
         loop variant payload_len - k; */
     for (size_t k = 0u; k < payload_len; k++) {
         buf[0u + k] = msg->data[k];
@@ -483,8 +477,7 @@ int32_t urb_downlink_read_response_encode(const urb_downlink_read_response_t *ms
     uint8_t prefix[1] = {0u};
     urb_put_bits(prefix, 0u, 3u, (uint32_t)msg->select.mailbox);
     urb_put_bits(prefix, 7u, 1u, (msg->select.read ? 1u : 0u));
-    urb_put_bits(buf, 8u * (0u + payload_len), (uint8_t)(8u * check_size),
-                 urb_link_check(prefix, 1u, buf, 0u + payload_len));
+    urb_put_le(buf, 0u + payload_len, check_size, urb_link_check(prefix, 1u, buf, 0u + payload_len));
     return (int32_t)size;
 }
 
@@ -520,8 +513,7 @@ uint8_t prefix[1] = {0u};
     if (length > 0u + payload_len + check_size) {
         return URB_ERR_LONG;
     }
-    if (urb_get_bits(buf, 8u * (0u + payload_len), (uint8_t)(8u * check_size)) !=
-        urb_link_check(prefix, 1u, buf, 0u + payload_len)) {
+    if (urb_get_le(buf, 0u + payload_len, check_size) != urb_link_check(prefix, 1u, buf, 0u + payload_len)) {
         return URB_ERR_CHECKSUM;
     }
     /*@ loop invariant 0 <= k <= payload_len;

@@ -50,14 +50,36 @@ void urb_put_bits(uint8_t *buf, size_t offset, uint8_t width, uint32_t value)
     }
 }
 
+uint32_t urb_get_le(const uint8_t *buf, size_t at, size_t size)
+{
+    uint32_t value = 0u;
+    /*@ loop invariant 0 <= k <= size;
+        loop assigns k, value;
+        loop variant size - k; */
+    for (size_t k = 0u; k < size; k++) {
+        value |= (uint32_t)buf[at + k] << (8u * k);
+    }
+    return value;
+}
+
+void urb_put_le(uint8_t *buf, size_t at, size_t size, uint32_t value)
+{
+    /*@ loop invariant 0 <= k <= size;
+        loop assigns k, buf[at .. at + size - 1];
+        loop variant size - k; */
+    for (size_t k = 0u; k < size; k++) {
+        buf[at + k] = (uint8_t)(value >> (8u * k));
+    }
+}
+
 int32_t urb_sign_extend(uint32_t raw, uint8_t width)
 {
     uint32_t const sign = (uint32_t)1u << (width - 1u);
-    if ((raw & sign) == 0u) {
-        return (int32_t)(raw & (sign - 1u));
-    }
-    /* raw - 2^width written as -(magnitude - 1) - 1, so no step overflows or is implementation-defined. */
-    return -(int32_t)(~raw & (sign - 1u)) - 1;
+    uint32_t const low = raw & (sign - 1u); /* the bits below the sign bit */
+    /* raw - 2^width = low - 2^(width - 1). In 64 bits no step can overflow, which keeps the proof
+     * free of bit-level reasoning; the result always fits in 32 bits. */
+    int64_t const value = (int64_t)low - (((raw & sign) != 0u) ? (int64_t)sign : 0);
+    return (int32_t)value;
 }
 
 /* ===== Checksum link_check ================================================================== */

@@ -30,7 +30,8 @@ extern "C" {
 
 /* ===== Bit access ========================================================================= */
 /* A frame's fixed part is one little-endian integer: bit k lives in bit k % 8 of byte k / 8.
- * These helpers touch one byte at a time, so they never make unaligned accesses. */
+ * These helpers touch one byte at a time, so they never make unaligned accesses. The byte-wise
+ * _le pair stores the check, whose place depends on the payload length. */
 
 /** Reads `width` (1..32) bits starting at bit `offset` of `buf`, LSB-first. */
 /*@ requires width_ok: 1 <= width <= 32;
@@ -45,6 +46,20 @@ uint32_t urb_get_bits(const uint8_t *buf, size_t offset, uint8_t width);
     requires valid_buf: \valid(buf + (offset / 8 .. (offset + width - 1) / 8));
     assigns buf[offset / 8 .. (offset + width - 1) / 8]; */
 void urb_put_bits(uint8_t *buf, size_t offset, uint8_t width, uint32_t value);
+
+/** Reads buf[at .. at + size - 1] as a little-endian number of `size` (1..4) bytes. */
+/*@ requires size_ok: 1 <= size <= 4;
+    requires small_offset: at <= 65535;
+    requires valid_buf: \valid_read(buf + (at .. at + size - 1));
+    assigns \nothing; */
+uint32_t urb_get_le(const uint8_t *buf, size_t at, size_t size);
+
+/** Writes the low `size` (1..4) bytes of `value` to buf[at .. at + size - 1], little-endian. */
+/*@ requires size_ok: 1 <= size <= 4;
+    requires small_offset: at <= 65535;
+    requires valid_buf: \valid(buf + (at .. at + size - 1));
+    assigns buf[at .. at + size - 1]; */
+void urb_put_le(uint8_t *buf, size_t at, size_t size, uint32_t value);
 
 /** Reads the low `width` (2..32) bits of `raw` as a two's complement number. */
 /*@ requires width_ok: 2 <= width <= 32;
