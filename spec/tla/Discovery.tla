@@ -161,6 +161,12 @@ NoPhantoms ==
         /\ pop[s] # NONE
         /\ pop[s].class = r.class /\ pop[s].index = r.index /\ pop[s].fp = r.fp
 
+(* A node that answered the scan keeps its row even if it has vanished    *)
+(* since (present at scan; requests to it then get NO_NODE).              *)
+VanishedNodesKept ==
+    built => \A f \in AllFound : ~present[<<f.bridge, f.addr>>] =>
+                 <<f.bridge, f.addr>> \in RowSlots
+
 (* A node present during the whole scan is in the table.                  *)
 StableNodesFound == built => \A s \in stable : s \in RowSlots
 
@@ -172,6 +178,7 @@ VanishedGetNoNode ==
 DiscoveryCompletes == <>built
 
 THEOREM Spec => [](TypeOK /\ NeverMerged /\ DuplicatesReported /\ MismatchReported
-                          /\ NoPhantoms /\ StableNodesFound /\ VanishedGetNoNode)
+                          /\ NoPhantoms /\ VanishedNodesKept /\ StableNodesFound
+                          /\ VanishedGetNoNode)
 THEOREM Spec => DiscoveryCompletes
 =============================================================================
