@@ -353,3 +353,25 @@ def test_c_unit_tests(cc: str) -> None:
     exe = _build(cc, "unit_tests", [REPO / "tests" / "c" / "unit_tests.c", *sorted(GEN.glob("*.c"))])
     done = subprocess.run([str(exe)], capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stdout + done.stderr
+
+
+def test_emitter_is_deterministic(tmp_path: Path) -> None:
+    from urb_codegen.emit_c import emit_c
+
+    first = {p.relative_to(tmp_path / "a"): p.read_bytes() for p in emit_c(load_bundled(), tmp_path / "a")}
+    second = {p.relative_to(tmp_path / "b"): p.read_bytes() for p in emit_c(load_bundled(), tmp_path / "b")}
+    assert first == second
+    assert first == {p: (GEN / p).read_bytes() for p in first}  # and gen/c is what it emits
+
+
+def test_emitter_rejects_clashing_c_names(tmp_path: Path) -> None:
+    from urb_codegen.emit_c import emit_c
+    from urb_codegen.errors import SchemaError
+    from urb_codegen.parser import load
+
+    schema = tmp_path / "clash.urbs"
+    schema.write_text('schema clash "c"\n'
+                      'enum Foo : u8 "e" { BAR_SIZE = 0 "m" }\n'
+                      'message FooBar "m" { x: u8 "x" }\n')
+    with pytest.raises(SchemaError, match="URB_FOO_BAR_SIZE"):
+        emit_c(load([schema]), tmp_path / "out")

@@ -20,6 +20,7 @@ from pathlib import Path
 
 from jinja2 import Environment, FileSystemLoader, StrictUndefined
 
+from .errors import Location, SchemaError
 from .model import (
     MAILBOXES,
     ArrayType,
@@ -144,18 +145,23 @@ class _Op:
     assigns: str = ""  # ACSL locations an array loop writes besides its index
 
 
-def _statements(fields: list[Field], prefix: str, at: _At, depth: int, op: _Op) -> list[str]:
-    """C statements applying `op` to every field of `fields` (flattening structs and arrays)."""
+def _statements(fields: list[Field], width: int, prefix: str, at: _At, depth: int, op: _Op) -> list[str]:
+    """C statements applying `op` to every field of `fields`, which span `width` bits (structs and
+    arrays are flattened). Bits no field claims (left by `@` positions) are treated as padding."""
     out: list[str] = []
-    for f in fields:
-        if isinstance(f.type, (BytesType, CheckType)):
-            continue
+    cursor = 0
+    for f in sorted((f for f in fields if not isinstance(f.type, (BytesType, CheckType))), key=lambda f: f.bit_offset):
+        if f.bit_offset > cursor:
+            out += _padding(at.plus(cursor), f.bit_offset - cursor, op)
+        cursor = max(cursor, f.bit_offset + f.bit_width)
         pos = at.plus(f.bit_offset)
         if f.is_padding:
             out += _padding(pos, f.bit_width, op)
         else:
             member = None if f.fixed is not None else prefix + _member(f)
             out += _typed(f, f.type, member, pos, f.bit_width, depth, op)
+    if width > cursor:
+        out += _padding(at.plus(cursor), width - cursor, op)
     return out
 
 
@@ -165,7 +171,7 @@ def _typed(f: Field, t: object, member: str | None, at: _At, width: int, depth: 
     if isinstance(t, EnumDecl):
         return _scalar(_Leaf(f, t.base, t, member, at, width), op)
     if isinstance(t, MessageDecl):
-        return _statements(t.fields, f"{member}.", at, depth, op)
+        return _statements(t.fields, t.fixed_bits, f"{member}.", at, depth, op)
     assert isinstance(t, ArrayType), t
     stride = width // t.count
     var = f"i{depth}"
@@ -263,7 +269,8 @@ def _print_statements(fields: list[Field], prefix: str, depth: int) -> list[str]
         out.append(f"fputs({key}, out);")
         member = prefix + _member(f)
         if isinstance(f.type, BytesType):
-            length = f"{prefix}{f.type.count_field}" if f.type.count_field else f"{member}_len"
+            counter = next((c for c in fields if c.name == f.type.count_field), None)
+            length = prefix + _member(counter) if counter is not None else f"{member}_len"
             out.append(f"urb_test_print_hex(out, {member}, {length});")
         else:
             out += _print_value(f.type, member, depth)
@@ -312,7 +319,7 @@ class CMessage:
     fn: str
     type: str
     macro: str
-    members: list[tuple[str, str]]  # (declaration, doc)
+    members: list[tuple[str, str, str]]  # (name, declaration, doc)
     notes: list[str]  # wire facts that are not members: fixed fields, implicit prefix
     validate: list[str]
     pack: list[str]
@@ -323,10 +330,6 @@ class CMessage:
     payload: CPayload | None
     checksum: str | None  # C stem of the checksum functions
     print_body: list[str]
-
-    @property
-    def needs_size_fn(self) -> bool:
-        return self.checksum is not None and self.payload is not None
 
 
 @dataclass
@@ -389,12 +392,14 @@ class _Names:
     """Every global C identifier the emitter creates, so two schema items never map to one name."""
 
     def __init__(self) -> None:
-        self.seen: dict[str, str] = {}
+        self.seen: dict[str, tuple[str, Location]] = {}
 
-    def add(self, name: str, what: str) -> str:
+    def add(self, name: str, what: str, loc: Location) -> str:
         if name in self.seen:
-            raise ValueError(f"C name {name} is used by both {self.seen[name]} and {what}; rename one of them")
-        self.seen[name] = what
+            first, at = self.seen[name]
+            raise SchemaError(loc, f"{what} and {first} (at {at}) both become the C name {name}",
+                              "rename one of them")
+        self.seen[name] = (what, loc)
         return name
 
 
@@ -418,8 +423,8 @@ def _enum_view(e: EnumDecl, names: _Names) -> CEnum:
             parts.append(f"((value >= {lit_lo}) && (value <= {lit_hi}))")
     macro = "URB_" + snake(e.name).upper()
     for m in e.members:
-        names.add(f"{macro}_{m.name}", f"enum {e.name}")
-    return CEnum(e, names.add(enum_c(e) + "_t", f"enum {e.name}"), macro,
+        names.add(f"{macro}_{m.name}", f"enum {e.name}", e.loc)
+    return CEnum(e, names.add(enum_c(e) + "_t", f"enum {e.name}", e.loc), macro,
                  "int32_t" if e.base.signed else "uint32_t", " || ".join(parts))
 
 
@@ -440,13 +445,14 @@ def _field_doc(f: Field) -> str:
     return _comment(f.doc + (f" [{'; '.join(extra)}]" if extra else ""))
 
 
-def _member_decl(f: Field) -> list[tuple[str, str]]:
+def _member_decl(f: Field) -> list[tuple[str, str, str]]:
+    """The struct member(s) of a field: (name, declaration, doc)."""
     t = f.type
     name = _member(f)
     if isinstance(t, BytesType):
-        decls = [(f"uint8_t {name}[{t.max_len}]", _comment(f.doc))]
+        decls = [(name, f"uint8_t {name}[{t.max_len}]", _comment(f.doc))]
         if t.count_field is None:
-            decls.append((f"uint8_t {name}_len", f"Bytes used in {name} (0..{t.max_len})"))
+            decls.append((f"{name}_len", f"uint8_t {name}_len", f"Bytes used in {name} (0..{t.max_len})"))
         return decls
     dims = ""
     while isinstance(t, ArrayType):
@@ -457,29 +463,30 @@ def _member_decl(f: Field) -> list[tuple[str, str]]:
     else:
         assert isinstance(t, (IntType, EnumDecl))
         ctype = _ctype(t if isinstance(t, IntType) else t.base)
-    return [(f"{ctype} {name}{dims}", _field_doc(f))]
+    return [(name, f"{ctype} {name}{dims}", _field_doc(f))]
 
 
 def _message_view(m: MessageDecl, names: _Names) -> CMessage:
     fn = msg_c(m)
     macro = fn.upper()
-    names.add(fn + "_t", f"message {m.name}")
+    names.add(fn + "_t", f"message {m.name}", m.loc)
     for suffix in ("_encode", "_decode"):
-        names.add(fn + suffix, f"message {m.name}")
+        names.add(fn + suffix, f"message {m.name}", m.loc)
     for suffix in ("_SIZE", "_MIN_SIZE", "_MAX_SIZE", "_FINGERPRINT"):
-        names.add(macro + suffix, f"message {m.name}")
+        names.add(macro + suffix, f"message {m.name}", m.loc)
 
-    members: list[tuple[str, str]] = []
+    members: list[tuple[str, str, str]] = []
     notes: list[str] = []
     for f in m.fields:
         if f.fixed is not None:
             notes.append(f"{f.name} = {f.fixed_name or f.fixed} on the wire (written by encode, checked by decode)")
         if not f.is_padding and f.fixed is None and not isinstance(f.type, CheckType):
             members += _member_decl(f)
-    local = [d.split()[-1].split("[")[0] for d, _ in members]
+    local = [name for name, _, _ in members]
     dup = {n for n in local if local.count(n) > 1}
     if dup:
-        raise ValueError(f"{m.loc}: message {m.name} would have two C members named {sorted(dup)[0]}")
+        raise SchemaError(m.loc, f"message {m.name} would have two C members named {sorted(dup)[0]}",
+                          "rename the field (a bytes[<= N] field adds a member <field>_len)")
 
     payload = None
     bf = m.bytes_field
@@ -508,13 +515,15 @@ def _message_view(m: MessageDecl, names: _Names) -> CMessage:
     buf_fixed = f"buf[0 .. {m.fixed_size - 1}]" if m.fixed_size else ""
     return CMessage(
         decl=m, fn=fn, type=fn + "_t", macro=macro, members=members, notes=notes,
-        validate=_statements(m.fields, "msg->", _At(0), 0, _Op("validate")),
-        pack=_statements(wire, "msg->", _At(0), 0, _Op("pack", assigns=buf_fixed)),
-        unpack=_statements(wire, "msg->", _At(0), 0, _Op("unpack", assigns="*msg")),
-        implicit_validate=_statements(implicit, "msg->", _At(0), 0, _Op("validate", error="URB_ERR_ARGUMENT")),
-        implicit_pack=_statements(implicit, "msg->", _At(0), 0,
+        validate=[*_statements(implicit, m.implicit_bits, "msg->", _At(0), 0, _Op("validate")),
+                  *_statements(wire, m.fixed_bits, "msg->", _At(0), 0, _Op("validate"))],
+        pack=_statements(wire, m.fixed_bits, "msg->", _At(0), 0, _Op("pack", assigns=buf_fixed)),
+        unpack=_statements(wire, m.fixed_bits, "msg->", _At(0), 0, _Op("unpack", assigns="*msg")),
+        implicit_validate=_statements(implicit, 0, "msg->", _At(0), 0, _Op("validate", error="URB_ERR_ARGUMENT")),
+        implicit_pack=_statements(implicit, m.implicit_bits, "msg->", _At(0), 0,
                                   _Op("pack", buf="prefix", assigns=f"prefix[0 .. {m.implicit_size - 1}]")),
-        implicit_unpack=_statements(implicit, "msg->", _At(0), 0, _Op("unpack", buf="prefix", assigns="*msg")),
+        implicit_unpack=_statements(implicit, m.implicit_bits, "msg->", _At(0), 0,
+                                    _Op("unpack", buf="prefix", assigns="*msg")),
         payload=payload,
         checksum=None if checksum is None else "urb_" + checksum.name,
         print_body=_print_statements(m.fields, "msg->", 0),
@@ -527,14 +536,14 @@ def _checksum_view(cs: ChecksumDecl, names: _Names) -> CChecksum:
     above: int | None = None
     for t in cs.tiers:
         tfn = f"urb_{t.name}_{cs.name}"
-        names.add(tfn, f"checksum {cs.name}")
-        names.add(tfn + "_byte", f"checksum {cs.name}")
-        names.add(tfn + "_final", f"checksum {cs.name}")
+        names.add(tfn, f"checksum {cs.name}", cs.loc)
+        names.add(tfn + "_byte", f"checksum {cs.name}", cs.loc)
+        names.add(tfn + "_final", f"checksum {cs.name}", cs.loc)
         tiers.append(CTier(t, tfn, tfn.upper(), f"uint{t.width}_t", above))
         if t.max_covered is not None:
             above = t.max_covered if above is None else max(above, t.max_covered)
     for suffix in ("", "_size", "_payload_len"):
-        names.add(fn + suffix, f"checksum {cs.name}")
+        names.add(fn + suffix, f"checksum {cs.name}", cs.loc)
     return CChecksum(cs, fn, fn.upper(), tiers, max(t.width for t in cs.tiers) // 8)
 
 
@@ -547,12 +556,12 @@ def _node_view(n: NodeDecl, names: _Names) -> CNode:
         same = [o for o in boxes if o.direction == b.direction and o.message is b.message]
         suffix = f"{b.direction.upper()}_{snake(b.message.name).upper()}" + (f"_{b.number}" if len(same) > 1 else "")
         numbers.append((suffix, b.number))
-        names.add(f"{macro}_{suffix}", f"node {n.name}")
-        names.add(f"{macro}_{b.direction.upper()}{b.number}_SIZE", f"node {n.name}")
+        names.add(f"{macro}_{suffix}", f"node {n.name}", n.loc)
+        names.add(f"{macro}_{b.direction.upper()}{b.number}_SIZE", f"node {n.name}", n.loc)
     for suffix in ("_CLASS", "_FINGERPRINT"):
-        names.add(macro + suffix, f"node {n.name}")
+        names.add(macro + suffix, f"node {n.name}", n.loc)
     for table in ("_inbox_sizes", "_outbox_sizes"):
-        names.add(fn + table, f"node {n.name}")
+        names.add(fn + table, f"node {n.name}", n.loc)
     return CNode(n, fn, macro, [(b.direction, b.number, b.size, b.message.name) for b in boxes], numbers)
 
 
@@ -600,11 +609,11 @@ def emit_c(schemas: list[Schema], out_dir: Path) -> list[Path]:
     for s in ordered:
         view = CSchema(
             schema=s,
-            stem=names.add(file_stem(s), f"schema {s.name}"),
+            stem=names.add(file_stem(s), f"schema {s.name}", Location(s.path, 1, 1)),
             # Same wording as the Python emitter; no directories, so output does not depend on where it goes.
             source=f"{s.path.name} (schema {s.name}, source fingerprint {s.source_hash})",
             includes=[file_stem(i) + ".h" for i in s.imports],
-            consts=[(names.add("URB_" + c.name, f"const {c.name}"), c.value, _comment(c.doc)) for c in s.consts.values()],
+            consts=[(names.add("URB_" + c.name, f"const {c.name}", c.loc), c.value, _comment(c.doc)) for c in s.consts.values()],
         )
         view.enums = [_enum_view(e, names) for e in s.enums.values()]
         view.messages = [_message_view(m, names) for m in s.messages.values()]
