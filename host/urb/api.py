@@ -658,9 +658,8 @@ class URBInterface:
             keep = [r for r in self._records if r.bridge is not report.manager]
             new: list[NodeRecord] = []
             for rec in report.records:
-                prev = next((o for o in old if o.active and o.class_id == rec.class_id and o.index == rec.index
-                             and o.fingerprint == rec.fingerprint), None)
-                if prev is not None:  # same node again: update in place, accessors stay valid
+                prev = next((o for o in old if o.active and o.class_id == rec.class_id and o.index == rec.index), None)
+                if prev is not None:  # same node again (maybe re-flashed): update in place, accessors stay valid
                     old.remove(prev)
                     prev.address, prev.ident, prev.info = rec.address, rec.ident, rec.info
                     prev.flags = set(rec.flags)

@@ -42,7 +42,8 @@ class FakeNode:
         self.fw = fw
         self.present = True
         self.faults: deque[Status] = deque()
-        """Outcomes forced on the next downlink transactions (TIMEOUT, CHECKSUM, BUS_STUCK, NODE_BUSY)."""
+        """Outcomes forced on the next downlink transactions, one per transaction (TIMEOUT,
+        CHECKSUM, BUS_STUCK, NODE_BUSY; OK = no fault for that one)."""
         self.inbox_locked = False
         """While True every write is NACKed: the bridge answers NODE_BUSY."""
         self.inboxes: dict[int, bytes] = {}
@@ -262,7 +263,7 @@ class BridgeModel:
             return Status.NO_NODE, b""
         if node.faults:
             fault = node.faults.popleft()
-            if not (fault == Status.NODE_BUSY and r.read):
+            if fault != Status.OK and not (fault == Status.NODE_BUSY and r.read):
                 return fault, b""
         if r.read:
             data = node.read_outbox(r.mailbox)

@@ -17,8 +17,9 @@ implements, for one bridge:
 * a per-request timeout (UPLINK_TIMEOUT), and an idle-gap rule: a partial candidate that
   receives no byte for `resync_gap_ns` loses its first byte, so a corrupt header cannot stall
   the hunt;
-* bridge-lost detection: requests outstanding and not one byte received for `lost_after_ns`, or
-  `link_lost()` called by the runtime (port closed, I/O error). Every pending and queued request
+* bridge-lost detection: requests outstanding and not one byte received for `lost_after_ns`,
+  `lost_after_timeouts` timeouts in a row without a byte received, or `link_lost()` called by
+  the runtime (port closed, I/O error). Every pending and queued request
   then completes with BRIDGE_LOST, and so does every later one until `reset()`.
 
 Callers serialise access (the real-time runtime holds a lock; the simulation is single-threaded).
@@ -107,16 +108,21 @@ class Rs232Core:
         timeout_ns: int = 100 * NS_PER_MS,
         resync_gap_ns: int = 20 * NS_PER_MS,
         lost_after_ns: int = 500 * NS_PER_MS,
+        lost_after_timeouts: int = 8,
     ) -> None:
         """`window`: requests outstanding on the bridge (1..15; raised or lowered after
         discovery from BridgeInfo.fifo_depth). `timeout_ns`: a response not received this long
         after its request was sent completes UPLINK_TIMEOUT. `resync_gap_ns`: idle time after
         which a partial response candidate is abandoned. `lost_after_ns`: silence with requests
-        outstanding after which the bridge is declared lost."""
+        outstanding after which the bridge is declared lost; `lost_after_timeouts`: so many
+        requests timing out in a row with not one byte received declare it lost too (sparse
+        traffic, where the in-flight list keeps emptying)."""
         self.window = _check_window(window)
         self.timeout_ns = timeout_ns
         self.resync_gap_ns = resync_gap_ns
         self.lost_after_ns = lost_after_ns
+        self.lost_after_timeouts = lost_after_timeouts
+        self._silent_timeouts = 0
         self.lost_reason: str | None = None
         self._queued: deque[Transfer] = deque()
         self._m = ResponseMatcher()
@@ -139,6 +145,7 @@ class Rs232Core:
         if not data:
             return
         self._last_rx_ns = now
+        self._silent_timeouts = 0
         if self.lost_reason is not None:
             self._m.stray_bytes += len(data)
             return
@@ -155,7 +162,11 @@ class Rs232Core:
             self._partial = m.parse(now)
         while m.inflight and m.inflight[0].sent_ns is not None and now - m.inflight[0].sent_ns >= self.timeout_ns:
             m.lost_before(1, now)
+            self._silent_timeouts += 1
             self._partial = m.parse(now)
+        if self._silent_timeouts >= self.lost_after_timeouts:
+            self.link_lost(now, f"{self._silent_timeouts} requests in a row got no response and the bridge sent nothing")
+            return
         silent_since = max(self._last_rx_ns, self._active_since)
         if m.inflight and now - silent_since >= self.lost_after_ns:
             ms = (now - silent_since) // NS_PER_MS
@@ -178,6 +189,7 @@ class Rs232Core:
         self.link_lost(now, "reset")
         self.lost_reason = None
         self._last_rx_ns = now
+        self._silent_timeouts = 0
 
     def set_window(self, window: int) -> None:
         self.window = _check_window(window)

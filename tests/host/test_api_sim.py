@@ -1,0 +1,211 @@
+"""The API in virtual time: SimManager over the loopback RS232 line and USB pipe.
+
+Deterministic: a VirtualClock, byte times at 115200 Bd, I2C transaction times at 400 kb/s, so
+latencies can be checked against the paper's analysis (Sec. V-B, V-C; Figs. 15, 16) exactly.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from urb.api import NodeRequest, URBInterface
+from urb.errors import ErrorFlag, NodeNotFoundError, UnknownClassError
+from urb.managers import (
+    BridgeModel,
+    Clock,
+    LoopbackByteTransport,
+    LoopbackFrameTransport,
+    SimManager,
+    VirtualClock,
+    fake_node,
+)
+from urb.managers.base import NS_PER_MS
+from urb_msgs import sensorhex as sx
+
+HEX = [f"MotorDriver:{i}@{16 + i}" for i in range(6)] + ["BatteryManager:0@32", "Imu:0@48", "IrDistance:0@49"]
+
+
+def system(kind: str = "rs232", nodes: list[str] | None = None, **bridge_opts: object) -> tuple[URBInterface, SimManager, VirtualClock, BridgeModel]:
+    clock = VirtualClock()
+    bridge = BridgeModel(dict(fake_node(s) for s in (nodes or HEX)), timed_downlink=True, **bridge_opts)  # type: ignore[arg-type]
+    transport = LoopbackByteTransport(clock, bridge) if kind == "rs232" else LoopbackFrameTransport(clock, bridge)
+    m = SimManager(clock, transport, name=f"sim-{kind}")
+    urb = URBInterface()
+    urb.add_bus_manager(m)
+    return urb, m, clock, bridge
+
+
+@pytest.mark.parametrize("kind", ["rs232", "usb"])
+def test_discovery_and_typed_access(kind: str) -> None:
+    urb, m, clock, _ = system(kind)
+    assert [r.label for r in urb.nodes()] == [f"MotorDriver:{i}" for i in range(6)] + ["BatteryManager:0", "Imu:0", "IrDistance:0"]
+    motor = urb.find_node(sx.MOTOR_DRIVER, 5)
+    motor.write_message(sx.MotorConfig(mode=sx.MotorMode.VOLTAGE, voltage_limit=12000))
+    motor.write_message(sx.MotorCommand(voltage=-4200))
+    assert motor.read_message(sx.MotorFeedback).voltage == -4200
+    assert motor.read_message(sx.MotorStatus).mode == sx.MotorMode.VOLTAGE
+    assert urb.find_node(0x20, 0).read_message(sx.BatteryStatus).packs[2].charge == 78
+    with pytest.raises(UnknownClassError, match="known: MotorDriver"):
+        urb.find_node("Gripper", 0)
+    with pytest.raises(NodeNotFoundError):
+        urb.find_node("Imu", 1)
+
+
+def test_rs232_round_trip_matches_the_byte_budget() -> None:
+    """A 10-byte read: 4 request bytes + I2C transaction + 12 response bytes at 115200 Bd."""
+    urb, m, clock, bridge = system("rs232")
+    bridge_read = urb.find_node("Imu", 0)
+    req = bridge_read.new_request().read(1)  # ImuSample: 14 bytes -> 17-byte response (CRC-16)
+    bridge_read.submit_request(req)
+    assert req.wait()
+    byte_ns = 10 * 1_000_000_000 // 115200
+    i2c = (1 + 1 + 1 + 14 + 2) * 9 * 1_000_000 // 400
+    assert req.latency_ns == (4 + 17) * byte_ns + i2c
+
+
+@settings(max_examples=30, deadline=None)
+@given(per_frame=st.lists(st.integers(0, 20), min_size=1, max_size=12))
+def test_usb_latency_is_at_most_three_frames_plus_deferrals(per_frame: list[int]) -> None:
+    """UsbUplink.tla: callback within 3 frames of submission (StrictLatency) when at most
+    MaxBatch requests are submitted per frame; one more frame per deferral otherwise
+    (LatencyBound); nothing lost, every callback gets its own response (ResponsesMatched)."""
+    urb, m, clock, _ = system("usb", ["MotorDriver:0@16", "MotorDriver:1@17"])
+    motors = [urb.find_node("MotorDriver", i) for i in range(2)]
+    clock.run_for(5 * NS_PER_MS)
+    start = (clock.now_ns() // NS_PER_MS + 1) * NS_PER_MS + NS_PER_MS // 3
+    reqs: list[tuple[int, NodeRequest]] = []
+    max_batch = m.core.max_batch  # type: ignore[union-attr]
+    for frame, n in enumerate(per_frame):
+        def burst(n: int = n, frame: int = frame) -> None:
+            for k in range(n):
+                node = motors[k % 2]
+                reqs.append((frame, node.submit_request(node.new_request().read(1))))
+        clock.call_at(start + frame * NS_PER_MS, burst)
+    clock.run_for(len(per_frame) * NS_PER_MS + 100 * NS_PER_MS)
+    backlog = 0
+    deferrals_bound = []
+    for frame, n in enumerate(per_frame):  # frames of delay a full batch can cause
+        backlog = max(0, backlog + n - max_batch)
+        deferrals_bound.append(backlog // max_batch + (1 if backlog else 0))
+    for frame, req in reqs:
+        assert req.ok and req.message(sx.MotorFeedback) is not None
+        touched = (req.callback_ns or 0) // NS_PER_MS - (req.submitted_ns or 0) // NS_PER_MS + 1
+        if max(per_frame) <= max_batch:
+            assert touched <= 3, (frame, touched)
+        assert touched <= 3 + sum(1 for b in per_frame if b) + len(reqs) // max_batch
+    assert len(reqs) == sum(per_frame)
+
+
+def test_usb_latency_is_three_ms_in_steady_state() -> None:
+    urb, m, clock, _ = system("usb")
+    motor = urb.find_node("MotorDriver", 0)
+    lat: list[int] = []
+    for k in range(100):
+        clock.call_at(clock.now_ns() + k * NS_PER_MS + 300_000,
+                      lambda: motor.submit_request(motor.new_request().read(1).set_callback(lambda r: lat.append(r.latency_ns or 0))))
+    clock.run_for(200 * NS_PER_MS)
+    assert len(lat) == 100 and max(lat) <= 3 * NS_PER_MS and min(lat) >= NS_PER_MS
+
+
+def test_node_vanishes_then_rediscovery_marks_it_unknown() -> None:
+    urb, m, clock, bridge = system("rs232")
+    imu = urb.find_node("Imu", 0)
+    bridge.nodes[48].present = False
+    req = imu.submit_request(imu.new_request().read(1))
+    assert req.wait() and req.flags == ErrorFlag.NO_NODE  # Discovery.tla VanishedGetNoNode
+    assert any(r.label == "Imu:0" for r in urb.nodes())  # the row stays until rediscovery
+    urb.reconnect(m)
+    assert not any(r.label == "Imu:0" for r in urb.nodes())
+    req = imu.submit_request(imu.new_request().read(1))
+    assert req.wait() and req.flags == ErrorFlag.UNKNOWN_NODE
+    motor = urb.find_node("MotorDriver", 0)
+    assert motor.read_message(sx.MotorFeedback) is not None
+
+
+def test_node_reflashed_with_another_schema_is_refused_without_traffic() -> None:
+    urb, m, clock, bridge = system("rs232")
+    ir = urb.find_node("IrDistance", 0)
+    bridge.nodes[49].fingerprint = 0xABCDEF01
+    urb.reconnect(m)
+    sent_before = bridge.stats.requests
+    req = ir.submit_request(ir.new_request().read(1))
+    assert req.wait() and req.flags == ErrorFlag.FINGERPRINT_MISMATCH
+    assert bridge.stats.requests == sent_before and "another schema" in (req.error or "")
+
+
+def test_unknown_class_is_listed_but_never_handed_out() -> None:
+    from urb_msgs import NodeInfo
+
+    from urb.managers.loopback import FakeNode
+    from urb_msgs import MailboxInfo
+    from urb_msgs.urb_core import Command, Identification
+
+    gripper = NodeInfo("Gripper", "node", 0x77, 0x11111111, "", "spec/schema/other.urbs", "", (
+        MailboxInfo("outbox", 0, Identification, 25, None, ""), MailboxInfo("inbox", 0, Command, 6, None, "")))
+
+    clock = VirtualClock()
+    bridge = BridgeModel({5: FakeNode(gripper, 0)})
+    urb = URBInterface()
+    urb.add_bus_manager(SimManager(clock, LoopbackByteTransport(clock, bridge)))
+    (row,) = urb.nodes()
+    assert row.name == "class 0x77" and "UNKNOWN_CLASS" in row.flags
+    with pytest.raises(UnknownClassError):
+        urb.find_node(0x77, 0)
+
+
+def test_bridge_busy_answers_reach_callbacks_when_the_fifo_is_small() -> None:
+    urb, m, clock, bridge = system("rs232", fifo_depth=1, ring=15, bitrate_kbps=50)  # slow downlink
+    m.set_window(6)  # more than the bridge's FIFO: the excess is answered BUSY, in order
+    motor = urb.find_node("MotorDriver", 0)
+    reqs = [motor.submit_request(motor.new_request().read(1)) for _ in range(6)]
+    clock.run_for(50 * NS_PER_MS)
+    flags = [r.flags for r in reqs]
+    assert flags[0] == ErrorFlag.NONE and ErrorFlag.BUSY in flags
+    assert all(f in (ErrorFlag.NONE, ErrorFlag.BUSY) for f in flags)
+
+
+def test_lost_line_is_detected_and_reconnect_recovers() -> None:
+    urb, m, clock, bridge = system("rs232")
+    assert isinstance(m.transport, LoopbackByteTransport)
+    lost: list[str] = []
+    urb.on_bridge_lost = lambda mgr, why: lost.append(why)
+    motor = urb.find_node("MotorDriver", 1)
+    m.transport.unplug()
+    for k in range(1000):
+        clock.call_at(clock.now_ns() + k * NS_PER_MS, lambda: motor.submit_request(motor.new_request().read(1)))
+    clock.run_for(1100 * NS_PER_MS)
+    assert m.lost_reason is not None and len(lost) == 1
+    m.transport.plug()
+    urb.reconnect(m)
+    assert motor.read_message(sx.MotorFeedback) is not None
+
+
+def test_discovery_in_an_event_loop_without_blocking() -> None:
+    """The simulation's clock need not be drivable: start_discovery reports through a callback."""
+
+    class EventOnlyClock:
+        def __init__(self) -> None:
+            self.inner = VirtualClock()
+
+        def now_ns(self) -> int:
+            return self.inner.now_ns()
+
+        def call_at(self, when_ns: int, fn: Callable[[], None]) -> None:
+            self.inner.call_at(when_ns, fn)
+
+    clock = EventOnlyClock()
+    assert isinstance(clock, Clock)
+    bridge = BridgeModel(dict(fake_node(s) for s in HEX[:2]))
+    m = SimManager(clock, LoopbackByteTransport(clock, bridge))
+    urb = URBInterface()
+    reports = []
+    urb.start_discovery(m, reports.append)
+    while clock.inner.step():
+        pass
+    assert len(reports) == 1 and [r.label for r in urb.nodes()] == ["MotorDriver:0", "MotorDriver:1"]
+    with pytest.raises(RuntimeError, match="use callbacks"):
+        urb.find_node("MotorDriver", 0).read(1)

@@ -1,0 +1,257 @@
+"""Hypothesis state-machine tests against the Bridge.tla reference model (bridge_ref.py).
+
+1. `HostCoreVsBridgeTla`: the host's request/response state machine (`Rs232Core`) talks, through
+   real frames, to the reference bridge, whose Serve/Emit interleaving Hypothesis chooses; the
+   wire may lose request frames, lose response frames, flip a bit, and deliver in arbitrary
+   chunks. Checked: the host respects the window (the reference's SubmitAndAdmit guard), every
+   request completes exactly once and in request order, an intact response gives exactly the
+   reference's status and data, and a lost or corrupted exchange gives UPLINK_TIMEOUT or
+   UPLINK_CHECKSUM, never someone else's data.
+2. `BridgeModelVsBridgeTla`: the Python bridge behind the fake-bridge fixture produces, byte for
+   byte, the response stream of the reference for the same requests and downlink outcomes, so
+   the tests built on it test against Bridge.tla.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+from hypothesis import HealthCheck, settings
+from hypothesis import strategies as st
+from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, precondition, rule
+
+from bridge_ref import BridgeRef, Req, outbox
+from urb.errors import ErrorFlag
+from urb.managers.base import NS_PER_MS, Transfer
+from urb.managers.loopback import BridgeModel, FakeNode
+from urb.managers.rs232_core import Rs232Core
+from urb_msgs import NODES
+from urb_msgs.urb_core import Status, UplinkReadRequest, UplinkResponse, UplinkWriteRequest
+
+MOTOR = NODES["MotorDriver"]
+PRESENT = {8, 9}
+ABSENT = 10
+
+
+def sizes() -> dict[tuple[int, str, int], int]:
+    out: dict[tuple[int, str, int], int] = {}
+    for addr in PRESENT:
+        for mb in MOTOR.mailboxes:
+            out[(addr, "read" if mb.direction == "outbox" else "write", mb.number)] = mb.size
+    return out
+
+
+REQS = [
+    Req(8, 1, "read", 6), Req(9, 2, "read", 4), Req(8, 0, "read", 25), Req(9, 1, "write", 2, b"\x10\x27"),
+    Req(8, 2, "write", 11, bytes(range(11))), Req(8, 1, "read", 5),  # SIZE_MISMATCH
+    Req(ABSENT, 1, "read", 6), Req(ABSENT, 1, "write", 2, b"\x00\x01"),  # NO_NODE
+]
+FAULTS = {"TIMEOUT", "CHECKSUM", "BUS_STUCK", "NODE_BUSY"}
+
+
+def frame_of(t: Transfer) -> bytes:
+    if t.read:
+        return UplinkReadRequest(address=t.address, mailbox=t.mailbox, seq=t.seq, length=t.length).encode()
+    return UplinkWriteRequest(address=t.address, mailbox=t.mailbox, seq=t.seq, data=t.data).encode()
+
+
+class HostCoreVsBridgeTla(RuleBasedStateMachine):
+    @initialize(queue_len=st.integers(1, 3), extra=st.integers(0, 3))
+    def setup(self, queue_len: int, extra: int) -> None:
+        window = queue_len + extra
+        self.ref = BridgeRef(set(PRESENT), sizes(), set(FAULTS), queue_len, window)
+        self.core = Rs232Core(window=window, timeout_ns=10 * NS_PER_MS, resync_gap_ns=NS_PER_MS,
+                              lost_after_ns=10**15, lost_after_timeouts=10**9)
+        self.now = 0
+        self.transfers: list[Transfer] = []
+        self.lose: dict[int, bool] = {}
+        self.fate: dict[int, str] = {}  # transfer index -> intact | lost | corrupt
+        self.ref_id: dict[int, int] = {}  # ref id -> transfer index
+        self.seq_of: dict[int, int] = {}  # transfer index -> seq on the wire
+        self.expect: dict[int, tuple[str, bytes]] = {}
+        self.wire = bytearray()
+        self.sent_upto = 0
+        self.done: list[int] = []
+        self.corruptions = 0
+
+    # -- host side ----------------------------------------------------------------------------
+    def _pump(self) -> None:
+        for frame in self.core.frames_to_send(self.now):
+            i = self.sent_upto
+            self.sent_upto += 1
+            t = self.transfers[i]
+            assert frame == frame_of(t) and t.seq == (i + 1) % 16
+            self.seq_of[i] = t.seq
+            if self.lose[i]:
+                self.fate[i] = "lost"
+                continue
+            r = Req(t.address, t.mailbox, "read" if t.read else "write", t.length, t.data)
+            assert self.ref.can_submit(), "host exceeded the window"
+            self.ref_id[self.ref.submit_and_admit(r)] = i
+        self._collect()
+
+    def _collect(self) -> None:
+        for t in self.core.take_completed():
+            i = self.transfers.index(t)
+            assert i == len(self.done), f"completion out of order: {i} after {self.done[-3:]}"
+            self.done.append(i)
+            fate = self.fate.get(i)
+            if fate == "intact":
+                status, data = self.expect[i]
+                if self.corruptions == 0:
+                    assert t.flags == ErrorFlag.from_status(Status[status]), (i, t.flags, status)
+                    assert t.response == (data if status == "OK" and t.read else None)
+                else:  # hunting after a corruption may (rarely, by design) lose a neighbour
+                    assert t.flags in (ErrorFlag.from_status(Status[status]), ErrorFlag.UPLINK_CHECKSUM,
+                                       ErrorFlag.UPLINK_TIMEOUT)
+                    if t.flags == ErrorFlag.NONE and t.read:
+                        assert t.response == data
+            else:
+                assert fate in ("lost", "corrupt"), (i, fate, t.flags)
+                assert t.flags in (ErrorFlag.UPLINK_TIMEOUT, ErrorFlag.UPLINK_CHECKSUM), (i, t.flags)
+                assert t.response is None
+
+    @rule(template=st.sampled_from(REQS), lose=st.integers(0, 9).map(lambda x: x == 0))
+    def submit(self, template: Req, lose: bool) -> None:
+        t = Transfer(template.addr, template.box, template.op == "read", template.len, template.data)
+        self.lose[len(self.transfers)] = lose
+        self.transfers.append(t)
+        self.core.submit(t, self.now)
+        self._pump()
+
+    @rule(n=st.integers(1, 40))
+    def deliver(self, n: int) -> None:
+        chunk = bytes(self.wire[:n])
+        del self.wire[:n]
+        self.core.receive(chunk, self.now)
+        self._pump()
+
+    @precondition(lambda self: not self.wire and not self.ref.queue)
+    @rule(dt=st.integers(1, 12 * NS_PER_MS))
+    def tick(self, dt: int) -> None:
+        """Time passes only when the bridge holds nothing: uplink timeouts then mean loss, as
+        configured in practice (host timeout > the bridge's worst case)."""
+        self.now += dt
+        self.core.poll(self.now)
+        self._pump()
+
+    # -- reference bridge ---------------------------------------------------------------------
+    @precondition(lambda self: self.ref.first_pending() is not None)
+    @rule(choice=st.integers(0, 4))
+    def serve(self, choice: int) -> None:
+        choices = self.ref.serve_choices()
+        self.ref.serve(choices[choice % len(choices)])
+
+    @precondition(lambda self: self.ref.can_emit())
+    @rule(drop=st.integers(0, 9), flip=st.integers(0, 9 * 8))
+    def emit(self, drop: int, flip: int) -> None:
+        resp = self.ref.emit()
+        i = self.ref_id[resp.id]
+        frame = bytearray(UplinkResponse(seq=self.seq_of[i], status=Status[resp.status], data=resp.data).encode())
+        self.expect[i] = (resp.status, resp.data)
+        if drop == 0:
+            self.fate[i] = "lost"
+            return
+        if drop == 1 and flip < len(frame) * 8:
+            frame[flip // 8] ^= 1 << (flip % 8)
+            self.fate[i] = "corrupt"
+            self.corruptions += 1
+        else:
+            self.fate[i] = "intact"
+        self.wire += frame
+
+    @invariant()
+    def reference_invariants_hold(self) -> None:
+        if hasattr(self, "ref"):
+            self.ref.check()
+
+    def teardown(self) -> None:
+        if not hasattr(self, "ref"):
+            return
+        for _ in range(1000):  # drain: everything completes, exactly once, in order
+            k = self.ref.first_pending()
+            if k is not None:
+                self.ref.serve("OK" if self.ref.req(self.ref.queue[k].id).addr in PRESENT else "NO_NODE")
+            elif self.ref.can_emit():
+                self.emit(drop=5, flip=0)
+            elif self.wire:
+                self.deliver(64)
+            elif self.core.busy():
+                self.tick(11 * NS_PER_MS)
+            else:
+                break
+        assert self.done == list(range(len(self.transfers)))
+
+
+TestHostCoreVsBridgeTla = HostCoreVsBridgeTla.TestCase
+TestHostCoreVsBridgeTla.settings = settings(max_examples=150, stateful_step_count=60, deadline=None,
+                                            suppress_health_check=[HealthCheck.too_slow])
+
+
+# --------------------------------------------------------------------------------------------
+
+class EchoNode(FakeNode):
+    """A motor driver whose outboxes hold Bridge.tla's Outbox(addr, box)."""
+
+    def __init__(self, addr: int) -> None:
+        super().__init__(MOTOR, index=addr)
+        self.addr = addr
+
+    def read_outbox(self, box: int) -> bytes:
+        mb = self.info.mailbox("outbox", box)
+        return outbox(self.addr, box, mb.size if mb else 0)
+
+
+class BridgeModelVsBridgeTla(RuleBasedStateMachine):
+    @initialize(queue_len=st.integers(1, 4), extra=st.integers(0, 4))
+    def setup(self, queue_len: int, extra: int) -> None:
+        window = queue_len + extra
+        self.ref = BridgeRef(set(PRESENT), sizes(), set(FAULTS), queue_len, window)
+        self.nodes = {a: EchoNode(a) for a in PRESENT}
+        self.model = BridgeModel(dict(self.nodes), fifo_depth=queue_len, ring=window)
+        self.outcomes: deque[tuple[int, str]] = deque()  # (ref id, outcome) for PENDING requests
+        self.seq = 0
+        self.seq_of: dict[int, int] = {}
+        self.now = 0
+
+    @precondition(lambda self: self.ref.can_submit())
+    @rule(template=st.sampled_from(REQS), outcome=st.sampled_from(["OK", "OK", "TIMEOUT", "CHECKSUM", "BUS_STUCK", "NODE_BUSY"]))
+    def submit(self, template: Req, outcome: str) -> None:
+        self.seq = (self.seq + 1) % 16
+        id_ = self.ref.submit_and_admit(template)
+        self.seq_of[id_] = self.seq
+        if self.ref.queue[-1].status == "PENDING":
+            if template.addr not in PRESENT:
+                outcome = "NO_NODE"
+            elif outcome == "NODE_BUSY" and template.op == "read":
+                outcome = "OK"
+            self.outcomes.append((id_, outcome))
+            if outcome != "NO_NODE":
+                self.nodes[template.addr].faults.append(Status[outcome])  # OK: no fault this time
+        if template.op == "read":
+            frame = UplinkReadRequest(address=template.addr, mailbox=template.box, seq=self.seq, length=template.len).encode()
+        else:
+            frame = UplinkWriteRequest(address=template.addr, mailbox=template.box, seq=self.seq, data=template.data).encode()
+        self.now += 1000
+        self.model.receive(frame, self.now)
+
+    @rule()
+    def step(self) -> None:
+        """The model serves everything and emits; the reference does the same, in order."""
+        got = self.model.process(self.now)
+        while self.outcomes:
+            id_, outcome = self.outcomes.popleft()
+            assert self.ref.serve_choices(), "reference has nothing pending"
+            self.ref.serve(outcome)
+        want = bytearray()
+        while self.ref.can_emit():
+            r = self.ref.emit()
+            want += UplinkResponse(seq=self.seq_of[r.id], status=Status[r.status], data=r.data).encode()
+        assert got == bytes(want)
+        self.ref.check()
+        for node in self.nodes.values():
+            assert not node.faults
+
+
+TestBridgeModelVsBridgeTla = BridgeModelVsBridgeTla.TestCase
+TestBridgeModelVsBridgeTla.settings = settings(max_examples=150, stateful_step_count=40, deadline=None)
