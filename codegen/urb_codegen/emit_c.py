@@ -66,6 +66,12 @@ def _member(f: Field) -> str:
     return f.name + "_" if f.name in _C_RESERVED else f.name
 
 
+def _rule(title: str, char: str = "=") -> str:
+    """A section banner comment padded to the width of the generated code (96 columns)."""
+    head = f"/* {char * 5} {title} "
+    return head + char * max(3, 93 - len(head)) + " */"
+
+
 def _comment(text: str) -> str:
     """Text safe inside a C block comment."""
     return text.replace("*/", "* /").replace("/*", "/ *")
@@ -579,6 +585,7 @@ def _environment() -> Environment:
     )
     env.globals.update(runtime_version=RUNTIME_VERSION, error_codes=_ERROR_CODES, mailboxes=MAILBOXES)
     env.filters["comment"] = _comment
+    env.filters["rule"] = _rule
     env.filters["u"] = lambda value: f"{value}u"
     return env
 

@@ -26,7 +26,7 @@ bool urb_bridge_opcode_is_valid(uint32_t value)
     return (value <= 3u);
 }
 
-/* ----- UplinkReadRequest ------------------------------------------------------------------- */
+/* ----- UplinkReadRequest ------------------------------------------------------------------ */
 
 int32_t urb_uplink_read_request_encode(const urb_uplink_read_request_t *msg, uint8_t *buf, size_t capacity)
 {
@@ -82,7 +82,7 @@ int32_t urb_uplink_read_request_decode(urb_uplink_read_request_t *msg, const uin
     return (int32_t)length;
 }
 
-/* ----- UplinkWriteRequest ------------------------------------------------------------------ */
+/* ----- UplinkWriteRequest ----------------------------------------------------------------- */
 
 int32_t urb_uplink_write_request_encode(const urb_uplink_write_request_t *msg, uint8_t *buf, size_t capacity)
 {
@@ -113,7 +113,7 @@ int32_t urb_uplink_write_request_encode(const urb_uplink_write_request_t *msg, u
     urb_put_bits(buf, 12u, 4u, (uint32_t)msg->seq);
     urb_put_bits(buf, 16u, 8u, (uint32_t)msg->length);
     /*@ loop invariant 0 <= k <= payload_len;
-        loop assigns k, buf[3 .. 3 + payload_len - 1];
+        loop assigns k, buf[3 .. 3u + payload_len - 1];
         loop variant payload_len - k; */
     for (size_t k = 0u; k < payload_len; k++) {
         buf[3u + k] = msg->data[k];
@@ -164,7 +164,7 @@ int32_t urb_uplink_write_request_decode(urb_uplink_write_request_t *msg, const u
     return (int32_t)length;
 }
 
-/* ----- UplinkResponse ---------------------------------------------------------------------- */
+/* ----- UplinkResponse --------------------------------------------------------------------- */
 
 int32_t urb_uplink_response_encode(const urb_uplink_response_t *msg, uint8_t *buf, size_t capacity)
 {
@@ -191,7 +191,7 @@ int32_t urb_uplink_response_encode(const urb_uplink_response_t *msg, uint8_t *bu
     urb_put_bits(buf, 0u, 4u, (uint32_t)msg->seq);
     urb_put_bits(buf, 4u, 4u, (uint32_t)msg->status);
     /*@ loop invariant 0 <= k <= payload_len;
-        loop assigns k, buf[1 .. 1 + payload_len - 1];
+        loop assigns k, buf[1 .. 1u + payload_len - 1];
         loop variant payload_len - k; */
     for (size_t k = 0u; k < payload_len; k++) {
         buf[1u + k] = msg->data[k];
@@ -243,7 +243,7 @@ int32_t urb_uplink_response_decode(urb_uplink_response_t *msg, const uint8_t *bu
     return (int32_t)length;
 }
 
-/* ----- UsbBatchHeader ---------------------------------------------------------------------- */
+/* ----- UsbBatchHeader --------------------------------------------------------------------- */
 
 int32_t urb_usb_batch_header_encode(const urb_usb_batch_header_t *msg, uint8_t *buf, size_t capacity)
 {
@@ -289,7 +289,7 @@ int32_t urb_usb_batch_header_decode(urb_usb_batch_header_t *msg, const uint8_t *
     return (int32_t)length;
 }
 
-/* ----- MailboxSelect ----------------------------------------------------------------------- */
+/* ----- MailboxSelect ---------------------------------------------------------------------- */
 
 int32_t urb_mailbox_select_encode(const urb_mailbox_select_t *msg, uint8_t *buf, size_t capacity)
 {
@@ -331,7 +331,7 @@ int32_t urb_mailbox_select_decode(urb_mailbox_select_t *msg, const uint8_t *buf,
     return (int32_t)length;
 }
 
-/* ----- DownlinkWrite ----------------------------------------------------------------------- */
+/* ----- DownlinkWrite ---------------------------------------------------------------------- */
 
 int32_t urb_downlink_write_encode(const urb_downlink_write_t *msg, uint8_t *buf, size_t capacity)
 {
@@ -357,7 +357,7 @@ int32_t urb_downlink_write_encode(const urb_downlink_write_t *msg, uint8_t *buf,
     urb_put_bits(buf, 0u, 3u, (uint32_t)msg->select.mailbox);
     urb_put_bits(buf, 7u, 1u, (msg->select.read ? 1u : 0u));
     /*@ loop invariant 0 <= k <= payload_len;
-        loop assigns k, buf[1 .. 1 + payload_len - 1];
+        loop assigns k, buf[1 .. 1u + payload_len - 1];
         loop variant payload_len - k; */
     for (size_t k = 0u; k < payload_len; k++) {
         buf[1u + k] = msg->data[k];
@@ -409,7 +409,7 @@ int32_t urb_downlink_write_decode(urb_downlink_write_t *msg, const uint8_t *buf,
     return (int32_t)length;
 }
 
-/* ----- DownlinkReadSelect ------------------------------------------------------------------ */
+/* ----- DownlinkReadSelect ----------------------------------------------------------------- */
 
 int32_t urb_downlink_read_select_encode(const urb_downlink_read_select_t *msg, uint8_t *buf, size_t capacity)
 {
@@ -451,7 +451,7 @@ int32_t urb_downlink_read_select_decode(urb_downlink_read_select_t *msg, const u
     return (int32_t)length;
 }
 
-/* ----- DownlinkReadResponse ---------------------------------------------------------------- */
+/* ----- DownlinkReadResponse --------------------------------------------------------------- */
 
 int32_t urb_downlink_read_response_encode(const urb_downlink_read_response_t *msg, uint8_t *buf, size_t capacity)
 {
@@ -463,21 +463,21 @@ int32_t urb_downlink_read_response_encode(const urb_downlink_read_response_t *ms
     if (msg->data_len > 32u) { return URB_ERR_RANGE; }
     size_t const payload_len = msg->data_len;
     size_t const check_size = urb_link_check_size(1u + payload_len);
-    size_t const size = 0u + payload_len + check_size;
+    size_t const size = payload_len + check_size;
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
     /*@ loop invariant 0 <= k <= payload_len;
-        loop assigns k, buf[0 .. 0 + payload_len - 1];
+        loop assigns k, buf[0 .. payload_len - 1];
         loop variant payload_len - k; */
     for (size_t k = 0u; k < payload_len; k++) {
-        buf[0u + k] = msg->data[k];
+        buf[k] = msg->data[k];
     }
     /* The implicit prefix is not sent, but the check covers it. */
     uint8_t prefix[1] = {0u};
     urb_put_bits(prefix, 0u, 3u, (uint32_t)msg->select.mailbox);
     urb_put_bits(prefix, 7u, 1u, (msg->select.read ? 1u : 0u));
-    urb_put_le(buf, 0u + payload_len, check_size, urb_link_check(prefix, 1u, buf, 0u + payload_len));
+    urb_put_le(buf, payload_len, check_size, urb_link_check(prefix, 1u, buf, payload_len));
     return (int32_t)size;
 }
 
@@ -488,7 +488,7 @@ int32_t urb_downlink_read_response_decode(urb_downlink_read_response_t *msg, con
     }
     /* The implicit prefix comes from the members the caller set; the check covers it. */
     if (msg->select.mailbox > 7u) { return URB_ERR_ARGUMENT; }
-uint8_t prefix[1] = {0u};
+    uint8_t prefix[1] = {0u};
     urb_put_bits(prefix, 0u, 3u, (uint32_t)msg->select.mailbox);
     urb_put_bits(prefix, 7u, 1u, (msg->select.read ? 1u : 0u));
     if (length < URB_DOWNLINK_READ_RESPONSE_MIN_SIZE) {
@@ -507,26 +507,26 @@ uint8_t prefix[1] = {0u};
         return URB_ERR_LONG; /* not reached within MAX_SIZE; bounds the copy below for the prover */
     }
     size_t const check_size = urb_link_check_size(1u + payload_len);
-    if (length < 0u + payload_len + check_size) {
+    if (length < payload_len + check_size) {
         return URB_ERR_SHORT;
     }
-    if (length > 0u + payload_len + check_size) {
+    if (length > payload_len + check_size) {
         return URB_ERR_LONG;
     }
-    if (urb_get_le(buf, 0u + payload_len, check_size) != urb_link_check(prefix, 1u, buf, 0u + payload_len)) {
+    if (urb_get_le(buf, payload_len, check_size) != urb_link_check(prefix, 1u, buf, payload_len)) {
         return URB_ERR_CHECKSUM;
     }
     /*@ loop invariant 0 <= k <= payload_len;
         loop assigns k, msg->data[0 .. 31];
         loop variant payload_len - k; */
     for (size_t k = 0u; k < payload_len; k++) {
-        msg->data[k] = buf[0u + k];
+        msg->data[k] = buf[k];
     }
     msg->data_len = (uint8_t)payload_len;
     return (int32_t)length;
 }
 
-/* ----- SyncBroadcast ----------------------------------------------------------------------- */
+/* ----- SyncBroadcast ---------------------------------------------------------------------- */
 
 int32_t urb_sync_broadcast_encode(const urb_sync_broadcast_t *msg, uint8_t *buf, size_t capacity)
 {
@@ -565,7 +565,7 @@ int32_t urb_sync_broadcast_decode(urb_sync_broadcast_t *msg, const uint8_t *buf,
     return (int32_t)length;
 }
 
-/* ----- Identification ---------------------------------------------------------------------- */
+/* ----- Identification --------------------------------------------------------------------- */
 
 int32_t urb_identification_encode(const urb_identification_t *msg, uint8_t *buf, size_t capacity)
 {
@@ -660,7 +660,7 @@ int32_t urb_identification_decode(urb_identification_t *msg, const uint8_t *buf,
     return (int32_t)length;
 }
 
-/* ----- Command ----------------------------------------------------------------------------- */
+/* ----- Command ---------------------------------------------------------------------------- */
 
 int32_t urb_command_encode(const urb_command_t *msg, uint8_t *buf, size_t capacity)
 {
@@ -706,7 +706,7 @@ int32_t urb_command_decode(urb_command_t *msg, const uint8_t *buf, size_t length
     return (int32_t)length;
 }
 
-/* ----- BridgeInfo -------------------------------------------------------------------------- */
+/* ----- BridgeInfo ------------------------------------------------------------------------- */
 
 int32_t urb_bridge_info_encode(const urb_bridge_info_t *msg, uint8_t *buf, size_t capacity)
 {
@@ -760,7 +760,7 @@ int32_t urb_bridge_info_decode(urb_bridge_info_t *msg, const uint8_t *buf, size_
     return (int32_t)length;
 }
 
-/* ----- BridgeScan -------------------------------------------------------------------------- */
+/* ----- BridgeScan ------------------------------------------------------------------------- */
 
 int32_t urb_bridge_scan_encode(const urb_bridge_scan_t *msg, uint8_t *buf, size_t capacity)
 {
@@ -807,7 +807,7 @@ int32_t urb_bridge_scan_decode(urb_bridge_scan_t *msg, const uint8_t *buf, size_
     return (int32_t)length;
 }
 
-/* ----- BridgeCommand ----------------------------------------------------------------------- */
+/* ----- BridgeCommand ---------------------------------------------------------------------- */
 
 int32_t urb_bridge_command_encode(const urb_bridge_command_t *msg, uint8_t *buf, size_t capacity)
 {

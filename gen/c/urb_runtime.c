@@ -82,7 +82,7 @@ int32_t urb_sign_extend(uint32_t raw, uint8_t width)
     return (int32_t)value;
 }
 
-/* ===== Checksum link_check ================================================================== */
+/* ===== Checksum link_check ================================================================ */
 
 uint8_t urb_crc8_link_check_byte(uint8_t crc, uint8_t byte)
 {

@@ -6,6 +6,25 @@
 #ifndef URB_RUNTIME_H
 #define URB_RUNTIME_H
 
+/*
+ * Using the codecs (one header per schema, e.g. urb_core.h):
+ *
+ *     urb_uplink_read_request_t req = {.address = 33u, .mailbox = 1u, .seq = 3u, .length = 6u};
+ *     uint8_t frame[URB_UPLINK_READ_REQUEST_MAX_SIZE];
+ *     int32_t n = urb_uplink_read_request_encode(&req, frame, sizeof frame);   // 4, or URB_ERR_*
+ *     n = urb_uplink_read_request_decode(&req, frame, (size_t)n);             // 4, or URB_ERR_*
+ *
+ * - Structs hold plain values; fixed fields (e.g. `read`) and reserved bits are not members.
+ * - Encoders check every member (width, range, enum, payload length) before writing: on error
+ *   nothing is written. Decoders take exactly one frame and reject, in this order, a frame too
+ *   short, too long, with a wrong check, or holding a value the schema forbids; the struct is
+ *   then unspecified.
+ * - Implicit fields (e.g. DownlinkReadResponse.select) are not sent but covered by the check: set
+ *   them in the struct before decoding.
+ * - No heap, no globals besides const tables, byte-wise buffer access only (no alignment needs),
+ *   no stdio. Every function carries an ACSL contract for Frama-C WP.
+ */
+
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -66,7 +85,7 @@ void urb_put_le(uint8_t *buf, size_t at, size_t size, uint32_t value);
     assigns \nothing; */
 int32_t urb_sign_extend(uint32_t raw, uint8_t width);
 
-/* ===== Checksum link_check ================================================================== */
+/* ===== Checksum link_check ================================================================ */
 /* Frame check on every URB frame. CRC-8/AUTOSAR (poly 0x2F) keeps Hamming distance 4 up to 14
  * covered bytes, which includes every RS232 response of the paper's 10-byte budget; longer
  * frames switch to CRC-16/CCITT (poly 0x1021, HD 4 up to 4093 bytes). Both sides know the

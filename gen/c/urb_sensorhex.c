@@ -11,7 +11,7 @@ bool urb_motor_mode_is_valid(uint32_t value)
     return (value <= 2u);
 }
 
-/* ----- MotorFeedback ----------------------------------------------------------------------- */
+/* ----- MotorFeedback ---------------------------------------------------------------------- */
 
 int32_t urb_motor_feedback_encode(const urb_motor_feedback_t *msg, uint8_t *buf, size_t capacity)
 {
@@ -52,7 +52,7 @@ int32_t urb_motor_feedback_decode(urb_motor_feedback_t *msg, const uint8_t *buf,
     return (int32_t)length;
 }
 
-/* ----- MotorCommand ------------------------------------------------------------------------ */
+/* ----- MotorCommand ----------------------------------------------------------------------- */
 
 int32_t urb_motor_command_encode(const urb_motor_command_t *msg, uint8_t *buf, size_t capacity)
 {
@@ -89,7 +89,7 @@ int32_t urb_motor_command_decode(urb_motor_command_t *msg, const uint8_t *buf, s
     return (int32_t)length;
 }
 
-/* ----- MotorStatus ------------------------------------------------------------------------- */
+/* ----- MotorStatus ------------------------------------------------------------------------ */
 
 int32_t urb_motor_status_encode(const urb_motor_status_t *msg, uint8_t *buf, size_t capacity)
 {
@@ -140,7 +140,7 @@ int32_t urb_motor_status_decode(urb_motor_status_t *msg, const uint8_t *buf, siz
     return (int32_t)length;
 }
 
-/* ----- MotorConfig ------------------------------------------------------------------------- */
+/* ----- MotorConfig ------------------------------------------------------------------------ */
 
 int32_t urb_motor_config_encode(const urb_motor_config_t *msg, uint8_t *buf, size_t capacity)
 {
@@ -189,7 +189,7 @@ int32_t urb_motor_config_decode(urb_motor_config_t *msg, const uint8_t *buf, siz
     return (int32_t)length;
 }
 
-/* ----- BatteryPack ------------------------------------------------------------------------- */
+/* ----- BatteryPack ------------------------------------------------------------------------ */
 
 int32_t urb_battery_pack_encode(const urb_battery_pack_t *msg, uint8_t *buf, size_t capacity)
 {
@@ -237,7 +237,7 @@ int32_t urb_battery_pack_decode(urb_battery_pack_t *msg, const uint8_t *buf, siz
     return (int32_t)length;
 }
 
-/* ----- BatteryStatus ----------------------------------------------------------------------- */
+/* ----- BatteryStatus ---------------------------------------------------------------------- */
 
 int32_t urb_battery_status_encode(const urb_battery_status_t *msg, uint8_t *buf, size_t capacity)
 {
@@ -305,7 +305,7 @@ int32_t urb_battery_status_decode(urb_battery_status_t *msg, const uint8_t *buf,
     return (int32_t)length;
 }
 
-/* ----- ImuSample --------------------------------------------------------------------------- */
+/* ----- ImuSample -------------------------------------------------------------------------- */
 
 int32_t urb_imu_sample_encode(const urb_imu_sample_t *msg, uint8_t *buf, size_t capacity)
 {
@@ -368,7 +368,7 @@ int32_t urb_imu_sample_decode(urb_imu_sample_t *msg, const uint8_t *buf, size_t 
     return (int32_t)length;
 }
 
-/* ----- IrRange ----------------------------------------------------------------------------- */
+/* ----- IrRange ---------------------------------------------------------------------------- */
 
 int32_t urb_ir_range_encode(const urb_ir_range_t *msg, uint8_t *buf, size_t capacity)
 {

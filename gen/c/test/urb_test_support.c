@@ -15,7 +15,7 @@ void urb_test_print_hex(FILE *out, const uint8_t *data, size_t len)
     fputc('"', out);
 }
 
-/* ----- UplinkReadRequest */
+/* ----- UplinkReadRequest ------------------------------------------------------------------ */
 
 static int32_t encode_urb_uplink_read_request(const void *msg, uint8_t *buf, size_t capacity)
 {
@@ -39,10 +39,10 @@ static void print_urb_uplink_read_request(FILE *out, const void *in)
     fprintf(out, "%lu", (unsigned long)msg->seq);
     fputs(",\"length\":", out);
     fprintf(out, "%lu", (unsigned long)msg->length);
-fputc('}', out);
+    fputc('}', out);
 }
 
-/* ----- UplinkWriteRequest */
+/* ----- UplinkWriteRequest ----------------------------------------------------------------- */
 
 static int32_t encode_urb_uplink_write_request(const void *msg, uint8_t *buf, size_t capacity)
 {
@@ -68,10 +68,10 @@ static void print_urb_uplink_write_request(FILE *out, const void *in)
     fprintf(out, "%lu", (unsigned long)msg->length);
     fputs(",\"data\":", out);
     urb_test_print_hex(out, msg->data, msg->length);
-fputc('}', out);
+    fputc('}', out);
 }
 
-/* ----- UplinkResponse */
+/* ----- UplinkResponse --------------------------------------------------------------------- */
 
 static int32_t encode_urb_uplink_response(const void *msg, uint8_t *buf, size_t capacity)
 {
@@ -93,10 +93,10 @@ static void print_urb_uplink_response(FILE *out, const void *in)
     fprintf(out, "%lu", (unsigned long)msg->status);
     fputs(",\"data\":", out);
     urb_test_print_hex(out, msg->data, msg->data_len);
-fputc('}', out);
+    fputc('}', out);
 }
 
-/* ----- UsbBatchHeader */
+/* ----- UsbBatchHeader --------------------------------------------------------------------- */
 
 static int32_t encode_urb_usb_batch_header(const void *msg, uint8_t *buf, size_t capacity)
 {
@@ -116,10 +116,10 @@ static void print_urb_usb_batch_header(FILE *out, const void *in)
     fprintf(out, "%lu", (unsigned long)msg->frame);
     fputs(",\"count\":", out);
     fprintf(out, "%lu", (unsigned long)msg->count);
-fputc('}', out);
+    fputc('}', out);
 }
 
-/* ----- MailboxSelect */
+/* ----- MailboxSelect ---------------------------------------------------------------------- */
 
 static int32_t encode_urb_mailbox_select(const void *msg, uint8_t *buf, size_t capacity)
 {
@@ -139,10 +139,10 @@ static void print_urb_mailbox_select(FILE *out, const void *in)
     fprintf(out, "%lu", (unsigned long)msg->mailbox);
     fputs(",\"read\":", out);
     fputs(msg->read ? "true" : "false", out);
-fputc('}', out);
+    fputc('}', out);
 }
 
-/* ----- DownlinkWrite */
+/* ----- DownlinkWrite ---------------------------------------------------------------------- */
 
 static int32_t encode_urb_downlink_write(const void *msg, uint8_t *buf, size_t capacity)
 {
@@ -167,10 +167,10 @@ static void print_urb_downlink_write(FILE *out, const void *in)
     fputc('}', out);
     fputs(",\"data\":", out);
     urb_test_print_hex(out, msg->data, msg->data_len);
-fputc('}', out);
+    fputc('}', out);
 }
 
-/* ----- DownlinkReadSelect */
+/* ----- DownlinkReadSelect ----------------------------------------------------------------- */
 
 static int32_t encode_urb_downlink_read_select(const void *msg, uint8_t *buf, size_t capacity)
 {
@@ -193,10 +193,10 @@ static void print_urb_downlink_read_select(FILE *out, const void *in)
     fputs(",\"read\":", out);
     fputs(msg->select.read ? "true" : "false", out);
     fputc('}', out);
-fputc('}', out);
+    fputc('}', out);
 }
 
-/* ----- DownlinkReadResponse */
+/* ----- DownlinkReadResponse --------------------------------------------------------------- */
 
 static int32_t encode_urb_downlink_read_response(const void *msg, uint8_t *buf, size_t capacity)
 {
@@ -214,7 +214,7 @@ static int32_t set_implicit_urb_downlink_read_response(void *out, const uint8_t 
     msg->select.mailbox = (uint8_t)urb_get_bits(prefix, 0u, 3u);
     if (urb_get_bits(prefix, 3u, 4u) != 0u) { return URB_ERR_RANGE; }
     msg->select.read = (urb_get_bits(prefix, 7u, 1u) != 0u);
-return URB_OK;
+    return URB_OK;
 }
 
 static void print_urb_downlink_read_response(FILE *out, const void *in)
@@ -230,10 +230,10 @@ static void print_urb_downlink_read_response(FILE *out, const void *in)
     fputc('}', out);
     fputs(",\"data\":", out);
     urb_test_print_hex(out, msg->data, msg->data_len);
-fputc('}', out);
+    fputc('}', out);
 }
 
-/* ----- SyncBroadcast */
+/* ----- SyncBroadcast ---------------------------------------------------------------------- */
 
 static int32_t encode_urb_sync_broadcast(const void *msg, uint8_t *buf, size_t capacity)
 {
@@ -251,10 +251,10 @@ static void print_urb_sync_broadcast(FILE *out, const void *in)
     fputc('{', out);
     fputs("\"counter\":", out);
     fprintf(out, "%lu", (unsigned long)msg->counter);
-fputc('}', out);
+    fputc('}', out);
 }
 
-/* ----- Identification */
+/* ----- Identification --------------------------------------------------------------------- */
 
 static int32_t encode_urb_identification(const void *msg, uint8_t *buf, size_t capacity)
 {
@@ -302,10 +302,10 @@ static void print_urb_identification(FILE *out, const void *in)
     fputs(msg->fault ? "true" : "false", out);
     fputs(",\"acq_time\":", out);
     fprintf(out, "%lu", (unsigned long)msg->acq_time);
-fputc('}', out);
+    fputc('}', out);
 }
 
-/* ----- Command */
+/* ----- Command ---------------------------------------------------------------------------- */
 
 static int32_t encode_urb_command(const void *msg, uint8_t *buf, size_t capacity)
 {
@@ -329,10 +329,10 @@ static void print_urb_command(FILE *out, const void *in)
     fprintf(out, "%lu", (unsigned long)msg->period_us);
     fputs(",\"lead_us\":", out);
     fprintf(out, "%lu", (unsigned long)msg->lead_us);
-fputc('}', out);
+    fputc('}', out);
 }
 
-/* ----- BridgeInfo */
+/* ----- BridgeInfo ------------------------------------------------------------------------- */
 
 static int32_t encode_urb_bridge_info(const void *msg, uint8_t *buf, size_t capacity)
 {
@@ -362,10 +362,10 @@ static void print_urb_bridge_info(FILE *out, const void *in)
     fprintf(out, "%lu", (unsigned long)msg->fw_minor);
     fputs(",\"fw_patch\":", out);
     fprintf(out, "%lu", (unsigned long)msg->fw_patch);
-fputc('}', out);
+    fputc('}', out);
 }
 
-/* ----- BridgeScan */
+/* ----- BridgeScan ------------------------------------------------------------------------- */
 
 static int32_t encode_urb_bridge_scan(const void *msg, uint8_t *buf, size_t capacity)
 {
@@ -388,10 +388,10 @@ static void print_urb_bridge_scan(FILE *out, const void *in)
         fputs(msg->present[i0] ? "true" : "false", out);
     }
     fputc(']', out);
-fputc('}', out);
+    fputc('}', out);
 }
 
-/* ----- BridgeCommand */
+/* ----- BridgeCommand ---------------------------------------------------------------------- */
 
 static int32_t encode_urb_bridge_command(const void *msg, uint8_t *buf, size_t capacity)
 {
@@ -411,10 +411,10 @@ static void print_urb_bridge_command(FILE *out, const void *in)
     fprintf(out, "%lu", (unsigned long)msg->opcode);
     fputs(",\"value\":", out);
     fprintf(out, "%lu", (unsigned long)msg->value);
-fputc('}', out);
+    fputc('}', out);
 }
 
-/* ----- MotorFeedback */
+/* ----- MotorFeedback ---------------------------------------------------------------------- */
 
 static int32_t encode_urb_motor_feedback(const void *msg, uint8_t *buf, size_t capacity)
 {
@@ -436,10 +436,10 @@ static void print_urb_motor_feedback(FILE *out, const void *in)
     fprintf(out, "%ld", (long)msg->current);
     fputs(",\"voltage\":", out);
     fprintf(out, "%ld", (long)msg->voltage);
-fputc('}', out);
+    fputc('}', out);
 }
 
-/* ----- MotorCommand */
+/* ----- MotorCommand ----------------------------------------------------------------------- */
 
 static int32_t encode_urb_motor_command(const void *msg, uint8_t *buf, size_t capacity)
 {
@@ -457,10 +457,10 @@ static void print_urb_motor_command(FILE *out, const void *in)
     fputc('{', out);
     fputs("\"voltage\":", out);
     fprintf(out, "%ld", (long)msg->voltage);
-fputc('}', out);
+    fputc('}', out);
 }
 
-/* ----- MotorStatus */
+/* ----- MotorStatus ------------------------------------------------------------------------ */
 
 static int32_t encode_urb_motor_status(const void *msg, uint8_t *buf, size_t capacity)
 {
@@ -488,10 +488,10 @@ static void print_urb_motor_status(FILE *out, const void *in)
     fputs(msg->overtemp ? "true" : "false", out);
     fputs(",\"missed_commands\":", out);
     fprintf(out, "%lu", (unsigned long)msg->missed_commands);
-fputc('}', out);
+    fputc('}', out);
 }
 
-/* ----- MotorConfig */
+/* ----- MotorConfig ------------------------------------------------------------------------ */
 
 static int32_t encode_urb_motor_config(const void *msg, uint8_t *buf, size_t capacity)
 {
@@ -517,10 +517,10 @@ static void print_urb_motor_config(FILE *out, const void *in)
     fprintf(out, "%ld", (long)msg->target);
     fputs(",\"voltage_limit\":", out);
     fprintf(out, "%lu", (unsigned long)msg->voltage_limit);
-fputc('}', out);
+    fputc('}', out);
 }
 
-/* ----- BatteryPack */
+/* ----- BatteryPack ------------------------------------------------------------------------ */
 
 static int32_t encode_urb_battery_pack(const void *msg, uint8_t *buf, size_t capacity)
 {
@@ -546,10 +546,10 @@ static void print_urb_battery_pack(FILE *out, const void *in)
     fputs(msg->present ? "true" : "false", out);
     fputs(",\"temp\":", out);
     fprintf(out, "%ld", (long)msg->temp);
-fputc('}', out);
+    fputc('}', out);
 }
 
-/* ----- BatteryStatus */
+/* ----- BatteryStatus ---------------------------------------------------------------------- */
 
 static int32_t encode_urb_battery_status(const void *msg, uint8_t *buf, size_t capacity)
 {
@@ -587,10 +587,10 @@ static void print_urb_battery_status(FILE *out, const void *in)
     fputs(msg->low ? "true" : "false", out);
     fputs(",\"charging\":", out);
     fputs(msg->charging ? "true" : "false", out);
-fputc('}', out);
+    fputc('}', out);
 }
 
-/* ----- ImuSample */
+/* ----- ImuSample -------------------------------------------------------------------------- */
 
 static int32_t encode_urb_imu_sample(const void *msg, uint8_t *buf, size_t capacity)
 {
@@ -624,10 +624,10 @@ static void print_urb_imu_sample(FILE *out, const void *in)
     fprintf(out, "%ld", (long)msg->temp);
     fputs(",\"sample\":", out);
     fprintf(out, "%lu", (unsigned long)msg->sample);
-fputc('}', out);
+    fputc('}', out);
 }
 
-/* ----- IrRange */
+/* ----- IrRange ---------------------------------------------------------------------------- */
 
 static int32_t encode_urb_ir_range(const void *msg, uint8_t *buf, size_t capacity)
 {
@@ -649,7 +649,7 @@ static void print_urb_ir_range(FILE *out, const void *in)
     fprintf(out, "%lu", (unsigned long)msg->strength);
     fputs(",\"valid\":", out);
     fputs(msg->valid ? "true" : "false", out);
-fputc('}', out);
+    fputc('}', out);
 }
 
 const urb_test_message_t urb_test_messages[] = {
