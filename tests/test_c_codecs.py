@@ -1,6 +1,6 @@
 """The generated C codecs (gen/c), driven through tests/c/codec_driver.c.
 
-The driver and the C unit tests are built once per session with gcc and with clang, both under
+The driver and the C unit tests are built (by mk/c.mk) with gcc and with clang, both under
 AddressSanitizer and UndefinedBehaviorSanitizer, so any out-of-bounds access, overflow or other
 undefined behaviour aborts the driver and fails the test that sent the command. Checked here:
 CRC check values, the hand-derived reference vectors (tests/vectors), random and mutated frames
@@ -32,13 +32,8 @@ from urb_codegen.model import ArrayType, BytesType, CheckType, CrcTier, EnumDecl
 from conftest import load_vectors
 
 REPO = Path(__file__).resolve().parents[1]
-BUILD = REPO / "build" / "c"
 GEN = REPO / "gen" / "c"
 COMPILERS = ["gcc", "clang"]
-CFLAGS = [
-    "-std=c99", "-Wall", "-Wextra", "-Wconversion", "-Wsign-conversion", "-Wpedantic", "-Werror", "-Wshadow",
-    "-g", "-O1", "-fno-omit-frame-pointer", "-fsanitize=address,undefined", "-fno-sanitize-recover=all",
-]
 SEED = 20261121
 CASES_PER_MESSAGE = 900  # random and mutated frames per message and compiler
 
@@ -54,14 +49,14 @@ PY_ERRORS = {
 # --- building and talking to the driver --------------------------------------------------------
 
 
-def _build(cc: str, name: str, sources: list[Path]) -> Path:
-    BUILD.mkdir(parents=True, exist_ok=True)
-    exe = BUILD / f"{name}-{cc}"
-    cmd = [cc, *CFLAGS, f"-I{GEN}", f"-I{GEN / 'test'}", *map(str, sources), "-o", str(exe)]
-    done = subprocess.run(cmd, capture_output=True, text=True)
+def _build(program: str, cc: str) -> Path:
+    """build/c/<program>-<cc>, made by mk/c.mk (the one place that knows the flags)."""
+    target = f"build/c/{program}-{cc}"
+    done = subprocess.run(["make", "-s", "--no-print-directory", "-f", "mk/c.mk", target],
+                          cwd=REPO, capture_output=True, text=True)
     if done.returncode != 0:
-        pytest.fail(f"{' '.join(cmd)}\n{done.stderr}")
-    return exe
+        pytest.fail(f"make {target} failed:\n{done.stdout}{done.stderr}")
+    return REPO / target
 
 
 class Driver:
@@ -115,8 +110,7 @@ class Driver:
 
 @pytest.fixture(scope="session", params=COMPILERS)
 def driver(request: pytest.FixtureRequest) -> Iterator[Driver]:
-    sources = [REPO / "tests" / "c" / "codec_driver.c", *sorted(GEN.glob("*.c")), *sorted((GEN / "test").glob("*.c"))]
-    d = Driver(_build(request.param, "codec_driver", sources))
+    d = Driver(_build("codec_driver", request.param))
     yield d
     d.close()
 
@@ -350,7 +344,7 @@ def test_encode_respects_capacity(driver: Driver, name: str) -> None:
 
 @pytest.mark.parametrize("cc", COMPILERS)
 def test_c_unit_tests(cc: str) -> None:
-    exe = _build(cc, "unit_tests", [REPO / "tests" / "c" / "unit_tests.c", *sorted(GEN.glob("*.c"))])
+    exe = _build("unit_tests", cc)
     done = subprocess.run([str(exe)], capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stdout + done.stderr
 
