@@ -7,7 +7,7 @@ import sys
 from collections.abc import Sequence
 
 from . import __version__
-from . import cli_schema, demo
+from . import cli_nodes, cli_schema, demo
 
 DESCRIPTION = """\
 URB, the Universal Robot Bus: schema compiler, codecs and tools.
@@ -29,6 +29,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"urb {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     cli_schema.register(sub)
+    cli_nodes.register(sub)
     demo.register(sub)
     return parser
 

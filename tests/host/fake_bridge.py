@@ -11,6 +11,7 @@ prints ``PTY <path>`` on its first stdout line, then ``READY``. Commands on stdi
 each answered ``ok ...`` (or ``error ...``) on stdout:
 
     unplug ADDR | plug ADDR          the node stops / starts acknowledging its address
+    vanish ADDR N                    the node answers N more transactions, then is unplugged
     fault ADDR STATUS [N]            the next N transactions of ADDR end with STATUS (e.g. TIMEOUT)
     lock ADDR | unlock ADDR          the node's inboxes are held by the application (NODE_BUSY)
     corrupt [INDEX [XOR]]            flip bits of byte INDEX of the response stream, counted from now
@@ -73,6 +74,8 @@ class FakeBridgeProcess:
         try:
             if op in ("unplug", "plug"):
                 nodes[int(args[0], 0)].present = op == "plug"
+            elif op == "vanish":
+                nodes[int(args[0], 0)].vanish_after = int(args[1])
             elif op == "fault":
                 n = int(args[2]) if len(args) > 2 else 1
                 nodes[int(args[0], 0)].faults.extend([Status[args[1]]] * n)

@@ -44,6 +44,8 @@ class FakeNode:
         self.faults: deque[Status] = deque()
         """Outcomes forced on the next downlink transactions, one per transaction (TIMEOUT,
         CHECKSUM, BUS_STUCK, NODE_BUSY; OK = no fault for that one)."""
+        self.vanish_after: int | None = None
+        """When set, the node answers this many more transactions, then stops acknowledging."""
         self.inbox_locked = False
         """While True every write is NACKed: the bridge answers NODE_BUSY."""
         self.inboxes: dict[int, bytes] = {}
@@ -259,6 +261,11 @@ class BridgeModel:
         if r.address == core.BRIDGE_ADDRESS:
             return self._bridge_mailbox(r)
         node = self.nodes.get(r.address)
+        if node is not None and node.vanish_after is not None:
+            if node.vanish_after <= 0:
+                node.present, node.vanish_after = False, None
+            else:
+                node.vanish_after -= 1
         if node is None or not node.present:
             return Status.NO_NODE, b""
         if node.faults:

@@ -1,0 +1,711 @@
+"""`urb scan`, `urb read`, `urb write`, `urb monitor`, `urb log`: the node tools.
+
+Every command opens the given serial ports, discovers the nodes behind each bridge (the same
+discovery as URBInterface.add_bus_manager) and then works on nodes by name, wherever they are.
+Expected failures (no such port, permission denied, no bridge answering, a node that vanished)
+print one explanation and exit with status 1, never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import enum
+import importlib
+import importlib.util
+import json
+import math
+import sys
+import threading
+import time
+import typing
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, TextIO
+
+from rich.console import Console
+from rich.live import Live
+from rich.table import Table
+
+from urb_msgs import EncodeError, FieldInfo, Message, NodeInfo
+
+from .api import NodeAccessor, NodeRecord, NodeRequest, URBInterface
+from .errors import ErrorFlag, URBError, hint
+from .managers import RS232Manager
+from .managers.base import encode_message
+
+EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
+
+PORT_HELP = "serial port of a bridge (e.g. /dev/ttyS0, /dev/ttyUSB0)"
+NODE_HELP = "node as NAME[:INDEX] (e.g. MotorDriver:2) or CLASS[:INDEX] with a number (0x10:2); index defaults to 0"
+MBOX_HELP = "mailbox number (0..7) or the name of its message (e.g. MotorFeedback)"
+
+COMMON_EPILOG = """\
+Ports: every PORT is opened at --baud (8N1), the bridge at address 0 is asked for its
+identification, told to rescan its downlink, and every node that answers is identified.
+Values are shown and given in engineering units from the schema (raw * scale + offset).
+
+Exit status: 0 success; 1 a failure (port missing or not permitted, no bridge answering, the
+node vanished or refused the request); 2 a usage error."""
+
+
+def register(sub: Any) -> None:
+    """Add the node commands to the `urb` parser."""
+    fmt = argparse.RawDescriptionHelpFormatter
+
+    def common(p: argparse.ArgumentParser) -> None:
+        p.add_argument("--baud", type=int, default=115200, help="bit rate of every port (default 115200)")
+        p.add_argument("--timeout", type=float, default=0.2, metavar="S",
+                       help="seconds to wait for one response before reporting UPLINK_TIMEOUT (default 0.2)")
+
+    scan = sub.add_parser(
+        "scan", help="list the nodes behind one or more bridges", formatter_class=fmt,
+        description="List every node behind the bridges on the given ports, one row per node that answered:\n"
+        "bridge and downlink address, node type, class, index, layout fingerprint (checked against\n"
+        "the host's schema), firmware version and flags. Rows are never merged: two nodes with the\n"
+        "same class and index are both flagged DUPLICATE (give them distinct indexes); a node built\n"
+        "from another schema is flagged MISMATCH (rebuild its firmware or this host with `urb gen`).",
+        epilog=COMMON_EPILOG + "\n\nExample:\n  urb scan /dev/ttyS0 /dev/ttyUSB0")
+    scan.add_argument("ports", nargs="+", metavar="PORT", help=PORT_HELP)
+    scan.add_argument("--json", action="store_true", help="print the table as JSON")
+    common(scan)
+    scan.set_defaults(run=run_scan)
+
+    read = sub.add_parser(
+        "read", help="read an outbox of a node", formatter_class=fmt,
+        description="Read one outbox of one node and print its fields in engineering units, with the\n"
+        "round-trip latency. With --count, read repeatedly every --interval seconds.",
+        epilog=COMMON_EPILOG + "\n\nExamples:\n  urb read /dev/ttyS0 MotorDriver:2 MotorFeedback\n"
+        "  urb read /dev/ttyS0 Imu 1 --count 10 --interval 0.1\n  urb read /dev/ttyS0 0x20 1 --json")
+    read.add_argument("port", metavar="PORT", help=PORT_HELP)
+    read.add_argument("node", metavar="NODE", help=NODE_HELP)
+    read.add_argument("mailbox", metavar="MAILBOX", help=MBOX_HELP)
+    read.add_argument("--raw", action="store_true", help="print the bytes in hex instead of decoding them")
+    read.add_argument("--json", action="store_true", help="print one JSON object per read")
+    read.add_argument("--count", type=int, default=1, metavar="N", help="number of reads (default 1)")
+    read.add_argument("--interval", type=float, default=0.5, metavar="S", help="seconds between reads (default 0.5)")
+    common(read)
+    read.set_defaults(run=run_read)
+
+    write = sub.add_parser(
+        "write", help="write an inbox of a node", formatter_class=fmt,
+        description="Write one inbox of one node. Give every field of the inbox's message as FIELD=VALUE\n"
+        "in engineering units (enum members by name, booleans as true/false, arrays as\n"
+        "comma-separated lists); --defaults sets the fields you leave out to zero. --raw HEX writes\n"
+        "bytes as they are. The command succeeds only when the bridge reports that the node stored\n"
+        "the message.",
+        epilog=COMMON_EPILOG + "\n\nExamples:\n  urb write /dev/ttyS0 MotorDriver:2 MotorCommand voltage=1.5\n"
+        "  urb write /dev/ttyS0 MotorDriver:0 2 mode=LOCAL_PD kp=0.01 kd=0 target=2000 voltage_limit=6\n"
+        "  urb write /dev/ttyS0 Imu 0 --raw 030500000000")
+    write.add_argument("port", metavar="PORT", help=PORT_HELP)
+    write.add_argument("node", metavar="NODE", help=NODE_HELP)
+    write.add_argument("mailbox", metavar="MAILBOX", help=MBOX_HELP)
+    write.add_argument("values", nargs="*", metavar="FIELD=VALUE", help="field values in engineering units")
+    write.add_argument("--raw", metavar="HEX", help="write these bytes instead of encoding fields")
+    write.add_argument("--defaults", action="store_true", help="zero every field not given")
+    common(write)
+    write.set_defaults(run=run_write)
+
+    for name in ("monitor", "log"):
+        is_log = name == "log"
+        p = sub.add_parser(
+            name, help="record outboxes to a CSV or Parquet file" if is_log else "show live values and latency statistics",
+            formatter_class=fmt,
+            description=(
+                "Read outboxes periodically and record every response to FILE, one row per read: times\n"
+                "(submission and completion, ns), latency, bridge, address, node, mailbox, status and\n"
+                "every field in engineering units (nested fields as packs[0].voltage). CSV always;\n"
+                "Parquet (FILE ending in .parquet) when pyarrow is installed. Stops after --duration or\n"
+                "on Ctrl-C, and prints a summary." if is_log else
+                "Read outboxes periodically and show, refreshing in place, the latest values of every\n"
+                "node and mailbox with its achieved rate, round-trip latency (mean, 99th percentile,\n"
+                "max) and error counts by flag. A read is not resubmitted while the previous one is\n"
+                "pending (counted as skipped). Stops after --duration or on Ctrl-C."),
+            epilog=COMMON_EPILOG + ("\n\nExamples:\n  urb log /dev/ttyS0 -o run.csv --node MotorDriver:0 --mailbox 1 --rate 1000 --duration 10"
+                                    if is_log else
+                                    "\n\nExamples:\n  urb monitor /dev/ttyS0\n  urb monitor /dev/ttyS0 --node Imu --rate 100"))
+        p.add_argument("ports", nargs="+", metavar="PORT", help=PORT_HELP)
+        if is_log:
+            p.add_argument("-o", "--output", required=True, type=Path, metavar="FILE", help="output file (.csv or .parquet)")
+        p.add_argument("--node", action="append", default=[], metavar="NODE", help=NODE_HELP + "; repeatable (default: every usable node)")
+        p.add_argument("--mailbox", action="append", default=[], metavar="MAILBOX",
+                       help="outbox to read; repeatable (default: every outbox except 0)")
+        p.add_argument("--rate", type=float, default=1000.0 if is_log else 50.0, metavar="HZ",
+                       help=f"reads per second of each mailbox (default {1000 if is_log else 50})")
+        p.add_argument("--duration", type=float, default=None if not is_log else 10.0, metavar="S",
+                       help="stop after S seconds" + (" (default 10)" if is_log else " (default: until Ctrl-C)"))
+        common(p)
+        p.set_defaults(run=run_log if is_log else run_monitor)
+
+
+# --------------------------------------------------------------------------------------------
+# connecting
+# --------------------------------------------------------------------------------------------
+
+def console(stderr: bool = False) -> Console:
+    """A console that does not wrap tables when the output is a file or a pipe."""
+    stream = sys.stderr if stderr else sys.stdout
+    return Console(file=stream, width=None if stream.isatty() else 200)
+
+
+def fail(text: str) -> int:
+    print(f"urb: {text}", file=sys.stderr)
+    return EXIT_FAIL
+
+
+@contextmanager
+def connected(ports: list[str], args: argparse.Namespace) -> Iterator[URBInterface]:
+    """Open every port and discover; raises URBError (handled by `guarded`)."""
+    urb = URBInterface()
+    try:
+        for port in ports:
+            m = RS232Manager(port, args.baud, timeout_s=args.timeout, lost_after_s=max(1.0, 5 * args.timeout))
+            try:
+                urb.add_bus_manager(m, timeout_s=max(3.0, 20 * args.timeout))
+            except URBError:
+                m.close()
+                raise
+        yield urb
+    finally:
+        urb.close()
+
+
+def guarded(fn: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:
+    def run(args: argparse.Namespace) -> int:
+        try:
+            return fn(args)
+        except URBError as exc:
+            return fail(str(exc))
+        except BrokenPipeError:
+            return EXIT_OK
+    run.__doc__ = fn.__doc__
+    return run
+
+
+def parse_node(urb: URBInterface, text: str) -> NodeAccessor:
+    name, _, index = text.partition(":")
+    try:
+        idx = int(index, 0) if index else 0
+    except ValueError:
+        raise URBError(f"node {text!r}: the index after ':' must be a number (e.g. MotorDriver:2)") from None
+    cls: int | str
+    try:
+        cls = int(name, 0)
+    except ValueError:
+        cls = name
+    return urb.find_node(cls, idx)
+
+
+def parse_mailbox(info: NodeInfo, text: str, direction: str) -> int:
+    try:
+        n = int(text, 0)
+    except ValueError:
+        boxes = [m.number for m in info.mailboxes if m.direction == direction and m.message.NAME.lower() == text.lower()]
+        if not boxes:
+            have = ", ".join(f"{m.number} {m.message.NAME}" for m in info.mailboxes if m.direction == direction)
+            raise URBError(f"{info.name} has no {direction} holding {text!r}; its {direction}es: {have}") from None
+        return boxes[0]
+    if info.mailbox(direction, n) is None:
+        have = ", ".join(f"{m.number} {m.message.NAME}" for m in info.mailboxes if m.direction == direction)
+        raise URBError(f"{info.name} has no {direction} {n}; its {direction}es: {have}")
+    return n
+
+
+def request_failure(node: NodeAccessor, req: NodeRequest) -> str:
+    rec = node.record
+    if req.flags == ErrorFlag.NO_NODE:
+        return (f"node {rec.label} did not answer (NO_NODE): it was discovered at {rec.location} but no longer "
+                f"acknowledges its address. Check its connector and power, then run `urb scan {rec.bridge.name}`.")
+    if req.flags == ErrorFlag.BRIDGE_LOST:
+        return f"the bridge on {rec.bridge.name} went away ({rec.bridge.lost_reason}); reconnect it and run the command again"
+    return req.error or f"{rec.label}: {req.flags.describe()}: {hint(req.flags)}"
+
+
+# --------------------------------------------------------------------------------------------
+# values in engineering units
+# --------------------------------------------------------------------------------------------
+
+def engineering(f: FieldInfo, raw: Any) -> Any:
+    if isinstance(raw, enum.IntEnum):
+        return raw.name
+    if isinstance(raw, bool):
+        return raw
+    if isinstance(raw, (bytes, bytearray)):
+        return bytes(raw).hex()
+    if isinstance(raw, int) and (f.scale is not None or f.offset is not None):
+        return raw * (f.scale if f.scale is not None else 1.0) + (f.offset or 0.0)
+    return raw
+
+
+def flatten(msg: Message, prefix: str = "") -> list[tuple[str, Any, str | None]]:
+    """(name, engineering value, unit) of every leaf field: nested as a.b, arrays as a[0]."""
+    out: list[tuple[str, Any, str | None]] = []
+    for f in msg.FIELDS:
+        raw = getattr(msg, f.name)
+        name = prefix + f.name
+        if isinstance(raw, Message):
+            out += flatten(raw, name + ".")
+        elif isinstance(raw, list):
+            for i, v in enumerate(raw):
+                if isinstance(v, Message):
+                    out += flatten(v, f"{name}[{i}].")
+                else:
+                    out.append((f"{name}[{i}]", engineering(f, v), f.unit))
+        else:
+            out.append((name, engineering(f, raw), f.unit))
+    return out
+
+
+def field_names(cls: type[Message]) -> list[str]:
+    hints = typing.get_type_hints(cls)
+    names: list[str] = []
+    for f in cls.FIELDS:
+        hint_ = hints[f.name]
+        inner = typing.get_args(hint_)[0] if typing.get_origin(hint_) is list else hint_
+        nested = isinstance(inner, type) and issubclass(inner, Message)
+        if typing.get_origin(hint_) is list:
+            for i in range(f.count):
+                names += [f"{f.name}[{i}].{n}" for n in field_names(inner)] if nested else [f"{f.name}[{i}]"]
+        elif nested:
+            names += [f"{f.name}.{n}" for n in field_names(inner)]
+        else:
+            names.append(f.name)
+    return names
+
+
+def fmt_value(v: Any) -> str:
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    return str(v)
+
+
+def parse_values(cls: type[Message], values: list[str], defaults: bool) -> Message:
+    """A message from FIELD=VALUE words in engineering units."""
+    hints = typing.get_type_hints(cls)
+    given: dict[str, str] = {}
+    for word in values:
+        name, eq, value = word.partition("=")
+        if not eq:
+            raise URBError(f"{word!r}: give values as FIELD=VALUE (fields of {cls.NAME}: {', '.join(f.name for f in cls.FIELDS)})")
+        given[name.strip()] = value.strip()
+    names = [f.name for f in cls.FIELDS]
+    unknown = [n for n in given if n not in names]
+    if unknown:
+        raise URBError(f"{cls.NAME} has no field {', '.join(unknown)}; its fields: {', '.join(names)}")
+    missing = [n for n in names if n not in given]
+    if missing and not defaults:
+        raise URBError(f"missing {', '.join(missing)} for {cls.NAME}: give every field, or pass --defaults to zero the others")
+    kwargs: dict[str, Any] = {}
+    for f in cls.FIELDS:
+        if f.name not in given:
+            continue
+        hint_ = hints[f.name]
+        text = given[f.name]
+        try:
+            if typing.get_origin(hint_) is list:
+                inner = typing.get_args(hint_)[0]
+                items = [x for x in text.split(",") if x]
+                if len(items) != f.count:
+                    raise URBError(f"{cls.NAME}.{f.name} takes {f.count} comma-separated values, got {len(items)}")
+                kwargs[f.name] = [_scalar(cls, f, inner, x) for x in items]
+            else:
+                kwargs[f.name] = _scalar(cls, f, hint_, text)
+        except EncodeError as exc:
+            raise URBError(str(exc)) from None
+        except ValueError as exc:
+            raise URBError(f"{cls.NAME}.{f.name} = {text!r}: {exc}") from None
+    msg = cls(**kwargs)
+    try:
+        encode_message(msg)
+    except EncodeError as exc:
+        raise URBError(str(exc)) from None
+    return msg
+
+
+def _scalar(cls: type[Message], f: FieldInfo, hint_: Any, text: str) -> Any:
+    if isinstance(hint_, type) and issubclass(hint_, enum.IntEnum):
+        try:
+            return hint_[text.upper()]
+        except KeyError:
+            try:
+                return hint_(int(text, 0))
+            except ValueError:
+                raise ValueError(f"not one of {', '.join(m.name for m in hint_)}") from None
+    if hint_ is bool:
+        if text.lower() in ("1", "true", "yes", "on"):
+            return True
+        if text.lower() in ("0", "false", "no", "off"):
+            return False
+        raise ValueError("use true or false")
+    if isinstance(hint_, type) and issubclass(hint_, Message):
+        raise ValueError("nested messages cannot be given field by field; use --raw HEX")
+    if hint_ is bytes:
+        return bytes.fromhex(text)
+    value = float(text)
+    if f.scale is None and f.offset is None:
+        if value != int(value):
+            raise ValueError("this field takes an integer")
+        return int(value)
+    return cls.raw_from_engineering(f.name, value)
+
+
+# --------------------------------------------------------------------------------------------
+# scan
+# --------------------------------------------------------------------------------------------
+
+@guarded
+def run_scan(args: argparse.Namespace) -> int:
+    with connected(args.ports, args) as urb:
+        rows = urb.nodes()
+        if args.json:
+            print(json.dumps([_row_dict(r) for r in rows], indent=2))
+        else:
+            out = console()
+            for rep in urb.reports.values():
+                info = rep.info
+                assert info is not None
+                out.print(f"[bold]{rep.manager.name}[/]: URB bridge firmware {info.fw_major}.{info.fw_minor}.{info.fw_patch}, "
+                              f"{info.downlink.name} {info.bitrate_kbps} kb/s, FIFO {info.fifo_depth}, heartbeat "
+                              f"{info.heartbeat_us} us, {len(rep.records)} node(s)", highlight=False)
+            table = Table(show_edge=False, header_style="bold")
+            for col in ("bridge", "addr", "node", "class", "index", "fingerprint", "schema", "firmware", "flags"):
+                table.add_column(col, justify="right" if col in ("addr", "class", "index") else "left")
+            for r in rows:
+                schema = "ok" if r.expected_fingerprint == r.fingerprint else (
+                    f"[red]expects {r.expected_fingerprint:08x}[/]" if r.expected_fingerprint is not None else "[red]unknown class[/]")
+                table.add_row(r.bridge.name, str(r.address), r.name, f"0x{r.class_id:02x}", str(r.index), f"{r.fingerprint:08x}",
+                              schema, r.firmware, "[red]" + " ".join(sorted(r.flags)) + "[/]" if r.flags else "")
+            out.print(table)
+            for rep in urb.reports.values():
+                for p in rep.problems:
+                    out.print(f"[yellow]warning:[/] {p}", highlight=False)
+            if any(r.flags for r in rows):
+                out.print("[red]Flagged nodes are refused by find_node():[/] DUPLICATE: give each node a distinct index; "
+                              "MISMATCH: rebuild the node firmware or this host from the same schema (urb gen); "
+                              "UNKNOWN_CLASS: the host's schema does not declare the class.", highlight=False)
+        return EXIT_FAIL if any(r.flags for r in rows) else EXIT_OK
+
+
+def _row_dict(r: NodeRecord) -> dict[str, Any]:
+    return {"bridge": r.bridge.name, "address": r.address, "node": r.name, "class": r.class_id, "index": r.index,
+            "fingerprint": f"{r.fingerprint:08x}",
+            "schema_fingerprint": None if r.expected_fingerprint is None else f"{r.expected_fingerprint:08x}",
+            "schema_file": r.info.schema_file if r.info else None, "firmware": r.firmware, "flags": sorted(r.flags)}
+
+
+# --------------------------------------------------------------------------------------------
+# read / write
+# --------------------------------------------------------------------------------------------
+
+@guarded
+def run_read(args: argparse.Namespace) -> int:
+    with connected([args.port], args) as urb:
+        node = parse_node(urb, args.node)
+        box = parse_mailbox(node.info, args.mailbox, "outbox")
+        mb = node.info.mailbox("outbox", box)
+        assert mb is not None
+        status = EXIT_OK
+        for k in range(args.count):
+            if k:
+                time.sleep(args.interval)
+            req = node.submit_request(node.new_request().read(box))
+            if not req.wait(args.timeout * 20 + 1):
+                return fail(f"{node.label}: no completion (is the bridge still running?)")
+            if not req.ok:
+                print(f"urb: {request_failure(node, req)}", file=sys.stderr)
+                status = EXIT_FAIL
+                continue
+            lat = (req.latency_ns or 0) / 1e3
+            data = req.data or b""
+            if args.raw:
+                print(json.dumps({"data": data.hex(), "latency_us": round(lat, 1)}) if args.json else data.hex())
+                continue
+            msg = req.message()
+            values = flatten(msg)
+            if args.json:
+                print(json.dumps({"node": node.label, "mailbox": box, "message": mb.message.NAME, "latency_us": round(lat, 1),
+                                  "fields": {n: v for n, v, _ in values}}))
+            else:
+                print(f"{node.label} outbox {box} {mb.message.NAME} ({node.record.location}, {lat:.0f} us)")
+                width = max(len(n) for n, _, _ in values)
+                for n, v, unit in values:
+                    print(f"  {n:<{width}}  {fmt_value(v)}{' ' + unit if unit else ''}")
+        return status
+
+
+@guarded
+def run_write(args: argparse.Namespace) -> int:
+    with connected([args.port], args) as urb:
+        node = parse_node(urb, args.node)
+        box = parse_mailbox(node.info, args.mailbox, "inbox")
+        mb = node.info.mailbox("inbox", box)
+        assert mb is not None
+        if args.raw is not None:
+            if args.values:
+                raise URBError("give either FIELD=VALUE words or --raw HEX, not both")
+            try:
+                payload = bytes.fromhex(args.raw)
+            except ValueError:
+                raise URBError(f"--raw {args.raw!r} is not hex (e.g. --raw 0a0b)") from None
+            if len(payload) != mb.size:
+                raise URBError(f"{node.info.name} inbox {box} takes {mb.size} bytes, --raw gives {len(payload)}")
+        else:
+            if not args.values and not args.defaults:
+                names = ", ".join(f"{f.name}" + (f" [{f.unit}]" if f.unit else "") for f in mb.message.FIELDS)
+                raise URBError(f"give the fields of {mb.message.NAME} as FIELD=VALUE: {names}")
+            payload = encode_message(parse_values(mb.message, args.values, args.defaults))
+        req = node.submit_request(node.new_request().write(box, payload))
+        if not req.wait(args.timeout * 20 + 1):
+            return fail(f"{node.label}: no completion (is the bridge still running?)")
+        if not req.ok:
+            return fail(request_failure(node, req))
+        print(f"{node.label} inbox {box} {mb.message.NAME}: stored ({(req.latency_ns or 0) / 1e3:.0f} us)")
+        return EXIT_OK
+
+
+# --------------------------------------------------------------------------------------------
+# monitor / log: a periodic poller
+# --------------------------------------------------------------------------------------------
+
+@dataclass
+class Channel:
+    """One (node, outbox) being polled, with its statistics."""
+
+    node: NodeAccessor
+    box: int
+    cls: type[Message]
+    pending: bool = False
+    ok: int = 0
+    skipped: int = 0
+    errors: dict[str, int] = field(default_factory=dict)
+    latencies: list[int] = field(default_factory=list)
+    last: list[tuple[str, Any, str | None]] = field(default_factory=list)
+    first_ns: int | None = None
+    last_ns: int | None = None
+
+    @property
+    def label(self) -> str:
+        return f"{self.node.label}/{self.box}"
+
+    def latency_ms(self) -> tuple[float, float, float]:
+        lat = sorted(self.latencies[-5000:])
+        if not lat:
+            return (math.nan, math.nan, math.nan)
+        return (sum(lat) / len(lat) / 1e6, lat[min(len(lat) - 1, int(len(lat) * 0.99))] / 1e6, lat[-1] / 1e6)
+
+    def rate(self) -> float:
+        if self.first_ns is None or self.last_ns is None or self.last_ns <= self.first_ns:
+            return 0.0
+        return (self.ok - 1) / ((self.last_ns - self.first_ns) / 1e9) if self.ok > 1 else 0.0
+
+
+def channels_for(urb: URBInterface, nodes: list[str], boxes: list[str]) -> list[Channel]:
+    accessors = [parse_node(urb, n) for n in nodes] if nodes else [
+        urb.find_node(r.class_id, r.index) for r in urb.nodes() if r.usable]
+    if not accessors:
+        raise URBError("no usable node to poll (see `urb scan` for flagged nodes)")
+    out: list[Channel] = []
+    for acc in accessors:
+        numbers = [parse_mailbox(acc.info, b, "outbox") for b in boxes] if boxes else sorted(
+            m.number for m in acc.info.mailboxes if m.direction == "outbox" and m.number != 0)
+        for n in numbers:
+            mb = acc.info.mailbox("outbox", n)
+            assert mb is not None
+            out.append(Channel(acc, n, mb.message))
+    return out
+
+
+class Poller:
+    """Submits a read of every channel every 1/rate s (absolute schedule, no resubmission while
+    pending) and hands each completed request to `on_result` on the dispatcher."""
+
+    def __init__(self, channels: list[Channel], rate: float, on_result: Callable[[Channel, NodeRequest], None]) -> None:
+        if not rate > 0:
+            raise URBError("--rate must be positive")
+        self.channels = channels
+        self.period_ns = int(1e9 / rate)
+        self.on_result = on_result
+        self.lock = threading.Lock()
+        self.vanished: set[str] = set()
+
+    def _callback(self, ch: Channel) -> Callable[[NodeRequest], None]:
+        def done(req: NodeRequest) -> None:
+            with self.lock:
+                ch.pending = False
+                if req.ok:
+                    ch.ok += 1
+                    ch.latencies.append(req.latency_ns or 0)
+                    ch.first_ns = ch.first_ns if ch.first_ns is not None else req.completed_ns
+                    ch.last_ns = req.completed_ns
+                else:
+                    name = req.flags.describe()
+                    ch.errors[name] = ch.errors.get(name, 0) + 1
+                    if req.flags == ErrorFlag.NO_NODE:
+                        self.vanished.add(ch.node.label)
+            self.on_result(ch, req)
+        return done
+
+    def tick(self) -> None:
+        for ch in self.channels:
+            with self.lock:
+                if ch.pending:
+                    ch.skipped += 1
+                    continue
+                ch.pending = True
+            ch.node.submit_request(ch.node.new_request().read(ch.box).set_callback(self._callback(ch)))
+
+    def run(self, duration_s: float | None, idle: Callable[[], None] | None = None) -> None:
+        start = time.monotonic_ns()
+        end = None if duration_s is None else start + int(duration_s * 1e9)
+        k = 0
+        while end is None or time.monotonic_ns() < end:
+            target = start + k * self.period_ns
+            now = time.monotonic_ns()
+            if target > now:
+                time.sleep(min(target - now, 50_000_000) / 1e9)
+                if idle is not None:
+                    idle()
+                continue
+            missed = (now - target) // self.period_ns
+            k += 1 + int(missed)  # never burst to catch up
+            self.tick()
+            if idle is not None:
+                idle()
+        deadline = time.monotonic() + 2.0
+        while any(ch.pending for ch in self.channels) and time.monotonic() < deadline:
+            time.sleep(0.01)
+
+
+def stats_table(channels: list[Channel], title: str) -> Table:
+    table = Table(title=title, show_edge=False, header_style="bold", title_justify="left")
+    for col in ("node/outbox", "message", "values", "rate Hz", "mean ms", "p99 ms", "max ms", "ok", "errors", "skipped"):
+        table.add_column(col, justify="right" if col not in ("node/outbox", "message", "values", "errors") else "left")
+    for ch in channels:
+        mean, p99, mx = ch.latency_ms()
+        vals = " ".join(f"{n}={fmt_value(v)}{unit or ''}" for n, v, unit in ch.last[:6])
+        if len(ch.last) > 6:
+            vals += " ..."
+        errs = " ".join(f"{k}:{v}" for k, v in sorted(ch.errors.items()))
+        table.add_row(ch.label, ch.cls.NAME, vals, f"{ch.rate():.1f}", _ms(mean), _ms(p99), _ms(mx), str(ch.ok),
+                      f"[red]{errs}[/]" if errs else "", str(ch.skipped))
+    return table
+
+
+def _ms(v: float) -> str:
+    return "-" if math.isnan(v) else f"{v:.2f}"
+
+
+@guarded
+def run_monitor(args: argparse.Namespace) -> int:
+    with connected(args.ports, args) as urb:
+        channels = channels_for(urb, args.node, args.mailbox)
+
+        def on_result(ch: Channel, req: NodeRequest) -> None:
+            if req.ok:
+                try:
+                    ch.last = flatten(req.message())
+                except URBError:
+                    ch.last = [("raw", (req.data or b"").hex(), None)]
+
+        poller = Poller(channels, args.rate, on_result)
+        term = console()
+        title = f"urb monitor: {', '.join(args.ports)} at {args.rate:g} Hz per mailbox"
+        try:
+            if term.is_terminal:
+                with Live(stats_table(channels, title), console=term, refresh_per_second=4, transient=False) as live:
+                    poller.run(args.duration, idle=lambda: live.update(stats_table(channels, title)))
+                    live.update(stats_table(channels, title))
+            else:
+                poller.run(args.duration)
+                term.print(stats_table(channels, title))
+        except KeyboardInterrupt:
+            term.print(stats_table(channels, title + " (stopped)"))
+        for label in sorted(poller.vanished):
+            print(f"urb: node {label} stopped answering (NO_NODE): check its connector and power, then run "
+                  f"`urb scan {' '.join(args.ports)}`", file=sys.stderr)
+        lost = [rep.manager for rep in urb.reports.values() if rep.manager.lost_reason]
+        for m in lost:
+            print(f"urb: the bridge on {m.name} went away ({m.lost_reason})", file=sys.stderr)
+        return EXIT_FAIL if lost or poller.vanished else EXIT_OK
+
+
+class _Sink:
+    """Row writer: CSV streamed, Parquet collected and written at the end (pyarrow)."""
+
+    def __init__(self, path: Path, columns: list[str]) -> None:
+        self.path = path
+        self.columns = columns
+        self.rows = 0
+        self.parquet = path.suffix.lower() in (".parquet", ".pq")
+        self._fh: TextIO | None = None
+        self._writer: Any = None
+        self._buffer: list[dict[str, Any]] = []
+        if self.parquet:
+            if importlib.util.find_spec("pyarrow") is None:
+                raise URBError(f"{path}: writing Parquet needs pyarrow (pip install pyarrow); or give a .csv file")
+        else:
+            try:
+                self._fh = path.open("w", newline="")
+            except OSError as exc:
+                raise URBError(f"{path}: cannot write the log ({exc.strerror})") from None
+            self._writer = csv.DictWriter(self._fh, fieldnames=columns, extrasaction="ignore")
+            self._writer.writeheader()
+
+    def write(self, row: dict[str, Any]) -> None:
+        self.rows += 1
+        if self.parquet:
+            self._buffer.append(row)
+        else:
+            self._writer.writerow(row)
+
+    def close(self) -> None:
+        if self._fh is not None:
+            self._fh.close()
+        if self.parquet:
+            pa: Any = importlib.import_module("pyarrow")
+            pq: Any = importlib.import_module("pyarrow.parquet")
+            table = pa.table({c: [r.get(c) for r in self._buffer] for c in self.columns})
+            pq.write_table(table, str(self.path))
+
+
+@guarded
+def run_log(args: argparse.Namespace) -> int:
+    with connected(args.ports, args) as urb:
+        channels = channels_for(urb, args.node, args.mailbox)
+        fields: list[str] = []
+        for ch in channels:
+            fields += [n for n in field_names(ch.cls) if n not in fields]
+        columns = ["t_submit_ns", "t_complete_ns", "latency_us", "bridge", "address", "node", "mailbox", "message",
+                   "status"] + fields
+        sink = _Sink(args.output, columns)
+        write_lock = threading.Lock()
+
+        def on_result(ch: Channel, req: NodeRequest) -> None:
+            row: dict[str, Any] = {
+                "t_submit_ns": req.submitted_ns, "t_complete_ns": req.completed_ns,
+                "latency_us": round((req.latency_ns or 0) / 1e3, 1), "bridge": ch.node.manager.name,
+                "address": ch.node.address, "node": ch.node.label, "mailbox": ch.box, "message": ch.cls.NAME,
+                "status": req.flags.describe()}
+            if req.ok:
+                try:
+                    ch.last = flatten(req.message())
+                    row.update({n: v for n, v, _ in ch.last})
+                except URBError:
+                    row["status"] = "UNDECODABLE"
+            with write_lock:
+                sink.write(row)
+
+        poller = Poller(channels, args.rate, on_result)
+        try:
+            poller.run(args.duration)
+        except KeyboardInterrupt:
+            pass
+        finally:
+            with write_lock:
+                sink.close()
+        console(stderr=True).print(stats_table(channels, f"urb log: {sink.rows} rows to {args.output}"))
+        for label in sorted(poller.vanished):
+            print(f"urb: node {label} stopped answering (NO_NODE) during the log", file=sys.stderr)
+        return EXIT_OK if not poller.vanished else EXIT_FAIL
