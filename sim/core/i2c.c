@@ -5,7 +5,7 @@
 #include <string.h>
 
 /* Event kinds (arg bits 8..15). */
-enum { EV_ADDR, EV_RX, EV_TX, EV_TX_NACK, EV_STOP, EV_DONE };
+enum { EV_ADDR, EV_RX, EV_TX, EV_TX_NACK, EV_STOP, EV_RSTART, EV_DONE };
 /* Operations in flight (op_kind). */
 enum { OP_START, OP_WRITE, OP_READ, OP_ERROR };
 
@@ -194,7 +194,7 @@ static void ev_slave(void *ctx, uint64_t arg, urbsim_ns_t now)
         s->on_tx_nack(s->ctx, t_hw);
         break;
     default:
-        s->on_stop(s->ctx, t_hw);
+        s->on_stop(s->ctx, kind == EV_RSTART, t_hw);
         break;
     }
 }
@@ -281,11 +281,11 @@ static void ev_done(void *ctx, uint64_t arg, urbsim_ns_t now)
 }
 
 /* The slaves' part of the transaction ends at bus instant t (STOP or repeated START). */
-static void end_slaves(urbsim_i2c_bus_t *b, urbsim_ns_t t)
+static void end_slaves(urbsim_i2c_bus_t *b, urbsim_ns_t t, bool repeated)
 {
     for (uint32_t j = 0; j < b->n_active; j++) {
         if (slave_live(b, j)) {
-            raise_irq(b, b->active[j], EV_STOP, t);
+            raise_irq(b, b->active[j], repeated ? EV_RSTART : EV_STOP, t);
         }
     }
     b->n_active = 0;
@@ -304,7 +304,7 @@ void urbsim_i2c_start(urbsim_i2c_bus_t *b)
     }
     urbsim_ns_t dur = repeated ? b->t_rstart : b->t_start;
     if (repeated) {
-        end_slaves(b, t0 + dur);
+        end_slaves(b, t0 + dur, true);
     } else {
         b->in_txn = true;
         b->txn_start = t0;
@@ -345,7 +345,9 @@ void urbsim_i2c_write(urbsim_i2c_bus_t *b, uint8_t byte)
         b->general = b->op_byte == 0x00u;
         for (uint32_t i = 0; i < b->n_slaves; i++) {
             urbsim_i2c_slave_t *s = b->slaves[i];
-            bool match = b->general ? s->general_call : (s->address == (b->op_byte >> 1));
+            bool match = b->general ? s->general_call
+                                      : (s->match ? s->match(s->ctx, (uint8_t)(b->op_byte >> 1))
+                                                  : s->address == (b->op_byte >> 1));
             if (s->powered && match) {
                 urbsim_ns_t end = raise_irq(b, i, EV_ADDR, t8);
                 stretch_end = end > stretch_end ? end : stretch_end;
@@ -387,7 +389,7 @@ void urbsim_i2c_stop(urbsim_i2c_bus_t *b)
         return; /* nothing to stop, or the lines cannot make a STOP condition */
     }
     urbsim_ns_t t_end = t0 + b->t_stop;
-    end_slaves(b, t_end);
+    end_slaves(b, t_end, false);
     b->in_txn = false;
     b->stops++;
     b->busy_ns += t_end - b->txn_start;
@@ -439,7 +441,7 @@ void urbsim_i2c_drive(urbsim_i2c_bus_t *b, uint8_t lines)
     bool sda_rose = !(before & URBSIM_I2C_SDA) && (after & URBSIM_I2C_SDA);
     if (sda_rose && (after & URBSIM_I2C_SCL)) {
         /* STOP condition: SDA rises while SCL is high. */
-        end_slaves(b, now);
+        end_slaves(b, now, false);
         if (b->in_txn) {
             b->in_txn = false;
             b->busy_ns += now - b->txn_start;

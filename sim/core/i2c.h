@@ -62,6 +62,9 @@ typedef struct {
     bool general_call;   /**< receives address 0x00 */
     bool powered;        /**< unpowered slaves neither ACK nor stretch */
     uint64_t gen;        /**< bumped on power loss: pending handler calls are dropped */
+    /** Optional: decides whether the slave answers 7-bit address `address` (NULL: equality with
+     *  `address`). Lets a faulty (babbling) device answer addresses not its own. */
+    bool (*match)(void *ctx, uint8_t address);
     /** When the slave's ISR for an interrupt raised at t_irq starts, and (in *end) when it is done
      *  (the stretch ends). Lets the device account for its own busy interrupts. Required. */
     urbsim_ns_t (*isr_window)(void *ctx, urbsim_ns_t t_irq, urbsim_ns_t *end);
@@ -73,8 +76,9 @@ typedef struct {
     uint8_t (*on_tx)(void *ctx, urbsim_ns_t t_hw);
     /** The master NACKed the byte just read (end of the read). */
     void (*on_tx_nack)(void *ctx, urbsim_ns_t t_hw);
-    /** STOP or repeated START: the slave's part of the transaction is over. */
-    void (*on_stop)(void *ctx, urbsim_ns_t t_hw);
+    /** STOP (`repeated` false) or repeated START (true): the slave's part of the transaction is
+     *  over. */
+    void (*on_stop)(void *ctx, bool repeated, urbsim_ns_t t_hw);
 } urbsim_i2c_slave_t;
 
 /** Master completion callback, at the bus instant the operation completed (no latency added). */
@@ -106,7 +110,7 @@ typedef struct {
     bool ack_flip;           /**< a bit error inverted the ACK bit of the byte in flight */
     bool master_ack;         /**< read in flight: the master ACKs it */
     bool addressing;         /**< write in flight is an address byte */
-    urbsim_ns_t hw[URBSIM_I2C_MAX_SLAVES][5]; /**< bus instant of each slave's pending interrupt */
+    urbsim_ns_t hw[URBSIM_I2C_MAX_SLAVES][6]; /**< bus instant of each slave's pending interrupt */
     uint8_t op_byte;         /**< the byte in flight as seen on the wire */
     int op_kind;             /**< operation in flight, -1 none */
     urbsim_ns_t op_start;

@@ -131,6 +131,11 @@ void urbsim_usb_run(urbsim_usb_bus_t *u)
     }
     u->frame = f;
     urbsim_kernel_at(u->k, sof_time(u, f), ev_usb, u, EV_SOF);
+    for (uint32_t i = 0; i < u->n_devs; i++) {
+        if (u->devs[i]->read_always) {
+            urbsim_usb_read(u, i);
+        }
+    }
 }
 
 /* Run the transaction at the head of this frame's snapshot, at the bus cursor `now`. */
@@ -250,12 +255,15 @@ static void ev_usb(void *ctx, uint64_t arg, urbsim_ns_t now)
         urbsim_usb_dev_t *d = u->devs[c->dev];
         if (c->in) {
             urbsim_trace(u->tr, URBSIM_TR_FRAME, now, u->name, "read_cb", ",\"dev\":%u,\"len\":%u", c->dev, c->len);
+            if (d->read_always) {
+                urbsim_usb_read(u, c->dev); /* keep one IN pending */
+            }
             if (d->host_read) {
                 d->host_read(d->hctx, c->data, c->len, now);
             }
         } else {
             urbsim_trace(u->tr, URBSIM_TR_FRAME, now, u->name, "write_cb", ",\"dev\":%u", c->dev);
-            if (d->auto_read) {
+            if (d->auto_read && !d->read_always) {
                 urbsim_usb_read(u, c->dev); /* Fig. 9: the write callback issues the read */
             }
         }

@@ -22,6 +22,8 @@
  *   submits the IN URB for the responses ("auto read"): it is served in the next frame. The IN
  *   completion runs the read callback, which hands the data to user space (the read thread's
  *   wake-up latency is the host CPU model's business, see world.h).
+ *   Alternative driver (read_always): one IN URB is always pending, resubmitted by each read
+ *   callback, so the bridge's previous response buffer is fetched in every frame, busy or idle.
  */
 #ifndef URBSIM_USB_H
 #define URBSIM_USB_H
@@ -51,6 +53,8 @@ typedef struct {
     void (*host_read)(void *hctx, const uint8_t *data, uint32_t len, urbsim_ns_t t);
     void *hctx;
     bool auto_read;        /**< the write callback submits the IN URB (Fig. 9) */
+    bool read_always;      /**< the driver keeps one IN URB pending: each read callback resubmits
+                                it (then auto_read is ignored) */
     uint32_t in_size;      /**< bytes the IN URB asks for */
     /* statistics */
     uint64_t outs, ins, naks, deferred;

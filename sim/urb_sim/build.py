@@ -27,13 +27,14 @@ LIBRARY = BUILD / "liburbsim.so"
 #: in stages), and folders searched for headers.
 SOURCE_DIRS = [
     "sim/core",
+    "sim/world",
     "firmware/hal/sim",
     "firmware/node",
     "firmware/bridge",
     "firmware/apps/sensorhex",
     "gen/c",
 ]
-INCLUDE_DIRS = ["sim/core", "firmware/include", "firmware/hal/sim", "firmware/node", "firmware/bridge",
+INCLUDE_DIRS = ["sim/core", "sim/world", "firmware/include", "firmware/hal/sim", "firmware/node", "firmware/bridge",
                 "firmware/apps/sensorhex", "gen/c"]
 #: Files the simulation does not link: the hosted HAL's test doubles and any target main().
 EXCLUDE_NAMES = {"main.c"}

@@ -329,11 +329,11 @@ static void ts_nack(void *ctx, urbsim_ns_t t_hw)
     (void)ctx;
     (void)t_hw;
 }
-static void ts_stop(void *ctx, urbsim_ns_t t_hw)
+static void ts_stop(void *ctx, bool repeated, urbsim_ns_t t_hw)
 {
     tslave_t *s = ctx;
     (void)t_hw;
-    s->stops++;
+    s->stops += repeated ? 0 : 1;
 }
 
 static void tslave_setup(urbsim_i2c_slave_t *sl, tslave_t *s, uint8_t addr, urbsim_kernel_t *k)

@@ -1,0 +1,453 @@
+/* bridge_hal_sim.c: the bridge firmware on a simulated MCU, I2C bus and uplink. See the header. */
+#include "bridge_hal_sim.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+enum {
+    EV_POLL,        /* main loop iteration */
+    EV_HB_IRQ,      /* heartbeat timer fires */
+    EV_HB_ISR,      /* heartbeat handler runs */
+    EV_RX_ISR,      /* UART byte handler (byte in bits 32..39) */
+    EV_TXE_ISR,     /* UART transmit-register-empty handler */
+    EV_I2C_ISR,     /* I2C master completion handler (event bits 32..39, byte 40..47) */
+    EV_USB_OUT,     /* OUT transfer handed to the firmware (main loop) */
+};
+#define ARG(kind, gen, extra) ((uint64_t)(kind) | (((gen) & 0xFFFFFFull) << 8) | ((uint64_t)(extra) << 32))
+
+static void bridge_event(void *ctx, uint64_t arg, urbsim_ns_t now);
+
+static void at(sim_bridge_t *b, urbsim_ns_t t, int kind, uint32_t extra)
+{
+    urbsim_kernel_at(b->k, t, bridge_event, b, ARG(kind, b->gen, extra));
+}
+
+/* Raise an interrupt at t_irq with a handler of `cycles`; the handler event runs at its start. */
+static void irq(sim_bridge_t *b, urbsim_ns_t t_irq, double cycles, int kind, uint32_t extra)
+{
+    urbsim_ns_t end;
+    urbsim_ns_t start = urbsim_mcu_isr(&b->mcu, t_irq, cycles, &end);
+    at(b, start, kind, extra);
+}
+
+/* The main loop runs poll as soon as it is awake and free. */
+static void want_poll(sim_bridge_t *b, urbsim_ns_t t)
+{
+    if (!b->powered) {
+        return;
+    }
+    if (t < b->mcu.isr_free_at) {
+        t = b->mcu.isr_free_at; /* the main loop runs when no handler does */
+    }
+    t += urbsim_clock_cycles_ns(&b->mcu.clk, t, b->cfg.wake_cycles);
+    if (t < b->mcu.thread_until) {
+        t = b->mcu.thread_until;
+    }
+    if (b->poll_pending && b->poll_at <= t) {
+        return;
+    }
+    b->poll_pending = true;
+    b->poll_at = t;
+    b->poll_gen++;
+    at(b, t, EV_POLL, (uint32_t)(b->poll_gen & 0xFFFFFFFFu));
+}
+
+/* ---------------------------------------------------------------- board HAL */
+
+static uint32_t hal_now_us(void *ctx)
+{
+    sim_bridge_t *b = ctx;
+    return (uint32_t)(uint64_t)(urbsim_clock_local_ns(&b->mcu.clk, b->k->now) / 1000.0);
+}
+
+static void hal_heartbeat_period(void *ctx, uint32_t period_us)
+{
+    sim_bridge_t *b = ctx;
+    b->hb_period_us = period_us;
+    b->hb_gen++;
+    if (period_us == 0u) {
+        return;
+    }
+    b->hb_next_local = urbsim_clock_local_ns(&b->mcu.clk, b->k->now) + (double)period_us * 1000.0;
+    urbsim_ns_t t = urbsim_clock_virtual_at(&b->mcu.clk, b->hb_next_local);
+    at(b, t, EV_HB_IRQ, (uint32_t)(b->hb_gen & 0xFFFFFFFFu));
+}
+
+static void hal_uart_tx_kick(void *ctx)
+{
+    sim_bridge_t *b = ctx;
+    if (b->uplink != SIM_UPLINK_RS232 || b->tx_active) {
+        return;
+    }
+    b->tx_active = true;
+    irq(b, b->k->now, b->cfg.uart_isr_cycles, EV_TXE_ISR, 0);
+}
+
+static void hal_mark(void *ctx, uint8_t id, bool level)
+{
+    sim_bridge_t *b = ctx;
+    sim_log_put(&b->log, b->k->now, SIM_BMARK_SERVE + id, level ? 1u : 0u);
+}
+
+/* ---------------------------------------------------------------- I2C master HAL */
+
+static void i2c_start(void *ctx) { urbsim_i2c_start(&((sim_bridge_t *)ctx)->bus); }
+static void i2c_write(void *ctx, uint8_t byte) { urbsim_i2c_write(&((sim_bridge_t *)ctx)->bus, byte); }
+static void i2c_read(void *ctx, bool ack) { urbsim_i2c_read(&((sim_bridge_t *)ctx)->bus, ack); }
+static void i2c_stop(void *ctx) { urbsim_i2c_stop(&((sim_bridge_t *)ctx)->bus); }
+static uint8_t i2c_lines(void *ctx) { return urbsim_i2c_lines(&((sim_bridge_t *)ctx)->bus); }
+static void i2c_drive(void *ctx, uint8_t lines) { urbsim_i2c_drive(&((sim_bridge_t *)ctx)->bus, lines); }
+
+static void i2c_abort(void *ctx)
+{
+    sim_bridge_t *b = ctx;
+    urbsim_i2c_abort(&b->bus);
+    b->i2c_gen++; /* a completion interrupt already raised must not reach the firmware */
+}
+
+static void i2c_release(void *ctx)
+{
+    sim_bridge_t *b = ctx;
+    urbsim_i2c_release(&b->bus);
+    b->i2c_gen++;
+}
+
+/* The bus completed an operation at t_hw: raise the I2C interrupt. */
+static void bus_done(void *ctx, int ev, uint8_t byte, urbsim_ns_t t_hw)
+{
+    sim_bridge_t *b = ctx;
+    if (!b->powered) {
+        return;
+    }
+    irq(b, t_hw, b->cfg.i2c_isr_cycles, EV_I2C_ISR,
+        (uint32_t)ev | ((uint32_t)byte << 8) | ((uint32_t)(b->i2c_gen & 0xFFFFu) << 16));
+}
+
+/* ---------------------------------------------------------------- uplinks */
+
+static void uart_rx(void *ctx, uint8_t byte, uint32_t flags, urbsim_ns_t t)
+{
+    sim_bridge_t *b = ctx;
+    (void)flags; /* a framing error still delivers the (garbage) byte: the CRC and hunting catch it */
+    if (!b->powered) {
+        return;
+    }
+    irq(b, t, b->cfg.uart_isr_cycles, EV_RX_ISR, byte);
+}
+
+static void uart_txe(void *ctx, urbsim_ns_t t)
+{
+    sim_bridge_t *b = ctx;
+    if (!b->powered) {
+        return;
+    }
+    irq(b, t, b->cfg.uart_isr_cycles, EV_TXE_ISR, 0);
+}
+
+static void host_rx_byte(void *ctx, uint8_t byte, uint32_t flags, urbsim_ns_t t)
+{
+    sim_bridge_t *b = ctx;
+    (void)flags;
+    if (b->host) {
+        b->host(b->hctx, b->id, &byte, 1u, t);
+    }
+}
+
+static void usb_sof(void *ctx, uint16_t frame, urbsim_ns_t t)
+{
+    sim_bridge_t *b = ctx;
+    (void)frame;
+    (void)t;
+    if (!b->powered) {
+        return;
+    }
+    urb_bridge_usb_sof(&b->br);
+}
+
+static void usb_out(void *ctx, const uint8_t *data, uint32_t len, urbsim_ns_t t)
+{
+    sim_bridge_t *b = ctx;
+    if (!b->powered) {
+        return;
+    }
+    memcpy(b->usb_out, data, len);
+    b->usb_out_len = len;
+    b->usb_out_pending = true;
+    irq(b, t, b->cfg.usb_isr_cycles, EV_USB_OUT, 0);
+}
+
+static uint32_t usb_in(void *ctx, uint8_t *buf, uint32_t cap, urbsim_ns_t t)
+{
+    sim_bridge_t *b = ctx;
+    (void)t;
+    if (!b->powered) {
+        return 0u;
+    }
+    size_t n = urb_bridge_usb_in(&b->br, buf, cap);
+    if (n) {
+        sim_log_put(&b->log, b->k->now, SIM_BMARK_EMIT, (uint32_t)n);
+    }
+    return (uint32_t)n;
+}
+
+static void usb_host_read(void *hctx, const uint8_t *data, uint32_t len, urbsim_ns_t t)
+{
+    sim_bridge_t *b = hctx;
+    if (b->host) {
+        b->host(b->hctx, b->id, data, len, t);
+    }
+}
+
+/* ---------------------------------------------------------------- events */
+
+static void bridge_event(void *ctx, uint64_t arg, urbsim_ns_t now)
+{
+    sim_bridge_t *b = ctx;
+    if (((arg >> 8) & 0xFFFFFFu) != (b->gen & 0xFFFFFFu) || !b->powered) {
+        return;
+    }
+    uint32_t extra = (uint32_t)(arg >> 32);
+    switch ((int)(arg & 0xFFu)) {
+    case EV_POLL:
+        if (extra != (uint32_t)(b->poll_gen & 0xFFFFFFFFu)) {
+            return;
+        }
+        b->poll_pending = false;
+        b->polls++;
+        urb_bridge_poll(&b->br);
+        b->mcu.thread_from = now;
+        b->mcu.thread_until = now + urbsim_clock_cycles_ns(&b->mcu.clk, now, b->cfg.poll_cycles);
+        if (!urb_bridge_idle(&b->br)) {
+            /* Busy: keep iterating (timeouts, bit-banged bus clear). */
+            urbsim_ns_t dt = b->bus.bitbang ? (urbsim_ns_t)b->mcfg.clear_half_us * 1000u : b->cfg.busy_poll_ns;
+            want_poll(b, now + dt);
+        }
+        break;
+    case EV_HB_IRQ:
+        if (extra != (uint32_t)(b->hb_gen & 0xFFFFFFFFu) || b->hb_period_us == 0u) {
+            return;
+        }
+        irq(b, now, b->cfg.timer_isr_cycles, EV_HB_ISR, 0);
+        b->hb_next_local += (double)b->hb_period_us * 1000.0;
+        at(b, urbsim_clock_virtual_at(&b->mcu.clk, b->hb_next_local), EV_HB_IRQ, extra);
+        break;
+    case EV_HB_ISR:
+        urb_bridge_heartbeat(&b->br);
+        want_poll(b, b->mcu.isr_free_at);
+        break;
+    case EV_RX_ISR:
+        urb_bridge_uart_rx(&b->br, (uint8_t)extra, hal_now_us(b));
+        want_poll(b, b->mcu.isr_free_at);
+        break;
+    case EV_TXE_ISR: {
+        uint8_t byte;
+        if (urb_bridge_uart_tx_pop(&b->br, &byte)) {
+            urbsim_uart_send(&b->to_host, &byte, 1u);
+        } else {
+            b->tx_active = false;
+        }
+        break;
+    }
+    case EV_I2C_ISR:
+        if ((extra >> 16) != (uint32_t)(b->i2c_gen & 0xFFFFu)) {
+            return; /* the firmware aborted the operation after the interrupt was raised */
+        }
+        urb_i2c_master_event(&b->master, (urb_i2c_event_t)(extra & 0xFFu), (uint8_t)(extra >> 8));
+        want_poll(b, b->mcu.isr_free_at);
+        break;
+    default: /* EV_USB_OUT */
+        if (b->usb_out_pending) {
+            b->usb_out_pending = false;
+            (void)urb_bridge_usb_out(&b->br, b->usb_out, b->usb_out_len);
+        }
+        want_poll(b, b->mcu.isr_free_at);
+        break;
+    }
+}
+
+/* ---------------------------------------------------------------- lifecycle */
+
+sim_bridge_t *sim_bridge_new(const char *name, int id, int uplink, urbsim_kernel_t *k, urbsim_trace_t *tr,
+                             const sim_bridge_cfg_t *cfg, urbsim_usb_bus_t *usb_bus, sim_bridge_host_fn host,
+                             void *hctx, const urbsim_rng_t *rng)
+{
+    sim_bridge_t *b = calloc(1, sizeof *b);
+    if (b == NULL) {
+        return NULL;
+    }
+    strncpy(b->name, name, sizeof b->name - 1u);
+    b->id = id;
+    b->uplink = uplink;
+    b->k = k;
+    b->tr = tr;
+    b->cfg = *cfg;
+    urb_bridge_default_config(&b->bcfg);
+    b->bcfg.fifo_depth = cfg->fifo_depth;
+    b->bcfg.baud = cfg->baud;
+    b->bcfg.idle_gap_us = (uint32_t)(2.0 * 10.0 * 1e6 / (double)cfg->baud);
+    b->bcfg.heartbeat_us = cfg->heartbeat_us;
+    b->bcfg.scan_at_start = cfg->scan_at_start;
+    b->host = host;
+    b->hctx = hctx;
+    urbsim_rng_t r = *rng;
+    urbsim_mcu_init(&b->mcu, &cfg->clock, &r);
+    urbsim_rng_t bus_rng, up_rng, down_rng;
+    urbsim_rng_seed(&bus_rng, urbsim_rng_u64(&r));
+    urbsim_rng_seed(&up_rng, urbsim_rng_u64(&r));
+    urbsim_rng_seed(&down_rng, urbsim_rng_u64(&r));
+    char nm[48];
+    snprintf(nm, sizeof nm, "%s/i2c", name);
+    urbsim_i2c_init(&b->bus, k, tr, nm, cfg->i2c_bitrate, &bus_rng);
+    b->bus.master = bus_done;
+    b->bus.master_ctx = b;
+    b->hal.ctx = b;
+    b->hal.now_us = hal_now_us;
+    b->hal.heartbeat_period = hal_heartbeat_period;
+    b->hal.uart_tx_kick = hal_uart_tx_kick;
+    b->hal.mark = hal_mark;
+    b->i2c_hal.ctx = b;
+    b->i2c_hal.start = i2c_start;
+    b->i2c_hal.write = i2c_write;
+    b->i2c_hal.read = i2c_read;
+    b->i2c_hal.stop = i2c_stop;
+    b->i2c_hal.abort = i2c_abort;
+    b->i2c_hal.lines = i2c_lines;
+    b->i2c_hal.drive = i2c_drive;
+    b->i2c_hal.release = i2c_release;
+    urb_i2c_master_default_config(&b->mcfg);
+    b->mcfg.bitrate_kbps = (uint16_t)(cfg->i2c_bitrate / 1000.0);
+    if (uplink == SIM_UPLINK_RS232) {
+        snprintf(nm, sizeof nm, "%s/up", name);
+        /* host -> bridge: a PC UART (1.8432 MHz crystal: exact 115200) */
+        urbsim_uart_init(&b->to_bridge, k, tr, nm, (double)cfg->baud, 0.0, NULL, &up_rng);
+        b->to_bridge.rx = uart_rx;
+        b->to_bridge.rx_ctx = b;
+        snprintf(nm, sizeof nm, "%s/down", name);
+        /* bridge -> host: the bridge's UART, baud from its own clock through its divider */
+        urbsim_uart_init(&b->to_host, k, tr, nm, (double)cfg->baud, cfg->uart_divider_hz, &b->mcu.clk, &down_rng);
+        b->to_host.rx = host_rx_byte;
+        b->to_host.rx_ctx = b;
+        b->to_host.on_txe = uart_txe;
+        b->to_host.txe_ctx = b;
+    } else {
+        b->usb_bus = usb_bus;
+        strncpy(b->usb.name, name, sizeof b->usb.name - 1u);
+        b->usb.ctx = b;
+        b->usb.on_sof = usb_sof;
+        b->usb.on_out = usb_out;
+        b->usb.on_in = usb_in;
+        b->usb.host_read = usb_host_read;
+        b->usb.hctx = b;
+        b->usb.auto_read = true;
+        b->usb.read_always = cfg->usb_read_always;
+        b->usb.in_size = URBSIM_USB_MAX_XFER;
+        b->usb_index = urbsim_usb_attach(usb_bus, &b->usb);
+    }
+    return b;
+}
+
+void sim_bridge_free(sim_bridge_t *b)
+{
+    free(b);
+}
+
+int sim_bridge_uplink(const sim_bridge_t *b) { return b->uplink; }
+int sim_bridge_usb_index(const sim_bridge_t *b) { return b->usb_index; }
+const char *sim_bridge_name(const sim_bridge_t *b) { return b->name; }
+urbsim_i2c_bus_t *sim_bridge_bus(sim_bridge_t *b) { return &b->bus; }
+sim_log_t *sim_bridge_log(sim_bridge_t *b) { return &b->log; }
+
+urbsim_uart_line_t *sim_bridge_uart(sim_bridge_t *b, int dir)
+{
+    if (b->uplink != SIM_UPLINK_RS232) {
+        return NULL;
+    }
+    return dir ? &b->to_host : &b->to_bridge;
+}
+
+double sim_bridge_stat(const sim_bridge_t *b, const char *name)
+{
+    const urb_bridge_stats_t *st = urb_bridge_stats(&b->br);
+    if (!strcmp(name, "bridge.ppm")) return b->mcu.clk.cfg.ppm0;
+    if (!strcmp(name, "bridge.responses")) return st->responses;
+    if (!strcmp(name, "bridge.frames")) return st->frames;
+    if (!strcmp(name, "bridge.busy")) return st->busy;
+    if (!strcmp(name, "bridge.syncs")) return st->syncs;
+    if (!strcmp(name, "bridge.syncs_missed")) return st->syncs_missed;
+    if (!strcmp(name, "bridge.scans")) return st->scans;
+    if (!strcmp(name, "bridge.hunt_discards")) return st->hunt_discards;
+    if (!strcmp(name, "bridge.gap_drops")) return st->gap_drops;
+    if (!strcmp(name, "bridge.rx_overruns")) return st->rx_overruns;
+    if (!strcmp(name, "bridge.usb_batches")) return st->usb_batches;
+    if (!strcmp(name, "bridge.usb_bad_batches")) return st->usb_bad_batches;
+    if (!strcmp(name, "bridge.usb_late_reads")) return st->usb_late_reads;
+    if (!strcmp(name, "bridge.window_overflow")) return st->window_overflow;
+    if (!strcmp(name, "bridge.outstanding")) return urb_bridge_outstanding(&b->br);
+    if (!strcmp(name, "bridge.timeouts")) return b->master.timeouts;
+    if (!strcmp(name, "bridge.bus_clears")) return b->master.bus_clears;
+    if (!strcmp(name, "bridge.polls")) return (double)b->polls;
+    if (!strcmp(name, "bridge.boots")) return (double)b->boots;
+    if (!strcmp(name, "bridge.irqs")) return (double)b->mcu.irqs;
+    if (!strcmp(name, "bridge.isr_ns")) return (double)b->mcu.isr_ns;
+    if (!strcmp(name, "bridge.usb_naks")) return (double)b->usb.naks;
+    if (!strcmp(name, "bridge.usb_deferred")) return (double)b->usb.deferred;
+    if (!strcmp(name, "i2c.busy_ns")) return (double)b->bus.busy_ns;
+    if (!strcmp(name, "i2c.stretch_ns")) return (double)b->bus.stretch_ns;
+    if (!strcmp(name, "i2c.bytes")) return (double)b->bus.bytes;
+    if (!strcmp(name, "i2c.starts")) return (double)b->bus.starts;
+    if (!strcmp(name, "i2c.flipped_bits")) return (double)b->bus.flipped_bits;
+    if (!strcmp(name, "i2c.stalls")) return (double)b->bus.stalls;
+    if (b->uplink == SIM_UPLINK_RS232) {
+        if (!strcmp(name, "uart.up_lost")) return (double)b->to_bridge.lost;
+        if (!strcmp(name, "uart.down_lost")) return (double)b->to_host.lost;
+        if (!strcmp(name, "uart.up_corrupted")) return (double)(b->to_bridge.corrupted + b->to_bridge.framing);
+        if (!strcmp(name, "uart.down_corrupted")) return (double)(b->to_host.corrupted + b->to_host.framing);
+        if (!strcmp(name, "uart.down_bytes")) return (double)b->to_host.sent;
+        if (!strcmp(name, "uart.up_bytes")) return (double)b->to_bridge.sent;
+    }
+    return NAN;
+}
+
+void sim_bridge_power_on(sim_bridge_t *b)
+{
+    urbsim_ns_t now = b->k->now;
+    b->powered = true;
+    b->gen++;
+    b->boots++;
+    b->tx_active = false;
+    b->poll_pending = false;
+    urbsim_mcu_reset(&b->mcu, now);
+    urbsim_i2c_release(&b->bus);
+    if (b->uplink == SIM_UPLINK_RS232) {
+        urbsim_uart_flush(&b->to_host);
+    } else {
+        b->usb.attached = true;
+    }
+    urbsim_trace(b->tr, URBSIM_TR_FAULT, now, b->name, "power_on", ",\"boot\":%llu", (unsigned long long)b->boots);
+    urb_i2c_master_init(&b->master, &b->i2c_hal, &b->mcfg);
+    urb_i2c_master_downlink(&b->master, &b->dl);
+    b->init_result = (int)urb_bridge_init(&b->br, &b->bcfg, &b->hal, &b->dl);
+    want_poll(b, now);
+}
+
+void sim_bridge_power_off(sim_bridge_t *b)
+{
+    b->powered = false;
+    b->gen++;
+    b->hb_gen++;
+    urbsim_i2c_abort(&b->bus);
+    if (b->uplink == SIM_UPLINK_RS232) {
+        urbsim_uart_flush(&b->to_host);
+    }
+    urbsim_trace(b->tr, URBSIM_TR_FAULT, b->k->now, b->name, "power_off", "%s", "");
+}
+
+uint32_t sim_bridge_host_send(sim_bridge_t *b, const uint8_t *data, uint32_t n)
+{
+    if (b->uplink != SIM_UPLINK_RS232) {
+        return 0u;
+    }
+    return urbsim_uart_send(&b->to_bridge, data, n);
+}

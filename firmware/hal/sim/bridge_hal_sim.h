@@ -1,0 +1,73 @@
+/*
+ * bridge_hal_sim.h (private to bridge_hal_sim.c; the world uses sim_devices.h): one URB bridge (the real bridge firmware and its I2C master) on a simulated
+ * microcontroller, driving a simulated I2C downlink and one uplink (RS232 line or USB device).
+ *
+ * What the port does, and when (virtual time):
+ *   - now_us(): a 1 MHz counter of the bridge's crystal;
+ *   - heartbeat_period(p): a periodic timer interrupt every p us of the bridge's clock calls
+ *     urb_bridge_heartbeat (which makes the main loop send SYNC);
+ *   - RS232: every received byte raises the UART interrupt (urb_bridge_uart_rx with its time);
+ *     uart_tx_kick starts transmission, each "transmit register empty" interrupt pops the next
+ *     byte (urb_bridge_uart_tx_pop), so response bytes leave back to back;
+ *   - USB: SOF calls urb_bridge_usb_sof at the SOF instant, an OUT transfer calls
+ *     urb_bridge_usb_out from the main loop, an IN token reads urb_bridge_usb_in;
+ *   - I2C master: each operation goes to the bus model (i2c.h) when the firmware issues it; its
+ *     completion raises the I2C interrupt, whose handler is urb_i2c_master_event;
+ *   - main loop: urb_bridge_poll runs after every interrupt (after the wake-up and loop cost),
+ *     and again every bridge.busy_poll_us while the bridge is not idle (timeouts), every
+ *     clear_half_us while it bit-bangs a bus clear;
+ *   - marks (SERVE, SYNC, EMIT edges) are logged with their virtual time.
+ */
+#ifndef URBSIM_BRIDGE_HAL_SIM_H
+#define URBSIM_BRIDGE_HAL_SIM_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "sim_devices.h"
+#include "urb_bridge.h"
+
+struct sim_bridge {
+    char name[32];
+    int id;
+    int uplink;
+    urbsim_kernel_t *k;
+    urbsim_trace_t *tr;
+    urbsim_mcu_t mcu;
+    sim_bridge_cfg_t cfg;
+    /* firmware */
+    urb_bridge_t br;
+    urb_bridge_config_t bcfg;
+    urb_bridge_hal_t hal;
+    urb_i2c_hal_t i2c_hal;
+    urb_i2c_master_t master;
+    urb_i2c_master_config_t mcfg;
+    urb_downlink_t dl;
+    /* buses */
+    urbsim_i2c_bus_t bus;
+    urbsim_uart_line_t to_bridge, to_host;  /* RS232 */
+    urbsim_usb_dev_t usb;                   /* USB */
+    urbsim_usb_bus_t *usb_bus;
+    int usb_index;
+    uint8_t usb_out[URBSIM_USB_MAX_XFER];
+    uint32_t usb_out_len;
+    bool usb_out_pending;
+    /* port state */
+    bool powered;
+    uint64_t gen;
+    uint32_t hb_period_us;
+    uint64_t hb_gen;
+    uint64_t i2c_gen;            /**< bumped by abort/release: stale completions are dropped */
+    double hb_next_local;
+    bool tx_active;
+    bool poll_pending;
+    urbsim_ns_t poll_at;
+    uint64_t poll_gen;
+    sim_bridge_host_fn host;
+    void *hctx;
+    sim_log_t log;
+    uint64_t polls, boots;
+    int init_result;
+};
+
+#endif /* URBSIM_BRIDGE_HAL_SIM_H */

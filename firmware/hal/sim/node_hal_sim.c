@@ -1,0 +1,329 @@
+/* node_hal_sim.c: the node library on a simulated MCU and I2C bus. See node_hal_sim.h. */
+#include "node_hal_sim.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Event kinds, in bits 0..7 of the event argument; the node's power generation above. */
+enum { EV_TIMER_IRQ, EV_TIMER_ISR, EV_POLL, EV_ACQ_DONE };
+#define NODE_ARG(n, kind, gen) ((uint64_t)(kind) | ((gen) << 8))
+
+static void node_event(void *ctx, uint64_t arg, urbsim_ns_t now);
+
+/* ---------------------------------------------------------------- HAL functions */
+
+static uint32_t hal_now(void *ctx)
+{
+    sim_node_t *n = ctx;
+    return (uint32_t)urbsim_clock_ticks(&n->mcu.clk, n->k->now);
+}
+
+static void hal_set_compare(void *ctx, uint32_t at)
+{
+    sim_node_t *n = ctx;
+    uint64_t cur = urbsim_clock_ticks(&n->mcu.clk, n->k->now);
+    int32_t delta = (int32_t)(at - (uint32_t)cur);
+    uint64_t target = delta > 0 ? cur + (uint64_t)delta : cur + 1u; /* a past compare fires at once */
+    urbsim_ns_t t = urbsim_clock_virtual_at_tick(&n->mcu.clk, target);
+    n->compare_gen++; /* replaces any pending compare */
+    urbsim_kernel_at(n->k, t, node_event, n, NODE_ARG(n, EV_TIMER_IRQ, (n->gen << 24) | (n->compare_gen & 0xFFFFFFu)));
+}
+
+static uint32_t hal_sync_capture(void *ctx)
+{
+    sim_node_t *n = ctx;
+    return (uint32_t)urbsim_clock_ticks(&n->mcu.clk, n->gc_hw);
+}
+
+static void hal_set_address(void *ctx, uint8_t address)
+{
+    sim_node_t *n = ctx;
+    n->slave.address = address;
+    n->slave.general_call = true;
+    urbsim_i2c_power(n->bus, &n->slave, true); /* interrupts on: the node is on the bus */
+}
+
+static void hal_mark(void *ctx, urb_node_mark_t mark)
+{
+    sim_node_t *n = ctx;
+    sim_log_put(&n->log, n->k->now, (uint32_t)mark, (uint32_t)urbsim_clock_ticks(&n->mcu.clk, n->k->now));
+    if (urbsim_trace_on(n->tr, URBSIM_TR_SYNC)) {
+        static const char *names[] = {"beat", "acq_end", "sync"};
+        urbsim_trace(n->tr, URBSIM_TR_SYNC, n->k->now, n->name, mark < 3 ? names[mark] : "mark", "%s", "");
+    }
+}
+
+/* ---------------------------------------------------------------- main loop */
+
+/* An update is due: the library's timer interrupt counted a heartbeat the main loop has not run.
+ * (Reads two private counters of urb_node_t; see the report's interface requests.) */
+static bool update_due(const sim_node_t *n)
+{
+    return n->node.update_due != n->node.update_done;
+}
+
+/* The main loop wakes (after an interrupt returned at t): run a poll as soon as the CPU is free. */
+static void want_poll(sim_node_t *n, urbsim_ns_t t)
+{
+    if (!n->powered || n->acquiring) {
+        return; /* the pending acquisition's poll will do all pending work */
+    }
+    t += urbsim_clock_cycles_ns(&n->mcu.clk, t, n->cfg.wake_cycles);
+    if (t < n->mcu.thread_until) {
+        t = n->mcu.thread_until;
+    }
+    if (n->poll_pending && n->poll_at <= t) {
+        return;
+    }
+    n->poll_pending = true;
+    n->poll_at = t;
+    n->poll_gen++;
+    urbsim_kernel_at(n->k, t, node_event, n, NODE_ARG(n, EV_POLL, (n->gen << 24) | (n->poll_gen & 0xFFFFFFu)));
+}
+
+static void run_poll(sim_node_t *n, urbsim_ns_t now)
+{
+    n->polls++;
+    uint8_t done = urb_node_poll(&n->node);
+    if (done & URB_NODE_POLL_UPDATE) {
+        n->updates++;
+    }
+    n->mcu.thread_from = now;
+    n->mcu.thread_until = now + urbsim_clock_cycles_ns(&n->mcu.clk, now, n->cfg.poll_cycles);
+    if (update_due(n)) {
+        want_poll(n, now); /* a heartbeat came during this iteration */
+    }
+}
+
+static void node_event(void *ctx, uint64_t arg, urbsim_ns_t now)
+{
+    sim_node_t *n = ctx;
+    uint64_t g = arg >> 8;
+    if ((g >> 24) != (n->gen & 0xFFFFFFFFFFull) || !n->powered) {
+        return; /* scheduled before a power loss */
+    }
+    uint64_t sub = g & 0xFFFFFFu;
+    switch ((int)(arg & 0xFFu)) {
+    case EV_TIMER_IRQ: {
+        if (sub != (n->compare_gen & 0xFFFFFFu)) {
+            return; /* replaced by a later set_compare */
+        }
+        urbsim_ns_t end;
+        urbsim_ns_t start = urbsim_mcu_isr(&n->mcu, now, n->cfg.timer_isr_cycles, &end);
+        urbsim_kernel_at(n->k, start, node_event, n, NODE_ARG(n, EV_TIMER_ISR, (n->gen << 24) | (end & 0xFFFFFFu)));
+        break;
+    }
+    case EV_TIMER_ISR: {
+        urb_node_timer_event(&n->node);
+        urbsim_ns_t end = now + urbsim_clock_cycles_ns(&n->mcu.clk, now, n->cfg.timer_isr_cycles);
+        if (update_due(n)) {
+            want_poll(n, end);
+        }
+        break;
+    }
+    case EV_POLL:
+        if (sub != (n->poll_gen & 0xFFFFFFu)) {
+            return;
+        }
+        n->poll_pending = false;
+        if (update_due(n)) {
+            /* This iteration runs app_update: it first spends the acquisition time. */
+            double extra = (double)urbsim_rng_below(&n->rng, (uint64_t)n->cfg.acq_jitter_cycles + 1u);
+            n->acquiring = true;
+            n->acq_start = now;
+            n->mcu.thread_from = now;
+            n->mcu.thread_until = now + (urbsim_ns_t)n->cfg.acq_ns + urbsim_clock_cycles_ns(&n->mcu.clk, now, extra);
+            urbsim_kernel_at(n->k, n->mcu.thread_until, node_event, n, NODE_ARG(n, EV_ACQ_DONE, n->gen << 24));
+            return;
+        }
+        run_poll(n, now);
+        break;
+    default: /* EV_ACQ_DONE */
+        if (now < n->mcu.thread_until) {
+            /* interrupts preempted the acquisition: it ends later */
+            urbsim_kernel_at(n->k, n->mcu.thread_until, node_event, n, arg);
+            return;
+        }
+        n->acquiring = false;
+        run_poll(n, now);
+        break;
+    }
+}
+
+/* ---------------------------------------------------------------- I2C slave port */
+
+static urbsim_ns_t slave_window(void *ctx, urbsim_ns_t t_irq, urbsim_ns_t *end)
+{
+    sim_node_t *n = ctx;
+    return urbsim_mcu_isr(&n->mcu, t_irq, n->cfg.i2c_isr_cycles, end);
+}
+
+static bool slave_address(void *ctx, bool read, bool gc, urbsim_ns_t t_hw)
+{
+    sim_node_t *n = ctx;
+    urb_i2c_event_t ev = gc ? URB_I2C_GENERAL_CALL : (read ? URB_I2C_ADDR_READ : URB_I2C_ADDR_WRITE);
+    if (gc) {
+        n->gc_hw = t_hw;
+    }
+    if (read) {
+        sim_log_put(&n->log, t_hw, SIM_MARK_READ, 0);
+    }
+    return urb_node_i2c_event(&n->node, ev, 0) == URB_I2C_ACK;
+}
+
+static bool slave_rx(void *ctx, uint8_t byte, urbsim_ns_t t_hw)
+{
+    sim_node_t *n = ctx;
+    (void)t_hw;
+    return urb_node_i2c_event(&n->node, URB_I2C_RX_BYTE, byte) == URB_I2C_ACK;
+}
+
+static uint8_t slave_tx(void *ctx, urbsim_ns_t t_hw)
+{
+    sim_node_t *n = ctx;
+    (void)t_hw;
+    return (uint8_t)urb_node_i2c_event(&n->node, URB_I2C_TX_BYTE, 0);
+}
+
+static void slave_tx_nack(void *ctx, urbsim_ns_t t_hw)
+{
+    sim_node_t *n = ctx;
+    (void)t_hw;
+    (void)urb_node_i2c_event(&n->node, URB_I2C_TX_NACK, 0);
+}
+
+static void slave_stop(void *ctx, bool repeated, urbsim_ns_t t_hw)
+{
+    sim_node_t *n = ctx;
+    (void)t_hw;
+    if (repeated) {
+        return; /* the library sees a repeated START as the next ADDR_* event */
+    }
+    (void)urb_node_i2c_event(&n->node, URB_I2C_STOP, 0);
+    want_poll(n, n->mcu.isr_free_at);
+}
+
+/* ---------------------------------------------------------------- lifecycle */
+
+sim_node_t *sim_node_new(const char *name, urbsim_kernel_t *k, urbsim_trace_t *tr, urbsim_i2c_bus_t *bus,
+                         const sim_node_cfg_t *cfg, const sim_app_cfg_t *app, const urbsim_rng_t *rng)
+{
+    sim_node_t *n = calloc(1, sizeof *n);
+    if (n == NULL) {
+        return NULL;
+    }
+    switch (app->app) {
+    case SIM_APP_PROBE:
+        n->app_state.probe.class_id = app->class_id;
+        n->app_state.probe.index = app->index;
+        n->app_state.probe.fingerprint = app->fingerprint;
+        n->app_state.probe.out_size = app->out_size;
+        n->app_state.probe.in_size = app->in_size;
+        n->hooks = &sim_probe_hooks;
+        n->app = &n->app_state.probe;
+        n->storage_len = sim_probe_storage(&n->app_state.probe);
+        break;
+    default:
+        free(n);
+        return NULL;
+    }
+    strncpy(n->name, name, sizeof n->name - 1u);
+    n->k = k;
+    n->tr = tr;
+    n->bus = bus;
+    n->cfg = *cfg;
+    n->cfg.clock.timer_hz = (double)cfg->ticks_per_us * 1e6;
+    urb_node_config_default(&n->ncfg);
+    n->ncfg.i2c_address = cfg->address;
+    n->ncfg.ticks_per_us = cfg->ticks_per_us;
+    n->ncfg.heartbeat_us = cfg->heartbeat_us;
+    n->ncfg.sync_enabled = cfg->sync_enabled ? 1u : 0u;
+    n->ncfg.lead_us = cfg->lead_us;
+    if (n->storage_len > sizeof n->storage) {
+        n->storage_len = (uint16_t)sizeof n->storage;
+    }
+    urbsim_rng_t clock_rng = *rng;
+    urbsim_mcu_init(&n->mcu, &n->cfg.clock, &clock_rng);
+    urbsim_rng_seed(&n->rng, urbsim_rng_u64(&clock_rng) ^ 0xAC0u);
+    n->hal.ctx = n;
+    n->hal.now = hal_now;
+    n->hal.set_compare = hal_set_compare;
+    n->hal.sync_capture = cfg->sync_capture ? hal_sync_capture : NULL;
+    n->hal.set_address = hal_set_address;
+    n->hal.mark = hal_mark;
+    n->hal.identify = NULL;
+    n->slave.ctx = n;
+    n->slave.address = cfg->address;
+    n->slave.powered = false;
+    n->slave.isr_window = slave_window;
+    n->slave.on_address = slave_address;
+    n->slave.on_rx = slave_rx;
+    n->slave.on_tx = slave_tx;
+    n->slave.on_tx_nack = slave_tx_nack;
+    n->slave.on_stop = slave_stop;
+    if (!urbsim_i2c_attach(bus, &n->slave)) {
+        free(n);
+        return NULL;
+    }
+    return n;
+}
+
+void sim_node_free(sim_node_t *n)
+{
+    free(n);
+}
+
+sim_log_t *sim_node_log(sim_node_t *n)
+{
+    return &n->log;
+}
+
+void sim_node_status(const sim_node_t *n, int64_t *out)
+{
+    urb_node_sync_status_t s;
+    urb_node_sync_status(&n->node, &s);
+    out[0] = (int64_t)s.state;
+    out[1] = (int64_t)s.period_q8;
+    out[2] = (int64_t)s.phase_q8;
+    out[3] = (int64_t)s.lead_ticks;
+    out[4] = (int64_t)s.acq_ticks;
+    out[5] = (int64_t)s.syncs;
+    out[6] = (int64_t)s.rejected;
+    out[7] = urb_node_synced(&n->node) ? 1 : 0;
+    out[8] = n->init_result;
+}
+
+double sim_node_stat(const sim_node_t *n, const char *s)
+{
+    if (!strcmp(s, "ppm")) return n->mcu.clk.cfg.ppm0;
+    if (!strcmp(s, "polls")) return (double)n->polls;
+    if (!strcmp(s, "updates")) return (double)n->updates;
+    if (!strcmp(s, "boots")) return (double)n->boots;
+    if (!strcmp(s, "irqs")) return (double)n->mcu.irqs;
+    if (!strcmp(s, "isr_ns")) return (double)n->mcu.isr_ns;
+    if (!strcmp(s, "marks_lost")) return (double)n->log.lost;
+    return NAN;
+}
+
+void sim_node_power_on(sim_node_t *n)
+{
+    urbsim_ns_t now = n->k->now;
+    n->powered = true;
+    n->boots++;
+    n->acquiring = false;
+    n->poll_pending = false;
+    urbsim_mcu_reset(&n->mcu, now);
+    sim_log_put(&n->log, now, SIM_MARK_BOOT, (uint32_t)n->boots);
+    urbsim_trace(n->tr, URBSIM_TR_FAULT, now, n->name, "power_on", ",\"boot\":%llu", (unsigned long long)n->boots);
+    n->init_result = urb_node_init(&n->node, &n->hal, n->hooks, n->app, &n->ncfg, n->storage, n->storage_len);
+    want_poll(n, now);
+}
+
+void sim_node_power_off(sim_node_t *n)
+{
+    n->powered = false;
+    n->gen++;
+    urbsim_i2c_power(n->bus, &n->slave, false);
+    urbsim_trace(n->tr, URBSIM_TR_FAULT, n->k->now, n->name, "power_off", "%s", "");
+}

@@ -1,0 +1,41 @@
+/*
+ * mcu.h: timing of one simulated microcontroller (a node or a bridge): its clock, its interrupts
+ * and its main loop.
+ *
+ * Interrupts share one priority level (the node library and the bridge require it): an interrupt
+ * raised at t_irq starts after the entry latency (clock.h) and not before the previous handler
+ * has returned (tail-chaining), then runs for its handler time. The firmware's C code runs in zero
+ * host time; its cost in virtual time is this handler time, given per interrupt source in core
+ * cycles.
+ *
+ * The main loop (thread level) runs at an instant and is then busy for its cost; interrupts that
+ * land inside a busy window lengthen it by their handler time (they preempt it).
+ */
+#ifndef URBSIM_MCU_H
+#define URBSIM_MCU_H
+
+#include "clock.h"
+
+typedef struct {
+    urbsim_clock_t clk;
+    urbsim_ns_t isr_free_at;     /**< the running handler returns here */
+    urbsim_ns_t thread_from;     /**< main-loop work in progress: [thread_from, thread_until) */
+    urbsim_ns_t thread_until;
+    uint64_t irqs;               /**< interrupts taken */
+    urbsim_ns_t isr_ns;          /**< total handler time (CPU load) */
+} urbsim_mcu_t;
+
+/** Set up with a clock configuration and the device's random stream. */
+void urbsim_mcu_init(urbsim_mcu_t *m, const urbsim_clock_cfg_t *cfg, const urbsim_rng_t *rng);
+
+/**
+ * Reserve the handler of an interrupt raised at t_irq that runs `cycles` core cycles. Returns the
+ * instant the handler starts (its first line runs, what the firmware's now() sees) and stores in
+ * *end when it returns. A main-loop busy window that contains the handler is lengthened by it.
+ */
+urbsim_ns_t urbsim_mcu_isr(urbsim_mcu_t *m, urbsim_ns_t t_irq, double cycles, urbsim_ns_t *end);
+
+/** Power-on reset at `now`: clock restarts at 0, no handler or main-loop work in progress. */
+void urbsim_mcu_reset(urbsim_mcu_t *m, urbsim_ns_t now);
+
+#endif /* URBSIM_MCU_H */

@@ -1,0 +1,294 @@
+"""ctypes bindings of build/sim/liburbsim.so (sim/world/urbsim.h), with Python types.
+
+`World` owns one simulated system. Everything here is a thin, typed wrapper: the behaviour is
+documented in sim/world/urbsim.h and sim/README.md.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import math
+from ctypes import POINTER, c_char_p, c_double, c_int, c_int64, c_uint8, c_uint32, c_uint64, c_void_p
+from dataclasses import dataclass
+from enum import IntEnum
+from pathlib import Path
+from typing import Any
+
+from .build import ensure_library
+
+RS232 = 0
+USB = 1
+
+
+class App(IntEnum):
+    """Node applications (sim/world/urbsim.h URBSIM_APP_*)."""
+
+    PROBE = 0
+    MOTOR = 1
+    BATTERY = 2
+    IMU = 3
+    IR = 4
+
+
+class Mark(IntEnum):
+    """Kinds in the device mark logs."""
+
+    BEAT = 0
+    ACQ_END = 1
+    SYNC = 2
+    READ = 3
+    BOOT = 4
+    SERVE = 8
+    BRIDGE_SYNC = 9
+    EMIT = 10
+
+
+class Trace(IntEnum):
+    """Trace categories (sim/core/trace.h)."""
+
+    BUS = 1
+    FRAME = 2
+    BRIDGE = 4
+    MAILBOX = 8
+    FAULT = 16
+    SYNC = 32
+    HOST = 64
+    ALL = 127
+
+
+_lib: Any = None
+
+
+def lib() -> Any:
+    """The loaded library (built first when stale)."""
+    global _lib
+    if _lib is None:
+        path = ensure_library()
+        dll = ctypes.CDLL(str(path))
+        W = c_void_p
+        sigs: dict[str, tuple[Any, list[Any]]] = {
+            "urbsim_new": (W, [c_uint64]),
+            "urbsim_free": (None, [W]),
+            "urbsim_set": (c_int, [W, c_char_p, c_double]),
+            "urbsim_get": (c_double, [W, c_char_p]),
+            "urbsim_param_count": (c_int, []),
+            "urbsim_param_name": (c_char_p, [c_int]),
+            "urbsim_param_default": (c_double, [c_int]),
+            "urbsim_param_doc": (c_char_p, [c_int]),
+            "urbsim_add_bridge": (c_int, [W, c_int]),
+            "urbsim_add_node": (c_int, [W, c_int, c_int, c_int, c_int]),
+            "urbsim_trace_open": (c_int, [W, c_char_p, c_uint32]),
+            "urbsim_start": (c_int, [W]),
+            "urbsim_run": (c_int, [W, c_uint64]),
+            "urbsim_now": (c_uint64, [W]),
+            "urbsim_events": (c_uint64, [W]),
+            "urbsim_trace_hash": (c_uint64, [W]),
+            "urbsim_trace_lines": (c_uint64, [W]),
+            "urbsim_trace_flush": (None, [W]),
+            "urbsim_host_local": (c_int64, [W]),
+            "urbsim_host_timer": (c_uint64, [W, c_int64]),
+            "urbsim_host_send": (c_int, [W, c_int, POINTER(c_uint8), c_uint32]),
+            "urbsim_host_take": (c_int, [W, POINTER(c_int), POINTER(c_uint8), c_uint32]),
+            "urbsim_node_marks": (c_uint32, [W, c_int, POINTER(c_uint64), POINTER(c_uint32), c_uint32]),
+            "urbsim_bridge_marks": (c_uint32, [W, c_int, POINTER(c_uint64), POINTER(c_uint32), c_uint32]),
+            "urbsim_node_status": (c_int, [W, c_int, POINTER(c_int64)]),
+            "urbsim_stat": (c_double, [W, c_char_p, c_int]),
+            "urbsim_fault_i2c_ber": (c_int, [W, c_int, c_double]),
+            "urbsim_fault_i2c_stuck": (c_int, [W, c_int, c_int, c_uint64, c_uint32]),
+            "urbsim_fault_uart": (c_int, [W, c_int, c_int, c_double, c_double]),
+            "urbsim_fault_usb_loss": (c_int, [W, c_int, c_double]),
+            "urbsim_node_power": (c_int, [W, c_int, c_int]),
+            "urbsim_bridge_power": (c_int, [W, c_int, c_int]),
+            "urbsim_fault_babble": (c_int, [W, c_int, c_int, c_double]),
+        }
+        for name, (res, args) in sigs.items():
+            fn = getattr(dll, name)
+            fn.restype = res
+            fn.argtypes = args
+        _lib = dll
+    return _lib
+
+
+@dataclass(frozen=True)
+class Param:
+    """One simulation parameter: name, default and meaning (sim/world/params.h)."""
+
+    name: str
+    default: float
+    doc: str
+
+
+def params() -> list[Param]:
+    """The full parameter table, in declaration order."""
+    L = lib()
+    return [Param(L.urbsim_param_name(i).decode(), float(L.urbsim_param_default(i)), L.urbsim_param_doc(i).decode())
+            for i in range(L.urbsim_param_count())]
+
+
+@dataclass
+class NodeStatus:
+    """A node's heartbeat state (urb_node_sync_status)."""
+
+    state: int
+    period_q8: int
+    phase_q8: int
+    lead_ticks: int
+    acq_ticks: int
+    syncs: int
+    rejected: int
+    synced: bool
+    init_result: int
+
+
+class World:
+    """One simulated URB system. Build (set, add_bridge, add_node), start, then run."""
+
+    def __init__(self, seed: int) -> None:
+        self._lib = lib()
+        self._w = self._lib.urbsim_new(seed & 0xFFFFFFFFFFFFFFFF)
+        if not self._w:
+            raise MemoryError("urbsim_new failed")
+        self.seed = seed
+        self._buf = (c_uint8 * 1024)()
+        self._marks_t = (c_uint64 * 8192)()
+        self._marks_v = (c_uint32 * 8192)()
+
+    def close(self) -> None:
+        if self._w:
+            self._lib.urbsim_free(self._w)
+            self._w = None
+
+    def __del__(self) -> None:
+        self.close()
+
+    # -- construction -----------------------------------------------------------------------
+    def set(self, name: str, value: float) -> None:
+        if self._lib.urbsim_set(self._w, name.encode(), float(value)) != 0:
+            known = ", ".join(p.name for p in params())
+            raise KeyError(f"unknown simulation parameter {name!r}; known: {known}")
+
+    def get(self, name: str) -> float:
+        v = float(self._lib.urbsim_get(self._w, name.encode()))
+        if math.isnan(v):
+            raise KeyError(f"unknown simulation parameter {name!r}")
+        return v
+
+    def add_bridge(self, uplink: int) -> int:
+        i = int(self._lib.urbsim_add_bridge(self._w, uplink))
+        if i < 0:
+            raise ValueError("cannot add a bridge (started already, or 8 bridges exist)")
+        return i
+
+    def add_node(self, bridge: int, app: App, address: int, index: int = 0) -> int:
+        i = int(self._lib.urbsim_add_node(self._w, bridge, int(app), address, index))
+        if i < 0:
+            raise ValueError(f"cannot add a {app.name} node at address {address} on bridge {bridge} "
+                             f"(unknown bridge or application, bad address or index, or started already)")
+        return i
+
+    def trace(self, path: Path | None, mask: int = Trace.ALL) -> None:
+        if self._lib.urbsim_trace_open(self._w, str(path).encode() if path else None, mask) != 0:
+            raise OSError(f"cannot open trace file {path}")
+
+    def start(self) -> None:
+        if self._lib.urbsim_start(self._w) != 0:
+            raise RuntimeError("the world was started already")
+
+    # -- running ----------------------------------------------------------------------------
+    def run(self, limit_ns: int) -> bool:
+        """Run to `limit_ns` or the next host wake-up (True)."""
+        return bool(self._lib.urbsim_run(self._w, limit_ns) == 1)
+
+    @property
+    def now(self) -> int:
+        return int(self._lib.urbsim_now(self._w))
+
+    @property
+    def events(self) -> int:
+        return int(self._lib.urbsim_events(self._w))
+
+    @property
+    def trace_hash(self) -> int:
+        return int(self._lib.urbsim_trace_hash(self._w))
+
+    @property
+    def trace_lines(self) -> int:
+        return int(self._lib.urbsim_trace_lines(self._w))
+
+    def flush_trace(self) -> None:
+        self._lib.urbsim_trace_flush(self._w)
+
+    # -- host CPU ---------------------------------------------------------------------------
+    def host_local(self) -> int:
+        return int(self._lib.urbsim_host_local(self._w))
+
+    def host_timer(self, local_ns: int) -> int:
+        return int(self._lib.urbsim_host_timer(self._w, local_ns))
+
+    def host_send(self, bridge: int, data: bytes) -> None:
+        buf = (c_uint8 * max(1, len(data))).from_buffer_copy(data.ljust(1, b"\0"))
+        if self._lib.urbsim_host_send(self._w, bridge, buf, len(data)) < 0:
+            raise ValueError(f"bridge {bridge} refused {len(data)} bytes (unknown bridge or USB queue full)")
+
+    def host_take(self) -> tuple[int, bytes] | None:
+        b = c_int(0)
+        n = int(self._lib.urbsim_host_take(self._w, ctypes.byref(b), self._buf, len(self._buf)))
+        if n < 0:
+            return None
+        return b.value, bytes(self._buf[:n])
+
+    # -- measurements -----------------------------------------------------------------------
+    def node_marks(self, node: int) -> list[tuple[int, int, int]]:
+        """Drain node `node`'s mark log: (time ns, Mark kind, value)."""
+        return self._drain(self._lib.urbsim_node_marks, node)
+
+    def bridge_marks(self, bridge: int) -> list[tuple[int, int, int]]:
+        return self._drain(self._lib.urbsim_bridge_marks, bridge)
+
+    def _drain(self, fn: Any, idx: int) -> list[tuple[int, int, int]]:
+        out: list[tuple[int, int, int]] = []
+        while True:
+            n = int(fn(self._w, idx, self._marks_t, self._marks_v, 8192))
+            out.extend((int(self._marks_t[i]), int(self._marks_v[i]) >> 24, int(self._marks_v[i]) & 0xFFFFFF)
+                       for i in range(n))
+            if n < 8192:
+                return out
+
+    def node_status(self, node: int) -> NodeStatus:
+        arr = (c_int64 * 9)()
+        if self._lib.urbsim_node_status(self._w, node, arr) != 0:
+            raise IndexError(f"no node {node}")
+        return NodeStatus(int(arr[0]), int(arr[1]), int(arr[2]), int(arr[3]), int(arr[4]), int(arr[5]),
+                          int(arr[6]), bool(arr[7]), int(arr[8]))
+
+    def stat(self, name: str, device: int = 0) -> float:
+        return float(self._lib.urbsim_stat(self._w, name.encode(), device))
+
+    # -- faults -----------------------------------------------------------------------------
+    def i2c_ber(self, bridge: int, ber: float) -> None:
+        self._check(self._lib.urbsim_fault_i2c_ber(self._w, bridge, ber), "i2c_ber")
+
+    def i2c_stuck(self, bridge: int, line: str, duration_ns: int = 0, pulses: int = 0) -> None:
+        self._check(self._lib.urbsim_fault_i2c_stuck(self._w, bridge, {"sda": 0, "scl": 1}[line], duration_ns, pulses),
+                    "i2c_stuck")
+
+    def uart_fault(self, bridge: int, direction: str, ber: float = 0.0, loss: float = 0.0) -> None:
+        self._check(self._lib.urbsim_fault_uart(self._w, bridge, {"up": 0, "down": 1}[direction], ber, loss),
+                    "uart_fault")
+
+    def usb_loss(self, bridge: int, loss: float) -> None:
+        self._check(self._lib.urbsim_fault_usb_loss(self._w, bridge, loss), "usb_loss")
+
+    def node_power(self, node: int, on: bool) -> None:
+        self._check(self._lib.urbsim_node_power(self._w, node, int(on)), "node_power")
+
+    def bridge_power(self, bridge: int, on: bool) -> None:
+        self._check(self._lib.urbsim_bridge_power(self._w, bridge, int(on)), "bridge_power")
+
+    def babble(self, bridge: int, address: int, rate: float) -> None:
+        self._check(self._lib.urbsim_fault_babble(self._w, bridge, address, rate), "babble")
+
+    @staticmethod
+    def _check(rc: int, what: str) -> None:
+        if rc != 0:
+            raise ValueError(f"{what}: bad argument (unknown device, wrong uplink type, or world not started)")

@@ -1,0 +1,71 @@
+/*
+ * params.h: every tunable of the simulation, with its default and meaning (one table: the C
+ * world reads it, `urb sim params` prints it, sim/README.md documents the same table).
+ * X(ID, "name", default, "meaning")
+ */
+#ifndef URBSIM_PARAMS_H
+#define URBSIM_PARAMS_H
+
+#define URBSIM_PARAMS(X)                                                                              \
+    X(NODE_PPM_MEAN, "node.ppm_mean", 0.0, "mean crystal frequency error of the nodes, ppm")         \
+    X(NODE_PPM_SD, "node.ppm_sd", 30.0, "sd of each node's crystal error, drawn per node and seed, ppm") \
+    X(NODE_WANDER_PPM, "node.wander_ppm", 0.2, "sd of the slow random wander of a node's crystal, ppm") \
+    X(NODE_WANDER_TAU, "node.wander_tau_s", 30.0, "time constant of that wander, s")                 \
+    X(NODE_RAMP, "node.ramp_ppm_per_s", 0.0, "deterministic drift of every node's error (warm-up), ppm/s") \
+    X(NODE_CPU_HZ, "node.cpu_hz", 48e6, "node core clock (Cortex-M0+), Hz")                           \
+    X(NODE_TICKS_PER_US, "node.ticks_per_us", 48.0, "node heartbeat timer ticks per us (timer resolution)") \
+    X(NODE_IRQ_CYCLES, "node.irq_cycles", 15.0, "node interrupt entry latency, core cycles")          \
+    X(NODE_IRQ_JITTER, "node.irq_jitter_cycles", 4.0, "extra node interrupt latency, uniform 0..N cycles") \
+    X(NODE_I2C_ISR, "node.i2c_isr_cycles", 60.0, "node I2C slave handler length (clock stretching), cycles") \
+    X(NODE_TIMER_ISR, "node.timer_isr_cycles", 120.0, "node heartbeat handler length, cycles")       \
+    X(NODE_WAKE, "node.wake_cycles", 30.0, "node main loop wake-up after an interrupt, cycles")       \
+    X(NODE_POLL, "node.poll_cycles", 300.0, "node main-loop iteration without acquisition, cycles")  \
+    X(NODE_ACQ_US, "node.acq_us", 50.0, "node acquisition time in app_update (sensor reads), us")    \
+    X(NODE_ACQ_JITTER, "node.acq_jitter_cycles", 48.0, "extra acquisition time, uniform 0..N cycles") \
+    X(NODE_SYNC_CAPTURE, "node.sync_capture", 0.0, "1: SYNC time-stamped by input capture, 0: in the ISR") \
+    X(NODE_SYNC, "node.sync", 1.0, "1: heartbeat locked to SYNC (paper Fig. 12), 0: free-running (Fig. 11)") \
+    X(NODE_LEAD_US, "node.lead_us", 0.0, "fixed phase lead, us; 0 = the measured acquisition time")   \
+    X(NODE_HEARTBEAT_US, "node.heartbeat_us", 1000.0, "node nominal heartbeat period, us")           \
+    X(NODE_BOOT_MS, "node.boot_spread_ms", 20.0, "nodes power on at uniform times in 0..N ms")        \
+    X(BRIDGE_PPM_MEAN, "bridge.ppm_mean", 0.0, "mean crystal error of the bridges, ppm")             \
+    X(BRIDGE_PPM_SD, "bridge.ppm_sd", 30.0, "sd of each bridge's crystal error, ppm")                 \
+    X(BRIDGE_WANDER_PPM, "bridge.wander_ppm", 0.2, "sd of a bridge crystal's slow wander, ppm")       \
+    X(BRIDGE_CPU_HZ, "bridge.cpu_hz", 48e6, "bridge core clock, Hz")                                  \
+    X(BRIDGE_IRQ_CYCLES, "bridge.irq_cycles", 15.0, "bridge interrupt entry latency, cycles")         \
+    X(BRIDGE_IRQ_JITTER, "bridge.irq_jitter_cycles", 4.0, "extra bridge interrupt latency, 0..N cycles") \
+    X(BRIDGE_I2C_ISR, "bridge.i2c_isr_cycles", 80.0, "bridge I2C master handler length, cycles")      \
+    X(BRIDGE_UART_ISR, "bridge.uart_isr_cycles", 60.0, "bridge UART handler length, cycles")          \
+    X(BRIDGE_TIMER_ISR, "bridge.timer_isr_cycles", 40.0, "bridge heartbeat handler length, cycles")   \
+    X(BRIDGE_USB_ISR, "bridge.usb_isr_cycles", 200.0, "bridge USB handler length, cycles")            \
+    X(BRIDGE_WAKE, "bridge.wake_cycles", 30.0, "bridge main loop wake-up, cycles")                    \
+    X(BRIDGE_POLL, "bridge.poll_cycles", 200.0, "bridge main-loop iteration, cycles")                 \
+    X(BRIDGE_BUSY_POLL_US, "bridge.busy_poll_us", 50.0, "main-loop period while the bridge is busy, us") \
+    X(BRIDGE_HEARTBEAT_US, "bridge.heartbeat_us", 1000.0, "SYNC period, us (0: no SYNC)")            \
+    X(BRIDGE_FIFO, "bridge.fifo_depth", 16.0, "bridge request FIFO depth")                            \
+    X(BRIDGE_BAUD, "bridge.baud", 115200.0, "RS232 uplink bit rate, Bd")                              \
+    X(BRIDGE_DIVIDER, "bridge.uart_divider_hz", 48e6, "bridge baud generator clock (0: exact baud), Hz") \
+    X(BRIDGE_SCAN, "bridge.scan_at_start", 1.0, "1: the bridge scans its downlink at power-on")      \
+    X(BRIDGE_BOOT_MS, "bridge.boot_ms", 25.0, "bridges power on at this time, ms (after the nodes)")  \
+    X(I2C_BITRATE, "i2c.bitrate", 400e3, "downlink I2C bit rate, b/s")                                \
+    X(CPU_PPM_MEAN, "cpu.ppm_mean", 0.0, "mean crystal error of the host CPU, ppm")                  \
+    X(CPU_PPM_SD, "cpu.ppm_sd", 50.0, "sd of the host CPU's crystal error, ppm")                      \
+    X(CPU_TICK_US, "cpu.tick_us", 1000.0, "OS tick period (1 kHz Linux), us")                         \
+    X(CPU_TIMER_WAKE_US, "cpu.timer_wake_us", 5.0, "a sleeping thread runs this long after its tick, us") \
+    X(CPU_TIMER_JITTER_US, "cpu.timer_jitter_us", 15.0, "plus uniform 0..N us of scheduling jitter") \
+    X(CPU_IO_WAKE_US, "cpu.io_wake_us", 20.0, "a thread blocked on I/O runs this long after the interrupt, us") \
+    X(CPU_IO_JITTER_US, "cpu.io_jitter_us", 30.0, "plus uniform 0..N us")                            \
+    X(USB_PPM_SD, "usb.ppm_sd", 50.0, "sd of the USB host controller crystal error, ppm")             \
+    X(USB_HC_IRQ_US, "usb.hc_irq_us", 20.0, "host controller completion interrupt to driver callback, us") \
+    X(USB_PHASE_US, "usb.phase_us", -1.0, "USB frame phase against the OS tick, us (-1: drawn per seed)") \
+    X(USB_BITRATE, "usb.bitrate", 12e6, "USB bus bit rate (full speed), b/s")                         \
+    X(USB_READ_ALWAYS, "usb.read_always", 1.0, "1: the driver keeps a bulk-IN pending every frame; 0: reads only after a write (Fig. 9)") \
+    X(PROBE_CLASS, "probe.class_id", 126.0, "class of probe nodes")                                  \
+    X(PROBE_FINGERPRINT, "probe.fingerprint", 2119565312.0, "layout fingerprint probe nodes report")  \
+    X(PROBE_OUT, "probe.out_size", 6.0, "probe outbox 1 size, bytes")                                 \
+    X(PROBE_IN, "probe.in_size", 0.0, "probe inbox 1 size, bytes (0: none)")
+
+#define URBSIM_PARAM_ENUM(id, name, def, doc) P_##id,
+enum { URBSIM_PARAMS(URBSIM_PARAM_ENUM) P_COUNT };
+#undef URBSIM_PARAM_ENUM
+
+#endif /* URBSIM_PARAMS_H */
