@@ -730,6 +730,24 @@ class URBInterface:
                 self._accessors[id(rec)] = acc
             return acc
 
+    def bridge_node(self, manager: BusManager) -> NodeAccessor:
+        """An accessor for the bridge itself (uplink address 0): outbox 0 `BridgeInfo`, outbox 1
+        `BridgeScan`, inbox 0 `BridgeCommand` (rescan, heartbeat period, bus clear)."""
+        report = self.reports.get(id(manager))
+        if report is None or report.info is None:
+            raise NodeNotFoundError(f"{manager.name} is not a registered bridge; call add_bus_manager() first")
+        info = report.info
+        with self._lock:
+            key = -id(manager)
+            acc = self._accessors.get(key)
+            if acc is None:
+                ident = Identification(class_id=BRIDGE.class_id, index=0, fingerprint=BRIDGE.fingerprint,
+                                       fw_major=info.fw_major, fw_minor=info.fw_minor, fw_patch=info.fw_patch,
+                                       inbox_sizes=BRIDGE.sizes("inbox"), outbox_sizes=BRIDGE.sizes("outbox"))
+                acc = NodeAccessor(self, NodeRecord(manager, BRIDGE_ADDRESS, ident, BRIDGE))
+                self._accessors[key] = acc
+            return acc
+
     def _resolve_class(self, cls: int | str | NodeInfo) -> tuple[int, str]:
         if isinstance(cls, NodeInfo):
             return cls.class_id, cls.name

@@ -209,3 +209,18 @@ def test_discovery_in_an_event_loop_without_blocking() -> None:
     assert len(reports) == 1 and [r.label for r in urb.nodes()] == ["MotorDriver:0", "MotorDriver:1"]
     with pytest.raises(RuntimeError, match="use callbacks"):
         urb.find_node("MotorDriver", 0).read(1)
+
+
+def test_bridge_node_gives_the_bridge_mailboxes() -> None:
+    from urb_msgs import urb_core as core
+
+    urb, m, clock, bridge = system("rs232", HEX[:2])
+    b = urb.bridge_node(m)
+    assert b.address == 0 and b.label == "Bridge:0"
+    assert b.read_message(core.BridgeInfo).fifo_depth == 8
+    bridge.nodes[17].present = False
+    b.write_message(core.BridgeCommand(opcode=core.BridgeOpcode.SCAN))
+    scan = b.read_message(core.BridgeScan)
+    assert scan.present[16] and not scan.present[17]
+    b.write_message(core.BridgeCommand(opcode=core.BridgeOpcode.SET_HEARTBEAT, value=500))
+    assert b.read_message(core.BridgeInfo).heartbeat_us == 500
