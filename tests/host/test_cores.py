@@ -164,56 +164,92 @@ def test_link_lost_fails_pending_and_queued_at_once() -> None:
 
 # --- USB core ---------------------------------------------------------------------------------
 
-def usb_answer(frame_out: bytes, transfers: list[Transfer], corrupt: int | None = None) -> bytes:
-    header = UsbBatchHeader.decode(frame_out[:4])
-    body = b"".join(ok(t) for t in transfers)
-    return UsbBatchHeader(frame=header.frame, count=len(transfers)).encode() + body
+def usb_in(frame: int, *responses: bytes) -> bytes:
+    return UsbBatchHeader(frame=frame, count=len(responses)).encode() + b"".join(responses)
 
 
-def test_usb_batches_respect_count_and_512_byte_limits() -> None:
-    core = UsbCore(max_batch=14)
+def test_usb_batches_respect_count_window_and_512_byte_limits() -> None:
+    core = UsbCore(max_batch=14, window=15)
     ts = [read(n=32) for _ in range(20)]  # 35-byte responses: 14 fit in 512 with the header
     for t in ts:
         core.submit(t, 0)
     out = core.frame_out(0)
-    assert out is not None and UsbBatchHeader.decode(out[:4]).count == 14 and len(out) <= 512
-    out2 = core.frame_out(NS_PER_MS)
-    assert out2 is not None and UsbBatchHeader.decode(out2[:4]).count == 6
-    assert UsbBatchHeader.decode(out2[:4]).frame == 1
+    assert out is not None and UsbBatchHeader.decode(out[:4]) == UsbBatchHeader(frame=1, count=14) and len(out) <= 512
+    out2 = core.frame_out(NS_PER_MS)  # the window (15 in flight) allows one more
+    assert out2 is not None and UsbBatchHeader.decode(out2[:4]) == UsbBatchHeader(frame=2, count=1)
+    core.receive_batch(usb_in(1, *(ok(t) for t in ts[:14])), 2 * NS_PER_MS)
+    assert len(core.take_completed()) == 14
+    out3 = core.frame_out(2 * NS_PER_MS)
+    assert out3 is not None and UsbBatchHeader.decode(out3[:4]).count == 5
 
 
-def test_usb_in_transfer_answers_its_batch_and_missing_responses_fail_at_once() -> None:
+def test_usb_responses_are_a_stream_across_in_transfers() -> None:
+    """A batch whose downlink work outlasts its frame: the rest of its responses come in the
+    next IN buffer (labelled with a later frame), and an idle frame-0 buffer is just empty."""
     core = UsbCore()
-    ts = [read() for _ in range(3)]
+    ts = [read() for _ in range(4)]
     for t in ts:
         core.submit(t, 0)
-    out = core.frame_out(0)
-    assert out is not None
-    core.receive_batch(usb_answer(out, ts[:2]), NS_PER_MS)  # the bridge lost the third
-    assert [t.flags for t in core.take_completed()] == [ErrorFlag.NONE, ErrorFlag.NONE, ErrorFlag.UPLINK_TIMEOUT]
+    assert core.frame_out(0) is not None
+    core.receive_batch(usb_in(0), NS_PER_MS // 2)  # an idle buffer from before the first OUT
+    core.receive_batch(usb_in(1, ok(ts[0]), ok(ts[1])), NS_PER_MS + 500_000)
+    assert [t.ok for t in core.take_completed()] == [True, True]
+    assert core.frame_out(2 * NS_PER_MS) is not None  # empty OUT: fetch the rest
+    core.receive_batch(usb_in(2, ok(ts[2]), ok(ts[3])), 2 * NS_PER_MS + 500_000)
+    assert [t.ok for t in core.take_completed()] == [True, True]
+    assert core.stray_bytes == 0 and core.frame_out(3 * NS_PER_MS) is None
 
 
-def test_usb_corrupt_in_header_fails_the_oldest_batch_and_a_missing_in_times_out() -> None:
-    core = UsbCore(timeout_ns=3 * NS_PER_MS)
-    a, b = read(), read()
-    core.submit(a, 0)
-    out_a = core.frame_out(0)
-    core.submit(b, NS_PER_MS)
-    core.frame_out(NS_PER_MS)
-    assert out_a is not None
-    bad = bytearray(usb_answer(out_a, [a]))
-    bad[0] ^= 1
-    core.receive_batch(bytes(bad), 2 * NS_PER_MS)
-    assert core.take_completed() == [a] and a.flags == ErrorFlag.UPLINK_CHECKSUM
-    core.poll(4 * NS_PER_MS)
-    assert core.take_completed() == [b] and b.flags == ErrorFlag.UPLINK_TIMEOUT
+def test_usb_missing_response_is_proven_lost_by_the_next_and_corrupt_bytes_are_named() -> None:
+    core = UsbCore()
+    ts = [read() for _ in range(4)]
+    for t in ts:
+        core.submit(t, 0)
+    core.frame_out(0)
+    bad = bytearray(ok(ts[2]))
+    bad[2] ^= 0x08
+    core.receive_batch(usb_in(1, ok(ts[0]), bytes(bad), ok(ts[3])), NS_PER_MS)  # ts[1] missing
+    flags = [t.flags for t in core.take_completed()]
+    lost = {ErrorFlag.UPLINK_TIMEOUT, ErrorFlag.UPLINK_CHECKSUM}
+    assert flags[0] == flags[3] == ErrorFlag.NONE and {flags[1], flags[2]} <= lost
+    assert ErrorFlag.UPLINK_CHECKSUM in flags  # the corrupt bytes are reported (on the oldest pending)
 
 
-def test_usb_idle_core_sends_nothing_but_keeps_reading_while_batches_await() -> None:
+def test_usb_corrupt_in_header_still_delivers_the_checked_responses() -> None:
+    core = UsbCore()
+    t = read()
+    core.submit(t, 0)
+    core.frame_out(0)
+    data = bytearray(usb_in(1, ok(t)))
+    data[1] ^= 0xFF
+    core.receive_batch(bytes(data), NS_PER_MS)
+    assert core.take_completed() == [t] and t.ok and core.bad_headers == 1
+
+
+def test_usb_timeout_and_silent_bridge() -> None:
+    core = UsbCore(timeout_ns=5 * NS_PER_MS, lost_after_ns=20 * NS_PER_MS)
+    t = read()
+    core.submit(t, 0)
+    core.frame_out(0)
+    core.poll(5 * NS_PER_MS)
+    assert core.take_completed() == [t] and t.flags == ErrorFlag.UPLINK_TIMEOUT
+    now = 6 * NS_PER_MS
+    while core.lost_reason is None and now < 100 * NS_PER_MS:
+        core.submit(read(), now)
+        core.frame_out(now)
+        now += NS_PER_MS
+        core.poll(now)
+    assert core.lost_reason is not None and "no USB transfer" in core.lost_reason
+
+
+def test_usb_idle_core_sends_nothing_but_keeps_fetching_while_requests_are_in_flight() -> None:
     core = UsbCore()
     assert core.frame_out(0) is None
     t = read()
     core.submit(t, 0)
     assert core.frame_out(0) is not None
-    empty = core.frame_out(NS_PER_MS)  # nothing queued, one batch awaiting: an empty batch
+    empty = core.frame_out(NS_PER_MS)
     assert empty is not None and UsbBatchHeader.decode(empty).count == 0
+    for _ in range(70000):  # the frame counter wraps from 65535 to 1, never 0
+        out = core.frame_out(NS_PER_MS)
+        assert out is not None and UsbBatchHeader.decode(out[:4]).frame != 0

@@ -43,13 +43,13 @@ def test_usb_manager_discovers_and_batches_per_frame() -> None:
                 done.append(r)
 
         reqs = []
-        for k in range(300):  # bursts of 6 per millisecond
-            for node in motors:
+        for k in range(300):  # bursts of 3 per millisecond: within the window of 8 per 2 frames
+            for node in motors[k % 2::2]:
                 reqs.append(node.submit_request(node.new_request().read(1).set_callback(cb)))
             time.sleep(0.001)
         assert all(r.wait(2) for r in reqs)
         assert done == reqs and all(r.ok for r in reqs)
-        assert m._usb.frames_written < 600  # batched: far fewer transfers than the 1800 requests
+        assert m._usb.frames_written < 600  # batched: far fewer transfers than the 900 requests
         lat = sorted(r.latency_ns or 0 for r in reqs)
         # 2..3 frames by design; generous for a loaded test machine
         assert lat[len(lat) // 2] < 10_000_000

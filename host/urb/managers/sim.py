@@ -196,7 +196,7 @@ class SimManager(BusManager):
         self._rs232_core: Rs232Core | None = None
         self._usb_core: UsbCore | None = None
         if self._usb:
-            self._usb_core = UsbCore(timeout_ns=timeout_ns or 10 * NS_PER_MS, lost_after_ns=lost_after_ns)
+            self._usb_core = UsbCore(timeout_ns=timeout_ns or 50 * NS_PER_MS, lost_after_ns=lost_after_ns)
         else:
             self._rs232_core = Rs232Core(window=window, timeout_ns=timeout_ns or 100 * NS_PER_MS,
                                          lost_after_ns=lost_after_ns)
@@ -234,7 +234,7 @@ class SimManager(BusManager):
         return self.core.lost_reason
 
     def set_window(self, window: int) -> None:
-        self.core.set_window(max(1, min(window, 15 if not self._usb else 14)))
+        self.core.set_window(max(1, min(window, 15)))
 
     def submit(self, t: Transfer) -> None:
         now = self.clock.now_ns()

@@ -30,11 +30,12 @@ FRAME_NS = NS_PER_MS
 class USBManager(ThreadedManager):
     """A URB bridge on a USB uplink, over any `FrameTransport` (or a device path)."""
 
-    def __init__(self, transport: object, *, max_batch: int = 14, timeout_s: float = 0.01,
+    def __init__(self, transport: object, *, max_batch: int = 14, timeout_s: float = 0.05,
                  lost_after_s: float = 0.5, name: str | None = None) -> None:
         """`transport`: a `FrameTransport`, or a device path (str) opened with
-        `CharDeviceTransport`. `max_batch`: requests per 1-ms batch. `timeout_s`: responses not
-        back this long after their batch was written complete UPLINK_TIMEOUT."""
+        `CharDeviceTransport`. `max_batch`: requests per 1-ms batch (at most 15 are in flight).
+        `timeout_s`: a response not back this long after its batch was written completes
+        UPLINK_TIMEOUT."""
         core = UsbCore(max_batch=max_batch, timeout_ns=int(timeout_s * 1e9), lost_after_ns=int(lost_after_s * 1e9))
         if isinstance(transport, str):
             label = transport
