@@ -30,19 +30,6 @@ class SimulationError(RuntimeError):
     """The simulated system did not come up (discovery failed); the message says why."""
 
 
-class BoundedSimManager(SimManager):
-    """The host library's SimManager with an upper bound on the request window (for USB: the
-    batch size). Discovery sets the window from the bridge's FIFO depth; on a USB uplink a batch
-    whose downlink work outlasts the 1-ms frame loses its late responses with the current
-    bridge/host pair (reported), so discovery runs with one request per batch and the
-    application chooses its window afterwards."""
-
-    max_window: int = 15
-
-    def set_window(self, window: int) -> None:
-        super().set_window(min(window, self.max_window))
-
-
 @dataclass
 class System:
     """One simulated system and the host software driving it."""
@@ -63,7 +50,7 @@ class System:
         self.host = SimHost(self.world)
         self.bridges: list[tuple[int, str]] = []
         self.nodes: list[tuple[int, int, App, int, int]] = []  # (id, bridge, app, address, index)
-        self.managers: dict[int, BoundedSimManager] = {}
+        self.managers: dict[int, SimManager] = {}
         self.reports: dict[int, BridgeReport] = {}
         schema: list[NodeInfo] = [i for i in NODES.values() if i.kind == "node"]
         schema.append(probe_info(self.probe_out, self.probe_in))
@@ -88,30 +75,22 @@ class System:
         self.nodes.append((n, bridge, app, address, index))
         return n
 
-    def start(self, *, settle_ms: float = 60.0, discover: bool = True, window: int | None = None) -> None:
+    def start(self, *, settle_ms: float = 60.0, discover: bool = True, rescan: bool = True,
+              window: int | None = None) -> None:
         """Power everything on, let the bridges scan and the nodes lock (settle_ms of virtual
         time), then run discovery on every bridge through `URBInterface.start_discovery`."""
         self.world.start()
         self.host.advance(int(settle_ms * NS_PER_MS))
         for b, uplink in self.bridges:
             transport = self.host.usb(b) if uplink == "usb" else self.host.rs232(b)
-            mgr = BoundedSimManager(self.host, transport, name=f"{uplink}{b}")
-            if uplink == "usb":
-                mgr.max_window = 1
-                # Workaround (reported): the bridge labels its idle response buffers with frame 0
-                # before the first OUT, the same number as the host core's first batch, which then
-                # takes an idle empty buffer for its answer. Start the host's frames at 1.
-                mgr.core._frame = 1  # type: ignore[union-attr]
-            self.managers[b] = mgr
+            self.managers[b] = SimManager(self.host, transport, name=f"{uplink}{b}")
         if not discover:
             for mgr in self.managers.values():
                 mgr.start()
             return
         pending = dict(self.managers)
         for b, mgr in self.managers.items():
-            # rescan=False: the bridges scanned at power-on (bridge.scan_at_start); a SCAN command
-            # takes several frames, which a USB batch cannot (see BoundedSimManager).
-            self.urb.start_discovery(mgr, self._reporter(b), rescan=False)
+            self.urb.start_discovery(mgr, self._reporter(b), rescan=rescan)
         ok = self.host.run_until(lambda: len(self.reports) == len(pending), self.host.now_ns() + 2 * NS_PER_S)
         if not ok:
             raise SimulationError("discovery did not finish within 2 s of virtual time on: "
@@ -119,9 +98,8 @@ class System:
         errors = [f"{self.managers[b].name}: {r.error}" for b, r in self.reports.items() if r.error]
         if errors:
             raise SimulationError("discovery failed: " + "; ".join(errors))
-        for mgr in self.managers.values():
-            mgr.max_window = 15
-            if window is not None:
+        if window is not None:
+            for mgr in self.managers.values():
                 mgr.set_window(window)
 
     def _reporter(self, bridge: int) -> Callable[[BridgeReport], None]:

@@ -21,7 +21,7 @@
     X(NODE_WAKE, "node.wake_cycles", 30.0, "node main loop wake-up after an interrupt, cycles")       \
     X(NODE_POLL, "node.poll_cycles", 300.0, "node main-loop iteration without acquisition, cycles")  \
     X(NODE_ACQ_US, "node.acq_us", 50.0, "node acquisition time in app_update (sensor reads), us")    \
-    X(NODE_ACQ_JITTER, "node.acq_jitter_cycles", 48.0, "extra acquisition time, uniform 0..N cycles") \
+    X(NODE_ACQ_JITTER, "node.acq_jitter_cycles", 4.0, "extra acquisition time, uniform 0..N cycles (instruction-level)") \
     X(NODE_SYNC_CAPTURE, "node.sync_capture", 0.0, "1: SYNC time-stamped by input capture, 0: in the ISR") \
     X(NODE_SYNC, "node.sync", 1.0, "1: heartbeat locked to SYNC (paper Fig. 12), 0: free-running (Fig. 11)") \
     X(NODE_LEAD_US, "node.lead_us", 0.0, "fixed phase lead, us; 0 = the measured acquisition time")   \
@@ -45,6 +45,7 @@
     X(BRIDGE_BAUD, "bridge.baud", 115200.0, "RS232 uplink bit rate, Bd")                              \
     X(BRIDGE_DIVIDER, "bridge.uart_divider_hz", 48e6, "bridge baud generator clock (0: exact baud), Hz") \
     X(BRIDGE_SCAN, "bridge.scan_at_start", 1.0, "1: the bridge scans its downlink at power-on")      \
+    X(BRIDGE_HB_SOF, "bridge.heartbeat_sof", 0.0, "1: USB bridges derive the heartbeat from USB SOF (SYNC aligned with frames)") \
     X(BRIDGE_BOOT_MS, "bridge.boot_ms", 25.0, "bridges power on at this time, ms (after the nodes)")  \
     X(I2C_BITRATE, "i2c.bitrate", 400e3, "downlink I2C bit rate, b/s")                                \
     X(CPU_PPM_MEAN, "cpu.ppm_mean", 0.0, "mean crystal error of the host CPU, ppm")                  \

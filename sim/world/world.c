@@ -6,8 +6,9 @@
  * HOST CPU MODEL (documented in sim/README.md):
  *   - its clock is a crystal with error N(cpu.ppm_mean, cpu.ppm_sd);
  *   - the OS tick comes every cpu.tick_us of that clock; a thread sleeping until time T runs at the
- *     first tick at or after T plus cpu.timer_wake_us plus uniform 0..cpu.timer_jitter_us
- *     (Linux with HZ=1000: sleeps end on jiffies);
+ *     first tick at or after T plus cpu.timer_wake_us plus uniform 0..cpu.timer_jitter_us, drawn
+ *     once per tick: threads woken by the same tick run back to back in the order they went to
+ *     sleep (Linux with HZ=1000: sleeps end on jiffies);
  *   - a thread blocked on I/O (the RS232 read thread, the USB read thread) runs cpu.io_wake_us plus
  *     uniform 0..cpu.io_jitter_us after the interrupt that delivered the data; data arriving
  *     while it is pending is read in the same wake-up.
@@ -245,6 +246,7 @@ int urbsim_add_bridge(urbsim_world_t *w, int uplink)
     cfg.heartbeat_us = (uint16_t)w->p[P_BRIDGE_HEARTBEAT_US];
     cfg.scan_at_start = w->p[P_BRIDGE_SCAN] != 0.0;
     cfg.usb_read_always = w->p[P_USB_READ_ALWAYS] != 0.0;
+    cfg.heartbeat_sof = w->p[P_BRIDGE_HB_SOF] != 0.0;
     char name[32];
     snprintf(name, sizeof name, "%s%d", uplink == URBSIM_UPLINK_USB ? "usb" : "rs232", id);
     if (uplink == URBSIM_UPLINK_USB) {
@@ -400,7 +402,11 @@ uint64_t urbsim_host_timer(urbsim_world_t *w, int64_t local_ns)
         k += 1.0; /* that tick has passed: the thread runs at the next one */
         t = urbsim_clock_virtual_at(&w->cpu, k * tick);
     }
-    double jitter = urbsim_rng_uniform(&w->host_rng) * w->p[P_CPU_TIMER_JITTER_US];
+    /* Every thread woken by tick k resumes at the same instant (the tick's scheduling delay,
+     * drawn once per tick) and they run in the order they went to sleep. */
+    urbsim_rng_t tick_rng;
+    urbsim_rng_derive(&tick_rng, w->seed, "host/tick", (uint64_t)k);
+    double jitter = urbsim_rng_uniform(&tick_rng) * w->p[P_CPU_TIMER_JITTER_US];
     return t + (urbsim_ns_t)((w->p[P_CPU_TIMER_WAKE_US] + jitter) * 1000.0);
 }
 

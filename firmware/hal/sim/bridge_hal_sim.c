@@ -67,8 +67,9 @@ static void hal_heartbeat_period(void *ctx, uint32_t period_us)
     sim_bridge_t *b = ctx;
     b->hb_period_us = period_us;
     b->hb_gen++;
-    if (period_us == 0u) {
-        return;
+    b->hb_sof_us = 0u;
+    if (period_us == 0u || (b->cfg.heartbeat_sof && b->uplink == SIM_UPLINK_USB)) {
+        return; /* stopped, or counted from SOF interrupts (usb_sof) */
     }
     b->hb_next_local = urbsim_clock_local_ns(&b->mcu.clk, b->k->now) + (double)period_us * 1000.0;
     urbsim_ns_t t = urbsim_clock_virtual_at(&b->mcu.clk, b->hb_next_local);
@@ -159,11 +160,17 @@ static void usb_sof(void *ctx, uint16_t frame, urbsim_ns_t t)
 {
     sim_bridge_t *b = ctx;
     (void)frame;
-    (void)t;
     if (!b->powered) {
         return;
     }
     urb_bridge_usb_sof(&b->br);
+    if (b->cfg.heartbeat_sof && b->hb_period_us) {
+        b->hb_sof_us += 1000u;
+        if (b->hb_sof_us >= b->hb_period_us) {
+            b->hb_sof_us -= b->hb_period_us;
+            irq(b, t, b->cfg.timer_isr_cycles, EV_HB_ISR, 0);
+        }
+    }
 }
 
 static void usb_out(void *ctx, const uint8_t *data, uint32_t len, urbsim_ns_t t)

@@ -5,7 +5,9 @@
  * What the port does, and when (virtual time):
  *   - now_us(): a 1 MHz counter of the bridge's crystal;
  *   - heartbeat_period(p): a periodic timer interrupt every p us of the bridge's clock calls
- *     urb_bridge_heartbeat (which makes the main loop send SYNC);
+ *     urb_bridge_heartbeat (which makes the main loop send SYNC); with bridge.heartbeat_sof a USB
+ *     bridge counts USB start-of-frame interrupts instead (1 ms each), so SYNC, and with it the
+ *     nodes' acquisition, lines up with the frame in which the host's requests arrive;
  *   - RS232: every received byte raises the UART interrupt (urb_bridge_uart_rx with its time);
  *     uart_tx_kick starts transmission, each "transmit register empty" interrupt pops the next
  *     byte (urb_bridge_uart_tx_pop), so response bytes leave back to back;
@@ -59,6 +61,7 @@ struct sim_bridge {
     uint64_t hb_gen;
     uint64_t i2c_gen;            /**< bumped by abort/release: stale completions are dropped */
     double hb_next_local;
+    uint32_t hb_sof_us;          /**< SOF heartbeat: microseconds counted toward the period */
     bool tx_active;
     bool poll_pending;
     urbsim_ns_t poll_at;

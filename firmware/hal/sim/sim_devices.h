@@ -93,6 +93,7 @@ typedef struct {
     uint16_t heartbeat_us;
     bool scan_at_start;
     bool usb_read_always;      /**< host driver mode, usb.h */
+    bool heartbeat_sof;        /**< USB bridges: derive the heartbeat tick from SOF (1 ms) */
 } sim_bridge_cfg_t;
 
 /** Host side of the uplink: bytes from the bridge (RS232) or an IN transfer (USB) reached the

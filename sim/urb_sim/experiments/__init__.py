@@ -1,0 +1,75 @@
+"""The paper's experiments (Sec. VI) on the simulated SensoRHex buses.
+
+Each experiment is a function `run(out: Path, *, quick: bool, seed: int, progress: Progress)`
+that writes its CSV and PNG into `out` and returns a `Result` stating pass/fail against its
+acceptance criterion. `quick=True` runs fewer samples (the test suite); the criterion is the same.
+"""
+
+from __future__ import annotations
+
+import csv
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+#: progress(done_fraction, message)
+Progress = Callable[[float, str], None]
+
+
+def no_progress(fraction: float, message: str) -> None:
+    """A Progress that ignores everything."""
+
+
+@dataclass
+class Check:
+    """One acceptance check: what was required, what was measured, and whether it held."""
+
+    name: str
+    required: str
+    measured: str
+    passed: bool
+
+
+@dataclass
+class Result:
+    """What an experiment produced."""
+
+    key: str
+    title: str
+    paper: str
+    checks: list[Check] = field(default_factory=list)
+    files: list[Path] = field(default_factory=list)
+    table: list[dict[str, Any]] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    wall_s: float = 0.0
+    sim_s: float = 0.0
+
+    @property
+    def passed(self) -> bool:
+        return bool(self.checks) and all(c.passed for c in self.checks)
+
+    def check(self, name: str, required: str, measured: str, passed: bool) -> bool:
+        self.checks.append(Check(name, required, measured, bool(passed)))
+        return bool(passed)
+
+
+def write_csv(path: Path, header: Sequence[str], rows: Iterable[Sequence[object]]) -> Path:
+    """Write rows with a header line; returns the path."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(header)
+        for r in rows:
+            w.writerow(r)
+    return path
+
+
+def pyplot() -> Any:
+    """matplotlib.pyplot with the non-interactive backend (figures are files, never windows)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt

@@ -1,0 +1,180 @@
+"""Figs. 15 and 16: API-level round-trip latency of periodic reads versus payload.
+
+The host application is a 1-kHz loop (a thread woken by the OS tick) that submits one read of the
+probe node's outbox 1 per period through `NodeAccessor.submit_request`; latency is the host
+library's own measure, `NodeRequest.latency_ns` (submission to callback, host clock), exactly the
+paper's "from URB request submission to callback invocation".
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from urb.api import NodeRequest
+
+from ..native import App
+from ..system import NS_PER_MS, Loop, System
+from . import Progress, Result, no_progress, pyplot, write_csv
+
+#: Character time at 115200 Bd, 8N1 (10 bits), ns.
+CHAR_NS = 10 * 1_000_000_000 / 115200
+#: One I2C byte with its ACK at 400 kb/s, ns.
+I2C_BYTE_NS = 9 * 1_000_000_000 / 400_000
+#: Each payload byte crosses the I2C downlink, then the RS232 uplink (the bridge stores and
+#: forwards: it checks the downlink CRC before answering), so latency grows by both per byte.
+SLOPE_NS = CHAR_NS + I2C_BYTE_NS
+
+
+@dataclass
+class Sample:
+    payload: int
+    index: int
+    latency_ns: int | None
+    ok: bool
+    flags: str
+
+
+def measure(uplink: str, payload: int, reads: int, seed: int) -> list[Sample]:
+    """`reads` periodic 1-kHz reads of a `payload`-byte outbox through `uplink`."""
+    s = System(seed=seed, probe_out=payload)
+    b = s.bridge(uplink)
+    s.node(b, App.PROBE, 0x10, 0)
+    s.start()
+    node = s.urb.find_node(0x7E, 0)
+    done: list[NodeRequest] = []
+
+    def tick() -> None:
+        node.submit_request(node.new_request().read(1, payload).set_callback(done.append))
+
+    Loop(s.host, NS_PER_MS, tick, count=reads)
+    s.host.advance((reads + 200) * NS_PER_MS)
+    out = [Sample(payload, i, r.latency_ns, r.ok, r.flags.describe() if not r.ok else "")
+           for i, r in enumerate(done)]
+    s.close()
+    return out
+
+
+def _sweep(uplink: str, payloads: list[int], reads: int, seed: int, progress: Progress,
+           label: str) -> tuple[list[Sample], float]:
+    samples: list[Sample] = []
+    t0 = time.perf_counter()
+    for i, p in enumerate(payloads):
+        progress(i / len(payloads), f"{label}: payload {p} bytes")
+        samples.extend(measure(uplink, p, reads, seed))  # one rig (seed) for every payload, as in the paper
+    progress(1.0, f"{label}: done")
+    return samples, time.perf_counter() - t0
+
+
+def _stats(samples: list[Sample], payloads: list[int]) -> dict[int, tuple[float, float, float, int]]:
+    """payload -> (mean, min, max latency in ms, failures)."""
+    out: dict[int, tuple[float, float, float, int]] = {}
+    for p in payloads:
+        lat = [s.latency_ns / 1e6 for s in samples if s.payload == p and s.ok and s.latency_ns is not None]
+        fails = sum(1 for s in samples if s.payload == p and not s.ok)
+        out[p] = (statistics.mean(lat), min(lat), max(lat), fails) if lat else (float("nan"),) * 3 + (fails,)
+    return out
+
+
+def _plot(path: Path, title: str, stats: dict[int, tuple[float, float, float, int]], paper: list[tuple[float, float]],
+          budget: float | None, xlabel: str) -> Path:
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    xs = sorted(stats)
+    means = [stats[x][0] for x in xs]
+    lo = [stats[x][0] - stats[x][1] for x in xs]
+    hi = [stats[x][2] - stats[x][0] for x in xs]
+    ax.errorbar(xs, means, yerr=[lo, hi], fmt="o-", capsize=3, label="simulation: mean, min..max")
+    if paper:
+        ax.plot([p[0] for p in paper], [p[1] for p in paper], "k--", alpha=0.6, label="paper (read from figure)")
+    if budget is not None:
+        ax.axvline(budget, color="r", alpha=0.4, ls=":", label="1-ms line budget")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("round-trip latency (ms)")
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper left", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def fig15(out: Path, *, quick: bool = False, seed: int = 15, progress: Progress = no_progress) -> Result:
+    """Fig. 15: RS232 (115200 Bd) + I2C (400 kb/s), payload 1..10 bytes, 1000 reads at 1 kHz."""
+    res = Result("fig15", "Fig. 15: RS232 round-trip latency vs payload",
+                 "linear growth with payload, maximum 2 ms (half of it OS scheduling)")
+    payloads = [1, 3, 5, 7, 9, 10] if quick else list(range(1, 11))
+    reads = 250 if quick else 1000
+    samples, wall = _sweep("rs232", payloads, reads, seed, progress, "Fig. 15")
+    res.wall_s, res.sim_s = wall, len(payloads) * (reads + 260) / 1000
+    out.mkdir(parents=True, exist_ok=True)
+    res.files.append(write_csv(out / "fig15_rs232_latency.csv", ["payload_bytes", "request", "latency_ns", "ok", "error"],
+                               ((s.payload, s.index, s.latency_ns, int(s.ok), s.flags) for s in samples)))
+    st = _stats(samples, payloads)
+    # A response of p payload bytes is p + 2 characters; 11.52 characters fit in 1 ms at 115200 Bd.
+    fits = [p for p in payloads if (p + 2) * CHAR_NS <= NS_PER_MS]
+    over = [p for p in payloads if p not in fits]
+    res.files.append(_plot(out / "fig15_rs232_latency.png", "Fig. 15 (simulated): RS232 + I2C, 1 kHz loop", st,
+                           [(1, 0.95), (10, 2.0)], 9.5, "data payload (bytes)"))
+    for p in payloads:
+        m, lo, hi, f = st[p]
+        res.table.append({"payload": p, "mean_ms": round(m, 3), "min_ms": round(lo, 3), "max_ms": round(hi, 3),
+                          "failed": f, "fits_line": p in fits})
+    total_fail = sum(st[p][3] for p in payloads)
+    res.check("every request answered", "all reads complete OK", f"{total_fail} failed of {len(samples)}",
+              total_fail == 0)
+    worst = max(st[p][2] for p in fits)
+    res.check("max latency within the line budget", "max <= 2.0 ms for payloads whose response fits 1 ms "
+              f"({fits[0]}..{fits[-1]} bytes)", f"{worst:.3f} ms", worst <= 2.0)
+    xs = fits
+    ys = [st[p][0] * 1e6 for p in xs]
+    n = len(xs)
+    mx, my = sum(xs) / n, sum(ys) / n
+    sxx = sum((x - mx) ** 2 for x in xs)
+    slope = sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / sxx
+    ss_res = sum((y - (my + slope * (x - mx))) ** 2 for x, y in zip(xs, ys))
+    ss_tot = sum((y - my) ** 2 for y in ys)
+    r2 = 1 - ss_res / ss_tot if ss_tot else 1.0
+    res.check("linear growth", "mean latency linear in payload (R^2 >= 0.99), slope = one UART character + one "
+              f"I2C byte = {SLOPE_NS / 1e3:.1f} us/byte +-10 %", f"slope {slope / 1e3:.1f} us/byte, R^2 {r2:.4f}",
+              r2 >= 0.99 and abs(slope - SLOPE_NS) <= 0.1 * SLOPE_NS)
+    for p in over:
+        res.notes.append(
+            f"{p}-byte payload: the response is {p + 2} characters = {(p + 2) * CHAR_NS / 1e6:.3f} ms of line time, "
+            f"more than the 1-ms period, so a 1-kHz loop builds a backlog (mean {st[p][0]:.2f} ms, "
+            f"max {st[p][2]:.2f} ms over {reads} reads). The paper's 12-byte budget is 4 % over 1 ms; "
+            f"at 115200 Bd the largest payload a 1-kHz loop sustains is {fits[-1]} bytes.")
+    return res
+
+
+def fig16(out: Path, *, quick: bool = False, seed: int = 16, progress: Progress = no_progress) -> Result:
+    """Fig. 16: USB + I2C (400 kb/s), payload 1..31 bytes, 1000 reads at 1 kHz."""
+    res = Result("fig16", "Fig. 16: USB round-trip latency vs payload",
+                 "constant 3 ms whatever the payload (1 ms OS scheduling + 2 ms USB)")
+    payloads = [1, 8, 16, 24, 31] if quick else list(range(1, 32))
+    reads = 250 if quick else 1000
+    samples, wall = _sweep("usb", payloads, reads, seed, progress, "Fig. 16")
+    res.wall_s, res.sim_s = wall, len(payloads) * (reads + 260) / 1000
+    out.mkdir(parents=True, exist_ok=True)
+    res.files.append(write_csv(out / "fig16_usb_latency.csv", ["payload_bytes", "request", "latency_ns", "ok", "error"],
+                               ((s.payload, s.index, s.latency_ns, int(s.ok), s.flags) for s in samples)))
+    st = _stats(samples, payloads)
+    res.files.append(_plot(out / "fig16_usb_latency.png", "Fig. 16 (simulated): USB + I2C, 1 kHz loop", st,
+                           [(1, 3.0), (31, 3.0)], None, "data payload (bytes)"))
+    for p in payloads:
+        m, lo, hi, f = st[p]
+        res.table.append({"payload": p, "mean_ms": round(m, 3), "min_ms": round(lo, 3), "max_ms": round(hi, 3),
+                          "failed": f})
+    total_fail = sum(st[p][3] for p in payloads)
+    res.check("every request answered", "all reads complete OK", f"{total_fail} failed of {len(samples)}",
+              total_fail == 0)
+    worst = max(st[p][2] for p in payloads)
+    res.check("bounded by three frames", "max latency <= 3.0 ms for every payload", f"{worst:.3f} ms", worst <= 3.0)
+    means = [st[p][0] for p in payloads]
+    spread = max(means) - min(means)
+    res.check("constant", "per-payload mean latencies within 0.1 ms of each other", f"spread {spread * 1e3:.0f} us",
+              spread <= 0.1)
+    return res

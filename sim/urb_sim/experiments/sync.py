@@ -1,0 +1,277 @@
+"""Table I: heartbeat synchronisation of two nodes on one downlink, and the unsynchronised
+baseline of Fig. 11.
+
+Rig: one USB bridge whose heartbeat (SYNC) is derived from USB start-of-frame, two probe nodes
+(6-byte outbox, like the motor driver's feedback) on its I2C downlink, and a host application
+reading both nodes at 1 kHz through the host library. Nodes power on at random instants in the
+first 20 ms, the bridge at 25 ms. Marks are taken where an oscilloscope would see them: the end of
+acquisition (ACQ_END, the outbox release in app_update) and the bridge's SYNC broadcasts, in true
+(virtual) time.
+
+Metrics, per run (20 runs, seeds seed..seed+19):
+  initial convergence delay   from the first SYNC until both nodes' ACQ_END stay within 2 us of
+                              their final phase relative to SYNC, with the SYNC period (a single
+                              out-of-bounds cycle does not count as leaving);
+  inter-node difference       mean |t_acq_end(A) - t_acq_end(B)| over the steady state (the last
+                              `steady_ms` of the run), and its largest value;
+  single-node jitter          standard deviation of a node's ACQ_END period over the steady state
+                              (mean of the two nodes), and the largest deviation from the mean period;
+  data age                    time from a node's last ACQ_END to the bridge's read of it (Fig. 11).
+Table I's "average" and "max" columns are the mean and the largest of the per-run figures.
+
+Two procedures. "As booted": nothing after discovery; each node's phase lead is the largest
+acquisition time it measured since power-on, which includes acquisitions that a bus interrupt
+preempted during the bridge's start-up scan, so two nodes can keep a static offset of a few us.
+"Re-measured" (the acceptance run): after discovery the host resets both applications (inbox 0
+RESET), so t_acq is measured again under the steady-state bus schedule, as the paper's method
+intends.
+"""
+
+from __future__ import annotations
+
+import bisect
+import statistics
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from urb_msgs.urb_core import Command, CommandCode
+
+from ..native import App, Mark
+from ..system import NS_PER_MS, Loop, System
+from . import Progress, Result, no_progress, pyplot, write_csv
+
+PAPER = {"convergence_ms": (78.4, 88.4), "internode_us": (0.19, 0.56), "jitter_us": (0.92, 1.33)}
+THRESHOLD_NS = 2000
+
+
+@dataclass
+class Run:
+    seed: int
+    synced: bool
+    convergence_ms: float = float("nan")
+    internode_us: float = float("nan")
+    internode_max_us: float = float("nan")
+    jitter_us: float = float("nan")
+    jitter_max_us: float = float("nan")
+    age_mean_us: float = float("nan")
+    age_max_us: float = float("nan")
+    failed_reads: int = 0
+    series: list[tuple[float, float]] = field(default_factory=list)  # (t ms, delta us)
+    ages: list[float] = field(default_factory=list)
+
+
+def _wrap(d: float, period: float) -> float:
+    """Difference folded into (-period/2, period/2]."""
+    return (d + period / 2) % period - period / 2
+
+
+def one_run(seed: int, synced: bool, duration_ms: int, remeasure: bool = True, steady_ms: int = 300) -> Run:
+    s = System(seed=seed, probe_out=6, params={"node.sync": 1.0 if synced else 0.0, "bridge.heartbeat_sof": 1.0})
+    b = s.bridge("usb")
+    na = s.node(b, App.PROBE, 0x10, 0)
+    nb = s.node(b, App.PROBE, 0x11, 1)
+    marks: dict[int, list[tuple[int, int, int]]] = {na: [], nb: []}
+    bmarks: list[tuple[int, int, int]] = []
+
+    def drain() -> None:
+        for n in (na, nb):
+            marks[n].extend(s.world.node_marks(n))
+        bmarks.extend(s.world.bridge_marks(b))
+
+    s.start(settle_ms=40)
+    drain()
+    nodes = [s.urb.find_node(0x7E, 0), s.urb.find_node(0x7E, 1)]
+    run = Run(seed, synced)
+    if remeasure:
+        for acc in nodes:
+            acc.submit_request(acc.new_request().write(0, Command(opcode=CommandCode.RESET)))
+
+    def on_done(req: object) -> None:
+        if not getattr(req, "ok", False):
+            run.failed_reads += 1
+
+    def tick() -> None:
+        for acc in nodes:
+            acc.submit_request(acc.new_request().read(1, 6).set_callback(on_done))
+
+    Loop(s.host, NS_PER_MS, tick)
+    while s.world.now < duration_ms * NS_PER_MS:
+        s.host.advance(200 * NS_PER_MS)
+        drain()
+    s.close()
+
+    acq = {n: [t for t, k, _ in marks[n] if k == Mark.ACQ_END] for n in (na, nb)}
+    reads = {n: [t for t, k, _ in marks[n] if k == Mark.READ] for n in (na, nb)}
+    syncs = [t for t, k, v in bmarks if k == Mark.BRIDGE_SYNC and v == 1]
+    if not syncs or len(acq[na]) < 100 or len(acq[nb]) < 100:
+        return run
+    t_sync0 = syncs[0]
+    period = 1e6
+    a, bb = acq[na], acq[nb]
+    # inter-node difference for every A cycle, against B's nearest ACQ_END
+    deltas: list[tuple[int, float]] = []
+    for t in a:
+        if t < t_sync0:
+            continue
+        j = bisect.bisect_left(bb, t)
+        cands = [bb[k] for k in (j - 1, j) if 0 <= k < len(bb)]
+        if cands:
+            near = min(cands, key=lambda x: abs(x - t))
+            deltas.append((t, _wrap(near - t, period)))
+    run.series = [((t - t_sync0) / 1e6, d / 1e3) for t, d in deltas]
+    sync_period = (syncs[-1] - syncs[0]) / (len(syncs) - 1) if len(syncs) > 1 else period
+    steady_from = a[-1] - steady_ms * NS_PER_MS
+    if synced:
+        # Convergence: each node's phase against the SYNC broadcasts reaches its final value.
+        last_bad = t_sync0
+        for seq in (a, bb):
+            phases: list[tuple[int, float]] = []
+            for t in seq:
+                j = bisect.bisect_right(syncs, t + sync_period / 2) - 1
+                if j >= 0 and t >= t_sync0:
+                    phases.append((t, _wrap(t - syncs[j], period)))
+            if len(phases) < 50:
+                return run
+            final = statistics.median(p for t, p in phases[-200:])
+            bad = [t for (t, p) in phases if abs(p - final) > THRESHOLD_NS]
+            bad += [phases[i][0] for i in range(1, len(phases))
+                    if abs((phases[i][0] - phases[i - 1][0]) - sync_period) > THRESHOLD_NS]
+            bad.sort()
+            for i in range(len(bad) - 1):
+                if bad[i + 1] - bad[i] <= 1.5 * sync_period:
+                    last_bad = max(last_bad, bad[i + 1])
+        run.convergence_ms = (last_bad - t_sync0) / 1e6
+    steady = [abs(d) for t, d in deltas if t >= steady_from]
+    if steady:
+        run.internode_us = statistics.mean(steady) / 1e3
+        run.internode_max_us = max(steady) / 1e3
+    jit, dev = [], []
+    for seq in (a, bb):
+        per = [seq[i] - seq[i - 1] for i in range(1, len(seq)) if seq[i - 1] >= steady_from]
+        if len(per) > 10:
+            m = statistics.mean(per)
+            jit.append(statistics.pstdev(per))
+            dev.append(max(abs(p - m) for p in per))
+    if jit:
+        run.jitter_us = statistics.mean(jit) / 1e3
+        run.jitter_max_us = max(dev) / 1e3
+    for n in (na, nb):
+        for t in reads[n]:
+            if t < steady_from:
+                continue
+            i = bisect.bisect_right(acq[n], t) - 1
+            if i >= 0:
+                run.ages.append((t - acq[n][i]) / 1e3)
+    if run.ages:
+        run.age_mean_us = statistics.mean(run.ages)
+        run.age_max_us = max(run.ages)
+    return run
+
+
+def table1(out: Path, *, quick: bool = False, seed: int = 100, progress: Progress = no_progress) -> Result:
+    res = Result("table1", "Table I: synchronisation of two nodes on one downlink (and Fig. 11 baseline)",
+                 "convergence 78.4 / 88.4 ms, inter-node difference 0.19 / 0.56 us, jitter 0.92 / 1.33 us "
+                 "(average / max of 20 runs)")
+    runs_n = 5 if quick else 20
+    duration = 700 if quick else 1300
+    t0 = time.perf_counter()
+    synced: list[Run] = []
+    booted: list[Run] = []
+    free: list[Run] = []
+    plan = [("re-measured", synced, True, True), ("as booted", booted, True, False), ("unsynchronised", free, False, False)]
+    done = 0
+    for label, bucket, on, remeasure in plan:
+        for i in range(runs_n):
+            progress(done / (3 * runs_n), f"Table I: {label} run {i + 1}/{runs_n}")
+            bucket.append(one_run(seed + i, on, duration, remeasure=remeasure))
+            done += 1
+    progress(1.0, "Table I: done")
+    res.wall_s = time.perf_counter() - t0
+    res.sim_s = 3 * runs_n * duration / 1000
+    out.mkdir(parents=True, exist_ok=True)
+    cols = ["seed", "procedure", "convergence_ms", "internode_mean_us", "internode_max_us", "jitter_std_us",
+            "jitter_maxdev_us", "data_age_mean_us", "data_age_max_us", "failed_reads"]
+    res.files.append(write_csv(out / "table1_sync_runs.csv", cols,
+                               ((r.seed, label, r.convergence_ms, r.internode_us, r.internode_max_us,
+                                 r.jitter_us, r.jitter_max_us, r.age_mean_us, r.age_max_us, r.failed_reads)
+                                for label, bucket, _, _ in plan for r in bucket)))
+
+    def avg_max(vals: list[float]) -> tuple[float, float]:
+        v = [x for x in vals if x == x]
+        return (statistics.mean(v), max(v)) if v else (float("nan"), float("nan"))
+
+    conv = avg_max([r.convergence_ms for r in booted])
+    inter = avg_max([r.internode_us for r in synced])
+    jit = avg_max([r.jitter_us for r in synced])
+    age_s = avg_max([r.age_mean_us for r in synced])
+    age_f = avg_max([r.age_mean_us for r in free])
+    inter_f = avg_max([r.internode_us for r in free])
+    inter_b = avg_max([r.internode_us for r in booted])
+    jit_b = avg_max([r.jitter_us for r in booted])
+    rows = [("initial convergence delay (ms), as booted", conv, PAPER["convergence_ms"]),
+            ("inter-node difference in t_acq_end (us), re-measured", inter, PAPER["internode_us"]),
+            ("single-node jitter on t_acq_end (us), re-measured", jit, PAPER["jitter_us"])]
+    for name, (av, mx), (pav, pmx) in rows:
+        res.table.append({"metric": name, "sim_average": round(av, 3), "sim_max": round(mx, 3),
+                          "paper_average": pav, "paper_max": pmx})
+        res.check(name, f"average <= {pav} and max <= {pmx} (match or beat the paper)",
+                  f"average {av:.3f}, max {mx:.3f}", av <= pav and mx <= pmx)
+    res.table.append({"metric": "as booted: inter-node difference (us)", "sim_average": round(inter_b[0], 3),
+                      "sim_max": round(inter_b[1], 3), "paper_average": "", "paper_max": ""})
+    res.table.append({"metric": "as booted: single-node jitter (us)", "sim_average": round(jit_b[0], 3),
+                      "sim_max": round(jit_b[1], 3), "paper_average": "", "paper_max": ""})
+    res.table.append({"metric": "unsynchronised: inter-node difference (us)", "sim_average": round(inter_f[0], 1),
+                      "sim_max": round(inter_f[1], 1), "paper_average": "", "paper_max": ""})
+    res.table.append({"metric": "data age at the bridge's read, synchronised (us)", "sim_average": round(age_s[0], 1),
+                      "sim_max": round(age_s[1], 1), "paper_average": "", "paper_max": ""})
+    res.table.append({"metric": "data age at the bridge's read, unsynchronised (us)", "sim_average": round(age_f[0], 1),
+                      "sim_max": round(age_f[1], 1), "paper_average": "", "paper_max": ""})
+    fails = sum(r.failed_reads for r in synced + booted + free)
+    res.check("reads answered", "every host read of both nodes completes OK", f"{fails} failed", fails == 0)
+    res.check("Fig. 11 vs Fig. 12", "synchronisation makes data fresher: mean data age synchronised < unsynchronised",
+              f"{age_s[0]:.0f} us vs {age_f[0]:.0f} us", age_s[0] < age_f[0])
+    res.files.append(_plot(out / "table1_sync.png", booted[0], free[0], synced, free))
+    offset_runs = sum(1 for r in booted if r.internode_us == r.internode_us and r.internode_us > PAPER["internode_us"][1])
+    res.notes.append(
+        f"Convergence is measured as booted (from power-on); the inter-node difference and jitter after the "
+        f"re-measure procedure (inbox-0 RESET of both nodes after discovery). As booted, {offset_runs} of {runs_n} "
+        f"runs keep a static inter-node offset above {PAPER['internode_us'][1]} us: the node library's phase lead "
+        f"is the largest acquisition time measured since power-on, and the bridge's start-up scan preempts some "
+        f"acquisitions with I2C interrupts. Reported to the node library (re-measure or decay t_acq).")
+    res.notes.append(f"Steady-state thresholds: {THRESHOLD_NS / 1e3:.0f} us; jitter = standard deviation of the "
+                     f"ACQ_END period; the per-cycle worst cases are in table1_sync_runs.csv.")
+    return res
+
+
+def _plot(path: Path, s0: Run, f0: Run, synced: list[Run], free: list[Run]) -> Path:
+    plt = pyplot()
+    fig, axes = plt.subplots(1, 3, figsize=(13, 3.8))
+    ax = axes[0]
+    ax.plot([t for t, _ in f0.series], [d for _, d in f0.series], ".", ms=2, color="tab:red", label="unsynchronised")
+    ax.plot([t for t, _ in s0.series], [d for _, d in s0.series], ".", ms=2, color="tab:blue", label="synchronised")
+    ax.set_xlabel("time since first SYNC (ms)")
+    ax.set_ylabel("t_acq_end(B) - t_acq_end(A) (us)")
+    ax.set_title(f"Inter-node difference, seed {s0.seed}")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    ax = axes[1]
+    ax.plot([t for t, _ in s0.series], [d for _, d in s0.series], ".", ms=2, color="tab:blue")
+    ax.set_ylim(-3, 3)
+    ax.set_xlabel("time since first SYNC (ms)")
+    ax.set_ylabel("us")
+    ax.set_title(f"Synchronised, zoom (converged at {s0.convergence_ms:.1f} ms)")
+    ax.grid(alpha=0.3)
+    ax = axes[2]
+    ages_s = [a for r in synced for a in r.ages]
+    ages_f = [a for r in free for a in r.ages]
+    ax.hist(ages_f, bins=50, alpha=0.6, color="tab:red", label="unsynchronised (Fig. 11)")
+    ax.hist(ages_s, bins=50, alpha=0.6, color="tab:blue", label="synchronised (Fig. 12)")
+    ax.set_xlabel("data age at the bridge's read (us)")
+    ax.set_ylabel("reads")
+    ax.set_title("Freshness of the data read")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

@@ -1,0 +1,35 @@
+"""Each experiment's acceptance criterion, on the short runs (`quick=True`: fewer payloads,
+reads and seeds than the full report, same criteria)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from urb_sim.experiments import Result, latency, sync
+
+
+def _assert_passed(res: Result) -> None:
+    failed = [f"{c.name}: required {c.required}, measured {c.measured}" for c in res.checks if not c.passed]
+    assert res.passed, "; ".join(failed)
+    for f in res.files:
+        assert f.exists() and f.stat().st_size > 0
+
+
+def test_fig15_rs232_latency(tmp_path: Path) -> None:
+    res = latency.fig15(tmp_path, quick=True)
+    _assert_passed(res)
+    rows = {r["payload"]: r for r in res.table}
+    assert rows[1]["mean_ms"] < rows[9]["mean_ms"] <= 2.0
+    assert any("10-byte payload" in n for n in res.notes)  # the over-budget point is explained
+
+
+def test_fig16_usb_latency(tmp_path: Path) -> None:
+    _assert_passed(latency.fig16(tmp_path, quick=True))
+
+
+@pytest.mark.slow
+def test_table1_synchronisation(tmp_path: Path) -> None:
+    res = sync.table1(tmp_path, quick=True)
+    _assert_passed(res)
