@@ -50,9 +50,8 @@ def test_usb_manager_discovers_and_batches_per_frame() -> None:
         assert all(r.wait(2) for r in reqs)
         assert done == reqs and all(r.ok for r in reqs)
         assert m._usb.frames_written < 600  # batched: far fewer transfers than the 900 requests
-        lat = sorted(r.latency_ns or 0 for r in reqs)
-        # 2..3 frames by design; generous for a loaded test machine
-        assert lat[len(lat) // 2] < 10_000_000
+        # Latency is checked exactly in virtual time (test_api_sim.py); wall-clock latency on a
+        # loaded test machine says more about the machine than about the protocol.
     finally:
         urb.close()
 
