@@ -118,11 +118,14 @@ def run_virtual(kind: str, count: int, rate: float) -> list[Series]:
         acc = accessor(urb, m, node)
         size = acc.new_request().read(box).size
         lat: list[float] = []
+
+        def submit(acc: NodeAccessor = acc, box: int = box, lat: list[float] = lat) -> None:
+            acc.submit_request(acc.new_request().read(box).set_callback(lambda r: lat.append((r.latency_ns or 0) / 1e3)))
+
         t0 = clock.now_ns() + NS_PER_MS
         for k in range(count):
             phase = (k * 7919) % 1000 * 1000  # spread submissions over the 1-ms frame
-            clock.call_at(t0 + k * period + phase, lambda acc=acc, box=box: acc.submit_request(
-                acc.new_request().read(box).set_callback(lambda r: lat.append((r.latency_ns or 0) / 1e3))))
+            clock.call_at(t0 + k * period + phase, submit)
         clock.run_for(count * period + 50 * NS_PER_MS)
         out.append(Series(label, size, lat))
     return out
