@@ -530,7 +530,7 @@ int32_t urb_bridge_init(urb_bridge_t *b, const urb_bridge_config_t *cfg, const u
 void urb_bridge_poll(urb_bridge_t *b)
 {
     uint32_t const now = b->hal->now_us(b->hal->ctx);
-    urbb_uart_drain(b); /* Bridge.tla: SubmitAndAdmit for every complete RS232 frame */
+    urbb_uart_drain(b, now); /* Bridge.tla: SubmitAndAdmit for every complete RS232 frame */
     int8_t const r = b->dl.poll(b->dl.ctx, now);
     if (r >= 0) {
         activity_done(b, (uint8_t)r);
@@ -547,7 +547,7 @@ void urb_bridge_poll(urb_bridge_t *b)
 
 bool urb_bridge_idle(const urb_bridge_t *b)
 {
-    bool const rx_empty = b->rx_head == b->rx_tail;
+    bool const rx_empty = (b->rx_head == b->rx_tail) && (b->rs232.len == 0u);
     bool const sync_due = (b->hb_ticks != b->hb_done);
     bool const work = (b->slot_served < b->slot_count) || b->scanning || sync_due;
     bool const head_final = (b->ring_count > 0u) && (b->ring[b->ring_head].status != URB_BRIDGE_PENDING);

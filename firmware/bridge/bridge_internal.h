@@ -28,7 +28,7 @@ enum { URBB_ACT_NONE = 0u, URBB_ACT_REQUEST = 1u, URBB_ACT_SCAN = 2u, URBB_ACT_S
 bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t len);
 
 /* bridge_uplink.c: the uplink side of poll(): parse the bytes the UART interrupt queued. */
-void urbb_uart_drain(urb_bridge_t *b);
+void urbb_uart_drain(urb_bridge_t *b, uint32_t now);
 
 /* bridge_uplink.c: queue one encoded response on `uplink`; false when it has no room now. */
 bool urbb_uplink_send(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t len);

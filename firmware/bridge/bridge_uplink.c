@@ -112,12 +112,27 @@ static void parser_push(urb_bridge_t *b, urb_bridge_parser_t *p, uint8_t byte, u
     hunt(b, p, uplink);
 }
 
-/* An idle gap (or the end of a USB transfer): whatever is left is a partial frame. */
-static void parser_gap(urb_bridge_t *b, urb_bridge_parser_t *p)
+/* An idle gap (or the end of a USB transfer): no byte will complete the candidate in progress, so
+ * it is not a frame. Frames that arrived intact behind it must not be lost with it: drop the
+ * candidate's first byte and hunt on through the rest, complete candidates first. */
+static void parser_flush(urb_bridge_t *b, urb_bridge_parser_t *p, uint8_t uplink)
 {
-    if (p->len > 0u) {
+    bool dropped = false;
+    /* loop bound: URB_BRIDGE_FRAME_MAX rounds (one byte or more removed per round) */
+    for (uint8_t round = 0u; (round < URB_BRIDGE_FRAME_MAX) && (p->len > 0u); round++) {
+        uint8_t const need = candidate_len(p->buf, p->len);
+        if ((need == 0u) || (need == NOT_A_FRAME) || (need > p->len)) {
+            dropped = true; /* incomplete: can never complete now */
+            discard(p, 1u);
+        } else if (urbb_frame(b, uplink, p->buf, need)) {
+            discard(p, need);
+        } else {
+            b->stats.hunt_discards++;
+            discard(p, 1u);
+        }
+    }
+    if (dropped) {
         b->stats.gap_drops++;
-        p->len = 0u;
     }
 }
 
@@ -150,22 +165,31 @@ void urb_bridge_uart_rx(urb_bridge_t *b, uint8_t byte, uint32_t t_us)
     b->rx_head = (uint8_t)(head + 1u); /* publish after the byte is stored */
 }
 
-void urbb_uart_drain(urb_bridge_t *b)
+void urbb_uart_drain(urb_bridge_t *b, uint32_t now)
 {
     /* loop bound: URB_BRIDGE_RX_RING bytes (the ring holds no more; later ones wait for the next poll) */
     for (uint8_t i = 0u; i < URB_BRIDGE_RX_RING; i++) {
         uint8_t const tail = b->rx_tail;
         if (tail == b->rx_head) {
-            return;
+            break;
         }
         URB_BARRIER(); /* read the head before the byte the interrupt stored */
         uint16_t const v = b->rx_ring[tail & (URB_BRIDGE_RX_RING - 1u)];
         b->rx_tail = (uint8_t)(tail + 1u);
         if ((v & URB_BRIDGE_RX_GAP) != 0u) {
-            parser_gap(b, &b->rs232);
+            parser_flush(b, &b->rs232, URBB_UPLINK_RS232);
         }
         parser_push(b, &b->rs232, (uint8_t)(v & 0xFFu), URBB_UPLINK_RS232);
     }
+#ifndef URB_MUTANT_NO_GAP
+    /* The line has been idle long enough: a partial frame will not complete, do not wait for the
+     * next byte to say so (frames behind it would wait too). rx_last_us is one aligned word. */
+    if ((b->rs232.len > 0u) && (b->rx_head == b->rx_tail) && ((uint32_t)(now - b->rx_last_us) > b->rx_gap_us)) {
+        parser_flush(b, &b->rs232, URBB_UPLINK_RS232);
+    }
+#else
+    (void)now;
+#endif
 }
 
 bool urb_bridge_uart_tx_pop(urb_bridge_t *b, uint8_t *byte)
@@ -213,12 +237,12 @@ bool urb_bridge_usb_out(urb_bridge_t *b, const uint8_t *data, size_t len)
     b->stats.usb_batches++;
     b->usb_last_frame = h.frame;
     b->usb_frame[b->usb_cur] = h.frame; /* the response batch echoes its request batch */
-    parser_gap(b, &b->usb);
+    parser_flush(b, &b->usb, URBB_UPLINK_USB);
     /* loop bound: URB_BRIDGE_USB_BUF bytes */
     for (size_t i = URB_USB_BATCH_HEADER_MAX_SIZE; i < len; i++) {
         parser_push(b, &b->usb, data[i], URBB_UPLINK_USB);
     }
-    parser_gap(b, &b->usb); /* a frame never spans two transfers */
+    parser_flush(b, &b->usb, URBB_UPLINK_USB); /* a frame never spans two transfers */
     return true;
 }
 

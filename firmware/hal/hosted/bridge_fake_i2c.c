@@ -298,7 +298,13 @@ static uint8_t op_lines(void *ctx)
 static void op_drive(void *ctx, uint8_t lines)
 {
     urb_fake_i2c_t *bus = bus_of(ctx);
-    bool const rising = bus->bitbang && ((bus->driven & URB_I2C_SCL) == 0u) && ((lines & URB_I2C_SCL) != 0u);
+    bool const rising = bus->bitbang && ((bus->driven & URB_I2C_SCL) == 0u) && ((lines & URB_I2C_SCL) != 0u) &&
+                        ((lines & URB_I2C_SDA) != 0u);
+    bool const stop = bus->bitbang && ((bus->driven & URB_I2C_SCL) != 0u) && ((lines & URB_I2C_SCL) != 0u) &&
+                      ((bus->driven & URB_I2C_SDA) == 0u) && ((lines & URB_I2C_SDA) != 0u);
+    if (stop) {
+        bus->bitbang_stops++;
+    }
     if (!bus->bitbang) {
         bus->ev_pending = false;
         bus->stretching = false;

@@ -76,7 +76,9 @@ typedef struct {
     bool bitbang;
     uint8_t driven;
     /* Counters. */
-    uint32_t starts, stops, aborts, releases, scl_pulses, general_calls;
+    uint32_t starts, stops, aborts, releases, general_calls;
+    uint32_t scl_pulses;         /* bit-banged clock pulses (SCL rising with SDA released) */
+    uint32_t bitbang_stops;      /* bit-banged STOPs (SDA rising while SCL is high) */
 } urb_fake_i2c_t;
 
 /** Initialises an empty bus on the clock now(now_ctx), delivering events to *master. */

@@ -1,0 +1,122 @@
+# Bridge firmware (firmware/bridge, firmware/hal/*/bridge_*). Included by the top-level Makefile.
+#   make test-firmware-bridge   cmocka tests under ASan+UBSan with gcc and clang, then the mutant
+#                               check (every seeded bug must make the tests fail)
+#   make bridge-mutants         the mutant check alone
+#   make cross-bridge           Cortex-M0+ build of the bridge and its reference port (strict warnings)
+#   make size-bridge            flash/RAM of the Cortex-M0+ bridge image (part of `make size`)
+#   make bridge-hosted          build/firmware/urb-bridge-hosted: the bridge on a pseudo-terminal
+#   make bridge-costs           callgrind instruction counts of the interrupt and per-request paths
+#                               over worst-case inputs, with loop bounds: build/firmware/bridge_costs.md
+# Outputs go to build/firmware/.
+
+FWB_BUILD := build/firmware
+FWB_STRICT := -std=c99 -Wall -Wextra -Wconversion -Wsign-conversion -Wpedantic -Werror
+FWB_INC := -Ifirmware/include -Igen/c -Ifirmware/hal/hosted -Ifirmware/bridge
+FWB_LIB_SRC := firmware/bridge/bridge.c firmware/bridge/bridge_uplink.c firmware/bridge/i2c_master.c
+FWB_GEN_SRC := gen/c/urb_core.c gen/c/urb_runtime.c
+FWB_HOSTED_SRC := firmware/hal/hosted/bridge_hosted.c firmware/hal/hosted/bridge_fake_i2c.c
+FWB_TEST_SRC := $(filter-out tests/firmware/bridge/cost_driver.c,$(wildcard tests/firmware/bridge/*.c))
+FWB_HDRS := $(wildcard firmware/include/urb_bridge*.h firmware/include/urb_downlink.h firmware/bridge/*.h \
+              firmware/hal/hosted/bridge_*.h gen/c/*.h tests/firmware/bridge/*.h)
+FWB_SAN := -g -O1 -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
+FWB_TEST_CFLAGS := -std=c99 -Wall -Wextra -Werror -D_DEFAULT_SOURCE
+FWB_MUTANTS := FIFO_OFF_BY_ONE DROP_WHEN_FULL NO_SEL_INVALIDATE REORDER NO_HUNT NO_GAP USB_OVERWRITE \
+               NO_BUS_CLEAR SCAN_STOP_AT_GAP
+FWB_CROSS_CC ?= arm-none-eabi-gcc
+FWB_CROSS_SIZE ?= arm-none-eabi-size
+FWB_CROSS_NM ?= arm-none-eabi-nm
+FWB_CROSS_FLAGS := -mcpu=cortex-m0plus -mthumb -Os -ffunction-sections -fdata-sections
+FWB_CM0_SRC := $(FWB_LIB_SRC) $(FWB_GEN_SRC) $(wildcard firmware/hal/cortex-m0plus/bridge_*.c)
+
+.PHONY: test-firmware-bridge bridge-tests bridge-mutants cross-bridge size-bridge bridge-hosted bridge-costs
+
+# --- cmocka tests under sanitizers -------------------------------------------------------------
+# The firmware and hosted HAL sources get the strict warning set; the test sources (cmocka macros)
+# get -Wall -Wextra -Werror. One binary per compiler; its exit status counts failed tests.
+define FWB_TEST_BINARY
+$(FWB_BUILD)/$(1)/bridge-tests: $(FWB_LIB_SRC) $(FWB_GEN_SRC) $(FWB_HOSTED_SRC) $(FWB_TEST_SRC) $(FWB_HDRS)
+	@mkdir -p $$(@D)/obj
+	@for f in $(FWB_LIB_SRC) $(FWB_HOSTED_SRC) $(FWB_GEN_SRC); do \
+	  $(1) $(FWB_STRICT) $(FWB_SAN) $(FWB_INC) -c $$$$f -o $$(@D)/obj/$$$$(basename $$$$f .c).o || exit 1; done
+	@for f in $(FWB_TEST_SRC); do \
+	  $(1) $(FWB_TEST_CFLAGS) $(FWB_SAN) $(FWB_INC) -c $$$$f -o $$(@D)/obj/t_$$$$(basename $$$$f .c).o || exit 1; done
+	$(1) $(FWB_SAN) $$(@D)/obj/*.o -lcmocka -o $$@
+endef
+$(eval $(call FWB_TEST_BINARY,gcc))
+$(eval $(call FWB_TEST_BINARY,clang))
+
+bridge-tests: $(FWB_BUILD)/gcc/bridge-tests $(FWB_BUILD)/clang/bridge-tests
+	CMOCKA_MESSAGE_OUTPUT=stdout $(FWB_BUILD)/gcc/bridge-tests
+	CMOCKA_MESSAGE_OUTPUT=stdout $(FWB_BUILD)/clang/bridge-tests
+	@mkdir -p $(FWB_BUILD)/junit
+	@CMOCKA_MESSAGE_OUTPUT=xml CMOCKA_XML_FILE=$(FWB_BUILD)/junit/%g.xml $(FWB_BUILD)/gcc/bridge-tests >/dev/null
+	@echo "bridge tests: passed with gcc and clang (JUnit: $(FWB_BUILD)/junit/)"
+
+# --- mutants: each seeded bug must be caught -----------------------------------------------------
+# A mutant build compiles the same sources with -DURB_MUTANT_<NAME> (see the #ifdefs in
+# firmware/bridge/); the check passes only when the test binary FAILS for every mutant.
+$(FWB_BUILD)/mutants/%/bridge-tests: $(FWB_LIB_SRC) $(FWB_GEN_SRC) $(FWB_HOSTED_SRC) $(FWB_TEST_SRC) $(FWB_HDRS)
+	@mkdir -p $(@D)
+	@gcc $(FWB_TEST_CFLAGS) -g -O1 -fsanitize=address,undefined -DURB_MUTANT_$* $(FWB_INC) \
+	  $(FWB_LIB_SRC) $(FWB_GEN_SRC) $(FWB_HOSTED_SRC) $(FWB_TEST_SRC) -lcmocka -o $@
+
+$(FWB_BUILD)/mutants/%.caught: $(FWB_BUILD)/mutants/%/bridge-tests
+	@if CMOCKA_MESSAGE_OUTPUT=stdout $< > $(FWB_BUILD)/mutants/$*.log 2>&1; then \
+	  echo "mutant $*: SURVIVED (the tests pass with the seeded bug)"; exit 1; \
+	else \
+	  failed="$$(grep '^\[  FAILED  \] [a-z_0-9]*$$' $(FWB_BUILD)/mutants/$*.log | sed 's/.*\] //' | sort -u)"; \
+	  echo "mutant $*: caught by $$(echo "$$failed" | wc -l) test(s): $$(echo $$failed | cut -c1-120)"; \
+	  touch $@; fi
+
+.PRECIOUS: $(FWB_BUILD)/mutants/%/bridge-tests
+
+bridge-mutants:
+	@rm -f $(FWB_BUILD)/mutants/*.caught
+	@$(MAKE) --no-print-directory $(patsubst %,$(FWB_BUILD)/mutants/%.caught,$(FWB_MUTANTS))
+	@echo "bridge mutants: all $(words $(FWB_MUTANTS)) caught"
+
+test-firmware-bridge: bridge-tests
+	@$(MAKE) --no-print-directory bridge-mutants
+
+# --- Cortex-M0+ ------------------------------------------------------------------------------------
+$(FWB_BUILD)/cortex-m0plus/%.o: %.c $(FWB_HDRS)
+	@mkdir -p $(@D)
+	$(FWB_CROSS_CC) $(FWB_CROSS_FLAGS) $(FWB_STRICT) -Ifirmware/include -Igen/c -Ifirmware/bridge -c $< -o $@
+
+FWB_CM0_OBJS := $(patsubst %.c,$(FWB_BUILD)/cortex-m0plus/%.o,$(FWB_CM0_SRC))
+
+$(FWB_BUILD)/urb-bridge-cm0plus.elf: $(FWB_CM0_OBJS) firmware/hal/cortex-m0plus/bridge_cm0plus.ld
+	$(FWB_CROSS_CC) $(FWB_CROSS_FLAGS) -nostartfiles -nostdlib -Wl,--gc-sections \
+	  -T firmware/hal/cortex-m0plus/bridge_cm0plus.ld -Wl,-Map=$(@:.elf=.map) $(FWB_CM0_OBJS) -lgcc -o $@
+
+cross-bridge: $(FWB_BUILD)/urb-bridge-cm0plus.elf
+	@echo "cross-bridge: Cortex-M0+ bridge image builds with $(FWB_STRICT)"
+
+size-bridge: $(FWB_BUILD)/urb-bridge-cm0plus.elf
+	@echo "Bridge firmware, Cortex-M0+ (-Os), per object (library code):"
+	@$(FWB_CROSS_SIZE) $(patsubst %.c,$(FWB_BUILD)/cortex-m0plus/%.o,$(FWB_LIB_SRC) $(FWB_GEN_SRC))
+	@echo "Linked reference image (library + generated codecs + port skeleton, --gc-sections):"
+	@$(FWB_CROSS_SIZE) $<
+	@echo "State objects (bytes):"
+	@$(FWB_CROSS_NM) -S --size-sort $< | awk '$$4 ~ /^(g_bridge|g_master)$$/ {printf "  %-10s %6d\n", $$4, strtonum("0x"$$2)}'
+
+SIZE_TARGETS += size-bridge
+
+# --- hosted bridge program -------------------------------------------------------------------------
+$(FWB_BUILD)/urb-bridge-hosted: firmware/bridge/hosted_main.c $(FWB_LIB_SRC) $(FWB_GEN_SRC) $(FWB_HOSTED_SRC) $(FWB_HDRS)
+	@mkdir -p $(@D)
+	gcc $(FWB_STRICT) -D_DEFAULT_SOURCE -D_XOPEN_SOURCE=600 -O2 $(FWB_INC) firmware/bridge/hosted_main.c \
+	  $(FWB_LIB_SRC) $(FWB_GEN_SRC) $(FWB_HOSTED_SRC) -o $@
+
+bridge-hosted: $(FWB_BUILD)/urb-bridge-hosted
+
+# --- worst-case instruction counts -----------------------------------------------------------------
+$(FWB_BUILD)/bridge-cost-driver: tests/firmware/bridge/cost_driver.c $(FWB_LIB_SRC) $(FWB_GEN_SRC) $(FWB_HOSTED_SRC) $(FWB_HDRS)
+	@mkdir -p $(@D)
+	gcc -std=c99 -Wall -Wextra -Werror -O2 -g -fno-inline-functions-called-once $(FWB_INC) \
+	  tests/firmware/bridge/cost_driver.c $(FWB_LIB_SRC) $(FWB_GEN_SRC) $(FWB_HOSTED_SRC) -o $@
+
+bridge-costs: $(FWB_BUILD)/bridge-cost-driver
+	$(PYTHON) tests/firmware/bridge/cost_table.py --driver $< --out $(FWB_BUILD)/bridge_costs.md
+
+CHECK_TARGETS += test-firmware-bridge cross-bridge bridge-hosted bridge-costs

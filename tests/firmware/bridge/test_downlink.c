@@ -1,0 +1,324 @@
+/*
+ * I2C downlink through the bridge: NACK at every position, check failures, the selection cache
+ * and node resets, timeouts, stuck bus and bus clear, long (CRC-16) mailboxes.
+ */
+#include <string.h>
+
+#include "support.h"
+
+#define NODE 0x20u
+
+static int setup(void **state)
+{
+    urb_hosted_rig_t *r = rig_new(16u, 0u);
+    add_node(r, NODE, 0x42u, 1u, 4u, 4u);
+    rig_start(r);
+    *state = r;
+    return 0;
+}
+
+static int teardown(void **state)
+{
+    rig_free(*state);
+    return 0;
+}
+
+static urb_fake_node_t *node(urb_hosted_rig_t *r)
+{
+    return &r->bus.nodes[0];
+}
+
+static void request(urb_hosted_rig_t *r, bool read, uint8_t mailbox, uint8_t seq, uint8_t len)
+{
+    uint8_t f[40];
+    uint8_t payload[32];
+    for (uint8_t i = 0u; i < 32u; i++) {
+        payload[i] = (uint8_t)(0xA0u + i);
+    }
+    size_t n = read ? enc_read(f, NODE, mailbox, seq, len) : enc_write(f, NODE, mailbox, seq, len, payload);
+    send_frame(r, f, n);
+    assert_true(urb_hosted_rig_settle(r, 50000u));
+}
+
+/* Write NACKed at each position: address, select, first data byte, later data bytes, check. */
+static void write_nack_positions(void **state)
+{
+    urb_hosted_rig_t *r = *state;
+    uint8_t const expected[] = {URB_STATUS_NO_NODE,       URB_STATUS_BAD_REQUEST,   URB_STATUS_NODE_BUSY,
+                                URB_STATUS_SIZE_MISMATCH, URB_STATUS_SIZE_MISMATCH, URB_STATUS_SIZE_MISMATCH,
+                                URB_STATUS_CHECKSUM};
+    /* inbox 1 holds 4 bytes: positions 0 address, 1 select, 2..5 data, 6 check */
+    for (uint8_t pos = 0u; pos < 7u; pos++) {
+        node(r)->nack_at = pos;
+        node(r)->nack_once = true;
+        request(r, false, 1u, pos, 4u);
+    }
+    request(r, false, 1u, 7u, 4u); /* and without a NACK */
+    stream_t s = rs232_stream(r);
+    for (uint8_t pos = 0u; pos < 7u; pos++) {
+        expect_response(&s, pos, expected[pos], 0u, NULL);
+    }
+    expect_response(&s, 7u, URB_STATUS_OK, 0u, NULL);
+    expect_end(&s);
+    assert_int_equal(node(r)->writes[1], 1u); /* only the last write was stored */
+}
+
+/* A node whose both inbox buffers are taken refuses the first data byte: NODE_BUSY. */
+static void inbox_busy_is_node_busy(void **state)
+{
+    urb_hosted_rig_t *r = *state;
+    node(r)->inbox_busy = true;
+    request(r, false, 1u, 1u, 4u);
+    node(r)->inbox_busy = false;
+    request(r, false, 1u, 2u, 4u);
+    stream_t s = rs232_stream(r);
+    expect_response(&s, 1u, URB_STATUS_NODE_BUSY, 0u, NULL);
+    expect_response(&s, 2u, URB_STATUS_OK, 0u, NULL);
+    expect_end(&s);
+}
+
+/* Read NACKed at the address, at the select; a corrupted read fails its check. */
+static void read_failures(void **state)
+{
+    urb_hosted_rig_t *r = *state;
+    node(r)->nack_at = 0;
+    node(r)->nack_once = true;
+    request(r, true, 1u, 1u, 4u);
+    node(r)->nack_at = 1;
+    node(r)->nack_once = true;
+    request(r, true, 1u, 2u, 4u);
+    node(r)->corrupt_read = true;
+    request(r, true, 1u, 3u, 4u);
+    node(r)->corrupt_read = false;
+    request(r, true, 1u, 4u, 4u);
+    stream_t s = rs232_stream(r);
+    expect_response(&s, 1u, URB_STATUS_NO_NODE, 0u, NULL);
+    expect_response(&s, 2u, URB_STATUS_BAD_REQUEST, 0u, NULL);
+    expect_response(&s, 3u, URB_STATUS_CHECKSUM, 0u, NULL);
+    expect_response(&s, 4u, URB_STATUS_OK, 4u, NULL);
+    expect_end(&s);
+}
+
+/* The select byte goes out only when the cached selection differs. */
+static void selection_cache(void **state)
+{
+    urb_hosted_rig_t *r = *state;
+    node(r)->out_size[2] = 3u;
+    urb_fake_node_identify(node(r));
+    request(r, true, 0u, 0u, 25u); /* the host re-reads the identification: sizes learnt again */
+    uint32_t const s0 = node(r)->selects;
+    request(r, true, 1u, 1u, 4u);
+    request(r, true, 1u, 2u, 4u);
+    request(r, true, 1u, 3u, 4u);
+    assert_int_equal(node(r)->selects, s0 + 1u);
+    request(r, false, 1u, 4u, 4u); /* a write keeps the read selection */
+    request(r, true, 1u, 5u, 4u);
+    assert_int_equal(node(r)->selects, s0 + 1u);
+    request(r, true, 2u, 6u, 3u);
+    request(r, true, 1u, 7u, 4u);
+    assert_int_equal(node(r)->selects, s0 + 3u);
+    assert_int_equal(urb_i2c_master_selection(&r->master, NODE), 1u);
+    stream_t s = rs232_stream(r);
+    expect_response(&s, 0u, URB_STATUS_OK, 25u, NULL);
+    for (uint8_t i = 1u; i <= 3u; i++) {
+        expect_response(&s, i, URB_STATUS_OK, 4u, NULL);
+    }
+    expect_response(&s, 4u, URB_STATUS_OK, 0u, NULL);
+    expect_response(&s, 5u, URB_STATUS_OK, 4u, NULL);
+    expect_response(&s, 6u, URB_STATUS_OK, 3u, NULL);
+    expect_response(&s, 7u, URB_STATUS_OK, 4u, NULL);
+    expect_end(&s);
+}
+
+/* A node that resets between two reads answers from outbox 0 under the cached selection: the
+ * check (covering the implicit select byte) fails, the bridge forgets the selection, and the next
+ * read selects again and succeeds. */
+static void node_reset_between_reads(void **state)
+{
+    urb_hosted_rig_t *r = *state;
+    uint8_t data[32];
+    request(r, true, 1u, 1u, 4u);
+    urb_fake_node_reset(node(r));
+    request(r, true, 1u, 2u, 4u);
+    assert_int_equal(urb_i2c_master_selection(&r->master, NODE), URB_I2C_NO_SELECTION);
+    request(r, true, 1u, 3u, 4u);
+    stream_t s = rs232_stream(r);
+    expect_response(&s, 1u, URB_STATUS_OK, 4u, NULL);
+    expect_response(&s, 2u, URB_STATUS_CHECKSUM, 0u, NULL);
+    expect_response(&s, 3u, URB_STATUS_OK, 4u, data);
+    expect_end(&s);
+    assert_int_equal(data[0], NODE);
+}
+
+/* A node that resets in the middle of a read transaction (after the select, before the data). */
+static void node_reset_mid_transaction(void **state)
+{
+    urb_hosted_rig_t *r = *state;
+    node(r)->reset_after_select = true;
+    request(r, true, 1u, 1u, 4u);
+    request(r, true, 1u, 2u, 4u);
+    stream_t s = rs232_stream(r);
+    expect_response(&s, 1u, URB_STATUS_CHECKSUM, 0u, NULL);
+    expect_response(&s, 2u, URB_STATUS_OK, 4u, NULL);
+    expect_end(&s);
+}
+
+/* A node that stretches the clock past the timeout: TIMEOUT, and the bridge goes on. */
+static void timeout_then_recovery(void **state)
+{
+    urb_hosted_rig_t *r = *state;
+    node(r)->stretch_us = 5000u;
+    request(r, true, 1u, 1u, 4u);
+    node(r)->stretch_us = 0u;
+    node(r)->mute = true; /* events lost, lines free */
+    request(r, false, 1u, 2u, 4u);
+    node(r)->mute = false;
+    request(r, true, 1u, 3u, 4u);
+    stream_t s = rs232_stream(r);
+    expect_response(&s, 1u, URB_STATUS_TIMEOUT, 0u, NULL);
+    expect_response(&s, 2u, URB_STATUS_TIMEOUT, 0u, NULL);
+    expect_response(&s, 3u, URB_STATUS_OK, 4u, NULL);
+    expect_end(&s);
+    assert_int_equal(r->master.timeouts, 2u);
+    assert_int_equal(r->master.bus_clears, 0u);
+}
+
+/* SDA held low before a request: nine clock pulses and a STOP, BUS_STUCK (not executed), then the
+ * freed bus works. */
+static void stuck_sda_cleared(void **state)
+{
+    urb_hosted_rig_t *r = *state;
+    node(r)->hold_sda = 3u; /* lets go after 3 clocks */
+    uint32_t const starts = r->bus.starts;
+    request(r, false, 1u, 1u, 4u);
+    assert_int_equal(r->bus.scl_pulses, 9u);
+    assert_int_equal(r->bus.bitbang_stops, 1u);
+    assert_int_equal(r->bus.starts, starts); /* the request never started */
+    assert_int_equal(node(r)->writes[1], 0u);
+    request(r, false, 1u, 2u, 4u);
+    stream_t s = rs232_stream(r);
+    expect_response(&s, 1u, URB_STATUS_BUS_STUCK, 0u, NULL);
+    expect_response(&s, 2u, URB_STATUS_OK, 0u, NULL);
+    expect_end(&s);
+    assert_int_equal(r->master.bus_clears, 1u);
+}
+
+/* A bus that stays stuck: every request is answered BUS_STUCK (never wedged, never dropped). */
+static void permanently_stuck(void **state)
+{
+    urb_hosted_rig_t *r = *state;
+    node(r)->hold_scl = true;
+    for (uint8_t i = 0u; i < 3u; i++) {
+        request(r, true, 1u, i, 4u);
+    }
+    node(r)->hold_scl = false;
+    node(r)->hold_sda = URB_FAKE_HOLD_FOREVER;
+    request(r, true, 1u, 3u, 4u);
+    node(r)->hold_sda = 0u;
+    request(r, true, 1u, 4u, 4u);
+    stream_t s = rs232_stream(r);
+    for (uint8_t i = 0u; i < 4u; i++) {
+        expect_response(&s, i, URB_STATUS_BUS_STUCK, 0u, NULL);
+    }
+    expect_response(&s, 4u, URB_STATUS_OK, 4u, NULL);
+    expect_end(&s);
+}
+
+/* The bus gets stuck in the middle of a transaction: the timeout finds a line low, clears the bus,
+ * BUS_STUCK; the selection cache is forgotten (the node may be anywhere in its frame). */
+static void stuck_during_transaction(void **state)
+{
+    urb_hosted_rig_t *r = *state;
+    request(r, true, 1u, 1u, 4u);
+    assert_int_equal(urb_i2c_master_selection(&r->master, NODE), 1u);
+    uint8_t f[8];
+    enc_read(f, NODE, 1u, 2u, 4u);
+    urb_hosted_rig_uart_send(r, f, 4u, BYTE_US);
+    urb_hosted_rig_run(r, 30u); /* the read has started */
+    assert_true(r->bus.starts > 0u);
+    node(r)->mute = true;
+    r->bus.lost = true;
+    node(r)->hold_sda = 5u;
+    assert_true(urb_hosted_rig_settle(r, 50000u));
+    node(r)->mute = false;
+    request(r, true, 1u, 3u, 4u);
+    stream_t s = rs232_stream(r);
+    expect_response(&s, 1u, URB_STATUS_OK, 4u, NULL);
+    expect_response(&s, 2u, URB_STATUS_BUS_STUCK, 0u, NULL);
+    expect_response(&s, 3u, URB_STATUS_OK, 4u, NULL);
+    expect_end(&s);
+    assert_int_equal(r->bus.scl_pulses, 9u);
+}
+
+/* BridgeCommand BUS_CLEAR: nine pulses and a STOP on request; OK when the bus is free after. */
+static void bus_clear_command(void **state)
+{
+    urb_hosted_rig_t *r = *state;
+    uint8_t const cmd[3] = {URB_BRIDGE_OPCODE_BUS_CLEAR, 0u, 0u};
+    uint8_t f[16];
+    send_frame(r, f, enc_write(f, 0u, 0u, 1u, 3u, cmd));
+    assert_true(urb_hosted_rig_settle(r, 50000u));
+    node(r)->hold_scl = true;
+    send_frame(r, f, enc_write(f, 0u, 0u, 2u, 3u, cmd));
+    assert_true(urb_hosted_rig_settle(r, 50000u));
+    stream_t s = rs232_stream(r);
+    expect_response(&s, 1u, URB_STATUS_OK, 0u, NULL);
+    expect_response(&s, 2u, URB_STATUS_BUS_STUCK, 0u, NULL);
+    expect_end(&s);
+    assert_int_equal(r->bus.scl_pulses, 9u); /* the second clear could not clock SCL */
+    assert_int_equal(r->master.bus_clears, 2u);
+}
+
+/* 32-byte mailboxes use the CRC-16 check in both directions; 13 bytes is the last CRC-8 size. */
+static void long_mailboxes(void **state)
+{
+    urb_hosted_rig_t *r = *state;
+    urb_fake_node_t *n = node(r);
+    n->in_size[2] = 32u;
+    n->out_size[2] = 32u;
+    n->in_size[3] = 13u;
+    n->out_size[3] = 13u;
+    n->in_size[4] = 14u;
+    n->out_size[4] = 14u;
+    urb_fake_node_identify(n);
+    request(r, true, 0u, 0u, 25u); /* relearn the sizes */
+    uint8_t const sizes[3] = {32u, 13u, 14u};
+    uint8_t data[32];
+    for (uint8_t k = 0u; k < 3u; k++) {
+        request(r, false, (uint8_t)(2u + k), (uint8_t)(1u + 2u * k), sizes[k]);
+        request(r, true, (uint8_t)(2u + k), (uint8_t)(2u + 2u * k), sizes[k]);
+        n->nack_at = (int16_t)(2 + sizes[k] + (sizes[k] >= 14u ? 1 : 0)); /* the last check byte */
+        n->nack_once = true;
+        request(r, false, (uint8_t)(2u + k), 9u, sizes[k]);
+    }
+    stream_t s = rs232_stream(r);
+    expect_response(&s, 0u, URB_STATUS_OK, 25u, NULL);
+    for (uint8_t k = 0u; k < 3u; k++) {
+        expect_response(&s, (uint8_t)(1u + 2u * k), URB_STATUS_OK, 0u, NULL);
+        expect_response(&s, (uint8_t)(2u + 2u * k), URB_STATUS_OK, sizes[k], data);
+        for (uint8_t i = 0u; i < sizes[k]; i++) {
+            assert_int_equal(data[i], 0xA0u + i);
+        }
+        expect_response(&s, 9u, URB_STATUS_CHECKSUM, 0u, NULL);
+    }
+    expect_end(&s);
+}
+
+int run_downlink_tests(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup_teardown(write_nack_positions, setup, teardown),
+        cmocka_unit_test_setup_teardown(inbox_busy_is_node_busy, setup, teardown),
+        cmocka_unit_test_setup_teardown(read_failures, setup, teardown),
+        cmocka_unit_test_setup_teardown(selection_cache, setup, teardown),
+        cmocka_unit_test_setup_teardown(node_reset_between_reads, setup, teardown),
+        cmocka_unit_test_setup_teardown(node_reset_mid_transaction, setup, teardown),
+        cmocka_unit_test_setup_teardown(timeout_then_recovery, setup, teardown),
+        cmocka_unit_test_setup_teardown(stuck_sda_cleared, setup, teardown),
+        cmocka_unit_test_setup_teardown(permanently_stuck, setup, teardown),
+        cmocka_unit_test_setup_teardown(stuck_during_transaction, setup, teardown),
+        cmocka_unit_test_setup_teardown(bus_clear_command, setup, teardown),
+        cmocka_unit_test_setup_teardown(long_mailboxes, setup, teardown),
+    };
+    return cmocka_run_group_tests_name("bridge_downlink", tests, NULL, NULL);
+}
