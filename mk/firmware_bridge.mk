@@ -106,7 +106,7 @@ SIZE_TARGETS += size-bridge
 $(FWB_BUILD)/urb-bridge-hosted: firmware/bridge/hosted_main.c $(FWB_LIB_SRC) $(FWB_GEN_SRC) $(FWB_HOSTED_SRC) $(FWB_HDRS)
 	@mkdir -p $(@D)
 	gcc $(FWB_STRICT) -D_DEFAULT_SOURCE -D_XOPEN_SOURCE=600 -O2 $(FWB_INC) firmware/bridge/hosted_main.c \
-	  $(FWB_LIB_SRC) $(FWB_GEN_SRC) $(FWB_HOSTED_SRC) -o $@
+	  $(FWB_LIB_SRC) $(FWB_GEN_SRC) gen/c/urb_sensorhex.c $(FWB_HOSTED_SRC) -o $@
 
 bridge-hosted: $(FWB_BUILD)/urb-bridge-hosted
 
