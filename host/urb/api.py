@@ -604,15 +604,18 @@ class URBInterface:
     def add_bus_manager(self, manager: BusManager, *, timeout_s: float = 3.0, rescan: bool = True) -> BridgeReport:
         """Register a bridge: start its manager and discover its downlink (blocking).
 
-        Raises `PortError` (cannot open), `NoBridgeError` (nothing answers) or `DiscoveryError`."""
+        Raises `PortError` (cannot open) or `NoBridgeError` (nothing answers; the manager is
+        closed again, and may be passed to add_bus_manager once more)."""
         manager.start()
         box: list[BridgeReport] = []
         self.start_discovery(manager, box.append, rescan=rescan)
         if not manager.wait_until(lambda: bool(box), timeout_s):
+            manager.close()
             raise NoBridgeError(f"discovery on {manager.name} did not finish within {timeout_s} s: "
                                 f"check that the bridge is powered and connected")
         report = box[0]
         if report.error is not None:
+            manager.close()  # no threads left behind; add_bus_manager() may be called again
             raise NoBridgeError(report.error)
         return report
 

@@ -261,9 +261,12 @@ def test_missing_port_and_silent_port_give_clear_errors(tmp_path: os.PathLike[st
     master, slave = os.openpty()  # a port with nothing behind it
     try:
         m = RS232Manager(os.ttyname(slave), timeout_s=0.1)
+        urb = URBInterface()
         with pytest.raises(NoBridgeError, match="no URB bridge answered"):
-            URBInterface().add_bus_manager(m)
-        m.close()
+            urb.add_bus_manager(m)
+        assert m._reader is None and m._dispatcher is None  # closed again: no threads left
+        with pytest.raises(NoBridgeError):  # and it can be tried again
+            urb.add_bus_manager(m)
     finally:
         os.close(master)
         os.close(slave)

@@ -53,7 +53,9 @@ class RS232Manager(ThreadedManager):
         if self._serial is not None:
             return
         self._serial = open_serial(self.port, self.baud)
-        self._io_running = True
+        with self._lock:
+            if self._core.lost_reason is not None:  # started again after close()
+                self._core.reset(self.now_ns())
         self._start_dispatcher()
         self._start_io()
 

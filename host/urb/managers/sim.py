@@ -214,6 +214,8 @@ class SimManager(BusManager):
 
     # -- BusManager ---------------------------------------------------------------------------
     def start(self) -> None:
+        if self.core.lost_reason is not None:  # started again after close()
+            self.core.reset(self.clock.now_ns())
         if self._started:
             return
         self._started = True
@@ -223,7 +225,7 @@ class SimManager(BusManager):
             self.transport.set_receiver(self._on_bytes)
 
     def close(self) -> None:
-        self.core.link_lost(self.clock.now_ns(), "closed")
+        self.core.link_lost(self.clock.now_ns(), "closed by the application")
         self._after_step()
 
     def now_ns(self) -> int:

@@ -59,6 +59,9 @@ class USBManager(ThreadedManager):
         if callable(opener):
             opener()
         self.transport.set_batch_receiver(self._on_in)
+        with self._lock:
+            if self._core.lost_reason is not None:  # started again after close()
+                self._core.reset(self.now_ns())
         self._start_dispatcher()
         self._start_io()
 
