@@ -173,6 +173,7 @@ typedef struct {
     uint32_t last_beat;   /* tick of the latest heartbeat t_n */
     uint32_t prev_sync;   /* t_d of the previous SYNC */
     int32_t phase_q8;     /* latest phase error t_n - t_d + dt_adj, ticks * 256 */
+    int32_t expect_q8;    /* phase error the last correction leaves: the next one should be near it */
     uint32_t lock_ticks;  /* lock_ns in ticks */
     uint32_t outlier_ticks; /* outlier_ns in ticks */
     uint16_t syncs;       /* SYNCs used (wraps) */
@@ -261,6 +262,12 @@ int urb_node_init(urb_node_t *node, const urb_node_hal_t *hal, const urb_node_ho
 /** One main-loop iteration: faults, an inbox-0 command, a due app_update, outbox 0 refresh, app_idle.
  *  Returns a mask of URB_NODE_POLL_* telling what ran. */
 uint8_t urb_node_poll(urb_node_t *node);
+
+/** True when urb_node_poll has work right now (a due update, a fault to deliver, a new command).
+ *  A port's main loop may sleep until the next interrupt when it is false; check it with
+ *  interrupts masked (Cortex-M: cpsid i; check; wfi; cpsie i) so a wake-up is never missed. Sleeping
+ *  between polls makes app_update start a fixed time after the heartbeat (low acquisition jitter). */
+bool urb_node_has_work(const urb_node_t *node);
 
 #define URB_NODE_POLL_COMMAND 0x01u /**< an inbox 0 command was executed */
 #define URB_NODE_POLL_UPDATE 0x02u  /**< app_update ran */

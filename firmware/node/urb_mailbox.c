@@ -170,28 +170,30 @@ int urb_lock_inbox_any(urb_node_t *node, uint8_t n, const uint8_t **data)
         URB_STEP(node, URB_STEP_IN_LOAD_FRONT);
         ib->app_idx = a; /* MailboxInbox.tla: AppLockClaim (from now on the ISR NACKs writes to a) */
         URB_STEP(node, URB_STEP_IN_CLAIM);
-        if (ib->isr_idx == a) { /* MailboxInbox.tla: AppLockCheckIsr (a write to a is in progress) */
-            ib->app_idx = URB_NONE; /* MailboxInbox.tla: LockFail (retry from step 1) */
-            URB_STEP(node, URB_STEP_IN_LOCK_FAIL);
-            continue;
-        }
+        bool owned = (ib->isr_idx != a); /* MailboxInbox.tla: AppLockCheckIsr (no write to a in progress) */
         URB_STEP(node, URB_STEP_IN_CHECK_ISR);
 #if !defined(URB_MUTANT_INBOX_NO_FRONT_RECHECK)
-        if (ib->front != a) { /* MailboxInbox.tla: AppLockCheckFront (a commit landed since step 1) */
-            ib->app_idx = URB_NONE; /* MailboxInbox.tla: LockFail (retry from step 1) */
-            URB_STEP(node, URB_STEP_IN_LOCK_FAIL);
-            continue;
+        if (owned) {
+            owned = (ib->front == a); /* MailboxInbox.tla: AppLockCheckFront (no commit since step 1) */
+            URB_STEP(node, owned ? URB_STEP_IN_CHECK_FRONT : URB_STEP_IN_CHECK_FAILED);
+        }
+#else
+        if (owned) {
+            URB_STEP(node, URB_STEP_IN_CHECK_FRONT);
         }
 #endif
-        /* MailboxInbox.tla: AppLockCheckFront passed: the app owns buf[a] (linearization point) */
-        URB_STEP(node, URB_STEP_IN_CHECK_FRONT);
-        URB_NODE_BARRIER(); /* the caller's loads from buf[a] stay after the checks */
-        *data = urb_inbox_buf(node, n, a);
-        int const result = (ib->fresh[a] != 0u) ? URB_NODE_NEW : URB_NODE_OK;
-        ib->fresh[a] = 0u;
-        return result;
+        if (owned) {
+            /* AppLockCheckFront passed: the app owns buf[a] (the linearization point of the read) */
+            URB_NODE_BARRIER(); /* the caller's loads from buf[a] stay after the checks */
+            *data = urb_inbox_buf(node, n, a);
+            int const result = (ib->fresh[a] != 0u) ? URB_NODE_NEW : URB_NODE_OK;
+            ib->fresh[a] = 0u;
+            return result;
+        }
+        ib->app_idx = URB_NONE; /* MailboxInbox.tla: AppLockUnclaim (then retry from step 1) */
+        URB_STEP(node, URB_STEP_IN_UNCLAIM);
     }
-    return URB_NODE_ERR_BUSY; /* MailboxInbox.tla: LockFail after MaxRetry retries */
+    return URB_NODE_ERR_BUSY; /* MailboxInbox.tla: AppLockUnclaim after MaxRetry retries: URB_BUSY */
 }
 
 int urb_release_inbox_any(urb_node_t *node, uint8_t n)

@@ -30,10 +30,10 @@ void urb_node_config_default(urb_node_config_t *cfg)
     cfg->lead_us = 0u;
     /* PLL defaults, tuned with tests/firmware/pll (see firmware/node/README.md) */
     cfg->kd_q8 = 32u;  /* K_d = 1/8 */
-    cfg->kn_q8 = 128u; /* K_n = 1/2 */
+    cfg->kn_q8 = 64u;  /* K_n = 1/4 */
     cfg->lock_ns = 1000u;
     cfg->lock_count = 4u;
-    cfg->outlier_ns = 5000u;
+    cfg->outlier_ns = 2000u;
     cfg->max_outliers = 4u;
     cfg->max_gap = 8u;
     cfg->lost_sync_beats = 10u;
@@ -316,6 +316,24 @@ uint8_t urb_node_poll(urb_node_t *node)
         node->hooks->idle(node, node->user);
     }
     return done;
+}
+
+bool urb_node_has_work(const urb_node_t *node)
+{
+    if ((node == NULL) || (node->started == 0u)) {
+        return false;
+    }
+    if ((node->update_due != node->update_done) || (node->cmd_pending != 0u) || (node->id_dirty != 0u)) {
+        return true;
+    }
+    /* bound: URB_NODE_FAULT_CODES = 4 */
+    for (uint8_t i = 0u; i < URB_NODE_FAULT_CODES; i++) {
+        if (node->isr_faults[i] != node->seen_faults[i]) {
+            return true;
+        }
+    }
+    uint8_t const front = node->inbox[0].front; /* a command committed and not yet taken */
+    return node->inbox[0].fresh[front] != 0u;
 }
 
 /* ===== Setup ================================================================================ */

@@ -31,10 +31,11 @@ enum {
     URB_STEP_OUT_RELEASE = 3,       /* MailboxOutbox.tla: AppRelease */
     URB_STEP_IN_LOAD_FRONT = 4,     /* MailboxInbox.tla: AppLockLoadFront */
     URB_STEP_IN_CLAIM = 5,          /* MailboxInbox.tla: AppLockClaim */
-    URB_STEP_IN_CHECK_ISR = 6,      /* MailboxInbox.tla: AppLockCheckIsr (passed) */
-    URB_STEP_IN_CHECK_FRONT = 7,    /* MailboxInbox.tla: AppLockCheckFront (passed: linearization point) */
-    URB_STEP_IN_LOCK_FAIL = 8,      /* MailboxInbox.tla: LockFail (app_idx := NONE) */
-    URB_STEP_IN_RELEASE = 9         /* MailboxInbox.tla: AppRelease */
+    URB_STEP_IN_CHECK_ISR = 6,      /* MailboxInbox.tla: AppLockCheckIsr (passed or failed) */
+    URB_STEP_IN_CHECK_FRONT = 7,    /* MailboxInbox.tla: AppLockCheckFront passed: linearization point */
+    URB_STEP_IN_CHECK_FAILED = 8,   /* MailboxInbox.tla: AppLockCheckFront failed */
+    URB_STEP_IN_UNCLAIM = 9,        /* MailboxInbox.tla: AppLockUnclaim (app_idx := NONE) */
+    URB_STEP_IN_RELEASE = 10        /* MailboxInbox.tla: AppRelease */
 };
 
 #if defined(URB_NODE_TESTING)

@@ -87,11 +87,20 @@ static void arm(urb_node_t *node)
     hal->set_compare(hal->ctx, pll->next_beat);
 }
 
-/* Moves the pending heartbeat to ref + off_q8 / 256 (ref: an integer tick with fraction ref_frac). */
-static void schedule(urb_node_t *node, uint32_t ref, uint8_t ref_frac, int32_t off_q8)
+/* Moves the pending heartbeat to ref + off_q8 / 256 (ref: an integer tick with fraction ref_frac).
+ * With `skip`, a time already past (a phase jump backwards during acquisition) moves one period
+ * on instead: the heartbeat keeps the right phase and skips a beat rather than firing late. */
+static void schedule(urb_node_t *node, uint32_t ref, uint8_t ref_frac, int32_t off_q8, bool skip)
 {
     urb_node_pll_t *pll = &node->pll;
-    int32_t const total = (int32_t)ref_frac + off_q8;
+    int32_t total = (int32_t)ref_frac + off_q8;
+    if (skip) {
+        urb_node_hal_t const *hal = node->hal;
+        int32_t const ahead = urb_tick_diff(ref + (uint32_t)floor_q8(total), hal->now(hal->ctx));
+        if (ahead < (int32_t)node->cfg.ticks_per_us) {
+            total += (int32_t)pll->period_q8;
+        }
+    }
     int32_t const whole = floor_q8(total);
     pll->next_beat = ref + (uint32_t)whole; /* modular: a negative whole moves back */
     pll->next_frac = (uint8_t)((uint32_t)total & 0xFFu);
@@ -106,6 +115,7 @@ static void reacquire(urb_node_pll_t *pll, uint8_t state)
     pll->gear = 0u;
     pll->good = 0u;
     pll->outliers = 0u;
+    pll->expect_q8 = 0;
 }
 
 /* The period of `gap` SYNCs over `delta` ticks, Q8, or false when too long to represent. */
@@ -198,12 +208,13 @@ void urb_pll_sync(urb_node_t *node, uint32_t t_d, uint8_t counter)
     pll->phase_q8 = phase_q8;
 
     uint16_t kn = cfg->kn_q8;
+    int32_t const step_q8 = lead_step * 256; /* the part of the error a lead change explains */
     if (pll->state == URB_NODE_SYNC_FREE) {
         kn = URB_PLL_ONE; /* acquisition: one phase jump */
         pll->state = URB_NODE_SYNC_TRACK;
         pll->good = 0u;
-    } else if (abs32(phase - lead_step) > pll->outlier_ticks) {
-        /* a late or early SYNC (the part a lead change explains is not an error) */
+    } else if (abs32(floor_q8(phase_q8 - step_q8 - pll->expect_q8)) > pll->outlier_ticks) {
+        /* the error is not what the last correction left: a late or early SYNC, ignored */
         pll->rejected++;
         pll->outliers++;
         if (pll->outliers > cfg->max_outliers) {
@@ -233,12 +244,15 @@ void urb_pll_sync(urb_node_t *node, uint32_t t_d, uint8_t counter)
 #if defined(URB_MUTANT_PLL_NO_PHASE)
     kn = 0u;
 #endif
-    int32_t const corr_q8 = mul_q8(phase_q8, kn);
+    /* K_n on the measured error; a change of dt_adj itself is applied at once (the paper keeps
+     * dt_adj constant; ours follows the measured t_acq, whose steps are deliberate, not noise) */
+    int32_t const corr_q8 = (kn >= URB_PLL_ONE) ? phase_q8 : (mul_q8(phase_q8 - step_q8, kn) + step_q8);
+    pll->expect_q8 = phase_q8 - corr_q8; /* the error this correction leaves for the next SYNC */
     if (use_pending) {
-        schedule(node, ref, ref_frac, -corr_q8); /* move the pending heartbeat by -K_n * phase */
+        schedule(node, ref, ref_frac, -corr_q8, true); /* move the pending heartbeat by the correction */
     } else {
         /* eq. 2: T[k+1] = That_d[k+1] - K_n (t_n - t_d + dt_adj), the period following t_n */
-        schedule(node, ref, ref_frac, (int32_t)pll->period_q8 - corr_q8);
+        schedule(node, ref, ref_frac, (int32_t)pll->period_q8 - corr_q8, true);
     }
 }
 
@@ -268,7 +282,7 @@ void urb_node_timer_event(urb_node_t *node)
     pll->last_beat = t_n;
     pll->last_frac = pll->next_frac;
     /* free-run one period (That_d); the next SYNC moves it by eq. 2 */
-    schedule(node, t_n, pll->last_frac, (int32_t)pll->period_q8);
+    schedule(node, t_n, pll->last_frac, (int32_t)pll->period_q8, false);
     if (hal->mark != NULL) {
         hal->mark(hal->ctx, URB_NODE_MARK_BEAT);
     }
@@ -307,7 +321,7 @@ void urb_pll_start(urb_node_t *node)
     uint32_t const now = hal->now(hal->ctx);
     pll->last_beat = now;
     pll->last_frac = 0u;
-    schedule(node, now, 0u, (int32_t)pll->period_q8); /* first heartbeat one period after start */
+    schedule(node, now, 0u, (int32_t)pll->period_q8, false); /* first heartbeat one period after start */
 }
 
 void urb_node_sync_status(const urb_node_t *node, urb_node_sync_status_t *out)

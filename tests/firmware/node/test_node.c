@@ -1,0 +1,290 @@
+/*
+ * Main loop: app_update scheduling, deadline overruns, acquisition-time measurement, every inbox 0
+ * command, fault delivery, outbox 0 refresh, has_work.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "node_fixture.h"
+#include "urb_core.h"
+#include "urb_runtime.h"
+
+static fixture_t fx;
+
+static int setup(void **state)
+{
+    fx_defaults(&fx);
+    assert_int_equal(fx_start(&fx), URB_NODE_OK);
+    *state = &fx;
+    return 0;
+}
+
+#define PERIOD 48000u
+
+static urb_identification_t read_id(urb_node_t *node)
+{
+    uint8_t data[25];
+    assert_true(fx_read_checked(node, 0u, 25u, data));
+    urb_identification_t id;
+    assert_int_equal(urb_identification_decode(&id, data, 25u), 25);
+    return id;
+}
+
+static void update_once_per_heartbeat(void **state)
+{
+    fixture_t *f = *state;
+    urb_node_t *node = &f->node;
+    assert_false(urb_node_has_work(node));
+    assert_int_equal(urb_node_poll(node) & URB_NODE_POLL_UPDATE, 0u);
+    assert_int_equal(f->idles, 1u);
+    assert_int_equal(urb_hal_hosted_advance(&f->port, node, PERIOD), 1u);
+    assert_true(urb_node_has_work(node));
+    assert_int_equal(f->port.mark_count[URB_NODE_MARK_BEAT], 1u);
+    assert_true((urb_node_poll(node) & URB_NODE_POLL_UPDATE) != 0u);
+    assert_int_equal(f->updates, 1u);
+    assert_int_equal(urb_node_poll(node) & URB_NODE_POLL_UPDATE, 0u);
+    assert_int_equal(f->updates, 1u);
+    assert_int_equal(f->idles, 3u);
+    assert_int_equal(f->faults[URB_NODE_FAULT_OVERRUN], 0u);
+    /* free-running at the nominal period without SYNC */
+    assert_int_equal(urb_hal_hosted_advance(&f->port, node, 10u * PERIOD), 10u);
+    assert_int_equal(f->port.compare, 1000u + 12u * PERIOD);
+}
+
+static void missed_deadline_overrun(void **state)
+{
+    fixture_t *f = *state;
+    urb_node_t *node = &f->node;
+    assert_int_equal(urb_hal_hosted_advance(&f->port, node, 2u * PERIOD), 2u);
+    assert_true((urb_node_poll(node) & URB_NODE_POLL_UPDATE) != 0u);
+    assert_int_equal(f->updates, 1u); /* one catch-up update, not two */
+    assert_int_equal(f->faults[URB_NODE_FAULT_OVERRUN], 1u);
+    assert_int_equal(node->acq_ticks, 0u); /* a late update is not measured */
+}
+
+static void update_divider(void **state)
+{
+    (void)state;
+    fixture_t f;
+    fx_defaults(&f);
+    f.cfg.update_divider = 10u; /* 100 Hz */
+    assert_int_equal(fx_start(&f), URB_NODE_OK);
+    for (unsigned i = 0u; i < 25u; i++) {
+        (void)urb_hal_hosted_advance(&f.port, &f.node, PERIOD);
+        (void)urb_node_poll(&f.node);
+    }
+    assert_int_equal(f.updates, 2u);
+    assert_int_equal(f.faults[URB_NODE_FAULT_OVERRUN], 0u);
+}
+
+static void acquisition_time(void **state)
+{
+    fixture_t *f = *state;
+    urb_node_t *node = &f->node;
+    f->update_work = 480u; /* 10 us from heartbeat to the release of outbox 1 */
+    (void)urb_hal_hosted_advance(&f->port, node, PERIOD);
+    (void)urb_node_poll(node);
+    assert_int_equal(node->acq_ticks, 480u);
+    assert_int_equal(f->port.mark_count[URB_NODE_MARK_ACQ_END], 1u);
+    f->update_work = 240u; /* shorter: the max is kept */
+    (void)urb_hal_hosted_advance(&f->port, node, PERIOD);
+    (void)urb_node_poll(node);
+    assert_int_equal(node->acq_ticks, 480u);
+    f->update_work = 960u;
+    (void)urb_hal_hosted_advance(&f->port, node, PERIOD);
+    (void)urb_node_poll(node);
+    assert_int_equal(node->acq_ticks, 960u);
+    urb_identification_t const id = read_id(node);
+    assert_int_equal(id.acq_time, 20u); /* us */
+    urb_node_sync_status_t st;
+    urb_node_sync_status(node, &st);
+    assert_int_equal(st.acq_ticks, 960u);
+}
+
+static void explicit_mark_wins(fixture_t *f)
+{
+    urb_node_t *node = &f->node;
+    f->port.now_offset = 100u;
+    urb_node_mark_acquired(node);
+    f->port.now_offset = 900u;
+    uint8_t *buf = NULL;
+    assert_int_equal(urb_node_lock_outbox(node, 1u, &buf), URB_NODE_OK);
+    memset(buf, 1, 6u);
+    assert_int_equal(urb_node_release_outbox(node, 1u), URB_NODE_OK); /* already marked */
+    f->port.now_offset = 0u;
+}
+
+static void explicit_mark(void **state)
+{
+    fixture_t *f = *state;
+    f->on_update = explicit_mark_wins;
+    (void)urb_hal_hosted_advance(&f->port, &f->node, PERIOD);
+    (void)urb_node_poll(&f->node);
+    assert_int_equal(f->node.acq_ticks, 100u);
+    assert_int_equal(f->port.mark_count[URB_NODE_MARK_ACQ_END], 1u);
+}
+
+static void command_nop_and_unknown(void **state)
+{
+    fixture_t *f = *state;
+    urb_node_t *node = &f->node;
+    assert_int_equal(fx_command(node, URB_COMMAND_CODE_NOP, 0u, 0u, 0u), FX_ALL_ACKED);
+    assert_true(urb_node_has_work(node));
+    assert_true((urb_node_poll(node) & URB_NODE_POLL_COMMAND) != 0u);
+    /* executed once only */
+    assert_int_equal(urb_node_poll(node) & URB_NODE_POLL_COMMAND, 0u);
+    /* an unknown opcode passes the link check but not the decoder: ignored */
+    uint8_t const raw[6] = {9u, 0u, 0u, 0u, 0u, 0u};
+    assert_int_equal(fx_write(node, 0u, raw, 6u), FX_ALL_ACKED);
+    assert_int_equal(urb_node_poll(node) & URB_NODE_POLL_COMMAND, 0u);
+    assert_int_equal(f->resets + f->signals, 0u);
+}
+
+static void command_reset(void **state)
+{
+    fixture_t *f = *state;
+    urb_node_t *node = &f->node;
+    f->update_work = 480u;
+    (void)urb_hal_hosted_advance(&f->port, node, PERIOD);
+    (void)urb_node_poll(node);
+    assert_int_equal(node->acq_ticks, 480u);
+    /* a fault sets the identification flag; RESET clears it and re-measures t_acq */
+    uint8_t frame[8];
+    uint8_t const d[2] = {0u, 0u};
+    (void)fx_write_raw(node, frame, fx_frame(frame, 1u, d, 2u, 1u), true);
+    (void)urb_node_poll(node);
+    assert_true(read_id(node).fault);
+    (void)urb_hal_hosted_advance(&f->port, node, PERIOD); /* an update due before the reset is dropped */
+    assert_int_equal(fx_command(node, URB_COMMAND_CODE_RESET, 0u, 0u, 0u), FX_ALL_ACKED);
+    unsigned const updates = f->updates;
+    assert_true((urb_node_poll(node) & URB_NODE_POLL_COMMAND) != 0u);
+    assert_int_equal(f->resets, 1u);
+    assert_int_equal(f->updates, updates);
+    assert_int_equal(node->acq_ticks, 0u);
+    assert_false(read_id(node).fault);
+}
+
+static void command_signal(void **state)
+{
+    fixture_t *f = *state;
+    assert_int_equal(fx_command(&f->node, URB_COMMAND_CODE_SIGNAL, 7u, 0u, 0u), FX_ALL_ACKED);
+    (void)urb_node_poll(&f->node);
+    assert_int_equal(f->signals, 1u);
+    assert_int_equal(f->last_signal, 7u);
+    /* the same signal sent twice is delivered twice (two commits) */
+    assert_int_equal(fx_command(&f->node, URB_COMMAND_CODE_SIGNAL, 7u, 0u, 0u), FX_ALL_ACKED);
+    (void)urb_node_poll(&f->node);
+    assert_int_equal(f->signals, 2u);
+}
+
+static void command_identify(void **state)
+{
+    fixture_t *f = *state;
+    assert_int_equal(fx_command(&f->node, URB_COMMAND_CODE_IDENTIFY, 3u, 0u, 0u), FX_ALL_ACKED);
+    uint8_t const done = urb_node_poll(&f->node);
+    assert_true((done & URB_NODE_POLL_COMMAND) != 0u);
+    assert_true((done & URB_NODE_POLL_IDENT) != 0u); /* outbox 0 refreshed */
+    assert_int_equal(f->port.identify_calls, 1u);
+    assert_int_equal(f->port.identify_seconds, 3u);
+    /* a port without an LED */
+    f->port.hal.identify = NULL;
+    assert_int_equal(fx_command(&f->node, URB_COMMAND_CODE_IDENTIFY, 1u, 0u, 0u), FX_ALL_ACKED);
+    (void)urb_node_poll(&f->node);
+    assert_int_equal(f->port.identify_calls, 1u);
+}
+
+static void command_sync_config(void **state)
+{
+    fixture_t *f = *state;
+    urb_node_t *node = &f->node;
+    urb_node_sync_status_t st;
+    /* disable: applied by the next heartbeat */
+    assert_int_equal(fx_command(node, URB_COMMAND_CODE_SYNC_CONFIG, 0u, 0u, 0u), FX_ALL_ACKED);
+    (void)urb_node_poll(node);
+    assert_int_equal(node->pll.state, URB_NODE_SYNC_FREE);
+    (void)urb_hal_hosted_advance(&f->port, node, PERIOD);
+    urb_node_sync_status(node, &st);
+    assert_int_equal(st.state, URB_NODE_SYNC_OFF);
+    fx_sync(node, 1u); /* ignored */
+    assert_int_equal(node->pll.syncs, 0u);
+    /* enable with a 2 ms period and a fixed 30 us lead */
+    assert_int_equal(fx_command(node, URB_COMMAND_CODE_SYNC_CONFIG, 1u, 2000u, 30u), FX_ALL_ACKED);
+    (void)urb_node_poll(node);
+    (void)urb_hal_hosted_advance(&f->port, node, PERIOD);
+    urb_node_sync_status(node, &st);
+    assert_int_equal(st.state, URB_NODE_SYNC_FREE);
+    assert_int_equal(st.period_q8, 2u * PERIOD * 256u);
+    assert_int_equal(node->pll.fixed_lead, 30u * 48u);
+    /* two SYNC_CONFIGs before a heartbeat: the second waits, then wins */
+    assert_int_equal(fx_command(node, URB_COMMAND_CODE_SYNC_CONFIG, 1u, 1000u, 0u), FX_ALL_ACKED);
+    (void)urb_node_poll(node);
+    assert_int_equal(fx_command(node, URB_COMMAND_CODE_SYNC_CONFIG, 1u, 1500u, 0u), FX_ALL_ACKED);
+    (void)urb_node_poll(node);
+    assert_true(urb_node_has_work(node)); /* one request still to post */
+    (void)urb_hal_hosted_advance(&f->port, node, 2u * PERIOD);
+    assert_int_equal(node->pll.period_q8, PERIOD * 256u);
+    (void)urb_node_poll(node);
+    (void)urb_hal_hosted_advance(&f->port, node, 2u * PERIOD);
+    assert_int_equal(node->pll.period_q8, 72000u * 256u);
+    assert_int_equal(node->pll.fixed_lead, 0u);
+    /* a period out of range keeps the current one */
+    assert_int_equal(fx_command(node, URB_COMMAND_CODE_SYNC_CONFIG, 1u, 1u, 0u), FX_ALL_ACKED);
+    (void)urb_node_poll(node);
+    (void)urb_hal_hosted_advance(&f->port, node, 2u * PERIOD);
+    assert_int_equal(node->pll.period_q8, 72000u * 256u);
+}
+
+static void faults_delivered_in_poll(void **state)
+{
+    fixture_t *f = *state;
+    urb_node_t *node = &f->node;
+    (void)urb_node_i2c_event(node, URB_I2C_STUCK, 0u);
+    (void)urb_node_i2c_event(node, URB_I2C_STUCK, 0u);
+    assert_int_equal(f->faults[URB_NODE_FAULT_STUCK_BUS], 0u); /* never from the interrupt */
+    assert_true(urb_node_has_work(node));
+    assert_true((urb_node_poll(node) & URB_NODE_POLL_FAULT) != 0u);
+    assert_int_equal(f->faults[URB_NODE_FAULT_STUCK_BUS], 1u); /* once per code per poll */
+    assert_int_equal(urb_node_poll(node) & URB_NODE_POLL_FAULT, 0u);
+    assert_true(read_id(node).fault);
+}
+
+static void identification_refreshes(void **state)
+{
+    fixture_t *f = *state;
+    urb_node_t *node = &f->node;
+    assert_int_equal(urb_node_poll(node) & URB_NODE_POLL_IDENT, 0u); /* nothing changed */
+    /* a bridge read in progress: the first refresh takes the other buffer, the second must wait */
+    (void)fx_select(node, 0u);
+    (void)urb_node_i2c_event(node, URB_I2C_ADDR_READ, 0u);
+    (void)urb_node_i2c_event(node, URB_I2C_TX_BYTE, 0u);
+    node->id_dirty = 1u;
+    assert_true((urb_node_poll(node) & URB_NODE_POLL_IDENT) != 0u); /* first refresh: other buffer */
+    node->id_dirty = 1u;
+    assert_int_equal(urb_node_poll(node) & URB_NODE_POLL_IDENT, 0u); /* the next one is being read */
+    (void)urb_node_i2c_event(node, URB_I2C_STOP, 0u);
+    assert_true((urb_node_poll(node) & URB_NODE_POLL_IDENT) != 0u);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup(update_once_per_heartbeat, setup),
+        cmocka_unit_test_setup(missed_deadline_overrun, setup),
+        cmocka_unit_test(update_divider),
+        cmocka_unit_test_setup(acquisition_time, setup),
+        cmocka_unit_test_setup(explicit_mark, setup),
+        cmocka_unit_test_setup(command_nop_and_unknown, setup),
+        cmocka_unit_test_setup(command_reset, setup),
+        cmocka_unit_test_setup(command_signal, setup),
+        cmocka_unit_test_setup(command_identify, setup),
+        cmocka_unit_test_setup(command_sync_config, setup),
+        cmocka_unit_test_setup(faults_delivered_in_poll, setup),
+        cmocka_unit_test_setup(identification_refreshes, setup),
+    };
+    return cmocka_run_group_tests_name("node_main_loop", tests, NULL, NULL);
+}
