@@ -98,7 +98,7 @@ size-bridge: $(FWB_BUILD)/urb-bridge-cm0plus.elf
 	@echo "Linked reference image (library + generated codecs + port skeleton, --gc-sections):"
 	@$(FWB_CROSS_SIZE) $<
 	@echo "State objects (bytes):"
-	@$(FWB_CROSS_NM) -S --size-sort $< | awk '$$4 ~ /^(g_bridge|g_master)$$/ {printf "  %-10s %6d\n", $$4, strtonum("0x"$$2)}'
+	@$(FWB_CROSS_NM) -S -t d --size-sort $< | awk '$$4 ~ /^g_(bridge|master|usb_buf)$$/ {printf "  %-10s %6d\n", $$4, $$2 + 0}'
 
 SIZE_TARGETS += size-bridge
 
