@@ -12,5 +12,11 @@ MCRequests ==
       [addr |-> 2, box |-> 1, op |-> "read",  len |-> 2],
       [addr |-> 1, box |-> 1, op |-> "read",  len |-> 3],
       [addr |-> 1, box |-> 9, op |-> "write", len |-> 2] }
+(* For the larger opt-in configuration: well-formed requests only (the    *)
+(* admission errors do not interact with the FIFO depth).                  *)
+MCRequestsCore ==
+    { [addr |-> 1, box |-> 1, op |-> "read",  len |-> 2],
+      [addr |-> 1, box |-> 1, op |-> "write", len |-> 2],
+      [addr |-> 2, box |-> 1, op |-> "read",  len |-> 2] }
 MCFaults == {"TIMEOUT", "CHECKSUM", "BUS_STUCK", "NODE_BUSY"}
 =============================================================================
