@@ -40,7 +40,7 @@ check: setup gen-check lint test-py $(CHECK_TARGETS)
 	@echo "make check: all checks passed"
 
 demo: setup
-	urb demo
+	urb sim sensorhex
 
 bench: setup
 	$(PYTHON) bench/codec_bench.py

@@ -31,6 +31,7 @@ def build_parser() -> argparse.ArgumentParser:
     cli_schema.register(sub)
     cli_nodes.register(sub)
     demo.register(sub)
+    __import__("urb_sim.cli", fromlist=["register"]).register(sub)  # urb sim: sim/urb_sim/cli.py
     return parser
 
 

@@ -36,8 +36,11 @@ SOURCE_DIRS = [
 ]
 INCLUDE_DIRS = ["sim/core", "sim/world", "firmware/include", "firmware/hal/sim", "firmware/node", "firmware/bridge",
                 "firmware/apps/sensorhex", "gen/c"]
-#: Files the simulation does not link: the hosted HAL's test doubles and any target main().
-EXCLUDE_NAMES = {"main.c"}
+#: Files the simulation does not link: programs (`*main.c`, e.g. firmware/bridge/hosted_main.c)
+#: and the single-node adapter of the paper's global-function style (firmware/node/urb_single.c:
+#: one global node, calls app_* functions), which cannot serve many nodes in one process.
+EXCLUDE_SUFFIX = "main.c"
+EXCLUDE_NAMES = {"urb_single.c"}
 
 CC = os.environ.get("CC", "gcc")
 CFLAGS = ["-std=c99", "-O2", "-g", "-fPIC", "-Wall", "-Wextra", "-Werror", "-fvisibility=default"]
@@ -53,7 +56,8 @@ def sources() -> list[Path]:
     for d in SOURCE_DIRS:
         folder = REPO / d
         if folder.is_dir():
-            out.extend(p for p in sorted(folder.glob("*.c")) if p.name not in EXCLUDE_NAMES)
+            out.extend(p for p in sorted(folder.glob("*.c"))
+                       if not p.name.endswith(EXCLUDE_SUFFIX) and p.name not in EXCLUDE_NAMES)
     return out
 
 
@@ -78,7 +82,10 @@ def is_stale(lib: Path = LIBRARY) -> bool:
 def compile_command(out: Path, extra: list[str] | None = None) -> list[str]:
     """The compiler command line that builds `out`."""
     incs = [f"-I{REPO / d}" for d in INCLUDE_DIRS]
-    return [CC, *CFLAGS, *(extra or []), "-shared", *incs, *map(str, sources()), "-lm", "-o", str(out)]
+    # --no-undefined: a missing source (or a stray adapter) fails here, naming the symbol, instead
+    # of when Python loads the library.
+    return [CC, *CFLAGS, *(extra or []), "-shared", "-Wl,--no-undefined", *incs, *map(str, sources()), "-lm",
+            "-o", str(out)]
 
 
 def ensure_library(force: bool = False) -> Path:

@@ -144,6 +144,7 @@ class World:
     """One simulated URB system. Build (set, add_bridge, add_node), start, then run."""
 
     def __init__(self, seed: int) -> None:
+        self._w: Any = None
         self._lib = lib()
         self._w = self._lib.urbsim_new(seed & 0xFFFFFFFFFFFFFFFF)
         if not self._w:
@@ -159,7 +160,8 @@ class World:
             self._w = None
 
     def __del__(self) -> None:
-        self.close()
+        if getattr(self, "_w", None):
+            self.close()
 
     # -- construction -----------------------------------------------------------------------
     def set(self, name: str, value: float) -> None:

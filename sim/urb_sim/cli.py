@@ -1,0 +1,149 @@
+"""`urb sim`: the time-accurate simulation of the SensoRHex buses (sim/README.md).
+
+Registered by host/urb/cli.py; everything else lives in the urb_sim package.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from .build import REPO, BuildError, ensure_library
+from .experiments import Progress, Result
+
+EXPERIMENTS = ["fig15", "fig16", "table1"]
+
+SENSORHEX_HELP = """\
+Run the SensoRHex simulation and the paper's experiments, and write an HTML summary.
+
+The real node library, SensoRHex applications and bridge firmware (compiled for this computer)
+run on simulated microcontrollers and buses: I2C at 400 kb/s, RS232 at 115200 Bd, USB with 1-ms
+frames, crystals with frequency error and drift. The host library runs unchanged on a simulated
+CPU whose threads wake on the 1-kHz OS tick. Each experiment writes a CSV file and a PNG figure
+and states PASS or FAIL against its acceptance criterion:
+
+  fig15    round-trip latency of 1000 reads at 1 kHz over RS232 + I2C, payload 1..10 bytes
+  fig16    the same over USB + I2C, payload 1..31 bytes
+  table1   synchronisation of two nodes on one downlink, 20 seeds, with the unsynchronised
+           baseline of Fig. 11
+
+Output: DIR/index.html (open it first), DIR/summary.json, and one folder per experiment.
+The same seed gives the same numbers, byte for byte.
+
+Exit status: 0 when every acceptance criterion is met, 1 when one is not, 2 on a usage or
+build error (the message says what to do)."""
+
+
+def register(sub: Any) -> None:
+    """Add `urb sim` and its subcommands to the `urb` parser."""
+    sim = sub.add_parser("sim", help="time-accurate simulation of the SensoRHex buses (the main job)",
+                         description="Time-accurate simulation of URB buses running the real firmware.\n\n"
+                                     "  urb sim sensorhex   run the scenario and the paper's experiments\n"
+                                     "  urb sim params      list the model parameters and their defaults",
+                         formatter_class=argparse.RawDescriptionHelpFormatter)
+    simsub = sim.add_subparsers(dest="sim_command", metavar="SUBCOMMAND")
+    p = simsub.add_parser("sensorhex", help="run the scenario and the experiments, write the HTML summary",
+                          description=SENSORHEX_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--out", type=Path, default=REPO / "build" / "sim" / "report", metavar="DIR",
+                   help="output folder (default build/sim/report)")
+    p.add_argument("--seed", type=int, default=1, help="base seed of every experiment (default 1)")
+    p.add_argument("--quick", action="store_true",
+                   help="fewer payloads, reads and seeds (about 30 s); same acceptance criteria")
+    p.add_argument("--only", metavar="LIST", default="",
+                   help=f"comma-separated experiments to run (default: all of {', '.join(EXPERIMENTS)})")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar (for logs)")
+    p.set_defaults(run=run_sensorhex)
+    q = simsub.add_parser("params", help="list the model parameters, their defaults and meaning",
+                          description="Print every parameter of the simulation model with its default value "
+                                      "and meaning (sim/world/params.h).")
+    q.set_defaults(run=run_params)
+    sim.set_defaults(run=lambda args: (sim.print_help(), 2)[1])
+
+
+def _experiment(key: str) -> Callable[..., Result]:
+    from .experiments import latency, sync
+
+    table: dict[str, Callable[..., Result]] = {"fig15": latency.fig15, "fig16": latency.fig16, "table1": sync.table1}
+    return table[key]
+
+
+def run_params(args: argparse.Namespace) -> int:
+    from .native import params
+
+    try:
+        rows = params()
+    except BuildError as exc:
+        print(f"urb sim: {exc}", file=sys.stderr)
+        return 2
+    width = max(len(p.name) for p in rows)
+    for p in rows:
+        print(f"{p.name:<{width}}  {p.default:>12g}  {p.doc}")
+    return 0
+
+
+def run_sensorhex(args: argparse.Namespace) -> int:
+    keys = [k.strip() for k in args.only.split(",") if k.strip()] or list(EXPERIMENTS)
+    unknown = [k for k in keys if k not in EXPERIMENTS]
+    if unknown:
+        print(f"urb sim sensorhex: unknown experiment(s) {', '.join(unknown)}; choose from {', '.join(EXPERIMENTS)}",
+              file=sys.stderr)
+        return 2
+    try:
+        ensure_library()
+    except BuildError as exc:
+        print(f"urb sim: {exc}", file=sys.stderr)
+        return 2
+    from .report import write_report
+
+    out: Path = args.out
+    results: list[Result] = []
+    t0 = time.perf_counter()
+    with _progress(not args.no_progress) as progress:
+        for i, key in enumerate(keys):
+            def step(frac: float, msg: str, i: int = i) -> None:
+                progress((i + frac) / len(keys), msg)
+
+            res = _experiment(key)(out / key, quick=args.quick, seed=args.seed, progress=step)
+            results.append(res)
+            progress((i + 1) / len(keys), f"{key}: {'PASS' if res.passed else 'FAIL'}")
+    wall = time.perf_counter() - t0
+    path = write_report(out, results, seed=args.seed, quick=args.quick, overrides={}, wall_s=wall)
+    for r in results:
+        print(f"{'PASS' if r.passed else 'FAIL'}  {r.key:<8} {r.title}")
+        for c in r.checks:
+            if not c.passed:
+                print(f"        failed: {c.name}: required {c.required}; measured {c.measured}")
+    sim_s = sum(r.sim_s for r in results)
+    print(f"{sim_s:.1f} s simulated in {wall:.1f} s; report: {path}")
+    return 0 if all(r.passed for r in results) else 1
+
+
+class _progress:
+    """A rich progress bar (or nothing) as a Progress callable, used as a context manager."""
+
+    def __init__(self, enabled: bool) -> None:
+        self.enabled = enabled and sys.stderr.isatty()
+        self._bar: Any = None
+        self._task: Any = None
+
+    def __enter__(self) -> Progress:
+        if self.enabled:
+            from rich.progress import BarColumn, Progress as Bar, TextColumn, TimeElapsedColumn
+
+            self._bar = Bar(TextColumn("[bold]urb sim[/bold]"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
+                            TimeElapsedColumn(), TextColumn("{task.description}"), transient=True)
+            self._bar.start()
+            self._task = self._bar.add_task("starting", total=1.0)
+        return self._update
+
+    def _update(self, frac: float, msg: str) -> None:
+        if self._bar is not None:
+            self._bar.update(self._task, completed=min(frac, 1.0), description=msg)
+
+    def __exit__(self, *exc: object) -> None:
+        if self._bar is not None:
+            self._bar.stop()
