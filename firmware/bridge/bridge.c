@@ -209,6 +209,7 @@ bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t l
 
 /* ===== Serving ================================================================================ */
 
+/* Bridge.tla: FirstPending, in O(1): served slots form a prefix of the slot FIFO. */
 static urb_bridge_slot_t *oldest_pending(urb_bridge_t *b)
 {
     if (b->slot_served >= b->slot_count) {

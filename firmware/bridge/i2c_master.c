@@ -95,7 +95,7 @@ static uint8_t nack_status(const urb_i2c_master_t *m, uint8_t pos)
         return URB_STATUS_OK; /* no node acknowledging the general call is not an error */
     }
     if (pos == 0u) {
-        return URB_STATUS_NO_NODE;
+        return URB_STATUS_NO_NODE; /* Discovery.tla: HostRequest, a vanished node gets NO_NODE */
     }
     if (pos == 1u) {
         return URB_STATUS_BAD_REQUEST; /* the node has no such mailbox */
@@ -168,7 +168,7 @@ void urb_i2c_master_event(urb_i2c_master_t *m, urb_i2c_event_t ev, uint8_t byte)
         return;
     case PH_ADDR_R:
         if (ev == URB_I2C_EV_NACK) {
-            finish_bus(m, URB_STATUS_NO_NODE);
+            finish_bus(m, URB_STATUS_NO_NODE); /* Discovery.tla: HostRequest (VanishedGetNoNode) */
             return;
         }
         if (ev != URB_I2C_EV_ACK) {
