@@ -165,6 +165,45 @@ static void more_nodes_than_table(void **state)
     }
 }
 
+/* Three bridges in one process (as the simulation runs them): no shared state. Each finds its own
+ * nodes, answers its own requests, and keeps its own SYNC counter. */
+static void three_bridges_one_process(void **state)
+{
+    (void)state;
+    urb_hosted_rig_t *r[3];
+    for (uint8_t k = 0u; k < 3u; k++) {
+        r[k] = rig_new((uint8_t)(4u + k), (uint16_t)(500u * (k + 1u)));
+        add_node(r[k], (uint8_t)(0x20u + k), 0x42u, k, 4u, 4u);
+    }
+    uint8_t f[3][8];
+    for (uint8_t k = 0u; k < 3u; k++) {
+        enc_read(f[k], (uint8_t)(0x20u + k), 1u, k, 4u);
+    }
+    /* interleave the three rigs, one iteration each per microsecond */
+    for (uint32_t t = 0u; t < 30000u; t++) {
+        for (uint8_t k = 0u; k < 3u; k++) {
+            r[k]->hal.now++;
+            if (t >= 10000u && t < 10004u) {
+                urb_bridge_uart_rx(&r[k]->bridge, f[k][t - 10000u], r[k]->hal.now);
+            }
+            urb_hosted_rig_iterate(r[k]);
+        }
+    }
+    for (uint8_t k = 0u; k < 3u; k++) {
+        for (uint8_t a = 0x20u; a < 0x23u; a++) {
+            assert_int_equal(urb_bridge_present(&r[k]->bridge, a), a == 0x20u + k);
+        }
+        stream_t s = rs232_stream(r[k]);
+        uint8_t data[32];
+        expect_response(&s, k, URB_STATUS_OK, 4u, data);
+        expect_end(&s);
+        assert_int_equal(data[0], 0x20u + k);
+        uint32_t const syncs = r[k]->bus.nodes[0].syncs;
+        assert_true(syncs >= 60u / (k + 1u) - 2u && syncs <= 60u / (k + 1u));
+        rig_free(r[k]);
+    }
+}
+
 int run_discovery_tests(void)
 {
     const struct CMUnitTest tests[] = {
@@ -173,6 +212,7 @@ int run_discovery_tests(void)
         cmocka_unit_test_teardown(scan_command_orders_and_unreadable_identification, teardown),
         cmocka_unit_test_teardown(empty_bus, teardown),
         cmocka_unit_test_teardown(more_nodes_than_table, teardown),
+        cmocka_unit_test(three_bridges_one_process),
     };
     return cmocka_run_group_tests_name("bridge_discovery", tests, NULL, NULL);
 }
