@@ -289,13 +289,27 @@ int main(int argc, char **argv)
     printf("pty: %s\n", slave_path);
     fflush(stdout);
 
+    /* Virtual time: the bridge, its bus and its heartbeat run on a clock that follows the wall
+     * clock in steps of at most STEP_US. If the process is descheduled, the clock catches up step
+     * by step afterwards, every bus event at its own virtual time, so a transaction never sees a
+     * timeout it would not see on a microcontroller (which is never descheduled). */
+    enum { STEP_US = 5, MAX_LAG_US = 1000000 };
     uint64_t const t0 = mono_us();
+    uint64_t vt = 0;
     while (!g_stop) {
-        uint64_t const now64 = mono_us() - t0;
-        if ((seconds != 0) && (now64 >= (uint64_t)seconds * 1000000u)) {
+        uint64_t const wall = mono_us() - t0;
+        if ((seconds != 0) && (wall >= (uint64_t)seconds * 1000000u)) {
             break;
         }
-        rig.hal.now = (uint32_t)now64;
+        if (wall > vt + MAX_LAG_US) {
+            vt = wall - MAX_LAG_US; /* stopped for a long time (SIGSTOP, debugger): skip ahead */
+        }
+        while (vt < wall) {
+            uint64_t const step = (wall - vt < STEP_US) ? (wall - vt) : STEP_US;
+            vt += step;
+            rig.hal.now = (uint32_t)vt;
+            urb_hosted_rig_iterate(&rig);
+        }
         uint8_t in[256];
         ssize_t got = read(master, in, sizeof in);
         for (ssize_t k = 0; k < got; k++) {
