@@ -15,7 +15,7 @@ from typing import Any
 from .build import REPO, BuildError, ensure_library
 from .experiments import Progress, Result
 
-EXPERIMENTS = ["fig15", "fig16", "table1"]
+EXPERIMENTS = ["fig15", "fig16", "table1", "faults"]
 
 SENSORHEX_HELP = """\
 Run the SensoRHex simulation and the paper's experiments, and write an HTML summary.
@@ -30,6 +30,9 @@ and states PASS or FAIL against its acceptance criterion:
   fig16    the same over USB + I2C, payload 1..31 bytes
   table1   synchronisation of two nodes on one downlink, 20 seeds, with the unsynchronised
            baseline of Fig. 11
+  faults   every fault the design must survive (bit errors, stuck I2C lines, node power loss,
+           bridge reset, babbling node, uplink byte loss): each failed request must reach its
+           callback with the right error flag, and the firmware's reaction is logged
 
 Output: DIR/index.html (open it first), DIR/summary.json, and one folder per experiment.
 The same seed gives the same numbers, byte for byte.
@@ -65,9 +68,10 @@ def register(sub: Any) -> None:
 
 
 def _experiment(key: str) -> Callable[..., Result]:
-    from .experiments import latency, sync
+    from .experiments import faults, latency, sync
 
-    table: dict[str, Callable[..., Result]] = {"fig15": latency.fig15, "fig16": latency.fig16, "table1": sync.table1}
+    table: dict[str, Callable[..., Result]] = {"fig15": latency.fig15, "fig16": latency.fig16, "table1": sync.table1,
+                                               "faults": faults.faults}
     return table[key]
 
 

@@ -33,3 +33,12 @@ def test_fig16_usb_latency(tmp_path: Path) -> None:
 def test_table1_synchronisation(tmp_path: Path) -> None:
     res = sync.table1(tmp_path, quick=True)
     _assert_passed(res)
+
+
+def test_faults_nothing_lost_silently(tmp_path: Path) -> None:
+    from urb_sim.experiments import faults
+
+    res = faults.faults(tmp_path)
+    _assert_passed(res)
+    assert len(res.table) == 9  # every fault of the issue: I2C bit errors, SDA/SCL stuck, node power,
+    # bridge reset, babbling node, uplink byte loss, UART bit errors, USB IN loss
