@@ -137,7 +137,7 @@ def start_bridge(hosted: bool, tmp: Path) -> BridgeProc:
             r = subprocess.run(["make", "-C", str(REPO), "bridge-hosted"], capture_output=True, text=True)
             if r.returncode != 0 or not HOSTED.exists():
                 sys.exit(f"host_latency: cannot build {HOSTED.relative_to(REPO)} (make bridge-hosted):\n{r.stderr[-2000:]}")
-        from bridge_proc import hosted_argv  # type: ignore[attr-defined]
+        from bridge_proc import hosted_argv
 
         argv = hosted_argv(SENSORHEX)
     else:

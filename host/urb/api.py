@@ -541,7 +541,16 @@ class _Discovery:
     def _ident_callback(self, addr: int) -> Callable[[Transfer], None]:
         return lambda t: self._got_ident(addr, t)
 
-    def _got_ident(self, addr: int, t: Transfer) -> None:
+    IDENT_RETRIES = 2
+    """A present address whose identification read fails with a transient downlink status is
+    read again (a rescan of that address, Discovery.tla's remedy); application requests are never
+    retransmitted."""
+
+    def _got_ident(self, addr: int, t: Transfer, attempt: int = 0) -> None:
+        transient = ErrorFlag.TIMEOUT | ErrorFlag.CHECKSUM | ErrorFlag.BUS_STUCK | ErrorFlag.BUSY | ErrorFlag.UPLINK_CHECKSUM
+        if not t.ok and t.flags & transient and attempt < self.IDENT_RETRIES:
+            self._send(addr, 0, True, Identification.SIZE, lambda tr: self._got_ident(addr, tr, attempt + 1))
+            return
         if not t.ok or t.response is None:
             self.report.problems.append(
                 f"{self.m.name} address {addr}: identification read failed ({t.flags.describe()}: {hint(t.flags)}); "

@@ -230,3 +230,16 @@ def test_bridge_node_gives_the_bridge_mailboxes() -> None:
     assert scan.present[16] and not scan.present[17]
     b.write_message(core.BridgeCommand(opcode=core.BridgeOpcode.SET_HEARTBEAT, value=500))
     assert b.read_message(core.BridgeInfo).heartbeat_us == 500
+
+
+def test_discovery_reads_a_failed_identification_again_but_not_forever() -> None:
+    from urb_msgs.urb_core import Status
+
+    clock = VirtualClock()
+    bridge = BridgeModel(dict(fake_node(s) for s in HEX[:3]))
+    bridge.nodes[16].faults.extend([Status.TIMEOUT, Status.CHECKSUM])  # two transient failures: found
+    bridge.nodes[17].faults.extend([Status.TIMEOUT] * 3)  # three: reported, not found
+    urb = URBInterface()
+    report = urb.add_bus_manager(SimManager(clock, LoopbackByteTransport(clock, bridge)))
+    assert [r.address for r in report.records] == [16, 18]
+    assert len(report.problems) == 1 and "address 17: identification read failed (TIMEOUT" in report.problems[0]
