@@ -47,7 +47,7 @@ def test_encode_matches_vector(v: dict[str, Any]) -> None:
 @pytest.mark.parametrize("v", VALID, ids=_ident)
 def test_decode_matches_vector(v: dict[str, Any]) -> None:
     cls = urb_msgs.MESSAGES[v["message"]]
-    msg = cls.decode(bytes.fromhex(v["hex"]), **_implicit(v))  # type: ignore[call-arg]
+    msg = cls.decode(bytes.fromhex(v["hex"]), **_implicit(v))
     plain = to_plain(msg)
     for key, value in v["fields"].items():
         assert plain[key] == value, key
@@ -57,7 +57,7 @@ def test_decode_matches_vector(v: dict[str, Any]) -> None:
 def test_error_vectors_raise_the_precise_error(v: dict[str, Any]) -> None:
     cls = urb_msgs.MESSAGES[v["message"]]
     with pytest.raises(ERROR_CLASSES[v["error"]]):
-        cls.decode(bytes.fromhex(v["hex"]), **_implicit(v))  # type: ignore[call-arg]
+        cls.decode(bytes.fromhex(v["hex"]), **_implicit(v))
 
 
 CHECKED = [v for v in VALID if " check " in urb_msgs.MESSAGES[v["message"]].LAYOUT]

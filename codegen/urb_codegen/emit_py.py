@@ -211,6 +211,15 @@ def _emit_unpack(w: _Writer, msg: MessageDecl, implicit: bool) -> list[str]:
     """Statements reading fields from int `v`; returns the constructor keyword arguments."""
     kwargs: list[str] = []
     name = "cls.NAME"
+    total = msg.implicit_bits if implicit else msg.fixed_bits
+    claimed = 0
+    for f in msg.fields:
+        if f.implicit == implicit and not isinstance(f.type, (BytesType, CheckType)):
+            claimed |= ((1 << f.bit_width) - 1) << f.bit_offset
+    unclaimed = ((1 << total) - 1) & ~claimed
+    if unclaimed:  # bits no field covers (explicit positions can leave gaps): padding, so zero
+        w(f"if v & {unclaimed:#x}:", 2)
+        w(f"raise OutOfRangeError({name}, 'bits no field claims are not zero')", 3)
     for f in msg.fields:
         if f.implicit != implicit or isinstance(f.type, (BytesType, CheckType)):
             continue
@@ -361,7 +370,7 @@ def _emit_crc_select(w: _Writer, cs: ChecksumDecl, covered: str) -> None:
 
 def _emit_decode(w: _Writer, msg: MessageDecl, fmt: str | None) -> None:
     implicit = msg.implicit_fields
-    kw = "".join(f", {f.name}: {_py_type(f)}" for f in implicit)
+    kw = "".join(f", {f.name}: {_py_type(f)} | None = None" for f in implicit)
     sig_kw = f", *{kw}" if implicit else ""
     w("@classmethod", 1)
     w(f"def decode(cls, data: bytes | bytearray | memoryview{sig_kw}) -> {msg.name}:", 1)
@@ -385,6 +394,9 @@ def _emit_decode(w: _Writer, msg: MessageDecl, fmt: str | None) -> None:
     F = msg.fixed_size
     I = msg.implicit_size
     if implicit:
+        for f in implicit:
+            w(f"if {f.name} is None:", 2)
+            w(f"raise TypeError({_q(msg.name + '.decode needs ' + f.name + '=: it is covered by the check but not sent')})", 3)
         w(f"proto = cls({', '.join(f'{f.name}={f.name}' for f in implicit)})", 2)
         w(f"prefix = proto._pack_implicit().to_bytes({I}, 'little')", 2)
     prefix = "prefix + " if implicit else ""

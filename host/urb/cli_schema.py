@@ -74,7 +74,11 @@ def run_gen(args: argparse.Namespace) -> int:
     if schemas is None:
         return 1
     if args.check:
-        result = check_fresh(schemas, args.c_out, args.py_out)
+        try:
+            result = check_fresh(schemas, args.c_out, args.py_out)
+        except SchemaError as exc:
+            print(exc.render(), file=sys.stderr)
+            return 1
         if result.fresh:
             print("urb gen --check: generated files are up to date")
             return 0
@@ -84,7 +88,11 @@ def run_gen(args: argparse.Namespace) -> int:
         print("urb gen --check: generated files are stale; run `urb gen` (or `make gen`) and commit the result",
               file=sys.stderr)
         return 1
-    written = generate(schemas, args.c_out, args.py_out)
+    try:
+        written = generate(schemas, args.c_out, args.py_out)
+    except SchemaError as exc:  # problems only an emitter sees, e.g. two items with the same C name
+        print(exc.render(), file=sys.stderr)
+        return 1
     print(f"urb gen: wrote {len(written)} files from {len(schemas)} schema(s)")
     return 0
 

@@ -45,7 +45,7 @@ def register(sub: Any) -> None:
 def _decode(cls: type[Message], frame: bytes, like: Message) -> Message:
     if isinstance(like, DownlinkReadResponse):
         return DownlinkReadResponse.decode(frame, select=like.select)
-    decoded: Message = cls.decode(frame)  # type: ignore[attr-defined]
+    decoded: Message = cls.decode(frame)
     return decoded
 
 
@@ -92,7 +92,7 @@ def run_demo(args: argparse.Namespace) -> int:
             checked = " check " in cls.LAYOUT
             for _ in range(args.samples):
                 msg = random_message(cls, rng)
-                frame = msg.encode()  # type: ignore[attr-defined]
+                frame = msg.encode()
                 answer = driver.roundtrip(name, frame, _prefix(msg))
                 if answer.ok and answer.frame == frame and _decode(cls, answer.frame, msg) == msg:
                     identical += 1

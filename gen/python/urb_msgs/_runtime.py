@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass
-from typing import Any, Callable, ClassVar, TypeVar
+from typing import Any, Callable, ClassVar, Self, TypeVar
 
 
 class DecodeError(ValueError):
@@ -64,6 +64,15 @@ class Message:
     MIN_SIZE: ClassVar[int]
     MAX_SIZE: ClassVar[int]
     FIELDS: ClassVar[tuple[FieldInfo, ...]]
+
+    def encode(self) -> bytes:
+        """The frame for this message; EncodeError on a bad value."""
+        raise NotImplementedError
+
+    @classmethod
+    def decode(cls, data: bytes | bytearray | memoryview) -> Self:
+        """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
+        raise NotImplementedError
 
     def to_dict(self) -> dict[str, Any]:
         """Field values as plain Python data (nested dicts, lists, ints, bools, bytes)."""

@@ -688,7 +688,7 @@ class DownlinkReadResponse(Message):
         return out
 
     @classmethod
-    def decode(cls, data: bytes | bytearray | memoryview, *, select: MailboxSelect) -> DownlinkReadResponse:
+    def decode(cls, data: bytes | bytearray | memoryview, *, select: MailboxSelect | None = None) -> DownlinkReadResponse:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range); implicit fields are known to the caller and covered by the check."""
         data = bytes(data)
         n = len(data)
@@ -696,6 +696,8 @@ class DownlinkReadResponse(Message):
             raise TooShortError(cls.NAME, f'{n} bytes, need at least {cls.MIN_SIZE}')
         if n > cls.MAX_SIZE:
             raise TooLongError(cls.NAME, f'{n} bytes, at most {cls.MAX_SIZE} allowed')
+        if select is None:
+            raise TypeError('DownlinkReadResponse.decode needs select=: it is covered by the check but not sent')
         proto = cls(select=select)
         prefix = proto._pack_implicit().to_bytes(1, 'little')
         payload_len = cls._payload_length(n)
