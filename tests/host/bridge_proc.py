@@ -42,22 +42,10 @@ def build_hosted_bridge() -> Path:
     return HOSTED_BRIDGE
 
 
-def realtime_prefix() -> list[str]:
-    """`chrt -f 10` when this process may use it. The hosted bridge clocks its simulated I2C bus
-    by the wall clock and times a transaction out after 2 ms, like the firmware on a
-    microcontroller, which is never descheduled; on a loaded test machine a normal-priority
-    process is, and its downlink then reports TIMEOUT. Real-time priority restores the premise."""
-    try:
-        ok = subprocess.run(["chrt", "-f", "10", "true"], capture_output=True, timeout=5).returncode == 0
-    except (OSError, subprocess.TimeoutExpired):
-        ok = False
-    return ["chrt", "-f", "10"] if ok else []
-
-
 def hosted_argv(nodes: list[str], extra: list[str] | None = None) -> list[str]:
     """Command line of the hosted bridge for nodes given as NAME:INDEX@ADDR (SensoRHex names)
     or as the program's own KIND,INDEX,ADDR[,KEY=VALUE] specs."""
-    argv = realtime_prefix() + [str(build_hosted_bridge())] + list(extra or [])
+    argv = [str(build_hosted_bridge())] + list(extra or [])
     for spec in nodes:
         if "@" in spec:
             name_index, addr = spec.split("@")

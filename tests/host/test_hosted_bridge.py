@@ -220,14 +220,5 @@ def test_10000_requests_at_1khz_without_loss_or_reordering(system: tuple[URBInte
         reqs.append(node.submit_request(req))
     assert m.wait_until(lambda: len(order) == n, 10.0), "callbacks missing"
     assert order == list(range(n)), "callbacks out of order"
-    lost = [(k, r.flags.describe()) for k, r in enumerate(reqs) if r.flags & ~ErrorFlag.BRIDGE]
-    assert lost == [], f"{len(lost)} requests lost on the uplink or refused by the host, first: {lost[:5]}"
-    # Every request was answered by the bridge, in order. The hosted program clocks its simulated
-    # I2C bus by the wall clock and times a transaction out after 2 ms, so when this (virtual)
-    # machine deschedules it for longer, its downlink reports TIMEOUT: a bridge answer, not a
-    # loss. Bounded here so that a real downlink fault rate would still fail the test.
-    downlink = [(k, r.flags.describe()) for k, r in enumerate(reqs) if r.flags & ErrorFlag.BRIDGE]
-    assert all(f == "TIMEOUT" for _, f in downlink) and len(downlink) <= 10, (
-        f"{len(downlink)} bridge-reported downlink errors (first: {downlink[:5]})")
-    if downlink:
-        print(f"\nhosted bridge: {len(downlink)} of {n} requests answered TIMEOUT by its wall-clocked I2C simulation")
+    failed = [(k, r.flags.describe()) for k, r in enumerate(reqs) if not r.ok]
+    assert failed == [], f"{len(failed)} failed, first: {failed[:5]}"
