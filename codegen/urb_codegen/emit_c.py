@@ -4,8 +4,9 @@ The model (model.py) already holds every bit offset; this module only turns each
 statements (range check, pack, unpack) and hands them to the Jinja2 templates `templates/c_*.j2`,
 which own the shape of every file. Design choices the generated code relies on:
 
-* Every field is read and written with `urb_get_bits`/`urb_put_bits` (byte-wise, LSB-first), so
-  there are no packed structs, no buffer casts and no unaligned access (Cortex-M0 safe).
+* Byte-aligned 8/16/32-bit fields are single byte loads and stores; every other field goes through
+  `urb_get_bits`/`urb_put_bits` (byte-wise, LSB-first). Either way there are no packed structs, no
+  buffer casts and no unaligned access (Cortex-M0 safe).
 * Nested messages and arrays are flattened into the enclosing codec: an array becomes a loop whose
   bit offset grows by the element width. Only `encode`/`decode` are public per message.
 * Encoders validate the whole struct before writing, so on any error the output buffer is untouched.
@@ -128,6 +129,19 @@ class _At:
         parts = [*self.terms, f"{self.const}u"] if self.const or not self.terms else list(self.terms)
         return " + ".join(parts)
 
+    def byte(self, plus: int = 0) -> str | None:
+        """The C byte index of this offset (plus `plus` bytes) when it is byte-aligned, else None."""
+        terms = []
+        for term in self.terms:
+            stride, var = term.split("u * ")
+            if int(stride) % 8:
+                return None
+            terms.append(f"{int(stride) // 8}u * {var}")
+        if self.const % 8:
+            return None
+        const = self.const // 8 + plus
+        return " + ".join([*terms, f"{const}u"] if const or not terms else terms)
+
 
 @dataclass(frozen=True)
 class _Leaf:
@@ -236,8 +250,16 @@ def _scalar(leaf: _Leaf, op: _Op) -> list[str]:
             value = f"({m} ? 1u : 0u)"
         else:
             value = f"(uint32_t){m}"
+        if _whole_bytes(leaf):  # aligned u8/u16/u32: plain byte stores, no bit loop
+            return [f"{op.buf}[{leaf.at.byte(k)}] = (uint8_t)({value} >> {8 * k}u);" if k else
+                    f"{op.buf}[{leaf.at.byte(k)}] = (uint8_t){value};" for k in range(w // 8)]
         return [f"urb_put_bits({op.buf}, {at}, {w}u, {value});"]
-    raw = f"urb_get_bits({op.buf}, {at}, {w}u)"
+    if _whole_bytes(leaf):
+        raw = " | ".join(f"((uint32_t){op.buf}[{leaf.at.byte(k)}] << {8 * k}u)" if k else f"(uint32_t){op.buf}[{leaf.at.byte(k)}]"
+                         for k in range(w // 8))
+        raw = f"({raw})" if w > 8 else raw
+    else:
+        raw = f"urb_get_bits({op.buf}, {at}, {w}u)"
     if m is None:
         name = leaf.field.fixed_name or str(leaf.field.fixed)
         fixed = leaf.field.fixed
@@ -250,6 +272,11 @@ def _scalar(leaf: _Leaf, op: _Op) -> list[str]:
     else:
         value = f"({_ctype(t)}){raw}"
     return [f"{m} = {value};", *_reject(_limits(leaf, with_width=False), op.error)]
+
+
+def _whole_bytes(leaf: _Leaf) -> bool:
+    """True for an 8/16/32-bit field on a byte boundary, which byte stores handle directly."""
+    return leaf.width in (8, 16, 32) and leaf.at.byte() is not None
 
 
 def _reject(conds: list[str], error: str) -> list[str]:
@@ -362,6 +389,24 @@ class CTier:
     @property
     def mask(self) -> int:
         return (1 << self.tier.width) - 1
+
+    @property
+    def nibbles(self) -> list[int]:
+        """Register after shifting each 4-bit value n (in the top nibble) through the polynomial."""
+        out = []
+        for n in range(16):
+            reg = n << (self.tier.width - 4)
+            for _ in range(4):
+                reg = ((reg << 1) ^ self.tier.poly) if reg & self.top_bit else reg << 1
+            out.append(reg & self.mask)
+        return out
+
+    @property
+    def nibble_rows(self) -> list[str]:
+        """The nibble table as two C initializer rows of eight values."""
+        digits = self.tier.width // 4
+        values = [f"0x{v:0{digits}X}u" for v in self.nibbles]
+        return [", ".join(values[:8]) + ",", ", ".join(values[8:])]
 
 
 @dataclass

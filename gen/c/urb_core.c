@@ -53,7 +53,7 @@ int32_t urb_uplink_read_request_encode(const urb_uplink_read_request_t *msg, uin
     urb_put_bits(buf, 1u, 7u, (uint32_t)msg->address);
     urb_put_bits(buf, 8u, 3u, (uint32_t)msg->mailbox);
     urb_put_bits(buf, 12u, 4u, (uint32_t)msg->seq);
-    urb_put_bits(buf, 16u, 8u, (uint32_t)msg->length);
+    buf[2u] = (uint8_t)(uint32_t)msg->length;
     urb_put_le(buf, 3u, 1u, urb_link_check(NULL, 0u, buf, 3u));
     return (int32_t)size;
 }
@@ -77,7 +77,7 @@ int32_t urb_uplink_read_request_decode(urb_uplink_read_request_t *msg, const uin
     msg->mailbox = (uint8_t)urb_get_bits(buf, 8u, 3u);
     if (urb_get_bits(buf, 11u, 1u) != 0u) { return URB_ERR_RANGE; }
     msg->seq = (uint8_t)urb_get_bits(buf, 12u, 4u);
-    msg->length = (uint8_t)urb_get_bits(buf, 16u, 8u);
+    msg->length = (uint8_t)(uint32_t)buf[2u];
     if ((msg->length < 1u) || (msg->length > 32u)) { return URB_ERR_RANGE; }
     return (int32_t)length;
 }
@@ -111,7 +111,7 @@ int32_t urb_uplink_write_request_encode(const urb_uplink_write_request_t *msg, u
     urb_put_bits(buf, 1u, 7u, (uint32_t)msg->address);
     urb_put_bits(buf, 8u, 3u, (uint32_t)msg->mailbox);
     urb_put_bits(buf, 12u, 4u, (uint32_t)msg->seq);
-    urb_put_bits(buf, 16u, 8u, (uint32_t)msg->length);
+    buf[2u] = (uint8_t)(uint32_t)msg->length;
     /*@ loop invariant 0 <= k <= payload_len;
         loop assigns k, buf[3 .. 3u + payload_len - 1];
         loop variant payload_len - k; */
@@ -153,7 +153,7 @@ int32_t urb_uplink_write_request_decode(urb_uplink_write_request_t *msg, const u
     msg->mailbox = (uint8_t)urb_get_bits(buf, 8u, 3u);
     if (urb_get_bits(buf, 11u, 1u) != 0u) { return URB_ERR_RANGE; }
     msg->seq = (uint8_t)urb_get_bits(buf, 12u, 4u);
-    msg->length = (uint8_t)urb_get_bits(buf, 16u, 8u);
+    msg->length = (uint8_t)(uint32_t)buf[2u];
     if ((msg->length < 1u) || (msg->length > 32u)) { return URB_ERR_RANGE; }
     /*@ loop invariant 0 <= k <= payload_len;
         loop assigns k, msg->data[0 .. 31];
@@ -263,8 +263,9 @@ int32_t urb_usb_batch_header_encode(const urb_usb_batch_header_t *msg, uint8_t *
     for (size_t k = 0u; k < 3u; k++) {
         buf[k] = 0u;
     }
-    urb_put_bits(buf, 0u, 16u, (uint32_t)msg->frame);
-    urb_put_bits(buf, 16u, 8u, (uint32_t)msg->count);
+    buf[0u] = (uint8_t)(uint32_t)msg->frame;
+    buf[1u] = (uint8_t)((uint32_t)msg->frame >> 8u);
+    buf[2u] = (uint8_t)(uint32_t)msg->count;
     urb_put_le(buf, 3u, 1u, urb_link_check(NULL, 0u, buf, 3u));
     return (int32_t)size;
 }
@@ -283,8 +284,8 @@ int32_t urb_usb_batch_header_decode(urb_usb_batch_header_t *msg, const uint8_t *
     if (urb_get_le(buf, 3u, 1u) != urb_link_check(NULL, 0u, buf, 3u)) {
         return URB_ERR_CHECKSUM;
     }
-    msg->frame = (uint16_t)urb_get_bits(buf, 0u, 16u);
-    msg->count = (uint8_t)urb_get_bits(buf, 16u, 8u);
+    msg->frame = (uint16_t)((uint32_t)buf[0u] | ((uint32_t)buf[1u] << 8u));
+    msg->count = (uint8_t)(uint32_t)buf[2u];
     if (msg->count > 128u) { return URB_ERR_RANGE; }
     return (int32_t)length;
 }
@@ -544,8 +545,8 @@ int32_t urb_sync_broadcast_encode(const urb_sync_broadcast_t *msg, uint8_t *buf,
     for (size_t k = 0u; k < 2u; k++) {
         buf[k] = 0u;
     }
-    urb_put_bits(buf, 0u, 8u, 165u);
-    urb_put_bits(buf, 8u, 8u, (uint32_t)msg->counter);
+    buf[0u] = (uint8_t)165u;
+    buf[1u] = (uint8_t)(uint32_t)msg->counter;
     return (int32_t)size;
 }
 
@@ -560,8 +561,8 @@ int32_t urb_sync_broadcast_decode(urb_sync_broadcast_t *msg, const uint8_t *buf,
     if (length > URB_SYNC_BROADCAST_MAX_SIZE) {
         return URB_ERR_LONG;
     }
-    if (urb_get_bits(buf, 0u, 8u) != 165u) { return URB_ERR_RANGE; }  /* fixed: SYNC_MAGIC */
-    msg->counter = (uint8_t)urb_get_bits(buf, 8u, 8u);
+    if ((uint32_t)buf[0u] != 165u) { return URB_ERR_RANGE; }  /* fixed: SYNC_MAGIC */
+    msg->counter = (uint8_t)(uint32_t)buf[1u];
     return (int32_t)length;
 }
 
@@ -597,13 +598,16 @@ int32_t urb_identification_encode(const urb_identification_t *msg, uint8_t *buf,
     for (size_t k = 0u; k < 25u; k++) {
         buf[k] = 0u;
     }
-    urb_put_bits(buf, 0u, 8u, (uint32_t)msg->class_id);
+    buf[0u] = (uint8_t)(uint32_t)msg->class_id;
     urb_put_bits(buf, 8u, 6u, (uint32_t)msg->index);
-    urb_put_bits(buf, 16u, 8u, 1u);
-    urb_put_bits(buf, 24u, 32u, (uint32_t)msg->fingerprint);
-    urb_put_bits(buf, 56u, 8u, (uint32_t)msg->fw_major);
-    urb_put_bits(buf, 64u, 8u, (uint32_t)msg->fw_minor);
-    urb_put_bits(buf, 72u, 8u, (uint32_t)msg->fw_patch);
+    buf[2u] = (uint8_t)1u;
+    buf[3u] = (uint8_t)(uint32_t)msg->fingerprint;
+    buf[4u] = (uint8_t)((uint32_t)msg->fingerprint >> 8u);
+    buf[5u] = (uint8_t)((uint32_t)msg->fingerprint >> 16u);
+    buf[6u] = (uint8_t)((uint32_t)msg->fingerprint >> 24u);
+    buf[7u] = (uint8_t)(uint32_t)msg->fw_major;
+    buf[8u] = (uint8_t)(uint32_t)msg->fw_minor;
+    buf[9u] = (uint8_t)(uint32_t)msg->fw_patch;
     /*@ loop invariant 0 <= i0 <= 8;
         loop assigns i0, buf[0 .. 24];
         loop variant 8 - i0; */
@@ -618,7 +622,8 @@ int32_t urb_identification_encode(const urb_identification_t *msg, uint8_t *buf,
     }
     urb_put_bits(buf, 176u, 1u, (msg->synced ? 1u : 0u));
     urb_put_bits(buf, 177u, 1u, (msg->fault ? 1u : 0u));
-    urb_put_bits(buf, 184u, 16u, (uint32_t)msg->acq_time);
+    buf[23u] = (uint8_t)(uint32_t)msg->acq_time;
+    buf[24u] = (uint8_t)((uint32_t)msg->acq_time >> 8u);
     return (int32_t)size;
 }
 
@@ -633,14 +638,14 @@ int32_t urb_identification_decode(urb_identification_t *msg, const uint8_t *buf,
     if (length > URB_IDENTIFICATION_MAX_SIZE) {
         return URB_ERR_LONG;
     }
-    msg->class_id = (uint8_t)urb_get_bits(buf, 0u, 8u);
+    msg->class_id = (uint8_t)(uint32_t)buf[0u];
     msg->index = (uint8_t)urb_get_bits(buf, 8u, 6u);
     if (urb_get_bits(buf, 14u, 2u) != 0u) { return URB_ERR_RANGE; }
-    if (urb_get_bits(buf, 16u, 8u) != 1u) { return URB_ERR_RANGE; }  /* fixed: PROTOCOL_VERSION */
-    msg->fingerprint = (uint32_t)urb_get_bits(buf, 24u, 32u);
-    msg->fw_major = (uint8_t)urb_get_bits(buf, 56u, 8u);
-    msg->fw_minor = (uint8_t)urb_get_bits(buf, 64u, 8u);
-    msg->fw_patch = (uint8_t)urb_get_bits(buf, 72u, 8u);
+    if ((uint32_t)buf[2u] != 1u) { return URB_ERR_RANGE; }  /* fixed: PROTOCOL_VERSION */
+    msg->fingerprint = (uint32_t)((uint32_t)buf[3u] | ((uint32_t)buf[4u] << 8u) | ((uint32_t)buf[5u] << 16u) | ((uint32_t)buf[6u] << 24u));
+    msg->fw_major = (uint8_t)(uint32_t)buf[7u];
+    msg->fw_minor = (uint8_t)(uint32_t)buf[8u];
+    msg->fw_patch = (uint8_t)(uint32_t)buf[9u];
     /*@ loop invariant 0 <= i0 <= 8;
         loop assigns i0, *msg;
         loop variant 8 - i0; */
@@ -656,7 +661,7 @@ int32_t urb_identification_decode(urb_identification_t *msg, const uint8_t *buf,
     msg->synced = (urb_get_bits(buf, 176u, 1u) != 0u);
     msg->fault = (urb_get_bits(buf, 177u, 1u) != 0u);
     if (urb_get_bits(buf, 178u, 6u) != 0u) { return URB_ERR_RANGE; }
-    msg->acq_time = (uint16_t)urb_get_bits(buf, 184u, 16u);
+    msg->acq_time = (uint16_t)((uint32_t)buf[23u] | ((uint32_t)buf[24u] << 8u));
     return (int32_t)length;
 }
 
@@ -680,10 +685,12 @@ int32_t urb_command_encode(const urb_command_t *msg, uint8_t *buf, size_t capaci
     for (size_t k = 0u; k < 6u; k++) {
         buf[k] = 0u;
     }
-    urb_put_bits(buf, 0u, 8u, (uint32_t)msg->opcode);
-    urb_put_bits(buf, 8u, 8u, (uint32_t)msg->arg);
-    urb_put_bits(buf, 16u, 16u, (uint32_t)msg->period_us);
-    urb_put_bits(buf, 32u, 16u, (uint32_t)msg->lead_us);
+    buf[0u] = (uint8_t)(uint32_t)msg->opcode;
+    buf[1u] = (uint8_t)(uint32_t)msg->arg;
+    buf[2u] = (uint8_t)(uint32_t)msg->period_us;
+    buf[3u] = (uint8_t)((uint32_t)msg->period_us >> 8u);
+    buf[4u] = (uint8_t)(uint32_t)msg->lead_us;
+    buf[5u] = (uint8_t)((uint32_t)msg->lead_us >> 8u);
     return (int32_t)size;
 }
 
@@ -698,11 +705,11 @@ int32_t urb_command_decode(urb_command_t *msg, const uint8_t *buf, size_t length
     if (length > URB_COMMAND_MAX_SIZE) {
         return URB_ERR_LONG;
     }
-    msg->opcode = (uint8_t)urb_get_bits(buf, 0u, 8u);
+    msg->opcode = (uint8_t)(uint32_t)buf[0u];
     if (!urb_command_code_is_valid(msg->opcode)) { return URB_ERR_RANGE; }
-    msg->arg = (uint8_t)urb_get_bits(buf, 8u, 8u);
-    msg->period_us = (uint16_t)urb_get_bits(buf, 16u, 16u);
-    msg->lead_us = (uint16_t)urb_get_bits(buf, 32u, 16u);
+    msg->arg = (uint8_t)(uint32_t)buf[1u];
+    msg->period_us = (uint16_t)((uint32_t)buf[2u] | ((uint32_t)buf[3u] << 8u));
+    msg->lead_us = (uint16_t)((uint32_t)buf[4u] | ((uint32_t)buf[5u] << 8u));
     return (int32_t)length;
 }
 
@@ -726,14 +733,16 @@ int32_t urb_bridge_info_encode(const urb_bridge_info_t *msg, uint8_t *buf, size_
     for (size_t k = 0u; k < 10u; k++) {
         buf[k] = 0u;
     }
-    urb_put_bits(buf, 0u, 8u, (uint32_t)msg->downlink);
-    urb_put_bits(buf, 8u, 8u, 1u);
-    urb_put_bits(buf, 16u, 16u, (uint32_t)msg->bitrate_kbps);
-    urb_put_bits(buf, 32u, 8u, (uint32_t)msg->fifo_depth);
-    urb_put_bits(buf, 40u, 16u, (uint32_t)msg->heartbeat_us);
-    urb_put_bits(buf, 56u, 8u, (uint32_t)msg->fw_major);
-    urb_put_bits(buf, 64u, 8u, (uint32_t)msg->fw_minor);
-    urb_put_bits(buf, 72u, 8u, (uint32_t)msg->fw_patch);
+    buf[0u] = (uint8_t)(uint32_t)msg->downlink;
+    buf[1u] = (uint8_t)1u;
+    buf[2u] = (uint8_t)(uint32_t)msg->bitrate_kbps;
+    buf[3u] = (uint8_t)((uint32_t)msg->bitrate_kbps >> 8u);
+    buf[4u] = (uint8_t)(uint32_t)msg->fifo_depth;
+    buf[5u] = (uint8_t)(uint32_t)msg->heartbeat_us;
+    buf[6u] = (uint8_t)((uint32_t)msg->heartbeat_us >> 8u);
+    buf[7u] = (uint8_t)(uint32_t)msg->fw_major;
+    buf[8u] = (uint8_t)(uint32_t)msg->fw_minor;
+    buf[9u] = (uint8_t)(uint32_t)msg->fw_patch;
     return (int32_t)size;
 }
 
@@ -748,15 +757,15 @@ int32_t urb_bridge_info_decode(urb_bridge_info_t *msg, const uint8_t *buf, size_
     if (length > URB_BRIDGE_INFO_MAX_SIZE) {
         return URB_ERR_LONG;
     }
-    msg->downlink = (uint8_t)urb_get_bits(buf, 0u, 8u);
+    msg->downlink = (uint8_t)(uint32_t)buf[0u];
     if (!urb_downlink_kind_is_valid(msg->downlink)) { return URB_ERR_RANGE; }
-    if (urb_get_bits(buf, 8u, 8u) != 1u) { return URB_ERR_RANGE; }  /* fixed: PROTOCOL_VERSION */
-    msg->bitrate_kbps = (uint16_t)urb_get_bits(buf, 16u, 16u);
-    msg->fifo_depth = (uint8_t)urb_get_bits(buf, 32u, 8u);
-    msg->heartbeat_us = (uint16_t)urb_get_bits(buf, 40u, 16u);
-    msg->fw_major = (uint8_t)urb_get_bits(buf, 56u, 8u);
-    msg->fw_minor = (uint8_t)urb_get_bits(buf, 64u, 8u);
-    msg->fw_patch = (uint8_t)urb_get_bits(buf, 72u, 8u);
+    if ((uint32_t)buf[1u] != 1u) { return URB_ERR_RANGE; }  /* fixed: PROTOCOL_VERSION */
+    msg->bitrate_kbps = (uint16_t)((uint32_t)buf[2u] | ((uint32_t)buf[3u] << 8u));
+    msg->fifo_depth = (uint8_t)(uint32_t)buf[4u];
+    msg->heartbeat_us = (uint16_t)((uint32_t)buf[5u] | ((uint32_t)buf[6u] << 8u));
+    msg->fw_major = (uint8_t)(uint32_t)buf[7u];
+    msg->fw_minor = (uint8_t)(uint32_t)buf[8u];
+    msg->fw_patch = (uint8_t)(uint32_t)buf[9u];
     return (int32_t)length;
 }
 
@@ -827,8 +836,9 @@ int32_t urb_bridge_command_encode(const urb_bridge_command_t *msg, uint8_t *buf,
     for (size_t k = 0u; k < 3u; k++) {
         buf[k] = 0u;
     }
-    urb_put_bits(buf, 0u, 8u, (uint32_t)msg->opcode);
-    urb_put_bits(buf, 8u, 16u, (uint32_t)msg->value);
+    buf[0u] = (uint8_t)(uint32_t)msg->opcode;
+    buf[1u] = (uint8_t)(uint32_t)msg->value;
+    buf[2u] = (uint8_t)((uint32_t)msg->value >> 8u);
     return (int32_t)size;
 }
 
@@ -843,9 +853,9 @@ int32_t urb_bridge_command_decode(urb_bridge_command_t *msg, const uint8_t *buf,
     if (length > URB_BRIDGE_COMMAND_MAX_SIZE) {
         return URB_ERR_LONG;
     }
-    msg->opcode = (uint8_t)urb_get_bits(buf, 0u, 8u);
+    msg->opcode = (uint8_t)(uint32_t)buf[0u];
     if (!urb_bridge_opcode_is_valid(msg->opcode)) { return URB_ERR_RANGE; }
-    msg->value = (uint16_t)urb_get_bits(buf, 8u, 16u);
+    msg->value = (uint16_t)((uint32_t)buf[1u] | ((uint32_t)buf[2u] << 8u));
     return (int32_t)length;
 }
 

@@ -29,9 +29,12 @@ int32_t urb_motor_feedback_encode(const urb_motor_feedback_t *msg, uint8_t *buf,
     for (size_t k = 0u; k < 6u; k++) {
         buf[k] = 0u;
     }
-    urb_put_bits(buf, 0u, 16u, (uint32_t)msg->encoder);
-    urb_put_bits(buf, 16u, 16u, (uint32_t)msg->current);
-    urb_put_bits(buf, 32u, 16u, (uint32_t)msg->voltage);
+    buf[0u] = (uint8_t)(uint32_t)msg->encoder;
+    buf[1u] = (uint8_t)((uint32_t)msg->encoder >> 8u);
+    buf[2u] = (uint8_t)(uint32_t)msg->current;
+    buf[3u] = (uint8_t)((uint32_t)msg->current >> 8u);
+    buf[4u] = (uint8_t)(uint32_t)msg->voltage;
+    buf[5u] = (uint8_t)((uint32_t)msg->voltage >> 8u);
     return (int32_t)size;
 }
 
@@ -46,9 +49,9 @@ int32_t urb_motor_feedback_decode(urb_motor_feedback_t *msg, const uint8_t *buf,
     if (length > URB_MOTOR_FEEDBACK_MAX_SIZE) {
         return URB_ERR_LONG;
     }
-    msg->encoder = (uint16_t)urb_get_bits(buf, 0u, 16u);
-    msg->current = (int16_t)urb_sign_extend(urb_get_bits(buf, 16u, 16u), 16u);
-    msg->voltage = (int16_t)urb_sign_extend(urb_get_bits(buf, 32u, 16u), 16u);
+    msg->encoder = (uint16_t)((uint32_t)buf[0u] | ((uint32_t)buf[1u] << 8u));
+    msg->current = (int16_t)urb_sign_extend(((uint32_t)buf[2u] | ((uint32_t)buf[3u] << 8u)), 16u);
+    msg->voltage = (int16_t)urb_sign_extend(((uint32_t)buf[4u] | ((uint32_t)buf[5u] << 8u)), 16u);
     return (int32_t)length;
 }
 
@@ -70,7 +73,8 @@ int32_t urb_motor_command_encode(const urb_motor_command_t *msg, uint8_t *buf, s
     for (size_t k = 0u; k < 2u; k++) {
         buf[k] = 0u;
     }
-    urb_put_bits(buf, 0u, 16u, (uint32_t)msg->voltage);
+    buf[0u] = (uint8_t)(uint32_t)msg->voltage;
+    buf[1u] = (uint8_t)((uint32_t)msg->voltage >> 8u);
     return (int32_t)size;
 }
 
@@ -85,7 +89,7 @@ int32_t urb_motor_command_decode(urb_motor_command_t *msg, const uint8_t *buf, s
     if (length > URB_MOTOR_COMMAND_MAX_SIZE) {
         return URB_ERR_LONG;
     }
-    msg->voltage = (int16_t)urb_sign_extend(urb_get_bits(buf, 0u, 16u), 16u);
+    msg->voltage = (int16_t)urb_sign_extend(((uint32_t)buf[0u] | ((uint32_t)buf[1u] << 8u)), 16u);
     return (int32_t)length;
 }
 
@@ -109,12 +113,13 @@ int32_t urb_motor_status_encode(const urb_motor_status_t *msg, uint8_t *buf, siz
     for (size_t k = 0u; k < 4u; k++) {
         buf[k] = 0u;
     }
-    urb_put_bits(buf, 0u, 16u, (uint32_t)msg->case_temp);
+    buf[0u] = (uint8_t)(uint32_t)msg->case_temp;
+    buf[1u] = (uint8_t)((uint32_t)msg->case_temp >> 8u);
     urb_put_bits(buf, 16u, 2u, (uint32_t)msg->mode);
     urb_put_bits(buf, 18u, 1u, (msg->hall ? 1u : 0u));
     urb_put_bits(buf, 19u, 1u, (msg->overcurrent ? 1u : 0u));
     urb_put_bits(buf, 20u, 1u, (msg->overtemp ? 1u : 0u));
-    urb_put_bits(buf, 24u, 8u, (uint32_t)msg->missed_commands);
+    buf[3u] = (uint8_t)(uint32_t)msg->missed_commands;
     return (int32_t)size;
 }
 
@@ -129,14 +134,14 @@ int32_t urb_motor_status_decode(urb_motor_status_t *msg, const uint8_t *buf, siz
     if (length > URB_MOTOR_STATUS_MAX_SIZE) {
         return URB_ERR_LONG;
     }
-    msg->case_temp = (int16_t)urb_sign_extend(urb_get_bits(buf, 0u, 16u), 16u);
+    msg->case_temp = (int16_t)urb_sign_extend(((uint32_t)buf[0u] | ((uint32_t)buf[1u] << 8u)), 16u);
     msg->mode = (uint8_t)urb_get_bits(buf, 16u, 2u);
     if (!urb_motor_mode_is_valid(msg->mode)) { return URB_ERR_RANGE; }
     msg->hall = (urb_get_bits(buf, 18u, 1u) != 0u);
     msg->overcurrent = (urb_get_bits(buf, 19u, 1u) != 0u);
     msg->overtemp = (urb_get_bits(buf, 20u, 1u) != 0u);
     if (urb_get_bits(buf, 21u, 3u) != 0u) { return URB_ERR_RANGE; }
-    msg->missed_commands = (uint8_t)urb_get_bits(buf, 24u, 8u);
+    msg->missed_commands = (uint8_t)(uint32_t)buf[3u];
     return (int32_t)length;
 }
 
@@ -161,10 +166,16 @@ int32_t urb_motor_config_encode(const urb_motor_config_t *msg, uint8_t *buf, siz
         buf[k] = 0u;
     }
     urb_put_bits(buf, 0u, 2u, (uint32_t)msg->mode);
-    urb_put_bits(buf, 8u, 16u, (uint32_t)msg->kp);
-    urb_put_bits(buf, 24u, 16u, (uint32_t)msg->kd);
-    urb_put_bits(buf, 40u, 32u, (uint32_t)msg->target);
-    urb_put_bits(buf, 72u, 16u, (uint32_t)msg->voltage_limit);
+    buf[1u] = (uint8_t)(uint32_t)msg->kp;
+    buf[2u] = (uint8_t)((uint32_t)msg->kp >> 8u);
+    buf[3u] = (uint8_t)(uint32_t)msg->kd;
+    buf[4u] = (uint8_t)((uint32_t)msg->kd >> 8u);
+    buf[5u] = (uint8_t)(uint32_t)msg->target;
+    buf[6u] = (uint8_t)((uint32_t)msg->target >> 8u);
+    buf[7u] = (uint8_t)((uint32_t)msg->target >> 16u);
+    buf[8u] = (uint8_t)((uint32_t)msg->target >> 24u);
+    buf[9u] = (uint8_t)(uint32_t)msg->voltage_limit;
+    buf[10u] = (uint8_t)((uint32_t)msg->voltage_limit >> 8u);
     return (int32_t)size;
 }
 
@@ -182,10 +193,10 @@ int32_t urb_motor_config_decode(urb_motor_config_t *msg, const uint8_t *buf, siz
     msg->mode = (uint8_t)urb_get_bits(buf, 0u, 2u);
     if (!urb_motor_mode_is_valid(msg->mode)) { return URB_ERR_RANGE; }
     if (urb_get_bits(buf, 2u, 6u) != 0u) { return URB_ERR_RANGE; }
-    msg->kp = (uint16_t)urb_get_bits(buf, 8u, 16u);
-    msg->kd = (uint16_t)urb_get_bits(buf, 24u, 16u);
-    msg->target = (int32_t)urb_sign_extend(urb_get_bits(buf, 40u, 32u), 32u);
-    msg->voltage_limit = (uint16_t)urb_get_bits(buf, 72u, 16u);
+    msg->kp = (uint16_t)((uint32_t)buf[1u] | ((uint32_t)buf[2u] << 8u));
+    msg->kd = (uint16_t)((uint32_t)buf[3u] | ((uint32_t)buf[4u] << 8u));
+    msg->target = (int32_t)urb_sign_extend(((uint32_t)buf[5u] | ((uint32_t)buf[6u] << 8u) | ((uint32_t)buf[7u] << 16u) | ((uint32_t)buf[8u] << 24u)), 32u);
+    msg->voltage_limit = (uint16_t)((uint32_t)buf[9u] | ((uint32_t)buf[10u] << 8u));
     return (int32_t)length;
 }
 
@@ -209,11 +220,13 @@ int32_t urb_battery_pack_encode(const urb_battery_pack_t *msg, uint8_t *buf, siz
     for (size_t k = 0u; k < 6u; k++) {
         buf[k] = 0u;
     }
-    urb_put_bits(buf, 0u, 16u, (uint32_t)msg->voltage);
-    urb_put_bits(buf, 16u, 16u, (uint32_t)msg->current);
+    buf[0u] = (uint8_t)(uint32_t)msg->voltage;
+    buf[1u] = (uint8_t)((uint32_t)msg->voltage >> 8u);
+    buf[2u] = (uint8_t)(uint32_t)msg->current;
+    buf[3u] = (uint8_t)((uint32_t)msg->current >> 8u);
     urb_put_bits(buf, 32u, 7u, (uint32_t)msg->charge);
     urb_put_bits(buf, 39u, 1u, (msg->present ? 1u : 0u));
-    urb_put_bits(buf, 40u, 8u, (uint32_t)msg->temp);
+    buf[5u] = (uint8_t)(uint32_t)msg->temp;
     return (int32_t)size;
 }
 
@@ -228,12 +241,12 @@ int32_t urb_battery_pack_decode(urb_battery_pack_t *msg, const uint8_t *buf, siz
     if (length > URB_BATTERY_PACK_MAX_SIZE) {
         return URB_ERR_LONG;
     }
-    msg->voltage = (uint16_t)urb_get_bits(buf, 0u, 16u);
-    msg->current = (int16_t)urb_sign_extend(urb_get_bits(buf, 16u, 16u), 16u);
+    msg->voltage = (uint16_t)((uint32_t)buf[0u] | ((uint32_t)buf[1u] << 8u));
+    msg->current = (int16_t)urb_sign_extend(((uint32_t)buf[2u] | ((uint32_t)buf[3u] << 8u)), 16u);
     msg->charge = (uint8_t)urb_get_bits(buf, 32u, 7u);
     if (msg->charge > 100u) { return URB_ERR_RANGE; }
     msg->present = (urb_get_bits(buf, 39u, 1u) != 0u);
-    msg->temp = (int8_t)urb_sign_extend(urb_get_bits(buf, 40u, 8u), 8u);
+    msg->temp = (int8_t)urb_sign_extend((uint32_t)buf[5u], 8u);
     return (int32_t)length;
 }
 
@@ -266,11 +279,13 @@ int32_t urb_battery_status_encode(const urb_battery_status_t *msg, uint8_t *buf,
         loop assigns i0, buf[0 .. 18];
         loop variant 3 - i0; */
     for (size_t i0 = 0u; i0 < 3u; i0++) {
-        urb_put_bits(buf, 48u * i0, 16u, (uint32_t)msg->packs[i0].voltage);
-        urb_put_bits(buf, 48u * i0 + 16u, 16u, (uint32_t)msg->packs[i0].current);
+        buf[6u * i0] = (uint8_t)(uint32_t)msg->packs[i0].voltage;
+        buf[6u * i0 + 1u] = (uint8_t)((uint32_t)msg->packs[i0].voltage >> 8u);
+        buf[6u * i0 + 2u] = (uint8_t)(uint32_t)msg->packs[i0].current;
+        buf[6u * i0 + 3u] = (uint8_t)((uint32_t)msg->packs[i0].current >> 8u);
         urb_put_bits(buf, 48u * i0 + 32u, 7u, (uint32_t)msg->packs[i0].charge);
         urb_put_bits(buf, 48u * i0 + 39u, 1u, (msg->packs[i0].present ? 1u : 0u));
-        urb_put_bits(buf, 48u * i0 + 40u, 8u, (uint32_t)msg->packs[i0].temp);
+        buf[6u * i0 + 5u] = (uint8_t)(uint32_t)msg->packs[i0].temp;
     }
     urb_put_bits(buf, 144u, 1u, (msg->low ? 1u : 0u));
     urb_put_bits(buf, 145u, 1u, (msg->charging ? 1u : 0u));
@@ -292,12 +307,12 @@ int32_t urb_battery_status_decode(urb_battery_status_t *msg, const uint8_t *buf,
         loop assigns i0, *msg;
         loop variant 3 - i0; */
     for (size_t i0 = 0u; i0 < 3u; i0++) {
-        msg->packs[i0].voltage = (uint16_t)urb_get_bits(buf, 48u * i0, 16u);
-        msg->packs[i0].current = (int16_t)urb_sign_extend(urb_get_bits(buf, 48u * i0 + 16u, 16u), 16u);
+        msg->packs[i0].voltage = (uint16_t)((uint32_t)buf[6u * i0] | ((uint32_t)buf[6u * i0 + 1u] << 8u));
+        msg->packs[i0].current = (int16_t)urb_sign_extend(((uint32_t)buf[6u * i0 + 2u] | ((uint32_t)buf[6u * i0 + 3u] << 8u)), 16u);
         msg->packs[i0].charge = (uint8_t)urb_get_bits(buf, 48u * i0 + 32u, 7u);
         if (msg->packs[i0].charge > 100u) { return URB_ERR_RANGE; }
         msg->packs[i0].present = (urb_get_bits(buf, 48u * i0 + 39u, 1u) != 0u);
-        msg->packs[i0].temp = (int8_t)urb_sign_extend(urb_get_bits(buf, 48u * i0 + 40u, 8u), 8u);
+        msg->packs[i0].temp = (int8_t)urb_sign_extend((uint32_t)buf[6u * i0 + 5u], 8u);
     }
     msg->low = (urb_get_bits(buf, 144u, 1u) != 0u);
     msg->charging = (urb_get_bits(buf, 145u, 1u) != 0u);
@@ -327,16 +342,18 @@ int32_t urb_imu_sample_encode(const urb_imu_sample_t *msg, uint8_t *buf, size_t 
         loop assigns i0, buf[0 .. 13];
         loop variant 3 - i0; */
     for (size_t i0 = 0u; i0 < 3u; i0++) {
-        urb_put_bits(buf, 16u * i0, 16u, (uint32_t)msg->accel[i0]);
+        buf[2u * i0] = (uint8_t)(uint32_t)msg->accel[i0];
+        buf[2u * i0 + 1u] = (uint8_t)((uint32_t)msg->accel[i0] >> 8u);
     }
     /*@ loop invariant 0 <= i0 <= 3;
         loop assigns i0, buf[0 .. 13];
         loop variant 3 - i0; */
     for (size_t i0 = 0u; i0 < 3u; i0++) {
-        urb_put_bits(buf, 16u * i0 + 48u, 16u, (uint32_t)msg->gyro[i0]);
+        buf[2u * i0 + 6u] = (uint8_t)(uint32_t)msg->gyro[i0];
+        buf[2u * i0 + 7u] = (uint8_t)((uint32_t)msg->gyro[i0] >> 8u);
     }
-    urb_put_bits(buf, 96u, 8u, (uint32_t)msg->temp);
-    urb_put_bits(buf, 104u, 8u, (uint32_t)msg->sample);
+    buf[12u] = (uint8_t)(uint32_t)msg->temp;
+    buf[13u] = (uint8_t)(uint32_t)msg->sample;
     return (int32_t)size;
 }
 
@@ -355,16 +372,16 @@ int32_t urb_imu_sample_decode(urb_imu_sample_t *msg, const uint8_t *buf, size_t 
         loop assigns i0, *msg;
         loop variant 3 - i0; */
     for (size_t i0 = 0u; i0 < 3u; i0++) {
-        msg->accel[i0] = (int16_t)urb_sign_extend(urb_get_bits(buf, 16u * i0, 16u), 16u);
+        msg->accel[i0] = (int16_t)urb_sign_extend(((uint32_t)buf[2u * i0] | ((uint32_t)buf[2u * i0 + 1u] << 8u)), 16u);
     }
     /*@ loop invariant 0 <= i0 <= 3;
         loop assigns i0, *msg;
         loop variant 3 - i0; */
     for (size_t i0 = 0u; i0 < 3u; i0++) {
-        msg->gyro[i0] = (int16_t)urb_sign_extend(urb_get_bits(buf, 16u * i0 + 48u, 16u), 16u);
+        msg->gyro[i0] = (int16_t)urb_sign_extend(((uint32_t)buf[2u * i0 + 6u] | ((uint32_t)buf[2u * i0 + 7u] << 8u)), 16u);
     }
-    msg->temp = (int8_t)urb_sign_extend(urb_get_bits(buf, 96u, 8u), 8u);
-    msg->sample = (uint8_t)urb_get_bits(buf, 104u, 8u);
+    msg->temp = (int8_t)urb_sign_extend((uint32_t)buf[12u], 8u);
+    msg->sample = (uint8_t)(uint32_t)buf[13u];
     return (int32_t)length;
 }
 
@@ -386,8 +403,9 @@ int32_t urb_ir_range_encode(const urb_ir_range_t *msg, uint8_t *buf, size_t capa
     for (size_t k = 0u; k < 4u; k++) {
         buf[k] = 0u;
     }
-    urb_put_bits(buf, 0u, 16u, (uint32_t)msg->distance);
-    urb_put_bits(buf, 16u, 8u, (uint32_t)msg->strength);
+    buf[0u] = (uint8_t)(uint32_t)msg->distance;
+    buf[1u] = (uint8_t)((uint32_t)msg->distance >> 8u);
+    buf[2u] = (uint8_t)(uint32_t)msg->strength;
     urb_put_bits(buf, 24u, 1u, (msg->valid ? 1u : 0u));
     return (int32_t)size;
 }
@@ -403,8 +421,8 @@ int32_t urb_ir_range_decode(urb_ir_range_t *msg, const uint8_t *buf, size_t leng
     if (length > URB_IR_RANGE_MAX_SIZE) {
         return URB_ERR_LONG;
     }
-    msg->distance = (uint16_t)urb_get_bits(buf, 0u, 16u);
-    msg->strength = (uint8_t)urb_get_bits(buf, 16u, 8u);
+    msg->distance = (uint16_t)((uint32_t)buf[0u] | ((uint32_t)buf[1u] << 8u));
+    msg->strength = (uint8_t)(uint32_t)buf[2u];
     msg->valid = (urb_get_bits(buf, 24u, 1u) != 0u);
     if (urb_get_bits(buf, 25u, 7u) != 0u) { return URB_ERR_RANGE; }
     return (int32_t)length;
