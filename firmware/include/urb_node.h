@@ -96,8 +96,9 @@ typedef enum {
 
 typedef struct urb_node urb_node_t;
 
-/** The application (paper Fig. 4, right column). Any member may be NULL. `user` is the pointer given
- *  to urb_node_init. All hooks run at thread level, from urb_node_init or urb_node_poll. */
+/** The application (paper Fig. 4, right column). Any member may be NULL (the struct itself may not).
+ *  `user` is the pointer given to urb_node_init. Hooks run at thread level, from urb_node_init or
+ *  urb_node_poll. */
 typedef struct urb_node_hooks {
     void (*bootup)(urb_node_t *node, void *user); /**< power-up: set class, index, fingerprint, mailboxes */
     void (*init)(urb_node_t *node, void *user);   /**< after the node is on the bus: initialise the application */
@@ -121,13 +122,13 @@ typedef struct urb_node_config {
     uint8_t update_divider;  /**< app_update every N heartbeats (1..255); default 1 */
     uint8_t sync_enabled;    /**< 1: lock the heartbeat to SYNC; 0: free-run at heartbeat_us */
     uint16_t lead_us;        /**< phase lead dt_adj; 0 = the measured acquisition time t_acq (default) */
-    uint8_t kd_q8;           /**< K_d of eq. 1 in 1/256 (1..255); default 32 = 1/8 */
-    uint8_t kn_q8;           /**< K_n of eq. 2 in 1/256 (1..255); default 128 = 1/2 */
+    uint8_t kd_q8;           /**< K_d of eq. 1 in 1/256 (0..255; 0: the estimate stops after gear shifting); default 32 = 1/8 */
+    uint8_t kn_q8;           /**< K_n of eq. 2 in 1/256 (0..255; 0: no phase feedback after acquisition); default 64 = 1/4 */
     uint16_t lock_ns;        /**< |phase error| counting toward lock; default 1000 ns */
-    uint8_t lock_count;      /**< consecutive in-lock SYNCs before `synced`; default 4 */
-    uint16_t outlier_ns;     /**< |phase error| or period deviation rejected while tracking; default 20000 ns */
+    uint8_t lock_count;      /**< consecutive in-lock SYNCs before `synced` (0: the first one); default 4 */
+    uint16_t outlier_ns;     /**< |phase error| or period deviation rejected while tracking; default 2000 ns */
     uint8_t max_outliers;    /**< consecutive outliers tolerated before re-acquiring; default 4 */
-    uint8_t max_gap;         /**< largest SYNC counter gap (missed SYNCs) still used to measure the period; default 8 */
+    uint8_t max_gap;         /**< largest SYNC counter gap still used to measure the period (0: none); default 8 */
     uint8_t lost_sync_beats; /**< heartbeats without SYNC before LOST_SYNC; default 10 */
 } urb_node_config_t;
 
@@ -160,6 +161,7 @@ typedef struct {
     uint8_t mailbox;   /* mailbox of the current transaction */
     uint8_t count;     /* bytes of the current transaction after the select byte */
     uint8_t check_ok;  /* all check bytes so far matched */
+    uint8_t crc16;     /* the transaction's check is CRC-16 (covered length 1 + size > 14) */
     uint8_t selected;  /* outbox selected for reads (kept until the next select; 0 after reset) */
     uint8_t sync_ok;   /* SYNC: magic seen */
     uint32_t sync_t;   /* SYNC: tick captured at the general-call match */
@@ -174,8 +176,10 @@ typedef struct {
     uint32_t prev_sync;   /* t_d of the previous SYNC */
     int32_t phase_q8;     /* latest phase error t_n - t_d + dt_adj, ticks * 256 */
     int32_t expect_q8;    /* phase error the last correction leaves: the next one should be near it */
-    uint32_t lock_ticks;  /* lock_ns in ticks */
-    uint32_t outlier_ticks; /* outlier_ns in ticks */
+    uint32_t fixed_lead;  /* dt_adj fixed by configuration, ticks; 0 = use the measured t_acq */
+    uint32_t lead_prev;   /* dt_adj used at the previous SYNC (a lead change is not an outlier) */
+    uint16_t lock_ticks;  /* lock_ns in ticks */
+    uint16_t outlier_ticks; /* outlier_ns in ticks */
     uint16_t syncs;       /* SYNCs used (wraps) */
     uint16_t rejected;    /* SYNCs rejected as outliers or duplicates (wraps) */
     uint8_t next_frac;    /* fraction (1/256 tick) of the pending heartbeat's ideal time */
@@ -188,8 +192,6 @@ typedef struct {
     uint8_t prev_counter; /* counter of the previous SYNC */
     uint8_t have_prev;    /* prev_sync/prev_counter are valid */
     uint8_t req_ack;      /* last configuration request applied (interrupt writes) */
-    uint32_t fixed_lead;  /* dt_adj fixed by configuration, ticks; 0 = use the measured t_acq */
-    uint32_t lead_prev;   /* dt_adj used at the previous SYNC (a lead change is not an outlier) */
 } urb_node_pll_t;
 
 /** Sync states reported by urb_node_sync_status. */
@@ -200,51 +202,42 @@ typedef enum {
     URB_NODE_SYNC_LOCKED = 3   /**< locked: Identification.synced is set */
 } urb_node_sync_t;
 
-/** The node. Caller-owned, zero-initialised by urb_node_init; do not touch the members. */
+/** The node. Caller-owned, zero-initialised by urb_node_init; do not touch the members.
+ *  Member order is for Cortex-M0+ code size: byte fields first (ldrb reaches offsets < 32), then
+ *  halfwords and words (ldrh < 64, ldr < 128), the sub-structures (reached through a pointer) last. */
 struct urb_node {
-    const urb_node_hal_t *hal;
-    const urb_node_hooks_t *hooks;
-    void *user;
-    uint8_t *storage;
-    uint16_t storage_len;
-    uint16_t storage_used;
-    uint32_t fingerprint;
-    uint32_t update_beat;       /* timer interrupt: heartbeat that made the pending update due */
-    volatile uint32_t acq_ticks; /* main loop: measured t_acq (max), read by the SYNC interrupt */
-    uint32_t req_lead_ticks;    /* main loop -> timer interrupt: requested fixed lead (0 = measured) */
-    uint32_t req_nominal_q8;    /* main loop -> timer interrupt: requested nominal period */
-    urb_node_config_t cfg;
-    urb_node_pll_t pll;
-    urb_node_i2c_t i2c;
-    urb_node_outbox_t outbox[URB_NODE_MAILBOXES];
-    urb_node_inbox_t inbox[URB_NODE_MAILBOXES];
-    volatile uint8_t isr_faults[URB_NODE_FAULT_CODES]; /* per code, written by the interrupts only */
-    uint8_t seen_faults[URB_NODE_FAULT_CODES];         /* per code, main loop copy */
-    uint8_t class_id;
-    uint8_t index;
-    uint8_t started;
+    uint8_t started;            /* on the bus: interrupt events are handled, setup is refused */
     uint8_t div;                /* timer interrupt: heartbeats since the last due update */
     volatile uint8_t update_due; /* timer interrupt: updates due (wraps) */
     uint8_t update_done;        /* main loop: updates run or skipped (wraps) */
-    uint8_t in_update;          /* main loop: inside app_update */
-    uint8_t acq_marked;         /* main loop: this update's acquisition end is marked */
+    uint8_t flags;              /* main loop: URB_F_* (urb_node_internal.h) */
     volatile uint8_t req_seq;   /* main loop -> timer interrupt: configuration request number */
     uint8_t req_enable;         /* main loop -> timer interrupt: requested sync enable */
     volatile uint8_t id_reads;  /* interrupt: outbox-0 reads begun (wraps) */
     volatile uint8_t id_done;   /* interrupt: id_reads value of the last complete outbox-0 read */
     uint8_t id_fault_after;     /* main loop: fault flag may clear once a read begun after this completes */
-    uint8_t fault_flag;         /* main loop: Identification.fault */
-    uint8_t id_dirty;           /* main loop: outbox 0 must be refreshed */
-    uint8_t id_synced;          /* main loop: published Identification.synced */
-    uint8_t id_fault;           /* main loop: published Identification.fault */
-    uint8_t acq_valid;          /* main loop: this update started on time (its mark is measured) */
     int8_t setup_err;           /* first error of a setup call in bootup */
-    uint8_t cmd_pending;        /* main loop: a SYNC_CONFIG waits for the previous request to apply */
-    uint8_t cmd_arg;            /* ...its arg */
-    uint16_t cmd_period_us;     /* ...its period_us */
-    uint16_t cmd_lead_us;       /* ...its lead_us */
-    uint32_t cur_beat;          /* main loop: heartbeat of the update in progress */
+    uint8_t class_id;
+    uint8_t index;
+    volatile uint8_t isr_faults[URB_NODE_FAULT_CODES]; /* per code, written by the interrupts only */
+    uint8_t seen_faults[URB_NODE_FAULT_CODES];         /* per code, main loop copy */
+    uint16_t req_period_us;     /* main loop -> timer interrupt: requested nominal period (0: keep) */
+    uint16_t req_lead_us;       /* main loop -> timer interrupt: requested fixed lead (0: measured) */
     uint16_t id_acq_us;         /* main loop: published Identification.acq_time */
+    uint16_t storage_len;
+    uint16_t storage_used;
+    const urb_node_hal_t *hal;
+    const urb_node_hooks_t *hooks;
+    void *user;
+    const urb_node_config_t *cfg; /* the caller's configuration (referenced, not copied) */
+    uint8_t *storage;
+    uint32_t fingerprint;
+    volatile uint32_t update_beat; /* timer interrupt: heartbeat that made the latest update due */
+    volatile uint32_t acq_ticks; /* main loop: measured t_acq (max), read by the SYNC interrupt */
+    urb_node_pll_t pll;
+    urb_node_i2c_t i2c;
+    urb_node_outbox_t outbox[URB_NODE_MAILBOXES];
+    urb_node_inbox_t inbox[URB_NODE_MAILBOXES];
     uint8_t mb0[2u * URB_NODE_OUTBOX0_SIZE + 2u * URB_NODE_INBOX0_SIZE]; /* mailbox 0 buffers */
 };
 
@@ -254,7 +247,8 @@ struct urb_node {
 void urb_node_config_default(urb_node_config_t *cfg);
 
 /** Initialises *node, calls hooks->bootup, puts the node on the bus (address, first heartbeat),
- *  then calls hooks->init. `storage` (may be NULL when len is 0) holds mailboxes 1..7. Returns
+ *  then calls hooks->init. `storage` (may be NULL when len is 0) holds mailboxes 1..7; `cfg`, `hal`,
+ *  `hooks` and `storage` are referenced, not copied: they must outlive the node. Returns
  *  URB_NODE_OK, _ERR_ARG, _ERR_CONFIG or the first error bootup's setup calls returned. */
 int urb_node_init(urb_node_t *node, const urb_node_hal_t *hal, const urb_node_hooks_t *hooks, void *user,
                   const urb_node_config_t *cfg, uint8_t *storage, uint16_t storage_len);

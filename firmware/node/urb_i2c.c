@@ -29,37 +29,39 @@
 #define URB_SELECT_RESERVED 0x78u /* MailboxSelect._ (must be zero) */
 #define URB_SELECT_MAILBOX 0x07u  /* MailboxSelect.mailbox */
 
-/* The tier follows the covered length 1 + size (select byte + data). */
-static bool crc_is_8(uint8_t size)
+/* Starts the check of a transaction on a mailbox of `size` bytes: the tier follows the covered
+ * length 1 + size (select byte + data), then the select byte itself is covered. */
+static void check_start(urb_node_i2c_t *i2c, uint8_t size, uint8_t select)
 {
-    return (1u + (unsigned)size) <= URB_CRC8_LINK_CHECK_MAX_COVERED;
-}
-
-static uint8_t check_len(uint8_t size)
-{
-    return crc_is_8(size) ? 1u : 2u;
-}
-
-static uint16_t crc_init(uint8_t size)
-{
-    return crc_is_8(size) ? (uint16_t)URB_CRC8_LINK_CHECK_INIT : (uint16_t)URB_CRC16_LINK_CHECK_INIT;
-}
-
-static uint16_t crc_update(uint8_t size, uint16_t crc, uint8_t byte)
-{
-    if (crc_is_8(size)) {
-        return urb_crc8_link_check_byte((uint8_t)crc, byte);
+    i2c->crc16 = ((1u + (unsigned)size) > URB_CRC8_LINK_CHECK_MAX_COVERED) ? 1u : 0u;
+    i2c->crc = (i2c->crc16 != 0u) ? (uint16_t)URB_CRC16_LINK_CHECK_INIT : (uint16_t)URB_CRC8_LINK_CHECK_INIT;
+#if defined(URB_MUTANT_READ_CHECK_NO_SELECT)
+    if ((select & URB_SELECT_READ) != 0u) {
+        return;
     }
-    return urb_crc16_link_check_byte(crc, byte);
+#endif
+    i2c->crc = (i2c->crc16 != 0u) ? urb_crc16_link_check_byte(i2c->crc, select)
+                                  : urb_crc8_link_check_byte((uint8_t)i2c->crc, select);
+}
+
+static void check_update(urb_node_i2c_t *i2c, uint8_t byte)
+{
+    i2c->crc = (i2c->crc16 != 0u) ? urb_crc16_link_check_byte(i2c->crc, byte)
+                                  : urb_crc8_link_check_byte((uint8_t)i2c->crc, byte);
+}
+
+static uint8_t check_len(const urb_node_i2c_t *i2c)
+{
+    return (uint8_t)(1u + i2c->crc16);
 }
 
 /* Byte k (0: low) of the finished check, as sent on the wire (little-endian). */
-static uint8_t check_byte(uint8_t size, uint16_t crc, uint8_t k)
+static uint8_t check_byte(const urb_node_i2c_t *i2c, uint8_t k)
 {
-    if (crc_is_8(size)) {
-        return urb_crc8_link_check_final((uint8_t)crc);
+    if (i2c->crc16 == 0u) {
+        return urb_crc8_link_check_final((uint8_t)i2c->crc);
     }
-    uint16_t const fin = urb_crc16_link_check_final(crc);
+    uint16_t const fin = urb_crc16_link_check_final(i2c->crc);
     return (uint8_t)((k == 0u) ? (fin & 0xFFu) : (fin >> 8));
 }
 
@@ -86,7 +88,7 @@ static void end_transaction(urb_node_t *node, bool clean)
     case URB_I2C_ST_READ: {
         uint8_t const size = node->outbox[m].size;
         urb_isr_read_end(node, m); /* MailboxOutbox.tla IsrReadEnd */
-        if ((m == 0u) && (i2c->count >= (uint8_t)(size + check_len(size)))) {
+        if ((m == 0u) && (i2c->count >= (uint8_t)(size + check_len(i2c)))) {
             node->id_done = node->id_reads; /* a complete identification read (clears the fault flag) */
         }
         break;
@@ -126,7 +128,7 @@ static uint16_t rx_select(urb_node_t *node, uint8_t byte)
     i2c->mailbox = m;
     i2c->count = 0u;
     i2c->check_ok = 1u;
-    i2c->crc = crc_update(size, crc_init(size), byte);
+    check_start(i2c, size, byte);
     i2c->state = URB_I2C_ST_DATA;
     return URB_I2C_ACK;
 }
@@ -143,7 +145,7 @@ static uint16_t rx_data(urb_node_t *node, uint8_t byte)
         }
     }
     urb_isr_write_byte(node, m, i2c->count, byte); /* MailboxInbox.tla IsrWriteByte */
-    i2c->crc = crc_update(size, i2c->crc, byte);
+    check_update(i2c, byte);
     i2c->count++;
     if (i2c->count == size) {
         i2c->state = URB_I2C_ST_CHECK;
@@ -157,11 +159,11 @@ static uint16_t rx_check(urb_node_t *node, uint8_t byte)
     uint8_t const m = i2c->mailbox;
     uint8_t const size = node->inbox[m].size;
     uint8_t const k = (uint8_t)(i2c->count - size);
-    if (byte != check_byte(size, i2c->crc, k)) {
+    if (byte != check_byte(i2c, k)) {
         i2c->check_ok = 0u;
     }
     i2c->count++;
-    if (k + 1u < check_len(size)) {
+    if (k + 1u < check_len(i2c)) {
         return URB_I2C_ACK; /* the verdict is given on the last check byte */
     }
 #if !defined(URB_MUTANT_COMMIT_BAD_CHECK)
@@ -220,14 +222,13 @@ static uint16_t tx_byte(urb_node_t *node)
     uint8_t const count = i2c->count;
     if (count < size) {
         uint8_t const b = urb_isr_read_byte(node, m, count); /* MailboxOutbox.tla IsrReadByte */
-        i2c->crc = crc_update(size, i2c->crc, b);
+        check_update(i2c, b);
         i2c->count++;
         return b;
     }
-    uint8_t const cl = check_len(size);
-    if (count < (uint8_t)(size + cl)) {
+    if (count < (uint8_t)(size + check_len(i2c))) {
         i2c->count++;
-        return check_byte(size, i2c->crc, (uint8_t)(count - size));
+        return check_byte(i2c, (uint8_t)(count - size));
     }
     return 0xFFu; /* the master clocks more than size + check bytes */
 }
@@ -243,11 +244,7 @@ static uint16_t addr_read(urb_node_t *node)
     }
     i2c->mailbox = m;
     i2c->count = 0u;
-#if defined(URB_MUTANT_READ_CHECK_NO_SELECT)
-    i2c->crc = crc_init(size);
-#else
-    i2c->crc = crc_update(size, crc_init(size), (uint8_t)(m | URB_SELECT_READ)); /* implicit select */
-#endif
+    check_start(i2c, size, (uint8_t)(m | URB_SELECT_READ)); /* the check covers the implicit select */
     i2c->state = URB_I2C_ST_READ;
     return URB_I2C_ACK;
 }

@@ -24,18 +24,21 @@
 /* Mailbox 0 buffers inside urb_node_t.mb0: outbox 0 first, then inbox 0. */
 #define URB_MB0_INBOX_OFFSET (2u * URB_NODE_OUTBOX0_SIZE)
 
+/* Buffer b of a mailbox at `offset` with `size` bytes: mailbox 0 in mb0, the others in storage. */
+static uint8_t *box_buf(urb_node_t *node, uint8_t n, uint16_t offset, uint8_t size, uint8_t b)
+{
+    uint8_t *base = (n == 0u) ? node->mb0 : node->storage;
+    return base + offset + ((b != 0u) ? size : 0u);
+}
+
 uint8_t *urb_outbox_buf(urb_node_t *node, uint8_t n, uint8_t b)
 {
-    urb_node_outbox_t const *ob = &node->outbox[n];
-    uint8_t *base = (n == 0u) ? node->mb0 : node->storage;
-    return base + ob->offset + ((b != 0u) ? ob->size : 0u);
+    return box_buf(node, n, node->outbox[n].offset, node->outbox[n].size, b);
 }
 
 uint8_t *urb_inbox_buf(urb_node_t *node, uint8_t n, uint8_t b)
 {
-    urb_node_inbox_t const *ib = &node->inbox[n];
-    uint8_t *base = (n == 0u) ? node->mb0 : node->storage;
-    return base + ib->offset + ((b != 0u) ? ib->size : 0u);
+    return box_buf(node, n, node->inbox[n].offset, node->inbox[n].size, b);
 }
 
 /* ===== Outbox: application writes, interrupt reads (MailboxOutbox.tla) ===================== */
@@ -215,83 +218,59 @@ int urb_release_inbox_any(urb_node_t *node, uint8_t n)
 
 void urb_mailbox_reset(urb_node_t *node)
 {
+    /* urb_node_init has zeroed the node: sizes, offsets, fronts, fresh flags and buffers are 0 */
     /* bound: URB_NODE_MAILBOXES = 8 */
     for (uint8_t n = 0u; n < URB_NODE_MAILBOXES; n++) {
-        urb_node_outbox_t *ob = &node->outbox[n];
-        ob->offset = 0u;
-        ob->size = 0u;
-        ob->front = 0u;
-        ob->isr_idx = URB_NONE;
-        ob->held = URB_NONE;
-        urb_node_inbox_t *ib = &node->inbox[n];
-        ib->offset = 0u;
-        ib->size = 0u;
-        ib->front = 0u;
-        ib->isr_idx = URB_NONE;
-        ib->app_idx = URB_NONE;
-        ib->fresh[0] = 0u;
-        ib->fresh[1] = 0u;
+        node->outbox[n].isr_idx = URB_NONE;
+        node->outbox[n].held = URB_NONE;
+        node->inbox[n].isr_idx = URB_NONE;
+        node->inbox[n].app_idx = URB_NONE;
     }
     node->outbox[0].size = URB_NODE_OUTBOX0_SIZE;
     node->inbox[0].offset = URB_MB0_INBOX_OFFSET;
     node->inbox[0].size = URB_NODE_INBOX0_SIZE;
-    /* bound: sizeof mb0 = 62 */
-    for (uint8_t k = 0u; k < (uint8_t)sizeof node->mb0; k++) {
-        node->mb0[k] = 0u;
-    }
 }
 
-/* Common checks of the two setup functions; carves 2 * size zeroed bytes into *offset. */
-static int setup_carve(urb_node_t *node, uint8_t n, uint8_t size, uint8_t current, uint16_t *offset)
+/* Sets up inbox or outbox n with `size` bytes carved (zeroed) from the storage block. */
+static int setup_box(urb_node_t *node, uint8_t n, uint8_t size, bool inbox)
 {
+    int rc = URB_NODE_OK;
     if ((node == NULL) || (n == 0u) || (n >= URB_NODE_MAILBOXES) || (size == 0u) || (size > URB_NODE_MAX_SIZE)) {
+        urb_setup_error(node, URB_NODE_ERR_ARG);
         return URB_NODE_ERR_ARG;
     }
+    uint16_t *const offset_of = inbox ? &node->inbox[n].offset : &node->outbox[n].offset;
+    uint8_t *const size_of = inbox ? &node->inbox[n].size : &node->outbox[n].size;
     if (node->started != 0u) {
-        return URB_NODE_ERR_STATE; /* sizes are fixed before the node goes on the bus */
+        rc = URB_NODE_ERR_STATE; /* sizes are fixed before the node goes on the bus */
+    } else if (*size_of != 0u) {
+        rc = URB_NODE_ERR_SETUP;
+    } else if ((node->storage == NULL) ||
+               ((uint16_t)(2u * size) > (uint16_t)(node->storage_len - node->storage_used))) {
+        rc = URB_NODE_ERR_NOMEM;
+    } else {
+        uint16_t const offset = node->storage_used;
+        /* bound: 2 * URB_NODE_MAX_SIZE = 64 */
+        for (uint8_t k = 0u; k < (uint8_t)(2u * size); k++) {
+            node->storage[offset + k] = 0u;
+        }
+        node->storage_used = (uint16_t)(offset + 2u * size);
+        *offset_of = offset;
+        *size_of = size;
+        return URB_NODE_OK;
     }
-    if (current != 0u) {
-        return URB_NODE_ERR_SETUP;
-    }
-    uint16_t const need = (uint16_t)(2u * size);
-    if ((node->storage == NULL) || (need > (uint16_t)(node->storage_len - node->storage_used))) {
-        return URB_NODE_ERR_NOMEM;
-    }
-    *offset = node->storage_used;
-    /* bound: 2 * URB_NODE_MAX_SIZE = 64 */
-    for (uint16_t k = 0u; k < need; k++) {
-        node->storage[node->storage_used + k] = 0u;
-    }
-    node->storage_used = (uint16_t)(node->storage_used + need);
-    return URB_NODE_OK;
+    urb_setup_error(node, rc);
+    return rc;
 }
 
 int urb_node_setup_inbox(urb_node_t *node, uint8_t n, uint8_t size)
 {
-    uint16_t offset = 0u;
-    int const rc = setup_carve(node, n, size, (node != NULL && n < URB_NODE_MAILBOXES) ? node->inbox[n].size : 0u,
-                               &offset);
-    if (rc == URB_NODE_OK) {
-        node->inbox[n].offset = offset;
-        node->inbox[n].size = size;
-    } else {
-        urb_setup_error(node, rc);
-    }
-    return rc;
+    return setup_box(node, n, size, true);
 }
 
 int urb_node_setup_outbox(urb_node_t *node, uint8_t n, uint8_t size)
 {
-    uint16_t offset = 0u;
-    int const rc = setup_carve(node, n, size, (node != NULL && n < URB_NODE_MAILBOXES) ? node->outbox[n].size : 0u,
-                               &offset);
-    if (rc == URB_NODE_OK) {
-        node->outbox[n].offset = offset;
-        node->outbox[n].size = size;
-    } else {
-        urb_setup_error(node, rc);
-    }
-    return rc;
+    return setup_box(node, n, size, false);
 }
 
 uint8_t urb_node_inbox_size(const urb_node_t *node, uint8_t n)

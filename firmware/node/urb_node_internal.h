@@ -45,6 +45,15 @@ void urb_node_test_step(urb_node_t *node, uint8_t step);
 #define URB_STEP(node, step) ((void)0)
 #endif
 
+/* Main-loop flags (urb_node_t.flags; written only by the main loop, so plain bit updates). */
+#define URB_F_FAULT 0x01u      /* Identification.fault: a fault reached the application */
+#define URB_F_ID_DIRTY 0x02u   /* outbox 0 must be refreshed */
+#define URB_F_ID_SYNCED 0x04u  /* published Identification.synced */
+#define URB_F_ID_FAULT 0x08u   /* published Identification.fault */
+#define URB_F_IN_UPDATE 0x10u  /* inside app_update */
+#define URB_F_ACQ_MARKED 0x20u /* this update's acquisition end is marked */
+#define URB_F_ACQ_VALID 0x40u  /* this update started on time: its mark is measured */
+
 /* I2C downlink states (urb_node_i2c_t.state). */
 enum {
     URB_I2C_ST_IDLE = 0,    /* no transaction: bytes are NACKed, reads return 0xFF */

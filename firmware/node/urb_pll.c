@@ -37,6 +37,7 @@
 #define URB_PLL_ONE 256u       /* 1.0 in Q8 */
 #define URB_PLL_MAX_GEAR 8u    /* 256 >> 8 = 1: below any kd_q8 */
 #define URB_PLL_MAX_TICKS 0x7FFFFFu /* periods below 2^23 ticks keep every Q8 value in int32 */
+#define URB_PLL_MIN_TICKS 64u       /* shortest period accepted (config, SYNC_CONFIG) */
 
 int32_t urb_tick_diff(uint32_t a, uint32_t b)
 {
@@ -79,7 +80,7 @@ static void arm(urb_node_t *node)
     urb_node_hal_t const *hal = node->hal;
     urb_node_pll_t *pll = &node->pll;
     uint32_t const now = hal->now(hal->ctx);
-    uint32_t const margin = node->cfg.ticks_per_us;
+    uint32_t const margin = node->cfg->ticks_per_us;
     if (urb_tick_diff(pll->next_beat, now) < (int32_t)margin) {
         pll->next_beat = now + margin;
         pll->next_frac = 0u;
@@ -97,7 +98,7 @@ static void schedule(urb_node_t *node, uint32_t ref, uint8_t ref_frac, int32_t o
     if (skip) {
         urb_node_hal_t const *hal = node->hal;
         int32_t const ahead = urb_tick_diff(ref + (uint32_t)floor_q8(total), hal->now(hal->ctx));
-        if (ahead < (int32_t)node->cfg.ticks_per_us) {
+        if (ahead < (int32_t)node->cfg->ticks_per_us) {
             total += (int32_t)pll->period_q8;
         }
     }
@@ -118,20 +119,16 @@ static void reacquire(urb_node_pll_t *pll, uint8_t state)
     pll->expect_q8 = 0;
 }
 
-/* The period of `gap` SYNCs over `delta` ticks, Q8, or false when too long to represent. */
+/* The period of `gap` SYNCs over `delta` ticks, Q8, or false when the interval is too long to
+ * represent (2^24 ticks: 8 missed SYNCs of 2 M ticks). */
 static bool measure(uint32_t delta, uint8_t gap, uint32_t *td_q8)
 {
-    uint32_t q = delta;
-    uint32_t r = 0u;
-    if (gap > 1u) { /* missed SYNCs: one division (software on Cortex-M0+, bounded) */
-        q = delta / gap;
-        r = delta % gap;
-    }
-    if (q > URB_PLL_MAX_TICKS) {
+    if (delta > 0xFFFFFFu) {
         return false;
     }
-    *td_q8 = (q << 8) + ((r << 8) / gap);
-    return true;
+    /* missed SYNCs: one division (software on Cortex-M0+, bounded); one SYNC: a shift */
+    *td_q8 = (gap > 1u) ? ((delta << 8) / gap) : (delta << 8);
+    return *td_q8 <= (URB_PLL_MAX_TICKS << 8);
 }
 
 /* eq. 1 with gear shifting and outlier rejection. */
@@ -139,18 +136,18 @@ static void update_period(urb_node_t *node, uint32_t t_d, uint8_t gap)
 {
     urb_node_pll_t *pll = &node->pll;
     uint32_t td_q8 = 0u;
-    if ((gap > node->cfg.max_gap) || !measure(t_d - pll->prev_sync, gap, &td_q8)) {
+    if ((gap > node->cfg->max_gap) || !measure(t_d - pll->prev_sync, gap, &td_q8)) {
         return; /* too many SYNCs missed to trust the interval: phase only */
     }
     int32_t const err = (int32_t)td_q8 - (int32_t)pll->period_q8; /* T_d - That_d */
     /* In gear 0 the estimate is only the nominal period: accept +-12.5 % (crystal, bridge setting). */
-    uint32_t const window = (pll->gear == 0u) ? (pll->nominal_q8 >> 3) : (pll->outlier_ticks << 8);
+    uint32_t const window = (pll->gear == 0u) ? (pll->nominal_q8 >> 3) : ((uint32_t)pll->outlier_ticks << 8);
     if (abs32(err) > window) {
         pll->rejected++;
         return;
     }
     uint16_t const shifted = (uint16_t)(URB_PLL_ONE >> pll->gear);
-    uint16_t const kd = (shifted > node->cfg.kd_q8) ? shifted : node->cfg.kd_q8;
+    uint16_t const kd = (shifted > node->cfg->kd_q8) ? shifted : node->cfg->kd_q8;
     /* eq. 1: That_d[k+1] = That_d[k] - K_d (That_d[k] - T_d) */
     pll->period_q8 = (uint32_t)((int32_t)pll->period_q8 + mul_q8(err, kd));
     if (pll->gear < URB_PLL_MAX_GEAR) {
@@ -158,10 +155,17 @@ static void update_period(urb_node_t *node, uint32_t t_d, uint8_t gap)
     }
 }
 
+/* t_n - t_d + dt_adj in ticks, clamped to +-period (a stalled timer cannot overflow phase * 256). */
+static int32_t phase_of(uint32_t t_n, uint32_t t_d, uint32_t lead, int32_t period)
+{
+    int32_t const phase = urb_tick_diff(t_n, t_d) + (int32_t)lead;
+    return (phase > period) ? period : ((phase < -period) ? -period : phase);
+}
+
 void urb_pll_sync(urb_node_t *node, uint32_t t_d, uint8_t counter)
 {
     urb_node_pll_t *pll = &node->pll;
-    urb_node_config_t const *cfg = &node->cfg;
+    urb_node_config_t const *cfg = node->cfg;
     if (pll->state == URB_NODE_SYNC_OFF) {
         return;
     }
@@ -182,38 +186,31 @@ void urb_pll_sync(urb_node_t *node, uint32_t t_d, uint8_t counter)
     int32_t const period = (int32_t)(pll->period_q8 >> 8);
     uint32_t lead = (pll->fixed_lead != 0u) ? pll->fixed_lead : node->acq_ticks;
     if (lead > ((uint32_t)period >> 2)) {
-        lead = (uint32_t)period >> 2;
+        lead = (uint32_t)period >> 2; /* keeps the acquisition jump and every phase in range */
     }
     int32_t const lead_step = (int32_t)lead - (int32_t)pll->lead_prev;
 
     /* phase error of t_n, the latest heartbeat: t_n - t_d + dt_adj (Q8, with t_n's fraction) */
-    int32_t phase = urb_tick_diff(pll->last_beat, t_d) + (int32_t)lead;
-    if ((phase > period) || (phase < -period)) {
-        phase = (phase > 0) ? period : -period; /* defensive: a stalled timer; keeps phase * 256 in range */
-    }
-    bool const use_pending = phase <= -(period / 2);
-    uint32_t ref = pll->last_beat;
-    uint8_t ref_frac = pll->last_frac;
-    if (use_pending) {
-        /* t_n is more than half a period early: the pending heartbeat is the one nearest the
-         * target, and it is late; eq. 2 then corrects the period ending at it. */
-        phase = urb_tick_diff(pll->next_beat, t_d) + (int32_t)lead;
-        if ((phase > period) || (phase < -period)) {
-            phase = (phase > 0) ? period : -period;
-        }
-        ref = pll->next_beat;
-        ref_frac = pll->next_frac;
-    }
-    int32_t const phase_q8 = (phase * 256) + (int32_t)ref_frac;
-    pll->phase_q8 = phase_q8;
-
-    uint16_t kn = cfg->kn_q8;
+    int32_t const phase = phase_of(pll->last_beat, t_d, lead, period);
+    int32_t const phase_q8 = (phase * 256) + (int32_t)pll->last_frac;
     int32_t const step_q8 = lead_step * 256; /* the part of the error a lead change explains */
+    pll->phase_q8 = phase_q8;
     if (pll->state == URB_NODE_SYNC_FREE) {
-        kn = URB_PLL_ONE; /* acquisition: one phase jump */
+        /* acquisition: one phase jump, the next heartbeat straight to t_d - dt_adj + That_d
+         * (a period later when that is already past: a skipped beat, never a short one) */
         pll->state = URB_NODE_SYNC_TRACK;
         pll->good = 0u;
-    } else if (abs32(floor_q8(phase_q8 - step_q8 - pll->expect_q8)) > pll->outlier_ticks) {
+        pll->expect_q8 = 0;
+        pll->lead_prev = lead;
+        pll->syncs++;
+#if defined(URB_MUTANT_PLL_NO_PHASE)
+        schedule(node, pll->last_beat, pll->last_frac, (int32_t)pll->period_q8, true);
+#else
+        schedule(node, t_d, 0u, (int32_t)pll->period_q8 - (int32_t)(lead << 8), true);
+#endif
+        return;
+    }
+    if (abs32(floor_q8(phase_q8 - step_q8 - pll->expect_q8)) > pll->outlier_ticks) {
         /* the error is not what the last correction left: a late or early SYNC, ignored */
         pll->rejected++;
         pll->outliers++;
@@ -221,48 +218,48 @@ void urb_pll_sync(urb_node_t *node, uint32_t t_d, uint8_t counter)
             reacquire(pll, URB_NODE_SYNC_FREE); /* the bus phase really moved */
         }
         return;
+    }
+    /* lock detection with 2x hysteresis */
+    uint32_t const err = abs32(phase);
+    if (err <= pll->lock_ticks) {
+        if (pll->good < cfg->lock_count) {
+            pll->good++;
+        }
+        if (pll->good >= cfg->lock_count) {
+            pll->state = URB_NODE_SYNC_LOCKED;
+        }
     } else {
-        /* tracking: lock detection with 2x hysteresis */
-        uint32_t const err = abs32(phase);
-        if (err <= pll->lock_ticks) {
-            if (pll->good < cfg->lock_count) {
-                pll->good++;
-            }
-            if (pll->good >= cfg->lock_count) {
-                pll->state = URB_NODE_SYNC_LOCKED;
-            }
-        } else {
-            pll->good = 0u;
-            if (err > (pll->lock_ticks << 1)) {
-                pll->state = URB_NODE_SYNC_TRACK;
-            }
+        pll->good = 0u;
+        if (err > ((uint32_t)pll->lock_ticks << 1)) {
+            pll->state = URB_NODE_SYNC_TRACK;
         }
     }
     pll->outliers = 0u;
     pll->lead_prev = lead;
     pll->syncs++;
+    uint16_t kn = cfg->kn_q8;
 #if defined(URB_MUTANT_PLL_NO_PHASE)
     kn = 0u;
 #endif
     /* K_n on the measured error; a change of dt_adj itself is applied at once (the paper keeps
      * dt_adj constant; ours follows the measured t_acq, whose steps are deliberate, not noise) */
-    int32_t const corr_q8 = (kn >= URB_PLL_ONE) ? phase_q8 : (mul_q8(phase_q8 - step_q8, kn) + step_q8);
+    int32_t const corr_q8 = mul_q8(phase_q8 - step_q8, kn) + step_q8;
     pll->expect_q8 = phase_q8 - corr_q8; /* the error this correction leaves for the next SYNC */
-    if (use_pending) {
-        schedule(node, ref, ref_frac, -corr_q8, true); /* move the pending heartbeat by the correction */
-    } else {
-        /* eq. 2: T[k+1] = That_d[k+1] - K_n (t_n - t_d + dt_adj), the period following t_n */
-        schedule(node, ref, ref_frac, (int32_t)pll->period_q8 - corr_q8, true);
-    }
+    /* eq. 2: T[k+1] = That_d[k+1] - K_n (t_n - t_d + dt_adj), the period following t_n */
+    schedule(node, pll->last_beat, pll->last_frac, (int32_t)pll->period_q8 - corr_q8, true);
 }
 
 /* Applies a configuration request posted by the main loop (SYNC_CONFIG). */
 static void apply_request(urb_node_t *node)
 {
     urb_node_pll_t *pll = &node->pll;
-    pll->nominal_q8 = node->req_nominal_q8;
-    pll->period_q8 = node->req_nominal_q8;
-    pll->fixed_lead = node->req_lead_ticks;
+    uint32_t const tpu = node->cfg->ticks_per_us;
+    uint32_t const ticks = (uint32_t)node->req_period_us * tpu;
+    if ((ticks >= URB_PLL_MIN_TICKS) && (ticks <= URB_PLL_MAX_TICKS)) {
+        pll->nominal_q8 = ticks << 8; /* 0 or out of range: keep the current nominal period */
+    }
+    pll->period_q8 = pll->nominal_q8;
+    pll->fixed_lead = (uint32_t)node->req_lead_us * tpu;
     pll->lead_prev = 0u;
     reacquire(pll, (node->req_enable != 0u) ? URB_NODE_SYNC_FREE : URB_NODE_SYNC_OFF);
     pll->req_ack = node->req_seq;
@@ -290,14 +287,14 @@ void urb_node_timer_event(urb_node_t *node)
         pll->quiet++;
     }
 #if !defined(URB_MUTANT_NO_LOST_SYNC)
-    if ((pll->state >= URB_NODE_SYNC_TRACK) && (pll->quiet >= node->cfg.lost_sync_beats)) {
+    if ((pll->state >= URB_NODE_SYNC_TRACK) && (pll->quiet >= node->cfg->lost_sync_beats)) {
         reacquire(pll, URB_NODE_SYNC_FREE); /* free-run at the last period estimate, keep it */
         pll->gear = URB_PLL_MAX_GEAR;       /* ...and keep filtering it at K_d when SYNC returns */
         urb_isr_fault(node, URB_NODE_FAULT_LOST_SYNC);
     }
 #endif
     node->div++;
-    if (node->div >= node->cfg.update_divider) {
+    if (node->div >= node->cfg->update_divider) {
         node->div = 0u;
         node->update_beat = t_n;
         node->update_due = (uint8_t)(node->update_due + 1u);
@@ -307,20 +304,17 @@ void urb_node_timer_event(urb_node_t *node)
 void urb_pll_start(urb_node_t *node)
 {
     urb_node_pll_t *pll = &node->pll;
-    urb_node_config_t const *cfg = &node->cfg;
-    uint32_t const ticks = (uint32_t)cfg->heartbeat_us * cfg->ticks_per_us;
-    pll->nominal_q8 = ticks << 8;
-    pll->period_q8 = pll->nominal_q8;
-    pll->lock_ticks = ((uint32_t)cfg->lock_ns * cfg->ticks_per_us) / 1000u;
-    pll->outlier_ticks = ((uint32_t)cfg->outlier_ns * cfg->ticks_per_us) / 1000u;
-    pll->fixed_lead = (uint32_t)cfg->lead_us * cfg->ticks_per_us;
-    pll->lead_prev = 0u;
-    reacquire(pll, (cfg->sync_enabled != 0u) ? URB_NODE_SYNC_FREE : URB_NODE_SYNC_OFF);
-    pll->req_ack = node->req_seq;
+    urb_node_config_t const *cfg = node->cfg;
+    pll->lock_ticks = (uint16_t)(((uint32_t)cfg->lock_ns * cfg->ticks_per_us) / 1000u); /* <= 65535 */
+    pll->outlier_ticks = (uint16_t)(((uint32_t)cfg->outlier_ns * cfg->ticks_per_us) / 1000u);
+    /* the configuration is the first request (urb_node_init checked the period) */
+    node->req_period_us = cfg->heartbeat_us;
+    node->req_lead_us = cfg->lead_us;
+    node->req_enable = cfg->sync_enabled;
+    apply_request(node);
     urb_node_hal_t const *hal = node->hal;
     uint32_t const now = hal->now(hal->ctx);
     pll->last_beat = now;
-    pll->last_frac = 0u;
     schedule(node, now, 0u, (int32_t)pll->period_q8, false); /* first heartbeat one period after start */
 }
 

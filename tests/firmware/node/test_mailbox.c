@@ -44,8 +44,18 @@ static void init_arguments(void **state)
     bad.hal.set_address = NULL;
     assert_int_equal(urb_node_init(&f.node, &bad.hal, &f.hooks, &f, &f.cfg, f.storage, 8u), URB_NODE_ERR_CONFIG);
     assert_int_equal(f.bootups, 0u); /* nothing ran */
-    /* no hooks at all is fine, and so is no storage when bootup sets up nothing */
-    assert_int_equal(urb_node_init(&f.node, &f.port.hal, NULL, NULL, &f.cfg, NULL, 0u), URB_NODE_OK);
+    assert_int_equal(urb_node_init(&f.node, &f.port.hal, NULL, &f, &f.cfg, f.storage, 8u), URB_NODE_ERR_ARG);
+    /* empty hooks are fine, and so is no storage when bootup sets up nothing */
+    static const urb_node_hooks_t none = {NULL, NULL, NULL, NULL, NULL, NULL, NULL};
+    assert_int_equal(urb_node_init(&f.node, &f.port.hal, &none, NULL, &f.cfg, NULL, 0u), URB_NODE_OK);
+    (void)urb_hal_hosted_advance(&f.port, &f.node, 48000u);
+    assert_true((urb_node_poll(&f.node) & URB_NODE_POLL_UPDATE) != 0u);
+    assert_int_equal(fx_command(&f.node, 2u, 1u, 0u, 0u), FX_ALL_ACKED); /* SIGNAL: no hook */
+    assert_true((urb_node_poll(&f.node) & URB_NODE_POLL_COMMAND) != 0u);
+    (void)urb_node_i2c_event(&f.node, URB_I2C_STUCK, 0u);               /* fault: no hook */
+    assert_true((urb_node_poll(&f.node) & URB_NODE_POLL_FAULT) != 0u);
+    assert_int_equal(fx_command(&f.node, 1u, 0u, 0u, 0u), FX_ALL_ACKED); /* RESET: no hook */
+    assert_true((urb_node_poll(&f.node) & URB_NODE_POLL_COMMAND) != 0u);
     assert_int_equal(urb_node_poll(&f.node), 0u);
     urb_node_timer_event(&f.node);
 }
@@ -65,10 +75,6 @@ static void init_config_checks(void **state)
         {offsetof(urb_node_config_t, heartbeat_us), 2u, 1u},      /* 48 ticks: too short */
         {offsetof(urb_node_config_t, heartbeat_us), 2u, 60000u},  /* 2.88 M ticks ok... */
         {offsetof(urb_node_config_t, update_divider), 1u, 0u},
-        {offsetof(urb_node_config_t, kd_q8), 1u, 0u},
-        {offsetof(urb_node_config_t, kn_q8), 1u, 0u},
-        {offsetof(urb_node_config_t, lock_count), 1u, 0u},
-        {offsetof(urb_node_config_t, max_gap), 1u, 0u},
         {offsetof(urb_node_config_t, lost_sync_beats), 1u, 1u},
     };
     for (size_t i = 0u; i < sizeof bad / sizeof bad[0]; i++) {

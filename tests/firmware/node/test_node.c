@@ -262,9 +262,9 @@ static void identification_refreshes(void **state)
     (void)fx_select(node, 0u);
     (void)urb_node_i2c_event(node, URB_I2C_ADDR_READ, 0u);
     (void)urb_node_i2c_event(node, URB_I2C_TX_BYTE, 0u);
-    node->id_dirty = 1u;
+    node->flags |= URB_F_ID_DIRTY;
     assert_true((urb_node_poll(node) & URB_NODE_POLL_IDENT) != 0u); /* first refresh: other buffer */
-    node->id_dirty = 1u;
+    node->flags |= URB_F_ID_DIRTY;
     assert_int_equal(urb_node_poll(node) & URB_NODE_POLL_IDENT, 0u); /* the next one is being read */
     (void)urb_node_i2c_event(node, URB_I2C_STOP, 0u);
     assert_true((urb_node_poll(node) & URB_NODE_POLL_IDENT) != 0u);

@@ -1,0 +1,461 @@
+/*
+ * SensoRHex node applications (firmware/apps/sensorhex) on the node library and the hosted HAL,
+ * with fake sensors behind their io interfaces; mailbox contents checked with the generated
+ * decoders.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "node_fixture.h"
+#include "sensorhex_battery.h"
+#include "sensorhex_imu.h"
+#include "sensorhex_ir.h"
+#include "sensorhex_motor.h"
+#include "urb_core.h"
+#include "urb_sensorhex.h"
+
+#define PERIOD 48000u
+
+typedef struct {
+    urb_node_t node;
+    urb_hal_hosted_t port;
+    urb_node_config_t cfg;
+    uint8_t storage[64];
+} rig_t;
+
+static void rig_start(rig_t *r, const urb_node_hooks_t *hooks, void *app, void (*node_config)(urb_node_config_t *))
+{
+    memset(r, 0, sizeof *r);
+    urb_hal_hosted_init(&r->port, 0u, true);
+    urb_node_config_default(&r->cfg);
+    r->cfg.i2c_address = 0x40u;
+    node_config(&r->cfg);
+    assert_int_equal(urb_node_init(&r->node, &r->port.hal, hooks, app, &r->cfg, r->storage, sizeof r->storage),
+                     URB_NODE_OK);
+}
+
+/* n heartbeats, polling after each. */
+static void beats(rig_t *r, unsigned n)
+{
+    for (unsigned i = 0u; i < n; i++) {
+        (void)urb_hal_hosted_advance(&r->port, &r->node, PERIOD);
+        (void)urb_node_poll(&r->node);
+    }
+}
+
+static urb_identification_t identification(rig_t *r)
+{
+    uint8_t data[25];
+    assert_true(fx_read_checked(&r->node, 0u, 25u, data));
+    urb_identification_t id;
+    assert_int_equal(urb_identification_decode(&id, data, 25u), 25);
+    return id;
+}
+
+/* ===== Motor ================================================================================ */
+
+typedef struct {
+    uint16_t encoder;
+    int16_t current, voltage, temp;
+    bool hall;
+    int16_t drive;
+    unsigned drives;
+} fake_motor_t;
+
+static uint16_t fm_encoder(void *c) { return ((fake_motor_t *)c)->encoder; }
+static int16_t fm_current(void *c) { return ((fake_motor_t *)c)->current; }
+static int16_t fm_voltage(void *c) { return ((fake_motor_t *)c)->voltage; }
+static int16_t fm_temp(void *c) { return ((fake_motor_t *)c)->temp; }
+static bool fm_hall(void *c) { return ((fake_motor_t *)c)->hall; }
+static void fm_drive(void *c, int16_t mv)
+{
+    ((fake_motor_t *)c)->drive = mv;
+    ((fake_motor_t *)c)->drives++;
+}
+
+static fake_motor_t fm;
+static const sensorhex_motor_io_t motor_io = {&fm, fm_encoder, fm_current, fm_voltage, fm_temp, fm_hall, fm_drive};
+static sensorhex_motor_t motor;
+static rig_t rig;
+
+static int motor_setup(void **state)
+{
+    (void)state;
+    memset(&fm, 0, sizeof fm);
+    fm.temp = 2500;
+    sensorhex_motor_config_t cfg;
+    sensorhex_motor_defaults(&cfg, 3u);
+    sensorhex_motor_setup(&motor, &motor_io, &cfg);
+    rig_start(&rig, &sensorhex_motor_hooks, &motor, sensorhex_motor_node_config);
+    return 0;
+}
+
+static void motor_command(int16_t mv)
+{
+    urb_motor_command_t const c = {mv};
+    uint8_t buf[URB_MOTOR_COMMAND_SIZE];
+    assert_int_equal(urb_motor_command_encode(&c, buf, sizeof buf), (int)sizeof buf);
+    assert_int_equal(fx_write(&rig.node, 1u, buf, sizeof buf), FX_ALL_ACKED);
+}
+
+static void motor_config(uint8_t mode, uint16_t kp, uint16_t kd, int32_t target, uint16_t limit)
+{
+    urb_motor_config_t const c = {mode, kp, kd, target, limit};
+    uint8_t buf[URB_MOTOR_CONFIG_SIZE];
+    assert_int_equal(urb_motor_config_encode(&c, buf, sizeof buf), (int)sizeof buf);
+    assert_int_equal(fx_write(&rig.node, 2u, buf, sizeof buf), FX_ALL_ACKED);
+}
+
+static urb_motor_feedback_t motor_feedback(void)
+{
+    uint8_t data[6];
+    assert_true(fx_read_checked(&rig.node, 1u, 6u, data));
+    urb_motor_feedback_t fb;
+    assert_int_equal(urb_motor_feedback_decode(&fb, data, 6u), 6);
+    return fb;
+}
+
+static urb_motor_status_t motor_status(void)
+{
+    uint8_t data[4];
+    assert_true(fx_read_checked(&rig.node, 2u, 4u, data));
+    urb_motor_status_t st;
+    assert_int_equal(urb_motor_status_decode(&st, data, 4u), 4);
+    return st;
+}
+
+static void motor_identifies(void **state)
+{
+    (void)state;
+    urb_identification_t const id = identification(&rig);
+    assert_int_equal(id.class_id, URB_NODE_MOTOR_DRIVER_CLASS);
+    assert_int_equal(id.index, 3u);
+    assert_int_equal(id.fingerprint, URB_NODE_MOTOR_DRIVER_FINGERPRINT);
+    assert_memory_equal(id.inbox_sizes, urb_node_motor_driver_inbox_sizes, 8u);
+    assert_memory_equal(id.outbox_sizes, urb_node_motor_driver_outbox_sizes, 8u);
+    assert_int_equal(fm.drive, 0); /* app_init stops the motor */
+    assert_true(fm.drives >= 1u);
+}
+
+static void motor_feedback_every_update(void **state)
+{
+    (void)state;
+    fm.encoder = 1234u;
+    fm.current = -1500;
+    fm.voltage = 6000;
+    beats(&rig, 1u);
+    urb_motor_feedback_t fb = motor_feedback();
+    assert_int_equal(fb.encoder, 1234u);
+    assert_int_equal(fb.current, -1500);
+    assert_int_equal(fb.voltage, 6000);
+    fm.encoder = 1300u;
+    beats(&rig, 1u);
+    fb = motor_feedback();
+    assert_int_equal(fb.encoder, 1300u);
+    assert_true(rig.node.acq_ticks < 48u); /* the release marked the end of acquisition */
+    assert_int_equal(rig.port.mark_count[URB_NODE_MARK_ACQ_END], 2u);
+}
+
+static void motor_voltage_mode_and_timeout(void **state)
+{
+    (void)state;
+    motor_config(URB_MOTOR_MODE_VOLTAGE, 0u, 0u, 0, 6000u);
+    motor_command(4500);
+    beats(&rig, 1u);
+    assert_int_equal(fm.drive, 4500);
+    motor_command(-9000); /* beyond the 6 V limit */
+    beats(&rig, 1u);
+    assert_int_equal(fm.drive, -6000);
+    /* no fresh command for more than command_timeout updates: cut */
+    beats(&rig, 50u);
+    assert_int_equal(fm.drive, -6000);
+    beats(&rig, 1u);
+    assert_int_equal(fm.drive, 0);
+    motor_command(1000);
+    beats(&rig, 1u);
+    assert_int_equal(fm.drive, 1000);
+    /* the slow status (every 100 updates) reports mode and missed commands */
+    beats(&rig, 100u);
+    urb_motor_status_t const st = motor_status();
+    assert_int_equal(st.mode, URB_MOTOR_MODE_VOLTAGE);
+    assert_int_equal(st.case_temp, 2500);
+    assert_true(st.missed_commands > 0u);
+}
+
+static void motor_local_pd(void **state)
+{
+    (void)state;
+    fm.encoder = 0u;
+    beats(&rig, 1u);
+    motor_config(URB_MOTOR_MODE_LOCAL_PD, 100u, 0u, 1000, 12000u); /* kp 0.01 V/count */
+    beats(&rig, 1u);
+    assert_int_equal(fm.drive, 10000); /* 0.01 V/count * 1000 counts */
+    /* moving toward the target at 20 counts/update = 20000 counts/s, kd 1e-4 V*s/count: -2 V */
+    motor_config(URB_MOTOR_MODE_LOCAL_PD, 100u, 100u, 1000, 12000u);
+    fm.encoder = 20u;
+    beats(&rig, 1u);
+    assert_int_equal(fm.drive, 9800 - 2000);
+    /* encoder wrap: 65530 -> 10 is +16 counts, not -65520 */
+    fm.encoder = 65530u;
+    beats(&rig, 1u);
+    fm.encoder = 10u;
+    beats(&rig, 1u);
+    assert_int_equal(motor.position, 10); /* 20, then -26 (to 65530 = -6), then +16 */
+    assert_int_equal(motor.position - motor.prev_position, 16);
+    /* calibration signal: the position becomes 0 */
+    assert_int_equal(fx_command(&rig.node, URB_COMMAND_CODE_SIGNAL, 1u, 0u, 0u), FX_ALL_ACKED);
+    (void)urb_node_poll(&rig.node);
+    assert_int_equal(motor.position, 0);
+}
+
+static void motor_protection(void **state)
+{
+    (void)state;
+    motor_config(URB_MOTOR_MODE_VOLTAGE, 0u, 0u, 0, 12000u);
+    motor_command(3000);
+    fm.current = 12000; /* over the 10 A limit: flag, keep driving */
+    beats(&rig, 1u);
+    assert_int_equal(fm.drive, 3000);
+    fm.current = 21000; /* over twice the limit: cut */
+    motor_command(3000);
+    beats(&rig, 1u);
+    assert_int_equal(fm.drive, 0);
+    fm.current = 0;
+    fm.temp = 9000; /* 90 degC */
+    motor_command(3000);
+    beats(&rig, 1u);
+    assert_int_equal(fm.drive, 0);
+    fm.temp = 2500;
+    fm.hall = true;
+    beats(&rig, 97u);
+    urb_motor_status_t st = motor_status();
+    assert_true(st.overcurrent);
+    assert_true(st.overtemp);
+    assert_true(st.hall);
+    beats(&rig, 100u); /* latched until a status was published */
+    st = motor_status();
+    assert_false(st.overcurrent);
+    assert_false(st.overtemp);
+    /* RESET: back to DISABLED, motor off */
+    motor_command(3000);
+    beats(&rig, 1u);
+    assert_int_equal(fx_command(&rig.node, URB_COMMAND_CODE_RESET, 0u, 0u, 0u), FX_ALL_ACKED);
+    (void)urb_node_poll(&rig.node);
+    assert_int_equal(fm.drive, 0);
+    assert_int_equal(motor.mode, URB_MOTOR_MODE_DISABLED);
+    /* a fault reaches the app */
+    (void)urb_node_i2c_event(&rig.node, URB_I2C_STUCK, 0u);
+    (void)urb_node_poll(&rig.node);
+    assert_int_equal(motor.faults, 1u);
+    /* an invalid config (reserved bits set) is ignored */
+    uint8_t raw[URB_MOTOR_CONFIG_SIZE] = {0x05u};
+    assert_int_equal(fx_write(&rig.node, 2u, raw, sizeof raw), FX_ALL_ACKED);
+    beats(&rig, 1u);
+    assert_int_equal(motor.mode, URB_MOTOR_MODE_DISABLED);
+}
+
+/* ===== Battery ============================================================================== */
+
+typedef struct {
+    bool present[3];
+    uint16_t mv[3];
+    int16_t ma[3];
+    int8_t temp[3];
+    bool charger;
+} fake_battery_t;
+
+static fake_battery_t fb_;
+static bool fb_present(void *c, uint8_t p) { return ((fake_battery_t *)c)->present[p]; }
+static uint16_t fb_mv(void *c, uint8_t p) { return ((fake_battery_t *)c)->mv[p]; }
+static int16_t fb_ma(void *c, uint8_t p) { return ((fake_battery_t *)c)->ma[p]; }
+static int8_t fb_temp(void *c, uint8_t p) { return ((fake_battery_t *)c)->temp[p]; }
+static bool fb_charger(void *c) { return ((fake_battery_t *)c)->charger; }
+
+static void battery_status(void **state)
+{
+    (void)state;
+    static const sensorhex_battery_io_t io = {&fb_, fb_present, fb_mv, fb_ma, fb_temp, fb_charger};
+    sensorhex_battery_t app;
+    sensorhex_battery_config_t cfg;
+    sensorhex_battery_defaults(&cfg, 0u);
+    sensorhex_battery_setup(&app, &io, &cfg);
+    fb_ = (fake_battery_t){{true, true, false}, {12600u, 10000u, 0u}, {1000, 2000, 0}, {30, 35, 0}, true};
+    rig_start(&rig, &sensorhex_battery_hooks, &app, sensorhex_battery_node_config);
+    beats(&rig, 9u);
+    uint8_t data[19];
+    assert_true(fx_read_checked(&rig.node, 1u, 19u, data));
+    assert_int_equal(data[0], 0u); /* nothing yet: updates at 100 Hz */
+    beats(&rig, 1u);
+    assert_true(fx_read_checked(&rig.node, 1u, 19u, data));
+    urb_battery_status_t st;
+    assert_int_equal(urb_battery_status_decode(&st, data, 19u), 19);
+    assert_int_equal(st.packs[0].voltage, 12600u);
+    assert_int_equal(st.packs[0].charge, 100u);
+    assert_int_equal(st.packs[1].current, 2000);
+    assert_int_equal(st.packs[1].temp, 35);
+    assert_int_equal(st.packs[1].charge, 5u); /* (10000 + 2 A * 30 mOhm - 9900) / 2700 */
+    assert_false(st.packs[2].present);
+    assert_int_equal(st.packs[2].voltage, 0u);
+    assert_true(st.low); /* pack 1 below 10.5 V */
+    assert_true(st.charging);
+    assert_int_equal(sensorhex_battery_charge(&cfg, 9000u, 0), 0u);
+    assert_int_equal(sensorhex_battery_charge(&cfg, 11250u, 0), 50u);
+    (void)urb_node_i2c_event(&rig.node, URB_I2C_STUCK, 0u);
+    (void)urb_node_poll(&rig.node);
+    assert_int_equal(app.faults, 1u);
+}
+
+/* ===== IMU ================================================================================== */
+
+typedef struct {
+    int16_t base;
+    unsigned reads;
+    bool none;
+} fake_imu_t;
+
+static fake_imu_t fi;
+static bool fi_read(void *c, sensorhex_imu_reading_t *out)
+{
+    fake_imu_t *f = c;
+    if (f->none) {
+        return false;
+    }
+    int16_t const v = (int16_t)(f->base + (int16_t)(f->reads % 2u) * 10); /* alternates base, base + 10 */
+    for (int a = 0; a < 3; a++) {
+        out->accel[a] = v;
+        out->gyro[a] = (int16_t)-v;
+    }
+    out->temp = 25;
+    f->reads++;
+    return true;
+}
+
+static void imu_oversamples(void **state)
+{
+    (void)state;
+    static const sensorhex_imu_io_t io = {&fi, fi_read};
+    sensorhex_imu_t app;
+    sensorhex_imu_config_t cfg;
+    sensorhex_imu_defaults(&cfg, 1u);
+    sensorhex_imu_setup(&app, &io, &cfg);
+    fi = (fake_imu_t){9810, 0u, false};
+    rig_start(&rig, &sensorhex_imu_hooks, &app, sensorhex_imu_node_config);
+    for (int i = 0; i < 20; i++) {
+        (void)urb_node_poll(&rig.node); /* idle: oversampling, at most 8 readings */
+    }
+    assert_int_equal(fi.reads, 8u);
+    beats(&rig, 10u);
+    uint8_t data[14];
+    assert_true(fx_read_checked(&rig.node, 1u, 14u, data));
+    urb_imu_sample_t s;
+    assert_int_equal(urb_imu_sample_decode(&s, data, 14u), 14);
+    assert_int_equal(s.accel[0], 9815); /* the mean of 9810 and 9820 */
+    assert_int_equal(s.gyro[2], -9815);
+    assert_int_equal(s.temp, 25);
+    assert_int_equal(s.sample, 0u);
+    beats(&rig, 10u);
+    assert_true(fx_read_checked(&rig.node, 1u, 14u, data));
+    assert_int_equal(urb_imu_sample_decode(&s, data, 14u), 14);
+    assert_int_equal(s.sample, 1u);
+    /* no reading available: the previous sample stays published */
+    fi.none = true;
+    app.count = 0u;
+    beats(&rig, 10u);
+    assert_true(fx_read_checked(&rig.node, 1u, 14u, data));
+    assert_int_equal(urb_imu_sample_decode(&s, data, 14u), 14);
+    assert_int_equal(s.sample, 1u);
+    /* oversample 1: read once in the update; RESET restarts the counter */
+    sensorhex_imu_config_t one = {1u, 0u};
+    sensorhex_imu_setup(&app, &io, &one);
+    assert_int_equal(app.cfg.oversample, 1u);
+    one.oversample = 99u;
+    sensorhex_imu_setup(&app, &io, &one);
+    assert_int_equal(app.cfg.oversample, 16u);
+    assert_int_equal(fx_command(&rig.node, URB_COMMAND_CODE_RESET, 0u, 0u, 0u), FX_ALL_ACKED);
+    (void)urb_node_poll(&rig.node);
+    assert_int_equal(app.sample, 0u);
+}
+
+/* ===== IR distance ========================================================================== */
+
+typedef struct {
+    uint16_t mm;
+    uint8_t strength;
+} fake_ir_t;
+
+static fake_ir_t fir;
+static uint16_t fir_mm(void *c) { return ((fake_ir_t *)c)->mm; }
+static uint8_t fir_strength(void *c) { return ((fake_ir_t *)c)->strength; }
+
+static urb_ir_range_t ir_read(void)
+{
+    uint8_t data[4];
+    assert_true(fx_read_checked(&rig.node, 1u, 4u, data));
+    urb_ir_range_t r;
+    assert_int_equal(urb_ir_range_decode(&r, data, 4u), 4);
+    return r;
+}
+
+static void ir_median_and_validity(void **state)
+{
+    (void)state;
+    static const sensorhex_ir_io_t io = {&fir, fir_mm, fir_strength};
+    sensorhex_ir_t app;
+    sensorhex_ir_config_t cfg;
+    sensorhex_ir_defaults(&cfg, 0u);
+    sensorhex_ir_setup(&app, &io, &cfg);
+    rig_start(&rig, &sensorhex_ir_hooks, &app, sensorhex_ir_node_config);
+    fir = (fake_ir_t){500u, 80u};
+    beats(&rig, 10u);
+    urb_ir_range_t r = ir_read();
+    assert_int_equal(r.distance, 500u);
+    assert_true(r.valid);
+    fir.mm = 4000u; /* one spike */
+    beats(&rig, 10u);
+    fir.mm = 510u;
+    beats(&rig, 10u);
+    r = ir_read();
+    assert_int_equal(r.distance, 510u); /* median of 500, 4000, 510 */
+    fir.mm = 4000u;
+    beats(&rig, 10u);
+    fir.mm = 4000u;
+    beats(&rig, 10u);
+    r = ir_read();
+    assert_int_equal(r.distance, 4000u);
+    assert_false(r.valid); /* out of range */
+    fir = (fake_ir_t){600u, 5u};
+    beats(&rig, 30u);
+    r = ir_read();
+    assert_false(r.valid); /* weak return */
+    assert_int_equal(r.strength, 5u);
+    assert_int_equal(sensorhex_ir_median3(3u, 1u, 2u), 2u);
+    assert_int_equal(sensorhex_ir_median3(1u, 3u, 2u), 2u);
+    assert_int_equal(sensorhex_ir_median3(2u, 3u, 1u), 2u);
+    assert_int_equal(sensorhex_ir_median3(2u, 1u, 3u), 2u);
+    assert_int_equal(fx_command(&rig.node, URB_COMMAND_CODE_RESET, 0u, 0u, 0u), FX_ALL_ACKED);
+    (void)urb_node_poll(&rig.node);
+    assert_int_equal(app.filled, 0u);
+    (void)urb_node_i2c_event(&rig.node, URB_I2C_STUCK, 0u);
+    (void)urb_node_poll(&rig.node);
+    assert_int_equal(app.faults, 1u);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup(motor_identifies, motor_setup),
+        cmocka_unit_test_setup(motor_feedback_every_update, motor_setup),
+        cmocka_unit_test_setup(motor_voltage_mode_and_timeout, motor_setup),
+        cmocka_unit_test_setup(motor_local_pd, motor_setup),
+        cmocka_unit_test_setup(motor_protection, motor_setup),
+        cmocka_unit_test(battery_status),
+        cmocka_unit_test(imu_oversamples),
+        cmocka_unit_test(ir_median_and_validity),
+    };
+    return cmocka_run_group_tests_name("sensorhex_apps", tests, NULL, NULL);
+}
