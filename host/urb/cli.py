@@ -13,6 +13,11 @@ DESCRIPTION = """\
 URB, the Universal Robot Bus: schema compiler, codecs and tools.
 
 Commands:
+  scan           discover the nodes behind one or more bridges and list them
+  read           read a mailbox of a node, with values in engineering units
+  write          write a mailbox of a node from engineering values
+  monitor        show live values, latency and errors per node, refreshing in place
+  log            record mailbox values to a CSV (or Parquet) file for plotting
   gen            generate the C and Python codecs from the schemas
   schema check   check schema files and report every error with its location
   schema show    show the wire layout of messages and nodes

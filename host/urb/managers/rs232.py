@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import errno
 import os
+import re
 import threading
 
 import serial
@@ -190,6 +191,9 @@ def port_error_message(port: str, exc: BaseException) -> str:
 
 def describe_io_error(exc: BaseException) -> str:
     code = getattr(exc, "errno", None)
+    if code is None:  # pyserial wraps OSError text in SerialException("write failed: [Errno 5] ...")
+        found = re.search(r"\[Errno (\d+)\]", str(exc))
+        code = int(found.group(1)) if found else None
     if code == errno.EIO or "returned no data" in str(exc):
         return "the device went away (I/O error: unplugged, or the bridge process ended)"
     return str(exc) or type(exc).__name__
