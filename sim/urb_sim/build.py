@@ -13,10 +13,13 @@ generated codecs (gen/c), compiled for the host.
 from __future__ import annotations
 
 import argparse
+import hashlib
+import io
 import os
 import shlex
 import subprocess
 import sys
+import tarfile
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
@@ -42,6 +45,12 @@ INCLUDE_DIRS = ["sim/core", "sim/world", "firmware/include", "firmware/hal/sim",
 EXCLUDE_SUFFIX = "main.c"
 EXCLUDE_NAMES = {"urb_single.c"}
 
+#: Folders other teams own. The library is built from their COMMITTED versions (HEAD, exported to
+#: build/sim/snapshot/): several engineers share one working tree, and a file half-way through an
+#: edit must not break the simulation. On a clean clone HEAD and the working tree are the same.
+#: URBSIM_SOURCES=worktree builds from the working tree instead (to try uncommitted firmware).
+FOREIGN_DIRS = ["firmware/include", "firmware/node", "firmware/bridge", "firmware/apps/sensorhex", "gen/c"]
+
 CC = os.environ.get("CC", "gcc")
 CFLAGS = ["-std=c99", "-O2", "-g", "-fPIC", "-Wall", "-Wextra", "-Werror", "-fvisibility=default"]
 
@@ -50,41 +59,95 @@ class BuildError(RuntimeError):
     """The compiler failed; the message holds its command line and output."""
 
 
-def sources() -> list[Path]:
+def _git(*args: str) -> str | None:
+    try:
+        proc = subprocess.run(["git", *args], cwd=REPO, capture_output=True, text=True, check=False)
+    except OSError:
+        return None
+    return proc.stdout.strip() if proc.returncode == 0 else None
+
+
+def _snapshot() -> tuple[Path, str] | None:
+    """Export the committed versions of FOREIGN_DIRS into build/sim/snapshot/<key>/; returns the
+    folder and its key (the git tree ids), or None outside git or with URBSIM_SOURCES=worktree."""
+    if os.environ.get("URBSIM_SOURCES") == "worktree":
+        return None
+    trees = []
+    for d in FOREIGN_DIRS:
+        tid = _git("rev-parse", f"HEAD:{d}")
+        trees.append((d, tid))
+    if all(t is None for _, t in trees) or _git("rev-parse", "HEAD") is None:
+        return None
+    key = hashlib.sha256(repr(trees).encode()).hexdigest()[:16]
+    dest = BUILD / "snapshot" / key
+    if not (dest / ".complete").exists():
+        dest.mkdir(parents=True, exist_ok=True)
+        present = [d for d, t in trees if t is not None]
+        archive = subprocess.run(["git", "archive", "--format=tar", "HEAD", "--", *present], cwd=REPO,
+                                 capture_output=True, check=True).stdout
+        with tarfile.open(fileobj=io.BytesIO(archive)) as tar:
+            tar.extractall(dest, filter="data")
+        (dest / ".complete").write_text(repr(trees))
+    return dest, key
+
+
+def _root_of(d: str, snap: tuple[Path, str] | None) -> Path:
+    return snap[0] if snap is not None and d in FOREIGN_DIRS else REPO
+
+
+def sources(snap: tuple[Path, str] | None = None) -> list[Path]:
     """Every C file compiled into the library, in a stable order."""
     out: list[Path] = []
     for d in SOURCE_DIRS:
-        folder = REPO / d
+        folder = _root_of(d, snap) / d
         if folder.is_dir():
             out.extend(p for p in sorted(folder.glob("*.c"))
                        if not p.name.endswith(EXCLUDE_SUFFIX) and p.name not in EXCLUDE_NAMES)
     return out
 
 
-def _inputs() -> list[Path]:
-    files = sources()
-    for d in INCLUDE_DIRS:
+def _includes(snap: tuple[Path, str] | None) -> list[Path]:
+    return [_root_of(d, snap) / d for d in INCLUDE_DIRS]
+
+
+def _own_inputs() -> list[Path]:
+    files: list[Path] = []
+    for d in SOURCE_DIRS + INCLUDE_DIRS:
+        if d in FOREIGN_DIRS:
+            continue
         folder = REPO / d
         if folder.is_dir():
-            files.extend(sorted(folder.glob("*.h")))
+            files.extend(sorted(folder.glob("*.[ch]")))
     files.append(Path(__file__))
     return files
 
 
-def is_stale(lib: Path = LIBRARY) -> bool:
-    """True when the library is missing or older than any source, header or this script."""
-    if not lib.exists():
+def _stamp_text(snap: tuple[Path, str] | None) -> str:
+    return f"sources={snap[1] if snap else 'worktree'}\n"
+
+
+def is_stale(lib: Path = LIBRARY, snap: tuple[Path, str] | None = None) -> bool:
+    """True when the library is missing, was built from other committed firmware, or is older than
+    any of the simulation's own sources (or, building from the working tree, any source)."""
+    stamp = lib.with_suffix(".stamp")
+    if not lib.exists() or not stamp.exists() or stamp.read_text() != _stamp_text(snap):
         return True
     built = lib.stat().st_mtime
-    return any(p.stat().st_mtime > built for p in _inputs())
+    inputs = _own_inputs()
+    if snap is None:
+        for d in FOREIGN_DIRS:
+            folder = REPO / d
+            if folder.is_dir():
+                inputs.extend(folder.glob("*.[ch]"))
+    return any(p.stat().st_mtime > built for p in inputs)
 
 
-def compile_command(out: Path, extra: list[str] | None = None) -> list[str]:
+def compile_command(out: Path, extra: list[str] | None = None, snap: tuple[Path, str] | None = None) -> list[str]:
     """The compiler command line that builds `out`."""
-    incs = [f"-I{REPO / d}" for d in INCLUDE_DIRS]
+    incs = [f"-I{p}" for p in _includes(snap)]
     # --no-undefined: a missing source (or a stray adapter) fails here, naming the symbol, instead
     # of when Python loads the library.
-    return [CC, *CFLAGS, *(extra or []), "-shared", "-Wl,--no-undefined", *incs, *map(str, sources()), "-lm",
+    return [CC, *CFLAGS, *(extra or []), "-shared", "-Wl,--no-undefined", *incs, *map(str, sources(snap)), "-lm",
             "-o", str(out)]
 
 
@@ -92,11 +155,12 @@ def ensure_library(force: bool = False) -> Path:
     """Build build/sim/liburbsim.so when stale (or when `force`); return its path.
 
     Raises BuildError with the compiler output when compilation fails."""
-    if not force and not is_stale():
-        return LIBRARY
     BUILD.mkdir(parents=True, exist_ok=True)
+    snap = _snapshot()
+    if not force and not is_stale(snap=snap):
+        return LIBRARY
     tmp = LIBRARY.with_suffix(f".so.tmp{os.getpid()}")
-    cmd = compile_command(tmp)
+    cmd = compile_command(tmp, snap=snap)
     proc = subprocess.run(cmd, capture_output=True, text=True, cwd=REPO)
     if proc.returncode != 0:
         tmp.unlink(missing_ok=True)
@@ -105,6 +169,7 @@ def ensure_library(force: bool = False) -> Path:
             + "\nFix the error above (or run `make sim-lib` to see it again)."
         )
     tmp.replace(LIBRARY)  # atomic: concurrent test workers never load a half-written library
+    LIBRARY.with_suffix(".stamp").write_text(_stamp_text(snap))
     return LIBRARY
 
 

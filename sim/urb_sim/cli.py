@@ -15,7 +15,7 @@ from typing import Any
 from .build import REPO, BuildError, ensure_library
 from .experiments import Progress, Result
 
-EXPERIMENTS = ["fig15", "fig16", "table1", "faults"]
+EXPERIMENTS = ["fig15", "fig16", "table1", "faults", "traces"]
 
 SENSORHEX_HELP = """\
 Run the SensoRHex simulation and the paper's experiments, and write an HTML summary.
@@ -33,6 +33,7 @@ and states PASS or FAIL against its acceptance criterion:
   faults   every fault the design must survive (bit errors, stuck I2C lines, node power loss,
            bridge reset, babbling node, uplink byte loss): each failed request must reach its
            callback with the right error flag, and the firmware's reaction is logged
+  traces   TLC checks bridge traces logged by the simulation against spec/tla/Bridge.tla
 
 Output: DIR/index.html (open it first), DIR/summary.json, and one folder per experiment.
 The same seed gives the same numbers, byte for byte.
@@ -68,10 +69,10 @@ def register(sub: Any) -> None:
 
 
 def _experiment(key: str) -> Callable[..., Result]:
-    from .experiments import faults, latency, sync
+    from .experiments import faults, latency, sync, traces
 
     table: dict[str, Callable[..., Result]] = {"fig15": latency.fig15, "fig16": latency.fig16, "table1": sync.table1,
-                                               "faults": faults.faults}
+                                               "faults": faults.faults, "traces": traces.traces}
     return table[key]
 
 

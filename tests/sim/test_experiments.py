@@ -42,3 +42,11 @@ def test_faults_nothing_lost_silently(tmp_path: Path) -> None:
     _assert_passed(res)
     assert len(res.table) == 9  # every fault of the issue: I2C bit errors, SDA/SCL stuck, node power,
     # bridge reset, babbling node, uplink byte loss, UART bit errors, USB IN loss
+
+
+@pytest.mark.slow
+def test_trace_validation_with_tlc(tmp_path: Path) -> None:
+    from urb_sim.experiments import traces
+
+    res = traces.traces(tmp_path, quick=True)
+    _assert_passed(res)

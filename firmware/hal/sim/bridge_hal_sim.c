@@ -18,6 +18,7 @@ enum {
 #define ARG(kind, gen, extra) ((uint64_t)(kind) | (((gen) & 0xFFFFFFull) << 8) | ((uint64_t)(extra) << 32))
 
 static void bridge_event(void *ctx, uint64_t arg, urbsim_ns_t now);
+static void obs_usb(sim_bridge_t *b, const uint8_t *d, size_t len, bool out, urbsim_ns_t t);
 
 static void at(sim_bridge_t *b, urbsim_ns_t t, int kind, uint32_t extra)
 {
@@ -195,6 +196,7 @@ static uint32_t usb_in(void *ctx, uint8_t *buf, uint32_t cap, urbsim_ns_t t)
     size_t n = urb_bridge_usb_in(&b->br, buf, cap);
     if (n) {
         sim_log_put(&b->log, b->k->now, SIM_BMARK_EMIT, (uint32_t)n);
+        obs_usb(b, buf, n, false, b->k->now);
     }
     return (uint32_t)n;
 }
@@ -204,6 +206,147 @@ static void usb_host_read(void *hctx, const uint8_t *data, uint32_t len, urbsim_
     sim_bridge_t *b = hctx;
     if (b->host) {
         b->host(b->hctx, b->id, data, len, t);
+    }
+}
+
+
+/* ---------------------------------------------------------------- trace observer
+ * Reassembles the uplink byte streams into frames with the generated decoders, the way a
+ * protocol analyser on the bridge's pins would, and logs them (trace category "bridge"):
+ *   {"ev":"req","addr":A,"box":M,"op":"read"|"write","len":N,"seq":S}   a request frame reached
+ *                                                                       the firmware intact
+ *   {"ev":"resp","seq":S,"status":C}                                    a response frame left it
+ * Only active while the category is traced (sim/urb_sim/tracecheck.py checks these against
+ * spec/tla/Bridge.tla). */
+
+static size_t check_size(size_t covered)
+{
+    return covered <= 14u ? 1u : 2u;
+}
+
+static void obs_request(sim_bridge_t *b, const uint8_t *f, size_t n, urbsim_ns_t t)
+{
+    sim_pending_t p;
+    if (f[0] & 1u) {
+        urb_uplink_read_request_t r;
+        if (urb_uplink_read_request_decode(&r, f, n) < 0) {
+            return;
+        }
+        p = (sim_pending_t){r.address, r.mailbox, r.length, r.seq, true};
+    } else {
+        urb_uplink_write_request_t r;
+        if (urb_uplink_write_request_decode(&r, f, n) < 0) {
+            return;
+        }
+        p = (sim_pending_t){r.address, r.mailbox, r.length, r.seq, false};
+    }
+    urbsim_trace(b->tr, URBSIM_TR_BRIDGE, t, b->name, "req", ",\"addr\":%u,\"box\":%u,\"op\":\"%s\",\"len\":%u,\"seq\":%u",
+                 p.address, p.mailbox, p.read ? "read" : "write", p.length, p.seq);
+    if (b->obs_len < SIM_PENDING_MAX) {
+        b->obs_pend[(b->obs_head + b->obs_len) % SIM_PENDING_MAX] = p;
+        b->obs_len++;
+    }
+}
+
+/* Length of the request frame starting at f (n >= 3 bytes known). */
+static size_t request_size(const uint8_t *f)
+{
+    if (f[0] & 1u) {
+        return 4u;
+    }
+    size_t covered = 3u + f[2];
+    return covered + check_size(covered);
+}
+
+/* Length of the response to the oldest pending request, given its first byte. */
+static size_t response_size(const sim_bridge_t *b, uint8_t first)
+{
+    const sim_pending_t *p = &b->obs_pend[b->obs_head];
+    size_t data = (p->read && (first >> 4) == URB_STATUS_OK) ? p->length : 0u;
+    return 1u + data + check_size(1u + data);
+}
+
+static void obs_response(sim_bridge_t *b, const uint8_t *f, size_t n, urbsim_ns_t t)
+{
+    urb_uplink_response_t r;
+    if (b->obs_len == 0u || urb_uplink_response_decode(&r, f, n) < 0) {
+        return;
+    }
+    urbsim_trace(b->tr, URBSIM_TR_BRIDGE, t, b->name, "resp", ",\"seq\":%u,\"status\":%u", r.seq, r.status);
+    b->obs_head = (b->obs_head + 1u) % SIM_PENDING_MAX;
+    b->obs_len--;
+}
+
+/* RS232: one byte handed to the firmware. */
+static void obs_rx_byte(sim_bridge_t *b, uint8_t byte, urbsim_ns_t t)
+{
+    if (!urbsim_trace_on(b->tr, URBSIM_TR_BRIDGE)) {
+        return;
+    }
+    if (b->obs_req_len && t - b->obs_req_last > 2u * 86806u) {
+        b->obs_req_len = 0; /* idle gap: a partial frame is dropped, as the firmware does */
+    }
+    b->obs_req_last = t;
+    if (b->obs_req_len < sizeof b->obs_req) {
+        b->obs_req[b->obs_req_len++] = byte;
+    }
+    while (b->obs_req_len >= 3u && b->obs_req_len >= request_size(b->obs_req)) {
+        size_t n = request_size(b->obs_req);
+        obs_request(b, b->obs_req, n, t);
+        memmove(b->obs_req, b->obs_req + n, b->obs_req_len - n);
+        b->obs_req_len = (uint8_t)(b->obs_req_len - n);
+    }
+}
+
+/* RS232: one byte the firmware sent. */
+static void obs_tx_byte(sim_bridge_t *b, uint8_t byte, urbsim_ns_t t)
+{
+    if (!urbsim_trace_on(b->tr, URBSIM_TR_BRIDGE) || b->obs_len == 0u) {
+        return;
+    }
+    if (b->obs_resp_len < sizeof b->obs_resp) {
+        b->obs_resp[b->obs_resp_len++] = byte;
+    }
+    size_t n = response_size(b, b->obs_resp[0]);
+    if (b->obs_resp_len >= n) {
+        obs_response(b, b->obs_resp, n, t);
+        b->obs_resp_len = 0;
+    }
+}
+
+/* USB: an OUT batch handed to the firmware, an IN batch it returned. */
+static void obs_usb(sim_bridge_t *b, const uint8_t *d, size_t len, bool out, urbsim_ns_t t)
+{
+    if (!urbsim_trace_on(b->tr, URBSIM_TR_BRIDGE) || len < URB_USB_BATCH_HEADER_MAX_SIZE) {
+        return;
+    }
+    urb_usb_batch_header_t h;
+    if (urb_usb_batch_header_decode(&h, d, URB_USB_BATCH_HEADER_MAX_SIZE) < 0) {
+        return;
+    }
+    size_t at = URB_USB_BATCH_HEADER_MAX_SIZE;
+    for (unsigned i = 0; i < h.count && at < len; i++) {
+        size_t n;
+        if (out) {
+            if (len - at < 3u) {
+                return;
+            }
+            n = request_size(d + at);
+            if (at + n > len) {
+                return;
+            }
+            obs_request(b, d + at, n, t);
+        } else {
+            if (b->obs_len == 0u) {
+                return;
+            }
+            n = response_size(b, d[at]);
+            if (at + n > len) {
+                return;
+            }
+            obs_response(b, d + at, n, t);
+        }
+        at += n;
     }
 }
 
@@ -246,11 +389,13 @@ static void bridge_event(void *ctx, uint64_t arg, urbsim_ns_t now)
         break;
     case EV_RX_ISR:
         urb_bridge_uart_rx(&b->br, (uint8_t)extra, hal_now_us(b));
+        obs_rx_byte(b, (uint8_t)extra, now);
         want_poll(b, b->mcu.isr_free_at);
         break;
     case EV_TXE_ISR: {
         uint8_t byte;
         if (urb_bridge_uart_tx_pop(&b->br, &byte)) {
+            obs_tx_byte(b, byte, now);
             urbsim_uart_send(&b->to_host, &byte, 1u);
         } else {
             b->tx_active = false;
@@ -268,6 +413,7 @@ static void bridge_event(void *ctx, uint64_t arg, urbsim_ns_t now)
         if (b->usb_out_pending) {
             b->usb_out_pending = false;
             (void)urb_bridge_usb_out(&b->br, b->usb_out, b->usb_out_len);
+            obs_usb(b, b->usb_out, b->usb_out_len, true, now);
         }
         want_poll(b, b->mcu.isr_free_at);
         break;

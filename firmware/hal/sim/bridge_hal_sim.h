@@ -29,6 +29,14 @@
 #include "sim_devices.h"
 #include "urb_bridge.h"
 
+/** A request seen entering the bridge (for the response lengths of the trace observer). */
+typedef struct {
+    uint8_t address, mailbox, length, seq;
+    bool read;
+} sim_pending_t;
+
+#define SIM_PENDING_MAX 64u
+
 struct sim_bridge {
     char name[32];
     int id;
@@ -69,6 +77,15 @@ struct sim_bridge {
     sim_bridge_host_fn host;
     void *hctx;
     sim_log_t log;
+    /* Trace observer (category "bridge"): request frames handed to the firmware and response
+     * frames it sends, reassembled from the uplink bytes, for TLA+ trace validation. */
+    uint8_t obs_req[40];
+    uint8_t obs_req_len;
+    urbsim_ns_t obs_req_last;
+    uint8_t obs_resp[40];
+    uint8_t obs_resp_len;
+    sim_pending_t obs_pend[SIM_PENDING_MAX];
+    uint32_t obs_head, obs_len;
     uint64_t polls, boots;
     int init_result;
 };

