@@ -139,11 +139,11 @@ size-node: cross-firmware-node
 
 # ===== Worst-case instruction counts (callgrind) ================================================
 
-$(FWN_BUILD)/wcet_driver: tests/firmware/node/wcet_driver.c $(FWN_LIB_SRC) gen/c/urb_runtime.c gen/c/urb_core.c \
-                          $(FWN_HOSTED_SRC) $(FWN_HDRS)
+FWN_WCET_SRC := tests/firmware/node/wcet_driver.c tests/firmware/node/node_fixture.c $(FWN_LIB_SRC) \
+                gen/c/urb_runtime.c gen/c/urb_core.c $(FWN_HOSTED_SRC)
+$(FWN_BUILD)/wcet_driver: $(FWN_WCET_SRC) $(FWN_HDRS)
 	@mkdir -p $(@D)
-	gcc $(FWN_WARN) -O2 -g -fno-inline-functions-called-once $(FWN_INC) -o $@ tests/firmware/node/wcet_driver.c \
-	    $(FWN_LIB_SRC) gen/c/urb_runtime.c gen/c/urb_core.c $(FWN_HOSTED_SRC)
+	gcc $(FWN_WARN) -O2 -g -fno-ipa-icf $(FWN_INC) -o $@ $(FWN_WCET_SRC)
 
 wcet-node: $(FWN_BUILD)/wcet_driver
 	@$(FWN_PYTHON) tests/firmware/node/wcet.py --driver $(FWN_BUILD)/wcet_driver --out $(FWN_BUILD)/wcet.md
