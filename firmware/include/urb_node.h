@@ -246,10 +246,10 @@ struct urb_node {
 /** Fills *cfg with the defaults documented in urb_node_config_t (address 0: set i2c_address). */
 void urb_node_config_default(urb_node_config_t *cfg);
 
-/** Initialises *node, calls hooks->bootup, puts the node on the bus (address, first heartbeat),
- *  then calls hooks->init. `storage` (may be NULL when len is 0) holds mailboxes 1..7; `cfg`, `hal`,
- *  `hooks` and `storage` are referenced, not copied: they must outlive the node. Returns
- *  URB_NODE_OK, _ERR_ARG, _ERR_CONFIG or the first error bootup's setup calls returned. */
+/* hal, hooks, cfg and storage (mailboxes 1..7; NULL when storage_len is 0) are referenced, not
+ * copied: they must outlive the node. On error the node stays off the bus. */
+/** Initialises *node, runs hooks->bootup, goes on the bus (address, first heartbeat), runs hooks->init.
+ *  Returns URB_NODE_OK, _ERR_ARG, _ERR_CONFIG or the first error a setup call in bootup returned. */
 int urb_node_init(urb_node_t *node, const urb_node_hal_t *hal, const urb_node_hooks_t *hooks, void *user,
                   const urb_node_config_t *cfg, uint8_t *storage, uint16_t storage_len);
 
@@ -257,10 +257,10 @@ int urb_node_init(urb_node_t *node, const urb_node_hal_t *hal, const urb_node_ho
  *  Returns a mask of URB_NODE_POLL_* telling what ran. */
 uint8_t urb_node_poll(urb_node_t *node);
 
-/** True when urb_node_poll has work right now (a due update, a fault to deliver, a new command).
- *  A port's main loop may sleep until the next interrupt when it is false; check it with
- *  interrupts masked (Cortex-M: cpsid i; check; wfi; cpsie i) so a wake-up is never missed. Sleeping
- *  between polls makes app_update start a fixed time after the heartbeat (low acquisition jitter). */
+/* Sleeping between polls makes app_update start a fixed time after the heartbeat (low acquisition
+ * jitter). Check with interrupts masked (Cortex-M: cpsid i; check; wfi; cpsie i): no lost wake-up. */
+/** True when urb_node_poll has work now (a due update, a fault, a new command); when false the
+ *  main loop may sleep until the next interrupt. */
 bool urb_node_has_work(const urb_node_t *node);
 
 #define URB_NODE_POLL_COMMAND 0x01u /**< an inbox 0 command was executed */
