@@ -107,11 +107,18 @@ $(FWN_X)/obj/%.o: %.c $(FWN_HDRS) $(wildcard firmware/hal/cortex-m0plus/*.h firm
 	$(FWN_CROSS_CC) $(FWN_CROSS_FLAGS) $(FWN_WARN) $(FWN_X_INC) -c $< -o $@
 
 # Objects reached through pattern rules would count as intermediate and be deleted: keep them.
-.PRECIOUS: $(FWN_X)/obj/%.o $(FWN_BUILD)/gcc/obj/%.o $(FWN_BUILD)/clang/obj/%.o
+.PRECIOUS: $(FWN_X)/obj/%.o $(FWN_X)/obj/firmware/apps/sensorhex/targets/main_%.o $(FWN_BUILD)/gcc/obj/%.o $(FWN_BUILD)/clang/obj/%.o
 
 $(FWN_X)/liburb_node.a: $(FWN_X_LIB_OBJS)
 	rm -f $@
 	arm-none-eabi-ar rcs $@ $^
+
+# One main per app, all from main_node.c: the application name selects its functions and storage.
+$(FWN_X)/obj/firmware/apps/sensorhex/targets/main_%.o: firmware/apps/sensorhex/targets/main_node.c $(FWN_HDRS) \
+        $(wildcard firmware/hal/cortex-m0plus/*.h firmware/apps/sensorhex/targets/*.h)
+	@mkdir -p $(@D)
+	$(FWN_CROSS_CC) $(FWN_CROSS_FLAGS) $(FWN_WARN) $(FWN_X_INC) -DSENSORHEX_APP=$* \
+	    -DSENSORHEX_APP_STORAGE=SENSORHEX_$(shell echo $* | tr a-z A-Z)_STORAGE -c $< -o $@
 
 # One image per app: main + app + board stubs + port + startup + codecs + the library archive.
 $(FWN_X)/sensorhex_%.elf: $(FWN_X)/obj/firmware/apps/sensorhex/targets/main_%.o \
