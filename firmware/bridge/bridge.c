@@ -146,7 +146,7 @@ static void admit(urb_bridge_t *b, uint8_t uplink, uint8_t seq, uint8_t status, 
 #ifdef URB_MUTANT_DROP_WHEN_FULL
             return; /* mutant: silent drop */
 #else
-            status = URB_STATUS_BUSY; /* Bridge.tla: BUSY only when every data slot is taken */
+            status = URB_STATUS_BUSY; /* Bridge.tla: SubmitAndAdmit, BUSY only when every data slot is taken */
             b->stats.busy++;
 #endif
         }

@@ -1,0 +1,44 @@
+"""The TLA+ actions and the firmware that implements them name each other (tools/tla_xref.py)."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+from types import ModuleType
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def _xref() -> ModuleType:
+    spec = importlib.util.spec_from_file_location("tla_xref", REPO / "tools" / "tla_xref.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["tla_xref"] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_every_citation_resolves_and_every_mailbox_action_is_implemented() -> None:
+    assert _xref().problems() == []
+
+
+def test_mailbox_actions_are_found() -> None:
+    xref = _xref()
+    assert xref.actions("MailboxInbox")[:4] == ["IsrWriteBegin", "IsrWriteByte", "IsrWriteCommit", "IsrWriteAbort"]
+    assert "AppLockCheckFront" in xref.actions("MailboxInbox")
+
+
+def test_a_stale_citation_is_reported(tmp_path: Path) -> None:
+    xref = _xref()
+    bad = tmp_path / "bad.c"
+    bad.write_text("x = 1; /* MailboxInbox.tla: IsrWriteTwice */\n")
+    xref.C_DIRS = [*xref.C_DIRS, tmp_path]
+    assert any("IsrWriteTwice" in p for p in xref.problems())
+
+
+def test_readme_table_is_current() -> None:
+    readme = (REPO / "spec" / "tla" / "README.md").read_text()
+    begin, end = "<!-- xref:begin -->\n", "<!-- xref:end -->"
+    current = readme[readme.index(begin) + len(begin): readme.index(end)]
+    assert current == _xref().table(), "run `python3 tools/tla_xref.py --table` and paste it into spec/tla/README.md"
