@@ -15,7 +15,7 @@ from typing import Any
 from .build import REPO, BuildError, ensure_library
 from .experiments import Progress, Result
 
-EXPERIMENTS = ["fig15", "fig16", "table1", "faults", "traces"]
+EXPERIMENTS = ["fig15", "fig16", "table1", "fig18_19", "faults", "traces"]
 
 SENSORHEX_HELP = """\
 Run the SensoRHex simulation and the paper's experiments, and write an HTML summary.
@@ -30,6 +30,8 @@ and states PASS or FAIL against its acceptance criterion:
   fig16    the same over USB + I2C, payload 1..31 bytes
   table1   synchronisation of two nodes on one downlink, 20 seeds, with the unsynchronised
            baseline of Fig. 11
+  fig18_19 PD position control of a hip motor at 1 kHz over RS232 and over USB: the
+           motor driver node runs on a DC motor, gearhead and leg model
   faults   every fault the design must survive (bit errors, stuck I2C lines, node power loss,
            bridge reset, babbling node, uplink byte loss): each failed request must reach its
            callback with the right error flag, and the firmware's reaction is logged
@@ -69,10 +71,11 @@ def register(sub: Any) -> None:
 
 
 def _experiment(key: str) -> Callable[..., Result]:
-    from .experiments import faults, latency, sync, traces
+    from .experiments import control, faults, latency, sync, traces
 
     table: dict[str, Callable[..., Result]] = {"fig15": latency.fig15, "fig16": latency.fig16, "table1": sync.table1,
-                                               "faults": faults.faults, "traces": traces.traces}
+                                               "fig18_19": control.figs18_19, "faults": faults.faults,
+                                               "traces": traces.traces}
     return table[key]
 
 

@@ -38,6 +38,7 @@ class Mark(IntEnum):
     SYNC = 2
     READ = 3
     BOOT = 4
+    DRIVE = 5
     SERVE = 8
     BRIDGE_SYNC = 9
     EMIT = 10
@@ -93,6 +94,7 @@ def lib() -> Any:
             "urbsim_bridge_marks": (c_uint32, [W, c_int, POINTER(c_uint64), POINTER(c_uint32), c_uint32]),
             "urbsim_node_status": (c_int, [W, c_int, POINTER(c_int64)]),
             "urbsim_stat": (c_double, [W, c_char_p, c_int]),
+            "urbsim_node_plant": (c_int, [W, c_int, POINTER(c_double)]),
             "urbsim_fault_i2c_ber": (c_int, [W, c_int, c_double]),
             "urbsim_fault_i2c_stuck": (c_int, [W, c_int, c_int, c_uint64, c_uint32]),
             "urbsim_fault_uart": (c_int, [W, c_int, c_int, c_double, c_double]),
@@ -262,6 +264,14 @@ class World:
             raise IndexError(f"no node {node}")
         return NodeStatus(int(arr[0]), int(arr[1]), int(arr[2]), int(arr[3]), int(arr[4]), int(arr[5]),
                           int(arr[6]), bool(arr[7]), int(arr[8]))
+
+    def plant(self, node: int) -> tuple[float, float, float, float, float, float]:
+        """True state of a motor node's motor and leg now: motor angle (rad), speed (rad/s),
+        current (A), applied voltage (V), leg angle (rad), case temperature (degC)."""
+        arr = (c_double * 6)()
+        if self._lib.urbsim_node_plant(self._w, node, arr) != 0:
+            raise IndexError(f"node {node} drives no motor")
+        return (arr[0], arr[1], arr[2], arr[3], arr[4], arr[5])
 
     def stat(self, name: str, device: int = 0) -> float:
         return float(self._lib.urbsim_stat(self._w, name.encode(), device))

@@ -60,6 +60,11 @@
     X(USB_PHASE_US, "usb.phase_us", -1.0, "USB frame phase against the OS tick, us (-1: drawn per seed)") \
     X(USB_BITRATE, "usb.bitrate", 12e6, "USB bus bit rate (full speed), b/s")                         \
     X(USB_READ_ALWAYS, "usb.read_always", 1.0, "1: the driver keeps a bulk-IN pending every frame; 0: reads only after a write (Fig. 9)") \
+    X(MOTOR_JLEG, "motor.leg_inertia", 2.4e-3, "leg inertia about the hip, kg m^2")                \
+    X(MOTOR_MGR, "motor.leg_gravity", 1.1772, "leg gravity torque m g r, Nm (0: no gravity)")         \
+    X(MOTOR_N, "motor.gear_ratio", 33.0, "gearhead ratio")                                            \
+    X(MOTOR_VS, "motor.supply_v", 12.0, "motor supply (3S Li-Po), V")                                \
+    X(MOTOR_PWM, "motor.pwm_hz", 40e3, "motor PWM frequency, Hz")                                   \
     X(PROBE_CLASS, "probe.class_id", 126.0, "class of probe nodes")                                  \
     X(PROBE_FINGERPRINT, "probe.fingerprint", 2119565312.0, "layout fingerprint probe nodes report")  \
     X(PROBE_OUT, "probe.out_size", 6.0, "probe outbox 1 size, bytes")                                 \

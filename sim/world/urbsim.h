@@ -77,6 +77,9 @@ uint32_t urbsim_bridge_marks(urbsim_world_t *w, int bridge, uint64_t *t, uint32_
 /** Node heartbeat status: out[0..8] = state, period_q8, phase_q8, lead_ticks, acq_ticks, syncs,
  *  rejected, synced, init_result. Returns 0 or -1. */
 int urbsim_node_status(urbsim_world_t *w, int node, int64_t *out);
+/** Motor driver node: true motor/leg state now, out[0..5] = motor angle (rad), speed (rad/s),
+ *  current (A), applied voltage (V), leg angle (rad), case temperature (degC). 0, or -1. */
+int urbsim_node_plant(urbsim_world_t *w, int node, double *out);
 /** A named statistic of device `id` (see world.c stat()); NaN when unknown. */
 double urbsim_stat(urbsim_world_t *w, const char *name, int id);
 

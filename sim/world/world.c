@@ -276,6 +276,12 @@ int urbsim_add_node(urbsim_world_t *w, int bridge, int app, int address, int ind
     a.fingerprint = (uint32_t)w->p[P_PROBE_FINGERPRINT];
     a.out_size = (uint8_t)w->p[P_PROBE_OUT];
     a.in_size = (uint8_t)w->p[P_PROBE_IN];
+    a.motor = urbsim_motor_default_params();
+    a.motor.Jleg = w->p[P_MOTOR_JLEG];
+    a.motor.mgr = w->p[P_MOTOR_MGR];
+    a.motor.N = w->p[P_MOTOR_N];
+    a.motor.Vs = w->p[P_MOTOR_VS];
+    a.motor.f_pwm = w->p[P_MOTOR_PWM];
     urbsim_rng_t r;
     urbsim_rng_derive(&r, w->seed, "node", (uint64_t)(bridge * 128 + address));
     sim_node_cfg_t cfg;
@@ -524,6 +530,14 @@ int urbsim_node_status(urbsim_world_t *w, int node, int64_t *out)
     }
     sim_node_status(w->nodes[node], out);
     return 0;
+}
+
+int urbsim_node_plant(urbsim_world_t *w, int node, double *out)
+{
+    if (!w || node < 0 || node >= w->n_nodes) {
+        return -1;
+    }
+    return sim_node_plant(w->nodes[node], out);
 }
 
 double urbsim_stat(urbsim_world_t *w, const char *name, int id)

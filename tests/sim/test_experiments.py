@@ -50,3 +50,10 @@ def test_trace_validation_with_tlc(tmp_path: Path) -> None:
 
     res = traces.traces(tmp_path, quick=True)
     _assert_passed(res)
+
+
+def test_figs18_19_pd_control(tmp_path: Path) -> None:
+    from urb_sim.experiments import control
+
+    res = control.figs18_19(tmp_path, quick=True)
+    _assert_passed(res)

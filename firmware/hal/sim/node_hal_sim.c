@@ -213,8 +213,10 @@ sim_node_t *sim_node_new(const char *name, urbsim_kernel_t *k, urbsim_trace_t *t
     if (n == NULL) {
         return NULL;
     }
-    switch (app->app) {
-    case SIM_APP_PROBE:
+    urb_node_config_default(&n->ncfg);
+    urbsim_rng_t app_rng = *rng;
+    urbsim_rng_seed(&app_rng, urbsim_rng_u64(&app_rng) ^ 0xA99u);
+    if (app->app == SIM_APP_PROBE) {
         n->app_state.probe.class_id = app->class_id;
         n->app_state.probe.index = app->index;
         n->app_state.probe.fingerprint = app->fingerprint;
@@ -223,8 +225,7 @@ sim_node_t *sim_node_new(const char *name, urbsim_kernel_t *k, urbsim_trace_t *t
         n->hooks = &sim_probe_hooks;
         n->app = &n->app_state.probe;
         n->storage_len = sim_probe_storage(&n->app_state.probe);
-        break;
-    default:
+    } else if (!sim_sensorhex_bind(n, app->app, app->index, &app->motor, &app_rng, &n->ncfg)) {
         free(n);
         return NULL;
     }
@@ -234,7 +235,6 @@ sim_node_t *sim_node_new(const char *name, urbsim_kernel_t *k, urbsim_trace_t *t
     n->bus = bus;
     n->cfg = *cfg;
     n->cfg.clock.timer_hz = (double)cfg->ticks_per_us * 1e6;
-    urb_node_config_default(&n->ncfg);
     n->ncfg.i2c_address = cfg->address;
     n->ncfg.ticks_per_us = cfg->ticks_per_us;
     n->ncfg.heartbeat_us = cfg->heartbeat_us;
@@ -292,6 +292,22 @@ void sim_node_status(const sim_node_t *n, int64_t *out)
     out[6] = (int64_t)s.rejected;
     out[7] = urb_node_synced(&n->node) ? 1 : 0;
     out[8] = n->init_result;
+}
+
+int sim_node_plant(sim_node_t *n, double *out)
+{
+    if (!n->has_plant) {
+        return -1;
+    }
+    urbsim_motor_t *m = &n->plant;
+    urbsim_motor_advance(m, n->k->now);
+    out[0] = m->theta;
+    out[1] = m->w;
+    out[2] = m->i;
+    out[3] = m->v;
+    out[4] = m->theta / m->p.N;
+    out[5] = m->temp;
+    return 0;
 }
 
 double sim_node_stat(const sim_node_t *n, const char *s)

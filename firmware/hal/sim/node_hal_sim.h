@@ -24,6 +24,11 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "motor.h"
+#include "sensorhex_battery.h"
+#include "sensorhex_imu.h"
+#include "sensorhex_ir.h"
+#include "sensorhex_motor.h"
 #include "sim_apps.h"
 #include "sim_devices.h"
 #include "urb_node.h"
@@ -60,7 +65,18 @@ struct sim_node {
     int init_result;
     union {
         sim_probe_app_t probe;
+        struct { sensorhex_motor_t app; sensorhex_motor_io_t io; } motor;
+        struct { sensorhex_battery_t app; sensorhex_battery_io_t io; } battery;
+        struct { sensorhex_imu_t app; sensorhex_imu_io_t io; } imu;
+        struct { sensorhex_ir_t app; sensorhex_ir_io_t io; } ir;
     } app_state;
+    urbsim_motor_t plant;        /**< the motor and leg of a motor driver node */
+    bool has_plant;
 };
+
+/** Bind a SensoRHex application (sensorhex_io_sim.c): its hooks, state, storage size and the
+ *  hardware it sees; adjusts *ncfg as the application requires. False for other apps. */
+bool sim_sensorhex_bind(sim_node_t *n, int app, uint8_t index, const urbsim_motor_params_t *motor,
+                        const urbsim_rng_t *rng, urb_node_config_t *ncfg);
 
 #endif /* URBSIM_NODE_HAL_SIM_H */

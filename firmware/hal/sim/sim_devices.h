@@ -15,6 +15,7 @@
 #include "i2c.h"
 #include "kernel.h"
 #include "mcu.h"
+#include "motor.h"
 #include "sim_log.h"
 #include "trace.h"
 #include "uart.h"
@@ -53,10 +54,12 @@ typedef struct {
     uint8_t class_id;
     uint32_t fingerprint;
     uint8_t out_size, in_size;
+    urbsim_motor_params_t motor;  /**< motor driver: the motor and leg it drives */
 } sim_app_cfg_t;
 
 /** Mark kinds in node logs (values of urb_node_mark_t, then the port's own). */
-enum { SIM_MARK_BEAT = 0, SIM_MARK_ACQ_END = 1, SIM_MARK_SYNC = 2, SIM_MARK_READ = 3, SIM_MARK_BOOT = 4 };
+enum { SIM_MARK_BEAT = 0, SIM_MARK_ACQ_END = 1, SIM_MARK_SYNC = 2, SIM_MARK_READ = 3, SIM_MARK_BOOT = 4,
+       SIM_MARK_DRIVE = 5 /**< motor driver applied a voltage: value = mV + 0x8000 */ };
 
 /** A new unpowered node attached to `bus`; NULL when the application is unknown or memory is out. */
 sim_node_t *sim_node_new(const char *name, urbsim_kernel_t *k, urbsim_trace_t *tr, urbsim_i2c_bus_t *bus,
@@ -71,6 +74,10 @@ sim_log_t *sim_node_log(sim_node_t *n);
 void sim_node_status(const sim_node_t *n, int64_t *out);
 /** Named counters (ppm, polls, updates, boots, irqs, isr_ns, marks_lost); NaN when unknown. */
 double sim_node_stat(const sim_node_t *n, const char *name);
+/** Motor driver nodes: true state of the motor and leg now: out[0..5] = motor angle (rad), speed
+ *  (rad/s), current (A), applied average voltage (V), leg angle (rad), case temperature (degC).
+ *  -1 for other nodes. */
+int sim_node_plant(sim_node_t *n, double *out);
 
 /* ---- bridges ---- */
 
