@@ -57,3 +57,10 @@ def test_figs18_19_pd_control(tmp_path: Path) -> None:
 
     res = control.figs18_19(tmp_path, quick=True)
     _assert_passed(res)
+
+
+def test_fig20_tripod_gait(tmp_path: Path) -> None:
+    from urb_sim.experiments import gait
+
+    res = gait.fig20(tmp_path, quick=True)
+    _assert_passed(res)
