@@ -15,7 +15,7 @@ from typing import Any
 from .build import REPO, BuildError, ensure_library
 from .experiments import Progress, Result
 
-EXPERIMENTS = ["fig15", "fig16", "table1", "fig18_19", "fig20", "faults", "traces"]
+EXPERIMENTS = ["fig15", "fig16", "table1", "fig18_19", "fig20", "bandwidth", "faults", "traces"]
 
 SENSORHEX_HELP = """\
 Run the SensoRHex simulation and the paper's experiments, and write an HTML summary.
@@ -34,6 +34,8 @@ and states PASS or FAIL against its acceptance criterion:
            motor driver node runs on a DC motor, gearhead and leg model
   fig20    the SensoRHex system of Fig. 14 (two USB bridges with three motor nodes each, an
            RS232 bridge with battery, IMU and IR nodes) walking an alternating tripod gait
+  bandwidth the highest read rate and payload each uplink sustains without missed deadlines,
+           and how many motors per USB bridge a 1-kHz or 500-Hz loop can serve
   faults   every fault the design must survive (bit errors, stuck I2C lines, node power loss,
            bridge reset, babbling node, uplink byte loss): each failed request must reach its
            callback with the right error flag, and the firmware's reaction is logged
@@ -73,10 +75,11 @@ def register(sub: Any) -> None:
 
 
 def _experiment(key: str) -> Callable[..., Result]:
-    from .experiments import control, faults, gait, latency, sync, traces
+    from .experiments import bandwidth, control, faults, gait, latency, sync, traces
 
     table: dict[str, Callable[..., Result]] = {"fig15": latency.fig15, "fig16": latency.fig16, "table1": sync.table1,
                                                "fig18_19": control.figs18_19, "fig20": gait.fig20,
+                                               "bandwidth": bandwidth.bandwidth,
                                                "faults": faults.faults,
                                                "traces": traces.traces}
     return table[key]

@@ -64,3 +64,10 @@ def test_fig20_tripod_gait(tmp_path: Path) -> None:
 
     res = gait.fig20(tmp_path, quick=True)
     _assert_passed(res)
+
+
+def test_bandwidth_limits(tmp_path: Path) -> None:
+    from urb_sim.experiments import bandwidth
+
+    res = bandwidth.bandwidth(tmp_path, quick=True)
+    _assert_passed(res)
