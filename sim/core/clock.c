@@ -52,6 +52,7 @@ static void grow(urbsim_clock_t *c)
     next.t0 = last->t0 + seg_len(c);
     next.local0 = last->local0 + (double)seg_len(c) * last->rate;
     next.rate = next_rate(c, c->generated++);
+    next.ns_per_cycle = 1e9 / c->cfg.cpu_hz / next.rate;
     if (c->count == URBSIM_CLOCK_SEGMENTS) {
         c->first = (c->first + 1u) % URBSIM_CLOCK_SEGMENTS;
         c->count--;
@@ -83,12 +84,19 @@ void urbsim_clock_reset(urbsim_clock_t *c, urbsim_ns_t now)
     c->seg[0].t0 = now;
     c->seg[0].local0 = 0.0;
     c->seg[0].rate = next_rate(c, c->generated++);
+    c->seg[0].ns_per_cycle = 1e9 / c->cfg.cpu_hz / c->seg[0].rate;
 }
 
-/* Index (0..count-1) of the segment containing virtual time t, generating forward as needed. */
+/* Index (0..count-1) of the segment containing virtual time t, generating forward as needed.
+ * Nearly every query falls in the newest segment: that case costs one comparison. */
 static uint32_t find_virtual(urbsim_clock_t *c, urbsim_ns_t t)
 {
-    while (t >= seg_at(c, c->count - 1u)->t0 + seg_len(c)) {
+    const urbsim_clock_seg_t *last = seg_at(c, c->count - 1u);
+    urbsim_ns_t len = seg_len(c);
+    if (t >= last->t0 && t < last->t0 + len) {
+        return c->count - 1u;
+    }
+    while (t >= seg_at(c, c->count - 1u)->t0 + len) {
         grow(c);
     }
     uint32_t i = c->count - 1u;
@@ -157,8 +165,7 @@ urbsim_ns_t urbsim_clock_virtual_at_tick(urbsim_clock_t *c, uint64_t ticks)
 urbsim_ns_t urbsim_clock_cycles_ns(urbsim_clock_t *c, urbsim_ns_t t, double cycles)
 {
     urbsim_clock_seg_t *s = seg_at(c, find_virtual(c, t < c->origin ? c->origin : t));
-    double ns = cycles * 1e9 / c->cfg.cpu_hz / s->rate;
-    return (urbsim_ns_t)llround(ns);
+    return (urbsim_ns_t)(cycles * s->ns_per_cycle + 0.5); /* >= 0: round half up, cheaper than llround */
 }
 
 urbsim_ns_t urbsim_clock_irq_latency(urbsim_clock_t *c, urbsim_ns_t t)

@@ -48,6 +48,7 @@ typedef struct {
     urbsim_ns_t t0;     /**< virtual start time of the segment */
     double local0;      /**< local time (ns) at t0 */
     double rate;        /**< local ns per virtual ns in the segment: 1 + e */
+    double ns_per_cycle;/**< virtual ns per core cycle in the segment (cached: 1e9 / cpu_hz / rate) */
 } urbsim_clock_seg_t;
 
 typedef struct {

@@ -122,7 +122,8 @@ static void ev_done(void *ctx, uint64_t arg, urbsim_ns_t now);
 /* The earliest instant a new operation may start clocking. */
 static urbsim_ns_t op_begin(const urbsim_i2c_bus_t *b)
 {
-    return b->k->now > b->ready_at ? b->k->now : b->ready_at;
+    urbsim_ns_t t = b->k->now > b->ready_at ? b->k->now : b->ready_at;
+    return t > b->earliest ? t : b->earliest;
 }
 
 /* Schedule the master completion of the operation in flight at t_done. */

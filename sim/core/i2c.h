@@ -103,6 +103,8 @@ typedef struct {
     uint64_t active_gen[URBSIM_I2C_MAX_SLAVES];
     uint32_t n_active;
     urbsim_ns_t ready_at;    /**< the previous operation ends here */
+    urbsim_ns_t earliest;    /**< set by the master's port while its handler runs: operations it
+                                  issues start no earlier (the handler's true instant) */
     urbsim_ns_t bus_free_at; /**< STOP + t_buf */
     urbsim_ns_t tx_ready;    /**< read: the slaves' data is loaded by then */
     uint8_t tx_byte;         /**< read: wired-AND of the active slaves' bytes */

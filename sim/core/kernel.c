@@ -3,6 +3,7 @@
 
 #include <stdlib.h>
 
+
 /* True when a must run before b. Sequence numbers are unique, so this is a strict total order and
  * the run order never depends on the heap's internal layout. */
 static bool before(const urbsim_event_t *a, const urbsim_event_t *b)
@@ -24,6 +25,7 @@ bool urbsim_kernel_init(urbsim_kernel_t *k)
 
 void urbsim_kernel_free(urbsim_kernel_t *k)
 {
+
     free(k->heap);
     k->heap = NULL;
     k->len = k->cap = 0;

@@ -66,6 +66,17 @@ uint64_t urbsim_rng_below(urbsim_rng_t *r, uint64_t n)
     if (n == 0) {
         return 0;
     }
+    if (n <= 0xFFFFFFFFu) {
+        /* Lemire's method on 32 bits (the common case: interrupt jitter in cycles). */
+        uint32_t n32 = (uint32_t)n;
+        uint32_t threshold = (0u - n32) % n32;
+        for (;;) {
+            uint64_t m = (urbsim_rng_u64(r) >> 32) * n;
+            if ((uint32_t)m >= threshold) {
+                return m >> 32;
+            }
+        }
+    }
     /* Rejection on the low bits of the 128-bit product (Lemire 2019), via 64-bit halves so it is
      * plain C99. */
     uint64_t threshold = (0u - n) % n;

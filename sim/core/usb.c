@@ -4,6 +4,8 @@
 #include <math.h>
 #include <string.h>
 
+static void build_stuff_table(uint8_t stuff_table[256][6][2]);
+
 void urbsim_usb_init(urbsim_usb_bus_t *u, urbsim_kernel_t *k, urbsim_trace_t *tr, const char *name,
                      urbsim_clock_t *clock, urbsim_ns_t phase_ns)
 {
@@ -17,6 +19,7 @@ void urbsim_usb_init(urbsim_usb_bus_t *u, urbsim_kernel_t *k, urbsim_trace_t *tr
     u->phase_ns = phase_ns % URBSIM_NS_PER_MS;
     u->hc_irq_ns = 20 * URBSIM_NS_PER_US;
     u->eof_guard_ns = 4 * URBSIM_NS_PER_US;
+    build_stuff_table(u->stuff);
 }
 
 int urbsim_usb_attach(urbsim_usb_bus_t *u, urbsim_usb_dev_t *d)
@@ -32,28 +35,44 @@ int urbsim_usb_attach(urbsim_usb_bus_t *u, urbsim_usb_dev_t *d)
     return (int)u->n_devs++;
 }
 
-/* Bits added by bit stuffing: a 0 after every run of six 1s, bytes sent LSB first. */
-static uint32_t stuffed_bits(const uint8_t *data, uint32_t n)
+/* Bits added by bit stuffing: a 0 after every run of six 1s, bytes sent LSB first. The count for
+ * one byte depends only on the byte and the run of 1s it starts with (0..5): a 256 x 6 table of
+ * (stuffed bits, run after the byte), built with the bus (urbsim_usb_init). */
+static void build_stuff_table(uint8_t stuff_table[256][6][2])
 {
-    uint32_t ones = 0, extra = 0;
-    for (uint32_t i = 0; i < n; i++) {
-        for (uint32_t bit = 0; bit < 8u; bit++) {
-            if ((data[i] >> bit) & 1u) {
-                if (++ones == 6u) {
-                    extra++;
+    for (unsigned byte = 0; byte < 256u; byte++) {
+        for (unsigned run0 = 0; run0 < 6u; run0++) {
+            unsigned ones = run0, extra = 0;
+            for (unsigned bit = 0; bit < 8u; bit++) {
+                if ((byte >> bit) & 1u) {
+                    if (++ones == 6u) {
+                        extra++;
+                        ones = 0;
+                    }
+                } else {
                     ones = 0;
                 }
-            } else {
-                ones = 0;
             }
+            stuff_table[byte][run0][0] = (uint8_t)extra;
+            stuff_table[byte][run0][1] = (uint8_t)ones;
         }
+    }
+}
+
+static uint32_t stuffed_bits(const uint8_t (*stuff_table)[6][2], const uint8_t *data, uint32_t n)
+{
+    uint32_t extra = 0;
+    uint8_t ones = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        extra += stuff_table[data[i]][ones][0];
+        ones = stuff_table[data[i]][ones][1];
     }
     return extra;
 }
 
-static uint32_t packet_bits(const uint8_t *data, uint32_t n)
+static uint32_t packet_bits(const urbsim_usb_bus_t *u, const uint8_t *data, uint32_t n)
 {
-    return 35u + 8u + (35u + 8u * n + (data ? stuffed_bits(data, n) : 0u)) + 8u + 19u + 8u;
+    return 35u + 8u + (35u + 8u * n + (data ? stuffed_bits(u->stuff, data, n) : 0u)) + 8u + 19u + 8u;
 }
 
 uint32_t urbsim_usb_transfer_bits(const urbsim_usb_bus_t *u, const uint8_t *data, uint32_t len)
@@ -61,10 +80,10 @@ uint32_t urbsim_usb_transfer_bits(const urbsim_usb_bus_t *u, const uint8_t *data
     uint32_t bits = 0, off = 0;
     do {
         uint32_t n = len - off < u->max_packet ? len - off : u->max_packet;
-        bits += packet_bits(data ? data + off : NULL, n);
+        bits += packet_bits(u, data ? data + off : NULL, n);
         off += n;
         if (n == u->max_packet && off == len) {
-            bits += packet_bits(NULL, 0); /* zero-length packet ends an exact multiple */
+            bits += packet_bits(u, NULL, 0); /* zero-length packet ends an exact multiple */
         }
     } while (off < len);
     return bits;

@@ -91,6 +91,7 @@ typedef struct {
     uint32_t done_pending;   /**< of those, how many reached their bus end (interrupt raised) */
     bool running;
     uint64_t frames, busy_bits;
+    uint8_t stuff[256][6][2];  /**< bit-stuffing table (stuffed bits, run of 1s after a byte) */
 } urbsim_usb_bus_t;
 
 /** Set up a bus; SOF events start at the first frame boundary (phase_ns of the clock). */

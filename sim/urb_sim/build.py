@@ -52,7 +52,7 @@ EXCLUDE_NAMES = {"urb_single.c"}
 FOREIGN_DIRS = ["firmware/include", "firmware/node", "firmware/bridge", "firmware/apps/sensorhex", "gen/c"]
 
 CC = os.environ.get("CC", "gcc")
-CFLAGS = ["-std=c99", "-O2", "-g", "-fPIC", "-Wall", "-Wextra", "-Werror", "-fvisibility=default"]
+CFLAGS = ["-std=c99", "-O3", "-ffp-contract=off", "-g", "-fPIC", "-Wall", "-Wextra", "-Werror", "-fvisibility=default"]
 
 
 class BuildError(RuntimeError):

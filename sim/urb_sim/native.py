@@ -95,6 +95,9 @@ def lib() -> Any:
             "urbsim_node_status": (c_int, [W, c_int, POINTER(c_int64)]),
             "urbsim_stat": (c_double, [W, c_char_p, c_int]),
             "urbsim_node_plant": (c_int, [W, c_int, POINTER(c_double)]),
+            "urbsim_native_host": (c_int, [W, c_int, c_int]),
+            "urbsim_native_request": (c_int, [W, c_int, c_int, c_int, c_int, c_int, c_int]),
+            "urbsim_native_stat": (c_double, [W, c_int, c_char_p]),
             "urbsim_fault_i2c_ber": (c_int, [W, c_int, c_double]),
             "urbsim_fault_i2c_stuck": (c_int, [W, c_int, c_int, c_uint64, c_uint32]),
             "urbsim_fault_uart": (c_int, [W, c_int, c_int, c_double, c_double]),
@@ -275,6 +278,19 @@ class World:
 
     def stat(self, name: str, device: int = 0) -> float:
         return float(self._lib.urbsim_stat(self._w, name.encode(), device))
+
+    # -- native host --------------------------------------------------------------------------
+    def native_host(self, bridge: int, period_ticks: int = 1) -> None:
+        """Drive `bridge` from the native host traffic model (no Python in the loop)."""
+        if self._lib.urbsim_native_host(self._w, bridge, period_ticks) != 0:
+            raise ValueError(f"cannot drive bridge {bridge} natively (unknown, or the world has started)")
+
+    def native_request(self, bridge: int, address: int, mailbox: int, read: bool, length: int, every: int = 1) -> None:
+        if self._lib.urbsim_native_request(self._w, bridge, address, mailbox, int(read), length, every) != 0:
+            raise ValueError("bad native request (bridge not native, address, mailbox or length out of range)")
+
+    def native_stat(self, bridge: int, name: str) -> float:
+        return float(self._lib.urbsim_native_stat(self._w, bridge, name.encode()))
 
     # -- faults -----------------------------------------------------------------------------
     def i2c_ber(self, bridge: int, ber: float) -> None:

@@ -99,4 +99,14 @@ int urbsim_bridge_power(urbsim_world_t *w, int bridge, int on);
  *  transaction). Returns 0. */
 int urbsim_fault_babble(urbsim_world_t *w, int bridge, int address, double rate);
 
+/* ---- native host (speed: benchmarks and sweeps without Python in the loop) ---- */
+/** Drive `bridge` from the native host model (native_host.c) instead of Python: every
+ *  `period_ticks` OS ticks it sends its periodic requests. Before urbsim_start. 0, or -1. */
+int urbsim_native_host(urbsim_world_t *w, int bridge, int period_ticks);
+/** Add a periodic request (every `every` loop cycles) to a natively driven bridge. 0, or -1. */
+int urbsim_native_request(urbsim_world_t *w, int bridge, int address, int mailbox, int read, int length, int every);
+/** Native host counters: sent, ok, failed, timeouts, skipped, resyncs, pending, lat_mean_ns,
+ *  lat_max_ns, lat_min_ns; NaN when unknown. */
+double urbsim_native_stat(urbsim_world_t *w, int bridge, const char *name);
+
 #endif /* URBSIM_H */

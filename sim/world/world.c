@@ -20,6 +20,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "native_host.h"
 #include "params.h"
 #include "sim_devices.h"
 
@@ -54,6 +55,7 @@ typedef struct {
 typedef struct {
     int open_item;        /* RS232: index of the item still collecting bytes, -1 none */
     double usb_loss;
+    nh_bridge_t *native;  /* the native host drives this bridge (no Python) */
 } host_port_t;
 
 /* A babbling device: answers any address with probability `rate` and sends random bytes. */
@@ -89,6 +91,7 @@ struct urbsim_world {
     int node_bridge[MAX_NODES];
     int n_nodes;
     babbler_t *babblers[MAX_BRIDGES];
+    bool native_on;
 };
 
 /* ---------------------------------------------------------------- parameters */
@@ -155,6 +158,7 @@ void urbsim_free(urbsim_world_t *w)
     for (int i = 0; i < w->n_bridges; i++) {
         sim_bridge_free(w->bridges[i]);
         free(w->babblers[i]);
+        free(w->port[i].native);
     }
     for (int i = 0; i < w->n_nodes; i++) {
         sim_node_free(w->nodes[i]);
@@ -313,7 +317,42 @@ int urbsim_add_node(urbsim_world_t *w, int bridge, int app, int address, int ind
 
 /* ---------------------------------------------------------------- start and run */
 
-enum { EV_NODE_ON, EV_HOST_WAKE, EV_BRIDGE_ON };
+enum { EV_NODE_ON, EV_HOST_WAKE, EV_BRIDGE_ON, EV_NATIVE_TICK };
+
+static void world_event(void *ctx, uint64_t arg, urbsim_ns_t now);
+
+/* The native host's thread: wakes on every OS tick k (like a thread sleeping on the 1-kHz tick)
+ * and sends each natively driven bridge its due requests. */
+static void native_tick(urbsim_world_t *w, uint64_t k)
+{
+    uint8_t buf[URBSIM_USB_MAX_XFER];
+    size_t ends[NH_MAX_REQS];
+    for (int b = 0; b < w->n_bridges; b++) {
+        nh_bridge_t *h = w->port[b].native;
+        if (!h) {
+            continue;
+        }
+        nh_timeouts(h, w->k.now, 100 * URBSIM_NS_PER_MS);
+        uint32_t frames;
+        size_t n = nh_cycle(h, w->k.now, buf, sizeof buf, ends, &frames);
+        if (!n) {
+            continue;
+        }
+        sim_bridge_t *br = w->bridges[b];
+        if (sim_bridge_uplink(br) == SIM_UPLINK_RS232) {
+            size_t from = 0;
+            for (uint32_t f = 0; f < frames; f++) { /* one write() per frame */
+                sim_bridge_host_send(br, buf + from, (uint32_t)(ends[f] - from));
+                from = ends[f];
+            }
+        } else {
+            urbsim_usb_write(&w->usb, (uint32_t)sim_bridge_usb_index(br), buf, (uint32_t)n);
+        }
+    }
+    double tick = w->p[P_CPU_TICK_US] * 1000.0;
+    urbsim_kernel_at(&w->k, urbsim_host_timer(w, (int64_t)((double)(k + 1u) * tick)), world_event, w,
+                     EV_NATIVE_TICK | ((k + 1u) << 8));
+}
 
 static void world_event(void *ctx, uint64_t arg, urbsim_ns_t now)
 {
@@ -327,6 +366,10 @@ static void world_event(void *ctx, uint64_t arg, urbsim_ns_t now)
     }
     if (kind == EV_BRIDGE_ON) {
         sim_bridge_power_on(w->bridges[idx]);
+        return;
+    }
+    if (kind == EV_NATIVE_TICK) {
+        native_tick(w, (uint64_t)idx);
         return;
     }
     /* EV_HOST_WAKE: the read thread of bridge idx runs now and reads everything that arrived. */
@@ -356,6 +399,12 @@ int urbsim_start(urbsim_world_t *w)
     }
     if (w->usb_ready) {
         urbsim_usb_run(&w->usb);
+    }
+    if (w->native_on) {
+        /* the native host starts with the first tick after the bridges are up */
+        uint64_t k = (uint64_t)(w->p[P_BRIDGE_BOOT_MS] * 1000.0 / w->p[P_CPU_TICK_US]) + 50u;
+        urbsim_kernel_at(&w->k, urbsim_host_timer(w, (int64_t)((double)k * w->p[P_CPU_TICK_US] * 1000.0)), world_event,
+                         w, EV_NATIVE_TICK | (k << 8));
     }
     for (int i = 0; i < w->n_nodes; i++) {
         urbsim_rng_t r;
@@ -422,6 +471,13 @@ static void host_deliver(void *hctx, int bridge, const uint8_t *data, uint32_t n
     urbsim_world_t *w = hctx;
     host_port_t *p = &w->port[bridge];
     bool usb = sim_bridge_uplink(w->bridges[bridge]) == SIM_UPLINK_USB;
+    if (p->native) {
+        /* the read thread wakes after the usual latency; the model takes the data at once and
+         * adds that latency to what it measures */
+        double jitter = urbsim_rng_uniform(&w->host_rng) * w->p[P_CPU_IO_JITTER_US];
+        nh_receive(p->native, data, n, t + (urbsim_ns_t)((w->p[P_CPU_IO_WAKE_US] + jitter) * 1000.0));
+        return;
+    }
     if (usb && p->usb_loss > 0.0 && urbsim_rng_uniform(&w->host_rng) < p->usb_loss) {
         urbsim_trace(&w->tr, URBSIM_TR_FAULT, t, sim_bridge_name(w->bridges[bridge]), "usb_in_lost", ",\"len\":%u", n);
         return;
@@ -555,6 +611,8 @@ double urbsim_stat(urbsim_world_t *w, const char *name, int id)
     if (!strcmp(name, "usb.busy_bits")) return (double)w->usb.busy_bits;
     if (!strcmp(name, "usb.phase_ns")) return (double)w->usb.phase_ns;
     if (!strcmp(name, "host.wakes")) return (double)w->host_wakes;
+    if (!strcmp(name, "kernel.pending")) return (double)w->k.len;
+    if (!strcmp(name, "kernel.capacity")) return (double)w->k.cap;
     if (!strcmp(name, "cpu.ppm")) return w->cpu.cfg.ppm0;
     return NAN;
 }
@@ -701,4 +759,51 @@ int urbsim_fault_babble(urbsim_world_t *w, int bridge, int address, double rate)
     urbsim_trace(&w->tr, URBSIM_TR_FAULT, w->k.now, sim_bridge_bus(w->bridges[bridge])->name, "babble",
                  ",\"address\":%d,\"rate\":%g", address, rate);
     return 0;
+}
+
+/* ---------------------------------------------------------------- native host */
+
+int urbsim_native_host(urbsim_world_t *w, int bridge, int period_ticks)
+{
+    if (!w || w->started || bridge < 0 || bridge >= w->n_bridges || period_ticks < 1) {
+        return -1;
+    }
+    if (!w->port[bridge].native) {
+        w->port[bridge].native = calloc(1, sizeof(nh_bridge_t));
+        if (!w->port[bridge].native) {
+            return -1;
+        }
+    }
+    nh_init(w->port[bridge].native, bridge, sim_bridge_uplink(w->bridges[bridge]) == SIM_UPLINK_USB,
+            (uint32_t)period_ticks);
+    w->native_on = true;
+    return 0;
+}
+
+int urbsim_native_request(urbsim_world_t *w, int bridge, int address, int mailbox, int read, int length, int every)
+{
+    if (!w || bridge < 0 || bridge >= w->n_bridges || !w->port[bridge].native || address < 1 || address > 127) {
+        return -1;
+    }
+    return nh_add(w->port[bridge].native, (uint8_t)address, (uint8_t)mailbox, read != 0, (uint8_t)length,
+                  (uint32_t)(every < 1 ? 1 : every));
+}
+
+double urbsim_native_stat(urbsim_world_t *w, int bridge, const char *name)
+{
+    if (!w || !name || bridge < 0 || bridge >= w->n_bridges || !w->port[bridge].native) {
+        return NAN;
+    }
+    const nh_bridge_t *h = w->port[bridge].native;
+    if (!strcmp(name, "sent")) return (double)h->sent;
+    if (!strcmp(name, "ok")) return (double)h->ok;
+    if (!strcmp(name, "failed")) return (double)h->failed;
+    if (!strcmp(name, "timeouts")) return (double)h->timeouts;
+    if (!strcmp(name, "skipped")) return (double)h->skipped;
+    if (!strcmp(name, "resyncs")) return (double)h->resyncs;
+    if (!strcmp(name, "pending")) return (double)h->pend_len;
+    if (!strcmp(name, "lat_mean_ns")) return h->ok ? (double)h->lat_sum / (double)h->ok : NAN;
+    if (!strcmp(name, "lat_max_ns")) return (double)h->lat_max;
+    if (!strcmp(name, "lat_min_ns")) return h->ok ? (double)h->lat_min : NAN;
+    return NAN;
 }

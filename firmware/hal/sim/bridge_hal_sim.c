@@ -116,15 +116,32 @@ static void i2c_release(void *ctx)
     b->i2c_gen++;
 }
 
-/* The bus completed an operation at t_hw: raise the I2C interrupt. */
+/* A transaction is in progress on the master (phases 1..5 of firmware/bridge/i2c_master.c): its
+ * main loop has nothing to do after a byte (timeouts are covered by the busy poll). Reads a
+ * private field; see the report's interface requests. */
+static bool master_mid_transaction(const sim_bridge_t *b)
+{
+    return b->master.phase >= 1u && b->master.phase <= 5u;
+}
+
+/* The bus completed an operation at t_hw: the I2C interrupt's handler runs in its reserved
+ * window [start, end). It is executed right away, with the bus told that what it issues starts no
+ * earlier than `start`: nothing else on the bridge can run between t_hw and start (interrupts are
+ * serialised, the main loop runs after end), so this is the same behaviour with one event less. */
 static void bus_done(void *ctx, int ev, uint8_t byte, urbsim_ns_t t_hw)
 {
     sim_bridge_t *b = ctx;
     if (!b->powered) {
         return;
     }
-    irq(b, t_hw, b->cfg.i2c_isr_cycles, EV_I2C_ISR,
-        (uint32_t)ev | ((uint32_t)byte << 8) | ((uint32_t)(b->i2c_gen & 0xFFFFu) << 16));
+    urbsim_ns_t end;
+    urbsim_ns_t start = urbsim_mcu_isr(&b->mcu, t_hw, b->cfg.i2c_isr_cycles, &end);
+    b->bus.earliest = start;
+    urb_i2c_master_event(&b->master, (urb_i2c_event_t)ev, byte);
+    b->bus.earliest = 0;
+    if (!master_mid_transaction(b)) {
+        want_poll(b, end);
+    }
 }
 
 /* ---------------------------------------------------------------- uplinks */
@@ -370,9 +387,28 @@ static void bridge_event(void *ctx, uint64_t arg, urbsim_ns_t now)
         b->mcu.thread_from = now;
         b->mcu.thread_until = now + urbsim_clock_cycles_ns(&b->mcu.clk, now, b->cfg.poll_cycles);
         if (!urb_bridge_idle(&b->br)) {
-            /* Busy: keep iterating (timeouts, bit-banged bus clear). */
-            urbsim_ns_t dt = b->bus.bitbang ? (urbsim_ns_t)b->mcfg.clear_half_us * 1000u : b->cfg.busy_poll_ns;
-            want_poll(b, now + dt);
+            /* Busy: the real main loop keeps iterating. Iterations only matter when they can act:
+             * every half clock of a bit-banged bus clear; during a transaction, only when its
+             * timeout expires (master.t0 + timeout_us, bridge clock; private fields, see the
+             * report); otherwise every busy_poll_us. */
+            urbsim_ns_t at;
+            if (b->bus.bitbang) {
+                at = now + (urbsim_ns_t)b->mcfg.clear_half_us * 1000u;
+            } else if (master_mid_transaction(b)) {
+                double deadline = ((double)b->master.t0 + (double)b->master.cfg.timeout_us + 1.0) * 1000.0;
+                double local_now = urbsim_clock_local_ns(&b->mcu.clk, now);
+                /* now_us wraps at 2^32 us: rebase the deadline on the current local time */
+                double wrap = 4294967296.0 * 1000.0;
+                double base = floor(local_now / wrap) * wrap;
+                deadline += base;
+                if (deadline < local_now) {
+                    deadline += wrap;
+                }
+                at = urbsim_clock_virtual_at(&b->mcu.clk, deadline);
+            } else {
+                at = now + b->cfg.busy_poll_ns;
+            }
+            want_poll(b, at);
         }
         break;
     case EV_HB_IRQ:

@@ -1,0 +1,171 @@
+#!/usr/bin/env python3
+"""Speed of the SensoRHex simulation: simulated seconds per second of CPU time, on one core.
+
+  1. The full SensoRHex scenario (paper Fig. 14: two USB bridges with three motor driver nodes
+     each, an RS232 bridge with the battery, IMU and IR nodes, every node running the real
+     firmware, SYNC at 1 kHz, the motor and leg models), with the host traffic of the paper's
+     experiments: every motor read (MotorFeedback) and commanded (MotorCommand) at 1 kHz, the
+     three sensors read at 100 Hz.
+       a. host traffic from the native host model (sim/world/native_host.c): the C core alone;
+       b. host traffic from the real host library (SimManager, Python) on the simulated CPU.
+  2. Scaling: wall time per simulated second with 1, 3, 9, 30 and 60 probe nodes (up to 20 per
+     USB bridge, each read at 100 Hz by the native host), SYNC and heartbeats at 1 kHz.
+
+    python3 bench/sim_speed.py            # prints the tables, writes build/sim/bench/sim_speed.json
+    python3 bench/sim_speed.py --quick    # shorter runs
+
+Goal (issue 6): at least 100x real time for 1a.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "sim"))
+
+from urb_sim.native import USB, RS232, App, World  # noqa: E402
+
+
+def clock() -> float:
+    """CPU seconds of this process: "on one core", and robust to other jobs sharing the machine
+    (wall time is reported next to it)."""
+    return time.process_time()
+
+
+def run_world(w: World, seconds: float) -> float:
+    """Advance to `seconds` of virtual time, discarding anything for Python; CPU seconds."""
+    t0 = clock()
+    limit = int(seconds * 1e9)
+    while w.run(limit):
+        while w.host_take() is not None:
+            pass
+    return clock() - t0
+
+
+def sensorhex_native(seconds: float, seed: int = 1) -> dict[str, float]:
+    w = World(seed)
+    u = [w.add_bridge(USB), w.add_bridge(USB)]
+    rs = w.add_bridge(RS232)
+    for b, first in ((u[0], 0), (u[1], 3)):
+        for i in range(3):
+            w.add_node(b, App.MOTOR, 0x20 + i, first + i)
+    for a, app in ((0x30, App.BATTERY), (0x31, App.IMU), (0x32, App.IR)):
+        w.add_node(rs, app, a, 0)
+    for b in u:
+        w.native_host(b, 1)
+        for i in range(3):
+            w.native_request(b, 0x20 + i, 1, True, 6)     # MotorFeedback
+            w.native_request(b, 0x20 + i, 1, False, 2)    # MotorCommand
+    w.native_host(rs, 10)                                 # 100 Hz
+    w.native_request(rs, 0x30, 1, True, 19)
+    w.native_request(rs, 0x31, 1, True, 14)
+    w.native_request(rs, 0x32, 1, True, 4)
+    w.start()
+    run_world(w, 0.2)
+    e0, w0 = w.events, time.perf_counter()
+    cpu = run_world(w, 0.2 + seconds)
+    wall = time.perf_counter() - w0
+    out = {"sim_s": seconds, "cpu_s": cpu, "wall_s": wall, "speed": seconds / cpu, "events": w.events - e0,
+           "ns_per_event": cpu * 1e9 / max(1, w.events - e0)}
+    for b, name in ((u[0], "usb0"), (u[1], "usb1"), (rs, "rs232")):
+        out[f"{name}_ok"] = w.native_stat(b, "ok")
+        out[f"{name}_lat_mean_ms"] = w.native_stat(b, "lat_mean_ns") / 1e6
+    w.close()
+    return out
+
+
+def sensorhex_python(seconds: float, seed: int = 1) -> dict[str, float]:
+    from urb_msgs.sensorhex import MotorCommand, MotorFeedback
+    from urb_sim.system import NS_PER_MS, Loop, System
+
+    s = System(seed=seed)
+    u0, u1, rs = s.bridge("usb"), s.bridge("usb"), s.bridge("rs232")
+    for b, first in ((u0, 0), (u1, 3)):
+        for i in range(3):
+            s.node(b, App.MOTOR, 0x20 + i, first + i)
+    for a, app in ((0x30, App.BATTERY), (0x31, App.IMU), (0x32, App.IR)):
+        s.node(rs, app, a, 0)
+    s.start()
+    motors = [s.urb.find_node("MotorDriver", i) for i in range(6)]
+    slow = [s.urb.find_node(n, 0) for n in ("BatteryManager", "Imu", "IrDistance")]
+    k = [0]
+
+    def tick() -> None:
+        k[0] += 1
+        for m in motors:
+            m.submit_request(m.new_request().read_message(MotorFeedback))
+            m.submit_request(m.new_request().write_message(MotorCommand(voltage=0)))
+        if k[0] % 10 == 0:
+            for n in slow:
+                n.submit_request(n.new_request().read(1))
+
+    Loop(s.host, NS_PER_MS, tick, count=int(seconds * 1000))
+    e0, t0, w0 = s.world.events, clock(), time.perf_counter()
+    s.host.advance(int(seconds * 1e9))
+    cpu, wall = clock() - t0, time.perf_counter() - w0
+    out = {"sim_s": seconds, "cpu_s": cpu, "wall_s": wall, "speed": seconds / cpu, "events": s.world.events - e0}
+    s.close()
+    return out
+
+
+def scaling(n_nodes: int, seconds: float, seed: int = 1) -> dict[str, float]:
+    w = World(seed)
+    per_bridge = 20
+    bridges = []
+    for i in range(n_nodes):
+        if i % per_bridge == 0:
+            b = w.add_bridge(USB)
+            w.native_host(b, 10)
+            bridges.append(b)
+        addr = 0x10 + i % per_bridge
+        w.add_node(bridges[-1], App.PROBE, addr, i % 64)
+        w.native_request(bridges[-1], addr, 1, True, 6)
+    w.start()
+    run_world(w, 0.2)
+    e0 = w.events
+    cpu = run_world(w, 0.2 + seconds)
+    out = {"nodes": n_nodes, "bridges": len(bridges), "sim_s": seconds, "cpu_s": cpu,
+           "cpu_per_sim_s": cpu / seconds, "speed": seconds / cpu, "events": w.events - e0}
+    w.close()
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help="shorter runs")
+    ap.add_argument("--out", type=Path, default=REPO / "build" / "sim" / "bench" / "sim_speed.json")
+    args = ap.parse_args(argv)
+    secs = 2.0 if args.quick else 10.0
+    results: dict[str, object] = {}
+    print("SensoRHex scenario (Fig. 14; motors at 1 kHz, sensors at 100 Hz), one core:")
+    nat = sensorhex_native(secs)
+    results["sensorhex_native"] = nat
+    print(f"  native host model : {nat['speed']:8.1f} x real time  ({nat['events'] / nat['sim_s']:,.0f} events per "
+          f"simulated s, {nat['ns_per_event']:.0f} ns per event)   goal >= 100 x: "
+          f"{'met' if nat['speed'] >= 100 else 'NOT met'}")
+    py = sensorhex_python(secs / 4)
+    results["sensorhex_python"] = py
+    print(f"  host library      : {py['speed']:8.1f} x real time  (SimManager + URBInterface in Python, "
+          f"{py['events'] / py['sim_s']:,.0f} events per simulated s)")
+    print("\nScaling (probe nodes read at 100 Hz by the native host, 20 per USB bridge):")
+    print(f"  {'nodes':>5} {'bridges':>7} {'CPU s per sim s':>16} {'x real time':>12} {'events/sim s':>14}")
+    rows = []
+    for n in (1, 3, 9, 30, 60):
+        r = scaling(n, secs / 2)
+        rows.append(r)
+        print(f"  {n:>5} {r['bridges']:>7} {r['cpu_per_sim_s']:>16.4f} {r['speed']:>12.1f} "
+              f"{r['events'] / r['sim_s']:>14,.0f}")
+    results["scaling"] = rows
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(results, indent=1))
+    print(f"\nwritten {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
