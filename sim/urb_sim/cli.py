@@ -62,7 +62,7 @@ def register(sub: Any) -> None:
                    help="output folder (default build/sim/report)")
     p.add_argument("--seed", type=int, default=1, help="base seed of every experiment (default 1)")
     p.add_argument("--quick", action="store_true",
-                   help="fewer payloads, reads and seeds (about 30 s); same acceptance criteria")
+                   help="fewer payloads, reads and seeds (a few times faster); same acceptance criteria")
     p.add_argument("--only", metavar="LIST", default="",
                    help=f"comma-separated experiments to run (default: all of {', '.join(EXPERIMENTS)})")
     p.add_argument("--no-progress", action="store_true", help="no progress bar (for logs)")
