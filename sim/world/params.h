@@ -68,7 +68,8 @@
     X(PROBE_CLASS, "probe.class_id", 126.0, "class of probe nodes")                                  \
     X(PROBE_FINGERPRINT, "probe.fingerprint", 2119565312.0, "layout fingerprint probe nodes report")  \
     X(PROBE_OUT, "probe.out_size", 6.0, "probe outbox 1 size, bytes")                                 \
-    X(PROBE_IN, "probe.in_size", 0.0, "probe inbox 1 size, bytes (0: none)")
+    X(PROBE_IN, "probe.in_size", 0.0, "probe inbox 1 size, bytes (0: none)")                         \
+    X(PROBE_FILL, "probe.fill_counter", 0.0, "1: every probe outbox byte carries the update counter (trace validation)")
 
 #define URBSIM_PARAM_ENUM(id, name, def, doc) P_##id,
 enum { URBSIM_PARAMS(URBSIM_PARAM_ENUM) P_COUNT };

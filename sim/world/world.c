@@ -280,6 +280,7 @@ int urbsim_add_node(urbsim_world_t *w, int bridge, int app, int address, int ind
     a.fingerprint = (uint32_t)w->p[P_PROBE_FINGERPRINT];
     a.out_size = (uint8_t)w->p[P_PROBE_OUT];
     a.in_size = (uint8_t)w->p[P_PROBE_IN];
+    a.fill_counter = w->p[P_PROBE_FILL] != 0.0;
     a.motor = urbsim_motor_default_params();
     a.motor.Jleg = w->p[P_MOTOR_JLEG];
     a.motor.mgr = w->p[P_MOTOR_MGR];

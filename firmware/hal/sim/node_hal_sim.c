@@ -151,6 +151,19 @@ static void node_event(void *ctx, uint64_t arg, urbsim_ns_t now)
     }
 }
 
+/* ---------------------------------------------------------------- mailbox observer
+ * Trace category "mailbox" (sim/tla/TraceOutbox.tla): for outbox 1, the application's releases
+ * and the interrupt's read of it (begin, each data byte, end), as the MailboxOutbox actions the
+ * library cites. Reads the library's current selection and byte count (private fields; only to
+ * label events). */
+
+static void probe_released(void *ctx, uint32_t counter)
+{
+    sim_node_t *n = ctx;
+    urbsim_trace(n->tr, URBSIM_TR_MAILBOX, n->k->now, n->name, "release", ",\"box\":1,\"counter\":%u",
+                 (unsigned)counter);
+}
+
 /* ---------------------------------------------------------------- I2C slave port */
 
 static urbsim_ns_t slave_window(void *ctx, urbsim_ns_t t_irq, urbsim_ns_t *end)
@@ -169,7 +182,12 @@ static bool slave_address(void *ctx, bool read, bool gc, urbsim_ns_t t_hw)
     if (read) {
         sim_log_put(&n->log, t_hw, SIM_MARK_READ, 0);
     }
-    return urb_node_i2c_event(&n->node, ev, 0) == URB_I2C_ACK;
+    bool ack = urb_node_i2c_event(&n->node, ev, 0) == URB_I2C_ACK;
+    n->reading_mb1 = read && ack && n->node.i2c.mailbox == 1u;
+    if (n->reading_mb1) {
+        urbsim_trace(n->tr, URBSIM_TR_MAILBOX, n->k->now, n->name, "begin", ",\"box\":1");
+    }
+    return ack;
 }
 
 static bool slave_rx(void *ctx, uint8_t byte, urbsim_ns_t t_hw)
@@ -183,7 +201,13 @@ static uint8_t slave_tx(void *ctx, urbsim_ns_t t_hw)
 {
     sim_node_t *n = ctx;
     (void)t_hw;
-    return (uint8_t)urb_node_i2c_event(&n->node, URB_I2C_TX_BYTE, 0);
+    uint8_t index = n->node.i2c.count;
+    uint8_t byte = (uint8_t)urb_node_i2c_event(&n->node, URB_I2C_TX_BYTE, 0);
+    if (n->reading_mb1 && index < urb_node_outbox_size(&n->node, 1u)) {
+        urbsim_trace(n->tr, URBSIM_TR_MAILBOX, n->k->now, n->name, "byte", ",\"box\":1,\"index\":%u,\"value\":%u",
+                     index, byte);
+    }
+    return byte;
 }
 
 static void slave_tx_nack(void *ctx, urbsim_ns_t t_hw)
@@ -201,6 +225,10 @@ static void slave_stop(void *ctx, bool repeated, urbsim_ns_t t_hw)
         return; /* the library sees a repeated START as the next ADDR_* event */
     }
     (void)urb_node_i2c_event(&n->node, URB_I2C_STOP, 0);
+    if (n->reading_mb1) {
+        n->reading_mb1 = false;
+        urbsim_trace(n->tr, URBSIM_TR_MAILBOX, n->k->now, n->name, "end", ",\"box\":1");
+    }
     want_poll(n, n->mcu.isr_free_at);
 }
 
@@ -222,6 +250,9 @@ sim_node_t *sim_node_new(const char *name, urbsim_kernel_t *k, urbsim_trace_t *t
         n->app_state.probe.fingerprint = app->fingerprint;
         n->app_state.probe.out_size = app->out_size;
         n->app_state.probe.in_size = app->in_size;
+        n->app_state.probe.fill_counter = app->fill_counter;
+        n->app_state.probe.on_release = probe_released;
+        n->app_state.probe.hook_ctx = n;
         n->hooks = &sim_probe_hooks;
         n->app = &n->app_state.probe;
         n->storage_len = sim_probe_storage(&n->app_state.probe);

@@ -71,6 +71,7 @@ struct sim_node {
         struct { sensorhex_ir_t app; sensorhex_ir_io_t io; } ir;
     } app_state;
     urbsim_motor_t plant;        /**< the motor and leg of a motor driver node */
+    bool reading_mb1;            /**< trace observer: a bridge read of outbox 1 is in progress */
     bool has_plant;
 };
 

@@ -30,9 +30,16 @@ static void probe_update(urb_node_t *node, void *user)
         return; /* the bridge is still reading the buffer we need: skip this update */
     }
     for (uint8_t i = 0u; i < app->out_size; i++) {
-        out[i] = i < 4u ? (uint8_t)(app->counter >> (8u * i)) : (uint8_t)(0xA0u + i);
+        if (app->fill_counter) {
+            out[i] = (uint8_t)app->counter;
+        } else {
+            out[i] = i < 4u ? (uint8_t)(app->counter >> (8u * i)) : (uint8_t)(0xA0u + i);
+        }
     }
     (void)urb_node_release_outbox(node, 1u); /* marks the end of acquisition */
+    if (app->on_release != NULL) {
+        app->on_release(app->hook_ctx, app->counter);
+    }
 }
 
 const urb_node_hooks_t sim_probe_hooks = {

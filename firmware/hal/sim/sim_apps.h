@@ -9,6 +9,7 @@
 #ifndef URBSIM_SIM_APPS_H
 #define URBSIM_SIM_APPS_H
 
+#include <stdbool.h>
 #include <stdint.h>
 
 #include "urb_node.h"
@@ -21,6 +22,10 @@ typedef struct {
     uint8_t in_size;    /**< inbox 1 size, 0 = none */
     uint32_t counter;   /**< updates run */
     uint32_t inbox_msgs;
+    bool fill_counter;  /**< every byte = the counter's low byte (trace validation: each byte read
+                             names the write it came from) */
+    void (*on_release)(void *ctx, uint32_t counter); /**< after each outbox-1 release (or NULL) */
+    void *hook_ctx;
 } sim_probe_app_t;
 
 /** The probe's hooks (bootup, update). */

@@ -54,6 +54,7 @@ typedef struct {
     uint8_t class_id;
     uint32_t fingerprint;
     uint8_t out_size, in_size;
+    bool fill_counter;            /**< probe: every byte carries the update counter (traces) */
     urbsim_motor_params_t motor;  /**< motor driver: the motor and leg it drives */
 } sim_app_cfg_t;
 
