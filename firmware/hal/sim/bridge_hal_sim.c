@@ -100,11 +100,22 @@ static void i2c_write(void *ctx, uint8_t byte) { urbsim_i2c_write(&((sim_bridge_
 static void i2c_read(void *ctx, bool ack) { urbsim_i2c_read(&((sim_bridge_t *)ctx)->bus, ack); }
 static void i2c_stop(void *ctx) { urbsim_i2c_stop(&((sim_bridge_t *)ctx)->bus); }
 static uint8_t i2c_lines(void *ctx) { return urbsim_i2c_lines(&((sim_bridge_t *)ctx)->bus); }
-static void i2c_drive(void *ctx, uint8_t lines) { urbsim_i2c_drive(&((sim_bridge_t *)ctx)->bus, lines); }
+static void i2c_drive(void *ctx, uint8_t lines)
+{
+    sim_bridge_t *b = ctx;
+    if (!b->bus.bitbang) {
+        /* the firmware's reaction to a stuck bus: the nine-pulse clear begins (trace "fault") */
+        urbsim_trace(b->tr, URBSIM_TR_FAULT, b->k->now, b->name, "bus_clear", ",\"lines\":%u",
+                     urbsim_i2c_lines(&b->bus));
+    }
+    urbsim_i2c_drive(&b->bus, lines);
+}
 
 static void i2c_abort(void *ctx)
 {
     sim_bridge_t *b = ctx;
+    /* the firmware's reaction to a transaction that did not complete in time (trace "fault") */
+    urbsim_trace(b->tr, URBSIM_TR_FAULT, b->k->now, b->name, "i2c_abort", ",\"lines\":%u", urbsim_i2c_lines(&b->bus));
     urbsim_i2c_abort(&b->bus);
     b->i2c_gen++; /* a completion interrupt already raised must not reach the firmware */
 }
@@ -112,6 +123,10 @@ static void i2c_abort(void *ctx)
 static void i2c_release(void *ctx)
 {
     sim_bridge_t *b = ctx;
+    if (b->bus.bitbang) {
+        urbsim_trace(b->tr, URBSIM_TR_FAULT, b->k->now, b->name, "bus_released", ",\"lines\":%u",
+                     urbsim_i2c_lines(&b->bus));
+    }
     urbsim_i2c_release(&b->bus);
     b->i2c_gen++;
 }
