@@ -6,8 +6,9 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from . import __version__
-from . import cli_nodes, cli_schema, demo
+from urb_sim import cli as sim_cli
+
+from . import __version__, cli_nodes, cli_schema, demo
 
 DESCRIPTION = """\
 URB, the Universal Robot Bus: schema compiler, codecs and tools.
@@ -22,6 +23,7 @@ Commands:
   schema check   check schema files and report every error with its location
   schema show    show the wire layout of messages and nodes
   demo           round-trip every message through the Python and C codecs
+  sim            simulate the SensoRHex buses and reproduce the paper's experiments
 
 Run `urb COMMAND --help` for the options of one command."""
 
@@ -36,7 +38,7 @@ def build_parser() -> argparse.ArgumentParser:
     cli_schema.register(sub)
     cli_nodes.register(sub)
     demo.register(sub)
-    __import__("urb_sim.cli", fromlist=["register"]).register(sub)  # urb sim: sim/urb_sim/cli.py
+    sim_cli.register(sub)
     return parser
 
 

@@ -45,10 +45,10 @@ INCLUDE_DIRS = ["sim/core", "sim/world", "firmware/include", "firmware/hal/sim",
 EXCLUDE_SUFFIX = "main.c"
 EXCLUDE_NAMES = {"urb_single.c"}
 
-#: Folders other teams own. The library is built from their COMMITTED versions (HEAD, exported to
-#: build/sim/snapshot/): several engineers share one working tree, and a file half-way through an
-#: edit must not break the simulation. On a clean clone HEAD and the working tree are the same.
-#: URBSIM_SOURCES=worktree builds from the working tree instead (to try uncommitted firmware).
+#: Folders the simulation compiles but does not own. By default they come from the working tree, so
+#: the simulation runs the firmware as you edit it. URBSIM_SOURCES=head builds from their COMMITTED
+#: versions instead (exported to build/sim/snapshot/): useful when several people share one working
+#: tree and a file half-way through an edit must not break a long simulation run.
 FOREIGN_DIRS = ["firmware/include", "firmware/node", "firmware/bridge", "firmware/apps/sensorhex", "gen/c"]
 
 CC = os.environ.get("CC", "gcc")
@@ -69,8 +69,9 @@ def _git(*args: str) -> str | None:
 
 def _snapshot() -> tuple[Path, str] | None:
     """Export the committed versions of FOREIGN_DIRS into build/sim/snapshot/<key>/; returns the
-    folder and its key (the git tree ids), or None outside git or with URBSIM_SOURCES=worktree."""
-    if os.environ.get("URBSIM_SOURCES") == "worktree":
+    folder and its key (the git tree ids); None (build from the working tree) unless
+    URBSIM_SOURCES=head, or outside git."""
+    if os.environ.get("URBSIM_SOURCES") != "head":
         return None
     trees = []
     for d in FOREIGN_DIRS:
