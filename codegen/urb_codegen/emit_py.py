@@ -280,6 +280,10 @@ def _crc_name(cs: ChecksumDecl, tier_name: str) -> str:
     return f"_crc_{cs.name}_{tier_name}"
 
 
+def _check_name(cs: ChecksumDecl) -> str:
+    return f"_{cs.name}"
+
+
 def _emit_message(w: _Writer, msg: MessageDecl) -> None:
     user = _user_fields(msg)
     w("@dataclass(slots=True)")
@@ -347,25 +351,9 @@ def _emit_encode(w: _Writer, msg: MessageDecl, fmt: str | None) -> None:
         w(f"out += check_bytes(self.{payload.name}, 0, {payload.type.max_len}, {_q(msg.name + '.' + payload.name)})", 2)
     if cs is not None:
         prefix = f"self._pack_implicit().to_bytes({msg.implicit_size}, 'little') + " if msg.implicit_fields else ""
-        w(f"covered = {prefix}out", 2)
-        _emit_crc_select(w, cs, "covered")
-        w("out += crc.to_bytes(width, 'little')", 2)
+        w(f"return out + {_check_name(cs)}.seal({prefix}out)", 2)
+        return
     w("return out", 2)
-
-
-def _emit_crc_select(w: _Writer, cs: ChecksumDecl, covered: str) -> None:
-    tiers = cs.tiers
-    for i, tier in enumerate(tiers):
-        body = f"crc, width = {_crc_name(cs, tier.name)}({covered}), {tier.width // 8}"
-        if tier.max_covered is None:
-            if len(tiers) == 1:
-                w(body, 2)
-            else:
-                w("else:", 2)
-                w(body, 3)
-        else:
-            w(f"{'if' if i == 0 else 'elif'} len({covered}) <= {tier.max_covered}:", 2)
-            w(body, 3)
 
 
 def _emit_decode(w: _Writer, msg: MessageDecl, fmt: str | None) -> None:
@@ -380,10 +368,7 @@ def _emit_decode(w: _Writer, msg: MessageDecl, fmt: str | None) -> None:
     w(f'"""{doc}"""', 2)
     w("data = bytes(data)", 2)
     w("n = len(data)", 2)
-    w("if n < cls.MIN_SIZE:", 2)
-    w("raise TooShortError(cls.NAME, f'{n} bytes, need at least {cls.MIN_SIZE}')", 3)
-    w("if n > cls.MAX_SIZE:", 2)
-    w("raise TooLongError(cls.NAME, f'{n} bytes, at most {cls.MAX_SIZE} allowed')", 3)
+    w("check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)", 2)
     if fmt:
         names = [f.name for f in msg.wire_fields]
         w(f"{', '.join(names)}, = cls._STRUCT.unpack(data)", 2)
@@ -409,11 +394,8 @@ def _emit_decode(w: _Writer, msg: MessageDecl, fmt: str | None) -> None:
         if payload.type.count_field is not None:
             counter = next(f for f in msg.fields if f.name == payload.type.count_field)
             w(f"length = (int.from_bytes(data[:{F}], 'little') >> {counter.bit_offset}) & {hex((1 << counter.bit_width) - 1)}", 2)
-            w(f"expected = {F} + length + ({_check_width_expr(msg, 'length')})", 2)
-            w("if n < expected:", 2)
-            w("raise TooShortError(cls.NAME, f'{n} bytes, but the length field says {expected}')", 3)
-            w("if n > expected:", 2)
-            w("raise TooLongError(cls.NAME, f'{n} bytes, but the length field says {expected}')", 3)
+            w(f"expected = {F} + length + ({_check_width_expr(msg, 'length')})  # what the length field says", 2)
+            w("check_length(cls.NAME, n, expected, expected)", 2)
             w(f"payload_len = length", 2)
         else:
             w(f"payload_len = cls._payload_length(n)", 2)
@@ -421,10 +403,7 @@ def _emit_decode(w: _Writer, msg: MessageDecl, fmt: str | None) -> None:
         if cs is not None:
             w(f"crc_bytes = data[{F} + payload_len:]", 2)
     if cs is not None:
-        w(f"covered = {prefix}body", 2)
-        _emit_crc_select(w, cs, "covered")
-        w("if len(crc_bytes) != width or int.from_bytes(crc_bytes, 'little') != crc:", 2)
-        w("raise ChecksumError(cls.NAME, f'check {crc_bytes.hex()} does not match {crc:0{2 * width}x}')", 3)
+        w(f"{_check_name(cs)}.verify(cls.NAME, {prefix}body, crc_bytes)", 2)
     w(f"out = cls._unpack(int.from_bytes(body[:{F}], 'little'))", 2)
     for f in implicit:
         w(f"out.{f.name} = {f.name}", 2)
@@ -513,8 +492,8 @@ def emit_module(schema: Schema) -> str:
     w("from typing import ClassVar")
     w()
     w("from ._runtime import (")
-    for name in ["ChecksumError", "EncodeError", "FieldInfo", "MailboxInfo", "Message", "NodeInfo", "OutOfRangeError",
-                 "TooLongError", "TooShortError", "check_bool", "check_bytes", "check_enum", "check_int", "check_list",
+    for name in ["EncodeError", "FieldInfo", "FrameCheck", "MailboxInfo", "Message", "NodeInfo", "OutOfRangeError",
+                 "TooLongError", "check_bool", "check_bytes", "check_enum", "check_int", "check_length", "check_list",
                  "decode_enum", "make_crc", "sign_extend"]:
         w(f"{name},", 1)
     w(")")
@@ -535,6 +514,8 @@ def emit_module(schema: Schema) -> str:
     for cs in schema.all_checksums():
         for tier in cs.tiers:
             w(f"{_crc_name(cs, tier.name)} = make_crc({tier.width}, {tier.poly:#x}, {tier.init:#x}, {tier.xorout:#x})")
+        tiers = ", ".join(f"({t.max_covered}, {t.width // 8}, {_crc_name(cs, t.name)})" for t in cs.tiers)
+        w(f"{_check_name(cs)} = FrameCheck(({tiers},))")
     w()
     w()
     for e in schema.enums.values():

@@ -176,6 +176,35 @@ def make_crc(width: int, poly: int, init: int, xorout: int) -> Callable[[bytes],
     return crc
 
 
+class FrameCheck:
+    """A tiered frame check: the first tier whose limit covers the checked length computes it."""
+
+    def __init__(self, tiers: tuple[tuple[int | None, int, Callable[[bytes], int]], ...]) -> None:
+        self.tiers = tiers  # (largest covered length or None, check bytes, CRC function)
+
+    def _tier(self, covered: bytes) -> tuple[int, Callable[[bytes], int]]:
+        return next((width, crc) for limit, width, crc in self.tiers if limit is None or len(covered) <= limit)
+
+    def seal(self, covered: bytes) -> bytes:
+        """The check bytes (little-endian) that follow `covered` on the wire."""
+        width, crc = self._tier(covered)
+        return crc(covered).to_bytes(width, "little")
+
+    def verify(self, message: str, covered: bytes, check: bytes) -> None:
+        """ChecksumError unless `check` is the check of `covered`."""
+        expected = self.seal(covered)
+        if check != expected:
+            raise ChecksumError(message, f"check {check.hex()} does not match {expected[::-1].hex()}")
+
+
+def check_length(message: str, n: int, lo: int, hi: int) -> None:
+    """TooShortError / TooLongError unless a frame of n bytes is within lo..hi."""
+    if n < lo:
+        raise TooShortError(message, f"{n} bytes, need at least {lo}")
+    if n > hi:
+        raise TooLongError(message, f"{n} bytes, at most {hi} allowed")
+
+
 # --- field checks used by generated encoders -------------------------------------------------
 
 E = TypeVar("E", bound=enum.IntEnum)

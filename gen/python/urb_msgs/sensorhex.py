@@ -9,19 +9,19 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 
 from ._runtime import (
-    ChecksumError,
     EncodeError,
     FieldInfo,
+    FrameCheck,
     MailboxInfo,
     Message,
     NodeInfo,
     OutOfRangeError,
     TooLongError,
-    TooShortError,
     check_bool,
     check_bytes,
     check_enum,
     check_int,
+    check_length,
     check_list,
     decode_enum,
     make_crc,
@@ -56,6 +56,7 @@ ENCODER_COUNTS_PER_REV = 2000
 
 _crc_link_check_crc8 = make_crc(8, 0x2f, 0xff, 0xff)
 _crc_link_check_crc16 = make_crc(16, 0x1021, 0xffff, 0x0)
+_link_check = FrameCheck(((14, 1, _crc_link_check_crc8), (None, 2, _crc_link_check_crc16),))
 
 
 class MotorMode(enum.IntEnum):
@@ -117,10 +118,7 @@ class MotorFeedback(Message):
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
         n = len(data)
-        if n < cls.MIN_SIZE:
-            raise TooShortError(cls.NAME, f'{n} bytes, need at least {cls.MIN_SIZE}')
-        if n > cls.MAX_SIZE:
-            raise TooLongError(cls.NAME, f'{n} bytes, at most {cls.MAX_SIZE} allowed')
+        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
         encoder, current, voltage, = cls._STRUCT.unpack(data)
         return cls(encoder=encoder, current=current, voltage=voltage)
 
@@ -163,10 +161,7 @@ class MotorCommand(Message):
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
         n = len(data)
-        if n < cls.MIN_SIZE:
-            raise TooShortError(cls.NAME, f'{n} bytes, need at least {cls.MIN_SIZE}')
-        if n > cls.MAX_SIZE:
-            raise TooLongError(cls.NAME, f'{n} bytes, at most {cls.MAX_SIZE} allowed')
+        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
         voltage, = cls._STRUCT.unpack(data)
         return cls(voltage=voltage)
 
@@ -236,10 +231,7 @@ class MotorStatus(Message):
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
         n = len(data)
-        if n < cls.MIN_SIZE:
-            raise TooShortError(cls.NAME, f'{n} bytes, need at least {cls.MIN_SIZE}')
-        if n > cls.MAX_SIZE:
-            raise TooLongError(cls.NAME, f'{n} bytes, at most {cls.MAX_SIZE} allowed')
+        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
         body = data[:4]
         out = cls._unpack(int.from_bytes(body[:4], 'little'))
         return out
@@ -305,10 +297,7 @@ class MotorConfig(Message):
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
         n = len(data)
-        if n < cls.MIN_SIZE:
-            raise TooShortError(cls.NAME, f'{n} bytes, need at least {cls.MIN_SIZE}')
-        if n > cls.MAX_SIZE:
-            raise TooLongError(cls.NAME, f'{n} bytes, at most {cls.MAX_SIZE} allowed')
+        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
         body = data[:11]
         out = cls._unpack(int.from_bytes(body[:11], 'little'))
         return out
@@ -374,10 +363,7 @@ class BatteryPack(Message):
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
         n = len(data)
-        if n < cls.MIN_SIZE:
-            raise TooShortError(cls.NAME, f'{n} bytes, need at least {cls.MIN_SIZE}')
-        if n > cls.MAX_SIZE:
-            raise TooLongError(cls.NAME, f'{n} bytes, at most {cls.MAX_SIZE} allowed')
+        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
         body = data[:6]
         out = cls._unpack(int.from_bytes(body[:6], 'little'))
         return out
@@ -436,10 +422,7 @@ class BatteryStatus(Message):
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
         n = len(data)
-        if n < cls.MIN_SIZE:
-            raise TooShortError(cls.NAME, f'{n} bytes, need at least {cls.MIN_SIZE}')
-        if n > cls.MAX_SIZE:
-            raise TooLongError(cls.NAME, f'{n} bytes, at most {cls.MAX_SIZE} allowed')
+        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
         body = data[:19]
         out = cls._unpack(int.from_bytes(body[:19], 'little'))
         return out
@@ -500,10 +483,7 @@ class ImuSample(Message):
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
         n = len(data)
-        if n < cls.MIN_SIZE:
-            raise TooShortError(cls.NAME, f'{n} bytes, need at least {cls.MIN_SIZE}')
-        if n > cls.MAX_SIZE:
-            raise TooLongError(cls.NAME, f'{n} bytes, at most {cls.MAX_SIZE} allowed')
+        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
         body = data[:14]
         out = cls._unpack(int.from_bytes(body[:14], 'little'))
         return out
@@ -559,10 +539,7 @@ class IrRange(Message):
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
         n = len(data)
-        if n < cls.MIN_SIZE:
-            raise TooShortError(cls.NAME, f'{n} bytes, need at least {cls.MIN_SIZE}')
-        if n > cls.MAX_SIZE:
-            raise TooLongError(cls.NAME, f'{n} bytes, at most {cls.MAX_SIZE} allowed')
+        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
         body = data[:4]
         out = cls._unpack(int.from_bytes(body[:4], 'little'))
         return out

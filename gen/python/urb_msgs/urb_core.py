@@ -9,19 +9,19 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 
 from ._runtime import (
-    ChecksumError,
     EncodeError,
     FieldInfo,
+    FrameCheck,
     MailboxInfo,
     Message,
     NodeInfo,
     OutOfRangeError,
     TooLongError,
-    TooShortError,
     check_bool,
     check_bytes,
     check_enum,
     check_int,
+    check_length,
     check_list,
     decode_enum,
     make_crc,
@@ -73,6 +73,7 @@ USB_BATCH_MAX_BYTES = 512
 
 _crc_link_check_crc8 = make_crc(8, 0x2f, 0xff, 0xff)
 _crc_link_check_crc16 = make_crc(16, 0x1021, 0xffff, 0x0)
+_link_check = FrameCheck(((14, 1, _crc_link_check_crc8), (None, 2, _crc_link_check_crc16),))
 
 
 class Status(enum.IntEnum):
@@ -189,32 +190,17 @@ class UplinkReadRequest(Message):
     def encode(self) -> bytes:
         """The frame for this message (4..4 bytes); EncodeError on a bad value."""
         out = self._pack().to_bytes(3, 'little')
-        covered = out
-        if len(covered) <= 14:
-            crc, width = _crc_link_check_crc8(covered), 1
-        else:
-            crc, width = _crc_link_check_crc16(covered), 2
-        out += crc.to_bytes(width, 'little')
-        return out
+        return out + _link_check.seal(out)
 
     @classmethod
     def decode(cls, data: bytes | bytearray | memoryview) -> UplinkReadRequest:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
         n = len(data)
-        if n < cls.MIN_SIZE:
-            raise TooShortError(cls.NAME, f'{n} bytes, need at least {cls.MIN_SIZE}')
-        if n > cls.MAX_SIZE:
-            raise TooLongError(cls.NAME, f'{n} bytes, at most {cls.MAX_SIZE} allowed')
+        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
         body = data[:3]
         crc_bytes = data[3:]
-        covered = body
-        if len(covered) <= 14:
-            crc, width = _crc_link_check_crc8(covered), 1
-        else:
-            crc, width = _crc_link_check_crc16(covered), 2
-        if len(crc_bytes) != width or int.from_bytes(crc_bytes, 'little') != crc:
-            raise ChecksumError(cls.NAME, f'check {crc_bytes.hex()} does not match {crc:0{2 * width}x}')
+        _link_check.verify(cls.NAME, body, crc_bytes)
         out = cls._unpack(int.from_bytes(body[:3], 'little'))
         return out
 
@@ -271,39 +257,21 @@ class UplinkWriteRequest(Message):
         """The frame for this message (4..37 bytes); EncodeError on a bad value."""
         out = self._pack().to_bytes(3, 'little')
         out += check_bytes(self.data, 0, 32, 'UplinkWriteRequest.data')
-        covered = out
-        if len(covered) <= 14:
-            crc, width = _crc_link_check_crc8(covered), 1
-        else:
-            crc, width = _crc_link_check_crc16(covered), 2
-        out += crc.to_bytes(width, 'little')
-        return out
+        return out + _link_check.seal(out)
 
     @classmethod
     def decode(cls, data: bytes | bytearray | memoryview) -> UplinkWriteRequest:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
         n = len(data)
-        if n < cls.MIN_SIZE:
-            raise TooShortError(cls.NAME, f'{n} bytes, need at least {cls.MIN_SIZE}')
-        if n > cls.MAX_SIZE:
-            raise TooLongError(cls.NAME, f'{n} bytes, at most {cls.MAX_SIZE} allowed')
+        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
         length = (int.from_bytes(data[:3], 'little') >> 16) & 0xff
-        expected = 3 + length + (1 if 3 + length <= 14 else 2)
-        if n < expected:
-            raise TooShortError(cls.NAME, f'{n} bytes, but the length field says {expected}')
-        if n > expected:
-            raise TooLongError(cls.NAME, f'{n} bytes, but the length field says {expected}')
+        expected = 3 + length + (1 if 3 + length <= 14 else 2)  # what the length field says
+        check_length(cls.NAME, n, expected, expected)
         payload_len = length
         body = data[:3 + payload_len]
         crc_bytes = data[3 + payload_len:]
-        covered = body
-        if len(covered) <= 14:
-            crc, width = _crc_link_check_crc8(covered), 1
-        else:
-            crc, width = _crc_link_check_crc16(covered), 2
-        if len(crc_bytes) != width or int.from_bytes(crc_bytes, 'little') != crc:
-            raise ChecksumError(cls.NAME, f'check {crc_bytes.hex()} does not match {crc:0{2 * width}x}')
+        _link_check.verify(cls.NAME, body, crc_bytes)
         out = cls._unpack(int.from_bytes(body[:3], 'little'))
         out.data = body[3:]
         return out
@@ -348,33 +316,18 @@ class UplinkResponse(Message):
         """The frame for this message (2..35 bytes); EncodeError on a bad value."""
         out = self._pack().to_bytes(1, 'little')
         out += check_bytes(self.data, 0, 32, 'UplinkResponse.data')
-        covered = out
-        if len(covered) <= 14:
-            crc, width = _crc_link_check_crc8(covered), 1
-        else:
-            crc, width = _crc_link_check_crc16(covered), 2
-        out += crc.to_bytes(width, 'little')
-        return out
+        return out + _link_check.seal(out)
 
     @classmethod
     def decode(cls, data: bytes | bytearray | memoryview) -> UplinkResponse:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
         n = len(data)
-        if n < cls.MIN_SIZE:
-            raise TooShortError(cls.NAME, f'{n} bytes, need at least {cls.MIN_SIZE}')
-        if n > cls.MAX_SIZE:
-            raise TooLongError(cls.NAME, f'{n} bytes, at most {cls.MAX_SIZE} allowed')
+        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
         payload_len = cls._payload_length(n)
         body = data[:1 + payload_len]
         crc_bytes = data[1 + payload_len:]
-        covered = body
-        if len(covered) <= 14:
-            crc, width = _crc_link_check_crc8(covered), 1
-        else:
-            crc, width = _crc_link_check_crc16(covered), 2
-        if len(crc_bytes) != width or int.from_bytes(crc_bytes, 'little') != crc:
-            raise ChecksumError(cls.NAME, f'check {crc_bytes.hex()} does not match {crc:0{2 * width}x}')
+        _link_check.verify(cls.NAME, body, crc_bytes)
         out = cls._unpack(int.from_bytes(body[:1], 'little'))
         out.data = body[1:]
         return out
@@ -428,32 +381,17 @@ class UsbBatchHeader(Message):
     def encode(self) -> bytes:
         """The frame for this message (4..4 bytes); EncodeError on a bad value."""
         out = self._pack().to_bytes(3, 'little')
-        covered = out
-        if len(covered) <= 14:
-            crc, width = _crc_link_check_crc8(covered), 1
-        else:
-            crc, width = _crc_link_check_crc16(covered), 2
-        out += crc.to_bytes(width, 'little')
-        return out
+        return out + _link_check.seal(out)
 
     @classmethod
     def decode(cls, data: bytes | bytearray | memoryview) -> UsbBatchHeader:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
         n = len(data)
-        if n < cls.MIN_SIZE:
-            raise TooShortError(cls.NAME, f'{n} bytes, need at least {cls.MIN_SIZE}')
-        if n > cls.MAX_SIZE:
-            raise TooLongError(cls.NAME, f'{n} bytes, at most {cls.MAX_SIZE} allowed')
+        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
         body = data[:3]
         crc_bytes = data[3:]
-        covered = body
-        if len(covered) <= 14:
-            crc, width = _crc_link_check_crc8(covered), 1
-        else:
-            crc, width = _crc_link_check_crc16(covered), 2
-        if len(crc_bytes) != width or int.from_bytes(crc_bytes, 'little') != crc:
-            raise ChecksumError(cls.NAME, f'check {crc_bytes.hex()} does not match {crc:0{2 * width}x}')
+        _link_check.verify(cls.NAME, body, crc_bytes)
         out = cls._unpack(int.from_bytes(body[:3], 'little'))
         return out
 
@@ -503,10 +441,7 @@ class MailboxSelect(Message):
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
         n = len(data)
-        if n < cls.MIN_SIZE:
-            raise TooShortError(cls.NAME, f'{n} bytes, need at least {cls.MIN_SIZE}')
-        if n > cls.MAX_SIZE:
-            raise TooLongError(cls.NAME, f'{n} bytes, at most {cls.MAX_SIZE} allowed')
+        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
         body = data[:1]
         out = cls._unpack(int.from_bytes(body[:1], 'little'))
         return out
@@ -548,33 +483,18 @@ class DownlinkWrite(Message):
         """The frame for this message (2..35 bytes); EncodeError on a bad value."""
         out = self._pack().to_bytes(1, 'little')
         out += check_bytes(self.data, 0, 32, 'DownlinkWrite.data')
-        covered = out
-        if len(covered) <= 14:
-            crc, width = _crc_link_check_crc8(covered), 1
-        else:
-            crc, width = _crc_link_check_crc16(covered), 2
-        out += crc.to_bytes(width, 'little')
-        return out
+        return out + _link_check.seal(out)
 
     @classmethod
     def decode(cls, data: bytes | bytearray | memoryview) -> DownlinkWrite:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
         n = len(data)
-        if n < cls.MIN_SIZE:
-            raise TooShortError(cls.NAME, f'{n} bytes, need at least {cls.MIN_SIZE}')
-        if n > cls.MAX_SIZE:
-            raise TooLongError(cls.NAME, f'{n} bytes, at most {cls.MAX_SIZE} allowed')
+        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
         payload_len = cls._payload_length(n)
         body = data[:1 + payload_len]
         crc_bytes = data[1 + payload_len:]
-        covered = body
-        if len(covered) <= 14:
-            crc, width = _crc_link_check_crc8(covered), 1
-        else:
-            crc, width = _crc_link_check_crc16(covered), 2
-        if len(crc_bytes) != width or int.from_bytes(crc_bytes, 'little') != crc:
-            raise ChecksumError(cls.NAME, f'check {crc_bytes.hex()} does not match {crc:0{2 * width}x}')
+        _link_check.verify(cls.NAME, body, crc_bytes)
         out = cls._unpack(int.from_bytes(body[:1], 'little'))
         out.data = body[1:]
         return out
@@ -631,10 +551,7 @@ class DownlinkReadSelect(Message):
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
         n = len(data)
-        if n < cls.MIN_SIZE:
-            raise TooShortError(cls.NAME, f'{n} bytes, need at least {cls.MIN_SIZE}')
-        if n > cls.MAX_SIZE:
-            raise TooLongError(cls.NAME, f'{n} bytes, at most {cls.MAX_SIZE} allowed')
+        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
         body = data[:1]
         out = cls._unpack(int.from_bytes(body[:1], 'little'))
         return out
@@ -679,23 +596,14 @@ class DownlinkReadResponse(Message):
         """The frame for this message (1..34 bytes); EncodeError on a bad value."""
         out = self._pack().to_bytes(0, 'little')
         out += check_bytes(self.data, 0, 32, 'DownlinkReadResponse.data')
-        covered = self._pack_implicit().to_bytes(1, 'little') + out
-        if len(covered) <= 14:
-            crc, width = _crc_link_check_crc8(covered), 1
-        else:
-            crc, width = _crc_link_check_crc16(covered), 2
-        out += crc.to_bytes(width, 'little')
-        return out
+        return out + _link_check.seal(self._pack_implicit().to_bytes(1, 'little') + out)
 
     @classmethod
     def decode(cls, data: bytes | bytearray | memoryview, *, select: MailboxSelect | None = None) -> DownlinkReadResponse:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range); implicit fields are known to the caller and covered by the check."""
         data = bytes(data)
         n = len(data)
-        if n < cls.MIN_SIZE:
-            raise TooShortError(cls.NAME, f'{n} bytes, need at least {cls.MIN_SIZE}')
-        if n > cls.MAX_SIZE:
-            raise TooLongError(cls.NAME, f'{n} bytes, at most {cls.MAX_SIZE} allowed')
+        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
         if select is None:
             raise TypeError('DownlinkReadResponse.decode needs select=: it is covered by the check but not sent')
         proto = cls(select=select)
@@ -703,13 +611,7 @@ class DownlinkReadResponse(Message):
         payload_len = cls._payload_length(n)
         body = data[:0 + payload_len]
         crc_bytes = data[0 + payload_len:]
-        covered = prefix + body
-        if len(covered) <= 14:
-            crc, width = _crc_link_check_crc8(covered), 1
-        else:
-            crc, width = _crc_link_check_crc16(covered), 2
-        if len(crc_bytes) != width or int.from_bytes(crc_bytes, 'little') != crc:
-            raise ChecksumError(cls.NAME, f'check {crc_bytes.hex()} does not match {crc:0{2 * width}x}')
+        _link_check.verify(cls.NAME, prefix + body, crc_bytes)
         out = cls._unpack(int.from_bytes(body[:0], 'little'))
         out.select = select
         out.data = body[0:]
@@ -768,10 +670,7 @@ class SyncBroadcast(Message):
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
         n = len(data)
-        if n < cls.MIN_SIZE:
-            raise TooShortError(cls.NAME, f'{n} bytes, need at least {cls.MIN_SIZE}')
-        if n > cls.MAX_SIZE:
-            raise TooLongError(cls.NAME, f'{n} bytes, at most {cls.MAX_SIZE} allowed')
+        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
         body = data[:2]
         out = cls._unpack(int.from_bytes(body[:2], 'little'))
         return out
@@ -874,10 +773,7 @@ class Identification(Message):
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
         n = len(data)
-        if n < cls.MIN_SIZE:
-            raise TooShortError(cls.NAME, f'{n} bytes, need at least {cls.MIN_SIZE}')
-        if n > cls.MAX_SIZE:
-            raise TooLongError(cls.NAME, f'{n} bytes, at most {cls.MAX_SIZE} allowed')
+        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
         body = data[:25]
         out = cls._unpack(int.from_bytes(body[:25], 'little'))
         return out
@@ -936,10 +832,7 @@ class Command(Message):
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
         n = len(data)
-        if n < cls.MIN_SIZE:
-            raise TooShortError(cls.NAME, f'{n} bytes, need at least {cls.MIN_SIZE}')
-        if n > cls.MAX_SIZE:
-            raise TooLongError(cls.NAME, f'{n} bytes, at most {cls.MAX_SIZE} allowed')
+        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
         body = data[:6]
         out = cls._unpack(int.from_bytes(body[:6], 'little'))
         return out
@@ -1016,10 +909,7 @@ class BridgeInfo(Message):
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
         n = len(data)
-        if n < cls.MIN_SIZE:
-            raise TooShortError(cls.NAME, f'{n} bytes, need at least {cls.MIN_SIZE}')
-        if n > cls.MAX_SIZE:
-            raise TooLongError(cls.NAME, f'{n} bytes, at most {cls.MAX_SIZE} allowed')
+        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
         body = data[:10]
         out = cls._unpack(int.from_bytes(body[:10], 'little'))
         return out
@@ -1064,10 +954,7 @@ class BridgeScan(Message):
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
         n = len(data)
-        if n < cls.MIN_SIZE:
-            raise TooShortError(cls.NAME, f'{n} bytes, need at least {cls.MIN_SIZE}')
-        if n > cls.MAX_SIZE:
-            raise TooLongError(cls.NAME, f'{n} bytes, at most {cls.MAX_SIZE} allowed')
+        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
         body = data[:16]
         out = cls._unpack(int.from_bytes(body[:16], 'little'))
         return out
@@ -1116,10 +1003,7 @@ class BridgeCommand(Message):
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
         n = len(data)
-        if n < cls.MIN_SIZE:
-            raise TooShortError(cls.NAME, f'{n} bytes, need at least {cls.MIN_SIZE}')
-        if n > cls.MAX_SIZE:
-            raise TooLongError(cls.NAME, f'{n} bytes, at most {cls.MAX_SIZE} allowed')
+        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
         body = data[:3]
         out = cls._unpack(int.from_bytes(body[:3], 'little'))
         return out
