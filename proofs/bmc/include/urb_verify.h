@@ -1,0 +1,179 @@
+/*
+ * urb_verify.h: the one vocabulary every URB proof harness uses, mapped onto each tool's builtins.
+ *
+ * Select the tool with exactly one macro (proofs/bmc/Makefile.common passes it):
+ *   URB_VERIFY_ESBMC   ESBMC: __ESBMC_assume / __ESBMC_assert, nondet via __VERIFIER_nondet_*
+ *   URB_VERIFY_CBMC    CBMC:  __CPROVER_assume / __CPROVER_assert, nondet via nondet_*
+ *   URB_VERIFY_NATIVE  a plain compiler: nondet values come from urb_native_next() (a replay or
+ *                      random driver, proofs/bmc/stubs/native_driver.c); a failed assumption
+ *                      abandons the run; a failed assertion prints and aborts.
+ *
+ * Harnesses use ONLY these macros, never a tool builtin: ESBMC treats an unknown function such as
+ * __CPROVER_assume as returning an arbitrary value, so a harness written for CBMC would silently
+ * prove nothing under ESBMC.
+ *
+ *   URB_ASSUME(c)            restrict the inputs to those satisfying c
+ *   URB_ASSERT(c, "name")    property to prove for every input
+ *   URB_NONDET_U8() ...      an arbitrary value of the type (U8 U16 U32 U64 I8 I16 I32 SIZE BOOL)
+ *   URB_NONDET_BYTES(a, n)   arbitrary contents for the uninitialised local byte array a[0 .. n-1]
+ *   URB_TIGHT(c, "name")     a witness that c is reachable: a no-op in a proof run; when
+ *                            URB_VERIFY_TIGHT is defined it becomes an assertion of !(c), which
+ *                            the tool must then REFUTE (tools/proofs.py runs it, expects a failure)
+ *   URB_COST_BEGIN()         clears the cost counter before the call under proof
+ *   URB_COST_END(budget)     asserts the call's cost fits the budget and the recorded worst case
+ *
+ * Cost counter (bounded latency). Sources under proof are instrumented by
+ * proofs/bmc/prepare.py: every function entry and every loop iteration executes
+ * URB_COST(cycles), with cycles from proofs/bmc/cost_model.json. With URB_PROOF_COST defined the
+ * counter is the global urb_proof_cost; otherwise URB_COST expands to nothing (production code
+ * never sees it: the instrumented copies live under build/ only). Macros that change a run:
+ *   URB_COST_BOUND=n   the recorded worst case (the folder's COST file): asserted, and witnessed
+ *                      in tight runs
+ *   URB_COST_PROBE=n   probe run: every property but "cost <= n" is off (worst-case search)
+ */
+#ifndef URB_VERIFY_H
+#define URB_VERIFY_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#if (defined(URB_VERIFY_ESBMC) + defined(URB_VERIFY_CBMC) + defined(URB_VERIFY_NATIVE)) != 1
+#error "define exactly one of URB_VERIFY_ESBMC, URB_VERIFY_CBMC, URB_VERIFY_NATIVE"
+#endif
+
+/* ===== Tool mapping ======================================================================= */
+
+#if defined(URB_VERIFY_ESBMC)
+
+/* ESBMC declares __ESBMC_assume, __ESBMC_assert and the __VERIFIER_nondet_* family itself
+ * (esbmc_intrinsics.h); declaring them again with other types is an error. */
+
+#define URB_ASSUME(c) __ESBMC_assume((_Bool)(c))
+#define URB_ASSERT_(c, name) __ESBMC_assert((_Bool)(c), name)
+#define URB_NONDET_U8() ((uint8_t)__VERIFIER_nondet_uchar())
+#define URB_NONDET_U16() ((uint16_t)__VERIFIER_nondet_ushort())
+#define URB_NONDET_U32() ((uint32_t)__VERIFIER_nondet_uint())
+#define URB_NONDET_U64() ((uint64_t)__VERIFIER_nondet_ulonglong())
+#define URB_NONDET_I8() ((int8_t)__VERIFIER_nondet_char())
+#define URB_NONDET_I16() ((int16_t)__VERIFIER_nondet_short())
+#define URB_NONDET_I32() ((int32_t)__VERIFIER_nondet_int())
+#define URB_NONDET_SIZE() ((size_t)__VERIFIER_nondet_ulong())
+#define URB_NONDET_BOOL() ((bool)__VERIFIER_nondet_bool())
+/* An uninitialised local is already arbitrary; filling it byte by byte would only hide constants
+ * from ESBMC's constant propagation (a struct written in a loop loses its other known members). */
+#define URB_NONDET_BYTES(array, size) ((void)0)
+
+#elif defined(URB_VERIFY_CBMC)
+
+unsigned char nondet_uchar(void);
+unsigned short nondet_ushort(void);
+unsigned int nondet_uint(void);
+unsigned long long nondet_ulonglong(void);
+signed char nondet_schar(void);
+short nondet_short(void);
+int nondet_int(void);
+unsigned long nondet_ulong(void);
+_Bool nondet_bool(void);
+
+#define URB_ASSUME(c) __CPROVER_assume(c)
+#define URB_ASSERT_(c, name) __CPROVER_assert((c), name)
+#define URB_NONDET_U8() ((uint8_t)nondet_uchar())
+#define URB_NONDET_U16() ((uint16_t)nondet_ushort())
+#define URB_NONDET_U32() ((uint32_t)nondet_uint())
+#define URB_NONDET_U64() ((uint64_t)nondet_ulonglong())
+#define URB_NONDET_I8() ((int8_t)nondet_schar())
+#define URB_NONDET_I16() ((int16_t)nondet_short())
+#define URB_NONDET_I32() ((int32_t)nondet_int())
+#define URB_NONDET_SIZE() ((size_t)nondet_ulong())
+#define URB_NONDET_BOOL() ((bool)nondet_bool())
+#define URB_NONDET_BYTES(array, size) ((void)0) /* uninitialised locals are arbitrary */
+
+#else /* URB_VERIFY_NATIVE */
+
+/** Next arbitrary value, from the driver (proofs/bmc/stubs/native_driver.c). */
+uint64_t urb_native_next(void);
+/** Abandons the current run: an assumption does not hold for these values. */
+void urb_native_reject(void);
+/** Reports a failed property and aborts. */
+void urb_native_fail(const char *name, const char *file, int line);
+
+#define URB_ASSUME(c) do { if (!(c)) { urb_native_reject(); } } while (0)
+#define URB_ASSERT_(c, name) do { if (!(c)) { urb_native_fail(name, __FILE__, __LINE__); } } while (0)
+#define URB_NONDET_U8() ((uint8_t)urb_native_next())
+#define URB_NONDET_U16() ((uint16_t)urb_native_next())
+#define URB_NONDET_U32() ((uint32_t)urb_native_next())
+#define URB_NONDET_U64() ((uint64_t)urb_native_next())
+#define URB_NONDET_I8() ((int8_t)(uint8_t)urb_native_next())
+#define URB_NONDET_I16() ((int16_t)(uint16_t)urb_native_next())
+#define URB_NONDET_I32() ((int32_t)(uint32_t)urb_native_next())
+#define URB_NONDET_SIZE() ((size_t)urb_native_next())
+#define URB_NONDET_BOOL() ((urb_native_next() & 1u) != 0u)
+/** Fills a local byte array (uninitialised locals are arbitrary for the checkers, not for cc). */
+void urb_native_fill(void *array, size_t size);
+#define URB_NONDET_BYTES(array, size) urb_native_fill((array), (size))
+
+#endif
+
+/* ===== Properties ======================================================================== */
+
+#if defined(URB_COST_PROBE)
+/* A probe run (make probe) asks one question, the largest cost, so every other property is off. */
+#define URB_ASSERT(c, name) ((void)0)
+#else
+#define URB_ASSERT(c, name) URB_ASSERT_(c, name)
+#endif
+
+#if defined(URB_VERIFY_TIGHT)
+#define URB_TIGHT(c, name) URB_ASSERT_(!(c), "tight: " name)
+#else
+#define URB_TIGHT(c, name) ((void)0)
+#endif
+
+/* ===== Cost counter ======================================================================= */
+
+#if defined(URB_PROOF_COST)
+/** Cycles spent since the harness last cleared it (Cortex-M0+ model, proofs/bmc/cost_model.json). */
+extern uint32_t urb_proof_cost;
+/** The cost of the last measured call; counterexamples of probe runs show it. */
+extern uint32_t urb_proof_cost_seen;
+#define URB_COST(cycles) ((void)(urb_proof_cost += (uint32_t)(cycles)))
+/** Defines the counters; exactly one translation unit (the harness) uses it, at file scope. */
+#define URB_PROOF_COST_STORAGE uint32_t urb_proof_cost = 0u; uint32_t urb_proof_cost_seen = 0u
+#else
+#define URB_COST(cycles) ((void)0)
+#define URB_PROOF_COST_STORAGE extern int urb_proof_cost_unused_
+#endif
+
+/** Starts measuring: clears the counter before the call under proof. */
+#define URB_COST_BEGIN() ((void)(urb_proof_cost = 0u))
+
+#if defined(URB_COST_BOUND)
+#define URB_COST_BOUND_CHECK_(c)                                                                   \
+    do {                                                                                           \
+        URB_ASSERT((c) <= URB_COST_BOUND, "cost: within the recorded worst case (COST)");          \
+        URB_TIGHT((c) == URB_COST_BOUND, "cost: the recorded worst case is reached");              \
+    } while (0)
+#else
+#define URB_COST_BOUND_CHECK_(c) ((void)0)
+#endif
+
+#if defined(URB_COST_PROBE)
+#define URB_COST_PROBE_CHECK_(c) URB_ASSERT_((c) <= URB_COST_PROBE, "cost probe")
+#else
+#define URB_COST_PROBE_CHECK_(c) ((void)0)
+#endif
+
+/**
+ * Ends measuring: the cost of the call must fit `budget` (cycles derived from bus timing) and the
+ * recorded worst case COST_BOUND; a tight run shows COST_BOUND is reached, a probe run bounds it.
+ */
+#define URB_COST_END(budget)                                                                       \
+    do {                                                                                           \
+        urb_proof_cost_seen = urb_proof_cost;                                                      \
+        URB_ASSERT(urb_proof_cost_seen <= (uint32_t)(budget), "cost: within the bus budget");     \
+        URB_COST_BOUND_CHECK_(urb_proof_cost_seen);                                                \
+        URB_COST_PROBE_CHECK_(urb_proof_cost_seen);                                                \
+    } while (0)
+
+#endif /* URB_VERIFY_H */

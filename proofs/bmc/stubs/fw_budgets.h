@@ -1,0 +1,60 @@
+/*
+ * fw_budgets.h: cycle budgets of the firmware paths under proof, derived from the bus timing and
+ * the 1-ms cycle on the reference core (Cortex-M0+ at 48 MHz). The firmware proofs assert their
+ * cost counter (urb_proof_cost, proofs/bmc/include/urb_verify.h) against these; proofs/FIRMWARE.md
+ * explains each one and tools/proofs_firmware.py prints them next to the proved worst cases.
+ *
+ * Every number is a macro of the timing it comes from, so a different clock or bus rate changes
+ * the budgets, not the proofs. Half of a period is the rule for interrupt paths (the other half
+ * is for interrupt entry/exit, the other interrupts of equal priority and the main loop).
+ */
+#ifndef FW_BUDGETS_H
+#define FW_BUDGETS_H
+
+#define FW_CPU_HZ 48000000u /* reference core: Cortex-M0+ at 48 MHz */
+#define FW_CYCLES_PER_US (FW_CPU_HZ / 1000000u)
+
+/* I2C fast mode: 400 kb/s, 9 bit times per byte (8 data + ACK) = 22.5 us = 1080 cycles. */
+#define FW_I2C_BIT_RATE 400000u
+#define FW_I2C_BYTE_CYCLES ((FW_CPU_HZ / FW_I2C_BIT_RATE) * 9u)
+/* An I2C byte event (node slave or bridge master) must finish well within one byte time. */
+#define FW_I2C_EVENT_BUDGET (FW_I2C_BYTE_CYCLES / 2u)
+
+/* The node's heartbeat timer interrupt runs at the I2C interrupt's priority: together with one I2C
+ * byte event it must fit in one byte time, so it gets the other half. */
+#define FW_TIMER_EVENT_BUDGET (FW_I2C_BYTE_CYCLES / 2u)
+
+/* RS232 at 115200 Bd, 10 bit times per byte (start, 8 data, stop) = 86.8 us = 4166 cycles. */
+#define FW_UART_BAUD 115200u
+#define FW_UART_BYTE_CYCLES ((FW_CPU_HZ / FW_UART_BAUD) * 10u)
+#define FW_UART_EVENT_BUDGET (FW_UART_BYTE_CYCLES / 2u)
+
+/* The 1-ms cycle: the heartbeat / SYNC period and the USB frame. */
+#define FW_CYCLE_US 1000u
+#define FW_CYCLE_CYCLES (FW_CYCLE_US * FW_CYCLES_PER_US)
+
+/* Main-loop paths. A mailbox lock or release is a few loads and stores; budget: one I2C byte time,
+ * so an application update (which locks and releases a few mailboxes) stays far inside the cycle. */
+#define FW_APP_BUDGET FW_I2C_BYTE_CYCLES
+
+/* Bridge main loop, per RS232 byte drained from the ring: the line delivers one byte per
+ * FW_UART_BYTE_CYCLES, so parsing must keep up with half of it (the other half: serving and
+ * emitting). */
+#define FW_RS232_BYTE_BUDGET (FW_UART_BYTE_CYCLES / 2u)
+
+/* Bridge main loop, per USB OUT transfer: the whole transfer is admitted within half a 1-ms frame. */
+#define FW_USB_TRANSFER_BUDGET (FW_CYCLE_CYCLES / 2u)
+
+/* Node main loop: one urb_node_poll without the application's hooks (an inbox-0 command, the fault
+ * delivery, the identification refresh) within a tenth of the cycle. */
+#define FW_POLL_BUDGET (FW_CYCLE_CYCLES / 10u)
+
+/* Bridge request FIFO: admitting one request (the decoder's check included) within half of the
+ * shortest request's line time (a 4-byte read request: 4 UART byte times). */
+#define FW_ADMIT_BUDGET ((4u * FW_UART_BYTE_CYCLES) / 2u)
+
+/* Bridge downlink master: begin() (computes the write check over up to 33 bytes) and one poll()
+ * (verifies a read check) within one I2C byte time each, so the bus never idles on the CPU. */
+#define FW_MASTER_CALL_BUDGET FW_I2C_BYTE_CYCLES
+
+#endif /* FW_BUDGETS_H */
