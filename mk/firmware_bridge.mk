@@ -16,7 +16,8 @@ FWB_LIB_SRC := firmware/bridge/bridge.c firmware/bridge/bridge_uplink.c firmware
 FWB_GEN_SRC := gen/c/urb_core.c gen/c/urb_runtime.c
 FWB_HOSTED_SRC := firmware/hal/hosted/bridge_hosted.c firmware/hal/hosted/bridge_fake_i2c.c
 FWB_TEST_SRC := $(filter-out tests/firmware/bridge/cost_driver.c,$(wildcard tests/firmware/bridge/*.c))
-FWB_HDRS := $(wildcard firmware/include/urb_bridge*.h firmware/include/urb_downlink.h firmware/bridge/*.h \
+FWB_HDRS := $(wildcard firmware/include/urb_bridge*.h firmware/include/urb_downlink.h firmware/include/urb_i2c_event.h \
+              firmware/include/urb_node.h firmware/include/urb_node_hal.h firmware/bridge/*.h \
               firmware/hal/hosted/bridge_*.h gen/c/*.h tests/firmware/bridge/*.h)
 FWB_SAN := -g -O1 -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
 FWB_TEST_CFLAGS := -std=c99 -Wall -Wextra -Werror -D_DEFAULT_SOURCE

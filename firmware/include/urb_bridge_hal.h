@@ -21,6 +21,8 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "urb_i2c_event.h"
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -49,14 +51,8 @@ typedef struct {
 
 /* ===== I2C master byte level ================================================================== */
 
-/** Completion events of I2C operations, reported by the HAL with urb_i2c_master_event(). */
-typedef enum {
-    URB_I2C_EV_START = 0, /**< START or repeated START is on the bus */
-    URB_I2C_EV_ACK = 1,   /**< The byte written was acknowledged */
-    URB_I2C_EV_NACK = 2,  /**< The byte written was not acknowledged */
-    URB_I2C_EV_BYTE = 3,  /**< A byte was read (it is the event's `byte` argument) */
-    URB_I2C_EV_ERROR = 4, /**< Arbitration lost or bus error: the controller gave up */
-} urb_i2c_event_t;
+/* Completion events of I2C operations (URB_I2C_EV_START .. URB_I2C_EV_ERROR), reported by the
+ * HAL with urb_i2c_master_event(), are urb_i2c_event_t values (urb_i2c_event.h). */
 
 #define URB_I2C_SCL 0x01u /**< lines()/drive() bit for SCL (1 = high / released) */
 #define URB_I2C_SDA 0x02u /**< lines()/drive() bit for SDA (1 = high / released) */

@@ -39,6 +39,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "urb_i2c_event.h"
 #include "urb_node_hal.h"
 
 #ifdef __cplusplus
@@ -66,18 +67,7 @@ extern "C" {
 
 /* ===== I2C slave events (downlink, spec/schema/README.md) ================================= */
 
-/** What the port's I2C slave interrupt saw. A repeated START shows up as the next ADDR_* event. */
-typedef enum {
-    URB_I2C_ADDR_WRITE = 0,   /**< (repeated) START + own address + W; return ACK or NACK */
-    URB_I2C_ADDR_READ = 1,    /**< (repeated) START + own address + R; return ACK (bytes follow via TX_BYTE) */
-    URB_I2C_GENERAL_CALL = 2, /**< START + general call 0x00 + W: a SYNC begins; time-stamped here */
-    URB_I2C_RX_BYTE = 3,      /**< a data byte arrived (argument `byte`); return ACK or NACK */
-    URB_I2C_TX_BYTE = 4,      /**< the master clocks a byte out of us; return it (0..255) */
-    URB_I2C_TX_NACK = 5,      /**< the master NACKed our last byte: end of the read */
-    URB_I2C_STOP = 6,         /**< STOP condition */
-    URB_I2C_BUS_ERROR = 7,    /**< misplaced START/STOP or other bus error: abort the transaction */
-    URB_I2C_STUCK = 8         /**< the port saw the bus held beyond its timeout: abort, STUCK_BUS fault */
-} urb_i2c_event_t;
+/* urb_i2c_event_t (URB_I2C_ADDR_WRITE .. URB_I2C_STUCK for a node) is in urb_i2c_event.h. */
 
 #define URB_I2C_ACK 0x100u  /**< urb_node_i2c_event: acknowledge (receive and address events) */
 #define URB_I2C_NACK 0x200u /**< urb_node_i2c_event: do not acknowledge */

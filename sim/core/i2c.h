@@ -42,7 +42,7 @@
 
 #define URBSIM_I2C_MAX_SLAVES 64u
 
-/** Completion events delivered to the master (values equal urb_i2c_event_t of urb_bridge_hal.h). */
+/** Completion events delivered to the master (the bridge port maps them to urb_i2c_event_t). */
 enum {
     URBSIM_I2C_START = 0,
     URBSIM_I2C_ACK = 1,

@@ -139,6 +139,23 @@ static bool master_mid_transaction(const sim_bridge_t *b)
     return b->master.phase >= 1u && b->master.phase <= 5u;
 }
 
+/* The simulated bus's completion (URBSIM_I2C_*) as the firmware's event. */
+static urb_i2c_event_t master_event(int ev)
+{
+    switch (ev) {
+    case URBSIM_I2C_START:
+        return URB_I2C_EV_START;
+    case URBSIM_I2C_ACK:
+        return URB_I2C_EV_ACK;
+    case URBSIM_I2C_NACK:
+        return URB_I2C_EV_NACK;
+    case URBSIM_I2C_BYTE:
+        return URB_I2C_EV_BYTE;
+    default:
+        return URB_I2C_EV_ERROR;
+    }
+}
+
 /* The bus completed an operation at t_hw: the I2C interrupt's handler runs in its reserved
  * window [start, end). It is executed right away, with the bus told that what it issues starts no
  * earlier than `start`: nothing else on the bridge can run between t_hw and start (interrupts are
@@ -152,7 +169,7 @@ static void bus_done(void *ctx, int ev, uint8_t byte, urbsim_ns_t t_hw)
     urbsim_ns_t end;
     urbsim_ns_t start = urbsim_mcu_isr(&b->mcu, t_hw, b->cfg.i2c_isr_cycles, &end);
     b->bus.earliest = start;
-    urb_i2c_master_event(&b->master, (urb_i2c_event_t)ev, byte);
+    urb_i2c_master_event(&b->master, master_event(ev), byte);
     b->bus.earliest = 0;
     if (!master_mid_transaction(b)) {
         want_poll(b, end);
@@ -457,7 +474,7 @@ static void bridge_event(void *ctx, uint64_t arg, urbsim_ns_t now)
         if ((extra >> 16) != (uint32_t)(b->i2c_gen & 0xFFFFu)) {
             return; /* the firmware aborted the operation after the interrupt was raised */
         }
-        urb_i2c_master_event(&b->master, (urb_i2c_event_t)(extra & 0xFFu), (uint8_t)(extra >> 8));
+        urb_i2c_master_event(&b->master, master_event((int)(extra & 0xFFu)), (uint8_t)(extra >> 8));
         want_poll(b, b->mcu.isr_free_at);
         break;
     default: /* EV_USB_OUT */

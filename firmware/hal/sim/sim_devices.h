@@ -2,9 +2,8 @@
  * sim_devices.h: simulated nodes and bridges as the world (sim/world/world.c) sees them: opaque
  * handles and accessors.
  *
- * Why opaque: urb_node.h and urb_bridge_hal.h both define a type named urb_i2c_event_t (different
- * enums), so no translation unit can include both; the node port (node_hal_sim.c) and the bridge
- * port (bridge_hal_sim.c) each include one, and the world includes neither.
+ * Why opaque: the world drives devices through these calls and never depends on the layout of
+ * the firmware's state (urb_node_t, urb_bridge_t), which the device ports own.
  */
 #ifndef URBSIM_SIM_DEVICES_H
 #define URBSIM_SIM_DEVICES_H

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "support.h"
+#include "urb_node.h" /* with the bridge headers: urb_i2c_event_t is defined once (urb_i2c_event.h) */
 
 #define NODE 0x20u
 
@@ -304,6 +305,36 @@ static void long_mailboxes(void **state)
     expect_end(&s);
 }
 
+/* A master HAL that accepts every operation and reports nothing: the test delivers the events. */
+static void hal_op(void *ctx) { (void)ctx; }
+static void hal_byte(void *ctx, uint8_t byte) { (void)ctx; (void)byte; }
+static void hal_read(void *ctx, bool ack) { (void)ctx; (void)ack; }
+static uint8_t hal_lines(void *ctx) { (void)ctx; return (uint8_t)(URB_I2C_SCL | URB_I2C_SDA); }
+
+/* Slave and master events share one type with disjoint values: a slave event reaching the master
+ * (a miswired port) is refused like a bus error, not taken for a completion. */
+static void slave_event_refused_by_master(void **state)
+{
+    (void)state;
+    urb_i2c_hal_t const hal = {NULL, hal_op, hal_byte, hal_read, hal_op, hal_op, hal_lines, hal_byte, hal_op};
+    urb_i2c_master_config_t cfg;
+    urb_i2c_master_default_config(&cfg);
+    urb_i2c_master_t m;
+    urb_i2c_master_init(&m, &hal, &cfg);
+    urb_downlink_t dl;
+    urb_i2c_master_downlink(&m, &dl);
+    uint8_t buf[4];
+    urb_downlink_txn_t const t = {URB_DL_READ, NODE, 1u, 4u, 0u, false, buf};
+    assert_true(dl.begin(dl.ctx, &t, 0u));
+    urb_i2c_master_event(&m, URB_I2C_ADDR_WRITE, 0u); /* not URB_I2C_EV_START */
+    assert_int_equal(dl.poll(dl.ctx, 1u), URB_STATUS_TIMEOUT);
+    assert_int_equal(dl.poll(dl.ctx, 2u), URB_DOWNLINK_IDLE);
+    /* the same transaction with the master's own events completes */
+    assert_true(dl.begin(dl.ctx, &t, 3u));
+    urb_i2c_master_event(&m, URB_I2C_EV_START, 0u);
+    assert_int_equal(dl.poll(dl.ctx, 4u), URB_DOWNLINK_BUSY);
+}
+
 int run_downlink_tests(void)
 {
     const struct CMUnitTest tests[] = {
@@ -319,6 +350,7 @@ int run_downlink_tests(void)
         cmocka_unit_test_setup_teardown(stuck_during_transaction, setup, teardown),
         cmocka_unit_test_setup_teardown(bus_clear_command, setup, teardown),
         cmocka_unit_test_setup_teardown(long_mailboxes, setup, teardown),
+        cmocka_unit_test(slave_event_refused_by_master),
     };
     return cmocka_run_group_tests_name("bridge_downlink", tests, NULL, NULL);
 }

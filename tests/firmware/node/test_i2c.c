@@ -363,6 +363,9 @@ static void idle_bus_events(void **state)
     assert_int_equal(urb_node_i2c_event(node, URB_I2C_TX_NACK, 0u), URB_I2C_ACK);
     assert_int_equal(urb_node_i2c_event(node, URB_I2C_STOP, 0u), URB_I2C_ACK);
     assert_int_equal(urb_node_i2c_event(node, (urb_i2c_event_t)99, 0u), URB_I2C_NACK);
+    /* a bridge master's completion is not a slave event (disjoint values in urb_i2c_event.h) */
+    assert_int_equal(urb_node_i2c_event(node, URB_I2C_EV_START, 0u), URB_I2C_NACK);
+    assert_int_equal(urb_node_i2c_event(node, URB_I2C_EV_ACK, 0u), URB_I2C_NACK);
     /* address then STOP: nothing */
     assert_int_equal(fx_write_raw(node, NULL, 0u, true), FX_ALL_ACKED);
     assert_int_equal(urb_node_i2c_event(NULL, URB_I2C_ADDR_WRITE, 0u), URB_I2C_NACK);
