@@ -1,5 +1,5 @@
-"""TLA+ trace validation: TLC checks traces logged by the simulation against spec/tla/Bridge.tla
-and spec/tla/MailboxOutbox.tla.
+"""TLA+ trace validation: TLC checks traces logged by the simulation against spec/tla/Bridge.tla,
+spec/tla/MailboxOutbox.tla and spec/tla/MailboxInbox.tla.
 
 The simulation logs what a protocol analyser on a bridge's uplink would see (trace category
 "bridge", sim/README.md): request frames reaching the firmware ("req") and response frames leaving
@@ -233,23 +233,97 @@ def _outbox_module(events: list[dict[str, int | str]], size: int) -> str:
                       "Trace == <<" + ",\n    ".join(items) + ">>", "====", ""])
 
 
-def check_outbox(events: list[dict[str, int | str]], size: int) -> TraceResult:
-    """Check an outbox trace against MailboxOutbox.tla (no prefix search: these traces are short)."""
+def _tlc(spec: str, data: str) -> tuple[bool, str, float]:
+    """Run TLC on sim/tla/<spec>.tla with the generated <spec>Data module; (accepted, message, s)."""
     java, jar = find_tlc()
     with tempfile.TemporaryDirectory(prefix="urb-trace-") as tmp_s:
         tmp = Path(tmp_s)
         for f in SPEC.glob("*.tla"):
             shutil.copy2(f, tmp / f.name)
-        for f in TRACE_SPEC.glob("TraceOutbox.*"):
+        for f in TRACE_SPEC.glob(f"{spec}.*"):
             shutil.copy2(f, tmp / f.name)
-        (tmp / "TraceOutboxData.tla").write_text(_outbox_module(events, size))
+        (tmp / f"{spec}Data.tla").write_text(data)
         cmd = [java, "-XX:+UseParallelGC", f"-Djava.io.tmpdir={tmp}", "-cp", str(jar), "tlc2.TLC", "-deadlock",
-               "-workers", "1", "-config", "TraceOutbox.cfg", "-metadir", str(tmp / "meta"), "TraceOutbox.tla"]
+               "-workers", "1", "-config", f"{spec}.cfg", "-metadir", str(tmp / "meta"), f"{spec}.tla"]
         t0 = time.monotonic()
         proc = subprocess.run(cmd, cwd=tmp, capture_output=True, text=True, check=False)
         dt = time.monotonic() - t0
     log = proc.stdout + proc.stderr
     accepted = "Invariant TraceNotMatched is violated" in log
-    err = [ln for ln in log.splitlines() if ln.startswith("Error")]
-    msg = "every event matched" if accepted else (err[0] if err else "TLC found no behaviour matching the whole trace")
+    err = [ln for ln in log.splitlines() if ln.startswith("Error") or "is violated" in ln]
+    if accepted:
+        return True, "every event matched", dt
+    if "No error has been found" in log:
+        return False, "TLC found no behaviour matching the whole trace", dt
+    return False, (err[0] if err else log[-2000:]), dt
+
+
+def check_outbox(events: list[dict[str, int | str]], size: int) -> TraceResult:
+    """Check an outbox trace against MailboxOutbox.tla (no prefix search: these traces are short)."""
+    accepted, msg, dt = _tlc("TraceOutbox", _outbox_module(events, size))
+    return TraceResult(accepted, len(events), len(events) if accepted else -1, None, dt, msg)
+
+
+# --------------------------------------------------------------------------- inbox traces
+
+#: URB_INBOX_MAX_RETRY of firmware/node/urb_mailbox.c: lock attempts after the first before BUSY.
+INBOX_MAX_RETRY = 2
+_INBOX_EVENTS = {"wbegin", "wnack", "wbyte", "commit", "abort", "lock", "busy", "rbyte", "in_release"}
+
+
+def inbox_trace(path: Path, device: str) -> list[dict[str, int | str]]:
+    """The inbox-1 events of probe node `device` (e.g. "usb0/n16"), as TraceInbox events.
+
+    Each byte the application reads is tagged with the write that last stored it at that place of
+    that buffer (0: the zeroed setup), from the logged stores: a memory's provenance, which says
+    nothing about which buffer the algorithm should have handed out; TLC judges that. A read byte
+    whose value differs from the one stored there is tagged -1 (no write produced it)."""
+    out: list[dict[str, int | str]] = []
+    stored: dict[tuple[int, int], tuple[int, int]] = {}  # (buffer, index) -> (value, write)
+    writes = 0
+    filling = -1
+    locked = -1
+    with path.open() as f:
+        for line in f:
+            if '"cat":"mailbox"' not in line:
+                continue
+            d = json.loads(line)
+            ev = str(d["ev"])
+            if d["dev"] != device or ev not in _INBOX_EVENTS:
+                continue
+            if ev in ("wbegin", "wnack"):
+                writes += 1
+                filling = int(d["buf"]) if ev == "wbegin" else -1
+                out.append({"ev": ev, "buf": filling} if ev == "wbegin" else {"ev": ev})
+            elif ev == "wbyte":
+                stored[(filling, int(d["index"]))] = (int(d["value"]), writes)
+                out.append({"ev": ev, "index": int(d["index"])})
+            elif ev == "lock":
+                locked = int(d["buf"])
+                out.append({"ev": ev, "buf": locked})
+            elif ev == "rbyte":
+                k = int(d["index"])
+                value, write = stored.get((locked, k), (0, 0))
+                out.append({"ev": ev, "index": k, "tag": write if value == int(d["value"]) else -1})
+            elif ev == "in_release":
+                out.append({"ev": "release"})
+            else:
+                out.append({"ev": ev})
+    return out
+
+
+def _inbox_module(events: list[dict[str, int | str]], size: int) -> str:
+    items = []
+    for e in events:
+        fields = [f'ev |-> "{e["ev"]}"'] + [f"{k} |-> {v}" for k, v in e.items() if k != "ev"]
+        items.append("[" + ", ".join(fields) + "]")
+    writes = max(1, sum(1 for e in events if e["ev"] in ("wbegin", "wnack")))
+    return "\n".join(["---- MODULE TraceInboxData ----", "EXTENDS Naturals, Sequences",
+                      f"TMsgLen == {size}", f"TMaxWrites == {writes}", f"TMaxRetry == {INBOX_MAX_RETRY}",
+                      "Trace == <<" + ",\n    ".join(items) + ">>", "====", ""])
+
+
+def check_inbox(events: list[dict[str, int | str]], size: int) -> TraceResult:
+    """Check an inbox trace (inbox_trace) of a `size`-byte inbox against MailboxInbox.tla."""
+    accepted, msg, dt = _tlc("TraceInbox", _inbox_module(events, size))
     return TraceResult(accepted, len(events), len(events) if accepted else -1, None, dt, msg)

@@ -27,6 +27,7 @@
     X(NODE_LEAD_US, "node.lead_us", 0.0, "fixed phase lead, us; 0 = the measured acquisition time")   \
     X(NODE_HEARTBEAT_US, "node.heartbeat_us", 1000.0, "node nominal heartbeat period, us")           \
     X(NODE_BOOT_MS, "node.boot_spread_ms", 20.0, "nodes power on at uniform times in 0..N ms")        \
+    X(NODE_SCL_TIMEOUT, "node.scl_timeout_ms", 25.0, "node I2C peripheral's SCL low timeout (SMBus t_TIMEOUT), ms") \
     X(BRIDGE_PPM_MEAN, "bridge.ppm_mean", 0.0, "mean crystal error of the bridges, ppm")             \
     X(BRIDGE_PPM_SD, "bridge.ppm_sd", 30.0, "sd of each bridge's crystal error, ppm")                 \
     X(BRIDGE_WANDER_PPM, "bridge.wander_ppm", 0.2, "sd of a bridge crystal's slow wander, ppm")       \

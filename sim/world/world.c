@@ -23,6 +23,7 @@
 #include "native_host.h"
 #include "params.h"
 #include "sim_devices.h"
+#include "sim_node_faults.h"
 
 #define MAX_BRIDGES 8
 #define MAX_NODES 128
@@ -647,6 +648,11 @@ int urbsim_fault_i2c_stuck(urbsim_world_t *w, int bridge, int line, uint64_t dur
         urbsim_i2c_stick_sda(bus, until, pulses);
     } else {
         urbsim_i2c_stick_scl(bus, until);
+        for (int i = 0; i < w->n_nodes; i++) {
+            if (w->node_bridge[i] == bridge) {
+                sim_node_scl_low(w->nodes[i], (urbsim_ns_t)(w->p[P_NODE_SCL_TIMEOUT] * 1e6));
+            }
+        }
     }
     return 0;
 }

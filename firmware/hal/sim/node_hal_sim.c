@@ -2,14 +2,19 @@
 #include "node_hal_sim.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "sim_node_faults.h"
+#include "urb_node_internal.h" /* URB_NONE and the downlink states: the trace observer labels events */
+
 /* Event kinds, in bits 0..7 of the event argument; the node's power generation above. */
-enum { EV_TIMER_IRQ, EV_TIMER_ISR, EV_POLL, EV_ACQ_DONE };
+enum { EV_TIMER_IRQ, EV_TIMER_ISR, EV_POLL, EV_ACQ_DONE, EV_SCL_TIMEOUT, EV_SCL_TIMEOUT_ISR };
 #define NODE_ARG(n, kind, gen) ((uint64_t)(kind) | ((gen) << 8))
 
 static void node_event(void *ctx, uint64_t arg, urbsim_ns_t now);
+static void scl_timeout(sim_node_t *n, urbsim_ns_t now, bool isr);
 
 /* ---------------------------------------------------------------- HAL functions */
 
@@ -139,6 +144,10 @@ static void node_event(void *ctx, uint64_t arg, urbsim_ns_t now)
         }
         run_poll(n, now);
         break;
+    case EV_SCL_TIMEOUT:
+    case EV_SCL_TIMEOUT_ISR:
+        scl_timeout(n, now, (arg & 0xFFu) == EV_SCL_TIMEOUT_ISR);
+        break;
     default: /* EV_ACQ_DONE */
         if (now < n->mcu.thread_until) {
             /* interrupts preempted the acquisition: it ends later */
@@ -164,6 +173,126 @@ static void probe_released(void *ctx, uint32_t counter)
                  (unsigned)counter);
 }
 
+/* Trace category "mailbox", inbox 1 (sim/tla/TraceInbox.tla): the interrupt's side of every bus
+ * write (wbegin with the buffer it fills or wnack, each data byte stored, commit or abort) and the
+ * application's side (lock with the buffer it owns, each byte it reads, release), as the
+ * MailboxInbox actions the library cites. The interrupt's side is read off the inbox indices
+ * before and after each downlink event (private fields; only to label events). */
+
+static void inbox_event(sim_node_t *n, const char *ev, const char *fmt, unsigned a, unsigned b)
+{
+    char fields[64];
+    (void)snprintf(fields, sizeof fields, fmt, a, b);
+    urbsim_trace(n->tr, URBSIM_TR_MAILBOX, n->k->now, n->name, ev, ",\"box\":1%s", fields);
+}
+
+/* urb_node_i2c_event, with inbox 1's transitions logged when the mailbox trace is on. */
+static uint16_t node_i2c(sim_node_t *n, urb_i2c_event_t ev, uint8_t byte)
+{
+    urb_node_inbox_t const *ib = &n->node.inbox[1];
+    if (!urbsim_trace_on(n->tr, URBSIM_TR_MAILBOX) || ib->size == 0u) {
+        return urb_node_i2c_event(&n->node, ev, byte);
+    }
+    urb_node_i2c_t const *i2c = &n->node.i2c;
+    uint8_t const front = ib->front;
+    uint8_t const isr = ib->isr_idx;
+    bool const data = ev == URB_I2C_RX_BYTE && i2c->state == URB_I2C_ST_DATA && i2c->mailbox == 1u;
+    uint8_t const k = i2c->count;
+    uint16_t const r = urb_node_i2c_event(&n->node, ev, byte);
+    if (isr != URB_NONE && ib->isr_idx == URB_NONE) {
+        inbox_event(n, ib->front != front ? "commit" : "abort", "", 0u, 0u);
+    }
+    if (data && k == 0u) {
+        if (ib->isr_idx == URB_NONE) {
+            inbox_event(n, "wnack", "", 0u, 0u);
+        } else {
+            inbox_event(n, "wbegin", ",\"buf\":%u", ib->isr_idx, 0u);
+        }
+    }
+    if (data && ib->isr_idx != URB_NONE) {
+        inbox_event(n, "wbyte", ",\"index\":%u,\"value\":%u", k, byte);
+    }
+    return r;
+}
+
+static void probe_inbox_locked(void *ctx, int rc, const uint8_t *data, uint8_t len)
+{
+    sim_node_t *n = ctx;
+    if (!urbsim_trace_on(n->tr, URBSIM_TR_MAILBOX)) {
+        return;
+    }
+    if (rc < 0) {
+        inbox_event(n, "busy", ",\"rc\":%d", (unsigned)rc, 0u);
+        return;
+    }
+    inbox_event(n, "lock", ",\"buf\":%u,\"new\":%u", n->node.inbox[1].app_idx, rc == URB_NODE_NEW);
+    for (uint8_t i = 0u; i < len; i++) {
+        inbox_event(n, "rbyte", ",\"index\":%u,\"value\":%u", i, data[i]);
+    }
+}
+
+static void probe_inbox_released(void *ctx)
+{
+    sim_node_t *n = ctx;
+    if (urbsim_trace_on(n->tr, URBSIM_TR_MAILBOX)) {
+        inbox_event(n, "in_release", "", 0u, 0u);
+    }
+}
+
+/* ---------------------------------------------------------------- faults
+ * Every application's fault hook passes through the port, which logs it (trace category "fault",
+ * "app_fault") and counts it per code (stats "fault_checksum" .. "fault_stuck_bus") before calling
+ * the application's own hook. */
+
+static const char *const FAULT_NAME[URB_NODE_FAULT_CODES + 1u] = {"none", "checksum", "overrun", "lost_sync",
+                                                                  "stuck_bus"};
+
+static void port_fault(urb_node_t *node, void *user, urb_node_fault_t code)
+{
+    sim_node_t *n = (sim_node_t *)(void *)((char *)node - offsetof(sim_node_t, node));
+    unsigned const c = (unsigned)code <= URB_NODE_FAULT_CODES ? (unsigned)code : 0u;
+    n->faults[c]++;
+    urbsim_trace(n->tr, URBSIM_TR_FAULT, n->k->now, n->name, "app_fault", ",\"code\":%u,\"fault\":\"%s\"", c,
+                 FAULT_NAME[c]);
+    if (n->app_hooks->fault != NULL) {
+        n->app_hooks->fault(node, user, code);
+    }
+}
+
+/* The port's SMBus-style SCL low timeout (as on the SAMD21 SERCOM or STM32 I2C slaves): SCL held
+ * low since `from` for the whole timeout raises the peripheral's error interrupt, whose handler
+ * reports URB_I2C_STUCK to the library (abort the transaction in progress, STUCK_BUS fault). */
+void sim_node_scl_low(sim_node_t *n, urbsim_ns_t timeout_ns)
+{
+    if (!n->powered) {
+        return;
+    }
+    n->scl_low_from = n->k->now;
+    urbsim_kernel_at(n->k, n->k->now + timeout_ns, node_event, n, NODE_ARG(n, EV_SCL_TIMEOUT, n->gen << 24));
+}
+
+static void scl_timeout(sim_node_t *n, urbsim_ns_t now, bool isr)
+{
+    if (!isr) {
+        /* SCL released (or released and stuck again) in the meantime: the counter restarted */
+        if ((urbsim_i2c_lines(n->bus) & URBSIM_I2C_SCL) != 0u || n->bus->scl_from != n->scl_low_from) {
+            return;
+        }
+        urbsim_ns_t end;
+        urbsim_ns_t start = urbsim_mcu_isr(&n->mcu, now, n->cfg.i2c_isr_cycles, &end);
+        urbsim_kernel_at(n->k, start, node_event, n, NODE_ARG(n, EV_SCL_TIMEOUT_ISR, n->gen << 24));
+        return;
+    }
+    static const char *const STATE[] = {"idle", "select", "write", "write_check", "write_done", "selected", "read",
+                                        "sync", "ignore"};
+    uint8_t const st = n->node.i2c.state;
+    urbsim_trace(n->tr, URBSIM_TR_FAULT, now, n->name, "scl_timeout", ",\"aborted\":\"%s\"",
+                 st < sizeof STATE / sizeof STATE[0] ? STATE[st] : "?");
+    (void)node_i2c(n, URB_I2C_STUCK, 0u);
+    n->stuck_reports++;
+    want_poll(n, now + urbsim_clock_cycles_ns(&n->mcu.clk, now, n->cfg.i2c_isr_cycles));
+}
+
 /* ---------------------------------------------------------------- I2C slave port */
 
 static urbsim_ns_t slave_window(void *ctx, urbsim_ns_t t_irq, urbsim_ns_t *end)
@@ -182,7 +311,7 @@ static bool slave_address(void *ctx, bool read, bool gc, urbsim_ns_t t_hw)
     if (read) {
         sim_log_put(&n->log, t_hw, SIM_MARK_READ, 0);
     }
-    bool ack = urb_node_i2c_event(&n->node, ev, 0) == URB_I2C_ACK;
+    bool ack = node_i2c(n, ev, 0) == URB_I2C_ACK;
     n->reading_mb1 = read && ack && n->node.i2c.mailbox == 1u;
     if (n->reading_mb1) {
         urbsim_trace(n->tr, URBSIM_TR_MAILBOX, n->k->now, n->name, "begin", ",\"box\":1");
@@ -194,7 +323,7 @@ static bool slave_rx(void *ctx, uint8_t byte, urbsim_ns_t t_hw)
 {
     sim_node_t *n = ctx;
     (void)t_hw;
-    return urb_node_i2c_event(&n->node, URB_I2C_RX_BYTE, byte) == URB_I2C_ACK;
+    return node_i2c(n, URB_I2C_RX_BYTE, byte) == URB_I2C_ACK;
 }
 
 static uint8_t slave_tx(void *ctx, urbsim_ns_t t_hw)
@@ -202,7 +331,7 @@ static uint8_t slave_tx(void *ctx, urbsim_ns_t t_hw)
     sim_node_t *n = ctx;
     (void)t_hw;
     uint8_t index = n->node.i2c.count;
-    uint8_t byte = (uint8_t)urb_node_i2c_event(&n->node, URB_I2C_TX_BYTE, 0);
+    uint8_t byte = (uint8_t)node_i2c(n, URB_I2C_TX_BYTE, 0);
     if (n->reading_mb1 && index < urb_node_outbox_size(&n->node, 1u)) {
         urbsim_trace(n->tr, URBSIM_TR_MAILBOX, n->k->now, n->name, "byte", ",\"box\":1,\"index\":%u,\"value\":%u",
                      index, byte);
@@ -214,7 +343,7 @@ static void slave_tx_nack(void *ctx, urbsim_ns_t t_hw)
 {
     sim_node_t *n = ctx;
     (void)t_hw;
-    (void)urb_node_i2c_event(&n->node, URB_I2C_TX_NACK, 0);
+    (void)node_i2c(n, URB_I2C_TX_NACK, 0);
 }
 
 static void slave_stop(void *ctx, bool repeated, urbsim_ns_t t_hw)
@@ -224,7 +353,7 @@ static void slave_stop(void *ctx, bool repeated, urbsim_ns_t t_hw)
     if (repeated) {
         return; /* the library sees a repeated START as the next ADDR_* event */
     }
-    (void)urb_node_i2c_event(&n->node, URB_I2C_STOP, 0);
+    (void)node_i2c(n, URB_I2C_STOP, 0);
     if (n->reading_mb1) {
         n->reading_mb1 = false;
         urbsim_trace(n->tr, URBSIM_TR_MAILBOX, n->k->now, n->name, "end", ",\"box\":1");
@@ -252,6 +381,8 @@ sim_node_t *sim_node_new(const char *name, urbsim_kernel_t *k, urbsim_trace_t *t
         n->app_state.probe.in_size = app->in_size;
         n->app_state.probe.fill_counter = app->fill_counter;
         n->app_state.probe.on_release = probe_released;
+        n->app_state.probe.on_inbox_locked = probe_inbox_locked;
+        n->app_state.probe.on_inbox_released = probe_inbox_released;
         n->app_state.probe.hook_ctx = n;
         n->hooks = &sim_probe_hooks;
         n->app = &n->app_state.probe;
@@ -260,6 +391,10 @@ sim_node_t *sim_node_new(const char *name, urbsim_kernel_t *k, urbsim_trace_t *t
         free(n);
         return NULL;
     }
+    n->app_hooks = n->hooks;
+    n->port_hooks = *n->hooks;
+    n->port_hooks.fault = port_fault;
+    n->hooks = &n->port_hooks;
     strncpy(n->name, name, sizeof n->name - 1u);
     n->k = k;
     n->tr = tr;
@@ -350,6 +485,10 @@ double sim_node_stat(const sim_node_t *n, const char *s)
     if (!strcmp(s, "irqs")) return (double)n->mcu.irqs;
     if (!strcmp(s, "isr_ns")) return (double)n->mcu.isr_ns;
     if (!strcmp(s, "marks_lost")) return (double)n->log.lost;
+    if (!strcmp(s, "stuck_reports")) return (double)n->stuck_reports;
+    for (unsigned c = 1u; c <= URB_NODE_FAULT_CODES; c++) {
+        if (!strncmp(s, "fault_", 6) && !strcmp(s + 6, FAULT_NAME[c])) return (double)n->faults[c];
+    }
     return NAN;
 }
 

@@ -45,7 +45,9 @@ struct sim_node {
     urb_node_t node;
     urb_node_hal_t hal;
     urb_node_config_t ncfg;
-    const urb_node_hooks_t *hooks;
+    const urb_node_hooks_t *hooks;     /**< what the library calls: port_hooks */
+    const urb_node_hooks_t *app_hooks; /**< the application's own hooks */
+    urb_node_hooks_t port_hooks;       /**< the application's, with the fault hook logged by the port */
     void *app;
     uint8_t storage[512];
     uint16_t storage_len;
@@ -72,6 +74,9 @@ struct sim_node {
     } app_state;
     urbsim_motor_t plant;        /**< the motor and leg of a motor driver node */
     bool reading_mb1;            /**< trace observer: a bridge read of outbox 1 is in progress */
+    uint64_t faults[URB_NODE_FAULT_CODES + 1u]; /**< app_fault deliveries per code */
+    urbsim_ns_t scl_low_from;    /**< SCL low timeout: the low period being timed began here */
+    uint64_t stuck_reports;      /**< URB_I2C_STUCK events the port raised */
     bool has_plant;
 };
 

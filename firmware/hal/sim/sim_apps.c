@@ -19,11 +19,21 @@ static void probe_update(urb_node_t *node, void *user)
     sim_probe_app_t *app = user;
     app->counter++;
     if (app->in_size) {
-        const uint8_t *in;
-        if (urb_node_lock_inbox(node, 1u, &in) == URB_NODE_NEW) {
+        const uint8_t *in = NULL;
+        int const rc = urb_node_lock_inbox(node, 1u, &in);
+        if (rc == URB_NODE_NEW) {
             app->inbox_msgs++;
         }
-        (void)urb_node_release_inbox(node, 1u);
+        uint8_t const n = (rc >= 0 && app->in_size <= sizeof app->inbox) ? app->in_size : 0u;
+        for (uint8_t i = 0u; i < n; i++) {
+            app->inbox[i] = in[i];
+        }
+        if (app->on_inbox_locked != NULL) {
+            app->on_inbox_locked(app->hook_ctx, rc, app->inbox, n);
+        }
+        if (urb_node_release_inbox(node, 1u) == URB_NODE_OK && app->on_inbox_released != NULL) {
+            app->on_inbox_released(app->hook_ctx);
+        }
     }
     uint8_t *out;
     if (urb_node_lock_outbox(node, 1u, &out) != URB_NODE_OK) {
