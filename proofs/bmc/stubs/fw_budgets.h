@@ -57,4 +57,21 @@
  * (verifies a read check) within one I2C byte time each, so the bus never idles on the CPU. */
 #define FW_MASTER_CALL_BUDGET FW_I2C_BYTE_CYCLES
 
+/* ----- Node proofs (proofs/bmc/fw_node_*) ----- */
+
+/* Node main loop, one inbox-0 command (lock, decode, release, dispatch; the application's hooks
+ * are the application's time, not counted). It shares FW_POLL_BUDGET with the fault delivery, the
+ * update bookkeeping and the identification refresh (which encodes 25 bytes, the largest part):
+ * a quarter of it (1200 cycles = 25 us, about one I2C byte time), so a command that arrives
+ * just before a heartbeat delays that heartbeat's app_update by about one downlink byte. */
+#define FW_COMMAND_BUDGET (FW_POLL_BUDGET / 4u)
+
+/* A HAL call from the library (now(), set_compare(), mark(), identify()): BLX through the hal
+ * table, one peripheral register access and the return, counted where a proof stubs the HAL. */
+#define FW_HAL_CALL_CYCLES 16u
+
+/* Software division on Cortex-M0+ (no divide instruction): libgcc's __aeabi_uidiv for ARMv6-M
+ * runs up to 32 shift-compare-subtract steps of about 4 cycles plus call overhead. */
+#define FW_UDIV_CYCLES 160u
+
 #endif /* FW_BUDGETS_H */
