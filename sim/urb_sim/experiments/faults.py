@@ -15,7 +15,9 @@ event then). The checks:
               probability 1/256, so at most 3x detected/255 (rounded up) may slip through;
   recovery    the last 100 requests after the fault cleared all succeed;
   reaction    the firmware did what the design says (bus clears, resynchronisation, reboots...),
-              read from its own counters.
+              read from its own counters; with SCL held low, every node's I2C peripheral times out
+              (SMBus-style SCL low timeout, node.scl_timeout_ms) and the node library reports
+              STUCK_BUS to the application exactly once per node.
 """
 
 from __future__ import annotations
@@ -29,7 +31,7 @@ from pathlib import Path
 from urb.api import NodeRequest
 from urb.errors import ErrorFlag
 
-from ..native import App
+from ..native import App, Trace
 from ..system import NS_PER_MS, Loop, System
 from . import Progress, Result, no_progress, pyplot, write_csv
 
@@ -47,7 +49,7 @@ class Scenario:
     allowed: ErrorFlag
     inject: Callable[[System, int, list[int]], None]
     clear: Callable[[System, int, list[int]], None]
-    reaction: Callable[[System, int], tuple[str, bool]]
+    reaction: Callable[[System, int, list[int]], tuple[str, bool]]
     expect_failures: bool = True
 
 
@@ -63,53 +65,61 @@ def _uart(ber: float = 0.0, loss: float = 0.0) -> Callable[[System, int, list[in
     return apply
 
 
-def _scenarios() -> list[Scenario]:
+def _scl_reaction(s: System, b: int, nodes: list[int]) -> tuple[str, bool]:
+    """Bridge: downlink timeouts and bus clears; every node: one STUCK_BUS through app_fault."""
+    stuck = [int(s.world.stat("node.fault_stuck_bus", n)) for n in nodes]
+    bridge = _stat(s, "bridge.timeouts", b) + _stat(s, "bridge.bus_clears", b)
+    return (f"bridge: {_stat(s, 'bridge.timeouts', b)} downlink timeouts, {_stat(s, 'bridge.bus_clears', b)} bus "
+            f"clears (each refused request: BUS_STUCK); nodes: STUCK_BUS reported to the application "
+            f"{'/'.join(map(str, stuck))} times after their "
+            f"{s.world.get('node.scl_timeout_ms'):g}-ms SCL low timeout", bridge >= 1 and stuck == [1] * len(nodes))
+
+
+def scenarios() -> list[Scenario]:
+    """The fault scenarios, in report order."""
     nothing: Callable[[System, int, list[int]], None] = lambda s, b, n: None
     down = F.UPLINK_TIMEOUT | F.UPLINK_CHECKSUM
     return [
         Scenario("i2c_bit_errors", "usb", "I2C bit errors at 1e-3 per bit",
                  F.CHECKSUM | F.NO_NODE | F.BAD_REQUEST | F.SIZE_MISMATCH | F.NODE_BUSY | F.TIMEOUT,
                  lambda s, b, n: s.world.i2c_ber(b, 1e-3), lambda s, b, n: s.world.i2c_ber(b, 0.0),
-                 lambda s, b: (f"{_stat(s, 'i2c.flipped_bits', b)} bits flipped on the downlink", True)),
+                 lambda s, b, n: (f"{_stat(s, 'i2c.flipped_bits', b)} bits flipped on the downlink", True)),
         Scenario("i2c_sda_stuck", "rs232", "I2C SDA held low by a slave stuck mid-byte (cleared by 9 pulses)",
                  F.BUS_STUCK | F.TIMEOUT | F.CHECKSUM | F.NO_NODE | F.BAD_REQUEST,
                  lambda s, b, n: s.world.i2c_stuck(b, "sda", 0, pulses=5), nothing,
-                 lambda s, b: (f"{_stat(s, 'bridge.bus_clears', b)} bus clears",
+                 lambda s, b, n: (f"{_stat(s, 'bridge.bus_clears', b)} bus clears",
                                _stat(s, "bridge.bus_clears", b) >= 1)),
         Scenario("i2c_scl_stuck", "usb", "I2C SCL held low for 200 ms (a node stretching forever)",
                  F.BUS_STUCK | F.TIMEOUT | F.CHECKSUM | F.NO_NODE | F.BAD_REQUEST,
-                 lambda s, b, n: s.world.i2c_stuck(b, "scl", T_OFF - T_ON), nothing,
-                 lambda s, b: (f"{_stat(s, 'bridge.timeouts', b)} downlink timeouts, "
-                               f"{_stat(s, 'bridge.bus_clears', b)} bus clears (each refused request: BUS_STUCK)",
-                               _stat(s, "bridge.timeouts", b) + _stat(s, "bridge.bus_clears", b) >= 1)),
+                 lambda s, b, n: s.world.i2c_stuck(b, "scl", T_OFF - T_ON), nothing, _scl_reaction),
         Scenario("node_power_loss", "rs232", "node 0 loses power for 200 ms, then reboots",
                  F.NO_NODE | F.CHECKSUM | F.TIMEOUT,
                  lambda s, b, n: s.world.node_power(n[0], False), lambda s, b, n: s.world.node_power(n[0], True),
-                 lambda s, b: (f"node rebooted ({int(s.world.stat('node.boots', 0))} boots)",
+                 lambda s, b, n: (f"node rebooted ({int(s.world.stat('node.boots', 0))} boots)",
                                s.world.stat("node.boots", 0) == 2)),
         Scenario("bridge_reset", "usb", "the bridge resets (off 200 ms, then a cold start)",
                  F.UPLINK_TIMEOUT | F.UPLINK_CHECKSUM | F.CHECKSUM | F.BUSY,
                  lambda s, b, n: s.world.bridge_power(b, False), lambda s, b, n: s.world.bridge_power(b, True),
-                 lambda s, b: (f"bridge rebooted and rescanned ({_stat(s, 'bridge.scans', b)} scans since boot)",
+                 lambda s, b, n: (f"bridge rebooted and rescanned ({_stat(s, 'bridge.scans', b)} scans since boot)",
                                _stat(s, "bridge.boots", b) == 2)),
         Scenario("babbling_node", "rs232", "a babbling device answers 30 % of transactions with random bytes",
                  F.CHECKSUM | F.NO_NODE | F.BAD_REQUEST | F.SIZE_MISMATCH | F.NODE_BUSY | F.TIMEOUT,
                  lambda s, b, n: s.world.babble(b, 0x55, 0.3), lambda s, b, n: s.world.babble(b, 0x55, 0.0),
-                 lambda s, b: ("corrupted reads rejected by the downlink check", True)),
+                 lambda s, b, n: ("corrupted reads rejected by the downlink check", True)),
         Scenario("uplink_byte_loss", "rs232", "RS232 loses 2 % of the bytes in both directions",
                  down | F.BAD_REQUEST,
                  _uart(loss=0.02), _uart(),
-                 lambda s, b: (f"bridge dropped {_stat(s, 'bridge.gap_drops', b)} partial frames, "
+                 lambda s, b, n: (f"bridge dropped {_stat(s, 'bridge.gap_drops', b)} partial frames, "
                                f"discarded {_stat(s, 'bridge.hunt_discards', b)} bytes hunting",
                                _stat(s, "bridge.gap_drops", b) + _stat(s, "bridge.hunt_discards", b) >= 1)),
         Scenario("uart_bit_errors", "rs232", "RS232 bit errors at 1e-4 per bit in both directions",
                  down | F.BAD_REQUEST | F.SIZE_MISMATCH,
                  _uart(ber=1e-4), _uart(),
-                 lambda s, b: (f"{_stat(s, 'uart.up_corrupted', b) + _stat(s, 'uart.down_corrupted', b)} "
+                 lambda s, b, n: (f"{_stat(s, 'uart.up_corrupted', b) + _stat(s, 'uart.down_corrupted', b)} "
                                f"characters corrupted", True)),
         Scenario("usb_in_loss", "usb", "5 % of USB IN transfers never reach the read thread",
                  down, lambda s, b, n: s.world.usb_loss(b, 0.05), lambda s, b, n: s.world.usb_loss(b, 0.0),
-                 lambda s, b: ("lost batches time out on the host", True)),
+                 lambda s, b, n: ("lost batches time out on the host", True)),
     ]
 
 
@@ -136,11 +146,15 @@ def _pattern_ok(data: bytes | None) -> bool:
     return all(data[i] == 0xA0 + i for i in range(4, 6)) or data == bytes(6)
 
 
-def run_scenario(sc: Scenario, seed: int) -> Outcome:
-    s = System(seed=seed, probe_out=6, probe_in=2)
+def run_scenario(sc: Scenario, seed: int, trace: Path | None = None, params: dict[str, float] | None = None) -> Outcome:
+    """Run one scenario; with `trace`, log its injections and the firmware's reactions there (trace
+    category "fault") from discovery on; `params` override simulation parameters."""
+    s = System(seed=seed, probe_out=6, probe_in=2, params=params or {})
     b = s.bridge(sc.uplink)
     nodes = [s.node(b, App.PROBE, 0x10 + i, i) for i in range(3)]
     s.start()
+    if trace is not None:
+        s.world.trace(trace, Trace.FAULT)
     acc = [s.urb.find_node(0x7E, i) for i in range(3)]
     out = Outcome(sc.key, sc.what)
     seen: set[int] = set()
@@ -190,7 +204,8 @@ def run_scenario(sc: Scenario, seed: int) -> Outcome:
     s.host.advance(400 * NS_PER_MS)  # every outstanding request completes or times out
     tail = [ok for _, ok in out.timeline[-100:]]
     out.recovered = len(tail) == 100 and all(tail)
-    out.reaction, out.reaction_ok = sc.reaction(s, b)
+    out.reaction, out.reaction_ok = sc.reaction(s, b, nodes)
+    s.world.flush_trace()
     s.close()
     return out
 
@@ -199,7 +214,7 @@ def faults(out: Path, *, quick: bool = False, seed: int = 300, progress: Progres
     res = Result("faults", "Fault injection: nothing is lost silently",
                  "no automatic retransmission; a failed request reaches its callback with the error flag that "
                  "names its cause (Sec. IV-C, V-D)")
-    scs = _scenarios()
+    scs = scenarios()
     t0 = time.perf_counter()
     outcomes: list[Outcome] = []
     for i, sc in enumerate(scs):
