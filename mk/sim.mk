@@ -1,6 +1,7 @@
 # Time-accurate SensoRHex simulation (sim/, firmware/hal/sim/). Included by the top-level Makefile.
 #   make sim-lib      build build/sim/liburbsim.so (C core + firmware + simulation HALs), if stale
-#   make test-sim     build the library and run the C unit tests of the core under ASan+UBSan
+#   make test-sim     build the library and run the C unit tests of the core under ASan+UBSan, then
+#                     check that they fail for each seeded kernel bug (SIM_MUTANTS)
 #                     (the Python tests in tests/sim/ run in the main pytest run of `make check`)
 #   make sim-report   the full run: `urb sim sensorhex` (HTML summary in build/sim/report/)
 #   make sim-bench    simulated seconds per wall-clock second, and scaling with the node count
@@ -19,8 +20,20 @@ $(SIM_BUILD)/test_core: tests/sim/test_core.c $(wildcard $(SIM_CORE)/*.c $(SIM_C
 	@mkdir -p $(@D)
 	$(CC) $(SIM_SAN_FLAGS) -I$(SIM_CORE) tests/sim/test_core.c $(wildcard $(SIM_CORE)/*.c) -lm -o $@
 
-test-sim: sim-lib $(SIM_BUILD)/test_core
+# Seeded bugs (#ifdef URBSIM_MUTANT_* in sim/core/kernel.c): the event order of the two-queue kernel
+# on ties. The unit tests must fail for each.
+SIM_MUTANTS := RING_TIES QUEUE_TIES
+
+$(SIM_BUILD)/mutants/%/test_core: tests/sim/test_core.c $(wildcard $(SIM_CORE)/*.c $(SIM_CORE)/*.h)
+	@mkdir -p $(@D)
+	$(CC) $(SIM_SAN_FLAGS) -DURBSIM_MUTANT_$* -I$(SIM_CORE) tests/sim/test_core.c $(wildcard $(SIM_CORE)/*.c) -lm -o $@
+
+test-sim: sim-lib $(SIM_BUILD)/test_core $(foreach m,$(SIM_MUTANTS),$(SIM_BUILD)/mutants/$(m)/test_core)
 	$(SIM_BUILD)/test_core
+	@for m in $(SIM_MUTANTS); do \
+	  if $(SIM_BUILD)/mutants/$$m/test_core >/dev/null 2>&1; then \
+	    echo "test-sim: mutant $$m survived: the kernel tests no longer check event order on ties" >&2; exit 1; \
+	  fi; echo "test-sim: mutant $$m caught"; done
 
 sim-report: setup
 	urb sim sensorhex

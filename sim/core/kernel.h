@@ -2,13 +2,13 @@
  * kernel.h: the discrete-event kernel of the URB simulation.
  *
  * Virtual time is a uint64_t count of nanoseconds since the start of the run (584 years of range).
- * Events are (time, callback, context, argument) records kept in a binary min-heap ordered by time,
+ * Events are (time, callback, context, argument) records kept in a priority queue ordered by time,
  * with ties broken by insertion order: two events scheduled for the same instant run in the order
  * they were scheduled. Nothing else (pointer values, hash order, wall-clock time) influences the
  * order, so a run is a pure function of its inputs and seed.
  *
  * State lives in a caller-owned urbsim_kernel_t; there are no globals, so any number of kernels
- * (simulated worlds) can live in one process. The heap array grows with realloc (the simulation is
+ * (simulated worlds) can live in one process. The queue arrays grow on the heap (the simulation is
  * host code; only the firmware under test is heap-free).
  *
  * Cancellation is not supported on purpose: a component that may change its mind schedules its
@@ -33,33 +33,64 @@ typedef uint64_t urbsim_ns_t;
 /** An event callback. `now` equals the event's time; `arg` is what was passed to schedule. */
 typedef void (*urbsim_event_fn)(void *ctx, uint64_t arg, urbsim_ns_t now);
 
+/** Ordering key of a pending event: time, then insertion sequence (unique, so the order is total). */
 typedef struct {
     urbsim_ns_t t;   /**< when the event fires */
     uint64_t seq;    /**< insertion sequence number: the tie-breaker */
+} urbsim_event_key_t;
+
+/** What a pending event runs. */
+typedef struct {
     urbsim_event_fn fn;
     void *ctx;
     uint64_t arg;
 } urbsim_event_t;
 
+/** A queue of events: keys and payloads in parallel arrays, so that the loops that order them read
+ *  only the 16-byte keys and touch a payload only when they move it. The near queue keeps its
+ *  entries sorted in a ring (`head` is the earliest, `cap` a power of two); the far queue is a
+ *  binary min-heap (`head` unused, key[0] is the earliest). */
 typedef struct {
-    urbsim_event_t *heap; /**< heap[0] is the earliest event */
+    urbsim_event_key_t *key;
+    urbsim_event_t *item;
     size_t len;
     size_t cap;
+    size_t head;
+} urbsim_queue_t;
+
+/*
+ * Two queues: events due within URBSIM_KERNEL_NEAR_NS of the time they are scheduled (bus bytes,
+ * interrupt handlers, most main-loop polls: the bulk of the traffic) and the rest (timer compares,
+ * USB frames, OS ticks, the stale events of replaced timers). The next event is the earlier of the
+ * two heads, so the split changes nothing about the order. The near queue holds a handful of
+ * entries (about 6 in the SensoRHex scenario), so a sorted ring takes a new one in a few
+ * comparisons and gives the earliest back in one; the ~50 long-term entries stay out of their way
+ * in the heap.
+ */
+typedef struct {
+    urbsim_queue_t near;
+    urbsim_queue_t far;
+    size_t len;           /**< events pending (both queues) */
+    size_t cap;           /**< room for events before the queues grow (both queues) */
     urbsim_ns_t now;      /**< time of the event being run, or the last run_until limit */
     uint64_t next_seq;
     uint64_t executed;    /**< events run so far (for the speed benchmark) */
     bool stop;            /**< set by urbsim_kernel_stop() from inside a callback */
 } urbsim_kernel_t;
 
+/** Events scheduled at most this far ahead go to the near queue (a speed knob: any value gives the
+ *  same run). */
+#define URBSIM_KERNEL_NEAR_NS (60u * URBSIM_NS_PER_US)
+
 /** Initialise an empty kernel at time 0. Returns false when the initial allocation fails. */
 bool urbsim_kernel_init(urbsim_kernel_t *k);
 
-/** Free the heap. The kernel may be initialised again afterwards. */
+/** Free the queues. The kernel may be initialised again afterwards. */
 void urbsim_kernel_free(urbsim_kernel_t *k);
 
 /**
  * Schedule fn(ctx, arg, t) at virtual time t. A time in the past (t < now) is clamped to now: an
- * event can never run before the one that scheduled it. Returns false only when the heap cannot
+ * event can never run before the one that scheduled it. Returns false only when the queue cannot
  * grow (out of memory); the event is then not scheduled. O(log n).
  */
 bool urbsim_kernel_at(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg);
