@@ -63,6 +63,14 @@ class ResponseMatcher:
             t = self.inflight.popleft()
             self.completed.append(finish(t, now, ErrorFlag.UPLINK_CHECKSUM if t.garbage else ErrorFlag.UPLINK_TIMEOUT))
 
+    def fail_all(self, queued: deque[Transfer], now: int) -> None:
+        """The uplink is gone: every request in flight, then every queued one, completes BRIDGE_LOST."""
+        for t in list(self.inflight) + list(queued):
+            self.completed.append(finish(t, now, ErrorFlag.BRIDGE_LOST))
+        self.inflight.clear()
+        queued.clear()
+        self.rx.clear()
+
     def _discard(self, n: int) -> None:
         del self.rx[:n]
         self.stray_bytes += n
@@ -177,11 +185,7 @@ class Rs232Core:
         if self.lost_reason is not None:
             return
         self.lost_reason = reason
-        for t in list(self._m.inflight) + list(self._queued):
-            self._m.completed.append(finish(t, now, ErrorFlag.BRIDGE_LOST))
-        self._m.inflight.clear()
-        self._queued.clear()
-        self._m.rx.clear()
+        self._m.fail_all(self._queued, now)
         self._partial = False
 
     def reset(self, now: int) -> None:

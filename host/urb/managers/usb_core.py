@@ -109,11 +109,7 @@ class UsbCore:
         if self.lost_reason is not None:
             return
         self.lost_reason = reason
-        for t in list(self._m.inflight) + list(self._queued):
-            self._m.completed.append(finish(t, now, ErrorFlag.BRIDGE_LOST))
-        self._m.inflight.clear()
-        self._m.rx.clear()
-        self._queued.clear()
+        self._m.fail_all(self._queued, now)
 
     def reset(self, now: int) -> None:
         """Forget the lost state (after the uplink was reopened)."""
