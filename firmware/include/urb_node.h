@@ -120,6 +120,10 @@ typedef struct urb_node_config {
     uint8_t max_outliers;    /**< consecutive outliers tolerated before re-acquiring; default 4 */
     uint8_t max_gap;         /**< largest SYNC counter gap still used to measure the period (0: none); default 8 */
     uint8_t lost_sync_beats; /**< heartbeats without SYNC before LOST_SYNC; default 10 */
+    uint8_t acq_window;      /**< t_acq = largest sample of the last acq_window..2 x acq_window on-time
+                                  updates (1..255; 0 acts as 1); default 16 */
+    uint8_t acq_guard_us;    /**< added to every t_acq sample, so acquisition ends this long before the
+                                  SYNC interrupt (which would lengthen it); default 1 us */
 } urb_node_config_t;
 
 /* ===== Node state (caller-owned; members are private: use the functions) ================== */
@@ -207,6 +211,7 @@ struct urb_node {
     volatile uint8_t id_done;   /* interrupt: id_reads value of the last complete outbox-0 read */
     uint8_t id_fault_after;     /* main loop: fault flag may clear once a read begun after this completes */
     int8_t setup_err;           /* first error of a setup call in bootup */
+    uint8_t acq_count;          /* main loop: t_acq samples in the current window */
     uint8_t class_id;
     uint8_t index;
     volatile uint8_t isr_faults[URB_NODE_FAULT_CODES]; /* per code, written by the interrupts only */
@@ -223,7 +228,8 @@ struct urb_node {
     uint8_t *storage;
     uint32_t fingerprint;
     volatile uint32_t update_beat; /* timer interrupt: heartbeat that made the latest update due */
-    volatile uint32_t acq_ticks; /* main loop: measured t_acq (max), read by the SYNC interrupt */
+    volatile uint32_t acq_ticks; /* main loop: t_acq + guard (windowed max), read by the SYNC interrupt */
+    uint32_t acq_win;           /* main loop: largest t_acq + guard sample of the current window */
     urb_node_pll_t pll;
     urb_node_i2c_t i2c;
     urb_node_outbox_t outbox[URB_NODE_MAILBOXES];
@@ -301,7 +307,8 @@ int urb_node_lock_outbox(urb_node_t *node, uint8_t n, uint8_t **data);
  *  update also marks the end of data acquisition (unless urb_node_mark_acquired came first). */
 int urb_node_release_outbox(urb_node_t *node, uint8_t n);
 
-/** Marks the end of this update's data acquisition now (t_acq is the largest mark - heartbeat). */
+/** Marks the end of this update's data acquisition now. The phase lead is acq_guard_us plus t_acq,
+ *  the largest mark - heartbeat of the last acq_window..2 x acq_window on-time updates. */
 void urb_node_mark_acquired(urb_node_t *node);
 
 /** Size of inbox n (0 when not set up or n out of range). */
@@ -318,7 +325,7 @@ typedef struct {
     uint32_t period_q8;    /**< That_d, ticks * 256 */
     int32_t phase_q8;      /**< latest phase error t_n - t_d + dt_adj, ticks * 256 */
     uint32_t lead_ticks;   /**< dt_adj in use */
-    uint32_t acq_ticks;    /**< measured t_acq */
+    uint32_t acq_ticks;    /**< measured t_acq plus acq_guard_us (0 until measured): dt_adj unless fixed */
     uint32_t last_beat;    /**< tick of the latest heartbeat */
     uint16_t syncs;        /**< SYNCs used (wraps) */
     uint16_t rejected;     /**< SYNCs rejected (wraps) */

@@ -7,6 +7,8 @@
  *   - counters with one writer each (update_due, isr_faults, id_reads/id_done),
  *   - one 32-bit value the SYNC interrupt reads (acq_ticks: aligned word stores are atomic on
  *     every supported core), and a request (req_*) the timer interrupt applies.
+ *
+ * Seeded bug for the mutant check: URB_MUTANT_ACQ_NO_DECAY (t_acq never forgets a sample).
  */
 #include "urb_node_internal.h"
 
@@ -36,6 +38,8 @@ void urb_node_config_default(urb_node_config_t *cfg)
         .max_outliers = 4u,
         .max_gap = 8u,
         .lost_sync_beats = 10u,
+        .acq_window = 16u, /* an inflated t_acq is forgotten within 32 updates */
+        .acq_guard_us = 1u,
     };
 }
 
@@ -142,6 +146,8 @@ static void reset_application(urb_node_t *node)
 {
     node->flags = (uint8_t)((node->flags & (uint8_t)~URB_F_FAULT) | URB_F_ID_DIRTY);
     node->acq_ticks = 0u;                  /* re-measure t_acq: the application restarts */
+    node->acq_win = 0u;
+    node->acq_count = 0u;
     node->update_done = node->update_due;  /* drop an update due before the reset */
     if (node->hooks->reset != NULL) {
         node->hooks->reset(node, node->user);
@@ -218,6 +224,32 @@ static uint8_t run_update(urb_node_t *node)
     return URB_NODE_POLL_UPDATE;
 }
 
+/* t_acq is a windowed maximum over two halves: the largest sample of the window in progress and of
+ * the complete window before it. A longer acquisition is tracked at its first sample; a sample
+ * inflated once (an interrupt during the acquisition, e.g. the bridge's start-up scan) is forgotten
+ * after at most 2 x acq_window - 1 more samples, when the window after its own one completes.
+ * Samples carry the guard: without it the lead would settle where the acquisition ends on the
+ * SYNC, whose interrupt then lengthens some samples, and the window would make the lead oscillate
+ * by an interrupt's length (firmware/node/README.md). */
+static void acq_sample(urb_node_t *node, uint32_t sample)
+{
+    if (sample > node->acq_ticks) {
+        node->acq_ticks = sample;
+    }
+    if (sample > node->acq_win) {
+        node->acq_win = sample;
+    }
+    node->acq_count++;
+#if defined(URB_MUTANT_ACQ_NO_DECAY)
+    node->acq_count = 0u; /* mutant: the window never completes, t_acq only grows */
+#endif
+    if (node->acq_count >= node->cfg->acq_window) {
+        node->acq_ticks = node->acq_win; /* the window before the completed one is dropped */
+        node->acq_win = 0u;
+        node->acq_count = 0u;
+    }
+}
+
 void urb_node_mark_acquired(urb_node_t *node)
 {
     if ((node == NULL) || ((node->flags & (URB_F_IN_UPDATE | URB_F_ACQ_MARKED)) != URB_F_IN_UPDATE)) {
@@ -233,8 +265,8 @@ void urb_node_mark_acquired(urb_node_t *node)
     }
     /* from this update's heartbeat (a newer one would only make the sample smaller) */
     uint32_t const elapsed = hal->now(hal->ctx) - node->update_beat;
-    if ((elapsed > node->acq_ticks) && (elapsed < (node->pll.period_q8 >> 8))) {
-        node->acq_ticks = elapsed; /* t_acq: the largest time from heartbeat to end of acquisition */
+    if (elapsed < (node->pll.period_q8 >> 8)) {
+        acq_sample(node, elapsed + ((uint32_t)node->cfg->acq_guard_us * node->cfg->ticks_per_us));
     }
 }
 

@@ -11,6 +11,7 @@
 #   READ_CHECK_NO_SELECT    the read check leaves out the implicit select byte
 #   PLL_NO_PHASE            K_n = 0: the heartbeat locks its period but not its phase
 #   NO_LOST_SYNC            a lost SYNC is never declared
+#   ACQ_NO_DECAY            the t_acq window never completes: an inflated sample is kept for good
 #
 # Builds without sanitizers (speed); objects that no mutant touches are compiled once.
 set -u
@@ -22,7 +23,7 @@ INC="-Ifirmware/include -Ifirmware/node -Ifirmware/hal/hosted -Ifirmware/apps/se
 LIB="firmware/node/urb_mailbox.c firmware/node/urb_i2c.c firmware/node/urb_pll.c firmware/node/urb_node.c"
 COMMON="tests/firmware/node/node_fixture.c gen/c/urb_runtime.c gen/c/urb_core.c gen/c/urb_sensorhex.c firmware/hal/hosted/urb_hal_hosted.c"
 TESTS="test_mailbox test_i2c test_node test_interleave test_pll test_apps test_single"
-MUTANTS="SINGLE_BUFFER OUTBOX_NO_BUSY_CHECK INBOX_NO_FRONT_RECHECK INBOX_NO_NACK COMMIT_BAD_CHECK READ_CHECK_NO_SELECT PLL_NO_PHASE NO_LOST_SYNC"
+MUTANTS="SINGLE_BUFFER OUTBOX_NO_BUSY_CHECK INBOX_NO_FRONT_RECHECK INBOX_NO_NACK COMMIT_BAD_CHECK READ_CHECK_NO_SELECT PLL_NO_PHASE NO_LOST_SYNC ACQ_NO_DECAY"
 
 extra() {
     case $1 in
@@ -38,10 +39,13 @@ obj() { # source, directory -> object path
 }
 
 mkdir -p "$out/common"
+# A shared object is stale when its source or any header is newer (urb_node_t's layout lives in a header).
+newest_header=$(ls -t firmware/include/*.h firmware/node/*.h firmware/hal/hosted/*.h tests/firmware/node/*.h \
+                tests/firmware/pll/*.h gen/c/*.h | head -1)
 for t in $TESTS; do
     for src in tests/firmware/node/$t.c $COMMON $(extra "$t"); do
         o=$(obj "$src" "$out/common")
-        if [ ! -f "$o" ] || [ "$src" -nt "$o" ]; then
+        if [ ! -f "$o" ] || [ "$src" -nt "$o" ] || [ "$newest_header" -nt "$o" ]; then
             $CC $CFLAGS $INC -c "$src" -o "$o" || exit 2
         fi
     done

@@ -82,10 +82,18 @@ static void update_divider(void **state)
     assert_int_equal(f.faults[URB_NODE_FAULT_OVERRUN], 0u);
 }
 
+static void one_update(fixture_t *f, uint32_t work)
+{
+    f->update_work = work;
+    (void)urb_hal_hosted_advance(&f->port, &f->node, PERIOD);
+    (void)urb_node_poll(&f->node);
+}
+
 static void acquisition_time(void **state)
 {
     fixture_t *f = *state;
     urb_node_t *node = &f->node;
+    f->cfg.acq_guard_us = 0u; /* the configuration is referenced: this node measures without a guard */
     f->update_work = 480u; /* 10 us from heartbeat to the release of outbox 1 */
     (void)urb_hal_hosted_advance(&f->port, node, PERIOD);
     (void)urb_node_poll(node);
@@ -104,6 +112,68 @@ static void acquisition_time(void **state)
     urb_node_sync_status_t st;
     urb_node_sync_status(node, &st);
     assert_int_equal(st.acq_ticks, 960u);
+    /* with the default 1-us guard every sample is 48 ticks longer, and so is the lead */
+    f->cfg.acq_guard_us = 1u;
+    one_update(f, 960u);
+    assert_int_equal(node->acq_ticks, 960u + 48u);
+    assert_int_equal(read_id(node).acq_time, 21u);
+}
+
+/* The default window (16 samples): an outlier in the first sample of a window is forgotten after
+ * 2 x 16 - 1 more samples (31 updates = 31 SYNCs at update_divider 1), never earlier than 16; a
+ * longer acquisition is tracked at once and kept. */
+static void acquisition_time_window(void **state)
+{
+    fixture_t *f = *state;
+    urb_node_t *node = &f->node;
+    f->cfg.acq_guard_us = 0u;
+    assert_int_equal(f->cfg.acq_window, 16u);
+    one_update(f, 4800u); /* 100 us: an acquisition an interrupt preempted */
+    assert_int_equal(node->acq_ticks, 4800u);
+    for (unsigned k = 1u; k < 31u; k++) {
+        one_update(f, 480u);
+        assert_int_equal(node->acq_ticks, 4800u);
+    }
+    one_update(f, 480u);
+    assert_int_equal(node->acq_ticks, 480u);
+    urb_node_sync_status_t st;
+    urb_node_sync_status(node, &st);
+    assert_int_equal(st.acq_ticks, 480u);
+    assert_int_equal(read_id(node).acq_time, 10u);
+    /* genuinely longer from now on: tracked at its first sample, then kept window after window */
+    one_update(f, 960u);
+    assert_int_equal(node->acq_ticks, 960u);
+    for (unsigned k = 0u; k < 64u; k++) {
+        one_update(f, 960u - (k & 7u)); /* jitter below the largest sample */
+        assert_int_equal(node->acq_ticks, 960u);
+    }
+    /* an outlier in the last sample of a window is held through the next window only */
+    while (node->acq_count != 15u) {
+        one_update(f, 900u);
+    }
+    one_update(f, 4800u);
+    assert_int_equal(node->acq_ticks, 4800u);
+    for (unsigned k = 1u; k < 16u; k++) {
+        one_update(f, 900u);
+        assert_int_equal(node->acq_ticks, 4800u);
+    }
+    one_update(f, 900u);
+    assert_int_equal(node->acq_ticks, 900u);
+}
+
+/* acq_window 0 acts as 1: t_acq is the latest sample. */
+static void acquisition_time_window_one(void **state)
+{
+    (void)state;
+    fixture_t f;
+    fx_defaults(&f);
+    f.cfg.acq_window = 0u;
+    f.cfg.acq_guard_us = 0u;
+    assert_int_equal(fx_start(&f), URB_NODE_OK);
+    one_update(&f, 4800u);
+    assert_int_equal(f.node.acq_ticks, 4800u);
+    one_update(&f, 480u);
+    assert_int_equal(f.node.acq_ticks, 480u);
 }
 
 static void explicit_mark_wins(fixture_t *f)
@@ -122,6 +192,7 @@ static void explicit_mark_wins(fixture_t *f)
 static void explicit_mark(void **state)
 {
     fixture_t *f = *state;
+    f->cfg.acq_guard_us = 0u;
     f->on_update = explicit_mark_wins;
     (void)urb_hal_hosted_advance(&f->port, &f->node, PERIOD);
     (void)urb_node_poll(&f->node);
@@ -149,6 +220,7 @@ static void command_reset(void **state)
 {
     fixture_t *f = *state;
     urb_node_t *node = &f->node;
+    f->cfg.acq_guard_us = 0u;
     f->update_work = 480u;
     (void)urb_hal_hosted_advance(&f->port, node, PERIOD);
     (void)urb_node_poll(node);
@@ -277,6 +349,8 @@ int main(void)
         cmocka_unit_test_setup(missed_deadline_overrun, setup),
         cmocka_unit_test(update_divider),
         cmocka_unit_test_setup(acquisition_time, setup),
+        cmocka_unit_test_setup(acquisition_time_window, setup),
+        cmocka_unit_test(acquisition_time_window_one),
         cmocka_unit_test_setup(explicit_mark, setup),
         cmocka_unit_test_setup(command_nop_and_unknown, setup),
         cmocka_unit_test_setup(command_reset, setup),

@@ -85,9 +85,10 @@ static void locks_and_measures_period(void **state)
     assert_true(urb_node_synced(&f->node));
     assert_true(fabs((double)st.period_q8 / 256.0 - (PERIOD + 5u)) < 0.5);
     assert_true(fabs(phase_ticks(f)) < 2.0);
-    assert_int_equal(st.lead_ticks, 960u);
-    /* heartbeat = SYNC - lead: the acquisition ends on the SYNC */
-    assert_true(abs((int)(st.last_beat + 960u - (t - PERIOD - 5u))) <= 2);
+    assert_int_equal(st.acq_ticks, 960u + 48u); /* t_acq + the 1-us guard */
+    assert_int_equal(st.lead_ticks, 960u + 48u);
+    /* heartbeat = SYNC - lead: the acquisition ends one guard before the SYNC */
+    assert_true(abs((int)(st.last_beat + 960u + 48u - (t - PERIOD - 5u))) <= 2);
     (void)t;
 }
 
