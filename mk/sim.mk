@@ -20,9 +20,9 @@ $(SIM_BUILD)/test_core: tests/sim/test_core.c $(wildcard $(SIM_CORE)/*.c $(SIM_C
 	@mkdir -p $(@D)
 	$(CC) $(SIM_SAN_FLAGS) -I$(SIM_CORE) tests/sim/test_core.c $(wildcard $(SIM_CORE)/*.c) -lm -o $@
 
-# Seeded bugs (#ifdef URBSIM_MUTANT_* in sim/core/kernel.c): the event order of the two-queue kernel
-# on ties. The unit tests must fail for each.
-SIM_MUTANTS := RING_TIES QUEUE_TIES
+# Seeded bugs (#ifdef URBSIM_MUTANT_* in sim/core): the event order of the two-queue kernel on ties
+# (kernel.c), the cached span of a clock's newest segment (clock.c). The unit tests must fail for each.
+SIM_MUTANTS := RING_TIES QUEUE_TIES CLOCK_SPAN
 
 $(SIM_BUILD)/mutants/%/test_core: tests/sim/test_core.c $(wildcard $(SIM_CORE)/*.c $(SIM_CORE)/*.h)
 	@mkdir -p $(@D)
@@ -32,7 +32,7 @@ test-sim: sim-lib $(SIM_BUILD)/test_core $(foreach m,$(SIM_MUTANTS),$(SIM_BUILD)
 	$(SIM_BUILD)/test_core
 	@for m in $(SIM_MUTANTS); do \
 	  if $(SIM_BUILD)/mutants/$$m/test_core >/dev/null 2>&1; then \
-	    echo "test-sim: mutant $$m survived: the kernel tests no longer check event order on ties" >&2; exit 1; \
+	    echo "test-sim: mutant $$m survived: tests/sim/test_core.c no longer catches the bug seeded under URBSIM_MUTANT_$$m in sim/core" >&2; exit 1; \
 	  fi; echo "test-sim: mutant $$m caught"; done
 
 sim-report: setup

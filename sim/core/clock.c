@@ -59,6 +59,13 @@ static void grow(urbsim_clock_t *c)
     }
     *seg_at(c, c->count) = next;
     c->count++;
+    c->cur = (c->first + c->count - 1u) % URBSIM_CLOCK_SEGMENTS;
+    c->cur_t0 = next.t0;
+#ifdef URBSIM_MUTANT_CLOCK_SPAN /* seeded bug (mk/sim.mk): the newest segment is believed 1 ms longer */
+    c->cur_t1 = next.t0 + seg_len(c) + URBSIM_NS_PER_MS;
+#else
+    c->cur_t1 = next.t0 + seg_len(c);
+#endif
 }
 
 void urbsim_clock_init(urbsim_clock_t *c, const urbsim_clock_cfg_t *cfg, const urbsim_rng_t *rng)
@@ -85,17 +92,15 @@ void urbsim_clock_reset(urbsim_clock_t *c, urbsim_ns_t now)
     c->seg[0].local0 = 0.0;
     c->seg[0].rate = next_rate(c, c->generated++);
     c->seg[0].ns_per_cycle = 1e9 / c->cfg.cpu_hz / c->seg[0].rate;
+    c->cur = 0;
+    c->cur_t0 = now;
+    c->cur_t1 = now + seg_len(c);
 }
 
-/* Index (0..count-1) of the segment containing virtual time t, generating forward as needed.
- * Nearly every query falls in the newest segment: that case costs one comparison. */
-static uint32_t find_virtual(urbsim_clock_t *c, urbsim_ns_t t)
+/* The segment containing virtual time t, generating forward as needed. */
+static urbsim_clock_seg_t *find_virtual_slow(urbsim_clock_t *c, urbsim_ns_t t)
 {
-    const urbsim_clock_seg_t *last = seg_at(c, c->count - 1u);
     urbsim_ns_t len = seg_len(c);
-    if (t >= last->t0 && t < last->t0 + len) {
-        return c->count - 1u;
-    }
     while (t >= seg_at(c, c->count - 1u)->t0 + len) {
         grow(c);
     }
@@ -103,7 +108,16 @@ static uint32_t find_virtual(urbsim_clock_t *c, urbsim_ns_t t)
     while (i > 0 && seg_at(c, i)->t0 > t) {
         i--;
     }
-    return i;
+    return seg_at(c, i);
+}
+
+/* Nearly every query falls in the newest segment: that case costs two comparisons. */
+static inline urbsim_clock_seg_t *find_virtual(urbsim_clock_t *c, urbsim_ns_t t)
+{
+    if (t >= c->cur_t0 && t < c->cur_t1) {
+        return &c->seg[c->cur];
+    }
+    return find_virtual_slow(c, t);
 }
 
 double urbsim_clock_local_ns(urbsim_clock_t *c, urbsim_ns_t t)
@@ -111,7 +125,7 @@ double urbsim_clock_local_ns(urbsim_clock_t *c, urbsim_ns_t t)
     if (t < c->origin) {
         t = c->origin;
     }
-    urbsim_clock_seg_t *s = seg_at(c, find_virtual(c, t));
+    urbsim_clock_seg_t *s = find_virtual(c, t);
     double dt = t >= s->t0 ? (double)(t - s->t0) : 0.0;
     return s->local0 + dt * s->rate;
 }
@@ -148,8 +162,9 @@ urbsim_ns_t urbsim_clock_virtual_at(urbsim_clock_t *c, double local_ns)
 
 uint64_t urbsim_clock_ticks(urbsim_clock_t *c, urbsim_ns_t t)
 {
-    double ticks = floor(urbsim_clock_local_ns(c, t) * 1e-9 * c->cfg.timer_hz + 1e-9);
-    return ticks <= 0.0 ? 0u : (uint64_t)ticks;
+    double ticks = urbsim_clock_local_ns(c, t) * 1e-9 * c->cfg.timer_hz + 1e-9;
+    /* floor() without the libm call: for ticks >= 1 truncation is floor; below 1 floor is <= 0. */
+    return ticks < 1.0 ? 0u : (uint64_t)ticks;
 }
 
 urbsim_ns_t urbsim_clock_virtual_at_tick(urbsim_clock_t *c, uint64_t ticks)
@@ -164,7 +179,7 @@ urbsim_ns_t urbsim_clock_virtual_at_tick(urbsim_clock_t *c, uint64_t ticks)
 
 urbsim_ns_t urbsim_clock_cycles_ns(urbsim_clock_t *c, urbsim_ns_t t, double cycles)
 {
-    urbsim_clock_seg_t *s = seg_at(c, find_virtual(c, t < c->origin ? c->origin : t));
+    urbsim_clock_seg_t *s = find_virtual(c, t < c->origin ? c->origin : t);
     return (urbsim_ns_t)(cycles * s->ns_per_cycle + 0.5); /* >= 0: round half up, cheaper than llround */
 }
 
@@ -176,6 +191,6 @@ urbsim_ns_t urbsim_clock_irq_latency(urbsim_clock_t *c, urbsim_ns_t t)
 
 double urbsim_clock_error_ppm(urbsim_clock_t *c, urbsim_ns_t t)
 {
-    urbsim_clock_seg_t *s = seg_at(c, find_virtual(c, t < c->origin ? c->origin : t));
+    urbsim_clock_seg_t *s = find_virtual(c, t < c->origin ? c->origin : t);
     return (s->rate - 1.0) * 1e6;
 }

@@ -62,6 +62,10 @@ typedef struct {
     uint32_t first;          /**< ring index of the oldest segment kept */
     uint32_t count;          /**< segments in the ring */
     uint64_t generated;      /**< segments generated since reset (numbering for the ramp) */
+    /* The newest segment, where nearly every query falls: its ring index and virtual span
+     * [cur_t0, cur_t1), kept by grow() and reset() so the common lookup is two comparisons. */
+    uint32_t cur;
+    urbsim_ns_t cur_t0, cur_t1;
 } urbsim_clock_t;
 
 /** Default configuration: a 48 MHz Cortex-M0+ with its timer on the core clock, no error. */

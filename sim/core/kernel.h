@@ -91,7 +91,8 @@ void urbsim_kernel_free(urbsim_kernel_t *k);
 /**
  * Schedule fn(ctx, arg, t) at virtual time t. A time in the past (t < now) is clamped to now: an
  * event can never run before the one that scheduled it. Returns false only when the queue cannot
- * grow (out of memory); the event is then not scheduled. O(log n).
+ * grow (out of memory); the event is then not scheduled. O(log n) for far events, O(near queue
+ * length) for near ones.
  */
 bool urbsim_kernel_at(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg);
 

@@ -69,13 +69,16 @@ uint64_t urbsim_rng_below(urbsim_rng_t *r, uint64_t n)
     if (n <= 0xFFFFFFFFu) {
         /* Lemire's method on 32 bits (the common case: interrupt jitter in cycles). */
         uint32_t n32 = (uint32_t)n;
-        uint32_t threshold = (0u - n32) % n32;
-        for (;;) {
-            uint64_t m = (urbsim_rng_u64(r) >> 32) * n;
-            if ((uint32_t)m >= threshold) {
-                return m >> 32;
+        uint64_t m = (urbsim_rng_u64(r) >> 32) * n;
+        if ((uint32_t)m < n32) {
+            /* Only now can the draw be in the biased zone: the threshold (a division) is below n,
+             * so a low part >= n always passes. Same draws and results as testing it every time. */
+            uint32_t threshold = (0u - n32) % n32;
+            while ((uint32_t)m < threshold) {
+                m = (urbsim_rng_u64(r) >> 32) * n;
             }
         }
+        return m >> 32;
     }
     /* Rejection on the low bits of the 128-bit product (Lemire 2019), via 64-bit halves so it is
      * plain C99. */

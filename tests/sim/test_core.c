@@ -275,6 +275,49 @@ static void test_clock(void)
     }
     CHECK(urbsim_clock_local_ns(&w1, 3 * URBSIM_NS_PER_S) == urbsim_clock_local_ns(&w2, 3 * URBSIM_NS_PER_S));
     CHECK(fabs(urbsim_clock_error_ppm(&w2, 2 * URBSIM_NS_PER_S)) < 20.0);
+    /* Answers do not depend on the order of queries: one clock walked forward in small steps,
+     * another asked at the end first and then, out of order, about instants up to 6 s back (the
+     * ring keeps 6.4 s): on and next to segment boundaries, across the ring's wrap (100 segments). */
+    cfg.ramp_ppm_per_s = 3.0;
+    urbsim_clock_t w3, w4;
+    urbsim_clock_init(&w3, &cfg, &r);
+    urbsim_clock_init(&w4, &cfg, &r);
+    enum { SAMPLES = 64 };
+    urbsim_ns_t at[SAMPLES];
+    double local[SAMPLES];
+    uint64_t ticks[SAMPLES];
+    static const urbsim_ns_t offsets[4] = {0, 1, 499999, 99999999}; /* around the 100-ms boundaries */
+    int j = 0;
+    for (urbsim_ns_t seg = 0; seg < 100u; seg++) {
+        for (int o = 0; o < 4; o++) {
+            urbsim_ns_t q = seg * 100u * URBSIM_NS_PER_MS + offsets[o];
+            double l = urbsim_clock_local_ns(&w3, q);
+            if (seg >= 40u && seg % 4u == 0u && j < SAMPLES) {
+                at[j] = q;
+                local[j] = l;
+                ticks[j] = urbsim_clock_ticks(&w3, q);
+                j++;
+            }
+        }
+    }
+    CHECK(j > 40);
+    (void)urbsim_clock_ticks(&w4, 9999999999u);
+    int same_order = 1;
+    for (int i = 0; i < j; i++) {
+        int s = (i * 37) % j; /* a permutation: 37 is prime to every j <= 64 but 37 itself */
+        if (urbsim_clock_local_ns(&w4, at[s]) != local[s] || urbsim_clock_ticks(&w4, at[s]) != ticks[s] ||
+            urbsim_clock_virtual_at_tick(&w4, ticks[s]) > at[s] ||
+            urbsim_clock_ticks(&w4, urbsim_clock_virtual_at_tick(&w4, ticks[s])) != ticks[s]) {
+            same_order = 0;
+        }
+    }
+    CHECK(same_order);
+    /* the first tick of a 48 MHz timer comes after 20.83 ns */
+    urbsim_clock_t w5;
+    urbsim_clock_init(&w5, &cfg, &r);
+    CHECK_EQ(urbsim_clock_ticks(&w5, 0), 0u);
+    CHECK_EQ(urbsim_clock_ticks(&w5, 20), 0u);
+    CHECK_EQ(urbsim_clock_ticks(&w5, 22), 1u);
 }
 
 /* ---------------------------------------------------------------- UART */
