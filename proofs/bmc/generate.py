@@ -29,6 +29,11 @@ import re
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
+
+try:
+    import urb_codegen  # noqa: F401  (installed with the repository: pip install -e .)
+except ImportError:  # a plain checkout: the code generator's sources sit next to this folder
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "codegen"))
 from urb_codegen.emit_c import _ctype, _member, enum_c, file_stem, msg_c  # C names: one source of truth
 from urb_codegen.generate import load_bundled
 from urb_codegen.model import (
@@ -372,6 +377,54 @@ def unwind_for(d: MessageDecl, len_bound: int) -> int:
     )
 
 
+def sweeps(d: MessageDecl, kind: str) -> tuple[list[str], list[str]]:
+    """Runs of a variable-length message's proof: each harness part once per payload (encode) or
+    frame (decode) length; the fast tier keeps the ends and both sides of every check-tier switch.
+    Empty for fixed-size messages (one run covers them)."""
+    if d.bytes_field is None:
+        return [], []
+    cs = d.checksum
+    limits = [t.max_covered for t in cs.tiers if t.max_covered is not None] if cs else []
+    edges = {0, 1, d.max_payload}
+    for lim in limits:
+        p = lim - d.implicit_size - d.fixed_size
+        edges |= {p, p + 1}
+    payloads = sorted(p for p in edges if 0 <= p <= d.max_payload)
+    if kind == "encode":
+        full = [f"PART=1,LEN={p}" for p in range(d.max_payload + 1)] + ["PART=1,LEN_INVALID"] + \
+               [f"PART=2,LEN={p}" for p in range(d.max_payload + 1)]
+        fast = [f"PART=1,LEN={p}" for p in payloads] + ["PART=1,LEN_INVALID"] + [f"PART=2,LEN={p}" for p in payloads]
+        return full, fast
+    frames = sorted({d.wire_size(p) for p in payloads} | {0, d.min_size - 1, d.max_size + 1} - {-1})
+    full = [f"PART=1,FRAME_LEN={n}" for n in range(d.max_size + 2)] + \
+           [f"PART=2,FRAME_LEN={n}" for n in range(d.min_size, d.max_size + 1)]
+    fast = [f"PART=1,FRAME_LEN={n}" for n in frames] + \
+           [f"PART=2,FRAME_LEN={n}" for n in frames if d.min_size <= n <= d.max_size]
+    return full, fast
+
+
+def _gaps(d: MessageDecl) -> list[tuple[int, int]]:
+    """Bit ranges of the fixed part that no field (nor padding) declares: (first bit, width <= 32)."""
+    used = [False] * d.fixed_bits
+    for f in d.fields:
+        if f.implicit or isinstance(f.type, (BytesType, CheckType)):
+            continue
+        for b in range(f.bit_offset, f.bit_offset + f.bit_width):
+            if b < len(used):
+                used[b] = True
+    out: list[tuple[int, int]] = []
+    b = 0
+    while b < len(used):
+        if used[b]:
+            b += 1
+            continue
+        start = b
+        while b < len(used) and not used[b] and b - start < 32:
+            b += 1
+        out.append((start, b - start))
+    return out
+
+
 def _max_loop(fields: list[Field]) -> int:
     """Largest trip count of a loop the walkers above write for these fields."""
     out = 0
@@ -408,7 +461,7 @@ class Proof:
     stubs: list[str] = field(default_factory=list)
     sweep: list[str] = field(default_factory=list)
     fast_sweep: list[str] = field(default_factory=list)
-    sweep_var: str = ""
+    budget_cycles: int | None = None  # the harness's budget at the longest input (summary table)
 
     def makefile(self) -> str:
         lines = [
@@ -426,12 +479,14 @@ class Proof:
             lines.append(f"STUBBED = {' '.join(self.stubbed)}")
             lines.append(f"STUBS = {' '.join(self.stubs)}")
         if self.sweep:
-            lines.append(f"SWEEP_VAR = {self.sweep_var}")
-            lines.append(f"SWEEP = {' '.join(self.sweep)}")
+            lines.append("# One run per item (harness part and length); TIER=fast runs FAST_SWEEP.")
+            lines.append("SWEEP = " + " \\\n\t".join(self.sweep))
             if self.fast_sweep != self.sweep:
-                lines.append(f"FAST_SWEEP = {' '.join(self.fast_sweep)}")
+                lines.append("FAST_SWEEP = " + " \\\n\t".join(self.fast_sweep))
         if self.extra:
             lines.append(f"ESBMC_EXTRA = {self.extra}")
+        if self.budget_cycles is not None:
+            lines.append(f"BUDGET_CYCLES = {self.budget_cycles}")
         lines.append("include ../Makefile.common")
         return "\n".join(lines) + "\n"
 
@@ -445,6 +500,7 @@ class MsgInfo:
     macro: str
     sources: list[str]
     budget_per_byte: int
+    budget_macro: str  # URB_BUDGET_PER_BYTE, or URB_BUDGET_PER_BYTE_UPLINK for a bridge's own mailboxes
 
     @property
     def members(self) -> list[Field]:
@@ -498,7 +554,7 @@ def _harness_head(info: MsgInfo, title: str, kind: str) -> list[str]:
         f"#define MAX_SIZE {info.macro}_MAX_SIZE",
         f"#define MIN_SIZE {info.macro}_MIN_SIZE",
         f"/* Bus budget: {info.budget_per_byte} cycles per frame byte (proofs/bmc/cost_model.json). */",
-        f"#define BUDGET(bytes) (URB_BUDGET_PER_BYTE * ((bytes) > 0u ? (uint32_t)(bytes) : 1u))",
+        f"#define BUDGET(bytes) ({info.budget_macro} * ((bytes) > 0u ? (uint32_t)(bytes) : 1u))",
         "",
         "URB_PROOF_COST_STORAGE;",
         "",
@@ -600,7 +656,7 @@ def _round_trip(c: Lines, info: MsgInfo, src: str, frame: str, size: str, what: 
         c.add(f"back.{_member(f)} = {src}{_member(f)}; /* implicit: the caller sets it before decoding */")
     cs = d.checksum
     if cs is not None:
-        c.add(f"urb_stub_{cs.name}_count = 0u;")
+        c.add(f"urb_stub_{cs.name}_count = 0u; /* same function: the check the frame carries */")
     c.add(f"int32_t const back_r = {info.fn}_decode(&back, {frame}, {size});")
     c.add(f'URB_ASSERT(back_r == (int32_t){size}, "{what}: decode accepts the frame");')
     emit_equal(c, d.fields, src, "back.", what, d)
@@ -617,6 +673,7 @@ def encode_harness(info: MsgInfo) -> tuple[str, int]:
     emit_valid(c, d.fields, "m.", "valid", d)
     c.add(f"size_t const expected = spec_size({info.length_expr('m.')});")
     c.add("")
+    c.out.append("#if !defined(URB_PART) || URB_PART == 1")
     c.add("/* Part 1: the error contract, for any capacity up to one past the frame. Bytes at or past")
     c.add(" * `capacity` must never change, so the buffer behaves as one of exactly `capacity` bytes. */")
     c.add("size_t const capacity = URB_NONDET_SIZE();")
@@ -628,7 +685,7 @@ def encode_harness(info: MsgInfo) -> tuple[str, int]:
     c.add("before[i] = buf[i];")
     c.close()
     if cs is not None:
-        c.add(f"urb_stub_{cs.name}_count = 0u;")
+        c.add(f"urb_stub_{cs.name}_reset();")
     c.add("URB_COST_BEGIN();")
     c.add(f"int32_t const r = {info.fn}_encode(&m, buf, capacity);")
     c.add("URB_COST_END(BUDGET(valid && (expected <= capacity) ? expected : MIN_SIZE));")
@@ -647,7 +704,9 @@ def encode_harness(info: MsgInfo) -> tuple[str, int]:
     c.close()
     c.add(f'URB_ASSERT({info.fn}_encode(NULL, buf, capacity) == URB_ERR_ARGUMENT, "encode: NULL message");')
     c.add(f'URB_ASSERT({info.fn}_encode(&m, NULL, capacity) == URB_ERR_ARGUMENT, "encode: NULL buffer");')
+    c.out.append("#endif")
     c.add("")
+    c.out.append("#if !defined(URB_PART) || URB_PART == 2")
     c.add("/* Part 2: the frame of a valid message, in a buffer of exactly its length, is the schema's layout")
     c.add(" * (every field at its bit offset, padding zero, payload after the fixed part, then the check over")
     c.add(" * the implicit prefix and the frame), and decodes back to the message: decode(encode(m)) == m. */")
@@ -656,7 +715,7 @@ def encode_harness(info: MsgInfo) -> tuple[str, int]:
     c.add("URB_NONDET_BYTES(frame, sizeof frame);")
     c.add("uint8_t tail = frame[expected]; /* the byte just past the frame */")
     if cs is not None:
-        c.add(f"urb_stub_{cs.name}_count = 0u;")
+        c.add(f"urb_stub_{cs.name}_reset();")
     c.add(f"int32_t const n = {info.fn}_encode(&m, frame, expected);")
     c.add('URB_ASSERT(n == (int32_t)expected, "encode: a buffer of exactly the frame length suffices");')
     c.add('URB_ASSERT(frame[expected] == tail, "encode: nothing written past the frame");')
@@ -673,6 +732,7 @@ def encode_harness(info: MsgInfo) -> tuple[str, int]:
     c.add("/* frame == spec here, so decoding spec decodes what encode wrote (and folds better for ESBMC). */")
     _round_trip(c, info, "m.", "spec", "expected", "round trip")
     c.close()
+    c.out.append("#endif")
 
     head = _harness_head(info, f"Proof of {info.fn}_encode: safety and the error contract for every capacity, the "
                                "schema's wire layout and check, the round trip and the cost bound.", "encode")
@@ -685,10 +745,11 @@ def decode_harness(info: MsgInfo) -> tuple[str, int]:
     cs = d.checksum
     implicit = d.implicit_fields
     c = Lines()
+    c.out.append("#if !defined(URB_PART) || URB_PART == 1")
     c.add("/* Part 1: arbitrary bytes. A frame of exactly `length` bytes: this run's length of the sweep")
     c.add(" * (URB_FRAME_LEN), or any length up to one past the longest. */")
     c.out.append("#if defined(URB_FRAME_LEN)")
-    c.add("size_t const length = URB_FRAME_LEN;")
+    c.add("size_t const length = (size_t)URB_FRAME_LEN;")
     c.out.append("#else")
     c.add("size_t const length = URB_NONDET_SIZE();")
     c.add("URB_ASSUME(length <= FRAME_BOUND + 1u);")
@@ -705,7 +766,7 @@ def decode_harness(info: MsgInfo) -> tuple[str, int]:
     if implicit:
         c.add(f"{info.type} const given = m;")
     if cs is not None:
-        c.add(f"urb_stub_{cs.name}_count = 0u;")
+        c.add(f"urb_stub_{cs.name}_reset();")
     c.add("URB_COST_BEGIN();")
     c.add(f"int32_t const r = {info.fn}_decode(&m, buf, length);")
     c.add("URB_COST_END(BUDGET(length));")
@@ -732,16 +793,26 @@ def decode_harness(info: MsgInfo) -> tuple[str, int]:
     if cs is not None:
         emit_check_call(c, d, cs, "given." if implicit else "m.", f"{d.fixed_size}u + len", "decode", buf="buf")
         check = "call->result"
-    c.add("uint8_t spec[FRAME_BOUND];")
-    c.add(f"(void)spec_frame(&m, spec, {check});")
-    c.open("for (size_t i = 0u; i < FRAME_BOUND; i++) {")
-    c.add('URB_ASSERT(i >= length || spec[i] == buf[i], "decode accepts only what encode produces: same bytes");')
-    c.close()
+    c.add("/* Every bit of the frame is the schema's image of the decoded message: fields, fixed values and")
+    c.add(" * zero padding at their offsets, the payload after the fixed part and the check at the end. So")
+    c.add(" * decode accepts only what encode produces (encode writes exactly this image, encode proof). */")
+    emit_wire(c, d.fields, "m.", "0u", "buf", "canonical")
+    for lo, w in _gaps(d):
+        c.add(f'URB_ASSERT(spec_bits(buf, {lo}u, {w}u) == 0u, "canonical: undeclared bits {lo}..{lo + w - 1} are zero");')
+    bf = info.payload
+    if bf is not None:
+        c.open("for (size_t i = 0u; i < URB_LEN_BOUND; i++) {")
+        c.add(f'URB_ASSERT(i >= len || m.{_member(bf)}[i] == buf[{d.fixed_size}u + i], "canonical: the payload follows the fixed part");')
+        c.close()
+    if check == "0u":
+        pass
     c.close()
     c.add(f'URB_ASSERT({info.fn}_decode(NULL, buf, length) == URB_ERR_ARGUMENT, "decode: NULL message");')
     c.add(f'URB_ASSERT({info.fn}_decode(&m, NULL, length) == URB_ERR_ARGUMENT, "decode: NULL buffer");')
     c.add("free(buf);")
+    c.out.append("#endif")
     c.add("")
+    c.out.append("#if !defined(URB_PART) || URB_PART == 2")
     c.add("/* Part 2: the schema's frame of every valid message (what encode produces, by the encode proof)")
     c.add(" * is accepted and decodes to that message. */")
     c.add(f"{info.type} v;")
@@ -754,7 +825,7 @@ def decode_harness(info: MsgInfo) -> tuple[str, int]:
         c.add("size_t fit = 0u;")
         c.add("bool fits = false;")
         c.open("for (size_t q = 0u; q <= URB_LEN_BOUND; q++) {")
-        c.add("if (spec_size(q) == URB_FRAME_LEN) { fit = q; fits = true; }")
+        c.add("if (spec_size(q) == (size_t)URB_FRAME_LEN) { fit = q; fits = true; }")
         c.close()
         c.add(f"{member} = (uint8_t)fit;")
         c.out.append("#else")
@@ -769,6 +840,7 @@ def decode_harness(info: MsgInfo) -> tuple[str, int]:
     c.add("uint8_t frame[FRAME_BOUND];")
     c.add("size_t const n = spec_frame(&v, frame, 0u);")
     if cs is not None:
+        c.add(f"urb_stub_{cs.name}_reset(); /* independent of part 1 */")
         c.add("/* close the frame with the frame check of its covered bytes (the stub: any function of them) */")
         c.add(f"size_t const cov = {d.fixed_size}u + {info.length_expr('v.')};")
         c.add(f"uint8_t vprefix[{max(1, d.implicit_size)}] = {{0u}};")
@@ -777,6 +849,7 @@ def decode_harness(info: MsgInfo) -> tuple[str, int]:
         c.add(f"spec_put_bits(frame, 8u * cov, 8u * spec_{cs.name}_size({d.implicit_size}u + cov), check);")
     _round_trip(c, info, "v.", "frame", "n", "decode(encode(m)) == m")
     c.close()
+    c.out.append("#endif")
 
     head = _harness_head(info, f"Proof of {info.fn}_decode: safety on arbitrary bytes in a buffer of exactly `length` "
                                "bytes, the error contract, acceptance of exactly the encoder's frames, the cost bound.",
@@ -814,11 +887,17 @@ def encode_mutants(info: MsgInfo, source: str, file: str) -> list[dict[str, obje
     if m:
         out.append(_mut("no-range-check", file, fn, "{ return URB_ERR_RANGE; }", "{ }",
                         "a member the schema forbids is encoded instead of rejected"))
-    m = re.search(r"urb_put_bits\(buf, (\d+)u, (\d+)u, \(?(?:\(uint32_t\))?msg->", body)
-    if m:
-        off = int(m.group(1))
-        out.append(_mut("bit-offset", file, fn, m.group(0), m.group(0).replace(f"(buf, {off}u,", f"(buf, {off + 1}u,"),
-                        f"wrong shift: the first field is written at bit {off + 1} instead of {off}"))
+    for line in body.splitlines():
+        m = re.search(r"urb_put_bits\(buf, (\d+)u, \d+u, .*msg->", line) or re.search(r"buf\[(\d+)u\] = .*msg->", line)
+        if m:
+            off = int(m.group(1))
+            stmt = line.strip()
+            unit = "bit" if stmt.startswith("urb_put_bits") else "byte"
+            new = stmt[:m.start(1) - (len(line) - len(line.lstrip()))] + str(off + 1) + \
+                stmt[m.end(1) - (len(line) - len(line.lstrip())):]
+            out.append(_mut("field-offset", file, fn, stmt, new,
+                            f"wrong shift: a field is written at {unit} {off + 1} instead of {off}"))
+            break
     bf = info.payload
     if bf is not None:
         find = f"= msg->{_member(bf)}[k];"
@@ -852,15 +931,18 @@ def decode_mutants(info: MsgInfo, source: str, file: str) -> list[dict[str, obje
     if "{ return URB_ERR_RANGE; }" in body:
         out.append(_mut("no-range-check", file, fn, "{ return URB_ERR_RANGE; }", "{ }",
                         "a value the schema forbids (range, enum, fixed value or padding) is accepted"))
-    for m in re.finditer(r"= \(?[\w ]*\)?urb_get_bits\(buf, (\d+)u, (\d+)u\)|urb_sign_extend\(urb_get_bits\(buf, (\d+)u, (\d+)u\)", body):
-        text = m.group(0)
-        inner = re.search(r"urb_get_bits\(buf, (\d+)u, (\d+)u\)", text)
-        assert inner
-        off = int(inner.group(1))
-        new = text.replace(inner.group(0), f"urb_get_bits(buf, {off + 1}u, {inner.group(2)}u)")
-        out.append(_mut("bit-offset", file, fn, text, new,
-                        f"wrong shift: a field is read at bit {off + 1} instead of {off}"))
-        break
+    for line in body.splitlines():
+        stmt = line.strip()
+        if not re.match(r"msg->[\w.\[\]]+ = ", stmt):
+            continue
+        m = re.search(r"urb_get_bits\(buf, (\d+)u, \d+u\)", stmt) or re.search(r"buf\[(\d+)u\]", stmt)
+        if m:
+            off = int(m.group(1))
+            unit = "bit" if "urb_get_bits" in m.group(0) else "byte"
+            new = stmt[:m.start(1)] + str(off + 1) + stmt[m.end(1):]
+            out.append(_mut("field-offset", file, fn, stmt, new,
+                            f"wrong shift: a field is read at {unit} {off + 1} instead of {off}"))
+            break
     bf = info.payload
     if bf is not None:
         m = re.search(r"msg->" + re.escape(_member(bf)) + r"\[k\] = buf\[(\d+)u \+ k\];", body)
@@ -902,7 +984,41 @@ def enum_harness(e: EnumDecl, schema: Schema) -> tuple[str, str]:
     return fn, text
 
 
-def checksum_proofs(cs: ChecksumDecl, schema: Schema, src: str) -> list[Proof]:
+def crc_byte_mutants(src: str, body: str, fn: str) -> list[dict[str, object]]:
+    """Seeded bugs for a CRC byte step, for the shapes the emitter has used (bit loop, nibble table)."""
+    f = "gen/c/urb_runtime.c"
+    out: list[dict[str, object]] = []
+    m = re.search(r"\^ (0x[0-9A-Fa-f]+)u\)", body)
+    if m:
+        out.append(_mut("poly", f, fn, m.group(0), f"^ {int(m.group(1), 16) ^ 1:#x}u)",
+                        "wrong generator polynomial (lowest bit flipped)"))
+    if "bit < 8u" in body:
+        out.append(_mut("bit-count", f, fn, "bit < 8u", "bit < 7u", "off-by-one: seven shifts per byte"))
+    m = re.search(r"\(c >> (\d+)\) & 0xFu", body)
+    if m:
+        out.append(_mut("nibble-index", f, fn, m.group(0), f"(c >> {int(m.group(1)) - 1}) & 0xFu",
+                        "wrong shift: the table is indexed by the wrong four bits"))
+    lines = [ln.strip() for ln in body.splitlines() if "_nibble[" in ln]
+    if len(lines) >= 2:
+        out.append(_mut("one-nibble", f, fn, lines[1], "/* second nibble step dropped */", "one table step per byte instead of two", 2))
+    table = re.search(r"static const uint\d+_t " + re.escape(fn.removesuffix("_byte")) + r"_nibble\[16\] = \{\s*(0x0+u), (0x[0-9A-Fa-f]+)u", src)
+    if table:
+        first, second = table.group(1), table.group(2)
+        out.append(_mut("table-entry", f, "", f"{first}, {second}u", f"{first}, {int(second, 16) ^ 1:#0{len(second)}x}u",
+                        "a wrong entry in the nibble table"))
+    return out
+
+
+def _len_edges(cs: ChecksumDecl, top: int) -> list[int]:
+    """Lengths the fast tier keeps: the ends and both sides of every tier switch."""
+    edges = {0, 1, top}
+    for t in cs.tiers:
+        if t.max_covered is not None:
+            edges |= {t.max_covered - 2, t.max_covered - 1, t.max_covered, t.max_covered + 1}
+    return sorted(n for n in edges if 0 <= n <= top)
+
+
+def checksum_proofs(cs: ChecksumDecl, schema: Schema, src: str, budget: int) -> list[Proof]:
     """Proofs of the frame-check runtime of one checksum: per tier byte/buffer/final, then the tier logic."""
     proofs: list[Proof] = []
     rt = ["gen/c/urb_runtime.c"]
@@ -932,22 +1048,10 @@ def checksum_proofs(cs: ChecksumDecl, schema: Schema, src: str) -> list[Proof]:
             "}", "",
         ])
         body = function_body(src, f"{stem}_byte") or ""
-        muts = []
-        m = re.search(r"\^ (0x[0-9A-Fa-f]+)u\)", body)
-        if m:
-            bad = int(m.group(1), 16) ^ 1
-            muts.append(_mut("poly", "gen/c/urb_runtime.c", f"{stem}_byte", m.group(0), f"^ {bad:#x}u)",
-                             "wrong generator polynomial (lowest bit flipped)"))
-        m = re.search(r"c & (0x[0-9A-Fa-f]+)u", body)
-        if m:
-            bad = int(m.group(1), 16) >> 1
-            muts.append(_mut("top-bit", "gen/c/urb_runtime.c", f"{stem}_byte", m.group(0), f"c & {bad:#x}u",
-                             "wrong shift: tests the bit below the register's top bit"))
-        if "bit < 8u" in body:
-            muts.append(_mut("bit-count", "gen/c/urb_runtime.c", f"{stem}_byte", "bit < 8u", "bit < 7u",
-                             "off-by-one: seven shifts per byte"))
+        muts = crc_byte_mutants(src, body, f"{stem}_byte")
         proofs.append(Proof(f"{stem}_byte", f"{stem}_byte equals the bit-serial CRC-{t.width} step for every register and byte",
-                            text, 9, sources=rt, mutants=muts, origin=f"checksum {cs.name}, tier {t.name}"))
+                            text, 9, sources=rt, mutants=muts, origin=f"checksum {cs.name}, tier {t.name}",
+                            budget_cycles=budget))
         # --- buffer
         text = "\n".join([
             *head,
@@ -960,8 +1064,12 @@ def checksum_proofs(cs: ChecksumDecl, schema: Schema, src: str) -> list[Proof]:
             "", "#ifndef URB_LEN_BOUND", f"#define URB_LEN_BOUND {max_covered}u", "#endif", "",
             "URB_PROOF_COST_STORAGE;", "",
             "void harness(void)", "{",
+            "#if defined(URB_LEN)",
+            "    size_t const len = URB_LEN; /* this run's length (sweep) */",
+            "#else",
             "    size_t const len = URB_NONDET_SIZE();",
             "    URB_ASSUME(len <= URB_LEN_BOUND);",
+            "#endif",
             "    uint8_t *const data = malloc(len);",
             "    URB_ASSUME(data != NULL);",
             "    for (size_t i = 0u; i < URB_LEN_BOUND; i++) {",
@@ -995,8 +1103,10 @@ def checksum_proofs(cs: ChecksumDecl, schema: Schema, src: str) -> list[Proof]:
             muts.append(_mut("index", "gen/c/urb_runtime.c", stem, "data[i]", "data[len - 1u - i]",
                              "swapped index: bytes fed in reverse order"))
         proofs.append(Proof(stem, f"{stem} over a buffer equals {stem}_byte applied byte by byte",
-                            text, max_covered + 1, fast_unwind=17, fast_defines="-DURB_LEN_BOUND=16u",
-                            sources=rt, mutants=muts, origin=f"checksum {cs.name}, tier {t.name}"))
+                            text, max_covered + 2, sources=rt, mutants=muts, origin=f"checksum {cs.name}, tier {t.name}",
+                            sweep=[f"LEN={n}" for n in range(max_covered + 1)],
+                            fast_sweep=[f"LEN={n}" for n in _len_edges(cs, max_covered)],
+                            budget_cycles=budget * max_covered))
         # --- final
         text = "\n".join([
             *head,
@@ -1020,7 +1130,8 @@ def checksum_proofs(cs: ChecksumDecl, schema: Schema, src: str) -> list[Proof]:
             muts.append(_mut("xorout", "gen/c/urb_runtime.c", f"{stem}_final", m.group(0), f"^ {bad:#x}u",
                              "wrong final xor value"))
         proofs.append(Proof(f"{stem}_final", f"{stem}_final is the register xor {t.xorout:#x}", text, 2,
-                            sources=rt, mutants=muts, origin=f"checksum {cs.name}, tier {t.name}"))
+                            sources=rt, mutants=muts, origin=f"checksum {cs.name}, tier {t.name}",
+                            budget_cycles=budget))
     # --- tier choice, whole check, tail payload length
     fn = f"urb_{cs.name}"
     text = "\n".join([
@@ -1045,7 +1156,8 @@ def checksum_proofs(cs: ChecksumDecl, schema: Schema, src: str) -> list[Proof]:
         muts.append(_mut("tier-boundary", "gen/c/urb_runtime.c", f"{fn}_size", m.group(0), f"covered < {m.group(1)}",
                          "off-by-one tier boundary"))
     proofs.append(Proof(f"{fn}_size", f"{fn}_size picks the check width of the schema's tier for every covered length",
-                        text, 2, sources=rt, mutants=muts, origin=f"checksum {cs.name}"))
+                        text, 2, sources=rt, mutants=muts, origin=f"checksum {cs.name}",
+                        budget_cycles=budget))
 
     text = "\n".join([
         *head,
@@ -1058,10 +1170,18 @@ def checksum_proofs(cs: ChecksumDecl, schema: Schema, src: str) -> list[Proof]:
         "", "#ifndef URB_LEN_BOUND", f"#define URB_LEN_BOUND {max_covered}u", "#endif", "",
         "URB_PROOF_COST_STORAGE;", "",
         "void harness(void)", "{",
+        "#if defined(URB_PLEN)",
+        "    size_t const plen = URB_PLEN; /* this run's prefix length (sweep) */",
+        "#else",
         "    size_t const plen = URB_NONDET_SIZE();",
         "    URB_ASSUME(plen <= 2u);",
+        "#endif",
+        "#if defined(URB_LEN)",
+        "    size_t const len = URB_LEN; /* this run's length (sweep) */",
+        "#else",
         "    size_t const len = URB_NONDET_SIZE();",
         "    URB_ASSUME(len <= URB_LEN_BOUND);",
+        "#endif",
         "    uint8_t *const prefix = (plen == 0u && URB_NONDET_BOOL()) ? NULL : malloc(plen);",
         "    uint8_t *const data = malloc(len);",
         "    URB_ASSUME(data != NULL && (plen == 0u || prefix != NULL));",
@@ -1078,7 +1198,8 @@ def checksum_proofs(cs: ChecksumDecl, schema: Schema, src: str) -> list[Proof]:
         "    URB_COST_BEGIN();",
         f"    uint32_t const got = {fn}(prefix, plen, data, len);",
         "    URB_COST_END(URB_BUDGET_PER_BYTE * (uint32_t)(plen + len + 1u));",
-        f'    URB_ASSERT(got == spec_{cs.name}(prefix, plen, data, len), "equals the bit-serial CRC of the chosen tier");',
+        f'    URB_ASSERT(urb_proof_cost_seen <= URB_COST_{cs.name.upper()}(plen + len), "cost: within what the stub of the message proofs charges");',
+        f'    URB_ASSERT(got == spec_{cs.name}(prefix, plen, data, len), "equals the CRC of the chosen tier (byte step folded; see urb_spec_gen.h)");',
         "    free(prefix);",
         "    free(data);",
         "}", "",
@@ -1092,9 +1213,11 @@ def checksum_proofs(cs: ChecksumDecl, schema: Schema, src: str) -> list[Proof]:
     if m:
         muts.append(_mut("no-prefix", "gen/c/urb_runtime.c", fn, m.group(0), "(void)prefix;",
                          "the implicit prefix is not covered by the check"))
-    proofs.append(Proof(fn, f"{fn} equals the schema's tiered bit-serial CRC over prefix then data", text,
-                        max_covered + 1, fast_unwind=17, fast_defines="-DURB_LEN_BOUND=16u",
-                        sources=rt, mutants=muts, origin=f"checksum {cs.name}"))
+    proofs.append(Proof(fn, f"{fn} equals the schema's tiered CRC over prefix then data, within the cost the message proofs charge for it", text,
+                        max_covered + 2, sources=rt, mutants=muts, origin=f"checksum {cs.name}",
+                        sweep=[f"PLEN={p},LEN={n}" for p in range(3) for n in range(max_covered + 1)],
+                        fast_sweep=[f"PLEN={p},LEN={n}" for p in range(2) for n in _len_edges(cs, max_covered)],
+                        budget_cycles=budget * (2 + max_covered + 1)))
 
     text = "\n".join([
         *head,
@@ -1136,7 +1259,8 @@ def checksum_proofs(cs: ChecksumDecl, schema: Schema, src: str) -> list[Proof]:
         muts.append(_mut("tier-test", "gen/c/urb_runtime.c", f"{fn}_payload_len", "== 2u)", "!= 1u || 1)",
                          "accepts a wide check where the narrow tier applies"))
     proofs.append(Proof(f"{fn}_payload_len", f"{fn}_payload_len returns the unique payload length that fits a frame, or SHORT/LONG",
-                        text, 2, sources=rt, mutants=muts, origin=f"checksum {cs.name}"))
+                        text, 2, sources=rt, mutants=muts, origin=f"checksum {cs.name}",
+                        budget_cycles=budget))
     return proofs
 
 
@@ -1154,7 +1278,9 @@ def _largest_covered() -> int:
 
 def _instrumented_costs() -> dict[str, tuple[int, int]]:
     """function -> (entry cycles, cycles per loop iteration) in the cost-instrumented runtime."""
-    from prepare import instrument, load_cost_model  # noqa: E402 (sibling script)
+    if str(BMC) not in sys.path:  # prepare.py is a sibling script, not a package module
+        sys.path.insert(0, str(BMC))
+    from prepare import instrument, load_cost_model
 
     text = instrument((GEN_C / "urb_runtime.c").read_text(encoding="utf-8"), load_cost_model())
     out: dict[str, tuple[int, int]] = {}
@@ -1182,9 +1308,10 @@ def check_cost(cs: ChecksumDecl) -> tuple[int, int]:
     return base + tier_base, per_byte
 
 
-def spec_header(schemas: list[Schema], budget_per_byte: int, model: dict[str, object]) -> str:
+def spec_header(schemas: list[Schema], budget_per_byte: int, uplink_per_byte: int, model: dict[str, object]) -> str:
     bus = model["bus"]
-    assert isinstance(bus, dict)
+    uplink = model["uplink_bus"]
+    assert isinstance(bus, dict) and isinstance(uplink, dict)
     lines = [
         "/*",
         f" * {HEADER_NOTE}",
@@ -1209,6 +1336,8 @@ def spec_header(schemas: list[Schema], budget_per_byte: int, model: dict[str, ob
         "",
         f"/* {bus['note']}; the codecs may use {model['budget_fraction']} of it. */",
         f"#define URB_BUDGET_PER_BYTE {budget_per_byte}u",
+        f"/* {uplink['note']}; a bridge's own mailboxes use {model['budget_fraction']} of it. */",
+        f"#define URB_BUDGET_PER_BYTE_UPLINK {uplink_per_byte}u",
         "",
     ]
     seen: set[str] = set()
@@ -1298,6 +1427,9 @@ struct urb_stub_call {{
 extern struct urb_stub_call urb_stub_{cs.name}_calls[URB_STUB_CALLS];
 extern unsigned urb_stub_{cs.name}_count;
 
+/** Starts a new independent part of a harness: forgets the calls and draws a new function. */
+void urb_stub_{cs.name}_reset(void);
+
 #endif /* {guard} */
 """
     masks = []
@@ -1318,7 +1450,14 @@ extern unsigned urb_stub_{cs.name}_count;
 struct urb_stub_call urb_stub_{cs.name}_calls[URB_STUB_CALLS];
 unsigned urb_stub_{cs.name}_count;
 static uint32_t value_of[URB_STUB_COVERED_MAX]; /* the uninterpreted function, filled lazily */
-static bool known[URB_STUB_COVERED_MAX];
+static unsigned known[URB_STUB_COVERED_MAX];     /* epoch in which value_of[n] was drawn */
+static unsigned epoch = 1u;
+
+void urb_stub_{cs.name}_reset(void)
+{{
+    urb_stub_{cs.name}_count = 0u;
+    epoch++; /* a new function: earlier draws (at any n) no longer count */
+}}
 
 static uint32_t width_mask(size_t n)
 {{
@@ -1346,8 +1485,8 @@ uint32_t {fn}(const uint8_t *prefix, size_t prefix_len, const uint8_t *data, siz
         uint8_t const ends = (uint8_t)(data[0] ^ data[len - 1u]);
         (void)ends;
     }}
-    if (!known[n]) {{
-        known[n] = true;
+    if (known[n] != epoch) {{
+        known[n] = epoch;
         value_of[n] = URB_NONDET_U32() & width_mask(n);
     }}
     call->result = value_of[n];
@@ -1366,8 +1505,11 @@ def all_proofs() -> tuple[list[Proof], str, dict[str, str]]:
     bus = model["bus"]
     target = model["target"]
     assert isinstance(bus, dict) and isinstance(target, dict)
-    cycles_per_byte = target["clock_hz"] * bus["bits_per_byte"] / bus["bit_rate"]
-    budget = int(cycles_per_byte * float(str(model["budget_fraction"])))
+    uplink = model["uplink_bus"]
+    assert isinstance(uplink, dict)
+    fraction = float(str(model["budget_fraction"]))
+    budget = int(target["clock_hz"] * bus["bits_per_byte"] / bus["bit_rate"] * fraction)
+    uplink_budget = int(target["clock_hz"] * uplink["bits_per_byte"] / uplink["bit_rate"] * fraction)
     proofs: list[Proof] = []
     runtime_src = (GEN_C / "urb_runtime.c").read_text(encoding="utf-8")
     seen_cs: set[str] = set()
@@ -1391,23 +1533,27 @@ def all_proofs() -> tuple[list[Proof], str, dict[str, str]]:
                                  m.group(0).replace(f"{m.group(1)}u", f"{int(m.group(1)) + 1}u"),
                                  "off-by-one: a value past the last member is accepted"))
             proofs.append(Proof(fn, f"{fn} is true exactly for the members of enum {e.name}", text, 2,
-                                sources=["gen/c/urb_runtime.c", src_rel], mutants=muts, origin=f"enum {e.name}"))
+                                sources=["gen/c/urb_runtime.c", src_rel], mutants=muts, origin=f"enum {e.name}",
+                                budget_cycles=budget))
         for cs in s.checksums.values():
             if cs.name not in seen_cs:
                 seen_cs.add(cs.name)
-                proofs.extend(checksum_proofs(cs, s, runtime_src))
+                proofs.extend(checksum_proofs(cs, s, runtime_src, budget))
+        # A bridge's own mailboxes are served by the bridge on its uplink, never on the I2C
+        # downlink, so the uplink's byte time bounds them; every other codec runs at I2C byte pace.
+        bridge_only = {mb.message.name for nd in s.nodes.values() if nd.kind == "bridge" for mb in nd.mailboxes}
         for m in s.messages.values():
             fn = msg_c(m)
-            info = MsgInfo(m, s, fn, fn + "_t", fn.upper(), sources, budget)
+            info = MsgInfo(m, s, fn, fn + "_t", fn.upper(), sources,
+                           *((uplink_budget, "URB_BUDGET_PER_BYTE_UPLINK") if m.name in bridge_only
+                             else (budget, "URB_BUDGET_PER_BYTE")))
             fast = _fast_len(m)
             for kind in ("encode", "decode"):
                 text, unwind = encode_harness(info) if kind == "encode" else decode_harness(info)
                 muts = encode_mutants(info, source, src_rel) if kind == "encode" else decode_mutants(info, source, src_rel)
                 fast_unwind = None
                 fast_defines = ""
-                if m.max_payload > fast:
-                    fast_defines = f"-DURB_LEN_BOUND={fast}u"
-                    fast_unwind = unwind_for(m, fast)
+                sweep, fast_sweep = sweeps(m, kind)
                 purpose = (f"{fn}_encode: no out-of-bounds write with a buffer of exactly `capacity` bytes, the error "
                            "contract, the schema's wire layout and check, decode(encode(m)) == m, bounded cost"
                            if kind == "encode" else
@@ -1417,12 +1563,13 @@ def all_proofs() -> tuple[list[Proof], str, dict[str, str]]:
                     ([f"urb_{m.checksum.name}"], [f"stubs/urb_{m.checksum.name}_stub.c"])
                 proofs.append(Proof(f"{fn}_{kind}", purpose, text, unwind, fast_unwind, fast_defines, sources,
                                     mutants=muts, origin=f"message {m.name} (schema {s.name})",
-                                    stubbed=stubbed, stubs=stubs))
+                                    stubbed=stubbed, stubs=stubs, sweep=sweep, fast_sweep=fast_sweep,
+                                    budget_cycles=info.budget_per_byte * m.max_size))
     stubs: dict[str, str] = {}
     for s in ordered:
         for cs in s.checksums.values():
             stubs.update(stub_files(cs))
-    return proofs, spec_header(ordered, budget, model), stubs
+    return proofs, spec_header(ordered, budget, uplink_budget, model), stubs
 
 
 def render(proofs: list[Proof], header: str, stubs: dict[str, str]) -> dict[str, str]:

@@ -8,8 +8,8 @@ Copies every *.c and *.h of each --dir (paths relative to the repository root) t
 then, in the copies only:
 
 1. applies the seeded bug NAME from the proof's mutants.json (a literal find/replace inside one
-   function of one file; an entry that no longer matches is an error, so mutants never go stale
-   silently);
+   function of one file, or anywhere in the file when "function" is empty, for data such as a CRC
+   table; an entry that no longer matches is an error, so mutants never go stale silently);
 2. removes the definition of each --stub FUNCTION (the proof links a stub from proofs/bmc/stubs
    instead; the stub's contract is what that function's own proof establishes);
 3. inserts the cost counter: `URB_COST(n);` at every function entry (call overhead plus a small
@@ -115,13 +115,17 @@ def apply_mutant(root: Path, mutant: dict[str, Any]) -> None:
         raise PrepareError(f"mutant {mutant['name']}: no file {mutant['file']} in the prepared sources")
     text = path.read_text(encoding="utf-8")
     lines = text.split("\n")
-    function = str(mutant["function"])
-    spans = function_spans(lines)
-    if function not in spans:
-        raise PrepareError(f"mutant {mutant['name']}: no function {function} in {mutant['file']}")
-    _, open_line, close_line = spans[function]
-    start = sum(len(line) + 1 for line in lines[:open_line])
-    end = sum(len(line) + 1 for line in lines[: close_line + 1])
+    function = str(mutant.get("function") or "")
+    if function:
+        spans = function_spans(lines)
+        if function not in spans:
+            raise PrepareError(f"mutant {mutant['name']}: no function {function} in {mutant['file']}")
+        _, open_line, close_line = spans[function]
+        start = sum(len(line) + 1 for line in lines[:open_line])
+        end = sum(len(line) + 1 for line in lines[: close_line + 1])
+    else:  # file-level data, e.g. a table
+        start, end = 0, len(text)
+        function = str(mutant["file"])
     body = text[start:end]
     find, replace = str(mutant["find"]), str(mutant["replace"])
     occurrence = int(mutant.get("occurrence", 1))

@@ -21,6 +21,8 @@
 
 /* 8 data bits + ACK = 22.5 us per byte = 1080 cycles at 48 MHz; the codecs may use 0.5 of it. */
 #define URB_BUDGET_PER_BYTE 540u
+/* start + 8 data + stop bits at 115200 Bd = 86.8 us per byte = 4166 cycles at 48 MHz (the slower uplink); a bridge's own mailboxes use 0.5 of it. */
+#define URB_BUDGET_PER_BYTE_UPLINK 2083u
 
 /* Checksum link_check: cycles of urb_link_check() over n covered bytes (cost model). */
 #define URB_COST_LINK_CHECK(n) (132u + 46u * (uint32_t)(n))

@@ -10,7 +10,14 @@
 struct urb_stub_call urb_stub_link_check_calls[URB_STUB_CALLS];
 unsigned urb_stub_link_check_count;
 static uint32_t value_of[URB_STUB_COVERED_MAX]; /* the uninterpreted function, filled lazily */
-static bool known[URB_STUB_COVERED_MAX];
+static unsigned known[URB_STUB_COVERED_MAX];     /* epoch in which value_of[n] was drawn */
+static unsigned epoch = 1u;
+
+void urb_stub_link_check_reset(void)
+{
+    urb_stub_link_check_count = 0u;
+    epoch++; /* a new function: earlier draws (at any n) no longer count */
+}
 
 static uint32_t width_mask(size_t n)
 {
@@ -39,8 +46,8 @@ uint32_t urb_link_check(const uint8_t *prefix, size_t prefix_len, const uint8_t 
         uint8_t const ends = (uint8_t)(data[0] ^ data[len - 1u]);
         (void)ends;
     }
-    if (!known[n]) {
-        known[n] = true;
+    if (known[n] != epoch) {
+        known[n] = epoch;
         value_of[n] = URB_NONDET_U32() & width_mask(n);
     }
     call->result = value_of[n];

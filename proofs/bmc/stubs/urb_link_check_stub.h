@@ -33,4 +33,7 @@ struct urb_stub_call {
 extern struct urb_stub_call urb_stub_link_check_calls[URB_STUB_CALLS];
 extern unsigned urb_stub_link_check_count;
 
+/** Starts a new independent part of a harness: forgets the calls and draws a new function. */
+void urb_stub_link_check_reset(void);
+
 #endif /* URB_LINK_CHECK_STUB_H */
