@@ -1,0 +1,153 @@
+"""Layout of every BMC proof folder (proofs/bmc/*/) and of the codec proofs, without running ESBMC.
+
+Every folder follows the convention (harness, bounds in a Makefile on Makefile.common, one-line
+purpose, at least one seeded mutant); every generated C function has its proof; the generated
+folders are not stale (like `urb gen --check`); every mutant still applies to the current sources
+and changes them; and `make check` runs the proofs through mk/proofs.mk.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+BMC = ROOT / "proofs" / "bmc"
+FOLDERS = sorted(p for p in BMC.iterdir() if p.is_dir() and (p / "harness.c").is_file())
+CODEC = [p for p in FOLDERS if p.name.startswith("urb_")]
+BUILTINS = re.compile(r"__(ESBMC|CPROVER|VERIFIER)_\w+|\bnondet_\w+\s*\(")
+
+
+def _module(name: str, path: Path) -> ModuleType:
+    spec = importlib.util.spec_from_file_location(name, path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module  # dataclasses look their module up
+    spec.loader.exec_module(module)
+    return module
+
+
+def _mutants(folder: Path) -> list[dict[str, Any]]:
+    data: list[dict[str, Any]] = json.loads((folder / "mutants.json").read_text(encoding="utf-8"))
+    return data
+
+
+def test_every_generated_c_function_has_a_proof() -> None:
+    defined = set()
+    for c in (ROOT / "gen" / "c").glob("*.c"):
+        defined |= set(re.findall(r"^(?!static)[a-z][\w \*]*\b(urb_\w+)\(", c.read_text(encoding="utf-8"), re.MULTILINE))
+    assert len(defined) > 40
+    missing = sorted(f for f in defined if not (BMC / f / "harness.c").is_file())
+    assert not missing, f"no proof folder for {missing}: run python3 proofs/bmc/generate.py"
+
+
+@pytest.mark.parametrize("folder", FOLDERS, ids=[p.name for p in FOLDERS])
+def test_folder_convention(folder: Path) -> None:
+    for name in ("harness.c", "Makefile", "PURPOSE", "mutants.json"):
+        assert (folder / name).is_file(), f"{folder.name}: {name} missing"
+    purpose = (folder / "PURPOSE").read_text(encoding="utf-8").strip()
+    assert purpose and "\n" not in purpose, "PURPOSE is one line"
+    makefile = (folder / "Makefile").read_text(encoding="utf-8")
+    assert re.search(r"^include \.\./Makefile\.common$", makefile, re.MULTILINE), "includes ../Makefile.common"
+    assert re.search(r"^UNWIND = \d+$", makefile, re.MULTILINE), "sets UNWIND (unwinding assertions stay on)"
+    assert "--no-unwinding-assertions" not in makefile and "--partial-loops" not in makefile
+    settings = "\n".join(line for line in makefile.splitlines() if not line.lstrip().startswith("#"))
+    assert "--unwind" not in settings, "the bound is UNWIND, so the summary reports the one ESBMC uses"
+    harness = (folder / "harness.c").read_text(encoding="utf-8")
+    assert re.search(r"^void harness\(void\)$", harness, re.MULTILINE)
+    assert '#include "urb_verify.h"' in harness
+    code = re.sub(r"/\*.*?\*/", "", harness, flags=re.DOTALL)
+    assert not BUILTINS.search(code), "harnesses use URB_ASSUME/URB_ASSERT/URB_NONDET_* only"
+    mutants = _mutants(folder)
+    assert len(mutants) >= 1, "every proof has at least one seeded bug"
+    assert len({m["name"] for m in mutants}) == len(mutants)
+    for m in mutants:
+        assert {"name", "file", "function", "find", "replace", "why"} <= set(m), m
+        assert m["find"] != m["replace"]
+
+
+@pytest.mark.parametrize("folder", CODEC, ids=[p.name for p in CODEC])
+def test_codec_proof_measures_cost_against_the_bus_budget(folder: Path) -> None:
+    harness = (folder / "harness.c").read_text(encoding="utf-8")
+    assert "URB_COST_BEGIN();" in harness and re.search(r"URB_COST_END\(\s*\w*BUDGET", harness), \
+        "the call under proof is measured and asserted against a budget from cost_model.json"
+    if (folder / "COST").exists():
+        assert re.fullmatch(r"\d+( \S+)?\n", (folder / "COST").read_text(encoding="utf-8"))
+
+
+def test_generated_folders_are_fresh() -> None:
+    out = subprocess.run([sys.executable, str(BMC / "generate.py"), "--check"], capture_output=True, text=True,
+                         cwd=ROOT, timeout=300)
+    assert out.returncode == 0, out.stdout + out.stderr
+
+
+def test_staleness_check_can_fail(tmp_path: Path) -> None:
+    gen = _module("urb_bmc_generate", BMC / "generate.py")
+    files: dict[str, str] = gen.render(*gen.all_proofs())
+    target = "urb_motor_command_decode/harness.c"
+    assert target in files
+    (tmp_path / "urb_motor_command_decode").mkdir()
+    for rel, text in files.items():
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_text(text, encoding="utf-8")
+    assert gen.stale(files, tmp_path) == []
+    (tmp_path / target).write_text(files[target].replace("URB_ASSERT(", "(void)(", 1), encoding="utf-8")
+    assert target in " ".join(gen.stale(files, tmp_path))
+
+
+@pytest.mark.parametrize("folder", CODEC, ids=[p.name for p in CODEC])
+def test_codec_mutants_apply(folder: Path, tmp_path: Path) -> None:
+    prep = _module("urb_bmc_prepare", BMC / "prepare.py")
+    src_root = ROOT / "gen" / "c"
+    originals = {f.name: f.read_text(encoding="utf-8") for f in src_root.iterdir() if f.suffix in (".c", ".h")}
+    for m in _mutants(folder):
+        work = tmp_path / m["name"]
+        (work / "gen" / "c").mkdir(parents=True)
+        for name, text in originals.items():
+            (work / "gen" / "c" / name).write_text(text, encoding="utf-8")
+        prep.apply_mutant(work, m)
+        changed = (work / m["file"]).read_text(encoding="utf-8")
+        assert changed != originals[Path(m["file"]).name], f"mutant {m['name']} changes nothing"
+        assert m["replace"] in changed
+
+
+def test_mutant_that_no_longer_matches_is_an_error(tmp_path: Path) -> None:
+    prep = _module("urb_bmc_prepare", BMC / "prepare.py")
+    (tmp_path / "gen" / "c").mkdir(parents=True)
+    (tmp_path / "gen" / "c" / "urb_runtime.c").write_text(
+        (ROOT / "gen" / "c" / "urb_runtime.c").read_text(encoding="utf-8"), encoding="utf-8")
+    stale = {"name": "gone", "file": "gen/c/urb_runtime.c", "function": "urb_get_le", "find": "no such text",
+             "replace": "x", "why": "test"}
+    with pytest.raises(prep.PrepareError):
+        prep.apply_mutant(tmp_path, stale)
+
+
+def test_make_check_runs_all_proofs_through_one_target() -> None:
+    mk = (ROOT / "mk" / "proofs.mk").read_text(encoding="utf-8")
+    assert re.search(r"^CHECK_TARGETS \+= proofs$", mk, re.MULTILINE)
+    assert re.search(r"^PROOF_PARTS \+= bmc$", mk, re.MULTILINE)
+    assert re.search(r"^proofs-bmc:\n\t\$\(PYTHON\) tools/proofs.py --tier fast$", mk, re.MULTILINE)
+    assert not (ROOT / "mk" / "proofs_firmware.mk").exists(), "make proofs covers fw_* (tools/proofs.py)"
+
+
+def test_summary_budgets_match_the_budgets_the_harnesses_assert() -> None:
+    spec = (BMC / "include" / "urb_spec_gen.h").read_text(encoding="utf-8")
+    per_byte = int(re.search(r"#define URB_BUDGET_PER_BYTE (\d+)u", spec).group(1))  # type: ignore[union-attr]
+    model = json.loads((BMC / "cost_model.json").read_text(encoding="utf-8"))
+    i2c = model["target"]["clock_hz"] * model["bus"]["bits_per_byte"] / model["bus"]["bit_rate"]
+    assert per_byte == int(i2c * model["budget_fraction"]), "half an I2C byte time at 48 MHz"
+    for folder in CODEC:
+        makefile = (folder / "Makefile").read_text(encoding="utf-8")
+        m = re.search(r"^BUDGET_CYCLES = (\d+)$", makefile, re.MULTILINE)
+        assert m, f"{folder.name}: BUDGET_CYCLES (the summary's budget) missing"
+        harness = (folder / "harness.c").read_text(encoding="utf-8")
+        if "URB_COST_END(URB_BUDGET_PER_BYTE);" in harness:  # one call: a byte step, a helper, an enum check
+            assert int(m.group(1)) == per_byte, folder.name

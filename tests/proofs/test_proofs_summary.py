@@ -1,0 +1,130 @@
+"""tools/proofs.py without ESBMC: the results contract, the summary merger, verdict parsing.
+
+The merger is what makes `make proofs` fail, so it must reject a missing part, a malformed row and
+any row whose result is not the expected one (a surviving mutant, a failed proof).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _runner() -> ModuleType:
+    spec = importlib.util.spec_from_file_location("urb_tools_proofs", ROOT / "tools" / "proofs.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["urb_tools_proofs"] = module  # dataclasses look their module up
+    spec.loader.exec_module(module)
+    return module
+
+
+P = _runner()
+
+
+def _write(out: Path, part: str, rows: list[dict[str, Any]]) -> None:
+    P.write_part(part, rows, out)
+
+
+def _good(out: Path) -> None:
+    _write(out, "bmc", [
+        P.make_row("urb_motor_command_decode", "ESBMC", "bounds", "unwind 9", "proved", True, 1.5, "", 400, 1080),
+        P.make_row("urb_motor_command_decode [mutant field-offset]", "ESBMC", "seeded bug", "unwind 9", "killed", True, 2.0),
+    ])
+    _write(out, "framac", [P.make_row("urb_motor_command_decode", "Frama-C WP", "12/12 goals", "-wp-rte", "proved", True, 3.0)])
+    _write(out, "fuzz", [P.make_row("urb_core decoders", "libFuzzer", "ASan+UBSan", "60 s", "no crash", True, 60.0)])
+
+
+def test_merge_accepts_complete_expected_parts(tmp_path: Path) -> None:
+    _good(tmp_path)
+    status, problems = P.merge(["bmc", "framac", "fuzz"], tmp_path)
+    assert (status, problems) == (0, [])
+    md = (tmp_path / "summary.md").read_text(encoding="utf-8")
+    assert "| function | tool | properties | bound | result | time (s) |" in md
+    assert "| urb_motor_command_decode [mutant field-offset] | ESBMC |" in md
+    # the cycle table is generated from the rows: 400 cycles at 48 MHz = 8.33 us, 37 % of 1080
+    assert "| urb_motor_command_decode | 400 | 8.33 | 1080 | 37 % |" in md
+    suites = ET.parse(tmp_path / "junit.xml").getroot()
+    assert suites.tag == "testsuites"
+    assert [s.get("name") for s in suites] == ["proofs.bmc", "proofs.framac", "proofs.fuzz"]
+    assert sum(int(s.get("failures", "0")) for s in suites) == 0
+
+
+def test_merge_rejects_a_missing_part(tmp_path: Path) -> None:
+    _good(tmp_path)
+    (tmp_path / "fuzz" / "summary.json").unlink()
+    status, problems = P.merge(["bmc", "framac", "fuzz"], tmp_path)
+    assert status == 1
+    assert any("part fuzz" in p and "missing" in p and "make fuzz" in p for p in problems)
+    assert "## Problems" in (tmp_path / "summary.md").read_text(encoding="utf-8")
+    failures = [c for c in ET.parse(tmp_path / "junit.xml").getroot().iter("failure")]
+    assert failures, "the merged JUnit fails too"
+
+
+def test_merge_rejects_an_unexpected_row(tmp_path: Path) -> None:
+    _good(tmp_path)
+    _write(tmp_path, "bmc", [P.make_row("urb_get_le [mutant overrun]", "ESBMC", "seeded bug", "unwind 5", "SURVIVED",
+                                        False, 2.0, "passed all 1 runs")])
+    status, problems = P.merge(["bmc", "framac", "fuzz"], tmp_path)
+    assert status == 1
+    assert any("urb_get_le [mutant overrun]" in p and "SURVIVED" in p for p in problems)
+    assert "**(unexpected)**" in (tmp_path / "summary.md").read_text(encoding="utf-8")
+
+
+@pytest.mark.parametrize("breakage", ["no-expected", "string-expected", "wrong-part", "no-rows", "not-json"])
+def test_merge_rejects_malformed_parts(tmp_path: Path, breakage: str) -> None:
+    _good(tmp_path)
+    path = tmp_path / "framac" / "summary.json"
+    data = json.loads(path.read_text(encoding="utf-8"))
+    if breakage == "no-expected":
+        del data["rows"][0]["expected"]
+    elif breakage == "string-expected":
+        data["rows"][0]["expected"] = "true"
+    elif breakage == "wrong-part":
+        data["part"] = "bmc"
+    elif breakage == "no-rows":
+        data["rows"] = []
+    path.write_text("{" if breakage == "not-json" else json.dumps(data), encoding="utf-8")
+    status, problems = P.merge(["bmc", "framac", "fuzz"], tmp_path)
+    assert status == 1 and any("part framac" in p for p in problems), problems
+
+
+def test_summary_command_exit_status(tmp_path: Path) -> None:
+    _good(tmp_path)
+    assert P.main(["summary", "--out", str(tmp_path), "--parts", "bmc framac fuzz"]) == 0
+    assert P.main(["summary", "--out", str(tmp_path), "--parts", "bmc,framac,fuzz,extra"]) == 1
+
+
+def test_verdicts_come_only_from_esbmc_verdict_lines() -> None:
+    ok = P.parse_esbmc("...\nVERIFICATION SUCCESSFUL\n", 1.0)
+    assert ok.outcome == "pass"
+    failed = P.parse_esbmc("Violated property:\n  file harness.c line 3 column 5 function harness\n  cost: within the "
+                           "bus budget\n  x <= 5\n\n  urb_proof_cost_seen = 612 (0000)\nVERIFICATION FAILED\n", 1.0)
+    assert (failed.outcome, failed.violated, failed.cost_seen) == ("fail", "cost: within the bus budget", 612)
+    assert P.parse_esbmc("ERROR: Timed out\n", 1.0).outcome == "timeout"
+    assert P.parse_esbmc("harness.c:3: error: unknown type\n", 1.0).outcome == "error"
+
+
+def test_a_mutant_is_killed_only_by_a_verification_failure(tmp_path: Path) -> None:
+    proof = P.Proof("urb_x", tmp_path, {"fast_sweep": "", "sweep": ""}, "purpose",
+                    [{"name": "m", "why": "bug"}], None, "", 3)
+    for outcome, result, expected in (("fail", "killed", True), ("pass", "SURVIVED", False),
+                                      ("timeout", "TIMEOUT", False), ("error", "ERROR", False)):
+        from concurrent.futures import Future
+        done: Future[Any] = Future()
+        done.set_result(P.Run("pass", 1.0))
+        mutant: Future[Any] = Future()
+        mutant.set_result([("", P.Run(outcome, 1.0, "violated"))])
+        plan = P.Plan(proof, {"": done}, {"m": mutant})
+        rows = P.collect(plan, "fast")
+        assert rows[0]["result"] == "proved" and rows[0]["expected"]
+        assert (rows[1]["result"], rows[1]["expected"]) == (result, expected)

