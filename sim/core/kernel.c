@@ -62,10 +62,19 @@ static bool queue_grow(urbsim_queue_t *q)
     return true;
 }
 
-/* Near queue: insert from the back of the sorted ring. */
+/* Near queue: insert into the sorted ring. An event due before all others (an interrupt handler
+ * right after the bus event that raised it) goes in front in O(1); the others are placed from the
+ * back. */
 static void ring_push(urbsim_queue_t *q, urbsim_event_key_t key, urbsim_event_t item)
 {
     size_t m = q->cap - 1u;
+    if (q->len > 0u && before(&key, &q->key[q->head])) {
+        q->head = (q->head - 1u) & m;
+        q->key[q->head] = key;
+        q->item[q->head] = item;
+        q->len++;
+        return;
+    }
     size_t i = q->head + q->len++;
 #ifdef URBSIM_MUTANT_RING_TIES /* seeded bug (mk/sim.mk): a new event overtakes its ties */
     while (i > q->head && key.t <= q->key[(i - 1u) & m].t) {
