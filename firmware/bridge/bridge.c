@@ -16,6 +16,27 @@
 
 /* ===== Small helpers ========================================================================== */
 
+/* ACSL for Frama-C WP (proofs/framac/fifo/): the response ring and the data-slot FIFO inside it
+ * never index outside their arrays, keep their counts within the configured depth, and admission
+ * answers BUSY only when every data slot is taken (Bridge.tla SubmitAndAdmit). */
+/*@ predicate urbb_fifo_ok(urb_bridge_t *b) =
+      \valid(b) && 1 <= b->cfg.fifo_depth <= URB_BRIDGE_FIFO_MAX &&
+      b->ring_head < URB_BRIDGE_RING_MAX && b->ring_count <= URB_BRIDGE_RING_MAX &&
+      b->slot_head < b->cfg.fifo_depth && b->slot_served <= b->slot_count <= b->cfg.fifo_depth;
+
+    predicate urbb_nodes_ok(urb_bridge_t *b) =
+      \forall integer a; 0 <= a < 128 ==> b->node_of[a] <= URB_BRIDGE_MAX_NODES;
+
+    logic integer urbb_ring_at(integer head, integer offset) =
+      head + offset < URB_BRIDGE_RING_MAX ? head + offset : head + offset - URB_BRIDGE_RING_MAX;
+
+    logic integer urbb_slot_at(urb_bridge_t *b, integer offset) =
+      b->slot_head + offset < b->cfg.fifo_depth ? b->slot_head + offset : b->slot_head + offset - b->cfg.fifo_depth;
+*/
+
+/*@ requires head < URB_BRIDGE_RING_MAX && offset <= URB_BRIDGE_RING_MAX;
+    assigns \nothing;
+    ensures \result == urbb_ring_at(head, offset) && \result < URB_BRIDGE_RING_MAX; */
 static uint8_t ring_index(uint8_t head, uint8_t offset)
 {
     uint8_t i = (uint8_t)(head + offset);
@@ -26,6 +47,9 @@ static uint8_t ring_index(uint8_t head, uint8_t offset)
 }
 
 /* Wrap without a division: Cortex-M0+ has no divide instruction. */
+/*@ requires urbb_fifo_ok(b) && offset <= b->cfg.fifo_depth;
+    assigns \nothing;
+    ensures \result == urbb_slot_at(b, offset) && \result < b->cfg.fifo_depth; */
 static uint8_t slot_index(const urb_bridge_t *b, uint8_t offset)
 {
     uint8_t i = (uint8_t)(b->slot_head + offset);
@@ -92,6 +116,9 @@ static void node_learn(urb_bridge_t *b, uint8_t a, const uint8_t *frame)
 }
 
 /* Mailbox size learnt for (a, box, dir), or -1 when unknown. */
+/*@ requires \valid_read(b) && urbb_nodes_ok(b) && a < 128 && box < 8;
+    assigns \nothing;
+    ensures -1 <= \result <= 255; */
 static int16_t known_size(const urb_bridge_t *b, uint8_t a, uint8_t box, bool read)
 {
     if (a == URB_BRIDGE_ADDRESS) {
@@ -108,6 +135,9 @@ static int16_t known_size(const urb_bridge_t *b, uint8_t a, uint8_t box, bool re
 
 /* Bridge.tla: AdmissionStatus. Header validation without downlink traffic. An address the last
  * scan did not find is NOT refused: a node may appear after the scan; the downlink decides. */
+/*@ requires \valid_read(b) && urbb_nodes_ok(b) && a < 128 && box < 8;
+    assigns \nothing;
+    ensures \result == URB_STATUS_OK || \result == URB_STATUS_BAD_REQUEST || \result == URB_STATUS_SIZE_MISMATCH; */
 static uint8_t admission_status(const urb_bridge_t *b, uint8_t a, uint8_t box, bool read, uint8_t len)
 {
     if ((a != URB_BRIDGE_ADDRESS) && ((a < b->dl.first_address) || (a > b->dl.last_address))) {
@@ -124,6 +154,32 @@ static bool emit_entry(urb_bridge_t *b, const urb_bridge_resp_t *e);
 
 /* Bridge.tla: SubmitAndAdmit. `status` is OK for a well-formed request, BAD_REQUEST for a frame
  * that passed its check but breaks a schema rule. */
+/*@ requires urbb_fifo_ok(b) && urbb_nodes_ok(b);
+    requires status == URB_STATUS_OK || status == URB_STATUS_BAD_REQUEST;
+    requires status == URB_STATUS_OK ==> a < 128 && box < 8 && len <= 32;
+    requires status == URB_STATUS_OK && !read ==>
+               \valid_read(data + (0 .. len - 1)) && \separated(data + (0 .. len - 1), b);
+    assigns b->ring[0 .. URB_BRIDGE_RING_MAX - 1], b->ring_count, b->slots[0 .. URB_BRIDGE_FIFO_MAX - 1], b->slot_count,
+            b->stats.window_overflow, b->stats.busy;
+    ensures urbb_fifo_ok(b);
+    behavior window_overflow:
+      assumes b->ring_count >= URB_BRIDGE_RING_MAX;
+      assigns b->stats.window_overflow;
+      ensures b->ring_count == \old(b->ring_count) && b->slot_count == \old(b->slot_count);
+    behavior answered:
+      assumes b->ring_count < URB_BRIDGE_RING_MAX;
+      ensures b->ring_count == \old(b->ring_count) + 1;
+      ensures b->ring[urbb_ring_at(b->ring_head, \old(b->ring_count))].seq == seq % 16;
+      ensures b->ring[urbb_ring_at(b->ring_head, \old(b->ring_count))].status == URB_STATUS_BUSY ==>
+                \old(b->slot_count) == b->cfg.fifo_depth;
+      ensures b->ring[urbb_ring_at(b->ring_head, \old(b->ring_count))].status == URB_BRIDGE_PENDING ==>
+                b->slot_count == \old(b->slot_count) + 1 &&
+                b->ring[urbb_ring_at(b->ring_head, \old(b->ring_count))].slot == urbb_slot_at(b, \old(b->slot_count)) &&
+                b->slots[urbb_slot_at(b, \old(b->slot_count))].resp == urbb_ring_at(b->ring_head, \old(b->ring_count));
+      ensures b->ring[urbb_ring_at(b->ring_head, \old(b->ring_count))].status != URB_BRIDGE_PENDING ==>
+                b->slot_count == \old(b->slot_count);
+    complete behaviors;
+    disjoint behaviors; */
 static void admit(urb_bridge_t *b, uint8_t uplink, uint8_t seq, uint8_t status, uint8_t a, uint8_t box, bool read,
                   uint8_t len, const uint8_t *data)
 {
@@ -163,6 +219,9 @@ static void admit(urb_bridge_t *b, uint8_t uplink, uint8_t seq, uint8_t status, 
         d->read = read;
         d->resp = ring_index(b->ring_head, b->ring_count);
         /* loop bound: 32 bytes */
+        /*@ loop invariant 0 <= i <= 32;
+            loop assigns i, d->data[0 .. 31];
+            loop variant 32 - i; */
         for (uint8_t i = 0u; (!read) && (i < len) && (i < 32u); i++) {
             d->data[i] = data[i];
         }
@@ -210,6 +269,11 @@ bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t l
 /* ===== Serving ================================================================================ */
 
 /* Bridge.tla: FirstPending, in O(1): served slots form a prefix of the slot FIFO. */
+/*@ requires urbb_fifo_ok(b);
+    assigns \nothing;
+    ensures b->slot_served == b->slot_count ==> \result == \null;
+    ensures b->slot_served < b->slot_count ==> \result == &b->slots[urbb_slot_at(b, b->slot_served)];
+    ensures \result == \null || \valid(\result); */
 static urb_bridge_slot_t *oldest_pending(urb_bridge_t *b)
 {
     if (b->slot_served >= b->slot_count) {
@@ -339,6 +403,62 @@ static void scan_done(urb_bridge_t *b, uint8_t status)
     }
 }
 
+/* Bridge.tla: Serve, for a request to a node. The downlink names what the bus did; the answer is
+ * the status the specification allows for what the bridge knows of the node: NO_NODE only for a
+ * node its presence state calls absent (Discovery.tla: HostRequest), OK or a downlink fault for a
+ * present one. A present node that does not acknowledge its address is probed first (a bit error
+ * or a vanished node: the probe tells). Requests to address 0 complete here unchanged. */
+static void served(urb_bridge_t *b, uint8_t status)
+{
+    urb_bridge_slot_t const *d = oldest_pending(b);
+    if ((d == NULL) || (d->address == URB_BRIDGE_ADDRESS)) {
+        complete(b, status);
+        return;
+    }
+    uint8_t const a = d->address;
+    if (status == URB_STATUS_NO_NODE) {
+#ifndef URB_MUTANT_NO_PROBE
+        if (urb_bridge_present(b, a)) {
+            b->probing = true; /* answered by probed() */
+            return;
+        }
+#endif
+        complete(b, URB_STATUS_NO_NODE);
+        return;
+    }
+    if ((status != URB_STATUS_TIMEOUT) && (status != URB_STATUS_BUS_STUCK)) {
+        set_present(b, a, true); /* it acknowledged its address (the model's NodeAppear, as seen here) */
+    }
+    if (((status == URB_STATUS_BAD_REQUEST) || (status == URB_STATUS_SIZE_MISMATCH)) &&
+        (known_size(b, a, d->mailbox, d->read) >= 0)) {
+        /* admission checked mailbox and length against the node's layout: a NACKed select or data
+         * byte is a corrupted byte (a node that followed the contract would not refuse it) */
+        status = URB_STATUS_CHECKSUM;
+    }
+    complete(b, status);
+}
+
+/* The probe of a present node whose address went unacknowledged. Acknowledged: the request's
+ * address byte or its acknowledge was corrupted, it reached no mailbox: TIMEOUT. Not
+ * acknowledged: the node is gone (the model's NodeVanish, as seen here): absent, and NO_NODE
+ * (Discovery.tla: HostRequest). A fault of the probe itself answers the request. */
+static void probed(urb_bridge_t *b, uint8_t status)
+{
+    urb_bridge_slot_t const *d = oldest_pending(b);
+    b->probing = false;
+    if (d == NULL) {
+        return;
+    }
+    if (status == URB_STATUS_OK) {
+        status = URB_STATUS_TIMEOUT;
+    } else if (status == URB_STATUS_NO_NODE) {
+        set_present(b, d->address, false);
+    } else {
+        /* TIMEOUT or BUS_STUCK: the request was not executed either */
+    }
+    complete(b, status);
+}
+
 /* The downlink reported the outcome of what we asked it to do. */
 static void activity_done(urb_bridge_t *b, uint8_t status)
 {
@@ -346,7 +466,9 @@ static void activity_done(urb_bridge_t *b, uint8_t status)
     b->activity = URBB_ACT_NONE;
     if (act == URBB_ACT_REQUEST) {
         mark(b, URB_MARK_SERVE, false);
-        complete(b, status); /* Bridge.tla: Serve */
+        served(b, status); /* Bridge.tla: Serve */
+    } else if (act == URBB_ACT_PROBE) {
+        probed(b, status);
     } else if (act == URBB_ACT_SCAN) {
         scan_done(b, status);
     } else if (act == URBB_ACT_SYNC) {
@@ -387,6 +509,14 @@ static bool start_sync(urb_bridge_t *b, uint32_t now)
 static void start_next(urb_bridge_t *b, uint32_t now)
 {
     if (start_sync(b, now)) {
+        return;
+    }
+    if (b->probing) {
+        urb_bridge_slot_t const *d = oldest_pending(b);
+        urb_downlink_txn_t t = {URB_DL_PROBE, (d != NULL) ? d->address : 0u, 0u, 0u, 0u, false, NULL};
+        if (b->dl.begin(b->dl.ctx, &t, now)) {
+            b->activity = URBB_ACT_PROBE;
+        }
         return;
     }
     if (b->scanning) {
@@ -503,6 +633,7 @@ int32_t urb_bridge_init(urb_bridge_t *b, const urb_bridge_config_t *cfg, const u
     b->slot_count = 0u;
     b->slot_served = 0u;
     b->activity = URBB_ACT_NONE;
+    b->probing = false;
     b->scanning = false;
     b->scan_for_request = false;
     b->scan_addr = 0u;

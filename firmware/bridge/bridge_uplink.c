@@ -207,16 +207,24 @@ bool urb_bridge_uart_tx_pop(urb_bridge_t *b, uint8_t *byte)
 
 /* UsbUplink.tla: Tick. The batch filled during the frame that ends becomes the one the next IN
  * transfer reads (write n and read n-1 share a frame: two buffers). If the host has not read the
- * previous batch yet, keep filling the current one instead of overwriting it: nothing is lost. */
+ * previous batch yet, keep filling the current one instead of overwriting it: nothing is lost. An
+ * unread previous batch without responses holds nothing to lose (the model's txPrev is empty):
+ * it is replaced, so a host that skips the IN of an idle frame (the paper's Fig. 9 driver reads
+ * only after a write) does not get its next responses a frame late. */
 void urb_bridge_usb_sof(urb_bridge_t *b)
 {
-    if (b->usb_prev_ready) {
+    uint8_t const next = (uint8_t)(b->usb_cur ^ 1u);
+#ifdef URB_MUTANT_USB_KEEP_EMPTY
+    bool const keep = b->usb_prev_ready; /* mutant: an unread empty batch holds the swap back */
+#else
+    bool const keep = b->usb_prev_ready && (b->usb_count[next] != 0u);
+#endif
+    if (keep) {
         b->stats.usb_late_reads++;
 #ifndef URB_MUTANT_USB_OVERWRITE
         return;
 #endif
     }
-    uint8_t const next = (uint8_t)(b->usb_cur ^ 1u);
     b->usb_prev_ready = true;
     b->usb_cur = next;
     b->usb_len[next] = (uint16_t)URB_USB_BATCH_HEADER_MAX_SIZE;

@@ -303,8 +303,10 @@ static int8_t finish(urb_i2c_master_t *m)
         if ((result == URB_STATUS_NO_NODE) || (result == URB_STATUS_BAD_REQUEST)) {
             m->sel[a] = URB_I2C_NO_SELECTION;
         }
+    } else if (m->op == URB_DL_SYNC) {
+        result = URB_STATUS_OK; /* nobody answers a broadcast */
     } else {
-        result = URB_STATUS_OK; /* SYNC: nobody answers a broadcast */
+        /* PROBE: OK or NO_NODE, as the address was acknowledged or not */
     }
     m->phase = PH_IDLE;
     return (int8_t)result;
@@ -359,6 +361,9 @@ static bool master_begin(void *ctx, const urb_downlink_txn_t *t, uint32_t now)
             m->read_after = true;
         }
         m->n_rx = (uint8_t)(m->length + urb_link_check_size(1u + (size_t)m->length));
+    } else if (t->op == URB_DL_PROBE) {
+        m->hdr[0] = (uint8_t)(m->address << 1); /* the address alone, then STOP */
+        m->n_hdr = 1u;
     } else {
         /* SyncBroadcast on the general call address. */
         m->hdr[0] = 0x00u;

@@ -146,11 +146,13 @@ typedef struct {
     uint8_t slot_head, slot_count, slot_served; /* slot_served: slots already served (from head) */
     /* What the downlink is doing for us. */
     uint8_t activity;
+    bool probing;  /* the oldest pending request's node did not acknowledge: probe it, then answer */
     bool scanning, scan_for_request;
     uint8_t scan_addr;
     uint8_t scan_buf[URB_IDENTIFICATION_SIZE];
     /* What the bridge knows about its downlink. */
-    uint8_t present[16];                 /* BridgeScan bitmap, bit a%8 of byte a/8 */
+    uint8_t present[16];                 /* presence (BridgeScan bitmap), bit a%8 of byte a/8: set by the
+                                            scan and when a node answers, cleared when a probe finds it gone */
     uint8_t node_of[128];                /* index + 1 into nodes[], 0 = sizes unknown */
     urb_bridge_node_t nodes[URB_BRIDGE_MAX_NODES];
     /* USB: responses of the current frame, and of the previous one awaiting the IN transfer. */
@@ -203,7 +205,8 @@ size_t urb_bridge_usb_in(urb_bridge_t *b, uint8_t *buf, size_t cap);
 /** The bridge's counters. */
 const urb_bridge_stats_t *urb_bridge_stats(const urb_bridge_t *b);
 
-/** True when the last scan found `address` (the BridgeScan bit). */
+/** True when the bridge holds `address` present (the BridgeScan bit): found by the last scan or
+ *  answering since, and not found gone by a probe since. */
 bool urb_bridge_present(const urb_bridge_t *b, uint8_t address);
 
 /** Requests waiting for their response (admitted, not yet sent). */

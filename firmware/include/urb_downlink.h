@@ -20,6 +20,7 @@
  *      byte (m | 0x80) then the data, so a node that lost its selection (reset) fails it: the
  *      master then reports CHECKSUM and forgets its cached selection.
  *  SYNC:  START, 0x00 (general call, write), 0xA5, counter, STOP, once per heartbeat period.
+ *  Probe: START, a<<1|0, STOP: is node a there (the node sees an empty write and keeps its state).
  *  Any transaction: no completion within the timeout -> TIMEOUT; SDA or SCL held low (before a
  *      transaction or after a fault) -> nine SCL pulses, a STOP, and BUS_STUCK (not executed).
  */
@@ -44,6 +45,8 @@ typedef enum {
     URB_DL_WRITE = 1, /**< Write `length` bytes from `data` into inbox `mailbox` of node `address` */
     URB_DL_SYNC = 2,  /**< Broadcast the heartbeat SYNC carrying `counter` */
     URB_DL_CLEAR = 3, /**< Clear the bus (I2C: nine clocks and a STOP); OK when the bus is free after */
+    URB_DL_PROBE = 4, /**< Address node `address` alone (I2C: START, address + W, STOP): OK when it
+                           acknowledges, NO_NODE when not; the node's mailboxes are not touched */
 } urb_dl_op_t;
 
 /** One downlink transaction. `data` must stay valid until the downlink reports the outcome. */

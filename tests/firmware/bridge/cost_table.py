@@ -58,7 +58,15 @@ def loop_bounds() -> tuple[list[tuple[str, int, str, str]], list[str]]:
             if fm and not line.startswith((" ", "\t", "#", "/", "*")):
                 func = fm.group(1)
             if LOOP_RE.match(line):
-                window = "\n".join(lines[max(0, i - 2):i + 1])
+                # an ACSL loop annotation (/*@ ... */) sits right above its loop: look above it
+                top = i
+                if i > 0 and lines[i - 1].rstrip().endswith("*/"):
+                    k = i - 1
+                    while k > 0 and "/*" not in lines[k]:
+                        k -= 1
+                    if "/*@" in lines[k]:
+                        top = k
+                window = "\n".join(lines[max(0, top - 2):i + 1])
                 bm = BOUND_RE.search(window)
                 rel = f"{path.relative_to(ROOT)}:{i + 1}"
                 if bm:

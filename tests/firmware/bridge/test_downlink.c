@@ -41,13 +41,15 @@ static void request(urb_hosted_rig_t *r, bool read, uint8_t mailbox, uint8_t seq
     assert_true(urb_hosted_rig_settle(r, 50000u));
 }
 
-/* Write NACKed at each position: address, select, first data byte, later data bytes, check. */
+/* Write to a present node of known layout NACKed once at each position (a corrupted byte or
+ * acknowledge): address (the probe finds the node: TIMEOUT), select and data bytes (admission
+ * checked them: CHECKSUM), first data byte (NODE_BUSY), check. Bridge.tla: Serve allows nothing
+ * else for a present node; nothing was stored. */
 static void write_nack_positions(void **state)
 {
     urb_hosted_rig_t *r = *state;
-    uint8_t const expected[] = {URB_STATUS_NO_NODE,       URB_STATUS_BAD_REQUEST,   URB_STATUS_NODE_BUSY,
-                                URB_STATUS_SIZE_MISMATCH, URB_STATUS_SIZE_MISMATCH, URB_STATUS_SIZE_MISMATCH,
-                                URB_STATUS_CHECKSUM};
+    uint8_t const expected[] = {URB_STATUS_TIMEOUT,  URB_STATUS_CHECKSUM, URB_STATUS_NODE_BUSY, URB_STATUS_CHECKSUM,
+                                URB_STATUS_CHECKSUM, URB_STATUS_CHECKSUM, URB_STATUS_CHECKSUM};
     /* inbox 1 holds 4 bytes: positions 0 address, 1 select, 2..5 data, 6 check */
     for (uint8_t pos = 0u; pos < 7u; pos++) {
         node(r)->nack_at = pos;
@@ -62,6 +64,7 @@ static void write_nack_positions(void **state)
     expect_response(&s, 7u, URB_STATUS_OK, 0u, NULL);
     expect_end(&s);
     assert_int_equal(node(r)->writes[1], 1u); /* only the last write was stored */
+    assert_true(urb_bridge_present(&r->bridge, NODE));
 }
 
 /* A node whose both inbox buffers are taken refuses the first data byte: NODE_BUSY. */
@@ -78,7 +81,8 @@ static void inbox_busy_is_node_busy(void **state)
     expect_end(&s);
 }
 
-/* Read NACKed at the address, at the select; a corrupted read fails its check. */
+/* Read of a present node NACKed once at the address (probe: TIMEOUT), at the select (CHECKSUM);
+ * a corrupted read fails its check. */
 static void read_failures(void **state)
 {
     urb_hosted_rig_t *r = *state;
@@ -93,10 +97,59 @@ static void read_failures(void **state)
     node(r)->corrupt_read = false;
     request(r, true, 1u, 4u, 4u);
     stream_t s = rs232_stream(r);
-    expect_response(&s, 1u, URB_STATUS_NO_NODE, 0u, NULL);
-    expect_response(&s, 2u, URB_STATUS_BAD_REQUEST, 0u, NULL);
+    expect_response(&s, 1u, URB_STATUS_TIMEOUT, 0u, NULL);
+    expect_response(&s, 2u, URB_STATUS_CHECKSUM, 0u, NULL);
     expect_response(&s, 3u, URB_STATUS_CHECKSUM, 0u, NULL);
     expect_response(&s, 4u, URB_STATUS_OK, 4u, NULL);
+    expect_end(&s);
+}
+
+/* A present node that stops acknowledging: the probe after the NACKed address finds it gone, the
+ * request gets NO_NODE at once (Discovery.tla: HostRequest) and the node counts as absent, so the
+ * next request gets NO_NODE without a probe. Back on the bus, its first answer makes it present
+ * again, and a corrupted address is a TIMEOUT once more. */
+static void vanished_node_is_probed(void **state)
+{
+    urb_hosted_rig_t *r = *state;
+    node(r)->present = false;
+    uint32_t const s0 = r->bus.starts;
+    request(r, true, 1u, 1u, 4u);
+    assert_int_equal(r->bus.starts, s0 + 2u); /* the select's address NACKed, then the probe */
+    assert_false(urb_bridge_present(&r->bridge, NODE));
+    request(r, false, 1u, 2u, 4u);
+    assert_int_equal(r->bus.starts, s0 + 3u); /* absent: no probe */
+    node(r)->present = true;
+    request(r, true, 1u, 3u, 4u);
+    assert_true(urb_bridge_present(&r->bridge, NODE));
+    node(r)->nack_at = 0;
+    node(r)->nack_once = true;
+    request(r, false, 1u, 4u, 4u);
+    stream_t s = rs232_stream(r);
+    expect_response(&s, 1u, URB_STATUS_NO_NODE, 0u, NULL);
+    expect_response(&s, 2u, URB_STATUS_NO_NODE, 0u, NULL);
+    expect_response(&s, 3u, URB_STATUS_OK, 4u, NULL);
+    expect_response(&s, 4u, URB_STATUS_TIMEOUT, 0u, NULL);
+    expect_end(&s);
+    assert_int_equal(node(r)->writes[1], 0u);
+}
+
+/* A node the scan did not find (layout unknown) keeps the downlink's own statuses: its refused
+ * select is BAD_REQUEST, a byte beyond its inbox SIZE_MISMATCH, its silence NO_NODE. */
+static void unknown_layout_keeps_downlink_statuses(void **state)
+{
+    urb_hosted_rig_t *r = *state;
+    uint8_t f[40];
+    uint8_t const payload[8] = {0};
+    urb_fake_node_t *late = add_node(r, 0x21u, 0x43u, 0u, 2u, 2u); /* after the scan */
+    send_frame(r, f, enc_read(f, 0x21u, 3u, 1u, 2u));              /* outbox 3 unused */
+    send_frame(r, f, enc_write(f, 0x21u, 1u, 2u, 8u, payload));    /* inbox 1 holds 2 bytes */
+    late->present = false;
+    send_frame(r, f, enc_read(f, 0x21u, 1u, 3u, 2u));
+    assert_true(urb_hosted_rig_settle(r, 50000u));
+    stream_t s = rs232_stream(r);
+    expect_response(&s, 1u, URB_STATUS_BAD_REQUEST, 0u, NULL);
+    expect_response(&s, 2u, URB_STATUS_SIZE_MISMATCH, 0u, NULL);
+    expect_response(&s, 3u, URB_STATUS_NO_NODE, 0u, NULL);
     expect_end(&s);
 }
 
@@ -341,6 +394,8 @@ int run_downlink_tests(void)
         cmocka_unit_test_setup_teardown(write_nack_positions, setup, teardown),
         cmocka_unit_test_setup_teardown(inbox_busy_is_node_busy, setup, teardown),
         cmocka_unit_test_setup_teardown(read_failures, setup, teardown),
+        cmocka_unit_test_setup_teardown(vanished_node_is_probed, setup, teardown),
+        cmocka_unit_test_setup_teardown(unknown_layout_keeps_downlink_statuses, setup, teardown),
         cmocka_unit_test_setup_teardown(selection_cache, setup, teardown),
         cmocka_unit_test_setup_teardown(node_reset_between_reads, setup, teardown),
         cmocka_unit_test_setup_teardown(node_reset_mid_transaction, setup, teardown),

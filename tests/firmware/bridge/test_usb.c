@@ -151,6 +151,29 @@ static void late_read_loses_nothing(void **state)
     assert_int_equal(urb_bridge_usb_in(&r->bridge, in, sizeof in), 0u); /* read once only */
 }
 
+/* UsbUplink.tla: Tick. The host skips the IN of an idle frame (the unread batch is empty): the
+ * next SOF still swaps, and the responses of the following batch come in the very next IN. */
+static void empty_unread_batch_is_replaced(void **state)
+{
+    urb_hosted_rig_t *r = *state;
+    uint8_t in[512];
+    batch_t b = {.count = 0u};
+    add_read(&b, 1u, 1u, 4u);
+    urb_bridge_usb_sof(&r->bridge); /* frame 0: idle, nobody reads its empty batch */
+    urb_hosted_rig_run(r, 1000u);
+    urb_bridge_usb_sof(&r->bridge); /* frame 1: the host writes, still without an IN */
+    uint8_t buf[512];
+    size_t len = usb_batch(buf, 1u, b.ptrs, b.lens, b.count);
+    assert_true(urb_bridge_usb_out(&r->bridge, buf, len));
+    urb_hosted_rig_run(r, 1000u);
+    size_t got = frame(r, 2u, NULL, in); /* frame 2: the SOF swaps, the IN carries batch 1 */
+    assert_int_equal(urb_bridge_stats(&r->bridge)->usb_late_reads, 0u);
+    assert_int_equal(batch_frame(in), 1u);
+    stream_t s = {in + 4, got - 4u, 0u};
+    expect_response(&s, 1u, URB_STATUS_OK, 4u, NULL);
+    expect_end(&s);
+}
+
 /* A bad batch header drops the transfer; a damaged packet inside a batch is not answered but the
  * others are; a packet cut by the end of the transfer is dropped. */
 static void bad_batches(void **state)
@@ -212,6 +235,7 @@ int run_usb_tests(void)
         cmocka_unit_test_setup_teardown(pipelined_batches, setup, teardown),
         cmocka_unit_test_setup_teardown(full_batch_spills_in_order, setup, teardown),
         cmocka_unit_test_setup_teardown(late_read_loses_nothing, setup, teardown),
+        cmocka_unit_test_setup_teardown(empty_unread_batch_is_replaced, setup, teardown),
         cmocka_unit_test_setup_teardown(bad_batches, setup, teardown),
         cmocka_unit_test_setup_teardown(rs232_and_usb_together, setup, teardown),
     };
