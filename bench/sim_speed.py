@@ -11,10 +11,17 @@
   2. Scaling: wall time per simulated second with 1, 3, 9, 30 and 60 probe nodes (up to 20 per
      USB bridge, each read at 100 Hz by the native host), SYNC and heartbeats at 1 kHz.
 
-    python3 bench/sim_speed.py            # prints the tables, writes build/sim/bench/sim_speed.json
-    python3 bench/sim_speed.py --quick    # shorter runs
+    python3 bench/sim_speed.py                # prints the tables, writes build/sim/bench/sim_speed.json
+    python3 bench/sim_speed.py --quick        # shorter runs
+    python3 bench/sim_speed.py --fingerprint  # only the behaviour fingerprint (see below)
 
-Goal (issue 6): at least 100x real time for 1a.
+Goal (issue 6): at least 100x real time for 1a. Ratios are simulated seconds per CPU second of this
+process; the host-library run also says how its CPU time splits between the C world (urbsim_run)
+and Python (the host library and its codecs).
+
+A speed-up must not change what is simulated: `--fingerprint` prints the trace hash (every trace
+category) and event count of 0.4 s of scenario 1a with seed 1. Compare it before and after an
+optimisation; it changes only when the simulated behaviour does (or the firmware under test does).
 """
 
 from __future__ import annotations
@@ -28,7 +35,9 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "sim"))
 
-from urb_sim.native import USB, RS232, App, World  # noqa: E402
+from urb_sim.native import USB, RS232, App, Trace, World  # noqa: E402
+
+GOAL = 100.0  #: x real time for scenario 1a (issue 6)
 
 
 def clock() -> float:
@@ -47,7 +56,8 @@ def run_world(w: World, seconds: float) -> float:
     return clock() - t0
 
 
-def sensorhex_native(seconds: float, seed: int = 1) -> dict[str, float]:
+def sensorhex_world(seed: int) -> World:
+    """Scenario 1a, built and not yet started."""
     w = World(seed)
     u = [w.add_bridge(USB), w.add_bridge(USB)]
     rs = w.add_bridge(RS232)
@@ -65,6 +75,24 @@ def sensorhex_native(seconds: float, seed: int = 1) -> dict[str, float]:
     w.native_request(rs, 0x30, 1, True, 19)
     w.native_request(rs, 0x31, 1, True, 14)
     w.native_request(rs, 0x32, 1, True, 4)
+    return w
+
+
+def fingerprint(seed: int = 1, seconds: float = 0.4) -> dict[str, int]:
+    """Trace hash (all categories), trace lines and events of scenario 1a: equal before and after
+    any optimisation that keeps the simulated behaviour."""
+    w = sensorhex_world(seed)
+    w.trace(None, Trace.ALL)
+    w.start()
+    run_world(w, seconds)
+    out = {"trace_hash": w.trace_hash, "trace_lines": w.trace_lines, "events": w.events}
+    w.close()
+    return out
+
+
+def sensorhex_native(seconds: float, seed: int = 1) -> dict[str, float]:
+    w = sensorhex_world(seed)
+    u, rs = [0, 1], 2
     w.start()
     run_world(w, 0.2)
     e0, w0 = w.events, time.perf_counter()
@@ -105,10 +133,24 @@ def sensorhex_python(seconds: float, seed: int = 1) -> dict[str, float]:
                 n.submit_request(n.new_request().read(1))
 
     Loop(s.host, NS_PER_MS, tick, count=int(seconds * 1000))
+    # Time spent inside the C world, measured around every urbsim_run call of this world.
+    world, in_c, runs = s.world, [0.0], [0]
+    run_c = world.run
+
+    def timed_run(limit_ns: int) -> bool:
+        t = clock()
+        try:
+            return run_c(limit_ns)
+        finally:
+            in_c[0] += clock() - t
+            runs[0] += 1
+
+    world.run = timed_run  # type: ignore[method-assign]
     e0, t0, w0 = s.world.events, clock(), time.perf_counter()
     s.host.advance(int(seconds * 1e9))
     cpu, wall = clock() - t0, time.perf_counter() - w0
-    out = {"sim_s": seconds, "cpu_s": cpu, "wall_s": wall, "speed": seconds / cpu, "events": s.world.events - e0}
+    out = {"sim_s": seconds, "cpu_s": cpu, "wall_s": wall, "speed": seconds / cpu, "events": s.world.events - e0,
+           "c_share": in_c[0] / cpu, "runs_per_sim_s": runs[0] / seconds}
     s.close()
     return out
 
@@ -138,20 +180,27 @@ def scaling(n_nodes: int, seconds: float, seed: int = 1) -> dict[str, float]:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="shorter runs")
+    ap.add_argument("--fingerprint", action="store_true", help="print the behaviour fingerprint only")
     ap.add_argument("--out", type=Path, default=REPO / "build" / "sim" / "bench" / "sim_speed.json")
     args = ap.parse_args(argv)
+    fp = fingerprint()
+    print(f"fingerprint (scenario 1a, seed 1, 0.4 s, all trace categories): trace hash {fp['trace_hash']:016x}, "
+          f"{fp['trace_lines']} lines, {fp['events']} events")
+    if args.fingerprint:
+        return 0
     secs = 2.0 if args.quick else 10.0
-    results: dict[str, object] = {}
-    print("SensoRHex scenario (Fig. 14; motors at 1 kHz, sensors at 100 Hz), one core:")
+    results: dict[str, object] = {"fingerprint": fp}
+    print("\nSensoRHex scenario (Fig. 14; motors at 1 kHz, sensors at 100 Hz), one core:")
     nat = sensorhex_native(secs)
     results["sensorhex_native"] = nat
-    print(f"  native host model : {nat['speed']:8.1f} x real time  ({nat['events'] / nat['sim_s']:,.0f} events per "
-          f"simulated s, {nat['ns_per_event']:.0f} ns per event)   goal >= 100 x: "
-          f"{'met' if nat['speed'] >= 100 else 'NOT met'}")
+    print(f"  native host model : {nat['speed']:8.1f} x real time = {nat['speed'] / GOAL:.2f} x the {GOAL:.0f} x goal "
+          f"({'met' if nat['speed'] >= GOAL else 'NOT met'}; {nat['events'] / nat['sim_s']:,.0f} events per "
+          f"simulated s, {nat['ns_per_event']:.0f} ns per event)")
     py = sensorhex_python(secs / 4)
     results["sensorhex_python"] = py
-    print(f"  host library      : {py['speed']:8.1f} x real time  (SimManager + URBInterface in Python, "
-          f"{py['events'] / py['sim_s']:,.0f} events per simulated s)")
+    print(f"  host library      : {py['speed']:8.1f} x real time = {py['speed'] / GOAL:.2f} x the goal (SimManager + "
+          f"URBInterface in Python; {py['c_share']:.0%} of the CPU time in the C world, the rest in Python; "
+          f"{py['runs_per_sim_s']:,.0f} urbsim_run calls per simulated s)")
     print("\nScaling (probe nodes read at 100 Hz by the native host, 20 per USB bridge):")
     print(f"  {'nodes':>5} {'bridges':>7} {'CPU s per sim s':>16} {'x real time':>12} {'events/sim s':>14}")
     rows = []

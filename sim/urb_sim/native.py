@@ -156,6 +156,10 @@ class World:
             raise MemoryError("urbsim_new failed")
         self.seed = seed
         self._buf = (c_uint8 * 1024)()
+        # Virtual time and the host clock only move in run() (and start()); the host library asks
+        # for the clock ~60 times per simulated ms, so both are read once per instant, not per call.
+        self._now: int | None = None
+        self._local: int | None = None
         self._marks_t = (c_uint64 * 8192)()
         self._marks_v = (c_uint32 * 8192)()
 
@@ -198,17 +202,21 @@ class World:
             raise OSError(f"cannot open trace file {path}")
 
     def start(self) -> None:
+        self._now = self._local = None
         if self._lib.urbsim_start(self._w) != 0:
             raise RuntimeError("the world was started already")
 
     # -- running ----------------------------------------------------------------------------
     def run(self, limit_ns: int) -> bool:
         """Run to `limit_ns` or the next host wake-up (True)."""
+        self._now = self._local = None
         return bool(self._lib.urbsim_run(self._w, limit_ns) == 1)
 
     @property
     def now(self) -> int:
-        return int(self._lib.urbsim_now(self._w))
+        if self._now is None:
+            self._now = int(self._lib.urbsim_now(self._w))
+        return self._now
 
     @property
     def events(self) -> int:
@@ -227,7 +235,9 @@ class World:
 
     # -- host CPU ---------------------------------------------------------------------------
     def host_local(self) -> int:
-        return int(self._lib.urbsim_host_local(self._w))
+        if self._local is None:
+            self._local = int(self._lib.urbsim_host_local(self._w))
+        return self._local
 
     def host_timer(self, local_ns: int) -> int:
         return int(self._lib.urbsim_host_timer(self._w, local_ns))
