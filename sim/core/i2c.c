@@ -1,4 +1,6 @@
-/* i2c.c: byte-timed I2C bus with clock stretching, general call and line faults. See i2c.h. */
+/* i2c.c: byte-timed I2C bus with clock stretching, general call and line faults. See i2c.h.
+ * The per-byte trace calls test their category first: urbsim_trace is variadic, so it is never
+ * inlined, and a call per byte costs more than the byte's bookkeeping when tracing is off. */
 #include "i2c.h"
 
 #include <math.h>
@@ -238,7 +240,9 @@ static void ev_done(void *ctx, uint64_t arg, urbsim_ns_t now)
     b->op_kind = -1;
     switch (kind) {
     case OP_START:
-        urbsim_trace(b->tr, URBSIM_TR_BUS, now, b->name, "start", "%s", "");
+        if (urbsim_trace_on(b->tr, URBSIM_TR_BUS)) {
+            urbsim_trace(b->tr, URBSIM_TR_BUS, now, b->name, "start", "%s", "");
+        }
         b->master(b->master_ctx, URBSIM_I2C_START, 0, now);
         break;
     case OP_WRITE: {
@@ -246,7 +250,9 @@ static void ev_done(void *ctx, uint64_t arg, urbsim_ns_t now)
         if (sda_stuck(b, now)) {
             ack = true; /* SDA low during the ACK bit reads as ACK */
         }
-        urbsim_trace(b->tr, URBSIM_TR_BUS, now, b->name, "w", ",\"byte\":%u,\"ack\":%u", b->op_byte, ack ? 1u : 0u);
+        if (urbsim_trace_on(b->tr, URBSIM_TR_BUS)) {
+            urbsim_trace(b->tr, URBSIM_TR_BUS, now, b->name, "w", ",\"byte\":%u,\"ack\":%u", b->op_byte, ack ? 1u : 0u);
+        }
         if (b->addressing && b->read_mode && ack) {
             request_tx(b, now);
         }
@@ -260,8 +266,10 @@ static void ev_done(void *ctx, uint64_t arg, urbsim_ns_t now)
         }
         b->op_byte = wire(b, byte, &b->ack_flip);
         bool seen_ack = b->master_ack != b->ack_flip;
-        urbsim_trace(b->tr, URBSIM_TR_BUS, now, b->name, "r", ",\"byte\":%u,\"ack\":%u", b->op_byte,
-                     b->master_ack ? 1u : 0u);
+        if (urbsim_trace_on(b->tr, URBSIM_TR_BUS)) {
+            urbsim_trace(b->tr, URBSIM_TR_BUS, now, b->name, "r", ",\"byte\":%u,\"ack\":%u", b->op_byte,
+                         b->master_ack ? 1u : 0u);
+        }
         if (seen_ack) {
             request_tx(b, now);
         } else {
@@ -397,7 +405,9 @@ void urbsim_i2c_stop(urbsim_i2c_bus_t *b)
     b->ready_at = t_end;
     b->bus_free_at = t_end + b->t_buf;
     b->op_kind = -1;
-    urbsim_trace(b->tr, URBSIM_TR_BUS, t_end, b->name, "stop", "%s", "");
+    if (urbsim_trace_on(b->tr, URBSIM_TR_BUS)) {
+        urbsim_trace(b->tr, URBSIM_TR_BUS, t_end, b->name, "stop", "%s", "");
+    }
 }
 
 void urbsim_i2c_abort(urbsim_i2c_bus_t *b)

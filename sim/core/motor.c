@@ -43,6 +43,8 @@ void urbsim_motor_init(urbsim_motor_t *m, const urbsim_motor_params_t *p, const 
     m->rng = *rng;
     m->temp = p->T_amb;
     m->pwm_phase0 = urbsim_rng_uniform(&m->rng);
+    m->exp_arg = 0.0;
+    m->exp_val = 1.0; /* exp(0) */
 }
 
 /* One integration step of dt seconds with the drive voltage held. */
@@ -52,7 +54,12 @@ static void step(urbsim_motor_t *m, double dt)
     /* Current: exact solution of the first-order electrical equation with w held. */
     double a = p->R / p->L;
     double i_ss = (m->v - p->Ke * m->w) / p->R;
-    double e = exp(-a * dt);
+    double x = -a * dt;
+    if (x != m->exp_arg) {
+        m->exp_arg = x;
+        m->exp_val = exp(x);
+    }
+    double e = m->exp_val;
     double i_end = i_ss + (m->i - i_ss) * e;
     double i_avg = i_ss + (m->i - i_ss) * (1.0 - e) / (a * dt);
     /* Mechanics: semi-implicit Euler with the step's mean current. */

@@ -50,6 +50,8 @@ typedef struct {
     double i, w, theta, temp;   /**< current, speed, motor angle (rad), case temperature */
     double v;                   /**< commanded average armature voltage (clamped to +-Vs) */
     double pwm_phase0;          /**< PWM counter phase at t = 0, in periods */
+    double exp_arg, exp_val;    /**< the last exp() of the current step: nearly every step has the
+                                     same length, so it is computed once per motor, not per step */
 } urbsim_motor_t;
 
 /** SensoRHex hip defaults (see motor.c for the sources of the numbers). */

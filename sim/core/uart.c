@@ -99,7 +99,9 @@ static void ev_received(void *ctx, uint64_t arg, urbsim_ns_t now)
         urbsim_trace(u->tr, URBSIM_TR_FAULT, now, u->name, "byte_corrupt", ",\"sent\":%u,\"got\":%u,\"framing\":%u",
                      (unsigned)(arg & 0xFFu), byte, (flags & URBSIM_UART_FRAMING) ? 1u : 0u);
     }
-    urbsim_trace(u->tr, URBSIM_TR_BUS, now, u->name, "rx", ",\"byte\":%u", byte);
+    if (urbsim_trace_on(u->tr, URBSIM_TR_BUS)) { /* per byte: skip the variadic call when off */
+        urbsim_trace(u->tr, URBSIM_TR_BUS, now, u->name, "rx", ",\"byte\":%u", byte);
+    }
     u->delivered++;
     if (u->rx) {
         u->rx(u->rx_ctx, byte, flags & URBSIM_UART_FRAMING, now);
@@ -128,7 +130,9 @@ static void start_next(urbsim_uart_line_t *u, urbsim_ns_t now)
     u->shifting = true;
     u->sent++;
     uint64_t g = u->gen & 0x7FFFFFFFFFFFFFull;
-    urbsim_trace(u->tr, URBSIM_TR_BUS, now, u->name, "tx", ",\"byte\":%u", byte);
+    if (urbsim_trace_on(u->tr, URBSIM_TR_BUS)) {
+        urbsim_trace(u->tr, URBSIM_TR_BUS, now, u->name, "tx", ",\"byte\":%u", byte);
+    }
     urbsim_kernel_at(u->k, now + bits_ns(u, now, 9.5), ev_received, u, ARG(g, 0, byte));
     urbsim_kernel_at(u->k, now + bits_ns(u, now, 10.0), ev_free, u, ARG(g, 1, 0));
     if (u->q_len == 0u && u->on_txe) {
