@@ -31,7 +31,8 @@ FWN_CROSS_SIZE ?= arm-none-eabi-size
 FWN_CROSS_FLAGS := -mcpu=cortex-m0plus -mthumb -Os -ffunction-sections -fdata-sections
 FWN_PYTHON ?= python3
 
-FWN_LIB_SRC := firmware/node/urb_mailbox.c firmware/node/urb_i2c.c firmware/node/urb_pll.c firmware/node/urb_node.c
+FWN_LIB_SRC := firmware/node/urb_mailbox.c firmware/node/urb_i2c.c firmware/node/urb_pll.c firmware/node/urb_node.c \
+               firmware/node/urb_observe.c
 FWN_GEN_SRC := gen/c/urb_runtime.c gen/c/urb_core.c gen/c/urb_sensorhex.c
 FWN_HOSTED_SRC := firmware/hal/hosted/urb_hal_hosted.c
 FWN_APPS := motor battery imu ir

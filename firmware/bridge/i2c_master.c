@@ -75,6 +75,31 @@ uint8_t urb_i2c_master_selection(const urb_i2c_master_t *m, uint8_t address)
     return m->sel[address & 0x7Fu];
 }
 
+bool urb_i2c_master_busy(const urb_i2c_master_t *m)
+{
+    uint8_t const ph = m->phase;
+    return (ph >= PH_START) && (ph <= PH_RX);
+}
+
+bool urb_i2c_master_deadline(const urb_i2c_master_t *m, uint32_t *deadline_us)
+{
+    if (!urb_i2c_master_busy(m)) {
+        return false;
+    }
+    *deadline_us = m->t0 + m->cfg.timeout_us + 1u; /* poll() times out once now - t0 > timeout_us */
+    return true;
+}
+
+uint32_t urb_i2c_master_timeouts(const urb_i2c_master_t *m)
+{
+    return m->timeouts;
+}
+
+uint32_t urb_i2c_master_bus_clears(const urb_i2c_master_t *m)
+{
+    return m->bus_clears;
+}
+
 /* Byte `pos` of the write sequence: header (address, select), data, check. */
 static uint8_t tx_byte(const urb_i2c_master_t *m, uint8_t pos)
 {

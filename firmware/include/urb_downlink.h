@@ -135,6 +135,19 @@ void urb_i2c_master_event(urb_i2c_master_t *m, urb_i2c_event_t ev, uint8_t byte)
 /** The cached selected outbox of `address` (URB_I2C_NO_SELECTION when unknown); for tests. */
 uint8_t urb_i2c_master_selection(const urb_i2c_master_t *m, uint8_t address);
 
+/** True while a transaction waits for bus events (START .. last byte; not during a bus clear). */
+bool urb_i2c_master_busy(const urb_i2c_master_t *m);
+
+/** While busy: true, and *deadline_us = the now_us from which poll() reports TIMEOUT (begin time +
+ *  timeout_us + 1, modulo 2^32); a port that sleeps between events must poll by then. */
+bool urb_i2c_master_deadline(const urb_i2c_master_t *m, uint32_t *deadline_us);
+
+/** Transactions that timed out since init. */
+uint32_t urb_i2c_master_timeouts(const urb_i2c_master_t *m);
+
+/** Bus clears performed since init. */
+uint32_t urb_i2c_master_bus_clears(const urb_i2c_master_t *m);
+
 #ifdef __cplusplus
 }
 #endif

@@ -337,6 +337,50 @@ void urb_node_sync_status(const urb_node_t *node, urb_node_sync_status_t *out);
 /** True when the heartbeat is locked to the downlink SYNC (Identification.synced). */
 bool urb_node_synced(const urb_node_t *node);
 
+/* ===== Observation (telemetry, tests, the simulation's trace observers) =================== */
+/* Read-only views of state the interrupt side may change right after the call: call them from
+ * the interrupt context itself, or treat the values as a snapshot. */
+
+/** True when a heartbeat made app_update due and urb_node_poll has not run it yet. */
+bool urb_node_update_due(const urb_node_t *node);
+
+/** Downlink (I2C slave) transaction phase. */
+typedef enum {
+    URB_NODE_DL_IDLE = 0,        /**< no transaction: bytes are NACKed, reads return 0xFF */
+    URB_NODE_DL_SELECT = 1,      /**< addressed for writing: the next byte is MailboxSelect */
+    URB_NODE_DL_WRITE = 2,       /**< receiving the data of inbox `mailbox` */
+    URB_NODE_DL_WRITE_CHECK = 3, /**< receiving the check of that write */
+    URB_NODE_DL_WRITE_DONE = 4,  /**< size + check bytes received, check passed: commit at STOP or repeated START */
+    URB_NODE_DL_SELECTED = 5,    /**< a read select was received: nothing more expected */
+    URB_NODE_DL_READ = 6,        /**< sending outbox `mailbox` */
+    URB_NODE_DL_SYNC = 7,        /**< general call: SYNC magic, then counter */
+    URB_NODE_DL_IGNORE = 8       /**< refused or finished: NACK until STOP or START */
+} urb_node_dl_phase_t;
+
+/** The downlink transaction in progress (urb_node_downlink). */
+typedef struct {
+    urb_node_dl_phase_t phase; /**< see urb_node_dl_phase_t */
+    uint8_t mailbox;           /**< inbox being written (WRITE..WRITE_DONE) or outbox being read (READ) */
+    uint8_t count;             /**< bytes after the select byte (WRITE..), or in READ the index of the byte
+                                    the next TX_BYTE sends (data 0..size-1, then the check) */
+} urb_node_downlink_t;
+
+/** Copies the downlink transaction state into *out. */
+void urb_node_downlink(const urb_node_t *node, urb_node_downlink_t *out);
+
+#define URB_NODE_NO_BUFFER 2u /**< urb_node_buffers_t: no buffer (the NONE of the TLA+ mailbox models) */
+
+/** Buffer indices (0, 1 or URB_NODE_NO_BUFFER) of a double-buffered mailbox (MailboxInbox.tla). */
+typedef struct {
+    uint8_t front; /**< latest committed buffer */
+    uint8_t isr;   /**< buffer the interrupt is filling */
+    uint8_t app;   /**< buffer the application claims or holds */
+} urb_node_buffers_t;
+
+/** Copies the buffer indices of inbox n into *out; false (nothing copied) when n is out of range
+ *  or the inbox is not set up. */
+bool urb_node_inbox_buffers(const urb_node_t *node, uint8_t n, urb_node_buffers_t *out);
+
 #ifdef __cplusplus
 }
 #endif

@@ -3,7 +3,7 @@
  *
  * Files: urb_mailbox.c (the two TLA+ mailbox algorithms), urb_i2c.c (downlink byte state
  * machine), urb_pll.c (heartbeat timer and SYNC PLL), urb_node.c (lifecycle, main loop, inbox 0
- * commands, outbox 0 identification, faults).
+ * commands, outbox 0 identification, faults), urb_observe.c (read-only views).
  */
 #ifndef URB_NODE_INTERNAL_H
 #define URB_NODE_INTERNAL_H
@@ -11,7 +11,7 @@
 #include "urb_node.h"
 
 /* "No buffer": the NONE of MailboxInbox.tla / MailboxOutbox.tla (fits the uint8_t indices). */
-#define URB_NONE 2u
+#define URB_NONE URB_NODE_NO_BUFFER
 
 /* Compiler barrier. The index variables are volatile, so the compiler keeps their accesses in
  * program order, but it may move plain buffer accesses across them; the barrier pins the data
@@ -54,17 +54,17 @@ void urb_node_test_step(urb_node_t *node, uint8_t step);
 #define URB_F_ACQ_MARKED 0x20u /* this update's acquisition end is marked */
 #define URB_F_ACQ_VALID 0x40u  /* this update started on time: its mark is measured */
 
-/* I2C downlink states (urb_node_i2c_t.state). */
+/* I2C downlink states (urb_node_i2c_t.state): the public phases (urb_node_dl_phase_t). */
 enum {
-    URB_I2C_ST_IDLE = 0,    /* no transaction: bytes are NACKed, reads return 0xFF */
-    URB_I2C_ST_SELECT = 1,  /* addressed for writing: the next byte is MailboxSelect */
-    URB_I2C_ST_DATA = 2,    /* receiving data of inbox `mailbox` */
-    URB_I2C_ST_CHECK = 3,   /* receiving the check */
-    URB_I2C_ST_DONE = 4,    /* size + check bytes received, check passed: commit at STOP/restart */
-    URB_I2C_ST_SELECTED = 5, /* read select received: nothing more expected */
-    URB_I2C_ST_READ = 6,    /* sending outbox `mailbox` */
-    URB_I2C_ST_SYNC = 7,    /* general call: SYNC magic, then counter */
-    URB_I2C_ST_IGNORE = 8   /* refused or finished: NACK until STOP/START */
+    URB_I2C_ST_IDLE = URB_NODE_DL_IDLE,         /* no transaction: bytes are NACKed, reads return 0xFF */
+    URB_I2C_ST_SELECT = URB_NODE_DL_SELECT,     /* addressed for writing: the next byte is MailboxSelect */
+    URB_I2C_ST_DATA = URB_NODE_DL_WRITE,        /* receiving data of inbox `mailbox` */
+    URB_I2C_ST_CHECK = URB_NODE_DL_WRITE_CHECK, /* receiving the check */
+    URB_I2C_ST_DONE = URB_NODE_DL_WRITE_DONE,   /* size + check bytes received, check passed: commit at STOP/restart */
+    URB_I2C_ST_SELECTED = URB_NODE_DL_SELECTED, /* read select received: nothing more expected */
+    URB_I2C_ST_READ = URB_NODE_DL_READ,         /* sending outbox `mailbox` */
+    URB_I2C_ST_SYNC = URB_NODE_DL_SYNC,         /* general call: SYNC magic, then counter */
+    URB_I2C_ST_IGNORE = URB_NODE_DL_IGNORE      /* refused or finished: NACK until STOP/START */
 };
 
 /* ----- mailbox algorithms (urb_mailbox.c) ----- */

@@ -131,12 +131,11 @@ static void i2c_release(void *ctx)
     b->i2c_gen++;
 }
 
-/* A transaction is in progress on the master (phases 1..5 of firmware/bridge/i2c_master.c): its
- * main loop has nothing to do after a byte (timeouts are covered by the busy poll). Reads a
- * private field; see the report's interface requests. */
+/* A transaction is in progress on the master: its main loop has nothing to do after a byte
+ * (timeouts are covered by the busy poll). */
 static bool master_mid_transaction(const sim_bridge_t *b)
 {
-    return b->master.phase >= 1u && b->master.phase <= 5u;
+    return urb_i2c_master_busy(&b->master);
 }
 
 /* The simulated bus's completion (URBSIM_I2C_*) as the firmware's event. */
@@ -421,13 +420,14 @@ static void bridge_event(void *ctx, uint64_t arg, urbsim_ns_t now)
         if (!urb_bridge_idle(&b->br)) {
             /* Busy: the real main loop keeps iterating. Iterations only matter when they can act:
              * every half clock of a bit-banged bus clear; during a transaction, only when its
-             * timeout expires (master.t0 + timeout_us, bridge clock; private fields, see the
-             * report); otherwise every busy_poll_us. */
+             * timeout expires (urb_i2c_master_deadline, bridge clock); otherwise every
+             * busy_poll_us. */
             urbsim_ns_t at;
+            uint32_t deadline_us = 0u;
             if (b->bus.bitbang) {
                 at = now + (urbsim_ns_t)b->mcfg.clear_half_us * 1000u;
-            } else if (master_mid_transaction(b)) {
-                double deadline = ((double)b->master.t0 + (double)b->master.cfg.timeout_us + 1.0) * 1000.0;
+            } else if (urb_i2c_master_deadline(&b->master, &deadline_us)) {
+                double deadline = (double)deadline_us * 1000.0;
                 double local_now = urbsim_clock_local_ns(&b->mcu.clk, now);
                 /* now_us wraps at 2^32 us: rebase the deadline on the current local time */
                 double wrap = 4294967296.0 * 1000.0;
@@ -606,8 +606,8 @@ double sim_bridge_stat(const sim_bridge_t *b, const char *name)
     if (!strcmp(name, "bridge.usb_late_reads")) return st->usb_late_reads;
     if (!strcmp(name, "bridge.window_overflow")) return st->window_overflow;
     if (!strcmp(name, "bridge.outstanding")) return urb_bridge_outstanding(&b->br);
-    if (!strcmp(name, "bridge.timeouts")) return b->master.timeouts;
-    if (!strcmp(name, "bridge.bus_clears")) return b->master.bus_clears;
+    if (!strcmp(name, "bridge.timeouts")) return urb_i2c_master_timeouts(&b->master);
+    if (!strcmp(name, "bridge.bus_clears")) return urb_i2c_master_bus_clears(&b->master);
     if (!strcmp(name, "bridge.polls")) return (double)b->polls;
     if (!strcmp(name, "bridge.boots")) return (double)b->boots;
     if (!strcmp(name, "bridge.irqs")) return (double)b->mcu.irqs;

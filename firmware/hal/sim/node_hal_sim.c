@@ -7,7 +7,6 @@
 #include <string.h>
 
 #include "sim_node_faults.h"
-#include "urb_node_internal.h" /* URB_NONE and the downlink states: the trace observer labels events */
 
 /* Event kinds, in bits 0..7 of the event argument; the node's power generation above. */
 enum { EV_TIMER_IRQ, EV_TIMER_ISR, EV_POLL, EV_ACQ_DONE, EV_SCL_TIMEOUT, EV_SCL_TIMEOUT_ISR };
@@ -61,11 +60,10 @@ static void hal_mark(void *ctx, urb_node_mark_t mark)
 
 /* ---------------------------------------------------------------- main loop */
 
-/* An update is due: the library's timer interrupt counted a heartbeat the main loop has not run.
- * (Reads two private counters of urb_node_t; see the report's interface requests.) */
+/* An update is due: the library's timer interrupt counted a heartbeat the main loop has not run. */
 static bool update_due(const sim_node_t *n)
 {
-    return n->node.update_due != n->node.update_done;
+    return urb_node_update_due(&n->node);
 }
 
 /* The main loop wakes (after an interrupt returned at t): run a poll as soon as the CPU is free. */
@@ -163,8 +161,8 @@ static void node_event(void *ctx, uint64_t arg, urbsim_ns_t now)
 /* ---------------------------------------------------------------- mailbox observer
  * Trace category "mailbox" (sim/tla/TraceOutbox.tla): for outbox 1, the application's releases
  * and the interrupt's read of it (begin, each data byte, end), as the MailboxOutbox actions the
- * library cites. Reads the library's current selection and byte count (private fields; only to
- * label events). */
+ * library cites. The library's downlink view (urb_node_downlink) gives the outbox being read and
+ * the index of each byte sent. */
 
 static void probe_released(void *ctx, uint32_t counter)
 {
@@ -176,8 +174,8 @@ static void probe_released(void *ctx, uint32_t counter)
 /* Trace category "mailbox", inbox 1 (sim/tla/TraceInbox.tla): the interrupt's side of every bus
  * write (wbegin with the buffer it fills or wnack, each data byte stored, commit or abort) and the
  * application's side (lock with the buffer it owns, each byte it reads, release), as the
- * MailboxInbox actions the library cites. The interrupt's side is read off the inbox indices
- * before and after each downlink event (private fields; only to label events). */
+ * MailboxInbox actions the library cites. The interrupt's side is read off the inbox's buffer
+ * indices (urb_node_inbox_buffers) before and after each downlink event. */
 
 static void inbox_event(sim_node_t *n, const char *ev, const char *fmt, unsigned a, unsigned b)
 {
@@ -189,27 +187,28 @@ static void inbox_event(sim_node_t *n, const char *ev, const char *fmt, unsigned
 /* urb_node_i2c_event, with inbox 1's transitions logged when the mailbox trace is on. */
 static uint16_t node_i2c(sim_node_t *n, urb_i2c_event_t ev, uint8_t byte)
 {
-    urb_node_inbox_t const *ib = &n->node.inbox[1];
-    if (!urbsim_trace_on(n->tr, URBSIM_TR_MAILBOX) || ib->size == 0u) {
+    urb_node_buffers_t before;
+    if (!urbsim_trace_on(n->tr, URBSIM_TR_MAILBOX) || !urb_node_inbox_buffers(&n->node, 1u, &before)) {
         return urb_node_i2c_event(&n->node, ev, byte);
     }
-    urb_node_i2c_t const *i2c = &n->node.i2c;
-    uint8_t const front = ib->front;
-    uint8_t const isr = ib->isr_idx;
-    bool const data = ev == URB_I2C_RX_BYTE && i2c->state == URB_I2C_ST_DATA && i2c->mailbox == 1u;
-    uint8_t const k = i2c->count;
+    urb_node_downlink_t dl;
+    urb_node_downlink(&n->node, &dl);
+    bool const data = ev == URB_I2C_RX_BYTE && dl.phase == URB_NODE_DL_WRITE && dl.mailbox == 1u;
+    uint8_t const k = dl.count;
     uint16_t const r = urb_node_i2c_event(&n->node, ev, byte);
-    if (isr != URB_NONE && ib->isr_idx == URB_NONE) {
-        inbox_event(n, ib->front != front ? "commit" : "abort", "", 0u, 0u);
+    urb_node_buffers_t after = before; /* inbox 1 stays set up: the call below always copies */
+    (void)urb_node_inbox_buffers(&n->node, 1u, &after);
+    if (before.isr != URB_NODE_NO_BUFFER && after.isr == URB_NODE_NO_BUFFER) {
+        inbox_event(n, after.front != before.front ? "commit" : "abort", "", 0u, 0u);
     }
     if (data && k == 0u) {
-        if (ib->isr_idx == URB_NONE) {
+        if (after.isr == URB_NODE_NO_BUFFER) {
             inbox_event(n, "wnack", "", 0u, 0u);
         } else {
-            inbox_event(n, "wbegin", ",\"buf\":%u", ib->isr_idx, 0u);
+            inbox_event(n, "wbegin", ",\"buf\":%u", after.isr, 0u);
         }
     }
-    if (data && ib->isr_idx != URB_NONE) {
+    if (data && after.isr != URB_NODE_NO_BUFFER) {
         inbox_event(n, "wbyte", ",\"index\":%u,\"value\":%u", k, byte);
     }
     return r;
@@ -225,7 +224,9 @@ static void probe_inbox_locked(void *ctx, int rc, const uint8_t *data, uint8_t l
         inbox_event(n, "busy", ",\"rc\":%d", (unsigned)rc, 0u);
         return;
     }
-    inbox_event(n, "lock", ",\"buf\":%u,\"new\":%u", n->node.inbox[1].app_idx, rc == URB_NODE_NEW);
+    urb_node_buffers_t bufs = {URB_NODE_NO_BUFFER, URB_NODE_NO_BUFFER, URB_NODE_NO_BUFFER};
+    (void)urb_node_inbox_buffers(&n->node, 1u, &bufs);
+    inbox_event(n, "lock", ",\"buf\":%u,\"new\":%u", bufs.app, rc == URB_NODE_NEW);
     for (uint8_t i = 0u; i < len; i++) {
         inbox_event(n, "rbyte", ",\"index\":%u,\"value\":%u", i, data[i]);
     }
@@ -285,7 +286,9 @@ static void scl_timeout(sim_node_t *n, urbsim_ns_t now, bool isr)
     }
     static const char *const STATE[] = {"idle", "select", "write", "write_check", "write_done", "selected", "read",
                                         "sync", "ignore"};
-    uint8_t const st = n->node.i2c.state;
+    urb_node_downlink_t dl;
+    urb_node_downlink(&n->node, &dl);
+    unsigned const st = (unsigned)dl.phase;
     urbsim_trace(n->tr, URBSIM_TR_FAULT, now, n->name, "scl_timeout", ",\"aborted\":\"%s\"",
                  st < sizeof STATE / sizeof STATE[0] ? STATE[st] : "?");
     (void)node_i2c(n, URB_I2C_STUCK, 0u);
@@ -312,7 +315,9 @@ static bool slave_address(void *ctx, bool read, bool gc, urbsim_ns_t t_hw)
         sim_log_put(&n->log, t_hw, SIM_MARK_READ, 0);
     }
     bool ack = node_i2c(n, ev, 0) == URB_I2C_ACK;
-    n->reading_mb1 = read && ack && n->node.i2c.mailbox == 1u;
+    urb_node_downlink_t dl;
+    urb_node_downlink(&n->node, &dl);
+    n->reading_mb1 = read && ack && dl.mailbox == 1u;
     if (n->reading_mb1) {
         urbsim_trace(n->tr, URBSIM_TR_MAILBOX, n->k->now, n->name, "begin", ",\"box\":1");
     }
@@ -330,7 +335,9 @@ static uint8_t slave_tx(void *ctx, urbsim_ns_t t_hw)
 {
     sim_node_t *n = ctx;
     (void)t_hw;
-    uint8_t index = n->node.i2c.count;
+    urb_node_downlink_t dl;
+    urb_node_downlink(&n->node, &dl);
+    uint8_t index = dl.count;
     uint8_t byte = (uint8_t)node_i2c(n, URB_I2C_TX_BYTE, 0);
     if (n->reading_mb1 && index < urb_node_outbox_size(&n->node, 1u)) {
         urbsim_trace(n->tr, URBSIM_TR_MAILBOX, n->k->now, n->name, "byte", ",\"box\":1,\"index\":%u,\"value\":%u",

@@ -233,8 +233,8 @@ static void timeout_then_recovery(void **state)
     expect_response(&s, 2u, URB_STATUS_TIMEOUT, 0u, NULL);
     expect_response(&s, 3u, URB_STATUS_OK, 4u, NULL);
     expect_end(&s);
-    assert_int_equal(r->master.timeouts, 2u);
-    assert_int_equal(r->master.bus_clears, 0u);
+    assert_int_equal(urb_i2c_master_timeouts(&r->master), 2u);
+    assert_int_equal(urb_i2c_master_bus_clears(&r->master), 0u);
 }
 
 /* SDA held low before a request: nine clock pulses and a STOP, BUS_STUCK (not executed), then the
@@ -254,7 +254,7 @@ static void stuck_sda_cleared(void **state)
     expect_response(&s, 1u, URB_STATUS_BUS_STUCK, 0u, NULL);
     expect_response(&s, 2u, URB_STATUS_OK, 0u, NULL);
     expect_end(&s);
-    assert_int_equal(r->master.bus_clears, 1u);
+    assert_int_equal(urb_i2c_master_bus_clears(&r->master), 1u);
 }
 
 /* A bus that stays stuck: every request is answered BUS_STUCK (never wedged, never dropped). */
@@ -320,7 +320,7 @@ static void bus_clear_command(void **state)
     expect_response(&s, 2u, URB_STATUS_BUS_STUCK, 0u, NULL);
     expect_end(&s);
     assert_int_equal(r->bus.scl_pulses, 9u); /* the second clear could not clock SCL */
-    assert_int_equal(r->master.bus_clears, 2u);
+    assert_int_equal(urb_i2c_master_bus_clears(&r->master), 2u);
 }
 
 /* 32-byte mailboxes use the CRC-16 check in both directions; 13 bytes is the last CRC-8 size. */
@@ -383,9 +383,21 @@ static void slave_event_refused_by_master(void **state)
     assert_int_equal(dl.poll(dl.ctx, 1u), URB_STATUS_TIMEOUT);
     assert_int_equal(dl.poll(dl.ctx, 2u), URB_DOWNLINK_IDLE);
     /* the same transaction with the master's own events completes */
+    uint32_t deadline = 0u;
+    assert_false(urb_i2c_master_busy(&m));
+    assert_false(urb_i2c_master_deadline(&m, &deadline));
     assert_true(dl.begin(dl.ctx, &t, 3u));
+    assert_true(urb_i2c_master_busy(&m));
+    assert_true(urb_i2c_master_deadline(&m, &deadline));
+    assert_int_equal(deadline, 3u + cfg.timeout_us + 1u);
     urb_i2c_master_event(&m, URB_I2C_EV_START, 0u);
     assert_int_equal(dl.poll(dl.ctx, 4u), URB_DOWNLINK_BUSY);
+    assert_int_equal(dl.poll(dl.ctx, deadline - 1u), URB_DOWNLINK_BUSY); /* the deadline is the first late poll */
+    assert_int_equal(urb_i2c_master_timeouts(&m), 0u);
+    assert_int_equal(dl.poll(dl.ctx, deadline), URB_STATUS_TIMEOUT);
+    assert_int_equal(urb_i2c_master_timeouts(&m), 1u);
+    assert_int_equal(urb_i2c_master_bus_clears(&m), 0u);
+    assert_false(urb_i2c_master_busy(&m));
 }
 
 int run_downlink_tests(void)

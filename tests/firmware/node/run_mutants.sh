@@ -20,7 +20,7 @@ cd "$(dirname "$0")/../../.."
 CC=${CC:-gcc}
 CFLAGS="-std=c99 -O1 -g -w -DURB_NODE_TESTING"
 INC="-Ifirmware/include -Ifirmware/node -Ifirmware/hal/hosted -Ifirmware/apps/sensorhex -Igen/c -Itests/firmware/node -Itests/firmware/pll"
-LIB="firmware/node/urb_mailbox.c firmware/node/urb_i2c.c firmware/node/urb_pll.c firmware/node/urb_node.c"
+LIB="firmware/node/urb_mailbox.c firmware/node/urb_i2c.c firmware/node/urb_pll.c firmware/node/urb_node.c firmware/node/urb_observe.c"
 COMMON="tests/firmware/node/node_fixture.c gen/c/urb_runtime.c gen/c/urb_core.c gen/c/urb_sensorhex.c firmware/hal/hosted/urb_hal_hosted.c"
 TESTS="test_mailbox test_i2c test_node test_interleave test_pll test_apps test_single"
 MUTANTS="SINGLE_BUFFER OUTBOX_NO_BUSY_CHECK INBOX_NO_FRONT_RECHECK INBOX_NO_NACK COMMIT_BAD_CHECK READ_CHECK_NO_SELECT PLL_NO_PHASE NO_LOST_SYNC ACQ_NO_DECAY"

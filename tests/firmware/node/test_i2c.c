@@ -447,6 +447,63 @@ static void sync_framing(void **state)
     assert_int_equal(f2.node.i2c.sync_t, 6000u);
 }
 
+/* The public views of a transaction in progress (what the simulation's trace observers read). */
+static void observation_views(void **state)
+{
+    urb_node_t *node = N(state);
+    urb_node_downlink_t dl;
+    urb_node_buffers_t bufs;
+    urb_node_downlink(node, &dl);
+    assert_int_equal(dl.phase, URB_NODE_DL_IDLE);
+    assert_false(urb_node_inbox_buffers(node, 3u, &bufs)); /* not set up */
+    assert_false(urb_node_inbox_buffers(node, 8u, &bufs));
+    assert_true(urb_node_inbox_buffers(node, 1u, &bufs));
+    uint8_t const front = bufs.front;
+    assert_int_equal(bufs.isr, URB_NODE_NO_BUFFER);
+    assert_int_equal(bufs.app, URB_NODE_NO_BUFFER);
+    /* a write of inbox 1 (2 bytes, CRC-8): phase, mailbox, byte count and the buffer being filled */
+    uint8_t frame[8];
+    uint8_t const data[2] = {0x12u, 0x34u};
+    size_t const n = fx_frame(frame, 1u, data, 2u, 0u);
+    assert_int_equal(urb_node_i2c_event(node, URB_I2C_ADDR_WRITE, 0u), URB_I2C_ACK);
+    assert_int_equal(urb_node_i2c_event(node, URB_I2C_RX_BYTE, frame[0]), URB_I2C_ACK);
+    urb_node_downlink(node, &dl);
+    assert_int_equal(dl.phase, URB_NODE_DL_WRITE);
+    assert_int_equal(dl.mailbox, 1u);
+    assert_int_equal(dl.count, 0u);
+    assert_int_equal(urb_node_i2c_event(node, URB_I2C_RX_BYTE, frame[1]), URB_I2C_ACK);
+    urb_node_downlink(node, &dl);
+    assert_int_equal(dl.count, 1u);
+    assert_true(urb_node_inbox_buffers(node, 1u, &bufs));
+    assert_int_equal(bufs.isr, (uint8_t)(1u - front));
+    for (size_t k = 2u; k < n; k++) {
+        assert_int_equal(urb_node_i2c_event(node, URB_I2C_RX_BYTE, frame[k]), URB_I2C_ACK);
+    }
+    urb_node_downlink(node, &dl);
+    assert_int_equal(dl.phase, URB_NODE_DL_WRITE_DONE);
+    assert_int_equal(urb_node_i2c_event(node, URB_I2C_STOP, 0u), URB_I2C_ACK);
+    assert_true(urb_node_inbox_buffers(node, 1u, &bufs));
+    assert_int_equal(bufs.front, (uint8_t)(1u - front));
+    assert_int_equal(bufs.isr, URB_NODE_NO_BUFFER);
+    /* a read of outbox 1: the index of the next byte sent */
+    assert_true(fx_select(node, 1u));
+    assert_int_equal(urb_node_i2c_event(node, URB_I2C_ADDR_READ, 0u), URB_I2C_ACK);
+    urb_node_downlink(node, &dl);
+    assert_int_equal(dl.phase, URB_NODE_DL_READ);
+    assert_int_equal(dl.mailbox, 1u);
+    assert_int_equal(dl.count, 0u);
+    (void)urb_node_i2c_event(node, URB_I2C_TX_BYTE, 0u);
+    urb_node_downlink(node, &dl);
+    assert_int_equal(dl.count, 1u);
+    (void)urb_node_i2c_event(node, URB_I2C_TX_NACK, 0u);
+    (void)urb_node_i2c_event(node, URB_I2C_STOP, 0u);
+    urb_node_downlink(node, &dl);
+    assert_int_equal(dl.phase, URB_NODE_DL_IDLE);
+    urb_node_downlink(NULL, &dl); /* harmless */
+    urb_node_downlink(node, NULL);
+    assert_false(urb_node_inbox_buffers(NULL, 1u, &bufs));
+}
+
 static void identification_fault_flag(void **state)
 {
     urb_node_t *node = N(state);
@@ -496,6 +553,7 @@ int main(void)
         cmocka_unit_test_setup(reset_in_the_middle, setup),
         cmocka_unit_test_setup(sync_framing, setup),
         cmocka_unit_test_setup(identification_fault_flag, setup),
+        cmocka_unit_test_setup(observation_views, setup),
     };
     return cmocka_run_group_tests_name("node_i2c", tests, NULL, NULL);
 }

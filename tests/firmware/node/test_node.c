@@ -40,12 +40,16 @@ static void update_once_per_heartbeat(void **state)
     fixture_t *f = *state;
     urb_node_t *node = &f->node;
     assert_false(urb_node_has_work(node));
+    assert_false(urb_node_update_due(node));
     assert_int_equal(urb_node_poll(node) & URB_NODE_POLL_UPDATE, 0u);
     assert_int_equal(f->idles, 1u);
     assert_int_equal(urb_hal_hosted_advance(&f->port, node, PERIOD), 1u);
     assert_true(urb_node_has_work(node));
+    assert_true(urb_node_update_due(node));
     assert_int_equal(f->port.mark_count[URB_NODE_MARK_BEAT], 1u);
     assert_true((urb_node_poll(node) & URB_NODE_POLL_UPDATE) != 0u);
+    assert_false(urb_node_update_due(node));
+    assert_false(urb_node_update_due(NULL));
     assert_int_equal(f->updates, 1u);
     assert_int_equal(urb_node_poll(node) & URB_NODE_POLL_UPDATE, 0u);
     assert_int_equal(f->updates, 1u);
