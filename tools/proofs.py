@@ -367,9 +367,16 @@ def item_order(items: list[str]) -> list[str]:
 
 
 def run_mutant(proof: Proof, tier: str, out_root: Path, name: str) -> list[tuple[str, Run]]:
-    """Runs a mutant item by item until one FAILS (killed), errs, or every item passes (survived)."""
+    """Runs a mutant item by item until one FAILS (killed), errs, or every item passes (survived).
+
+    The mutant's optional "item" (the sweep run its author expects to expose the bug) goes first;
+    the rest follow, so a wrong hint costs time, never a kill."""
     done: list[tuple[str, Run]] = []
-    for item in item_order(proof.items(tier)):
+    hint = next((str(m.get("item", "")) for m in proof.mutants if m["name"] == name), "")
+    items = item_order(proof.items(tier))
+    if hint in items:
+        items = [hint] + [i for i in items if i != hint]
+    for item in items:
         run = run_make(proof, "mutant", tier, out_root, item=item, mutant=name)
         done.append((item, run))
         if run.outcome != "pass":
