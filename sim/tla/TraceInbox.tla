@@ -17,6 +17,7 @@
 (*                                 last stored there by write w (0: the     *)
 (*                                 zeroed setup): AppReadByte               *)
 (*   [ev |-> "release"]            URB_ReleaseInbox: AppRelease             *)
+(* Any other event (e.g. "lock_error": the lock misused) matches nothing.  *)
 (* The steps inside URB_LockInbox before its result (AppLockLoadFront,      *)
 (* AppLockClaim, AppLockCheckIsr, a failed AppLockCheckFront and the        *)
 (* retries' AppLockUnclaim) are not logged: TLC places them wherever the    *)

@@ -268,7 +268,7 @@ def check_outbox(events: list[dict[str, int | str]], size: int) -> TraceResult:
 
 #: URB_INBOX_MAX_RETRY of firmware/node/urb_mailbox.c: lock attempts after the first before BUSY.
 INBOX_MAX_RETRY = 2
-_INBOX_EVENTS = {"wbegin", "wnack", "wbyte", "commit", "abort", "lock", "busy", "rbyte", "in_release"}
+_INBOX_EVENTS = {"wbegin", "wnack", "wbyte", "commit", "abort", "lock", "busy", "lock_error", "rbyte", "in_release"}
 
 
 def inbox_trace(path: Path, device: str) -> list[dict[str, int | str]]:

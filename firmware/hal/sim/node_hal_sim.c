@@ -221,7 +221,8 @@ static void probe_inbox_locked(void *ctx, int rc, const uint8_t *data, uint8_t l
         return;
     }
     if (rc < 0) {
-        inbox_event(n, "busy", ",\"rc\":%d", (unsigned)rc, 0u);
+        /* only BUSY is a MailboxInbox outcome; another error (a misused API) cannot match the spec */
+        inbox_event(n, rc == URB_NODE_ERR_BUSY ? "busy" : "lock_error", ",\"err\":%u", (unsigned)-rc, 0u);
         return;
     }
     urb_node_buffers_t bufs = {URB_NODE_NO_BUFFER, URB_NODE_NO_BUFFER, URB_NODE_NO_BUFFER};
