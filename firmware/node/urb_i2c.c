@@ -29,6 +29,12 @@
 #define URB_SELECT_RESERVED 0x78u /* MailboxSelect._ (must be zero) */
 #define URB_SELECT_MAILBOX 0x07u  /* MailboxSelect.mailbox */
 
+static void check_update(urb_node_i2c_t *i2c, uint8_t byte)
+{
+    i2c->crc = (i2c->crc16 != 0u) ? urb_crc16_link_check_byte(i2c->crc, byte)
+                                  : urb_crc8_link_check_byte((uint8_t)i2c->crc, byte);
+}
+
 /* Starts the check of a transaction on a mailbox of `size` bytes: the tier follows the covered
  * length 1 + size (select byte + data), then the select byte itself is covered. */
 static void check_start(urb_node_i2c_t *i2c, uint8_t size, uint8_t select)
@@ -40,14 +46,7 @@ static void check_start(urb_node_i2c_t *i2c, uint8_t size, uint8_t select)
         return;
     }
 #endif
-    i2c->crc = (i2c->crc16 != 0u) ? urb_crc16_link_check_byte(i2c->crc, select)
-                                  : urb_crc8_link_check_byte((uint8_t)i2c->crc, select);
-}
-
-static void check_update(urb_node_i2c_t *i2c, uint8_t byte)
-{
-    i2c->crc = (i2c->crc16 != 0u) ? urb_crc16_link_check_byte(i2c->crc, byte)
-                                  : urb_crc8_link_check_byte((uint8_t)i2c->crc, byte);
+    check_update(i2c, select);
 }
 
 static uint8_t check_len(const urb_node_i2c_t *i2c)
@@ -269,16 +268,6 @@ uint16_t urb_node_i2c_event(urb_node_t *node, urb_i2c_event_t event, uint8_t byt
         return (event == URB_I2C_TX_BYTE) ? 0xFFu : URB_I2C_NACK;
     }
     switch (event) {
-    case URB_I2C_ADDR_WRITE:
-        end_transaction(node, true); /* a repeated START ends the previous transaction */
-        node->i2c.state = URB_I2C_ST_SELECT;
-        return URB_I2C_ACK;
-    case URB_I2C_ADDR_READ:
-        end_transaction(node, true);
-        return addr_read(node);
-    case URB_I2C_GENERAL_CALL:
-        end_transaction(node, true);
-        return general_call(node);
     case URB_I2C_RX_BYTE:
         return rx_byte(node, byte);
     case URB_I2C_TX_BYTE:
@@ -288,17 +277,25 @@ uint16_t urb_node_i2c_event(urb_node_t *node, urb_i2c_event_t event, uint8_t byt
             end_transaction(node, true); /* the master took what it wanted: end of the read */
         }
         return URB_I2C_ACK;
-    case URB_I2C_STOP:
-        end_transaction(node, true);
-        return URB_I2C_ACK;
-    case URB_I2C_BUS_ERROR:
-        end_transaction(node, false);
-        return URB_I2C_ACK;
-    case URB_I2C_STUCK:
-        end_transaction(node, false);
-        urb_isr_fault(node, URB_NODE_FAULT_STUCK_BUS);
-        return URB_I2C_ACK;
     default:
-        return URB_I2C_NACK;
+        break;
     }
+    if (event > URB_I2C_STUCK) {
+        return URB_I2C_NACK; /* not a slave event (urb_i2c_event.h) */
+    }
+    /* every other event ends the transaction in progress: a (repeated) START or a STOP cleanly
+     * (a complete write commits), a bus error or a stuck bus not (it aborts) */
+    end_transaction(node, event <= URB_I2C_STOP);
+    if (event == URB_I2C_ADDR_WRITE) {
+        node->i2c.state = URB_I2C_ST_SELECT;
+    } else if (event == URB_I2C_ADDR_READ) {
+        return addr_read(node);
+    } else if (event == URB_I2C_GENERAL_CALL) {
+        return general_call(node);
+    } else if (event == URB_I2C_STUCK) {
+        urb_isr_fault(node, URB_NODE_FAULT_STUCK_BUS);
+    } else {
+        /* STOP, BUS_ERROR: nothing more */
+    }
+    return URB_I2C_ACK;
 }
