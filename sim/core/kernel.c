@@ -172,7 +172,7 @@ bool urbsim_kernel_at(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, voi
     if (t < k->now) {
         t = k->now;
     }
-    bool near = t - k->now <= URBSIM_KERNEL_NEAR_NS;
+    bool near = t - k->now <= URBSIM_KERNEL_NEAR_NS && k->near.len < URBSIM_KERNEL_NEAR_MAX;
     urbsim_queue_t *q = near ? &k->near : &k->far;
     if (q->len == q->cap) {
         if (!queue_grow(q)) {

@@ -78,9 +78,12 @@ typedef struct {
     bool stop;            /**< set by urbsim_kernel_stop() from inside a callback */
 } urbsim_kernel_t;
 
-/** Events scheduled at most this far ahead go to the near queue (a speed knob: any value gives the
- *  same run). */
+/** Events scheduled at most this far ahead go to the near queue while it holds fewer than
+ *  URBSIM_KERNEL_NEAR_MAX (speed knobs: any values give the same run). The cap bounds the sorted
+ *  insertion when many interrupts are raised at once (a general call to 20 nodes); the overflow
+ *  goes to the heap. */
 #define URBSIM_KERNEL_NEAR_NS (60u * URBSIM_NS_PER_US)
+#define URBSIM_KERNEL_NEAR_MAX 32u
 
 /** Initialise an empty kernel at time 0. Returns false when the initial allocation fails. */
 bool urbsim_kernel_init(urbsim_kernel_t *k);
