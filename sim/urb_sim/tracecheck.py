@@ -325,5 +325,8 @@ def _inbox_module(events: list[dict[str, int | str]], size: int) -> str:
 
 def check_inbox(events: list[dict[str, int | str]], size: int) -> TraceResult:
     """Check an inbox trace (inbox_trace) of a `size`-byte inbox against MailboxInbox.tla."""
+    if size < 2:
+        raise ValueError(f"inbox of {size} byte(s): MailboxInbox.tla needs MsgLen >= 2 (a torn read must be "
+                         "observable); trace an inbox of 2 bytes or more")
     accepted, msg, dt = _tlc("TraceInbox", _inbox_module(events, size))
     return TraceResult(accepted, len(events), len(events) if accepted else -1, None, dt, msg)

@@ -131,7 +131,7 @@ def torn_read(events: list[dict[str, int | str]]) -> list[dict[str, int | str]]:
     """Seeded bug: in one lock of a written message, the last byte read comes from the write before."""
     m = copy.deepcopy(events)
     locks = [k for k, e in enumerate(m) if e["ev"] == "lock" and len(_read_bytes(m, k)) > 1
-             and int(m[k + 1]["tag"]) > 1]
+             and int(m[k + 1]["tag"]) > 0]
     last = _read_bytes(m, locks[len(locks) // 2])[-1]
     m[last]["tag"] = int(m[last]["tag"]) - 1
     return m
