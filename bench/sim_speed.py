@@ -169,10 +169,12 @@ def scaling(n_nodes: int, seconds: float, seed: int = 1) -> dict[str, float]:
         w.native_request(bridges[-1], addr, 1, True, 6)
     w.start()
     run_world(w, 0.2)
-    e0 = w.events
+    e0, w0 = w.events, time.perf_counter()
     cpu = run_world(w, 0.2 + seconds)
-    out = {"nodes": n_nodes, "bridges": len(bridges), "sim_s": seconds, "cpu_s": cpu,
-           "cpu_per_sim_s": cpu / seconds, "speed": seconds / cpu, "events": w.events - e0}
+    wall = time.perf_counter() - w0
+    out = {"nodes": n_nodes, "bridges": len(bridges), "sim_s": seconds, "cpu_s": cpu, "wall_s": wall,
+           "cpu_per_sim_s": cpu / seconds, "wall_per_sim_s": wall / seconds, "speed": seconds / cpu,
+           "events": w.events - e0}
     w.close()
     return out
 
@@ -201,14 +203,16 @@ def main(argv: list[str] | None = None) -> int:
     print(f"  host library      : {py['speed']:8.1f} x real time = {py['speed'] / GOAL:.2f} x the goal (SimManager + "
           f"URBInterface in Python; {py['c_share']:.0%} of the CPU time in the C world, the rest in Python; "
           f"{py['runs_per_sim_s']:,.0f} urbsim_run calls per simulated s)")
-    print("\nScaling (probe nodes read at 100 Hz by the native host, 20 per USB bridge):")
-    print(f"  {'nodes':>5} {'bridges':>7} {'CPU s per sim s':>16} {'x real time':>12} {'events/sim s':>14}")
+    print("\nScaling (probe nodes read at 100 Hz by the native host, 20 per USB bridge; wall time is only "
+          "meaningful on an idle machine):")
+    print(f"  {'nodes':>5} {'bridges':>7} {'CPU s per sim s':>16} {'wall s per sim s':>17} {'x real time':>12} "
+          f"{'CPU ms per node':>16} {'events/sim s':>14}")
     rows = []
     for n in (1, 3, 9, 30, 60):
         r = scaling(n, secs / 2)
         rows.append(r)
-        print(f"  {n:>5} {r['bridges']:>7} {r['cpu_per_sim_s']:>16.4f} {r['speed']:>12.1f} "
-              f"{r['events'] / r['sim_s']:>14,.0f}")
+        print(f"  {n:>5} {r['bridges']:>7} {r['cpu_per_sim_s']:>16.4f} {r['wall_per_sim_s']:>17.4f} "
+              f"{r['speed']:>12.1f} {r['cpu_per_sim_s'] * 1e3 / n:>16.2f} {r['events'] / r['sim_s']:>14,.0f}")
     results["scaling"] = rows
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(results, indent=1))
