@@ -46,10 +46,10 @@ void urb_node_config_default(urb_node_config_t *cfg)
 static bool config_valid(const urb_node_config_t *cfg)
 {
     uint32_t const ticks = (uint32_t)cfg->heartbeat_us * cfg->ticks_per_us;
-    /* the PLL's Q8 arithmetic needs periods of 64 .. 2^23 - 1 ticks; gains, lock_count and
+    /* the PLL's Q8 arithmetic needs periods of 64 .. 2^21 - 1 ticks (urb_pll.c); gains, lock_count and
      * max_gap of 0 are legal (they switch the feature off) */
     return (cfg->i2c_address >= 1u) && (cfg->i2c_address <= 127u) && (cfg->ticks_per_us >= 1u) &&
-           (cfg->ticks_per_us <= 1000u) && (ticks >= 64u) && (ticks <= 0x7FFFFFu) && (cfg->update_divider >= 1u) &&
+           (cfg->ticks_per_us <= 1000u) && (ticks >= 64u) && (ticks <= 0x1FFFFFu) && (cfg->update_divider >= 1u) &&
            (cfg->lost_sync_beats >= 2u);
 }
 

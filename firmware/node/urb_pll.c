@@ -13,7 +13,9 @@
  * Fixed point, no float (Cortex-M0+ has no FPU): periods and phases are ticks * 256 (Q8) in 32
  * bits, gains are Q8 (K = k_q8 / 256). The heartbeat compare is an integer tick; the fraction
  * is carried to the next period so the average period keeps the 1/256-tick resolution.
- * Valid for periods below 2^23 ticks (174 ms at 48 MHz), checked by urb_node_init.
+ * Valid for periods below 2^21 ticks (43 ms at 48 MHz), checked by urb_node_init: then a phase
+ * error, a lead step and the error the last correction left add up within int32 (at 2^23 ticks
+ * they overflowed; proofs/bmc/fw_node_pll_update proves the bound by induction).
  *
  * Beyond the paper (all configurable, urb_node_config_t):
  *   - acquisition: the first SYNC (after start or a loss) jumps the phase (K_n = 1 once), and the
@@ -36,7 +38,7 @@
 
 #define URB_PLL_ONE 256u       /* 1.0 in Q8 */
 #define URB_PLL_MAX_GEAR 8u    /* 256 >> 8 = 1: below any kd_q8 */
-#define URB_PLL_MAX_TICKS 0x7FFFFFu /* periods below 2^23 ticks keep every Q8 value in int32 */
+#define URB_PLL_MAX_TICKS 0x1FFFFFu /* periods below 2^21 ticks keep every Q8 sum in int32 */
 #define URB_PLL_MIN_TICKS 64u       /* shortest period accepted (config, SYNC_CONFIG) */
 
 int32_t urb_tick_diff(uint32_t a, uint32_t b)
@@ -155,10 +157,16 @@ static void update_period(urb_node_t *node, uint32_t t_d, uint8_t gap)
     }
 }
 
-/* t_n - t_d + dt_adj in ticks, clamped to +-period (a stalled timer cannot overflow phase * 256). */
+/* t_n - t_d + dt_adj in ticks, clamped to +-period (a stalled timer cannot overflow phase * 256).
+ * The difference is clamped to +-2 period before the lead is added: the result is the same (with
+ * lead <= period / 4 such a sum is clamped anyway), and a difference near 2^31 (a timer that
+ * jumped, a bogus capture) cannot overflow the sum (fw_node_pll_update found it). */
 static int32_t phase_of(uint32_t t_n, uint32_t t_d, uint32_t lead, int32_t period)
 {
-    int32_t const phase = urb_tick_diff(t_n, t_d) + (int32_t)lead;
+    int32_t const far = 2 * period;
+    int32_t diff = urb_tick_diff(t_n, t_d);
+    diff = (diff > far) ? far : ((diff < -far) ? -far : diff);
+    int32_t const phase = diff + (int32_t)lead;
     return (phase > period) ? period : ((phase < -period) ? -period : phase);
 }
 

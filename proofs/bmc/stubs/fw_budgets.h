@@ -74,4 +74,32 @@
  * runs up to 32 shift-compare-subtract steps of about 4 cycles plus call overhead. */
 #define FW_UDIV_CYCLES 160u
 
+/* The PLL update (urb_pll_sync: eqs. 1-2, one software division) runs inside the I2C event of a
+ * SYNC's counter byte, the last byte of the broadcast. The node's next byte event needing an answer
+ * is at the earliest the address byte of the next transaction, after STOP and START: one byte time
+ * later. So the update may take one I2C byte time on top of the byte's own event budget (the slave
+ * peripheral stretches SCL if it is ever exceeded: the bus slows, no data is lost). */
+#define FW_PLL_SYNC_BUDGET FW_I2C_BYTE_CYCLES
+
+/* ===== Bridge proofs (proofs/bmc/fw_bridge_*) ============================================== */
+
+/* I2C master begin() and poll(): each runs once or twice per transaction in the main loop (begin
+ * computes the write check, the final poll verifies the read check, both over up to 33 bytes), so
+ * the bus waits for them between transactions. Two I2C byte times each: at most 4 byte times of
+ * idle bus per transaction, against at least 4 bytes on the bus (a SYNC) and 36 for a long read. */
+#define FW_BRIDGE_MASTER_CALL_BUDGET (2u * FW_I2C_BYTE_CYCLES)
+
+/* RS232 parsing, amortised per received byte (hunting included): 7/8 of a UART byte time. The
+ * worst case is a line of garbage, where every byte completes a 37-byte candidate that fails its
+ * check; that produces no requests, so no admission or response work competes with it. A stream
+ * of good frames costs far less per byte (one check per frame) and leaves the rest of the byte
+ * time to admitting and answering. Over the budget, the 64-byte receive ring would overflow. */
+#define FW_BRIDGE_RS232_BYTE_BUDGET ((7u * FW_UART_BYTE_CYCLES) / 8u)
+
+/* USB: one OUT transfer's parsing and admission within half the 1-ms frame (FW_USB_TRANSFER_BUDGET). */
+#define FW_BRIDGE_USB_TRANSFER_BUDGET FW_USB_TRANSFER_BUDGET
+
+/* Request FIFO: one admission, one completion, one response emitted: FW_ADMIT_BUDGET each. */
+#define FW_BRIDGE_FIFO_OP_BUDGET FW_ADMIT_BUDGET
+
 #endif /* FW_BUDGETS_H */

@@ -73,7 +73,7 @@ static void init_config_checks(void **state)
         {offsetof(urb_node_config_t, ticks_per_us), 2u, 0u},
         {offsetof(urb_node_config_t, ticks_per_us), 2u, 1001u},
         {offsetof(urb_node_config_t, heartbeat_us), 2u, 1u},      /* 48 ticks: too short */
-        {offsetof(urb_node_config_t, heartbeat_us), 2u, 60000u},  /* 2.88 M ticks ok... */
+        {offsetof(urb_node_config_t, heartbeat_us), 2u, 43000u},  /* 2.064 M ticks < 2^21 ok... */
         {offsetof(urb_node_config_t, update_divider), 1u, 0u},
         {offsetof(urb_node_config_t, lost_sync_beats), 1u, 1u},
     };
@@ -90,11 +90,14 @@ static void init_config_checks(void **state)
         int const expect = (i == 5u) ? URB_NODE_OK : URB_NODE_ERR_CONFIG;
         assert_int_equal(fx_start(&f), expect);
     }
-    /* a period of 2^23 ticks or more cannot be represented in Q8 */
+    /* a period of 2^21 ticks or more could overflow the PLL's Q8 sums (urb_pll.c) */
     fixture_t f;
     fx_defaults(&f);
     f.cfg.ticks_per_us = 200u;
     f.cfg.heartbeat_us = 60000u; /* 12 M ticks */
+    assert_int_equal(fx_start(&f), URB_NODE_ERR_CONFIG);
+    fx_defaults(&f);
+    f.cfg.heartbeat_us = 43691u; /* 48 x 43691 = 2^21 + 16 ticks: just beyond the limit */
     assert_int_equal(fx_start(&f), URB_NODE_ERR_CONFIG);
     urb_node_config_default(NULL); /* harmless */
 }
