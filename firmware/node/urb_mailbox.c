@@ -24,18 +24,65 @@
 /* Mailbox 0 buffers inside urb_node_t.mb0: outbox 0 first, then inbox 0. */
 #define URB_MB0_INBOX_OFFSET (2u * URB_NODE_OUTBOX0_SIZE)
 
+/* ACSL for Frama-C WP (proofs/framac/mailbox/). WP proves each function as one sequential step
+ * (-wp-no-volatile): the interleavings of the two sides are TLC's and ESBMC's job. What WP adds is
+ * that no path indexes outside the mailbox storage and that each function keeps the index bytes in
+ * {0, 1, NONE} and the layout intact, for every node state the layout predicate allows. */
+/*@ predicate urb_mb_indices(urb_node_t *node) =
+      \forall integer n; 0 <= n < URB_NODE_MAILBOXES ==>
+        node->outbox[n].front <= 1 && node->outbox[n].isr_idx <= URB_NONE && node->outbox[n].held <= URB_NONE &&
+        node->inbox[n].front <= 1 && node->inbox[n].isr_idx <= URB_NONE && node->inbox[n].app_idx <= URB_NONE;
+
+    predicate urb_mb_box(urb_node_t *node, integer n, integer offset, integer size) =
+      n == 0 ? offset + 2 * size <= 2 * URB_NODE_OUTBOX0_SIZE + 2 * URB_NODE_INBOX0_SIZE
+             : (size == 0 || offset + 2 * size <= node->storage_used);
+
+    predicate urb_mb_memory(urb_node_t *node) =
+      \valid(node) && node->storage_used <= node->storage_len &&
+      \valid(node->storage + (0 .. node->storage_len - 1)) &&
+      \separated(node, node->storage + (0 .. node->storage_len - 1));
+
+    predicate urb_mb_boxes(urb_node_t *node) =
+      \forall integer n; 0 <= n < URB_NODE_MAILBOXES ==>
+        urb_mb_box(node, n, node->outbox[n].offset, node->outbox[n].size) &&
+        urb_mb_box(node, n, node->inbox[n].offset, node->inbox[n].size);
+
+    predicate urb_mb_layout(urb_node_t *node) = urb_mb_memory(node) && urb_mb_indices(node) && urb_mb_boxes(node);
+
+    logic uint8_t *urb_mb_buf(urb_node_t *node, integer n, integer offset, integer size, integer b) =
+      (n == 0 ? &node->mb0[0] : node->storage) + offset + (b != 0 ? size : 0);
+
+    logic uint8_t *urb_mb_out(urb_node_t *node, integer n, integer b) =
+      urb_mb_buf(node, n, node->outbox[n].offset, node->outbox[n].size, b);
+
+    logic uint8_t *urb_mb_in(urb_node_t *node, integer n, integer b) =
+      urb_mb_buf(node, n, node->inbox[n].offset, node->inbox[n].size, b);
+*/
+
 /* Buffer b of a mailbox at `offset` with `size` bytes: mailbox 0 in mb0, the others in storage. */
+/*@ requires urb_mb_layout(node) && n < URB_NODE_MAILBOXES && urb_mb_box(node, n, offset, size);
+    assigns \nothing;
+    ensures \result == urb_mb_buf(node, n, offset, size, b);
+    ensures size > 0 ==> \valid(\result + (0 .. size - 1)); */
 static uint8_t *box_buf(urb_node_t *node, uint8_t n, uint16_t offset, uint8_t size, uint8_t b)
 {
     uint8_t *base = (n == 0u) ? node->mb0 : node->storage;
     return base + offset + ((b != 0u) ? size : 0u);
 }
 
+/*@ requires urb_mb_layout(node) && n < URB_NODE_MAILBOXES;
+    assigns \nothing;
+    ensures \result == urb_mb_out(node, n, b);
+    ensures node->outbox[n].size > 0 ==> \valid(\result + (0 .. node->outbox[n].size - 1)); */
 uint8_t *urb_outbox_buf(urb_node_t *node, uint8_t n, uint8_t b)
 {
     return box_buf(node, n, node->outbox[n].offset, node->outbox[n].size, b);
 }
 
+/*@ requires urb_mb_layout(node) && n < URB_NODE_MAILBOXES;
+    assigns \nothing;
+    ensures \result == urb_mb_in(node, n, b);
+    ensures node->inbox[n].size > 0 ==> \valid(\result + (0 .. node->inbox[n].size - 1)); */
 uint8_t *urb_inbox_buf(urb_node_t *node, uint8_t n, uint8_t b)
 {
     return box_buf(node, n, node->inbox[n].offset, node->inbox[n].size, b);
@@ -43,6 +90,32 @@ uint8_t *urb_inbox_buf(urb_node_t *node, uint8_t n, uint8_t b)
 
 /* ===== Outbox: application writes, interrupt reads (MailboxOutbox.tla) ===================== */
 
+/*@ requires urb_mb_layout(node) && n < URB_NODE_MAILBOXES;
+    requires \valid(data) && \separated(data, node) && \separated(data, node->storage + (0 .. node->storage_len - 1));
+    ensures urb_mb_layout(node);
+    behavior not_set_up:
+      assumes node->outbox[n].size == 0;
+      assigns \nothing;
+      ensures \result == URB_NODE_ERR_SETUP;
+    behavior double_lock:
+      assumes node->outbox[n].size != 0 && node->outbox[n].held != URB_NONE;
+      assigns \nothing;
+      ensures \result == URB_NODE_ERR_STATE;
+    behavior busy:
+      assumes node->outbox[n].size != 0 && node->outbox[n].held == URB_NONE;
+      assumes node->outbox[n].isr_idx == 1 - node->outbox[n].front;
+      assigns \nothing;
+      ensures \result == URB_NODE_ERR_BUSY;
+    behavior granted:
+      assumes node->outbox[n].size != 0 && node->outbox[n].held == URB_NONE;
+      assumes node->outbox[n].isr_idx != 1 - node->outbox[n].front;
+      assigns node->outbox[n].held, *data;
+      ensures \result == URB_NODE_OK;
+      ensures node->outbox[n].held == 1 - node->outbox[n].front;
+      ensures node->outbox[n].held != node->outbox[n].isr_idx;
+      ensures \valid(*data + (0 .. node->outbox[n].size - 1));
+    complete behaviors;
+    disjoint behaviors; */
 int urb_lock_outbox_any(urb_node_t *node, uint8_t n, uint8_t **data)
 {
     urb_node_outbox_t *ob = &node->outbox[n];
@@ -71,6 +144,24 @@ int urb_lock_outbox_any(urb_node_t *node, uint8_t n, uint8_t **data)
     return URB_NODE_OK;
 }
 
+/*@ requires urb_mb_layout(node) && n < URB_NODE_MAILBOXES;
+    ensures urb_mb_layout(node);
+    behavior not_set_up:
+      assumes node->outbox[n].size == 0;
+      assigns \nothing;
+      ensures \result == URB_NODE_ERR_SETUP;
+    behavior not_locked:
+      assumes node->outbox[n].size != 0 && node->outbox[n].held == URB_NONE;
+      assigns \nothing;
+      ensures \result == URB_NODE_ERR_STATE;
+    behavior publish:
+      assumes node->outbox[n].size != 0 && node->outbox[n].held != URB_NONE;
+      assigns node->outbox[n].front, node->outbox[n].held;
+      ensures \result == URB_NODE_OK;
+      ensures node->outbox[n].front == \old(node->outbox[n].held);
+      ensures node->outbox[n].held == URB_NONE;
+    complete behaviors;
+    disjoint behaviors; */
 int urb_release_outbox_any(urb_node_t *node, uint8_t n)
 {
     urb_node_outbox_t *ob = &node->outbox[n];
@@ -87,6 +178,10 @@ int urb_release_outbox_any(urb_node_t *node, uint8_t n)
     return URB_NODE_OK;
 }
 
+/*@ requires urb_mb_layout(node) && n < URB_NODE_MAILBOXES;
+    assigns node->outbox[n].isr_idx;
+    ensures urb_mb_layout(node);
+    ensures node->outbox[n].isr_idx == node->outbox[n].front; */
 void urb_isr_read_begin(urb_node_t *node, uint8_t n)
 {
     urb_node_outbox_t *ob = &node->outbox[n];
@@ -94,6 +189,10 @@ void urb_isr_read_begin(urb_node_t *node, uint8_t n)
     URB_NODE_BARRIER();
 }
 
+/*@ requires urb_mb_layout(node) && n < URB_NODE_MAILBOXES && k < node->outbox[n].size;
+    assigns \nothing;
+    ensures node->outbox[n].isr_idx == URB_NONE ==> \result == 0xFF;
+    ensures node->outbox[n].isr_idx != URB_NONE ==> \result == urb_mb_out(node, n, node->outbox[n].isr_idx)[k]; */
 uint8_t urb_isr_read_byte(urb_node_t *node, uint8_t n, uint8_t k)
 {
     urb_node_outbox_t const *ob = &node->outbox[n];
@@ -103,6 +202,10 @@ uint8_t urb_isr_read_byte(urb_node_t *node, uint8_t n, uint8_t k)
     return urb_outbox_buf(node, n, ob->isr_idx)[k]; /* MailboxOutbox.tla: IsrReadByte */
 }
 
+/*@ requires urb_mb_layout(node) && n < URB_NODE_MAILBOXES;
+    assigns node->outbox[n].isr_idx;
+    ensures urb_mb_layout(node);
+    ensures node->outbox[n].isr_idx == URB_NONE; */
 void urb_isr_read_end(urb_node_t *node, uint8_t n)
 {
     urb_node_outbox_t *ob = &node->outbox[n];
@@ -112,6 +215,20 @@ void urb_isr_read_end(urb_node_t *node, uint8_t n)
 
 /* ===== Inbox: interrupt writes, application reads (MailboxInbox.tla) ======================= */
 
+/*@ requires urb_mb_layout(node) && n < URB_NODE_MAILBOXES;
+    ensures urb_mb_layout(node);
+    behavior refused:
+      assumes node->inbox[n].app_idx == 1 - node->inbox[n].front;
+      assigns \nothing;
+      ensures \result == \false;
+    behavior accepted:
+      assumes node->inbox[n].app_idx != 1 - node->inbox[n].front;
+      assigns node->inbox[n].isr_idx;
+      ensures \result == \true;
+      ensures node->inbox[n].isr_idx == 1 - node->inbox[n].front;
+      ensures node->inbox[n].isr_idx != node->inbox[n].app_idx;
+    complete behaviors;
+    disjoint behaviors; */
 bool urb_isr_write_begin(urb_node_t *node, uint8_t n)
 {
     urb_node_inbox_t *ib = &node->inbox[n];
@@ -130,6 +247,17 @@ bool urb_isr_write_begin(urb_node_t *node, uint8_t n)
     return true;
 }
 
+/*@ requires urb_mb_layout(node) && n < URB_NODE_MAILBOXES && k < node->inbox[n].size;
+    ensures urb_mb_layout(node);
+    behavior idle:
+      assumes node->inbox[n].isr_idx == URB_NONE;
+      assigns \nothing;
+    behavior store:
+      assumes node->inbox[n].isr_idx != URB_NONE;
+      assigns urb_mb_in(node, n, node->inbox[n].isr_idx)[k];
+      ensures urb_mb_in(node, n, node->inbox[n].isr_idx)[k] == byte;
+    complete behaviors;
+    disjoint behaviors; */
 void urb_isr_write_byte(urb_node_t *node, uint8_t n, uint8_t k, uint8_t byte)
 {
     urb_node_inbox_t const *ib = &node->inbox[n];
@@ -139,6 +267,19 @@ void urb_isr_write_byte(urb_node_t *node, uint8_t n, uint8_t k, uint8_t byte)
     urb_inbox_buf(node, n, ib->isr_idx)[k] = byte; /* MailboxInbox.tla: IsrWriteByte */
 }
 
+/*@ requires urb_mb_layout(node) && n < URB_NODE_MAILBOXES;
+    ensures urb_mb_layout(node);
+    behavior idle:
+      assumes node->inbox[n].isr_idx == URB_NONE;
+      assigns \nothing;
+    behavior publish:
+      assumes node->inbox[n].isr_idx != URB_NONE;
+      assigns node->inbox[n].fresh[node->inbox[n].isr_idx], node->inbox[n].front, node->inbox[n].isr_idx;
+      ensures node->inbox[n].front == \old(node->inbox[n].isr_idx);
+      ensures node->inbox[n].fresh[node->inbox[n].front] == 1;
+      ensures node->inbox[n].isr_idx == URB_NONE;
+    complete behaviors;
+    disjoint behaviors; */
 void urb_isr_write_commit(urb_node_t *node, uint8_t n)
 {
     urb_node_inbox_t *ib = &node->inbox[n];
@@ -152,12 +293,38 @@ void urb_isr_write_commit(urb_node_t *node, uint8_t n)
     ib->isr_idx = URB_NONE; /* MailboxInbox.tla: IsrWriteCommit (isr_idx := NONE), in this order */
 }
 
+/*@ requires urb_mb_layout(node) && n < URB_NODE_MAILBOXES;
+    assigns node->inbox[n].isr_idx;
+    ensures urb_mb_layout(node);
+    ensures node->inbox[n].isr_idx == URB_NONE; */
 void urb_isr_write_abort(urb_node_t *node, uint8_t n)
 {
     urb_node_inbox_t *ib = &node->inbox[n];
     ib->isr_idx = URB_NONE; /* MailboxInbox.tla: IsrWriteAbort (nothing published) */
 }
 
+/*@ requires urb_mb_layout(node) && n < URB_NODE_MAILBOXES;
+    requires \valid(data) && \separated(data, node) && \separated(data, node->storage + (0 .. node->storage_len - 1));
+    assigns node->inbox[n].app_idx, node->inbox[n].fresh[0 .. 1], *data;
+    ensures urb_mb_layout(node);
+    ensures \result == URB_NODE_ERR_SETUP || \result == URB_NODE_ERR_STATE || \result == URB_NODE_ERR_BUSY ||
+            \result == URB_NODE_OK || \result == URB_NODE_NEW;
+    behavior not_set_up:
+      assumes node->inbox[n].size == 0;
+      ensures \result == URB_NODE_ERR_SETUP;
+    behavior double_lock:
+      assumes node->inbox[n].size != 0 && node->inbox[n].app_idx != URB_NONE;
+      ensures \result == URB_NODE_ERR_STATE;
+    behavior attempt:
+      assumes node->inbox[n].size != 0 && node->inbox[n].app_idx == URB_NONE;
+      ensures \result >= 0 ==> node->inbox[n].app_idx == node->inbox[n].front;
+      ensures \result >= 0 ==> node->inbox[n].app_idx != node->inbox[n].isr_idx;
+      ensures \result >= 0 ==> *data == urb_mb_in(node, n, node->inbox[n].app_idx);
+      ensures \result >= 0 ==> \valid_read(*data + (0 .. node->inbox[n].size - 1));
+      ensures \result >= 0 ==> (\result == URB_NODE_NEW <==> \old(node->inbox[n].fresh[node->inbox[n].front]) != 0);
+      ensures \result < 0 ==> node->inbox[n].app_idx == URB_NONE;
+    complete behaviors;
+    disjoint behaviors; */
 int urb_lock_inbox_any(urb_node_t *node, uint8_t n, const uint8_t **data)
 {
     urb_node_inbox_t *ib = &node->inbox[n];
@@ -168,6 +335,13 @@ int urb_lock_inbox_any(urb_node_t *node, uint8_t n, const uint8_t **data)
         return URB_NODE_ERR_STATE; /* double lock */
     }
     /* bound: 1 + URB_INBOX_MAX_RETRY = 3 attempts (MaxRetry of the model), then BUSY */
+    /*@ loop invariant 0 <= attempt <= URB_INBOX_MAX_RETRY + 1;
+        loop invariant node->inbox[n].app_idx == URB_NONE;
+        loop invariant urb_mb_layout(node);
+        loop invariant node->inbox[n].fresh[0] == \at(node->inbox[n].fresh[0], Pre);
+        loop invariant node->inbox[n].fresh[1] == \at(node->inbox[n].fresh[1], Pre);
+        loop assigns attempt, node->inbox[n].app_idx, node->inbox[n].fresh[0 .. 1], *data;
+        loop variant URB_INBOX_MAX_RETRY + 1 - attempt; */
     for (uint8_t attempt = 0u; attempt <= URB_INBOX_MAX_RETRY; attempt++) {
         uint8_t const a = ib->front; /* MailboxInbox.tla: AppLockLoadFront */
         URB_STEP(node, URB_STEP_IN_LOAD_FRONT);
@@ -199,6 +373,23 @@ int urb_lock_inbox_any(urb_node_t *node, uint8_t n, const uint8_t **data)
     return URB_NODE_ERR_BUSY; /* MailboxInbox.tla: AppLockUnclaim after MaxRetry retries: URB_BUSY */
 }
 
+/*@ requires urb_mb_layout(node) && n < URB_NODE_MAILBOXES;
+    ensures urb_mb_layout(node);
+    behavior not_set_up:
+      assumes node->inbox[n].size == 0;
+      assigns \nothing;
+      ensures \result == URB_NODE_ERR_SETUP;
+    behavior not_locked:
+      assumes node->inbox[n].size != 0 && node->inbox[n].app_idx == URB_NONE;
+      assigns \nothing;
+      ensures \result == URB_NODE_ERR_STATE;
+    behavior release:
+      assumes node->inbox[n].size != 0 && node->inbox[n].app_idx != URB_NONE;
+      assigns node->inbox[n].app_idx;
+      ensures \result == URB_NODE_OK;
+      ensures node->inbox[n].app_idx == URB_NONE;
+    complete behaviors;
+    disjoint behaviors; */
 int urb_release_inbox_any(urb_node_t *node, uint8_t n)
 {
     urb_node_inbox_t *ib = &node->inbox[n];
@@ -216,10 +407,30 @@ int urb_release_inbox_any(urb_node_t *node, uint8_t n)
 
 /* ===== Setup ================================================================================ */
 
+/*@ requires \valid(node) && node->storage_used <= node->storage_len;
+    requires \valid(node->storage + (0 .. node->storage_len - 1));
+    requires \separated(node, node->storage + (0 .. node->storage_len - 1));
+    requires \forall integer n; 0 <= n < URB_NODE_MAILBOXES ==>
+               node->outbox[n].front <= 1 && node->inbox[n].front <= 1 &&
+               node->outbox[n].offset == 0 && node->outbox[n].size == 0 &&
+               node->inbox[n].offset == 0 && node->inbox[n].size == 0;
+    assigns node->outbox[0 .. URB_NODE_MAILBOXES - 1].isr_idx, node->outbox[0 .. URB_NODE_MAILBOXES - 1].held,
+            node->inbox[0 .. URB_NODE_MAILBOXES - 1].isr_idx, node->inbox[0 .. URB_NODE_MAILBOXES - 1].app_idx,
+            node->outbox[0].size, node->inbox[0].offset, node->inbox[0].size;
+    ensures urb_mb_memory(node);
+    ensures node->outbox[0].size == URB_NODE_OUTBOX0_SIZE;
+    ensures node->inbox[0].offset == URB_MB0_INBOX_OFFSET && node->inbox[0].size == URB_NODE_INBOX0_SIZE; */
 void urb_mailbox_reset(urb_node_t *node)
 {
     /* urb_node_init has zeroed the node: sizes, offsets, fronts, fresh flags and buffers are 0 */
     /* bound: URB_NODE_MAILBOXES = 8 */
+    /*@ loop invariant 0 <= n <= URB_NODE_MAILBOXES;
+        loop invariant \forall integer i; 0 <= i < n ==>
+          node->outbox[i].isr_idx == URB_NONE && node->outbox[i].held == URB_NONE &&
+          node->inbox[i].isr_idx == URB_NONE && node->inbox[i].app_idx == URB_NONE;
+        loop assigns n, node->outbox[0 .. URB_NODE_MAILBOXES - 1].isr_idx, node->outbox[0 .. URB_NODE_MAILBOXES - 1].held,
+                     node->inbox[0 .. URB_NODE_MAILBOXES - 1].isr_idx, node->inbox[0 .. URB_NODE_MAILBOXES - 1].app_idx;
+        loop variant URB_NODE_MAILBOXES - n; */
     for (uint8_t n = 0u; n < URB_NODE_MAILBOXES; n++) {
         node->outbox[n].isr_idx = URB_NONE;
         node->outbox[n].held = URB_NONE;

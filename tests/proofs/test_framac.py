@@ -1,0 +1,203 @@
+"""Frama-C proofs (proofs/framac/, tools/proofs_framac.py).
+
+Layout checks run without Frama-C: every unit folder is complete, its mutant still applies to the
+current sources, its expected counts hold 100 % of the WP goals, and every recorded Eva alarm is
+explained in eva_alarms.md. The runner's verdicts are checked on crafted reports (a count that
+moves, an unproved goal, a new or vanished alarm must each fail). The end-to-end test replays the
+committed WP cache offline for the generated runtime and its mutant: the unit must prove, the
+mutant must be rejected, and a missing cache entry fails instead of silently running provers.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+UNITS = ROOT / "proofs" / "framac"
+FOLDERS = sorted(p.parent for p in UNITS.glob("*/unit.json"))
+
+
+def _runner() -> ModuleType:
+    spec = importlib.util.spec_from_file_location("proofs_framac", ROOT / "tools" / "proofs_framac.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["proofs_framac"] = module  # dataclasses look their module up
+    spec.loader.exec_module(module)
+    return module
+
+
+RUNNER = _runner()
+
+
+def _unit(name: str) -> Any:
+    return RUNNER.load_unit(UNITS / name)
+
+
+def test_units_cover_the_codecs_the_mailbox_and_the_fifo() -> None:
+    names = {p.name for p in FOLDERS}
+    assert {"gen_runtime", "gen_core", "gen_sensorhex", "mailbox", "fifo"} <= names
+    assert any(n.startswith("eva_node_") for n in names)
+
+
+@pytest.mark.parametrize("folder", FOLDERS, ids=[f.name for f in FOLDERS])
+def test_unit_folder_is_complete(folder: Path) -> None:
+    unit = RUNNER.load_unit(folder)  # PURPOSE is one line, sources exist
+    assert (folder / "expected.json").is_file(), "record it with tools/proofs_framac.py --record"
+    assert unit.mutant is not None, "every unit needs a seeded mutant that the same run must reject"
+    for key in ("name", "why", "file", "find", "replace"):
+        assert unit.mutant.get(key), f"mutant.{key} missing"
+    text = (ROOT / unit.mutant["file"]).read_text(encoding="utf-8")
+    assert text.count(unit.mutant["find"]) == 1, "the mutant no longer applies to the current source"
+    assert unit.mutant["find"] != unit.mutant["replace"]
+
+
+@pytest.mark.parametrize("folder", [f for f in FOLDERS if json.loads((f / "unit.json").read_text())["tool"] == "wp"],
+                         ids=lambda f: f.name)
+def test_wp_expectations_are_complete_proofs(folder: Path) -> None:
+    expected = json.loads((folder / "expected.json").read_text())["functions"]
+    assert expected, "no function recorded"
+    for fn, counts in expected.items():
+        assert counts["total"] > 0, fn
+        assert counts["proved"] == counts["total"], f"{fn}: expected.json records an incomplete proof"
+
+
+def test_generated_codecs_are_all_under_wp() -> None:
+    """Every function defined in gen/c has a WP row: a new message cannot slip past the proofs."""
+    import re
+
+    recorded: set[str] = set()
+    for name in ("gen_runtime", "gen_core", "gen_sensorhex"):
+        recorded |= set(json.loads((UNITS / name / "expected.json").read_text())["functions"])
+    defined = set()
+    for src in (ROOT / "gen" / "c").glob("*.c"):
+        defined |= set(re.findall(r"^\w[\w\s\*]*?\b(urb_\w+)\(", src.read_text(encoding="utf-8"), re.MULTILINE))
+    assert defined and defined <= recorded, f"without WP results: {sorted(defined - recorded)}"
+
+
+def test_recorded_eva_alarms_are_reviewed() -> None:
+    reviewed = RUNNER.read_alarm_list()
+    for folder in FOLDERS:
+        if json.loads((folder / "unit.json").read_text())["tool"] != "eva":
+            continue
+        alarms = json.loads((folder / "expected.json").read_text())["alarms"]
+        missing = [a for a in alarms if a not in reviewed]
+        assert not missing, f"{folder.name}: explain these in proofs/framac/eva_alarms.md: {missing}"
+
+
+# ----------------------------------------------------------------------------- verdicts
+
+
+def _wp_run(functions: dict[str, tuple[int, int]]) -> Any:
+    report: dict[str, Any] = {"wp:functions": {}}
+    for fn, (valid, total) in functions.items():
+        props = {"wp:section": {"wp:main": {"total": total, "valid": valid}}}
+        props[f"{fn}_ensures"] = {"wp:main": {"total": total, "valid": valid}}
+        report["wp:functions"][fn] = props
+    return RUNNER.FramacRun(True, 1.0, "[wp] [Qed] Goal typed_f_ensures : Valid (12ms)\n", report)
+
+
+def _wp_unit(expected: dict[str, tuple[int, int]]) -> Any:
+    unit = _unit("gen_runtime")
+    unit.expected = {"functions": {f: {"proved": p, "total": t} for f, (p, t) in expected.items()}}
+    return unit
+
+
+def test_wp_verdicts() -> None:
+    unit = _wp_unit({"f": (3, 3)})
+    rows, _ = RUNNER.check_wp(unit, _wp_run({"f": (3, 3)}), record=False)
+    assert [r.result for r in rows] == ["proved"] and rows[0].expected
+    assert rows[0].time_s == pytest.approx(0.012)
+    rows, _ = RUNNER.check_wp(unit, _wp_run({"f": (2, 3)}), record=False)
+    assert rows[0].result == "UNPROVED" and not rows[0].expected and "f_ensures" in rows[0].detail
+    rows, _ = RUNNER.check_wp(unit, _wp_run({"f": (4, 4)}), record=False)
+    assert rows[0].result == "COUNT CHANGED" and not rows[0].expected
+    rows, _ = RUNNER.check_wp(unit, _wp_run({}), record=False)
+    assert rows[0].result == "MISSING" and not rows[0].expected
+    rows, _ = RUNNER.check_wp(unit, _wp_run({"f": (3, 3), "g": (1, 1)}), record=False)
+    assert not next(r for r in rows if r.function == "g").expected  # a new function must be recorded
+    rows, _ = RUNNER.check_wp(unit, RUNNER.FramacRun(False, 1.0, "boom"), record=False)
+    assert rows[0].result == "ERROR" and not rows[0].expected
+
+
+def _eva_report(tmp_path: Path, props: list[tuple[str, str, str]]) -> Path:
+    lines = ["directory\tfile\tline\tfunction\tproperty kind\tstatus\tproperty"]
+    lines += [f"firmware/node\turb_i2c.c\t10\t{fn}\t{kind}\tUnknown\t{prop}" for fn, kind, prop in props]
+    lines.append("firmware/node\turb_i2c.c\t11\tf\tprecondition of g\tUnknown\tn < 8")  # contract: WP's
+    path = tmp_path / "r.csv"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+def test_eva_verdicts(tmp_path: Path) -> None:
+    unit = _unit("eva_node_i2c")
+    key = "urb_i2c.c:f: mem_access: \\valid(p)"
+    report = _eva_report(tmp_path, [("f", "mem_access", "\\valid(p)")])
+    assert RUNNER.eva_alarms(report) == [key]
+    ok = RUNNER.FramacRun(True, 1.0, "")
+    unit.expected = {"alarms": [key]}
+    rows, _ = RUNNER.check_eva(unit, ok, report, record=False, reviewed={key})
+    assert rows[0].expected and rows[0].result == "reviewed alarms"
+    rows, _ = RUNNER.check_eva(unit, ok, report, record=False, reviewed=set())
+    assert not rows[0].expected and "NEW ALARM" in rows[0].detail  # listed but not explained
+    unit.expected = {"alarms": []}
+    rows, _ = RUNNER.check_eva(unit, ok, report, record=False, reviewed={key})
+    assert not rows[0].expected and rows[0].result == "ALARM"
+    unit.expected = {"alarms": [key, "urb_i2c.c:g: mem_access: \\valid(q)"]}
+    rows, _ = RUNNER.check_eva(unit, ok, report, record=False, reviewed={key})
+    assert not rows[0].expected and "no longer raised" in rows[0].detail
+    bad = RUNNER.FramacRun(True, 1.0, "[eva] NON TERMINATING FUNCTION eva_main")
+    rows, _ = RUNNER.check_eva(unit, bad, report, record=False, reviewed={key})
+    assert rows[0].result == "ERROR" and not rows[0].expected
+
+
+def test_mutant_that_applies_twice_is_refused(tmp_path: Path) -> None:
+    unit = _unit("gen_runtime")
+    unit.mutant = dict(unit.mutant, find="uint8_t")
+    with pytest.raises(RUNNER.SetupError, match="occurs"):
+        RUNNER.apply_mutant(unit, tmp_path)
+
+
+def test_summary_and_junit_follow_the_results_contract(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(RUNNER, "OUT_DIR", tmp_path)
+    rows = [RUNNER.Row("f", "frama-c wp", "3/3 goals", "b", "proved", True, 0.1, "", "u"),
+            RUNNER.Row("u mutant m", "frama-c eva", "why", "b", "SURVIVED", False, 0.2, "d", "u")]
+    RUNNER.write_outputs(rows, 1.0)
+    data = json.loads((tmp_path / "summary.json").read_text())
+    assert data["part"] == "framac"
+    for row in data["rows"]:
+        assert {"function", "tool", "properties", "bound", "result", "expected", "time_s", "detail"} <= set(row)
+        assert row["tool"] in ("frama-c wp", "frama-c eva")
+    junit = (tmp_path / "junit.xml").read_text()
+    assert junit.count("<testcase") == 2 and junit.count("<failure") == 1
+
+
+def test_make_wires_the_part() -> None:
+    mk = (ROOT / "mk" / "proofs_framac.mk").read_text()
+    assert "proofs-framac:" in mk and "PROOF_PARTS += framac" in mk
+    assert "CHECK_TARGETS" not in mk  # mk/proofs.mk pulls the part in
+
+
+# ----------------------------------------------------------------------------- end to end
+
+
+def test_runtime_replays_from_the_committed_cache_and_its_mutant_is_rejected(tmp_path: Path) -> None:
+    missing = [c for c in ("frama-c", "why3", "z3", "cvc4") if shutil.which(c) is None]
+    assert not missing, f"{missing} missing: run tools/setup.sh (installs frama-c-base, why3, z3, cvc4)"
+    out = subprocess.run([sys.executable, str(ROOT / "tools" / "proofs_framac.py"), "--only", "gen_runtime",
+                          "--cache", "offline", "--jobs", "1"], cwd=ROOT, capture_output=True, text=True,
+                         timeout=900)
+    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-2000:]
+    rows = json.loads((ROOT / "build" / "proofs" / "framac" / "summary.json").read_text())["rows"]
+    units = [r for r in rows if " mutant " not in r["function"]]
+    mutants = [r for r in rows if " mutant " in r["function"]]
+    assert len(units) >= 10 and all(r["result"] == "proved" and r["expected"] for r in units)
+    assert len(mutants) == 1 and mutants[0]["result"] == "killed" and mutants[0]["expected"]

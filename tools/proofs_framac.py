@@ -1,0 +1,471 @@
+#!/usr/bin/env python3
+"""Frama-C part of the URB proofs: WP with -wp-rte and Eva, each unit with a seeded mutant.
+
+    python3 tools/proofs_framac.py                  # every unit and its mutant (replays proofs/framac/cache)
+    python3 tools/proofs_framac.py --only mailbox   # units whose folder name contains "mailbox"
+    python3 tools/proofs_framac.py --no-mutants     # the units only
+    python3 tools/proofs_framac.py --record         # rewrite each unit's expected.json from this run
+    python3 tools/proofs_framac.py --list           # the units and their settings, nothing run
+
+A unit is a folder proofs/framac/<unit>/ holding PURPOSE (one line), unit.json (what to run) and
+expected.json (what the run must give). unit.json:
+
+    {"tool": "wp" | "eva",
+     "sources": [files relative to the repository],   "cpp": [preprocessor options],
+     "args": [more frama-c options, e.g. -wp-fct or -main],
+     "mutant": {"name", "file", "find", "replace", "why", "args": [options for the mutant run only]}}
+
+WP units run `-wp -wp-rte` with the provers z3 and cvc4 through why3 (Alt-Ergo is not available),
+a per-goal timeout and the cache proofs/framac/cache: CI replays the cached prover answers, so a
+change of a goal shows up as a cache miss that runs the provers. Every function must prove all its
+goals, and the goal count per function must equal expected.json: a count that moves means the code
+or its contract changed, so re-record with --record after reviewing the change.
+
+Eva units analyse a main (proofs/framac/eva_*/main.c) that drives one firmware entry point with a
+HAL of arbitrary inputs. Each alarm is keyed by file, function and property text (no line numbers,
+so edits elsewhere in the file do not invalidate the list); every alarm must be in expected.json
+and explained in proofs/framac/eva_alarms.md, and an alarm listed there that no longer occurs must
+be removed (the list stays exact).
+
+The mutant of a unit copies one source file, replaces `find` (which must occur exactly once) by
+`replace` and runs the same analysis: WP must leave a goal unproved, Eva must raise an alarm that
+is not in the reviewed list.
+
+Outputs build/proofs/framac/summary.json ({"part": "framac", "rows": [...]}, one row per function
+or Eva entry point and one per mutant), junit.xml and the Frama-C logs under logs/. Exit status:
+0 every result as expected, 1 an unexpected result, 2 a missing tool or a broken unit folder.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import shlex
+import shutil
+import subprocess
+import sys
+import time
+import xml.etree.ElementTree as ET
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parent.parent
+UNITS_DIR = ROOT / "proofs" / "framac"
+CACHE_DIR = UNITS_DIR / "cache"
+ALARMS_MD = UNITS_DIR / "eva_alarms.md"
+OUT_DIR = ROOT / "build" / "proofs" / "framac"
+PROVERS = "z3,cvc4"
+GOAL_TIMEOUT_S = 30  # per goal and prover, CPU seconds; generous because CI machines are shared, and a cache hit skips it
+MACHDEP = "gcc_x86_32"  # 32-bit int, long, size_t and pointers, as on the Cortex-M0+ targets
+EVA_UNROLL = 64  # unrolls every loop of at most 64 rounds (buffers, CRCs): exact, no widening there
+EVA_PRECISION = 2  # Eva's meta-option: enough states for the I2C and parser state machines
+RUN_TIMEOUT_S = 3600  # one frama-c process; catches a hang (a cold gen_core on a loaded 2-core machine takes ~20 min)
+
+
+class SetupError(Exception):
+    """A tool is missing or a unit folder is broken; the message says how to fix it."""
+
+
+# =============================================================================== units
+
+
+@dataclass
+class Unit:
+    name: str
+    folder: Path
+    tool: str  # wp | eva
+    purpose: str
+    sources: list[str]
+    cpp: list[str]
+    args: list[str]
+    mutant: dict[str, Any] | None
+    expected: dict[str, Any]
+
+
+def load_unit(folder: Path) -> Unit:
+    def need(path: Path) -> str:
+        if not path.is_file():
+            raise SetupError(f"{path.relative_to(ROOT)} is missing: every unit folder needs PURPOSE, unit.json "
+                             "and expected.json (create expected.json with --record)")
+        return path.read_text(encoding="utf-8")
+
+    purpose = need(folder / "PURPOSE").strip()
+    if not purpose or "\n" in purpose:
+        raise SetupError(f"{folder.relative_to(ROOT)}/PURPOSE must be exactly one line")
+    cfg = json.loads(need(folder / "unit.json"))
+    tool = cfg.get("tool")
+    if tool not in ("wp", "eva"):
+        raise SetupError(f"{folder.relative_to(ROOT)}/unit.json: tool must be \"wp\" or \"eva\", not {tool!r}")
+    for src in cfg["sources"]:
+        if not (ROOT / src).is_file():
+            raise SetupError(f"{folder.relative_to(ROOT)}/unit.json names {src}, which does not exist")
+    exp_path = folder / "expected.json"
+    expected: dict[str, Any] = json.loads(exp_path.read_text(encoding="utf-8")) if exp_path.is_file() else {}
+    return Unit(folder.name, folder, tool, purpose, list(cfg["sources"]), list(cfg.get("cpp", [])),
+                list(cfg.get("args", [])), cfg.get("mutant"), expected)
+
+
+def discover(only: list[str]) -> list[Unit]:
+    folders = sorted(p.parent for p in UNITS_DIR.glob("*/unit.json"))
+    if only:
+        folders = [f for f in folders if any(o in f.name for o in only)]
+    if not folders:
+        raise SetupError(f"no unit under {UNITS_DIR.relative_to(ROOT)} matches {only}: see --list")
+    return [load_unit(f) for f in folders]
+
+
+# =============================================================================== running
+
+
+def require_tools() -> None:
+    missing = [c for c in ("frama-c", "why3", "z3", "cvc4") if shutil.which(c) is None]
+    if missing:
+        raise SetupError(f"{', '.join(missing)} missing: install with `sudo apt-get install frama-c-base why3 z3 cvc4` "
+                         "(or run tools/setup.sh), then `why3 config detect`")
+    conf = Path(os.environ.get("WHY3CONFIG", str(Path.home() / ".why3.conf")))
+    text = conf.read_text(encoding="utf-8") if conf.is_file() else ""
+    if "Z3" not in text or "CVC4" not in text:
+        raise SetupError("why3 does not know z3 and cvc4: run `why3 config detect` (tools/setup.sh does it)")
+
+
+@dataclass
+class FramacRun:
+    ok: bool  # frama-c exited normally
+    seconds: float
+    log: str
+    report: dict[str, Any] = field(default_factory=dict)
+
+
+def apply_mutant(unit: Unit, work: Path) -> tuple[list[str], list[str]]:
+    """Sources and cpp options of the mutant run: the mutated file is a copy under `work`."""
+    assert unit.mutant is not None
+    target = unit.mutant["file"]
+    if target not in unit.sources and not (ROOT / target).is_file():
+        raise SetupError(f"{unit.name}: mutant file {target} does not exist")
+    text = (ROOT / target).read_text(encoding="utf-8")
+    find = unit.mutant["find"]
+    if text.count(find) != 1:
+        raise SetupError(f"{unit.name}: the mutant's `find` text occurs {text.count(find)} times in {target} "
+                         "(must be once): update unit.json to the current code")
+    work.mkdir(parents=True, exist_ok=True)
+    copy = work / Path(target).name
+    copy.write_text(text.replace(find, unit.mutant["replace"]), encoding="utf-8")
+    # The copy's own directory comes first for "..." includes, so the original directory must
+    # follow to resolve its neighbours (and a mutated header shadows the original one).
+    cpp = [f"-I{work}", f"-I{(ROOT / target).parent}"] + unit.cpp
+    sources = [str(copy) if s == target else s for s in unit.sources]
+    return sources, cpp
+
+
+def framac_command(unit: Unit, sources: list[str], cpp: list[str], extra: list[str], report: Path,
+                   jobs: int, cache: str) -> list[str]:
+    cmd = ["frama-c", "-machdep", MACHDEP, "-cpp-extra-args=" + " ".join(shlex.quote(c) for c in cpp)]
+    cmd += [s if os.path.isabs(s) else str(ROOT / s) for s in sources]
+    cmd += unit.args + extra  # before any -then: they configure the analysis itself
+    if unit.tool == "wp":
+        cmd += ["-wp", "-wp-rte", "-wp-prover", PROVERS, "-wp-timeout", str(GOAL_TIMEOUT_S), "-wp-par", str(jobs),
+                "-wp-cache", cache, "-wp-cache-dir", str(CACHE_DIR), "-wp-report-json", str(report),
+                "-wp-session", str(report.parent / (report.stem + ".session"))]
+    else:
+        cmd += ["-eva", "-eva-no-show-progress", "-eva-msg-key=-final-states", "-eva-auto-loop-unroll",
+                str(EVA_UNROLL), "-eva-precision", str(EVA_PRECISION), "-then", "-report-csv", str(report),
+                "-report-no-proven"]
+    return cmd
+
+
+def run_framac(cmd: list[str], log_path: Path, report: Path) -> FramacRun:
+    log_path.parent.mkdir(parents=True, exist_ok=True)
+    report.unlink(missing_ok=True)
+    start = time.monotonic()
+    try:
+        out = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=RUN_TIMEOUT_S)
+        text = out.stdout + out.stderr
+        ok = out.returncode == 0
+    except subprocess.TimeoutExpired as exc:
+        text = (exc.stdout or b"").decode() if isinstance(exc.stdout, bytes) else (exc.stdout or "")
+        text += f"\n*** killed after {RUN_TIMEOUT_S} s\n"
+        ok = False
+    seconds = time.monotonic() - start
+    log_path.write_text(" ".join(cmd) + "\n\n" + text, encoding="utf-8")
+    data: dict[str, Any] = {}
+    if ok and report.is_file() and report.suffix == ".json":
+        data = json.loads(report.read_text(encoding="utf-8"))
+    return FramacRun(ok, seconds, text, data)
+
+
+# =============================================================================== WP results
+
+_GOAL_RE = re.compile(r"^\[wp\] \[[^\]]+\] Goal typed_(\S+) : (\w+)(.*)$", re.MULTILINE)
+_MS_RE = re.compile(r"\((?:Qed:)?(\d+(?:\.\d+)?)(ms|s)\)")
+
+
+def wp_functions(run: FramacRun) -> dict[str, dict[str, Any]]:
+    """Per function: proved, total, the unproved properties and the solver time of its goals."""
+    result: dict[str, dict[str, Any]] = {}
+    for fn, props in run.report.get("wp:functions", {}).items():
+        main = props["wp:section"]["wp:main"]
+        unproved = sorted(p for p, v in props.items()
+                          if p != "wp:section" and v["wp:main"].get("valid", 0) < v["wp:main"]["total"])
+        result[fn] = {"proved": int(main.get("valid", 0)), "total": int(main["total"]), "unproved": unproved,
+                      "seconds": 0.0}
+    names = sorted(result, key=len, reverse=True)  # longest first: urb_x_encode before urb_x
+    for goal, _status, rest in _GOAL_RE.findall(run.log):
+        owner = next((n for n in names if goal.startswith(n + "_")), None)
+        if owner is None:
+            continue
+        for value, unit in _MS_RE.findall(rest):
+            result[owner]["seconds"] += float(value) / (1000.0 if unit == "ms" else 1.0)
+    return result
+
+
+# =============================================================================== Eva results
+
+
+def read_alarm_list() -> set[str]:
+    """Alarm keys explained in eva_alarms.md: the first column of its table, in backquotes."""
+    if not ALARMS_MD.is_file():
+        return set()
+    keys = set()
+    for line in ALARMS_MD.read_text(encoding="utf-8").splitlines():
+        m = re.match(r"^\|\s*`([^`]+)`\s*\|", line)
+        if m:
+            keys.add(m.group(1))
+    return keys
+
+
+_CONTRACT_KINDS = ("precondition", "postcondition", "loop invariant", "loop variant", "assigns", "from",
+                   "complete behaviors", "disjoint behaviors")
+
+
+def eva_alarms(report: Path) -> list[str]:
+    """Alarm keys `file:function: kind: property` from the Report plugin's CSV (unproved properties only)."""
+    if not report.is_file():
+        return []
+    keys = []
+    lines = report.read_text(encoding="utf-8").splitlines()
+    header = lines[0].split("\t") if lines else []
+    for line in lines[1:]:
+        cols = dict(zip(header, line.split("\t")))
+        kind = cols.get("property kind", "")
+        if cols.get("status", "") in ("Valid", "Valid under hyp.", "Considered valid", "Dead"):
+            continue
+        if kind.startswith(_CONTRACT_KINDS):
+            continue  # the ACSL contracts are WP's to prove; Eva's verdict on them is not an alarm
+        where = Path(cols.get("file", "?")).name  # a mutant's copy keeps its file name
+        prop = re.sub(r"\s+", " ", cols.get("property", "")).strip()
+        keys.append(f"{where}:{cols.get('function', '?')}: {kind}: {prop}")
+    return sorted(set(keys))
+
+
+_EVA_BAD_RE = re.compile(r"NON TERMINATING FUNCTION|\[kernel\] User Error|\[kernel\] Failure|"
+                         r"Completely invalid destination|Assertion got status invalid", re.MULTILINE)
+
+
+# =============================================================================== rows
+
+
+@dataclass
+class Row:
+    function: str
+    tool: str
+    properties: str
+    bound: str
+    result: str
+    expected: bool
+    time_s: float
+    detail: str = ""
+    unit: str = ""
+
+
+def wp_bound() -> str:
+    return f"unbounded (deductive); {PROVERS} via why3, {GOAL_TIMEOUT_S} s per goal"
+
+
+def check_wp(unit: Unit, run: FramacRun, record: bool) -> tuple[list[Row], dict[str, Any]]:
+    if not run.ok or not run.report:
+        return [Row(unit.name, "frama-c wp", "-", wp_bound(), "ERROR", False, run.seconds,
+                    f"frama-c failed: see build/proofs/framac/logs/{unit.name}.log", unit.name)], {}
+    funcs = wp_functions(run)
+    want: dict[str, Any] = unit.expected.get("functions", {})
+    rows = []
+    for fn in sorted(set(funcs) | set(want)):
+        got = funcs.get(fn)
+        exp = want.get(fn)
+        if got is None:
+            rows.append(Row(fn, "frama-c wp", "no goals", wp_bound(), "MISSING", record, 0.0,
+                            "expected.json lists it but WP produced no goal: function removed or renamed?",
+                            unit.name))
+            continue
+        complete = got["proved"] == got["total"]
+        same = exp is not None and exp["total"] == got["total"] and exp["proved"] == got["proved"]
+        result = "proved" if complete else "UNPROVED"
+        detail = ", ".join(got["unproved"])
+        if complete and not same and not record:
+            result = "COUNT CHANGED"
+            detail = (f"expected {exp['proved']}/{exp['total']} goals" if exp else "not in expected.json") + \
+                "; review the change, then run tools/proofs_framac.py --record"
+        rows.append(Row(fn, "frama-c wp", f"{got['proved']}/{got['total']} goals (RTE + ACSL contract)", wp_bound(),
+                        result, complete and (same or record), round(got["seconds"], 3), detail, unit.name))
+    recorded = {"functions": {fn: {"proved": g["proved"], "total": g["total"]} for fn, g in sorted(funcs.items())}}
+    return rows, recorded
+
+
+def check_eva(unit: Unit, run: FramacRun, report: Path, record: bool, reviewed: set[str]) -> tuple[list[Row],
+                                                                                                    dict[str, Any]]:
+    bound = "all inputs the HAL can give (abstract interpretation)"
+    bad = _EVA_BAD_RE.search(run.log)
+    if not run.ok or bad:
+        why = bad.group(0) if bad else "frama-c failed"
+        return [Row(unit.name, "frama-c eva", "-", bound, "ERROR", False, run.seconds,
+                    f"{why}: see build/proofs/framac/logs/{unit.name}.log", unit.name)], {}
+    alarms = eva_alarms(report)
+    listed = set(unit.expected.get("alarms", []))
+    new = [a for a in alarms if a not in listed or a not in reviewed]
+    gone = sorted(listed - set(alarms))
+    ok = (not new and not gone) or record
+    if record:
+        new = [a for a in alarms if a not in reviewed]
+        ok = not new
+    detail = "; ".join([f"NEW ALARM {a}" for a in new] + [f"no longer raised (remove from the list): {a}"
+                                                          for a in gone])
+    if new and record:
+        detail += "; explain each alarm in proofs/framac/eva_alarms.md (why it is not a bug), or fix the code"
+    result = "no alarm" if not alarms else ("reviewed alarms" if ok else "ALARM")
+    row = Row(unit.name, "frama-c eva", f"{len(alarms)} alarms ({len(alarms) - len(new)} reviewed)", bound, result,
+              ok, round(run.seconds, 3), detail, unit.name)
+    return [row], {"alarms": alarms}
+
+
+def mutant_row(unit: Unit, rows: list[Row]) -> Row:
+    assert unit.mutant is not None
+    tool = "frama-c wp" if unit.tool == "wp" else "frama-c eva"
+    if any(r.result == "ERROR" for r in rows):
+        return Row(f"{unit.name} mutant {unit.mutant['name']}", tool, unit.mutant["why"], "-", "ERROR", False,
+                   sum(r.time_s for r in rows), rows[0].detail, unit.name)
+    if unit.tool == "wp":
+        caught = [f"{r.function}: {r.detail}" for r in rows if r.result == "UNPROVED"]
+    else:
+        caught = [r.detail for r in rows if r.result == "ALARM" and "NEW ALARM" in r.detail]
+    return Row(f"{unit.name} mutant {unit.mutant['name']}", tool, unit.mutant["why"], "same as the unit",
+               "killed" if caught else "SURVIVED", bool(caught), round(sum(r.time_s for r in rows), 3),
+               "; ".join(caught)[:400], unit.name)
+
+
+# =============================================================================== driver
+
+
+def run_unit(unit: Unit, mutant: bool, jobs: int, cache: str, record: bool, reviewed: set[str]) -> tuple[
+        list[Row], dict[str, Any], float]:
+    tag = f"{unit.name}.mutant" if mutant else unit.name
+    report = OUT_DIR / "reports" / (tag + (".json" if unit.tool == "wp" else ".csv"))
+    report.parent.mkdir(parents=True, exist_ok=True)
+    sources, cpp, extra = unit.sources, unit.cpp, []
+    if mutant:
+        assert unit.mutant is not None
+        sources, cpp = apply_mutant(unit, OUT_DIR / "mutants" / unit.name)
+        extra = list(unit.mutant.get("args", []))
+    cmd = framac_command(unit, sources, cpp, extra, report, jobs, cache)
+    run = run_framac(cmd, OUT_DIR / "logs" / f"{tag}.log", report)
+    if unit.tool == "wp":
+        rows, recorded = check_wp(unit, run, record and not mutant)
+    else:
+        rows, recorded = check_eva(unit, run, report, record and not mutant, reviewed)
+    if mutant:
+        return [mutant_row(unit, rows)], {}, run.seconds
+    return rows, recorded, run.seconds
+
+
+def write_outputs(rows: list[Row], wall: float) -> None:
+    OUT_DIR.mkdir(parents=True, exist_ok=True)
+    data = {"part": "framac", "wall_s": round(wall, 1),
+            "rows": [{"function": r.function, "tool": r.tool, "properties": r.properties, "bound": r.bound,
+                      "result": r.result, "expected": r.expected, "time_s": r.time_s, "detail": r.detail,
+                      "unit": r.unit} for r in rows]}
+    (OUT_DIR / "summary.json").write_text(json.dumps(data, indent=2) + "\n", encoding="utf-8")
+    suites = ET.Element("testsuites", name="urb-proofs-framac")
+    for tool in ("frama-c wp", "frama-c eva"):
+        group = [r for r in rows if r.tool == tool]
+        if not group:
+            continue
+        suite = ET.SubElement(suites, "testsuite", name=f"proofs.framac.{tool.split()[-1]}", tests=str(len(group)),
+                              failures=str(sum(not r.expected for r in group)),
+                              time=f"{sum(r.time_s for r in group):.3f}")
+        for r in group:
+            case = ET.SubElement(suite, "testcase", classname=f"proofs.framac.{r.unit}", name=r.function,
+                                 time=f"{r.time_s:.3f}")
+            ET.SubElement(case, "system-out").text = f"{r.properties}; {r.bound}; {r.result}"
+            if not r.expected:
+                ET.SubElement(case, "failure", message=r.result).text = r.detail
+    ET.ElementTree(suites).write(OUT_DIR / "junit.xml", encoding="utf-8", xml_declaration=True)
+
+
+def print_table(rows: list[Row]) -> None:
+    headers = ["function", "tool", "properties", "result", "time"]
+    lines = [[r.function, r.tool, r.properties[:48], r.result, f"{r.time_s:.1f}s"] for r in rows]
+    widths = [max(len(h), *(len(x[i]) for x in lines)) if lines else len(h) for i, h in enumerate(headers)]
+    for cells in [headers, ["-" * w for w in widths]] + lines:
+        print("  ".join(c.ljust(w) for c, w in zip(cells, widths)).rstrip())
+    for r in rows:
+        if not r.expected:
+            print(f"UNEXPECTED {r.function} ({r.unit}): {r.result} {r.detail}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--only", action="append", default=[], help="units whose folder name contains this")
+    ap.add_argument("--no-mutants", action="store_true", help="skip the seeded mutants")
+    ap.add_argument("--mutants-only", action="store_true", help="run only the seeded mutants")
+    ap.add_argument("--record", action="store_true", help="rewrite each unit's expected.json from this run")
+    ap.add_argument("--cache", default="update", choices=["update", "replay", "offline", "rebuild", "none"],
+                    help="WP cache mode (default update: cached answers are reused, misses run the provers)")
+    ap.add_argument("--jobs", type=int, default=2, help="frama-c processes and provers in parallel (default 2)")
+    ap.add_argument("--list", action="store_true", help="print the units, run nothing")
+    args = ap.parse_args(argv)
+    try:
+        units = discover(args.only)
+        if args.list:
+            for u in units:
+                print(f"{u.name:24} {u.tool:4} {u.purpose}")
+            return 0
+        require_tools()
+        reviewed = read_alarm_list()
+        start = time.monotonic()
+        jobs: list[tuple[Unit, bool]] = []
+        if not args.mutants_only:
+            jobs += [(u, False) for u in units]
+        if not args.no_mutants:
+            jobs += [(u, True) for u in units if u.mutant is not None]
+        # Eva is one process per entry point; WP parallelises its provers itself, so WP units
+        # run one at a time with -wp-par jobs and the Eva units share the pool between them.
+        with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
+            futures = [(u, m, pool.submit(run_unit, u, m, 1 if u.tool == "eva" else args.jobs, args.cache,
+                                          args.record, reviewed)) for u, m in jobs]
+            rows: list[Row] = []
+            for u, m, fut in futures:
+                unit_rows, recorded, seconds = fut.result()
+                rows += unit_rows
+                print(f"  {u.name}{' (mutant)' if m else ''}: {seconds:.1f} s", flush=True)
+                if args.record and not m and recorded:
+                    (u.folder / "expected.json").write_text(json.dumps(recorded, indent=2) + "\n", encoding="utf-8")
+    except SetupError as exc:
+        print(f"proofs_framac: {exc}", file=sys.stderr)
+        return 2
+    wall = time.monotonic() - start
+    write_outputs(rows, wall)
+    print_table(rows)
+    bad = [r for r in rows if not r.expected]
+    wp_rows = [r for r in rows if r.tool == "frama-c wp" and " mutant " not in r.function]
+    goals = [int(r.properties.split("/")[1].split()[0]) for r in wp_rows if "/" in r.properties]
+    print(f"framac: {len(wp_rows)} WP functions, {sum(goals)} goals; "
+          f"{sum(r.tool == 'frama-c eva' and ' mutant ' not in r.function for r in rows)} Eva entry points; "
+          f"{sum(' mutant ' in r.function for r in rows)} mutants; {len(bad)} unexpected; {wall:.0f} s wall; "
+          f"build/proofs/framac/summary.json, junit.xml")
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
