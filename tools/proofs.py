@@ -284,8 +284,27 @@ class Proof:
         return self.config.get("fast_unwind" if tier == "fast" else "unwind", "?")
 
     def budget(self) -> int | None:
+        """BUDGET_CYCLES of the Makefile, else the firmware harness's FW_COST_BUDGET macro."""
         text = self.config.get("budget_cycles", "").strip()
-        return int(text) if text.isdigit() else None
+        if text.isdigit():
+            return int(text)
+        m = re.search(r"^#define FW_COST_BUDGET (\w+)", (self.folder / "harness.c").read_text(encoding="utf-8"),
+                      re.MULTILINE)
+        return fw_budget(m.group(1)) if m else None
+
+
+def fw_budget(name: str) -> int | None:
+    """Value of a budget macro of proofs/bmc/stubs/fw_budgets.h (the C preprocessor expands it)."""
+    src = f'#include "fw_budgets.h"\nURB_VALUE_IS {name}\n'
+    try:
+        out = subprocess.run(["cpp", "-P", f"-I{BMC_DIR / 'stubs'}"], input=src, capture_output=True, text=True,
+                             check=True, timeout=60).stdout
+    except (OSError, subprocess.SubprocessError):
+        return None
+    expr = re.sub(r"(\d+)[uU]", r"\1", out.split("URB_VALUE_IS", 1)[-1].strip())
+    if not re.fullmatch(r"[\d\s()+\-*/]+", expr):
+        return None  # not plain arithmetic: leave the budget out of the table rather than guess
+    return int(eval(expr.replace("/", "//"), {"__builtins__": {}}))  # noqa: S307 - digits and operators only
 
 
 def load(folder: Path, tier: str) -> Proof:
@@ -506,19 +525,44 @@ def update_costs(proofs: list[Proof], jobs: int, tier: str, out_root: Path) -> i
     A probe checks only `cost <= n`; each counterexample shows a larger reachable cost, which is the
     next probe, so the search ends at the worst case in a few runs per item. Only proofs whose
     harness measures a cost (URB_COST_END) are probed."""
+    def holds(p: Proof, item: str, bound: int) -> Run:
+        r = run_make(p, "probe", tier, out_root, item=item, extra=(f"COST_PROBE={bound}",), tag=f"-probe{bound}")
+        if r.outcome not in ("pass", "fail"):
+            raise SetupError(f"{p.name}: probe {item or 'run'} at {bound} gave {r.outcome} ({r.violated}); see {r.log}")
+        return r
+
+    def search(p: Proof, item: str, low: int) -> int:
+        """Smallest bound >= low that holds, by doubling then bisection (when the counterexample
+        does not show the cost: ESBMC folded a constant cost out of the trace)."""
+        high = max(2 * low, 64)
+        while holds(p, item, high).outcome == "fail":
+            low, high = high + 1, 2 * high
+            if high > 1 << 26:
+                raise SetupError(f"{p.name}: cost above {high >> 1} cycles at {item or 'run'}: is the harness bounded?")
+        while low < high:
+            mid = (low + high) // 2
+            if holds(p, item, mid).outcome == "pass":
+                high = mid
+            else:
+                low = mid + 1
+        return low
+
     def worst(p: Proof) -> tuple[int, str]:
         best, best_item = -1, ""
         for item in item_order(p.items(tier)):
             bound = max(best, 0)
-            while True:
-                r = run_make(p, "probe", tier, out_root, item=item, extra=(f"COST_PROBE={bound}",), tag=f"-probe{bound}")
+            while True:  # each counterexample shows a larger reachable cost, so this ends
+                r = holds(p, item, bound)
                 if r.outcome == "pass":
                     break
-                if r.outcome != "fail" or r.cost_seen is None or r.cost_seen <= bound:
-                    raise SetupError(f"{p.name}: probe {item or 'run'} gave {r.outcome} ({r.violated}); see {r.log}")
-                bound = r.cost_seen
-                if bound > best:
-                    best, best_item = bound, item
+                if r.cost_seen is None or r.cost_seen <= bound:
+                    bound = search(p, item, bound + 1)
+                else:
+                    bound = r.cost_seen
+                    continue
+                break
+            if bound > best:
+                best, best_item = bound, item
         return best, best_item
 
     measured = [p for p in proofs if "URB_COST_END" in (p.folder / "harness.c").read_text(encoding="utf-8")]

@@ -385,7 +385,7 @@ def sweeps(d: MessageDecl, kind: str) -> tuple[list[str], list[str]]:
         return [], []
     cs = d.checksum
     limits = [t.max_covered for t in cs.tiers if t.max_covered is not None] if cs else []
-    edges = {0, 1, d.max_payload}
+    edges = {0, d.max_payload}  # (a payload of 1 byte adds nothing the ends and tier sides miss)
     for lim in limits:
         p = lim - d.implicit_size - d.fixed_size
         edges |= {p, p + 1}

@@ -128,3 +128,9 @@ def test_a_mutant_is_killed_only_by_a_verification_failure(tmp_path: Path) -> No
         rows = P.collect(plan, "fast")
         assert rows[0]["result"] == "proved" and rows[0]["expected"]
         assert (rows[1]["result"], rows[1]["expected"]) == (result, expected)
+
+
+def test_firmware_budgets_are_read_from_fw_budgets_h() -> None:
+    # half an I2C fast-mode byte time (9 bits at 400 kb/s) at 48 MHz
+    assert P.fw_budget("FW_I2C_EVENT_BUDGET") == 540
+    assert P.fw_budget("NO_SUCH_BUDGET") is None
