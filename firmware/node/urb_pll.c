@@ -158,15 +158,11 @@ static void update_period(urb_node_t *node, uint32_t t_d, uint8_t gap)
 }
 
 /* t_n - t_d + dt_adj in ticks, clamped to +-period (a stalled timer cannot overflow phase * 256).
- * The difference is clamped to +-2 period before the lead is added: the result is the same (with
- * lead <= period / 4 such a sum is clamped anyway), and a difference near 2^31 (a timer that
- * jumped, a bogus capture) cannot overflow the sum (fw_node_pll_update found it). */
+ * The lead is added to t_n in modular tick arithmetic, so no capture, however bogus (a timer that
+ * jumped: t_n - t_d near 2^31), can overflow the sum (fw_node_pll_update found that overflow). */
 static int32_t phase_of(uint32_t t_n, uint32_t t_d, uint32_t lead, int32_t period)
 {
-    int32_t const far = 2 * period;
-    int32_t diff = urb_tick_diff(t_n, t_d);
-    diff = (diff > far) ? far : ((diff < -far) ? -far : diff);
-    int32_t const phase = diff + (int32_t)lead;
+    int32_t const phase = urb_tick_diff(t_n + lead, t_d);
     return (phase > period) ? period : ((phase < -period) ? -period : phase);
 }
 

@@ -25,7 +25,7 @@
  *   gear         <= 8; fixed_lead <= 65535 us * ticks_per_us
  * At the period limit of HEAD (2^23 ticks) this proof found signed overflows (t_n - t_d plus the
  * lead; phase error minus lead step minus the expected error); urb_pll.c now limits periods to 2^21
- * ticks (43 ms at 48 MHz) and clamps t_n - t_d before adding the lead (mutant phase-no-pre-clamp).
+ * ticks (43 ms at 48 MHz) and adds the lead to t_n in modular tick arithmetic (mutant phase-sum-overflow).
  * Properties (besides bounds, pointers, signed overflow, shifts and division on every step):
  *   eq. 1        a period update moves That_d toward the measured T_d, never past it (full tier:
  *                the oracle's own 32-bit division doubles the solver time)
