@@ -151,3 +151,11 @@ def test_summary_budgets_match_the_budgets_the_harnesses_assert() -> None:
         harness = (folder / "harness.c").read_text(encoding="utf-8")
         if "URB_COST_END(URB_BUDGET_PER_BYTE);" in harness:  # one call: a byte step, a helper, an enum check
             assert int(m.group(1)) == per_byte, folder.name
+
+
+@pytest.mark.parametrize("folder", [p for p in FOLDERS if (p / "COST").exists()],
+                         ids=[p.name for p in FOLDERS if (p / "COST").exists()])
+def test_recorded_cost_reaches_esbmc_as_one_number(folder: Path) -> None:
+    out = subprocess.run(["make", "-s", "-C", str(folder), "print-config"], capture_output=True, text=True, timeout=60)
+    config = json.loads(out.stdout.strip().splitlines()[-1])
+    assert config["cost_bound"] == (folder / "COST").read_text(encoding="utf-8").split()[0]
