@@ -108,6 +108,9 @@ def function_spans(lines: list[str]) -> dict[str, tuple[int, int, int]]:
 # --------------------------------------------------------------------------- mutation
 
 
+_COMMENT_RE = re.compile(r"/\*.*?\*/|//[^\n]*", re.DOTALL)
+
+
 def apply_mutant(root: Path, mutant: dict[str, Any]) -> None:
     """Applies one mutants.json entry to the copy under `root` (in place)."""
     path = root / str(mutant["file"])
@@ -137,6 +140,11 @@ def apply_mutant(root: Path, mutant: dict[str, Any]) -> None:
                 f"mutant {mutant['name']}: occurrence {occurrence} of {find!r} not found in {function}; "
                 "the code changed: regenerate the proof folders (proofs/bmc/generate.py) or update mutants.json"
             )
+    if any(m.start() <= at < m.end() for m in _COMMENT_RE.finditer(body)):
+        raise PrepareError(
+            f"mutant {mutant['name']}: occurrence {occurrence} of {find!r} in {function} is inside a comment "
+            "(e.g. an ACSL annotation), so the mutant would change nothing; make `find` match the code"
+        )
     body = body[:at] + replace + body[at + len(find):]
     path.write_text(text[:start] + body + text[end:], encoding="utf-8")
 

@@ -130,6 +130,19 @@ def test_mutant_that_no_longer_matches_is_an_error(tmp_path: Path) -> None:
         prep.apply_mutant(tmp_path, stale)
 
 
+def test_mutant_inside_a_comment_is_an_error(tmp_path: Path) -> None:
+    """A find text whose occurrence lies in a comment (an ACSL annotation, say) would leave the
+    code unchanged and the mutant would survive for the wrong reason: refused up front."""
+    prep = _module("urb_bmc_prepare", BMC / "prepare.py")
+    (tmp_path / "gen" / "c").mkdir(parents=True)
+    runtime = (ROOT / "gen" / "c" / "urb_runtime.c").read_text(encoding="utf-8")
+    (tmp_path / "gen" / "c" / "urb_runtime.c").write_text(runtime, encoding="utf-8")
+    in_acsl = {"name": "acsl", "file": "gen/c/urb_runtime.c", "function": "urb_crc8_link_check",
+               "find": "0 <= i <= len", "replace": "0 <= i < len", "why": "test"}
+    with pytest.raises(prep.PrepareError, match="inside a comment"):
+        prep.apply_mutant(tmp_path, in_acsl)
+
+
 def test_make_check_runs_all_proofs_through_one_target() -> None:
     mk = (ROOT / "mk" / "proofs.mk").read_text(encoding="utf-8")
     assert re.search(r"^CHECK_TARGETS \+= proofs$", mk, re.MULTILINE)
