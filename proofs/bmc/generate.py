@@ -443,6 +443,31 @@ def _max_loop(fields: list[Field]) -> int:
 # ============================================================================ proofs
 
 
+def make_sweep(items: list[str]) -> str:
+    """Sweep items as make text: each run of items that differ only in their last value becomes one
+    $(foreach) (over $(shell seq a b) when the values are consecutive), in the items' order."""
+    groups: list[tuple[str, str, list[int]]] = []
+    parts = []
+    for item in items:
+        head, _, last = item.rpartition(",")
+        key, _, value = last.partition("=")
+        if not value.isdigit():
+            groups.append((item, "", []))  # a flag (NAME) or a non-numeric value: the item as it is
+        elif groups and groups[-1][0] == head and groups[-1][1] == key:
+            groups[-1][2].append(int(value))
+        else:
+            groups.append((head, key, [int(value)]))
+    for head, key, values in groups:
+        if not values:
+            parts.append(head)
+            continue
+        consecutive = len(values) > 2 and values == list(range(values[0], values[-1] + 1))
+        over = f"$(shell seq {values[0]} {values[-1]})" if consecutive else " ".join(map(str, values))
+        prefix = f"{head}," if head else ""
+        parts.append(f"$(foreach v,{over},{prefix}{key}=$(v))" if len(values) > 1 else f"{prefix}{key}={values[0]}")
+    return " \\\n\t".join(parts)
+
+
 @dataclass
 class Proof:
     """One generated proof folder."""
@@ -480,9 +505,9 @@ class Proof:
             lines.append(f"STUBS = {' '.join(self.stubs)}")
         if self.sweep:
             lines.append("# One run per item (harness part and length); TIER=fast runs FAST_SWEEP.")
-            lines.append("SWEEP = " + " \\\n\t".join(self.sweep))
+            lines.append("SWEEP = " + make_sweep(self.sweep))
             if self.fast_sweep != self.sweep:
-                lines.append("FAST_SWEEP = " + " \\\n\t".join(self.fast_sweep))
+                lines.append("FAST_SWEEP = " + make_sweep(self.fast_sweep))
         if self.extra:
             lines.append(f"ESBMC_EXTRA = {self.extra}")
         if self.budget_cycles is not None:
