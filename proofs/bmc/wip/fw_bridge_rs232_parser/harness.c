@@ -1,31 +1,41 @@
 /*
  * Proof of the RS232 uplink parser (firmware/bridge/bridge_uplink.c): the UART interrupt
  * urb_bridge_uart_rx() (timestamps, idle-gap flag, receive ring) and the main loop's
- * urbb_uart_drain() (frame assembly, hunting, idle flush), over arbitrary byte streams.
+ * urbb_uart_drain() (frame assembly, hunting, idle flush), by induction over the byte stream.
  *
  * Admission (urbb_frame, bridge.c) is replaced by a recorder that decides exactly as bridge.c
  * does: a candidate is a frame when the generated strict decoder does not report CHECKSUM, SHORT
- * or LONG (the FIFO proof covers what admission does with it). The decoders and the CRC are the
- * real generated code, cost-instrumented.
+ * or LONG (the FIFO proof covers what admission does with it). The check is abstracted (below);
+ * part 3 proves, on the real generated decoders, the cost the recorder charges and the length rule
+ * the abstraction uses.
  *
- * Part 1, streams. FW_BYTES arbitrary bytes arrive at arbitrary distances (any 32-bit start time,
- * so the microsecond clock may wrap); the main loop drains after any of them at an arbitrary time
- * before the next byte, and once at the end after a long idle time. Properties:
+ * Part 1, the step lemma (induction over the stream). The invariant: the assembler holds the
+ * bytes of one incomplete candidate (fewer bytes than its header announces, or too few to tell),
+ * which is what the parser holds after any stream (it starts empty, and hunting stops only at
+ * an incomplete candidate). From ANY such state of exactly FW_HELD bytes (a sweep item; the bytes
+ * arbitrary), one arbitrary byte arrives after an arbitrary distance (an idle gap or not, any
+ * 32-bit clock, so it may wrap), and the main loop drains at an arbitrary later time (after the
+ * idle timeout or not). Properties:
  *   no overrun      every buffer access is in bounds (ESBMC), the assembler never holds more than
- *                   URB_BRIDGE_FRAME_MAX bytes;
- *   exactly the frames of the reference: the frames passed to admission are, in order, those of
- *                   an index-based reference parser over the whole stream (hunt: a complete
- *                   candidate that fails its check loses its first byte; idle gap: an incomplete
- *                   candidate loses its first byte and the complete frames behind it still count).
- *                   So only complete, checked candidates are admitted, each once, in stream
- *                   order, never spanning an idle gap, and hunting and gap resync lose no frame
- *                   the reference finds.
- * Part 2, cost. From any assembler state (any len <= FRAME_MAX - 1, any bytes), one byte arrives
- * (with or without a gap) and the main loop drains at any time. A byte can trigger up to 37 hunt
- * rounds, so the per-byte bound is amortised (potential method, potential FW_HUNT_ROUND_CYCLES per
- * byte held): actual cycles + FW_HUNT_ROUND_CYCLES x (len after - len before) must fit the budget.
- * Summed over any stream the potential telescopes (it starts at 0 and never goes negative), so the
- * main loop spends at most FW_COST_BUDGET cycles per received byte on average, whatever the bytes.
+ *                   URB_BRIDGE_FRAME_MAX bytes, the ring does not overflow;
+ *   exactly the reference's frames: the frames passed to admission are, in order, those an
+ *                   index-based reference parser written from the schema finds (a complete
+ *                   candidate that fails its check loses its first byte: hunting; an idle gap or
+ *                   the idle timeout ends a candidate: it loses its first byte and the complete
+ *                   frames behind it still count), and the bytes held afterwards are exactly the
+ *                   reference's remaining candidate, so the invariant holds again.
+ *   Since the reference's scan of a whole stream is this step repeated from its remaining
+ *   candidate, the lemma gives the stream property for streams of any length whose candidates
+ *   stay within the FW_HELD bound of the tier.
+ * Part 2, the cost lemma (same step, same states): actual cycles + FW_HUNT_ROUND_CYCLES x (bytes
+ * held after - bytes held before) <= FW_COST_BUDGET. The potential (FW_HUNT_ROUND_CYCLES per byte
+ * held) starts at 0 and never goes negative, so summed over any stream the main loop spends at
+ * most FW_COST_BUDGET cycles per received byte on average, whatever the bytes.
+ *
+ * The check, abstracted: by data independence the parser must be right for every check function,
+ * so the proof uses an arbitrary one (a key per length, fixed per run, folded with the covered
+ * bytes) instead of the CRC: cheap for the solver, and a function of the whole candidate, so the
+ * reference and the firmware see the same verdict for the same bytes.
  */
 #include "urb_verify.h"
 
@@ -37,18 +47,16 @@
 
 #define FW_COST_BUDGET FW_BRIDGE_RS232_BYTE_BUDGET
 
-#ifndef FW_BYTES
-#define FW_BYTES 8u /* stream length of part 1 */
+#if defined(URB_HELD)
+#define FW_HELD ((uint8_t)URB_HELD) /* bytes held before the step (sweep item) */
+#else
+#define FW_HELD 4u
 #endif
 #ifndef FW_HELD_MAX
-#define FW_HELD_MAX 36u /* part 2: bytes held by the assembler before the byte arrives */
+#define FW_HELD_MAX 36u /* part 3: candidates of up to FW_HELD_MAX + 1 bytes */
 #endif
-/* Frames the abstract check folds: part 1 sees none longer than its stream. */
-#if defined(URB_PART) && (URB_PART == 1)
-#define FW_FRAME_BOUND FW_BYTES
-#else
-#define FW_FRAME_BOUND (FW_HELD_MAX + 1u)
-#endif
+#define FW_N (FW_HELD + 1u) /* bytes of the step: the held ones and the new one */
+#define FW_MAX_FRAMES (FW_N / 4u + 1u)
 #ifndef FW_DECODE_CYCLES
 /* Cycles of urbb_frame's decoding of an n-byte candidate (call, header, CRC over n - 1 bytes at
  * most, payload copy): proved by part 3 from the cost model. */
@@ -62,13 +70,11 @@
 #define FW_BYTE_US 87u   /* one character at 115200 Bd (10 bits, rounded up) */
 #define FW_GAP_US 261u   /* rx_gap_us: byte time + the default idle gap (2 byte times) */
 #define FW_MAX_DELTA 5000u
-#define FW_MAX_FRAMES (FW_BYTES / 4u + 1u)
 
 URB_PROOF_COST_STORAGE;
 
 static urb_bridge_t bridge;
-static uint8_t stream[FW_BYTES];
-static bool gap_before[FW_BYTES]; /* the line was idle longer than the gap before byte k */
+static uint8_t stream[FW_N]; /* the held bytes, then the new one */
 
 /* What the parser handed to admission. */
 static uint8_t got_len[FW_MAX_FRAMES];
@@ -77,13 +83,10 @@ static uint8_t got_last[FW_MAX_FRAMES];
 static uint8_t got_count;
 static bool record = true;
 
-/* The frame check, abstracted: by data independence the parser must be right for every check
- * function, so the proof uses an arbitrary one (a key per length, fixed per run, folded with the
- * covered bytes) instead of the CRC: cheap for the solver, and a function of the whole candidate,
- * so the reference and the firmware see the same verdict for the same bytes. Length rules as in
- * the strict decoders: a read is 4 bytes, a write 3 + its length field + 1 or 2 check bytes. */
-static uint8_t key[URB_BRIDGE_FRAME_MAX + 1u];
+static const uint8_t *key; /* one arbitrary key per length (the harness's uninitialised local) */
 
+/* Length rules as in the strict decoders: a read is 4 bytes, a write 3 + its length field + 1 or
+ * 2 check bytes; the last byte must be the fold. */
 static bool fw_is_frame(const uint8_t *frame, uint8_t len)
 {
     uint8_t want;
@@ -98,7 +101,7 @@ static bool fw_is_frame(const uint8_t *frame, uint8_t len)
         return false;
     }
     uint8_t fold = key[len];
-    for (uint8_t k = 0u; k < FW_FRAME_BOUND; k++) {
+    for (uint8_t k = 0u; k < FW_N; k++) {
         if ((uint8_t)(k + 1u) < len) {
             fold = (uint8_t)(fold ^ frame[k]);
         }
@@ -115,12 +118,16 @@ bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t l
     URB_ASSERT(len <= b->rs232.len, "admission: only complete candidates");
     /* urbb_frame's cost: the strict decoder on `len` bytes, as part 3 proves, and the call */
     URB_COST(FW_DECODE_CYCLES(len));
-    bool const ok = fw_is_frame(frame, len);
+    uint8_t copy[FW_N]; /* len <= rs232.len <= FW_N: constant offsets keep ESBMC's dereference simple */
+    for (uint8_t k = 0u; k < FW_N; k++) {
+        copy[k] = frame[k];
+    }
+    bool const ok = fw_is_frame(copy, len);
     if (ok && record) {
         URB_ASSERT(got_count < FW_MAX_FRAMES, "at most one frame per 4 bytes");
         got_len[got_count] = len;
-        got_first[got_count] = frame[0];
-        got_last[got_count] = frame[len - 1u];
+        got_first[got_count] = copy[0];
+        got_last[got_count] = copy[len - 1u];
         got_count++;
     }
     return ok;
@@ -130,6 +137,9 @@ bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t l
  * 0xFF = no request starts like this. Written from the schema, not from the firmware. */
 static uint8_t ref_need(uint8_t s, uint8_t end)
 {
+    if (s >= end) {
+        return 0u;
+    }
     if ((stream[s] & 1u) != 0u) {
         return 4u; /* UplinkReadRequest */
     }
@@ -151,8 +161,8 @@ static uint8_t ref_count;
  * last gap. Returns the new start. `flush`: no more bytes will join this candidate. */
 static uint8_t ref_scan(uint8_t s, uint8_t e, bool flush)
 {
-    uint8_t buf[URB_BRIDGE_FRAME_MAX];
-    for (uint8_t round = 0u; round < FW_BYTES; round++) {
+    uint8_t buf[FW_N];
+    for (uint8_t round = 0u; round < FW_N; round++) {
         if (s >= e) {
             break;
         }
@@ -162,10 +172,8 @@ static uint8_t ref_scan(uint8_t s, uint8_t e, bool flush)
             break; /* wait for more bytes */
         }
         if (complete) {
-            for (uint8_t k = 0u; k < FW_BYTES; k++) {
-                if (k < need) {
-                    buf[k] = stream[s + k];
-                }
+            for (uint8_t k = 0u; k < FW_N; k++) {
+                buf[k] = ((uint8_t)(s + k) < FW_N) ? stream[s + k] : 0u;
             }
             if (fw_is_frame(buf, need)) {
                 URB_ASSERT(ref_count < FW_MAX_FRAMES, "reference: at most one frame per 4 bytes");
@@ -181,49 +189,48 @@ static uint8_t ref_scan(uint8_t s, uint8_t e, bool flush)
     return s;
 }
 
-static void reference(void)
+/* Parts 1 and 2: one step from any state satisfying the invariant. */
+static void step(void)
 {
-    uint8_t s = 0u;
-    for (uint8_t k = 0u; k < FW_BYTES; k++) {
-        if (gap_before[k]) {
-            s = ref_scan(s, k, true);
-            URB_ASSERT(s == k, "reference: a gap ends every candidate");
-        }
-        s = ref_scan(s, (uint8_t)(k + 1u), false);
-    }
-    s = ref_scan(s, FW_BYTES, true);
-    URB_ASSERT(s == FW_BYTES, "reference: the final idle time ends every candidate");
-}
-
-static void part1_streams(void)
-{
-    uint32_t t = URB_NONDET_U32(); /* any start time: the clock may wrap during the stream */
-    uint32_t delta[FW_BYTES + 1u];
-    for (uint8_t k = 0u; k <= FW_BYTES; k++) {
-        delta[k] = URB_NONDET_U32();
-        URB_ASSUME((delta[k] >= FW_BYTE_US) && (delta[k] <= FW_MAX_DELTA)); /* one character takes a byte time */
-    }
-    for (uint8_t k = 0u; k < FW_BYTES; k++) {
+    urb_bridge_parser_t *p = &bridge.rs232;
+    for (uint8_t k = 0u; k < FW_N; k++) {
         stream[k] = URB_NONDET_U8();
-        gap_before[k] = (k > 0u) && (delta[k] > FW_GAP_US);
-        t += delta[k];
-        urb_bridge_uart_rx(&bridge, stream[k], t);
-        /* The main loop drains after every byte, at any time before the next one. Draining several
-         * bytes at once runs the same pushes and flushes; only its idle check comes later, which
-         * is one of the times tried here. */
-        uint32_t const wait = URB_NONDET_U32();
-        URB_ASSUME(wait < delta[k + 1u]);
-        urbb_uart_drain(&bridge, t + wait);
-        URB_ASSERT(bridge.rs232.len <= URB_BRIDGE_FRAME_MAX, "no overrun: the assembler holds at most one frame");
-        URB_ASSERT(bridge.rx_head == bridge.rx_tail, "the drain empties the ring");
     }
-    /* the line stays idle: a partial frame is dropped without waiting for another byte */
-    urbb_uart_drain(&bridge, t + FW_GAP_US + 1u);
-    URB_ASSERT(bridge.rs232.len == 0u, "idle line: nothing held back");
-    URB_ASSERT(bridge.stats.rx_overruns == 0u, "the ring never overflows on these streams");
+    for (uint8_t k = 0u; k < FW_HELD; k++) {
+        p->buf[k] = stream[k];
+    }
+    p->len = FW_HELD;
+    /* the invariant: one incomplete candidate that may still complete */
+    uint8_t const pending = ref_need(0u, FW_HELD);
+    URB_ASSUME((pending == 0u) || ((pending != 0xFFu) && (pending > FW_HELD)));
 
+    uint32_t const last = URB_NONDET_U32(); /* any clock: it may wrap */
+    uint32_t const delta = URB_NONDET_U32();
+    uint32_t const wait = URB_NONDET_U32();
+    URB_ASSUME((delta >= FW_BYTE_US) && (delta <= FW_MAX_DELTA) && (wait <= FW_MAX_DELTA));
+    bridge.rx_started = true;
+    bridge.rx_last_us = last;
+    urb_bridge_uart_rx(&bridge, stream[FW_HELD], last + delta);
+    URB_COST_BEGIN();
+    urbb_uart_drain(&bridge, last + delta + wait);
+    uint32_t const actual = urb_proof_cost;
+    uint8_t const after = p->len;
+    URB_ASSERT(after <= URB_BRIDGE_FRAME_MAX, "no overrun: the assembler holds at most one frame");
+    URB_ASSERT(bridge.rx_head == bridge.rx_tail, "the drain empties the ring");
+    URB_ASSERT(bridge.stats.rx_overruns == 0u, "the ring does not overflow");
+
+#if URB_PART == 1
     record = false;
-    reference();
+    uint8_t s = 0u;
+    if (delta > FW_GAP_US) { /* an idle gap before the byte ends the held candidate */
+        s = ref_scan(0u, FW_HELD, true);
+        URB_ASSERT(s == FW_HELD, "reference: a gap ends every candidate");
+    }
+    s = ref_scan(s, FW_N, false);
+    if (wait > FW_GAP_US) { /* the idle timeout: a partial frame is dropped without a next byte */
+        s = ref_scan(s, FW_N, true);
+        URB_ASSERT(s == FW_N, "reference: the idle time ends every candidate");
+    }
     URB_ASSERT(got_count == ref_count, "as many frames as the reference finds");
     for (uint8_t i = 0u; i < FW_MAX_FRAMES; i++) {
         if (i < ref_count) {
@@ -232,6 +239,19 @@ static void part1_streams(void)
             URB_ASSERT(got_last[i] == stream[ref_start[i] + ref_len[i] - 1u], "frame i ends where the reference's does");
         }
     }
+    URB_ASSERT(after == (uint8_t)(FW_N - s), "the reference's remaining candidate is held");
+    for (uint8_t k = 0u; k < FW_N; k++) {
+        if (k < after) {
+            URB_ASSERT(p->buf[k] == stream[s + k], "the held bytes are the reference's");
+        }
+    }
+#else
+    /* amortised cost = actual + potential after - potential before (clamped at 0 for the record) */
+    uint32_t const credit = FW_HUNT_ROUND_CYCLES * (uint32_t)FW_HELD;
+    uint32_t const charge = actual + FW_HUNT_ROUND_CYCLES * (uint32_t)after;
+    urb_proof_cost = (charge > credit) ? (charge - credit) : 0u;
+    URB_COST_END(FW_COST_BUDGET);
+#endif
 }
 
 /* Part 3: the cost urbb_frame's decoding charges in parts 1 and 2 (FW_DECODE_CYCLES), proved on
@@ -262,34 +282,6 @@ static void part3_decode(void)
     }
 }
 
-static void part2_cost(void)
-{
-    urb_bridge_parser_t *p = &bridge.rs232;
-    uint8_t const held = URB_NONDET_U8();
-    URB_ASSUME(held <= FW_HELD_MAX);
-    p->len = held;
-    for (uint8_t k = 0u; k < FW_HELD_MAX; k++) { /* any bytes held (the ones above are never read) */
-        p->buf[k] = URB_NONDET_U8();
-    }
-    uint32_t const last = URB_NONDET_U32();
-    bridge.rx_started = true;
-    bridge.rx_last_us = last;
-    uint32_t const delta = URB_NONDET_U32();
-    uint32_t const wait = URB_NONDET_U32();
-    URB_ASSUME((delta >= FW_BYTE_US) && (delta <= FW_MAX_DELTA) && (wait <= FW_MAX_DELTA));
-    urb_bridge_uart_rx(&bridge, URB_NONDET_U8(), last + delta);
-    URB_COST_BEGIN();
-    urbb_uart_drain(&bridge, last + delta + wait);
-    uint32_t const actual = urb_proof_cost;
-    uint8_t const after = p->len;
-    URB_ASSERT(after <= URB_BRIDGE_FRAME_MAX, "no overrun");
-    /* amortised cost = actual + potential after - potential before (clamped at 0 for the record) */
-    uint32_t const credit = FW_HUNT_ROUND_CYCLES * (uint32_t)held;
-    uint32_t const charge = actual + FW_HUNT_ROUND_CYCLES * (uint32_t)after;
-    urb_proof_cost = (charge > credit) ? (charge - credit) : 0u;
-    URB_COST_END(FW_COST_BUDGET);
-}
-
 void harness(void)
 {
     /* What urb_bridge_init / urbb_uplink_init set for the parser at 115200 Bd with the default gap. */
@@ -299,18 +291,14 @@ void harness(void)
     bridge.rx_head = 0u;
     bridge.rx_tail = 0u;
     bridge.rs232.len = 0u;
-#if defined(URB_PART)
-    uint8_t const part = (uint8_t)URB_PART;
-#else
-    uint8_t const part = URB_NONDET_U8(); /* every part, each on its own path */
+    uint8_t keys[URB_BRIDGE_FRAME_MAX + 1u];
+    URB_NONDET_BYTES(keys, sizeof keys);
+    key = keys;
+#if !defined(URB_PART)
+#error "give URB_PART (the Makefile's SWEEP does)"
+#elif (URB_PART == 1) || (URB_PART == 2)
+    step();
+#elif URB_PART == 3
+    part3_decode();
 #endif
-    if (part == 1u) {
-        part1_streams();
-    } else if (part == 2u) {
-        part2_cost();
-    } else if (part == 3u) {
-        part3_decode();
-    } else {
-        /* no such part */
-    }
 }

@@ -43,16 +43,16 @@
 URB_PROOF_COST_STORAGE;
 
 static urb_bridge_t bridge;
-static uint8_t xfer[URB_USB_BATCH_HEADER_MAX_SIZE + FW_BODY];
+static const uint8_t *xfer; /* the transfer: the harness's uninitialised local, so arbitrary bytes */
 static uint8_t body_len;
-#define stream (&xfer[URB_USB_BATCH_HEADER_MAX_SIZE])
+#define stream (xfer + URB_USB_BATCH_HEADER_MAX_SIZE)
 
 static uint8_t got_len[FW_MAX_FRAMES];
 static uint8_t got_first[FW_MAX_FRAMES];
 static uint8_t got_last[FW_MAX_FRAMES];
 static uint8_t got_count;
 static bool record = true;
-static uint8_t key[URB_BRIDGE_FRAME_MAX + 1u];
+static const uint8_t *key; /* one arbitrary key per length (the harness's uninitialised local) */
 
 /* The frame check, abstracted (see fw_bridge_rs232_parser): a key per length folded with the
  * covered bytes, and the strict decoders' length rules. */
@@ -86,12 +86,16 @@ bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t l
     URB_ASSERT(frame == b->usb.buf, "admission: the candidate starts the assembler's buffer");
     URB_ASSERT(len <= b->usb.len, "admission: only complete candidates");
     URB_COST(FW_DECODE_CYCLES(len));
-    bool const ok = fw_is_frame(frame, len);
+    uint8_t copy[FW_BODY]; /* len <= usb.len <= FW_BODY: constant offsets keep ESBMC's dereference simple */
+    for (uint8_t k = 0u; k < FW_BODY; k++) {
+        copy[k] = frame[k];
+    }
+    bool const ok = fw_is_frame(copy, len);
     if (ok && record) {
         URB_ASSERT(got_count < FW_MAX_FRAMES, "at most one frame per 4 bytes");
         got_len[got_count] = len;
-        got_first[got_count] = frame[0];
-        got_last[got_count] = frame[len - 1u];
+        got_first[got_count] = copy[0];
+        got_last[got_count] = copy[len - 1u];
         got_count++;
     }
     return ok;
@@ -151,6 +155,12 @@ static uint8_t ref_scan(uint8_t s, uint8_t e, bool flush)
 
 void harness(void)
 {
+    uint8_t keys[URB_BRIDGE_FRAME_MAX + 1u];
+    URB_NONDET_BYTES(keys, sizeof keys);
+    key = keys;
+    uint8_t data[URB_USB_BATCH_HEADER_MAX_SIZE + FW_BODY];
+    URB_NONDET_BYTES(data, sizeof data);
+    xfer = data;
     bridge.usb.len = 0u;
     bridge.usb_cur = 0u;
     body_len = URB_NONDET_U8();
@@ -164,9 +174,6 @@ void harness(void)
     URB_ASSERT(got_count == 0u, "refused: nothing admitted");
     URB_ASSERT(!urb_bridge_usb_out(&bridge, NULL, len), "refused: no data");
 
-    for (uint8_t k = 0u; k < sizeof xfer; k++) {
-        xfer[k] = URB_NONDET_U8();
-    }
     uint32_t const bad_before = bridge.stats.usb_bad_batches;
     URB_COST_BEGIN();
     bool const ok = urb_bridge_usb_out(&bridge, xfer, len);
