@@ -13,7 +13,10 @@ expected.json (what the run must give). unit.json:
     {"tool": "wp" | "eva",
      "sources": [files relative to the repository],   "cpp": [preprocessor options],
      "args": [more frama-c options, e.g. -wp-fct or -main],
-     "mutant": {"name", "file", "find", "replace", "why", "args": [options for the mutant run only]}}
+     "mutants": [{"name", "file", "find", "replace", "why", "args": [options for the mutant run only]}]}
+
+("mutant": {...} names a single one.) Eva units may set their own Eva options in "args" (for
+example -eva-precision or -eva-partition-history): they come after the runner's defaults.
 
 WP units run `-wp -wp-rte` with the provers z3 and cvc4 through why3 (Alt-Ergo is not available),
 a per-goal timeout and the cache proofs/framac/cache: CI replays the cached prover answers, so a
@@ -27,7 +30,7 @@ so edits elsewhere in the file do not invalidate the list); every alarm must be 
 and explained in proofs/framac/eva_alarms.md, and an alarm listed there that no longer occurs must
 be removed (the list stays exact).
 
-The mutant of a unit copies one source file, replaces `find` (which must occur exactly once) by
+Each mutant of a unit copies one source file, replaces `find` (which must occur exactly once) by
 `replace` and runs the same analysis: WP must leave a goal unproved, Eva must raise an alarm that
 is not in the reviewed list.
 
@@ -82,7 +85,7 @@ class Unit:
     sources: list[str]
     cpp: list[str]
     args: list[str]
-    mutant: dict[str, Any] | None
+    mutants: list[dict[str, Any]]
     expected: dict[str, Any]
 
 
@@ -105,8 +108,12 @@ def load_unit(folder: Path) -> Unit:
             raise SetupError(f"{folder.relative_to(ROOT)}/unit.json names {src}, which does not exist")
     exp_path = folder / "expected.json"
     expected: dict[str, Any] = json.loads(exp_path.read_text(encoding="utf-8")) if exp_path.is_file() else {}
+    mutants = list(cfg.get("mutants", [])) + ([cfg["mutant"]] if "mutant" in cfg else [])
+    names = [m.get("name") for m in mutants]
+    if len(set(names)) != len(names):
+        raise SetupError(f"{folder.name}/unit.json: two mutants share a name: {names}")
     return Unit(folder.name, folder, tool, purpose, list(cfg["sources"]), list(cfg.get("cpp", [])),
-                list(cfg.get("args", [])), cfg.get("mutant"), expected)
+                list(cfg.get("args", [])), mutants, expected)
 
 
 def discover(only: list[str]) -> list[Unit]:
@@ -140,20 +147,19 @@ class FramacRun:
     report: dict[str, Any] = field(default_factory=dict)
 
 
-def apply_mutant(unit: Unit, work: Path) -> tuple[list[str], list[str]]:
+def apply_mutant(unit: Unit, mutant: dict[str, Any], work: Path) -> tuple[list[str], list[str]]:
     """Sources and cpp options of the mutant run: the mutated file is a copy under `work`."""
-    assert unit.mutant is not None
-    target = unit.mutant["file"]
+    target = mutant["file"]
     if target not in unit.sources and not (ROOT / target).is_file():
         raise SetupError(f"{unit.name}: mutant file {target} does not exist")
     text = (ROOT / target).read_text(encoding="utf-8")
-    find = unit.mutant["find"]
+    find = mutant["find"]
     if text.count(find) != 1:
-        raise SetupError(f"{unit.name}: the mutant's `find` text occurs {text.count(find)} times in {target} "
-                         "(must be once): update unit.json to the current code")
+        raise SetupError(f"{unit.name}: the `find` text of mutant {mutant.get('name')} occurs {text.count(find)} "
+                         f"times in {target} (must be once): update unit.json to the current code")
     work.mkdir(parents=True, exist_ok=True)
     copy = work / Path(target).name
-    copy.write_text(text.replace(find, unit.mutant["replace"]), encoding="utf-8")
+    copy.write_text(text.replace(find, mutant["replace"]), encoding="utf-8")
     # The copy's own directory comes first for "..." includes, so the original directory must
     # follow to resolve its neighbours (and a mutated header shadows the original one).
     cpp = [f"-I{work}", f"-I{(ROOT / target).parent}"] + unit.cpp
@@ -165,15 +171,17 @@ def framac_command(unit: Unit, sources: list[str], cpp: list[str], extra: list[s
                    jobs: int, cache: str) -> list[str]:
     cmd = ["frama-c", "-machdep", MACHDEP, "-cpp-extra-args=" + " ".join(shlex.quote(c) for c in cpp)]
     cmd += [s if os.path.isabs(s) else str(ROOT / s) for s in sources]
-    cmd += unit.args + extra  # before any -then: they configure the analysis itself
     if unit.tool == "wp":
+        cmd += unit.args + extra
         cmd += ["-wp", "-wp-rte", "-wp-prover", PROVERS, "-wp-timeout", str(GOAL_TIMEOUT_S), "-wp-par", str(jobs),
                 "-wp-cache", cache, "-wp-cache-dir", str(CACHE_DIR), "-wp-report-json", str(report),
                 "-wp-session", str(report.parent / (report.stem + ".session"))]
     else:
-        cmd += ["-eva", "-eva-no-show-progress", "-eva-msg-key=-final-states", "-eva-auto-loop-unroll",
-                str(EVA_UNROLL), "-eva-precision", str(EVA_PRECISION), "-then", "-report-csv", str(report),
-                "-report-no-proven"]
+        # -eva-precision is a meta-option: the unit's own options must follow it to refine it.
+        cmd += ["-eva", "-eva-no-show-progress", "-eva-msg-key=-final-states", "-eva-precision", str(EVA_PRECISION),
+                "-eva-auto-loop-unroll", str(EVA_UNROLL)]
+        cmd += unit.args + extra
+        cmd += ["-then", "-report-csv", str(report), "-report-no-proven"]
     return cmd
 
 
@@ -340,17 +348,16 @@ def check_eva(unit: Unit, run: FramacRun, report: Path, record: bool, reviewed: 
     return [row], {"alarms": alarms}
 
 
-def mutant_row(unit: Unit, rows: list[Row]) -> Row:
-    assert unit.mutant is not None
+def mutant_row(unit: Unit, mutant: dict[str, Any], rows: list[Row]) -> Row:
     tool = "frama-c wp" if unit.tool == "wp" else "frama-c eva"
     if any(r.result == "ERROR" for r in rows):
-        return Row(f"{unit.name} mutant {unit.mutant['name']}", tool, unit.mutant["why"], "-", "ERROR", False,
+        return Row(f"{unit.name} mutant {mutant['name']}", tool, mutant["why"], "-", "ERROR", False,
                    sum(r.time_s for r in rows), rows[0].detail, unit.name)
     if unit.tool == "wp":
         caught = [f"{r.function}: {r.detail}" for r in rows if r.result == "UNPROVED"]
     else:
         caught = [r.detail for r in rows if r.result == "ALARM" and "NEW ALARM" in r.detail]
-    return Row(f"{unit.name} mutant {unit.mutant['name']}", tool, unit.mutant["why"], "same as the unit",
+    return Row(f"{unit.name} mutant {mutant['name']}", tool, mutant["why"], "same as the unit",
                "killed" if caught else "SURVIVED", bool(caught), round(sum(r.time_s for r in rows), 3),
                "; ".join(caught)[:400], unit.name)
 
@@ -358,16 +365,15 @@ def mutant_row(unit: Unit, rows: list[Row]) -> Row:
 # =============================================================================== driver
 
 
-def run_unit(unit: Unit, mutant: bool, jobs: int, cache: str, record: bool, reviewed: set[str]) -> tuple[
-        list[Row], dict[str, Any], float]:
-    tag = f"{unit.name}.mutant" if mutant else unit.name
+def run_unit(unit: Unit, mutant: dict[str, Any] | None, jobs: int, cache: str, record: bool,
+             reviewed: set[str]) -> tuple[list[Row], dict[str, Any], float]:
+    tag = f"{unit.name}.mutant.{mutant['name']}" if mutant else unit.name
     report = OUT_DIR / "reports" / (tag + (".json" if unit.tool == "wp" else ".csv"))
     report.parent.mkdir(parents=True, exist_ok=True)
     sources, cpp, extra = unit.sources, unit.cpp, []
     if mutant:
-        assert unit.mutant is not None
-        sources, cpp = apply_mutant(unit, OUT_DIR / "mutants" / unit.name)
-        extra = list(unit.mutant.get("args", []))
+        sources, cpp = apply_mutant(unit, mutant, OUT_DIR / "mutants" / unit.name / mutant["name"])
+        extra = list(mutant.get("args", []))
     cmd = framac_command(unit, sources, cpp, extra, report, jobs, cache)
     run = run_framac(cmd, OUT_DIR / "logs" / f"{tag}.log", report)
     if unit.tool == "wp":
@@ -375,7 +381,7 @@ def run_unit(unit: Unit, mutant: bool, jobs: int, cache: str, record: bool, revi
     else:
         rows, recorded = check_eva(unit, run, report, record and not mutant, reviewed)
     if mutant:
-        return [mutant_row(unit, rows)], {}, run.seconds
+        return [mutant_row(unit, mutant, rows)], {}, run.seconds
     return rows, recorded, run.seconds
 
 
@@ -434,11 +440,11 @@ def main(argv: list[str] | None = None) -> int:
         require_tools()
         reviewed = read_alarm_list()
         start = time.monotonic()
-        jobs: list[tuple[Unit, bool]] = []
+        jobs: list[tuple[Unit, dict[str, Any] | None]] = []
         if not args.mutants_only:
-            jobs += [(u, False) for u in units]
+            jobs += [(u, None) for u in units]
         if not args.no_mutants:
-            jobs += [(u, True) for u in units if u.mutant is not None]
+            jobs += [(u, m) for u in units for m in u.mutants]
         # Eva is one process per entry point; WP parallelises its provers itself, so WP units
         # run one at a time with -wp-par jobs and the Eva units share the pool between them.
         with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
@@ -448,7 +454,7 @@ def main(argv: list[str] | None = None) -> int:
             for u, m, fut in futures:
                 unit_rows, recorded, seconds = fut.result()
                 rows += unit_rows
-                print(f"  {u.name}{' (mutant)' if m else ''}: {seconds:.1f} s", flush=True)
+                print(f"  {u.name}{' (mutant ' + m['name'] + ')' if m else ''}: {seconds:.1f} s", flush=True)
                 if args.record and not m and recorded:
                     (u.folder / "expected.json").write_text(json.dumps(recorded, indent=2) + "\n", encoding="utf-8")
     except SetupError as exc:

@@ -50,14 +50,15 @@ def test_units_cover_the_codecs_the_mailbox_and_the_fifo() -> None:
 
 @pytest.mark.parametrize("folder", FOLDERS, ids=[f.name for f in FOLDERS])
 def test_unit_folder_is_complete(folder: Path) -> None:
-    unit = RUNNER.load_unit(folder)  # PURPOSE is one line, sources exist
+    unit = RUNNER.load_unit(folder)  # PURPOSE is one line, sources exist, mutant names unique
     assert (folder / "expected.json").is_file(), "record it with tools/proofs_framac.py --record"
-    assert unit.mutant is not None, "every unit needs a seeded mutant that the same run must reject"
-    for key in ("name", "why", "file", "find", "replace"):
-        assert unit.mutant.get(key), f"mutant.{key} missing"
-    text = (ROOT / unit.mutant["file"]).read_text(encoding="utf-8")
-    assert text.count(unit.mutant["find"]) == 1, "the mutant no longer applies to the current source"
-    assert unit.mutant["find"] != unit.mutant["replace"]
+    assert unit.mutants, "every unit needs a seeded mutant that the same run must reject"
+    for mutant in unit.mutants:
+        for key in ("name", "why", "file", "find", "replace"):
+            assert mutant.get(key), f"mutant.{key} missing"
+        text = (ROOT / mutant["file"]).read_text(encoding="utf-8")
+        assert text.count(mutant["find"]) == 1, f"mutant {mutant['name']} no longer applies to the current source"
+        assert mutant["find"] != mutant["replace"]
 
 
 @pytest.mark.parametrize("folder", [f for f in FOLDERS if json.loads((f / "unit.json").read_text())["tool"] == "wp"],
@@ -161,9 +162,27 @@ def test_eva_verdicts(tmp_path: Path) -> None:
 
 def test_mutant_that_applies_twice_is_refused(tmp_path: Path) -> None:
     unit = _unit("gen_runtime")
-    unit.mutant = dict(unit.mutant, find="uint8_t")
     with pytest.raises(RUNNER.SetupError, match="occurs"):
-        RUNNER.apply_mutant(unit, tmp_path)
+        RUNNER.apply_mutant(unit, dict(unit.mutants[0], find="uint8_t"), tmp_path)
+
+
+def test_mutants_need_distinct_names(tmp_path: Path) -> None:
+    folder = tmp_path / "u"
+    shutil.copytree(UNITS / "gen_runtime", folder)
+    cfg = json.loads((folder / "unit.json").read_text())
+    cfg["mutants"] = [cfg["mutant"]]  # the same name twice, once per spelling
+    (folder / "unit.json").write_text(json.dumps(cfg))
+    with pytest.raises(RUNNER.SetupError, match="share a name"):
+        RUNNER.load_unit(folder)
+
+
+def test_eva_unit_options_follow_the_defaults() -> None:
+    """A unit's own Eva options (precision, partitioning) refine the runner's -eva-precision."""
+    unit = _unit("eva_node_i2c")
+    unit.args = unit.args + ["-eva-precision", "5"]
+    cmd = RUNNER.framac_command(unit, unit.sources, unit.cpp, [], Path("r.csv"), 1, "offline")
+    last = len(cmd) - 1 - cmd[::-1].index("-eva-precision")
+    assert cmd[last + 1] == "5" and last < cmd.index("-then")
 
 
 def test_summary_and_junit_follow_the_results_contract(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
