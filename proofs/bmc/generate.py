@@ -1253,7 +1253,9 @@ def checksum_proofs(cs: ChecksumDecl, schema: Schema, src: str, budget: int) -> 
     proofs.append(Proof(fn, f"{fn} equals the schema's tiered CRC over prefix then data, within the cost the message proofs charge for it", text,
                         max_covered + 2, sources=rt, mutants=muts, origin=f"checksum {cs.name}",
                         sweep=[f"PLEN={p},LEN={n}" for p in range(3) for n in range(max_covered + 1)],
-                        fast_sweep=[f"PLEN={p},LEN={n}" for p in range(2) for n in _len_edges(cs, max_covered)],
+                        # every prefix length: the worst case is the longest prefix (a fast sweep without
+                        # PLEN=2 recorded a COST the full tier then exceeded)
+                        fast_sweep=[f"PLEN={p},LEN={n}" for p in range(3) for n in _len_edges(cs, max_covered)],
                         budget_cycles=budget * (2 + max_covered + 1)))
 
     text = "\n".join([
