@@ -171,7 +171,7 @@ def load_proof(folder: Path, tier: str) -> Proof:
         purpose=(folder / "PURPOSE").read_text(encoding="utf-8").strip(),
         mutants=mutants,
         views=views,
-        cost=int(cost_text) if cost_text else None,
+        cost=int(cost_text.split()[0]) if cost_text else None,  # COST may name its sweep item after the number
         budget_name=budget_name,
         budget=budget_value(budget_name) if budget_name else None,
     )
