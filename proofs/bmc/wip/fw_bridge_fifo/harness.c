@@ -2,26 +2,38 @@
  * Proof of the bridge's request FIFO (firmware/bridge/bridge.c, Bridge.tla SubmitAndAdmit, Serve,
  * Emit): the response ring (arrival order, header only) and the data slots (a FIFO inside it).
  *
- * The harness includes the prepared (cost-instrumented, maybe mutated) bridge.c to reach its
- * static functions: admit() (what urbb_frame does with a frame that passed its check), complete()
- * (the downlink's outcome for the oldest pending request, Serve) and emit() (Emit). FW_OPS steps,
- * each chosen by the solver: admit a request (either uplink, any address including the bridge's own
- * and reserved ones, any mailbox, direction and length, well-formed or BAD_REQUEST), complete the
- * oldest pending request with any status, or emit while the uplink accepts some responses and then
- * refuses (full). A shadow of Bridge.tla's queue (arrival order, slot held, final status) is
- * checked after every step.
+ * An inductive proof, one lemma per sweep part: the FIFO state is ARBITRARY within the invariant
+ * below (so every state that any sequence of admissions, completions and emissions reaches is
+ * covered, not only short sequences), one operation runs on arbitrary inputs, the operation's
+ * property holds and the invariant holds again. The harness includes the prepared
+ * (cost-instrumented, maybe mutated) bridge.c to reach its static functions.
  *
- * Properties (besides bounds, pointers, overflow and shifts on every access):
- *   order       responses leave in admission order, each on its request's uplink with its
- *               sequence number; a pending response holds back every later one (even a final BUSY)
- *   serve order complete() finishes the oldest pending request (FirstPending)
- *   BUSY        a well-formed request is answered BUSY exactly when every data slot is taken
- *   bounded     at most fifo_depth data slots and URB_BRIDGE_RING_MAX responses are outstanding;
- *               beyond the host window a request is counted, not answered
- *   no reuse    a new request's data slot is held by no outstanding request, and its payload is
- *               the request's, intact until its response has left
- *   cost        admit, complete and each emitted response within FW_COST_BUDGET
- * Capacities are lowered for the proof (FIFO 2, ring 3): the code is generic in them.
+ * Invariant (assumed before by construction, asserted after), over the ring_count outstanding
+ * responses in ring order from ring_head:
+ *   - the entries holding a data slot, in ring order, hold slot_head, slot_head + 1, ... (mod
+ *     fifo_depth): slot_count of them, and each slot names its entry (resp);
+ *   - exactly the slot holders of rank >= slot_served are PENDING; every other entry (served, or an
+ *     admission error without a slot) is final;
+ *   - 1 <= fifo_depth <= FIFO_MAX, slot_served <= slot_count <= fifo_depth, ring_count <= RING_MAX,
+ *     heads inside their arrays.
+ * Ring order is admission order: admit appends at offset ring_count and nothing else moves an entry.
+ *
+ * Lemmas (URB_PART):
+ *   1 admit     any request (either uplink, any address, mailbox, direction, length 1..FW_LEN_MAX,
+ *               well-formed or BAD_REQUEST, any known node sizes): Bridge.tla AdmissionStatus,
+ *               BUSY exactly when every data slot is taken, the new response at the end of the
+ *               ring with its seq and uplink, its slot held by no outstanding request (no reuse),
+ *               the payload copied, every outstanding entry and held slot unchanged; beyond the
+ *               host window the request is counted, not answered
+ *   2 complete  any outcome: the oldest pending request (first PENDING entry in ring order) takes
+ *               it, nothing else changes; with nothing pending nothing changes (an identification
+ *               read of a node, length 25, also learns its sizes: its decoder runs)
+ *   3 emit      an uplink that takes any number of responses then refuses: responses leave from
+ *               the head in ring order, each on its request's uplink with its seq and status (data
+ *               for an OK read), exactly until the first PENDING one or the refusal; their slots
+ *               are freed, the others kept
+ * Every lemma: cost of the operation within FW_COST_BUDGET (per response emitted).
+ * Capacities are lowered (FIFO 2, ring 3): the code is generic in both.
  */
 #include "urb_verify.h"
 
@@ -32,35 +44,303 @@
 
 #define FW_COST_BUDGET FW_BRIDGE_FIFO_OP_BUDGET
 
-#ifndef FW_OPS
-#define FW_OPS 8u
-#endif
-#define FW_MAX_REQ FW_OPS
 #ifndef FW_LEN_MAX
-#define FW_LEN_MAX 4u /* payload lengths tried (the FIFO never looks at the bytes beyond the first) */
+#define FW_LEN_MAX 32u /* longest payload */
 #endif
+#define FW_RING URB_BRIDGE_RING_MAX
+#if FW_RING > 3u
+#error "lemma 3's per-response cost divides by at most 3 responses"
+#endif
+#define FW_NONE 0xFFu
 
 URB_PROOF_COST_STORAGE;
 
 static urb_bridge_t bridge;
 static const urb_bridge_hal_t board = {NULL, NULL, NULL, NULL, NULL};
 
-/* Shadow of the model: every request admitted (answered or to be answered), in arrival order. */
-static uint8_t req_uplink[FW_MAX_REQ];
-static uint8_t req_seq[FW_MAX_REQ];
-static uint8_t req_status[FW_MAX_REQ]; /* final status, or URB_BRIDGE_PENDING */
-static uint8_t req_slot[FW_MAX_REQ];   /* data slot, or URB_BRIDGE_NO_SLOT */
-static uint8_t req_byte[FW_MAX_REQ];   /* first payload byte of a write */
-static uint8_t req_count;              /* admitted */
-static uint8_t req_emitted;            /* responses gone (a prefix) */
-static uint8_t req_served;             /* slot holders served (complete() called) */
-static uint8_t seq_next;
-static uint8_t held;                   /* data slots the outstanding requests hold */
+/* Snapshot of the state before the operation, by ring offset from the old head. */
+static urb_bridge_resp_t old_e[FW_RING];
+static uint8_t old_rank[FW_RING]; /* rank among the slot holders, or FW_NONE */
+static urb_bridge_slot_t old_d[FW_RING]; /* the slot of a holder */
+static uint8_t old_head, old_count, old_slot_head, old_slot_count, old_served;
 
-/* The uplink: accepts responses while `room` lasts. */
+/* What the uplink stub saw (lemma 3). */
 static uint8_t room;
 static uint8_t sent;
 
+static uint8_t wrap(uint8_t i, uint8_t n)
+{
+    return (i >= n) ? (uint8_t)(i - n) : i;
+}
+
+static bool final_status(uint8_t st)
+{
+    return st <= (uint8_t)URB_STATUS_NODE_BUSY;
+}
+
+/* An arbitrary state satisfying the invariant (every such state: all other values are free). */
+static void arbitrary_state(void)
+{
+    uint8_t const depth = URB_NONDET_U8();
+    URB_ASSUME((depth >= 1u) && (depth <= URB_BRIDGE_FIFO_MAX));
+    bridge.cfg.fifo_depth = depth;
+    bridge.hal = &board;
+    bridge.dl.first_address = (uint8_t)URB_I2C_FIRST_ADDRESS;
+    bridge.dl.last_address = (uint8_t)URB_I2C_LAST_ADDRESS;
+    /* locals, not the struct's fields: a field read back after a write at a symbolic index of
+     * the same struct costs the solver minutes */
+    uint8_t const head = URB_NONDET_U8();
+    URB_ASSUME(head < FW_RING);
+    uint8_t const count = URB_NONDET_U8();
+    URB_ASSUME(count <= FW_RING);
+    uint8_t const slot_head = URB_NONDET_U8();
+    URB_ASSUME(slot_head < depth);
+    uint8_t const served = URB_NONDET_U8();
+    uint8_t held = 0u;
+    for (uint8_t s = 0u; s < URB_BRIDGE_FIFO_MAX; s++) { /* a free slot holds anything */
+        bridge.slots[s].address = URB_NONDET_U8();
+        bridge.slots[s].mailbox = URB_NONDET_U8();
+        bridge.slots[s].length = URB_NONDET_U8();
+        bridge.slots[s].read = URB_NONDET_BOOL();
+        bridge.slots[s].resp = URB_NONDET_U8();
+    }
+    for (uint8_t j = 0u; j < FW_RING; j++) {
+        urb_bridge_resp_t e;
+        uint8_t const r = wrap((uint8_t)(head + j), FW_RING);
+        e.seq = URB_NONDET_U8();
+        e.uplink = URB_NONDET_U8();
+        e.status = URB_NONDET_U8();
+        e.slot = URB_NONDET_U8();
+        old_rank[j] = FW_NONE;
+        if (j < count) {
+            URB_ASSUME((e.seq <= 0x0Fu) && (e.uplink <= (uint8_t)URBB_UPLINK_USB));
+            if (URB_NONDET_BOOL()) {
+                URB_ASSUME(held < depth);
+                uint8_t const s = wrap((uint8_t)(slot_head + held), depth);
+                e.slot = s;
+                /* no pointer into the struct at a symbolic offset: ESBMC resolves those over every field */
+                URB_ASSUME((bridge.slots[s].address < 128u) && (bridge.slots[s].mailbox < 8u) &&
+                           (bridge.slots[s].length >= 1u) && (bridge.slots[s].length <= FW_LEN_MAX));
+                bridge.slots[s].resp = r;
+                old_rank[j] = held;
+                if (held >= served) {
+                    e.status = URB_BRIDGE_PENDING;
+                } else {
+                    URB_ASSUME(final_status(e.status));
+                }
+                held++;
+            } else {
+                e.slot = URB_BRIDGE_NO_SLOT;
+                URB_ASSUME(final_status(e.status));
+            }
+        }
+        bridge.ring[r] = e;
+    }
+    URB_ASSUME(served <= held);
+    bridge.ring_head = head;
+    bridge.ring_count = count;
+    bridge.slot_head = slot_head;
+    bridge.slot_count = held;
+    bridge.slot_served = served;
+    /* snapshot */
+    old_head = head;
+    old_count = count;
+    old_slot_head = slot_head;
+    old_slot_count = held;
+    old_served = served;
+    for (uint8_t j = 0u; j < FW_RING; j++) {
+        old_e[j] = bridge.ring[wrap((uint8_t)(old_head + j), FW_RING)];
+        if (old_rank[j] != FW_NONE) {
+            old_d[j] = bridge.slots[old_e[j].slot];
+        }
+    }
+}
+
+/* The invariant, on the state after the operation. */
+static void check_invariant(void)
+{
+    uint8_t const depth = bridge.cfg.fifo_depth;
+    URB_ASSERT(bridge.ring_head < FW_RING, "invariant: ring head inside the ring");
+    URB_ASSERT(bridge.ring_count <= FW_RING, "bounded: at most RING_MAX responses outstanding");
+    URB_ASSERT(bridge.slot_head < depth, "invariant: slot head inside the FIFO");
+    URB_ASSERT(bridge.slot_count <= depth, "bounded: at most fifo_depth data slots in use");
+    URB_ASSERT(bridge.slot_served <= bridge.slot_count, "invariant: served slots are a prefix");
+    uint8_t held = 0u;
+    for (uint8_t j = 0u; j < FW_RING; j++) {
+        if (j < bridge.ring_count) {
+            uint8_t const r = wrap((uint8_t)(bridge.ring_head + j), FW_RING);
+            urb_bridge_resp_t const e = bridge.ring[r]; /* a copy: no pointer into the struct at a symbolic offset */
+            if (e.slot != URB_BRIDGE_NO_SLOT) {
+                URB_ASSERT(held < depth, "bounded: no more slot holders than slots");
+                URB_ASSERT(e.slot == wrap((uint8_t)(bridge.slot_head + held), depth),
+                           "no reuse: slot holders hold consecutive slots in ring order");
+                URB_ASSERT(bridge.slots[e.slot].resp == r, "each held slot names its response");
+                URB_ASSERT((e.status == URB_BRIDGE_PENDING) == (held >= bridge.slot_served),
+                           "exactly the unserved slot holders are pending");
+                held++;
+            } else {
+                URB_ASSERT(e.status != URB_BRIDGE_PENDING, "an entry without a slot is final");
+            }
+        }
+    }
+    URB_ASSERT(held == bridge.slot_count, "bounded: the slots in use are those of outstanding requests");
+}
+
+static bool same_entry(urb_bridge_resp_t const *a, urb_bridge_resp_t const *b)
+{
+    return (a->seq == b->seq) && (a->status == b->status) && (a->uplink == b->uplink) && (a->slot == b->slot);
+}
+
+static bool same_slot(uint8_t s, urb_bridge_slot_t const *b)
+{
+    if ((bridge.slots[s].address != b->address) || (bridge.slots[s].mailbox != b->mailbox) ||
+        (bridge.slots[s].length != b->length) || (bridge.slots[s].read != b->read) || (bridge.slots[s].resp != b->resp)) {
+        return false;
+    }
+    uint8_t const k = URB_NONDET_U8(); /* any one byte: all of them */
+    URB_ASSUME(k < 32u);
+    return bridge.slots[s].data[k] == b->data[k];
+}
+
+/* Outstanding entries from old offset `from` on, and their slots, are as before (the head may
+ * have moved by `from`). */
+static void check_kept(uint8_t from)
+{
+    for (uint8_t j = 0u; j < FW_RING; j++) {
+        if ((j >= from) && (j < old_count)) {
+            urb_bridge_resp_t const e = bridge.ring[wrap((uint8_t)(old_head + j), FW_RING)];
+            URB_ASSERT(same_entry(&e, &old_e[j]), "kept: the outstanding responses stay as they were");
+            if (old_rank[j] != FW_NONE) {
+                URB_ASSERT(same_slot(e.slot, &old_d[j]), "kept: no reuse, held slots stay intact");
+            }
+        }
+    }
+}
+
+#if URB_PART == 1
+static uint8_t payload[32];
+
+static void lemma_admit(void)
+{
+    uint8_t const uplink = URB_NONDET_BOOL() ? (uint8_t)URBB_UPLINK_USB : (uint8_t)URBB_UPLINK_RS232;
+    uint8_t const seq = URB_NONDET_U8();
+    uint8_t const a = URB_NONDET_U8();
+    uint8_t const box = URB_NONDET_U8();
+    uint8_t const len = URB_NONDET_U8();
+    bool const read = URB_NONDET_BOOL();
+    bool const well_formed = URB_NONDET_BOOL();
+    if (well_formed) {
+        URB_ASSUME((a < 128u) && (box < 8u) && (len >= 1u) && (len <= FW_LEN_MAX));
+    }
+    /* what the bridge knows about node a (MAX_NODES 1: the table's one entry, or unknown) */
+    bridge.node_of[a & 0x7Fu] = URB_NONDET_BOOL() ? 1u : 0u;
+    bridge.nodes[0].address = (uint8_t)(a & 0x7Fu);
+    bridge.nodes[0].in[box & 7u] = URB_NONDET_U8();
+    bridge.nodes[0].out[box & 7u] = URB_NONDET_U8();
+    uint8_t const k = URB_NONDET_U8();
+    URB_ASSUME(k < len);
+    uint32_t const windows = bridge.stats.window_overflow;
+    URB_COST_BEGIN();
+#ifndef FW_DEBUG_NO_ADMIT
+    admit(&bridge, uplink, seq, well_formed ? (uint8_t)URB_STATUS_OK : (uint8_t)URB_STATUS_BAD_REQUEST, a, box, read,
+          len, read ? NULL : payload);
+#endif
+    URB_COST_END(FW_COST_BUDGET);
+    check_invariant();
+    URB_ASSERT((bridge.ring_head == old_head) && (bridge.slot_head == old_slot_head) &&
+               (bridge.slot_served == old_served), "admit: the heads and the served prefix stay");
+    check_kept(0u);
+    if (old_count >= FW_RING) {
+        URB_ASSERT(bridge.stats.window_overflow == windows + 1u, "beyond the window: counted ...");
+        URB_ASSERT((bridge.ring_count == old_count) && (bridge.slot_count == old_slot_count), "... and not answered");
+        return;
+    }
+    URB_ASSERT(bridge.ring_count == (uint8_t)(old_count + 1u), "bounded: one response slot per request");
+    urb_bridge_resp_t const e = bridge.ring[wrap((uint8_t)(old_head + old_count), FW_RING)];
+    URB_ASSERT((e.seq == (uint8_t)(seq & 0x0Fu)) && (e.uplink == uplink),
+               "order: the response takes the end of the ring, with its request's seq and uplink");
+    /* Bridge.tla AdmissionStatus, with the sizes the bridge knows */
+    bool const reserved = (a != URB_BRIDGE_ADDRESS) && ((a < (uint8_t)URB_I2C_FIRST_ADDRESS) || (a > (uint8_t)URB_I2C_LAST_ADDRESS));
+    int16_t size = -1;
+    if (a == URB_BRIDGE_ADDRESS) {
+        size = read ? (int16_t)urb_node_bridge_outbox_sizes[box & 7u] : (int16_t)urb_node_bridge_inbox_sizes[box & 7u];
+    } else if (bridge.node_of[a & 0x7Fu] != 0u) {
+        size = read ? (int16_t)bridge.nodes[0].out[box & 7u] : (int16_t)bridge.nodes[0].in[box & 7u];
+    }
+    if (!well_formed || reserved) {
+        URB_ASSERT(e.status == URB_STATUS_BAD_REQUEST, "admission: a malformed request or reserved address is BAD_REQUEST");
+    } else if ((size >= 0) && (size != (int16_t)len)) {
+        URB_ASSERT(e.status == URB_STATUS_SIZE_MISMATCH, "admission: a length the mailbox does not have");
+    } else if (old_slot_count >= bridge.cfg.fifo_depth) {
+        URB_ASSERT(e.status == URB_STATUS_BUSY, "BUSY when every data slot is taken");
+    } else {
+        URB_ASSERT(e.status == URB_BRIDGE_PENDING, "BUSY only when every data slot is taken: admitted");
+        for (uint8_t j = 0u; j < FW_RING; j++) {
+            if ((j < old_count) && (old_rank[j] != FW_NONE)) {
+                URB_ASSERT(old_e[j].slot != e.slot, "no reuse: the new slot is held by no outstanding request");
+            }
+        }
+        urb_bridge_slot_t const d = bridge.slots[e.slot];
+        URB_ASSERT((d.address == a) && (d.mailbox == box) && (d.length == len) && (d.read == read),
+                   "the slot holds the request");
+        if (!read) {
+            URB_ASSERT(d.data[k] == payload[k], "the slot holds the request's payload");
+        }
+        return;
+    }
+    URB_ASSERT(bridge.slot_count == old_slot_count, "an admission error takes no data slot");
+}
+#endif
+
+#if URB_PART == 2
+static void lemma_complete(void)
+{
+    uint8_t const status = URB_NONDET_U8();
+    URB_ASSUME(final_status(status));
+    /* the oldest pending request, by the invariant's definition: the first PENDING in ring order */
+    uint8_t oldest = FW_NONE;
+    for (uint8_t j = 0u; j < FW_RING; j++) {
+        if ((oldest == FW_NONE) && (j < old_count) && (old_e[j].status == URB_BRIDGE_PENDING)) {
+            oldest = j;
+        }
+    }
+    if (oldest != FW_NONE) { /* the node table: the served node known or not, the one entry used or free */
+        bridge.node_of[old_d[oldest].address] = URB_NONDET_BOOL() ? 1u : 0u;
+        bridge.nodes[0].address = URB_NONDET_U8();
+    }
+    URB_COST_BEGIN();
+    urb_bridge_slot_t const *d = oldest_pending(&bridge);
+    complete(&bridge, status);
+    URB_COST_END(FW_COST_BUDGET);
+    check_invariant();
+    URB_ASSERT((bridge.ring_head == old_head) && (bridge.ring_count == old_count) &&
+               (bridge.slot_head == old_slot_head) && (bridge.slot_count == old_slot_count),
+               "complete: the ring and the FIFO keep their extent");
+    if (oldest == FW_NONE) {
+        URB_ASSERT(d == NULL, "nothing pending: nothing to serve");
+        URB_ASSERT(bridge.slot_served == old_served, "nothing pending: nothing served");
+        check_kept(0u);
+        return;
+    }
+    URB_ASSERT(d == &bridge.slots[old_e[oldest].slot], "serve order: the oldest pending request is served");
+    URB_ASSERT(bridge.slot_served == (uint8_t)(old_served + 1u), "serve order: one more served");
+    for (uint8_t j = 0u; j < FW_RING; j++) {
+        if (j < old_count) {
+            urb_bridge_resp_t const e = bridge.ring[wrap((uint8_t)(old_head + j), FW_RING)];
+            if (j == oldest) {
+                URB_ASSERT(e.status == status, "its response takes the outcome");
+            } else {
+                URB_ASSERT(same_entry(&e, &old_e[j]), "complete: every other response stays");
+            }
+            if (old_rank[j] != FW_NONE) {
+                URB_ASSERT(same_slot(e.slot, &old_d[j]), "complete: every held slot stays");
+            }
+        }
+    }
+}
+#endif
+
+#if URB_PART == 3
 bool urbb_uplink_send(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t len)
 {
     URB_ASSERT(b == &bridge, "send: the bridge under proof");
@@ -69,162 +349,85 @@ bool urbb_uplink_send(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uin
         return false;
     }
     room--;
-    URB_ASSERT(req_emitted < req_count, "order: a response only for an admitted request");
-    uint8_t const i = req_emitted;
-    URB_ASSERT(uplink == req_uplink[i], "order: the response goes back on its request's uplink");
-    URB_ASSERT((frame[0] & 0x0Fu) == req_seq[i], "order: the oldest outstanding request is answered first");
-    URB_ASSERT(req_status[i] != URB_BRIDGE_PENDING, "order: only a final response leaves");
-    URB_ASSERT((frame[0] >> 4) == req_status[i], "the response carries its request's status");
-    if (req_slot[i] != URB_BRIDGE_NO_SLOT) {
-        held--;
+    URB_ASSERT(sent < old_count, "order: a response only for an outstanding request");
+    urb_bridge_resp_t const *e = &old_e[sent];
+    URB_ASSERT(uplink == e->uplink, "order: the response goes back on its request's uplink");
+    URB_ASSERT((frame[0] & 0x0Fu) == e->seq, "order: the oldest outstanding request is answered first");
+    URB_ASSERT(e->status != URB_BRIDGE_PENDING, "order: only a final response leaves");
+    URB_ASSERT((frame[0] >> 4) == e->status, "the response carries its request's status");
+    bool const data = (e->status == URB_STATUS_OK) && (old_rank[sent] != FW_NONE) && old_d[sent].read;
+    uint8_t const n = data ? old_d[sent].length : 0u;
+    uint8_t const check = ((1u + n) <= URB_CRC8_LINK_CHECK_MAX_COVERED) ? 1u : 2u;
+    URB_ASSERT(len == (uint8_t)(1u + n + check), "the response carries an OK read's data, nothing else");
+    if (data) {
+        uint8_t const k = URB_NONDET_U8();
+        URB_ASSUME(k < n);
+        URB_ASSERT(frame[1u + k] == old_d[sent].data[k], "an OK read's response carries the slot's data");
     }
-    req_emitted++;
     sent++;
     return true;
 }
 
-static uint8_t payload[32];
-
-static void op_admit(void)
-{
-    uint8_t const uplink = URB_NONDET_BOOL() ? (uint8_t)URBB_UPLINK_USB : (uint8_t)URBB_UPLINK_RS232;
-    uint8_t const a = URB_NONDET_U8();
-    uint8_t const box = URB_NONDET_U8();
-    uint8_t const len = URB_NONDET_U8();
-    bool const read = URB_NONDET_BOOL();
-    bool const well_formed = URB_NONDET_BOOL();
-    URB_ASSUME((a < 128u) && (box < 8u) && (len >= 1u) && (len <= FW_LEN_MAX));
-    payload[0] = URB_NONDET_U8();
-    uint8_t const outstanding = (uint8_t)(req_count - req_emitted);
-    uint8_t const held_before = held;
-    uint32_t const windows = bridge.stats.window_overflow;
-    uint8_t const seq = seq_next;
-    URB_COST_BEGIN();
-    admit(&bridge, uplink, seq, well_formed ? (uint8_t)URB_STATUS_OK : (uint8_t)URB_STATUS_BAD_REQUEST, a, box, read,
-          len, read ? NULL : payload);
-    URB_COST_END(FW_COST_BUDGET);
-    if (outstanding >= URB_BRIDGE_RING_MAX) {
-        URB_ASSERT(bridge.stats.window_overflow == windows + 1u, "beyond the window: counted ...");
-        URB_ASSERT(bridge.ring_count == URB_BRIDGE_RING_MAX, "... and not answered");
-        return;
-    }
-    seq_next = (uint8_t)((seq_next + 1u) & 0x0Fu);
-    URB_ASSERT(bridge.ring_count == (uint8_t)(outstanding + 1u), "bounded: one response slot per request");
-    urb_bridge_resp_t const *e = &bridge.ring[ring_index(bridge.ring_head, outstanding)];
-    uint8_t const i = req_count;
-    req_uplink[i] = uplink;
-    req_seq[i] = seq;
-    req_slot[i] = e->slot;
-    req_status[i] = e->status;
-    req_byte[i] = payload[0];
-    req_count++;
-    /* What admission must decide (Bridge.tla AdmissionStatus; no node sizes are known here). */
-    bool const reserved = (a != URB_BRIDGE_ADDRESS) && ((a < 0x08u) || (a > 0x77u));
-    bool const bridge_size_ok = (a != URB_BRIDGE_ADDRESS) ||
-                                (len == (read ? urb_node_bridge_outbox_sizes[box] : urb_node_bridge_inbox_sizes[box]));
-    if (!well_formed || reserved) {
-        URB_ASSERT(e->status == URB_STATUS_BAD_REQUEST, "admission: a malformed request or reserved address is BAD_REQUEST");
-    } else if (!bridge_size_ok) {
-        URB_ASSERT(e->status == URB_STATUS_SIZE_MISMATCH, "admission: a length the bridge's mailbox does not have");
-    } else if (held_before >= bridge.cfg.fifo_depth) {
-        URB_ASSERT(e->status == URB_STATUS_BUSY, "BUSY when every data slot is taken");
-    } else {
-        URB_ASSERT(e->status == URB_BRIDGE_PENDING, "BUSY only when every data slot is taken: admitted");
-        URB_ASSERT(e->slot < bridge.cfg.fifo_depth, "a data slot of the FIFO");
-        for (uint8_t j = 0u; j < FW_MAX_REQ; j++) {
-            if ((j >= req_emitted) && (j < i)) {
-                URB_ASSERT(req_slot[j] != e->slot, "no reuse: the new slot is held by no outstanding request");
-            }
-        }
-        urb_bridge_slot_t const *d = &bridge.slots[e->slot];
-        URB_ASSERT((d->address == a) && (d->mailbox == box) && (d->length == len) && (d->read == read),
-                   "the slot holds the request");
-    }
-    URB_ASSERT((e->status == URB_BRIDGE_PENDING) == (e->slot != URB_BRIDGE_NO_SLOT),
-               "a slot exactly for the requests that wait for the downlink");
-    if (e->slot != URB_BRIDGE_NO_SLOT) {
-        held++;
-    }
-}
-
-static void op_complete(void)
-{
-    uint8_t const status = URB_NONDET_U8();
-    URB_ASSUME(status <= (uint8_t)URB_STATUS_NODE_BUSY);
-    /* The oldest pending request in the shadow. */
-    uint8_t oldest = FW_MAX_REQ;
-    for (uint8_t j = 0u; j < FW_MAX_REQ; j++) {
-        if ((oldest == FW_MAX_REQ) && (j < req_count) && (req_status[j] == URB_BRIDGE_PENDING)) {
-            oldest = j;
-        }
-    }
-    URB_COST_BEGIN();
-    urb_bridge_slot_t *d = oldest_pending(&bridge);
-    complete(&bridge, status);
-    URB_COST_END(FW_COST_BUDGET);
-    if (oldest == FW_MAX_REQ) {
-        URB_ASSERT(d == NULL, "nothing pending: nothing to serve");
-        return;
-    }
-    URB_ASSERT(d == &bridge.slots[req_slot[oldest]], "serve order: the oldest pending request is served");
-    URB_ASSERT(bridge.ring[d->resp].status == status, "its response takes the outcome");
-    req_status[oldest] = status;
-    req_served++;
-}
-
-static void op_emit(void)
+static void lemma_emit(void)
 {
     room = URB_NONDET_U8();
-    URB_ASSUME(room <= 2u);
+    URB_ASSUME(room <= FW_RING + 1u);
+    uint8_t const room0 = room;
     sent = 0u;
-    uint8_t const before = req_emitted;
     URB_COST_BEGIN();
     emit(&bridge);
+    /* amortised per response sent (the tail that finds the next one pending or refused included) */
     uint32_t const cost = urb_proof_cost;
-    URB_ASSERT(cost <= FW_COST_BUDGET * (uint32_t)((sent > 0u) ? sent : 1u), "cost: each emitted response within the budget");
-    /* emit stops exactly at a pending response or a full uplink */
-    bool const blocked = (req_emitted == req_count) || (req_status[req_emitted] == URB_BRIDGE_PENDING) || (room == 0u);
-    URB_ASSERT(blocked, "emit sends every final response it may");
-    URB_ASSERT(bridge.ring_count == (uint8_t)(req_count - req_emitted), "freed exactly the responses sent");
-    (void)before;
-}
-
-static void check_invariants(void)
-{
-    URB_ASSERT(bridge.slot_count == held, "bounded: the data slots in use are those of outstanding requests");
-    URB_ASSERT(bridge.slot_count <= bridge.cfg.fifo_depth, "bounded: at most fifo_depth data slots");
-    URB_ASSERT(bridge.ring_count <= URB_BRIDGE_RING_MAX, "bounded: at most RING_MAX responses");
-    for (uint8_t j = 0u; j < FW_MAX_REQ; j++) {
-        if ((j >= req_emitted) && (j < req_count) && (req_slot[j] != URB_BRIDGE_NO_SLOT)) {
-            urb_bridge_slot_t const *d = &bridge.slots[req_slot[j]];
-            if (!d->read) {
-                URB_ASSERT(d->data[0] == req_byte[j], "no reuse: a write's payload stays intact until its response left");
-            }
+    URB_ASSERT(cost <= FW_COST_BUDGET * (uint32_t)((sent > 0u) ? sent : 1u), "cost: within the budget per response sent");
+    urb_proof_cost = (sent <= 1u) ? cost : ((sent == 2u) ? (cost + 1u) / 2u : (cost + 2u) / 3u);
+    URB_COST_END(FW_COST_BUDGET);
+    check_invariant();
+    /* emit stops exactly at a pending response, an empty ring or a full uplink */
+    uint8_t finals = 0u; /* final entries at the head */
+    uint8_t freed = 0u;  /* data slots among the first `sent` */
+    for (uint8_t j = 0u; j < FW_RING; j++) {
+        if ((finals == j) && (j < old_count) && (old_e[j].status != URB_BRIDGE_PENDING)) {
+            finals++;
+        }
+        if ((j < sent) && (old_rank[j] != FW_NONE)) {
+            freed++;
         }
     }
+    uint8_t const want = (finals < room0) ? finals : room0;
+    URB_ASSERT(sent == want, "emit sends every final response at the head it may, and no other");
+    URB_ASSERT(bridge.ring_count == (uint8_t)(old_count - sent), "freed exactly the responses sent");
+    URB_ASSERT(bridge.ring_head == wrap((uint8_t)(old_head + sent), FW_RING), "the head moves past the responses sent");
+    URB_ASSERT((bridge.slot_count == (uint8_t)(old_slot_count - freed)) &&
+               (bridge.slot_served == (uint8_t)(old_served - freed)) &&
+               (bridge.slot_head == wrap((uint8_t)(old_slot_head + freed), bridge.cfg.fifo_depth)),
+               "the data slots of the responses sent are freed, in FIFO order");
+    check_kept(sent);
 }
+#else
+bool urbb_uplink_send(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t len)
+{
+    (void)b;
+    (void)uplink;
+    (void)frame;
+    (void)len;
+    URB_ASSERT(false, "only emit sends a response");
+    return false;
+}
+#endif
 
 void harness(void)
 {
-    bridge.cfg.fifo_depth = URB_NONDET_U8();
-    URB_ASSUME((bridge.cfg.fifo_depth >= 1u) && (bridge.cfg.fifo_depth <= URB_BRIDGE_FIFO_MAX));
-    bridge.hal = &board;
-    bridge.dl.first_address = (uint8_t)URB_I2C_FIRST_ADDRESS;
-    bridge.dl.last_address = (uint8_t)URB_I2C_LAST_ADDRESS;
-    /* ring_head, slot_head: anywhere (wrap-around from the start) */
-    bridge.ring_head = URB_NONDET_U8();
-    URB_ASSUME(bridge.ring_head < URB_BRIDGE_RING_MAX);
-    bridge.slot_head = URB_NONDET_U8();
-    URB_ASSUME(bridge.slot_head < bridge.cfg.fifo_depth);
-    for (uint8_t s = 0u; s < FW_OPS; s++) {
-        uint8_t const op = URB_NONDET_U8();
-        if (op == 0u) {
-            op_complete();
-        } else if (op == 1u) {
-            op_emit();
-        } else {
-            op_admit();
-        }
-        check_invariants();
-    }
+    arbitrary_state();
+#ifdef FW_DEBUG_STATE_ONLY
+    return;
+#endif
+#if URB_PART == 1
+    lemma_admit();
+#elif URB_PART == 2
+    lemma_complete();
+#elif URB_PART == 3
+    lemma_emit();
+#else
+#error "set URB_PART (the Makefile's SWEEP)"
+#endif
 }
