@@ -208,6 +208,11 @@ static void step(void)
     uint32_t const delta = URB_NONDET_U32();
     uint32_t const wait = URB_NONDET_U32();
     URB_ASSUME((delta >= FW_BYTE_US) && (delta <= FW_MAX_DELTA) && (wait <= FW_MAX_DELTA));
+#if defined(URB_IDLE)
+    /* sweep items with IDLE: only the byte that arrives without a gap and is followed by the idle
+     * timeout (the flush after a push), so a larger HELD stays affordable */
+    URB_ASSUME((delta <= FW_GAP_US) && (wait > FW_GAP_US));
+#endif
     bridge.rx_started = true;
     bridge.rx_last_us = last;
     urb_bridge_uart_rx(&bridge, stream[FW_HELD], last + delta);
