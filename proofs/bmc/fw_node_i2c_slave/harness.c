@@ -47,8 +47,9 @@
  * 6 bytes, CRC-8, and outbox 0, 25 bytes, CRC-16, inside urb_node_t; application inbox 3 and
  * outbox 5 of sizes 1..32 beside them).
  *
- * Worst case (COST): 357 cycles = 7.4 us at 48 MHz, 66% of FW_I2C_EVENT_BUDGET and 33% of one
- * I2C byte time, reached by a received byte (RX_BYTE; the tight run of the full tier shows it).
+ * Worst case (COST): 369 cycles = 7.7 us at 48 MHz, 68% of FW_I2C_EVENT_BUDGET and 34% of one
+ * I2C byte time, on mailbox 0 (its reads also count the identification reads); on an application
+ * mailbox 357 cycles.
  *
  * The harness includes the prepared urb_node.c (urb_isr_fault is the real one); urb_pll_sync is a
  * stub recording its call (fw_node_pll_update proves it); the CRC byte steps are an order-sensitive
