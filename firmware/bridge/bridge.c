@@ -681,7 +681,7 @@ int32_t urb_bridge_init(urb_bridge_t *b, const urb_bridge_config_t *cfg, const u
     for (uint8_t i = 0u; i < URB_BRIDGE_MAX_NODES; i++) {
         b->nodes[i].address = 0u;
     }
-    urb_bridge_stats_t const zero = {0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u};
+    urb_bridge_stats_t const zero = {0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u};
     b->stats = zero;
     urbb_uplink_init(b);
     if (cfg->scan_at_start) {

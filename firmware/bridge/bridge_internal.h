@@ -27,8 +27,14 @@ enum { URBB_ACT_NONE = 0u, URBB_ACT_REQUEST = 1u, URBB_ACT_SCAN = 2u, URBB_ACT_S
  * request, or answered BAD_REQUEST when it passed its check but breaks a schema rule). */
 bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t len);
 
-/* bridge_uplink.c: the uplink side of poll(): parse the bytes the UART interrupt queued. */
+/* bridge_uplink.c: the uplink side of poll(): parse the bytes the UART interrupt queued, with at
+ * most URB_BRIDGE_HUNT_CHECKS frame checks (the rest waits for the next call). */
 void urbb_uart_drain(urb_bridge_t *b, uint32_t now);
+
+/* bridge_uplink.c: urbb_uart_drain with a budget of `checks` frame checks. It stops only where a
+ * check is due and none is left, in a state the next call resumes from, so any split of the work
+ * into calls admits the same frames in the same order (proofs/bmc/fw_bridge_rs232_parser). */
+void urbb_uart_parse(urb_bridge_t *b, uint32_t now, uint8_t checks);
 
 /* bridge_uplink.c: queue one encoded response on `uplink`; false when it has no room now. */
 bool urbb_uplink_send(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t len);

@@ -1,11 +1,18 @@
 /*
  * URB bridge uplinks: the RS232 byte stream and USB batches in, responses out.
  *
- * Both uplinks feed the same admission (bridge.c) through one frame assembler each. RS232 has no
- * delimiter (spec/schema/README.md, "RS232 resynchronisation"): a frame's length follows from its
- * header; an idle gap longer than two byte times drops a partial frame; a frame that fails its
- * check loses its first byte and the assembler hunts again from the next one. A USB transfer is
- * parsed the same way, its end acting as the idle gap.
+ * RS232 has no delimiter (spec/schema/README.md, "RS232 resynchronisation"): a frame's length
+ * follows from its header; an idle gap longer than two byte times drops a partial frame; a frame
+ * that fails its check loses its first byte and the assembler hunts again from the next one.
+ * Hunting advances a start index (no bytes are shifted), and one poll makes at most
+ * URB_BRIDGE_HUNT_CHECKS frame checks: a check costs up to ~2 800 cycles on a 48-MHz Cortex-M0+
+ * and a line of garbage needs one per byte, so without the cap one poll could check 36 failing
+ * candidates in a row (2.4 ms). What is left waits in the assembler and the receive ring for the
+ * next poll: the frames found are the same, in the same order, only later.
+ *
+ * USB delivers a transfer intact (its own CRC and retransmission): a batch header, then frames back
+ * to back. They are admitted in order up to the first one that does not parse; the rest of that
+ * transfer is dropped and counted, never hunted through (spec/schema/README.md, "USB batches").
  *
  * The UART interrupt only timestamps bytes into a ring (O(1)); parsing happens in poll().
  */
@@ -27,8 +34,9 @@ void urbb_uplink_init(urb_bridge_t *b)
     b->rx_gap_us = (10000000u + b->cfg.baud - 1u) / b->cfg.baud + b->cfg.idle_gap_us;
     b->tx_head = 0u;
     b->tx_tail = 0u;
+    b->rs232.start = 0u;
     b->rs232.len = 0u;
-    b->usb.len = 0u;
+    b->rs232.flush = 0u;
     b->usb_cur = 0u;
     b->usb_prev_ready = false;
     b->usb_last_frame = 0u;
@@ -40,7 +48,7 @@ void urbb_uplink_init(urb_bridge_t *b)
     }
 }
 
-/* ===== Frame assembly and hunting ============================================================= */
+/* ===== Frame candidates ======================================================================= */
 
 /* Length of the request frame that would start at buf[0], from its header: 0 when more bytes are
  * needed to tell, NOT_A_FRAME when no request starts like this (a write announcing > 32 bytes). */
@@ -62,78 +70,85 @@ static uint8_t candidate_len(const uint8_t *buf, uint8_t n)
     return (uint8_t)(3u + len + urb_link_check_size(3u + (size_t)len));
 }
 
-static void discard(urb_bridge_parser_t *p, uint8_t k)
+/* ===== RS232 frame assembly and hunting ======================================================= */
+
+/* The held bytes lose their first k (a frame, or one byte while hunting): the start moves on. */
+static void consume(urb_bridge_parser_t *p, uint8_t k)
 {
-    if (k >= p->len) {
-        p->len = 0u;
-        return;
+    p->start = (uint8_t)(p->start + k);
+    p->len = (uint8_t)(p->len - k);
+    if (p->len == 0u) {
+        p->start = 0u; /* the next byte goes to the front: a stream of good frames never compacts */
     }
-    uint8_t const rest = (uint8_t)(p->len - k);
-    /* loop bound: URB_BRIDGE_FRAME_MAX bytes */
-    for (uint8_t i = 0u; i < rest; i++) {
-        p->buf[i] = p->buf[i + k];
-    }
-    p->len = rest;
 }
 
-/* Examine every complete candidate in the buffer. Each round removes at least one byte (a frame,
- * or one byte while hunting) or stops, so at most URB_BRIDGE_FRAME_MAX rounds. */
-static void hunt(urb_bridge_t *b, urb_bridge_parser_t *p, uint8_t uplink)
+/* Appends one byte. Only an incomplete candidate (< 37 bytes) takes a byte, and the buffer has room
+ * for 37 more behind it, so the held bytes move to the front at most once per 38 bytes received. */
+static void push(urb_bridge_t *b, urb_bridge_parser_t *p, uint8_t byte)
 {
-    /* loop bound: URB_BRIDGE_FRAME_MAX rounds (one byte or more removed per round) */
-    for (uint8_t round = 0u; (round < URB_BRIDGE_FRAME_MAX) && (p->len > 0u); round++) {
-        uint8_t const need = candidate_len(p->buf, p->len);
-        if ((need == 0u) || ((need != NOT_A_FRAME) && (need > p->len))) {
-            return; /* wait for more bytes */
+    if (p->len >= URB_BRIDGE_FRAME_MAX) {
+        /* cannot happen (hunt() leaves no complete candidate behind), but never overflow */
+        b->stats.hunt_discards++;
+        consume(p, 1u);
+    }
+    if ((uint8_t)(p->start + p->len) >= URB_BRIDGE_PARSE_BUF) {
+        /* loop bound: URB_BRIDGE_FRAME_MAX bytes (the held candidate) */
+        for (uint8_t i = 0u; i < p->len; i++) {
+            p->buf[i] = p->buf[p->start + i];
         }
-        if ((need != NOT_A_FRAME) && urbb_frame(b, uplink, p->buf, need)) {
-            discard(p, need);
+        p->start = 0u;
+    }
+    p->buf[p->start + p->len] = byte;
+    p->len++;
+}
+
+/* Works through the held bytes. Every complete candidate is checked: a frame is admitted and
+ * consumed; one that fails its check, or an impossible header, loses its first byte (hunting).
+ * Hunting stops at an incomplete candidate, which waits for more bytes. Flushing (an idle gap
+ * ended the candidate) goes on instead: an incomplete candidate is not a frame either, so its
+ * first byte is dropped and the complete frames behind it still count, until nothing is held.
+ * Returns false when a check is due and *checks is spent: the caller ends the poll there, and the
+ * next poll resumes at exactly this point (the state says which mode it was in). */
+static bool hunt(urb_bridge_t *b, urb_bridge_parser_t *p, uint8_t *checks)
+{
+    /* loop bound: URB_BRIDGE_FRAME_MAX + 1 rounds (each but the last removes a byte or more) */
+    for (uint8_t round = 0u; round <= URB_BRIDGE_FRAME_MAX; round++) {
+        if (p->len == 0u) {
+            p->flush = 0u; /* a flush ends when nothing is held */
+            return true;
+        }
+        uint8_t const *const c = &p->buf[p->start];
+        uint8_t const need = candidate_len(c, p->len);
+        if ((need != 0u) && (need != NOT_A_FRAME) && (need <= p->len)) {
+            if (*checks == 0u) {
+                return false;
+            }
+            (*checks)--;
+            if (urbb_frame(b, URBB_UPLINK_RS232, c, need)) {
+                consume(p, need);
+                continue;
+            }
+        } else if (p->flush != 0u) {
+            if (p->flush == 1u) {
+                b->stats.gap_drops++; /* one partial frame per gap, however many bytes it loses */
+                p->flush = 2u;
+            }
+            consume(p, 1u);
             continue;
+        } else if (need != NOT_A_FRAME) {
+            return true; /* incomplete: wait for more bytes */
+        } else {
+            /* a write announcing more than 32 bytes: not a frame start */
         }
         /* Check failed (or impossible header): the frame did not start here. */
         b->stats.hunt_discards++;
 #ifdef URB_MUTANT_NO_HUNT
-        p->len = 0u; /* mutant: drops the whole candidate, and any frame that started inside it */
+        consume(p, p->len); /* mutant: drops the whole candidate, and any frame that started inside it */
 #else
-        discard(p, 1u);
+        consume(p, 1u);
 #endif
     }
-}
-
-static void parser_push(urb_bridge_t *b, urb_bridge_parser_t *p, uint8_t byte, uint8_t uplink)
-{
-    if (p->len >= URB_BRIDGE_FRAME_MAX) {
-        /* cannot happen (hunt() consumes every complete candidate), but never overflow */
-        b->stats.hunt_discards++;
-        discard(p, 1u);
-    }
-    p->buf[p->len] = byte;
-    p->len++;
-    hunt(b, p, uplink);
-}
-
-/* An idle gap (or the end of a USB transfer): no byte will complete the candidate in progress, so
- * it is not a frame. Frames that arrived intact behind it must not be lost with it: drop the
- * candidate's first byte and hunt on through the rest, complete candidates first. */
-static void parser_flush(urb_bridge_t *b, urb_bridge_parser_t *p, uint8_t uplink)
-{
-    bool dropped = false;
-    /* loop bound: URB_BRIDGE_FRAME_MAX rounds (one byte or more removed per round) */
-    for (uint8_t round = 0u; (round < URB_BRIDGE_FRAME_MAX) && (p->len > 0u); round++) {
-        uint8_t const need = candidate_len(p->buf, p->len);
-        if ((need == 0u) || (need == NOT_A_FRAME) || (need > p->len)) {
-            dropped = true; /* incomplete: can never complete now */
-            discard(p, 1u);
-        } else if (urbb_frame(b, uplink, p->buf, need)) {
-            discard(p, need);
-        } else {
-            b->stats.hunt_discards++;
-            discard(p, 1u);
-        }
-    }
-    if (dropped) {
-        b->stats.gap_drops++;
-    }
+    return true;
 }
 
 /* ===== RS232 ================================================================================== */
@@ -165,31 +180,51 @@ void urb_bridge_uart_rx(urb_bridge_t *b, uint8_t byte, uint32_t t_us)
     b->rx_head = (uint8_t)(head + 1u); /* publish after the byte is stored */
 }
 
-void urbb_uart_drain(urb_bridge_t *b, uint32_t now)
+void urbb_uart_parse(urb_bridge_t *b, uint32_t now, uint8_t checks)
 {
-    /* loop bound: URB_BRIDGE_RX_RING bytes (the ring holds no more; later ones wait for the next poll) */
-    for (uint8_t i = 0u; i < URB_BRIDGE_RX_RING; i++) {
+    urb_bridge_parser_t *const p = &b->rs232;
+    /* loop bound: URB_BRIDGE_RX_RING + 1 rounds (one ring byte each; later bytes wait for the next poll) */
+    for (uint8_t i = 0u; i <= URB_BRIDGE_RX_RING; i++) {
+        if (!hunt(b, p, &checks)) {
+            b->stats.hunt_yields++;
+            return; /* this poll's checks are spent: the held bytes and the ring wait, nothing is lost */
+        }
         uint8_t const tail = b->rx_tail;
-        if (tail == b->rx_head) {
+        if ((i == URB_BRIDGE_RX_RING) || (tail == b->rx_head)) {
             break;
         }
         URB_BARRIER(); /* read the head before the byte the interrupt stored */
         uint16_t const v = b->rx_ring[tail & (URB_BRIDGE_RX_RING - 1u)];
-        b->rx_tail = (uint8_t)(tail + 1u);
-        if ((v & URB_BRIDGE_RX_GAP) != 0u) {
-            parser_flush(b, &b->rs232, URBB_UPLINK_RS232);
+        if (((v & URB_BRIDGE_RX_GAP) != 0u) && (p->len > 0u)) {
+            /* An idle gap before this byte: the held candidate will never complete. The byte stays in
+             * the ring until the flush is over, so a flush the budget stops resumes before it. */
+            p->flush = 1u;
+            if (!hunt(b, p, &checks)) {
+                b->stats.hunt_yields++;
+                return;
+            }
         }
-        parser_push(b, &b->rs232, (uint8_t)(v & 0xFFu), URBB_UPLINK_RS232);
+        b->rx_tail = (uint8_t)(tail + 1u);
+        push(b, p, (uint8_t)(v & 0xFFu));
     }
 #ifndef URB_MUTANT_NO_GAP
     /* The line has been idle long enough: a partial frame will not complete, do not wait for the
-     * next byte to say so (frames behind it would wait too). rx_last_us is one aligned word. */
-    if ((b->rs232.len > 0u) && (b->rx_head == b->rx_tail) && ((uint32_t)(now - b->rx_last_us) > b->rx_gap_us)) {
-        parser_flush(b, &b->rs232, URBB_UPLINK_RS232);
+     * next byte to say so (frames behind it would wait too). rx_last_us is one aligned word. A byte
+     * that arrives before a stopped flush is over carries the gap flag: the flush goes on first. */
+    if ((p->len > 0u) && (b->rx_head == b->rx_tail) && ((uint32_t)(now - b->rx_last_us) > b->rx_gap_us)) {
+        p->flush = 1u;
+        if (!hunt(b, p, &checks)) {
+            b->stats.hunt_yields++;
+        }
     }
 #else
     (void)now;
 #endif
+}
+
+void urbb_uart_drain(urb_bridge_t *b, uint32_t now)
+{
+    urbb_uart_parse(b, now, (uint8_t)URB_BRIDGE_HUNT_CHECKS);
 }
 
 bool urb_bridge_uart_tx_pop(urb_bridge_t *b, uint8_t *byte)
@@ -232,8 +267,8 @@ void urb_bridge_usb_sof(urb_bridge_t *b)
     b->usb_frame[next] = b->usb_last_frame;
 }
 
-/* UsbUplink.tla: UsbWrite (the batch arrives) and BridgeProcess (its requests are admitted in
- * order; serving them is Bridge.tla's business, shared with RS232). */
+/* UsbUplink.tla: UsbWrite (the batch arrives), then its requests are admitted in order (serving
+ * them is Bridge.tla's business, shared with RS232). */
 bool urb_bridge_usb_out(urb_bridge_t *b, const uint8_t *data, size_t len)
 {
     urb_usb_batch_header_t h;
@@ -245,12 +280,23 @@ bool urb_bridge_usb_out(urb_bridge_t *b, const uint8_t *data, size_t len)
     b->stats.usb_batches++;
     b->usb_last_frame = h.frame;
     b->usb_frame[b->usb_cur] = h.frame; /* the response batch echoes its request batch */
-    parser_flush(b, &b->usb, URBB_UPLINK_USB);
-    /* loop bound: URB_BRIDGE_USB_BUF bytes */
-    for (size_t i = URB_USB_BATCH_HEADER_MAX_SIZE; i < len; i++) {
-        parser_push(b, &b->usb, data[i], URBB_UPLINK_USB);
+    /* UsbUplink.tla: BridgeProcess. The frames lie back to back and USB delivered them intact, so
+     * a frame that fails its check or runs past the end is not line noise to hunt through: the
+     * host sent something that is not a batch. Hunting would cost a check per byte (34 ms for 512
+     * bytes of garbage) and pass a false frame once in 256 positions. The rest of the transfer is
+     * dropped and counted; its requests time out at the host, whose callbacks report it. */
+    size_t at = URB_USB_BATCH_HEADER_MAX_SIZE;
+    /* loop bound: URB_BRIDGE_USB_BUF / 4 frames (a request is at least 4 bytes) */
+    while (at < len) {
+        size_t const rest = len - at;
+        uint8_t const n = (rest < URB_BRIDGE_FRAME_MAX) ? (uint8_t)rest : (uint8_t)URB_BRIDGE_FRAME_MAX;
+        uint8_t const need = candidate_len(&data[at], n);
+        if ((need == 0u) || (need == NOT_A_FRAME) || (need > n) || !urbb_frame(b, URBB_UPLINK_USB, &data[at], need)) {
+            b->stats.usb_cut_batches++;
+            break;
+        }
+        at += need;
     }
-    parser_flush(b, &b->usb, URBB_UPLINK_USB); /* a frame never spans two transfers */
     return true;
 }
 

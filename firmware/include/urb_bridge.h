@@ -52,6 +52,12 @@ extern "C" {
 #define URB_BRIDGE_RX_RING 64u  /**< UART receive ring (bytes between two polls), power of two */
 #define URB_BRIDGE_TX_RING 128u /**< UART transmit ring, power of two, >= 35 (one response) */
 #define URB_BRIDGE_FRAME_MAX 37u /**< Longest uplink request frame */
+#define URB_BRIDGE_PARSE_BUF (2u * URB_BRIDGE_FRAME_MAX) /**< RS232 assembler: one held candidate and room to
+                                                          append, so hunting never shifts bytes */
+#ifndef URB_BRIDGE_HUNT_CHECKS
+#define URB_BRIDGE_HUNT_CHECKS 4u /**< Candidate frame checks per poll on RS232: bounds one poll's parsing
+                                       (spec/schema/README.md, RS232 resynchronisation); the rest waits */
+#endif
 
 #define URB_BRIDGE_FW_MAJOR 0u /**< Firmware version reported in BridgeInfo */
 #define URB_BRIDGE_FW_MINOR 1u
@@ -77,6 +83,8 @@ typedef struct {
     uint32_t gap_drops;         /**< Partial frames dropped at an idle gap or a transfer end */
     uint32_t usb_batches;       /**< USB OUT transfers accepted */
     uint32_t usb_bad_batches;   /**< USB OUT transfers dropped (bad header, too long) */
+    uint32_t usb_cut_batches;   /**< USB OUT transfers whose data stopped parsing before their end (a
+                                     frame failed its check or was cut short): the rest was dropped */
     uint32_t usb_late_reads;    /**< Frames whose previous response batch had not been read yet */
     uint32_t busy;              /**< Requests answered BUSY */
     uint32_t window_overflow;   /**< Requests dropped because every response slot was taken
@@ -85,14 +93,18 @@ typedef struct {
     uint32_t syncs;             /**< SYNC broadcasts started */
     uint32_t syncs_missed;      /**< Heartbeat ticks whose SYNC was skipped (downlink busy too long) */
     uint32_t scans;             /**< Scans completed */
+    uint32_t hunt_yields;       /**< Polls whose RS232 parsing stopped at URB_BRIDGE_HUNT_CHECKS checks
+                                     (the rest was parsed by the next polls) */
 } urb_bridge_stats_t;
 
 /* ===== State (caller-owned; fields are private) =============================================== */
 
-/** Request frame assembler of one uplink (RS232 stream or USB batch). */
+/** RS232 request frame assembler: the bytes held are buf[start .. start + len). */
 typedef struct {
-    uint8_t buf[URB_BRIDGE_FRAME_MAX];
-    uint8_t len;
+    uint8_t buf[URB_BRIDGE_PARSE_BUF];
+    uint8_t start;  /* the candidate frame's first byte: hunting advances it instead of shifting */
+    uint8_t len;    /* bytes held, at most URB_BRIDGE_FRAME_MAX */
+    uint8_t flush;  /* 0 hunting; 1 an idle gap ended the candidate: flushing; 2 flushing, drop counted */
 } urb_bridge_parser_t;
 
 /** One response slot: a request's place in the answer order. */
@@ -138,7 +150,7 @@ typedef struct {
     volatile uint8_t hb_ticks; /* ISR */
     uint8_t hb_done;           /* poll */
     /* Frame assemblers. */
-    urb_bridge_parser_t rs232, usb;
+    urb_bridge_parser_t rs232;
     /* Response ring (arrival order) and data slots (a FIFO inside it). */
     urb_bridge_resp_t ring[URB_BRIDGE_RING_MAX];
     uint8_t ring_head, ring_count;
@@ -194,8 +206,11 @@ void urb_bridge_heartbeat(urb_bridge_t *b);
 /** USB start of frame (UsbUplink.tla Tick): the current response batch becomes the one to read. */
 void urb_bridge_usb_sof(urb_bridge_t *b);
 
-/** USB OUT transfer (a UsbBatchHeader and its request frames): admits the requests. O(len).
- *  Returns false (transfer dropped, no responses) for a bad header or a transfer over URB_BRIDGE_USB_BUF. */
+/** USB OUT transfer (a UsbBatchHeader and its request frames back to back): admits the requests in
+ *  order. The first frame that fails its check or is cut short ends the transfer: the rest is
+ *  dropped and counted (usb_cut_batches); USB delivers transfers intact, so nothing is hunted for.
+ *  At most one failing frame check per transfer. Returns false (transfer dropped, no responses)
+ *  for a bad header or a transfer over URB_BRIDGE_USB_BUF. */
 bool urb_bridge_usb_out(urb_bridge_t *b, const uint8_t *data, size_t len);
 
 /** USB IN transfer: copies the previous frame's response batch into buf; returns its length, or 0

@@ -106,6 +106,7 @@ NOINLINE void measure_poll_bridge_scan(void) { urb_bridge_poll(&B); }
 NOINLINE void measure_poll_emit_ring(void) { urb_bridge_poll(&B); }
 NOINLINE void measure_poll_idle(void) { urb_bridge_poll(&B); }
 NOINLINE bool measure_usb_out(const uint8_t *d, size_t n) { return urb_bridge_usb_out(&B, d, n); }
+NOINLINE bool measure_usb_out_garbage(const uint8_t *d, size_t n) { return urb_bridge_usb_out(&B, d, n); }
 NOINLINE void measure_usb_sof(void) { urb_bridge_usb_sof(&B); }
 NOINLINE size_t measure_usb_in(uint8_t *buf, size_t cap) { return urb_bridge_usb_in(&B, buf, cap); }
 
@@ -197,8 +198,16 @@ int main(void)
         urb_bridge_uart_rx(&B, 0x20u, g_now); /* every byte starts a 37-byte write candidate */
     }
     measure_poll_hunt_ring();
-    report("measure_poll_hunt_ring", "main", 1, 250000,
-           "poll: full receive ring (64 bytes) of 0x20: 28 failed 37-byte CRC-16 candidates while hunting");
+    report("measure_poll_hunt_ring", "main", 1, 20000,
+           "poll: full receive ring (64 bytes) of 0x20, each byte a failing 37-byte CRC-16 candidate: "
+           "URB_BRIDGE_HUNT_CHECKS of them checked, the rest left for the next polls");
+    {
+        uint32_t yields;
+        do { /* the next polls check the rest, a few each */
+            yields = B.stats.hunt_yields;
+            urb_bridge_poll(&B);
+        } while (B.stats.hunt_yields != yields);
+    }
     g_now += 1000u;
     measure_poll_gap_flush();
     report("measure_poll_gap_flush", "main", 1, 40000, "poll: idle gap flushes the 36 left-over bytes");
@@ -306,6 +315,16 @@ int main(void)
     printf("# usb_out batch bytes: %zu\n", n);
     report("measure_usb_out", "main", 1, 250000,
            "USB OUT: 509-byte batch (13 x 37-byte writes, 6 reads) parsed and admitted (16 slots, 3 BUSY)");
+    /* a 512-byte transfer of garbage behind a good header: cut at its first (failing) frame */
+    fresh(false);
+    memset(buf, 0x20, URB_BRIDGE_USB_BUF);
+    {
+        urb_usb_batch_header_t h = {8u, 13u};
+        (void)urb_usb_batch_header_encode(&h, buf, 4u);
+    }
+    (void)measure_usb_out_garbage(buf, URB_BRIDGE_USB_BUF);
+    report("measure_usb_out_garbage", "main", 1, 4000,
+           "USB OUT: 512-byte transfer of 0x20 after its header: one failing 37-byte candidate, the rest dropped");
     /* fill the current response batch to the brim, then SOF and IN */
     fresh(false);
     for (unsigned i = 0u; i < 14u; i++) {

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "bridge_internal.h"
 #include "support.h"
 #include "urb_runtime.h"
 
@@ -302,6 +303,173 @@ static void receive_overrun(void **state)
     expect_end(&s);
 }
 
+/* A drain longer than URB_BRIDGE_HUNT_CHECKS: 44 bytes arrive between two polls, 40 of garbage
+ * (0x20: every position announces a 37-byte write that fails its check) and a good read. One poll
+ * makes at most URB_BRIDGE_HUNT_CHECKS checks and leaves the rest in the ring; the next polls
+ * resume where it stopped, and the read behind the garbage is still admitted (at the idle gap,
+ * which ends the last incomplete candidate) and answered. */
+static void hunting_resumes_at_the_next_poll(void **state)
+{
+    urb_hosted_rig_t *r = *state;
+    const urb_bridge_stats_t *st = urb_bridge_stats(&r->bridge);
+    uint8_t f[48];
+    memset(f, 0x20, 40u);
+    (void)enc_read(f + 40, NODE, 1u, 5u, 4u);
+    uint32_t t = r->hal.now;
+    for (size_t i = 0u; i < 44u; i++) {
+        t += BYTE_US;
+        urb_bridge_uart_rx(&r->bridge, f[i], t); /* no poll in between: all 44 wait in the ring */
+    }
+    uint32_t const discards = st->hunt_discards;
+    r->hal.now = t;
+    urb_bridge_poll(&r->bridge);
+    assert_int_equal(st->hunt_discards - discards, URB_BRIDGE_HUNT_CHECKS); /* every check failed */
+    assert_int_equal(st->hunt_yields, 1u);
+    assert_int_not_equal(r->bridge.rx_tail, r->bridge.rx_head); /* the rest waits in the ring */
+    urb_bridge_poll(&r->bridge); /* candidates at 4..7; from 8 on they are incomplete: no yield */
+    assert_int_equal(st->hunt_discards - discards, 8u);
+    assert_int_equal(st->hunt_yields, 1u);
+    assert_int_equal(r->bridge.rx_tail, r->bridge.rx_head);
+    assert_int_equal(st->frames, 0u);
+    assert_false(urb_bridge_idle(&r->bridge)); /* 36 bytes held: not idle */
+    r->hal.now = t + 300u; /* past the idle gap: bytes 8..39 are dropped, the read is found */
+    urb_bridge_poll(&r->bridge);
+    assert_int_equal(st->frames, 1u);
+    assert_int_equal(st->gap_drops, 1u);
+    urb_hosted_rig_run(r, 2000u);
+    stream_t s = rs232_stream(r);
+    expect_response(&s, 5u, URB_STATUS_OK, 4u, NULL);
+    expect_end(&s);
+}
+
+/* A full ring of bytes that each complete a failing 37-byte candidate: no poll checks more than
+ * URB_BRIDGE_HUNT_CHECKS of them, the polls together check every one, and the bridge answers a
+ * good frame afterwards. */
+static void garbage_ring_is_checked_a_few_per_poll(void **state)
+{
+    urb_hosted_rig_t *r = *state;
+    const urb_bridge_stats_t *st = urb_bridge_stats(&r->bridge);
+    uint32_t t = r->hal.now;
+    for (unsigned i = 0u; i < URB_BRIDGE_RX_RING; i++) {
+        t += BYTE_US;
+        urb_bridge_uart_rx(&r->bridge, 0x20u, t);
+    }
+    r->hal.now = t;
+    uint32_t last = st->hunt_discards;
+    unsigned polls = 0u;
+    uint32_t yields;
+    do {
+        yields = st->hunt_yields;
+        urb_bridge_poll(&r->bridge);
+        polls++;
+        assert_true(st->hunt_discards - last <= URB_BRIDGE_HUNT_CHECKS);
+        last = st->hunt_discards;
+        assert_true(polls < 64u);
+    } while (st->hunt_yields != yields);
+    assert_int_equal(r->bridge.rx_tail, r->bridge.rx_head);
+    assert_int_equal(polls, (28u + URB_BRIDGE_HUNT_CHECKS - 1u) / URB_BRIDGE_HUNT_CHECKS); /* the last one does not yield */
+    assert_int_equal(st->hunt_discards, URB_BRIDGE_RX_RING - 36u); /* positions 0..27 completed a candidate */
+    assert_int_equal(st->rx_overruns, 0u);
+    urb_hosted_rig_run(r, 1000u); /* the idle gap drops the 36 left */
+    uint8_t f[8];
+    send_frame(r, f, enc_read(f, NODE, 1u, 6u, 4u));
+    stream_t s = rs232_stream(r);
+    expect_response(&s, 6u, URB_STATUS_OK, 4u, NULL);
+    expect_end(&s);
+}
+
+/* The budget changes when frames are found, never which: the same random streams (frames, bit
+ * errors, lost and inserted bytes, idle gaps) into two bridges, one parsing with an unlimited
+ * budget after every byte, the other with one check per call, called twice per byte and until it
+ * stops yielding at each gap. Both admit the same requests in the same order with the same
+ * counters. */
+static void any_budget_finds_the_same_frames(void **state)
+{
+    (void)state;
+    uint32_t x = 0xC0FFEEu;
+    for (unsigned round = 0u; round < 24u; round++) {
+        urb_hosted_rig_t *a = rig_new(16u, 0u);
+        urb_hosted_rig_t *b = rig_new(16u, 0u);
+        uint32_t t = 1000u;
+        unsigned frames = 0u;
+        while (frames < 24u) {
+            uint8_t f[40];
+            uint8_t payload[32];
+            x = x * 1103515245u + 12345u;
+            unsigned const kind = (x >> 16) % 8u;
+            size_t n;
+            if (kind < 3u) {
+                n = enc_read(f, (uint8_t)(0x08u + ((x >> 8) & 0x7Fu) % 0x70u), 1u, (uint8_t)(frames & 15u), 4u);
+            } else if (kind < 6u) {
+                uint8_t const len = (uint8_t)(1u + (x >> 4) % 32u);
+                for (uint8_t i = 0u; i < len; i++) {
+                    payload[i] = (uint8_t)(x >> (i % 24u));
+                }
+                n = enc_write(f, (uint8_t)(0x08u + (x >> 9) % 0x70u), 1u, (uint8_t)(frames & 15u), len, payload);
+            } else {
+                n = 1u + (x >> 3) % 8u; /* garbage */
+                for (size_t i = 0u; i < n; i++) {
+                    x = x * 1103515245u + 12345u;
+                    f[i] = (uint8_t)(x >> 16);
+                }
+            }
+            x = x * 1103515245u + 12345u;
+            if (((x >> 16) % 4u) == 0u) {
+                f[(x >> 4) % n] ^= (uint8_t)(1u << ((x >> 8) % 8u)); /* a bit error */
+            }
+            size_t const skip = (((x >> 20) % 6u) == 0u) ? (x >> 10) % n : n; /* a lost byte */
+            for (size_t i = 0u; i < n; i++) {
+                if (i == skip) {
+                    continue;
+                }
+                t += BYTE_US;
+                urb_bridge_uart_rx(&a->bridge, f[i], t);
+                urb_bridge_uart_rx(&b->bridge, f[i], t);
+                urbb_uart_parse(&a->bridge, t, 255u);
+                urbb_uart_parse(&b->bridge, t, 1u);
+                urbb_uart_parse(&b->bridge, t, 1u);
+            }
+            frames++;
+            x = x * 1103515245u + 12345u;
+            if (((x >> 16) % 3u) == 0u) { /* an idle gap */
+                t += 1000u;
+                urbb_uart_parse(&a->bridge, t, 255u);
+                uint32_t yields;
+                do {
+                    yields = b->bridge.stats.hunt_yields;
+                    urbb_uart_parse(&b->bridge, t, 1u);
+                } while (b->bridge.stats.hunt_yields != yields);
+            }
+        }
+        t += 1000u;
+        urbb_uart_parse(&a->bridge, t, 255u);
+        for (unsigned i = 0u; i < 200u; i++) {
+            urbb_uart_parse(&b->bridge, t, 1u);
+        }
+        const urb_bridge_stats_t *sa = urb_bridge_stats(&a->bridge);
+        const urb_bridge_stats_t *sb = urb_bridge_stats(&b->bridge);
+        assert_int_equal(sa->rx_overruns, 0u);
+        assert_int_equal(sb->rx_overruns, 0u);
+        assert_int_equal(sa->hunt_yields, 0u);
+        assert_true(sb->hunt_yields > 0u);
+        assert_int_equal(sa->frames, sb->frames);
+        assert_true(sa->frames > 0u);
+        assert_int_equal(sa->hunt_discards, sb->hunt_discards);
+        assert_int_equal(sa->gap_drops, sb->gap_drops);
+        assert_int_equal(sa->window_overflow, sb->window_overflow);
+        assert_int_equal(a->bridge.ring_count, b->bridge.ring_count);
+        assert_int_equal(a->bridge.rs232.len, 0u);
+        assert_int_equal(b->bridge.rs232.len, 0u);
+        for (uint8_t i = 0u; i < a->bridge.ring_count; i++) {
+            uint8_t const k = (uint8_t)((a->bridge.ring_head + i) % URB_BRIDGE_RING_MAX);
+            assert_int_equal(a->bridge.ring[k].seq, b->bridge.ring[k].seq);
+            assert_int_equal(a->bridge.ring[k].status, b->bridge.ring[k].status);
+        }
+        rig_free(a);
+        rig_free(b);
+    }
+}
+
 int run_rs232_tests(void)
 {
     const struct CMUnitTest tests[] = {
@@ -318,6 +486,9 @@ int run_rs232_tests(void)
         cmocka_unit_test_setup_teardown(unknown_nodes_and_mailboxes, setup, teardown),
         cmocka_unit_test_setup_teardown(garbage_stream, setup, teardown),
         cmocka_unit_test_setup_teardown(receive_overrun, setup, teardown),
+        cmocka_unit_test_setup_teardown(hunting_resumes_at_the_next_poll, setup, teardown),
+        cmocka_unit_test_setup_teardown(garbage_ring_is_checked_a_few_per_poll, setup, teardown),
+        cmocka_unit_test(any_budget_finds_the_same_frames),
     };
     return cmocka_run_group_tests_name("bridge_rs232", tests, NULL, NULL);
 }

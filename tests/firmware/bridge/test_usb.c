@@ -174,8 +174,10 @@ static void empty_unread_batch_is_replaced(void **state)
     expect_end(&s);
 }
 
-/* A bad batch header drops the transfer; a damaged packet inside a batch is not answered but the
- * others are; a packet cut by the end of the transfer is dropped. */
+/* A bad batch header drops the transfer. USB delivers transfers intact, so a frame inside one that
+ * fails its check means the host sent no batch: the frames before it are answered, the transfer is
+ * cut there (counted) and the frames behind it are not hunted for; a frame cut short by the end of
+ * the transfer cuts it too. */
 static void bad_batches(void **state)
 {
     urb_hosted_rig_t *r = *state;
@@ -191,16 +193,64 @@ static void bad_batches(void **state)
     assert_false(urb_bridge_usb_out(&r->bridge, buf, 3u));
     assert_false(urb_bridge_usb_out(&r->bridge, buf, URB_BRIDGE_USB_BUF + 1u));
     len = usb_batch(buf, 6u, b.ptrs, b.lens, b.count);
-    buf[4 + 4 + 1] ^= 0x01u;                       /* second packet damaged */
+    buf[4 + 4 + 1] ^= 0x01u;                             /* second packet damaged */
+    assert_true(urb_bridge_usb_out(&r->bridge, buf, len)); /* the third is intact, but behind it */
+    assert_int_equal(urb_bridge_stats(&r->bridge)->usb_cut_batches, 1u);
+    len = usb_batch(buf, 6u, b.ptrs, b.lens, b.count);
     assert_true(urb_bridge_usb_out(&r->bridge, buf, len - 1u)); /* third packet cut short */
+    assert_int_equal(urb_bridge_stats(&r->bridge)->usb_cut_batches, 2u);
     urb_hosted_rig_run(r, 1000u);
     urb_bridge_usb_sof(&r->bridge);
     size_t got = urb_bridge_usb_in(&r->bridge, in, sizeof in);
     stream_t s = {in + 4, got - 4u, 0u};
     expect_response(&s, 1u, URB_STATUS_OK, 4u, NULL);
+    expect_response(&s, 1u, URB_STATUS_OK, 4u, NULL);
+    expect_response(&s, 2u, URB_STATUS_OK, 4u, NULL);
     expect_end(&s);
     assert_int_equal(urb_bridge_stats(&r->bridge)->usb_bad_batches, 3u);
-    assert_int_equal(urb_bridge_stats(&r->bridge)->gap_drops, 1u);
+    assert_int_equal(urb_bridge_stats(&r->bridge)->usb_batches, 2u);
+    assert_int_equal(urb_bridge_stats(&r->bridge)->gap_drops, 0u);
+    assert_int_equal(urb_bridge_stats(&r->bridge)->hunt_discards, 0u);
+}
+
+/* A 512-byte transfer of garbage behind a good header: cut at its first frame, one check at most,
+ * whatever it holds; a good request hidden at byte 100 is not found (hunting would find it, and a
+ * false frame once in 256 positions). The next transfer is parsed from its start as usual. */
+static void garbage_transfer_is_cut_at_its_first_frame(void **state)
+{
+    urb_hosted_rig_t *r = *state;
+    uint8_t in[512];
+    uint8_t buf[URB_BRIDGE_USB_BUF];
+    batch_t none = {.count = 0u};
+    (void)usb_batch(buf, 3u, none.ptrs, none.lens, 0u);
+    uint32_t x = 0xBADC0DEu;
+    for (size_t i = 4u; i < sizeof buf; i++) {
+        x = x * 1103515245u + 12345u;
+        buf[i] = (uint8_t)((x >> 16) & 0xFEu); /* even first bytes: writes announcing random lengths */
+    }
+    buf[4] = 0x20u;
+    buf[6] = 40u; /* a write announcing 40 bytes: no frame starts here */
+    (void)enc_read(buf + 100, NODE, 1u, 7u, 4u);
+    const urb_bridge_stats_t *st = urb_bridge_stats(&r->bridge);
+    uint32_t const frames = st->frames;
+    assert_true(urb_bridge_usb_out(&r->bridge, buf, sizeof buf));
+    assert_int_equal(st->frames, frames);
+    assert_int_equal(st->usb_cut_batches, 1u);
+    buf[6] = 32u; /* now a 37-byte write whose check fails */
+    assert_true(urb_bridge_usb_out(&r->bridge, buf, sizeof buf));
+    assert_int_equal(st->frames, frames);
+    assert_int_equal(st->usb_cut_batches, 2u);
+    batch_t b = {.count = 0u};
+    add_read(&b, 1u, 8u, 4u);
+    size_t len = usb_batch(buf, 4u, b.ptrs, b.lens, b.count);
+    assert_true(urb_bridge_usb_out(&r->bridge, buf, len));
+    assert_int_equal(st->usb_cut_batches, 2u);
+    urb_hosted_rig_run(r, 1000u);
+    urb_bridge_usb_sof(&r->bridge);
+    size_t got = urb_bridge_usb_in(&r->bridge, in, sizeof in);
+    stream_t s = {in + 4, got - 4u, 0u};
+    expect_response(&s, 8u, URB_STATUS_OK, 4u, NULL);
+    expect_end(&s);
 }
 
 /* Both uplinks feed one FIFO; each response goes back where its request came from. */
@@ -237,6 +287,7 @@ int run_usb_tests(void)
         cmocka_unit_test_setup_teardown(late_read_loses_nothing, setup, teardown),
         cmocka_unit_test_setup_teardown(empty_unread_batch_is_replaced, setup, teardown),
         cmocka_unit_test_setup_teardown(bad_batches, setup, teardown),
+        cmocka_unit_test_setup_teardown(garbage_transfer_is_cut_at_its_first_frame, setup, teardown),
         cmocka_unit_test_setup_teardown(rs232_and_usb_together, setup, teardown),
     };
     return cmocka_run_group_tests_name("bridge_usb", tests, NULL, NULL);
