@@ -170,7 +170,7 @@ static uint8_t admission_status(const urb_bridge_t *b, uint8_t a, uint8_t box, b
     return URB_STATUS_OK;
 }
 
-static bool emit_entry(urb_bridge_t *b, const urb_bridge_resp_t *e);
+static bool emit_entry(urb_bridge_t *b, uint8_t r);
 
 /* Bridge.tla: SubmitAndAdmit. `status` is OK for a well-formed request, BAD_REQUEST for a frame
  * that passed its check but breaks a schema rule. */
@@ -226,33 +226,35 @@ static void admit(urb_bridge_t *b, uint8_t uplink, uint8_t seq, uint8_t status, 
 #endif
         }
     }
-    urb_bridge_resp_t *e = &b->ring[ring_index(b->ring_head, b->ring_count)];
-    e->seq = (uint8_t)(seq & 0x0Fu);
-    e->uplink = uplink;
+    /* Ring entry and data slot by index, never by a pointer into *b: a pointer at a variable
+     * offset into the bridge makes the bounded model checker (proofs/bmc/fw_bridge_fifo) resolve
+     * every access over the whole struct. */
+    uint8_t const r = ring_index(b->ring_head, b->ring_count);
+    b->ring[r].seq = (uint8_t)(seq & 0x0Fu);
+    b->ring[r].uplink = uplink;
     if (status == URB_STATUS_OK) {
         uint8_t const s = slot_index(b, b->slot_count);
-        urb_bridge_slot_t *d = &b->slots[s];
-        d->address = a;
-        d->mailbox = box;
-        d->length = len;
-        d->read = read;
-        d->resp = ring_index(b->ring_head, b->ring_count);
+        b->slots[s].address = a;
+        b->slots[s].mailbox = box;
+        b->slots[s].length = len;
+        b->slots[s].read = read;
+        b->slots[s].resp = r;
         /* loop bound: 32 bytes */
         /*@ loop invariant 0 <= i <= 32;
-            loop assigns i, d->data[0 .. 31];
+            loop assigns i, b->slots[s].data[0 .. 31];
             loop variant 32 - i; */
         for (uint8_t i = 0u; (!read) && (i < len) && (i < 32u); i++) {
-            d->data[i] = data[i];
+            b->slots[s].data[i] = data[i];
         }
-        e->status = URB_BRIDGE_PENDING;
-        e->slot = s;
+        b->ring[r].status = URB_BRIDGE_PENDING;
+        b->ring[r].slot = s;
         b->slot_count++;
     } else {
-        e->status = status;
-        e->slot = URB_BRIDGE_NO_SLOT;
+        b->ring[r].status = status;
+        b->ring[r].slot = URB_BRIDGE_NO_SLOT;
 #ifdef URB_MUTANT_REORDER
         /* mutant (Bridge_BusyOvertakes): an admission error leaves at once, ahead of earlier requests */
-        (void)emit_entry(b, e);
+        (void)emit_entry(b, r);
         return;
 #endif
     }
@@ -287,7 +289,21 @@ bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t l
 
 /* ===== Serving ================================================================================ */
 
-/* Bridge.tla: FirstPending, in O(1): served slots form a prefix of the slot FIFO. */
+/* Bridge.tla: FirstPending, in O(1): served slots form a prefix of the slot FIFO. The data slot of
+ * the oldest pending request, or URB_BRIDGE_NO_SLOT when nothing is pending. */
+/*@ requires urbb_fifo_ok(b);
+    assigns \nothing;
+    ensures b->slot_served == b->slot_count ==> \result == URB_BRIDGE_NO_SLOT;
+    ensures b->slot_served < b->slot_count ==> \result == urbb_slot_at(b, b->slot_served) < b->cfg.fifo_depth; */
+static uint8_t first_pending(const urb_bridge_t *b)
+{
+    if (b->slot_served >= b->slot_count) {
+        return URB_BRIDGE_NO_SLOT;
+    }
+    return slot_index(b, b->slot_served);
+}
+
+/* The oldest pending request, or NULL (for the serving code; the FIFO itself works by index). */
 /*@ requires urbb_fifo_ok(b);
     assigns \nothing;
     ensures b->slot_served == b->slot_count ==> \result == \null;
@@ -295,10 +311,8 @@ bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t l
     ensures \result == \null || \valid(\result); */
 static urb_bridge_slot_t *oldest_pending(urb_bridge_t *b)
 {
-    if (b->slot_served >= b->slot_count) {
-        return NULL;
-    }
-    return &b->slots[slot_index(b, b->slot_served)];
+    uint8_t const s = first_pending(b);
+    return (s == URB_BRIDGE_NO_SLOT) ? NULL : &b->slots[s];
 }
 
 /* Bridge.tla: Serve (second half): the outcome of the oldest pending request is final. */
@@ -317,15 +331,16 @@ static urb_bridge_slot_t *oldest_pending(urb_bridge_t *b)
     disjoint behaviors; */
 static void complete(urb_bridge_t *b, uint8_t status)
 {
-    urb_bridge_slot_t *d = oldest_pending(b);
-    if (d == NULL) {
+    uint8_t const s = first_pending(b);
+    if (s == URB_BRIDGE_NO_SLOT) {
         return;
     }
-    if ((status == URB_STATUS_OK) && d->read && (d->address != URB_BRIDGE_ADDRESS) && (d->mailbox == 0u) &&
-        (d->length == URB_IDENTIFICATION_SIZE)) {
-        node_learn(b, d->address, d->data); /* the host read an identification: learn the sizes too */
+    if ((status == URB_STATUS_OK) && b->slots[s].read && (b->slots[s].address != URB_BRIDGE_ADDRESS) &&
+        (b->slots[s].mailbox == 0u) && (b->slots[s].length == URB_IDENTIFICATION_SIZE)) {
+        /* the host read an identification: learn the sizes too */
+        node_learn(b, b->slots[s].address, b->slots[s].data);
     }
-    b->ring[d->resp].status = status;
+    b->ring[b->slots[s].resp].status = status;
     b->slot_served++;
 }
 
@@ -579,27 +594,28 @@ static void start_next(urb_bridge_t *b, uint32_t now)
 
 /* ===== Emitting =============================================================================== */
 
-/* Encode one final response and hand it to its uplink; false when the uplink has no room. */
-static bool emit_entry(urb_bridge_t *b, const urb_bridge_resp_t *e)
+/* Encode the final response in ring entry r and hand it to its uplink; false when the uplink has
+ * no room. */
+static bool emit_entry(urb_bridge_t *b, uint8_t r)
 {
-    urb_uplink_response_t r;
+    urb_uplink_response_t out;
     uint8_t frame[URB_UPLINK_RESPONSE_MAX_SIZE];
-    r.seq = e->seq;
-    r.status = e->status;
-    r.data_len = 0u;
-    if ((e->status == URB_STATUS_OK) && (e->slot != URB_BRIDGE_NO_SLOT) && b->slots[e->slot].read) {
-        const urb_bridge_slot_t *d = &b->slots[e->slot];
-        r.data_len = d->length; /* Bridge.tla ResponseMatchesRequest: data only for an OK read */
+    uint8_t const s = b->ring[r].slot;
+    out.seq = b->ring[r].seq;
+    out.status = b->ring[r].status;
+    out.data_len = 0u;
+    if ((out.status == URB_STATUS_OK) && (s != URB_BRIDGE_NO_SLOT) && b->slots[s].read) {
+        out.data_len = b->slots[s].length; /* Bridge.tla ResponseMatchesRequest: data only for an OK read */
         /* loop bound: 32 bytes */
-        for (uint8_t i = 0u; i < d->length; i++) {
-            r.data[i] = d->data[i];
+        for (uint8_t i = 0u; i < b->slots[s].length; i++) {
+            out.data[i] = b->slots[s].data[i];
         }
     }
-    int32_t const n = urb_uplink_response_encode(&r, frame, sizeof frame);
+    int32_t const n = urb_uplink_response_encode(&out, frame, sizeof frame);
     if (n < 0) {
         return true; /* cannot happen for a valid entry; never wedge the ring on it */
     }
-    if (!urbb_uplink_send(b, e->uplink, frame, (uint8_t)n)) {
+    if (!urbb_uplink_send(b, b->ring[r].uplink, frame, (uint8_t)n)) {
         return false;
     }
     b->stats.responses++;
@@ -613,14 +629,14 @@ static void emit(urb_bridge_t *b)
 {
     /* loop bound: URB_BRIDGE_RING_MAX responses */
     for (uint8_t i = 0u; (i < URB_BRIDGE_RING_MAX) && (b->ring_count > 0u); i++) {
-        urb_bridge_resp_t *e = &b->ring[b->ring_head];
-        if (e->status == URB_BRIDGE_PENDING) {
+        uint8_t const h = b->ring_head;
+        if (b->ring[h].status == URB_BRIDGE_PENDING) {
             return;
         }
-        if (!emit_entry(b, e)) {
+        if (!emit_entry(b, h)) {
             return; /* uplink full: try again at the next poll, order kept */
         }
-        if (e->slot != URB_BRIDGE_NO_SLOT) {
+        if (b->ring[h].slot != URB_BRIDGE_NO_SLOT) {
             b->slot_head = slot_index(b, 1u);
             b->slot_count--;
             b->slot_served--;
