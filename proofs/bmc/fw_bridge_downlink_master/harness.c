@@ -12,27 +12,37 @@
  * choosing the phase, position and pending fields arbitrarily within the invariant.
  *
  * Lemmas (URB_PART):
- *   1 begin   an idle master on free lines accepts any request but CLEAR, refuses a second one,
- *             and issues exactly one START; the planned bytes are the request's: address, select
- *             or SYNC bytes, data, the check over select + data; a read selects only when needed
+ *   1 begin   an idle master accepts any request and refuses a second one; on free lines a request
+ *             but CLEAR issues exactly one START and keeps the cached selection; the planned bytes
+ *             are the request's: address, select or SYNC bytes, data, the check over select + data;
+ *             a read selects only when needed. CLEAR, or any request with a line held low, enters
+ *             the bus clear instead: no bus operation, step 0 timed from begin(), BUS_STUCK (or the
+ *             lines' verdict for CLEAR) to report, counted, every cached selection forgotten
  *   2 event   any HAL event (START, ACK, NACK, BYTE with any value, ERROR) in any phase: at most one
  *             bus operation issued, exactly one when the master then waits for an event (one
  *             operation at a time), a STOP when the bus part ends; a NACK gets the status
  *             urb_downlink.h names for the byte it refused; a written byte is the next planned one;
  *             a read byte lands in data or check; ERROR or an unexpected event: FAULT; a late event
  *             (idle, finished, faulted, clearing) changes nothing
- *   3 poll    free lines, any poll time, any phase but CLEAR: a waiting transaction is aborted and
- *             gives TIMEOUT exactly when more than timeout_us have passed since begin(); FINISH
+ *   3 poll    any line levels, any poll time, any phase but CLEAR: a waiting transaction is aborted
+ *             (and counted) exactly when more than timeout_us have passed since begin(); FINISH
  *             gives the outcome (a read: OK exactly when its check matches; the selection cache
- *             keeps a good read's mailbox and forgets it on any failure); FAULT gives TIMEOUT
+ *             keeps a good read's mailbox and forgets it on any failure); a fault or timeout gives
+ *             TIMEOUT on free lines and enters the bus clear (BUS_STUCK, counted, every cached
+ *             selection forgotten) with a line held low; only that entry forgets them
  *   4 clear   one bus-clear step (clear_step(), what poll() runs in PH_CLEAR) at any step, any
  *             time, any line levels, for a stuck bus or a CLEAR request: the next half clock of
  *             nine SCL pulses and a STOP, the outcome (BUS_STUCK, or for CLEAR OK exactly when the
  *             lines are free) only after the 21st step
- * NOT covered yet: the entry into the bus clear (begin() of a CLEAR or on a line held low, a fault
- * or timeout with a line low): it runs forget_all's 128 stores, and every such run (Boolector and
- * Bitwuzla) ran out of memory or time within 240 s. tests/firmware covers those paths.
- * Termination (from 2, 3 and 4, and the uncovered clear entry): events never leave FINISH, FAULT or CLEAR and move a waiting phase
+ *   5 forget  forget_all from any master state: every one of the 128 cached selections becomes
+ *             URB_I2C_NO_SELECTION, no other field changes, at most FW_FORGET_ALL_COST cycles
+ *             (`make tight SWEEP_ITEM=PART=5` shows the number is reached)
+ * Lemmas 1 to 4 use lemma 5 as a contract (the Makefile stubs forget_all out of their sources):
+ * its 128 stores inside the master ran every run of the clear entry (Boolector, Bitwuzla) out of
+ * memory or time within 240 s. The contract is a ghost call count and the cost; its one caller,
+ * start_clear(), is the last thing begin() and poll() do, so no step under proof reads a
+ * selection after it.
+ * Termination (from 1 to 4): events never leave FINISH, FAULT or CLEAR and move a waiting phase
  * only to a waiting phase, FINISH or FAULT; the first poll after timeout_us leaves every waiting
  * phase; FINISH and FAULT end at the next poll or start the clear; each clear step takes one poll
  * at least clear_half_us apart and the outcome comes at step 21. So the outcome comes within
@@ -42,6 +52,14 @@
  * byte times of idle bus: begin() runs before the START, the final poll after the STOP).
  */
 #include "urb_verify.h"
+
+#include "bridge_internal.h"
+
+#if URB_PART != 5
+/* forget_all by its contract (lemma 5 proves it): the Makefile removes its definition from the
+ * prepared i2c_master.c for every other part, and the contract is defined below. */
+static void forget_all(urb_i2c_master_t *m);
+#endif
 
 /* The prepared (cost-instrumented, maybe mutated) i2c_master.c, to reach its static steps. */
 #include "i2c_master.c"
@@ -143,6 +161,27 @@ static urb_downlink_txn_t t;
 static uint8_t sel_before;
 static uint32_t t0;
 
+/* forget_all's cost on the model: its entry and 128 loop rounds. Lemma 5 asserts the real function
+ * costs at most this (the contract below charges it), and the worst-case witness run of PART=5
+ * shows it is reached. */
+#define FW_FORGET_ALL_COST 1304u
+
+/* Ghost: how often forget_all ran during the step under proof. */
+static uint8_t forget_calls;
+
+#if URB_PART != 5
+/* The contract of lemma 5 (every selection becomes URB_I2C_NO_SELECTION, nothing else changes) as
+ * a ghost call count: its only caller, start_clear(), is the last thing begin() and poll() do, so
+ * nothing under proof reads a selection after it; the harness asserts the call (exactly once per
+ * clear entry) instead of 128 stores, which ran ESBMC out of memory inside the whole master state. */
+static void forget_all(urb_i2c_master_t *m)
+{
+    URB_ASSERT(m == &master, "forget_all: called on the master under proof");
+    URB_COST(FW_FORGET_ALL_COST);
+    forget_calls++;
+}
+#endif
+
 static uint8_t check_size(uint8_t len)
 {
     return ((1u + (uint32_t)len) <= URB_CRC8_LINK_CHECK_MAX_COVERED) ? 1u : 2u;
@@ -150,6 +189,7 @@ static uint8_t check_size(uint8_t len)
 
 static void reset_record(void)
 {
+    forget_calls = 0u;
     ops = 0u;
     last_op = 0u;
     aborted = false;
@@ -182,6 +222,8 @@ static void idle_master(void)
     URB_ASSUME((sel_before < 8u) || (sel_before == URB_I2C_NO_SELECTION));
     master.sel[t.address] = sel_before;
     t0 = URB_NONDET_U32(); /* any start time: the clock may wrap */
+    master.bus_clears = URB_NONDET_U32(); /* the counters may wrap */
+    master.timeouts = URB_NONDET_U32();
 }
 
 /* The byte the master must write at position `pos` of a WRITE (address, select, data, check). */
@@ -203,25 +245,34 @@ static uint8_t planned_write_byte(uint8_t pos)
 static void lemma_begin(void)
 {
     idle_master();
-    URB_ASSUME(t.op != (uint8_t)URB_DL_CLEAR);
+    lines_any = true; /* any line levels: a line held low must start the bus clear */
     reset_record();
+    last_lines = BOTH_LINES; /* a CLEAR reads no lines: do not let a stale level decide below */
     fw_bridge_check_last = 0u;
+    uint32_t const clears_before = master.bus_clears;
     URB_COST_BEGIN();
     bool const ok = dl.begin(dl.ctx, &t, t0);
     URB_COST_END(FW_COST_BUDGET); /* begin(): FW_BRIDGE_MASTER_CALL_BUDGET */
     URB_ASSERT(ok, "begin: an idle master starts the request");
     uint8_t const ops_first = ops;
+    uint8_t const forgets_first = forget_calls;
     URB_ASSERT(!dl.begin(dl.ctx, &t, t0), "begin: refused while a request runs");
-    URB_ASSERT(ops == ops_first, "begin: a refused request issues nothing");
-    if (master.phase == PH_CLEAR) {
-        URB_ASSERT((t.op == (uint8_t)URB_DL_CLEAR) || ((last_lines & 3u) != 3u),
-                   "begin: the bus clear only for CLEAR or a line held low");
-        URB_ASSERT((ops == 0u) && (master.clear_step == 0u), "begin: the clear starts at its first step, no bus operation");
-        uint8_t const a = URB_NONDET_U8();
-        URB_ASSUME(a < 128u);
-        URB_ASSERT(master.sel[a] == URB_I2C_NO_SELECTION, "a bus clear forgets every cached selection");
+    URB_ASSERT((ops == ops_first) && (forget_calls == forgets_first), "begin: a refused request does nothing");
+    bool const clear_entry = (t.op == (uint8_t)URB_DL_CLEAR) || ((last_lines & 3u) != 3u);
+    URB_ASSERT(!aborted && (drives == 0u), "begin: aborts nothing and bit-bangs nothing itself");
+    if (clear_entry) {
+        /* The bus-clear entry: CLEAR, or a line held low before the request (not executed). */
+        URB_ASSERT(master.phase == PH_CLEAR, "begin: CLEAR or a line held low starts the bus clear");
+        URB_ASSERT((ops == 0u) && (master.clear_step == 0u) && (master.t_step == t0),
+                   "begin: the clear starts at its first step, timed from begin(), no bus operation");
+        URB_ASSERT(master.clear_for == ((t.op == (uint8_t)URB_DL_CLEAR) ? CLEAR_FOR_COMMAND : (uint8_t)URB_STATUS_BUS_STUCK),
+                   "begin: a CLEAR is judged by the lines after it, a stuck bus is BUS_STUCK");
+        URB_ASSERT(forget_calls == 1u, "a bus clear forgets every cached selection (forget_all, lemma 5)");
+        URB_ASSERT(master.bus_clears == clears_before + 1u, "begin: the bus clear is counted");
         return;
     }
+    URB_ASSERT((forget_calls == 0u) && (master.bus_clears == clears_before), "begin: no clear on free lines");
+    URB_ASSERT(master.sel[t.address] == sel_before, "begin: a request keeps the cached selection");
     URB_ASSERT((t.op != (uint8_t)URB_DL_CLEAR) && ((last_lines & 3u) == 3u), "begin: a request starts on free lines");
     URB_ASSERT((master.phase == PH_START) && (ops == 1u) && (last_op == 1u) && (master.pos == 0u),
                "begin: exactly one START, then wait for it");
@@ -260,8 +311,8 @@ static void lemma_begin(void)
 }
 #endif
 
-/* Lemmas 2 to 5: a transaction begun on free lines, then any phase of it (the clear phases are
- * set up by lemmas 4 and 5 themselves). */
+/* Lemmas 2 to 4: a transaction begun on free lines, then any phase of it (the clear phase is
+ * lemma 4's to set up). */
 static void arbitrary_transaction(void)
 {
     idle_master();
@@ -381,7 +432,10 @@ static void lemma_poll(void)
 {
     arbitrary_transaction();
 #if URB_PART == 3
-    URB_ASSUME(master.phase != PH_CLEAR); /* free lines: a fault or timeout ends in TIMEOUT */
+    /* any phase but CLEAR (lemma 4), any line levels: a fault or timeout with a line held low
+     * enters the bus clear, with free lines it ends in TIMEOUT */
+    URB_ASSUME(master.phase != PH_CLEAR);
+    lines_any = true;
 #elif URB_PART == 4
     /* a bus clear at any step, of a stuck bus or of a CLEAR request, any line levels */
     master.phase = PH_CLEAR;
@@ -396,8 +450,11 @@ static void lemma_poll(void)
     uint8_t const clear_for = master.clear_for;
     uint8_t const result = master.result;
     uint32_t const t_step = master.t_step;
+    uint32_t const clears_before = master.bus_clears;
+    uint32_t const timeouts_before = master.timeouts;
     uint32_t const now = URB_NONDET_U32();
     reset_record();
+    last_lines = BOTH_LINES; /* only fault() reads the lines: a stale level must not decide below */
     fw_bridge_check_last = URB_NONDET_U32();
     URB_COST_BEGIN();
 #if URB_PART == 3
@@ -408,6 +465,14 @@ static void lemma_poll(void)
     URB_COST_END(FW_COST_BUDGET); /* poll(): FW_BRIDGE_MASTER_CALL_BUDGET */
     uint8_t const now_ph = master.phase;
     URB_ASSERT(ops == 0u, "poll() issues no bus operation (the controller is stopped or waiting)");
+#if URB_PART == 3
+    bool const entered_clear = now_ph == PH_CLEAR;
+#else
+    bool const entered_clear = false; /* a clear step never starts another */
+#endif
+    URB_ASSERT(forget_calls == (entered_clear ? 1u : 0u),
+               "poll: every cached selection is forgotten (forget_all, lemma 5) exactly when a bus clear starts");
+    URB_ASSERT(master.bus_clears == clears_before + (entered_clear ? 1u : 0u), "poll: each bus clear counted once");
     URB_ASSERT((r >= 0) == ((now_ph == PH_IDLE) && (ph != PH_IDLE)), "an outcome exactly when the master goes idle");
     if (ph == PH_IDLE) {
         URB_ASSERT(r == URB_DOWNLINK_IDLE, "idle: nothing to report");
@@ -417,6 +482,7 @@ static void lemma_poll(void)
     bool const timed_out = (uint32_t)(now - t0) > FW_TIMEOUT_US;
     if ((ph >= PH_START) && (ph <= PH_RX)) {
         URB_ASSERT(aborted == timed_out, "timeout: a waiting transaction is aborted exactly after timeout_us");
+        URB_ASSERT(master.timeouts == timeouts_before + (timed_out ? 1u : 0u), "timeout: counted once");
         if (!timed_out) {
             URB_ASSERT((r == URB_DOWNLINK_BUSY) && (now_ph == ph), "before the timeout: still waiting");
             return;
@@ -427,8 +493,11 @@ static void lemma_poll(void)
             URB_ASSERT(master.sel[a] == URB_I2C_NO_SELECTION, "a fault forgets the node's selection");
         }
         if ((last_lines & 3u) != 3u) {
+            /* The bus-clear entry after a fault or a timeout. */
             URB_ASSERT((r == URB_DOWNLINK_BUSY) && (now_ph == PH_CLEAR) && (master.clear_step == 0u) &&
-                       (master.clear_for == URB_STATUS_BUS_STUCK), "a line low after a fault: the bus clear starts");
+                       (master.clear_for == URB_STATUS_BUS_STUCK) && (master.t_step == now),
+                       "a line low after a fault: the bus clear starts, timed from this poll");
+            URB_ASSERT(!released && (drives == 0u), "the clear's first half clock is the next poll's");
         } else {
             URB_ASSERT((r == (int8_t)URB_STATUS_TIMEOUT) && released, "free lines after a fault: TIMEOUT");
         }
@@ -484,6 +553,79 @@ static void lemma_poll(void)
 }
 #endif
 
+#if URB_PART == 5
+static urb_i2c_master_t fm; /* lemma 5's own master, so that no other state is carried along */
+
+/* Every field of fm but sel[] and the two pointers arbitrary; the pointers are fixed (forget_all
+ * never reads them, and the frame assertion still sees a store to one). Measured with ESBMC 8.4:
+ * a pointer member that is one of two objects makes the 128 stores into the struct explode
+ * (Boolector out of memory, Z3 past 180 s), and so does a copy of an uninitialised local struct. */
+static void arbitrary_fields(void)
+{
+    fm.hal = &hal;
+    fm.cfg.bitrate_kbps = URB_NONDET_U16();
+    fm.cfg.timeout_us = URB_NONDET_U32();
+    fm.cfg.clear_half_us = URB_NONDET_U16();
+    fm.op = URB_NONDET_U8();
+    fm.address = URB_NONDET_U8();
+    fm.mailbox = URB_NONDET_U8();
+    fm.length = URB_NONDET_U8();
+    fm.data = data;
+    fm.hdr[0] = URB_NONDET_U8();
+    fm.hdr[1] = URB_NONDET_U8();
+    fm.hdr[2] = URB_NONDET_U8();
+    fm.tail[0] = URB_NONDET_U8();
+    fm.tail[1] = URB_NONDET_U8();
+    fm.rx_check[0] = URB_NONDET_U8();
+    fm.rx_check[1] = URB_NONDET_U8();
+    fm.n_hdr = URB_NONDET_U8();
+    fm.n_data = URB_NONDET_U8();
+    fm.n_tail = URB_NONDET_U8();
+    fm.n_rx = URB_NONDET_U8();
+    fm.read_after = URB_NONDET_BOOL();
+    fm.t0 = URB_NONDET_U32();
+    fm.phase = URB_NONDET_U8();
+    fm.pos = URB_NONDET_U8();
+    fm.result = URB_NONDET_U8();
+    fm.clear_step = URB_NONDET_U8();
+    fm.clear_for = URB_NONDET_U8();
+    fm.t_step = URB_NONDET_U32();
+    fm.bus_clears = URB_NONDET_U32();
+    fm.timeouts = URB_NONDET_U32();
+}
+
+/* Every field of the master but sel[]. */
+static bool same_but_selections(const urb_i2c_master_t *x, const urb_i2c_master_t *y)
+{
+    return (x->hal == y->hal) && (x->cfg.bitrate_kbps == y->cfg.bitrate_kbps) && (x->cfg.timeout_us == y->cfg.timeout_us) &&
+           (x->cfg.clear_half_us == y->cfg.clear_half_us) && (x->op == y->op) && (x->address == y->address) &&
+           (x->mailbox == y->mailbox) && (x->length == y->length) && (x->data == y->data) && (x->hdr[0] == y->hdr[0]) &&
+           (x->hdr[1] == y->hdr[1]) && (x->hdr[2] == y->hdr[2]) && (x->tail[0] == y->tail[0]) && (x->tail[1] == y->tail[1]) &&
+           (x->rx_check[0] == y->rx_check[0]) && (x->rx_check[1] == y->rx_check[1]) && (x->n_hdr == y->n_hdr) &&
+           (x->n_data == y->n_data) && (x->n_tail == y->n_tail) && (x->n_rx == y->n_rx) && (x->read_after == y->read_after) &&
+           (x->t0 == y->t0) && (x->phase == y->phase) && (x->pos == y->pos) && (x->result == y->result) &&
+           (x->clear_step == y->clear_step) && (x->clear_for == y->clear_for) && (x->t_step == y->t_step) &&
+           (x->bus_clears == y->bus_clears) && (x->timeouts == y->timeouts);
+}
+
+/* forget_all on its own, from any master: every field arbitrary, and any cached selection at the
+ * address checked (the function reads none of them). */
+static void lemma_forget_all(void)
+{
+    arbitrary_fields();
+    uint8_t const a = URB_NONDET_U8();
+    URB_ASSUME(a < 128u);
+    fm.sel[a] = URB_NONDET_U8();
+    urb_i2c_master_t const before = fm;
+    URB_COST_BEGIN();
+    forget_all(&fm);
+    URB_ASSERT(fm.sel[a] == URB_I2C_NO_SELECTION, "forget_all: every cached selection is forgotten");
+    URB_ASSERT(same_but_selections(&fm, &before), "forget_all: nothing but the selections changes");
+    URB_ASSERT(urb_proof_cost <= FW_FORGET_ALL_COST, "forget_all: costs at most what its contract charges");
+    URB_TIGHT(urb_proof_cost == FW_FORGET_ALL_COST, "forget_all: the contract charges what it costs");
+}
+#endif
+
 void harness(void)
 {
 #if URB_PART == 1
@@ -492,6 +634,8 @@ void harness(void)
     lemma_event();
 #elif (URB_PART == 3) || (URB_PART == 4)
     lemma_poll();
+#elif URB_PART == 5
+    lemma_forget_all();
 #else
 #error "set URB_PART (the Makefile's SWEEP)"
 #endif
