@@ -17,22 +17,25 @@ static inline bool before(const urbsim_event_key_t *a, const urbsim_event_key_t 
     return a->t < b->t || (a->t == b->t && a->seq < b->seq);
 }
 
-static bool queue_init(urbsim_queue_t *q, size_t cap)
+static bool queue_init(urbsim_queue_t *q, size_t cap, bool owners)
 {
     q->len = 0;
     q->head = 0;
     q->cap = cap;
     q->key = malloc(cap * sizeof *q->key);
     q->item = malloc(cap * sizeof *q->item);
-    return q->key != NULL && q->item != NULL;
+    q->owner = owners ? malloc(cap * sizeof *q->owner) : NULL;
+    return q->key != NULL && q->item != NULL && (!owners || q->owner != NULL);
 }
 
 static void queue_free(urbsim_queue_t *q)
 {
     free(q->key);
     free(q->item);
+    free(q->owner);
     q->key = NULL;
     q->item = NULL;
+    q->owner = NULL;
     q->len = q->cap = q->head = 0;
 }
 
@@ -41,6 +44,14 @@ static void queue_free(urbsim_queue_t *q)
 static bool queue_grow(urbsim_queue_t *q)
 {
     size_t cap = q->cap * 2u;
+    if (q->owner != NULL) {
+        /* the heap (the only queue with owners) always starts at index 0: no unwrapping */
+        urbsim_handle_t **owner = realloc(q->owner, cap * sizeof *owner);
+        if (owner == NULL) {
+            return false;
+        }
+        q->owner = owner;
+    }
     urbsim_event_key_t *key = malloc(cap * sizeof *key);
     urbsim_event_t *item = malloc(cap * sizeof *item);
     if (key == NULL || item == NULL) {
@@ -97,33 +108,45 @@ static urbsim_event_t ring_pop(urbsim_queue_t *q)
     return top;
 }
 
-/* Far queue: binary heap. Sift up, moving parents down until the new entry's slot is found. */
-static void heap_push(urbsim_queue_t *q, urbsim_event_key_t key, urbsim_event_t item)
+/* Far queue: binary heap, whose entries may have an owner handle that follows them around. */
+static inline void heap_place(urbsim_queue_t *q, size_t i, urbsim_event_key_t key, urbsim_event_t item,
+                              urbsim_handle_t *owner)
 {
-    size_t i = q->len++;
+    q->key[i] = key;
+    q->item[i] = item;
+    q->owner[i] = owner;
+#ifndef URBSIM_MUTANT_CANCEL_SLOT /* seeded bug (mk/sim.mk): a handle loses track of its moved event */
+    if (owner != NULL) {
+        owner->slot = i;
+    }
+#endif
+}
+
+/* Move an entry from slot i into the hole at slot j. */
+static inline void heap_move(urbsim_queue_t *q, size_t j, size_t i)
+{
+    heap_place(q, j, q->key[i], q->item[i], q->owner[i]);
+}
+
+/* Put (key, item) into the hole at slot i, sifting it up towards the root. */
+static void heap_sift_up(urbsim_queue_t *q, size_t i, urbsim_event_key_t key, urbsim_event_t item,
+                         urbsim_handle_t *owner)
+{
     while (i > 0) {
         size_t parent = (i - 1u) / 2u;
         if (!before(&key, &q->key[parent])) {
             break;
         }
-        q->key[i] = q->key[parent];
-        q->item[i] = q->item[parent];
+        heap_move(q, i, parent);
         i = parent;
     }
-    q->key[i] = key;
-    q->item[i] = item;
+    heap_place(q, i, key, item, owner);
 }
 
-/* Remove the root (q->len > 0) and restore the heap property by sifting the last entry down. */
-static urbsim_event_t heap_pop(urbsim_queue_t *q)
+/* Put (key, item) into the hole at slot i of a heap of n entries, sifting it down. */
+static void heap_sift_down(urbsim_queue_t *q, size_t i, size_t n, urbsim_event_key_t key, urbsim_event_t item,
+                           urbsim_handle_t *owner)
 {
-    urbsim_event_t top = q->item[0];
-    size_t n = --q->len;
-    if (n == 0) {
-        return top;
-    }
-    urbsim_event_key_t last = q->key[n];
-    size_t i = 0;
     for (;;) {
         size_t c = 2u * i + 1u;
         if (c >= n) {
@@ -132,16 +155,38 @@ static urbsim_event_t heap_pop(urbsim_queue_t *q)
         if (c + 1u < n && before(&q->key[c + 1u], &q->key[c])) {
             c++;
         }
-        if (!before(&q->key[c], &last)) {
+        if (!before(&q->key[c], &key)) {
             break;
         }
-        q->key[i] = q->key[c];
-        q->item[i] = q->item[c];
+        heap_move(q, i, c);
         i = c;
     }
-    q->key[i] = last;
-    q->item[i] = q->item[n];
-    return top;
+    heap_place(q, i, key, item, owner);
+}
+
+static void heap_push(urbsim_queue_t *q, urbsim_event_key_t key, urbsim_event_t item, urbsim_handle_t *owner)
+{
+    heap_sift_up(q, q->len++, key, item, owner);
+}
+
+/* Remove the entry at slot i (q->len > i) and restore the heap property with the last entry. */
+static urbsim_event_t heap_remove(urbsim_queue_t *q, size_t i)
+{
+    urbsim_event_t gone = q->item[i];
+    if (q->owner[i] != NULL) {
+        q->owner[i]->armed = false;
+    }
+    size_t n = --q->len;
+    if (i == n) {
+        return gone;
+    }
+    urbsim_event_key_t last = q->key[n];
+    if (i > 0 && before(&last, &q->key[(i - 1u) / 2u])) {
+        heap_sift_up(q, i, last, q->item[n], q->owner[n]);
+    } else {
+        heap_sift_down(q, i, n, last, q->item[n], q->owner[n]);
+    }
+    return gone;
 }
 
 bool urbsim_kernel_init(urbsim_kernel_t *k)
@@ -150,8 +195,8 @@ bool urbsim_kernel_init(urbsim_kernel_t *k)
     k->next_seq = 0;
     k->executed = 0;
     k->stop = false;
-    bool ok = queue_init(&k->near, 64);
-    ok = queue_init(&k->far, 256) && ok;
+    bool ok = queue_init(&k->near, 64, false);
+    ok = queue_init(&k->far, 256, true) && ok;
     if (!ok) {
         urbsim_kernel_free(k);
     }
@@ -167,7 +212,19 @@ void urbsim_kernel_free(urbsim_kernel_t *k)
     k->len = k->cap = 0;
 }
 
+void urbsim_handle_init(urbsim_handle_t *h)
+{
+    h->slot = 0;
+    h->armed = false;
+}
+
 bool urbsim_kernel_at(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg)
+{
+    return urbsim_kernel_at_handle(k, t, fn, ctx, arg, NULL);
+}
+
+bool urbsim_kernel_at_handle(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg,
+                             urbsim_handle_t *h)
 {
     if (t < k->now) {
         t = k->now;
@@ -185,10 +242,22 @@ bool urbsim_kernel_at(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, voi
     if (near) {
         ring_push(q, key, item);
     } else {
-        heap_push(q, key, item);
+        if (h != NULL) {
+            h->armed = true;
+        }
+        heap_push(q, key, item, h);
     }
     k->len++;
     return true;
+}
+
+void urbsim_kernel_cancel(urbsim_kernel_t *k, urbsim_handle_t *h)
+{
+    if (!h->armed) {
+        return;
+    }
+    (void)heap_remove(&k->far, h->slot);
+    k->len--;
 }
 
 bool urbsim_kernel_after(urbsim_kernel_t *k, urbsim_ns_t delay, urbsim_event_fn fn, void *ctx, uint64_t arg)
@@ -224,7 +293,7 @@ bool urbsim_kernel_run_until(urbsim_kernel_t *k, urbsim_ns_t limit)
         if (t > limit) {
             break;
         }
-        urbsim_event_t ev = near ? ring_pop(&k->near) : heap_pop(&k->far);
+        urbsim_event_t ev = near ? ring_pop(&k->near) : heap_remove(&k->far, 0);
         k->len--;
         k->now = t;
         k->executed++;

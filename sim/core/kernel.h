@@ -11,9 +11,13 @@
  * (simulated worlds) can live in one process. The queue arrays grow on the heap (the simulation is
  * host code; only the firmware under test is heap-free).
  *
- * Cancellation is not supported on purpose: a component that may change its mind schedules its
- * events with a generation number in `arg` and ignores stale ones. This keeps pop O(log n) with no
- * tombstones and keeps the trace independent of cancellation bookkeeping.
+ * A component that may change its mind (a timer compare moved by the PLL, a main-loop iteration
+ * brought forward) schedules its events with a generation number in `arg` and ignores stale ones.
+ * Stale events far in the future would pile up in the heap and be sifted through on every
+ * operation, so such an event can be scheduled with a handle (urbsim_kernel_at_handle) and
+ * withdrawn once it is known stale (urbsim_kernel_cancel). Cancelling only ever removes an event
+ * that would have run as a no-op, so it changes no run order: every remaining event keeps its time
+ * and its place among ties.
  */
 #ifndef URBSIM_KERNEL_H
 #define URBSIM_KERNEL_H
@@ -39,6 +43,13 @@ typedef struct {
     uint64_t seq;    /**< insertion sequence number: the tie-breaker */
 } urbsim_event_key_t;
 
+/** A handle on a scheduled event, owned by the component that scheduled it: while the event waits
+ *  in the far queue the kernel keeps `slot` (its heap index) up to date so it can be cancelled. */
+typedef struct {
+    size_t slot;     /**< index in the far queue while `armed` */
+    bool armed;      /**< the event waits in the far queue and can be cancelled */
+} urbsim_handle_t;
+
 /** What a pending event runs. */
 typedef struct {
     urbsim_event_fn fn;
@@ -53,6 +64,7 @@ typedef struct {
 typedef struct {
     urbsim_event_key_t *key;
     urbsim_event_t *item;
+    urbsim_handle_t **owner; /**< far queue only: the handle of each entry, or NULL */
     size_t len;
     size_t cap;
     size_t head;
@@ -98,6 +110,21 @@ void urbsim_kernel_free(urbsim_kernel_t *k);
  * length) for near ones.
  */
 bool urbsim_kernel_at(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg);
+
+/**
+ * urbsim_kernel_at, keeping `h` (owned by the caller, cleared with urbsim_handle_init) as a handle
+ * on the event so that urbsim_kernel_cancel can withdraw it. `h` must not be armed (cancel first).
+ */
+bool urbsim_kernel_at_handle(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg,
+                             urbsim_handle_t *h);
+
+/** Withdraw the event scheduled with `h` if it still waits in the far queue; the caller must know it
+ *  is stale (its generation was superseded), because an event in the near queue cannot be withdrawn
+ *  and will still run. O(log n). */
+void urbsim_kernel_cancel(urbsim_kernel_t *k, urbsim_handle_t *h);
+
+/** A handle that holds no event. */
+void urbsim_handle_init(urbsim_handle_t *h);
 
 /** Schedule relative to now: urbsim_kernel_at(k, now + delay, ...). */
 bool urbsim_kernel_after(urbsim_kernel_t *k, urbsim_ns_t delay, urbsim_event_fn fn, void *ctx, uint64_t arg);

@@ -182,6 +182,105 @@ static void test_kernel_order(void)
     urbsim_kernel_free(&k);
 }
 
+/* Randomised cancellation check: as test_kernel_order, but a third of the events are scheduled
+ * through one of a few handles, and scheduling through a handle first cancels the event it holds
+ * (as the HALs do when a timer compare is moved or a main-loop iteration is brought forward). An
+ * event withdrawn from the far queue must never run; one that was in the near queue (not armed)
+ * still runs and is ignored as stale; every other event runs once, in (time, rank) order. */
+#define CANCEL_HANDLES 8u
+#define CANCEL_EVENTS 120000u
+
+typedef struct {
+    order_t o;
+    urbsim_handle_t h[CANCEL_HANDLES];
+    uint64_t holds[CANCEL_HANDLES];   /* rank of the event each handle was last scheduled with */
+    uint8_t fate[CANCEL_EVENTS];      /* 0 plain or live, 1 withdrawn, 2 stale (left in the near queue) */
+    uint64_t withdrawn, stale, ran_withdrawn, ran_stale;
+} cancel_t;
+
+static void cancel_event(void *ctx, uint64_t arg, urbsim_ns_t now);
+
+static void cancel_schedule(cancel_t *c)
+{
+    order_t *o = &c->o;
+    if (o->scheduled >= CANCEL_EVENTS) {
+        return;
+    }
+    static const urbsim_ns_t spans[3] = {5000, URBSIM_KERNEL_NEAR_NS + 2u, 3u * URBSIM_NS_PER_MS};
+    urbsim_ns_t t = o->k->now + urbsim_rng_below(&o->rng, spans[urbsim_rng_below(&o->rng, 3)] + 1u);
+    t -= t % 1000u; /* ties */
+    uint64_t rank = o->scheduled++;
+    uint32_t which = (uint32_t)urbsim_rng_below(&o->rng, 3u * CANCEL_HANDLES);
+    if (which >= CANCEL_HANDLES) {
+        CHECK(urbsim_kernel_at(o->k, t, cancel_event, c, rank));
+        return;
+    }
+    urbsim_handle_t *h = &c->h[which];
+    if (c->holds[which] != UINT64_MAX && c->fate[c->holds[which]] == 0u) {
+        bool armed = h->armed;
+        urbsim_kernel_cancel(o->k, h);
+        CHECK(!h->armed);
+        c->fate[c->holds[which]] = armed ? 1u : 2u;
+        c->withdrawn += armed;
+        c->stale += !armed;
+    }
+    c->holds[which] = rank;
+    CHECK(urbsim_kernel_at_handle(o->k, t, cancel_event, c, rank, h));
+}
+
+static void cancel_event(void *ctx, uint64_t arg, urbsim_ns_t now)
+{
+    cancel_t *c = ctx;
+    order_t *o = &c->o;
+    if (o->ran > 0 && (now < o->last_t || (now == o->last_t && arg <= o->last_arg))) {
+        o->bad++;
+    }
+    o->ran++;
+    o->last_t = now;
+    o->last_arg = arg;
+    c->ran_withdrawn += c->fate[arg] == 1u;
+    c->ran_stale += c->fate[arg] == 2u;
+    if (c->fate[arg] == 0u) {
+        c->fate[arg] = 3u; /* ran: a later cancel of its handle finds nothing to withdraw */
+    }
+    if (urbsim_rng_below(&o->rng, 5) < 3u) { /* 1.2 new events per event: grows to CANCEL_EVENTS */
+        cancel_schedule(c);
+        cancel_schedule(c);
+    }
+}
+
+static void test_kernel_cancel(void)
+{
+    urbsim_kernel_t k;
+    CHECK(urbsim_kernel_init(&k));
+    static cancel_t c;
+    memset(&c, 0, sizeof c);
+    c.o.k = &k;
+    urbsim_rng_seed(&c.o.rng, 7);
+    for (uint32_t i = 0; i < CANCEL_HANDLES; i++) {
+        urbsim_handle_init(&c.h[i]);
+        c.holds[i] = UINT64_MAX;
+    }
+    for (int i = 0; i < 2000; i++) {
+        cancel_schedule(&c);
+    }
+    while (urbsim_kernel_next_time(&k) != URBSIM_NEVER) {
+        urbsim_kernel_run_until(&k, k.now + 7u * URBSIM_NS_PER_US);
+    }
+    CHECK_EQ(c.o.bad, 0);
+    CHECK_EQ(c.ran_withdrawn, 0);
+    CHECK_EQ(c.ran_stale, c.stale);
+    CHECK_EQ(c.o.ran, c.o.scheduled - c.withdrawn);
+    CHECK(c.withdrawn > 1000u && c.stale > 1000u); /* both kinds of cancellation were exercised */
+    CHECK_EQ(k.len, 0);
+    /* cancelling an unarmed handle is a no-op */
+    urbsim_handle_t idle;
+    urbsim_handle_init(&idle);
+    urbsim_kernel_cancel(&k, &idle);
+    CHECK_EQ(k.len, 0);
+    urbsim_kernel_free(&k);
+}
+
 /* ---------------------------------------------------------------- rng */
 
 static void test_rng(void)
@@ -754,6 +853,7 @@ int main(void)
 {
     test_kernel();
     test_kernel_order();
+    test_kernel_cancel();
     test_rng();
     test_clock();
     test_uart();

@@ -52,7 +52,10 @@ static void want_poll(sim_bridge_t *b, urbsim_ns_t t)
     b->poll_pending = true;
     b->poll_at = t;
     b->poll_gen++;
-    at(b, t, EV_POLL, (uint32_t)(b->poll_gen & 0xFFFFFFFFu));
+    /* A later iteration (a transaction's timeout) brought forward: withdraw it. */
+    urbsim_kernel_cancel(b->k, &b->poll_ev);
+    urbsim_kernel_at_handle(b->k, t, bridge_event, b, ARG(EV_POLL, b->gen, (uint32_t)(b->poll_gen & 0xFFFFFFFFu)),
+                            &b->poll_ev);
 }
 
 /* ---------------------------------------------------------------- board HAL */
@@ -68,13 +71,15 @@ static void hal_heartbeat_period(void *ctx, uint32_t period_us)
     sim_bridge_t *b = ctx;
     b->hb_period_us = period_us;
     b->hb_gen++;
+    urbsim_kernel_cancel(b->k, &b->hb_ev);
     b->hb_sof_us = 0u;
     if (period_us == 0u || (b->cfg.heartbeat_sof && b->uplink == SIM_UPLINK_USB)) {
         return; /* stopped, or counted from SOF interrupts (usb_sof) */
     }
     b->hb_next_local = urbsim_clock_local_ns(&b->mcu.clk, b->k->now) + (double)period_us * 1000.0;
     urbsim_ns_t t = urbsim_clock_virtual_at(&b->mcu.clk, b->hb_next_local);
-    at(b, t, EV_HB_IRQ, (uint32_t)(b->hb_gen & 0xFFFFFFFFu));
+    urbsim_kernel_at_handle(b->k, t, bridge_event, b, ARG(EV_HB_IRQ, b->gen, (uint32_t)(b->hb_gen & 0xFFFFFFFFu)),
+                            &b->hb_ev);
 }
 
 static void hal_uart_tx_kick(void *ctx)
@@ -449,7 +454,8 @@ static void bridge_event(void *ctx, uint64_t arg, urbsim_ns_t now)
         }
         irq(b, now, b->cfg.timer_isr_cycles, EV_HB_ISR, 0);
         b->hb_next_local += (double)b->hb_period_us * 1000.0;
-        at(b, urbsim_clock_virtual_at(&b->mcu.clk, b->hb_next_local), EV_HB_IRQ, extra);
+        urbsim_kernel_at_handle(b->k, urbsim_clock_virtual_at(&b->mcu.clk, b->hb_next_local), bridge_event, b,
+                                ARG(EV_HB_IRQ, b->gen, extra), &b->hb_ev);
         break;
     case EV_HB_ISR:
         urb_bridge_heartbeat(&b->br);
@@ -656,8 +662,10 @@ void sim_bridge_power_on(sim_bridge_t *b)
 void sim_bridge_power_off(sim_bridge_t *b)
 {
     b->powered = false;
-    b->gen++;
+    b->gen++; /* every pending event is stale now: withdraw those that can be */
     b->hb_gen++;
+    urbsim_kernel_cancel(b->k, &b->hb_ev);
+    urbsim_kernel_cancel(b->k, &b->poll_ev);
     urbsim_i2c_abort(&b->bus);
     if (b->uplink == SIM_UPLINK_RS232) {
         urbsim_uart_flush(&b->to_host);

@@ -67,6 +67,7 @@ struct sim_bridge {
     uint64_t gen;
     uint32_t hb_period_us;
     uint64_t hb_gen;
+    urbsim_handle_t hb_ev;       /**< the pending heartbeat event, withdrawn when replaced */
     uint64_t i2c_gen;            /**< bumped by abort/release: stale completions are dropped */
     double hb_next_local;
     uint32_t hb_sof_us;          /**< SOF heartbeat: microseconds counted toward the period */
@@ -74,6 +75,7 @@ struct sim_bridge {
     bool poll_pending;
     urbsim_ns_t poll_at;
     uint64_t poll_gen;
+    urbsim_handle_t poll_ev;     /**< the pending main-loop event, withdrawn when superseded */
     sim_bridge_host_fn host;
     void *hctx;
     sim_log_t log;

@@ -31,7 +31,9 @@ static void hal_set_compare(void *ctx, uint32_t at)
     uint64_t target = delta > 0 ? cur + (uint64_t)delta : cur + 1u; /* a past compare fires at once */
     urbsim_ns_t t = urbsim_clock_virtual_at_tick(&n->mcu.clk, target);
     n->compare_gen++; /* replaces any pending compare */
-    urbsim_kernel_at(n->k, t, node_event, n, NODE_ARG(n, EV_TIMER_IRQ, (n->gen << 24) | (n->compare_gen & 0xFFFFFFu)));
+    urbsim_kernel_cancel(n->k, &n->compare_ev);
+    urbsim_kernel_at_handle(n->k, t, node_event, n,
+                            NODE_ARG(n, EV_TIMER_IRQ, (n->gen << 24) | (n->compare_gen & 0xFFFFFFu)), &n->compare_ev);
 }
 
 static uint32_t hal_sync_capture(void *ctx)
@@ -82,7 +84,9 @@ static void want_poll(sim_node_t *n, urbsim_ns_t t)
     n->poll_pending = true;
     n->poll_at = t;
     n->poll_gen++;
-    urbsim_kernel_at(n->k, t, node_event, n, NODE_ARG(n, EV_POLL, (n->gen << 24) | (n->poll_gen & 0xFFFFFFu)));
+    urbsim_kernel_cancel(n->k, &n->poll_ev);
+    urbsim_kernel_at_handle(n->k, t, node_event, n, NODE_ARG(n, EV_POLL, (n->gen << 24) | (n->poll_gen & 0xFFFFFFu)),
+                            &n->poll_ev);
 }
 
 static void run_poll(sim_node_t *n, urbsim_ns_t now)
@@ -517,7 +521,9 @@ void sim_node_power_on(sim_node_t *n)
 void sim_node_power_off(sim_node_t *n)
 {
     n->powered = false;
-    n->gen++;
+    n->gen++; /* every pending event is stale now: withdraw those that can be */
+    urbsim_kernel_cancel(n->k, &n->compare_ev);
+    urbsim_kernel_cancel(n->k, &n->poll_ev);
     urbsim_i2c_power(n->bus, &n->slave, false);
     urbsim_trace(n->tr, URBSIM_TR_FAULT, n->k->now, n->name, "power_off", "%s", "");
 }

@@ -56,10 +56,12 @@ struct sim_node {
     bool powered;
     uint64_t gen;                /**< bumped at power loss: pending events are dropped */
     uint64_t compare_gen;
+    urbsim_handle_t compare_ev;  /**< the pending compare event, withdrawn when replaced */
     urbsim_ns_t gc_hw;           /**< bus instant of the last general-call match */
     bool poll_pending;
     urbsim_ns_t poll_at;
     uint64_t poll_gen;
+    urbsim_handle_t poll_ev;     /**< the pending main-loop event, withdrawn when superseded */
     bool acquiring;
     urbsim_ns_t acq_start;
     sim_log_t log;
