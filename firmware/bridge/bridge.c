@@ -172,13 +172,23 @@ static uint8_t admission_status(const urb_bridge_t *b, uint8_t a, uint8_t box, b
 
 static bool emit_entry(urb_bridge_t *b, uint8_t r);
 
-/* Bridge.tla: SubmitAndAdmit. `status` is OK for a well-formed request, BAD_REQUEST for a frame
- * that passed its check but breaks a schema rule. */
+/* One request as admission sees it, from either uplink. */
+typedef struct {
+    uint8_t uplink;  /* where its response goes */
+    uint8_t seq;     /* its sequence number (4 bits kept) */
+    uint8_t status;  /* OK: well-formed; BAD_REQUEST: passed its check but breaks a schema rule */
+    uint8_t address, mailbox, length;
+    bool read;
+    const uint8_t *data; /* a write's payload (length bytes); NULL for a read */
+} urbb_request_t;
+
+/* Bridge.tla: SubmitAndAdmit. */
 /*@ requires urbb_fifo_ok(b) && urbb_nodes_ok(b);
-    requires status == URB_STATUS_OK || status == URB_STATUS_BAD_REQUEST;
-    requires status == URB_STATUS_OK ==> a < 128 && box < 8 && len <= 32;
-    requires status == URB_STATUS_OK && !read ==>
-               \valid_read(data + (0 .. len - 1)) && \separated(data + (0 .. len - 1), b);
+    requires \valid_read(q) && \separated(q, b);
+    requires q->status == URB_STATUS_OK || q->status == URB_STATUS_BAD_REQUEST;
+    requires q->status == URB_STATUS_OK ==> q->address < 128 && q->mailbox < 8 && q->length <= 32;
+    requires q->status == URB_STATUS_OK && !q->read ==>
+               \valid_read(q->data + (0 .. q->length - 1)) && \separated(q->data + (0 .. q->length - 1), b);
     assigns b->ring[0 .. URB_BRIDGE_RING_MAX - 1], b->ring_count, b->slots[0 .. URB_BRIDGE_FIFO_MAX - 1], b->slot_count,
             b->stats.window_overflow, b->stats.busy;
     ensures urbb_fifo_ok(b);
@@ -199,8 +209,7 @@ static bool emit_entry(urb_bridge_t *b, uint8_t r);
                 b->slot_count == \old(b->slot_count);
     complete behaviors;
     disjoint behaviors; */
-static void admit(urb_bridge_t *b, uint8_t uplink, uint8_t seq, uint8_t status, uint8_t a, uint8_t box, bool read,
-                  uint8_t len, const uint8_t *data)
+static void admit(urb_bridge_t *b, const urbb_request_t *q)
 {
     if (b->ring_count >= URB_BRIDGE_RING_MAX) {
         /* The host has more requests outstanding than its window (Bridge.tla HostWindow): outside
@@ -208,8 +217,9 @@ static void admit(urb_bridge_t *b, uint8_t uplink, uint8_t seq, uint8_t status, 
         b->stats.window_overflow++;
         return;
     }
+    uint8_t status = q->status;
     if (status == URB_STATUS_OK) {
-        status = admission_status(b, a, box, read, len);
+        status = admission_status(b, q->address, q->mailbox, q->read, q->length);
     }
     if (status == URB_STATUS_OK) {
 #if defined(URB_MUTANT_FIFO_OFF_BY_ONE)
@@ -226,38 +236,37 @@ static void admit(urb_bridge_t *b, uint8_t uplink, uint8_t seq, uint8_t status, 
 #endif
         }
     }
-    /* Ring entry and data slot by index, never by a pointer into *b: a pointer at a variable
-     * offset into the bridge makes the bounded model checker (proofs/bmc/fw_bridge_fifo) resolve
-     * every access over the whole struct. */
+    /* Ring entries and data slots by index, never through a pointer into *b, and a ring entry as
+     * one struct: the bounded model checker (proofs/bmc/fw_bridge_fifo) resolves an access at a
+     * variable offset inside the bridge over the whole struct, a whole entry it does not. */
     uint8_t const r = ring_index(b->ring_head, b->ring_count);
-    b->ring[r].seq = (uint8_t)(seq & 0x0Fu);
-    b->ring[r].uplink = uplink;
+    urb_bridge_resp_t e = {(uint8_t)(q->seq & 0x0Fu), status, q->uplink, URB_BRIDGE_NO_SLOT};
     if (status == URB_STATUS_OK) {
         uint8_t const s = slot_index(b, b->slot_count);
-        b->slots[s].address = a;
-        b->slots[s].mailbox = box;
-        b->slots[s].length = len;
-        b->slots[s].read = read;
+        b->slots[s].address = q->address;
+        b->slots[s].mailbox = q->mailbox;
+        b->slots[s].length = q->length;
+        b->slots[s].read = q->read;
         b->slots[s].resp = r;
         /* loop bound: 32 bytes */
         /*@ loop invariant 0 <= i <= 32;
             loop assigns i, b->slots[s].data[0 .. 31];
             loop variant 32 - i; */
-        for (uint8_t i = 0u; (!read) && (i < len) && (i < 32u); i++) {
-            b->slots[s].data[i] = data[i];
+        for (uint8_t i = 0u; (!q->read) && (i < q->length) && (i < 32u); i++) {
+            b->slots[s].data[i] = q->data[i];
         }
-        b->ring[r].status = URB_BRIDGE_PENDING;
-        b->ring[r].slot = s;
+        e.status = URB_BRIDGE_PENDING;
+        e.slot = s;
         b->slot_count++;
-    } else {
-        b->ring[r].status = status;
-        b->ring[r].slot = URB_BRIDGE_NO_SLOT;
+    }
+    b->ring[r] = e;
 #ifdef URB_MUTANT_REORDER
+    if (e.slot == URB_BRIDGE_NO_SLOT) {
         /* mutant (Bridge_BusyOvertakes): an admission error leaves at once, ahead of earlier requests */
         (void)emit_entry(b, r);
         return;
-#endif
     }
+#endif
     b->ring_count++;
 }
 
@@ -272,8 +281,9 @@ bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t l
         }
         b->stats.frames++;
         /* A range error in a frame whose check passed: it was meant as a request, answer it. */
-        admit(b, uplink, seq, (r < 0) ? URB_STATUS_BAD_REQUEST : URB_STATUS_OK, q.address, q.mailbox, true, q.length,
-              NULL);
+        urbb_request_t const req = {uplink, seq, (r < 0) ? (uint8_t)URB_STATUS_BAD_REQUEST : (uint8_t)URB_STATUS_OK,
+                                    q.address, q.mailbox, q.length, true, NULL};
+        admit(b, &req);
         return true;
     }
     urb_uplink_write_request_t q;
@@ -282,8 +292,9 @@ bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t l
         return false;
     }
     b->stats.frames++;
-    admit(b, uplink, seq, (r < 0) ? URB_STATUS_BAD_REQUEST : URB_STATUS_OK, q.address, q.mailbox, false, q.length,
-          q.data);
+    urbb_request_t const req = {uplink, seq, (r < 0) ? (uint8_t)URB_STATUS_BAD_REQUEST : (uint8_t)URB_STATUS_OK,
+                                q.address, q.mailbox, q.length, false, q.data};
+    admit(b, &req);
     return true;
 }
 
@@ -600,9 +611,10 @@ static bool emit_entry(urb_bridge_t *b, uint8_t r)
 {
     urb_uplink_response_t out;
     uint8_t frame[URB_UPLINK_RESPONSE_MAX_SIZE];
-    uint8_t const s = b->ring[r].slot;
-    out.seq = b->ring[r].seq;
-    out.status = b->ring[r].status;
+    urb_bridge_resp_t const e = b->ring[r];
+    uint8_t const s = e.slot;
+    out.seq = e.seq;
+    out.status = e.status;
     out.data_len = 0u;
     if ((out.status == URB_STATUS_OK) && (s != URB_BRIDGE_NO_SLOT) && b->slots[s].read) {
         out.data_len = b->slots[s].length; /* Bridge.tla ResponseMatchesRequest: data only for an OK read */
@@ -615,7 +627,7 @@ static bool emit_entry(urb_bridge_t *b, uint8_t r)
     if (n < 0) {
         return true; /* cannot happen for a valid entry; never wedge the ring on it */
     }
-    if (!urbb_uplink_send(b, b->ring[r].uplink, frame, (uint8_t)n)) {
+    if (!urbb_uplink_send(b, e.uplink, frame, (uint8_t)n)) {
         return false;
     }
     b->stats.responses++;
@@ -630,13 +642,14 @@ static void emit(urb_bridge_t *b)
     /* loop bound: URB_BRIDGE_RING_MAX responses */
     for (uint8_t i = 0u; (i < URB_BRIDGE_RING_MAX) && (b->ring_count > 0u); i++) {
         uint8_t const h = b->ring_head;
-        if (b->ring[h].status == URB_BRIDGE_PENDING) {
+        urb_bridge_resp_t const e = b->ring[h];
+        if (e.status == URB_BRIDGE_PENDING) {
             return;
         }
         if (!emit_entry(b, h)) {
             return; /* uplink full: try again at the next poll, order kept */
         }
-        if (b->ring[h].slot != URB_BRIDGE_NO_SLOT) {
+        if (e.slot != URB_BRIDGE_NO_SLOT) {
             b->slot_head = slot_index(b, 1u);
             b->slot_count--;
             b->slot_served--;

@@ -241,8 +241,9 @@ static void lemma_admit(void)
     URB_ASSUME(k < len);
     uint32_t const windows = bridge.stats.window_overflow;
     URB_COST_BEGIN();
-    admit(&bridge, uplink, seq, well_formed ? (uint8_t)URB_STATUS_OK : (uint8_t)URB_STATUS_BAD_REQUEST, a, box, read,
-          len, read ? NULL : payload);
+    urbb_request_t const q = {uplink, seq, well_formed ? (uint8_t)URB_STATUS_OK : (uint8_t)URB_STATUS_BAD_REQUEST,
+                              a, box, len, read, read ? NULL : payload};
+    admit(&bridge, &q);
     URB_COST_END(FW_COST_BUDGET);
     check_invariant();
     URB_ASSERT((bridge.ring_head == old_head) && (bridge.slot_head == old_slot_head) &&
