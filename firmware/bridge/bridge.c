@@ -122,16 +122,18 @@ static void node_learn(urb_bridge_t *b, uint8_t a, const uint8_t *frame)
     if (k == 0u) {
         return; /* table full: this node's sizes stay unknown (checked by the node itself) */
     }
-    urb_bridge_node_t *n = &b->nodes[k - 1u];
-    n->address = a;
+    /* built here and stored whole: as for admit's data slot (proofs/bmc/fw_bridge_fifo) */
+    urb_bridge_node_t n;
+    n.address = a;
     /* loop bound: 8 mailboxes */
     /*@ loop invariant 0 <= i <= 8;
-        loop assigns i, n->in[0 .. 7], n->out[0 .. 7];
+        loop assigns i, n.in[0 .. 7], n.out[0 .. 7];
         loop variant 8 - i; */
     for (uint8_t i = 0u; i < 8u; i++) {
-        n->in[i] = id.inbox_sizes[i];
-        n->out[i] = id.outbox_sizes[i];
+        n.in[i] = id.inbox_sizes[i];
+        n.out[i] = id.outbox_sizes[i];
     }
+    b->nodes[k - 1u] = n;
     b->node_of[a] = k;
 }
 
@@ -236,25 +238,28 @@ static void admit(urb_bridge_t *b, const urbb_request_t *q)
 #endif
         }
     }
-    /* Ring entries and data slots by index, never through a pointer into *b, and a ring entry as
-     * one struct: the bounded model checker (proofs/bmc/fw_bridge_fifo) resolves an access at a
-     * variable offset inside the bridge over the whole struct, a whole entry it does not. */
+    /* The ring entry and the data slot are built here and stored whole, by index: the bounded
+     * model checker (proofs/bmc/fw_bridge_fifo) turns every store at a variable index inside the
+     * bridge into an update of the whole struct, one per field or payload byte otherwise. Payload
+     * bytes past the request's length are no part of it (nothing reads them): not cleared. */
     uint8_t const r = ring_index(b->ring_head, b->ring_count);
     urb_bridge_resp_t e = {(uint8_t)(q->seq & 0x0Fu), status, q->uplink, URB_BRIDGE_NO_SLOT};
     if (status == URB_STATUS_OK) {
         uint8_t const s = slot_index(b, b->slot_count);
-        b->slots[s].address = q->address;
-        b->slots[s].mailbox = q->mailbox;
-        b->slots[s].length = q->length;
-        b->slots[s].read = q->read;
-        b->slots[s].resp = r;
+        urb_bridge_slot_t d;
+        d.address = q->address;
+        d.mailbox = q->mailbox;
+        d.length = q->length;
+        d.read = q->read;
+        d.resp = r;
         /* loop bound: 32 bytes */
         /*@ loop invariant 0 <= i <= 32;
-            loop assigns i, b->slots[s].data[0 .. 31];
+            loop assigns i, d.data[0 .. 31];
             loop variant 32 - i; */
         for (uint8_t i = 0u; (!q->read) && (i < q->length) && (i < 32u); i++) {
-            b->slots[s].data[i] = q->data[i];
+            d.data[i] = q->data[i];
         }
+        b->slots[s] = d;
         e.status = URB_BRIDGE_PENDING;
         e.slot = s;
         b->slot_count++;
