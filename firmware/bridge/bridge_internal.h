@@ -28,7 +28,8 @@ enum { URBB_ACT_NONE = 0u, URBB_ACT_REQUEST = 1u, URBB_ACT_SCAN = 2u, URBB_ACT_S
 bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t len);
 
 /* bridge_uplink.c: the uplink side of poll(): parse the bytes the UART interrupt queued, with at
- * most URB_BRIDGE_HUNT_CHECKS frame checks (the rest waits for the next call). */
+ * most URB_BRIDGE_HUNT_CHECKS frame checks and URB_BRIDGE_RX_PER_POLL bytes (the rest waits for the
+ * next call). */
 void urbb_uart_drain(urb_bridge_t *b, uint32_t now);
 
 /* bridge_uplink.c: urbb_uart_drain with a budget of `checks` frame checks. It stops only where a

@@ -5,10 +5,11 @@
  * follows from its header; an idle gap longer than two byte times drops a partial frame; a frame
  * that fails its check loses its first byte and the assembler hunts again from the next one.
  * Hunting advances a start index (no bytes are shifted), and one poll makes at most
- * URB_BRIDGE_HUNT_CHECKS frame checks: a check costs up to ~2 800 cycles on a 48-MHz Cortex-M0+
- * and a line of garbage needs one per byte, so without the cap one poll could check 36 failing
- * candidates in a row (2.4 ms). What is left waits in the assembler and the receive ring for the
- * next poll: the frames found are the same, in the same order, only later.
+ * URB_BRIDGE_HUNT_CHECKS frame checks and takes at most URB_BRIDGE_RX_PER_POLL bytes from the ring:
+ * a check costs up to ~2 800 cycles on a 48-MHz Cortex-M0+ and a line of garbage needs one per
+ * byte, so without the caps one poll could check 36 failing candidates in a row (2.4 ms). What is
+ * left waits in the assembler and the receive ring for the next poll: the frames found are the
+ * same, in the same order, only later.
  *
  * USB delivers a transfer intact (its own CRC and retransmission): a batch header, then frames back
  * to back. They are admitted in order up to the first one that does not parse; the rest of that
@@ -36,7 +37,7 @@ void urbb_uplink_init(urb_bridge_t *b)
     b->tx_tail = 0u;
     b->rs232.start = 0u;
     b->rs232.len = 0u;
-    b->rs232.flush = 0u;
+    b->rs232.flushing = false;
     b->usb_cur = 0u;
     b->usb_prev_ready = false;
     b->usb_last_frame = 0u;
@@ -50,20 +51,22 @@ void urbb_uplink_init(urb_bridge_t *b)
 
 /* ===== Frame candidates ======================================================================= */
 
-/* Length of the request frame that would start at buf[0], from its header: 0 when more bytes are
- * needed to tell, NOT_A_FRAME when no request starts like this (a write announcing > 32 bytes). */
-static uint8_t candidate_len(const uint8_t *buf, uint8_t n)
+/* Length of the request frame that would start with `first` (its third byte `third` when n >= 3),
+ * n bytes of it at hand: 0 when more bytes are needed to tell, NOT_A_FRAME when no request starts
+ * like this (a write announcing > 32 bytes). The callers read the header bytes by array index: a
+ * pointer at a variable offset into the bridge costs the bounded model checker the whole struct. */
+static uint8_t candidate_len(uint8_t first, uint8_t third, uint8_t n)
 {
     if (n == 0u) {
         return 0u;
     }
-    if ((buf[0] & 1u) != 0u) {
+    if ((first & 1u) != 0u) {
         return (uint8_t)URB_UPLINK_READ_REQUEST_MAX_SIZE; /* UplinkReadRequest: always 4 bytes */
     }
     if (n < 3u) {
         return 0u;
     }
-    uint8_t const len = buf[2];
+    uint8_t const len = third;
     if (len > URB_MAX_MAILBOX_SIZE) {
         return NOT_A_FRAME;
     }
@@ -104,34 +107,31 @@ static void push(urb_bridge_t *b, urb_bridge_parser_t *p, uint8_t byte)
 
 /* Works through the held bytes. Every complete candidate is checked: a frame is admitted and
  * consumed; one that fails its check, or an impossible header, loses its first byte (hunting).
- * Hunting stops at an incomplete candidate, which waits for more bytes. Flushing (an idle gap
- * ended the candidate) goes on instead: an incomplete candidate is not a frame either, so its
- * first byte is dropped and the complete frames behind it still count, until nothing is held.
- * Returns false when a check is due and *checks is spent: the caller ends the poll there, and the
- * next poll resumes at exactly this point (the state says which mode it was in). */
-static bool hunt(urb_bridge_t *b, urb_bridge_parser_t *p, uint8_t *checks)
+ * Hunting stops at an incomplete candidate, which waits for more bytes, unless the candidate has
+ * `ended` (an idle gap follows it): then it is not a frame, and neither is any candidate that runs
+ * past the held bytes, so the flush drops their first bytes one at a time and still finds the
+ * complete frames behind them, until nothing is held. Returns false when a check is due and
+ * *checks is spent: the caller ends the poll there and the next poll resumes at exactly this point
+ * (p->flushing remembers a flush in progress). */
+static bool hunt(urb_bridge_t *b, urb_bridge_parser_t *p, uint8_t *checks, bool ended)
 {
-    /* loop bound: URB_BRIDGE_FRAME_MAX + 1 rounds (each but the last removes a byte or more) */
-    for (uint8_t round = 0u; round <= URB_BRIDGE_FRAME_MAX; round++) {
-        if (p->len == 0u) {
-            p->flush = 0u; /* a flush ends when nothing is held */
-            return true;
-        }
-        uint8_t const *const c = &p->buf[p->start];
-        uint8_t const need = candidate_len(c, p->len);
+    /* loop bound: URB_BRIDGE_FRAME_MAX + 1 rounds (each but a last one that returns removes a byte or more) */
+    for (uint8_t round = 0u; (round <= URB_BRIDGE_FRAME_MAX) && (p->len > 0u); round++) {
+        uint8_t const at = p->start;
+        uint8_t const need = candidate_len(p->buf[at], (p->len >= 3u) ? p->buf[at + 2u] : 0u, p->len);
         if ((need != 0u) && (need != NOT_A_FRAME) && (need <= p->len)) {
             if (*checks == 0u) {
                 return false;
             }
             (*checks)--;
-            if (urbb_frame(b, URBB_UPLINK_RS232, c, need)) {
+            if (urbb_frame(b, URBB_UPLINK_RS232, &p->buf[at], need)) {
                 consume(p, need);
                 continue;
             }
-        } else if (p->flush != 0u) {
-            if (p->flush == 1u) {
+        } else if (p->flushing || (ended && (need != NOT_A_FRAME))) {
+            if (!p->flushing) {
                 b->stats.gap_drops++; /* one partial frame per gap, however many bytes it loses */
-                p->flush = 2u;
+                p->flushing = true;
             }
             consume(p, 1u);
             continue;
@@ -148,6 +148,7 @@ static bool hunt(urb_bridge_t *b, urb_bridge_parser_t *p, uint8_t *checks)
         consume(p, 1u);
 #endif
     }
+    p->flushing = false; /* the loop ends only when nothing is held (<= 37 bytes, one or more per round) */
     return true;
 }
 
@@ -183,43 +184,37 @@ void urb_bridge_uart_rx(urb_bridge_t *b, uint8_t byte, uint32_t t_us)
 void urbb_uart_parse(urb_bridge_t *b, uint32_t now, uint8_t checks)
 {
     urb_bridge_parser_t *const p = &b->rs232;
-    /* loop bound: URB_BRIDGE_RX_RING + 1 rounds (one ring byte each; later bytes wait for the next poll) */
-    for (uint8_t i = 0u; i <= URB_BRIDGE_RX_RING; i++) {
-        if (!hunt(b, p, &checks)) {
+    /* loop bound: URB_BRIDGE_RX_PER_POLL + 1 rounds (one ring byte each; later bytes wait for the next poll) */
+    for (uint8_t i = 0u; i <= URB_BRIDGE_RX_PER_POLL; i++) {
+        uint8_t const tail = b->rx_tail;
+        bool const more = (i < URB_BRIDGE_RX_PER_POLL) && (tail != b->rx_head);
+        uint16_t v = 0u;
+        bool ended;
+        if (more) {
+            URB_BARRIER(); /* read the head before the byte the interrupt stored */
+            v = b->rx_ring[tail & (URB_BRIDGE_RX_RING - 1u)];
+            ended = (v & URB_BRIDGE_RX_GAP) != 0u; /* an idle gap before this byte ends the candidate */
+        } else {
+#ifndef URB_MUTANT_NO_GAP
+            /* The line has been idle long enough: a partial frame will not complete, do not wait for
+             * the next byte to say so (frames behind it would wait too). rx_last_us is one aligned
+             * word. A byte that arrives before a stopped flush is over carries the gap flag. */
+            ended = (i < URB_BRIDGE_RX_PER_POLL) && ((uint32_t)(now - b->rx_last_us) > b->rx_gap_us);
+#else
+            ended = false;
+            (void)now;
+#endif
+        }
+        if (!hunt(b, p, &checks, ended)) {
             b->stats.hunt_yields++;
             return; /* this poll's checks are spent: the held bytes and the ring wait, nothing is lost */
         }
-        uint8_t const tail = b->rx_tail;
-        if ((i == URB_BRIDGE_RX_RING) || (tail == b->rx_head)) {
-            break;
+        if (!more) {
+            return;
         }
-        URB_BARRIER(); /* read the head before the byte the interrupt stored */
-        uint16_t const v = b->rx_ring[tail & (URB_BRIDGE_RX_RING - 1u)];
-        if (((v & URB_BRIDGE_RX_GAP) != 0u) && (p->len > 0u)) {
-            /* An idle gap before this byte: the held candidate will never complete. The byte stays in
-             * the ring until the flush is over, so a flush the budget stops resumes before it. */
-            p->flush = 1u;
-            if (!hunt(b, p, &checks)) {
-                b->stats.hunt_yields++;
-                return;
-            }
-        }
-        b->rx_tail = (uint8_t)(tail + 1u);
+        b->rx_tail = (uint8_t)(tail + 1u); /* the byte joins only after the candidate before it is settled */
         push(b, p, (uint8_t)(v & 0xFFu));
     }
-#ifndef URB_MUTANT_NO_GAP
-    /* The line has been idle long enough: a partial frame will not complete, do not wait for the
-     * next byte to say so (frames behind it would wait too). rx_last_us is one aligned word. A byte
-     * that arrives before a stopped flush is over carries the gap flag: the flush goes on first. */
-    if ((p->len > 0u) && (b->rx_head == b->rx_tail) && ((uint32_t)(now - b->rx_last_us) > b->rx_gap_us)) {
-        p->flush = 1u;
-        if (!hunt(b, p, &checks)) {
-            b->stats.hunt_yields++;
-        }
-    }
-#else
-    (void)now;
-#endif
 }
 
 void urbb_uart_drain(urb_bridge_t *b, uint32_t now)
@@ -290,7 +285,7 @@ bool urb_bridge_usb_out(urb_bridge_t *b, const uint8_t *data, size_t len)
     while (at < len) {
         size_t const rest = len - at;
         uint8_t const n = (rest < URB_BRIDGE_FRAME_MAX) ? (uint8_t)rest : (uint8_t)URB_BRIDGE_FRAME_MAX;
-        uint8_t const need = candidate_len(&data[at], n);
+        uint8_t const need = candidate_len(data[at], (n >= 3u) ? data[at + 2u] : 0u, n);
         if ((need == 0u) || (need == NOT_A_FRAME) || (need > n) || !urbb_frame(b, URBB_UPLINK_USB, &data[at], need)) {
             b->stats.usb_cut_batches++;
             break;

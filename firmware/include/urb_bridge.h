@@ -55,8 +55,11 @@ extern "C" {
 #define URB_BRIDGE_PARSE_BUF (2u * URB_BRIDGE_FRAME_MAX) /**< RS232 assembler: one held candidate and room to
                                                           append, so hunting never shifts bytes */
 #ifndef URB_BRIDGE_HUNT_CHECKS
-#define URB_BRIDGE_HUNT_CHECKS 4u /**< Candidate frame checks per poll on RS232: bounds one poll's parsing
-                                       (spec/schema/README.md, RS232 resynchronisation); the rest waits */
+#define URB_BRIDGE_HUNT_CHECKS 4u /**< Candidate frame checks per poll on RS232 (the rest waits): with */
+#endif
+#ifndef URB_BRIDGE_RX_PER_POLL
+#define URB_BRIDGE_RX_PER_POLL 16u /**< ... at most this many ring bytes taken per poll, one poll's parsing
+                                        stays within half the 1-ms cycle (spec/schema/README.md) */
 #endif
 
 #define URB_BRIDGE_FW_MAJOR 0u /**< Firmware version reported in BridgeInfo */
@@ -104,7 +107,7 @@ typedef struct {
     uint8_t buf[URB_BRIDGE_PARSE_BUF];
     uint8_t start;  /* the candidate frame's first byte: hunting advances it instead of shifting */
     uint8_t len;    /* bytes held, at most URB_BRIDGE_FRAME_MAX */
-    uint8_t flush;  /* 0 hunting; 1 an idle gap ended the candidate: flushing; 2 flushing, drop counted */
+    bool flushing;  /* an idle gap ended the candidate: dropping bytes until nothing is held */
 } urb_bridge_parser_t;
 
 /** One response slot: a request's place in the answer order. */

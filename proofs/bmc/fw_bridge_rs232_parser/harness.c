@@ -1,7 +1,8 @@
 /*
  * Proof of the RS232 uplink parser (firmware/bridge/bridge_uplink.c): the UART interrupt
- * urb_bridge_uart_rx() (timestamps, idle-gap flag, receive ring) and the main loop's
- * urbb_uart_drain() (frame assembly, hunting, idle flush), by induction over the byte stream.
+ * urb_bridge_uart_rx() (timestamps, idle-gap flag, receive ring) and the main loop's parsing
+ * urbb_uart_parse() (frame assembly, hunting, idle flush, under a budget of frame checks;
+ * urbb_uart_drain() is it with URB_BRIDGE_HUNT_CHECKS), by induction over the byte stream.
  *
  * Admission (urbb_frame, bridge.c) is replaced by a recorder that decides exactly as bridge.c
  * does: a candidate is a frame when the generated strict decoder does not report CHECKSUM, SHORT
@@ -9,28 +10,41 @@
  * part 3 proves, on the real generated decoders, the cost the recorder charges and the length rule
  * the abstraction uses.
  *
- * Part 1, the step lemma (induction over the stream). The invariant: the assembler holds the
- * bytes of one incomplete candidate (fewer bytes than its header announces, or too few to tell),
- * which is what the parser holds after any stream (it starts empty, and hunting stops only at
- * an incomplete candidate). From ANY such state of exactly FW_HELD bytes (a sweep item; the bytes
- * arbitrary), one arbitrary byte arrives after an arbitrary distance (an idle gap or not, any
- * 32-bit clock, so it may wrap), and the main loop drains at an arbitrary later time (after the
- * idle timeout or not). Properties:
+ * Part 1, the step lemma. The state between two polls: the assembler holds FW_HELD bytes (a sweep
+ * item; any bytes: a poll that ran out of checks leaves a complete candidate first, one that did
+ * not an incomplete one) at any place in its buffer, hunting or flushing (a flush stopped by the
+ * budget); one arbitrary byte arrives or not (after an arbitrary distance: an idle gap or not, any
+ * 32-bit clock, so it may wrap), and the main loop polls at an arbitrary later time (after the
+ * idle timeout or not) with ANY check budget k, then polls again with a budget that cannot run out.
+ * Properties:
  *   no overrun      every buffer access is in bounds (ESBMC), the assembler never holds more than
- *                   URB_BRIDGE_FRAME_MAX bytes, the ring does not overflow;
- *   exactly the reference's frames: the frames passed to admission are, in order, those an
- *                   index-based reference parser written from the schema finds (a complete
- *                   candidate that fails its check loses its first byte: hunting; an idle gap or
- *                   the idle timeout ends a candidate: it loses its first byte and the complete
- *                   frames behind it still count), and the bytes held afterwards are exactly the
- *                   reference's remaining candidate, so the invariant holds again.
- *   Since the reference's scan of a whole stream is this step repeated from its remaining
- *   candidate, the lemma gives the stream property for streams of any length whose candidates
- *   stay within the FW_HELD bound of the tier.
- * Part 2, the cost lemma (same step, same states): actual cycles + FW_HUNT_ROUND_CYCLES x (bytes
- * held after - bytes held before) <= FW_COST_BUDGET. The potential (FW_HUNT_ROUND_CYCLES per byte
- * held) starts at 0 and never goes negative, so summed over any stream the main loop spends at
- * most FW_COST_BUDGET cycles per received byte on average, whatever the bytes.
+ *                   URB_BRIDGE_FRAME_MAX bytes nor runs past its buffer;
+ *   budget          the first poll makes at most k checks; it stops early (counted in hunt_yields)
+ *                   only where a check is due and k is spent, and the second poll's first act is
+ *                   then that check; a poll that did not stop early leaves nothing to do;
+ *   exactly the reference's frames: the two polls together hand admission exactly, in order, the
+ *                   frames an index-based reference parser written from the schema finds (a
+ *                   complete candidate that fails its check loses its first byte: hunting; an idle
+ *                   gap or the idle timeout ends a candidate: it loses its first byte and the
+ *                   complete frames behind it still count), hold exactly the reference's remaining
+ *                   candidate afterwards, and move the hunting and gap counters as it does.
+ *   Every state a poll leaves is again such a state, and the reference's scan of a whole stream is
+ *   this step repeated, so for streams whose candidates stay within the FW_HELD bound of the tier,
+ *   any split of the work into polls (any budgets) admits exactly the reference's frames.
+ * Part 2, the cost lemma (the first poll of the same step, any budget):
+ *   per poll    cycles <= FW_POLL_CYCLES + FW_PULL_CYCLES x (bytes taken from the ring)
+ *                 + FW_ROUND_CYCLES x (bytes dropped + checks) + the checks' decoding
+ *                 + FW_FILL_CYCLES x (buffer fill before - after),
+ *               a linear form in what the poll did. A poll takes at most URB_BRIDGE_RX_PER_POLL
+ *               bytes, makes at most URB_BRIDGE_HUNT_CHECKS checks and drops at most the bytes it
+ *               held and took, so one poll costs at most FW_POLL_WORST cycles, which the static
+ *               check below keeps within FW_BRIDGE_RS232_POLL_BUDGET (half the 1-ms cycle);
+ *   per byte    the amortised cost with a potential of FW_HUNT_ROUND_CYCLES per byte held or
+ *               waiting in the ring and FW_FILL_CYCLES per byte of buffer fill is at most
+ *               FW_BRIDGE_RS232_BYTE_BUDGET (7/8 of a UART byte time) per received byte: the
+ *               potentials start at 0 and never go negative, so summed over any stream the main
+ *               loop spends at most that per byte (plus FW_POLL_CYCLES per poll), whatever the
+ *               bytes. This is the value recorded in COST.
  *
  * The check, abstracted: by data independence the parser must be right for every check function,
  * so the proof uses an arbitrary one (a key per length, fixed per run, folded with the covered
@@ -55,18 +69,46 @@
 #ifndef FW_HELD_MAX
 #define FW_HELD_MAX 36u /* part 3: candidates of up to FW_HELD_MAX + 1 bytes */
 #endif
-#define FW_N (FW_HELD + 1u) /* bytes of the step: the held ones and the new one */
+#if !defined(URB_ARRIVE)
+#define URB_ARRIVE 1 /* 1: a byte arrives before the poll; 0: none (sweep item) */
+#endif
+#define FW_ARRIVE ((uint8_t)URB_ARRIVE)
+#define FW_N (FW_HELD + FW_ARRIVE) /* bytes of the step: the held ones and the new one */
 #define FW_MAX_FRAMES (FW_N / 4u + 1u)
 #ifndef FW_DECODE_CYCLES
 /* Cycles of urbb_frame's decoding of an n-byte candidate (call, header, CRC over n - 1 bytes at
  * most, payload copy): proved by part 3 from the cost model. */
 #define FW_DECODE_CYCLES(n) (800u + 52u * (uint32_t)(n))
 #endif
-#ifndef FW_HUNT_ROUND_CYCLES
-/* Potential per byte held: at least one hunt round on the longest candidate (loop step,
- * candidate_len, urbb_frame on 37 bytes = FW_DECODE_CYCLES(37), discarding one byte of 37). */
-#define FW_HUNT_ROUND_CYCLES 3300u
-#endif
+/* The poll's cost terms, exactly as prepare.py instruments the sources (function entry 24 cycles +
+ * 3 per statement outside loops, 10 per loop round; cost_model.json):
+ *   FW_POLL_CYCLES  urbb_uart_parse's entry (27) and its last round (10), the hunt call of that
+ *                   round (30) and the hunt round that finds nothing more to do (10, candidate_len
+ *                   42 + urb_link_check_size 30): 149;
+ *   FW_PULL_CYCLES  per byte taken from the ring: a parse round (10), push (39), the hunt call
+ *                   after it (30) and its closing round (82): 161;
+ *   FW_ROUND_CYCLES per hunt round that removes bytes (a check or a drop): the round (10),
+ *                   candidate_len (72) and consume (33): 115; a check adds its decoding;
+ *   FW_FILL_CYCLES  a compaction moves a byte for 10 cycles, once per 38 bytes of fill at most, so
+ *                   10 per byte of buffer fill (start + len) pays for it.
+ * Part 2 proves the form with these numbers, no slack: a parser doing more work per byte fails it. */
+#define FW_POLL_CYCLES 149u
+#define FW_PULL_CYCLES 161u
+#define FW_ROUND_CYCLES 115u
+#define FW_FILL_CYCLES 10u
+/* Potential per byte held or waiting: pays one hunt round with a check of the longest candidate. */
+#define FW_HUNT_ROUND_CYCLES (FW_ROUND_CYCLES + FW_DECODE_CYCLES(URB_BRIDGE_FRAME_MAX))
+/* The worst poll: URB_BRIDGE_RX_PER_POLL bytes taken, URB_BRIDGE_HUNT_CHECKS checks of 37 bytes,
+ * every other byte held or taken dropped, the buffer emptied from full. */
+#define FW_POLL_WORST                                                                              \
+    (FW_POLL_CYCLES + FW_PULL_CYCLES * URB_BRIDGE_RX_PER_POLL +                                    \
+     FW_ROUND_CYCLES * (URB_BRIDGE_FRAME_MAX + URB_BRIDGE_RX_PER_POLL) +                           \
+     FW_DECODE_CYCLES(URB_BRIDGE_FRAME_MAX) * URB_BRIDGE_HUNT_CHECKS + FW_FILL_CYCLES * URB_BRIDGE_PARSE_BUF)
+/* Static checks: the worst poll fits half the 1-ms cycle, and a received byte's share (taken once,
+ * starting at most one check, its fill) plus the poll's fixed part fits the per-byte budget. */
+typedef char fw_poll_fits_its_budget[(FW_POLL_WORST <= FW_BRIDGE_RS232_POLL_BUDGET) ? 1 : -1];
+typedef char fw_byte_fits_its_budget[(FW_POLL_CYCLES + FW_PULL_CYCLES + FW_HUNT_ROUND_CYCLES + FW_FILL_CYCLES <=
+                                      FW_BRIDGE_RS232_BYTE_BUDGET) ? 1 : -1];
 #define FW_BYTE_US 87u   /* one character at 115200 Bd (10 bits, rounded up) */
 #define FW_GAP_US 261u   /* rx_gap_us: byte time + the default idle gap (2 byte times) */
 #define FW_MAX_DELTA 5000u
@@ -81,7 +123,10 @@ static uint8_t got_len[FW_MAX_FRAMES];
 static uint8_t got_first[FW_MAX_FRAMES];
 static uint8_t got_last[FW_MAX_FRAMES];
 static uint8_t got_count;
-static bool record = true;
+static uint8_t got_checks;      /* candidates checked */
+static uint8_t got_failed;      /* ... of which failed */
+static uint8_t got_frame_bytes; /* bytes of the frames admitted */
+static uint32_t got_decode;     /* their decoding cycles */
 
 static const uint8_t *key; /* one arbitrary key per length (the harness's uninitialised local) */
 
@@ -114,21 +159,29 @@ bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t l
     URB_ASSERT(b == &bridge, "admission: the bridge under proof");
     URB_ASSERT(uplink == URBB_UPLINK_RS232, "admission: RS232 frames come from the RS232 uplink");
     URB_ASSERT((len >= 4u) && (len <= URB_BRIDGE_FRAME_MAX), "admission: a candidate of a request's length");
-    URB_ASSERT(frame == b->rs232.buf, "admission: the candidate starts the assembler's buffer");
+    URB_ASSERT(frame == &b->rs232.buf[b->rs232.start], "admission: the candidate starts at the held bytes' start");
     URB_ASSERT(len <= b->rs232.len, "admission: only complete candidates");
     /* urbb_frame's cost: the strict decoder on `len` bytes, as part 3 proves, and the call */
     URB_COST(FW_DECODE_CYCLES(len));
-    uint8_t copy[FW_N]; /* len <= rs232.len <= FW_N: constant offsets keep ESBMC's dereference simple */
+    got_decode += FW_DECODE_CYCLES(len);
+    got_checks++;
+    /* Read the candidate through the assembler's array, not through `frame`: a pointer at a variable
+     * offset into the bridge makes ESBMC resolve every access over the whole struct. */
+    uint8_t const at = b->rs232.start;
+    uint8_t copy[FW_N]; /* len <= rs232.len <= FW_N */
     for (uint8_t k = 0u; k < FW_N; k++) {
-        copy[k] = frame[k];
+        copy[k] = (k < len) ? b->rs232.buf[at + k] : 0u;
     }
     bool const ok = fw_is_frame(copy, len);
-    if (ok && record) {
+    if (ok) {
         URB_ASSERT(got_count < FW_MAX_FRAMES, "at most one frame per 4 bytes");
         got_len[got_count] = len;
         got_first[got_count] = copy[0];
         got_last[got_count] = copy[len - 1u];
         got_count++;
+        got_frame_bytes = (uint8_t)(got_frame_bytes + len);
+    } else {
+        got_failed++;
     }
     return ok;
 }
@@ -156,22 +209,28 @@ static uint8_t ref_need(uint8_t s, uint8_t end)
 static uint8_t ref_len[FW_MAX_FRAMES];
 static uint8_t ref_start[FW_MAX_FRAMES];
 static uint8_t ref_count;
+static bool ref_flushing;     /* an idle gap ended the candidate: drop until nothing is left */
+static uint8_t ref_budget;    /* checks left in this poll */
+static bool ref_stopped;      /* a check was due with none left: the poll ends here */
+static uint32_t ref_discards; /* bytes discarded while hunting (failed checks, impossible headers) */
+static uint32_t ref_gaps;     /* partial frames dropped at a gap */
 
 /* The reference parser on stream positions: candidate start s, bytes s..e-1 arrived since the
- * last gap. Returns the new start. `flush`: no more bytes will join this candidate. */
-static uint8_t ref_scan(uint8_t s, uint8_t e, bool flush)
+ * last gap. Hunting waits at an incomplete candidate, unless the candidate has `ended` (an idle gap
+ * follows): then it is not a frame, and from there on every byte that starts no complete frame is
+ * dropped until nothing is left. Returns the new start. */
+static uint8_t ref_scan(uint8_t s, uint8_t e, bool ended)
 {
     uint8_t buf[FW_N];
-    for (uint8_t round = 0u; round < FW_N; round++) {
-        if (s >= e) {
-            break;
-        }
+    for (uint8_t round = 0u; (round < FW_N) && (s < e); round++) {
         uint8_t const need = ref_need(s, e);
         bool const complete = (need != 0u) && (need != 0xFFu) && (need <= (uint8_t)(e - s));
-        if (!complete && !flush && (need != 0xFFu)) {
-            break; /* wait for more bytes */
-        }
         if (complete) {
+            if (ref_budget == 0u) {
+                ref_stopped = true; /* the rest waits for the next poll, which starts right here */
+                break;
+            }
+            ref_budget--;
             for (uint8_t k = 0u; k < FW_N; k++) {
                 buf[k] = ((uint8_t)(s + k) < FW_N) ? stream[s + k] : 0u;
             }
@@ -183,59 +242,106 @@ static uint8_t ref_scan(uint8_t s, uint8_t e, bool flush)
                 s = (uint8_t)(s + need);
                 continue;
             }
+            ref_discards++; /* hunt: this byte starts no frame */
+        } else if (ref_flushing || (ended && (need != 0xFFu))) {
+            if (!ref_flushing) {
+                ref_gaps++;
+                ref_flushing = true;
+            }
+        } else if (need == 0xFFu) {
+            ref_discards++;
+        } else {
+            break; /* wait for more bytes */
         }
-        s++; /* hunt: this byte starts no frame */
+        s++;
+    }
+    if (!ref_stopped && (s >= e)) {
+        ref_flushing = false;
     }
     return s;
 }
 
-/* Parts 1 and 2: one step from any state satisfying the invariant. */
+/* Parts 1 and 2: one step from any state between two polls. */
 static void step(void)
 {
     urb_bridge_parser_t *p = &bridge.rs232;
     for (uint8_t k = 0u; k < FW_N; k++) {
         stream[k] = URB_NONDET_U8();
     }
+#if defined(URB_START0)
+    uint8_t const start = 0u; /* sweep items with START0: the held bytes at the front */
+#else
+    /* The held bytes end at the end of the buffer, the worst place: the next byte compacts them,
+     * unless they are all consumed first and it goes to the front (both branches of push). Other
+     * starts take the same paths without the compaction (Frama-C Eva checks every index). */
+    uint8_t const start = (uint8_t)(URB_BRIDGE_PARSE_BUF - FW_HELD);
+#endif
     for (uint8_t k = 0u; k < FW_HELD; k++) {
-        p->buf[k] = stream[k];
+        p->buf[start + k] = stream[k];
     }
+    p->start = (FW_HELD > 0u) ? start : 0u;
     p->len = FW_HELD;
-    /* the invariant: one incomplete candidate that may still complete */
-    uint8_t const pending = ref_need(0u, FW_HELD);
-    URB_ASSUME((pending == 0u) || ((pending != 0xFFu) && (pending > FW_HELD)));
+    bool const flushing = URB_NONDET_BOOL(); /* hunting, or a flush the budget stopped */
+    URB_ASSUME(!flushing || (FW_HELD > 0u));
+    p->flushing = flushing;
 
+    bool const arrive = FW_ARRIVE != 0u;
     uint32_t const last = URB_NONDET_U32(); /* any clock: it may wrap */
     uint32_t const delta = URB_NONDET_U32();
     uint32_t const wait = URB_NONDET_U32();
     URB_ASSUME((delta >= FW_BYTE_US) && (delta <= FW_MAX_DELTA) && (wait <= FW_MAX_DELTA));
 #if defined(URB_IDLE)
-    /* sweep items with IDLE: only the byte that arrives without a gap and is followed by the idle
-     * timeout (the flush after a push), so a larger HELD stays affordable */
-    URB_ASSUME((delta <= FW_GAP_US) && (wait > FW_GAP_US));
+    /* sweep items with IDLE: only polls after the idle timeout, so a larger HELD stays affordable */
+    URB_ASSUME(wait > FW_GAP_US);
 #endif
     bridge.rx_started = true;
     bridge.rx_last_us = last;
+    uint32_t now = last + wait;
+#if URB_ARRIVE
     urb_bridge_uart_rx(&bridge, stream[FW_HELD], last + delta);
+    now = last + delta + wait;
+#endif
+    uint8_t const k1 = URB_NONDET_U8(); /* the poll's budget: any */
+    uint32_t const yields = bridge.stats.hunt_yields;
+    uint32_t const discards = bridge.stats.hunt_discards;
+    uint32_t const gaps = bridge.stats.gap_drops;
+    uint8_t const tail = bridge.rx_tail;
+    uint32_t const fill = (uint32_t)p->start + p->len;
     URB_COST_BEGIN();
-    urbb_uart_drain(&bridge, last + delta + wait);
+    urbb_uart_parse(&bridge, now, k1);
     uint32_t const actual = urb_proof_cost;
     uint8_t const after = p->len;
+    uint8_t const pulled = (uint8_t)(bridge.rx_tail - tail);
     URB_ASSERT(after <= URB_BRIDGE_FRAME_MAX, "no overrun: the assembler holds at most one frame");
-    URB_ASSERT(bridge.rx_head == bridge.rx_tail, "the drain empties the ring");
-    URB_ASSERT(bridge.stats.rx_overruns == 0u, "the ring does not overflow");
+    URB_ASSERT((uint32_t)p->start + after <= URB_BRIDGE_PARSE_BUF, "no overrun: the held bytes lie in the buffer");
+    URB_ASSERT(got_checks <= k1, "budget: at most k checks in a poll");
+    URB_ASSERT(pulled <= (arrive ? 1u : 0u), "only the bytes that arrived are taken");
 
 #if URB_PART == 1
-    record = false;
+    /* The reference on the same events with the same budget: the held bytes in their mode (an idle
+     * gap before the byte ends them), the byte, the idle timeout. It stops before a check it has
+     * no budget for; its state (start, end, mode, whether the byte was taken) is then all the next
+     * poll needs, so polls compose into the reference's scan of the whole stream. */
+    bool const gap = arrive && (delta > FW_GAP_US);
+    bool const idle = (uint32_t)(now - bridge.rx_last_us) > FW_GAP_US;
+    ref_flushing = flushing;
+    ref_budget = k1;
     uint8_t s = 0u;
-    if (delta > FW_GAP_US) { /* an idle gap before the byte ends the held candidate */
-        s = ref_scan(0u, FW_HELD, true);
-        URB_ASSERT(s == FW_HELD, "reference: a gap ends every candidate");
+    uint8_t e = FW_HELD;
+    if (arrive) {
+        s = ref_scan(s, e, gap);
+        if (!ref_stopped) {
+            URB_ASSERT(!gap || (s == e), "reference: a gap ends every candidate");
+            e = FW_N; /* the byte joins once the candidate before it is settled */
+        }
     }
-    s = ref_scan(s, FW_N, false);
-    if (wait > FW_GAP_US) { /* the idle timeout: a partial frame is dropped without a next byte */
-        s = ref_scan(s, FW_N, true);
-        URB_ASSERT(s == FW_N, "reference: the idle time ends every candidate");
+    if (!ref_stopped) {
+        s = ref_scan(s, e, idle);
+        URB_ASSERT(ref_stopped || !idle || (s == e), "reference: the idle time ends every candidate");
     }
+    URB_ASSERT((bridge.stats.hunt_yields - yields) == (ref_stopped ? 1u : 0u),
+               "budget: a poll stops early exactly where a check is due and none is left");
+    URB_ASSERT(pulled == (uint8_t)(e - FW_HELD), "the byte is taken exactly when the reference takes it");
     URB_ASSERT(got_count == ref_count, "as many frames as the reference finds");
     for (uint8_t i = 0u; i < FW_MAX_FRAMES; i++) {
         if (i < ref_count) {
@@ -244,16 +350,29 @@ static void step(void)
             URB_ASSERT(got_last[i] == stream[ref_start[i] + ref_len[i] - 1u], "frame i ends where the reference's does");
         }
     }
-    URB_ASSERT(after == (uint8_t)(FW_N - s), "the reference's remaining candidate is held");
+    URB_ASSERT(after == (uint8_t)(e - s), "the reference's remaining candidate is held");
     for (uint8_t k = 0u; k < FW_N; k++) {
         if (k < after) {
-            URB_ASSERT(p->buf[k] == stream[s + k], "the held bytes are the reference's");
+            URB_ASSERT(p->buf[p->start + k] == stream[s + k], "the held bytes are the reference's");
         }
     }
+    URB_ASSERT(p->flushing == ref_flushing, "a flush in progress is remembered exactly when the reference is in one");
+    URB_ASSERT(bridge.stats.hunt_discards - discards == ref_discards, "hunting discards counted as the reference");
+    URB_ASSERT(bridge.stats.gap_drops - gaps == ref_gaps, "gap drops counted as the reference");
 #else
-    /* amortised cost = actual + potential after - potential before (clamped at 0 for the record) */
-    uint32_t const credit = FW_HUNT_ROUND_CYCLES * (uint32_t)FW_HELD;
-    uint32_t const charge = actual + FW_HUNT_ROUND_CYCLES * (uint32_t)after;
+    /* Part 2. The linear form: bytes consumed = frames' bytes + failed checks + dropped bytes. */
+    uint8_t const consumed = (uint8_t)(FW_HELD + pulled - after);
+    uint8_t const dropped = (uint8_t)(consumed - got_frame_bytes - got_failed);
+    uint32_t const fill_after = (uint32_t)p->start + after;
+    URB_ASSERT(actual + FW_FILL_CYCLES * fill_after <=
+                   FW_POLL_CYCLES + FW_PULL_CYCLES * pulled + FW_ROUND_CYCLES * ((uint32_t)dropped + got_checks) +
+                       got_decode + FW_FILL_CYCLES * fill,
+               "cost: one poll within its linear form (so within FW_POLL_WORST)");
+    /* Amortised per received byte: potentials of the bytes held or waiting in the ring and of the
+     * fill; the arriving byte brings its own (the poll without one pays only its fixed part). */
+    uint32_t const credit = FW_HUNT_ROUND_CYCLES * (uint32_t)FW_HELD + FW_FILL_CYCLES * fill;
+    uint32_t const charge = actual + FW_HUNT_ROUND_CYCLES * ((uint32_t)after + FW_ARRIVE - pulled) +
+                            FW_FILL_CYCLES * fill_after;
     urb_proof_cost = (charge > credit) ? (charge - credit) : 0u;
     URB_COST_END(FW_COST_BUDGET);
 #endif

@@ -96,7 +96,18 @@
  * time to admitting and answering. Over the budget, the 64-byte receive ring would overflow. */
 #define FW_BRIDGE_RS232_BYTE_BUDGET ((7u * FW_UART_BYTE_CYCLES) / 8u)
 
-/* USB: one OUT transfer's parsing and admission within half the 1-ms frame (FW_USB_TRANSFER_BUDGET). */
+/* RS232 parsing, one poll: half the 1-ms cycle, as for a USB transfer (below), so the main loop is
+ * back at the downlink, and at a due SYNC, within half a cycle whatever the line carried. The parser
+ * meets it with at most URB_BRIDGE_HUNT_CHECKS frame checks and URB_BRIDGE_RX_PER_POLL ring bytes
+ * per poll (fw_bridge_rs232_parser: its linear cost form at those counts); the rest waits. */
+#define FW_BRIDGE_RS232_POLL_BUDGET (FW_CYCLE_CYCLES / 2u)
+
+/* USB: one OUT transfer's parsing within half the 1-ms frame (FW_USB_TRANSFER_BUDGET), beyond the
+ * decoding of the requests it carries. Decoding a request is admission work, charged to that
+ * request (FW_ADMIT_BUDGET each, fw_bridge_fifo) and bounded in number by the host's window; a
+ * transfer of 13 valid 32-byte writes decodes for ~35 k cycles by the cost model, so no budget
+ * that includes it fits half a frame. What the parser adds (header, one round per frame, and at
+ * most one failing candidate, since a transfer is cut at its first bad frame) must fit. */
 #define FW_BRIDGE_USB_TRANSFER_BUDGET FW_USB_TRANSFER_BUDGET
 
 /* Request FIFO: one admission, one completion, one response emitted: FW_ADMIT_BUDGET each. */
