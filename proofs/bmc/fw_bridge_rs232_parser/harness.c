@@ -32,8 +32,8 @@
  *   this step repeated, so for streams whose candidates stay within the FW_HELD bound of the tier,
  *   any split of the work into polls (any budgets) admits exactly the reference's frames.
  * Part 2, the cost lemma (the first poll of the same step, any budget):
- *   per poll    cycles <= FW_POLL_CYCLES + FW_PULL_CYCLES x (bytes taken from the ring)
- *                 + FW_ROUND_CYCLES x (bytes dropped + checks) + the checks' decoding
+ *   per poll    cycles <= FW_POLL_CYCLES + (FW_PULL_CYCLES + FW_FILL_CYCLES) x (bytes taken from
+ *                 the ring) + FW_ROUND_CYCLES x (bytes dropped + checks) + the checks' decoding
  *                 + FW_FILL_CYCLES x (buffer fill before - after),
  *               a linear form in what the poll did. A poll takes at most URB_BRIDGE_RX_PER_POLL
  *               bytes, makes at most URB_BRIDGE_HUNT_CHECKS checks and drops at most the bytes it
@@ -90,7 +90,8 @@
  *   FW_ROUND_CYCLES per hunt round that removes bytes (a check or a drop): the round (10),
  *                   candidate_len (72) and consume (33): 115; a check adds its decoding;
  *   FW_FILL_CYCLES  a compaction moves a byte for 10 cycles, once per 38 bytes of fill at most, so
- *                   10 per byte of buffer fill (start + len) pays for it.
+ *                   10 per byte of buffer fill (start + len) pays for it; each byte taken raises
+ *                   the fill by one, so it brings that much too.
  * Part 2 proves the form with these numbers, no slack: a parser doing more work per byte fails it. */
 #define FW_POLL_CYCLES 149u
 #define FW_PULL_CYCLES 161u
@@ -101,7 +102,7 @@
 /* The worst poll: URB_BRIDGE_RX_PER_POLL bytes taken, URB_BRIDGE_HUNT_CHECKS checks of 37 bytes,
  * every other byte held or taken dropped, the buffer emptied from full. */
 #define FW_POLL_WORST                                                                              \
-    (FW_POLL_CYCLES + FW_PULL_CYCLES * URB_BRIDGE_RX_PER_POLL +                                    \
+    (FW_POLL_CYCLES + (FW_PULL_CYCLES + FW_FILL_CYCLES) * URB_BRIDGE_RX_PER_POLL +                 \
      FW_ROUND_CYCLES * (URB_BRIDGE_FRAME_MAX + URB_BRIDGE_RX_PER_POLL) +                           \
      FW_DECODE_CYCLES(URB_BRIDGE_FRAME_MAX) * URB_BRIDGE_HUNT_CHECKS + FW_FILL_CYCLES * URB_BRIDGE_PARSE_BUF)
 /* Static checks: the worst poll fits half the 1-ms cycle, and a received byte's share (taken once,
@@ -365,7 +366,8 @@ static void step(void)
     uint8_t const dropped = (uint8_t)(consumed - got_frame_bytes - got_failed);
     uint32_t const fill_after = (uint32_t)p->start + after;
     URB_ASSERT(actual + FW_FILL_CYCLES * fill_after <=
-                   FW_POLL_CYCLES + FW_PULL_CYCLES * pulled + FW_ROUND_CYCLES * ((uint32_t)dropped + got_checks) +
+                   FW_POLL_CYCLES + (FW_PULL_CYCLES + FW_FILL_CYCLES) * pulled +
+                       FW_ROUND_CYCLES * ((uint32_t)dropped + got_checks) +
                        got_decode + FW_FILL_CYCLES * fill,
                "cost: one poll within its linear form (so within FW_POLL_WORST)");
     /* Amortised per received byte: potentials of the bytes held or waiting in the ring and of the
