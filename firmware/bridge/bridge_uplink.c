@@ -120,10 +120,14 @@ static bool hunt(urb_bridge_t *b, urb_bridge_parser_t *p, uint8_t *checks, bool 
         uint8_t const at = p->start;
         uint8_t const need = candidate_len(p->buf[at], (p->len >= 3u) ? p->buf[at + 2u] : 0u, p->len);
         if ((need != 0u) && (need != NOT_A_FRAME) && (need <= p->len)) {
+#ifndef URB_MUTANT_NO_BUDGET
             if (*checks == 0u) {
                 return false;
             }
             (*checks)--;
+#else
+            (void)checks; /* mutant: every complete candidate is checked in the same poll */
+#endif
             if (urbb_frame(b, URBB_UPLINK_RS232, &p->buf[at], need)) {
                 consume(p, need);
                 continue;
@@ -288,7 +292,12 @@ bool urb_bridge_usb_out(urb_bridge_t *b, const uint8_t *data, size_t len)
         uint8_t const need = candidate_len(data[at], (n >= 3u) ? data[at + 2u] : 0u, n);
         if ((need == 0u) || (need == NOT_A_FRAME) || (need > n) || !urbb_frame(b, URBB_UPLINK_USB, &data[at], need)) {
             b->stats.usb_cut_batches++;
+#ifdef URB_MUTANT_USB_HUNT
+            at++; /* mutant: the old behaviour, hunting on through the transfer one byte at a time */
+            continue;
+#else
             break;
+#endif
         }
         at += need;
     }

@@ -55,10 +55,10 @@ extern "C" {
 #define URB_BRIDGE_PARSE_BUF (2u * URB_BRIDGE_FRAME_MAX) /**< RS232 assembler: one held candidate and room to
                                                           append, so hunting never shifts bytes */
 #ifndef URB_BRIDGE_HUNT_CHECKS
-#define URB_BRIDGE_HUNT_CHECKS 4u /**< Candidate frame checks per poll on RS232 (the rest waits): with */
+#define URB_BRIDGE_HUNT_CHECKS 4u /**< RS232 frame checks per poll; the rest waits for the next poll */
 #endif
 #ifndef URB_BRIDGE_RX_PER_POLL
-#define URB_BRIDGE_RX_PER_POLL 16u /**< ... at most this many ring bytes taken per poll, one poll's parsing
+#define URB_BRIDGE_RX_PER_POLL 16u /**< RS232 ring bytes taken per poll: with the checks, one poll's parsing
                                         stays within half the 1-ms cycle (spec/schema/README.md) */
 #endif
 
