@@ -197,9 +197,11 @@ int main(void)
     for (unsigned i = 0u; i < URB_BRIDGE_RX_RING; i++) {
         urb_bridge_uart_rx(&B, 0x20u, g_now); /* every byte starts a 37-byte write candidate */
     }
+    urb_bridge_poll(&B); /* 16 bytes per poll: the first two polls only collect the first candidate */
+    urb_bridge_poll(&B);
     measure_poll_hunt_ring();
     report("measure_poll_hunt_ring", "main", 1, 20000,
-           "poll: full receive ring (64 bytes) of 0x20, each byte a failing 37-byte CRC-16 candidate: "
+           "poll: full receive ring (64 bytes) of 0x20, each byte a failing 37-byte CRC-16 candidate, third poll: "
            "URB_BRIDGE_HUNT_CHECKS of them checked, the rest left for the next polls");
     {
         uint32_t yields;
