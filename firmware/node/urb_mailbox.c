@@ -408,6 +408,13 @@ int urb_release_inbox_any(urb_node_t *node, uint8_t n)
 
 /* ===== Setup ================================================================================ */
 
+/* The mailbox positions urb_mailbox_reset leaves: mailbox 0 in mb0, no other mailbox set up. */
+/*@ predicate urb_mb_only_mb0(urb_node_t *node) =
+      node->outbox[0].offset == 0 && node->outbox[0].size == URB_NODE_OUTBOX0_SIZE &&
+      node->inbox[0].offset == URB_MB0_INBOX_OFFSET && node->inbox[0].size == URB_NODE_INBOX0_SIZE &&
+      \forall integer n; 1 <= n < URB_NODE_MAILBOXES ==>
+        node->outbox[n].offset == 0 && node->outbox[n].size == 0 && node->inbox[n].offset == 0 && node->inbox[n].size == 0; */
+
 /*@ requires \valid(node) && node->storage_used <= node->storage_len;
     requires \valid(node->storage + (0 .. node->storage_len - 1));
     requires \separated(node, node->storage + (0 .. node->storage_len - 1));
@@ -423,30 +430,51 @@ int urb_release_inbox_any(urb_node_t *node, uint8_t n)
     ensures node->inbox[0].offset == URB_MB0_INBOX_OFFSET && node->inbox[0].size == URB_NODE_INBOX0_SIZE;
     ensures \forall integer n; 0 <= n < URB_NODE_MAILBOXES ==>
               node->outbox[n].isr_idx == URB_NONE && node->outbox[n].held == URB_NONE &&
-              node->inbox[n].isr_idx == URB_NONE && node->inbox[n].app_idx == URB_NONE; */
+              node->inbox[n].isr_idx == URB_NONE && node->inbox[n].app_idx == URB_NONE;
+    ensures \forall integer n; 0 <= n < URB_NODE_MAILBOXES ==>
+              node->outbox[n].front == \old(node->outbox[n].front) && node->inbox[n].front == \old(node->inbox[n].front);
+    ensures reset_positions: urb_mb_only_mb0(node);
+    ensures reset_layout: urb_mb_layout(node); */
 void urb_mailbox_reset(urb_node_t *node)
 {
     /* urb_node_init has zeroed the node: sizes, offsets, fronts, fresh flags and buffers are 0 */
     /* bound: URB_NODE_MAILBOXES = 8 */
+    /* WP proof steps (annotations only): one invariant per framed field, `apart` (the addresses this
+     * round's inbox stores cannot reach an outbox size), and the layout restated after each store
+     * below, so that no goal sees through a store into the other array of urb_node_t: z3 and cvc4
+     * time out on those, even at 30 s per goal, and prove each step in under a second. */
     /*@ loop invariant 0 <= n <= URB_NODE_MAILBOXES;
         loop invariant \forall integer i; 0 <= i < n ==>
           node->outbox[i].isr_idx == URB_NONE && node->outbox[i].held == URB_NONE &&
           node->inbox[i].isr_idx == URB_NONE && node->inbox[i].app_idx == URB_NONE;
+        loop invariant unset_out: \forall integer i; 0 <= i < URB_NODE_MAILBOXES ==> node->outbox[i].size == 0;
+        loop invariant unset_in: \forall integer i; 0 <= i < URB_NODE_MAILBOXES ==> node->inbox[i].size == 0;
+        loop invariant front_out: \forall integer i; 0 <= i < URB_NODE_MAILBOXES ==> node->outbox[i].front == \at(node->outbox[i].front, Pre);
+        loop invariant front_in: \forall integer i; 0 <= i < URB_NODE_MAILBOXES ==> node->inbox[i].front == \at(node->inbox[i].front, Pre);
         loop assigns n, node->outbox[0 .. URB_NODE_MAILBOXES - 1].isr_idx, node->outbox[0 .. URB_NODE_MAILBOXES - 1].held,
                      node->inbox[0 .. URB_NODE_MAILBOXES - 1].isr_idx, node->inbox[0 .. URB_NODE_MAILBOXES - 1].app_idx;
         loop variant URB_NODE_MAILBOXES - n; */
     for (uint8_t n = 0u; n < URB_NODE_MAILBOXES; n++) {
         node->outbox[n].isr_idx = URB_NONE;
         node->outbox[n].held = URB_NONE;
+        /*@ assert apart: \forall integer i; 0 <= i < URB_NODE_MAILBOXES ==>
+              &node->outbox[i].size != &node->inbox[n].isr_idx && &node->outbox[i].size != &node->inbox[n].app_idx; */
         node->inbox[n].isr_idx = URB_NONE;
         node->inbox[n].app_idx = URB_NONE;
     }
+    /*@ assert urb_mb_indices(node); */
     node->outbox[0].size = URB_NODE_OUTBOX0_SIZE;
+    /*@ assert urb_mb_indices(node); */
     node->inbox[0].offset = URB_MB0_INBOX_OFFSET;
+    /*@ assert urb_mb_memory(node); */
     node->inbox[0].size = URB_NODE_INBOX0_SIZE;
+    /*@ assert urb_mb_indices(node); */
+    /*@ assert urb_mb_only_mb0(node); */
 }
 
-/* Sets up inbox or outbox n with `size` bytes carved (zeroed) from the storage block. */
+/* Sets up inbox or outbox n with `size` bytes carved (zeroed) from the storage block: the carved
+ * range holds both buffers (offset and offset + size), so an application reads zeros before the
+ * first commit (setup_zeroed). */
 /*@ requires node == \null || urb_mb_layout(node);
     behavior bad_argument:
       assumes node == \null || n == 0 || n >= URB_NODE_MAILBOXES || size == 0 || size > URB_NODE_MAX_SIZE;
@@ -474,6 +502,8 @@ void urb_mailbox_reset(urb_node_t *node)
       ensures !inbox ==> node->outbox[n].offset == \old(node->storage_used) && node->outbox[n].size == size &&
                          node->inbox[n].offset == \old(node->inbox[n].offset) &&
                          node->inbox[n].size == \old(node->inbox[n].size);
+      ensures setup_zeroed: \forall integer k; \old(node->storage_used) <= k < \old(node->storage_used) + 2 * size ==>
+                node->storage[k] == 0;
     complete behaviors;
     disjoint behaviors; */
 static int setup_box(urb_node_t *node, uint8_t n, uint8_t size, bool inbox)
@@ -496,6 +526,7 @@ static int setup_box(urb_node_t *node, uint8_t n, uint8_t size, bool inbox)
         uint16_t const offset = node->storage_used;
         /* bound: 2 * URB_NODE_MAX_SIZE = 64 */
         /*@ loop invariant 0 <= k <= 2 * size;
+            loop invariant zeroed: \forall integer j; offset <= j < offset + k ==> node->storage[j] == 0;
             loop assigns k, node->storage[offset .. offset + 2 * size - 1];
             loop variant 2 * size - k; */
         for (uint8_t k = 0u; k < (uint8_t)(2u * size); k++) {
