@@ -88,10 +88,11 @@ static void set_present(urb_bridge_t *b, uint8_t a, bool on)
     ensures urbb_nodes_ok(b); */
 static void node_forget(urb_bridge_t *b, uint8_t a)
 {
-    uint8_t const k = b->node_of[a & 0x7Fu];
+    uint8_t const i = (uint8_t)(a % 128u); /* % rather than & 0x7F: the provers reason about it */
+    uint8_t const k = b->node_of[i];
     if (k != 0u) {
         b->nodes[k - 1u].address = 0u;
-        b->node_of[a & 0x7Fu] = 0u;
+        b->node_of[i] = 0u;
     }
 }
 
@@ -184,6 +185,31 @@ typedef struct {
     const uint8_t *data; /* a write's payload (length bytes); NULL for a read */
 } urbb_request_t;
 
+/* Fill data slot s with request q, answered in ring entry r. The slot is built locally and stored
+ * whole (see admit); payload bytes past the request's length are no part of it (nothing reads
+ * them): not cleared. A function of its own so that WP proves admit without the payload copy. */
+/*@ requires \valid(b) && s < URB_BRIDGE_FIFO_MAX && \valid_read(q) && \separated(q, b) && q->length <= 32;
+    requires !q->read ==> \valid_read(q->data + (0 .. q->length - 1)) && \separated(q->data + (0 .. q->length - 1), b);
+    assigns b->slots[s];
+    ensures b->slots[s].resp == r; */
+static void store_slot(urb_bridge_t *b, uint8_t s, uint8_t r, const urbb_request_t *q)
+{
+    urb_bridge_slot_t d;
+    d.address = q->address;
+    d.mailbox = q->mailbox;
+    d.length = q->length;
+    d.read = q->read;
+    d.resp = r;
+    /* loop bound: 32 bytes */
+    /*@ loop invariant 0 <= i <= 32;
+        loop assigns i, d.data[0 .. 31];
+        loop variant 32 - i; */
+    for (uint8_t i = 0u; (!q->read) && (i < q->length) && (i < 32u); i++) {
+        d.data[i] = q->data[i];
+    }
+    b->slots[s] = d;
+}
+
 /* Bridge.tla: SubmitAndAdmit. */
 /*@ requires urbb_fifo_ok(b) && urbb_nodes_ok(b);
     requires \valid_read(q) && \separated(q, b);
@@ -238,28 +264,14 @@ static void admit(urb_bridge_t *b, const urbb_request_t *q)
 #endif
         }
     }
-    /* The ring entry and the data slot are built here and stored whole, by index: the bounded
-     * model checker (proofs/bmc/fw_bridge_fifo) turns every store at a variable index inside the
-     * bridge into an update of the whole struct, one per field or payload byte otherwise. Payload
-     * bytes past the request's length are no part of it (nothing reads them): not cleared. */
+    /* The ring entry is built here and stored whole, by index (the data slot likewise, in
+     * store_slot): the bounded model checker (proofs/bmc/fw_bridge_fifo) turns every store at a
+     * variable index inside the bridge into an update of the whole struct, one per field otherwise. */
     uint8_t const r = ring_index(b->ring_head, b->ring_count);
     urb_bridge_resp_t e = {(uint8_t)(q->seq & 0x0Fu), status, q->uplink, URB_BRIDGE_NO_SLOT};
     if (status == URB_STATUS_OK) {
         uint8_t const s = slot_index(b, b->slot_count);
-        urb_bridge_slot_t d;
-        d.address = q->address;
-        d.mailbox = q->mailbox;
-        d.length = q->length;
-        d.read = q->read;
-        d.resp = r;
-        /* loop bound: 32 bytes */
-        /*@ loop invariant 0 <= i <= 32;
-            loop assigns i, d.data[0 .. 31];
-            loop variant 32 - i; */
-        for (uint8_t i = 0u; (!q->read) && (i < q->length) && (i < 32u); i++) {
-            d.data[i] = q->data[i];
-        }
-        b->slots[s] = d;
+        store_slot(b, s, r, q);
         e.status = URB_BRIDGE_PENDING;
         e.slot = s;
         b->slot_count++;

@@ -110,7 +110,14 @@
  * most one failing candidate, since a transfer is cut at its first bad frame) must fit. */
 #define FW_BRIDGE_USB_TRANSFER_BUDGET FW_USB_TRANSFER_BUDGET
 
-/* Request FIFO: one admission, one completion, one response emitted: FW_ADMIT_BUDGET each. */
-#define FW_BRIDGE_FIFO_OP_BUDGET FW_ADMIT_BUDGET
+/* Request FIFO (fw_bridge_fifo): one admission, one completion, or one response emitted (its
+ * encoding, check and queuing on the uplink included; per response when one pass emits several),
+ * within a sixth of the 1-ms cycle. Every request goes through each of the three once, so its FIFO
+ * work fits in half a cycle even when all three fall into one main-loop pass, and the pass is back
+ * at the downlink and a due SYNC within the cycle (the other half: one poll's parsing,
+ * FW_BRIDGE_RS232_POLL_BUDGET). That also keeps up with the slowest uplink (a 4-byte read request
+ * takes 4 x 4160 cycles at 115200 Bd) and with I2C: the costliest response to emit, a 32-byte
+ * read's, comes from a transaction of at least 37 I2C byte times (~40 000 cycles). */
+#define FW_BRIDGE_FIFO_OP_BUDGET (FW_CYCLE_CYCLES / 6u)
 
 #endif /* FW_BUDGETS_H */
