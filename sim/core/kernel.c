@@ -226,6 +226,9 @@ bool urbsim_kernel_at(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, voi
 bool urbsim_kernel_at_handle(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg,
                              urbsim_handle_t *h)
 {
+    if (h != NULL) {
+        urbsim_kernel_cancel(k, h); /* a handle holds one event: the one it held is superseded */
+    }
     if (t < k->now) {
         t = k->now;
     }

@@ -113,7 +113,8 @@ bool urbsim_kernel_at(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, voi
 
 /**
  * urbsim_kernel_at, keeping `h` (owned by the caller, cleared with urbsim_handle_init) as a handle
- * on the event so that urbsim_kernel_cancel can withdraw it. `h` must not be armed (cancel first).
+ * on the event so that urbsim_kernel_cancel can withdraw it. A handle holds one event: the event it
+ * held, if still in the far queue, is withdrawn first (the caller knows it is superseded).
  */
 bool urbsim_kernel_at_handle(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg,
                              urbsim_handle_t *h);

@@ -278,6 +278,18 @@ static void test_kernel_cancel(void)
     urbsim_handle_init(&idle);
     urbsim_kernel_cancel(&k, &idle);
     CHECK_EQ(k.len, 0);
+    /* scheduling through a handle that still holds a far event supersedes that event */
+    c.o.ran = 0;
+    c.o.scheduled = CANCEL_EVENTS; /* the events run here schedule no more */
+    c.fate[0] = 0u;
+    c.fate[1] = 0u;
+    CHECK(urbsim_kernel_at_handle(&k, k.now + 2u * URBSIM_NS_PER_MS, cancel_event, &c, 0u, &idle));
+    CHECK(urbsim_kernel_at_handle(&k, k.now + 3u * URBSIM_NS_PER_MS, cancel_event, &c, 1u, &idle));
+    CHECK_EQ(k.len, 1);
+    CHECK(!urbsim_kernel_run_until(&k, k.now + 4u * URBSIM_NS_PER_MS));
+    CHECK_EQ(c.o.ran, 1);
+    CHECK_EQ(c.o.last_arg, 1u);
+    CHECK(!idle.armed);
     urbsim_kernel_free(&k);
 }
 

@@ -52,8 +52,7 @@ static void want_poll(sim_bridge_t *b, urbsim_ns_t t)
     b->poll_pending = true;
     b->poll_at = t;
     b->poll_gen++;
-    /* A later iteration (a transaction's timeout) brought forward: withdraw it. */
-    urbsim_kernel_cancel(b->k, &b->poll_ev);
+    /* A later iteration (a transaction's timeout) brought forward is withdrawn through the handle. */
     urbsim_kernel_at_handle(b->k, t, bridge_event, b, ARG(EV_POLL, b->gen, (uint32_t)(b->poll_gen & 0xFFFFFFFFu)),
                             &b->poll_ev);
 }

@@ -30,8 +30,7 @@ static void hal_set_compare(void *ctx, uint32_t at)
     int32_t delta = (int32_t)(at - (uint32_t)cur);
     uint64_t target = delta > 0 ? cur + (uint64_t)delta : cur + 1u; /* a past compare fires at once */
     urbsim_ns_t t = urbsim_clock_virtual_at_tick(&n->mcu.clk, target);
-    n->compare_gen++; /* replaces any pending compare */
-    urbsim_kernel_cancel(n->k, &n->compare_ev);
+    n->compare_gen++; /* replaces any pending compare, withdrawn through its handle when still far */
     urbsim_kernel_at_handle(n->k, t, node_event, n,
                             NODE_ARG(n, EV_TIMER_IRQ, (n->gen << 24) | (n->compare_gen & 0xFFFFFFu)), &n->compare_ev);
 }
@@ -83,8 +82,7 @@ static void want_poll(sim_node_t *n, urbsim_ns_t t)
     }
     n->poll_pending = true;
     n->poll_at = t;
-    n->poll_gen++;
-    urbsim_kernel_cancel(n->k, &n->poll_ev);
+    n->poll_gen++; /* a later iteration brought forward is withdrawn through the handle */
     urbsim_kernel_at_handle(n->k, t, node_event, n, NODE_ARG(n, EV_POLL, (n->gen << 24) | (n->poll_gen & 0xFFFFFFu)),
                             &n->poll_ev);
 }
