@@ -275,6 +275,9 @@ class Proof:
     cost: int | None
     cost_item: str
     assertions: int
+    #: sweep item -> (unwind, defines) when the Makefile sets them per item (ITEM_UNWIND, DEFINES
+    #: that test SWEEP_ITEM); empty when every item runs with the tier's
+    item_bounds: dict[str, tuple[str, str]] = field(default_factory=dict)
 
     def items(self, tier: str) -> list[str]:
         text = self.config.get("fast_sweep" if tier == "fast" else "sweep", "")
@@ -307,18 +310,25 @@ def fw_budget(name: str) -> int | None:
     return int(eval(expr.replace("/", "//"), {"__builtins__": {}}))  # noqa: S307 - digits and operators only
 
 
+def print_config(folder: Path, tier: str, item: str = "") -> dict[str, str]:
+    """`make print-config` of a proof folder for the tier (and one sweep item), as a dict."""
+    cmd = ["make", "-s", "-C", str(folder), "print-config", f"TIER={tier}"] + ([f"SWEEP_ITEM={item}"] if item else [])
+    out = subprocess.run(cmd, capture_output=True, text=True)
+    if out.returncode != 0:
+        raise SetupError(f"proofs/bmc/{folder.name}: `make print-config` failed:\n{out.stderr.strip()}")
+    try:
+        config: dict[str, str] = json.loads(out.stdout.strip().splitlines()[-1])
+    except (json.JSONDecodeError, IndexError):
+        raise SetupError(f"proofs/bmc/{folder.name}: `make print-config` printed no JSON:\n{out.stdout}") from None
+    return config
+
+
 def load(folder: Path, tier: str) -> Proof:
     """Reads a proof folder (its Makefile through `make print-config` for the tier)."""
     for name in ("harness.c", "Makefile", "PURPOSE"):
         if not (folder / name).is_file():
             raise SetupError(f"proofs/bmc/{folder.name}: {name} missing (see proofs/README.md, folder convention)")
-    out = subprocess.run(["make", "-s", "-C", str(folder), "print-config", f"TIER={tier}"], capture_output=True, text=True)
-    if out.returncode != 0:
-        raise SetupError(f"proofs/bmc/{folder.name}: `make print-config` failed:\n{out.stderr.strip()}")
-    try:
-        config = json.loads(out.stdout.strip().splitlines()[-1])
-    except (json.JSONDecodeError, IndexError):
-        raise SetupError(f"proofs/bmc/{folder.name}: `make print-config` printed no JSON:\n{out.stdout}") from None
+    config = print_config(folder, tier)
     mfile = folder / "mutants.json"
     mutants: list[dict[str, Any]] = json.loads(mfile.read_text(encoding="utf-8")) if mfile.exists() else []
     cost, cost_item = None, ""
@@ -327,8 +337,14 @@ def load(folder: Path, tier: str) -> Proof:
         cost = int(parts[0])
         cost_item = parts[1] if len(parts) > 1 else ""
     harness = re.sub(r"/\*.*?\*/", "", (folder / "harness.c").read_text(encoding="utf-8"), flags=re.DOTALL)
-    return Proof(folder.name, folder, config, (folder / "PURPOSE").read_text(encoding="utf-8").strip(), mutants,
-                 cost, cost_item, len(re.findall(r"\bURB_ASSERT\s*\(", harness)))
+    proof = Proof(folder.name, folder, config, (folder / "PURPOSE").read_text(encoding="utf-8").strip(), mutants,
+                  cost, cost_item, len(re.findall(r"\bURB_ASSERT\s*\(", harness)))
+    if "SWEEP_ITEM" in (folder / "Makefile").read_text(encoding="utf-8"):
+        # the Makefile sets bounds per sweep item: ask for each item's own
+        for item in proof.items(tier):
+            c = print_config(folder, tier, item)
+            proof.item_bounds[item] = (c.get("bound", "?"), c.get("tier_defines", ""))
+    return proof
 
 
 def discover(only: list[str], tier: str) -> list[Proof]:
@@ -416,17 +432,28 @@ def properties_of(proof: Proof) -> str:
     return ", ".join(props) + f"; {proof.assertions} harness assertions"
 
 
-def bound_of(proof: Proof, tier: str) -> str:
-    items = proof.items(tier)
-    text = f"unwind {proof.unwind(tier)}"
-    keep = [d[2:] for d in proof.config.get("tier_defines", "").split() if d.startswith("-D") and "=" in d
-            and not d.startswith("-DURB_TIER")]
+def _bound_text(unwind: str, defines: str, items: list[str]) -> str:
+    text = f"unwind {unwind}"
+    keep = [d[2:] for d in defines.split() if d.startswith("-D") and "=" in d and not d.startswith("-DURB_TIER")]
     if keep:
         text += " " + " ".join(keep)
     if items != [""]:
         lens = sorted({int(n) for it in items for n in re.findall(r"LEN=(\d+)", it)})
         text += f", {len(items)} runs" + (f" (lengths {lens[0]}..{lens[-1]})" if lens else "")
     return text
+
+
+def bound_of(proof: Proof, tier: str) -> str:
+    """The summary's bound column: unwinding and defines, one group per distinct setting of the items."""
+    items = proof.items(tier)
+    groups: dict[tuple[str, str], list[str]] = {}
+    for item in items:
+        groups.setdefault(proof.item_bounds.get(item, (proof.unwind(tier), proof.config.get("tier_defines", ""))),
+                          []).append(item)
+    if len(groups) == 1:
+        (unwind, defines), = groups
+        return _bound_text(unwind, defines, items)
+    return "; ".join(_bound_text(u, d, its) + f": {' '.join(its)}" for (u, d), its in groups.items())
 
 
 def _kind(outcome: str) -> str:

@@ -172,3 +172,18 @@ def test_recorded_cost_reaches_esbmc_as_one_number(folder: Path) -> None:
     out = subprocess.run(["make", "-s", "-C", str(folder), "print-config"], capture_output=True, text=True, timeout=60)
     config = json.loads(out.stdout.strip().splitlines()[-1])
     assert config["cost_bound"] == (folder / "COST").read_text(encoding="utf-8").split()[0]
+
+
+def test_summary_bound_names_each_items_own_unwinding_and_defines() -> None:
+    """fw_bridge_fifo runs its 32-byte items at another unwinding and FIFO size (ITEM_UNWIND, DEFINES on
+    SWEEP_ITEM): the summary must say so per group of items, not give the largest bound to all."""
+    proofs = _module("proofs", ROOT / "tools" / "proofs.py")
+    fifo = proofs.load(BMC / "fw_bridge_fifo", "full")
+    bound = proofs.bound_of(fifo, "full")
+    groups = bound.split("; ")
+    assert len(groups) == 2, bound
+    short, long = groups
+    assert short.startswith("unwind 5 ") and "URB_BRIDGE_FIFO_MAX=3u" in short and short.endswith("PART=1 PART=2 PART=3")
+    assert long.startswith("unwind 33 ") and "URB_BRIDGE_FIFO_MAX=2u" in long and "PART=3,LEN=32" in long
+    one = proofs.load(BMC / "urb_identification_decode", "full")
+    assert proofs.bound_of(one, "full") == f"unwind {one.unwind('full')}", "one setting: one group, no item list"
