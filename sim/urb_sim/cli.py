@@ -39,8 +39,8 @@ and states PASS or FAIL against its acceptance criterion:
   faults   every fault the design must survive (bit errors, stuck I2C lines, node power loss,
            bridge reset, babbling node, uplink byte loss): each failed request must reach its
            callback with the right error flag, and the firmware's reaction is logged
-  traces   TLC checks bridge and outbox traces logged by the simulation against spec/tla
-           (Bridge.tla, MailboxOutbox.tla)
+  traces   TLC checks bridge, outbox and inbox traces logged by the simulation against
+           spec/tla (Bridge.tla, MailboxOutbox.tla, MailboxInbox.tla)
 
 Output: DIR/index.html (open it first), DIR/summary.json, and one folder per experiment.
 The same seed gives the same numbers, byte for byte.

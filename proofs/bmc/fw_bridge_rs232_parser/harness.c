@@ -6,7 +6,7 @@
  *
  * Admission (urbb_frame, bridge.c) is replaced by a recorder that decides exactly as bridge.c
  * does: a candidate is a frame when the generated strict decoder does not report CHECKSUM, SHORT
- * or LONG (the FIFO proof covers what admission does with it). The check is abstracted (below);
+ * or LONG (the FIFO proof covers what admission does with it). The check is abstracted (see the end of this comment);
  * part 3 proves, on the real generated decoders, the cost the recorder charges and the length rule
  * the abstraction uses.
  *
@@ -46,10 +46,7 @@
  *               loop spends at most that per byte (plus FW_POLL_CYCLES per poll), whatever the
  *               bytes. This is the value recorded in COST.
  *
- * The check, abstracted: by data independence the parser must be right for every check function,
- * so the proof uses an arbitrary one (a key per length, fixed per run, folded with the covered
- * bytes) instead of the CRC: cheap for the solver, and a function of the whole candidate, so the
- * reference and the firmware see the same verdict for the same bytes.
+ * The check is abstracted (proofs/bmc/stubs/fw_uplink_model.h, shared with the USB proof).
  */
 #include "urb_verify.h"
 
@@ -130,30 +127,8 @@ static uint8_t got_frame_bytes; /* bytes of the frames admitted */
 static uint32_t got_decode;     /* their decoding cycles */
 
 static const uint8_t *key; /* one arbitrary key per length (the harness's uninitialised local) */
-
-/* Length rules as in the strict decoders: a read is 4 bytes, a write 3 + its length field + 1 or
- * 2 check bytes; the last byte must be the fold. */
-static bool fw_is_frame(const uint8_t *frame, uint8_t len)
-{
-    uint8_t want;
-    if ((frame[0] & 1u) != 0u) {
-        want = 4u;
-    } else if ((len < 3u) || (frame[2] > 32u)) {
-        return false;
-    } else {
-        want = (uint8_t)(3u + frame[2] + ((3u + frame[2] <= URB_CRC8_LINK_CHECK_MAX_COVERED) ? 1u : 2u));
-    }
-    if (len != want) {
-        return false;
-    }
-    uint8_t fold = key[len];
-    for (uint8_t k = 0u; k < FW_N; k++) {
-        if ((uint8_t)(k + 1u) < len) {
-            fold = (uint8_t)(fold ^ frame[k]);
-        }
-    }
-    return frame[len - 1u] == fold;
-}
+#define FW_FRAME_WIDTH FW_N
+#include "../stubs/fw_uplink_model.h"
 
 bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t len)
 {
@@ -188,23 +163,19 @@ bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t l
 }
 
 /* Length of the request starting at stream[s] (bytes s..end-1 available): 0 = needs more bytes,
- * 0xFF = no request starts like this. Written from the schema, not from the firmware. */
+ * FW_NOT_A_REQUEST = no request starts like this. */
 static uint8_t ref_need(uint8_t s, uint8_t end)
 {
     if (s >= end) {
         return 0u;
     }
     if ((stream[s] & 1u) != 0u) {
-        return 4u; /* UplinkReadRequest */
+        return fw_request_len(stream[s], 0u);
     }
     if ((uint8_t)(end - s) < 3u) {
         return 0u;
     }
-    uint8_t const n = stream[s + 2u];
-    if (n > 32u) {
-        return 0xFFu;
-    }
-    return (uint8_t)(3u + n + ((3u + n <= URB_CRC8_LINK_CHECK_MAX_COVERED) ? 1u : 2u));
+    return fw_request_len(stream[s], stream[s + 2u]);
 }
 
 static uint8_t ref_len[FW_MAX_FRAMES];
@@ -225,7 +196,7 @@ static uint8_t ref_scan(uint8_t s, uint8_t e, bool ended)
     uint8_t buf[FW_N];
     for (uint8_t round = 0u; (round < FW_N) && (s < e); round++) {
         uint8_t const need = ref_need(s, e);
-        bool const complete = (need != 0u) && (need != 0xFFu) && (need <= (uint8_t)(e - s));
+        bool const complete = (need != 0u) && (need != FW_NOT_A_REQUEST) && (need <= (uint8_t)(e - s));
         if (complete) {
             if (ref_budget == 0u) {
                 ref_stopped = true; /* the rest waits for the next poll, which starts right here */
@@ -244,12 +215,12 @@ static uint8_t ref_scan(uint8_t s, uint8_t e, bool ended)
                 continue;
             }
             ref_discards++; /* hunt: this byte starts no frame */
-        } else if (ref_flushing || (ended && (need != 0xFFu))) {
+        } else if (ref_flushing || (ended && (need != FW_NOT_A_REQUEST))) {
             if (!ref_flushing) {
                 ref_gaps++;
                 ref_flushing = true;
             }
-        } else if (need == 0xFFu) {
+        } else if (need == FW_NOT_A_REQUEST) {
             ref_discards++;
         } else {
             break; /* wait for more bytes */

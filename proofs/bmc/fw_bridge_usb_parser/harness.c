@@ -73,29 +73,8 @@ static uint8_t got_count;
 static uint32_t got_decode; /* decoding cycles of the frames admitted */
 static const uint8_t *key;  /* one arbitrary key per length (the harness's uninitialised local) */
 
-/* The frame check, abstracted (see fw_bridge_rs232_parser): a key per length folded with the
- * covered bytes, and the strict decoders' length rules. */
-static bool fw_is_frame(const uint8_t *frame, uint8_t len)
-{
-    uint8_t want;
-    if ((frame[0] & 1u) != 0u) {
-        want = 4u;
-    } else if ((len < 3u) || (frame[2] > 32u)) {
-        return false;
-    } else {
-        want = (uint8_t)(3u + frame[2] + ((3u + frame[2] <= URB_CRC8_LINK_CHECK_MAX_COVERED) ? 1u : 2u));
-    }
-    if (len != want) {
-        return false;
-    }
-    uint8_t fold = key[len];
-    for (uint8_t k = 0u; k < FW_BODY; k++) {
-        if ((uint8_t)(k + 1u) < len) {
-            fold = (uint8_t)(fold ^ frame[k]);
-        }
-    }
-    return frame[len - 1u] == fold;
-}
+#define FW_FRAME_WIDTH FW_BODY
+#include "../stubs/fw_uplink_model.h"
 
 bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t len)
 {
@@ -123,20 +102,17 @@ bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t l
     return ok;
 }
 
-/* Reference: the request starting at stream[s] with bytes s..end-1 available (see the RS232 proof). */
+/* Reference: the length of the request starting at stream[s] with bytes s..end-1 available (0:
+ * more bytes needed; see the RS232 proof). */
 static uint8_t ref_need(uint8_t s, uint8_t end)
 {
     if ((stream[s] & 1u) != 0u) {
-        return 4u;
+        return fw_request_len(stream[s], 0u);
     }
     if ((uint8_t)(end - s) < 3u) {
         return 0u;
     }
-    uint8_t const n = stream[s + 2u];
-    if (n > 32u) {
-        return 0xFFu;
-    }
-    return (uint8_t)(3u + n + ((3u + n <= URB_CRC8_LINK_CHECK_MAX_COVERED) ? 1u : 2u));
+    return fw_request_len(stream[s], stream[s + 2u]);
 }
 
 static uint8_t ref_len[FW_MAX_FRAMES];
@@ -151,7 +127,7 @@ static uint8_t ref_walk(uint8_t e)
     uint8_t s = 0u;
     for (uint8_t round = 0u; (round < FW_MAX_FRAMES) && (s < e); round++) {
         uint8_t const need = ref_need(s, e);
-        if ((need == 0u) || (need == 0xFFu) || (need > (uint8_t)(e - s))) {
+        if ((need == 0u) || (need == FW_NOT_A_REQUEST) || (need > (uint8_t)(e - s))) {
             break;
         }
         for (uint8_t k = 0u; k < FW_BODY; k++) {
