@@ -14,7 +14,8 @@ proofs/bmc/Makefile.common (generated codec folders urb_*, firmware folders fw_*
 through `make -C <folder>`, whose `print-config` gives the settings, so a new folder needs no change
 here. Each proof runs once per sweep item of the tier and must report VERIFICATION SUCCESSFUL; each
 seeded bug in its mutants.json must make the same harness report VERIFICATION FAILED (an error or a
-timeout is not a kill); in the full tier, a folder with a COST file also runs its worst-case witness
+timeout is not a kill; a seeded bug marked "tier": "full" needs a bound only the full tier has, and
+only that tier runs it); in the full tier, a folder with a COST file also runs its worst-case witness
 (`make tight`), which must fail, showing the recorded worst case is reached.
 
 Results contract shared by every proof part (bmc here, framac, fuzz): build/proofs/<part>/summary.json
@@ -283,6 +284,10 @@ class Proof:
         text = self.config.get("fast_sweep" if tier == "fast" else "sweep", "")
         return text.split() if text else [""]
 
+    def mutants_of(self, tier: str) -> list[dict[str, Any]]:
+        """The seeded bugs the tier runs: all in the full tier, those not marked "tier": "full" in the fast."""
+        return [m for m in self.mutants if tier == "full" or m.get("tier", "fast") != "full"]
+
     def unwind(self, tier: str) -> str:
         return self.config.get("fast_unwind" if tier == "fast" else "unwind", "?")
 
@@ -479,7 +484,7 @@ def bmc(proofs: list[Proof], tier: str, jobs: int, mutants: bool, out_root: Path
                 plan.runs[item] = pool.submit(run_make, plan.proof, "proof", tier, out_root, item)
         for plan in plans:
             if mutants:
-                for m in plan.proof.mutants:
+                for m in plan.proof.mutants_of(tier):
                     plan.mutants[str(m["name"])] = pool.submit(run_mutant, plan.proof, tier, out_root, str(m["name"]))
             if tier == "full" and plan.proof.cost is not None:
                 item = plan.proof.cost_item if plan.proof.cost_item in plan.proof.items("full") else ""

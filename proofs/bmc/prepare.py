@@ -2,7 +2,7 @@
 """Prepare the sources one BMC proof runs on: a copy under build/, cost-instrumented, maybe mutated.
 
     prepare.py --out DIR --dir gen/c [--dir firmware/node ...] [--mutants mutants.json --mutant NAME]
-               [--stub FUNCTION ...]
+               [--stub FUNCTION ...] [--views views.json]
 
 Copies every *.c and *.h of each --dir (paths relative to the repository root) to DIR/<dir>/ and
 then, in the copies only:
@@ -15,12 +15,15 @@ then, in the copies only:
 3. inserts the cost counter: `URB_COST(n);` at every function entry (call overhead plus a small
    allowance per statement outside loops) and at the top of every loop body (cycles per iteration
    of the enclosing function), with n from proofs/bmc/cost_model.json, and `#include "urb_verify.h"`
-   at the top of each .c file. URB_COST expands to nothing unless URB_PROOF_COST is defined.
+   at the top of each .c file. URB_COST expands to nothing unless URB_PROOF_COST is defined;
+4. applies the proof's views (views.json): rewrites for checker limits that keep the meaning of the
+   code, e.g. a store through a variable index split into constant-index cases, each entry with its
+   "why" (the same find/replace rule as a mutant, on the instrumented copy).
 
 The instrumentation is textual and relies on the house style of generated and firmware C: function
 definitions start in column 0 and their body braces sit alone in column 0 (or end the signature
 line); loop headers `for (...) {`, `while (...) {` and `do {` fit on one line.
-Exit status: 0 done, 2 bad arguments or a mutant that does not apply.
+Exit status: 0 done, 2 bad arguments or a mutant or view that does not apply.
 """
 
 from __future__ import annotations
@@ -113,16 +116,28 @@ _COMMENT_RE = re.compile(r"/\*.*?\*/|//[^\n]*", re.DOTALL)
 
 def apply_mutant(root: Path, mutant: dict[str, Any]) -> None:
     """Applies one mutants.json entry to the copy under `root` (in place)."""
+    _rewrite(root, mutant, f"mutant {mutant['name']}", "update mutants.json")
+
+
+def apply_views(root: Path, views: list[dict[str, Any]]) -> None:
+    """Applies every views.json entry, in order, to the copy under `root` (in place)."""
+    for i, view in enumerate(views):
+        _rewrite(root, view, f"view {i + 1} ({view.get('function') or view['file']})", "update views.json")
+
+
+def _rewrite(root: Path, mutant: dict[str, Any], what: str, remedy: str) -> None:
+    """The literal find/replace of a mutant or view entry: the n-th occurrence, in code, inside one
+    function (or anywhere in the file when "function" is empty)."""
     path = root / str(mutant["file"])
     if not path.is_file():
-        raise PrepareError(f"mutant {mutant['name']}: no file {mutant['file']} in the prepared sources")
+        raise PrepareError(f"{what}: no file {mutant['file']} in the prepared sources")
     text = path.read_text(encoding="utf-8")
     lines = text.split("\n")
     function = str(mutant.get("function") or "")
     if function:
         spans = function_spans(lines)
         if function not in spans:
-            raise PrepareError(f"mutant {mutant['name']}: no function {function} in {mutant['file']}")
+            raise PrepareError(f"{what}: no function {function} in {mutant['file']}")
         _, open_line, close_line = spans[function]
         start = sum(len(line) + 1 for line in lines[:open_line])
         end = sum(len(line) + 1 for line in lines[: close_line + 1])
@@ -137,13 +152,13 @@ def apply_mutant(root: Path, mutant: dict[str, Any]) -> None:
         at = body.find(find, at + 1)
         if at < 0:
             raise PrepareError(
-                f"mutant {mutant['name']}: occurrence {occurrence} of {find!r} not found in {function}; "
-                "the code changed: regenerate the proof folders (proofs/bmc/generate.py) or update mutants.json"
+                f"{what}: occurrence {occurrence} of {find!r} not found in {function}; "
+                f"the code changed: regenerate the proof folders (proofs/bmc/generate.py) or {remedy}"
             )
     if any(m.start() <= at < m.end() for m in _COMMENT_RE.finditer(body)):
         raise PrepareError(
-            f"mutant {mutant['name']}: occurrence {occurrence} of {find!r} in {function} is inside a comment "
-            "(e.g. an ACSL annotation), so the mutant would change nothing; make `find` match the code"
+            f"{what}: occurrence {occurrence} of {find!r} in {function} is inside a comment "
+            "(e.g. an ACSL annotation), so it would change nothing; make `find` match the code"
         )
     body = body[:at] + replace + body[at + len(find):]
     path.write_text(text[:start] + body + text[end:], encoding="utf-8")
@@ -234,7 +249,7 @@ def instrument(text: str, model: CostModel) -> str:
 
 
 def prepare(out: Path, dirs: list[str], mutants_file: Path | None, mutant: str | None,
-            model: CostModel | None = None, stubbed: list[str] | None = None) -> Path:
+            model: CostModel | None = None, stubbed: list[str] | None = None, views_file: Path | None = None) -> Path:
     """Builds the prepared tree under `out` (replacing it) and returns it."""
     model = model or load_cost_model()
     if out.exists():
@@ -257,6 +272,8 @@ def prepare(out: Path, dirs: list[str], mutants_file: Path | None, mutant: str |
     for rel in dirs:
         for f in sorted((out / rel).glob("*.c")):
             f.write_text(instrument(f.read_text(encoding="utf-8"), model), encoding="utf-8")
+    if views_file is not None:
+        apply_views(out, json.loads(views_file.read_text(encoding="utf-8")))
     return out
 
 
@@ -267,12 +284,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--mutants", type=Path, help="the proof's mutants.json")
     ap.add_argument("--mutant", help="name of the seeded bug to apply")
     ap.add_argument("--stub", action="append", default=[], help="function whose definition a stub replaces")
+    ap.add_argument("--views", type=Path, help="the proof's views.json (rewrites for checker limits)")
     args = ap.parse_args(argv)
     if not args.dir:
         print("prepare.py: give at least one --dir", file=sys.stderr)
         return 2
     try:
-        prepare(args.out, args.dir, args.mutants, args.mutant or None, stubbed=args.stub)
+        prepare(args.out, args.dir, args.mutants, args.mutant or None, stubbed=args.stub, views_file=args.views)
     except PrepareError as e:
         print(f"prepare.py: {e}", file=sys.stderr)
         return 2

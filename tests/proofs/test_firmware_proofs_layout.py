@@ -12,6 +12,7 @@ import importlib.util
 import json
 import re
 import shutil
+import subprocess
 import sys
 from pathlib import Path
 from types import ModuleType
@@ -24,13 +25,20 @@ BMC = ROOT / "proofs" / "bmc"
 FOLDERS = sorted(p for p in BMC.glob("fw_*") if p.is_dir())
 
 
-def _runner() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("proofs_firmware", ROOT / "tools" / "proofs_firmware.py")
+def _prepare() -> ModuleType:
+    spec = importlib.util.spec_from_file_location("prepare", BMC / "prepare.py")
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
-    sys.modules["proofs_firmware"] = module  # dataclasses look their module up
+    sys.modules["prepare"] = module  # dataclasses look their module up
     spec.loader.exec_module(module)
     return module
+
+
+def _source_dirs(folder: Path) -> list[str]:
+    out = subprocess.run(["make", "-s", "-C", str(folder), "print-config", "TIER=fast"], capture_output=True,
+                         text=True, timeout=60, check=True)
+    dirs: list[str] = json.loads(out.stdout.strip().splitlines()[-1])["source_dirs"].split()
+    return dirs
 
 
 def test_there_are_firmware_proofs() -> None:
@@ -40,20 +48,53 @@ def test_there_are_firmware_proofs() -> None:
 
 @pytest.mark.parametrize("folder", FOLDERS, ids=[p.name for p in FOLDERS])
 def test_mutants_and_views_apply(folder: Path, tmp_path: Path) -> None:
-    runner = _runner()
-    proof = runner.load_proof(folder, "fast")
+    prep = _prepare()
+    dirs = _source_dirs(folder)
     mutants: list[dict[str, Any]] = json.loads((folder / "mutants.json").read_text(encoding="utf-8"))
     assert len(mutants) >= 1, "every proof has at least one seeded bug"
     names = [m["name"] for m in mutants]
     assert len(names) == len(set(names))
+    views = folder / "views.json"
     for m in mutants:
         assert {"name", "file", "function", "find", "replace", "why"} <= set(m)
+        assert m.get("tier", "fast") in ("fast", "full"), f"{m['name']}: tier is fast (default) or full"
         assert m["find"] != m["replace"]
         work = tmp_path / m["name"]
-        src = runner.prepare(proof, work, m)
+        src = prep.prepare(work, dirs, folder / "mutants.json", m["name"], views_file=views if views.exists() else None)
         assert (src / m["file"]).read_text(encoding="utf-8").count(m["replace"]) >= 1
         shutil.rmtree(work)
-    runner.prepare(proof, tmp_path / "base", None)  # views apply to the unmutated sources
+    if views.exists():
+        src = prep.prepare(tmp_path / "base", dirs, None, None, views_file=views)  # views apply to the unmutated sources
+        for view in json.loads(views.read_text(encoding="utf-8")):
+            assert view.get("why"), "every view says why it keeps the meaning"
+            assert view["replace"] in (src / view["file"]).read_text(encoding="utf-8")
+
+
+def test_a_view_that_no_longer_matches_is_an_error(tmp_path: Path) -> None:
+    prep = _prepare()
+    stale = tmp_path / "views.json"
+    stale.write_text(json.dumps([{"file": "firmware/node/urb_mailbox.c", "function": "urb_lock_inbox_any",
+                                  "find": "no such code;", "replace": "x;", "why": "test"}]), encoding="utf-8")
+    with pytest.raises(prep.PrepareError, match="update views.json"):
+        prep.prepare(tmp_path / "out", ["firmware/include", "firmware/node", "gen/c"], None, None, views_file=stale)
+
+
+def test_full_tier_mutants_are_left_to_the_full_tier() -> None:
+    """A seeded bug that needs a bound only the full tier has would survive the fast tier."""
+    sys.path.insert(0, str(ROOT / "tools"))
+    try:
+        proofs = importlib.import_module("proofs")
+    finally:
+        sys.path.pop(0)
+    rs232 = proofs.load(BMC / "fw_bridge_rs232_parser", "fast")
+    fast = {m["name"] for m in rs232.mutants_of("fast")}
+    full = {m["name"] for m in rs232.mutants_of("full")}
+    assert {"flush-drops-frames", "budget-not-spent"} <= full - fast
+    assert fast < full
+    items = rs232.items("full")
+    for m in rs232.mutants:
+        if m.get("tier") == "full":
+            assert m["item"] in items and m["item"] not in rs232.items("fast"), m["name"]
 
 
 def test_make_check_runs_the_firmware_proofs() -> None:

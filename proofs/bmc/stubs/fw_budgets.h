@@ -1,8 +1,9 @@
 /*
  * fw_budgets.h: cycle budgets of the firmware paths under proof, derived from the bus timing and
  * the 1-ms cycle on the reference core (Cortex-M0+ at 48 MHz). The firmware proofs assert their
- * cost counter (urb_proof_cost, proofs/bmc/include/urb_verify.h) against these; proofs/FIRMWARE.md
- * explains each one and tools/proofs_firmware.py prints them next to the proved worst cases.
+ * cost counter (urb_proof_cost, proofs/bmc/include/urb_verify.h) against these; the comments below
+ * explain each one and tools/proofs.py prints them next to the proved worst cases
+ * (build/proofs/summary.md).
  *
  * Every number is a macro of the timing it comes from, so a different clock or bus rate changes
  * the budgets, not the proofs. Half of a period is the rule for interrupt paths (the other half
