@@ -14,9 +14,11 @@
 (* later "resp" event decides which. The trace is accepted when TLC reaches *)
 (* a state that has matched every event: the invariant TraceNotMatched is   *)
 (* then violated, which is the expected result. Along the way every         *)
-(* invariant of Bridge.tla is checked on the trace's states.                *)
+(* invariant of Bridge.tla is checked on the trace's states, and            *)
+(* MatchedSoFar prints each new longest matched prefix, so a rejected trace *)
+(* says in the same run how far it matched.                                 *)
 (***************************************************************************)
-EXTENDS Bridge, TraceBridgeData
+EXTENDS Bridge, TraceBridgeData, TLC
 
 VARIABLE l          \* index of the next logged event to match
 
@@ -51,4 +53,11 @@ TraceSpec == TraceInit /\ [][TraceNext]_tvars
 
 (* Violated exactly when the whole trace has been matched. *)
 TraceNotMatched == l <= Len(Trace)
+
+(* Not a property (always TRUE): TLC register 1 holds the longest prefix  *)
+(* matched in any state seen so far, and each new one is printed as       *)
+(* <<"matched", n>> (tracecheck.py reads the last).                        *)
+ASSUME TLCSet(1, 0)
+MatchedSoFar ==
+    IF l - 1 > TLCGet(1) THEN TLCSet(1, l - 1) /\ PrintT(<<"matched", l - 1>>) ELSE TRUE
 =============================================================================

@@ -1,0 +1,42 @@
+"""TraceBridge.tla on hand-written bridge traces: an accepted trace, and a rejected one that reports,
+from its single TLC run, the longest prefix a behaviour of Bridge.tla matched."""
+
+from __future__ import annotations
+
+import pytest
+
+from urb_sim.tracecheck import Event, TraceCheckError, check_bridge, find_tlc
+
+PRESENT = {0x10: {1: 6}}
+OK = 0  # URB_STATUS_OK
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _tlc() -> None:
+    try:
+        find_tlc()
+    except TraceCheckError as exc:  # make check installs both; a bare checkout says what is missing
+        pytest.fail(str(exc))
+
+
+def _reads(n: int) -> list[Event]:
+    """n reads of node 0x10 mailbox 1, each answered OK before the next."""
+    out: list[Event] = []
+    for seq in range(1, n + 1):
+        out += [Event("req", 0x10, 1, "read", 6, seq), Event("resp", seq=seq, status=OK)]
+    return out
+
+
+def test_fault_free_trace_is_accepted() -> None:
+    r = check_bridge(_reads(3), PRESENT)
+    assert r.accepted, r.message
+    assert r.matched_prefix == r.events == 6
+
+
+def test_rejected_trace_reports_its_longest_matched_prefix() -> None:
+    trace = _reads(3)
+    trace[3].seq = 3  # the second response names the third request: event 4 matches no behaviour
+    r = check_bridge(trace, PRESENT)
+    assert not r.accepted
+    assert r.matched_prefix == 3, r.message
+    assert "matches up to event 3 of 6" in r.message
