@@ -125,28 +125,28 @@ def apply_views(root: Path, views: list[dict[str, Any]]) -> None:
         _rewrite(root, view, f"view {i + 1} ({view.get('function') or view['file']})", "update views.json")
 
 
-def _rewrite(root: Path, mutant: dict[str, Any], what: str, remedy: str) -> None:
+def _rewrite(root: Path, entry: dict[str, Any], what: str, remedy: str) -> None:
     """The literal find/replace of a mutant or view entry: the n-th occurrence, in code, inside one
     function (or anywhere in the file when "function" is empty)."""
-    path = root / str(mutant["file"])
+    path = root / str(entry["file"])
     if not path.is_file():
-        raise PrepareError(f"{what}: no file {mutant['file']} in the prepared sources")
+        raise PrepareError(f"{what}: no file {entry['file']} in the prepared sources")
     text = path.read_text(encoding="utf-8")
     lines = text.split("\n")
-    function = str(mutant.get("function") or "")
+    function = str(entry.get("function") or "")
     if function:
         spans = function_spans(lines)
         if function not in spans:
-            raise PrepareError(f"{what}: no function {function} in {mutant['file']}")
+            raise PrepareError(f"{what}: no function {function} in {entry['file']}")
         _, open_line, close_line = spans[function]
         start = sum(len(line) + 1 for line in lines[:open_line])
         end = sum(len(line) + 1 for line in lines[: close_line + 1])
     else:  # file-level data, e.g. a table
         start, end = 0, len(text)
-        function = str(mutant["file"])
+        function = str(entry["file"])
     body = text[start:end]
-    find, replace = str(mutant["find"]), str(mutant["replace"])
-    occurrence = int(mutant.get("occurrence", 1))
+    find, replace = str(entry["find"]), str(entry["replace"])
+    occurrence = int(entry.get("occurrence", 1))
     at = -1
     for _ in range(occurrence):
         at = body.find(find, at + 1)

@@ -6,9 +6,9 @@
  *
  * Admission (urbb_frame, bridge.c) is replaced by a recorder that decides exactly as bridge.c
  * does: a candidate is a frame when the generated strict decoder does not report CHECKSUM, SHORT
- * or LONG (the FIFO proof covers what admission does with it). The check is abstracted (see the end of this comment);
- * part 3 proves, on the real generated decoders, the cost the recorder charges and the length rule
- * the abstraction uses.
+ * or LONG (the FIFO proof covers what admission does with it). The check is abstracted (end of
+ * this comment); part 3 proves, on the real generated decoders, the cost the recorder charges and
+ * the length rule the abstraction uses.
  *
  * Part 1, the step lemma. The state between two polls: the assembler holds FW_HELD bytes (a sweep
  * item; any bytes: a poll that ran out of checks leaves a complete candidate first, one that did
