@@ -10,33 +10,19 @@ from urb_sim import cli as sim_cli
 
 from . import __version__, cli_nodes, cli_schema, demo
 
-DESCRIPTION = """\
-URB, the Universal Robot Bus: schema compiler, codecs and tools.
-
-Commands:
-  scan           discover the nodes behind one or more bridges and list them
-  read           read a mailbox of a node, with values in engineering units
-  write          write a mailbox of a node from engineering values
-  monitor        show live values, latency and errors per node, refreshing in place
-  log            record mailbox values to a CSV (or Parquet) file for plotting
-  gen            generate the C and Python codecs from the schemas
-  schema check   check schema files and report every error with its location
-  schema show    show the wire layout of messages and nodes
-  demo           round-trip every message through the Python and C codecs
-  sim            simulate the SensoRHex buses and reproduce the paper's experiments
-
-Run `urb COMMAND --help` for the options of one command."""
+DESCRIPTION = "URB, the Universal Robot Bus: schema compiler, codecs and tools."
+EPILOG = "Run `urb COMMAND --help` for the options of one command."
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The full argument parser (also used to render help in the docs)."""
     parser = argparse.ArgumentParser(
-        prog="urb", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter
+        prog="urb", description=DESCRIPTION, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     parser.add_argument("--version", action="version", version=f"urb {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    cli_schema.register(sub)
+    sub = parser.add_subparsers(title="commands", dest="command", metavar="COMMAND")
     cli_nodes.register(sub)
+    cli_schema.register(sub)
     demo.register(sub)
     sim_cli.register(sub)
     return parser

@@ -61,7 +61,7 @@ def register(sub: Any) -> None:
                        help="seconds to wait for one response before reporting UPLINK_TIMEOUT (default 0.2)")
 
     scan = sub.add_parser(
-        "scan", help="list the nodes behind one or more bridges", formatter_class=fmt,
+        "scan", help="discover the nodes behind one or more bridges and list them", formatter_class=fmt,
         description="List every node behind the bridges on the given ports, one row per node that answered:\n"
         "bridge and downlink address, node type, class, index, layout fingerprint (checked against\n"
         "the host's schema), firmware version and flags. Rows are never merged: two nodes with the\n"
@@ -74,7 +74,7 @@ def register(sub: Any) -> None:
     scan.set_defaults(run=run_scan)
 
     read = sub.add_parser(
-        "read", help="read an outbox of a node", formatter_class=fmt,
+        "read", help="read an outbox of a node, with values in engineering units", formatter_class=fmt,
         description="Read one outbox of one node and print its fields in engineering units, with the\n"
         "round-trip latency. With --count, read repeatedly every --interval seconds.",
         epilog=COMMON_EPILOG + "\n\nExamples:\n  urb read /dev/ttyS0 MotorDriver:2 MotorFeedback\n"
@@ -90,7 +90,7 @@ def register(sub: Any) -> None:
     read.set_defaults(run=run_read)
 
     write = sub.add_parser(
-        "write", help="write an inbox of a node", formatter_class=fmt,
+        "write", help="write an inbox of a node from engineering values", formatter_class=fmt,
         description="Write one inbox of one node. Give every field of the inbox's message as FIELD=VALUE\n"
         "in engineering units (enum members by name, booleans as true/false, arrays as\n"
         "comma-separated lists); --defaults sets the fields you leave out to zero. --raw HEX writes\n"
@@ -111,7 +111,8 @@ def register(sub: Any) -> None:
     for name in ("monitor", "log"):
         is_log = name == "log"
         p = sub.add_parser(
-            name, help="record outboxes to a CSV or Parquet file" if is_log else "show live values and latency statistics",
+            name, help="record outboxes to a CSV (or Parquet) file for plotting" if is_log
+            else "show live values, latency and errors per node",
             formatter_class=fmt,
             description=(
                 "Read outboxes periodically and record every response to FILE, one row per read: times\n"

@@ -22,7 +22,7 @@ def register(sub: Any) -> None:
     """Add the schema commands to the `urb` parser."""
     fmt = argparse.RawDescriptionHelpFormatter
     gen = sub.add_parser(
-        "gen", help="generate C and Python codecs", formatter_class=fmt,
+        "gen", help="generate the C and Python codecs from the schemas", formatter_class=fmt,
         description="Generate the C codecs (gen/c/) and Python codecs (gen/python/urb_msgs/) from every\n"
         "schema in the schema folder. With --check, generate into a temporary folder and fail\n"
         "(exit 1) when the committed files differ: the staleness check CI runs.",
@@ -33,7 +33,7 @@ def register(sub: Any) -> None:
     gen.add_argument("--check", action="store_true", help="do not write; exit 1 if the committed output is stale")
     gen.set_defaults(run=run_gen)
 
-    schema = sub.add_parser("schema", help="check or show schemas", formatter_class=fmt,
+    schema = sub.add_parser("schema", help="check schema files or show wire layouts", formatter_class=fmt,
                             description="Check schema files or show their wire layouts.")
     ssub = schema.add_subparsers(dest="schema_command", metavar="SUBCOMMAND")
     check = ssub.add_parser(

@@ -51,7 +51,7 @@ build error (the message says what to do)."""
 
 def register(sub: Any) -> None:
     """Add `urb sim` and its subcommands to the `urb` parser."""
-    sim = sub.add_parser("sim", help="time-accurate simulation of the SensoRHex buses (the main job)",
+    sim = sub.add_parser("sim", help="the main job: simulate SensoRHex, run the paper's experiments",
                          description="Time-accurate simulation of URB buses running the real firmware.\n\n"
                                      "  urb sim sensorhex   run the scenario and the paper's experiments\n"
                                      "  urb sim params      list the model parameters and their defaults",

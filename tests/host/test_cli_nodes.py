@@ -182,3 +182,14 @@ def test_help_texts_read_like_man_pages(capsys: pytest.CaptureFixture[str]) -> N
         assert "Exit status:" in text and "Example" in text and "--baud" in text and "usage: urb " + cmd in text, cmd
     proc = subprocess.run([sys.executable, "-m", "urb.cli", "read", "--help"], capture_output=True, text=True, check=True)
     assert "engineering units" in proc.stdout
+
+
+def test_top_level_help_lists_each_command_once(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["--help"])
+    text = capsys.readouterr().out
+    assert exc.value.code == 0
+    commands = ("scan", "read", "write", "monitor", "log", "gen", "schema", "demo", "sim")
+    listed = [line.split()[0] for line in text.splitlines() if line.startswith("    ") and line.split()]
+    assert listed == list(commands), text
+    assert "urb COMMAND --help" in text
