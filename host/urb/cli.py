@@ -15,7 +15,7 @@ EPILOG = "Run `urb COMMAND --help` for the options of one command."
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The full argument parser (also used to render help in the docs)."""
+    """The full argument parser: every command registered by its module."""
     parser = argparse.ArgumentParser(
         prog="urb", description=DESCRIPTION, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter
     )

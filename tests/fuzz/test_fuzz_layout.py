@@ -4,26 +4,21 @@ from, each target has a corpus, and make proofs pulls the fuzz part in."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import re
-import sys
 from pathlib import Path
 from types import ModuleType
 from typing import Any
 
 import pytest
 
+from repo_tools import load_module
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
 def _fuzz() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("urb_fuzz_tool", ROOT / "tools" / "fuzz.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up there
-    spec.loader.exec_module(module)
-    return module
+    return load_module("urb_fuzz_tool", Path("tools/fuzz.py"))
 
 
 FUZZ = _fuzz()

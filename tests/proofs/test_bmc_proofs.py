@@ -8,31 +8,22 @@ and changes them; and `make check` runs the proofs through mk/proofs.mk.
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import re
 import subprocess
 import sys
 from pathlib import Path
-from types import ModuleType
 from typing import Any
 
 import pytest
+
+from repo_tools import load_module
 
 ROOT = Path(__file__).resolve().parents[2]
 BMC = ROOT / "proofs" / "bmc"
 FOLDERS = sorted(p for p in BMC.iterdir() if p.is_dir() and (p / "harness.c").is_file())
 CODEC = [p for p in FOLDERS if p.name.startswith("urb_")]
 BUILTINS = re.compile(r"__(ESBMC|CPROVER|VERIFIER)_\w+|\bnondet_\w+\s*\(")
-
-
-def _module(name: str, path: Path) -> ModuleType:
-    spec = importlib.util.spec_from_file_location(name, path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module  # dataclasses look their module up
-    spec.loader.exec_module(module)
-    return module
 
 
 def _mutants(folder: Path) -> list[dict[str, Any]]:
@@ -90,7 +81,7 @@ def test_generated_folders_are_fresh() -> None:
 
 
 def test_staleness_check_can_fail(tmp_path: Path) -> None:
-    gen = _module("urb_bmc_generate", BMC / "generate.py")
+    gen = load_module("urb_bmc_generate", BMC / "generate.py")
     files: dict[str, str] = gen.render(*gen.all_proofs())
     target = "urb_motor_command_decode/harness.c"
     assert target in files
@@ -105,7 +96,7 @@ def test_staleness_check_can_fail(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("folder", CODEC, ids=[p.name for p in CODEC])
 def test_codec_mutants_apply(folder: Path, tmp_path: Path) -> None:
-    prep = _module("urb_bmc_prepare", BMC / "prepare.py")
+    prep = load_module("urb_bmc_prepare", BMC / "prepare.py")
     src_root = ROOT / "gen" / "c"
     originals = {f.name: f.read_text(encoding="utf-8") for f in src_root.iterdir() if f.suffix in (".c", ".h")}
     for m in _mutants(folder):
@@ -120,7 +111,7 @@ def test_codec_mutants_apply(folder: Path, tmp_path: Path) -> None:
 
 
 def test_mutant_that_no_longer_matches_is_an_error(tmp_path: Path) -> None:
-    prep = _module("urb_bmc_prepare", BMC / "prepare.py")
+    prep = load_module("urb_bmc_prepare", BMC / "prepare.py")
     (tmp_path / "gen" / "c").mkdir(parents=True)
     (tmp_path / "gen" / "c" / "urb_runtime.c").write_text(
         (ROOT / "gen" / "c" / "urb_runtime.c").read_text(encoding="utf-8"), encoding="utf-8")
@@ -133,7 +124,7 @@ def test_mutant_that_no_longer_matches_is_an_error(tmp_path: Path) -> None:
 def test_mutant_inside_a_comment_is_an_error(tmp_path: Path) -> None:
     """A find text whose occurrence lies in a comment (an ACSL annotation, say) would leave the
     code unchanged and the mutant would survive for the wrong reason: refused up front."""
-    prep = _module("urb_bmc_prepare", BMC / "prepare.py")
+    prep = load_module("urb_bmc_prepare", BMC / "prepare.py")
     (tmp_path / "gen" / "c").mkdir(parents=True)
     runtime = (ROOT / "gen" / "c" / "urb_runtime.c").read_text(encoding="utf-8")
     (tmp_path / "gen" / "c" / "urb_runtime.c").write_text(runtime, encoding="utf-8")
@@ -177,7 +168,7 @@ def test_recorded_cost_reaches_esbmc_as_one_number(folder: Path) -> None:
 def test_summary_bound_names_each_items_own_unwinding_and_defines() -> None:
     """fw_bridge_fifo runs its 32-byte items at another unwinding and FIFO size (ITEM_UNWIND, DEFINES on
     SWEEP_ITEM): the summary must say so per group of items, not give the largest bound to all."""
-    proofs = _module("proofs", ROOT / "tools" / "proofs.py")
+    proofs = load_module("proofs", ROOT / "tools" / "proofs.py")
     fifo = proofs.load(BMC / "fw_bridge_fifo", "full")
     bound = proofs.bound_of(fifo, "full")
     groups = bound.split("; ")

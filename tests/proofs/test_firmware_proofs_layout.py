@@ -8,34 +8,25 @@ test_bmc_proofs.py.
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import re
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 from types import ModuleType
 from typing import Any
 
 import pytest
 
+from repo_tools import load_module
+
 ROOT = Path(__file__).resolve().parents[2]
 BMC = ROOT / "proofs" / "bmc"
 FOLDERS = sorted(p for p in BMC.glob("fw_*") if p.is_dir())
 
 
-def _module(name: str, path: Path) -> ModuleType:
-    spec = importlib.util.spec_from_file_location(name, path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module  # dataclasses look their module up
-    spec.loader.exec_module(module)
-    return module
-
-
 def _prepare() -> ModuleType:
-    return _module("prepare", BMC / "prepare.py")
+    return load_module("prepare", BMC / "prepare.py")
 
 
 def _source_dirs(folder: Path) -> list[str]:
@@ -85,7 +76,7 @@ def test_a_view_that_no_longer_matches_is_an_error(tmp_path: Path) -> None:
 
 def test_full_tier_mutants_are_left_to_the_full_tier() -> None:
     """A seeded bug that needs a bound only the full tier has would survive the fast tier."""
-    proofs = _module("proofs", ROOT / "tools" / "proofs.py")
+    proofs = load_module("proofs", ROOT / "tools" / "proofs.py")
     rs232 = proofs.load(BMC / "fw_bridge_rs232_parser", "fast")
     fast = {m["name"] for m in rs232.mutants_of("fast")}
     full = {m["name"] for m in rs232.mutants_of("full")}

@@ -10,7 +10,6 @@ mutant must be rejected, and a missing cache entry fails instead of silently run
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import shutil
 import subprocess
@@ -21,18 +20,15 @@ from typing import Any
 
 import pytest
 
+from repo_tools import load_module
+
 ROOT = Path(__file__).resolve().parents[2]
 UNITS = ROOT / "proofs" / "framac"
 FOLDERS = sorted(p.parent for p in UNITS.glob("*/unit.json"))
 
 
 def _runner() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("proofs_framac", ROOT / "tools" / "proofs_framac.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["proofs_framac"] = module  # dataclasses look their module up
-    spec.loader.exec_module(module)
-    return module
+    return load_module("proofs_framac", Path("tools/proofs_framac.py"))
 
 
 RUNNER = _runner()

@@ -6,9 +6,7 @@ any row whose result is not the expected one (a surviving mutant, a failed proof
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
 from types import ModuleType
@@ -16,16 +14,13 @@ from typing import Any
 
 import pytest
 
+from repo_tools import load_module
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
 def _runner() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("urb_tools_proofs", ROOT / "tools" / "proofs.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["urb_tools_proofs"] = module  # dataclasses look their module up
-    spec.loader.exec_module(module)
-    return module
+    return load_module("urb_tools_proofs", Path("tools/proofs.py"))
 
 
 P = _runner()

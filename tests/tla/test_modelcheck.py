@@ -8,26 +8,21 @@ cannot turn a failure into a pass).
 
 from __future__ import annotations
 
-import importlib.util
 import re
-import sys
 from pathlib import Path
 from types import ModuleType
 from typing import Any
 
 import pytest
 
+from repo_tools import load_module
+
 ROOT = Path(__file__).resolve().parents[2]
 SPEC = ROOT / "spec" / "tla"
 
 
 def _load_runner() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("modelcheck", ROOT / "tools" / "modelcheck.py")
-    assert spec is not None and spec.loader is not None
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules["modelcheck"] = mod
-    spec.loader.exec_module(mod)
-    return mod
+    return load_module("modelcheck", Path("tools/modelcheck.py"))
 
 
 mc: Any = _load_runner()

@@ -2,21 +2,16 @@
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from pathlib import Path
 from types import ModuleType
+
+from repo_tools import load_module
 
 REPO = Path(__file__).resolve().parents[2]
 
 
 def _xref() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("tla_xref", REPO / "tools" / "tla_xref.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["tla_xref"] = module
-    spec.loader.exec_module(module)
-    return module
+    return load_module("tla_xref", Path("tools/tla_xref.py"))
 
 
 def test_every_citation_resolves_and_every_mailbox_action_is_implemented() -> None:
