@@ -35,7 +35,7 @@ def register(sub: Any) -> None:
 
     schema = sub.add_parser("schema", help="check schema files or show wire layouts", formatter_class=fmt,
                             description="Check schema files or show their wire layouts.")
-    ssub = schema.add_subparsers(dest="schema_command", metavar="SUBCOMMAND")
+    ssub = schema.add_subparsers(title="subcommands", dest="schema_command", metavar="SUBCOMMAND")
     check = ssub.add_parser(
         "check", help="check schema files", formatter_class=fmt,
         description="Parse and check schema files. Every error is printed as file:line:column with the\n"

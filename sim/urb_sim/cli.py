@@ -52,12 +52,16 @@ build error (the message says what to do)."""
 def register(sub: Any) -> None:
     """Add `urb sim` and its subcommands to the `urb` parser."""
     sim = sub.add_parser("sim", help="the main job: simulate SensoRHex, run the paper's experiments",
+                         usage="%(prog)s [-h] SUBCOMMAND ...",
                          description="Time-accurate simulation of URB buses running the real firmware.\n\n"
-                                     "  urb sim sensorhex   run the scenario and the paper's experiments\n"
-                                     "  urb sim params      list the model parameters and their defaults",
+                                     "Subcommands:\n"
+                                     "  sensorhex   run the scenario and the paper's experiments, write the HTML report\n"
+                                     "  params      list the model parameters, their defaults and meaning\n\n"
+                                     "Run `urb sim SUBCOMMAND --help` for its options.",
                          formatter_class=argparse.RawDescriptionHelpFormatter)
-    simsub = sim.add_subparsers(dest="sim_command", metavar="SUBCOMMAND")
-    p = simsub.add_parser("sensorhex", help="run the scenario and the experiments, write the HTML summary",
+    # The description lists the subcommands (argparse's own list would wrap "sensorhex" onto two lines).
+    simsub = sim.add_subparsers(dest="sim_command", metavar="SUBCOMMAND", help=argparse.SUPPRESS)
+    p = simsub.add_parser("sensorhex", help="run the scenario and the experiments, write the HTML report",
                           description=SENSORHEX_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", type=Path, default=REPO / "build" / "sim" / "report", metavar="DIR",
                    help="output folder (default build/sim/report)")

@@ -35,3 +35,13 @@ def test_sim_report(tmp_path: Path) -> None:
     assert "PASS" in html and "fig16_usb_latency.png" in html
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["passed"] and summary["experiments"][0]["key"] == "fig16"
+
+
+def test_sim_help_lists_each_subcommand_once(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["sim", "--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith("usage: urb sim [-h] SUBCOMMAND ...")
+    for name in ("sensorhex", "params"):
+        assert sum(line.split()[:1] == [name] for line in out.splitlines()) == 1, out
