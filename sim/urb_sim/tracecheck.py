@@ -34,7 +34,9 @@ STATUS = {0: "OK", 1: "TIMEOUT", 2: "CHECKSUM", 3: "BUSY", 4: "NO_NODE", 5: "SIZ
 
 
 class TraceCheckError(RuntimeError):
-    """TLC could not be run (no Java, no tla2tools.jar); the message says what to install."""
+    """TLC could not be run (no Java, no tla2tools.jar; the message says what to install) or did not
+    finish its check (killed, out of memory, an error in a specification): then the trace is neither
+    accepted nor rejected."""
 
 
 @dataclass
@@ -135,21 +137,7 @@ def find_tlc() -> tuple[str, Path]:
 def _run(events: list[Event], present: dict[int, dict[int, int]], faults: Iterable[str], queue_len: int,
          host_window: int) -> tuple[bool, int | None, int, str, float]:
     """One TLC run on the trace: (accepted, distinct states, longest prefix matched, message, seconds)."""
-    java, jar = find_tlc()
-    with tempfile.TemporaryDirectory(prefix="urb-trace-") as tmp_s:
-        tmp = Path(tmp_s)
-        for f in SPEC.glob("*.tla"):
-            shutil.copy2(f, tmp / f.name)
-        for f in TRACE_SPEC.glob("TraceBridge.*"):
-            shutil.copy2(f, tmp / f.name)
-        (tmp / "TraceBridgeData.tla").write_text(_tla_module(events, present, faults, queue_len, host_window))
-        cmd = [java, "-XX:+UseParallelGC", f"-Djava.io.tmpdir={tmp}", "-cp", str(jar), "tlc2.TLC", "-deadlock", "-workers", "1",
-               "-config", "TraceBridge.cfg", "-metadir", str(tmp / "meta"), "TraceBridge.tla"]
-        t0 = time.monotonic()
-        proc = subprocess.run(cmd, cwd=tmp, capture_output=True, text=True, check=False)
-        dt = time.monotonic() - t0
-    log = proc.stdout + proc.stderr
-    accepted = "Invariant TraceNotMatched is violated" in log
+    accepted, log, dt = _tlc("TraceBridge", _tla_module(events, present, faults, queue_len, host_window))
     matched = max((int(m) for m in re.findall(r'<<"matched", (\d+)>>', log)), default=0)
     states = None
     for line in log.splitlines():
@@ -158,12 +146,11 @@ def _run(events: list[Event], present: dict[int, dict[int, int]], faults: Iterab
                 states = int(line.split(" distinct states found")[0].split(",")[-1].strip().split()[-1].replace(",", ""))
             except ValueError:
                 pass
-    if not accepted:
-        err = [ln for ln in log.splitlines() if ln.startswith("Error")]
-        msg = err[0] if err else ("TLC found no behaviour matching the whole trace" if "No error has been found" in log
-                                  else log[-2000:])
-        return False, states, matched, msg, dt
-    return True, states, len(events), "every event matched", dt
+    return accepted, states, len(events) if accepted else matched, _verdict(accepted), dt
+
+
+def _verdict(accepted: bool) -> str:
+    return "every event matched" if accepted else "TLC found no behaviour matching the whole trace"
 
 
 def check_bridge(events: list[Event], present: dict[int, dict[int, int]], *, faults: Iterable[str] = (),
@@ -225,7 +212,11 @@ def _outbox_module(events: list[dict[str, int | str]], size: int) -> str:
 
 
 def _tlc(spec: str, data: str) -> tuple[bool, str, float]:
-    """Run TLC on sim/tla/<spec>.tla with the generated <spec>Data module; (accepted, message, s)."""
+    """Run TLC on sim/tla/<spec>.tla with the generated <spec>Data module: (accepted, TLC's output,
+    seconds). Accepted: TLC found a behaviour that matches the whole trace (TraceNotMatched is
+    violated). Rejected: TLC finished its search without finding one. Anything else (TLC killed, out
+    of memory, an error in a specification) is neither, and raises TraceCheckError: a crashed check
+    must never count as a rejected mutant."""
     java, jar = find_tlc()
     with tempfile.TemporaryDirectory(prefix="urb-trace-") as tmp_s:
         tmp = Path(tmp_s)
@@ -240,19 +231,22 @@ def _tlc(spec: str, data: str) -> tuple[bool, str, float]:
         proc = subprocess.run(cmd, cwd=tmp, capture_output=True, text=True, check=False)
         dt = time.monotonic() - t0
     log = proc.stdout + proc.stderr
-    accepted = "Invariant TraceNotMatched is violated" in log
-    err = [ln for ln in log.splitlines() if ln.startswith("Error") or "is violated" in ln]
-    if accepted:
-        return True, "every event matched", dt
-    if "No error has been found" in log:
-        return False, "TLC found no behaviour matching the whole trace", dt
-    return False, (err[0] if err else log[-2000:]), dt
+    if "Invariant TraceNotMatched is violated" in log:
+        return True, log, dt
+    if proc.returncode == 0 and "No error has been found" in log:
+        return False, log, dt
+    how = f"killed by signal {-proc.returncode}" if proc.returncode < 0 else f"exit status {proc.returncode}"
+    errors = [ln for ln in log.splitlines() if ln.startswith("Error") or "is violated" in ln]
+    raise TraceCheckError(f"TLC did not finish checking the trace against sim/tla/{spec}.tla ({how}): "
+                          + (errors[0] if errors else log[-500:].strip() or "no output")
+                          + ". The trace is neither accepted nor rejected; run the check again, and if it fails "
+                          "the same way, fix the specification or give TLC more memory.")
 
 
 def check_outbox(events: list[dict[str, int | str]], size: int) -> TraceResult:
     """Check an outbox trace against MailboxOutbox.tla (no prefix search: these traces are short)."""
-    accepted, msg, dt = _tlc("TraceOutbox", _outbox_module(events, size))
-    return TraceResult(accepted, len(events), len(events) if accepted else -1, None, dt, msg)
+    accepted, _, dt = _tlc("TraceOutbox", _outbox_module(events, size))
+    return TraceResult(accepted, len(events), len(events) if accepted else -1, None, dt, _verdict(accepted))
 
 
 # --------------------------------------------------------------------------- inbox traces
@@ -319,5 +313,5 @@ def check_inbox(events: list[dict[str, int | str]], size: int) -> TraceResult:
     if size < 2:
         raise ValueError(f"inbox of {size} byte(s): MailboxInbox.tla needs MsgLen >= 2 (a torn read must be "
                          "observable); trace an inbox of 2 bytes or more")
-    accepted, msg, dt = _tlc("TraceInbox", _inbox_module(events, size))
-    return TraceResult(accepted, len(events), len(events) if accepted else -1, None, dt, msg)
+    accepted, _, dt = _tlc("TraceInbox", _inbox_module(events, size))
+    return TraceResult(accepted, len(events), len(events) if accepted else -1, None, dt, _verdict(accepted))

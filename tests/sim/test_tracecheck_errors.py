@@ -1,0 +1,51 @@
+"""A TLC run that does not finish (killed, out of memory, an error in a specification) is neither an
+accepted nor a rejected trace: it raises TraceCheckError, so a crashed check can never pass as a
+rejected mutant. TLC is replaced by a script that behaves like the failing run."""
+
+from __future__ import annotations
+
+import stat
+from pathlib import Path
+
+import pytest
+
+from urb_sim import tracecheck
+from urb_sim.tracecheck import Event, TraceCheckError, check_bridge, check_inbox, check_outbox
+
+TRACE = [Event("req", addr=0x10, box=1, op="read", length=6, seq=1),
+         Event("resp", addr=0x10, box=1, op="read", length=6, seq=1, status=0)]
+
+#: What the fake TLC prints before it stops, and how it stops.
+KILLED = 'echo \'<<"matched", 1>>\'; kill -9 $$'
+SPEC_ERROR = "echo 'Error: Parsing or semantic analysis failed.'; exit 150"
+FINISHED = "echo 'Model checking completed. No error has been found.'; exit 0"
+MATCHED = "echo 'Error: Invariant TraceNotMatched is violated.'; exit 12"
+
+
+def _fake_tlc(monkeypatch: pytest.MonkeyPatch, tmp_path: Path, body: str) -> None:
+    java = tmp_path / "java"
+    java.write_text("#!/bin/sh\n" + body + "\n")
+    java.chmod(java.stat().st_mode | stat.S_IEXEC)
+    monkeypatch.setattr(tracecheck, "find_tlc", lambda: (str(java), tmp_path / "tla2tools.jar"))
+
+
+@pytest.mark.parametrize("body, cause", [(KILLED, "killed by signal 9"), (SPEC_ERROR, "Parsing or semantic")],
+                         ids=["killed", "spec-error"])
+def test_a_check_that_does_not_finish_is_an_error(monkeypatch: pytest.MonkeyPatch, tmp_path: Path, body: str,
+                                                  cause: str) -> None:
+    _fake_tlc(monkeypatch, tmp_path, body)
+    for check in (lambda: check_bridge(TRACE, {0x10: {1: 6}}),
+                  lambda: check_outbox([{"ev": "release"}], 4),
+                  lambda: check_inbox([{"ev": "wnack"}], 4)):
+        with pytest.raises(TraceCheckError, match=cause):
+            check()
+
+
+def test_finished_runs_give_a_verdict(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    _fake_tlc(monkeypatch, tmp_path, FINISHED)
+    assert not check_bridge(TRACE, {0x10: {1: 6}}).accepted
+    assert not check_outbox([{"ev": "release"}], 4).accepted
+    _fake_tlc(monkeypatch, tmp_path, MATCHED)
+    r = check_bridge(TRACE, {0x10: {1: 6}})
+    assert r.accepted and r.matched_prefix == len(TRACE)
+    assert check_inbox([{"ev": "wnack"}], 4).accepted
