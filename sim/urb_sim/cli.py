@@ -8,12 +8,12 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from .build import REPO, BuildError, ensure_library
-from .experiments import Progress, Result
+from .experiments import Progress
+from .runner import available_cpus, run_experiments
 
 EXPERIMENTS = ["fig15", "fig16", "table1", "fig18_19", "fig20", "bandwidth", "faults", "traces"]
 
@@ -49,6 +49,16 @@ Exit status: 0 when every acceptance criterion is met, 1 when one is not, 2 on a
 build error (the message says what to do)."""
 
 
+def _positive(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number of 1 or more, got {text!r}")
+    return value
+
+
 def register(sub: Any) -> None:
     """Add `urb sim` and its subcommands to the `urb` parser."""
     sim = sub.add_parser("sim", help="the main job: simulate SensoRHex, run the paper's experiments",
@@ -70,6 +80,9 @@ def register(sub: Any) -> None:
                    help="fewer payloads, reads and seeds (a few times faster); same acceptance criteria")
     p.add_argument("--only", metavar="LIST", default="",
                    help=f"comma-separated experiments to run (default: all of {', '.join(EXPERIMENTS)})")
+    p.add_argument("--jobs", type=_positive, default=available_cpus(), metavar="N",
+                   help="experiments run at once, each in its own process (default: the CPUs available, "
+                        f"{available_cpus()} here); the results do not depend on it")
     p.add_argument("--no-progress", action="store_true", help="no progress bar (for logs)")
     p.set_defaults(run=run_sensorhex)
     q = simsub.add_parser("params", help="list the model parameters, their defaults and meaning",
@@ -77,17 +90,6 @@ def register(sub: Any) -> None:
                                       "and meaning (sim/world/params.h).")
     q.set_defaults(run=run_params)
     sim.set_defaults(run=lambda args: (sim.print_help(), 2)[1])
-
-
-def _experiment(key: str) -> Callable[..., Result]:
-    from .experiments import bandwidth, control, faults, gait, latency, sync, traces
-
-    table: dict[str, Callable[..., Result]] = {"fig15": latency.fig15, "fig16": latency.fig16, "table1": sync.table1,
-                                               "fig18_19": control.figs18_19, "fig20": gait.fig20,
-                                               "bandwidth": bandwidth.bandwidth,
-                                               "faults": faults.faults,
-                                               "traces": traces.traces}
-    return table[key]
 
 
 def run_params(args: argparse.Namespace) -> int:
@@ -119,16 +121,9 @@ def run_sensorhex(args: argparse.Namespace) -> int:
     from .report import write_report
 
     out: Path = args.out
-    results: list[Result] = []
     t0 = time.perf_counter()
     with _progress(not args.no_progress) as progress:
-        for i, key in enumerate(keys):
-            def step(frac: float, msg: str, i: int = i) -> None:
-                progress((i + frac) / len(keys), msg)
-
-            res = _experiment(key)(out / key, quick=args.quick, seed=args.seed, progress=step)
-            results.append(res)
-            progress((i + 1) / len(keys), f"{key}: {'PASS' if res.passed else 'FAIL'}")
+        results = run_experiments(keys, out, quick=args.quick, seed=args.seed, jobs=args.jobs, progress=progress)
     wall = time.perf_counter() - t0
     path = write_report(out, results, seed=args.seed, quick=args.quick, overrides={}, wall_s=wall)
     for r in results:

@@ -45,3 +45,31 @@ def test_sim_help_lists_each_subcommand_once(capsys: pytest.CaptureFixture[str])
     assert out.startswith("usage: urb sim [-h] SUBCOMMAND ...")
     for name in ("sensorhex", "params"):
         assert sum(line.split()[:1] == [name] for line in out.splitlines()) == 1, out
+
+
+def _without_wall_times(summary: dict[str, object]) -> dict[str, object]:
+    experiments = [{k: v for k, v in e.items() if k != "wall_s"} for e in summary["experiments"]]  # type: ignore[attr-defined]
+    return {**{k: v for k, v in summary.items() if k != "wall_s"}, "experiments": experiments}
+
+
+def test_parallel_experiments_give_the_serial_results(tmp_path: Path) -> None:
+    only = "fig16,faults,fig15"
+    for jobs in ("1", "3"):
+        out = tmp_path / f"jobs{jobs}"
+        assert main(["sim", "sensorhex", "--quick", "--only", only, "--jobs", jobs, "--out", str(out),
+                     "--no-progress"]) == 0
+    serial, parallel = tmp_path / "jobs1", tmp_path / "jobs3"
+    files = sorted(p.relative_to(serial) for p in serial.rglob("*") if p.is_file() and p.suffix in (".csv", ".png"))
+    assert len(files) >= 6
+    for rel in files:
+        assert (serial / rel).read_bytes() == (parallel / rel).read_bytes(), rel
+    s, p = (json.loads((d / "summary.json").read_text()) for d in (serial, parallel))
+    assert [e["key"] for e in p["experiments"]] == ["fig16", "faults", "fig15"]  # the order asked for
+    assert _without_wall_times(s) == _without_wall_times(p)
+
+
+def test_jobs_must_be_positive(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["sim", "sensorhex", "--jobs", "0"])
+    assert exc.value.code == 2
+    assert "--jobs" in capsys.readouterr().err
