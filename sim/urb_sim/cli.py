@@ -13,9 +13,11 @@ from typing import Any
 
 from .build import REPO, BuildError, ensure_library
 from .experiments import Progress
-from .runner import available_cpus, run_experiments
+from .runner import EXPERIMENTS, available_cpus, run_experiments
 
-EXPERIMENTS = ["fig15", "fig16", "table1", "fig18_19", "fig20", "bandwidth", "faults", "traces"]
+#: `urb sim` subcommands and their one-line summaries (listed in `urb sim --help`).
+SUBCOMMANDS = {"sensorhex": "run the scenario and the paper's experiments, write the HTML report",
+               "params": "list the model parameters, their defaults and meaning"}
 
 SENSORHEX_HELP = """\
 Run the SensoRHex simulation and the paper's experiments, and write an HTML summary.
@@ -65,13 +67,12 @@ def register(sub: Any) -> None:
                          usage="%(prog)s [-h] SUBCOMMAND ...",
                          description="Time-accurate simulation of URB buses running the real firmware.\n\n"
                                      "Subcommands:\n"
-                                     "  sensorhex   run the scenario and the paper's experiments, write the HTML report\n"
-                                     "  params      list the model parameters, their defaults and meaning\n\n"
-                                     "Run `urb sim SUBCOMMAND --help` for its options.",
+                                     + "".join(f"  {name:<11} {summary}\n" for name, summary in SUBCOMMANDS.items())
+                                     + "\nRun `urb sim SUBCOMMAND --help` for its options.",
                          formatter_class=argparse.RawDescriptionHelpFormatter)
     # The description lists the subcommands (argparse's own list would wrap "sensorhex" onto two lines).
     simsub = sim.add_subparsers(dest="sim_command", metavar="SUBCOMMAND", help=argparse.SUPPRESS)
-    p = simsub.add_parser("sensorhex", help="run the scenario and the experiments, write the HTML report",
+    p = simsub.add_parser("sensorhex", help=SUBCOMMANDS["sensorhex"],
                           description=SENSORHEX_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", type=Path, default=REPO / "build" / "sim" / "report", metavar="DIR",
                    help="output folder (default build/sim/report)")
@@ -80,12 +81,13 @@ def register(sub: Any) -> None:
                    help="fewer payloads, reads and seeds (a few times faster); same acceptance criteria")
     p.add_argument("--only", metavar="LIST", default="",
                    help=f"comma-separated experiments to run (default: all of {', '.join(EXPERIMENTS)})")
-    p.add_argument("--jobs", type=_positive, default=available_cpus(), metavar="N",
+    cpus = available_cpus()
+    p.add_argument("--jobs", type=_positive, default=cpus, metavar="N",
                    help="experiments run at once, each in its own process (default: the CPUs available, "
-                        f"{available_cpus()} here); the results do not depend on it")
+                        f"{cpus} here); the results do not depend on it")
     p.add_argument("--no-progress", action="store_true", help="no progress bar (for logs)")
     p.set_defaults(run=run_sensorhex)
-    q = simsub.add_parser("params", help="list the model parameters, their defaults and meaning",
+    q = simsub.add_parser("params", help=SUBCOMMANDS["params"],
                           description="Print every parameter of the simulation model with its default value "
                                       "and meaning (sim/world/params.h).")
     q.set_defaults(run=run_params)

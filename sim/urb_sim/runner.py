@@ -19,10 +19,11 @@ from typing import Any
 
 from .experiments import Progress, Result
 
-#: Rough wall time of each experiment relative to the others (measured, full run): the longest
-#: are started first, so that the last one to finish starts early (longest-processing-time order).
-RELATIVE_COST = {"traces": 60.0, "fig18_19": 28.0, "bandwidth": 7.0, "table1": 5.0, "fig20": 3.3, "fig15": 1.9,
-                 "fig16": 1.9, "faults": 1.0}
+#: Every experiment, in report order, with its rough wall time relative to the others (measured,
+#: full run): in parallel runs the longest start first, so that the last one to finish starts early
+#: (longest-processing-time order).
+EXPERIMENTS = {"fig15": 1.9, "fig16": 1.9, "table1": 5.0, "fig18_19": 28.0, "fig20": 3.3, "bandwidth": 7.0,
+               "faults": 1.0, "traces": 60.0}
 
 
 def available_cpus() -> int:
@@ -62,7 +63,7 @@ def _serial(keys: Sequence[str], out: Path, *, quick: bool, seed: int, progress:
 
         res = experiment(key)(out / key, quick=quick, seed=seed, progress=step)
         results.append(res)
-        progress((i + 1) / len(keys), f"{key}: {'PASS' if res.passed else 'FAIL'}")
+        progress((i + 1) / len(keys), _verdict(res))
     return results
 
 
@@ -91,7 +92,7 @@ def _parallel(keys: Sequence[str], out: Path, *, quick: bool, seed: int, jobs: i
     reports = ctx.Queue()
     done_frac = dict.fromkeys(keys, 0.0)
     results: dict[str, Result] = {}
-    order = sorted(keys, key=lambda k: -RELATIVE_COST.get(k, 1.0))
+    order = sorted(keys, key=lambda k: -EXPERIMENTS.get(k, 1.0))
     # Leaving the with block (normally, or through an exception or Ctrl-C) terminates the workers.
     with ctx.Pool(processes=jobs, initializer=_worker_init, initargs=(reports,)) as pool:
         running = {k: pool.apply_async(_run_in_worker, (k, out, quick, seed)) for k in order}
@@ -102,8 +103,12 @@ def _parallel(keys: Sequence[str], out: Path, *, quick: bool, seed: int, jobs: i
                 res: Result = running.pop(key).get()  # re-raises the worker's exception
                 results[key] = res
                 done_frac[key] = 1.0
-                progress(sum(done_frac.values()) / len(keys), f"{key}: {'PASS' if res.passed else 'FAIL'}")
+                progress(sum(done_frac.values()) / len(keys), _verdict(res))
     return [results[k] for k in keys]
+
+
+def _verdict(res: Result) -> str:
+    return f"{res.key}: {'PASS' if res.passed else 'FAIL'}"
 
 
 def _drain(reports: Any, done_frac: dict[str, float], progress: Progress) -> None:

@@ -33,9 +33,9 @@ from hypothesis.stateful import (RuleBasedStateMachine, initialize, invariant, p
 
 from bridge_ref import BridgeRef, Req, outbox
 from urb.errors import ErrorFlag
+from urb.managers import rs232_core
 from urb.managers.base import NS_PER_MS, Transfer
 from urb.managers.loopback import BridgeModel, FakeNode
-from urb.managers import rs232_core
 from urb.managers.rs232_core import Rs232Core
 from urb_msgs import NODES, DecodeError
 from urb_msgs.urb_core import Status, UplinkReadRequest, UplinkResponse, UplinkWriteRequest
