@@ -47,8 +47,11 @@ and states PASS or FAIL against its acceptance criterion:
 Output: DIR/index.html (open it first), DIR/summary.json, and one folder per experiment.
 The same seed gives the same numbers, byte for byte.
 
-Exit status: 0 when every acceptance criterion is met, 1 when one is not, 2 on a usage or
-build error (the message says what to do)."""
+Each experiment ends PASS, FAIL (a criterion is not met) or ERROR (it raised, or its worker
+process died: DIR/<key>/error.txt says why); an ERROR does not stop the others.
+
+Exit status: 0 when every acceptance criterion is met, 1 when one is not or an experiment
+ended in ERROR, 2 on a usage or build error (the message says what to do), 130 on Ctrl-C."""
 
 
 def _positive(text: str) -> int:
@@ -129,7 +132,7 @@ def run_sensorhex(args: argparse.Namespace) -> int:
     wall = time.perf_counter() - t0
     path = write_report(out, results, seed=args.seed, quick=args.quick, overrides={}, wall_s=wall)
     for r in results:
-        print(f"{'PASS' if r.passed else 'FAIL'}  {r.key:<8} {r.title}")
+        print(f"{r.verdict:<5} {r.key:<8} {r.title}")
         for c in r.checks:
             if not c.passed:
                 print(f"        failed: {c.name}: required {c.required}; measured {c.measured}")

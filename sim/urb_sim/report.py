@@ -63,7 +63,7 @@ def write_report(out: Path, results: Sequence[Result], *, seed: int, quick: bool
     for r in results:
         parts.append(f"<section id='{r.key}'><h2>{html.escape(r.title)}</h2>")
         parts.append(f"<p><b>Paper:</b> {html.escape(r.paper)}. <b>Result:</b> "
-                     f"{'PASS' if r.passed else 'FAIL'} ({r.sim_s:.1f} s simulated, {r.wall_s:.1f} s wall).</p>")
+                     f"{r.verdict} ({r.sim_s:.1f} s simulated, {r.wall_s:.1f} s wall).</p>")
         for f in r.files:
             if f.suffix == ".png":
                 parts.append(f"<p><img src='{html.escape(f.relative_to(out).as_posix())}' alt='{html.escape(r.title)}'></p>")
@@ -84,7 +84,7 @@ def write_report(out: Path, results: Sequence[Result], *, seed: int, quick: bool
     path = out / "index.html"
     path.write_text("\n".join(parts), encoding="utf-8")
     summary = {"passed": ok, "seed": seed, "quick": quick, "wall_s": wall_s, "sim_s": sim_s,
-               "experiments": [{"key": r.key, "passed": r.passed, "wall_s": r.wall_s, "sim_s": r.sim_s,
+               "experiments": [{"key": r.key, "passed": r.passed, "verdict": r.verdict, "wall_s": r.wall_s, "sim_s": r.sim_s,
                                 "checks": [c.__dict__ for c in r.checks], "table": r.table, "notes": r.notes,
                                 "files": [f.relative_to(out).as_posix() for f in r.files]} for r in results]}
     (out / "summary.json").write_text(json.dumps(summary, indent=1, default=str), encoding="utf-8")

@@ -13,11 +13,12 @@ import os
 import queue
 import signal
 import sys
+import traceback
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from .experiments import Progress, Result
+from .experiments import RAN_TO_COMPLETION, Progress, Result
 
 #: Every experiment, in report order, with its rough wall time relative to the others (measured,
 #: full run): in parallel runs the longest start first, so that the last one to finish starts early
@@ -49,10 +50,34 @@ def run_experiments(keys: Sequence[str], out: Path, *, quick: bool, seed: int, j
                     progress: Progress) -> list[Result]:
     """Run the experiments `keys` into out/<key>/ with at most `jobs` at a time; results in the order
     of `keys`. An experiment that raises (a bug: a failed criterion is a FAIL result, not an
-    exception) stops the run: the other workers are terminated and the exception propagates."""
+    exception) gives a failed Result whose check "ran to completion" names the exception, with the
+    traceback in out/<key>/error.txt; the other experiments still run. Ctrl-C stops the whole run."""
     if jobs <= 1 or len(keys) <= 1:
         return _serial(keys, out, quick=quick, seed=seed, progress=progress)
     return _parallel(keys, out, quick=quick, seed=seed, jobs=min(jobs, len(keys)), progress=progress)
+
+
+def run_one(key: str, out: Path, *, quick: bool, seed: int, progress: Progress) -> Result:
+    """Run experiment `key` into out/<key>/; an exception becomes a failed Result (see run_experiments)."""
+    try:
+        return experiment(key)(out / key, quick=quick, seed=seed, progress=progress)
+    except Exception as exc:  # noqa: BLE001 - reported in the Result; KeyboardInterrupt still stops the run
+        return crashed(key, out, exc)
+
+
+def crashed(key: str, out: Path, exc: BaseException) -> Result:
+    """The Result of experiment `key` that stopped with `exc`: one failed check naming it, the
+    traceback in out/<key>/error.txt."""
+    trace = "".join(traceback.format_exception(exc))
+    path = out / key / "error.txt"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(trace, encoding="utf-8")
+    res = Result(key, f"{key}: stopped with an error", "", files=[path],
+                 notes=["The experiment raised an exception: a bug in the simulation or in the firmware under test "
+                        "(a criterion that is not met is a FAIL, not an exception). The traceback is in error.txt; "
+                        f"run it alone with `urb sim sensorhex --only {key} --jobs 1` to debug it."])
+    res.check(RAN_TO_COMPLETION, "no exception", f"{type(exc).__name__}: {exc}", False)
+    return res
 
 
 def _serial(keys: Sequence[str], out: Path, *, quick: bool, seed: int, progress: Progress) -> list[Result]:
@@ -61,62 +86,94 @@ def _serial(keys: Sequence[str], out: Path, *, quick: bool, seed: int, progress:
         def step(frac: float, msg: str, i: int = i) -> None:
             progress((i + frac) / len(keys), msg)
 
-        res = experiment(key)(out / key, quick=quick, seed=seed, progress=step)
+        res = run_one(key, out, quick=quick, seed=seed, progress=step)
         results.append(res)
         progress((i + 1) / len(keys), _verdict(res))
     return results
 
 
-#: In a worker: where its experiments report progress (set by _worker_init).
-_reports: Any = None
+class WorkerDied(RuntimeError):
+    """A worker process ended without returning its experiment's result (a crash in native code,
+    killed by the operating system)."""
 
 
-def _worker_init(reports: Any) -> None:
-    global _reports
-    _reports = reports
-    # Pool.terminate() (the parent was interrupted, or another experiment raised) sends SIGTERM: exit
+def _worker(key: str, out: Path, quick: bool, seed: int, reports: Any) -> None:
+    """Body of a worker process: run one experiment, sending progress and then its Result."""
+    # Ctrl-C is the parent's to handle: it terminates the workers. terminate() sends SIGTERM: exit
     # through an exception, so that subprocess.run kills the TLC process it waits for.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(128 + signum))
 
-
-def _run_in_worker(key: str, out: Path, quick: bool, seed: int) -> Result:
     def step(frac: float, msg: str) -> None:
-        _reports.put((key, frac, msg))
+        reports.put((key, frac, msg))
 
-    return experiment(key)(out / key, quick=quick, seed=seed, progress=step)
+    reports.put((key, 1.0, run_one(key, out, quick=quick, seed=seed, progress=step)))
 
 
-def _parallel(keys: Sequence[str], out: Path, *, quick: bool, seed: int, jobs: int,
-              progress: Progress) -> list[Result]:
+def _parallel(keys: Sequence[str], out: Path, *, quick: bool, seed: int, jobs: int, progress: Progress,
+              target: Callable[..., None] = _worker) -> list[Result]:
+    """One spawned process per experiment, at most `jobs` at a time, longest first. A process that
+    ends without sending its Result (a segmentation fault in the firmware under test, the OOM
+    killer) gives that experiment an ERROR; the others go on. `target` is the worker body (tests)."""
     ctx = multiprocessing.get_context("spawn")
     reports = ctx.Queue()
     done_frac = dict.fromkeys(keys, 0.0)
     results: dict[str, Result] = {}
-    order = sorted(keys, key=lambda k: -EXPERIMENTS.get(k, 1.0))
-    # Leaving the with block (normally, or through an exception or Ctrl-C) terminates the workers.
-    with ctx.Pool(processes=jobs, initializer=_worker_init, initargs=(reports,)) as pool:
-        running = {k: pool.apply_async(_run_in_worker, (k, out, quick, seed)) for k in order}
-        while running:
-            next(iter(running.values())).wait(0.2)
-            _drain(reports, done_frac, progress)
-            for key in [k for k, r in running.items() if r.ready()]:
-                res: Result = running.pop(key).get()  # re-raises the worker's exception
-                results[key] = res
-                done_frac[key] = 1.0
-                progress(sum(done_frac.values()) / len(keys), _verdict(res))
+    pending = sorted(keys, key=lambda k: -EXPERIMENTS.get(k, 1.0))
+    running: dict[str, Any] = {}
+
+    def receive(timeout: float) -> None:
+        """Fold in what the workers sent, waiting up to `timeout` for the first message."""
+        while True:
+            try:
+                key, frac, item = reports.get(timeout=timeout)
+            except queue.Empty:
+                return
+            timeout = 0.0
+            done_frac[key] = max(done_frac[key], min(frac, 1.0))
+            if isinstance(item, Result):
+                results[key] = item
+                progress(sum(done_frac.values()) / len(keys), _verdict(item))
+            else:
+                progress(sum(done_frac.values()) / len(keys), item)
+
+    try:
+        while pending or running:
+            while pending and len(running) < jobs:
+                key = pending.pop(0)
+                running[key] = ctx.Process(target=target, args=(key, out, quick, seed, reports),
+                                           name=f"urb-sim-{key}", daemon=True)
+                running[key].start()
+            receive(0.2)
+            for key, proc in list(running.items()):
+                if proc.is_alive():
+                    continue
+                if key not in results:
+                    receive(0.5)  # what it sent just before it ended may still be on its way
+                if key not in results:
+                    results[key] = crashed(key, out, WorkerDied(f"the worker process ended with "
+                                                                f"{_exit_status(proc.exitcode)} and no result"))
+                    done_frac[key] = 1.0
+                    progress(sum(done_frac.values()) / len(keys), _verdict(results[key]))
+                proc.join()
+                del running[key]
+    finally:
+        # Normally empty; after Ctrl-C or an error here, stop what still runs.
+        for proc in running.values():
+            proc.terminate()
+        for proc in running.values():
+            proc.join()
     return [results[k] for k in keys]
 
 
+def _exit_status(code: int) -> str:
+    if code >= 0:
+        return f"exit status {code}"
+    try:
+        return f"signal {-code} ({signal.Signals(-code).name})"
+    except ValueError:
+        return f"signal {-code}"
+
+
 def _verdict(res: Result) -> str:
-    return f"{res.key}: {'PASS' if res.passed else 'FAIL'}"
-
-
-def _drain(reports: Any, done_frac: dict[str, float], progress: Progress) -> None:
-    """Fold the workers' progress reports into the overall fraction."""
-    while True:
-        try:
-            key, frac, msg = reports.get_nowait()
-        except queue.Empty:
-            return
-        done_frac[key] = max(done_frac[key], min(frac, 1.0))
-        progress(sum(done_frac.values()) / len(done_frac), msg)
+    return f"{res.key}: {res.verdict}"

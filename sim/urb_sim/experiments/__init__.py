@@ -31,6 +31,10 @@ class Check:
     passed: bool
 
 
+#: The check of an experiment that raised instead of returning (sim/urb_sim/runner.py).
+RAN_TO_COMPLETION = "ran to completion"
+
+
 @dataclass
 class Result:
     """What an experiment produced."""
@@ -48,6 +52,13 @@ class Result:
     @property
     def passed(self) -> bool:
         return bool(self.checks) and all(c.passed for c in self.checks)
+
+    @property
+    def verdict(self) -> str:
+        """PASS; FAIL (a criterion not met); ERROR (the experiment raised: a bug, not a measurement)."""
+        if self.passed:
+            return "PASS"
+        return "ERROR" if any(c.name == RAN_TO_COMPLETION for c in self.checks) else "FAIL"
 
     def check(self, name: str, required: str, measured: str, passed: bool) -> bool:
         self.checks.append(Check(name, required, measured, bool(passed)))
