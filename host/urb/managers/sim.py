@@ -192,10 +192,17 @@ class SimManager(BusManager):
         self.clock = clock
         self.transport = transport
         self.stats = ManagerStats()
-        self._usb = isinstance(transport, FrameTransport)
+        # The transport's kind is decided once: isinstance against a runtime-checkable Protocol
+        # costs microseconds, too much for the per-step path.
+        self._frames: FrameTransport | None = None
+        self._bytes: ByteTransport | None = None
+        if isinstance(transport, FrameTransport):
+            self._frames = transport
+        else:
+            self._bytes = transport
         self._rs232_core: Rs232Core | None = None
         self._usb_core: UsbCore | None = None
-        if self._usb:
+        if self._frames is not None:
             self._usb_core = UsbCore(timeout_ns=timeout_ns or 50 * NS_PER_MS, lost_after_ns=lost_after_ns)
         else:
             self._rs232_core = Rs232Core(window=window, timeout_ns=timeout_ns or 100 * NS_PER_MS,
@@ -219,10 +226,11 @@ class SimManager(BusManager):
         if self._started:
             return
         self._started = True
-        if isinstance(self.transport, FrameTransport):
-            self.transport.set_batch_receiver(self._on_batch)
+        if self._frames is not None:
+            self._frames.set_batch_receiver(self._on_batch)
         else:
-            self.transport.set_receiver(self._on_bytes)
+            assert self._bytes is not None
+            self._bytes.set_receiver(self._on_bytes)
 
     def close(self) -> None:
         self.core.link_lost(self.clock.now_ns(), "closed by the application")
@@ -281,12 +289,12 @@ class SimManager(BusManager):
         self._after_step()
 
     def _frame_tick(self) -> None:
-        assert self._usb_core is not None and isinstance(self.transport, FrameTransport)
+        assert self._usb_core is not None and self._frames is not None
         now = self.clock.now_ns()
         self._usb_core.poll(now)
         out = self._usb_core.frame_out(now)
         if out is not None:
-            self.transport.write_batch(out)
+            self._frames.write_batch(out)
         self._ticking = False
         self._after_step()
 
@@ -294,9 +302,9 @@ class SimManager(BusManager):
         """Send what may be sent, arm timers, run callbacks (never nested)."""
         now = self.clock.now_ns()
         if self._rs232_core is not None:
-            assert isinstance(self.transport, ByteTransport)
+            assert self._bytes is not None
             for frame in self._rs232_core.frames_to_send(now):
-                self.transport.send(frame)
+                self._bytes.send(frame)
         elif self._usb_core is not None and self._usb_core.busy() and not self._ticking:
             self._ticking = True
             nxt = (now // NS_PER_MS + 1) * NS_PER_MS  # the next 1-ms frame boundary
