@@ -18,6 +18,10 @@ from .build import ensure_library
 
 RS232 = 0
 USB = 1
+UPLINK_NAMES = {RS232: "RS232", USB: "USB"}
+MAX_BRIDGES = 8    #: sim/world/world.c MAX_BRIDGES
+MAX_NODES = 128    #: sim/world/world.c MAX_NODES
+MAX_NATIVE_REQUESTS = 32  #: sim/world/native_host.h NH_MAX_REQS
 
 
 class App(IntEnum):
@@ -146,7 +150,12 @@ class NodeStatus:
 
 
 class World:
-    """One simulated URB system. Build (set, add_bridge, add_node), start, then run."""
+    """One simulated URB system. Build (set, add_bridge, add_node), start, then run.
+
+    Every misuse raises before the C world is touched, with the reason: ValueError for a bad
+    argument (unknown bridge or node, address taken, probability outside [0, 1], ...),
+    RuntimeError for a call in the wrong phase (building after start, running before it, anything
+    after close)."""
 
     def __init__(self, seed: int) -> None:
         self._w: Any = None
@@ -162,6 +171,10 @@ class World:
         self._local: int | None = None
         self._marks_t = (c_uint64 * 8192)()
         self._marks_v = (c_uint32 * 8192)()
+        self._started = False
+        self._uplinks: list[int] = []                    # per bridge
+        self._nodes: list[tuple[int, int]] = []          # per node: (bridge, address)
+        self._native: dict[int, int] = {}                # native bridge -> requests added
 
     def close(self) -> None:
         if self._w:
@@ -174,6 +187,7 @@ class World:
 
     # -- construction -----------------------------------------------------------------------
     def set(self, name: str, value: float) -> None:
+        self._building("set")
         if self._lib.urbsim_set(self._w, name.encode(), float(value)) != 0:
             known = ", ".join(p.name for p in params())
             raise KeyError(f"unknown simulation parameter {name!r}; known: {known}")
@@ -185,16 +199,42 @@ class World:
         return v
 
     def add_bridge(self, uplink: int) -> int:
+        """Add a bridge with uplink RS232 or USB; returns its number (0, 1, ...)."""
+        self._building("add_bridge")
+        if uplink not in UPLINK_NAMES:
+            raise ValueError(f"unknown uplink {uplink!r}: use native.RS232 ({RS232}) or native.USB ({USB})")
+        if len(self._uplinks) >= MAX_BRIDGES:
+            raise ValueError(f"a world has at most {MAX_BRIDGES} bridges")
         i = int(self._lib.urbsim_add_bridge(self._w, uplink))
         if i < 0:
-            raise ValueError("cannot add a bridge (started already, or 8 bridges exist)")
+            raise MemoryError("urbsim_add_bridge failed")
+        self._uplinks.append(uplink)
         return i
 
     def add_node(self, bridge: int, app: App, address: int, index: int = 0) -> int:
+        """Add a node running `app` at 7-bit I2C `address` on `bridge`'s downlink, with node index
+        `index` (0..63) in its identification; returns its number (0, 1, ...)."""
+        self._building("add_node")
+        self._bridge(bridge)
+        try:
+            app = App(app)
+        except ValueError:
+            raise ValueError(f"unknown application {app!r}: one of {', '.join(a.name for a in App)} "
+                             "(urb_sim.native.App)") from None
+        if not 1 <= address <= 127:
+            raise ValueError(f"address {address} is not a 7-bit I2C slave address (1..127)")
+        if not 0 <= index <= 63:
+            raise ValueError(f"node index {index} does not fit the identification's 6 bits (0..63)")
+        if (bridge, address) in self._nodes:
+            other = self._nodes.index((bridge, address))
+            raise ValueError(f"address 0x{address:02x} on bridge {bridge} is taken by node {other}: every node on "
+                             "one downlink needs its own I2C address")
+        if len(self._nodes) >= MAX_NODES:
+            raise ValueError(f"a world has at most {MAX_NODES} nodes")
         i = int(self._lib.urbsim_add_node(self._w, bridge, int(app), address, index))
         if i < 0:
-            raise ValueError(f"cannot add a {app.name} node at address {address} on bridge {bridge} "
-                             f"(unknown bridge or application, bad address or index, or started already)")
+            raise MemoryError("urbsim_add_node failed")
+        self._nodes.append((bridge, address))
         return i
 
     def trace(self, path: Path | None, mask: int = Trace.ALL) -> None:
@@ -202,13 +242,16 @@ class World:
             raise OSError(f"cannot open trace file {path}")
 
     def start(self) -> None:
+        self._building("start")
         self._now = self._local = None
         if self._lib.urbsim_start(self._w) != 0:
-            raise RuntimeError("the world was started already")
+            raise MemoryError("urbsim_start failed")
+        self._started = True
 
     # -- running ----------------------------------------------------------------------------
     def run(self, limit_ns: int) -> bool:
         """Run to `limit_ns` or the next host wake-up (True)."""
+        self._running("run")
         self._now = self._local = None
         return bool(self._lib.urbsim_run(self._w, limit_ns) == 1)
 
@@ -243,6 +286,8 @@ class World:
         return int(self._lib.urbsim_host_timer(self._w, local_ns))
 
     def host_send(self, bridge: int, data: bytes) -> None:
+        self._running("host_send")
+        self._bridge(bridge)
         buf = (c_uint8 * max(1, len(data))).from_buffer_copy(data.ljust(1, b"\0"))
         if self._lib.urbsim_host_send(self._w, bridge, buf, len(data)) < 0:
             raise ValueError(f"bridge {bridge} refused {len(data)} bytes (unknown bridge or USB queue full)")
@@ -272,6 +317,7 @@ class World:
                 return out
 
     def node_status(self, node: int) -> NodeStatus:
+        self._open()
         arr = (c_int64 * 9)()
         if self._lib.urbsim_node_status(self._w, node, arr) != 0:
             raise IndexError(f"no node {node}")
@@ -281,6 +327,7 @@ class World:
     def plant(self, node: int) -> tuple[float, float, float, float, float, float]:
         """True state of a motor node's motor and leg now: motor angle (rad), speed (rad/s),
         current (A), applied voltage (V), leg angle (rad), case temperature (degC)."""
+        self._open()
         arr = (c_double * 6)()
         if self._lib.urbsim_node_plant(self._w, node, arr) != 0:
             raise IndexError(f"node {node} drives no motor")
@@ -291,42 +338,119 @@ class World:
 
     # -- native host --------------------------------------------------------------------------
     def native_host(self, bridge: int, period_ticks: int = 1) -> None:
-        """Drive `bridge` from the native host traffic model (no Python in the loop)."""
+        """Drive `bridge` from the native host traffic model (no Python in the loop), one cycle
+        every `period_ticks` OS ticks."""
+        self._building("native_host")
+        self._bridge(bridge)
+        if period_ticks < 1:
+            raise ValueError(f"period_ticks must be at least 1 OS tick, got {period_ticks}")
         if self._lib.urbsim_native_host(self._w, bridge, period_ticks) != 0:
-            raise ValueError(f"cannot drive bridge {bridge} natively (unknown, or the world has started)")
+            raise MemoryError("urbsim_native_host failed")
+        self._native.setdefault(bridge, 0)
 
     def native_request(self, bridge: int, address: int, mailbox: int, read: bool, length: int, every: int = 1) -> None:
+        """Add a request the native host sends to `bridge` every `every` cycles: read (or write) `length`
+        bytes of `mailbox` at node `address` (a node that does not exist gets NO_NODE answers)."""
+        self._open()
+        self._bridge(bridge)
+        if bridge not in self._native:
+            raise ValueError(f"bridge {bridge} has no native host: call native_host({bridge}) first")
+        if not 1 <= address <= 127:
+            raise ValueError(f"address {address} is not a 7-bit I2C slave address (1..127)")
+        if not 0 <= mailbox <= 7:
+            raise ValueError(f"mailbox {mailbox} does not exist: nodes have mailboxes 0..7")
+        if not 1 <= length <= 32:
+            raise ValueError(f"length {length} is not a mailbox size (1..32 bytes)")
+        if every < 1:
+            raise ValueError(f"every must be at least 1 (every cycle), got {every}")
+        if self._native[bridge] >= MAX_NATIVE_REQUESTS:
+            raise ValueError(f"the native host takes at most {MAX_NATIVE_REQUESTS} requests per bridge")
         if self._lib.urbsim_native_request(self._w, bridge, address, mailbox, int(read), length, every) != 0:
-            raise ValueError("bad native request (bridge not native, address, mailbox or length out of range)")
+            raise RuntimeError("urbsim_native_request refused a checked request")
+        self._native[bridge] += 1
 
     def native_stat(self, bridge: int, name: str) -> float:
         return float(self._lib.urbsim_native_stat(self._w, bridge, name.encode()))
 
     # -- faults -----------------------------------------------------------------------------
     def i2c_ber(self, bridge: int, ber: float) -> None:
+        self._fault("i2c_ber", bridge)
+        self._probability("ber", ber)
         self._check(self._lib.urbsim_fault_i2c_ber(self._w, bridge, ber), "i2c_ber")
 
     def i2c_stuck(self, bridge: int, line: str, duration_ns: int = 0, pulses: int = 0) -> None:
-        self._check(self._lib.urbsim_fault_i2c_stuck(self._w, bridge, {"sda": 0, "scl": 1}[line], duration_ns, pulses),
-                    "i2c_stuck")
+        self._fault("i2c_stuck", bridge)
+        lines = {"sda": 0, "scl": 1}
+        if line not in lines:
+            raise ValueError(f"unknown I2C line {line!r}: 'sda' or 'scl'")
+        if duration_ns < 0 or pulses < 0:
+            raise ValueError("duration_ns and pulses cannot be negative (0: stuck for good)")
+        self._check(self._lib.urbsim_fault_i2c_stuck(self._w, bridge, lines[line], duration_ns, pulses), "i2c_stuck")
 
     def uart_fault(self, bridge: int, direction: str, ber: float = 0.0, loss: float = 0.0) -> None:
-        self._check(self._lib.urbsim_fault_uart(self._w, bridge, {"up": 0, "down": 1}[direction], ber, loss),
-                    "uart_fault")
+        self._fault("uart_fault", bridge, RS232)
+        directions = {"up": 0, "down": 1}
+        if direction not in directions:
+            raise ValueError(f"unknown direction {direction!r}: 'up' (bridge to host) or 'down' (host to bridge)")
+        self._probability("ber", ber)
+        self._probability("loss", loss)
+        self._check(self._lib.urbsim_fault_uart(self._w, bridge, directions[direction], ber, loss), "uart_fault")
 
     def usb_loss(self, bridge: int, loss: float) -> None:
+        self._fault("usb_loss", bridge, USB)
+        self._probability("loss", loss)
         self._check(self._lib.urbsim_fault_usb_loss(self._w, bridge, loss), "usb_loss")
 
     def node_power(self, node: int, on: bool) -> None:
+        self._running("node_power")
+        if not 0 <= node < len(self._nodes):
+            raise ValueError(f"no node {node}: this world has {len(self._nodes)} (numbered as add_node returned them)")
         self._check(self._lib.urbsim_node_power(self._w, node, int(on)), "node_power")
 
     def bridge_power(self, bridge: int, on: bool) -> None:
+        self._fault("bridge_power", bridge)
         self._check(self._lib.urbsim_bridge_power(self._w, bridge, int(on)), "bridge_power")
 
     def babble(self, bridge: int, address: int, rate: float) -> None:
+        self._fault("babble", bridge)
+        if not 1 <= address <= 127:
+            raise ValueError(f"address {address} is not a 7-bit I2C slave address (1..127)")
+        self._probability("rate", rate)
         self._check(self._lib.urbsim_fault_babble(self._w, bridge, address, rate), "babble")
+
+    # -- argument and phase checks ------------------------------------------------------------
+    def _open(self) -> None:
+        if not self._w:
+            raise RuntimeError("this World is closed; build a new one")
+
+    def _building(self, what: str) -> None:
+        self._open()
+        if self._started:
+            raise RuntimeError(f"{what}: the world has started; build everything before start()")
+
+    def _running(self, what: str) -> None:
+        self._open()
+        if not self._started:
+            raise RuntimeError(f"{what}: call start() first")
+
+    def _bridge(self, bridge: int) -> None:
+        if not 0 <= bridge < len(self._uplinks):
+            raise ValueError(f"no bridge {bridge}: this world has {len(self._uplinks)} "
+                             "(numbered as add_bridge returned them)")
+
+    def _fault(self, what: str, bridge: int, uplink: int | None = None) -> None:
+        self._running(what)
+        self._bridge(bridge)
+        if uplink is not None and self._uplinks[bridge] != uplink:
+            raise ValueError(f"{what}: bridge {bridge}'s uplink is {UPLINK_NAMES[self._uplinks[bridge]]}; "
+                             f"this fault needs a bridge whose uplink is {UPLINK_NAMES[uplink]}")
+
+    @staticmethod
+    def _probability(name: str, value: float) -> None:
+        if not 0.0 <= value <= 1.0:  # also refuses NaN
+            raise ValueError(f"{name} must be a probability in [0, 1], got {value}")
 
     @staticmethod
     def _check(rc: int, what: str) -> None:
         if rc != 0:
-            raise ValueError(f"{what}: bad argument (unknown device, wrong uplink type, or world not started)")
+            raise RuntimeError(f"{what}: the simulation refused arguments that passed the checks (a bug)")
