@@ -242,7 +242,9 @@ class World:
             raise OSError(f"cannot open trace file {path}")
 
     def start(self) -> None:
-        self._building("start")
+        self._open()
+        if self._started:
+            raise RuntimeError("start: the world has started already")
         self._now = self._local = None
         if self._lib.urbsim_start(self._w) != 0:
             raise MemoryError("urbsim_start failed")

@@ -46,6 +46,7 @@ RUNNING: list[tuple[str, Callable[[World], object], type[Exception], str]] = [
     ("building after start", lambda w: w.add_node(0, App.MOTOR, 0x21), RuntimeError,
      "add_node: the world has started"),
     ("parameter after start", lambda w: w.set("i2c_bitrate", 1e5), RuntimeError, "set: the world has started"),
+    ("starting twice", lambda w: w.start(), RuntimeError, "start: the world has started already"),
     ("bit error rate above 1", lambda w: w.i2c_ber(0, 2.0), ValueError, "ber must be a probability in [0, 1]"),
     ("bit error rate NaN", lambda w: w.i2c_ber(0, float("nan")), ValueError, "got nan"),
     ("negative loss", lambda w: w.usb_loss(0, -0.1), ValueError, "loss must be a probability"),
