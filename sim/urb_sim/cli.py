@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -118,6 +119,11 @@ def run_sensorhex(args: argparse.Namespace) -> int:
         print(f"urb sim sensorhex: unknown experiment(s) {', '.join(unknown)}; choose from {', '.join(EXPERIMENTS)}",
               file=sys.stderr)
         return 2
+    problem = _unwritable(args.out)
+    if problem:
+        print(f"urb sim sensorhex: cannot write the report into {args.out}: {problem}; choose another --out DIR",
+              file=sys.stderr)
+        return 2
     try:
         ensure_library()
     except BuildError as exc:
@@ -139,6 +145,17 @@ def run_sensorhex(args: argparse.Namespace) -> int:
     sim_s = sum(r.sim_s for r in results)
     print(f"{sim_s:.1f} s simulated in {wall:.1f} s; report: {path}")
     return 0 if all(r.passed for r in results) else 1
+
+
+def _unwritable(out: Path) -> str | None:
+    """Why the report folder cannot be written (None when it can): checked before a run of minutes."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=out):
+            pass
+    except OSError as exc:
+        return exc.strerror or str(exc)
+    return None
 
 
 class _progress:

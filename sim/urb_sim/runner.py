@@ -70,11 +70,15 @@ def crashed(key: str, out: Path, exc: BaseException) -> Result:
     traceback in out/<key>/error.txt."""
     trace = "".join(traceback.format_exception(exc))
     path = out / key / "error.txt"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(trace, encoding="utf-8")
-    res = Result(key, f"{key}: stopped with an error", "", files=[path],
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(trace, encoding="utf-8")
+        where, files = "The traceback is in error.txt", [path]
+    except OSError as write_error:
+        where, files = f"The traceback could not be written to {path} ({write_error}):\n{trace}", []
+    res = Result(key, f"{key}: stopped with an error", "", files=files,
                  notes=["The experiment raised an exception: a bug in the simulation or in the firmware under test "
-                        "(a criterion that is not met is a FAIL, not an exception). The traceback is in error.txt; "
+                        f"(a criterion that is not met is a FAIL, not an exception). {where}; "
                         f"run it alone with `urb sim sensorhex --only {key} --jobs 1` to debug it."])
     res.check(RAN_TO_COMPLETION, "no exception", f"{type(exc).__name__}: {exc}", False)
     return res

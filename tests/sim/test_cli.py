@@ -29,6 +29,15 @@ def test_sim_unknown_experiment(capsys: pytest.CaptureFixture[str]) -> None:
     assert "choose from" in capsys.readouterr().err
 
 
+def test_sim_unwritable_output_is_refused_before_the_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a folder")
+    assert main(["sim", "sensorhex", "--quick", "--only", "faults", "--out", str(blocker / "report")]) == 2
+    err = capsys.readouterr().err
+    assert f"cannot write the report into {blocker / 'report'}: Not a directory; choose another --out DIR" in err
+    assert blocker.read_text() == "not a folder"
+
+
 def test_sim_report(tmp_path: Path) -> None:
     assert main(["sim", "sensorhex", "--quick", "--only", "fig16", "--out", str(tmp_path), "--no-progress"]) == 0
     html = (tmp_path / "index.html").read_text()
