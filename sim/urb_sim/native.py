@@ -177,9 +177,11 @@ class World:
         self._native: dict[int, int] = {}                # native bridge -> requests added
 
     def close(self) -> None:
+        """Free the C world; every later call but close() raises RuntimeError."""
         if self._w:
             self._lib.urbsim_free(self._w)
             self._w = None
+        self._now = self._local = None
 
     def __del__(self) -> None:
         if getattr(self, "_w", None):
@@ -193,6 +195,7 @@ class World:
             raise KeyError(f"unknown simulation parameter {name!r}; known: {known}")
 
     def get(self, name: str) -> float:
+        self._open()
         v = float(self._lib.urbsim_get(self._w, name.encode()))
         if math.isnan(v):
             raise KeyError(f"unknown simulation parameter {name!r}")
@@ -238,6 +241,7 @@ class World:
         return i
 
     def trace(self, path: Path | None, mask: int = Trace.ALL) -> None:
+        self._open()
         if self._lib.urbsim_trace_open(self._w, str(path).encode() if path else None, mask) != 0:
             raise OSError(f"cannot open trace file {path}")
 
@@ -260,31 +264,38 @@ class World:
     @property
     def now(self) -> int:
         if self._now is None:
+            self._open()
             self._now = int(self._lib.urbsim_now(self._w))
         return self._now
 
     @property
     def events(self) -> int:
+        self._open()
         return int(self._lib.urbsim_events(self._w))
 
     @property
     def trace_hash(self) -> int:
+        self._open()
         return int(self._lib.urbsim_trace_hash(self._w))
 
     @property
     def trace_lines(self) -> int:
+        self._open()
         return int(self._lib.urbsim_trace_lines(self._w))
 
     def flush_trace(self) -> None:
+        self._open()
         self._lib.urbsim_trace_flush(self._w)
 
     # -- host CPU ---------------------------------------------------------------------------
     def host_local(self) -> int:
         if self._local is None:
+            self._open()
             self._local = int(self._lib.urbsim_host_local(self._w))
         return self._local
 
     def host_timer(self, local_ns: int) -> int:
+        self._open()
         return int(self._lib.urbsim_host_timer(self._w, local_ns))
 
     def host_send(self, bridge: int, data: bytes) -> None:
@@ -295,6 +306,7 @@ class World:
             raise ValueError(f"bridge {bridge} refused {len(data)} bytes (unknown bridge or USB queue full)")
 
     def host_take(self) -> tuple[int, bytes] | None:
+        self._open()
         b = c_int(0)
         n = int(self._lib.urbsim_host_take(self._w, ctypes.byref(b), self._buf, len(self._buf)))
         if n < 0:
@@ -310,6 +322,7 @@ class World:
         return self._drain(self._lib.urbsim_bridge_marks, bridge)
 
     def _drain(self, fn: Any, idx: int) -> list[tuple[int, int, int]]:
+        self._open()
         out: list[tuple[int, int, int]] = []
         while True:
             n = int(fn(self._w, idx, self._marks_t, self._marks_v, 8192))
@@ -336,6 +349,7 @@ class World:
         return (arr[0], arr[1], arr[2], arr[3], arr[4], arr[5])
 
     def stat(self, name: str, device: int = 0) -> float:
+        self._open()
         return float(self._lib.urbsim_stat(self._w, name.encode(), device))
 
     # -- native host --------------------------------------------------------------------------
@@ -372,6 +386,7 @@ class World:
         self._native[bridge] += 1
 
     def native_stat(self, bridge: int, name: str) -> float:
+        self._open()
         return float(self._lib.urbsim_native_stat(self._w, bridge, name.encode()))
 
     # -- faults -----------------------------------------------------------------------------

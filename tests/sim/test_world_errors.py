@@ -94,8 +94,17 @@ def test_a_closed_world_says_so() -> None:
     w.add_bridge(USB)
     w.start()
     w.close()
-    for call in (lambda: w.run(NS_PER_MS), lambda: w.node_status(0), lambda: w.add_bridge(USB),
-                 lambda: w.native_request(0, 0x20, 1, True, 6)):
+    w.close()  # closing twice is fine
+    calls: list[Callable[[], object]] = [
+        lambda: w.run(NS_PER_MS), lambda: w.node_status(0), lambda: w.plant(0), lambda: w.add_bridge(USB),
+        lambda: w.native_request(0, 0x20, 1, True, 6), lambda: w.set("i2c.bitrate", 1e5),
+        lambda: w.get("i2c.bitrate"), lambda: w.trace(None), lambda: w.now, lambda: w.events,
+        lambda: w.trace_hash, lambda: w.trace_lines, lambda: w.flush_trace(), lambda: w.host_local(),
+        lambda: w.host_timer(0), lambda: w.host_take(), lambda: w.host_send(0, b"\x01"),
+        lambda: w.node_marks(0), lambda: w.bridge_marks(0), lambda: w.stat("i2c_bytes"),
+        lambda: w.native_stat(0, "ok"), lambda: w.i2c_ber(0, 0.0), lambda: w.bridge_power(0, True),
+        lambda: w.node_power(0, True), lambda: w.start()]
+    for call in calls:
         with pytest.raises(RuntimeError, match="this World is closed"):
             call()
 
