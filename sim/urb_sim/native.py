@@ -224,8 +224,7 @@ class World:
         except ValueError:
             raise ValueError(f"unknown application {app!r}: one of {', '.join(a.name for a in App)} "
                              "(urb_sim.native.App)") from None
-        if not 1 <= address <= 127:
-            raise ValueError(f"address {address} is not a 7-bit I2C slave address (1..127)")
+        self._address(address)
         if not 0 <= index <= 63:
             raise ValueError(f"node index {index} does not fit the identification's 6 bits (0..63)")
         if (bridge, address) in self._nodes:
@@ -371,8 +370,7 @@ class World:
         self._bridge(bridge)
         if bridge not in self._native:
             raise ValueError(f"bridge {bridge} has no native host: call native_host({bridge}) first")
-        if not 1 <= address <= 127:
-            raise ValueError(f"address {address} is not a 7-bit I2C slave address (1..127)")
+        self._address(address)
         if not 0 <= mailbox <= 7:
             raise ValueError(f"mailbox {mailbox} does not exist: nodes have mailboxes 0..7")
         if not 1 <= length <= 32:
@@ -430,8 +428,7 @@ class World:
 
     def babble(self, bridge: int, address: int, rate: float) -> None:
         self._fault("babble", bridge)
-        if not 1 <= address <= 127:
-            raise ValueError(f"address {address} is not a 7-bit I2C slave address (1..127)")
+        self._address(address)
         self._probability("rate", rate)
         self._check(self._lib.urbsim_fault_babble(self._w, bridge, address, rate), "babble")
 
@@ -461,6 +458,11 @@ class World:
         if uplink is not None and self._uplinks[bridge] != uplink:
             raise ValueError(f"{what}: bridge {bridge}'s uplink is {UPLINK_NAMES[self._uplinks[bridge]]}; "
                              f"this fault needs a bridge whose uplink is {UPLINK_NAMES[uplink]}")
+
+    @staticmethod
+    def _address(address: int) -> None:
+        if not 1 <= address <= 127:
+            raise ValueError(f"address {address} is not a 7-bit I2C slave address (1..127)")
 
     @staticmethod
     def _probability(name: str, value: float) -> None:

@@ -126,20 +126,21 @@ def _parallel(keys: Sequence[str], out: Path, *, quick: bool, seed: int, jobs: i
     pending = sorted(keys, key=lambda k: -EXPERIMENTS.get(k, 1.0))
     running: dict[str, Any] = {}
 
+    def record(key: str, frac: float, item: str | Result) -> None:
+        """A progress message or the final Result of experiment `key`."""
+        done_frac[key] = max(done_frac[key], min(frac, 1.0))
+        if isinstance(item, Result):
+            results[key] = item
+        progress(sum(done_frac.values()) / len(keys), _verdict(item) if isinstance(item, Result) else item)
+
     def receive(timeout: float) -> None:
         """Fold in what the workers sent, waiting up to `timeout` for the first message."""
         while True:
             try:
-                key, frac, item = reports.get(timeout=timeout)
+                record(*reports.get(timeout=timeout))
             except queue.Empty:
                 return
             timeout = 0.0
-            done_frac[key] = max(done_frac[key], min(frac, 1.0))
-            if isinstance(item, Result):
-                results[key] = item
-                progress(sum(done_frac.values()) / len(keys), _verdict(item))
-            else:
-                progress(sum(done_frac.values()) / len(keys), item)
 
     try:
         while pending or running:
@@ -155,10 +156,8 @@ def _parallel(keys: Sequence[str], out: Path, *, quick: bool, seed: int, jobs: i
                 if key not in results:
                     receive(0.5)  # what it sent just before it ended may still be on its way
                 if key not in results:
-                    results[key] = crashed(key, out, WorkerDied(f"the worker process ended with "
-                                                                f"{_exit_status(proc.exitcode)} and no result"))
-                    done_frac[key] = 1.0
-                    progress(sum(done_frac.values()) / len(keys), _verdict(results[key]))
+                    died = WorkerDied(f"the worker process ended with {_exit_status(proc.exitcode)} and no result")
+                    record(key, 1.0, crashed(key, out, died))
                 proc.join()
                 del running[key]
     finally:
