@@ -75,7 +75,8 @@ def register(sub: Any) -> None:
                                      + "\nRun `urb sim SUBCOMMAND --help` for its options.",
                          formatter_class=argparse.RawDescriptionHelpFormatter)
     # The description lists the subcommands (argparse's own list would wrap "sensorhex" onto two lines).
-    simsub = sim.add_subparsers(dest="sim_command", metavar="SUBCOMMAND", help=argparse.SUPPRESS)
+    # prog: without it argparse builds "urb sim [-h] SUBCOMMAND ... sensorhex" from the usage above.
+    simsub = sim.add_subparsers(dest="sim_command", metavar="SUBCOMMAND", help=argparse.SUPPRESS, prog=sim.prog)
     p = simsub.add_parser("sensorhex", help=SUBCOMMANDS["sensorhex"],
                           description=SENSORHEX_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", type=Path, default=REPO / "build" / "sim" / "report", metavar="DIR",

@@ -56,6 +56,23 @@ def test_sim_help_lists_each_subcommand_once(capsys: pytest.CaptureFixture[str])
         assert sum(line.split()[:1] == [name] for line in out.splitlines()) == 1, out
 
 
+@pytest.mark.parametrize("sub", ["sensorhex", "params"])
+def test_sim_subcommand_usage_names_the_command(sub: str, capsys: pytest.CaptureFixture[str]) -> None:
+    # argparse used to derive "urb sim [-h] SUBCOMMAND ... sensorhex" from `urb sim`'s own usage line
+    with pytest.raises(SystemExit) as exc:
+        main(["sim", sub, "--help"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out.startswith(f"usage: urb sim {sub} [-h]")
+
+
+def test_sim_usage_error_names_the_command(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["sim", "sensorhex", "--jobs", "0"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("usage: urb sim sensorhex [-h]") and "urb sim sensorhex: error: argument --jobs" in err
+
+
 def _without_wall_times(summary: dict[str, object]) -> dict[str, object]:
     experiments = [{k: v for k, v in e.items() if k != "wall_s"} for e in summary["experiments"]]  # type: ignore[attr-defined]
     return {**{k: v for k, v in summary.items() if k != "wall_s"}, "experiments": experiments}
