@@ -84,7 +84,7 @@ def register(sub: Any) -> None:
     p.add_argument("--seed", type=int, default=1, help="base seed of every experiment (default 1)")
     p.add_argument("--quick", action="store_true",
                    help="fewer payloads, reads and seeds (a few times faster); same acceptance criteria")
-    p.add_argument("--only", metavar="LIST", default="",
+    p.add_argument("--only", metavar="LIST", default=None,
                    help=f"comma-separated experiments to run (default: all of {', '.join(EXPERIMENTS)})")
     cpus = available_cpus()
     p.add_argument("--jobs", type=_positive, default=cpus, metavar="N",
@@ -114,7 +114,11 @@ def run_params(args: argparse.Namespace) -> int:
 
 
 def run_sensorhex(args: argparse.Namespace) -> int:
-    keys = [k.strip() for k in args.only.split(",") if k.strip()] or list(EXPERIMENTS)
+    keys = list(EXPERIMENTS) if args.only is None else [k.strip() for k in args.only.split(",") if k.strip()]
+    if not keys:
+        print(f"urb sim sensorhex: --only names no experiment; choose from {', '.join(EXPERIMENTS)} "
+              "(or leave --only out to run them all)", file=sys.stderr)
+        return 2
     unknown = [k for k in keys if k not in EXPERIMENTS]
     if unknown:
         print(f"urb sim sensorhex: unknown experiment(s) {', '.join(unknown)}; choose from {', '.join(EXPERIMENTS)}",

@@ -26,6 +26,8 @@ def test_sim_params(capsys: pytest.CaptureFixture[str]) -> None:
 
 def test_sim_unknown_experiment(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["sim", "sensorhex", "--only", "fig99"]) == 2
+    for empty in ("", ",,", " "):  # names nothing: was taken as "all", a 4-minute run nobody asked for
+        assert main(["sim", "sensorhex", "--only", empty]) == 2
     assert "choose from" in capsys.readouterr().err
 
 
