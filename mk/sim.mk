@@ -3,6 +3,8 @@
 #   make test-sim     build the library and run the C unit tests of the core under ASan+UBSan, then
 #                     check that they fail for each seeded kernel bug (SIM_MUTANTS)
 #                     (the Python tests in tests/sim/ run in the main pytest run of `make check`)
+#   make test-sim-san the experiments on an ASan+UBSan build of the whole simulation (firmware, HALs,
+#                     world): no sanitizer report, and a seeded off-by-one (sim_log.h) is reported
 #   make sim-report   the full run: `urb sim sensorhex` (HTML summary in build/sim/report/)
 #   make sim-bench    simulated seconds per wall-clock second, and scaling with the node count
 PYTHON ?= python3
@@ -12,7 +14,7 @@ SIM_CORE := sim/core
 SIM_SAN_FLAGS := -std=c99 -g -O1 -Wall -Wextra -Werror -Wpedantic -Wconversion \
 	-fsanitize=address,undefined -fno-sanitize-recover=all
 
-.PHONY: sim-lib test-sim sim-report sim-bench
+.PHONY: sim-lib test-sim test-sim-san sim-report sim-bench
 sim-lib:
 	$(PYTHON) -m urb_sim.build
 
@@ -36,10 +38,13 @@ test-sim: sim-lib $(SIM_BUILD)/test_core $(foreach m,$(SIM_MUTANTS),$(SIM_BUILD)
 	    echo "test-sim: mutant $$m survived: tests/sim/test_core.c no longer catches the bug seeded under URBSIM_MUTANT_$$m in sim/core" >&2; exit 1; \
 	  fi; echo "test-sim: mutant $$m caught"; done
 
+test-sim-san: setup
+	$(PYTHON) tools/sim_sanitized.py
+
 sim-report: setup
 	urb sim sensorhex
 
 sim-bench: setup
 	$(PYTHON) bench/sim_speed.py
 
-CHECK_TARGETS += test-sim
+CHECK_TARGETS += test-sim test-sim-san

@@ -8,6 +8,15 @@ generated codecs (gen/c), compiled for the host.
 
     python3 -m urb_sim.build            # build if stale, print the path
     python3 -m urb_sim.build --force    # rebuild
+
+Two environment variables select another build of the same sources, in its own folder, so that
+it never replaces the normal library:
+    URBSIM_SANITIZE=1   AddressSanitizer and UndefinedBehaviorSanitizer, stopping at the first
+                        error (build/sim/san/). The process must preload the sanitizer runtimes:
+                        LD_PRELOAD="$(python3 -m urb_sim.build --preload)" (tools/sim_sanitized.py
+                        does all of this).
+    URBSIM_MUTANT=NAME  compiled with -DURBSIM_MUTANT_NAME: a seeded bug, for showing that a check
+                        catches it (build/sim/mutant-NAME/, or build/sim/san-mutant-NAME/).
 """
 
 from __future__ import annotations
@@ -61,8 +70,73 @@ CFLAGS = ["-std=c99", "-O3", "-ffp-contract=off", "-flto=auto", "-fno-semantic-i
           "-Wall", "-Wextra", "-Werror", "-fvisibility=default"]
 
 
+#: URBSIM_SANITIZE=1 builds with these in place of the optimisation flags: every memory error and
+#: every undefined behaviour stops the process with a report (slower; results are the same).
+SANITIZE_FLAGS = ["-O1", "-fno-omit-frame-pointer", "-fsanitize=address,undefined", "-fno-sanitize-recover=all"]
+SPEED_FLAGS = {"-O3", "-flto=auto", "-fno-semantic-interposition"}
+
+
 class BuildError(RuntimeError):
     """The compiler failed; the message holds its command line and output."""
+
+
+def _variant() -> tuple[bool, str | None]:
+    """(sanitized, mutant name) asked for by URBSIM_SANITIZE and URBSIM_MUTANT."""
+    sanitize = os.environ.get("URBSIM_SANITIZE", "") not in ("", "0")
+    mutant = os.environ.get("URBSIM_MUTANT") or None
+    if mutant is not None and not mutant.replace("_", "").isalnum():
+        raise BuildError(f"URBSIM_MUTANT={mutant!r}: expected a name such as LOG_WRAP (letters, digits, _)")
+    return sanitize, mutant
+
+
+def library_path() -> Path:
+    """Where the library of the build variant selected by the environment lives."""
+    sanitize, mutant = _variant()
+    if not sanitize and mutant is None:
+        return LIBRARY
+    folder = "-".join((["san"] if sanitize else []) + ([f"mutant-{mutant}"] if mutant else []))
+    return BUILD / folder / LIBRARY.name
+
+
+def variant_flags() -> list[str]:
+    """Compiler flags of the selected variant, in place of CFLAGS."""
+    sanitize, mutant = _variant()
+    flags = [f for f in CFLAGS if not (sanitize and f in SPEED_FLAGS)]
+    if sanitize:
+        flags += SANITIZE_FLAGS
+    if mutant is not None:
+        flags.append(f"-DURBSIM_MUTANT_{mutant}")
+    return flags
+
+
+def unpreloaded_env() -> dict[str, str]:
+    """This process's environment without LD_PRELOAD, for the programs it starts (the compiler,
+    TLC's JVM): a process running the sanitized library has the sanitizer runtimes preloaded, and
+    they are not meant to run under them."""
+    return {k: v for k, v in os.environ.items() if k != "LD_PRELOAD"}
+
+
+def sanitizer_preload() -> str:
+    """The LD_PRELOAD value a process needs before it loads a sanitized library: the runtimes must
+    come first in the process, and Python is not built with them."""
+    names = []
+    for runtime in ("libasan.so", "libubsan.so"):
+        proc = subprocess.run([CC, f"-print-file-name={runtime}"], capture_output=True, text=True, check=False,
+                              env=unpreloaded_env())
+        found = proc.stdout.strip()
+        if proc.returncode != 0 or not os.path.isabs(found):
+            raise BuildError(f"{CC} has no {runtime}: install the compiler's sanitizer runtimes "
+                             "(Debian: libasan8 libubsan1, pulled in by gcc)")
+        names.append(found)
+    return ":".join(names)
+
+
+def check_loadable() -> None:
+    """Raise BuildError unless this process can load the selected library: a sanitized one needs
+    the runtimes preloaded, or ASan ends the whole process from inside ctypes.CDLL."""
+    if _variant()[0] and "libasan" not in os.environ.get("LD_PRELOAD", ""):
+        raise BuildError("URBSIM_SANITIZE=1 needs the sanitizer runtimes preloaded: run with "
+                         'LD_PRELOAD="$(python3 -m urb_sim.build --preload)", or use tools/sim_sanitized.py')
 
 
 def _git(*args: str) -> str | None:
@@ -130,12 +204,13 @@ def _own_inputs() -> list[Path]:
 
 
 def _stamp_text(snap: tuple[Path, str] | None) -> str:
-    return f"sources={snap[1] if snap else 'worktree'}\n"
+    return f"sources={snap[1] if snap else 'worktree'}\nflags={' '.join(variant_flags())}\n"
 
 
-def is_stale(lib: Path = LIBRARY, snap: tuple[Path, str] | None = None) -> bool:
+def is_stale(lib: Path | None = None, snap: tuple[Path, str] | None = None) -> bool:
     """True when the library is missing, was built from other committed firmware, or is older than
     any of the simulation's own sources (or, building from the working tree, any source)."""
+    lib = lib or library_path()
     stamp = lib.with_suffix(".stamp")
     if not lib.exists() or not stamp.exists() or stamp.read_text() != _stamp_text(snap):
         return True
@@ -154,39 +229,43 @@ def compile_command(out: Path, extra: list[str] | None = None, snap: tuple[Path,
     incs = [f"-I{p}" for p in _includes(snap)]
     # --no-undefined: a missing source (or a stray adapter) fails here, naming the symbol, instead
     # of when Python loads the library.
-    return [CC, *CFLAGS, *(extra or []), "-shared", "-Wl,--no-undefined", *incs, *map(str, sources(snap)), "-lm",
+    return [CC, *variant_flags(), *(extra or []), "-shared", "-Wl,--no-undefined", *incs, *map(str, sources(snap)), "-lm",
             "-o", str(out)]
 
 
 def ensure_library(force: bool = False) -> Path:
-    """Build build/sim/liburbsim.so when stale (or when `force`); return its path.
+    """Build build/sim/liburbsim.so (or the variant the environment selects) when stale (or when
+    `force`); return its path.
 
     Raises BuildError with the compiler output when compilation fails."""
-    BUILD.mkdir(parents=True, exist_ok=True)
+    library = library_path()
+    library.parent.mkdir(parents=True, exist_ok=True)
     snap = _snapshot()
-    if not force and not is_stale(snap=snap):
-        return LIBRARY
-    tmp = LIBRARY.with_suffix(f".so.tmp{os.getpid()}")
+    if not force and not is_stale(library, snap=snap):
+        return library
+    tmp = library.with_suffix(f".so.tmp{os.getpid()}")
     cmd = compile_command(tmp, snap=snap)
-    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=REPO)
+    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=REPO, env=unpreloaded_env())
     if proc.returncode != 0:
         tmp.unlink(missing_ok=True)
         raise BuildError(
             "building the simulation library failed:\n  " + shlex.join(cmd) + "\n" + proc.stdout + proc.stderr
             + "\nFix the error above (or run `make sim-lib` to see it again)."
         )
-    tmp.replace(LIBRARY)  # atomic: concurrent test workers never load a half-written library
-    LIBRARY.with_suffix(".stamp").write_text(_stamp_text(snap))
-    return LIBRARY
+    tmp.replace(library)  # atomic: concurrent test workers never load a half-written library
+    library.with_suffix(".stamp").write_text(_stamp_text(snap))
+    return library
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python3 -m urb_sim.build", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--force", action="store_true", help="rebuild even when up to date")
+    parser.add_argument("--preload", action="store_true",
+                        help="print the LD_PRELOAD value a sanitized library needs, and build nothing")
     args = parser.parse_args(argv)
     try:
-        print(ensure_library(force=args.force))
+        print(sanitizer_preload() if args.preload else ensure_library(force=args.force))
     except BuildError as exc:
         print(exc, file=sys.stderr)
         return 1

@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from .build import REPO, BuildError, ensure_library
+from .build import REPO, BuildError, check_loadable, ensure_library
 from .experiments import Progress
 from .runner import EXPERIMENTS, available_cpus, run_experiments
 
@@ -130,6 +130,7 @@ def run_sensorhex(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return 2
     try:
+        check_loadable()
         ensure_library()
     except BuildError as exc:
         print(f"urb sim: {exc}", file=sys.stderr)

@@ -14,7 +14,7 @@ from enum import IntEnum
 from pathlib import Path
 from typing import Any
 
-from .build import ensure_library
+from .build import check_loadable, ensure_library
 
 RS232 = 0
 USB = 1
@@ -69,6 +69,7 @@ def lib() -> Any:
     global _lib
     if _lib is None:
         path = ensure_library()
+        check_loadable()
         dll = ctypes.CDLL(str(path))
         W = c_void_p
         sigs: dict[str, tuple[Any, list[Any]]] = {

@@ -8,13 +8,15 @@ the parent (the progress bar's thread, loaded libraries) leaks into them.
 
 from __future__ import annotations
 
+import contextlib
+import faulthandler
 import multiprocessing
 import os
 import queue
 import signal
 import sys
 import traceback
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -80,7 +82,8 @@ def crashed(key: str, out: Path, exc: BaseException) -> Result:
                  notes=["The experiment raised an exception: a bug in the simulation or in the firmware under test "
                         f"(a criterion that is not met is a FAIL, not an exception). {where}; "
                         f"run it alone with `urb sim sensorhex --only {key} --jobs 1` to debug it."])
-    res.check(RAN_TO_COMPLETION, "no exception", f"{type(exc).__name__}: {exc}", False)
+    first_line = next(iter(str(exc).splitlines()), "")  # the rest (a crash stack) is in error.txt
+    res.check(RAN_TO_COMPLETION, "no exception", f"{type(exc).__name__}: {first_line}", False)
     return res
 
 
@@ -101,6 +104,39 @@ class WorkerDied(RuntimeError):
     killed by the operating system)."""
 
 
+#: A worker that dies of a fatal signal leaves its Python stack at that moment here (out/<key>/).
+CRASH_LOG = "crash.txt"
+
+
+@contextlib.contextmanager
+def crash_log(out: Path, key: str) -> Iterator[None]:
+    """While inside, a fatal signal (SIGSEGV in the firmware under test, SIGABRT, SIGBUS...) writes the
+    Python stack of this process to out/<key>/crash.txt before the process dies; the file is
+    removed again when nothing was written."""
+    path = out / key / CRASH_LOG
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        log = open(path, "w", encoding="utf-8")  # noqa: SIM115 - must stay open until the process ends
+    except OSError:
+        yield  # no crash log; the exit status still says what happened
+        return
+    faulthandler.enable(file=log)
+    try:
+        yield
+    finally:
+        faulthandler.disable()
+        log.close()
+        if path.stat().st_size == 0:
+            path.unlink()
+
+
+def _crash_text(out: Path, key: str) -> str:
+    try:
+        return (out / key / CRASH_LOG).read_text(encoding="utf-8", errors="replace").strip()
+    except OSError:
+        return ""
+
+
 def _worker(key: str, out: Path, quick: bool, seed: int, reports: Any) -> None:
     """Body of a worker process: run one experiment, sending progress and then its Result."""
     # Ctrl-C is the parent's to handle: it terminates the workers. terminate() sends SIGTERM: exit
@@ -111,7 +147,8 @@ def _worker(key: str, out: Path, quick: bool, seed: int, reports: Any) -> None:
     def step(frac: float, msg: str) -> None:
         reports.put((key, frac, msg))
 
-    reports.put((key, 1.0, run_one(key, out, quick=quick, seed=seed, progress=step)))
+    with crash_log(out, key):
+        reports.put((key, 1.0, run_one(key, out, quick=quick, seed=seed, progress=step)))
 
 
 def _parallel(keys: Sequence[str], out: Path, *, quick: bool, seed: int, jobs: int, progress: Progress,
@@ -156,7 +193,9 @@ def _parallel(keys: Sequence[str], out: Path, *, quick: bool, seed: int, jobs: i
                 if key not in results:
                     receive(0.5)  # what it sent just before it ended may still be on its way
                 if key not in results:
-                    died = WorkerDied(f"the worker process ended with {_exit_status(proc.exitcode)} and no result")
+                    stack = _crash_text(out, key)
+                    died = WorkerDied(f"the worker process ended with {_exit_status(proc.exitcode)} and no result"
+                                      + (f"; its Python stack when it died ({CRASH_LOG}):\n{stack}" if stack else ""))
                     record(key, 1.0, crashed(key, out, died))
                 proc.join()
                 del running[key]

@@ -24,7 +24,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
-from .build import REPO
+from .build import REPO, unpreloaded_env
 
 SPEC = REPO / "spec" / "tla"
 TRACE_SPEC = REPO / "sim" / "tla"
@@ -228,7 +228,7 @@ def _tlc(spec: str, data: str) -> tuple[bool, str, float]:
         cmd = [java, "-XX:+UseParallelGC", f"-Djava.io.tmpdir={tmp}", "-cp", str(jar), "tlc2.TLC", "-deadlock",
                "-workers", "1", "-config", f"{spec}.cfg", "-metadir", str(tmp / "meta"), f"{spec}.tla"]
         t0 = time.monotonic()
-        proc = subprocess.run(cmd, cwd=tmp, capture_output=True, text=True, check=False)
+        proc = subprocess.run(cmd, cwd=tmp, capture_output=True, text=True, check=False, env=unpreloaded_env())
         dt = time.monotonic() - t0
     log = proc.stdout + proc.stderr
     if "Invariant TraceNotMatched is violated" in log:

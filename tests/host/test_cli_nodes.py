@@ -193,3 +193,10 @@ def test_top_level_help_lists_each_command_once(capsys: pytest.CaptureFixture[st
     listed = [line.split()[0] for line in text.splitlines() if line.startswith("    ") and line.split()]
     assert listed == list(commands), text
     assert "urb COMMAND --help" in text
+
+
+def test_python_dash_m_urb_is_the_urb_command() -> None:
+    proc = subprocess.run([sys.executable, "-m", "urb", "--version"], capture_output=True, text=True, check=False)
+    assert proc.returncode == 0 and proc.stdout.startswith("urb "), proc.stderr
+    proc = subprocess.run([sys.executable, "-m", "urb", "nonsense"], capture_output=True, text=True, check=False)
+    assert proc.returncode == 2 and "invalid choice" in proc.stderr

@@ -94,8 +94,13 @@ def _segfault_in(victim: str) -> Any:
 
 def _worker_or_segfault(victim: str, key: str, out: Path, quick: bool, seed: int, reports: Any) -> None:
     if key == victim:
-        os.kill(os.getpid(), signal.SIGSEGV)
+        with runner.crash_log(out, key):  # as _worker runs every experiment
+            _firmware_under_test_crashes()
     runner._worker(key, out, quick, seed, reports)
+
+
+def _firmware_under_test_crashes() -> None:
+    os.kill(os.getpid(), signal.SIGSEGV)
 
 
 def test_a_worker_that_dies_is_an_error_and_the_others_finish(tmp_path: Path) -> None:
@@ -104,4 +109,7 @@ def test_a_worker_that_dies_is_an_error_and_the_others_finish(tmp_path: Path) ->
                                progress=lambda frac, msg: seen.append(msg), target=_segfault_in("faults"))
     assert [r.verdict for r in results] == ["PASS", "ERROR", "PASS"]
     _assert_error_reported(results[1], tmp_path, "WorkerDied", "signal 11 (SIGSEGV)")
+    # where it died, from the worker's crash log
+    assert "_firmware_under_test_crashes" in (tmp_path / "faults" / "error.txt").read_text()
+    assert not (tmp_path / "fig16" / runner.CRASH_LOG).exists()  # a worker that lived leaves none
     assert seen.count("faults: ERROR") == 1

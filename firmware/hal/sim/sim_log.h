@@ -19,7 +19,14 @@ typedef struct {
 
 static inline void sim_log_put(sim_log_t *l, uint64_t t, uint32_t kind, uint32_t value)
 {
+#ifdef URBSIM_MUTANT_LOG_WRAP /* seeded bug (tools/sim_sanitized.py): the wrap test is off by one */
+    uint32_t i = l->head + l->len;
+    if (i > SIM_LOG_CAP) {
+        i -= SIM_LOG_CAP;
+    }
+#else
     uint32_t i = (l->head + l->len) & (SIM_LOG_CAP - 1u);
+#endif
     l->t[i] = t;
     l->v[i] = (kind << 24) | (value & 0xFFFFFFu);
     if (l->len == SIM_LOG_CAP) {

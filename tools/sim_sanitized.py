@@ -1,0 +1,128 @@
+#!/usr/bin/env python3
+"""The SensoRHex experiments on a build of the simulation with AddressSanitizer and
+UndefinedBehaviorSanitizer.
+
+The proofs cover the firmware's entry points one at a time; this runs all of it together, with the
+simulation HALs and the world that drive it, through the experiments' scenarios and every fault
+the faults experiment injects (bit errors, stuck lines, power loss, bridge reset, babbling node,
+uplink byte loss). An access out of bounds, a use after free, a signed overflow, an invalid shift...
+stops the experiment with the sanitizer's report, which this prints.
+
+It then shows that the check can fail: with a seeded off-by-one in the ring of marks the HALs log
+(URBSIM_MUTANT_LOG_WRAP in firmware/hal/sim/sim_log.h) the sanitizer must report an error.
+
+    python3 tools/sim_sanitized.py                      # both: `make test-sim-san`, in `make check`
+    python3 tools/sim_sanitized.py --only fig20,faults  # the clean run of some experiments only
+    python3 tools/sim_sanitized.py --no-mutant          # the clean run only
+
+Exit status 0 when the clean run passes with no sanitizer report and the seeded bug is reported;
+1 otherwise (the reports and the experiments' verdicts say why); 2 when the build fails.
+The experiments' report of each run is in build/sim/san/<run>/, its error output (with the
+sanitizers' reports) in build/sim/san/<run>.stderr.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "sim"))
+
+from urb_sim.build import BUILD, BuildError, sanitizer_preload  # noqa: E402
+
+OUT = BUILD / "san"
+#: The seeded bug, and the experiment that runs long enough for the mark log to wrap.
+MUTANT, MUTANT_EXPERIMENT = "LOG_WRAP", "fig20"
+#: What a sanitizer report starts with (UBSan: "<file>:<line>:<col>: runtime error: ...").
+REPORT_MARKS = ("runtime error:", "ERROR: AddressSanitizer", "ERROR: LeakSanitizer")
+
+
+def _variant_env(mutant: str | None) -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if k not in ("URBSIM_MUTANT", "LD_PRELOAD")}
+    env["URBSIM_SANITIZE"] = "1"
+    if mutant is not None:
+        env["URBSIM_MUTANT"] = mutant
+    return env
+
+
+def build(mutant: str | None) -> None:
+    """Build the sanitized library (with the seeded bug `mutant`) if it is stale."""
+    proc = subprocess.run([sys.executable, "-m", "urb_sim.build"], env=_variant_env(mutant), cwd=REPO,
+                          capture_output=True, text=True, check=False)
+    if proc.returncode != 0:
+        raise BuildError(proc.stdout + proc.stderr)
+
+
+def run(name: str, experiments: list[str], mutant: str | None) -> tuple[int, list[str]]:
+    """Run `urb sim sensorhex --quick --only experiments` on the sanitized build; returns its exit
+    status and the first line of each sanitizer report it printed (its whole error output, which
+    the workers share, is echoed and kept in build/sim/san/<name>.stderr)."""
+    out = OUT / name
+    shutil.rmtree(out, ignore_errors=True)
+    env = _variant_env(mutant)
+    env["LD_PRELOAD"] = sanitizer_preload()
+    # Python's own allocations at exit are not ours to judge: no leak check. (log_path is not used:
+    # UBSan combined with ASan ignores it, so the reports are taken from the error output.)
+    env["ASAN_OPTIONS"] = "detect_leaks=0"
+    env["UBSAN_OPTIONS"] = "print_stacktrace=1:halt_on_error=1"
+    cmd = [sys.executable, "-m", "urb", "sim", "sensorhex", "--quick", "--no-progress", "--out", str(out),
+           "--only", ",".join(experiments)]
+    print(f"$ URBSIM_SANITIZE=1{f' URBSIM_MUTANT={mutant}' if mutant else ''} {' '.join(cmd[1:])}", flush=True)
+    proc = subprocess.run(cmd, env=env, cwd=REPO, stderr=subprocess.PIPE, text=True, errors="replace", check=False)
+    sys.stderr.write(proc.stderr)
+    OUT.mkdir(parents=True, exist_ok=True)
+    (OUT / f"{name}.stderr").write_text(proc.stderr, encoding="utf-8")
+    return proc.returncode, [line for line in proc.stderr.splitlines() if any(m in line for m in REPORT_MARKS)]
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--only", metavar="LIST", default=None,
+                    help="comma-separated experiments for the clean run (default: all)")
+    ap.add_argument("--no-mutant", action="store_true", help="skip the seeded-bug run")
+    args = ap.parse_args(argv)
+    from urb_sim.runner import EXPERIMENTS
+
+    experiments = list(EXPERIMENTS) if args.only is None else [k.strip() for k in args.only.split(",") if k.strip()]
+    unknown = sorted(set(experiments) - set(EXPERIMENTS)) or ([] if experiments else ["(none)"])
+    if unknown:
+        print(f"sim_sanitized: unknown experiment(s) {', '.join(unknown)}; choose from {', '.join(EXPERIMENTS)}",
+              file=sys.stderr)
+        return 2
+    try:
+        build(None)
+        if not args.no_mutant:
+            build(MUTANT)
+    except BuildError as exc:
+        print(f"sim_sanitized: building the sanitized simulation failed:\n{exc}", file=sys.stderr)
+        return 2
+
+    ok = True
+    status, reports = run("clean", experiments, None)
+    if status != 0 or reports:
+        ok = False
+        print(f"sim_sanitized: FAIL: the sanitized run ended with exit status {status} and {len(reports)} "
+              f"sanitizer report(s):", *reports, f"(the whole output is in {OUT / 'clean.stderr'})",
+              sep="\n  ", file=sys.stderr)
+    else:
+        print(f"sim_sanitized: {len(experiments)} experiment(s) ran under ASan+UBSan with no report")
+
+    if not args.no_mutant:
+        status, reports = run(f"mutant-{MUTANT}", [MUTANT_EXPERIMENT], MUTANT)
+        if status != 0 and reports:
+            print(f"sim_sanitized: seeded bug {MUTANT} caught: {reports[0]}")
+        else:
+            ok = False
+            print(f"sim_sanitized: FAIL: the seeded bug URBSIM_MUTANT_{MUTANT} was not reported (exit status "
+                  f"{status}, {len(reports)} report(s)): the sanitized run no longer catches memory errors",
+                  file=sys.stderr)
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
