@@ -125,9 +125,10 @@ def crash_log(out: Path, key: str) -> Iterator[None]:
         yield
     finally:
         faulthandler.disable()
+        empty = os.fstat(log.fileno()).st_size == 0
         log.close()
-        if path.stat().st_size == 0:
-            path.unlink()
+        if empty:
+            path.unlink(missing_ok=True)
 
 
 def _crash_text(out: Path, key: str) -> str:
