@@ -8,6 +8,11 @@ the faults experiment injects (bit errors, stuck lines, power loss, bridge reset
 uplink byte loss). An access out of bounds, a use after free, a signed overflow, an invalid shift...
 stops the experiment with the sanitizer's report, which this prints.
 
+The sanitized build (-O1, no link-time optimisation) must also give the same trace as the normal
+one (-O3, LTO): the same trace hash for bench/sim_speed.py --fingerprint. A difference would mean
+the results depend on how the code was compiled: an uninitialised read, undefined behaviour that
+the optimiser exploits differently, or floating-point contraction.
+
 It then shows that the check can fail: with a seeded off-by-one in the ring of marks the HALs log
 (URBSIM_MUTANT_LOG_WRAP in firmware/hal/sim/sim_log.h) the sanitizer must report an error.
 
@@ -80,6 +85,20 @@ def run(name: str, experiments: list[str], mutant: str | None) -> tuple[int, lis
     return proc.returncode, [line for line in proc.stderr.splitlines() if any(m in line for m in REPORT_MARKS)]
 
 
+def fingerprint(sanitized: bool) -> str:
+    """bench/sim_speed.py --fingerprint on the normal or the sanitized build: its one-line answer."""
+    env = _variant_env(None) if sanitized else {k: v for k, v in os.environ.items()
+                                                if k not in ("URBSIM_SANITIZE", "URBSIM_MUTANT")}
+    if sanitized:
+        env["LD_PRELOAD"] = sanitizer_preload()
+        env["ASAN_OPTIONS"] = "detect_leaks=0"
+    proc = subprocess.run([sys.executable, str(REPO / "bench" / "sim_speed.py"), "--fingerprint"], env=env, cwd=REPO,
+                          capture_output=True, text=True, check=False)
+    if proc.returncode != 0:
+        return f"(failed with exit status {proc.returncode}: {proc.stderr.strip()})"
+    return proc.stdout.strip()
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--only", metavar="LIST", default=None,
@@ -111,6 +130,14 @@ def main(argv: list[str] | None = None) -> int:
               sep="\n  ", file=sys.stderr)
     else:
         print(f"sim_sanitized: {len(experiments)} experiment(s) ran under ASan+UBSan with no report")
+
+    optimised, sanitized = fingerprint(False), fingerprint(True)
+    if optimised == sanitized and optimised.startswith("fingerprint"):
+        print(f"sim_sanitized: the sanitized and the optimised build give the same trace: {sanitized}")
+    else:
+        ok = False
+        print(f"sim_sanitized: FAIL: the builds give different traces:\n  optimised: {optimised}\n  sanitized: "
+              f"{sanitized}", file=sys.stderr)
 
     if not args.no_mutant:
         status, reports = run(f"mutant-{MUTANT}", [MUTANT_EXPERIMENT], MUTANT)
