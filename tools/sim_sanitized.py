@@ -29,7 +29,6 @@ sanitizers' reports) in build/sim/san/<run>.stderr.
 from __future__ import annotations
 
 import argparse
-import os
 import shutil
 import subprocess
 import sys
@@ -38,7 +37,8 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "sim"))
 
-from urb_sim.build import BUILD, BuildError, sanitizer_preload  # noqa: E402
+from urb_sim.build import BUILD, BuildError, sanitizer_preload, unpreloaded_env  # noqa: E402
+from urb_sim.runner import select  # noqa: E402
 
 OUT = BUILD / "san"
 #: The seeded bug, and the experiment that runs long enough for the mark log to wrap.
@@ -47,17 +47,26 @@ MUTANT, MUTANT_EXPERIMENT = "LOG_WRAP", "fig20"
 REPORT_MARKS = ("runtime error:", "ERROR: AddressSanitizer", "ERROR: LeakSanitizer")
 
 
-def _variant_env(mutant: str | None) -> dict[str, str]:
-    env = {k: v for k, v in os.environ.items() if k not in ("URBSIM_MUTANT", "LD_PRELOAD")}
-    env["URBSIM_SANITIZE"] = "1"
+def _env(*, sanitized: bool, mutant: str | None = None, loads: bool = False) -> dict[str, str]:
+    """This process's environment with the library variant chosen (build.py reads URBSIM_*);
+    `loads`: for a process that loads the sanitized library (runtimes preloaded, reports on)."""
+    env = {k: v for k, v in unpreloaded_env().items() if k not in ("URBSIM_SANITIZE", "URBSIM_MUTANT")}
+    if sanitized:
+        env["URBSIM_SANITIZE"] = "1"
     if mutant is not None:
         env["URBSIM_MUTANT"] = mutant
+    if sanitized and loads:
+        env["LD_PRELOAD"] = sanitizer_preload()
+        # Python's own allocations at exit are not ours to judge: no leak check. (log_path is not
+        # used: UBSan combined with ASan ignores it, so the reports are taken from the error output.)
+        env["ASAN_OPTIONS"] = "detect_leaks=0"
+        env["UBSAN_OPTIONS"] = "print_stacktrace=1:halt_on_error=1"
     return env
 
 
 def build(mutant: str | None) -> None:
     """Build the sanitized library (with the seeded bug `mutant`) if it is stale."""
-    proc = subprocess.run([sys.executable, "-m", "urb_sim.build"], env=_variant_env(mutant), cwd=REPO,
+    proc = subprocess.run([sys.executable, "-m", "urb_sim.build"], env=_env(sanitized=True, mutant=mutant), cwd=REPO,
                           capture_output=True, text=True, check=False)
     if proc.returncode != 0:
         raise BuildError(proc.stdout + proc.stderr)
@@ -69,12 +78,7 @@ def run(name: str, experiments: list[str], mutant: str | None) -> tuple[int, lis
     the workers share, is echoed and kept in build/sim/san/<name>.stderr)."""
     out = OUT / name
     shutil.rmtree(out, ignore_errors=True)
-    env = _variant_env(mutant)
-    env["LD_PRELOAD"] = sanitizer_preload()
-    # Python's own allocations at exit are not ours to judge: no leak check. (log_path is not used:
-    # UBSan combined with ASan ignores it, so the reports are taken from the error output.)
-    env["ASAN_OPTIONS"] = "detect_leaks=0"
-    env["UBSAN_OPTIONS"] = "print_stacktrace=1:halt_on_error=1"
+    env = _env(sanitized=True, mutant=mutant, loads=True)
     cmd = [sys.executable, "-m", "urb", "sim", "sensorhex", "--quick", "--no-progress", "--out", str(out),
            "--only", ",".join(experiments)]
     print(f"$ URBSIM_SANITIZE=1{f' URBSIM_MUTANT={mutant}' if mutant else ''} {' '.join(cmd[1:])}", flush=True)
@@ -87,13 +91,9 @@ def run(name: str, experiments: list[str], mutant: str | None) -> tuple[int, lis
 
 def fingerprint(sanitized: bool) -> str:
     """bench/sim_speed.py --fingerprint on the normal or the sanitized build: its one-line answer."""
-    env = _variant_env(None) if sanitized else {k: v for k, v in os.environ.items()
-                                                if k not in ("URBSIM_SANITIZE", "URBSIM_MUTANT")}
-    if sanitized:
-        env["LD_PRELOAD"] = sanitizer_preload()
-        env["ASAN_OPTIONS"] = "detect_leaks=0"
-    proc = subprocess.run([sys.executable, str(REPO / "bench" / "sim_speed.py"), "--fingerprint"], env=env, cwd=REPO,
-                          capture_output=True, text=True, check=False)
+    proc = subprocess.run([sys.executable, str(REPO / "bench" / "sim_speed.py"), "--fingerprint"],
+                          env=_env(sanitized=sanitized, loads=True), cwd=REPO, capture_output=True, text=True,
+                          check=False)
     if proc.returncode != 0:
         return f"(failed with exit status {proc.returncode}: {proc.stderr.strip()})"
     return proc.stdout.strip()
@@ -105,13 +105,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="comma-separated experiments for the clean run (default: all)")
     ap.add_argument("--no-mutant", action="store_true", help="skip the seeded-bug run")
     args = ap.parse_args(argv)
-    from urb_sim.runner import EXPERIMENTS
-
-    experiments = list(EXPERIMENTS) if args.only is None else [k.strip() for k in args.only.split(",") if k.strip()]
-    unknown = sorted(set(experiments) - set(EXPERIMENTS)) or ([] if experiments else ["(none)"])
-    if unknown:
-        print(f"sim_sanitized: unknown experiment(s) {', '.join(unknown)}; choose from {', '.join(EXPERIMENTS)}",
-              file=sys.stderr)
+    try:
+        experiments = select(args.only)
+    except ValueError as exc:
+        print(f"sim_sanitized: {exc}", file=sys.stderr)
         return 2
     try:
         build(None)

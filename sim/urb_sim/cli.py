@@ -14,7 +14,7 @@ from typing import Any
 
 from .build import REPO, BuildError, check_loadable, ensure_library
 from .experiments import Progress
-from .runner import EXPERIMENTS, available_cpus, run_experiments
+from .runner import EXPERIMENTS, available_cpus, run_experiments, select
 
 #: `urb sim` subcommands and their one-line summaries (listed in `urb sim --help`).
 SUBCOMMANDS = {"sensorhex": "run the scenario and the paper's experiments, write the HTML report",
@@ -114,15 +114,10 @@ def run_params(args: argparse.Namespace) -> int:
 
 
 def run_sensorhex(args: argparse.Namespace) -> int:
-    keys = list(EXPERIMENTS) if args.only is None else [k.strip() for k in args.only.split(",") if k.strip()]
-    if not keys:
-        print(f"urb sim sensorhex: --only names no experiment; choose from {', '.join(EXPERIMENTS)} "
-              "(or leave --only out to run them all)", file=sys.stderr)
-        return 2
-    unknown = [k for k in keys if k not in EXPERIMENTS]
-    if unknown:
-        print(f"urb sim sensorhex: unknown experiment(s) {', '.join(unknown)}; choose from {', '.join(EXPERIMENTS)}",
-              file=sys.stderr)
+    try:
+        keys = select(args.only)
+    except ValueError as exc:
+        print(f"urb sim sensorhex: {exc}", file=sys.stderr)
         return 2
     problem = _unwritable(args.out)
     if problem:

@@ -68,8 +68,8 @@ def lib() -> Any:
     """The loaded library (built first when stale)."""
     global _lib
     if _lib is None:
-        path = ensure_library()
         check_loadable()
+        path = ensure_library()
         dll = ctypes.CDLL(str(path))
         W = c_void_p
         sigs: dict[str, tuple[Any, list[Any]]] = {

@@ -37,6 +37,21 @@ def available_cpus() -> int:
         return max(1, os.cpu_count() or 1)
 
 
+def select(only: str | None) -> list[str]:
+    """The experiments a comma-separated `--only` list names (None: all, in report order). Raises
+    ValueError saying what is wrong when it names none or one that does not exist."""
+    if only is None:
+        return list(EXPERIMENTS)
+    keys = [k.strip() for k in only.split(",") if k.strip()]
+    choices = ", ".join(EXPERIMENTS)
+    if not keys:
+        raise ValueError(f"--only names no experiment; choose from {choices} (or leave --only out to run them all)")
+    unknown = [k for k in keys if k not in EXPERIMENTS]
+    if unknown:
+        raise ValueError(f"unknown experiment(s) {', '.join(unknown)}; choose from {choices}")
+    return keys
+
+
 def experiment(key: str) -> Callable[..., Result]:
     """The function that runs experiment `key`."""
     from .experiments import bandwidth, control, faults, gait, latency, sync, traces
