@@ -2,7 +2,8 @@
 """Run TLC on every URB TLA+ model and must-fail mutant listed in spec/tla/manifest.json.
 
 Good models must pass with exactly the recorded number of distinct states and depth; each
-mutant must be refuted by TLC with exactly the expected invariant or temporal property.
+mutant must be refuted by TLC with exactly the expected invariant or temporal property, or by a
+false ASSUME (a mutant of an operator that an MC module checks against its definition).
 Results go to build/tla/junit.xml (JUnit), build/tla/results.json and build/tla/logs/.
 
     python3 tools/modelcheck.py               # all default models and mutants
@@ -35,7 +36,11 @@ SPEC_DIR = ROOT / "spec" / "tla"
 MANIFEST = SPEC_DIR / "manifest.json"
 OUT_DIR = ROOT / "build" / "tla"
 
-Outcome = Literal["pass", "invariant", "property", "deadlock", "error"]
+Outcome = Literal["pass", "invariant", "property", "assumption", "deadlock", "error"]
+
+#: What a mutant expects when it must make an ASSUME of the specification false (TLC names no
+#: operator for a false assumption, only its place).
+ASSUMPTION = "ASSUME"
 
 
 class SetupError(Exception):
@@ -50,7 +55,7 @@ class TlcResult:
     """What one TLC run reported, parsed from its output."""
 
     outcome: Outcome
-    violated: str | None = None  # invariant / property name, when TLC names it
+    violated: str | None = None  # invariant / property name when TLC names it; ASSUMPTION for an ASSUME
     distinct_states: int | None = None
     generated_states: int | None = None
     depth: int | None = None
@@ -63,6 +68,8 @@ _STATES_RE = re.compile(
 _DEPTH_RE = re.compile(r"The depth of the complete state graph search is (\d+)\.")
 _INVARIANT_RE = re.compile(r"^Error: Invariant (\w+) is violated", re.MULTILINE)
 _ACTION_PROP_RE = re.compile(r"^Error: Action property (\w+) of (?:the )?\S+ is violated", re.MULTILINE)
+_ASSUMPTION_RE = re.compile(r"^Error: Assumption (line \d+, col \d+ to line \d+, col \d+ of module \w+) is false",
+                            re.MULTILINE)
 _TEMPORAL_RE = re.compile(r"^Error: Temporal properties were violated", re.MULTILINE)
 _DEADLOCK_RE = re.compile(r"^Error: Deadlock reached", re.MULTILINE)
 _SUCCESS_RE = re.compile(r"Model checking completed\. No error has been found\.")
@@ -105,7 +112,9 @@ def parse_tlc_output(text: str, exit_code: int, cfg_text: str = "") -> TlcResult
     depth = _DEPTH_RE.findall(text)
     if depth:
         res.depth = int(depth[-1])
-    if m := _INVARIANT_RE.search(text):
+    if m := _ASSUMPTION_RE.search(text):
+        res.outcome, res.violated, res.message = "assumption", ASSUMPTION, f"false assumption at {m.group(1)}"
+    elif m := _INVARIANT_RE.search(text):
         res.outcome, res.violated = "invariant", m.group(1)
     elif m := _ACTION_PROP_RE.search(text):
         res.outcome, res.violated = "property", m.group(1)
@@ -277,7 +286,7 @@ def judge(run: RunOutcome, update: bool) -> None:
                 # level-ordered, so the reported depth may differ by a few levels.
                 run.notes.append(f"depth {r.depth} (manifest {e.depth})")
     else:
-        if r.outcome not in ("invariant", "property"):
+        if r.outcome not in ("invariant", "property", "assumption"):
             what = r.outcome if r.outcome != "error" else f"error: {r.message}"
             run.problems.append(f"mutant not refuted as expected ({e.expect_violation}); TLC: {what}")
         elif r.violated != e.expect_violation:

@@ -18,5 +18,17 @@ MCRequestsCore ==
     { [addr |-> 1, box |-> 1, op |-> "read",  len |-> 2],
       [addr |-> 1, box |-> 1, op |-> "write", len |-> 2],
       [addr |-> 2, box |-> 1, op |-> "read",  len |-> 2] }
-MCFaults == {"TIMEOUT", "CHECKSUM", "BUS_STUCK", "NODE_BUSY"}
+MCFaults == {"TIMEOUT", "CHECKSUM", "BUS_STUCK", "NODE_BUSY", "NO_NODE"}
+
+(* Bridge.tla states AtMostOneResponse and ResponsesInRequestOrder with    *)
+(* one quantifier (DistinctIds, IdsInOrder) for speed.  Each must equal    *)
+(* its pairwise statement: checked on every sequence of up to 4 entries    *)
+(* over the ids 1..3 (the mutants Bridge_DistinctByCount and               *)
+(* Bridge_OrderSkipsLastPair show the check failing).                      *)
+Entries(ids) == [k \in DOMAIN ids |-> [id |-> ids[k]]]
+FormsAgree(Distinct(_), InOrder(_)) ==
+    \A o \in UNION {[1..m -> 1..3] : m \in 0..4} :
+        /\ Distinct(Entries(o)) <=> \A k, j \in DOMAIN o : k # j => o[k] # o[j]
+        /\ InOrder(Entries(o)) <=> \A k, j \in DOMAIN o : k < j => o[k] <= o[j]
+ASSUME FormsAgree(DistinctIds, IdsInOrder)
 =============================================================================

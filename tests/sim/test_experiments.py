@@ -52,7 +52,8 @@ def test_trace_validation_with_tlc(tmp_path: Path) -> None:
     _assert_passed(res)
     names = {c.name for c in res.checks}
     assert {"inbox trace accepted", "inbox mutant rejected: torn read",
-            "inbox mutant rejected: aborted write visible", "outbox mutant rejected: stale byte"} <= names
+            "inbox mutant rejected: aborted write visible", "outbox mutant rejected: stale byte",
+            "usb trace under I2C bit errors accepted"} <= names
 
 
 def test_figs18_19_pd_control(tmp_path: Path) -> None:

@@ -40,3 +40,13 @@ def test_rejected_trace_reports_its_longest_matched_prefix() -> None:
     assert not r.accepted
     assert r.matched_prefix == 3, r.message
     assert "matches up to event 3 of 6" in r.message
+
+
+def test_no_node_for_a_present_node_needs_the_vanish_fault() -> None:
+    """A present node that acknowledges neither its address nor the bridge's probe (it vanished, or
+    bit errors hit both) is answered NO_NODE: Bridge.tla allows that only as a downlink fault."""
+    trace = _reads(2)
+    trace[3].status = 4  # URB_STATUS_NO_NODE
+    assert not check_bridge(trace, PRESENT).accepted
+    r = check_bridge(trace, PRESENT, faults=["NO_NODE"])
+    assert r.accepted, r.message

@@ -82,7 +82,12 @@ def test_every_mutant_targets_exactly_its_expected_violation(manifest: Any) -> N
             continue
         cfg = SPEC / e.config
         targets = [n for n in _invariants(cfg) + _properties(cfg) if n != "TypeOK"]
-        assert targets == [e.expect_violation], f"{e.name}: cfg checks {targets}"
+        if e.expect_violation == mc.ASSUMPTION:
+            # refuted by its own ASSUME, before any state: the cfg must not check anything else
+            assert targets == [], f"{e.name}: an ASSUME mutant's cfg checks {targets}"
+            assert re.search(r"^ASSUME ", (SPEC / e.module).read_text(), re.M), f"{e.name}: no ASSUME"
+        else:
+            assert targets == [e.expect_violation], f"{e.name}: cfg checks {targets}"
         text = (SPEC / e.module).read_text()
         assert f"Expected: {e.expect_violation.removeprefix('Mut')}" in text, (
             f"{e.name}: the mutant's comment must say which violation it expects")
@@ -153,6 +158,11 @@ State 1: <Initial predicate>
 76436 states generated, 36106 distinct states found, 9636 states left on queue.
 """
 
+ASSUMPTION = """\
+Error: Assumption line 9, col 8 to line 9, col 52 of module Bridge_OrderSkipsLastPair is false.
+Finished in 00s at (2026-11-25 12:20:01)
+"""
+
 PARSE_ERROR = """\
 Unknown operator: `b'.
 Error: Parsing or semantic analysis failed.
@@ -183,6 +193,24 @@ def test_parse_temporal_violation_with_several_properties_is_ambiguous() -> None
     cfg = "SPECIFICATION Spec\nPROPERTIES P1 P2\n"
     r = mc.parse_tlc_output(TEMPORAL, 13, cfg)
     assert r.outcome == "property" and r.violated is None and "P1, P2" in r.message
+
+
+def test_parse_false_assumption() -> None:
+    r = mc.parse_tlc_output(ASSUMPTION, 12)
+    assert (r.outcome, r.violated) == ("assumption", mc.ASSUMPTION)
+    assert "module Bridge_OrderSkipsLastPair" in r.message
+
+
+def test_judge_assumption_mutant() -> None:
+    run = mc.RunOutcome(_entry("mutant", expect_violation=mc.ASSUMPTION), mc.parse_tlc_output(ASSUMPTION, 12), 1.0, "")
+    mc.judge(run, update=False)
+    assert run.ok
+    run = mc.RunOutcome(_entry("mutant", expect_violation=mc.ASSUMPTION), mc.parse_tlc_output(INVARIANT, 12), 1.0, "")
+    mc.judge(run, update=False)
+    assert not run.ok and "wrong violation" in run.problems[0]
+    run = mc.RunOutcome(_entry("model", distinct_states=1), mc.parse_tlc_output(ASSUMPTION, 12), 1.0, "")
+    mc.judge(run, update=False)
+    assert not run.ok and "assumption" in run.problems[0], "a false ASSUME fails a good model"
 
 
 def test_parse_deadlock_and_errors() -> None:
