@@ -104,14 +104,34 @@ def crashed(key: str, out: Path, exc: BaseException) -> Result:
 
 def _serial(keys: Sequence[str], out: Path, *, quick: bool, seed: int, progress: Progress) -> list[Result]:
     results = []
-    for i, key in enumerate(keys):
-        def step(frac: float, msg: str, i: int = i) -> None:
-            progress((i + frac) / len(keys), msg)
+    with stack_on_crash():
+        for i, key in enumerate(keys):
+            def step(frac: float, msg: str, i: int = i) -> None:
+                progress((i + frac) / len(keys), msg)
 
-        res = run_one(key, out, quick=quick, seed=seed, progress=step)
-        results.append(res)
-        progress((i + 1) / len(keys), _verdict(res))
+            res = run_one(key, out, quick=quick, seed=seed, progress=step)
+            results.append(res)
+            progress((i + 1) / len(keys), _verdict(res))
     return results
+
+
+@contextlib.contextmanager
+def stack_on_crash() -> Iterator[None]:
+    """While inside, a fatal signal in this process (a SIGSEGV in the firmware under test, with
+    `--jobs 1`) prints the Python stack to the standard error before the process dies: there is
+    no worker whose death could be reported."""
+    if faulthandler.is_enabled() or sys.__stderr__ is None:
+        yield  # already printed (python3 -X faulthandler, pytest), or nowhere to print it
+        return
+    try:
+        faulthandler.enable(file=sys.__stderr__)
+    except (ValueError, OSError):
+        yield  # the standard error has no usable descriptor: the signal still ends the process
+        return
+    try:
+        yield
+    finally:
+        faulthandler.disable()
 
 
 class WorkerDied(RuntimeError):

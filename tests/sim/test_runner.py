@@ -7,6 +7,8 @@ import functools
 import json
 import os
 import signal
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -113,3 +115,26 @@ def test_a_worker_that_dies_is_an_error_and_the_others_finish(tmp_path: Path) ->
     assert "_firmware_under_test_crashes" in (tmp_path / "faults" / "error.txt").read_text()
     assert not (tmp_path / "fig16" / runner.CRASH_LOG).exists()  # a worker that lived leaves none
     assert seen.count("faults: ERROR") == 1
+
+
+SERIAL_CRASH = """
+import os, signal, sys
+from pathlib import Path
+from urb_sim import runner
+
+def firmware_under_test_crashes(out, **_):
+    os.kill(os.getpid(), signal.SIGSEGV)
+
+runner.experiment = lambda key: firmware_under_test_crashes
+runner.run_experiments(["fig15"], Path(sys.argv[1]), quick=True, seed=1, jobs=1, progress=lambda f, m: None)
+"""
+
+
+def test_a_crash_with_one_job_prints_where_it_happened(tmp_path: Path) -> None:
+    """With --jobs 1 the experiment runs in this process, so a SIGSEGV ends the run: it must say where."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONFAULTHANDLER"}
+    proc = subprocess.run([sys.executable, "-c", SERIAL_CRASH, str(tmp_path)], capture_output=True, text=True,
+                          env=env, cwd=Path(runner.__file__).parents[1], timeout=60)
+    assert proc.returncode == -signal.SIGSEGV
+    assert "Segmentation fault" in proc.stderr
+    assert "firmware_under_test_crashes" in proc.stderr
