@@ -136,8 +136,11 @@ def find_tlc() -> tuple[str, Path]:
 
 def _run(events: list[Event], present: dict[int, dict[int, int]], faults: Iterable[str], queue_len: int,
          host_window: int) -> tuple[bool, int | None, int, str, float]:
-    """One TLC run on the trace: (accepted, distinct states, longest prefix matched, message, seconds)."""
-    accepted, log, dt = _tlc("TraceBridge", _tla_module(events, present, faults, queue_len, host_window))
+    """One TLC run on the trace: (accepted, distinct states, longest prefix matched, message, seconds).
+    TraceBridge.tla has no invariant that a full match violates (its counterexample would be the
+    whole trace): TLC explores every state and prints each new longest matched prefix, and the
+    trace is accepted when the last one is the whole trace."""
+    _, log, dt = _tlc("TraceBridge", _tla_module(events, present, faults, queue_len, host_window))
     matched = max((int(m) for m in re.findall(r'<<"matched", (\d+)>>', log)), default=0)
     states = None
     for line in log.splitlines():
@@ -146,7 +149,8 @@ def _run(events: list[Event], present: dict[int, dict[int, int]], faults: Iterab
                 states = int(line.split(" distinct states found")[0].split(",")[-1].strip().split()[-1].replace(",", ""))
             except ValueError:
                 pass
-    return accepted, states, len(events) if accepted else matched, _verdict(accepted), dt
+    accepted = matched == len(events)
+    return accepted, states, matched, _verdict(accepted), dt
 
 
 def _verdict(accepted: bool) -> str:
@@ -212,11 +216,13 @@ def _outbox_module(events: list[dict[str, int | str]], size: int) -> str:
 
 
 def _tlc(spec: str, data: str) -> tuple[bool, str, float]:
-    """Run TLC on sim/tla/<spec>.tla with the generated <spec>Data module: (accepted, TLC's output,
-    seconds). Accepted: TLC found a behaviour that matches the whole trace (TraceNotMatched is
-    violated). Rejected: TLC finished its search without finding one. Anything else (TLC killed, out
-    of memory, an error in a specification) is neither, and raises TraceCheckError: a crashed check
-    must never count as a rejected mutant."""
+    """Run TLC on sim/tla/<spec>.tla with the generated <spec>Data module: (whole trace matched, TLC's
+    output, seconds). True: TLC found a behaviour that matches the whole trace (TraceNotMatched is
+    violated). False: TLC finished its search without finding one, or, for a specification without
+    TraceNotMatched, finished its search (the caller reads how far it matched). Anything else (TLC
+    killed, out of memory, an error in a specification, an invariant of the specification violated
+    on the way) is neither, and raises TraceCheckError: a crashed check must never count as a
+    rejected mutant."""
     java, jar = find_tlc()
     with tempfile.TemporaryDirectory(prefix="urb-trace-") as tmp_s:
         tmp = Path(tmp_s)

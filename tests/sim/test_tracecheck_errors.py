@@ -20,6 +20,9 @@ KILLED = 'echo \'<<"matched", 1>>\'; kill -9 $$'
 SPEC_ERROR = "echo 'Error: Parsing or semantic analysis failed.'; exit 150"
 FINISHED = "echo 'Model checking completed. No error has been found.'; exit 0"
 MATCHED = "echo 'Error: Invariant TraceNotMatched is violated.'; exit 12"
+#: TraceBridge.tla prints each new longest matched prefix and has no invariant a full match violates.
+FINISHED_ALL_MATCHED = ("echo '<<\"matched\", 1>>'; echo '<<\"matched\", 2>>'; "
+                        "echo 'Model checking completed. No error has been found.'; exit 0")
 
 
 def _fake_tlc(monkeypatch: pytest.MonkeyPatch, tmp_path: Path, body: str) -> None:
@@ -46,6 +49,10 @@ def test_finished_runs_give_a_verdict(monkeypatch: pytest.MonkeyPatch, tmp_path:
     assert not check_bridge(TRACE, {0x10: {1: 6}}).accepted
     assert not check_outbox([{"ev": "release"}], 4).accepted
     _fake_tlc(monkeypatch, tmp_path, MATCHED)
+    assert check_inbox([{"ev": "wnack"}], 4).accepted
+    assert check_outbox([{"ev": "release"}], 4).accepted
+    _fake_tlc(monkeypatch, tmp_path, FINISHED_ALL_MATCHED)
     r = check_bridge(TRACE, {0x10: {1: 6}})
     assert r.accepted and r.matched_prefix == len(TRACE)
-    assert check_inbox([{"ev": "wnack"}], 4).accepted
+    r = check_bridge(TRACE + TRACE, {0x10: {1: 6}})  # the same run is 2 of 4 events for a longer trace
+    assert not r.accepted and r.matched_prefix == 2
