@@ -21,10 +21,12 @@
 (* The steps inside URB_LockInbox before its result (AppLockLoadFront,      *)
 (* AppLockClaim, AppLockCheckIsr, a failed AppLockCheckFront and the        *)
 (* retries' AppLockUnclaim) are not logged: TLC places them wherever the    *)
-(* trace allows. Accepted when every event is matched (TraceNotMatched     *)
-(* violated), with every invariant of MailboxInbox.tla checked on the way. *)
+(* trace allows, while events remain. Accepted when a state matches every *)
+(* event: MatchedSoFar prints each new longest matched prefix, the whole    *)
+(* trace's length last. Every invariant of MailboxInbox.tla is checked on   *)
+(* the way; a rejected trace says how far it matched.                      *)
 (***************************************************************************)
-EXTENDS MailboxInbox, TraceInboxData
+EXTENDS MailboxInbox, TraceInboxData, TLC
 
 VARIABLE l
 
@@ -83,6 +85,7 @@ MatchRelease ==
 (* Unlogged steps of URB_LockInbox; a failed AppLockCheckFront and the     *)
 (* retries' unclaims only (the lock that succeeds, or gives up, is logged). *)
 Hidden ==
+    /\ l <= Len(Trace)
     /\ \/ AppLockLoadFront \/ AppLockClaim \/ AppLockCheckIsr
        \/ (AppLockCheckFront /\ appPc' = "unclaim")
        \/ (tries < MaxRetry /\ AppLockUnclaim)
@@ -92,5 +95,10 @@ TraceNext ==
     \/ MatchWriteBegin \/ MatchWriteNack \/ MatchWriteByte \/ MatchCommit \/ MatchAbort
     \/ MatchLock \/ MatchBusy \/ MatchReadByte \/ MatchRelease \/ Hidden
 
-TraceNotMatched == l <= Len(Trace)
+(* Not a property (always TRUE): TLC register 1 holds the longest prefix  *)
+(* matched in any state seen so far, and each new one is printed as       *)
+(* <<"matched", n>> (tracecheck.py reads the last).                        *)
+ASSUME TLCSet(1, 0)
+MatchedSoFar ==
+    IF l - 1 > TLCGet(1) THEN TLCSet(1, l - 1) /\ PrintT(<<"matched", l - 1>>) ELSE TRUE
 =============================================================================

@@ -13,10 +13,12 @@
 (*   [ev |-> "end"]              STOP: IsrReadEnd                           *)
 (* The application's lock and byte stores (AppLockPick, AppLockCheck,       *)
 (* AppWriteByte) are not logged: TLC places them wherever the trace allows. *)
-(* Accepted when every event is matched (TraceNotMatched violated), with    *)
-(* every invariant of MailboxOutbox.tla checked along the way.              *)
+(* Accepted when a state matches every event: MatchedSoFar prints each new *)
+(* longest matched prefix, the whole trace's length last (hidden steps end *)
+(* with the trace, so TLC then stops). Every invariant of MailboxOutbox.tla *)
+(* is checked along the way; a rejected trace says how far it matched.     *)
 (***************************************************************************)
-EXTENDS MailboxOutbox, TraceOutboxData
+EXTENDS MailboxOutbox, TraceOutboxData, TLC
 
 VARIABLE l
 
@@ -45,9 +47,14 @@ MatchEnd ==
     /\ IsrReadEnd
     /\ l' = l + 1
 
-Hidden == (AppLockPick \/ AppLockCheck \/ AppWriteByte) /\ UNCHANGED l
+Hidden == l <= Len(Trace) /\ (AppLockPick \/ AppLockCheck \/ AppWriteByte) /\ UNCHANGED l
 
 TraceNext == MatchRelease \/ MatchBegin \/ MatchByte \/ MatchEnd \/ Hidden
 
-TraceNotMatched == l <= Len(Trace)
+(* Not a property (always TRUE): TLC register 1 holds the longest prefix  *)
+(* matched in any state seen so far, and each new one is printed as       *)
+(* <<"matched", n>> (tracecheck.py reads the last).                        *)
+ASSUME TLCSet(1, 0)
+MatchedSoFar ==
+    IF l - 1 > TLCGet(1) THEN TLCSet(1, l - 1) /\ PrintT(<<"matched", l - 1>>) ELSE TRUE
 =============================================================================

@@ -20,7 +20,7 @@ import shutil
 import subprocess
 import tempfile
 import time
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -134,13 +134,12 @@ def find_tlc() -> tuple[str, Path]:
     return java, jar
 
 
-def _run(events: list[Event], present: dict[int, dict[int, int]], faults: Iterable[str], queue_len: int,
-         host_window: int) -> tuple[bool, int | None, int, str, float]:
-    """One TLC run on the trace: (accepted, distinct states, longest prefix matched, message, seconds).
-    TraceBridge.tla has no invariant that a full match violates (its counterexample would be the
-    whole trace): TLC explores every state and prints each new longest matched prefix, and the
-    trace is accepted when the last one is the whole trace."""
-    _, log, dt = _tlc("TraceBridge", _tla_module(events, present, faults, queue_len, host_window))
+def _check(spec: str, data: str, events: Sequence[object]) -> TraceResult:
+    """One TLC run of sim/tla/<spec>.tla on a trace. A full match violates no invariant (TLC would
+    print the whole trace as its counterexample): TLC explores every state the trace allows and
+    prints each new longest matched prefix (MatchedSoFar); the trace is accepted when the last one
+    is the whole trace, and a rejected one says how far it matched."""
+    log, dt = _tlc(spec, data)
     matched = max((int(m) for m in re.findall(r'<<"matched", (\d+)>>', log)), default=0)
     states = None
     for line in log.splitlines():
@@ -149,12 +148,11 @@ def _run(events: list[Event], present: dict[int, dict[int, int]], faults: Iterab
                 states = int(line.split(" distinct states found")[0].split(",")[-1].strip().split()[-1].replace(",", ""))
             except ValueError:
                 pass
-    accepted = matched == len(events)
-    return accepted, states, matched, _verdict(accepted), dt
-
-
-def _verdict(accepted: bool) -> str:
-    return "every event matched" if accepted else "TLC found no behaviour matching the whole trace"
+    if matched == len(events):
+        return TraceResult(True, len(events), matched, states, dt, "every event matched")
+    return TraceResult(False, len(events), matched, states, dt,
+                       f"TLC found no behaviour matching the whole trace; the trace matches up to event {matched} "
+                       f"of {len(events)} (next: {events[matched]})")
 
 
 def check_bridge(events: list[Event], present: dict[int, dict[int, int]], *, faults: Iterable[str] = (),
@@ -164,12 +162,7 @@ def check_bridge(events: list[Event], present: dict[int, dict[int, int]], *, fau
 
     `present`: node address -> {mailbox: size} as learnt at discovery (one size per mailbox for
     both directions, as Bridge.tla's Size)."""
-    ok, states, matched, msg, dt = _run(events, present, list(faults), queue_len, host_window)
-    if ok:
-        return TraceResult(True, len(events), len(events), states, dt, msg)
-    return TraceResult(False, len(events), matched, states, dt,
-                       f"{msg}; the trace matches up to event {matched} of {len(events)}"
-                       + (f" (next: {events[matched]})" if matched < len(events) else ""))
+    return _check("TraceBridge", _tla_module(events, present, list(faults), queue_len, host_window), events)
 
 
 # --------------------------------------------------------------------------- outbox traces
@@ -215,13 +208,11 @@ def _outbox_module(events: list[dict[str, int | str]], size: int) -> str:
                       "Trace == <<" + ",\n    ".join(items) + ">>", "====", ""])
 
 
-def _tlc(spec: str, data: str) -> tuple[bool, str, float]:
-    """Run TLC on sim/tla/<spec>.tla with the generated <spec>Data module: (whole trace matched, TLC's
-    output, seconds). True: TLC found a behaviour that matches the whole trace (TraceNotMatched is
-    violated). False: TLC finished its search without finding one, or, for a specification without
-    TraceNotMatched, finished its search (the caller reads how far it matched). Anything else (TLC
-    killed, out of memory, an error in a specification, an invariant of the specification violated
-    on the way) is neither, and raises TraceCheckError: a crashed check must never count as a
+def _tlc(spec: str, data: str) -> tuple[str, float]:
+    """Run TLC on sim/tla/<spec>.tla with the generated <spec>Data module until it has explored
+    every state: (TLC's output, seconds). Anything else (TLC killed, out of memory, an error in a
+    specification, an invariant of the specification violated on the way) raises TraceCheckError:
+    the trace is then neither accepted nor rejected, and a crashed check can never count as a
     rejected mutant."""
     java, jar = find_tlc()
     with tempfile.TemporaryDirectory(prefix="urb-trace-") as tmp_s:
@@ -239,10 +230,8 @@ def _tlc(spec: str, data: str) -> tuple[bool, str, float]:
         proc = subprocess.run(cmd, cwd=tmp, capture_output=True, text=True, check=False, env=unpreloaded_env())
         dt = time.monotonic() - t0
     log = proc.stdout + proc.stderr
-    if "Invariant TraceNotMatched is violated" in log:
-        return True, log, dt
     if proc.returncode == 0 and "No error has been found" in log:
-        return False, log, dt
+        return log, dt
     how = f"killed by signal {-proc.returncode}" if proc.returncode < 0 else f"exit status {proc.returncode}"
     errors = [ln for ln in log.splitlines() if ln.startswith("Error") or "is violated" in ln]
     raise TraceCheckError(f"TLC did not finish checking the trace against sim/tla/{spec}.tla ({how}): "
@@ -252,9 +241,9 @@ def _tlc(spec: str, data: str) -> tuple[bool, str, float]:
 
 
 def check_outbox(events: list[dict[str, int | str]], size: int) -> TraceResult:
-    """Check an outbox trace against MailboxOutbox.tla (no prefix search: these traces are short)."""
-    accepted, _, dt = _tlc("TraceOutbox", _outbox_module(events, size))
-    return TraceResult(accepted, len(events), len(events) if accepted else -1, None, dt, _verdict(accepted))
+    """Check an outbox trace against MailboxOutbox.tla in one TLC run (a rejected trace comes with
+    the longest prefix a behaviour matched)."""
+    return _check("TraceOutbox", _outbox_module(events, size), events)
 
 
 # --------------------------------------------------------------------------- inbox traces
@@ -321,5 +310,4 @@ def check_inbox(events: list[dict[str, int | str]], size: int) -> TraceResult:
     if size < 2:
         raise ValueError(f"inbox of {size} byte(s): MailboxInbox.tla needs MsgLen >= 2 (a torn read must be "
                          "observable); trace an inbox of 2 bytes or more")
-    accepted, _, dt = _tlc("TraceInbox", _inbox_module(events, size))
-    return TraceResult(accepted, len(events), len(events) if accepted else -1, None, dt, _verdict(accepted))
+    return _check("TraceInbox", _inbox_module(events, size), events)

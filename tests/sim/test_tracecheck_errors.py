@@ -19,10 +19,11 @@ TRACE = [Event("req", addr=0x10, box=1, op="read", length=6, seq=1),
 KILLED = 'echo \'<<"matched", 1>>\'; kill -9 $$'
 SPEC_ERROR = "echo 'Error: Parsing or semantic analysis failed.'; exit 150"
 FINISHED = "echo 'Model checking completed. No error has been found.'; exit 0"
-MATCHED = "echo 'Error: Invariant TraceNotMatched is violated.'; exit 12"
-#: TraceBridge.tla prints each new longest matched prefix and has no invariant a full match violates.
+#: The trace specifications print each new longest matched prefix; a full match violates nothing.
 FINISHED_ALL_MATCHED = ("echo '<<\"matched\", 1>>'; echo '<<\"matched\", 2>>'; "
                         "echo 'Model checking completed. No error has been found.'; exit 0")
+#: An invariant of the specification violated on the way: neither accepted nor rejected.
+INVARIANT = "echo '<<\"matched\", 2>>'; echo 'Error: Invariant AppReadNotTorn is violated.'; exit 12"
 
 
 def _fake_tlc(monkeypatch: pytest.MonkeyPatch, tmp_path: Path, body: str) -> None:
@@ -32,8 +33,9 @@ def _fake_tlc(monkeypatch: pytest.MonkeyPatch, tmp_path: Path, body: str) -> Non
     monkeypatch.setattr(tracecheck, "find_tlc", lambda: (str(java), tmp_path / "tla2tools.jar"))
 
 
-@pytest.mark.parametrize("body, cause", [(KILLED, "killed by signal 9"), (SPEC_ERROR, "Parsing or semantic")],
-                         ids=["killed", "spec-error"])
+@pytest.mark.parametrize("body, cause", [(KILLED, "killed by signal 9"), (SPEC_ERROR, "Parsing or semantic"),
+                                         (INVARIANT, "AppReadNotTorn is violated")],
+                         ids=["killed", "spec-error", "invariant"])
 def test_a_check_that_does_not_finish_is_an_error(monkeypatch: pytest.MonkeyPatch, tmp_path: Path, body: str,
                                                   cause: str) -> None:
     _fake_tlc(monkeypatch, tmp_path, body)
@@ -48,11 +50,11 @@ def test_finished_runs_give_a_verdict(monkeypatch: pytest.MonkeyPatch, tmp_path:
     _fake_tlc(monkeypatch, tmp_path, FINISHED)
     assert not check_bridge(TRACE, {0x10: {1: 6}}).accepted
     assert not check_outbox([{"ev": "release"}], 4).accepted
-    _fake_tlc(monkeypatch, tmp_path, MATCHED)
-    assert check_inbox([{"ev": "wnack"}], 4).accepted
-    assert check_outbox([{"ev": "release"}], 4).accepted
     _fake_tlc(monkeypatch, tmp_path, FINISHED_ALL_MATCHED)
-    r = check_bridge(TRACE, {0x10: {1: 6}})
-    assert r.accepted and r.matched_prefix == len(TRACE)
-    r = check_bridge(TRACE + TRACE, {0x10: {1: 6}})  # the same run is 2 of 4 events for a longer trace
-    assert not r.accepted and r.matched_prefix == 2
+    for check in (lambda trace: check_bridge(trace, {0x10: {1: 6}}),
+                  lambda trace: check_outbox([{"ev": "release"}] * len(trace), 4),
+                  lambda trace: check_inbox([{"ev": "wnack"}] * len(trace), 4)):
+        r = check(TRACE)
+        assert r.accepted and r.matched_prefix == len(TRACE)
+        r = check(TRACE + TRACE)  # the same run is 2 of 4 events for a longer trace
+        assert not r.accepted and r.matched_prefix == 2 and "up to event 2 of 4" in r.message
