@@ -50,3 +50,20 @@ def test_no_node_for_a_present_node_needs_the_vanish_fault() -> None:
     assert not check_bridge(trace, PRESENT).accepted
     r = check_bridge(trace, PRESENT, faults=["NO_NODE"])
     assert r.accepted, r.message
+
+
+def test_a_mutant_must_be_rejected_where_its_mutation_is() -> None:
+    from urb_sim.experiments import Result
+    from urb_sim.experiments.traces import check_mutant, first_change
+    from urb_sim.tracecheck import TraceResult
+
+    trace = _reads(3)
+    mutant = _reads(3)
+    mutant[3].seq = 3
+    assert first_change(trace, mutant) == 3 and first_change(trace, trace[:4]) == 4
+    res = Result("traces", "t", "p")
+    check_mutant(res, "at the mutation", "r", TraceResult(False, 6, 3, 5, 0.1, ""), 3)
+    check_mutant(res, "before the mutation", "r", TraceResult(False, 6, 2, 5, 0.1, ""), 3)
+    check_mutant(res, "accepted", "r", TraceResult(True, 6, 6, 5, 0.1, ""), 3)
+    assert [c.passed for c in res.checks] == [True, False, False]
+    assert res.checks[1].measured == "rejected at event 3; first mutated event 4"
