@@ -25,7 +25,7 @@ setup:
 gen: setup
 	urb gen
 
-gen-check:
+gen-check: setup
 	urb gen --check
 
 lint: setup

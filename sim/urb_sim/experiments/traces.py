@@ -166,6 +166,11 @@ def first_change(a: Sequence[object], b: Sequence[object]) -> int:
     return next((q for q, (x, y) in enumerate(zip(a, b)) if x != y), min(len(a), len(b)))
 
 
+def row(uplink: str, trace: str, r: TraceResult) -> list[object]:
+    """One line of traces.csv: a TLC run on a trace."""
+    return [uplink, trace, r.events, int(r.accepted), r.matched_prefix, r.states, round(r.seconds, 1)]
+
+
 def check_mutant(res: Result, name: str, required: str, r: TraceResult, mutated: int) -> None:
     """A mutated trace must be rejected, and only where the mutation is: TLC must match every event
     before the first mutated one (a rejection earlier would not be the mutation's doing)."""
@@ -188,7 +193,7 @@ def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progres
             progress(i / 5, f"traces: {uplink} bridge trace")
             ev = record(uplink, seed + i, cycles, out)
             r = check_bridge(ev, PRESENT)
-            rows.append([uplink, "fault-free", len(ev), int(r.accepted), r.matched_prefix, r.states, round(r.seconds, 1)])
+            rows.append(row(uplink, "fault-free", r))
             res.check(f"{uplink} trace accepted", "TLC finds a behaviour of Bridge.tla matching every logged event "
                       "(every Bridge.tla invariant holds on its states)",
                       f"{r.matched_prefix}/{len(ev)} events matched, {r.states} states, {r.seconds:.1f} s", r.accepted)
@@ -204,15 +209,13 @@ def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progres
         swapped[a], swapped[b] = swapped[b], swapped[a]
         for name, mutant in [("status changed", changed), ("response dropped", dropped), ("responses swapped", swapped)]:
             r = check_bridge(mutant, PRESENT)
-            rows.append(["rs232", f"mutant: {name}", len(mutant), int(r.accepted), r.matched_prefix, r.states,
-                         round(r.seconds, 1)])
+            rows.append(row("rs232", f"mutant: {name}", r))
             check_mutant(res, f"mutant rejected: {name}", "TLC finds no behaviour matching the mutated trace", r,
                          first_change(base, mutant))
         progress(3 / 5, "traces: outbox trace")
         obox = record_outbox(seed + 5, 60 if quick else 200, out)
         r = check_outbox(obox, 6)
-        rows.append(["usb", "outbox 1 of a node (MailboxOutbox.tla)", len(obox), int(r.accepted), r.matched_prefix,
-                     r.states, round(r.seconds, 1)])
+        rows.append(row("usb", "outbox 1 of a node (MailboxOutbox.tla)", r))
         res.check("outbox trace accepted", "TLC finds a behaviour of MailboxOutbox.tla matching every logged "
                   "release and read byte (its invariants hold on the way)",
                   f"{len(obox)} events, {r.seconds:.1f} s" if r.accepted else r.message, r.accepted)
@@ -221,16 +224,14 @@ def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progres
         k = byte_at[len(byte_at) // 2]
         older[k]["tag"] = int(older[k]["tag"]) - 1
         r = check_outbox(older, 6)
-        rows.append(["usb", "outbox mutant: a byte from an older write", len(older), int(r.accepted), r.matched_prefix,
-                     r.states, round(r.seconds, 1)])
+        rows.append(row("usb", "outbox mutant: a byte from an older write", r))
         check_mutant(res, "outbox mutant rejected: stale byte",
                      "TLC finds no behaviour where a read returns a byte of an older write", r, k)
         progress(3.5 / 5, "traces: inbox trace")
         ibox = record_inbox(seed + 6, 60 if quick else 200, out)
         aborts = sum(1 for e in ibox if e["ev"] == "abort")
         r = check_inbox(ibox, INBOX_SIZE)
-        rows.append(["usb", f"inbox 1 of a node under I2C bit errors {INBOX_BER:g} (MailboxInbox.tla)", len(ibox),
-                     int(r.accepted), r.matched_prefix, r.states, round(r.seconds, 1)])
+        rows.append(row("usb", f"inbox 1 of a node under I2C bit errors {INBOX_BER:g} (MailboxInbox.tla)", r))
         res.check("inbox trace accepted", "TLC finds a behaviour of MailboxInbox.tla matching every logged write "
                   "begin, store, commit and abort and every lock, read byte and release (its invariants hold on "
                   "the way), with at least one aborted write in the trace",
@@ -238,16 +239,14 @@ def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progres
                   r.accepted and aborts >= 1)
         for name, seeded in [("torn read", torn_read(ibox)), ("aborted write visible", aborted_visible(ibox))]:
             r = check_inbox(seeded, INBOX_SIZE)
-            rows.append(["usb", f"inbox mutant: {name}", len(seeded), int(r.accepted), r.matched_prefix, r.states,
-                         round(r.seconds, 1)])
+            rows.append(row("usb", f"inbox mutant: {name}", r))
             check_mutant(res, f"inbox mutant rejected: {name}", "TLC finds no behaviour of MailboxInbox.tla matching it",
                          r, first_change(ibox, seeded))
         progress(4 / 5, "traces: trace under I2C bit errors")
         ev = record("usb", seed + 9, cycles, out, ber=BER)
         r = check_bridge(ev, PRESENT, faults=FAULTS)
         statuses = sorted({STATUS.get(e.status, "?") for e in ev if e.ev == "resp"})
-        rows.append(["usb", f"I2C bit errors {BER:g}", len(ev), int(r.accepted), r.matched_prefix, r.states,
-                     round(r.seconds, 1)])
+        rows.append(row("usb", f"I2C bit errors {BER:g}", r))
         res.check("usb trace under I2C bit errors accepted",
                   "TLC finds a behaviour of Bridge.tla, with every downlink fault, matching every logged event; "
                   "the trace holds failed requests",
