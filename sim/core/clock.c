@@ -185,7 +185,18 @@ urbsim_ns_t urbsim_clock_cycles_ns(urbsim_clock_t *c, urbsim_ns_t t, double cycl
 
 urbsim_ns_t urbsim_clock_irq_latency(urbsim_clock_t *c, urbsim_ns_t t)
 {
+#ifdef URBSIM_MUTANT_SHARED_JITTER /* seeded bug (tests/sim/test_determinism.py): one latency stream for
+                                     * every clock of the process, whose state outlives the world */
+    static urbsim_rng_t shared;
+    static bool seeded;
+    if (!seeded) {
+        urbsim_rng_seed(&shared, 1u);
+        seeded = true;
+    }
+    uint64_t extra = urbsim_rng_below(&shared, (uint64_t)c->cfg.irq_jitter_cycles + 1u);
+#else
     uint64_t extra = urbsim_rng_below(&c->jitter, (uint64_t)c->cfg.irq_jitter_cycles + 1u);
+#endif
     return urbsim_clock_cycles_ns(c, t, (double)c->cfg.irq_base_cycles + (double)extra);
 }
 

@@ -13,12 +13,18 @@
  *     uniform 0..cpu.io_jitter_us after the interrupt that delivered the data; data arriving
  *     while it is pending is read in the same wake-up.
  */
+#ifdef URBSIM_MUTANT_PID_SEED
+#define _POSIX_C_SOURCE 200809L /* getpid */
+#endif
 #include "urbsim.h"
 
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#ifdef URBSIM_MUTANT_PID_SEED
+#include <unistd.h>
+#endif
 
 #include "native_host.h"
 #include "params.h"
@@ -137,6 +143,9 @@ urbsim_world_t *urbsim_new(uint64_t seed)
         return NULL;
     }
     w->seed = seed;
+#ifdef URBSIM_MUTANT_PID_SEED /* seeded bug (tests/sim/test_determinism.py): the process id salts the seed */
+    w->seed ^= (uint64_t)getpid();
+#endif
     if (!urbsim_kernel_init(&w->k)) {
         free(w);
         return NULL;

@@ -1,17 +1,32 @@
-"""Same seed, same trace byte for byte; another seed, another trace (issue 6: determinism)."""
+"""Same seed, same trace byte for byte; another seed, another trace (issue 6: determinism).
+
+Two runs of a seed must agree both in one process (no state outlives a world: the library has no
+globals) and in two processes (nothing depends on the process: its id, addresses, environment).
+Each comparison is shown to fail for a seeded bug that only it catches, built into its own
+library variant (URBSIM_MUTANT, sim/urb_sim/build.py):
+  SHARED_JITTER  one interrupt-latency stream for every clock of the process (sim/core/clock.c)
+  PID_SEED       the process id salts the world's seed (sim/world/world.c)
+
+    python3 tests/sim/test_determinism.py SEED RUNS   # RUNS runs of SEED here, as JSON
+"""
 
 from __future__ import annotations
 
 import hashlib
+import json
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 from urb_sim.native import App, Trace
 from urb_sim.system import Loop, System
 
 NS_PER_MS = 1_000_000
+Run = tuple[int, int, int]  #: trace hash, trace lines, events
 
 
-def run(seed: int, trace: Path | None = None) -> tuple[int, int, int]:
+def run(seed: int, trace: Path | None = None) -> Run:
     """A small two-bridge system with host traffic for 150 ms; returns (hash, lines, events)."""
     s = System(seed=seed, probe_out=4)
     rs = s.bridge("rs232")
@@ -50,3 +65,38 @@ def test_other_seed_other_trace() -> None:
 
 def test_hash_does_not_depend_on_writing_the_file(tmp_path: Path) -> None:
     assert run(3)[0] == run(3, tmp_path / "t.ndjson")[0]
+
+
+def runs_in_a_new_process(seed: int, runs: int, mutant: str | None = None) -> list[Run]:
+    """`runs` runs of `seed`, one after the other in a new Python process, with the library built
+    with the seeded bug `mutant` (None: the real library)."""
+    env = {k: v for k, v in os.environ.items() if k not in ("URBSIM_MUTANT", "URBSIM_SANITIZE")}
+    if mutant is not None:
+        env["URBSIM_MUTANT"] = mutant
+    proc = subprocess.run([sys.executable, __file__, str(seed), str(runs)], capture_output=True, text=True, env=env,
+                          timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    return [(h, lines, events) for h, lines, events in json.loads(proc.stdout)]
+
+
+def test_same_seed_same_trace_in_another_process() -> None:
+    """This process has run other worlds before; the new one has not."""
+    assert runs_in_a_new_process(7, 1) == [run(7)]
+
+
+def test_state_shared_between_worlds_is_caught_in_one_process() -> None:
+    first, second = runs_in_a_new_process(7, 2, "SHARED_JITTER")
+    assert first != second  # what test_same_seed_same_trace_bytes compares
+    # ...and only there: every new process starts the shared stream from the same state.
+    assert runs_in_a_new_process(7, 1, "SHARED_JITTER") == [first]
+
+
+def test_a_dependence_on_the_process_is_caught_across_processes() -> None:
+    first, second = runs_in_a_new_process(7, 2, "PID_SEED")
+    assert first == second  # one process cannot see it...
+    assert runs_in_a_new_process(7, 1, "PID_SEED") != [first]  # ...another process does
+
+
+if __name__ == "__main__":
+    seed, runs = int(sys.argv[1]), int(sys.argv[2])
+    print(json.dumps([run(seed) for _ in range(runs)]))
