@@ -4,7 +4,8 @@
 #                     check that they fail for each seeded kernel bug (SIM_MUTANTS)
 #                     (the Python tests in tests/sim/ run in the main pytest run of `make check`)
 #   make test-sim-san the experiments on an ASan+UBSan build of the whole simulation (firmware, HALs,
-#                     world): no sanitizer report, and a seeded off-by-one (sim_log.h) is reported
+#                     world) and a leak check of its C API (tests/sim/world_leaks.c): no sanitizer
+#                     report, and a seeded off-by-one (sim_log.h) and leak (world.c) are reported
 #   make sim-report   the full run: `urb sim sensorhex` (HTML summary in build/sim/report/)
 #   make sim-bench    simulated seconds per wall-clock second, and scaling with the node count
 PYTHON ?= python3

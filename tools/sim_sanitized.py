@@ -13,17 +13,24 @@ one (-O3, LTO): the same trace hash for bench/sim_speed.py --fingerprint. A diff
 the results depend on how the code was compiled: an uninitialised read, undefined behaviour that
 the optimiser exploits differently, or floating-point contraction.
 
-It then shows that the check can fail: with a seeded off-by-one in the ring of marks the HALs log
-(URBSIM_MUTANT_LOG_WRAP in firmware/hal/sim/sim_log.h) the sanitizer must report an error.
+Leaks are checked apart: Python's own blocks at exit would drown LeakSanitizer's report, so
+tests/sim/world_leaks.c, a C program linked against the sanitized library, builds, runs and frees
+worlds through every allocating call of sim/world/urbsim.h (SensoRHex with every fault, a downlink
+with more nodes than it takes, a world never started), and LeakSanitizer must find nothing left.
 
-    python3 tools/sim_sanitized.py                      # both: `make test-sim-san`, in `make check`
+It then shows that each check can fail: with a seeded off-by-one in the ring of marks the HALs log
+(URBSIM_MUTANT_LOG_WRAP in firmware/hal/sim/sim_log.h) the sanitizer must report an error; with a
+babbling node that urbsim_free forgets (URBSIM_MUTANT_LEAK_BABBLER in sim/world/world.c)
+LeakSanitizer must report a leak.
+
+    python3 tools/sim_sanitized.py                      # all: `make test-sim-san`, in `make check`
     python3 tools/sim_sanitized.py --only fig20,faults  # the clean run of some experiments only
-    python3 tools/sim_sanitized.py --no-mutant          # the clean run only
+    python3 tools/sim_sanitized.py --no-mutant          # the clean runs only
 
-Exit status 0 when the clean run passes with no sanitizer report and the seeded bug is reported;
-1 otherwise (the reports and the experiments' verdicts say why); 2 when the build fails.
+Exit status 0 when the clean runs pass with no sanitizer report and both seeded bugs are reported;
+1 otherwise (the reports and the experiments' verdicts say why); 2 when a build fails.
 The experiments' report of each run is in build/sim/san/<run>/, its error output (with the
-sanitizers' reports) in build/sim/san/<run>.stderr.
+sanitizers' reports) in build/sim/san/<run>.stderr; the leak check's in build/sim/san/leaks*.stderr.
 """
 
 from __future__ import annotations
@@ -37,12 +44,14 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "sim"))
 
-from urb_sim.build import BUILD, BuildError, sanitizer_preload, unpreloaded_env  # noqa: E402
+from urb_sim.build import BUILD, CC, SANITIZE_FLAGS, BuildError, sanitizer_preload, unpreloaded_env  # noqa: E402
 from urb_sim.runner import select  # noqa: E402
 
 OUT = BUILD / "san"
 #: The seeded bug, and the experiment that runs long enough for the mark log to wrap.
 MUTANT, MUTANT_EXPERIMENT = "LOG_WRAP", "fig20"
+#: The leak check's program, and the seeded leak it must report.
+LEAK_PROGRAM, LEAK_MUTANT = REPO / "tests" / "sim" / "world_leaks.c", "LEAK_BABBLER"
 #: What a sanitizer report starts with (UBSan: "<file>:<line>:<col>: runtime error: ...").
 REPORT_MARKS = ("runtime error:", "ERROR: AddressSanitizer", "ERROR: LeakSanitizer")
 
@@ -89,6 +98,31 @@ def run(name: str, experiments: list[str], mutant: str | None) -> tuple[int, lis
     return proc.returncode, [line for line in proc.stderr.splitlines() if any(m in line for m in REPORT_MARKS)]
 
 
+def leaks(mutant: str | None) -> tuple[int, list[str]]:
+    """Build tests/sim/world_leaks.c against the sanitized library (with the seeded bug `mutant`)
+    and run it with LeakSanitizer on; returns its exit status and the first line of each report
+    (its error output is echoed and kept in build/sim/san/leaks[-mutant-NAME].stderr)."""
+    name = "leaks" + (f"-mutant-{mutant}" if mutant else "")
+    library = BUILD / ("san" + (f"-mutant-{mutant}" if mutant else "")) / "liburbsim.so"
+    program = OUT / name
+    OUT.mkdir(parents=True, exist_ok=True)
+    cmd = [CC, "-std=c99", "-g", "-Wall", "-Wextra", "-Werror", "-Wpedantic", *SANITIZE_FLAGS,
+           f"-I{REPO / 'sim' / 'world'}", str(LEAK_PROGRAM), str(library), f"-Wl,-rpath,{library.parent}", "-o",
+           str(program)]
+    proc = subprocess.run(cmd, env=unpreloaded_env(), capture_output=True, text=True, check=False)
+    if proc.returncode != 0:
+        raise BuildError(" ".join(cmd) + "\n" + proc.stdout + proc.stderr)
+    env = {**unpreloaded_env(), "ASAN_OPTIONS": "detect_leaks=1",
+           "UBSAN_OPTIONS": "print_stacktrace=1:halt_on_error=1"}
+    print(f"$ {program.relative_to(REPO)}", flush=True)
+    proc = subprocess.run([str(program), str(OUT / f"{name}.ndjson")], env=env, cwd=REPO, capture_output=True,
+                          text=True, errors="replace", check=False)
+    sys.stdout.write(proc.stdout)
+    sys.stderr.write(proc.stderr)
+    (OUT / f"{name}.stderr").write_text(proc.stderr, encoding="utf-8")
+    return proc.returncode, [line for line in proc.stderr.splitlines() if any(m in line for m in REPORT_MARKS)]
+
+
 def fingerprint(sanitized: bool) -> str:
     """bench/sim_speed.py --fingerprint on the normal or the sanitized build: its one-line answer."""
     proc = subprocess.run([sys.executable, str(REPO / "bench" / "sim_speed.py"), "--fingerprint"],
@@ -114,6 +148,7 @@ def main(argv: list[str] | None = None) -> int:
         build(None)
         if not args.no_mutant:
             build(MUTANT)
+            build(LEAK_MUTANT)
     except BuildError as exc:
         print(f"sim_sanitized: building the sanitized simulation failed:\n{exc}", file=sys.stderr)
         return 2
@@ -135,6 +170,29 @@ def main(argv: list[str] | None = None) -> int:
         ok = False
         print(f"sim_sanitized: FAIL: the builds give different traces:\n  optimised: {optimised}\n  sanitized: "
               f"{sanitized}", file=sys.stderr)
+
+    try:
+        status, reports = leaks(None)
+        if not args.no_mutant:
+            mutant_status, mutant_reports = leaks(LEAK_MUTANT)
+    except BuildError as exc:
+        print(f"sim_sanitized: building the leak check failed:\n{exc}", file=sys.stderr)
+        return 2
+    if status != 0 or reports:
+        ok = False
+        print(f"sim_sanitized: FAIL: the leak check ended with exit status {status} and {len(reports)} "
+              f"sanitizer report(s):", *reports, f"(the whole output is in {OUT / 'leaks.stderr'})",
+              sep="\n  ", file=sys.stderr)
+    else:
+        print("sim_sanitized: every world built, ran and freed by tests/sim/world_leaks.c gave all its memory back")
+    if not args.no_mutant:
+        if mutant_status != 0 and any("LeakSanitizer" in line for line in mutant_reports):
+            print(f"sim_sanitized: seeded leak {LEAK_MUTANT} caught: {mutant_reports[0]}")
+        else:
+            ok = False
+            print(f"sim_sanitized: FAIL: the seeded leak URBSIM_MUTANT_{LEAK_MUTANT} was not reported (exit status "
+                  f"{mutant_status}, {len(mutant_reports)} report(s)): the leak check no longer catches leaks",
+                  file=sys.stderr)
 
     if not args.no_mutant:
         status, reports = run(f"mutant-{MUTANT}", [MUTANT_EXPERIMENT], MUTANT)

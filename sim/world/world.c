@@ -167,7 +167,9 @@ void urbsim_free(urbsim_world_t *w)
     }
     for (int i = 0; i < w->n_bridges; i++) {
         sim_bridge_free(w->bridges[i]);
+#ifndef URBSIM_MUTANT_LEAK_BABBLER /* seeded bug (tools/sim_sanitized.py): a babbling node is never freed */
         free(w->babblers[i]);
+#endif
         free(w->port[i].native);
     }
     for (int i = 0; i < w->n_nodes; i++) {
