@@ -98,13 +98,11 @@ def run(name: str, experiments: list[str], mutant: str | None) -> tuple[int, lis
     return proc.returncode, [line for line in proc.stderr.splitlines() if any(m in line for m in REPORT_MARKS)]
 
 
-def leaks(mutant: str | None) -> tuple[int, list[str]]:
-    """Build tests/sim/world_leaks.c against the sanitized library (with the seeded bug `mutant`)
-    and run it with LeakSanitizer on; returns its exit status and the first line of each report
-    (its error output is echoed and kept in build/sim/san/leaks[-mutant-NAME].stderr)."""
-    name = "leaks" + (f"-mutant-{mutant}" if mutant else "")
+def leak_program(mutant: str | None) -> Path:
+    """Build tests/sim/world_leaks.c against the sanitized library (with the seeded bug `mutant`),
+    into build/sim/san/leaks[-mutant-NAME]."""
     library = BUILD / ("san" + (f"-mutant-{mutant}" if mutant else "")) / "liburbsim.so"
-    program = OUT / name
+    program = OUT / ("leaks" + (f"-mutant-{mutant}" if mutant else ""))
     OUT.mkdir(parents=True, exist_ok=True)
     cmd = [CC, "-std=c99", "-g", "-Wall", "-Wextra", "-Werror", "-Wpedantic", *SANITIZE_FLAGS,
            f"-I{REPO / 'sim' / 'world'}", str(LEAK_PROGRAM), str(library), f"-Wl,-rpath,{library.parent}", "-o",
@@ -112,14 +110,20 @@ def leaks(mutant: str | None) -> tuple[int, list[str]]:
     proc = subprocess.run(cmd, env=unpreloaded_env(), capture_output=True, text=True, check=False)
     if proc.returncode != 0:
         raise BuildError(" ".join(cmd) + "\n" + proc.stdout + proc.stderr)
+    return program
+
+
+def run_leak_program(program: Path) -> tuple[int, list[str]]:
+    """Run a leak check program with LeakSanitizer on; returns its exit status and the first line
+    of each report (its error output is echoed and kept in build/sim/san/<program>.stderr)."""
     env = {**unpreloaded_env(), "ASAN_OPTIONS": "detect_leaks=1",
            "UBSAN_OPTIONS": "print_stacktrace=1:halt_on_error=1"}
     print(f"$ {program.relative_to(REPO)}", flush=True)
-    proc = subprocess.run([str(program), str(OUT / f"{name}.ndjson")], env=env, cwd=REPO, capture_output=True,
-                          text=True, errors="replace", check=False)
+    proc = subprocess.run([str(program), str(program.with_suffix(".ndjson"))], env=env, cwd=REPO,
+                          capture_output=True, text=True, errors="replace", check=False)
     sys.stdout.write(proc.stdout)
     sys.stderr.write(proc.stderr)
-    (OUT / f"{name}.stderr").write_text(proc.stderr, encoding="utf-8")
+    program.with_suffix(".stderr").write_text(proc.stderr, encoding="utf-8")
     return proc.returncode, [line for line in proc.stderr.splitlines() if any(m in line for m in REPORT_MARKS)]
 
 
@@ -133,35 +137,53 @@ def fingerprint(sanitized: bool) -> str:
     return proc.stdout.strip()
 
 
+def clean(what: str, outcome: tuple[int, list[str]], stderr: Path, passed: str) -> bool:
+    """Say whether a run that must end well with no sanitizer report did; True when it did."""
+    status, reports = outcome
+    if status == 0 and not reports:
+        print(f"sim_sanitized: {passed}")
+        return True
+    print(f"sim_sanitized: FAIL: {what} ended with exit status {status} and {len(reports)} sanitizer report(s):",
+          *reports, f"(the whole output is in {stderr})", sep="\n  ", file=sys.stderr)
+    return False
+
+
+def caught(mutant: str, outcome: tuple[int, list[str]], marks: tuple[str, ...], check: str) -> bool:
+    """Say whether a run with the seeded bug `mutant` failed with a report starting with one of
+    `marks`."""
+    status, reports = outcome
+    found = [line for line in reports if any(m in line for m in marks)]
+    if status != 0 and found:
+        print(f"sim_sanitized: seeded bug {mutant} caught: {found[0]}")
+        return True
+    print(f"sim_sanitized: FAIL: the seeded bug URBSIM_MUTANT_{mutant} was not reported (exit status {status}, "
+          f"{len(reports)} report(s)): {check} no longer catches it", file=sys.stderr)
+    return False
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--only", metavar="LIST", default=None,
                     help="comma-separated experiments for the clean run (default: all)")
-    ap.add_argument("--no-mutant", action="store_true", help="skip the seeded-bug run")
+    ap.add_argument("--no-mutant", action="store_true", help="skip the seeded-bug runs")
     args = ap.parse_args(argv)
     try:
         experiments = select(args.only)
     except ValueError as exc:
         print(f"sim_sanitized: {exc}", file=sys.stderr)
         return 2
+    mutants = [] if args.no_mutant else [MUTANT, LEAK_MUTANT]
     try:
-        build(None)
-        if not args.no_mutant:
-            build(MUTANT)
-            build(LEAK_MUTANT)
+        for mutant in [None, *mutants]:
+            build(mutant)
+        leaks = leak_program(None)
+        seeded_leaks = None if args.no_mutant else leak_program(LEAK_MUTANT)
     except BuildError as exc:
         print(f"sim_sanitized: building the sanitized simulation failed:\n{exc}", file=sys.stderr)
         return 2
 
-    ok = True
-    status, reports = run("clean", experiments, None)
-    if status != 0 or reports:
-        ok = False
-        print(f"sim_sanitized: FAIL: the sanitized run ended with exit status {status} and {len(reports)} "
-              f"sanitizer report(s):", *reports, f"(the whole output is in {OUT / 'clean.stderr'})",
-              sep="\n  ", file=sys.stderr)
-    else:
-        print(f"sim_sanitized: {len(experiments)} experiment(s) ran under ASan+UBSan with no report")
+    ok = clean("the sanitized run", run("clean", experiments, None), OUT / "clean.stderr",
+               f"{len(experiments)} experiment(s) ran under ASan+UBSan with no report")
 
     optimised, sanitized = fingerprint(False), fingerprint(True)
     if optimised == sanitized and optimised.startswith("fingerprint"):
@@ -171,38 +193,13 @@ def main(argv: list[str] | None = None) -> int:
         print(f"sim_sanitized: FAIL: the builds give different traces:\n  optimised: {optimised}\n  sanitized: "
               f"{sanitized}", file=sys.stderr)
 
-    try:
-        status, reports = leaks(None)
-        if not args.no_mutant:
-            mutant_status, mutant_reports = leaks(LEAK_MUTANT)
-    except BuildError as exc:
-        print(f"sim_sanitized: building the leak check failed:\n{exc}", file=sys.stderr)
-        return 2
-    if status != 0 or reports:
-        ok = False
-        print(f"sim_sanitized: FAIL: the leak check ended with exit status {status} and {len(reports)} "
-              f"sanitizer report(s):", *reports, f"(the whole output is in {OUT / 'leaks.stderr'})",
-              sep="\n  ", file=sys.stderr)
-    else:
-        print("sim_sanitized: every world built, ran and freed by tests/sim/world_leaks.c gave all its memory back")
-    if not args.no_mutant:
-        if mutant_status != 0 and any("LeakSanitizer" in line for line in mutant_reports):
-            print(f"sim_sanitized: seeded leak {LEAK_MUTANT} caught: {mutant_reports[0]}")
-        else:
-            ok = False
-            print(f"sim_sanitized: FAIL: the seeded leak URBSIM_MUTANT_{LEAK_MUTANT} was not reported (exit status "
-                  f"{mutant_status}, {len(mutant_reports)} report(s)): the leak check no longer catches leaks",
-                  file=sys.stderr)
+    ok = clean("the leak check", run_leak_program(leaks), leaks.with_suffix(".stderr"),
+               "every world built, ran and freed by tests/sim/world_leaks.c gave all its memory back") and ok
 
-    if not args.no_mutant:
-        status, reports = run(f"mutant-{MUTANT}", [MUTANT_EXPERIMENT], MUTANT)
-        if status != 0 and reports:
-            print(f"sim_sanitized: seeded bug {MUTANT} caught: {reports[0]}")
-        else:
-            ok = False
-            print(f"sim_sanitized: FAIL: the seeded bug URBSIM_MUTANT_{MUTANT} was not reported (exit status "
-                  f"{status}, {len(reports)} report(s)): the sanitized run no longer catches memory errors",
-                  file=sys.stderr)
+    if seeded_leaks is not None:
+        ok = caught(LEAK_MUTANT, run_leak_program(seeded_leaks), ("ERROR: LeakSanitizer",), "the leak check") and ok
+        ok = caught(MUTANT, run(f"mutant-{MUTANT}", [MUTANT_EXPERIMENT], MUTANT),
+                    ("runtime error:", "ERROR: AddressSanitizer"), "the sanitized run") and ok
     return 0 if ok else 1
 
 
