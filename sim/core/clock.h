@@ -52,20 +52,22 @@ typedef struct {
 } urbsim_clock_seg_t;
 
 typedef struct {
-    urbsim_clock_cfg_t cfg;
-    urbsim_rng_t rng;        /**< wander draws (one per segment, in order) */
+    /* What every interrupt reads, first and together (one or two cache lines instead of four): the
+     * newest segment, where nearly every query falls, with its virtual span [cur_t0, cur_t1) and
+     * its cycle length, kept by grow() and reset() so the common lookup is two comparisons. */
+    urbsim_ns_t origin;      /**< virtual time of the last reset (power-on) */
+    urbsim_ns_t cur_t0, cur_t1;
+    double cur_ns_per_cycle;
+    uint32_t cur;            /**< ring index of the newest segment */
     urbsim_rng_t jitter;     /**< interrupt-latency draws: a separate stream so the wander
                                   never depends on how many interrupts happened */
-    urbsim_ns_t origin;      /**< virtual time of the last reset (power-on) */
+    urbsim_clock_cfg_t cfg;
+    urbsim_rng_t rng;        /**< wander draws (one per segment, in order) */
     double wander;           /**< current OU state (fraction, not ppm) */
-    urbsim_clock_seg_t seg[URBSIM_CLOCK_SEGMENTS];
     uint32_t first;          /**< ring index of the oldest segment kept */
     uint32_t count;          /**< segments in the ring */
     uint64_t generated;      /**< segments generated since reset (numbering for the ramp) */
-    /* The newest segment, where nearly every query falls: its ring index and virtual span
-     * [cur_t0, cur_t1), kept by grow() and reset() so the common lookup is two comparisons. */
-    uint32_t cur;
-    urbsim_ns_t cur_t0, cur_t1;
+    urbsim_clock_seg_t seg[URBSIM_CLOCK_SEGMENTS];
 } urbsim_clock_t;
 
 /** Default configuration: a 48 MHz Cortex-M0+ with its timer on the core clock, no error. */

@@ -17,18 +17,17 @@ static inline bool before(const urbsim_event_key_t *a, const urbsim_event_key_t 
     return a->t < b->t || (a->t == b->t && a->seq < b->seq);
 }
 
-static bool queue_init(urbsim_queue_t *q, size_t cap, bool owners)
+static bool heap_init(urbsim_heap_t *q, size_t cap)
 {
     q->len = 0;
-    q->head = 0;
     q->cap = cap;
     q->key = malloc(cap * sizeof *q->key);
     q->item = malloc(cap * sizeof *q->item);
-    q->owner = owners ? malloc(cap * sizeof *q->owner) : NULL;
-    return q->key != NULL && q->item != NULL && (!owners || q->owner != NULL);
+    q->owner = malloc(cap * sizeof *q->owner);
+    return q->key != NULL && q->item != NULL && q->owner != NULL;
 }
 
-static void queue_free(urbsim_queue_t *q)
+static void heap_free(urbsim_heap_t *q)
 {
     free(q->key);
     free(q->item);
@@ -36,84 +35,84 @@ static void queue_free(urbsim_queue_t *q)
     q->key = NULL;
     q->item = NULL;
     q->owner = NULL;
-    q->len = q->cap = q->head = 0;
+    q->len = q->cap = 0;
 }
 
-/* Double the arrays, moving the entries to indices 0..len-1 in their order (a heap stays a heap,
- * the ring is unwrapped). */
-static bool queue_grow(urbsim_queue_t *q)
+/* Double the arrays (a heap stays a heap). */
+static bool heap_grow(urbsim_heap_t *q)
 {
     size_t cap = q->cap * 2u;
-    if (q->owner != NULL) {
-        /* the heap (the only queue with owners) always starts at index 0: no unwrapping */
-        urbsim_handle_t **owner = realloc(q->owner, cap * sizeof *owner);
-        if (owner == NULL) {
-            return false;
-        }
-        q->owner = owner;
-    }
-    urbsim_event_key_t *key = malloc(cap * sizeof *key);
-    urbsim_event_t *item = malloc(cap * sizeof *item);
-    if (key == NULL || item == NULL) {
-        free(key);
-        free(item);
+    urbsim_event_key_t *key = realloc(q->key, cap * sizeof *key);
+    if (key == NULL) {
         return false;
     }
-    size_t first = q->cap - q->head < q->len ? q->cap - q->head : q->len; /* entries before the wrap */
-    memcpy(key, q->key + q->head, first * sizeof *key);
-    memcpy(key + first, q->key, (q->len - first) * sizeof *key);
-    memcpy(item, q->item + q->head, first * sizeof *item);
-    memcpy(item + first, q->item, (q->len - first) * sizeof *item);
-    free(q->key);
-    free(q->item);
     q->key = key;
+    urbsim_event_t *item = realloc(q->item, cap * sizeof *item);
+    if (item == NULL) {
+        return false;
+    }
     q->item = item;
+    urbsim_handle_t **owner = realloc(q->owner, cap * sizeof *owner);
+    if (owner == NULL) {
+        return false;
+    }
+    q->owner = owner;
     q->cap = cap;
-    q->head = 0;
     return true;
 }
 
-/* Near queue: insert into the sorted ring. An event due before all others (an interrupt handler
- * right after the bus event that raised it) goes in front in O(1); the others are placed from the
- * back. */
-static void ring_push(urbsim_queue_t *q, urbsim_event_key_t key, urbsim_event_t item)
-{
-    size_t m = q->cap - 1u;
-    if (q->len > 0u && before(&key, &q->key[q->head])) {
-        q->head = (q->head - 1u) & m;
-        q->key[q->head] = key;
-        q->item[q->head] = item;
-        q->len++;
-        return;
-    }
-    size_t i = q->head + q->len++;
-#ifdef URBSIM_MUTANT_RING_TIES /* seeded bug (mk/sim.mk): a new event overtakes its ties */
-    while (i > q->head && key.t <= q->key[(i - 1u) & m].t) {
-#else
-    while (i > q->head && before(&key, &q->key[(i - 1u) & m])) {
-#endif
-        q->key[i & m] = q->key[(i - 1u) & m];
-        q->item[i & m] = q->item[(i - 1u) & m];
-        i--;
-    }
-    q->key[i & m] = key;
-    q->item[i & m] = item;
-}
+/*
+ * The helpers below take an event as separate scalars, never as a struct by value: GCC passes
+ * such a struct through the stack with 8-byte stores and reads it back with 16-byte loads, a
+ * store-forwarding stall that cost more than all of the queue's own work (7 % of a SensoRHex run).
+ */
 
-static urbsim_event_t ring_pop(urbsim_queue_t *q)
+/* Near queue: insert into the sorted ring (the caller checked there is room). The new event has
+ * the largest sequence number of all, so it goes after every event due at or before its time: an
+ * event due before all others (an interrupt handler right after the bus event that raised it)
+ * goes in front in O(1); the others are placed from the back. */
+static void ring_push(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg)
 {
-    urbsim_event_t top = q->item[q->head];
-    q->head = (q->head + 1u) & (q->cap - 1u);
-    q->len--;
-    return top;
+    const uint32_t m = URBSIM_KERNEL_NEAR_MAX - 1u;
+    urbsim_near_entry_t *e = k->near;
+    uint32_t i;
+    if (t >= k->near_last) {
+        i = (k->near_head + k->near_len) & m;
+        k->near_last = t;
+    } else if (t < e[k->near_head].key.t) {
+        k->near_head = (k->near_head - 1u) & m;
+        i = k->near_head;
+    } else {
+        i = k->near_head + k->near_len;
+#ifdef URBSIM_MUTANT_RING_TIES /* seeded bug (mk/sim.mk): a new event overtakes its ties */
+        while (i != k->near_head && t <= e[(i - 1u) & m].key.t) {
+#else
+        while (i != k->near_head && t < e[(i - 1u) & m].key.t) {
+#endif
+            e[i & m] = e[(i - 1u) & m];
+            i--;
+        }
+        i &= m;
+    }
+    k->near_len++;
+    e[i].key.t = t;
+    e[i].key.seq = k->next_seq++;
+    e[i].item.fn = fn;
+    e[i].item.ctx = ctx;
+    e[i].item.arg = arg;
 }
 
 /* Far queue: binary heap, whose entries may have an owner handle that follows them around. */
-static inline void heap_place(urbsim_queue_t *q, size_t i, urbsim_event_key_t key, urbsim_event_t item,
-                              urbsim_handle_t *owner)
+
+/* Put an event into slot i. */
+static inline void heap_place(urbsim_heap_t *q, size_t i, urbsim_ns_t t, uint64_t seq, urbsim_event_fn fn, void *ctx,
+                              uint64_t arg, urbsim_handle_t *owner)
 {
-    q->key[i] = key;
-    q->item[i] = item;
+    q->key[i].t = t;
+    q->key[i].seq = seq;
+    q->item[i].fn = fn;
+    q->item[i].ctx = ctx;
+    q->item[i].arg = arg;
     q->owner[i] = owner;
 #ifndef URBSIM_MUTANT_CANCEL_SLOT /* seeded bug (mk/sim.mk): a handle loses track of its moved event */
     if (owner != NULL) {
@@ -122,16 +121,24 @@ static inline void heap_place(urbsim_queue_t *q, size_t i, urbsim_event_key_t ke
 #endif
 }
 
-/* Move an entry from slot i into the hole at slot j. */
-static inline void heap_move(urbsim_queue_t *q, size_t j, size_t i)
+/* Move the entry in slot i into the hole at slot j. */
+static inline void heap_move(urbsim_heap_t *q, size_t j, size_t i)
 {
-    heap_place(q, j, q->key[i], q->item[i], q->owner[i]);
+    q->key[j] = q->key[i];
+    q->item[j] = q->item[i];
+    q->owner[j] = q->owner[i];
+#ifndef URBSIM_MUTANT_CANCEL_SLOT
+    if (q->owner[j] != NULL) {
+        q->owner[j]->slot = j;
+    }
+#endif
 }
 
-/* Put (key, item) into the hole at slot i, sifting it up towards the root. */
-static void heap_sift_up(urbsim_queue_t *q, size_t i, urbsim_event_key_t key, urbsim_event_t item,
-                         urbsim_handle_t *owner)
+/* Put an event into the hole at slot i, sifting it up towards the root. */
+static void heap_sift_up(urbsim_heap_t *q, size_t i, urbsim_ns_t t, uint64_t seq, urbsim_event_fn fn, void *ctx,
+                         uint64_t arg, urbsim_handle_t *owner)
 {
+    const urbsim_event_key_t key = {t, seq};
     while (i > 0) {
         size_t parent = (i - 1u) / 2u;
         if (!before(&key, &q->key[parent])) {
@@ -140,13 +147,14 @@ static void heap_sift_up(urbsim_queue_t *q, size_t i, urbsim_event_key_t key, ur
         heap_move(q, i, parent);
         i = parent;
     }
-    heap_place(q, i, key, item, owner);
+    heap_place(q, i, t, seq, fn, ctx, arg, owner);
 }
 
-/* Put (key, item) into the hole at slot i of a heap of n entries, sifting it down. */
-static void heap_sift_down(urbsim_queue_t *q, size_t i, size_t n, urbsim_event_key_t key, urbsim_event_t item,
-                           urbsim_handle_t *owner)
+/* Put an event into the hole at slot i of a heap of n entries, sifting it down. */
+static void heap_sift_down(urbsim_heap_t *q, size_t i, size_t n, urbsim_ns_t t, uint64_t seq, urbsim_event_fn fn,
+                           void *ctx, uint64_t arg, urbsim_handle_t *owner)
 {
+    const urbsim_event_key_t key = {t, seq};
     for (;;) {
         size_t c = 2u * i + 1u;
         if (c >= n) {
@@ -161,32 +169,30 @@ static void heap_sift_down(urbsim_queue_t *q, size_t i, size_t n, urbsim_event_k
         heap_move(q, i, c);
         i = c;
     }
-    heap_place(q, i, key, item, owner);
+    heap_place(q, i, t, seq, fn, ctx, arg, owner);
 }
 
-static void heap_push(urbsim_queue_t *q, urbsim_event_key_t key, urbsim_event_t item, urbsim_handle_t *owner)
+/* Remove the entry at slot i (q->len > i), copying its payload to *gone, and restore the heap
+ * property with the last entry. */
+static void heap_remove(urbsim_heap_t *q, size_t i, urbsim_event_t *gone)
 {
-    heap_sift_up(q, q->len++, key, item, owner);
-}
-
-/* Remove the entry at slot i (q->len > i) and restore the heap property with the last entry. */
-static urbsim_event_t heap_remove(urbsim_queue_t *q, size_t i)
-{
-    urbsim_event_t gone = q->item[i];
+    if (gone != NULL) {
+        *gone = q->item[i];
+    }
     if (q->owner[i] != NULL) {
         q->owner[i]->armed = false;
     }
     size_t n = --q->len;
     if (i == n) {
-        return gone;
+        return;
     }
-    urbsim_event_key_t last = q->key[n];
-    if (i > 0 && before(&last, &q->key[(i - 1u) / 2u])) {
-        heap_sift_up(q, i, last, q->item[n], q->owner[n]);
+    const urbsim_event_key_t *last = &q->key[n];
+    const urbsim_event_t *li = &q->item[n];
+    if (i > 0 && before(last, &q->key[(i - 1u) / 2u])) {
+        heap_sift_up(q, i, last->t, last->seq, li->fn, li->ctx, li->arg, q->owner[n]);
     } else {
-        heap_sift_down(q, i, n, last, q->item[n], q->owner[n]);
+        heap_sift_down(q, i, n, last->t, last->seq, li->fn, li->ctx, li->arg, q->owner[n]);
     }
-    return gone;
 }
 
 bool urbsim_kernel_init(urbsim_kernel_t *k)
@@ -195,21 +201,25 @@ bool urbsim_kernel_init(urbsim_kernel_t *k)
     k->next_seq = 0;
     k->executed = 0;
     k->stop = false;
-    bool ok = queue_init(&k->near, 64, false);
-    ok = queue_init(&k->far, 256, true) && ok;
-    if (!ok) {
-        urbsim_kernel_free(k);
+    k->near_head = 0;
+    k->near_len = 0;
+    k->near_last = 0;
+    if (!heap_init(&k->far, 256)) {
+        heap_free(&k->far);
+        return false;
     }
-    k->len = 0;
-    k->cap = k->near.cap + k->far.cap;
-    return ok;
+    return true;
 }
 
 void urbsim_kernel_free(urbsim_kernel_t *k)
 {
-    queue_free(&k->near);
-    queue_free(&k->far);
-    k->len = k->cap = 0;
+    heap_free(&k->far);
+    k->near_len = 0;
+}
+
+size_t urbsim_kernel_pending(const urbsim_kernel_t *k)
+{
+    return k->near_len + k->far.len;
 }
 
 void urbsim_handle_init(urbsim_handle_t *h)
@@ -218,40 +228,53 @@ void urbsim_handle_init(urbsim_handle_t *h)
     h->armed = false;
 }
 
-bool urbsim_kernel_at(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg)
+/* Where an event due at t (>= now) goes: the near ring if it is due soon and there is room. */
+static inline bool goes_near(const urbsim_kernel_t *k, urbsim_ns_t t)
 {
-    return urbsim_kernel_at_handle(k, t, fn, ctx, arg, NULL);
+    return t - k->now <= URBSIM_KERNEL_NEAR_NS && k->near_len < URBSIM_KERNEL_NEAR_MAX;
+}
+
+static bool far_push(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg,
+                     urbsim_handle_t *h)
+{
+    urbsim_heap_t *q = &k->far;
+    if (q->len == q->cap && !heap_grow(q)) {
+        return false;
+    }
+    if (h != NULL) {
+        h->armed = true;
+    }
+    heap_sift_up(q, q->len++, t, k->next_seq++, fn, ctx, arg, h);
+    return true;
+}
+
+bool urbsim_kernel_at_sorted(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg)
+{
+    if (t < k->now) {
+        t = k->now;
+    }
+    if (goes_near(k, t)) {
+        ring_push(k, t, fn, ctx, arg);
+        return true;
+    }
+    return far_push(k, t, fn, ctx, arg, NULL);
 }
 
 bool urbsim_kernel_at_handle(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg,
                              urbsim_handle_t *h)
 {
-    if (h != NULL) {
-        urbsim_kernel_cancel(k, h); /* a handle holds one event: the one it held is superseded */
+    if (h == NULL) {
+        return urbsim_kernel_at_sorted(k, t, fn, ctx, arg);
     }
+    urbsim_kernel_cancel(k, h); /* a handle holds one event: the one it held is superseded */
     if (t < k->now) {
         t = k->now;
     }
-    bool near = t - k->now <= URBSIM_KERNEL_NEAR_NS && k->near.len < URBSIM_KERNEL_NEAR_MAX;
-    urbsim_queue_t *q = near ? &k->near : &k->far;
-    if (q->len == q->cap) {
-        if (!queue_grow(q)) {
-            return false;
-        }
-        k->cap = k->near.cap + k->far.cap;
+    if (goes_near(k, t)) {
+        ring_push(k, t, fn, ctx, arg);
+        return true;
     }
-    urbsim_event_key_t key = {t, k->next_seq++};
-    urbsim_event_t item = {fn, ctx, arg};
-    if (near) {
-        ring_push(q, key, item);
-    } else {
-        if (h != NULL) {
-            h->armed = true;
-        }
-        heap_push(q, key, item, h);
-    }
-    k->len++;
-    return true;
+    return far_push(k, t, fn, ctx, arg, h);
 }
 
 void urbsim_kernel_cancel(urbsim_kernel_t *k, urbsim_handle_t *h)
@@ -259,8 +282,7 @@ void urbsim_kernel_cancel(urbsim_kernel_t *k, urbsim_handle_t *h)
     if (!h->armed) {
         return;
     }
-    (void)heap_remove(&k->far, h->slot);
-    k->len--;
+    heap_remove(&k->far, h->slot, NULL);
 }
 
 bool urbsim_kernel_after(urbsim_kernel_t *k, urbsim_ns_t delay, urbsim_event_fn fn, void *ctx, uint64_t arg)
@@ -270,7 +292,7 @@ bool urbsim_kernel_after(urbsim_kernel_t *k, urbsim_ns_t delay, urbsim_event_fn 
 
 urbsim_ns_t urbsim_kernel_next_time(const urbsim_kernel_t *k)
 {
-    urbsim_ns_t a = k->near.len ? k->near.key[k->near.head].t : URBSIM_NEVER;
+    urbsim_ns_t a = k->near_len ? k->near[k->near_head].key.t : URBSIM_NEVER;
     urbsim_ns_t b = k->far.len ? k->far.key[0].t : URBSIM_NEVER;
     return a < b ? a : b;
 }
@@ -279,25 +301,37 @@ bool urbsim_kernel_run_until(urbsim_kernel_t *k, urbsim_ns_t limit)
 {
     k->stop = false;
     for (;;) {
+        urbsim_event_t ev;
+        urbsim_ns_t t;
+        const urbsim_near_entry_t *head = &k->near[k->near_head];
         bool near;
-        if (k->near.len == 0) {
-            if (k->far.len == 0) {
+        if (k->near_len == 0u) {
+            if (k->far.len == 0u) {
                 break;
             }
             near = false;
         } else {
 #ifdef URBSIM_MUTANT_QUEUE_TIES /* seeded bug (mk/sim.mk): a tie between the queues goes to the near one */
-            near = k->far.len == 0 || k->near.key[k->near.head].t <= k->far.key[0].t;
+            near = k->far.len == 0u || head->key.t <= k->far.key[0].t;
 #else
-            near = k->far.len == 0 || before(&k->near.key[k->near.head], &k->far.key[0]);
+            near = k->far.len == 0u || before(&head->key, &k->far.key[0]);
 #endif
         }
-        urbsim_ns_t t = near ? k->near.key[k->near.head].t : k->far.key[0].t;
-        if (t > limit) {
-            break;
+        if (near) {
+            t = head->key.t;
+            if (t > limit) {
+                break;
+            }
+            ev = head->item;
+            k->near_head = (k->near_head + 1u) & (URBSIM_KERNEL_NEAR_MAX - 1u);
+            k->near_len--;
+        } else {
+            t = k->far.key[0].t;
+            if (t > limit) {
+                break;
+            }
+            heap_remove(&k->far, 0, &ev);
         }
-        urbsim_event_t ev = near ? ring_pop(&k->near) : heap_remove(&k->far, 0);
-        k->len--;
         k->now = t;
         k->executed++;
         ev.fn(ev.ctx, ev.arg, t);

@@ -57,45 +57,50 @@ typedef struct {
     uint64_t arg;
 } urbsim_event_t;
 
-/** A queue of events: keys and payloads in parallel arrays, so that the loops that order them read
- *  only the 16-byte keys and touch a payload only when they move it. The near queue keeps its
- *  entries sorted in a ring (`head` is the earliest, `cap` a power of two); the far queue is a
- *  binary min-heap (`head` unused, key[0] is the earliest). */
+/** The far queue: a binary min-heap (key[0] is the earliest) with keys and payloads in parallel
+ *  arrays, so that the sifting loops read only the 16-byte keys and touch a payload only when
+ *  they move it. */
 typedef struct {
     urbsim_event_key_t *key;
     urbsim_event_t *item;
-    urbsim_handle_t **owner; /**< far queue only: the handle of each entry, or NULL */
+    urbsim_handle_t **owner; /**< the handle of each entry, or NULL */
     size_t len;
     size_t cap;
-    size_t head;
-} urbsim_queue_t;
+} urbsim_heap_t;
+
+/** A near-queue entry: key and payload side by side, because the ring moves them together. */
+typedef struct {
+    urbsim_event_key_t key;
+    urbsim_event_t item;
+} urbsim_near_entry_t;
+
+/** Events scheduled at most this far ahead go to the near queue while it holds fewer than
+ *  URBSIM_KERNEL_NEAR_MAX (speed knobs: any values give the same run). The cap bounds the sorted
+ *  insertion when many interrupts are raised at once (a general call to 20 nodes); the overflow
+ *  goes to the heap. It is also the size of the ring, so it must be a power of two. */
+#define URBSIM_KERNEL_NEAR_NS (60u * URBSIM_NS_PER_US)
+#define URBSIM_KERNEL_NEAR_MAX 32u
 
 /*
  * Two queues: events due within URBSIM_KERNEL_NEAR_NS of the time they are scheduled (bus bytes,
  * interrupt handlers, most main-loop polls: the bulk of the traffic) and the rest (timer compares,
  * USB frames, OS ticks, the stale events of replaced timers). The next event is the earlier of the
  * two heads, so the split changes nothing about the order. The near queue holds a handful of
- * entries (about 6 in the SensoRHex scenario), so a sorted ring takes a new one in a few
- * comparisons and gives the earliest back in one; the ~50 long-term entries stay out of their way
- * in the heap.
+ * entries (about 6 in the SensoRHex scenario), so a sorted ring of fixed size inside the kernel
+ * takes a new one in a few comparisons and gives the earliest back in one; the ~50 long-term
+ * entries stay out of their way in the heap.
  */
 typedef struct {
-    urbsim_queue_t near;
-    urbsim_queue_t far;
-    size_t len;           /**< events pending (both queues) */
-    size_t cap;           /**< room for events before the queues grow (both queues) */
+    urbsim_near_entry_t near[URBSIM_KERNEL_NEAR_MAX]; /**< sorted ring; near[near_head] is the earliest */
+    uint32_t near_head;
+    uint32_t near_len;
+    urbsim_ns_t near_last; /**< time of the ring's last entry; at most `now` when the ring is empty */
+    urbsim_heap_t far;
     urbsim_ns_t now;      /**< time of the event being run, or the last run_until limit */
     uint64_t next_seq;
     uint64_t executed;    /**< events run so far (for the speed benchmark) */
     bool stop;            /**< set by urbsim_kernel_stop() from inside a callback */
 } urbsim_kernel_t;
-
-/** Events scheduled at most this far ahead go to the near queue while it holds fewer than
- *  URBSIM_KERNEL_NEAR_MAX (speed knobs: any values give the same run). The cap bounds the sorted
- *  insertion when many interrupts are raised at once (a general call to 20 nodes); the overflow
- *  goes to the heap. */
-#define URBSIM_KERNEL_NEAR_NS (60u * URBSIM_NS_PER_US)
-#define URBSIM_KERNEL_NEAR_MAX 32u
 
 /** Initialise an empty kernel at time 0. Returns false when the initial allocation fails. */
 bool urbsim_kernel_init(urbsim_kernel_t *k);
@@ -103,13 +108,37 @@ bool urbsim_kernel_init(urbsim_kernel_t *k);
 /** Free the queues. The kernel may be initialised again afterwards. */
 void urbsim_kernel_free(urbsim_kernel_t *k);
 
+/** urbsim_kernel_at for every event but the commonest kind (use that instead). */
+bool urbsim_kernel_at_sorted(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg);
+
 /**
  * Schedule fn(ctx, arg, t) at virtual time t. A time in the past (t < now) is clamped to now: an
  * event can never run before the one that scheduled it. Returns false only when the queue cannot
  * grow (out of memory); the event is then not scheduled. O(log n) for far events, O(near queue
  * length) for near ones.
+ *
+ * Inline for its commonest case, an event due soon and after every other near event (a bus byte's
+ * completion after the interrupts it raised): appended to the ring in a dozen instructions where a
+ * call costs more than the work (measured: bench/sim_speed.py, 2026-11-25).
  */
-bool urbsim_kernel_at(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg);
+static inline bool urbsim_kernel_at(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg)
+{
+    if (t < k->now) {
+        t = k->now;
+    }
+    if (t >= k->near_last && t - k->now <= URBSIM_KERNEL_NEAR_NS && k->near_len < URBSIM_KERNEL_NEAR_MAX) {
+        urbsim_near_entry_t *e = &k->near[(k->near_head + k->near_len) & (URBSIM_KERNEL_NEAR_MAX - 1u)];
+        k->near_len++;
+        k->near_last = t;
+        e->key.t = t;
+        e->key.seq = k->next_seq++;
+        e->item.fn = fn;
+        e->item.ctx = ctx;
+        e->item.arg = arg;
+        return true;
+    }
+    return urbsim_kernel_at_sorted(k, t, fn, ctx, arg);
+}
 
 /**
  * urbsim_kernel_at, keeping `h` (owned by the caller, cleared with urbsim_handle_init) as a handle
@@ -129,6 +158,9 @@ void urbsim_handle_init(urbsim_handle_t *h);
 
 /** Schedule relative to now: urbsim_kernel_at(k, now + delay, ...). */
 bool urbsim_kernel_after(urbsim_kernel_t *k, urbsim_ns_t delay, urbsim_event_fn fn, void *ctx, uint64_t arg);
+
+/** Events pending (both queues). */
+size_t urbsim_kernel_pending(const urbsim_kernel_t *k);
 
 /** Time of the earliest pending event, or URBSIM_NEVER when none is pending. O(1). */
 urbsim_ns_t urbsim_kernel_next_time(const urbsim_kernel_t *k);

@@ -624,8 +624,8 @@ double urbsim_stat(urbsim_world_t *w, const char *name, int id)
     if (!strcmp(name, "usb.busy_bits")) return (double)w->usb.busy_bits;
     if (!strcmp(name, "usb.phase_ns")) return (double)w->usb.phase_ns;
     if (!strcmp(name, "host.wakes")) return (double)w->host_wakes;
-    if (!strcmp(name, "kernel.pending")) return (double)w->k.len;
-    if (!strcmp(name, "kernel.capacity")) return (double)w->k.cap;
+    if (!strcmp(name, "kernel.pending")) return (double)urbsim_kernel_pending(&w->k);
+    if (!strcmp(name, "kernel.capacity")) return (double)(URBSIM_KERNEL_NEAR_MAX + w->k.far.cap);
     if (!strcmp(name, "cpu.ppm")) return w->cpu.cfg.ppm0;
     return NAN;
 }
