@@ -14,11 +14,6 @@ static uint64_t splitmix64(uint64_t *x)
     return z ^ (z >> 31);
 }
 
-static uint64_t rotl(uint64_t x, int k)
-{
-    return (x << k) | (x >> (64 - k));
-}
-
 void urbsim_rng_seed(urbsim_rng_t *r, uint64_t seed)
 {
     uint64_t x = seed;
@@ -42,43 +37,25 @@ void urbsim_rng_derive(urbsim_rng_t *r, uint64_t seed, const char *name, uint64_
     urbsim_rng_seed(r, mixed);
 }
 
-uint64_t urbsim_rng_u64(urbsim_rng_t *r)
-{
-    uint64_t *s = r->s;
-    uint64_t result = rotl(s[1] * 5u, 7) * 9u;
-    uint64_t t = s[1] << 17;
-    s[2] ^= s[0];
-    s[3] ^= s[1];
-    s[1] ^= s[2];
-    s[0] ^= s[3];
-    s[2] ^= t;
-    s[3] = rotl(s[3], 45);
-    return result;
-}
-
 double urbsim_rng_uniform(urbsim_rng_t *r)
 {
     return (double)(urbsim_rng_u64(r) >> 11) * 0x1.0p-53;
 }
 
-uint64_t urbsim_rng_below(urbsim_rng_t *r, uint64_t n)
+uint64_t urbsim_rng_below_retry(urbsim_rng_t *r, uint64_t n, uint64_t m)
+{
+    uint32_t n32 = (uint32_t)n;
+    uint32_t threshold = (0u - n32) % n32;
+    while ((uint32_t)m < threshold) {
+        m = (urbsim_rng_u64(r) >> 32) * n;
+    }
+    return m >> 32;
+}
+
+uint64_t urbsim_rng_below_wide(urbsim_rng_t *r, uint64_t n)
 {
     if (n == 0) {
         return 0;
-    }
-    if (n <= 0xFFFFFFFFu) {
-        /* Lemire's method on 32 bits (the common case: interrupt jitter in cycles). */
-        uint32_t n32 = (uint32_t)n;
-        uint64_t m = (urbsim_rng_u64(r) >> 32) * n;
-        if ((uint32_t)m < n32) {
-            /* Only now can the draw be in the biased zone: the threshold (a division) is below n,
-             * so a low part >= n always passes. Same draws and results as testing it every time. */
-            uint32_t threshold = (0u - n32) % n32;
-            while ((uint32_t)m < threshold) {
-                m = (urbsim_rng_u64(r) >> 32) * n;
-            }
-        }
-        return m >> 32;
     }
     /* Rejection on the low bits of the 128-bit product (Lemire 2019), via 64-bit halves so it is
      * plain C99. */
