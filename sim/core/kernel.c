@@ -69,8 +69,9 @@ static bool heap_grow(urbsim_heap_t *q)
 
 /* Near queue: insert into the sorted ring (the caller checked there is room). The new event has
  * the largest sequence number of all, so it goes after every event due at or before its time: an
- * event due before all others (an interrupt handler right after the bus event that raised it)
- * goes in front in O(1); the others are placed from the back. */
+ * event due no earlier than all others (a byte's completion after the interrupts it raised) is
+ * appended and one due before all others (an interrupt handler right after the bus event that
+ * raised it) goes in front, both in O(1); the others are placed from the back. */
 static void ring_push(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg)
 {
     const uint32_t m = URBSIM_KERNEL_NEAR_MAX - 1u;
@@ -248,7 +249,7 @@ static bool far_push(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void
     return true;
 }
 
-bool urbsim_kernel_at_sorted(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg)
+bool urbsim_kernel_at(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg)
 {
     if (t < k->now) {
         t = k->now;
@@ -264,7 +265,7 @@ bool urbsim_kernel_at_handle(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn 
                              urbsim_handle_t *h)
 {
     if (h == NULL) {
-        return urbsim_kernel_at_sorted(k, t, fn, ctx, arg);
+        return urbsim_kernel_at(k, t, fn, ctx, arg);
     }
     urbsim_kernel_cancel(k, h); /* a handle holds one event: the one it held is superseded */
     if (t < k->now) {

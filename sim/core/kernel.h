@@ -108,37 +108,13 @@ bool urbsim_kernel_init(urbsim_kernel_t *k);
 /** Free the queues. The kernel may be initialised again afterwards. */
 void urbsim_kernel_free(urbsim_kernel_t *k);
 
-/** urbsim_kernel_at for every event but the commonest kind (use that instead). */
-bool urbsim_kernel_at_sorted(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg);
-
 /**
  * Schedule fn(ctx, arg, t) at virtual time t. A time in the past (t < now) is clamped to now: an
  * event can never run before the one that scheduled it. Returns false only when the queue cannot
  * grow (out of memory); the event is then not scheduled. O(log n) for far events, O(near queue
- * length) for near ones.
- *
- * Inline for its commonest case, an event due soon and after every other near event (a bus byte's
- * completion after the interrupts it raised): appended to the ring in a dozen instructions where a
- * call costs more than the work (measured: bench/sim_speed.py, 2026-11-25).
+ * length) for near ones, O(1) for a near event due after all others.
  */
-static inline bool urbsim_kernel_at(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg)
-{
-    if (t < k->now) {
-        t = k->now;
-    }
-    if (t >= k->near_last && t - k->now <= URBSIM_KERNEL_NEAR_NS && k->near_len < URBSIM_KERNEL_NEAR_MAX) {
-        urbsim_near_entry_t *e = &k->near[(k->near_head + k->near_len) & (URBSIM_KERNEL_NEAR_MAX - 1u)];
-        k->near_len++;
-        k->near_last = t;
-        e->key.t = t;
-        e->key.seq = k->next_seq++;
-        e->item.fn = fn;
-        e->item.ctx = ctx;
-        e->item.arg = arg;
-        return true;
-    }
-    return urbsim_kernel_at_sorted(k, t, fn, ctx, arg);
-}
+bool urbsim_kernel_at(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg);
 
 /**
  * urbsim_kernel_at, keeping `h` (owned by the caller, cleared with urbsim_handle_init) as a handle
