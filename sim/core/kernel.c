@@ -105,6 +105,19 @@ static void ring_push(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, voi
 
 /* Far queue: binary heap, whose entries may have an owner handle that follows them around. */
 
+/* Tell the owner of the entry in slot i, if any, where it is now. */
+static inline void heap_track(urbsim_heap_t *q, size_t i)
+{
+#ifndef URBSIM_MUTANT_CANCEL_SLOT /* seeded bug (mk/sim.mk): a handle loses track of its moved event */
+    if (q->owner[i] != NULL) {
+        q->owner[i]->slot = i;
+    }
+#else
+    (void)q;
+    (void)i;
+#endif
+}
+
 /* Put an event into slot i. */
 static inline void heap_place(urbsim_heap_t *q, size_t i, urbsim_ns_t t, uint64_t seq, urbsim_event_fn fn, void *ctx,
                               uint64_t arg, urbsim_handle_t *owner)
@@ -115,11 +128,7 @@ static inline void heap_place(urbsim_heap_t *q, size_t i, urbsim_ns_t t, uint64_
     q->item[i].ctx = ctx;
     q->item[i].arg = arg;
     q->owner[i] = owner;
-#ifndef URBSIM_MUTANT_CANCEL_SLOT /* seeded bug (mk/sim.mk): a handle loses track of its moved event */
-    if (owner != NULL) {
-        owner->slot = i;
-    }
-#endif
+    heap_track(q, i);
 }
 
 /* Move the entry in slot i into the hole at slot j. */
@@ -128,11 +137,7 @@ static inline void heap_move(urbsim_heap_t *q, size_t j, size_t i)
     q->key[j] = q->key[i];
     q->item[j] = q->item[i];
     q->owner[j] = q->owner[i];
-#ifndef URBSIM_MUTANT_CANCEL_SLOT
-    if (q->owner[j] != NULL) {
-        q->owner[j]->slot = j;
-    }
-#endif
+    heap_track(q, j);
 }
 
 /* Put an event into the hole at slot i, sifting it up towards the root. */
