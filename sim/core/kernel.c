@@ -254,25 +254,10 @@ static bool far_push(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void
     return true;
 }
 
-bool urbsim_kernel_at(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg)
+/* Queue an event due at t (clamped to now), with its handle if it goes to the far queue. */
+static bool schedule(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg,
+                     urbsim_handle_t *h)
 {
-    if (t < k->now) {
-        t = k->now;
-    }
-    if (goes_near(k, t)) {
-        ring_push(k, t, fn, ctx, arg);
-        return true;
-    }
-    return far_push(k, t, fn, ctx, arg, NULL);
-}
-
-bool urbsim_kernel_at_handle(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg,
-                             urbsim_handle_t *h)
-{
-    if (h == NULL) {
-        return urbsim_kernel_at(k, t, fn, ctx, arg);
-    }
-    urbsim_kernel_cancel(k, h); /* a handle holds one event: the one it held is superseded */
     if (t < k->now) {
         t = k->now;
     }
@@ -281,6 +266,20 @@ bool urbsim_kernel_at_handle(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn 
         return true;
     }
     return far_push(k, t, fn, ctx, arg, h);
+}
+
+bool urbsim_kernel_at(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg)
+{
+    return schedule(k, t, fn, ctx, arg, NULL);
+}
+
+bool urbsim_kernel_at_handle(urbsim_kernel_t *k, urbsim_ns_t t, urbsim_event_fn fn, void *ctx, uint64_t arg,
+                             urbsim_handle_t *h)
+{
+    if (h != NULL) {
+        urbsim_kernel_cancel(k, h); /* a handle holds one event: the one it held is superseded */
+    }
+    return schedule(k, t, fn, ctx, arg, h);
 }
 
 void urbsim_kernel_cancel(urbsim_kernel_t *k, urbsim_handle_t *h)
