@@ -61,7 +61,6 @@ static void grow(urbsim_clock_t *c)
     c->count++;
     c->cur = (c->first + c->count - 1u) % URBSIM_CLOCK_SEGMENTS;
     c->cur_t0 = next.t0;
-    c->cur_ns_per_cycle = next.ns_per_cycle;
 #ifdef URBSIM_MUTANT_CLOCK_SPAN /* seeded bug (mk/sim.mk): the newest segment is believed 1 ms longer */
     c->cur_t1 = next.t0 + seg_len(c) + URBSIM_NS_PER_MS;
 #else
@@ -95,7 +94,6 @@ void urbsim_clock_reset(urbsim_clock_t *c, urbsim_ns_t now)
     c->seg[0].ns_per_cycle = 1e9 / c->cfg.cpu_hz / c->seg[0].rate;
     c->cur = 0;
     c->cur_t0 = now;
-    c->cur_ns_per_cycle = c->seg[0].ns_per_cycle;
     c->cur_t1 = now + seg_len(c);
 }
 
@@ -184,10 +182,9 @@ urbsim_ns_t urbsim_clock_cycles_ns(urbsim_clock_t *c, urbsim_ns_t t, double cycl
     if (t < c->origin) {
         t = c->origin;
     }
-    double ns_per_cycle = t >= c->cur_t0 && t < c->cur_t1 ? c->cur_ns_per_cycle : find_virtual_slow(c, t)->ns_per_cycle;
     /* >= 0, so round half up (cheaper than llround), and through int64_t: one instruction, where
      * a double to uint64_t conversion needs a range test (same value below 2^63 ns). */
-    return (urbsim_ns_t)(int64_t)(cycles * ns_per_cycle + 0.5);
+    return (urbsim_ns_t)(int64_t)(cycles * find_virtual(c, t)->ns_per_cycle + 0.5);
 }
 
 urbsim_ns_t urbsim_clock_irq_latency(urbsim_clock_t *c, urbsim_ns_t t)

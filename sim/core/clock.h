@@ -52,12 +52,11 @@ typedef struct {
 } urbsim_clock_seg_t;
 
 typedef struct {
-    /* What every interrupt reads, first and together (one or two cache lines instead of four): the
-     * newest segment, where nearly every query falls, with its virtual span [cur_t0, cur_t1) and
-     * its cycle length, kept by grow() and reset() so the common lookup is two comparisons. */
+    /* What every interrupt reads, first and together: the newest segment, where nearly every
+     * query falls, with its virtual span [cur_t0, cur_t1), kept by grow() and reset() so the
+     * common lookup is two comparisons. */
     urbsim_ns_t origin;      /**< virtual time of the last reset (power-on) */
     urbsim_ns_t cur_t0, cur_t1;
-    double cur_ns_per_cycle;
     uint32_t cur;            /**< ring index of the newest segment */
     urbsim_rng_t jitter;     /**< interrupt-latency draws: a separate stream so the wander
                                   never depends on how many interrupts happened */
