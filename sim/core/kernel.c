@@ -228,6 +228,11 @@ size_t urbsim_kernel_pending(const urbsim_kernel_t *k)
     return k->near_len + k->far.len;
 }
 
+size_t urbsim_kernel_capacity(const urbsim_kernel_t *k)
+{
+    return URBSIM_KERNEL_NEAR_MAX + k->far.cap;
+}
+
 void urbsim_handle_init(urbsim_handle_t *h)
 {
     h->slot = 0;

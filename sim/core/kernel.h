@@ -138,6 +138,9 @@ bool urbsim_kernel_after(urbsim_kernel_t *k, urbsim_ns_t delay, urbsim_event_fn 
 /** Events pending (both queues). */
 size_t urbsim_kernel_pending(const urbsim_kernel_t *k);
 
+/** Events the queues hold before the far queue must grow (both queues). */
+size_t urbsim_kernel_capacity(const urbsim_kernel_t *k);
+
 /** Time of the earliest pending event, or URBSIM_NEVER when none is pending. O(1). */
 urbsim_ns_t urbsim_kernel_next_time(const urbsim_kernel_t *k);
 

@@ -625,7 +625,7 @@ double urbsim_stat(urbsim_world_t *w, const char *name, int id)
     if (!strcmp(name, "usb.phase_ns")) return (double)w->usb.phase_ns;
     if (!strcmp(name, "host.wakes")) return (double)w->host_wakes;
     if (!strcmp(name, "kernel.pending")) return (double)urbsim_kernel_pending(&w->k);
-    if (!strcmp(name, "kernel.capacity")) return (double)(URBSIM_KERNEL_NEAR_MAX + w->k.far.cap);
+    if (!strcmp(name, "kernel.capacity")) return (double)urbsim_kernel_capacity(&w->k);
     if (!strcmp(name, "cpu.ppm")) return w->cpu.cfg.ppm0;
     return NAN;
 }
