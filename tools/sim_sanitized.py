@@ -21,13 +21,15 @@ with more nodes than it takes, a world never started), and LeakSanitizer must fi
 It then shows that each check can fail: with a seeded off-by-one in the ring of marks the HALs log
 (URBSIM_MUTANT_LOG_WRAP in firmware/hal/sim/sim_log.h) the sanitizer must report an error; with a
 babbling node that urbsim_free forgets (URBSIM_MUTANT_LEAK_BABBLER in sim/world/world.c)
-LeakSanitizer must report a leak.
+LeakSanitizer must report a leak; with a sequence number read from memory that the two builds fill
+differently (URBSIM_MUTANT_UNINIT_SEQ in sim/world/native_host.c) the two builds' traces must
+differ.
 
     python3 tools/sim_sanitized.py                      # all: `make test-sim-san`, in `make check`
     python3 tools/sim_sanitized.py --only fig20,faults  # the clean run of some experiments only
     python3 tools/sim_sanitized.py --no-mutant          # the clean runs only
 
-Exit status 0 when the clean runs pass with no sanitizer report and both seeded bugs are reported;
+Exit status 0 when the clean runs pass with no sanitizer report and the three seeded bugs are caught;
 1 otherwise (the reports and the experiments' verdicts say why); 2 when a build fails.
 The experiments' report of each run is in build/sim/san/<run>/, its error output (with the
 sanitizers' reports) in build/sim/san/<run>.stderr; the leak check's in build/sim/san/leaks*.stderr.
@@ -52,6 +54,8 @@ OUT = BUILD / "san"
 MUTANT, MUTANT_EXPERIMENT = "LOG_WRAP", "fig20"
 #: The leak check's program, and the seeded leak it must report.
 LEAK_PROGRAM, LEAK_MUTANT = REPO / "tests" / "sim" / "world_leaks.c", "LEAK_BABBLER"
+#: The seeded bug that makes the optimised and the sanitized build simulate different things.
+TRACE_MUTANT = "UNINIT_SEQ"
 #: What a sanitizer report starts with (UBSan: "<file>:<line>:<col>: runtime error: ...").
 REPORT_MARKS = ("runtime error:", "ERROR: AddressSanitizer", "ERROR: LeakSanitizer")
 
@@ -73,10 +77,10 @@ def _env(*, sanitized: bool, mutant: str | None = None, loads: bool = False) -> 
     return env
 
 
-def build(mutant: str | None) -> None:
-    """Build the sanitized library (with the seeded bug `mutant`) if it is stale."""
-    proc = subprocess.run([sys.executable, "-m", "urb_sim.build"], env=_env(sanitized=True, mutant=mutant), cwd=REPO,
-                          capture_output=True, text=True, check=False)
+def build(mutant: str | None, sanitized: bool = True) -> None:
+    """Build the sanitized (or optimised) library, with the seeded bug `mutant`, if it is stale."""
+    proc = subprocess.run([sys.executable, "-m", "urb_sim.build"], env=_env(sanitized=sanitized, mutant=mutant),
+                          cwd=REPO, capture_output=True, text=True, check=False)
     if proc.returncode != 0:
         raise BuildError(proc.stdout + proc.stderr)
 
@@ -127,14 +131,21 @@ def run_leak_program(program: Path) -> tuple[int, list[str]]:
     return proc.returncode, [line for line in proc.stderr.splitlines() if any(m in line for m in REPORT_MARKS)]
 
 
-def fingerprint(sanitized: bool) -> str:
-    """bench/sim_speed.py --fingerprint on the normal or the sanitized build: its one-line answer."""
+def fingerprint(sanitized: bool, mutant: str | None = None) -> str:
+    """bench/sim_speed.py --fingerprint on the normal or the sanitized build (with the seeded bug
+    `mutant`): its one-line answer."""
     proc = subprocess.run([sys.executable, str(REPO / "bench" / "sim_speed.py"), "--fingerprint"],
-                          env=_env(sanitized=sanitized, loads=True), cwd=REPO, capture_output=True, text=True,
-                          check=False)
+                          env=_env(sanitized=sanitized, mutant=mutant, loads=True), cwd=REPO, capture_output=True,
+                          text=True, check=False)
     if proc.returncode != 0:
         return f"(failed with exit status {proc.returncode}: {proc.stderr.strip()})"
     return proc.stdout.strip()
+
+
+def same_trace(mutant: str | None = None) -> tuple[bool, str, str]:
+    """(the optimised and the sanitized build give one trace, optimised answer, sanitized answer)."""
+    optimised, sanitized = fingerprint(False, mutant), fingerprint(True, mutant)
+    return optimised == sanitized and optimised.startswith("fingerprint"), optimised, sanitized
 
 
 def clean(what: str, outcome: tuple[int, list[str]], stderr: Path, passed: str) -> bool:
@@ -172,10 +183,12 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as exc:
         print(f"sim_sanitized: {exc}", file=sys.stderr)
         return 2
-    mutants = [] if args.no_mutant else [MUTANT, LEAK_MUTANT]
+    mutants = [] if args.no_mutant else [MUTANT, LEAK_MUTANT, TRACE_MUTANT]
     try:
         for mutant in [None, *mutants]:
             build(mutant)
+        if not args.no_mutant:
+            build(TRACE_MUTANT, sanitized=False)
         leaks = leak_program(None)
         seeded_leaks = None if args.no_mutant else leak_program(LEAK_MUTANT)
     except BuildError as exc:
@@ -185,8 +198,8 @@ def main(argv: list[str] | None = None) -> int:
     ok = clean("the sanitized run", run("clean", experiments, None), OUT / "clean.stderr",
                f"{len(experiments)} experiment(s) ran under ASan+UBSan with no report")
 
-    optimised, sanitized = fingerprint(False), fingerprint(True)
-    if optimised == sanitized and optimised.startswith("fingerprint"):
+    same, optimised, sanitized = same_trace()
+    if same:
         print(f"sim_sanitized: the sanitized and the optimised build give the same trace: {sanitized}")
     else:
         ok = False
@@ -200,6 +213,15 @@ def main(argv: list[str] | None = None) -> int:
         ok = caught(LEAK_MUTANT, run_leak_program(seeded_leaks), ("ERROR: LeakSanitizer",), "the leak check") and ok
         ok = caught(MUTANT, run(f"mutant-{MUTANT}", [MUTANT_EXPERIMENT], MUTANT),
                     ("runtime error:", "ERROR: AddressSanitizer"), "the sanitized run") and ok
+        same, optimised, sanitized = same_trace(TRACE_MUTANT)
+        if not same and optimised.startswith("fingerprint") and sanitized.startswith("fingerprint"):
+            print(f"sim_sanitized: seeded bug {TRACE_MUTANT} caught: the builds give different traces "
+                  f"({optimised.split(': ', 1)[1]} against {sanitized.split(': ', 1)[1]})")
+        else:
+            ok = False
+            print(f"sim_sanitized: FAIL: the seeded bug URBSIM_MUTANT_{TRACE_MUTANT} was not caught: the comparison "
+                  f"of the builds' traces no longer tells them apart\n  optimised: {optimised}\n  sanitized: "
+                  f"{sanitized}", file=sys.stderr)
     return 0 if ok else 1
 
 

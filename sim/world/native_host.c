@@ -26,6 +26,12 @@ void nh_init(nh_bridge_t *h, int bridge, int usb, uint32_t period_ticks)
     h->period = period_ticks ? period_ticks : 1u;
     h->frame = 1u;
     h->lat_min = UINT64_MAX;
+#if defined(URBSIM_MUTANT_UNINIT_SEQ) && defined(__SANITIZE_ADDRESS__)
+    /* seeded bug (tools/sim_sanitized.py): the first sequence number read from memory never
+     * written, which the builds fill differently (zeros from the system, ASan's 0xbe bytes); here
+     * deterministically, so that the comparison of the two builds' traces is shown to fail */
+    h->seq = 0xBEBEBEBEu;
+#endif
 }
 
 int nh_add(nh_bridge_t *h, uint8_t address, uint8_t mailbox, bool read, uint8_t length, uint32_t every)
