@@ -162,22 +162,6 @@ bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t l
     return ok;
 }
 
-/* Length of the request starting at stream[s] (bytes s..end-1 available): 0 = needs more bytes,
- * FW_NOT_A_REQUEST = no request starts like this. */
-static uint8_t ref_need(uint8_t s, uint8_t end)
-{
-    if (s >= end) {
-        return 0u;
-    }
-    if ((stream[s] & 1u) != 0u) {
-        return fw_request_len(stream[s], 0u);
-    }
-    if ((uint8_t)(end - s) < 3u) {
-        return 0u;
-    }
-    return fw_request_len(stream[s], stream[s + 2u]);
-}
-
 static uint8_t ref_len[FW_MAX_FRAMES];
 static uint8_t ref_start[FW_MAX_FRAMES];
 static uint8_t ref_count;
@@ -195,7 +179,7 @@ static uint8_t ref_scan(uint8_t s, uint8_t e, bool ended)
 {
     uint8_t buf[FW_N];
     for (uint8_t round = 0u; (round < FW_N) && (s < e); round++) {
-        uint8_t const need = ref_need(s, e);
+        uint8_t const need = fw_request_need(&stream[s], (uint8_t)(e - s));
         bool const complete = (need != 0u) && (need != FW_NOT_A_REQUEST) && (need <= (uint8_t)(e - s));
         if (complete) {
             if (ref_budget == 0u) {

@@ -102,19 +102,6 @@ bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t l
     return ok;
 }
 
-/* Reference: the length of the request starting at stream[s] with bytes s..end-1 available (0:
- * more bytes needed; see the RS232 proof). */
-static uint8_t ref_need(uint8_t s, uint8_t end)
-{
-    if ((stream[s] & 1u) != 0u) {
-        return fw_request_len(stream[s], 0u);
-    }
-    if ((uint8_t)(end - s) < 3u) {
-        return 0u;
-    }
-    return fw_request_len(stream[s], stream[s + 2u]);
-}
-
 static uint8_t ref_len[FW_MAX_FRAMES];
 static uint8_t ref_start[FW_MAX_FRAMES];
 static uint8_t ref_count;
@@ -126,7 +113,7 @@ static uint8_t ref_walk(uint8_t e)
     uint8_t buf[FW_BODY];
     uint8_t s = 0u;
     for (uint8_t round = 0u; (round < FW_MAX_FRAMES) && (s < e); round++) {
-        uint8_t const need = ref_need(s, e);
+        uint8_t const need = fw_request_need(&stream[s], (uint8_t)(e - s));
         if ((need == 0u) || (need == FW_NOT_A_REQUEST) || (need > (uint8_t)(e - s))) {
             break;
         }

@@ -35,6 +35,22 @@ static uint8_t fw_request_len(uint8_t first, uint8_t length_field)
     return (uint8_t)(3u + length_field + ((3u + length_field <= URB_CRC8_LINK_CHECK_MAX_COVERED) ? 1u : 2u));
 }
 
+/* Length of the request starting at bytes[0] when `avail` bytes of it have arrived: 0 when more
+ * are needed to tell, FW_NOT_A_REQUEST when no request starts like this. */
+static uint8_t fw_request_need(const uint8_t *bytes, uint8_t avail)
+{
+    if (avail == 0u) {
+        return 0u;
+    }
+    if ((bytes[0] & 1u) != 0u) {
+        return fw_request_len(bytes[0], 0u);
+    }
+    if (avail < 3u) {
+        return 0u;
+    }
+    return fw_request_len(bytes[0], bytes[2]);
+}
+
 /* The strict decoders' verdict on a candidate of `len` bytes (a copy, FW_FRAME_WIDTH wide): the
  * length rule, then the last byte must be the fold of the key with the covered bytes. */
 static bool fw_is_frame(const uint8_t *frame, uint8_t len)
