@@ -18,6 +18,7 @@
 #include <stdint.h>
 
 #include "urb_core.h"
+#include "urb_verify.h"
 
 /* Returned by fw_request_len for a write whose length field no request can have. */
 #define FW_NOT_A_REQUEST 0xFFu
@@ -35,13 +36,11 @@ static uint8_t fw_request_len(uint8_t first, uint8_t length_field)
     return (uint8_t)(3u + length_field + ((3u + length_field <= URB_CRC8_LINK_CHECK_MAX_COVERED) ? 1u : 2u));
 }
 
-/* Length of the request starting at bytes[0] when `avail` bytes of it have arrived: 0 when more
- * are needed to tell, FW_NOT_A_REQUEST when no request starts like this. */
+/* Length of the request starting at bytes[0] when `avail` (at least 1) bytes of it have arrived:
+ * 0 when more are needed to tell, FW_NOT_A_REQUEST when no request starts like this. */
 static uint8_t fw_request_need(const uint8_t *bytes, uint8_t avail)
 {
-    if (avail == 0u) {
-        return 0u;
-    }
+    URB_ASSERT(avail >= 1u, "a request is measured from a byte that has arrived");
     if ((bytes[0] & 1u) != 0u) {
         return fw_request_len(bytes[0], 0u);
     }
