@@ -289,28 +289,37 @@ static void admit(urb_bridge_t *b, const urbb_request_t *q)
 
 bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t len)
 {
-    uint8_t const seq = (uint8_t)(frame[1] >> 4);
-    if ((frame[0] & 1u) != 0u) {
+    /* A range error (r < 0 but not a check, short or long frame) in a frame whose check passed: it
+     * was meant as a request, so it is answered BAD_REQUEST. The decoder stopped before assigning
+     * every member then, so only a well-formed request's members are copied. */
+    urbb_request_t req = {uplink, (uint8_t)(frame[1] >> 4), URB_STATUS_BAD_REQUEST, 0u, 0u, 0u, (frame[0] & 1u) != 0u,
+                          NULL};
+    urb_uplink_write_request_t w; /* outside the branch: req.data points into it until admit */
+    int32_t r;
+    if (req.read) {
         urb_uplink_read_request_t q;
-        int32_t const r = urb_uplink_read_request_decode(&q, frame, len);
-        if ((r == URB_ERR_CHECKSUM) || (r == URB_ERR_SHORT) || (r == URB_ERR_LONG)) {
-            return false;
+        r = urb_uplink_read_request_decode(&q, frame, len);
+        if (r >= 0) {
+            req.address = q.address;
+            req.mailbox = q.mailbox;
+            req.length = q.length;
         }
-        b->stats.frames++;
-        /* A range error in a frame whose check passed: it was meant as a request, answer it. */
-        urbb_request_t const req = {uplink, seq, (r < 0) ? (uint8_t)URB_STATUS_BAD_REQUEST : (uint8_t)URB_STATUS_OK,
-                                    q.address, q.mailbox, q.length, true, NULL};
-        admit(b, &req);
-        return true;
+    } else {
+        r = urb_uplink_write_request_decode(&w, frame, len);
+        if (r >= 0) {
+            req.address = w.address;
+            req.mailbox = w.mailbox;
+            req.length = w.length;
+            req.data = w.data;
+        }
     }
-    urb_uplink_write_request_t q;
-    int32_t const r = urb_uplink_write_request_decode(&q, frame, len);
     if ((r == URB_ERR_CHECKSUM) || (r == URB_ERR_SHORT) || (r == URB_ERR_LONG)) {
         return false;
     }
     b->stats.frames++;
-    urbb_request_t const req = {uplink, seq, (r < 0) ? (uint8_t)URB_STATUS_BAD_REQUEST : (uint8_t)URB_STATUS_OK,
-                                q.address, q.mailbox, q.length, false, q.data};
+    if (r >= 0) {
+        req.status = URB_STATUS_OK;
+    }
     admit(b, &req);
     return true;
 }
