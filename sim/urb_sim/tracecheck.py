@@ -1,5 +1,5 @@
 """TLA+ trace validation: TLC checks traces logged by the simulation against spec/tla/Bridge.tla,
-spec/tla/MailboxOutbox.tla and spec/tla/MailboxInbox.tla.
+spec/tla/MailboxOutbox.tla, spec/tla/MailboxInbox.tla and spec/tla/UsbUplink.tla.
 
 The simulation logs what a protocol analyser on a bridge's uplink would see (trace category
 "bridge", sim/README.md): request frames reaching the firmware ("req") and response frames leaving
@@ -21,8 +21,11 @@ import subprocess
 import tempfile
 import time
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+
+from urb.managers.base import NS_PER_MS, Transfer
+from urb.managers.usb_core import UsbTraceEvent
 
 from .build import REPO, unpreloaded_env
 from .tlc import JVM_QUICK, TlcSetupError, find_jar, find_java, state_counts
@@ -298,3 +301,85 @@ def check_inbox(events: list[dict[str, int | str]], size: int) -> TraceResult:
         raise ValueError(f"inbox of {size} byte(s): MailboxInbox.tla needs MsgLen >= 2 (a torn read must be "
                          "observable); trace an inbox of 2 bytes or more")
     return _check("TraceInbox", _inbox_module(events, size), events)
+
+
+# --------------------------------------------------------------------------- USB uplink traces
+
+#: UsbUplink.tla's MaxLatency: a callback at most this many 1-ms frames after its submission,
+#: counting both (paper Sec. V-C: 3 ms).
+USB_MAX_LATENCY = 3
+
+
+@dataclass
+class UsbEvent:
+    """One TraceUsbUplink event: "submit" (id), "write" (ids), "read" (seqs) or "callback" (id, ok),
+    in host frame f."""
+
+    ev: str
+    f: int
+    id: int = 0
+    ids: list[int] = field(default_factory=list)
+    seqs: list[int] = field(default_factory=list)
+    ok: bool = True
+
+    def tla(self) -> str:
+        fields = {"submit": f"id |-> {self.id}", "write": f"ids |-> <<{', '.join(map(str, self.ids))}>>",
+                  "read": f"seqs |-> <<{', '.join(map(str, self.seqs))}>>",
+                  "callback": f"id |-> {self.id}, ok |-> {'TRUE' if self.ok else 'FALSE'}"}[self.ev]
+        return f'[ev |-> "{self.ev}", f |-> {self.f}, {fields}]'
+
+
+def usb_trace(log: Sequence[UsbTraceEvent], frame_ns: int = NS_PER_MS) -> list[UsbEvent]:
+    """TraceUsbUplink events from a UsbCore's trace (`UsbCore.trace`, started with nothing queued or
+    in flight): frames counted from the first event's, requests numbered by submission from 1, and
+    sequence numbers renumbered so that the first submitted request's is 1, as UsbUplink.tla numbers
+    them (id mod 16); the host must have numbered its requests consecutively, which the check
+    therefore verifies too."""
+    if not log:
+        return []
+    ids: dict[int, int] = {}
+    first_seq: int | None = None
+    f0 = log[0][1] // frame_ns
+    out: list[UsbEvent] = []
+
+    def seq_of(t: Transfer) -> int:
+        nonlocal first_seq
+        if first_seq is None:
+            first_seq = t.seq
+        return (t.seq - first_seq + 1) % 16
+
+    for ev, now, transfers in log:
+        f = now // frame_ns - f0
+        if ev == "submit":
+            ids[id(transfers[0])] = len(ids) + 1
+            out.append(UsbEvent(ev, f, id=ids[id(transfers[0])]))
+        elif ev == "write":
+            for t in transfers:
+                seq_of(t)
+            out.append(UsbEvent(ev, f, ids=[ids.get(id(t), 0) for t in transfers]))
+        elif ev == "read":
+            out.append(UsbEvent(ev, f, seqs=[seq_of(t) for t in transfers]))
+        else:
+            out += [UsbEvent(ev, (t.completed_ns or now) // frame_ns - f0, id=ids.get(id(t), 0), ok=not t.flags)
+                    for t in transfers]
+    return out
+
+
+def _usb_module(events: list[UsbEvent], max_batch: int) -> str:
+    items = [e.tla() for e in events]
+    submits = max(1, sum(1 for e in events if e.ev == "submit"))
+    # the most submissions between two writes (UsbUplink.tla's budget, reset by UsbWrite)
+    burst = run = 0
+    for e in events:
+        run = 0 if e.ev == "write" else run + (e.ev == "submit")
+        burst = max(burst, run)
+    return "\n".join(["---- MODULE TraceUsbUplinkData ----", "EXTENDS Naturals, Sequences",
+                      f"TMaxBatch == {max_batch}", f"TMaxSubmit == {max(1, burst)}", f"TMaxReq == {submits}",
+                      f"TMaxLatency == {USB_MAX_LATENCY}",
+                      "Trace == <<" + ",\n    ".join(items) + ">>", "====", ""])
+
+
+def check_usb(events: list[UsbEvent], max_batch: int) -> TraceResult:
+    """Check a USB uplink trace (usb_trace) of a host writing at most `max_batch` requests per bulk-OUT
+    transfer against UsbUplink.tla (a rejected trace comes with the longest prefix a behaviour matched)."""
+    return _check("TraceUsbUplink", _usb_module(events, max_batch), events)

@@ -53,7 +53,9 @@ def test_trace_validation_with_tlc(tmp_path: Path) -> None:
     names = {c.name for c in res.checks}
     assert {"inbox trace accepted", "inbox mutant rejected: torn read",
             "inbox mutant rejected: aborted write visible", "outbox mutant rejected: stale byte",
-            "usb trace under I2C bit errors accepted"} <= names
+            "usb trace under I2C bit errors accepted", "USB uplink trace accepted",
+            "USB uplink mutant rejected: responses one frame late", "USB uplink mutant rejected: batch out of order",
+            "USB uplink mutant rejected: callbacks swapped"} <= names
 
 
 def test_figs18_19_pd_control(tmp_path: Path) -> None:

@@ -35,6 +35,11 @@ from .rs232_core import MAX_WINDOW, SEQ_MOD, ResponseMatcher, encode_request
 
 HEADER_SIZE = UsbBatchHeader.MAX_SIZE
 
+#: One step of the pipeline as UsbUplink.tla names it, for trace validation
+#: (sim/urb_sim/tracecheck.py): ("submit" | "write" | "read" | "callback", now, transfers). A write
+#: holds its batch, a read the requests whose responses its IN transfer carried, in order.
+UsbTraceEvent = tuple[str, int, tuple[Transfer, ...]]
+
 
 class UsbCore:
     """Host protocol state machine for one bridge on a USB (per-frame) uplink."""
@@ -68,6 +73,8 @@ class UsbCore:
         self._next_seq = 1  # the n-th request carries n mod 16, as Bridge.tla's Emit (id % SeqMod)
         self._last_in_ns = 0
         self._active_since = 0
+        self.trace: list[UsbTraceEvent] | None = None
+        """Set to a list to log every Submit, UsbWrite, UsbRead and Callback (UsbTraceEvent)."""
 
     # -- inputs ------------------------------------------------------------------------------
     def submit(self, t: Transfer, now: int) -> None:
@@ -76,6 +83,8 @@ class UsbCore:
             self._m.completed.append(finish(t, now, ErrorFlag.BRIDGE_LOST))
             return
         self._queued.append(t)
+        if self.trace is not None:
+            self.trace.append(("submit", now, (t,)))
 
     def receive_batch(self, data: bytes, now: int) -> None:
         """One bulk-IN transfer: a header, then responses back to back (`UsbRead`)."""
@@ -88,10 +97,14 @@ class UsbCore:
         except DecodeError:
             self.bad_headers += 1  # the responses carry their own checks: match them anyway
         m = self._m
+        done_before = len(m.completed)
         m.rx += data[HEADER_SIZE:]
         m.parse(now)
         if m.rx:  # a response never spans two transfers: the rest is garbage
             m._discard(len(m.rx))
+        if self.trace is not None:
+            answered = tuple(t for t in m.completed[done_before:] if t.status is not None)
+            self.trace.append(("read", now, answered))
 
     def poll(self, now: int) -> None:
         """Time out requests whose responses never came; detect a silent bridge."""
@@ -148,10 +161,14 @@ class UsbCore:
         header = UsbBatchHeader(frame=self._frame, count=count).encode()
         self._frame = self._frame % 0xFFFF + 1  # 1..65535, never 0
         self.frames_written += 1
+        if self.trace is not None:
+            self.trace.append(("write", now, tuple(m.inflight)[len(m.inflight) - count:]))
         return header + b"".join(frames)
 
     def take_completed(self) -> list[Transfer]:
         done, self._m.completed = self._m.completed, []
+        if self.trace is not None and done:
+            self.trace.append(("callback", done[-1].completed_ns or 0, tuple(done)))
         return done
 
     def next_deadline(self) -> int | None:

@@ -1,6 +1,7 @@
 """Trace validation: TLC checks traces logged by the simulation against spec/tla/Bridge.tla,
-spec/tla/MailboxOutbox.tla and spec/tla/MailboxInbox.tla (sim/tla/TraceBridge.tla, TraceOutbox.tla,
-TraceInbox.tla, sim/urb_sim/tracecheck.py).
+spec/tla/MailboxOutbox.tla, spec/tla/MailboxInbox.tla and spec/tla/UsbUplink.tla
+(sim/tla/TraceBridge.tla, TraceOutbox.tla, TraceInbox.tla, TraceUsbUplink.tla,
+sim/urb_sim/tracecheck.py).
 
 Checks: a fault-free bridge trace of each uplink is a behaviour of Bridge.tla; three mutated
 traces (a changed status, a dropped response, two responses swapped) are not (the check is not
@@ -12,7 +13,11 @@ releases) is a behaviour of MailboxInbox.tla and contains aborted writes, while 
 torn read (one byte of a lock from an older write) or with an aborted write made visible (the next
 lock hands out the buffer the aborted write was filling) is not; a USB bridge trace under I2C bit
 errors is a behaviour of Bridge.tla with every downlink fault, and holds some of them
-(CHECKSUM answers at least). Every mutated trace must be rejected where its mutation is: TLC matches
+(CHECKSUM answers at least); the host library's view of a USB uplink (submissions, the bulk-OUT
+batch of every frame, the responses of every bulk-IN transfer, the callbacks, each in its 1-ms
+frame) is a behaviour of UsbUplink.tla with every callback within three frames of its submission,
+while the same trace with a batch's responses one frame late, two requests of a batch swapped or two
+callbacks swapped is not. Every mutated trace must be rejected where its mutation is: TLC matches
 every event before the first mutated one.
 """
 
@@ -24,9 +29,11 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from ..native import App, Trace
+from urb.managers.usb_core import UsbCore
+
 from ..system import NS_PER_MS, Loop, System
 from ..tracecheck import (STATUS, Event, TraceCheckError, TraceResult, bridge_trace, check_bridge, check_inbox,
-                          check_outbox, inbox_trace, outbox_trace)
+                          UsbEvent, check_outbox, check_usb, inbox_trace, outbox_trace, usb_trace)
 from . import Progress, Result, no_progress, write_csv
 
 PRESENT = {0x10: {1: 6}, 0x11: {1: 6}}
@@ -116,6 +123,69 @@ def record_inbox(seed: int, cycles: int, out: Path) -> list[dict[str, int | str]
     events = inbox_trace(path, f"usb{b}/n16")
     s.close()
     return events
+
+
+def record_usb_uplink(seed: int, cycles: int) -> tuple[list[UsbEvent], int]:
+    """Log the host library's view of a USB uplink (UsbCore.trace) from the end of discovery, while
+    the application reads two probe nodes every millisecond and writes one every third: the events
+    and the host's batch limit."""
+    s = System(seed=seed, probe_out=6, probe_in=6)
+    b = s.bridge("usb")
+    for i in range(2):
+        s.node(b, App.PROBE, 0x10 + i, i)
+    s.start()  # discovery done, nothing queued or in flight: UsbUplink.tla's Init
+    acc = [s.urb.find_node(0x7E, i) for i in range(2)]
+    core = s.managers[b].core
+    assert isinstance(core, UsbCore)
+    core.trace = []
+    k = [0]
+
+    def tick() -> None:
+        k[0] += 1
+        for a in acc:
+            a.submit_request(a.new_request().read(1, 6))
+        if k[0] % 3 == 0:
+            acc[0].submit_request(acc[0].new_request().write(1, b"abcdef"))
+
+    Loop(s.host, NS_PER_MS, tick, count=cycles)
+    s.host.advance((cycles + 20) * NS_PER_MS)
+    events = usb_trace(core.trace)
+    s.close()
+    return events, core.max_batch
+
+
+def usb_late_read(events: list[UsbEvent]) -> list[UsbEvent]:
+    """Seeded bug: one bulk-IN transfer carrying responses, and its callbacks, one frame later (after
+    the next frame's other events)."""
+    m = copy.deepcopy(events)
+    reads = [k for k, e in enumerate(m) if e.ev == "read" and e.seqs]
+    k = reads[len(reads) // 2]
+    q = k + 1
+    while q < len(m) and m[q].ev == "callback":
+        q += 1
+    moved, rest = m[k:q], m[q:]
+    for e in moved:
+        e.f += 1
+    later = next((i for i, e in enumerate(rest) if e.f > moved[0].f), len(rest))
+    return m[:k] + rest[:later] + moved + rest[later:]
+
+
+def usb_swapped_batch(events: list[UsbEvent]) -> list[UsbEvent]:
+    """Seeded bug: two requests of one bulk-OUT batch in the wrong order."""
+    m = copy.deepcopy(events)
+    batches = [k for k, e in enumerate(m) if e.ev == "write" and len(e.ids) > 1]
+    ids = m[batches[len(batches) // 2]].ids
+    ids[0], ids[1] = ids[1], ids[0]
+    return m
+
+
+def usb_swapped_callbacks(events: list[UsbEvent]) -> list[UsbEvent]:
+    """Seeded bug: the callbacks of two requests answered in one IN transfer run in the wrong order."""
+    m = copy.deepcopy(events)
+    pairs = [k for k in range(len(m) - 1) if m[k].ev == m[k + 1].ev == "callback"]
+    k = pairs[len(pairs) // 2]
+    m[k], m[k + 1] = m[k + 1], m[k]
+    return m
 
 
 def _read_bytes(events: list[dict[str, int | str]], lock: int) -> list[int]:
@@ -253,10 +323,27 @@ def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progres
                   f"{r.matched_prefix}/{len(ev)} events matched, {r.states} states, {r.seconds:.1f} s; "
                   f"statuses {', '.join(statuses)}" if r.accepted else r.message,
                   r.accepted and "CHECKSUM" in statuses)
+        progress(4.5 / 5, "traces: USB uplink trace (UsbUplink.tla)")
+        uev, max_batch = record_usb_uplink(seed + 11, cycles)
+        r = check_usb(uev, max_batch)
+        rows.append(row("usb", "host library's USB uplink (UsbUplink.tla)", r))
+        callbacks = sum(1 for e in uev if e.ev == "callback")
+        res.check("USB uplink trace accepted", "TLC finds a behaviour of UsbUplink.tla matching every submission, "
+                  "bulk-OUT batch, bulk-IN transfer and callback in its 1-ms frame (LatencyBound: every callback "
+                  "within 3 frames of its submission)",
+                  f"{len(uev)} events ({callbacks} callbacks), {r.states} states, {r.seconds:.1f} s"
+                  if r.accepted else r.message, r.accepted and callbacks > 0)
+        for name, usb_mutant in [("responses one frame late", usb_late_read(uev)),
+                                 ("batch out of order", usb_swapped_batch(uev)),
+                                 ("callbacks swapped", usb_swapped_callbacks(uev))]:
+            r = check_usb(usb_mutant, max_batch)
+            rows.append(row("usb", f"USB uplink mutant: {name}", r))
+            check_mutant(res, f"USB uplink mutant rejected: {name}",
+                         "TLC finds no behaviour of UsbUplink.tla matching it", r, first_change(uev, usb_mutant))
     except TraceCheckError as exc:
         res.check("TLC ran every check", "java and tla2tools.jar installed; every TLC run finishes", str(exc), False)
     res.wall_s = time.perf_counter() - t0
-    res.sim_s = 3 * (cycles + 300 + 90) / 1000 + ((60 if quick else 200) + 80) / 1000
+    res.sim_s = 3 * (cycles + 300 + 90) / 1000 + ((60 if quick else 200) + 80) / 1000 + (cycles + 110) / 1000
     res.files.append(write_csv(out / "traces.csv", ["uplink", "trace", "events", "accepted", "matched_prefix",
                                                     "tlc_states", "tlc_seconds"], rows))
     res.table = [{"uplink": r[0], "trace": r[1], "events": r[2], "accepted": bool(r[3]), "matched": r[4],
