@@ -76,11 +76,14 @@ class System:
         return n
 
     def start(self, *, settle_ms: float = 60.0, discover: bool = True, rescan: bool = True,
-              window: int | None = None) -> None:
+              window: int | None = None, before_discovery: Callable[[], None] | None = None) -> None:
         """Power everything on, let the bridges scan and the nodes lock (settle_ms of virtual
-        time), then run discovery on every bridge through `URBInterface.start_discovery`."""
+        time), run `before_discovery` (e.g. power a node off), then run discovery on every bridge
+        through `URBInterface.start_discovery`."""
         self.world.start()
         self.host.advance(int(settle_ms * NS_PER_MS))
+        if before_discovery is not None:
+            before_discovery()
         for b, uplink in self.bridges:
             transport = self.host.usb(b) if uplink == "usb" else self.host.rs232(b)
             self.managers[b] = SimManager(self.host, transport, name=f"{uplink}{b}")

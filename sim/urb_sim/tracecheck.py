@@ -1,5 +1,6 @@
 """TLA+ trace validation: TLC checks traces logged by the simulation against spec/tla/Bridge.tla,
-spec/tla/MailboxOutbox.tla, spec/tla/MailboxInbox.tla and spec/tla/UsbUplink.tla.
+spec/tla/MailboxOutbox.tla, spec/tla/MailboxInbox.tla, spec/tla/UsbUplink.tla and
+spec/tla/Discovery.tla.
 
 The simulation logs what a protocol analyser on a bridge's uplink would see (trace category
 "bridge", sim/README.md): request frames reaching the firmware ("req") and response frames leaving
@@ -383,3 +384,91 @@ def check_usb(events: list[UsbEvent], max_batch: int) -> TraceResult:
     """Check a USB uplink trace (usb_trace) of a host writing at most `max_batch` requests per bulk-OUT
     transfer against UsbUplink.tla (a rejected trace comes with the longest prefix a behaviour matched)."""
     return _check("TraceUsbUplink", _usb_module(events, max_batch), events)
+
+
+# --------------------------------------------------------------------------- discovery traces
+
+#: Discovery.tla's NAddr: the 7-bit addresses a scan map covers (BridgeScan.present[1..127]).
+DISCOVERY_ADDRESSES = 127
+
+
+@dataclass(frozen=True)
+class Ident:
+    """What a node reports in outbox 0 and Discovery.tla compares: class, index, layout fingerprint."""
+
+    cls: int
+    index: int
+    fp: int
+
+    def tla(self) -> str:
+        return f'[class |-> {self.cls}, index |-> {self.index}, fp |-> "{self.fp:08x}"]'
+
+
+@dataclass(frozen=True)
+class TableRow:
+    """A row of the host's system table: where the node answered, what it reported, its flags."""
+
+    bridge: int
+    addr: int
+    ident: Ident
+    flags: frozenset[str]
+
+    def tla(self) -> str:
+        i = self.ident
+        flags = ", ".join(f'"{f}"' for f in sorted(self.flags))
+        return (f'[bridge |-> {self.bridge}, addr |-> {self.addr}, class |-> {i.cls}, index |-> {i.index}, '
+                f'fp |-> "{i.fp:08x}", flags |-> {{{flags}}}]')
+
+
+@dataclass
+class DiscoveryEvent:
+    """One TraceDiscovery event: "scan" (bridge, addr, found: the identity read, None when nothing
+    answered), "table" (rows) or "request" (bridge, addr, status "OK" or "NO_NODE")."""
+
+    ev: str
+    bridge: int = 0
+    addr: int = 0
+    found: Ident | None = None
+    rows: list[TableRow] = field(default_factory=list)
+    status: str = ""
+
+    def tla(self) -> str:
+        if self.ev == "scan":
+            found = "{}" if self.found is None else f"{{[addr |-> {self.addr}, id |-> {self.found.tla()}]}}"
+            return f'[ev |-> "scan", bridge |-> {self.bridge}, addr |-> {self.addr}, found |-> {found}]'
+        if self.ev == "table":
+            return '[ev |-> "table", rows |-> {' + ", ".join(r.tla() for r in self.rows) + "}]"
+        return f'[ev |-> "request", bridge |-> {self.bridge}, addr |-> {self.addr}, status |-> "{self.status}"]'
+
+
+@dataclass
+class DiscoveryTrace:
+    """A discovery as TraceDiscovery.tla checks it: the system's wiring (bridge, address) -> identity,
+    the fingerprint the host expects per class, the slots whose power the scenario switched and how
+    often, and the events."""
+
+    bridges: list[int]
+    wired: dict[tuple[int, int], Ident]
+    expected: dict[int, int]
+    churn_slots: set[tuple[int, int]]
+    churn: int
+    events: list[DiscoveryEvent] = field(default_factory=list)
+
+
+def _discovery_module(t: DiscoveryTrace) -> str:
+    wired = " @@ ".join(f"<<{b}, {a}>> :> {i.tla()}" for (b, a), i in sorted(t.wired.items()))
+    idents = "{" + ", ".join(sorted({i.tla() for i in t.wired.values()})) + "}"
+    expected = "[c \\in {" + ", ".join(str(c) for c in sorted(t.expected)) + "} |-> CASE " + " [] ".join(
+        f'c = {c} -> "{fp:08x}"' for c, fp in sorted(t.expected.items())) + "]"
+    churn = "{" + ", ".join(f"<<{b}, {a}>>" for b, a in sorted(t.churn_slots)) + "}"
+    return "\n".join(["---- MODULE TraceDiscoveryData ----", "EXTENDS Naturals, Sequences, TLC",
+                      f"TBridges == {{{', '.join(str(b) for b in t.bridges)}}}",
+                      f"TNAddr == {DISCOVERY_ADDRESSES}", f"TIdents == {idents}", f"TExpected == {expected}",
+                      f"TMaxChurn == {t.churn}", f"TChurnSlots == {churn}", f"TWired == {wired}",
+                      "Trace == <<" + ",\n    ".join(e.tla() for e in t.events) + ">>", "====", ""])
+
+
+def check_discovery(t: DiscoveryTrace) -> TraceResult:
+    """Check a discovery trace against Discovery.tla in one TLC run (a rejected trace comes with the
+    longest prefix a behaviour matched)."""
+    return _check("TraceDiscovery", _discovery_module(t), t.events)

@@ -55,7 +55,9 @@ def test_trace_validation_with_tlc(tmp_path: Path) -> None:
             "inbox mutant rejected: aborted write visible", "outbox mutant rejected: stale byte",
             "usb trace under I2C bit errors accepted", "USB uplink trace accepted",
             "USB uplink mutant rejected: responses one frame late", "USB uplink mutant rejected: batch out of order",
-            "USB uplink mutant rejected: callbacks swapped", "USB uplink premise measured at the motor load"} <= names
+            "USB uplink mutant rejected: callbacks swapped", "USB uplink premise measured at the motor load",
+            "discovery trace accepted", "discovery mutant rejected: phantom identity",
+            "discovery mutant rejected: duplicate not flagged", "discovery mutant rejected: duplicates merged"} <= names
 
 
 def test_figs18_19_pd_control(tmp_path: Path) -> None:

@@ -1,6 +1,5 @@
-"""Trace validation: TLC checks traces logged by the simulation against spec/tla/Bridge.tla,
-spec/tla/MailboxOutbox.tla, spec/tla/MailboxInbox.tla and spec/tla/UsbUplink.tla
-(sim/tla/TraceBridge.tla, TraceOutbox.tla, TraceInbox.tla, TraceUsbUplink.tla,
+"""Trace validation: TLC checks traces logged by the simulation against every module of spec/tla/
+(sim/tla/TraceBridge.tla, TraceOutbox.tla, TraceInbox.tla, TraceUsbUplink.tla, TraceDiscovery.tla,
 sim/urb_sim/tracecheck.py).
 
 Checks: a fault-free bridge trace of each uplink is a behaviour of Bridge.tla; three mutated
@@ -20,7 +19,10 @@ while the same trace with a batch's responses one frame late, two requests of a 
 callbacks swapped is not; at the motor load of one USB bridge in Fig. 20 (three reads and three
 writes per batch) the downlink outlasts the frame and the trace is rejected at the first bulk-IN
 transfer that carries only part of a batch (a measured limit of UsbUplink.tla's premise, not a
-bug). Every mutated trace must be rejected where its mutation is: TLC matches
+bug); the host library's discovery of two bridges (a node powered off before it, a duplicate, a
+foreign layout, a node powered off after it and read again) is a behaviour of Discovery.tla, while
+the same trace with a scan naming another identity, a duplicate flagged on one row only or two
+duplicates merged into one row is not. Every mutated trace must be rejected where its mutation is: TLC matches
 every event before the first mutated one.
 """
 
@@ -32,11 +34,14 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from ..native import App, Trace
+from urb.api import DUPLICATE, MISMATCH
 from urb.managers.usb_core import UsbCore
 
 from ..system import NS_PER_MS, Loop, System
-from ..tracecheck import (STATUS, Event, TraceCheckError, TraceResult, bridge_trace, check_bridge, check_inbox,
-                          UsbEvent, check_outbox, check_usb, inbox_trace, outbox_trace, usb_trace)
+from ..probe import PROBE_CLASS, probe_fingerprint
+from ..tracecheck import (DISCOVERY_ADDRESSES, STATUS, DiscoveryEvent, DiscoveryTrace, Event, Ident, TableRow,
+                          TraceCheckError, TraceResult, UsbEvent, bridge_trace, check_bridge, check_discovery, check_inbox, check_outbox, check_usb,
+                          inbox_trace, outbox_trace, usb_trace)
 from . import Progress, Result, no_progress, write_csv
 
 PRESENT = {0x10: {1: 6}, 0x11: {1: 6}}
@@ -163,6 +168,83 @@ def record_usb_uplink(seed: int, cycles: int, motor_load: bool = False) -> tuple
     events = usb_trace(core.trace)
     s.close()
     return events, core.max_batch
+
+
+def record_discovery(seed: int) -> DiscoveryTrace:
+    """Discover two bridges through the host library and log it as TraceDiscovery.tla checks it. On
+    the USB bridge: probe nodes 0 and 1, and probe 2, powered off before discovery; on the RS232
+    bridge: another probe 0 (a DUPLICATE of the first) and a probe 3 built with another layout (a
+    MISMATCH). After discovery the host reads probe 1, powers it off and reads it again (NO_NODE)."""
+    s = System(seed=seed, probe_out=6)
+    usb, rs = s.bridge("usb"), s.bridge("rs232")
+    wiring = [(usb, 0x10, 0), (usb, 0x11, 1), (usb, 0x12, 2), (rs, 0x10, 0)]
+    ids = [s.node(b, App.PROBE, a, i) for b, a, i in wiring]
+    fp = probe_fingerprint(6)
+    other_fp = probe_fingerprint(7)
+    s.set("probe.fingerprint", other_fp)
+    ids.append(s.node(rs, App.PROBE, 0x13, 3))
+    wiring.append((rs, 0x13, 3))
+    wired = {(b, a): Ident(PROBE_CLASS, i, other_fp if (b, a) == (rs, 0x13) else fp) for b, a, i in wiring}
+    s.start(before_discovery=lambda: s.world.node_power(ids[2], False))
+    trace = DiscoveryTrace(bridges=[usb, rs], wired=wired, expected={PROBE_CLASS: fp},
+                           churn_slots={(usb, 0x12), (usb, 0x11)}, churn=2)
+    for b in trace.bridges:
+        report = s.reports[b]
+        read = {r.address: r for r in report.records}
+        for a in range(1, DISCOVERY_ADDRESSES + 1):
+            r = read.get(a)
+            found = Ident(r.class_id, r.index, r.fingerprint) if r is not None and a in report.present else None
+            trace.events.append(DiscoveryEvent("scan", b, a, found))
+    bridge_of = {id(m): b for b, m in s.managers.items()}
+    trace.events.append(DiscoveryEvent("table", rows=[
+        TableRow(bridge_of[id(r.bridge)], r.address, Ident(r.class_id, r.index, r.fingerprint),
+                 frozenset(r.flags & {DUPLICATE, MISMATCH})) for r in s.urb.nodes()]))
+    node = s.urb.find_node(PROBE_CLASS, 1)
+    done: list[str] = []
+
+    def read_probe_1() -> None:
+        req = node.new_request().read(1, 6)
+        req.set_callback(lambda r: done.append("OK" if r.ok else r.flags.describe()))
+        node.submit_request(req)
+        s.host.run_until(lambda: len(done) == n, s.host.now_ns() + 100 * NS_PER_MS)
+
+    for n, power in ((1, True), (2, False)):
+        s.world.node_power(ids[1], power)
+        read_probe_1()
+        trace.events.append(DiscoveryEvent("request", usb, 0x11, status=done[-1]))
+    s.close()
+    return trace
+
+
+def discovery_phantom(t: DiscoveryTrace) -> DiscoveryTrace:
+    """Seeded bug: a scan reports an identity other than the one of the node wired there."""
+    m = copy.deepcopy(t)
+    k = next(k for k, e in enumerate(m.events) if e.ev == "scan" and e.found is not None)
+    found = m.events[k].found
+    assert found is not None
+    m.events[k].found = Ident(found.cls, found.index + 10, found.fp)
+    return m
+
+
+def discovery_duplicate_unflagged(t: DiscoveryTrace) -> DiscoveryTrace:
+    """Seeded bug: only one of two rows with the same class and index is flagged DUPLICATE."""
+    m = copy.deepcopy(t)
+    table = next(e for e in m.events if e.ev == "table")
+    k = next(k for k, r in enumerate(table.rows) if DUPLICATE in r.flags)
+    row = table.rows[k]
+    table.rows[k] = TableRow(row.bridge, row.addr, row.ident, row.flags - {DUPLICATE})
+    return m
+
+
+def discovery_merged(t: DiscoveryTrace) -> DiscoveryTrace:
+    """Seeded bug: two rows with the same class and index are merged into one."""
+    m = copy.deepcopy(t)
+    table = next(e for e in m.events if e.ev == "table")
+    dups = [k for k, r in enumerate(table.rows) if DUPLICATE in r.flags]
+    first = table.rows[dups[0]]
+    table.rows[dups[0]] = TableRow(first.bridge, first.addr, first.ident, first.flags - {DUPLICATE})
+    del table.rows[dups[1]]
+    return m
 
 
 def usb_late_read(events: list[UsbEvent]) -> list[UsbEvent]:
@@ -366,10 +448,30 @@ def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progres
                   f"rejected at event {r.matched_prefix + 1}: a bulk-IN transfer with {len(stop.seqs)} of the "
                   f"{batch} responses of the batch before", stop is not None and stop.ev == "read"
                   and 0 < len(stop.seqs) < batch)
+        progress(4.8 / 5, "traces: discovery trace (Discovery.tla)")
+        disc = record_discovery(seed + 13)
+        r = check_discovery(disc)
+        rows.append(row("usb+rs232", "discovery of two bridges (Discovery.tla)", r))
+        table = next(e for e in disc.events if e.ev == "table")
+        flags = sorted({f for tr in table.rows for f in tr.flags})
+        statuses = [e.status for e in disc.events if e.ev == "request"]
+        res.check("discovery trace accepted", "TLC finds a behaviour of Discovery.tla matching the scan of every "
+                  "address of both bridges, the host's table with its DUPLICATE and MISMATCH flags and the requests "
+                  "after discovery (a node powered off before the scan, one after it: OK, then NO_NODE)",
+                  f"{len(disc.events)} events, table of {len(table.rows)} rows, flags {', '.join(flags)}, requests "
+                  f"{', '.join(statuses)}; {r.states} states, {r.seconds:.1f} s" if r.accepted else r.message,
+                  r.accepted and flags == [DUPLICATE, MISMATCH] and statuses == ["OK", "NO_NODE"])
+        for name, dmut in [("phantom identity", discovery_phantom(disc)),
+                           ("duplicate not flagged", discovery_duplicate_unflagged(disc)),
+                           ("duplicates merged", discovery_merged(disc))]:
+            r = check_discovery(dmut)
+            rows.append(row("usb+rs232", f"discovery mutant: {name}", r))
+            check_mutant(res, f"discovery mutant rejected: {name}", "TLC finds no behaviour of Discovery.tla "
+                         "matching it", r, first_change(disc.events, dmut.events))
     except TraceCheckError as exc:
         res.check("TLC ran every check", "java and tla2tools.jar installed; every TLC run finishes", str(exc), False)
     res.wall_s = time.perf_counter() - t0
-    res.sim_s = 3 * (cycles + 300 + 90) / 1000 + ((60 if quick else 200) + 80) / 1000 + (cycles + 110) / 1000 + 0.13
+    res.sim_s = 3 * (cycles + 300 + 90) / 1000 + ((60 if quick else 200) + 80) / 1000 + (cycles + 110) / 1000 + 0.13 + 0.3
     res.files.append(write_csv(out / "traces.csv", ["uplink", "trace", "events", "accepted", "matched_prefix",
                                                     "tlc_states", "tlc_seconds"], rows))
     res.table = [{"uplink": r[0], "trace": r[1], "events": r[2], "accepted": bool(r[3]), "matched": r[4],
