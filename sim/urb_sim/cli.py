@@ -42,8 +42,9 @@ and states PASS or FAIL against its acceptance criterion:
   faults   every fault the design must survive (bit errors, stuck I2C lines, node power loss,
            bridge reset, babbling node, uplink byte loss): each failed request must reach its
            callback with the right error flag, and the firmware's reaction is logged
-  traces   TLC checks bridge, outbox and inbox traces logged by the simulation against
-           spec/tla (Bridge.tla, MailboxOutbox.tla, MailboxInbox.tla)
+  traces   TLC checks traces logged by the simulation against every module of spec/tla:
+           bridge (Bridge.tla), outbox and inbox (MailboxOutbox.tla, MailboxInbox.tla), the
+           host's USB frames (UsbUplink.tla) and its discovery (Discovery.tla)
 
 Output: DIR/index.html (open it first), DIR/summary.json, and one folder per experiment.
 The same seed gives the same numbers, byte for byte.
