@@ -344,7 +344,8 @@ def check_mutant(res: Result, name: str, required: str, r: TraceResult, mutated:
 
 
 def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progress = no_progress) -> Result:
-    res = Result("traces", "Trace validation: bridge, mailbox, USB uplink and discovery traces against spec/tla (TLC)",
+    res = Result("traces",
+                 "Trace validation: bridge, mailbox, USB uplink and discovery traces against spec/tla (TLC)",
                  "the implementation follows the TLA+ specification action by action (trace validation as in "
                  "the etcd-raft and CCF projects)")
     out.mkdir(parents=True, exist_ok=True)
