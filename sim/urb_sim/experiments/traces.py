@@ -40,8 +40,8 @@ from urb.managers.usb_core import UsbCore
 from ..system import NS_PER_MS, Loop, System
 from ..probe import PROBE_CLASS, probe_fingerprint
 from ..tracecheck import (DISCOVERY_ADDRESSES, STATUS, DiscoveryEvent, DiscoveryTrace, Event, Ident, TableRow,
-                          TraceCheckError, TraceResult, UsbEvent, bridge_trace, check_bridge, check_discovery, check_inbox, check_outbox, check_usb,
-                          inbox_trace, outbox_trace, usb_trace)
+                          TraceCheckError, TraceResult, UsbEvent, bridge_trace, check_bridge, check_discovery,
+                          check_inbox, check_outbox, check_usb, inbox_trace, outbox_trace, usb_trace)
 from . import Progress, Result, no_progress, write_csv
 
 PRESENT = {0x10: {1: 6}, 0x11: {1: 6}}
@@ -472,7 +472,8 @@ def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progres
     except TraceCheckError as exc:
         res.check("TLC ran every check", "java and tla2tools.jar installed; every TLC run finishes", str(exc), False)
     res.wall_s = time.perf_counter() - t0
-    res.sim_s = 3 * (cycles + 300 + 90) / 1000 + ((60 if quick else 200) + 80) / 1000 + (cycles + 110) / 1000 + 0.13 + 0.3
+    # bridge traces, mailbox traces, the USB uplink trace, its motor-load run, discovery (with settling)
+    res.sim_s = (3 * (cycles + 300 + 90) + (60 if quick else 200) + 80 + cycles + 110 + 130 + 300) / 1000
     res.files.append(write_csv(out / "traces.csv", ["uplink", "trace", "events", "accepted", "matched_prefix",
                                                     "tlc_states", "tlc_seconds"], rows))
     res.table = [{"uplink": r[0], "trace": r[1], "events": r[2], "accepted": bool(r[3]), "matched": r[4],
