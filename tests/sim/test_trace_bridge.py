@@ -5,18 +5,13 @@ from __future__ import annotations
 
 import pytest
 
-from urb_sim.tracecheck import Event, TraceCheckError, check_bridge, find_tlc
+from urb_sim.tracecheck import Event, check_bridge
 
 PRESENT = {0x10: {1: 6}}
 OK = 0  # URB_STATUS_OK
 
 
-@pytest.fixture(scope="module", autouse=True)
-def _tlc() -> None:
-    try:
-        find_tlc()
-    except TraceCheckError as exc:  # make check installs both; a bare checkout says what is missing
-        pytest.fail(str(exc))
+pytestmark = pytest.mark.usefixtures("tlc_installed")
 
 
 def _reads(n: int) -> list[Event]:

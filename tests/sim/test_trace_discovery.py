@@ -12,15 +12,10 @@ import pytest
 from urb import api
 from urb.api import DUPLICATE, URBInterface
 from urb_sim.experiments.traces import record_discovery
-from urb_sim.tracecheck import TraceCheckError, check_discovery, find_tlc
+from urb_sim.tracecheck import check_discovery
 
 
-@pytest.fixture(scope="module", autouse=True)
-def _tlc() -> None:
-    try:
-        find_tlc()
-    except TraceCheckError as exc:  # make check installs both; a bare checkout says what is missing
-        pytest.fail(str(exc))
+pytestmark = pytest.mark.usefixtures("tlc_installed")
 
 
 TABLE_AT = 2 * 127  #: index of the table event: two bridges' scans of 127 addresses come first

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from urb_sim.experiments.traces import aborted_visible, torn_read
-from urb_sim.tracecheck import TraceCheckError, check_inbox, find_tlc, inbox_trace
+from urb_sim.tracecheck import check_inbox, inbox_trace
 
 Ev = dict[str, int | str]
 
@@ -26,12 +26,7 @@ def _read(buf: int, tags: list[int]) -> list[Ev]:
     return out + [{"ev": "rbyte", "index": k, "tag": t} for k, t in enumerate(tags)] + [{"ev": "release"}]
 
 
-@pytest.fixture(scope="module", autouse=True)
-def _tlc() -> None:
-    try:
-        find_tlc()
-    except TraceCheckError as exc:  # the suite must not pass without its model checker
-        pytest.fail(str(exc))
+pytestmark = pytest.mark.usefixtures("tlc_installed")
 
 
 def test_nack_while_the_application_holds_the_other_buffer() -> None:

@@ -1,6 +1,6 @@
 """TraceUsbUplink.tla: hand-written USB uplink traces (an accepted one, rejected ones that report their
 longest matched prefix), and the host library's own trace in the simulation, accepted as it is and
-rejected when the host skips the empty bulk-OUT transfers that fetch its responses (a seeded bug in
+rejected at its first batch when the host writes its requests newest first (a seeded bug in
 UsbCore)."""
 
 from __future__ import annotations
@@ -9,18 +9,13 @@ from collections.abc import Iterator
 
 import pytest
 
+from urb.managers.base import Transfer
 from urb.managers.usb_core import UsbCore
-from urb_sim.native import App
-from urb_sim.system import NS_PER_MS, Loop, System
-from urb_sim.tracecheck import TraceCheckError, UsbEvent, check_usb, find_tlc, usb_trace
+from urb_sim.experiments.traces import record_usb_uplink
+from urb_sim.tracecheck import UsbEvent, check_usb
 
 
-@pytest.fixture(scope="module", autouse=True)
-def _tlc() -> None:
-    try:
-        find_tlc()
-    except TraceCheckError as exc:  # make check installs both; a bare checkout says what is missing
-        pytest.fail(str(exc))
+pytestmark = pytest.mark.usefixtures("tlc_installed")
 
 
 def _pipeline(frames: int) -> list[UsbEvent]:
@@ -59,58 +54,32 @@ def test_rejected_trace_reports_its_longest_matched_prefix(at: int, change: dict
     assert f"matches up to event {at} of {len(trace)}" in r.message
 
 
-def _record(cycles: int) -> list[UsbEvent]:
-    """The host library's USB uplink trace: two reads submitted every other millisecond."""
-    s = System(seed=7, probe_out=6)
-    b = s.bridge("usb")
-    s.node(b, App.PROBE, 0x10, 0)
-    s.start()
-    node = s.urb.find_node(0x7E, 0)
-    core = s.managers[b].core
-    assert isinstance(core, UsbCore)
-    core.trace = []
-    k = [0]
-
-    def tick() -> None:
-        k[0] += 1
-        if k[0] % 2:
-            for _ in range(2):
-                node.submit_request(node.new_request().read(1, 6))
-
-    Loop(s.host, NS_PER_MS, tick, count=cycles)
-    s.host.advance((cycles + 60) * NS_PER_MS)
-    events = usb_trace(core.trace)
-    s.close()
-    return events
-
-
 def test_host_library_trace_is_accepted() -> None:
-    ev = _record(20)
-    assert sum(1 for e in ev if e.ev == "callback") == 20
-    r = check_usb(ev, 14)
+    ev, max_batch = record_usb_uplink(7, 20)
+    assert sum(1 for e in ev if e.ev == "callback") == 20 * 2 + 20 // 3  # every read and write answered
+    r = check_usb(ev, max_batch)
     assert r.accepted, r.message
 
 
 @pytest.fixture
-def _skip_empty_writes(monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
-    """Seeded bug: the host sends a bulk-OUT transfer only when it has requests to write, so a frame
-    with requests in flight and none queued issues no bulk-IN read of their responses."""
-    frame_out = UsbCore.frame_out
+def _newest_first(monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
+    """Seeded bug: UsbCore buffers each request in front of the others, so a batch goes out newest
+    first and the callbacks run out of submission order."""
 
-    def skipping(self: UsbCore, now: int) -> bytes | None:
-        return frame_out(self, now) if self._queued else None
+    def submit_in_front(self: UsbCore, t: Transfer, now: int) -> None:
+        self._queued.appendleft(t)
+        if self.trace is not None:
+            self.trace.append(("submit", now, (t,)))
 
-    monkeypatch.setattr(UsbCore, "frame_out", skipping)
+    monkeypatch.setattr(UsbCore, "submit", submit_in_front)
     yield
 
 
-@pytest.mark.usefixtures("_skip_empty_writes")
-def test_host_skipping_empty_writes_is_rejected() -> None:
-    ev = _record(20)
-    r = check_usb(ev, 14)
+@pytest.mark.usefixtures("_newest_first")
+def test_host_writing_newest_first_is_rejected() -> None:
+    ev, max_batch = record_usb_uplink(7, 20)
+    r = check_usb(ev, max_batch)
     assert not r.accepted
-    # the first frame with requests in flight and none queued has no write, and cannot end
-    written = {e.f for e in ev if e.ev == "write"}
-    first_silent = next(f for f in range(1, ev[-1].f) if f not in written)
-    stuck_at = next(k for k, e in enumerate(ev) if e.f > first_silent)
-    assert r.matched_prefix == stuck_at, r.message
+    first_batch = next(k for k, e in enumerate(ev) if e.ev == "write" and len(e.ids) > 1)
+    assert ev[first_batch].ids != sorted(ev[first_batch].ids)
+    assert r.matched_prefix == first_batch, r.message
