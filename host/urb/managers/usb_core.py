@@ -37,7 +37,8 @@ HEADER_SIZE = UsbBatchHeader.MAX_SIZE
 
 #: One step of the pipeline as UsbUplink.tla names it, for trace validation
 #: (sim/urb_sim/tracecheck.py): ("submit" | "write" | "read" | "callback", now, transfers). A write
-#: holds its batch, a read the requests whose responses its IN transfer carried, in order.
+#: holds its batch, a read the requests whose responses its IN transfer carried, in order; a
+#: callback event the completed transfers handed out together (now: the last one's completion).
 UsbTraceEvent = tuple[str, int, tuple[Transfer, ...]]
 
 
@@ -140,16 +141,16 @@ class UsbCore:
         m = self._m
         if self.lost_reason is not None or not (self._queued or m.inflight):
             return None
-        count = 0
         out_bytes = in_bytes = HEADER_SIZE
         frames: list[bytes] = []
-        while self._queued and count < self.max_batch and len(m.inflight) < self.window:
+        batch: list[Transfer] = []
+        while self._queued and len(batch) < self.max_batch and len(m.inflight) < self.window:
             t = self._queued[0]
             req, resp = t.request_size(), t.response_size(Status.OK)
             if out_bytes + req > self.batch_bytes or in_bytes + resp > self.batch_bytes:
                 break  # stays buffered for the next frame
             self._queued.popleft()
-            out_bytes, in_bytes, count = out_bytes + req, in_bytes + resp, count + 1
+            out_bytes, in_bytes = out_bytes + req, in_bytes + resp
             t.seq = self._next_seq
             self._next_seq = (self._next_seq + 1) % SEQ_MOD
             t.sent_ns = now
@@ -158,11 +159,12 @@ class UsbCore:
                 self._active_since = now
             m.inflight.append(t)
             frames.append(encode_request(t))
-        header = UsbBatchHeader(frame=self._frame, count=count).encode()
+            batch.append(t)
+        header = UsbBatchHeader(frame=self._frame, count=len(batch)).encode()
         self._frame = self._frame % 0xFFFF + 1  # 1..65535, never 0
         self.frames_written += 1
         if self.trace is not None:
-            self.trace.append(("write", now, tuple(m.inflight)[len(m.inflight) - count:]))
+            self.trace.append(("write", now, tuple(batch)))
         return header + b"".join(frames)
 
     def take_completed(self) -> list[Transfer]:
