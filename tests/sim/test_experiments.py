@@ -29,6 +29,17 @@ def test_fig16_usb_latency(tmp_path: Path) -> None:
     _assert_passed(latency.fig16(tmp_path, quick=True))
 
 
+@pytest.mark.parametrize("phase_us, low_ms, high_ms", [(100, 2.1, 2.3), (999, 3.0, latency.USB_BOUND_MS)])
+def test_usb_latency_follows_the_frame_phase(phase_us: int, low_ms: float, high_ms: float) -> None:
+    """The USB frames' phase against the OS tick sets where the round trip lands: just after the
+    tick about 2.1 ms, just before it over 3 ms, and still within Fig. 16's bound (3 frames and the
+    last frame's path to the callback), which a bound of 3.0 ms alone would not be."""
+    lat = [s.latency_ns / 1e6 for s in latency.measure("usb", 31, 50, 16, {"usb.phase_us": phase_us})
+           if s.ok and s.latency_ns is not None]
+    assert len(lat) == 50
+    assert low_ms < min(lat) and max(lat) <= high_ms
+
+
 @pytest.mark.slow
 def test_table1_synchronisation(tmp_path: Path) -> None:
     res = sync.table1(tmp_path, quick=True)
