@@ -3,11 +3,12 @@ reads and seeds than the full report, same criteria)."""
 
 from __future__ import annotations
 
+import statistics
 from pathlib import Path
 
 import pytest
 
-from urb_sim.experiments import Result, latency, sync
+from urb_sim.experiments import Result, control, latency, sync
 
 
 def _assert_passed(res: Result) -> None:
@@ -71,9 +72,19 @@ def test_trace_validation_with_tlc(tmp_path: Path) -> None:
             "discovery mutant rejected: duplicate not flagged", "discovery mutant rejected: duplicates merged"} <= names
 
 
-def test_figs18_19_pd_control(tmp_path: Path) -> None:
-    from urb_sim.experiments import control
+@pytest.mark.parametrize("seed, median_ms", [(1, 2.0), (14, 3.0)])
+def test_loop_delay_is_whole_node_periods(seed: int, median_ms: float) -> None:
+    """The node samples and drives on its 1-kHz update, so the RS232 loop's sensor-to-actuator delay
+    is two update periods (the paper's 2 ms) or, at phases of the host loop where the command arrives
+    just after the update it was due at, three; both are within Figs. 18-19's criterion."""
+    axis, _, _, _, s = control.pd_tracking("rs232", seed, 1.2, 12.0, 0.05)
+    s.close()
+    med = statistics.median(axis.delays)
+    assert abs(med - median_ms) < 0.05
+    assert control.PAPER_LAG_MS["rs232"] - 0.05 <= med <= control.PAPER_LAG_MS["rs232"] + control.NODE_PERIOD_MS + 0.05
 
+
+def test_figs18_19_pd_control(tmp_path: Path) -> None:
     res = control.figs18_19(tmp_path, quick=True)
     _assert_passed(res)
 
