@@ -8,7 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from urb_sim.experiments import Result, control, latency, sync
+from urb_sim.experiments import Result, control, latency, no_progress, sync
+from urb_sim.runner import EXPERIMENTS, run_experiments
 
 
 def _assert_passed(res: Result) -> None:
@@ -101,3 +102,16 @@ def test_bandwidth_limits(tmp_path: Path) -> None:
 
     res = bandwidth.bandwidth(tmp_path, quick=True)
     _assert_passed(res)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [8, 14])
+def test_every_experiment_passes_at_other_seeds(tmp_path: Path, seed: int) -> None:
+    """The acceptance criteria are claims about the system, not about one seed. Seed 14 draws USB
+    frame and host-loop phases at which Fig. 16's old 3.0-ms bound, Figs. 18-19's old delay window
+    and the motor workload's old deadline failed; seed 8 an inbox trace too short for its seeded
+    bug (`urb sim sensorhex --quick --seed N`)."""
+    results = run_experiments(list(EXPERIMENTS), tmp_path, quick=True, seed=seed, jobs=2, progress=no_progress)
+    failed = [f"{r.key}: {c.name}: {c.measured}" for r in results for c in r.checks if not c.passed]
+    assert not failed, failed
+    assert [r.key for r in results] == list(EXPERIMENTS)
