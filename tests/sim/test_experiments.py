@@ -73,16 +73,20 @@ def test_trace_validation_with_tlc(tmp_path: Path) -> None:
             "discovery mutant rejected: duplicate not flagged", "discovery mutant rejected: duplicates merged"} <= names
 
 
-@pytest.mark.parametrize("seed, median_ms", [(1, 2.0), (14, 3.0)])
-def test_loop_delay_is_whole_node_periods(seed: int, median_ms: float) -> None:
-    """The node samples and drives on its 1-kHz update, so the RS232 loop's sensor-to-actuator delay
-    is two update periods (the paper's 2 ms) or, at phases of the host loop where the command arrives
-    just after the update it was due at, three; both are within Figs. 18-19's criterion."""
-    axis, _, _, _, s = control.pd_tracking("rs232", seed, 1.2, 12.0, 0.05)
+@pytest.mark.parametrize("uplink, seed, seconds, median_ms",
+                         [("rs232", 1, 1.2, 2.0), ("rs232", 14, 1.2, 3.0), ("usb", 19, 3.0, 5.0)])
+def test_loop_delay_is_whole_node_periods(uplink: str, seed: int, seconds: float, median_ms: float) -> None:
+    """The node samples and drives on its 1-kHz update, so a loop's sensor-to-actuator delay is whole
+    update periods: over RS232 two (the paper's 2 ms) or, at phases of the host loop where the command
+    arrives just after the update it was due at, three; over USB the USB frames' phase can add one
+    more to the paper's 3 ms (at seed 19 after 0.75 s: the phases drift, every crystal has its own
+    error). All are within Figs. 18-19's criterion."""
+    axis, _, _, _, s = control.pd_tracking(uplink, seed, seconds, 5.0, 0.05)
     s.close()
     med = statistics.median(axis.delays)
     assert abs(med - median_ms) < 0.05
-    assert control.PAPER_LAG_MS["rs232"] - 0.05 <= med <= control.PAPER_LAG_MS["rs232"] + control.NODE_PERIOD_MS + 0.05
+    paper = control.PAPER_LAG_MS[uplink]
+    assert paper - 0.05 <= med <= paper + control.PHASE_PERIODS[uplink] * control.NODE_PERIOD_MS + 0.05
 
 
 def test_figs18_19_pd_control(tmp_path: Path) -> None:
