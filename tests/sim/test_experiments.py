@@ -119,3 +119,21 @@ def test_every_experiment_passes_at_other_seeds(tmp_path: Path, seed: int) -> No
     failed = [f"{r.key}: {c.name}: {c.measured}" for r in results for c in r.checks if not c.passed]
     assert not failed, failed
     assert [r.key for r in results] == list(EXPERIMENTS)
+
+
+@pytest.mark.parametrize("detected", [0, 1, 40, 255, 2000])
+def test_crc8_residual_bound_is_the_poisson_quantile(detected: int) -> None:
+    """The largest count of undetected frames that a correct CRC-8 exceeds less than once in a
+    million runs: P(X > bound) < 1e-6 <= P(X > bound - 1) for X ~ Poisson(detected / 255)."""
+    import math
+
+    from urb_sim.experiments.faults import crc8_residual_bound
+
+    lam = detected / 255
+    bound = crc8_residual_bound(detected)
+
+    def above(k: int) -> float:  # P(X > k), summed from the top so that it stays exact when tiny
+        return sum(math.exp(-lam) * lam ** i / math.factorial(i) for i in range(k + 1, k + 60))
+
+    assert above(bound) < 1e-6
+    assert bound == 0 or above(bound - 1) >= 1e-6

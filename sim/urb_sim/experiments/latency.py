@@ -183,8 +183,12 @@ def fig16(out: Path, *, quick: bool = False, seed: int = 16, progress: Progress 
     worst = max(st[p][2] for p in payloads)
     res.check("bounded by three frames", f"max latency <= 3 frames + the last frame's path to the callback "
               f"({USB_BOUND_MS:.2f} ms) for every payload", f"{worst:.3f} ms", worst <= USB_BOUND_MS)
-    means = [st[p][0] for p in payloads]
-    spread = max(means) - min(means)
-    res.check("constant", "per-payload mean latencies within 0.1 ms of each other", f"spread {spread * 1e3:.0f} us",
-              spread <= 0.1)
+    # Where the USB frames start right at the write thread's wake-up, each request makes its frame
+    # or waits for the next by the wake-up's jitter: the latencies are then two values a frame apart,
+    # each independent of the payload, mixed in proportions that vary from run to run (seed 33:
+    # means 2.27-2.53 ms). "Constant" is about the payload: the fastest and the slowest round trips.
+    lows, highs = [st[p][1] for p in payloads], [st[p][2] for p in payloads]
+    spread = max(max(lows) - min(lows), max(highs) - min(highs))
+    res.check("constant", "per-payload minimum latencies within 0.1 ms of each other, and the maxima too",
+              f"spread {spread * 1e3:.0f} us", spread <= 0.1)
     return res
