@@ -94,7 +94,10 @@ def _control(sysm: System, axes: list[Axis], reference: list[object], seconds: f
             t = host.now_ns()
             pos = axis.update(fb.encoder)
             r = ref(t - t0[0])  # type: ignore[operator]
-            u = axis.pd(r - pos, t)
+            # The derivative's time step is the loop's (the read's submission, every 1 ms), not the
+            # callback's arrival: where the USB frames start at the write thread's wake-up, replies
+            # alternate a frame apart and arrival-time steps of ~0 and ~2 ms make the D term noise.
+            u = axis.pd(r - pos, req.submitted_ns or t)
             mv = int(round(u * 1000))
             axis.node.submit_request(axis.node.new_request().write_message(MotorCommand(voltage=mv)))
             axis.log.append((t - t0[0], r, pos, fb.current / 1000.0, fb.voltage / 1000.0))
