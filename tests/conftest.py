@@ -24,3 +24,16 @@ def load_vectors(kind: str) -> list[dict[str, Any]]:
 @pytest.fixture(scope="session")
 def repo() -> Path:
     return Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="session")
+def tlc_installed() -> None:
+    """Fail (not skip) when TLC cannot run: `make check` installs java and tla2tools.jar, and the
+    trace checks (tests/sim/test_trace_*.py) must not pass without their model checker; a bare
+    checkout says what is missing."""
+    from urb_sim.tracecheck import TraceCheckError, find_tlc
+
+    try:
+        find_tlc()
+    except TraceCheckError as exc:
+        pytest.fail(str(exc))
