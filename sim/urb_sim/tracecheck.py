@@ -400,8 +400,12 @@ class Ident:
     index: int
     fp: int
 
+    def fields(self) -> str:
+        """Its record fields in TLA+ (Discovery.tla's identities and table rows share them)."""
+        return f'class |-> {self.cls}, index |-> {self.index}, fp |-> "{self.fp:08x}"'
+
     def tla(self) -> str:
-        return f'[class |-> {self.cls}, index |-> {self.index}, fp |-> "{self.fp:08x}"]'
+        return f"[{self.fields()}]"
 
 
 @dataclass(frozen=True)
@@ -414,10 +418,8 @@ class TableRow:
     flags: frozenset[str]
 
     def tla(self) -> str:
-        i = self.ident
         flags = ", ".join(f'"{f}"' for f in sorted(self.flags))
-        return (f'[bridge |-> {self.bridge}, addr |-> {self.addr}, class |-> {i.cls}, index |-> {i.index}, '
-                f'fp |-> "{i.fp:08x}", flags |-> {{{flags}}}]')
+        return f"[bridge |-> {self.bridge}, addr |-> {self.addr}, {self.ident.fields()}, flags |-> {{{flags}}}]"
 
 
 @dataclass

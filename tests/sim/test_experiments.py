@@ -3,6 +3,7 @@ reads and seeds than the full report, same criteria)."""
 
 from __future__ import annotations
 
+import math
 import statistics
 from pathlib import Path
 
@@ -125,8 +126,6 @@ def test_every_experiment_passes_at_other_seeds(tmp_path: Path, seed: int) -> No
 def test_crc8_residual_bound_is_the_poisson_quantile(detected: int) -> None:
     """The largest count of undetected frames that a correct CRC-8 exceeds less than once in a
     million runs: P(X > bound) < 1e-6 <= P(X > bound - 1) for X ~ Poisson(detected / 255)."""
-    import math
-
     from urb_sim.experiments.faults import crc8_residual_bound
 
     lam = detected / 255

@@ -20,24 +20,26 @@ callbacks swapped is not; at the motor load of one USB bridge in Fig. 20 (three 
 writes per batch) the downlink outlasts the frame and the trace is rejected at the first bulk-IN
 transfer that carries only part of a batch (a measured limit of UsbUplink.tla's premise, not a
 bug), and over several phases of the USB frames against the OS tick TLC accepts exactly the traces
-whose callbacks all come within 3 host frames (the premise that the tick is the frame); the host library's discovery of two bridges (a node powered off before it, a duplicate, a
-foreign layout, a node powered off after it and read again) is a behaviour of Discovery.tla, while
-the same trace with a scan naming another identity, a duplicate flagged on one row only or two
-duplicates merged into one row is not. Every mutated trace must be rejected where its mutation is: TLC matches
-every event before the first mutated one.
+whose callbacks all come within 3 host frames (the premise that the tick is the frame); the host
+library's discovery of two bridges (a node powered off before it, a duplicate, a foreign layout, a
+node powered off after it and read again) is a behaviour of Discovery.tla, while the same trace with
+a scan naming another identity, a duplicate flagged on one row only or two duplicates merged into
+one row is not. Every mutated trace must be rejected where its mutation is: TLC matches every event
+before the first mutated one.
 """
 
 from __future__ import annotations
 
 import copy
 import time
+from dataclasses import replace
 from collections.abc import Sequence
 from pathlib import Path
 
-from ..native import App, Trace
 from urb.api import DUPLICATE, MISMATCH
 from urb.managers.usb_core import UsbCore
 
+from ..native import App, Trace
 from ..system import NS_PER_MS, Loop, System
 from ..probe import PROBE_CLASS, probe_fingerprint
 from ..tracecheck import (DISCOVERY_ADDRESSES, STATUS, USB_MAX_LATENCY, DiscoveryEvent, DiscoveryTrace, Event, Ident,
@@ -212,18 +214,13 @@ def record_discovery(seed: int) -> DiscoveryTrace:
         TableRow(bridge_of[id(r.bridge)], r.address, Ident(r.class_id, r.index, r.fingerprint),
                  frozenset(r.flags & {DUPLICATE, MISMATCH})) for r in s.urb.nodes()]))
     node = s.urb.find_node(PROBE_CLASS, 1)
-    done: list[str] = []
-
-    def read_probe_1() -> None:
-        req = node.new_request().read(1, 6)
-        req.set_callback(lambda r: done.append("OK" if r.ok else r.flags.describe()))
-        node.submit_request(req)
-        s.host.run_until(lambda: len(done) == n, s.host.now_ns() + 100 * NS_PER_MS)
-
-    for n, power in ((1, True), (2, False)):
+    for power in (True, False):
         s.world.node_power(ids[1], power)
-        read_probe_1()
-        trace.events.append(DiscoveryEvent("request", usb, 0x11, status=done[-1]))
+        done: list[str] = []
+        node.submit_request(node.new_request().read(1, 6).set_callback(
+            lambda r: done.append("OK" if r.ok else r.flags.describe())))
+        s.host.run_until(lambda: bool(done), s.host.now_ns() + 100 * NS_PER_MS)
+        trace.events.append(DiscoveryEvent("request", usb, 0x11, status=done[0]))
     s.close()
     return trace
 
@@ -234,7 +231,7 @@ def discovery_phantom(t: DiscoveryTrace) -> DiscoveryTrace:
     k = next(k for k, e in enumerate(m.events) if e.ev == "scan" and e.found is not None)
     found = m.events[k].found
     assert found is not None
-    m.events[k].found = Ident(found.cls, found.index + 10, found.fp)
+    m.events[k].found = replace(found, index=found.index + 10)
     return m
 
 
@@ -243,8 +240,7 @@ def discovery_duplicate_unflagged(t: DiscoveryTrace) -> DiscoveryTrace:
     m = copy.deepcopy(t)
     table = next(e for e in m.events if e.ev == "table")
     k = next(k for k, r in enumerate(table.rows) if DUPLICATE in r.flags)
-    row = table.rows[k]
-    table.rows[k] = TableRow(row.bridge, row.addr, row.ident, row.flags - {DUPLICATE})
+    table.rows[k] = replace(table.rows[k], flags=table.rows[k].flags - {DUPLICATE})
     return m
 
 
@@ -253,8 +249,7 @@ def discovery_merged(t: DiscoveryTrace) -> DiscoveryTrace:
     m = copy.deepcopy(t)
     table = next(e for e in m.events if e.ev == "table")
     dups = [k for k, r in enumerate(table.rows) if DUPLICATE in r.flags]
-    first = table.rows[dups[0]]
-    table.rows[dups[0]] = TableRow(first.bridge, first.addr, first.ident, first.flags - {DUPLICATE})
+    table.rows[dups[0]] = replace(table.rows[dups[0]], flags=table.rows[dups[0]].flags - {DUPLICATE})
     del table.rows[dups[1]]
     return m
 
