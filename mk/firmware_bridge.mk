@@ -57,7 +57,7 @@ bridge-tests: $(FWB_BUILD)/gcc/bridge-tests $(FWB_BUILD)/clang/bridge-tests
 # A mutant build compiles the same sources with -DURB_MUTANT_<NAME> (see the #ifdefs in
 # firmware/bridge/); the check passes only when the test binary FAILS for every mutant.
 # Only the three library sources carry mutants: the rest is compiled once and shared. No
-# sanitizers here (a crash fails the run just as well) to keep the nine builds quick.
+# sanitizers here (a crash fails the run just as well) to keep the mutant builds quick.
 FWB_MUT_COMMON := $(patsubst %.c,$(FWB_BUILD)/mutants/common/%.o,$(FWB_GEN_SRC) $(FWB_HOSTED_SRC) $(FWB_TEST_SRC))
 
 $(FWB_BUILD)/mutants/common/%.o: %.c $(FWB_HDRS)

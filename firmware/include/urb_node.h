@@ -101,7 +101,8 @@ typedef struct urb_node_hooks {
 
 /* ===== Configuration ====================================================================== */
 
-/** Node configuration, copied by urb_node_init. Start from urb_node_config_default(). */
+/** Node configuration, referenced by urb_node_init (it must outlive the node). Start from
+ *  urb_node_config_default(). */
 typedef struct urb_node_config {
     uint8_t i2c_address;     /**< 7-bit slave address, 1..127 (real buses: 0x08..0x77) */
     uint8_t fw_major;        /**< firmware version reported in Identification */

@@ -1,6 +1,7 @@
 """The paper's experiments (Sec. VI) on the simulated SensoRHex buses.
 
-Each experiment is a function `run(out: Path, *, quick: bool, seed: int, progress: Progress)`
+Each experiment is a function (`fig15`, `fig16`, `table1`, `figs18_19`, `fig20`, `bandwidth`,
+`faults`, `traces`) with the signature `(out: Path, *, quick: bool, seed: int, progress: Progress)`
 that writes its CSV and PNG into `out` and returns a `Result` stating pass/fail against its
 acceptance criterion. `quick=True` runs fewer samples (the test suite); the criterion is the same.
 """
