@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import os
+import signal
 import sys
 from collections.abc import Sequence
 
@@ -37,9 +39,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     try:
         status: int = args.run(args)
+        sys.stdout.flush()  # here, not at exit, so that a closed pipe is caught below
     except KeyboardInterrupt:
         print("urb: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        # the reader went away (`urb sim params | head`): stop quietly, as other Unix tools do;
+        # stdout goes to /dev/null so that the interpreter's final flush does not fail again
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 128 + signal.SIGPIPE
     return status
 
 

@@ -26,8 +26,8 @@ Run the SensoRHex simulation and the paper's experiments, and write an HTML summ
 The real node library, SensoRHex applications and bridge firmware (compiled for this computer)
 run on simulated microcontrollers and buses: I2C at 400 kb/s, RS232 at 115200 Bd, USB with 1-ms
 frames, crystals with frequency error and drift. The host library runs unchanged on a simulated
-CPU whose threads wake on the 1-kHz OS tick. Each experiment writes a CSV file and a PNG figure
-and states PASS or FAIL against its acceptance criterion:
+CPU whose threads wake on the 1-kHz OS tick. Each experiment writes CSV files and (all but
+traces) PNG figures, and states PASS or FAIL against its acceptance criterion:
 
   fig15    round-trip latency of 1000 reads at 1 kHz over RS232 + I2C, payload 1..10 bytes
   fig16    the same over USB + I2C, payload 1..31 bytes
@@ -66,6 +66,26 @@ def _positive(text: str) -> int:
     return value
 
 
+SEED_MAX = 2**63 - 1  #: experiments add small offsets to the seed; the world takes 64 bits
+
+
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if not 0 <= value <= SEED_MAX:
+        # the world keeps 64 bits of the seed: larger values would silently repeat smaller ones
+        raise argparse.ArgumentTypeError(f"expected a whole number from 0 to {SEED_MAX}, got {text!r}")
+    return value
+
+
+def _folder(text: str) -> Path:
+    if not text.strip():
+        raise argparse.ArgumentTypeError("expected a folder name, got an empty one (the default is build/sim/report)")
+    return Path(text)
+
+
 def register(sub: Any) -> None:
     """Add `urb sim` and its subcommands to the `urb` parser."""
     sim = sub.add_parser("sim", help="the main job: simulate SensoRHex, run the paper's experiments",
@@ -80,9 +100,10 @@ def register(sub: Any) -> None:
     simsub = sim.add_subparsers(dest="sim_command", metavar="SUBCOMMAND", help=argparse.SUPPRESS, prog=sim.prog)
     p = simsub.add_parser("sensorhex", help=SUBCOMMANDS["sensorhex"],
                           description=SENSORHEX_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--out", type=Path, default=REPO / "build" / "sim" / "report", metavar="DIR",
+    p.add_argument("--out", type=_folder, default=REPO / "build" / "sim" / "report", metavar="DIR",
                    help="output folder (default build/sim/report)")
-    p.add_argument("--seed", type=int, default=1, help="base seed of every experiment (default 1)")
+    p.add_argument("--seed", type=_seed, default=1, metavar="N",
+                   help=f"base seed of every experiment, 0..{SEED_MAX} (default 1)")
     p.add_argument("--quick", action="store_true",
                    help="fewer payloads, reads and seeds (a few times faster); same acceptance criteria")
     p.add_argument("--only", metavar="LIST", default=None,
@@ -110,7 +131,9 @@ def run_params(args: argparse.Namespace) -> int:
         return 2
     width = max(len(p.name) for p in rows)
     for p in rows:
-        print(f"{p.name:<{width}}  {p.default:>12g}  {p.doc}")
+        # whole numbers in full: %g would print an identifier such as probe.fingerprint to 6 digits
+        value = f"{int(p.default)}" if float(p.default).is_integer() else f"{p.default:g}"
+        print(f"{p.name:<{width}}  {value:>12}  {p.doc}")
     return 0
 
 

@@ -51,7 +51,8 @@ def write_report(out: Path, results: Sequence[Result], *, seed: int, quick: bool
              "<p>The real node library, SensoRHex applications and bridge firmware, compiled for the host, run on "
              "simulated microcontrollers and buses (byte-timed UART and I2C, 1-ms USB frames, clocks with crystal "
              "error and drift); the host library runs unchanged on a simulated CPU whose threads wake on the 1-kHz "
-             "OS tick. Every figure below is reproducible from its seed: <code>urb sim sensorhex --seed N</code>. "
+             "OS tick. Every figure below is reproducible from its seed: "
+             f"<code>urb sim sensorhex{' --quick' if quick else ''} --seed {seed}</code>. "
              "The models and their parameters are documented in <code>sim/README.md</code>.</p>",
              "<h2>Acceptance</h2><table><tr><th>experiment</th><th>check</th><th>required</th><th>measured</th>"
              "<th></th></tr>"]

@@ -49,6 +49,10 @@ def select(only: str | None) -> list[str]:
     unknown = [k for k in keys if k not in EXPERIMENTS]
     if unknown:
         raise ValueError(f"unknown experiment(s) {', '.join(unknown)}; choose from {choices}")
+    repeated = sorted({k for k in keys if keys.count(k) > 1})
+    if repeated:
+        # two workers would write one folder at once, and the report would list the experiment twice
+        raise ValueError(f"--only names {', '.join(repeated)} more than once; name each experiment once")
     return keys
 
 

@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -44,6 +47,7 @@ def test_sim_report(tmp_path: Path) -> None:
     assert main(["sim", "sensorhex", "--quick", "--only", "fig16", "--out", str(tmp_path), "--no-progress"]) == 0
     html = (tmp_path / "index.html").read_text()
     assert "PASS" in html and "fig16_usb_latency.png" in html
+    assert "<code>urb sim sensorhex --quick --seed 1</code>" in html  # reproduces this run, quick included
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["passed"] and summary["experiments"][0]["key"] == "fig16"
 
@@ -101,3 +105,51 @@ def test_jobs_must_be_positive(capsys: pytest.CaptureFixture[str]) -> None:
         main(["sim", "sensorhex", "--jobs", "0"])
     assert exc.value.code == 2
     assert "--jobs" in capsys.readouterr().err
+
+
+def test_repeated_experiment_is_refused(capsys: pytest.CaptureFixture[str]) -> None:
+    # two workers would write fig15/ at once and the report would list it twice
+    assert main(["sim", "sensorhex", "--only", "fig15,fig16,fig15"]) == 2
+    assert "--only names fig15 more than once" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("seed", ["-1", "9223372036854775808", "18446744073709551616", "1.5"])
+def test_seed_outside_the_simulated_range_is_refused(seed: str, capsys: pytest.CaptureFixture[str]) -> None:
+    # the world keeps 64 bits: 2**64 used to run silently as seed 0
+    with pytest.raises(SystemExit) as exc:
+        main(["sim", "sensorhex", "--seed", seed])
+    assert exc.value.code == 2
+    assert "--seed: expected a whole number from 0 to 9223372036854775807" in capsys.readouterr().err
+
+
+def test_empty_output_folder_is_refused(capsys: pytest.CaptureFixture[str]) -> None:
+    # Path("") is the current folder: the report used to land wherever the command ran
+    with pytest.raises(SystemExit) as exc:
+        main(["sim", "sensorhex", "--out", ""])
+    assert exc.value.code == 2
+    assert "--out: expected a folder name, got an empty one" in capsys.readouterr().err
+
+
+def test_params_prints_whole_numbers_in_full(capsys: pytest.CaptureFixture[str]) -> None:
+    from urb_sim.native import params
+
+    assert main(["sim", "params"]) == 0
+    lines = {line.split()[0]: line.split()[1] for line in capsys.readouterr().out.splitlines()}
+    fingerprint = next(p for p in params() if p.name == "probe.fingerprint").default
+    assert lines["probe.fingerprint"] == str(int(fingerprint))  # not 2.11957e+09
+
+
+@pytest.mark.parametrize("unbuffered", [True, False])
+def test_closed_pipe_ends_quietly(unbuffered: bool) -> None:
+    # `urb sim params | head -1`: the reader leaves early; no traceback, SIGPIPE's exit status, whether
+    # the output is written as it is printed or in one flush at the end
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}
+    if unbuffered:
+        env["PYTHONUNBUFFERED"] = "1"
+    proc = subprocess.Popen([sys.executable, "-m", "urb", "sim", "params"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, env=env)
+    assert proc.stdout is not None and proc.stderr is not None
+    proc.stdout.close()
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=60) == 141
+    assert err == ""
