@@ -164,11 +164,17 @@ def test_bridge_busy_answers_reach_callbacks_when_the_fifo_is_small() -> None:
     urb, m, clock, bridge = system("rs232", fifo_depth=1, ring=15, bitrate_kbps=50)  # slow downlink
     m.set_window(6)  # more than the bridge's FIFO: the excess is answered BUSY, in order
     motor = urb.find_node("MotorDriver", 0)
-    reqs = [motor.submit_request(motor.new_request().read(1)) for _ in range(6)]
+    order: list[int] = []
+    reqs = []
+    for k in range(6):
+        req = motor.new_request().read(1)
+        req.set_callback(lambda r, k=k: order.append(k))
+        reqs.append(motor.submit_request(req))
     clock.run_for(50 * NS_PER_MS)
     flags = [r.flags for r in reqs]
     assert flags[0] == ErrorFlag.NONE and ErrorFlag.BUSY in flags
     assert all(f in (ErrorFlag.NONE, ErrorFlag.BUSY) for f in flags)
+    assert order == list(range(6))  # every callback once, in submission order
 
 
 def test_lost_line_is_detected_and_reconnect_recovers() -> None:

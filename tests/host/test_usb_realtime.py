@@ -90,7 +90,9 @@ class SeqpacketBridge:
 
 def test_char_device_transport_and_bridge_lost() -> None:
     far = SeqpacketBridge(bridge())
-    m = USBManager(CharDeviceTransport(fd=os.dup(far.host_sock.fileno())), timeout_s=0.05, lost_after_s=0.2, name="usb0")
+    # Timeouts in seconds, not the 50-ms default: on a loaded 2-core CI machine discovery and the first
+    # read must not time out (see the test above); the loss is still declared within a few seconds.
+    m = USBManager(CharDeviceTransport(fd=os.dup(far.host_sock.fileno())), timeout_s=1.0, lost_after_s=1.5, name="usb0")
     urb = URBInterface()
     try:
         urb.add_bus_manager(m)
@@ -98,9 +100,9 @@ def test_char_device_transport_and_bridge_lost() -> None:
         assert imu.read_message(sx.ImuSample).accel[2] == 9810
         far.unplug()
         reqs = [imu.submit_request(imu.new_request().read(1)) for _ in range(3)]
-        assert all(r.wait(2) for r in reqs)
+        assert all(r.wait(5) for r in reqs)
         assert {r.flags for r in reqs} <= {ErrorFlag.UPLINK_TIMEOUT, ErrorFlag.BRIDGE_LOST}
-        deadline = time.monotonic() + 2
+        deadline = time.monotonic() + 10
         while m.lost_reason is None and time.monotonic() < deadline:
             imu.submit_request(imu.new_request().read(1)).wait(1)
         assert m.lost_reason is not None
