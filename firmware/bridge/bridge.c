@@ -121,7 +121,11 @@ static void node_learn(urb_bridge_t *b, uint8_t a, const uint8_t *frame)
         }
     }
     if (k == 0u) {
+#ifdef URB_MUTANT_TABLE_FULL_OVERWRITE
+        k = 1u; /* mutant: a node past the full table takes the first node's entry */
+#else
         return; /* table full: this node's sizes stay unknown (checked by the node itself) */
+#endif
     }
     /* built here and stored whole: as for admit's data slot (proofs/bmc/fw_bridge_fifo) */
     urb_bridge_node_t n;

@@ -18,7 +18,9 @@
 #include "urb_bridge_hal.h"
 #include "urb_downlink.h"
 
-#define URB_FAKE_MAX_NODES 16u   /**< Fake nodes per bus */
+/** Fake nodes per bus: more than the bridge remembers (URB_BRIDGE_MAX_NODES, 32), so that a test
+ *  can overfill its node table. */
+#define URB_FAKE_MAX_NODES 40u
 #define URB_FAKE_HOLD_FOREVER 255u /**< hold_sda: never released by a bus clear */
 #define URB_FAKE_NO_NACK (-1)    /**< nack_at: no forced NACK */
 

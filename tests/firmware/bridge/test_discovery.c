@@ -150,19 +150,99 @@ static void empty_bus(void **state)
     }
 }
 
-/* The node table is bounded: more nodes than URB_BRIDGE_MAX_NODES are present in the map; the
- * extra ones just have no sizes remembered. */
+/* The node table is bounded (URB_BRIDGE_MAX_NODES entries, filled in scan order); the fake bus holds
+ * more nodes than that. */
+#if URB_FAKE_MAX_NODES <= URB_BRIDGE_MAX_NODES
+#error "more_nodes_than_table needs a fake bus with more nodes than the bridge's node table"
+#endif
+#define TABLE_NODES ((uint8_t)URB_BRIDGE_MAX_NODES)
+#define ALL_NODES ((uint8_t)URB_FAKE_MAX_NODES)
+
+/* Outbox 1 and inbox 1 of the i-th node (address 0x10 + i): every node in the table has a size of
+ * its own (1..32), and no extra node has the size of the first one (1), so an extra node whose
+ * sizes landed in another node's entry shows. */
+static uint8_t box_size(uint8_t i)
+{
+    return (i < TABLE_NODES) ? (uint8_t)(1u + (i % 32u)) : (uint8_t)(2u + 3u * ((i - TABLE_NODES) % 10u));
+}
+
+/* One read of outbox 1, answered alone: its status, for an OK read the node's data (add_node fills
+ * outbox 1 with address + i), and whether it went to the bus or was answered by the bridge itself. */
+static void read_alone(urb_hosted_rig_t *r, uint8_t address, uint8_t length, uint8_t seq, uint8_t status, bool on_bus)
+{
+    uint8_t f[8];
+    uint8_t data[32];
+    size_t const before = r->hal.tx_len;
+    uint32_t const starts = r->bus.starts;
+    send_frame(r, f, enc_read(f, address, 1u, seq, length));
+    assert_true(urb_hosted_rig_settle(r, 50000u));
+    if (on_bus != (r->bus.starts != starts)) {
+        print_error("read of %u bytes at 0x%02x: %s the bus\n", length, address, on_bus ? "did not reach" : "reached");
+    }
+    assert_int_equal(r->bus.starts != starts, on_bus);
+    stream_t s = rs232_stream(r);
+    s.pos = before;
+    bool const ok = status == URB_STATUS_OK;
+    expect_response(&s, seq, status, ok ? length : 0u, data);
+    expect_end(&s);
+    for (uint8_t i = 0u; ok && (i < length); i++) {
+        assert_int_equal(data[i], (uint8_t)(address + i));
+    }
+}
+
+/* A length that differs from the i-th node's outbox 1. */
+static uint8_t wrong_length(uint8_t i)
+{
+    return (box_size(i) < 32u) ? (uint8_t)(box_size(i) + 1u) : (uint8_t)(box_size(i) - 1u);
+}
+
+/* More nodes than URB_BRIDGE_MAX_NODES: all of them are in the map and served. The first
+ * URB_BRIDGE_MAX_NODES the scan finds keep their own sizes (a wrong length is refused by the bridge,
+ * no downlink traffic); the extra ones have no sizes remembered: their requests go to the node,
+ * which checks them itself (a wrong-length read fails its check: CHECKSUM), and they take no
+ * remembered node's entry. A node forgotten by a rescan frees its entry for an extra one. */
 static void more_nodes_than_table(void **state)
 {
     urb_hosted_rig_t *r = rig_new(16u, 0u);
     *state = r;
-    for (uint8_t i = 0u; i < URB_FAKE_MAX_NODES; i++) {
-        add_node(r, (uint8_t)(0x10u + i), 0x42u, i, 4u, 4u);
+    urb_fake_node_t *node[ALL_NODES];
+    for (uint8_t i = 0u; i < ALL_NODES; i++) {
+        node[i] = add_node(r, (uint8_t)(0x10u + i), 0x42u, i, box_size(i), box_size(i));
     }
     rig_start(r);
-    for (uint8_t i = 0u; i < URB_FAKE_MAX_NODES; i++) {
-        assert_true(urb_bridge_present(&r->bridge, (uint8_t)(0x10u + i)));
+    urb_bridge_scan_t scan;
+    read_scan_map(r, 0u, &scan);
+    for (uint8_t a = 0u; a < 128u; a++) {
+        bool const expected = (a >= 0x10u) && (a < 0x10u + ALL_NODES);
+        assert_int_equal(scan.present[a], expected);
+        assert_int_equal(urb_bridge_present(&r->bridge, a), expected);
     }
+    uint8_t seq = 1u;
+    for (uint8_t i = 0u; i < ALL_NODES; i++) {
+        uint8_t const a = (uint8_t)(0x10u + i);
+        bool const remembered = i < TABLE_NODES;
+        read_alone(r, a, box_size(i), (seq++) & 0x0Fu, URB_STATUS_OK, true);
+        read_alone(r, a, wrong_length(i), (seq++) & 0x0Fu,
+                   remembered ? URB_STATUS_SIZE_MISMATCH : URB_STATUS_CHECKSUM, !remembered);
+    }
+    /* after the extra nodes were seen (again) by a rescan, the first node's entry still holds its sizes */
+    scan_command(r, (seq++) & 0x0Fu);
+    read_alone(r, 0x10u, box_size(0u), (seq++) & 0x0Fu, URB_STATUS_OK, true);
+    read_alone(r, 0x10u, 2u, (seq++) & 0x0Fu, URB_STATUS_SIZE_MISMATCH, false);
+    read_alone(r, (uint8_t)(0x10u + TABLE_NODES), box_size(0u), (seq++) & 0x0Fu, URB_STATUS_CHECKSUM, true);
+    /* the first node vanishes: the next scan forgets it, and the first extra node takes its entry */
+    node[0]->present = false;
+    scan_command(r, (seq++) & 0x0Fu);
+    read_scan_map(r, (seq++) & 0x0Fu, &scan);
+    assert_false(scan.present[0x10]);
+    assert_true(scan.present[0x10u + TABLE_NODES]);
+    read_alone(r, 0x10u, box_size(0u), (seq++) & 0x0Fu, URB_STATUS_NO_NODE, true);
+    read_alone(r, (uint8_t)(0x10u + TABLE_NODES), wrong_length(TABLE_NODES), (seq++) & 0x0Fu,
+               URB_STATUS_SIZE_MISMATCH, false);
+    read_alone(r, (uint8_t)(0x10u + TABLE_NODES), box_size(TABLE_NODES), (seq++) & 0x0Fu, URB_STATUS_OK, true);
+    read_alone(r, (uint8_t)(0x11u + TABLE_NODES), wrong_length(TABLE_NODES + 1u), (seq++) & 0x0Fu,
+               URB_STATUS_CHECKSUM, true);
+    read_alone(r, 0x11u, wrong_length(1u), (seq++) & 0x0Fu, URB_STATUS_SIZE_MISMATCH, false);
 }
 
 /* Three bridges in one process (as the simulation runs them): no shared state. Each finds its own
