@@ -407,7 +407,7 @@ class World:
         self._fault("uart_fault", bridge, RS232)
         directions = {"up": 0, "down": 1}
         if direction not in directions:
-            raise ValueError(f"unknown direction {direction!r}: 'up' (bridge to host) or 'down' (host to bridge)")
+            raise ValueError(f"unknown direction {direction!r}: 'up' (host to bridge) or 'down' (bridge to host)")
         self._probability("ber", ber)
         self._probability("loss", loss)
         self._check(self._lib.urbsim_fault_uart(self._w, bridge, directions[direction], ber, loss), "uart_fault")
