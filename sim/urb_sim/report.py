@@ -69,6 +69,8 @@ def write_report(out: Path, results: Sequence[Result], *, seed: int, quick: bool
             if f.suffix == ".png":
                 parts.append(f"<p><img src='{html.escape(f.relative_to(out).as_posix())}' alt='{html.escape(r.title)}'></p>")
         parts.append(_table(r.table))
+        for caption, rows in r.tables:
+            parts.append(f"<p><b>{html.escape(caption)}</b></p>{_table(rows)}")
         for n in r.notes:
             parts.append(f"<div class='note'>{html.escape(n)}</div>")
         links = ", ".join(f"<a href='{html.escape(f.relative_to(out).as_posix())}'>{html.escape(f.name)}</a>"
@@ -86,7 +88,8 @@ def write_report(out: Path, results: Sequence[Result], *, seed: int, quick: bool
     path.write_text("\n".join(parts), encoding="utf-8")
     summary = {"passed": ok, "seed": seed, "quick": quick, "wall_s": wall_s, "sim_s": sim_s,
                "experiments": [{"key": r.key, "passed": r.passed, "verdict": r.verdict, "wall_s": r.wall_s, "sim_s": r.sim_s,
-                                "checks": [c.__dict__ for c in r.checks], "table": r.table, "notes": r.notes,
+                                "checks": [c.__dict__ for c in r.checks], "table": r.table,
+                                "tables": [{"caption": c, "rows": t} for c, t in r.tables], "notes": r.notes,
                                 "files": [f.relative_to(out).as_posix() for f in r.files]} for r in results]}
     (out / "summary.json").write_text(json.dumps(summary, indent=1, default=str), encoding="utf-8")
     return path

@@ -72,6 +72,14 @@ def test_trace_validation_with_tlc(tmp_path: Path) -> None:
             "USB uplink mutant rejected: callbacks swapped", "USB uplink premise measured at the motor load",
             "discovery trace accepted", "discovery mutant rejected: phantom identity",
             "discovery mutant rejected: duplicate not flagged", "discovery mutant rejected: duplicates merged"} <= names
+    # one row per USB frame phase, each its own TLC run: accepted exactly where every callback came
+    # within UsbUplink.tla's 3 frames; no wall time in the CSV (same seed, same bytes)
+    phases = [r for r in res.table if "after the OS tick" in r["trace"]]
+    assert len(phases) == len(traces.USB_PHASES_US[::2])
+    assert all(r["accepted"] == ("within 3 host frames" in r["trace"]) for r in phases)
+    assert 0 < sum(r["accepted"] for r in phases) < len(phases)
+    header = (tmp_path / "traces.csv").read_text().splitlines()[0]
+    assert header == "uplink,trace,events,accepted,matched_prefix,tlc_states"
 
 
 @pytest.mark.parametrize("uplink, seed, seconds, median_ms",
@@ -93,6 +101,7 @@ def test_loop_delay_is_whole_node_periods(uplink: str, seed: int, seconds: float
 def test_figs18_19_pd_control(tmp_path: Path) -> None:
     res = control.figs18_19(tmp_path, quick=True)
     _assert_passed(res)
+    assert "USB not faster than RS232 (medians)" in {c.name for c in res.checks}
 
 
 def test_fig20_tripod_gait(tmp_path: Path) -> None:
@@ -107,6 +116,14 @@ def test_bandwidth_limits(tmp_path: Path) -> None:
 
     res = bandwidth.bandwidth(tmp_path, quick=True)
     _assert_passed(res)
+    # the uplink table holds uplink rows only; the motor workload has its own table and columns
+    assert all(r["uplink"] in ("rs232", "usb") and isinstance(r["payload B"], int) for r in res.table)
+    [(caption, motors)] = res.tables
+    assert "motor workload" in caption
+    assert [(r["motors per bridge"], r["loop rate Hz"]) for r in motors] == [(m, hz) for m in (1, 2, 3)
+                                                                            for hz in (1000, 500)]
+    assert all(r["sustained"] in ("yes", "NO") and r["read latency max ms"] >= r["read latency mean ms"]
+               for r in motors)
 
 
 @pytest.mark.slow

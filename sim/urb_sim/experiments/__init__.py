@@ -46,6 +46,8 @@ class Result:
     checks: list[Check] = field(default_factory=list)
     files: list[Path] = field(default_factory=list)
     table: list[dict[str, Any]] = field(default_factory=list)
+    #: further tables with their own columns, each (caption, rows), shown after `table`
+    tables: list[tuple[str, list[dict[str, Any]]]] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     wall_s: float = 0.0
     sim_s: float = 0.0
