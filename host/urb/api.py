@@ -92,11 +92,12 @@ class NodeRequest:
         """Read outbox `mbox`; `size` defaults to the schema's size (a different size is refused
         with HOST_SIZE_MISMATCH when submitted)."""
         _check_mbox(mbox)
+        if size is not None and not 1 <= size <= 32:
+            raise ValueError(f"size = {size}: a mailbox holds 1..32 bytes")
         mb = self.node.info.mailbox("outbox", mbox)
         self._mailbox, self._read = mbox, True
+        # an outbox the schema does not have: size 0, refused with HOST_SIZE_MISMATCH on submission
         self._size = size if size is not None else (mb.size if mb is not None else 0)
-        if not 0 <= self._size <= 32:
-            raise ValueError(f"size = {self._size}: a mailbox holds 1..32 bytes")
         return self
 
     def write(self, mbox: int, data: bytes | Message) -> NodeRequest:
@@ -160,7 +161,9 @@ class NodeRequest:
         """What went wrong and what to do, or None on success."""
         if self._transfer is None or not self._transfer.done or self.ok:
             return None
-        return f"{self.node.label} {'outbox' if self._read else 'inbox'} {self._mailbox}: {self.flags.describe()}: {hint(self.flags)}"
+        why = f" ({self._transfer.lost_reason})" if self._transfer.lost_reason else ""
+        return (f"{self.node.label} {'outbox' if self._read else 'inbox'} {self._mailbox}: "
+                f"{self.flags.describe()}{why}: {hint(self.flags)}")
 
     @property
     def data(self) -> bytes | None:
@@ -400,8 +403,6 @@ class NodeAccessor:
             self.completed += 1
             if not req.ok:
                 self.failed += 1
-        if req.flags & ErrorFlag.BRIDGE_LOST:
-            self.interface._bridge_lost(self.manager)
 
     # -- blocking conveniences ----------------------------------------------------------------
     def request(self, req: NodeRequest, timeout_s: float = 1.0) -> NodeRequest:
@@ -436,15 +437,26 @@ class NodeAccessor:
 
     # -- asyncio conveniences -----------------------------------------------------------------
     async def asubmit(self, req: NodeRequest) -> NodeRequest:
-        """Submit and await completion (any outcome); the request's own callback still runs."""
+        """Submit and await completion (any outcome); the request's own callback (or the node's
+        default one) still runs first. The awaiter gets the request even when that callback
+        raises; the exception is reported like any callback's (on stderr, by the dispatcher)."""
         loop = asyncio.get_running_loop()
         fut: asyncio.Future[NodeRequest] = loop.create_future()
         user_cb = req._callback or self._default_callback
 
+        def resolve(r: NodeRequest) -> None:
+            if not fut.done():
+                fut.set_result(r)
+
         def done(r: NodeRequest) -> None:
-            if user_cb is not None:
-                user_cb(r)
-            loop.call_soon_threadsafe(lambda: None if fut.done() else fut.set_result(r))
+            try:
+                if user_cb is not None:
+                    user_cb(r)
+            finally:
+                try:
+                    loop.call_soon_threadsafe(resolve, r)
+                except RuntimeError:  # the loop is closed: nobody awaits any more
+                    pass
 
         req.set_callback(done)
         self.submit_request(req)
@@ -597,9 +609,12 @@ class URBInterface:
         self._records: list[NodeRecord] = []
         self._accessors: dict[int, NodeAccessor] = {}
         self._lock = threading.RLock()
-        self._lost_reported: set[int] = set()
         self.on_bridge_lost: Callable[[BusManager, str], None] | None = None
-        """Called once (on the dispatcher) when a bridge is found lost; reset by `reconnect`."""
+        """`fn(manager, reason)`, called when a registered bridge's manager detects that the bridge
+        is lost (I/O error, silence, timeouts in a row: host/urb/README.md), whether or not
+        requests are pending: once per loss, on that manager's dispatcher (the clock's thread for
+        SimManager), before the callbacks of the requests the loss fails. Not for `close()`. A
+        blocking call in it raises, like in any callback; reconnect from another thread."""
 
     @classmethod
     def instance(cls) -> URBInterface:
@@ -643,10 +658,10 @@ class URBInterface:
 
     def reconnect(self, manager: BusManager, *, timeout_s: float = 3.0, rescan: bool = True) -> BridgeReport:
         """After BRIDGE_LOST: reopen the uplink and rediscover that bridge. Accessors to nodes
-        found again keep working; nodes not found again answer UNKNOWN_NODE."""
+        found again keep working; nodes not found again answer UNKNOWN_NODE. Raises `PortError`
+        when the uplink cannot be reopened yet (the manager stays lost; try again later) and
+        `NoBridgeError` when no bridge answers."""
         manager.reconnect()
-        with self._lock:
-            self._lost_reported.discard(id(manager))
         box: list[BridgeReport] = []
         _Discovery(manager, self.schema, rescan, box.append).start()
         if not manager.wait_until(lambda: bool(box), timeout_s):
@@ -663,6 +678,7 @@ class URBInterface:
 
     def _merge(self, report: BridgeReport) -> None:
         """Replace the bridge's rows, keep accessors of nodes found again, recompute flags."""
+        report.manager.add_lost_listener(self._bridge_lost)
         with self._lock:
             key = id(report.manager)
             self.reports[key] = report
@@ -693,13 +709,11 @@ class URBInterface:
             else:
                 r.flags.discard(DUPLICATE)
 
-    def _bridge_lost(self, manager: BusManager) -> None:
-        with self._lock:
-            if id(manager) in self._lost_reported:
-                return
-            self._lost_reported.add(id(manager))
-        if self.on_bridge_lost is not None:
-            self.on_bridge_lost(manager, manager.lost_reason or "lost")
+    def _bridge_lost(self, manager: BusManager, reason: str) -> None:
+        """The manager's lost listener (registered at the first successful discovery)."""
+        fn = self.on_bridge_lost
+        if fn is not None:
+            fn(manager, reason)
 
     # -- nodes --------------------------------------------------------------------------------
     def nodes(self) -> list[NodeRecord]:

@@ -49,7 +49,8 @@ class ErrorFlag(enum.IntFlag):
     UPLINK_TIMEOUT = 1 << 9
     """Host: no response arrived (the request or its response was lost on the uplink)."""
     BRIDGE_LOST = 1 << 10
-    """Host: the bridge went away (port closed, device unplugged, silent); see `BusManager.reconnect`."""
+    """Host: the bridge went away (port closed, device unplugged, silent) or its manager was closed;
+    see `BusManager.reconnect`. `NodeRequest.error` names the manager's reason."""
     UNKNOWN_NODE = 1 << 11
     """Host: the node is not in the discovery table (any more); nothing was sent."""
     HOST_SIZE_MISMATCH = 1 << 12
@@ -90,7 +91,8 @@ HINTS: dict[ErrorFlag, str] = {
     ErrorFlag.NODE_BUSY: "the node's inbox was busy (the application holds it); try again next cycle",
     ErrorFlag.UPLINK_CHECKSUM: "the response was corrupted on the uplink; check the cable and baud rate",
     ErrorFlag.UPLINK_TIMEOUT: "no response arrived; the request or response was lost on the uplink",
-    ErrorFlag.BRIDGE_LOST: "the bridge went away; reconnect it and call reconnect() (CLI: run the command again)",
+    ErrorFlag.BRIDGE_LOST: "the bridge went away (or its manager was closed); reconnect it and call reconnect() "
+                           "(CLI: run the command again)",
     ErrorFlag.UNKNOWN_NODE: "the node is not in the discovery table; run discovery again",
     ErrorFlag.HOST_SIZE_MISMATCH: "the mailbox has another size (or does not exist) in the schema",
     ErrorFlag.FINGERPRINT_MISMATCH: "the node was built from another schema; rebuild its firmware or the host",

@@ -23,6 +23,7 @@ from urb.managers import (
     VirtualClock,
     fake_node,
 )
+from urb.managers.rs232_core import Rs232Core
 from urb.managers.usb_core import UsbCore
 from urb.managers.base import NS_PER_MS
 from urb_msgs import sensorhex as sx
@@ -249,3 +250,99 @@ def test_discovery_reads_a_failed_identification_again_but_not_forever() -> None
     report = urb.add_bus_manager(SimManager(clock, LoopbackByteTransport(clock, bridge)))
     assert [r.address for r in report.records] == [16, 18]
     assert len(report.problems) == 1 and "address 17: identification read failed (TIMEOUT" in report.problems[0]
+
+
+# -- bridge-lost rule, loss notification, blocking in callbacks, stats (review findings 6, 9, 10, 13) --
+
+def _reads(motor: object, n: int, out: list[ErrorFlag]) -> None:
+    from urb.api import NodeAccessor
+
+    assert isinstance(motor, NodeAccessor)
+    for _ in range(n):
+        motor.submit_request(motor.new_request().read(1).set_callback(lambda r: out.append(r.flags)))
+
+
+def test_a_short_glitch_times_requests_out_but_the_bridge_stays_usable() -> None:
+    """8 request frames lost in ~3 ms with 8 reads outstanding: all 8 time out together, one
+    `timeout` after they were sent, far less than `lost_after` of silence: not a lost bridge."""
+    urb, m, clock, bridge = system("rs232", HEX[:2], fifo_depth=8)
+    assert isinstance(m.transport, LoopbackByteTransport) and isinstance(m.core, Rs232Core)
+    assert m.core.window == 8 and m.core.timeout_ns < m.core.lost_after_ns
+    lost: list[str] = []
+    urb.on_bridge_lost = lambda mgr, why: lost.append(why)
+    motor = urb.find_node("MotorDriver", 0)
+    m.transport.drop_requests(8)
+    flags: list[ErrorFlag] = []
+    _reads(motor, 8, flags)
+    clock.run_for(150 * NS_PER_MS)
+    assert flags == [ErrorFlag.UPLINK_TIMEOUT] * 8
+    assert m.lost_reason is None and lost == []
+    assert motor.read_message(sx.MotorFeedback) is not None  # the line is fine again
+
+
+def test_a_dead_bridge_is_lost_after_lost_after_of_silence_and_reported_at_once() -> None:
+    """Bursts of 8 reads every 200 ms to a bridge that stopped answering: each burst times out
+    (UPLINK_TIMEOUT); the bridge is declared lost at the first timeout after `lost_after` (500 ms)
+    without a byte, and on_bridge_lost runs then, not when a later request fails."""
+    urb, m, clock, bridge = system("rs232", HEX[:2], fifo_depth=8)
+    assert isinstance(m.transport, LoopbackByteTransport)
+    motor = urb.find_node("MotorDriver", 0)
+    last = motor.request(motor.new_request().read(1))
+    last_rx = last.completed_ns
+    assert last_rx is not None
+    lost: list[tuple[int, str]] = []
+    urb.on_bridge_lost = lambda mgr, why: lost.append((clock.now_ns(), why))
+    m.transport.unplug()
+    flags: list[ErrorFlag] = []
+    start = clock.now_ns()
+    for k in range(3):  # bursts at +0, +200, +400 ms; nothing is submitted afterwards
+        clock.call_at(start + k * 200 * NS_PER_MS, lambda: _reads(motor, 8, flags))
+    clock.run_for(2000 * NS_PER_MS)
+    assert m.lost_reason is not None and len(lost) == 1
+    at, why = lost[0]
+    timeout_ns, lost_after_ns = m.core.timeout_ns, m.core.lost_after_ns
+    assert lost_after_ns <= at - last_rx <= lost_after_ns + timeout_ns
+    assert "in a row" in why
+    assert flags == [ErrorFlag.UPLINK_TIMEOUT] * 24  # nothing was pending when the loss was declared
+    req = motor.submit_request(motor.new_request().read(1))
+    assert req.wait() and req.flags == ErrorFlag.BRIDGE_LOST and len(lost) == 1
+
+
+def test_a_blocking_call_inside_a_sim_callback_raises_like_the_real_time_managers() -> None:
+    urb, m, clock, _ = system("rs232", HEX[:2])
+    motor = urb.find_node("MotorDriver", 0)
+    out: list[tuple[str, str, int]] = []
+
+    def cb(req: NodeRequest) -> None:
+        t0 = clock.now_ns()
+        try:
+            motor.read(1)
+        except Exception as exc:  # noqa: BLE001 (the type is what is checked)
+            out.append((type(exc).__name__, str(exc), clock.now_ns() - t0))
+
+    motor.submit_request(motor.new_request().read(1).set_callback(cb))
+    clock.run_for(5 * NS_PER_MS)
+    assert len(out) == 1
+    kind, text, spent = out[0]
+    assert kind == "RuntimeError" and "blocking URB call inside a callback" in text
+    assert spent == 0  # no simulated time was run from inside the callback
+    assert motor.read_message(sx.MotorFeedback) is not None
+
+
+def test_refused_requests_count_in_sim_stats_like_the_real_time_managers() -> None:
+    urb, m, clock, _ = system("rs232", HEX[:2])
+    motor = urb.find_node("MotorDriver", 0)
+    before = (m.stats.submitted, m.stats.completed, m.stats.failed)
+    req = motor.submit_request(motor.new_request().read(1, size=3))
+    assert req.wait() and req.flags == ErrorFlag.HOST_SIZE_MISMATCH
+    assert (m.stats.submitted, m.stats.completed, m.stats.failed) == (before[0] + 1, before[1] + 1, before[2] + 1)
+
+
+def test_read_size_outside_1_to_32_is_rejected_with_its_message() -> None:
+    urb, m, clock, _ = system("rs232", HEX[:2])
+    motor = urb.find_node("MotorDriver", 0)
+    for size in (0, -1, 33):
+        with pytest.raises(ValueError, match=r"1\.\.32 bytes"):
+            motor.new_request().read(1, size=size)
+    missing = motor.submit_request(motor.new_request().read(7))  # not in the schema: refused on the host
+    assert missing.wait() and missing.flags == ErrorFlag.HOST_SIZE_MISMATCH

@@ -138,6 +138,27 @@ def test_sparse_requests_to_a_dead_bridge_declare_it_lost_after_n_timeouts() -> 
     assert core.lost_reason is not None and "3 requests in a row" in core.lost_reason
 
 
+def test_timeouts_in_a_row_count_as_loss_only_after_lost_after_of_silence() -> None:
+    """A burst of lost requests times out together one `timeout` after it was sent: that alone
+    is not a lost bridge. Timeouts in a row declare it lost only once the bridge has also sent
+    nothing for `lost_after` (the same silence the continuous-traffic rule needs)."""
+    core = Rs232Core(timeout_ns=10 * NS_PER_MS, lost_after_ns=50 * NS_PER_MS, lost_after_timeouts=3, window=4)
+    answered = read()
+    core.submit(answered, 0)
+    core.frames_to_send(0)
+    core.receive(ok(answered), NS_PER_MS)  # the last byte from the bridge: t = 1 ms
+    core.take_completed()
+    for burst_at, lost in ((2, False), (30, False), (45, True)):  # 3 lost requests per burst
+        now = burst_at * NS_PER_MS
+        for _ in range(3):
+            core.submit(read(), now)
+        core.frames_to_send(now)
+        core.poll(now + 10 * NS_PER_MS)
+        assert [t.flags for t in core.take_completed()] == [ErrorFlag.UPLINK_TIMEOUT] * 3
+        assert (core.lost_reason is not None) == lost, burst_at
+    assert core.lost_reason is not None and "9 requests in a row" in core.lost_reason and "54 ms" in core.lost_reason
+
+
 def test_one_lost_request_among_answered_ones_is_not_a_lost_bridge() -> None:
     core = Rs232Core(timeout_ns=10 * NS_PER_MS, lost_after_timeouts=2)
     for k in range(10):
@@ -253,3 +274,35 @@ def test_usb_idle_core_sends_nothing_but_keeps_fetching_while_requests_are_in_fl
     for _ in range(70000):  # the frame counter wraps from 65535 to 1, never 0
         out = core.frame_out(NS_PER_MS)
         assert out is not None and UsbBatchHeader.decode(out[:4]).frame != 0
+
+
+def test_usb_sparse_requests_to_a_silent_bridge_declare_it_lost() -> None:
+    """One request a second to a bridge that returns nothing: the in-flight list empties at every
+    timeout, so only timeouts in a row with no IN transfer for `lost_after` can tell."""
+    core = UsbCore(timeout_ns=10 * NS_PER_MS, lost_after_ns=50 * NS_PER_MS, lost_after_timeouts=3)
+    flags = []
+    for k in range(5):
+        now = k * 1000 * NS_PER_MS
+        core.submit(read(), now)
+        core.frame_out(now)
+        core.poll(now + 10 * NS_PER_MS)
+        flags += [x.flags for x in core.take_completed()]
+    assert flags == [ErrorFlag.UPLINK_TIMEOUT] * 3 + [ErrorFlag.BRIDGE_LOST] * 2
+    assert core.lost_reason is not None and "3 requests in a row" in core.lost_reason
+
+
+def test_usb_burst_lost_in_a_glitch_is_not_a_lost_bridge() -> None:
+    """Requests lost together time out together, well within `lost_after` of the last IN
+    transfer: UPLINK_TIMEOUT, and the bridge stays usable."""
+    core = UsbCore(timeout_ns=10 * NS_PER_MS, lost_after_ns=50 * NS_PER_MS, lost_after_timeouts=3)
+    answered = read()
+    core.submit(answered, 0)
+    core.frame_out(0)
+    core.receive_batch(usb_in(1, ok(answered)), NS_PER_MS)
+    core.take_completed()
+    for _ in range(4):
+        core.submit(read(), 2 * NS_PER_MS)
+    core.frame_out(2 * NS_PER_MS)
+    core.poll(12 * NS_PER_MS)
+    assert [t.flags for t in core.take_completed()] == [ErrorFlag.UPLINK_TIMEOUT] * 4
+    assert core.lost_reason is None

@@ -326,3 +326,80 @@ def test_10000_requests_at_1khz_without_loss_or_reordering(system: tuple[URBInte
     lat.sort()
     print(f"\n10000 requests submitted in {elapsed:.1f} s: latency median {lat[n // 2] / 1e3:.0f} us, "
           f"p99 {lat[int(n * 0.99)] / 1e3:.0f} us, max {lat[-1] / 1e3:.0f} us")
+
+
+# -- lifecycle: close, a failed reconnect, a loss while idle (review findings 1, 2, 9) ------------
+
+def test_requests_after_close_complete_bridge_lost_at_once(system: tuple[URBInterface, RS232Manager, BridgeProc]) -> None:
+    urb, m, _ = system
+    motor = urb.find_node("MotorDriver", 0)
+    urb.close()
+    seen: list[tuple[str, str]] = []
+    sent = motor.submit_request(motor.new_request().read(1).set_callback(
+        lambda r: seen.append(("sent", r.flags.describe()))))
+    refused = motor.submit_request(motor.new_request().read(1, size=3).set_callback(
+        lambda r: seen.append(("refused", r.flags.describe()))))
+    # no dispatcher any more: each callback ran once, synchronously, inside submit_request
+    assert seen == [("sent", "BRIDGE_LOST"), ("refused", "HOST_SIZE_MISMATCH")]
+    assert sent.done and refused.done and sent.flags == ErrorFlag.BRIDGE_LOST
+    assert "closed by the application" in (sent.error or "")
+    t0 = time.monotonic()
+    with pytest.raises(RequestFailed) as exc:
+        motor.read(1)
+    assert exc.value.flags == ErrorFlag.BRIDGE_LOST and "closed by the application" in str(exc.value)
+    assert time.monotonic() - t0 < 0.5  # at once, not after the 1-s wait
+    time.sleep(0.1)
+    assert len(seen) == 2  # exactly once
+    assert not [t for t in threading.enumerate() if t.name.endswith(str(m.port)) and t.is_alive()]
+
+
+def test_failed_reconnect_leaves_the_manager_lost_and_a_later_one_recovers(
+        system: tuple[URBInterface, RS232Manager, BridgeProc]) -> None:
+    urb, m, bp = system
+    motor = urb.find_node("MotorDriver", 0)
+    bp.kill()
+    bp.link.unlink()  # the port is gone (an unplugged adapter)
+    assert m.wait_until(lambda: m.lost_reason is not None, 5.0)
+    with pytest.raises(PortError, match="no such port") as exc:
+        urb.reconnect(m)
+    reason = m.lost_reason
+    assert reason is not None and "reconnect failed" in reason and "no such port" in reason
+    assert "stays lost" in str(exc.value)
+    assert m._reader is None and m._writer is None
+    seen: list[ErrorFlag] = []
+    req = motor.submit_request(motor.new_request().read(1).set_callback(lambda r: seen.append(r.flags)))
+    assert req.wait(0.5) and seen == [ErrorFlag.BRIDGE_LOST]
+    t0 = time.monotonic()
+    with pytest.raises(RequestFailed) as failed:
+        motor.read(1)
+    assert failed.value.flags == ErrorFlag.BRIDGE_LOST and "reconnect failed" in str(failed.value)
+    assert time.monotonic() - t0 < 0.5
+    bp.start()  # the port is back: the same manager reconnects
+    urb.reconnect(m)
+    assert m.lost_reason is None and motor.read_message(sx.MotorFeedback) is not None
+
+
+def test_on_bridge_lost_fires_when_the_loss_is_detected_without_a_request(
+        system: tuple[URBInterface, RS232Manager, BridgeProc]) -> None:
+    urb, m, bp = system
+    calls: list[tuple[object, str, str]] = []
+    urb.on_bridge_lost = lambda mgr, why: calls.append((mgr, why, threading.current_thread().name))
+    bp.kill()  # while idle: the reader sees the device go away
+    deadline = time.monotonic() + 5
+    while not calls and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert len(calls) == 1
+    mgr, why, thread = calls[0]
+    assert mgr is m and "went away" in why and thread.startswith("urb-dispatch")
+    motor = urb.find_node("MotorDriver", 0)
+    req = motor.submit_request(motor.new_request().read(1))
+    assert req.wait(1) and req.flags == ErrorFlag.BRIDGE_LOST
+    time.sleep(0.1)
+    assert len(calls) == 1  # once per loss
+    bp.start()
+    urb.reconnect(m)
+    bp.kill()  # a new loss is reported again
+    deadline = time.monotonic() + 5
+    while len(calls) < 2 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert len(calls) == 2

@@ -8,13 +8,17 @@ the bridge in its own thread, answering each OUT with its previous buffer).
 
 from __future__ import annotations
 
+import asyncio
 import os
 import socket
 import threading
 import time
+from collections import Counter
+
+import pytest
 
 from urb.api import NodeRequest, URBInterface
-from urb.errors import ErrorFlag
+from urb.errors import ErrorFlag, PortError, RequestFailed
 from urb.managers import BridgeModel, CharDeviceTransport, LoopbackUsbTransport, USBManager, fake_node
 from urb_msgs import sensorhex as sx
 
@@ -109,3 +113,118 @@ def test_char_device_transport_and_bridge_lost() -> None:
     finally:
         urb.close()
         far.host_sock.close()
+
+
+def test_reconnects_leave_exactly_one_reader_and_a_clean_run() -> None:
+    """Each reconnect stops and joins the old reader (and frame) thread before starting new ones:
+    extra readers on the same fd would steal IN transfers (false UPLINK_TIMEOUT, UPLINK_CHECKSUM,
+    even BAD_REQUEST on a perfect link)."""
+    far = SeqpacketBridge(BridgeModel(dict(fake_node(s) for s in ["MotorDriver:0@16", "Imu:0@48"]), fifo_depth=15))
+    before = set(threading.enumerate())
+    m = USBManager(CharDeviceTransport(fd=os.dup(far.host_sock.fileno())), timeout_s=1.0, name="usb-reconnect")
+    urb = URBInterface()
+
+    def ours(prefix: str) -> list[threading.Thread]:
+        return [t for t in threading.enumerate() if t.name.startswith(prefix) and t not in before and t.is_alive()]
+
+    try:
+        urb.add_bus_manager(m)
+        for _ in range(3):
+            urb.reconnect(m)
+        readers = ours("urb-usb-in")
+        assert len(readers) == 1 and len(ours("urb-usb usb-reconnect")) == 1
+        motor = urb.find_node("MotorDriver", 0)
+        reqs = []
+        end = time.monotonic() + 1.0
+        while time.monotonic() < end:  # 3 reads per ms: within the window of 15 per 2 frames
+            reqs += [motor.submit_request(motor.new_request().read(1)) for _ in range(3)]
+            time.sleep(0.001)
+        assert all(r.wait(5) for r in reqs)
+        assert Counter(r.flags.describe() for r in reqs) == Counter({"OK": len(reqs)})
+        assert m._usb.stray_bytes == 0
+    finally:
+        urb.close()
+        far.host_sock.close()
+    assert not [t for t in readers if t.is_alive()] and not ours("urb-usb")  # close joins them too
+
+
+def test_requests_after_close_complete_bridge_lost_at_once_on_usb() -> None:
+    urb = URBInterface()
+    m = USBManager(LoopbackUsbTransport(bridge()), timeout_s=1.0)
+    urb.add_bus_manager(m)
+    motor = urb.find_node("MotorDriver", 0)
+    urb.close()
+    seen: list[ErrorFlag] = []
+    req = motor.submit_request(motor.new_request().read(1).set_callback(lambda r: seen.append(r.flags)))
+    assert req.done and seen == [ErrorFlag.BRIDGE_LOST]
+    t0 = time.monotonic()
+    with pytest.raises(RequestFailed) as exc:
+        motor.read(1)
+    assert exc.value.flags == ErrorFlag.BRIDGE_LOST and time.monotonic() - t0 < 0.5
+
+
+def test_await_completes_when_the_callbacks_raise(capsys: pytest.CaptureFixture[str]) -> None:
+    """The awaited result is set whatever the user callbacks do; their exceptions are reported
+    by the dispatcher as usual, not swallowed."""
+    urb = URBInterface()
+    m = USBManager(LoopbackUsbTransport(bridge()), timeout_s=1.0)
+    try:
+        urb.add_bus_manager(m)
+        motor = urb.find_node("MotorDriver", 0)
+
+        def buggy_default(r: NodeRequest) -> None:
+            raise KeyError("bug in the default callback")
+
+        def buggy_own(r: NodeRequest) -> None:
+            raise ZeroDivisionError("bug in the request callback")
+
+        motor.set_callback(buggy_default)
+
+        async def main() -> tuple[object, NodeRequest]:
+            fb = await asyncio.wait_for(motor.aread_message(sx.MotorFeedback), 5.0)
+            own = await asyncio.wait_for(motor.asubmit(motor.new_request().read(1).set_callback(buggy_own)), 5.0)
+            return fb, own
+
+        fb, own = asyncio.run(main())
+        assert isinstance(fb, sx.MotorFeedback) and own.ok
+    finally:
+        urb.close()
+    err = capsys.readouterr().err
+    assert err.count("exception in a request callback") == 2
+    assert "bug in the default callback" in err and "bug in the request callback" in err
+
+
+class FlakyDevice(LoopbackUsbTransport):
+    """A loopback device that can refuse to reopen (unplugged while the host reconnects)."""
+
+    def __init__(self, model: BridgeModel) -> None:
+        super().__init__(model)
+        self.present = True
+
+    def open(self) -> None:
+        if not self.present:
+            raise OSError(19, "No such device")
+
+    def close(self) -> None:
+        pass
+
+
+def test_failed_usb_reconnect_leaves_the_manager_lost_and_a_later_one_recovers() -> None:
+    dev = FlakyDevice(bridge())
+    urb = URBInterface()
+    m = USBManager(dev, timeout_s=1.0, name="usb-flaky")
+    try:
+        urb.add_bus_manager(m)
+        motor = urb.find_node("MotorDriver", 0)
+        dev.present = False
+        with pytest.raises(PortError, match="stays lost"):
+            urb.reconnect(m)
+        assert m.lost_reason is not None and "reconnect failed" in m.lost_reason and "No such device" in m.lost_reason
+        seen: list[ErrorFlag] = []
+        req = motor.submit_request(motor.new_request().read(1).set_callback(lambda r: seen.append(r.flags)))
+        assert req.wait(0.5) and seen == [ErrorFlag.BRIDGE_LOST]
+        dev.present = True
+        urb.reconnect(m)
+        assert m.lost_reason is None and motor.read_message(sx.MotorFeedback) is not None
+    finally:
+        urb.close()

@@ -11,6 +11,7 @@ Layering (see host/urb/README.md):
 
 from __future__ import annotations
 
+import functools
 import queue
 import threading
 import time
@@ -22,10 +23,18 @@ from typing import Any, Protocol, TypeVar, runtime_checkable
 from urb_msgs import Message
 from urb_msgs.urb_core import Status
 
-from ..errors import ErrorFlag
+from ..errors import ErrorFlag, PortError
 
 NS_PER_MS = 1_000_000
 NS_PER_S = 1_000_000_000
+
+BLOCKING_IN_CALLBACK = ("a blocking URB call inside a callback would deadlock the dispatcher; "
+                        "submit a request with a callback instead")
+"""The `RuntimeError` text of a blocking call (`NodeAccessor.read`, `NodeRequest.wait`, ...) made
+inside a callback, by every manager."""
+
+CLOSED_REASON = "closed by the application"
+"""`lost_reason` of a manager after `close()` (requests submitted then complete BRIDGE_LOST)."""
 
 M = TypeVar("M", bound=Message)
 
@@ -79,6 +88,8 @@ class Transfer:
     """The bridge's status, when a response arrived."""
     response: bytes | None = None
     """Mailbox contents of a successful read."""
+    lost_reason: str | None = None
+    """For BRIDGE_LOST: why the bridge was considered lost when this transfer failed."""
     done: bool = False
     garbage: bool = field(default=False, repr=False)
     """Internal: corrupt bytes were seen while this transfer was the oldest one pending."""
@@ -202,11 +213,53 @@ class ManagerStats:
     stray_bytes: int = 0
 
 
+LostListener = Callable[["BusManager", str], None]
+"""`fn(manager, reason)`: told once per loss that the manager found its bridge lost."""
+
+
 class BusManager(ABC):
     """One bridge, reached through one uplink. Register it with `URBInterface.add_bus_manager`."""
 
     name: str
     """How the bridge is named in tables and messages (the port path for RS232)."""
+    _lost_listeners: list[LostListener]
+    _lost_noted: bool = False
+    """The current loss has been handed to the lost listeners (or must not be: `close()`)."""
+
+    def add_lost_listener(self, fn: LostListener) -> None:
+        """Call `fn(manager, reason)` when the manager detects that its bridge is lost (an I/O
+        error, silence, timeouts in a row; see host/urb/README.md), once per loss, on the
+        dispatcher (the clock's thread for SimManager), before the callbacks of the requests
+        that loss fails. Not for `close()`; a failed `reconnect()` of a bridge already lost is
+        the same loss (the caller gets the exception). Registering `fn` twice has no effect."""
+        listeners = self._listeners()
+        if fn not in listeners:
+            listeners.append(fn)
+
+    def _listeners(self) -> list[LostListener]:
+        try:
+            return self._lost_listeners
+        except AttributeError:
+            self._lost_listeners = []
+            return self._lost_listeners
+
+    def _loss_notice(self, reason: str | None) -> Callable[[], None] | None:
+        """Called with the core's `lost_reason` after every step: when the bridge has just been
+        found lost, the notice that tells the lost listeners (to run on the dispatcher)."""
+        if reason is None:
+            self._lost_noted = False
+            return None
+        if self._lost_noted:
+            return None
+        self._lost_noted = True
+        return functools.partial(self._notify_lost, reason)
+
+    def _notify_lost(self, reason: str) -> None:
+        for fn in list(self._listeners()):
+            try:
+                fn(self, reason)
+            except Exception as exc:  # a listener must not kill the dispatcher
+                _report_callback_error(exc)
 
     @abstractmethod
     def start(self) -> None:
@@ -214,11 +267,14 @@ class BusManager(ABC):
 
     @abstractmethod
     def close(self) -> None:
-        """Stop the runtime and close the uplink; pending requests complete with BRIDGE_LOST."""
+        """Stop the runtime and close the uplink; pending requests complete with BRIDGE_LOST, and
+        so does every request submitted afterwards (until `start` or `reconnect`)."""
 
     @abstractmethod
     def submit(self, t: Transfer) -> None:
-        """Queue one transfer (thread-safe). Its `on_done` runs exactly once, on the dispatcher."""
+        """Queue one transfer (thread-safe). Its `on_done` runs exactly once, on the dispatcher;
+        after `close()` (no dispatcher) it completes BRIDGE_LOST at once and `on_done` runs
+        inside `submit`."""
 
     @abstractmethod
     def reject(self, t: Transfer, flags: ErrorFlag) -> None:
@@ -235,7 +291,10 @@ class BusManager(ABC):
 
     @abstractmethod
     def reconnect(self) -> None:
-        """Reopen the uplink after the bridge was lost (or restarted) and reset the protocol."""
+        """Reopen the uplink after the bridge was lost (or restarted) and reset the protocol.
+        Either it succeeds, or it raises (`PortError`) and leaves the manager lost, its
+        `lost_reason` saying why the reconnect failed: requests complete BRIDGE_LOST at once and
+        `reconnect` may be called again later."""
 
     @property
     @abstractmethod
@@ -259,14 +318,18 @@ class BusManager(ABC):
 
 class ThreadedManager(BusManager):
     """Shared real-time machinery: the core behind a lock, a dispatcher thread that runs
-    callbacks in completion order, and a condition for the blocking conveniences."""
+    callbacks in completion order, and a condition for the blocking conveniences.
+
+    Without a dispatcher (after `close()`, or a failed `reconnect()` of a closed manager) the
+    thread that submits runs the callbacks itself, inside `submit`/`reject`, so every `on_done`
+    still runs exactly once."""
 
     def __init__(self, core: Core, name: str) -> None:
         self.name = name
         self._core = core
         self._lock = threading.RLock()
         self._changed = threading.Condition(self._lock)
-        self._dispatch_q: queue.SimpleQueue[Transfer | None] = queue.SimpleQueue()
+        self._dispatch_q: queue.SimpleQueue[Transfer | Callable[[], None] | None] = queue.SimpleQueue()
         self._dispatcher: threading.Thread | None = None
         self._running = False
         self.stats = ManagerStats()
@@ -296,6 +359,7 @@ class ThreadedManager(BusManager):
             self._core.submit(t, now)
             self._collect()
         self._wake_io()
+        self._complete_without_dispatcher()
 
     def reject(self, t: Transfer, flags: ErrorFlag) -> None:
         now = self.now_ns()
@@ -305,11 +369,11 @@ class ThreadedManager(BusManager):
             self.stats.completed += 1
             self.stats.failed += 1
             self._dispatch_q.put(finish(t, now, flags))
+        self._complete_without_dispatcher()
 
     def wait_until(self, predicate: Callable[[], bool], timeout_s: float) -> bool:
         if threading.current_thread() is self._dispatcher:
-            raise RuntimeError("a blocking URB call inside a callback would deadlock the dispatcher; "
-                               "submit a request with a callback instead")
+            raise RuntimeError(BLOCKING_IN_CALLBACK)
         deadline = time.monotonic() + timeout_s
         with self._changed:
             while not predicate():
@@ -332,39 +396,86 @@ class ThreadedManager(BusManager):
                 self._dispatcher.join(timeout=2.0)
             self._dispatcher = None
 
+    def _stay_lost(self, text: str, uplink: str) -> PortError:
+        """A reconnect whose uplink would not reopen: the manager stays lost, its `lost_reason`
+        saying why, and requests complete BRIDGE_LOST at once. Returns the error to raise."""
+        reason = f"reconnect failed: {text}"
+        with self._lock:
+            self._core.link_lost(self.now_ns(), reason)
+            self._core.lost_reason = reason  # already lost: now lost because the uplink is gone
+            self._collect()
+        self._complete_without_dispatcher()
+        return PortError(f"{text} The bridge stays lost (requests complete BRIDGE_LOST); call reconnect() again "
+                         f"once the {uplink} is back.")
+
+    def _restart(self, start_io: Callable[[], None]) -> None:
+        """A reconnect whose uplink reopened: reset the protocol and start the threads again."""
+        with self._lock:
+            self._core.reset(self.now_ns())
+            self._collect()
+        if self._dispatcher is None:
+            self._start_dispatcher()
+        start_io()
+
     def _collect(self) -> None:
-        """Move completed transfers from the core to the dispatcher (lock held)."""
-        for t in self._core.take_completed():
+        """Move completed transfers from the core to the dispatcher (lock held), and, when the
+        core has just found the bridge lost, the lost listeners' notice: before the callbacks
+        of the requests that loss failed."""
+        done = self._core.take_completed()
+        notice = self._loss_notice(self._core.lost_reason)
+        for t in done:
+            if notice is not None and t.flags & ErrorFlag.BRIDGE_LOST:
+                self._dispatch_q.put(notice)
+                notice = None
             self.stats.completed += 1
             if t.flags:
                 self.stats.failed += 1
             self._dispatch_q.put(t)
+        if notice is not None:
+            self._dispatch_q.put(notice)
 
     def _dispatch_loop(self) -> None:
         while True:
-            t = self._dispatch_q.get()
-            if t is None:
+            item = self._dispatch_q.get()
+            if item is None:
                 return
-            if t.on_done is not None:
-                try:
-                    t.on_done(t)
-                except Exception as exc:  # a user callback must not kill the dispatcher
-                    _report_callback_error(exc)
+            _run_item(item)
             with self._changed:
                 self._changed.notify_all()
 
     def _drain_completions_inline(self) -> None:
-        """Run callbacks of transfers completed during close (dispatcher already stopped)."""
+        """Run the callbacks of completions queued while no dispatcher runs (during and after
+        `close`), on the calling thread."""
+        ran = False
         while True:
             try:
-                t = self._dispatch_q.get_nowait()
+                item = self._dispatch_q.get_nowait()
             except queue.Empty:
-                return
-            if t is not None and t.on_done is not None:
-                try:
-                    t.on_done(t)
-                except Exception as exc:
-                    _report_callback_error(exc)
+                break
+            if item is not None:
+                _run_item(item)
+                ran = True
+        if ran:
+            with self._changed:
+                self._changed.notify_all()
+
+    def _complete_without_dispatcher(self) -> None:
+        """After a submission: without a dispatcher (closed), run its callback now. A completion
+        queued before `close()` cleared `_dispatcher` is run by close()'s own drain."""
+        if self._dispatcher is None:
+            self._drain_completions_inline()
+
+
+def _run_item(item: Transfer | Callable[[], None]) -> None:
+    """Run one dispatcher item: a transfer's `on_done`, or a notice; exceptions are reported."""
+    try:
+        if isinstance(item, Transfer):
+            if item.on_done is not None:
+                item.on_done(item)
+        else:
+            item()
+    except Exception as exc:  # a user callback must not kill the dispatcher
+        _report_callback_error(exc)
 
 
 def _report_callback_error(exc: Exception) -> None:

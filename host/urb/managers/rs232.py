@@ -21,7 +21,7 @@ import threading
 import serial
 
 from ..errors import PortError
-from .base import NS_PER_MS, ThreadedManager
+from .base import CLOSED_REASON, NS_PER_MS, ThreadedManager
 from .rs232_core import Rs232Core
 
 READ_POLL_S = 0.002
@@ -35,8 +35,10 @@ class RS232Manager(ThreadedManager):
                  lost_after_s: float = 0.5, name: str | None = None) -> None:
         """`port`: device path (e.g. /dev/ttyS0). `window`: requests outstanding on the bridge
         before discovery tells its FIFO depth. `timeout_s`: a request without response after
-        this long completes UPLINK_TIMEOUT. `lost_after_s`: silence with requests outstanding
-        after which the bridge is declared lost (BRIDGE_LOST). Nothing is opened until `start`."""
+        this long completes UPLINK_TIMEOUT. `lost_after_s`: the bridge is declared lost
+        (BRIDGE_LOST) only after it sent nothing for this long, with requests outstanding all
+        that time or 8 requests in a row timed out (host/urb/README.md, "bridge lost"); requests
+        lost in a shorter glitch just time out. Nothing is opened until `start`."""
         core = Rs232Core(window=window, timeout_ns=int(timeout_s * 1e9), lost_after_ns=int(lost_after_s * 1e9))
         super().__init__(core, name or port)
         self.port = port
@@ -57,6 +59,7 @@ class RS232Manager(ThreadedManager):
         with self._lock:
             if self._core.lost_reason is not None:  # started again after close()
                 self._core.reset(self.now_ns())
+                self._lost_noted = False
         self._start_dispatcher()
         self._start_io()
 
@@ -82,25 +85,28 @@ class RS232Manager(ThreadedManager):
             self._serial = None
 
     def close(self) -> None:
-        """Stop the threads and close the port; outstanding requests complete BRIDGE_LOST."""
+        """Stop the threads and close the port; outstanding requests complete BRIDGE_LOST, and so
+        do requests submitted later (their callbacks then run inside `submit`)."""
         self._stop_io()
         with self._lock:
-            self._core.link_lost(self.now_ns(), "closed by the application")
+            self._lost_noted = True  # closing is not a loss to report
+            self._core.link_lost(self.now_ns(), CLOSED_REASON)
             self._collect()
         self._stop_dispatcher()
         self._drain_completions_inline()
 
     def reconnect(self) -> None:
         """Reopen the port (same path: a restarted bridge, a re-plugged adapter) and reset the
-        protocol. Raises `PortError` when the port cannot be opened yet."""
+        protocol. When the port cannot be opened yet, raises `PortError` and leaves the manager
+        lost (`lost_reason` says why the reconnect failed; requests complete BRIDGE_LOST at
+        once); call it again later."""
         self._stop_io()
-        with self._lock:
-            self._core.reset(self.now_ns())
-            self._collect()
-        self._serial = open_serial(self.port, self.baud)
-        if self._dispatcher is None:
-            self._start_dispatcher()
-        self._start_io()
+        try:
+            ser = open_serial(self.port, self.baud)
+        except PortError as exc:
+            raise self._stay_lost(str(exc), "port") from None
+        self._serial = ser
+        self._restart(self._start_io)
 
     # -- threads --------------------------------------------------------------------------------
     def _wake_io(self) -> None:

@@ -17,9 +17,13 @@ implements, for one bridge:
 * a per-request timeout (UPLINK_TIMEOUT), and an idle-gap rule: a partial candidate that
   receives no byte for `resync_gap_ns` loses its first byte, so a corrupt header cannot stall
   the hunt;
-* bridge-lost detection: requests outstanding and not one byte received for `lost_after_ns`,
-  `lost_after_timeouts` timeouts in a row without a byte received, or `link_lost()` called by
-  the runtime (port closed, I/O error). Every pending and queued request
+* bridge-lost detection: the bridge is declared lost only when it really stopped answering,
+  that is when not one byte was received for `lost_after_ns` and either requests were
+  outstanding all that time (continuous traffic), or a request has just timed out and it was
+  the `lost_after_timeouts`-th in a row (sparse traffic, where the in-flight list keeps
+  emptying). A burst of requests lost together (a line glitch) times out together, well within
+  `lost_after_ns`: those requests complete UPLINK_TIMEOUT and the bridge stays usable. Or
+  `link_lost()` called by the runtime (port closed, I/O error). Every pending and queued request
   then completes with BRIDGE_LOST, and so does every later one until `reset()`.
 
 Callers serialise access (the real-time runtime holds a lock; the simulation is single-threaded).
@@ -63,10 +67,11 @@ class ResponseMatcher:
             t = self.inflight.popleft()
             self.completed.append(finish(t, now, ErrorFlag.UPLINK_CHECKSUM if t.garbage else ErrorFlag.UPLINK_TIMEOUT))
 
-    def fail_all(self, queued: deque[Transfer], now: int) -> None:
+    def fail_all(self, queued: deque[Transfer], now: int, reason: str | None = None) -> None:
         """The uplink is gone: every request in flight, then every queued one, completes BRIDGE_LOST."""
         for t in list(self.inflight) + list(queued):
             self.completed.append(finish(t, now, ErrorFlag.BRIDGE_LOST))
+            t.lost_reason = reason
         self.inflight.clear()
         queued.clear()
         self.rx.clear()
@@ -123,8 +128,9 @@ class Rs232Core:
         after its request was sent completes UPLINK_TIMEOUT. `resync_gap_ns`: idle time after
         which a partial response candidate is abandoned. `lost_after_ns`: silence with requests
         outstanding after which the bridge is declared lost; `lost_after_timeouts`: so many
-        requests timing out in a row with not one byte received declare it lost too (sparse
-        traffic, where the in-flight list keeps emptying)."""
+        requests timing out in a row declare it lost too (sparse traffic, where the in-flight
+        list keeps emptying), but only once not one byte was received for `lost_after_ns`
+        either: a burst lost in a glitch is not a lost bridge."""
         self.window = _check_window(window)
         self.timeout_ns = timeout_ns
         self.resync_gap_ns = resync_gap_ns
@@ -145,6 +151,7 @@ class Rs232Core:
         """Queue a request (sent by `frames_to_send` when the window allows)."""
         if self.lost_reason is not None:
             self._m.completed.append(finish(t, now, ErrorFlag.BRIDGE_LOST))
+            t.lost_reason = self.lost_reason
             return
         self._queued.append(t)
 
@@ -168,12 +175,16 @@ class Rs232Core:
         if self._partial and now - self._last_rx_ns >= self.resync_gap_ns:
             m._discard(1)
             self._partial = m.parse(now)
+        timed_out = False
         while m.inflight and m.inflight[0].sent_ns is not None and now - m.inflight[0].sent_ns >= self.timeout_ns:
             m.lost_before(1, now)
             self._silent_timeouts += 1
+            timed_out = True
             self._partial = m.parse(now)
-        if self._silent_timeouts >= self.lost_after_timeouts:
-            self.link_lost(now, f"{self._silent_timeouts} requests in a row got no response and the bridge sent nothing")
+        quiet_ns = now - self._last_rx_ns
+        if timed_out and self._silent_timeouts >= self.lost_after_timeouts and quiet_ns >= self.lost_after_ns:
+            self.link_lost(now, f"{self._silent_timeouts} requests in a row got no response and the bridge "
+                                f"sent nothing for {quiet_ns // NS_PER_MS} ms")
             return
         silent_since = max(self._last_rx_ns, self._active_since)
         if m.inflight and now - silent_since >= self.lost_after_ns:
@@ -185,12 +196,12 @@ class Rs232Core:
         if self.lost_reason is not None:
             return
         self.lost_reason = reason
-        self._m.fail_all(self._queued, now)
+        self._m.fail_all(self._queued, now, reason)
         self._partial = False
 
     def reset(self, now: int) -> None:
         """Forget the lost state and any partial input (after the uplink was reopened)."""
-        self.link_lost(now, "reset")
+        self.link_lost(now, "the uplink was reset (reconnect)")
         self.lost_reason = None
         self._last_rx_ns = now
         self._silent_timeouts = 0

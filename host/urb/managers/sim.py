@@ -6,7 +6,9 @@ and loopback transports that put a `BridgeModel` at the other end of a simulated
 (with byte times at the configured baud rate) or USB pipe (1-ms frames).
 
 Everything runs on the clock's thread: callbacks are invoked from the event loop, never nested
-inside `submit` (they are queued and run once the current step is over).
+inside `submit` (they are queued and run once the current step is over). As with the real-time
+managers, a blocking call inside a callback raises `RuntimeError` (it would run the clock from
+inside the callback, where no other callback can run).
 """
 
 from __future__ import annotations
@@ -18,6 +20,8 @@ from collections.abc import Callable
 
 from ..errors import ErrorFlag
 from .base import (
+    BLOCKING_IN_CALLBACK,
+    CLOSED_REASON,
     NS_PER_MS,
     NS_PER_S,
     BusManager,
@@ -207,7 +211,7 @@ class SimManager(BusManager):
         else:
             self._rs232_core = Rs232Core(window=window, timeout_ns=timeout_ns or 100 * NS_PER_MS,
                                          lost_after_ns=lost_after_ns)
-        self._pending_cb: deque[Transfer] = deque()
+        self._pending_cb: deque[Transfer | Callable[[], None]] = deque()
         self._dispatching = False
         self._ticking = False
         self._timer_at: set[int] = set()
@@ -223,6 +227,7 @@ class SimManager(BusManager):
     def start(self) -> None:
         if self.core.lost_reason is not None:  # started again after close()
             self.core.reset(self.clock.now_ns())
+            self._lost_noted = False
         if self._started:
             return
         self._started = True
@@ -233,7 +238,8 @@ class SimManager(BusManager):
             self._bytes.set_receiver(self._on_bytes)
 
     def close(self) -> None:
-        self.core.link_lost(self.clock.now_ns(), "closed by the application")
+        self._lost_noted = True  # closing is not a loss to report
+        self.core.link_lost(self.clock.now_ns(), CLOSED_REASON)
         self._after_step()
 
     def now_ns(self) -> int:
@@ -257,10 +263,15 @@ class SimManager(BusManager):
         """Complete `t` on the host without sending it (queued like any completion)."""
         now = self.clock.now_ns()
         t.submitted_ns = now
+        self.stats.submitted += 1
+        self.stats.completed += 1
+        self.stats.failed += 1
         self._pending_cb.append(finish(t, now, flags))
         self._after_step()
 
     def wait_until(self, predicate: Callable[[], bool], timeout_s: float) -> bool:
+        if self._dispatching:
+            raise RuntimeError(BLOCKING_IN_CALLBACK)
         if predicate():
             return True
         if isinstance(self.clock, DrivableClock):
@@ -313,18 +324,27 @@ class SimManager(BusManager):
         if deadline is not None and deadline not in self._timer_at:
             self._timer_at.add(deadline)
             self.clock.call_at(deadline, lambda: self._on_timer(deadline))
+        notice = self._loss_notice(self.core.lost_reason)
         for t in self.core.take_completed():
+            if notice is not None and t.flags & ErrorFlag.BRIDGE_LOST:
+                self._pending_cb.append(notice)  # the lost listeners first, as on the dispatcher
+                notice = None
             self.stats.completed += 1
             if t.flags:
                 self.stats.failed += 1
             self._pending_cb.append(t)
+        if notice is not None:
+            self._pending_cb.append(notice)
         if self._dispatching:
             return
         self._dispatching = True
         try:
             while self._pending_cb:
-                t = self._pending_cb.popleft()
-                if t.on_done is not None:
-                    t.on_done(t)
+                item = self._pending_cb.popleft()
+                if isinstance(item, Transfer):
+                    if item.on_done is not None:
+                        item.on_done(item)
+                else:
+                    item()
         finally:
             self._dispatching = False

@@ -15,12 +15,13 @@ call), `LoopbackFrameTransport` for tests, and the simulation's USB model (throu
 from __future__ import annotations
 
 import os
+import select
 import threading
 import time
 from collections.abc import Callable
 
 from ..errors import PortError
-from .base import NS_PER_MS, ThreadedManager
+from .base import CLOSED_REASON, NS_PER_MS, ThreadedManager
 from .loopback import BridgeModel
 from .usb_core import UsbCore
 
@@ -62,6 +63,7 @@ class USBManager(ThreadedManager):
         with self._lock:
             if self._core.lost_reason is not None:  # started again after close()
                 self._core.reset(self.now_ns())
+                self._lost_noted = False
         self._start_dispatcher()
         self._start_io()
 
@@ -77,28 +79,33 @@ class USBManager(ThreadedManager):
         self._thread = None
 
     def close(self) -> None:
+        """Stop the frame thread and the transport (joining its reader); outstanding requests
+        complete BRIDGE_LOST, and so do requests submitted later (callbacks inside `submit`)."""
         self._stop_io()
         closer = getattr(self.transport, "close", None)
         if callable(closer):
             closer()
         with self._lock:
-            self._core.link_lost(self.now_ns(), "closed by the application")
+            self._lost_noted = True  # closing is not a loss to report
+            self._core.link_lost(self.now_ns(), CLOSED_REASON)
             self._collect()
         self._stop_dispatcher()
         self._drain_completions_inline()
 
     def reconnect(self) -> None:
+        """Stop and join the frame thread and the transport's reader, reopen the transport,
+        reset the protocol and start new threads. When the transport cannot be reopened, raises
+        `PortError` and leaves the manager lost (`lost_reason` says why); call it again later."""
         self._stop_io()
-        for name in ("close", "open"):
-            fn = getattr(self.transport, name, None)
-            if callable(fn):
-                fn()
-        with self._lock:
-            self._core.reset(self.now_ns())
-            self._collect()
-        if self._dispatcher is None:
-            self._start_dispatcher()
-        self._start_io()
+        try:
+            for name in ("close", "open"):
+                fn = getattr(self.transport, name, None)
+                if callable(fn):
+                    fn()
+        except (PortError, OSError) as exc:
+            text = str(exc) if isinstance(exc, PortError) else f"{self.name}: {exc}"
+            raise self._stay_lost(text, "device") from None
+        self._restart(self._start_io)
 
     def _on_in(self, data: bytes) -> None:
         with self._lock:
@@ -133,16 +140,26 @@ class USBManager(ThreadedManager):
 class CharDeviceTransport:
     """A bridge behind a kernel driver's character device (or any file descriptor that keeps
     transfer boundaries, e.g. a SOCK_SEQPACKET socket): `write()` = one bulk-OUT, each `read()`
-    = one bulk-IN, pushed to the receiver from a reader thread."""
+    = one bulk-IN, pushed to the receiver from a reader thread.
+
+    Exactly one reader runs between `open` and `close`: `close` wakes the reader (a pipe it
+    polls together with the device) and joins it before returning, so a reopened transport never
+    has two threads competing for IN transfers. A descriptor passed as `fd` belongs to the
+    caller and stays open; one opened from `path` is closed."""
+
+    JOIN_S = 2.0
 
     def __init__(self, path: str | None = None, fd: int | None = None) -> None:
         self.path = path
         self.fd = fd
         self._receiver: Callable[[bytes], None] | None = None
         self._thread: threading.Thread | None = None
-        self._running = False
+        self._stop: threading.Event | None = None
+        self._wake: tuple[int, int] | None = None
 
     def open(self) -> None:
+        if self._thread is not None:
+            self._stop_reader()  # opened twice: still one reader
         if self.fd is None:
             assert self.path is not None
             try:
@@ -150,15 +167,38 @@ class CharDeviceTransport:
             except OSError as exc:
                 raise PortError(f"{self.path}: cannot open the USB bridge device ({exc.strerror}); "
                                 f"check the kernel driver is loaded and the device permissions") from None
-        self._running = True
-        self._thread = threading.Thread(target=self._read_loop, name="urb-usb-in", daemon=True)
+        self._stop = threading.Event()
+        self._wake = os.pipe()
+        label = self.path if self.path is not None else f"fd {self.fd}"
+        self._thread = threading.Thread(target=self._read_loop, args=(self.fd, self._stop, self._wake[0]),
+                                        name=f"urb-usb-in {label}", daemon=True)
         self._thread.start()
 
     def close(self) -> None:
-        self._running = False
+        self._stop_reader()
         if self.fd is not None and self.path is not None:
             os.close(self.fd)
             self.fd = None
+
+    def _stop_reader(self) -> None:
+        """Stop the reader thread and wait for it (it delivers nothing once stopped)."""
+        thread, stop, wake = self._thread, self._stop, self._wake
+        self._thread = self._stop = self._wake = None
+        if stop is not None:
+            stop.set()
+        if wake is not None:
+            try:
+                os.write(wake[1], b"x")
+            except OSError:
+                pass
+        if thread is not None and thread is not threading.current_thread():
+            thread.join(self.JOIN_S)
+        if wake is not None:
+            for fd in wake:
+                try:
+                    os.close(fd)
+                except OSError:
+                    pass
 
     def set_batch_receiver(self, receiver: Callable[[bytes], None]) -> None:
         self._receiver = receiver
@@ -167,16 +207,28 @@ class CharDeviceTransport:
         assert self.fd is not None
         os.write(self.fd, data)
 
-    def _read_loop(self) -> None:
-        while self._running and self.fd is not None:
+    def _read_loop(self, fd: int, stop: threading.Event, wake: int) -> None:
+        poller = select.poll()
+        poller.register(fd, select.POLLIN)
+        poller.register(wake, select.POLLIN)
+        while not stop.is_set():
             try:
-                data = os.read(self.fd, 4096)
+                events = poller.poll(100)  # the wake pipe ends it at once; the timeout is a backstop
+            except OSError:
+                return
+            if stop.is_set():
+                return
+            if not any(efd == fd for efd, _ in events):
+                continue
+            try:
+                data = os.read(fd, 4096)
             except OSError:
                 return
             if not data:
                 return
-            if self._receiver is not None:
-                self._receiver(data)
+            receiver = self._receiver
+            if receiver is not None and not stop.is_set():
+                receiver(data)
 
 
 class LoopbackUsbTransport:

@@ -53,17 +53,22 @@ class UsbCore:
         batch_bytes: int = USB_BATCH_MAX_BYTES,
         timeout_ns: int = 50 * NS_PER_MS,
         lost_after_ns: int = 500 * NS_PER_MS,
+        lost_after_timeouts: int = 8,
     ) -> None:
         """`max_batch`: requests per bulk-OUT transfer. `window`: requests in flight (1..15).
         `batch_bytes`: largest transfer in either direction. `timeout_ns`: a request without
         response this long after its batch was written completes UPLINK_TIMEOUT.
         `lost_after_ns`: no IN transfer for this long with requests in flight declares the bridge
-        lost."""
+        lost; so do `lost_after_timeouts` requests timing out in a row with no IN transfer for
+        `lost_after_ns` either (sparse traffic, where the in-flight list keeps emptying; the
+        same rule as Rs232Core's)."""
         self.window = _check(window, "window")
         self.max_batch = _check(max_batch, "max_batch")
         self.batch_bytes = batch_bytes
         self.timeout_ns = timeout_ns
         self.lost_after_ns = lost_after_ns
+        self.lost_after_timeouts = lost_after_timeouts
+        self._silent_timeouts = 0
         self.lost_reason: str | None = None
         self.frames_written = 0
         self.transfers_in = 0
@@ -82,6 +87,7 @@ class UsbCore:
         """Buffer a request for the next bulk-OUT transfer (`Submit`)."""
         if self.lost_reason is not None:
             self._m.completed.append(finish(t, now, ErrorFlag.BRIDGE_LOST))
+            t.lost_reason = self.lost_reason
             return
         self._queued.append(t)
         if self.trace is not None:
@@ -90,6 +96,7 @@ class UsbCore:
     def receive_batch(self, data: bytes, now: int) -> None:
         """One bulk-IN transfer: a header, then responses back to back (`UsbRead`)."""
         self._last_in_ns = now
+        self._silent_timeouts = 0
         if self.lost_reason is not None or not data:
             return
         self.transfers_in += 1
@@ -112,8 +119,16 @@ class UsbCore:
         if self.lost_reason is not None:
             return
         m = self._m
+        timed_out = False
         while m.inflight and m.inflight[0].sent_ns is not None and now - m.inflight[0].sent_ns >= self.timeout_ns:
             m.lost_before(1, now)
+            self._silent_timeouts += 1
+            timed_out = True
+        quiet_ns = now - self._last_in_ns
+        if timed_out and self._silent_timeouts >= self.lost_after_timeouts and quiet_ns >= self.lost_after_ns:
+            self.link_lost(now, f"{self._silent_timeouts} requests in a row got no response and the bridge "
+                                f"returned no USB transfer for {quiet_ns // NS_PER_MS} ms")
+            return
         silent_since = max(self._last_in_ns, self._active_since)
         if m.inflight and now - silent_since >= self.lost_after_ns:
             self.link_lost(now, f"the bridge returned no USB transfer for {(now - silent_since) // NS_PER_MS} ms")
@@ -123,13 +138,14 @@ class UsbCore:
         if self.lost_reason is not None:
             return
         self.lost_reason = reason
-        self._m.fail_all(self._queued, now)
+        self._m.fail_all(self._queued, now, reason)
 
     def reset(self, now: int) -> None:
         """Forget the lost state (after the uplink was reopened)."""
-        self.link_lost(now, "reset")
+        self.link_lost(now, "the uplink was reset (reconnect)")
         self.lost_reason = None
         self._last_in_ns = now
+        self._silent_timeouts = 0
 
     def set_window(self, window: int) -> None:
         """Requests in flight (learnt from BridgeInfo.fifo_depth); batches never exceed it."""
