@@ -85,3 +85,39 @@ def test_cli_missing_file_is_a_clear_error(tmp_path: Path) -> None:
     proc = subprocess.run([sys.executable, "-m", "urb.cli", "schema", "check", str(tmp_path / "nope.urbs")],
                           capture_output=True, text=True)
     assert proc.returncode == 1 and "no such file" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def _not_utf8(tmp_path: Path) -> Path:
+    """A schema whose line 2 has a Latin-1 byte (0xe9) at column 12, after valid text."""
+    folder = tmp_path / "schemas"
+    folder.mkdir()
+    path = folder / "latin1.urbs"
+    path.write_bytes(b'schema latin1 "l"\nmessage M "\xe9t\xe9" {\n    a: u8 "a"\n}\n')
+    return path
+
+
+def test_file_that_is_not_utf8_points_at_the_first_bad_byte(tmp_path: Path) -> None:
+    path = _not_utf8(tmp_path)
+    with pytest.raises(SchemaErrors) as info:
+        load([path])
+    first = info.value.errors[0]
+    assert (first.location.line, first.location.column) == (2, 12)
+    assert first.message == "not UTF-8 text: byte 0xe9 at byte offset 29 cannot be decoded"
+    rendered = first.render()
+    assert rendered.startswith(f"{path}:2:12: error: not UTF-8 text") and "hint: " in rendered
+    assert rendered.splitlines()[2] == "    " + " " * 11 + "^"
+
+
+@pytest.mark.parametrize("command", [["schema", "check", "{file}"], ["gen", "--check", "--schemas", "{dir}"],
+                                     ["schema", "show", "--schemas", "{dir}"]], ids=" ".join)
+def test_cli_reports_a_file_that_is_not_utf8(tmp_path: Path, command: list[str]) -> None:
+    path = _not_utf8(tmp_path)
+    binary = path.parent / "binary.urbs"
+    binary.write_bytes(b"\xff\xfe\x00bad")
+    argv = [a.format(file=binary, dir=path.parent) for a in command]
+    proc = subprocess.run([sys.executable, "-m", "urb.cli", *argv], capture_output=True, text=True)
+    assert proc.returncode == 1, proc.stderr
+    assert "Traceback" not in proc.stderr + proc.stdout
+    assert f"{binary}:1:1: error: not UTF-8 text: byte 0xff at byte offset 0" in proc.stderr
+    if command[0] == "gen":  # every file is checked: both are reported
+        assert f"{path}:2:12: error: not UTF-8 text" in proc.stderr

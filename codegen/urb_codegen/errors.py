@@ -30,8 +30,8 @@ class SchemaError(Exception):
     def render(self, source: str | None = None) -> str:
         """Format as `file:line:col: error: msg`, the source line, a caret, and the hint."""
         if source is None:
-            try:
-                source = self.location.path.read_text(encoding="utf-8")
+            try:  # undecodable bytes shown as U+FFFD: the error may be that the file is not UTF-8
+                source = self.location.path.read_text(encoding="utf-8", errors="replace")
             except OSError:
                 source = ""
         lines = source.splitlines()

@@ -111,9 +111,13 @@ def _describe(terminal: str) -> str:
 def parse_file(path: Path) -> _Raw:
     """Parse one file into a raw tree, or raise SchemaError."""
     try:
-        source = path.read_text(encoding="utf-8")
+        data = path.read_bytes()
     except OSError as exc:
         raise SchemaError(Location(path, 1, 1), f"cannot read schema: {exc.strerror}", "check the path") from None
+    try:
+        source = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise _not_utf8(path, data, exc) from None
     try:
         tree = _PARSER.parse(source)
     except UnexpectedInput as exc:
@@ -129,6 +133,17 @@ def parse_file(path: Path) -> _Raw:
             assert isinstance(tok, Token)
             imports.append((str(tok), _loc(path, tok)))
     return _Raw(path, source, tree, str(name_tok), imports)
+
+
+def _not_utf8(path: Path, data: bytes, exc: UnicodeDecodeError) -> SchemaError:
+    """The error for a file that is not UTF-8 text, at the line and column of its first bad byte."""
+    bad = exc.start
+    line_start = data.rfind(b"\n", 0, bad) + 1
+    line = data.count(b"\n", 0, bad) + 1
+    column = len(data[line_start:bad].decode("utf-8")) + 1  # the bytes before `bad` decoded fine
+    return SchemaError(Location(path, line, column),
+                       f"not UTF-8 text: byte 0x{data[bad]:02x} at byte offset {bad} cannot be decoded",
+                       "schema files are UTF-8 text; save the file as UTF-8, or check that it is a schema")
 
 
 def _int(node: Tree[Token] | Token) -> int:

@@ -46,8 +46,9 @@ static void usage(FILE *out)
             "                    (motor, battery, imu, ir: class, mailbox sizes and fingerprint from the\n"
             "                    schema) or a class number (e.g. 0x42: generic node with in1=4, out1=4).\n"
             "                    INDEX 0..63, ADDR 0x08..0x77. KEYs: inN=SIZE, outN=SIZE (N 1..7, SIZE 0..32),\n"
-            "                    fp=HEX (fingerprint), echo=0|1 (default 1: a write to inbox N is copied to\n"
-            "                    outbox N when their sizes match), absent=1 (wired but not answering).\n"
+            "                    fp=HEX (fingerprint: 1 to 8 hex digits, 0x optional, e.g. fp=00c0ffee),\n"
+            "                    echo=0|1 (default 1: a write to inbox N is copied to outbox N when their\n"
+            "                    sizes match), absent=1 (wired but not answering).\n"
             "                    Outboxes start zeroed; outbox 0 holds the node's identification.\n"
             "                    e.g. --node motor,0,0x20 --node motor,1,0x21 --node 0x42,3,0x30,in1=8,out1=8\n"
             "  --fifo N          request FIFO depth, 1..16 (default 16)\n"
@@ -68,6 +69,38 @@ static int parse_uint(const char *s, unsigned long max, unsigned long *out)
     errno = 0;
     unsigned long v = strtoul(s, &end, 0);
     if ((errno != 0) || (end == s) || (*end != '\0') || (v > max)) {
+        return -1;
+    }
+    *out = v;
+    return 0;
+}
+
+/* Parses 1..8 hexadecimal digits, with or without a 0x prefix (no sign, no spaces). */
+static int parse_hex32(const char *s, uint32_t *out)
+{
+    if ((s[0] == '0') && ((s[1] == 'x') || (s[1] == 'X'))) {
+        s += 2;
+    }
+    uint32_t v = 0;
+    size_t n = 0;
+    for (; s[n] != '\0'; n++) {
+        char const c = s[n];
+        uint32_t d;
+        if ((c >= '0') && (c <= '9')) {
+            d = (uint32_t)(c - '0');
+        } else if ((c >= 'a') && (c <= 'f')) {
+            d = (uint32_t)(c - 'a') + 10u;
+        } else if ((c >= 'A') && (c <= 'F')) {
+            d = (uint32_t)(c - 'A') + 10u;
+        } else {
+            return -1;
+        }
+        if (n >= 8) {
+            return -1;
+        }
+        v = (v << 4) | d;
+    }
+    if (n == 0) {
         return -1;
     }
     *out = v;
@@ -144,6 +177,16 @@ static int add_node_spec(urb_fake_i2c_t *bus, const char *spec)
     for (char *kv = strtok_r(NULL, ",", &save); kv != NULL; kv = strtok_r(NULL, ",", &save)) {
         char *eq = strchr(kv, '=');
         unsigned long v = 0;
+        if ((eq != NULL) && (strncmp(kv, "fp=", 3) == 0)) {
+            uint32_t fp = 0;
+            if (parse_hex32(eq + 1, &fp) != 0) {
+                fprintf(stderr, "--node %s: bad fingerprint '%s': give 1 to 8 hex digits (e.g. fp=00c0ffee or fp=0xdeadbeef)\n",
+                        spec, kv);
+                return -1;
+            }
+            n->fingerprint = fp;
+            continue;
+        }
         if ((eq == NULL) || (parse_uint(eq + 1, 0xFFFFFFFFul, &v) != 0)) {
             fprintf(stderr, "--node %s: bad KEY=VALUE '%s'\n", spec, kv);
             return -1;
@@ -161,8 +204,6 @@ static int add_node_spec(urb_fake_i2c_t *bus, const char *spec)
             } else {
                 n->out_size[m] = (uint8_t)v;
             }
-        } else if (strcmp(kv, "fp") == 0) {
-            n->fingerprint = (uint32_t)v;
         } else if (strcmp(kv, "echo") == 0) {
             n->echo = v != 0;
         } else if (strcmp(kv, "absent") == 0) {

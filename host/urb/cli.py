@@ -18,6 +18,11 @@ EPILOG = "Run `urb COMMAND --help` for the options of one command."
 
 def build_parser() -> argparse.ArgumentParser:
     """The full argument parser: every command registered by its module."""
+    return _build()[0]
+
+
+def _build() -> tuple[argparse.ArgumentParser, dict[str, argparse.ArgumentParser]]:
+    """The parser and each command's own parser, by name (for usage errors found later)."""
     parser = argparse.ArgumentParser(
         prog="urb", description=DESCRIPTION, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter
     )
@@ -27,19 +32,43 @@ def build_parser() -> argparse.ArgumentParser:
     cli_schema.register(sub)
     demo.register(sub)
     sim_cli.register(sub)
-    return parser
+    return parser, dict(sub.choices)
+
+
+def parse(parser: argparse.ArgumentParser, commands: dict[str, argparse.ArgumentParser],
+          argv: list[str]) -> argparse.Namespace:
+    """Parse the command line; options may come anywhere among a command's positionals
+    (`urb write PORT NODE 2 --defaults mode=LOCAL_PD`). A usage error shows the usage of the
+    command it belongs to, not the top-level one, and exits with status 2."""
+    args, extras = parser.parse_known_args(argv)
+    if not extras:
+        return args
+    command = commands.get(getattr(args, "command", None) or "")
+    if command is None:
+        parser.error(f"unrecognized arguments: {' '.join(extras)}")
+    # The top level has no option taking a value, so the first word naming the command is it.
+    rest = argv[argv.index(args.command) + 1:]
+    try:
+        return command.parse_intermixed_args(rest, argparse.Namespace(command=args.command))
+    except TypeError:  # a command with subcommands of its own cannot be parsed intermixed
+        command.error(f"unrecognized arguments: {' '.join(extras)}")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run one command; returns the process exit status (0 ok, 1 failed check, 2 usage error)."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    parser, commands = _build()
+    args = parse(parser, commands, list(sys.argv[1:] if argv is None else argv))
     if not getattr(args, "run", None):
         parser.print_help()
         return 2
     try:
         status: int = args.run(args)
         sys.stdout.flush()  # here, not at exit, so that a closed pipe is caught below
+    except cli_nodes.UsageError as exc:  # found by the command itself (e.g. a FIELD=VALUE the schema refuses)
+        command = commands.get(args.command, parser)
+        command.print_usage(sys.stderr)
+        print(f"{command.prog}: error: {exc}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print("urb: interrupted", file=sys.stderr)
         return 130
