@@ -63,11 +63,16 @@ static void usage(FILE *out)
             MAX_NODES);
 }
 
+/* Parses a decimal number, or a hexadecimal one after 0x (a leading 0 is not octal: 010 is ten). */
 static int parse_uint(const char *s, unsigned long max, unsigned long *out)
 {
+    if ((s[0] < '0') || (s[0] > '9')) {
+        return -1; /* strtoul would take a sign or leading spaces */
+    }
+    int const base = ((s[0] == '0') && ((s[1] == 'x') || (s[1] == 'X'))) ? 16 : 10;
     char *end = NULL;
     errno = 0;
-    unsigned long v = strtoul(s, &end, 0);
+    unsigned long v = strtoul(s, &end, base);
     if ((errno != 0) || (end == s) || (*end != '\0') || (v > max)) {
         return -1;
     }

@@ -444,6 +444,19 @@ def test_hosted_bridge_fingerprints_are_hex(hosted_bridge: Callable[..., BridgeP
         assert proc.returncode == 2 and f"bad fingerprint 'fp={bad}': give 1 to 8 hex digits" in proc.stderr, (bad, proc.stderr)
 
 
+def test_hosted_bridge_numbers_are_decimal_or_0x_hex(hosted_bridge: Callable[..., BridgeProc],
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    # a leading 0 is not octal (010 was read as 8), and a sign is not a number
+    bp = hosted_bridge(["motor,010,0x20", "motor,0x0B,0x21"])
+    code, out, _ = run(capsys, "scan", str(bp.link), "--json")
+    assert code == 0
+    assert sorted(r["index"] for r in json.loads(out)) == [10, 11]
+    for bad in ("-1", "+1", " 1", "1x", "0x"):
+        proc = subprocess.run([str(build_hosted_bridge()), "--node", f"motor,{bad},0x20", "--seconds", "1"],
+                              capture_output=True, text=True, timeout=10)
+        assert proc.returncode == 2, (bad, proc.stderr)
+
+
 def test_help_texts_read_like_man_pages(capsys: pytest.CaptureFixture[str]) -> None:
     for cmd in ("scan", "read", "write", "monitor", "log"):
         with pytest.raises(SystemExit) as exc:
