@@ -62,3 +62,14 @@ def test_demo_round_trips_every_message(tmp_path: Path) -> None:
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "all round trips identical" in proc.stdout
     assert "UplinkResponse" in proc.stdout and "5/5" in proc.stdout
+
+
+def test_generation_overwrites_a_corrupted_output_file(tmp_path: Path) -> None:
+    # a generated file mangled into bytes that are not UTF-8 is rewritten, not a UnicodeDecodeError
+    c_dir, py_dir = tmp_path / "c", tmp_path / "py"
+    shutil.copytree(C_DIR, c_dir)
+    shutil.copytree(PY_DIR, py_dir)
+    (c_dir / "urb_core.c").write_bytes(b"\xff\xfe not C \x80\n")
+    generate(load_bundled(), c_dir, py_dir)
+    assert filecmp.cmp(c_dir / "urb_core.c", C_DIR / "urb_core.c", shallow=False)
+    assert check_fresh(load_bundled(), c_dir, py_dir).fresh

@@ -696,7 +696,8 @@ def emit_c(schemas: list[Schema], out_dir: Path) -> list[Path]:
     for rel, text in files.items():
         path = out_dir / rel
         path.parent.mkdir(parents=True, exist_ok=True)
-        if not path.exists() or path.read_text(encoding="utf-8") != text:
-            path.write_text(text, encoding="utf-8")
+        data = text.encode("utf-8")
+        if not path.exists() or path.read_bytes() != data:  # bytes: a corrupted file is just different
+            path.write_bytes(data)
         written.append(path)
     return written
