@@ -405,7 +405,10 @@ def test_log_never_writes_after_closing_its_file(fake_bridge: Callable[..., Brid
         # the bridge answers nothing from now on, yet stays up: not SIGSTOP, whose last response could still
         # reach a loaded host after the first Ctrl-C and end the wait normally (exit 1, seen in CI)
         bp.cmd("drop 1000000")
-        time.sleep(0.2)
+        deadline = time.monotonic() + 10
+        while json.loads(bp.cmd("stats"))["dropped_frames"] == 0 and time.monotonic() < deadline:
+            time.sleep(0.05)  # a request has gone unanswered
+        time.sleep(1.0)  # and every response sent before the drop has reached the host
         proc.send_signal(signal.SIGINT)
         assert proc.stderr is not None
         said = b""
