@@ -6,7 +6,8 @@
 #                     motor driver on the node library and the hosted HAL); then the seeded bugs,
 #                     each of which must make its run fail (a wrong expected byte: a failed check; an
 #                     unaligned 32-bit load: a HardFault), and, as a control, the unaligned-load
-#                     mutant on a Cortex-M3 (mps2-an385), where that load is legal and the run passes
+#                     mutant on a Cortex-M3 (mps2-an385), where that load is legal and the run passes;
+#                     then the Cortex-M0+ bridge port's clock across SysTick reloads, and its mutant
 #   make qemu-build   only the images build/qemu/*.elf; run one with tests/qemu/run.sh ELF [vectors|node]
 
 QEMU_BUILD := build/qemu
@@ -68,7 +69,25 @@ $(QEMU_ELF): $(QEMU_BUILD)/obj/main-normal.o $(QEMU_SHARED_OBJS) $(QEMU_LD)
 $(QEMU_BUILD)/urb_qemu_mutant_%.elf: $(QEMU_BUILD)/obj/main-%.o $(QEMU_SHARED_OBJS) $(QEMU_LD)
 	$(call qemu_link,$<)
 
-qemu-build: $(QEMU_ELF) $(QEMU_MUTANT_ELFS)
+# The bridge port's clock (tests/qemu/port_clock.c): the real Cortex-M0+ port file with its own
+# vector table and linker script, at the nRF51's 16 MHz; and its seeded bug, the read that ignores
+# a pending SysTick reload (time goes back by 1 ms), which must fail.
+QEMU_PORT_SRC := tests/qemu/port_clock.c tests/qemu/semihost.c firmware/bridge/bridge.c firmware/bridge/bridge_uplink.c \
+                 firmware/bridge/i2c_master.c gen/c/urb_core.c gen/c/urb_runtime.c
+QEMU_PORT_DEPS := $(QEMU_PORT_SRC) firmware/hal/cortex-m0plus/bridge_port.c firmware/hal/cortex-m0plus/bridge_cm0plus.ld \
+                  $(wildcard tests/qemu/*.h firmware/include/*.h firmware/bridge/*.h gen/c/*.h)
+qemu_port_link = @mkdir -p $(@D) && $(QEMU_CC) $(QEMU_CFLAGS) $(QEMU_WARN) -DBRIDGE_CPU_HZ=16000000u $(1) \
+                 -Itests/qemu -Ifirmware/hal/cortex-m0plus -Ifirmware/include -Igen/c -Ifirmware/bridge \
+                 -nostartfiles -nostdlib -Wl,--gc-sections -T firmware/hal/cortex-m0plus/bridge_cm0plus.ld \
+                 -o $@ $(QEMU_PORT_SRC) -lgcc
+
+$(QEMU_BUILD)/port_clock.elf: $(QEMU_PORT_DEPS)
+	$(call qemu_port_link,)
+
+$(QEMU_BUILD)/port_clock_mutant.elf: $(QEMU_PORT_DEPS)
+	$(call qemu_port_link,-DURB_MUTANT_CLOCK_IGNORES_PENDING)
+
+qemu-build: $(QEMU_ELF) $(QEMU_MUTANT_ELFS) $(QEMU_BUILD)/port_clock.elf $(QEMU_BUILD)/port_clock_mutant.elf
 
 qemu-test: qemu-build
 	@QEMU_TIMEOUT=$(QEMU_TIMEOUT) tests/qemu/run.sh --expect pass --name "test program" $(QEMU_ELF)
@@ -77,6 +96,9 @@ qemu-test: qemu-build
 	@QEMU_TIMEOUT=$(QEMU_TIMEOUT) tests/qemu/run.sh --expect pass --quiet --machine mps2-an385 \
 	  --name "control: mutant UNALIGNED_LOAD on a Cortex-M3, where unaligned LDR is legal," \
 	  $(QEMU_BUILD)/urb_qemu_mutant_UNALIGNED_LOAD.elf node
-	@echo "qemu-test: the M0 program passed, $(words $(QEMU_MUTANTS)) of $(words $(QEMU_MUTANTS)) mutants caught"
+	@QEMU_TIMEOUT=$(QEMU_TIMEOUT) tests/qemu/run.sh --expect pass --quiet --name "bridge port clock" $(QEMU_BUILD)/port_clock.elf
+	@QEMU_TIMEOUT=$(QEMU_TIMEOUT) tests/qemu/run.sh --expect fail --name "mutant CLOCK_IGNORES_PENDING" \
+	  $(QEMU_BUILD)/port_clock_mutant.elf || { echo "qemu-test: mutant CLOCK_IGNORES_PENDING was not caught"; exit 1; }
+	@echo "qemu-test: the M0 programs passed, $(words $(QEMU_MUTANTS) x) of $(words $(QEMU_MUTANTS) x) mutants caught"
 
 CHECK_TARGETS += qemu-test

@@ -202,8 +202,19 @@ void urbb_uart_parse(urb_bridge_t *b, uint32_t now, uint8_t checks)
 #ifndef URB_MUTANT_NO_GAP
             /* The line has been idle long enough: a partial frame will not complete, do not wait for
              * the next byte to say so (frames behind it would wait too). rx_last_us is one aligned
-             * word. A byte that arrives before a stopped flush is over carries the gap flag. */
-            ended = (i < URB_BRIDGE_RX_PER_POLL) && ((uint32_t)(now - b->rx_last_us) > b->rx_gap_us);
+             * word. A byte that arrives before a stopped flush is over carries the gap flag.
+             * The UART interrupt may store a byte after the poll read `now` (on hardware it can run
+             * between now_us() and this check): that byte's stamp is later than `now`, the
+             * difference wraps to nearly 2^32, and it must count as "not idle", not as a gap.
+             * So a difference of 2^31 us or more is read as negative: a byte newer than `now`. (While
+             * bytes are held the main loop does not sleep, so a held candidate is flushed within a
+             * poll of rx_gap_us, far below 2^31 us = 35 minutes.) */
+            uint32_t const idle = now - b->rx_last_us;
+#ifndef URB_MUTANT_RX_NEWER_THAN_NOW
+            ended = (i < URB_BRIDGE_RX_PER_POLL) && (idle > b->rx_gap_us) && (idle < 0x80000000u);
+#else
+            ended = (i < URB_BRIDGE_RX_PER_POLL) && (idle > b->rx_gap_us); /* mutant: the wrapping comparison */
+#endif
 #else
             ended = false;
             (void)now;

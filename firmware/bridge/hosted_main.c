@@ -286,6 +286,7 @@ int main(int argc, char **argv)
     }
 
     mcfg.bitrate_kbps = (uint16_t)khz;
+    mcfg.timeout_us = urb_i2c_master_timeout_us((uint32_t)khz); /* a slower bus needs longer */
     if (urb_hosted_rig_init(&rig, &cfg, &mcfg) != URB_OK) {
         fprintf(stderr, "bridge configuration refused\n");
         return 2;

@@ -29,10 +29,24 @@ enum {
 #define CLEAR_STEPS 21u   /* 9 pulses = 18 half periods, then 3 steps of STOP */
 #define CLEAR_FOR_COMMAND 0xFEu /* clear_for: an explicit URB_DL_CLEAR (OK when the bus is free after) */
 
+uint32_t urb_i2c_master_timeout_us(uint32_t bitrate_kbps)
+{
+    /* bits x 1000 / kb/s = us; x 2 for stretching; rounded up without overflow for any rate */
+    uint32_t const bits_ms = 2u * URB_I2C_LONGEST_BITS * 1000u;
+    uint32_t t = URB_I2C_MIN_TIMEOUT_US;
+    if (bitrate_kbps > 0u) {
+        uint32_t const bus = (bits_ms - 1u) / bitrate_kbps + 1u;
+        if (bus > t) {
+            t = bus;
+        }
+    }
+    return t;
+}
+
 void urb_i2c_master_default_config(urb_i2c_master_config_t *cfg)
 {
     cfg->bitrate_kbps = 400u;
-    cfg->timeout_us = 2000u;
+    cfg->timeout_us = urb_i2c_master_timeout_us(cfg->bitrate_kbps); /* 2000 us */
     cfg->clear_half_us = 5u;
 }
 

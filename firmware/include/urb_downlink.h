@@ -89,7 +89,7 @@ typedef struct {
 /** Configuration of the I2C master; urb_i2c_master_default_config() fills in the defaults. */
 typedef struct {
     uint16_t bitrate_kbps;   /**< Bus bit rate, reported in BridgeInfo (default 400) */
-    uint32_t timeout_us;     /**< Longest transaction, clock stretching included (default 2000) */
+    uint32_t timeout_us;     /**< Longest transaction, clock stretching included: urb_i2c_master_timeout_us(bitrate_kbps) (default 2000) */
     uint16_t clear_half_us;  /**< Half period of the bus-clear clock pulses (default 5: 100 kHz) */
 } urb_i2c_master_config_t;
 
@@ -120,7 +120,22 @@ typedef struct {
     uint32_t bus_clears, timeouts;
 } urb_i2c_master_t;
 
-/** Fills *cfg with the defaults (400 kb/s, 2 ms timeout, 100 kHz bus-clear clock). */
+/** Bit times of the longest transaction, a 32-byte read with its select: address, select, repeated
+ *  START, address, 32 data bytes, 2 check bytes (37 bytes of 9 bits: 8 and the ACK), plus START,
+ *  repeated START and STOP. (A 32-byte write is one byte shorter: no second address.) */
+#define URB_I2C_LONGEST_BITS (37u * 9u + 3u)
+/** The shortest transaction timeout: the one of 400 kb/s and every faster rate (2 ms). */
+#define URB_I2C_MIN_TIMEOUT_US 2000u
+
+/** The timeout_us to configure for a bus at `bitrate_kbps`: twice the bus time of the longest
+ *  transaction (the second half for the nodes' clock stretching), rounded up, and never below
+ *  URB_I2C_MIN_TIMEOUT_US. 2000 us from 336 kb/s up (so at 400 kb/s), 6720 us at 100 kb/s,
+ *  67 200 us at 10 kb/s. 0 (no rate known) gives URB_I2C_MIN_TIMEOUT_US. Divides: call it at set-up,
+ *  not from an interrupt. A port that changes bitrate_kbps must set timeout_us from it too. */
+uint32_t urb_i2c_master_timeout_us(uint32_t bitrate_kbps);
+
+/** Fills *cfg with the defaults (400 kb/s, 2 ms timeout = urb_i2c_master_timeout_us(400), 100 kHz
+ *  bus-clear clock). */
 void urb_i2c_master_default_config(urb_i2c_master_config_t *cfg);
 
 /** Initialises *m on the bus driven by *hal (kept by reference) with *cfg (copied); forgets all selections. */

@@ -544,6 +544,8 @@ sim_bridge_t *sim_bridge_new(const char *name, int id, int uplink, urbsim_kernel
     b->i2c_hal.release = i2c_release;
     urb_i2c_master_default_config(&b->mcfg);
     b->mcfg.bitrate_kbps = (uint16_t)(cfg->i2c_bitrate / 1000.0);
+    /* the timeout follows the bit rate (2000 us, unchanged, from 336 kb/s up: so at 400 kb/s) */
+    b->mcfg.timeout_us = urb_i2c_master_timeout_us(b->mcfg.bitrate_kbps);
     if (uplink == SIM_UPLINK_RS232) {
         snprintf(nm, sizeof nm, "%s/up", name);
         /* host -> bridge: a PC UART (1.8432 MHz crystal: exact 115200) */

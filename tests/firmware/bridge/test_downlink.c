@@ -2,6 +2,7 @@
  * I2C downlink through the bridge: NACK at every position, check failures, the selection cache
  * and node resets, timeouts, stuck bus and bus clear, long (CRC-16) mailboxes.
  */
+#include <stdlib.h>
 #include <string.h>
 
 #include "support.h"
@@ -358,6 +359,66 @@ static void long_mailboxes(void **state)
     expect_end(&s);
 }
 
+/* The timeout follows the bit rate (review F4): at 100 kb/s a byte with its ACK takes 90 us, so the
+ * 30-byte identification read of the start-up scan and a 32-byte write (36 bytes) take about 3 ms,
+ * more than the 2 ms of 400 kb/s. Set up as hosted_main.c does for --i2c-khz 100: the node is
+ * found, a 32-byte write is committed, a 32-byte read comes back, nothing times out. */
+static void standard_mode_timeout_follows_bitrate(void **state)
+{
+    (void)state;
+    assert_int_equal(urb_i2c_master_timeout_us(400u), 2000u); /* unchanged at 400 kb/s */
+    assert_int_equal(urb_i2c_master_timeout_us(5000u), URB_I2C_MIN_TIMEOUT_US);
+    assert_int_equal(urb_i2c_master_timeout_us(336u), 2000u);
+    assert_int_equal(urb_i2c_master_timeout_us(335u), 2006u);
+    assert_int_equal(urb_i2c_master_timeout_us(100u), 6720u);
+    assert_int_equal(urb_i2c_master_timeout_us(10u), 67200u);
+    assert_int_equal(urb_i2c_master_timeout_us(0u), URB_I2C_MIN_TIMEOUT_US);
+    assert_int_equal(urb_i2c_master_timeout_us(0xFFFFFFFFu), URB_I2C_MIN_TIMEOUT_US);
+    urb_i2c_master_config_t dcfg;
+    urb_i2c_master_default_config(&dcfg);
+    assert_int_equal(dcfg.timeout_us, urb_i2c_master_timeout_us(dcfg.bitrate_kbps));
+
+    uint32_t const rates[2] = {100u, 10u};
+    for (unsigned k = 0u; k < 2u; k++) {
+        uint32_t const khz = rates[k];
+        urb_hosted_rig_t *r = calloc(1u, sizeof *r);
+        assert_non_null(r);
+        urb_bridge_config_t cfg;
+        urb_bridge_default_config(&cfg);
+        cfg.heartbeat_us = 0u;
+        urb_i2c_master_config_t mcfg;
+        urb_i2c_master_default_config(&mcfg);
+        mcfg.bitrate_kbps = (uint16_t)khz;
+        mcfg.timeout_us = urb_i2c_master_timeout_us(khz);
+        assert_int_equal(urb_hosted_rig_init(r, &cfg, &mcfg), URB_OK);
+        r->bus.byte_us = (9000u + khz - 1u) / khz; /* as hosted_main.c */
+        r->bus.start_us = (1000u + khz - 1u) / khz;
+        urb_fake_node_t *n = add_node(r, NODE, 0x42u, 0u, 32u, 32u);
+        rig_start(r);
+        assert_true(urb_hosted_rig_settle(r, 1000000u));
+        assert_true(urb_bridge_present(&r->bridge, NODE));
+        uint8_t data[32];
+        for (uint8_t i = 0u; i < 32u; i++) {
+            data[i] = (uint8_t)(0x40u + i);
+        }
+        uint8_t f[40];
+        send_frame(r, f, enc_write(f, NODE, 1u, 1u, 32u, data));
+        assert_true(urb_hosted_rig_settle(r, 1000000u));
+        send_frame(r, f, enc_read(f, NODE, 1u, 2u, 32u));
+        assert_true(urb_hosted_rig_settle(r, 1000000u));
+        send_frame(r, f, enc_read(f, NODE, 1u, 3u, 8u)); /* wrong length: refused at admission (sizes known) */
+        assert_true(urb_hosted_rig_settle(r, 1000000u));
+        stream_t s = rs232_stream(r);
+        expect_response(&s, 1u, URB_STATUS_OK, 0u, NULL);
+        expect_response(&s, 2u, URB_STATUS_OK, 32u, NULL);
+        expect_response(&s, 3u, URB_STATUS_SIZE_MISMATCH, 0u, NULL);
+        expect_end(&s);
+        assert_int_equal(n->writes[1], 1u);
+        assert_int_equal(urb_i2c_master_timeouts(&r->master), 0u);
+        free(r);
+    }
+}
+
 /* A master HAL that accepts every operation and reports nothing: the test delivers the events. */
 static void hal_op(void *ctx) { (void)ctx; }
 static void hal_byte(void *ctx, uint8_t byte) { (void)ctx; (void)byte; }
@@ -417,6 +478,7 @@ int run_downlink_tests(void)
         cmocka_unit_test_setup_teardown(stuck_during_transaction, setup, teardown),
         cmocka_unit_test_setup_teardown(bus_clear_command, setup, teardown),
         cmocka_unit_test_setup_teardown(long_mailboxes, setup, teardown),
+        cmocka_unit_test(standard_mode_timeout_follows_bitrate),
         cmocka_unit_test(slave_event_refused_by_master),
     };
     return cmocka_run_group_tests_name("bridge_downlink", tests, NULL, NULL);

@@ -385,6 +385,45 @@ static void garbage_ring_is_checked_a_few_per_poll(void **state)
     expect_end(&s);
 }
 
+/* A byte the UART interrupt stores after the poll read its clock (on hardware the interrupt can run
+ * between now_us() and the parser's ring check) is stamped later than the poll's `now`: it is not
+ * an idle gap. Before the fix, `now - rx_last_us` wrapped to nearly 2^32 and the held candidate was
+ * flushed as cut by a gap, so the request was never answered (review F1). Bytes 87 us apart at
+ * 115200 Bd; byte 2 arrives 3 us after the poll sampled its time, then again 1 us after. */
+static void byte_newer_than_poll_time_is_not_a_gap(void **state)
+{
+    urb_hosted_rig_t *r = *state;
+    uint8_t f[8];
+    size_t const n = enc_read(f, NODE, 1u, 5u, 4u);
+    assert_int_equal(n, 4u);
+    uint32_t const gaps = urb_bridge_stats(&r->bridge)->gap_drops;
+    urb_hosted_rig_run(r, 1000u);
+    urb_bridge_uart_rx(&r->bridge, f[0], r->hal.now);
+    urb_hosted_rig_run(r, BYTE_US);
+    urb_bridge_uart_rx(&r->bridge, f[1], r->hal.now);
+    urb_hosted_rig_run(r, BYTE_US);
+    urb_bridge_uart_rx(&r->bridge, f[2], r->hal.now + 3u); /* after the poll's now_us() */
+    urb_bridge_poll(&r->bridge);
+    assert_int_equal(r->bridge.rs232.len, 3u); /* held, waiting for the last byte */
+    assert_int_equal(urb_bridge_stats(&r->bridge)->gap_drops, gaps);
+    urbb_uart_parse(&r->bridge, r->hal.now, 255u); /* the same, with the byte already taken */
+    urbb_uart_parse(&r->bridge, r->bridge.rx_last_us - 1u, 255u);
+    assert_int_equal(r->bridge.rs232.len, 3u);
+    assert_int_equal(urb_bridge_stats(&r->bridge)->gap_drops, gaps);
+    urb_hosted_rig_run(r, BYTE_US);
+    urb_bridge_uart_rx(&r->bridge, f[3], r->hal.now);
+    assert_true(urb_hosted_rig_settle(r, 100000u));
+    stream_t s = rs232_stream(r);
+    expect_response(&s, 5u, URB_STATUS_OK, 4u, NULL);
+    expect_end(&s);
+    assert_int_equal(urb_bridge_stats(&r->bridge)->gap_drops, gaps);
+    /* a real idle gap after the byte still ends a partial frame */
+    urb_bridge_uart_rx(&r->bridge, f[0], r->hal.now);
+    urb_hosted_rig_run(r, 1000u);
+    assert_int_equal(r->bridge.rs232.len, 0u);
+    assert_int_equal(urb_bridge_stats(&r->bridge)->gap_drops, gaps + 1u);
+}
+
 /* The budget changes when frames are found, never which: the same random streams (frames, bit
  * errors, lost and inserted bytes, idle gaps) into two bridges, one parsing with an unlimited
  * budget after every byte, the other with one check per call, called twice per byte and until it
@@ -488,6 +527,7 @@ int run_rs232_tests(void)
         cmocka_unit_test_setup_teardown(lost_byte_then_good_frame, setup, teardown),
         cmocka_unit_test_setup_teardown(truncated_frame_dropped_at_gap, setup, teardown),
         cmocka_unit_test_setup_teardown(gap_threshold, setup, teardown),
+        cmocka_unit_test_setup_teardown(byte_newer_than_poll_time_is_not_a_gap, setup, teardown),
         cmocka_unit_test_setup_teardown(oversized_requests, setup, teardown),
         cmocka_unit_test_setup_teardown(malformed_but_checked_is_bad_request, setup, teardown),
         cmocka_unit_test_setup_teardown(unknown_nodes_and_mailboxes, setup, teardown),
