@@ -210,7 +210,8 @@ struct urb_node {
     uint8_t req_enable;         /* main loop -> timer interrupt: requested sync enable */
     volatile uint8_t id_reads;  /* interrupt: outbox-0 reads begun (wraps) */
     volatile uint8_t id_done;   /* interrupt: id_reads value of the last complete outbox-0 read */
-    uint8_t id_fault_after;     /* main loop: fault flag may clear once a read begun after this completes */
+    uint8_t id_fault_after;     /* main loop: fault flag may clear once a read begun after this completes
+                                   (set at each publication and at each fault delivered) */
     int8_t setup_err;           /* first error of a setup call in bootup */
     uint8_t acq_count;          /* main loop: t_acq samples in the current window */
     uint8_t class_id;
@@ -250,8 +251,11 @@ void urb_node_config_default(urb_node_config_t *cfg);
 int urb_node_init(urb_node_t *node, const urb_node_hal_t *hal, const urb_node_hooks_t *hooks, void *user,
                   const urb_node_config_t *cfg, uint8_t *storage, uint16_t storage_len);
 
-/** One main-loop iteration: faults, an inbox-0 command, a due app_update, outbox 0 refresh, app_idle.
- *  Returns a mask of URB_NODE_POLL_* telling what ran. */
+/** One main-loop iteration: an inbox-0 command, a due app_update, faults (each code at most once
+ *  per poll: a refused write's OVERRUN and a missed heartbeat's are one delivery), outbox 0
+ *  refresh, app_idle. Faults counted before a RESET command of the same poll reach the hook after
+ *  the reset hook (and set Identification.fault again). Returns a mask of URB_NODE_POLL_* telling
+ *  what ran. */
 uint8_t urb_node_poll(urb_node_t *node);
 
 /* Sleeping between polls makes app_update start a fixed time after the heartbeat (low acquisition

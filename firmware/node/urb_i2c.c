@@ -7,7 +7,10 @@
  *     NACK select     inbox m not set up, or reserved bits set      (bridge: BAD_REQUEST)
  *     NACK data[0]    IsrWriteBegin refused: both buffers in use    (bridge: NODE_BUSY; fault OVERRUN)
  *     NACK last check the check failed, nothing stored              (bridge: CHECKSUM; fault CHECKSUM)
- *     NACK extra byte more than size + check bytes                  (bridge: SIZE_MISMATCH)
+ *     NACK extra byte more than size + check bytes                  (bridge: SIZE_MISMATCH; no fault)
+ *     (a write longer than size puts data where the check goes: the node cannot tell it from a bad
+ *      check, so it NACKs it as a failed check, fault CHECKSUM; the bridge, knowing the length it
+ *      sent, reports SIZE_MISMATCH when the NACK falls on one of its data bytes)
  *     commit          only at STOP / repeated START after exactly size + check bytes with a good
  *                     check; any other end (short write, bus error, stuck bus) aborts.
  *   select outbox m: START addr+W  select(m, read=1)  STOP|Sr    (NACK: outbox m not set up)

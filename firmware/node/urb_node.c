@@ -1,6 +1,6 @@
 /*
- * Node lifecycle and main loop: initialisation, the round-robin poll (faults, inbox 0 commands,
- * app_update, outbox 0 identification, app_idle), acquisition-time measurement.
+ * Node lifecycle and main loop: initialisation, the round-robin poll (inbox 0 commands, app_update,
+ * faults, outbox 0 identification, app_idle), acquisition-time measurement.
  *
  * Everything here runs at thread level. It talks to the interrupt side only through
  *   - the mailbox algorithms (inbox 0 and outbox 0 are ordinary mailboxes),
@@ -77,8 +77,8 @@ static uint8_t refresh_identification(urb_node_t *node)
     uint32_t const acq = ((node->pll.fixed_lead != 0u) ? node->pll.fixed_lead : node->acq_ticks) / node->cfg->ticks_per_us;
     uint16_t const acq_us = (acq > 0xFFFFu) ? 0xFFFFu : (uint16_t)acq;
     /* the fault flag clears once a read that began after we published it has completed */
-    if (((flags & URB_F_ID_FAULT) != 0u) && (node->id_done != node->id_fault_after) &&
-        ((uint8_t)(node->id_done - node->id_fault_after) < 0x80u)) {
+    /* id_done - id_fault_after in 1..127 (modulo 256): a read begun after it has completed */
+    if (((flags & URB_F_ID_FAULT) != 0u) && ((uint8_t)(node->id_done - node->id_fault_after - 1u) < 0x7Fu)) {
         flags &= (uint8_t)~URB_F_FAULT;
     }
     uint8_t const fault = ((flags & URB_F_FAULT) != 0u) ? URB_F_ID_FAULT : 0u;
@@ -119,12 +119,16 @@ static uint8_t refresh_identification(urb_node_t *node)
 static void deliver_fault(urb_node_t *node, urb_node_fault_t code)
 {
     node->flags |= URB_F_FAULT;
+    /* the flag clears only after a read begun from here on: a read completed before this fault
+     * (even after the flag's last publication) did not report it */
+    node->id_fault_after = node->id_reads;
     if (node->hooks->fault != NULL) {
         node->hooks->fault(node, node->user, code);
     }
 }
 
-/* Delivers the faults the interrupts counted since the last poll: once per code per poll. */
+/* Delivers the faults counted since the last poll (by the interrupts, and a missed heartbeat by
+ * run_update): once per code per poll. */
 static uint8_t deliver_isr_faults(urb_node_t *node)
 {
     uint8_t delivered = 0u;
@@ -213,8 +217,12 @@ static uint8_t run_update(urb_node_t *node)
     /* on time: exactly one update due, and no heartbeat since `due` was read */
     uint8_t const valid = ((pending == 1u) && (node->update_due == due)) ? URB_F_ACQ_VALID : 0u;
     node->update_done = due;
-    if (pending > 1u) {
-        deliver_fault(node, URB_NODE_FAULT_OVERRUN); /* app_update missed at least one heartbeat */
+    uint8_t const ov = node->seen_faults[URB_NODE_FAULT_OVERRUN - 1u];
+    if ((pending > 1u) && (ov == node->isr_faults[URB_NODE_FAULT_OVERRUN - 1u])) {
+        /* app_update missed at least one heartbeat: one OVERRUN for deliver_isr_faults, later in
+         * this poll; when a refused write's is pending, that one delivery covers both (once per
+         * code per poll) */
+        node->seen_faults[URB_NODE_FAULT_OVERRUN - 1u] = (uint8_t)(ov - 1u);
     }
     node->flags = (uint8_t)((node->flags & (uint8_t) ~(URB_F_ACQ_MARKED | URB_F_ACQ_VALID)) | URB_F_IN_UPDATE | valid);
     if (node->hooks->update != NULL) {
@@ -318,9 +326,11 @@ uint8_t urb_node_poll(urb_node_t *node)
     if ((node == NULL) || (node->started == 0u)) {
         return 0u;
     }
-    uint8_t done = deliver_isr_faults(node);
-    done |= run_command(node);
+    /* faults after the update: it starts sooner after its heartbeat, and a missed heartbeat's
+     * OVERRUN joins the interrupts' in one delivery */
+    uint8_t done = run_command(node);
     done |= run_update(node);
+    done |= deliver_isr_faults(node);
     done |= refresh_identification(node);
     if (node->hooks->idle != NULL) {
         node->hooks->idle(node, node->user);

@@ -117,8 +117,8 @@ static void motor_inputs(urb_node_t *node, sensorhex_motor_t *app)
     }
     if (fresh) {
         app->missed = 0u;
-    } else if (app->missed < 0xFFu) {
-        app->missed++;
+    } else if (app->missed < 0xFFFFu) {
+        app->missed++; /* 16 bits: counts past the largest timeout (255), so 255 still cuts */
     }
     rc = urb_node_lock_inbox(node, URB_NODE_MOTOR_DRIVER_INBOX_MOTOR_CONFIG, &data);
     if (rc == URB_NODE_NEW) {
@@ -144,8 +144,15 @@ static int32_t motor_pd(const sensorhex_motor_t *app)
     int32_t const lim = (int32_t)app->limit_mv;
     /* P: kp * 1e-4 V * err * 1000 mV/V = kp * err / 10 (|kp * err| < 2^31 by the clamps) */
     int32_t const p = clamp32(((int32_t)app->kp * err) / 10, -lim, lim);
-    /* D: kd * 1e-6 * (delta * rate) * 1000 = kd * delta * rate / 1000 */
-    int32_t const d = clamp32((((int32_t)app->kd * delta) / 1000) * (int32_t)app->cfg.update_hz, -lim, lim);
+    /* D: kd * 1e-6 * (delta * rate) * 1000 = kd * delta * rate / 1000, limited to +-lim. The rate
+     * factor would overflow int32 (|kd * delta / 1000| reaches 2147418, the rate 65535), so the
+     * magnitude is limited first, then multiplied in 32 unsigned bits (<= 65535 * 65535): the exact
+     * value, clamped, as before wherever that did not overflow. No 64-bit multiply on Cortex-M0+. */
+    int32_t const q = ((int32_t)app->kd * delta) / 1000;
+    uint32_t mag = (uint32_t)abs32(q);
+    mag = ((mag > (uint32_t)lim) ? (uint32_t)lim : mag) * app->cfg.update_hz;
+    mag = (mag > (uint32_t)lim) ? (uint32_t)lim : mag;
+    int32_t const d = (q < 0) ? -(int32_t)mag : (int32_t)mag;
     return p - d;
 }
 
@@ -203,8 +210,9 @@ static void motor_update(urb_node_t *node, void *user)
     if (app->status_count >= app->cfg.status_divider) {
         uint8_t *st = NULL;
         if (urb_node_lock_outbox(node, URB_NODE_MOTOR_DRIVER_OUTBOX_MOTOR_STATUS, &st) == URB_NODE_OK) {
+            uint8_t const missed = (app->missed > 0xFFu) ? 0xFFu : (uint8_t)app->missed; /* saturates at 255 */
             urb_motor_status_t const ms = {temp, app->mode, io->hall(io->ctx), app->overcurrent != 0u,
-                                           app->overtemp != 0u, app->missed};
+                                           app->overtemp != 0u, missed};
             (void)urb_motor_status_encode(&ms, st, URB_MOTOR_STATUS_SIZE);
             (void)urb_node_release_outbox(node, URB_NODE_MOTOR_DRIVER_OUTBOX_MOTOR_STATUS);
             app->status_count = 0u;

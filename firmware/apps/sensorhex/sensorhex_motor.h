@@ -63,8 +63,9 @@ typedef struct {
     int16_t command_mv;
     int16_t applied_mv;    /* last drive value */
     uint16_t status_count;
+    uint16_t missed;       /* updates without a fresh command (saturates at 65535, so that a
+                              command_timeout of 255 still cuts; MotorStatus reports at most 255) */
     uint8_t mode;          /* urb_motor_mode_t */
-    uint8_t missed;        /* updates without a fresh command (saturates) */
     uint8_t have_raw;
     uint8_t overcurrent;
     uint8_t overtemp;

@@ -213,6 +213,76 @@ static void motor_local_pd(void **state)
     assert_int_equal(motor.position, 0);
 }
 
+/* Starts the motor app with a changed setting (the fixture's motor_setup uses the defaults). */
+static void motor_restart(uint8_t command_timeout, uint16_t update_hz)
+{
+    sensorhex_motor_config_t cfg;
+    sensorhex_motor_defaults(&cfg, 3u);
+    cfg.command_timeout = command_timeout;
+    cfg.update_hz = update_hz;
+    sensorhex_motor_setup(&motor, &motor_io, &cfg);
+    rig_start(&rig, &sensorhex_motor_hooks, &motor, sensorhex_motor_node_config);
+}
+
+/* command_timeout 255, the largest the u8 setting takes: 255 updates without a command keep the
+ * drive, the 256th cuts it (as 50 cuts at the 51st); the status still saturates at 255. Before the
+ * fix the counter saturated at 255 and the drive was never cut (review F5). */
+static void motor_timeout_255_cuts(void **state)
+{
+    (void)state;
+    motor_restart(255u, 1000u);
+    motor_config(URB_MOTOR_MODE_VOLTAGE, 0u, 0u, 0, 6000u);
+    motor_command(4500);
+    beats(&rig, 1u);
+    assert_int_equal(fm.drive, 4500);
+    beats(&rig, 255u);
+    assert_int_equal(fm.drive, 4500);
+    beats(&rig, 1u);
+    assert_int_equal(fm.drive, 0);
+    beats(&rig, 2000u); /* stays cut; the counter keeps counting past 255 */
+    assert_int_equal(fm.drive, 0);
+    assert_int_equal(motor_status().missed_commands, 255u);
+    motor_command(1000); /* a fresh command drives again */
+    beats(&rig, 1u);
+    assert_int_equal(fm.drive, 1000);
+}
+
+/* command_timeout 0 never cuts, however long the silence. */
+static void motor_timeout_0_never(void **state)
+{
+    (void)state;
+    motor_restart(0u, 1000u);
+    motor_config(URB_MOTOR_MODE_VOLTAGE, 0u, 0u, 0, 6000u);
+    motor_command(4500);
+    beats(&rig, 1u);
+    beats(&rig, 70000u); /* beyond the 16-bit counter's saturation */
+    assert_int_equal(fm.drive, 4500);
+    assert_int_equal(motor.missed, 0xFFFFu);
+}
+
+/* The D term at update_hz 2000 with kd and delta at their extremes: (kd * delta / 1000) * rate is
+ * 2147385 * 2000, beyond int32 (undefined behaviour, UBSan aborts: review F6); it must clamp to the
+ * limit. A small D term at the same rate is unchanged: kd 100, 20 counts/update -> 2 * 2000. */
+static void motor_pd_fast_rate_no_overflow(void **state)
+{
+    (void)state;
+    motor_restart(50u, 2000u);
+    fm.encoder = 0u;
+    beats(&rig, 1u);
+    motor_config(URB_MOTOR_MODE_LOCAL_PD, 0u, 65535u, 0, 12000u);
+    beats(&rig, 1u);
+    fm.encoder = 32767u; /* +32767 counts in one update */
+    beats(&rig, 1u);
+    assert_int_equal(fm.drive, -12000);
+    fm.encoder = 0u; /* -32767: the other sign */
+    beats(&rig, 1u);
+    assert_int_equal(fm.drive, 12000);
+    motor_config(URB_MOTOR_MODE_LOCAL_PD, 0u, 100u, 0, 12000u);
+    fm.encoder = 20u;
+    beats(&rig, 1u);
+    assert_int_equal(fm.drive, -4000);
+}
+
 static void motor_protection(void **state)
 {
     (void)state;
@@ -453,6 +523,9 @@ int main(void)
         cmocka_unit_test_setup(motor_voltage_mode_and_timeout, motor_setup),
         cmocka_unit_test_setup(motor_local_pd, motor_setup),
         cmocka_unit_test_setup(motor_protection, motor_setup),
+        cmocka_unit_test_setup(motor_timeout_255_cuts, motor_setup),
+        cmocka_unit_test_setup(motor_timeout_0_never, motor_setup),
+        cmocka_unit_test_setup(motor_pd_fast_rate_no_overflow, motor_setup),
         cmocka_unit_test(battery_status),
         cmocka_unit_test(imu_oversamples),
         cmocka_unit_test(ir_median_and_validity),

@@ -329,6 +329,64 @@ static void faults_delivered_in_poll(void **state)
     assert_true(read_id(node).fault);
 }
 
+/* A fault delivered after a complete identification read, while the published flag is still set,
+ * must show in the next read ("a fault was reported to the application since the last
+ * identification read"), then clear after a read that reported it. Before the fix the poll cleared
+ * the flag for the earlier read and the second fault was never published (review F3). */
+static void fault_after_identification_read_is_published(void **state)
+{
+    fixture_t *f = *state;
+    urb_node_t *node = &f->node;
+    (void)urb_node_i2c_event(node, URB_I2C_STUCK, 0u); /* fault #1 */
+    (void)urb_node_poll(node);                          /* delivered and published */
+    assert_true(read_id(node).fault);                   /* complete read: the host saw fault #1 */
+    /* fault #2, a write with a bad check, before the next main-loop iteration */
+    uint8_t frame[8];
+    uint8_t const d[2] = {0u, 0u};
+    (void)fx_write_raw(node, frame, fx_frame(frame, 1u, d, 2u, 1u), true);
+    (void)urb_node_poll(node);
+    assert_int_equal(f->faults[URB_NODE_FAULT_CHECKSUM], 1u);
+    assert_true(read_id(node).fault); /* fault #2 is reported */
+    (void)urb_node_poll(node);
+    assert_false(read_id(node).fault); /* that read reported it: cleared */
+    /* the same with the missed heartbeat's OVERRUN, delivered by the update */
+    (void)urb_node_i2c_event(node, URB_I2C_STUCK, 0u);
+    (void)urb_node_poll(node);
+    assert_true(read_id(node).fault);
+    assert_int_equal(urb_hal_hosted_advance(&f->port, node, 2u * PERIOD), 2u);
+    (void)urb_node_poll(node);
+    assert_int_equal(f->faults[URB_NODE_FAULT_OVERRUN], 1u);
+    assert_true(read_id(node).fault);
+    (void)urb_node_poll(node);
+    assert_false(read_id(node).fault);
+}
+
+/* A refused write's OVERRUN and a missed heartbeat's OVERRUN in the same poll: one delivery
+ * (README: "at most once per code per poll"; before the fix: two, review F7). */
+static void overrun_once_per_poll(void **state)
+{
+    fixture_t *f = *state;
+    urb_node_t *node = &f->node;
+    const uint8_t *data = NULL;
+    assert_true(urb_node_lock_inbox(node, 1u, &data) >= 0); /* the application holds inbox 1 */
+    uint8_t const d[2] = {1u, 2u};
+    assert_int_equal(fx_write(node, 1u, d, 2u), FX_ALL_ACKED); /* into the other buffer */
+    assert_int_equal(fx_write(node, 1u, d, 2u), 1);            /* refused: NACK, OVERRUN counted */
+    assert_int_equal(urb_node_release_inbox(node, 1u), URB_NODE_OK);
+    assert_int_equal(urb_hal_hosted_advance(&f->port, node, 2u * PERIOD), 2u); /* and a missed heartbeat */
+    uint8_t const done = urb_node_poll(node);
+    assert_true((done & URB_NODE_POLL_FAULT) != 0u);
+    assert_true((done & URB_NODE_POLL_UPDATE) != 0u);
+    assert_int_equal(f->faults[URB_NODE_FAULT_OVERRUN], 1u);
+    assert_false(urb_node_has_work(node)); /* nothing left over for a later poll either */
+    assert_int_equal(urb_node_poll(node) & URB_NODE_POLL_FAULT, 0u);
+    assert_int_equal(f->faults[URB_NODE_FAULT_OVERRUN], 1u);
+    /* the next missed heartbeat alone is an OVERRUN again, in the poll that finds it */
+    assert_int_equal(urb_hal_hosted_advance(&f->port, node, 2u * PERIOD), 2u);
+    assert_true((urb_node_poll(node) & URB_NODE_POLL_FAULT) != 0u);
+    assert_int_equal(f->faults[URB_NODE_FAULT_OVERRUN], 2u);
+}
+
 static void identification_refreshes(void **state)
 {
     fixture_t *f = *state;
@@ -363,6 +421,8 @@ int main(void)
         cmocka_unit_test_setup(command_sync_config, setup),
         cmocka_unit_test_setup(faults_delivered_in_poll, setup),
         cmocka_unit_test_setup(identification_refreshes, setup),
+        cmocka_unit_test_setup(fault_after_identification_read_is_published, setup),
+        cmocka_unit_test_setup(overrun_once_per_poll, setup),
     };
     return cmocka_run_group_tests_name("node_main_loop", tests, NULL, NULL);
 }
