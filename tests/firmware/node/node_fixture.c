@@ -222,3 +222,15 @@ int fx_command(urb_node_t *node, uint8_t opcode, uint8_t arg, uint16_t period_us
     (void)urb_command_encode(&cmd, buf, sizeof buf);
     return fx_write(node, 0u, buf, sizeof buf);
 }
+
+uint16_t fake_motor_encoder(void *c) { return ((fake_motor_t *)c)->encoder; }
+int16_t fake_motor_current(void *c) { return ((fake_motor_t *)c)->current; }
+int16_t fake_motor_voltage(void *c) { return ((fake_motor_t *)c)->voltage; }
+int16_t fake_motor_temp(void *c) { return ((fake_motor_t *)c)->temp; }
+bool fake_motor_hall(void *c) { return ((fake_motor_t *)c)->hall; }
+
+void fake_motor_drive(void *c, int16_t mv)
+{
+    ((fake_motor_t *)c)->drive = mv;
+    ((fake_motor_t *)c)->drives++;
+}

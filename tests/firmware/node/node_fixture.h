@@ -13,6 +13,7 @@
 #include "urb_hal_hosted.h"
 #include "urb_node.h"
 #include "urb_node_internal.h"
+#include "sensorhex_motor.h"
 
 #define FX_STORAGE 512u
 
@@ -67,6 +68,25 @@ bool fx_read_checked(urb_node_t *node, uint8_t m, uint8_t size, uint8_t *data);
 void fx_sync(urb_node_t *node, uint8_t counter);
 /* Writes a Command to inbox 0. */
 int fx_command(urb_node_t *node, uint8_t opcode, uint8_t arg, uint16_t period_us, uint16_t lead_us);
+
+/* A motor for the SensoRHex motor app: the sensor values it returns, and the drives it was given. */
+typedef struct {
+    uint16_t encoder;
+    int16_t current, voltage, temp;
+    bool hall;
+    int16_t drive;     /* the last drive, mV */
+    unsigned drives;   /* drives given */
+} fake_motor_t;
+
+uint16_t fake_motor_encoder(void *c);
+int16_t fake_motor_current(void *c);
+int16_t fake_motor_voltage(void *c);
+int16_t fake_motor_temp(void *c);
+bool fake_motor_hall(void *c);
+void fake_motor_drive(void *c, int16_t mv);
+/* The motor app's I/O on the fake_motor_t at `fm` (a constant initializer). */
+#define FAKE_MOTOR_IO(fm) \
+    {(fm), fake_motor_encoder, fake_motor_current, fake_motor_voltage, fake_motor_temp, fake_motor_hall, fake_motor_drive}
 
 /* Step hook (urb_node_test_step): tests that preempt the application set this. */
 extern void (*fx_step_hook)(urb_node_t *node, uint8_t step, void *ctx);

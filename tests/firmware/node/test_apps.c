@@ -59,27 +59,8 @@ static urb_identification_t identification(rig_t *r)
 
 /* ===== Motor ================================================================================ */
 
-typedef struct {
-    uint16_t encoder;
-    int16_t current, voltage, temp;
-    bool hall;
-    int16_t drive;
-    unsigned drives;
-} fake_motor_t;
-
-static uint16_t fm_encoder(void *c) { return ((fake_motor_t *)c)->encoder; }
-static int16_t fm_current(void *c) { return ((fake_motor_t *)c)->current; }
-static int16_t fm_voltage(void *c) { return ((fake_motor_t *)c)->voltage; }
-static int16_t fm_temp(void *c) { return ((fake_motor_t *)c)->temp; }
-static bool fm_hall(void *c) { return ((fake_motor_t *)c)->hall; }
-static void fm_drive(void *c, int16_t mv)
-{
-    ((fake_motor_t *)c)->drive = mv;
-    ((fake_motor_t *)c)->drives++;
-}
-
 static fake_motor_t fm;
-static const sensorhex_motor_io_t motor_io = {&fm, fm_encoder, fm_current, fm_voltage, fm_temp, fm_hall, fm_drive};
+static const sensorhex_motor_io_t motor_io = FAKE_MOTOR_IO(&fm);
 static sensorhex_motor_t motor;
 static rig_t rig;
 
