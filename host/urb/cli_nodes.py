@@ -731,7 +731,7 @@ class Poller:
                 self._bridge_lost(ch)
             new = [(name, reason) for name, reason in self._found_lost.items() if name not in self.lost]
             self.lost.update(new)
-            left = {ch.bridge for ch in self.channels} - set(self._found_lost)
+            left = self.bridges_left()  # the lock is reentrant
         for name, reason in new:
             then = "" if not self._running else (
                 "; stopping (no bridge left)" if not left else "; no longer reading it, the other bridges go on")

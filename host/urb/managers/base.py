@@ -222,6 +222,7 @@ class BusManager(ABC):
 
     name: str
     """How the bridge is named in tables and messages (the port path for RS232)."""
+    stats: ManagerStats
     _lost_listeners: list[LostListener]
     _lost_noted: bool = False
     """The current loss has been handed to the lost listeners (or must not be: `close()`)."""
@@ -253,6 +254,23 @@ class BusManager(ABC):
             return None
         self._lost_noted = True
         return functools.partial(self._notify_lost, reason)
+
+    def _queue_completed(self, done: list[Transfer], lost_reason: str | None,
+                         put: Callable[[Transfer | Callable[[], None]], None]) -> None:
+        """Count the completed transfers `done` and hand them to `put` (the dispatcher's queue);
+        when the core (`lost_reason`) has just found the bridge lost, the lost listeners' notice
+        goes first, before the callbacks of the requests that loss failed."""
+        notice = self._loss_notice(lost_reason)
+        for t in done:
+            if notice is not None and t.flags & ErrorFlag.BRIDGE_LOST:
+                put(notice)
+                notice = None
+            self.stats.completed += 1
+            if t.flags:
+                self.stats.failed += 1
+            put(t)
+        if notice is not None:
+            put(notice)
 
     def _notify_lost(self, reason: str) -> None:
         for fn in list(self._listeners()):
@@ -421,18 +439,7 @@ class ThreadedManager(BusManager):
         """Move completed transfers from the core to the dispatcher (lock held), and, when the
         core has just found the bridge lost, the lost listeners' notice: before the callbacks
         of the requests that loss failed."""
-        done = self._core.take_completed()
-        notice = self._loss_notice(self._core.lost_reason)
-        for t in done:
-            if notice is not None and t.flags & ErrorFlag.BRIDGE_LOST:
-                self._dispatch_q.put(notice)
-                notice = None
-            self.stats.completed += 1
-            if t.flags:
-                self.stats.failed += 1
-            self._dispatch_q.put(t)
-        if notice is not None:
-            self._dispatch_q.put(notice)
+        self._queue_completed(self._core.take_completed(), self._core.lost_reason, self._dispatch_q.put)
 
     def _dispatch_loop(self) -> None:
         while True:

@@ -324,17 +324,7 @@ class SimManager(BusManager):
         if deadline is not None and deadline not in self._timer_at:
             self._timer_at.add(deadline)
             self.clock.call_at(deadline, lambda: self._on_timer(deadline))
-        notice = self._loss_notice(self.core.lost_reason)
-        for t in self.core.take_completed():
-            if notice is not None and t.flags & ErrorFlag.BRIDGE_LOST:
-                self._pending_cb.append(notice)  # the lost listeners first, as on the dispatcher
-                notice = None
-            self.stats.completed += 1
-            if t.flags:
-                self.stats.failed += 1
-            self._pending_cb.append(t)
-        if notice is not None:
-            self._pending_cb.append(notice)
+        self._queue_completed(self.core.take_completed(), self.core.lost_reason, self._pending_cb.append)
         if self._dispatching:
             return
         self._dispatching = True

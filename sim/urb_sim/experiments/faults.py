@@ -184,11 +184,11 @@ def _uart_ber_reaction(s: System, b: int, nodes: list[int], o: Outcome) -> tuple
     to_bridge, to_host = _stat(s, "uart.up_corrupted", b), _stat(s, "uart.down_corrupted", b)
     if to_bridge + to_host == 0:
         return f"the injector corrupted no character: {NOT_EXERCISED}", False
-    bridge = _since(s, o, "bridge.hunt_discards", b) + _since(s, o, "bridge.gap_drops", b)
+    hunt, drops = _since(s, o, "bridge.hunt_discards", b), _since(s, o, "bridge.gap_drops", b)
+    bridge = hunt + drops
     host = _since(s, o, "host.stray_bytes", b)
     text = (f"{to_bridge} characters corrupted host to bridge, {to_host} bridge to host; the bridge's parser "
-            f"discarded {_since(s, o, 'bridge.hunt_discards', b)} bytes hunting and dropped "
-            f"{_since(s, o, 'bridge.gap_drops', b)} partial frames, the host's discarded {host} bytes "
+            f"discarded {hunt} bytes hunting and dropped {drops} partial frames, the host's discarded {host} bytes "
             f"({_n(o.flagged['UPLINK_CHECKSUM'], 'request')} UPLINK_CHECKSUM)")
     missed = [side for side, hit, caught in (("the bridge", to_bridge, bridge), ("the host", to_host, host))
               if hit and not caught]
