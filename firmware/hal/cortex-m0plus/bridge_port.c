@@ -62,6 +62,8 @@ WEAK void bsp_mark(uint8_t id, bool level) { (void)id; (void)level; }
 WEAK bool bsp_usb_sof(void) { return false; }
 WEAK size_t bsp_usb_out(uint8_t *buf, size_t cap) { (void)buf; (void)cap; return 0u; }
 WEAK bool bsp_usb_in_free(void) { return false; }
+/** Arms the IN endpoint with buf[0..len). The peripheral may read buf until the transfer is done
+ *  (a DMA descriptor, as on the SAMD21): the port leaves it untouched until bsp_usb_in_free(). */
 WEAK void bsp_usb_in_arm(const uint8_t *buf, size_t len) { (void)buf; (void)len; }
 
 /* ===== Core peripherals (architectural) ====================================================== */
@@ -95,7 +97,10 @@ typedef struct {
 static port_t g_port;
 static urb_bridge_t g_bridge;
 static urb_i2c_master_t g_master;
-static uint8_t g_usb_buf[URB_BRIDGE_USB_BUF];
+static uint8_t g_usb_out_buf[URB_BRIDGE_USB_BUF];
+/* Apart from the OUT buffer: an IN transfer still being sent reads this one (bsp_usb_in_arm) while
+ * the next OUT transfer is copied out of the peripheral. */
+static uint8_t g_usb_in_buf[URB_BRIDGE_USB_BUF];
 
 /* ===== Bridge HAL ============================================================================= */
 
@@ -230,14 +235,14 @@ int main(void)
         if (bsp_usb_sof()) {
             urb_bridge_usb_sof(&g_bridge);
         }
-        size_t const n = bsp_usb_out(g_usb_buf, sizeof g_usb_buf);
+        size_t const n = bsp_usb_out(g_usb_out_buf, sizeof g_usb_out_buf);
         if (n > 0u) {
-            (void)urb_bridge_usb_out(&g_bridge, g_usb_buf, n);
+            (void)urb_bridge_usb_out(&g_bridge, g_usb_out_buf, n);
         }
         if (bsp_usb_in_free()) {
-            size_t const m = urb_bridge_usb_in(&g_bridge, g_usb_buf, sizeof g_usb_buf);
+            size_t const m = urb_bridge_usb_in(&g_bridge, g_usb_in_buf, sizeof g_usb_in_buf);
             if (m > 0u) {
-                bsp_usb_in_arm(g_usb_buf, m);
+                bsp_usb_in_arm(g_usb_in_buf, m);
             }
         }
         urb_bridge_poll(&g_bridge);
