@@ -9,11 +9,14 @@
    (gen/c/urb_runtime.c) with its enclosing function and its static bound, and marks the functions
    an interrupt handler executed. A library loop without a `bound:` comment fails the run.
 
-Writes a Markdown report (--out) and prints it.
+Writes a Markdown report (--out) and prints it. With --readme FILE it also fails when the handler
+table in FILE (firmware/node/README.md, copied from this report) differs from the measurement, so
+the documented numbers cannot drift from the code (`make wcet-node-check`, part of `make check`).
 """
 from __future__ import annotations
 
 import argparse
+import difflib
 import re
 import shutil
 import subprocess
@@ -103,6 +106,8 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--driver", type=Path, required=True)
     ap.add_argument("--out", type=Path, required=True)
+    ap.add_argument("--readme", type=Path, help="fail when this file's handler table differs from the measurement")
+    ap.add_argument("--quiet", action="store_true", help="do not print the report (it is still written to --out)")
     args = ap.parse_args()
     wrappers, executed = callgrind(args.driver)
     missing = sorted(set(SCENARIOS) - set(wrappers))
@@ -138,11 +143,48 @@ def main() -> int:
     report = "\n".join(out) + "\n"
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(report)
-    print(report)
+    if not args.quiet:
+        print(report)
     if missing:
         print(f"wcet: scenarios without a measurement: {', '.join(missing)}", file=sys.stderr)
+    if args.readme is not None and not readme_agrees(args.readme, out, args.out):
+        status = 1
     return status
 
+
+def handler_rows(lines: list[str]) -> list[str]:
+    """The rows of the handler table (4 cells, the first I2C or timer), whitespace-normalised."""
+    rows = []
+    for line in lines:
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) == 4 and cells[0] in ("I2C", "timer"):
+            rows.append(" | ".join(cells))
+    return rows
+
+
+def readme_agrees(readme: Path, report: list[str], out: Path) -> bool:
+    """True when `readme` holds exactly the measured handler table; prints the differences. The
+    check must be able to fail: the same README with one count changed must be refused."""
+    text = readme.read_text().splitlines()
+    documented = handler_rows(text)
+    measured = handler_rows(report)
+    first = next((i for i, line in enumerate(text) if handler_rows([line])), None)
+    if first is None:
+        print(f"wcet: no handler table in {readme}", file=sys.stderr)
+        return False
+    cells = text[first].rstrip().rstrip("|").rsplit("|", 1)
+    seeded = text[:first] + [f"{cells[0]}| {int(cells[1]) + 1} |"] + text[first + 1:]
+    if handler_rows(seeded) == measured:
+        print("wcet: the README check cannot fail: a changed count was accepted", file=sys.stderr)
+        return False
+    if documented == measured:
+        print(f"wcet: {readme} agrees with the measurement ({len(measured)} rows; a changed count is refused)")
+        return True
+    print(f"wcet: the handler table in {readme} differs from the measurement; copy the table of {out} into it "
+          "(after checking that the change is intended):", file=sys.stderr)
+    for line in difflib.unified_diff(documented, measured, "documented", "measured", lineterm="", n=0):
+        print(f"  {line}", file=sys.stderr)
+    return False
 
 if __name__ == "__main__":
     sys.exit(main())
