@@ -60,7 +60,7 @@ VARIABLES
     out,      \* the response stream the host has received, in order
     applied,  \* ghost: ids of write requests a node has stored in its inbox
     cause,    \* ghost: cause[id] = what really happened to request id
-    full      \* ghost: ids that found all data slots taken at admission
+    full      \* ghost: well-formed requests that found every data slot taken
 
 vars == <<sent, queue, out, applied, cause, full>>
 
@@ -101,7 +101,10 @@ SubmitAndAdmit ==
          IN /\ sent' = Append(sent, <<r, id>>)
             /\ queue' = Append(queue, [id |-> id, status |-> st, data |-> NoData])
             /\ cause' = IF st = "PENDING" THEN cause ELSE [cause EXCEPT ![id] = st]
-            /\ full' = IF st = "BUSY" THEN full \cup {id} ELSE full
+            \* the ghost records the CONDITION (well-formed, every data slot
+            \* taken), not the answer, so BusyOnlyWhenFull checks the answer
+            /\ full' = IF AdmissionStatus(r) = "OK" /\ DataSlotsUsed >= QueueLen
+                         THEN full \cup {id} ELSE full
     /\ UNCHANGED <<out, applied>>
 
 (* Position of the oldest request still waiting for the downlink.          *)

@@ -14,7 +14,7 @@ MutSubmit ==
          IN /\ sent' = Append(sent, <<r, id>>)
             /\ queue' = Append(queue, [id |-> id, status |-> st, data |-> NoData])
             /\ cause' = IF st = "PENDING" THEN cause ELSE [cause EXCEPT ![id] = st]
-            /\ full' = IF st = "BUSY" /\ DataSlotsUsed >= QueueLen
+            /\ full' = IF AdmissionStatus(r) = "OK" /\ DataSlotsUsed >= QueueLen
                          THEN full \cup {id} ELSE full
     /\ UNCHANGED <<out, applied>>
 
