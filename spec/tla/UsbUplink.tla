@@ -7,8 +7,9 @@
 (* submissions:                                                            *)
 (*   UsbWrite       the USBManager write thread wakes on the tick and      *)
 (*                  sends ONE bulk-OUT transfer holding up to MaxBatch of  *)
-(*                  the buffered requests (batch n); the rest stay queued  *)
-(*                  on the host for the next frame, never dropped;         *)
+(*                  the buffered requests (batch n), with never more than  *)
+(*                  Window requests in flight; the rest stay queued on the *)
+(*                  host for the next frame, never dropped;                *)
 (*   BridgeProcess  the bridge runs batch n over the downlink and stores   *)
 (*                  its responses in its CURRENT response buffer;          *)
 (*   UsbRead        the bulk-IN read issued by batch n-1's write callback  *)
@@ -27,10 +28,12 @@ CONSTANTS
     MaxBatch,    \* requests per bulk-OUT transfer
     MaxSubmit,   \* requests the application may submit between two writes
     MaxReq,      \* requests submitted in a behaviour
+    Window,      \* host: most requests in flight (sent, not called back);
+                 \*   UsbCore.window = min(BridgeInfo.fifo_depth, 15)
     MaxLatency   \* bound on callback latency in frames (paper: 3 ms)
 
 ASSUME MaxBatch \in Nat \ {0} /\ MaxSubmit \in Nat \ {0} /\ MaxReq \in Nat
-       /\ MaxLatency \in Nat
+       /\ Window \in 1..15 /\ MaxLatency \in Nat   \* < SeqMod: no aliasing
 
 SeqMod == 16                      \* 4-bit sequence number
 Ids == 1..MaxReq
@@ -90,12 +93,18 @@ Submit ==
 
 (***************************************************************************)
 (* Write thread (once per frame, on the tick): one bulk-OUT transfer with  *)
-(* the first MaxBatch buffered requests; the others stay buffered.         *)
+(* the first buffered requests, at most MaxBatch of them and no more than  *)
+(* the window leaves room for (UsbCore.frame_out stops at                  *)
+(* len(inflight) == window; a request leaves `inflight` when its response *)
+(* is matched, which this model's Callback stands for).  The others stay   *)
+(* buffered.                                                               *)
 (***************************************************************************)
+Room == Min(MaxBatch, Window - Len(expect))
+
 UsbWrite ==
     /\ ~wrote
-    /\ LET batch == Take(hostQ, MaxBatch)
-           rest == Drop(hostQ, MaxBatch)
+    /\ LET batch == Take(hostQ, Room)
+           rest == Drop(hostQ, Room)
        IN /\ rx' = batch
           /\ hostQ' = rest
           /\ expect' = expect \o batch
@@ -169,23 +178,33 @@ InFlight == Range(hostQ) \cup Range(rx) \cup {r.id : r \in Range(txPrev)}
 (* or has had its callback.                                                *)
 NothingLost == \A id \in Submitted : id \in InFlight \/ id \in done
 
+(* The host never has more than Window requests in flight: the bridge's  *)
+(* data slots and response ring (Bridge.tla HostWindow) and the 4-bit     *)
+(* sequence number rely on it.                                             *)
+WindowRespected == Len(expect) <= Window
+
 (* Every callback receives the response to its own request.               *)
 ResponsesMatched ==
     \A k \in DOMAIN cbLog : cbLog[k].req = cbLog[k].resp
 
 (* Latency, counted in frames touched (c - s + 1), is at most MaxLatency  *)
-(* plus one frame for every time the request was left behind by a full    *)
-(* batch.  Checked for requests still waiting too, so it fails as soon as *)
-(* a frame ends without the callback that was due.                         *)
+(* plus one frame for every time the request was left behind (full batch *)
+(* or full window).  Checked for requests still waiting too, so it fails  *)
+(* as soon as a frame ends without the callback that was due.             *)
 LatencyBound == \A id \in Submitted : age[id] + 1 <= MaxLatency + deferred[id]
 
-(* Within the budget (MaxSubmit <= MaxBatch) nothing is deferred: the     *)
-(* paper's strict bound of MaxLatency frames.                              *)
+(* Within the budget nothing is deferred: the paper's strict bound of     *)
+(* MaxLatency frames.  The budget is MaxSubmit <= MaxBatch AND            *)
+(* 2 * MaxSubmit <= Window: the write of frame n may come before the read *)
+(* that completes batch n-1, so two frames' requests are in flight at     *)
+(* once.  (TLC: MaxBatch = MaxSubmit = 2 with Window = 3 defers a request *)
+(* and misses the bound in 4 frames; Window = 4 meets it.)                 *)
 StrictLatency == \A id \in Submitted : age[id] + 1 <= MaxLatency
 
 (* Liveness: every submitted request gets its callback.                    *)
 EveryCallbackRuns == \A id \in Ids : (id <= nextId) ~> (id \in done)
 
-THEOREM Spec => [](TypeOK /\ NothingLost /\ ResponsesMatched /\ LatencyBound)
-THEOREM MaxSubmit <= MaxBatch => (Spec => []StrictLatency)
+THEOREM Spec => [](TypeOK /\ NothingLost /\ ResponsesMatched /\ LatencyBound
+                          /\ WindowRespected)
+THEOREM MaxSubmit <= MaxBatch /\ 2 * MaxSubmit <= Window => (Spec => []StrictLatency)
 =============================================================================

@@ -7,8 +7,8 @@ EXTENDS UsbUplink
 
 MutWrite ==
     /\ ~wrote
-    /\ LET batch == Take(hostQ, MaxBatch - 1)
-           rest == Drop(hostQ, MaxBatch - 1)
+    /\ LET batch == Take(hostQ, Min(MaxBatch - 1, Window - Len(expect)))
+           rest == Drop(hostQ, Min(MaxBatch - 1, Window - Len(expect)))
        IN /\ rx' = batch
           /\ hostQ' = rest
           /\ expect' = expect \o batch
