@@ -48,6 +48,43 @@ CASES = {
     "enum value too wide": ('enum E : u2 "e" {\n    A = 4 "a"\n}\n', (4, 5), "does not fit in u2"),
     "duplicate field": ('message M "m" {\n    a: u8 "a"\n    a: u8 "b"\n}\n', (5, 5), "duplicate field 'a'"),
     "payload not last": ('message M "m" {\n    d: bytes[<= 4] "d"\n    a: u8 "a"\n}\n', (4, 5), "must be the last field"),
+    # names the generated C or Python cannot use (they broke the output or mis-decoded silently)
+    "python keyword field": ('message M "m" {\n    from: u8 "a"\n}\n', (4, 5), "field name 'from' is a Python keyword"),
+    "field shadowing the message API": ('message M "m" {\n    encode: u8 "a"\n}\n', (4, 5), "generated Python already uses"),
+    "field shadowing a class-body helper": ('message M "m" {\n    field: u8 "a"\n    b: u8[2] "b"\n}\n', (4, 5), "field name 'field'"),
+    "field with a leading underscore": ('message M "m" {\n    __GNUC__: u8 "a"\n}\n', (4, 5), "starts with '_'"),
+    "field named like a C header macro": ('message M "m" {\n    SIZE_MAX: u8 "a"\n}\n', (4, 5), "macro of the C headers"),
+    "implicit field named data": ('message M "m" {\n    data: u8 implicit "a"\n    b: u8 "b"\n    c: link_check covers data..b "c"\n}\n',
+                                  (4, 5), "implicit field cannot be named 'data'"),
+    "python keyword enum member": ('enum E : u8 "e" {\n    None = 0 "n"\n}\n', (4, 5), "enum member 'None' is a Python keyword"),
+    "enum member mro": ('enum E : u8 "e" {\n    mro = 0 "n"\n}\n', (4, 5), "enum member 'mro'"),
+    "python keyword message": ('message class "m" {\n    a: u8 "a"\n}\n', (3, 9), "name 'class' is a Python keyword"),
+    "message named like a runtime import": ('message Message "m" {\n    a: u8 "a"\n}\n', (3, 9), "generated Python already uses"),
+    "node published like a const": ('const MY_NODE = 1 "c"\nmessage A "a" {\n    x: u8 "x"\n}\nnode MyNode class 0x40 "n" {\n    outbox 1 A "o"\n}\n',
+                                    (7, 6), "published in Python as MY_NODE"),
+    "node published as MESSAGES": ('message A "a" {\n    x: u8 "x"\n}\nnode Messages class 0x40 "n" {\n    outbox 1 A "o"\n}\n',
+                                   (6, 6), "published in Python as MESSAGES"),
+    # layouts the emitters turned into C that does not compile, or into silently different frames
+    "fixed length field": ('message M "m" {\n    n: u8 = 4 "n"\n    p: bytes[n <= 4] "p"\n}\n', (5, 5), "length field 'n' is fixed"),
+    "reserved length field": ('message M "m" {\n    _: u8 "n"\n    p: bytes[_ <= 4] "p"\n}\n', (5, 5), "length field '_' is reserved"),
+    "implicit length field": ('message M "m" {\n    n: u8 implicit "n"\n    p: bytes[n <= 4] "p"\n    c: link_check covers n..p "c"\n}\n',
+                              (5, 5), "length field 'n' is implicit"),
+    "reserved field with a value": ('message M "m" {\n    _: u8 = 3 "a"\n}\n', (4, 11), "always sent as zero"),
+    "option given twice": ('message M "m" {\n    a: u8 in 1..2 in 3..4 "a"\n}\n', (4, 19), "option given twice"),
+    "fixed value outside its range": ('message M "m" {\n    a: u8 = 5 in 1..3 "a"\n}\n', (4, 5), "outside its range 1..3"),
+    "fixed value not an enum member": ('enum E : u8 "e" {\n    A = 0 "a"\n}\nmessage M "m" {\n    a: E = 3 "a"\n}\n', (7, 10),
+                                       "not a member of enum E"),
+    "infinite scale": ('message M "m" {\n    a: u8 scale 1e999 "a"\n}\n', (4, 11), "not a finite number"),
+    "rate not positive": ('message A "a" {\n    x: u8 "x"\n}\nnode N class 0x40 "n" {\n    outbox 1 A rate 0 "o"\n}\n', (7, 21),
+                          "not a positive number of Hz"),
+    "enum value beyond a C int": ('enum E : u32 "e" {\n    A = 0x80000000 "a"\n}\n', (4, 5), "does not fit in a C enum"),
+    "constant beyond 32 bits": ('const BIG = 0x100000000 "b"\n', (3, 13), "does not fit in 32 bits"),
+    "tier never used": ('checksum c "c" {\n    tier a width 8 poly 7 init 0 xorout 0 max_covered 10\n'
+                        '    tier b width 16 poly 0x1021 init 0 xorout 0 max_covered 3\n    tier d width 32 poly 0x04C11DB7 init 0 xorout 0\n}\n',
+                        (5, 10), "tier 'b' would never be used"),
+    "duplicate tier": ('checksum c "c" {\n    tier a width 8 poly 7 init 0 xorout 0 max_covered 3\n    tier a width 16 poly 0x1021 init 0 xorout 0\n}\n',
+                       (5, 10), "duplicate tier 'a'"),
+    "unterminated string": ('message M "m" {\n    a: u8 "a\n}\n', (4, 11), "unterminated string"),
 }
 
 
@@ -121,3 +158,23 @@ def test_cli_reports_a_file_that_is_not_utf8(tmp_path: Path, command: list[str])
     assert f"{binary}:1:1: error: not UTF-8 text: byte 0xff at byte offset 0" in proc.stderr
     if command[0] == "gen":  # every file is checked: both are reported
         assert f"{path}:2:12: error: not UTF-8 text" in proc.stderr
+
+
+@pytest.mark.parametrize("name, words", [("runtime", "overwrite the generated runtime"), ("class", "Python keyword"),
+                                         ("_runtime", "starts with '_'")])
+def test_schema_names_the_generators_cannot_use(tmp_path: Path, name: str, words: str) -> None:
+    path = tmp_path / "s.urbs"
+    path.write_text(f'schema {name} "s"\nmessage M "m" {{\n    a: u8 "a"\n}}\n')
+    with pytest.raises(SchemaErrors) as info:
+        load([path])
+    first = info.value.errors[0]
+    assert words in first.message and (first.location.line, first.location.column) == (1, 8), first.render()
+
+
+def test_empty_file_says_so(tmp_path: Path) -> None:
+    path = tmp_path / "empty.urbs"
+    path.write_text("# nothing yet\n\n")
+    with pytest.raises(SchemaErrors) as info:
+        load([path])
+    first = info.value.errors[0]
+    assert first.message == "empty schema file" and "schema NAME" in first.hint

@@ -431,6 +431,7 @@ class CNode:
 class CSchema:
     schema: Schema
     stem: str
+    guard: str  # include guard of the header
     source: str
     includes: list[str]
     consts: list[tuple[str, int, str]]
@@ -475,6 +476,7 @@ def _enum_view(e: EnumDecl, names: _Names) -> CEnum:
     macro = "URB_" + snake(e.name).upper()
     for m in e.members:
         names.add(f"{macro}_{m.name}", f"enum {e.name}", e.loc)
+    names.add(enum_c(e) + "_is_valid", f"enum {e.name}", e.loc)
     return CEnum(e, names.add(enum_c(e) + "_t", f"enum {e.name}", e.loc), macro,
                  "int32_t" if e.base.signed else "uint32_t", " || ".join(parts))
 
@@ -590,11 +592,14 @@ def _checksum_view(cs: ChecksumDecl, names: _Names) -> CChecksum:
         names.add(tfn, f"checksum {cs.name}", cs.loc)
         names.add(tfn + "_byte", f"checksum {cs.name}", cs.loc)
         names.add(tfn + "_final", f"checksum {cs.name}", cs.loc)
+        names.add(tfn.upper() + "_INIT", f"checksum {cs.name}", cs.loc)
+        names.add(tfn.upper() + "_MAX_COVERED", f"checksum {cs.name}", cs.loc)
         tiers.append(CTier(t, tfn, tfn.upper(), f"uint{t.width}_t", above))
         if t.max_covered is not None:
             above = t.max_covered if above is None else max(above, t.max_covered)
     for suffix in ("", "_size", "_payload_len"):
         names.add(fn + suffix, f"checksum {cs.name}", cs.loc)
+    names.add(fn.upper() + "_MAX_SIZE", f"checksum {cs.name}", cs.loc)
     return CChecksum(cs, fn, fn.upper(), tiers, max(t.width for t in cs.tiers) // 8)
 
 
@@ -651,10 +656,23 @@ def _all_schemas(schemas: list[Schema]) -> list[Schema]:
     return out
 
 
+def _runtime_names(names: _Names) -> None:
+    """Reserve the C names the runtime and the test support declare, so no schema item takes one."""
+    at = Location(Path("urb_runtime.h"), 1, 1)
+    for name, _, _ in _ERROR_CODES:
+        names.add("URB_" + ("OK" if name == "OK" else "ERR_" + name), "the runtime's error code", at)
+    for name in ("URB_RUNTIME_VERSION", "URB_RUNTIME_H", "URB_TEST_SUPPORT_H", "urb_get_bits", "urb_put_bits",
+                 "urb_get_le", "urb_put_le", "urb_sign_extend", "urb_runtime", "urb_test_support",
+                 "urb_test_message_t", "urb_test_crc_t", "urb_test_messages", "urb_test_message_count",
+                 "urb_test_crcs", "urb_test_crc_count", "urb_test_print_hex"):
+        names.add(name, "a name of the runtime", at)
+
+
 def emit_c(schemas: list[Schema], out_dir: Path) -> list[Path]:
     """Write urb_runtime.[ch], urb_<schema>.[ch] and test/urb_test_support.[ch]; return their paths."""
     env = _environment()
     names = _Names()
+    _runtime_names(names)
     ordered = _all_schemas(schemas)
     views: list[CSchema] = []
     checksums: list[CChecksum] = []
@@ -662,6 +680,7 @@ def emit_c(schemas: list[Schema], out_dir: Path) -> list[Path]:
         view = CSchema(
             schema=s,
             stem=names.add(file_stem(s), f"schema {s.name}", Location(s.path, 1, 1)),
+            guard=names.add(file_stem(s).upper() + "_H", f"schema {s.name}", Location(s.path, 1, 1)),
             # Same wording as the Python emitter; no directories, so output does not depend on where it goes.
             source=f"{s.path.name} (schema {s.name}, source fingerprint {s.source_hash})",
             includes=[file_stem(i) + ".h" for i in s.imports],
@@ -683,7 +702,7 @@ def emit_c(schemas: list[Schema], out_dir: Path) -> list[Path]:
         )
         for v in views:
             files[f"{v.stem}.{ext}"] = env.get_template(f"c_schema_{ext}.j2").render(
-                title=f"{v.schema.name}: {_comment(v.schema.doc)}.", guard=v.stem.upper() + "_H" if ext == "h" else None,
+                title=f"{v.schema.name}: {_comment(v.schema.doc)}.", guard=v.guard if ext == "h" else None,
                 source=v.source, s=v,
             )
         files[f"{TEST_SUPPORT_DIR}/urb_test_support.{ext}"] = env.get_template(f"c_test_{ext}.j2").render(

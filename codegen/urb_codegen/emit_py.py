@@ -50,6 +50,11 @@ def _q(text: str) -> str:
     return repr(text)
 
 
+def _doc(text: str) -> str:
+    """`text` as a triple-quoted docstring literal, whatever quotes and backslashes it holds."""
+    return '"""' + text.replace("\\", "\\\\").replace('"', '\\"') + '"""'
+
+
 class _Writer:
     def __init__(self) -> None:
         self.lines: list[str] = []
@@ -210,7 +215,7 @@ def _emit_pack(w: _Writer, msg: MessageDecl, implicit: bool) -> None:
 def _emit_unpack(w: _Writer, msg: MessageDecl, implicit: bool) -> list[str]:
     """Statements reading fields from int `v`; returns the constructor keyword arguments."""
     kwargs: list[str] = []
-    name = "cls.NAME"
+    name = "_cls.NAME"
     total = msg.implicit_bits if implicit else msg.fixed_bits
     claimed = 0
     for f in msg.fields:
@@ -218,15 +223,16 @@ def _emit_unpack(w: _Writer, msg: MessageDecl, implicit: bool) -> list[str]:
             claimed |= ((1 << f.bit_width) - 1) << f.bit_offset
     unclaimed = ((1 << total) - 1) & ~claimed
     if unclaimed:  # bits no field covers (explicit positions can leave gaps): padding, so zero
-        w(f"if v & {unclaimed:#x}:", 2)
+        w(f"if _v & {unclaimed:#x}:", 2)
         w(f"raise OutOfRangeError({name}, 'bits no field claims are not zero')", 3)
     for f in msg.fields:
         if f.implicit != implicit or isinstance(f.type, (BytesType, CheckType)):
             continue
         t = f.type
         mask = hex((1 << f.bit_width) - 1)
-        raw = f"(v >> {f.bit_offset}) & {mask}"
+        raw = f"(_v >> {f.bit_offset}) & {mask}"
         where = f.name
+        local = f"_f_{f.name}"  # field names never start with `_`, so no field shadows a name used here
         if f.is_padding:
             w(f"if {raw}:", 2)
             w(f"raise OutOfRangeError({name}, 'reserved bits {f.bit_offset}..{f.bit_offset + f.bit_width - 1} are not zero')", 3)
@@ -237,25 +243,25 @@ def _emit_unpack(w: _Writer, msg: MessageDecl, implicit: bool) -> list[str]:
             continue
         count_of = next((b for b in msg.fields if isinstance(b.type, BytesType) and b.type.count_field == f.name), None)
         if isinstance(t, (IntType, EnumDecl)):
-            w(f"{f.name} = {_unpack_scalar(raw, t, name, where)}", 2)
+            w(f"{local} = {_unpack_scalar(raw, t, name, where)}", 2)
             if f.range is not None:
-                w(f"if not {f.range[0]} <= {f.name} <= {f.range[1]}:", 2)
-                w(f"raise OutOfRangeError({name}, f'{where} = {{{f.name}}} is outside {f.range[0]}..{f.range[1]}')", 3)
+                w(f"if not {f.range[0]} <= {local} <= {f.range[1]}:", 2)
+                w(f"raise OutOfRangeError({name}, f'{where} = {{{local}}} is outside {f.range[0]}..{f.range[1]}')", 3)
             if count_of is None:
                 kwargs.append(f.name)
         elif isinstance(t, MessageDecl):
-            w(f"{f.name} = {t.name}._unpack({raw})", 2)
+            w(f"{local} = {t.name}._unpack({raw})", 2)
             kwargs.append(f.name)
         elif isinstance(t, ArrayType):
             step = f.bit_width // t.count
             el = t.element
             emask = hex((1 << step) - 1)
-            eraw = f"(v >> ({f.bit_offset} + {step} * i)) & {emask}"
+            eraw = f"(_v >> ({f.bit_offset} + {step} * _i)) & {emask}"
             if isinstance(el, MessageDecl):
                 expr = f"{el.name}._unpack({eraw})"
             else:
                 expr = _unpack_scalar(eraw, el, name, where + "[]")
-            w(f"{f.name} = [{expr} for i in range({t.count})]", 2)
+            w(f"{local} = [{expr} for _i in range({t.count})]", 2)
             kwargs.append(f.name)
     return kwargs
 
@@ -288,11 +294,11 @@ def _emit_message(w: _Writer, msg: MessageDecl) -> None:
     user = _user_fields(msg)
     w("@dataclass(slots=True)")
     w(f"class {msg.name}(Message):")
-    w(f'"""{msg.doc}"""', 1)
+    w(_doc(msg.doc), 1)
     w()
     for f in user:
         w(f"{f.name}: {_py_type(f)} = {_default(f)}", 1)
-        w(f'"""{f.doc}"""', 1)
+        w(_doc(f.doc), 1)
     w()
     w(f"NAME: ClassVar[str] = {_q(msg.name)}", 1)
     w(f"DOC: ClassVar[str] = {_q(msg.doc)}", 1)
@@ -317,9 +323,9 @@ def _emit_message(w: _Writer, msg: MessageDecl) -> None:
     _emit_pack(w, msg, implicit=False)
     w()
     w("@classmethod", 1)
-    w(f"def _unpack(cls, v: int) -> {msg.name}:", 1)
+    w(f"def _unpack(_cls, _v: int) -> {msg.name}:", 1)
     kwargs = _emit_unpack(w, msg, implicit=False)
-    w(f"return cls({', '.join(f'{k}={k}' for k in kwargs)})", 2)
+    w(f"return _cls({', '.join(f'{k}=_f_{k}' for k in kwargs)})", 2)
     implicit = msg.implicit_fields
     if implicit:
         w()
@@ -367,12 +373,10 @@ def _emit_decode(w: _Writer, msg: MessageDecl, fmt: str | None) -> None:
         doc = doc[:-1] + "; implicit fields are known to the caller and covered by the check."
     w(f'"""{doc}"""', 2)
     w("data = bytes(data)", 2)
-    w("n = len(data)", 2)
-    w("check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)", 2)
-    if fmt:
-        names = [f.name for f in msg.wire_fields]
-        w(f"{', '.join(names)}, = cls._STRUCT.unpack(data)", 2)
-        w(f"return cls({', '.join(f'{k}={k}' for k in names)})", 2)
+    w("_n = len(data)", 2)  # locals start with `_`: no implicit field (a keyword argument) is named so
+    w("check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)", 2)
+    if fmt:  # the wire fields are the dataclass fields, in order
+        w("return cls(*cls._STRUCT.unpack(data))", 2)
         return
     payload = msg.bytes_field
     cs = msg.checksum
@@ -382,34 +386,34 @@ def _emit_decode(w: _Writer, msg: MessageDecl, fmt: str | None) -> None:
         for f in implicit:
             w(f"if {f.name} is None:", 2)
             w(f"raise TypeError({_q(msg.name + '.decode needs ' + f.name + '=: it is covered by the check but not sent')})", 3)
-        w(f"proto = cls({', '.join(f'{f.name}={f.name}' for f in implicit)})", 2)
-        w(f"prefix = proto._pack_implicit().to_bytes({I}, 'little')", 2)
-    prefix = "prefix + " if implicit else ""
+        w(f"_proto = cls({', '.join(f'{f.name}={f.name}' for f in implicit)})", 2)
+        w(f"_prefix = _proto._pack_implicit().to_bytes({I}, 'little')", 2)
+    prefix = "_prefix + " if implicit else ""
     if payload is None:
-        w(f"body = data[:{F}]", 2)
+        w(f"_body = data[:{F}]", 2)
         if cs is not None:
-            w(f"crc_bytes = data[{F}:]", 2)
+            w(f"_crc_bytes = data[{F}:]", 2)
     else:
         assert isinstance(payload.type, BytesType)
         if payload.type.count_field is not None:
             counter = next(f for f in msg.fields if f.name == payload.type.count_field)
-            w(f"length = (int.from_bytes(data[:{F}], 'little') >> {counter.bit_offset}) & {hex((1 << counter.bit_width) - 1)}", 2)
-            w(f"expected = {F} + length + ({_check_width_expr(msg, 'length')})  # what the length field says", 2)
-            w("check_length(cls.NAME, n, expected, expected)", 2)
-            w(f"payload_len = length", 2)
+            w(f"_length = (int.from_bytes(data[:{F}], 'little') >> {counter.bit_offset}) & {hex((1 << counter.bit_width) - 1)}", 2)
+            w(f"_expected = {F} + _length + ({_check_width_expr(msg, '_length')})  # what the length field says", 2)
+            w("check_length(cls.NAME, _n, _expected, _expected)", 2)
+            w(f"_payload_len = _length", 2)
         else:
-            w(f"payload_len = cls._payload_length(n)", 2)
-        w(f"body = data[:{F} + payload_len]", 2)
+            w(f"_payload_len = cls._payload_length(_n)", 2)
+        w(f"_body = data[:{F} + _payload_len]", 2)
         if cs is not None:
-            w(f"crc_bytes = data[{F} + payload_len:]", 2)
+            w(f"_crc_bytes = data[{F} + _payload_len:]", 2)
     if cs is not None:
-        w(f"{_check_name(cs)}.verify(cls.NAME, {prefix}body, crc_bytes)", 2)
-    w(f"out = cls._unpack(int.from_bytes(body[:{F}], 'little'))", 2)
+        w(f"{_check_name(cs)}.verify(cls.NAME, {prefix}_body, _crc_bytes)", 2)
+    w(f"_out = cls._unpack(int.from_bytes(_body[:{F}], 'little'))", 2)
     for f in implicit:
-        w(f"out.{f.name} = {f.name}", 2)
+        w(f"_out.{f.name} = {f.name}", 2)
     if payload is not None:
-        w(f"out.{payload.name} = body[{F}:]", 2)
-    w("return out", 2)
+        w(f"_out.{payload.name} = _body[{F}:]", 2)
+    w("return _out", 2)
     if payload is not None and isinstance(payload.type, BytesType) and payload.type.count_field is None:
         w()
         w("@staticmethod", 1)
@@ -418,11 +422,11 @@ def _emit_decode(w: _Writer, msg: MessageDecl, fmt: str | None) -> None:
         if cs is None:
             w(f"return n - {F}", 2)
         else:
-            for tier in cs.tiers:
+            for index, tier in enumerate(cs.tiers):
                 tw = tier.width // 8
                 cond = f"p >= 0" + (f" and {I + F} + p <= {tier.max_covered}" if tier.max_covered is not None else "")
-                prev = [t for t in cs.tiers if t.max_covered is not None and t is not tier]
-                if tier.max_covered is None and prev:
+                prev = [t for t in cs.tiers[:index] if t.max_covered is not None]  # the tiers chosen before this one
+                if prev:
                     cond += f" and {I + F} + p > {max(t.max_covered for t in prev if t.max_covered is not None)}"
                 w(f"p = n - {F} - {tw}", 2)
                 w(f"if {cond}:", 2)
@@ -474,7 +478,7 @@ def _emit_node(w: _Writer, node: NodeDecl, schema: Schema) -> None:
         w(f"MailboxInfo({_q(m.direction)}, {m.number}, {m.message.name}, {m.size}, {m.rate_hz!r}, {_q(m.doc)}),", 2)
     w("),", 1)
     w(")")
-    w(f'"""{node.doc}"""')
+    w(_doc(node.doc))
     w()
 
 
@@ -482,7 +486,7 @@ def emit_module(schema: Schema) -> str:
     """Source of one generated module."""
     w = _Writer()
     w(banner(schema))
-    w(f'"""{schema.doc}"""')
+    w(_doc(schema.doc))
     w()
     w("from __future__ import annotations")
     w()
@@ -509,7 +513,7 @@ def emit_module(schema: Schema) -> str:
     w()
     for c in schema.consts.values():
         w(f"{c.name} = {c.value}")
-        w(f'"""{c.doc}"""')
+        w(_doc(c.doc))
     w()
     for cs in schema.all_checksums():
         for tier in cs.tiers:
@@ -520,11 +524,11 @@ def emit_module(schema: Schema) -> str:
     w()
     for e in schema.enums.values():
         w(f"class {e.name}(enum.IntEnum):")
-        w(f'"""{e.doc}"""', 1)
+        w(_doc(e.doc), 1)
         w()
         for m in e.members:
             w(f"{m.name} = {m.value}", 1)
-            w(f'"""{m.doc}"""', 1)
+            w(_doc(m.doc), 1)
         w()
         w()
     for msg in _ordered_messages(schema):

@@ -6,6 +6,8 @@ lark or Python traceback for a bad schema.
 
 from __future__ import annotations
 
+import keyword
+import math
 import re
 from dataclasses import dataclass
 from importlib.resources import files
@@ -39,6 +41,46 @@ _GRAMMAR = files("urb_codegen").joinpath("grammar.lark").read_text(encoding="utf
 _PARSER = Lark(_GRAMMAR, parser="lalr", propagate_positions=True, maybe_placeholders=False)
 
 _INT_RE = re.compile(r"^([ui])([0-9]+)$")
+
+# Names the generated code cannot use. Python: keywords, and what a generated message class or module
+# already binds (the Message API, class-body helpers, the runtime imports). C: identifiers starting with
+# `_` are the implementation's (`__GNUC__`, `_Bool`; and a leading `_` marks Python's generated helpers
+# such as `_pack`), and the macros of the headers the codecs include (`SIZE_MAX`, `EOF`).
+_PY_KEYWORDS = frozenset(keyword.kwlist)
+_PY_MESSAGE_ATTRS = frozenset(
+    "NAME DOC FINGERPRINT LAYOUT MIN_SIZE MAX_SIZE SIZE FIELDS encode decode to_dict engineering "
+    "raw_from_engineering field struct FieldInfo ClassVar".split()
+)
+_PY_MODULE_NAMES = frozenset(
+    "enum struct dataclass field ClassVar EncodeError FieldInfo FrameCheck MailboxInfo Message NodeInfo "
+    "OutOfRangeError TooLongError TooShortError ChecksumError DecodeError check_bool check_bytes check_enum "
+    "check_int check_length check_list decode_enum make_crc sign_extend MESSAGES NODES annotations".split()
+)
+_C_MACRO_RE = re.compile(
+    r"^(U?INT(8|16|32|64|_LEAST(8|16|32|64)|_FAST(8|16|32|64)|PTR|MAX)_(MIN|MAX|C)"
+    r"|(SIZE|PTRDIFF|SIG_ATOMIC|WCHAR|WINT)_(MIN|MAX)|EOF|BUFSIZ|FILENAME_MAX|FOPEN_MAX|TMP_MAX|L_tmpnam"
+    r"|SEEK_(SET|CUR|END)|stdin|stdout|stderr|offsetof)$"
+)
+# Schema names become C files urb_<name>.[ch] next to the runtime, and Python modules in one package.
+_RESERVED_SCHEMAS = frozenset("runtime urb_runtime test_support urb_test_support".split())
+
+
+def _reserved_why(name: str, python_names: frozenset[str]) -> str | None:
+    """Why the generated C or Python cannot use `name`, or None when it can."""
+    if name in _PY_KEYWORDS:
+        return "is a Python keyword"
+    if name.startswith("_"):
+        return "starts with '_' (reserved in C, and for the generated Python helpers)"
+    if name in python_names:
+        return "is a name the generated Python already uses"
+    if _C_MACRO_RE.match(name):
+        return "is a macro of the C headers the codecs include"
+    return None
+
+
+def node_ident(name: str) -> str:
+    """Python module-level name of a node: `MotorDriver` -> `MOTOR_DRIVER`."""
+    return re.sub(r"(?<!^)(?=[A-Z])", "_", name).upper()
 
 _TOKEN_HINTS = {
     "STRING": 'every item needs a documentation string in double quotes, e.g. "what this is"',
@@ -79,9 +121,14 @@ def _syntax_error(path: Path, source: str, exc: UnexpectedInput) -> SchemaError:
     line = getattr(exc, "line", 1) or 1
     column = getattr(exc, "column", 1) or 1
     if isinstance(exc, UnexpectedEOF) or (isinstance(exc, UnexpectedToken) and exc.token.type == "$END"):
+        if not re.sub(r"#[^\n]*", "", source).strip():
+            return SchemaError(Location(path, 1, 1), "empty schema file", 'start it with `schema NAME "doc"`')
         return SchemaError(Location(path, *_end_of(source)), "unexpected end of file", "a block is not closed: add `}`")
     if isinstance(exc, UnexpectedCharacters):
         ch = exc.char
+        if ch == '"':
+            return SchemaError(Location(path, line, column), "unterminated string",
+                               'close the string with `"` on the same line (write \\" for a quote inside it)')
         return SchemaError(
             Location(path, line, column),
             f"unexpected character {ch!r}",
@@ -179,6 +226,10 @@ class _Builder:
 
     def declare(self, name_tok: Token) -> bool:
         name = str(name_tok)
+        why = _reserved_why(name, _PY_MODULE_NAMES)
+        if why is not None:
+            self.err(name_tok, f"name '{name}' {why}", "rename it; generated C and Python name their items after the schema")
+            return False
         if name in self._names or self._lookup_imported(name) is not None:
             where = self._names.get(name)
             self.err(
@@ -210,6 +261,13 @@ class _Builder:
         decl = tree.children[0]
         assert isinstance(decl, Tree)
         self.schema.doc = _doc(decl.children[1])
+        name_tok = decl.children[0]
+        assert isinstance(name_tok, Token)
+        why = _reserved_why(str(name_tok), _PY_MODULE_NAMES | {"urb_msgs"})
+        if why is None and str(name_tok) in _RESERVED_SCHEMAS:
+            why = "would overwrite the generated runtime files"
+        if why is not None:
+            self.err(name_tok, f"schema name '{name_tok}' {why}", "rename the schema (it names the generated C files and Python module)")
         items = [c for c in tree.children[1:] if isinstance(c, Tree)]
         # Declare messages first so fields may refer to messages declared later.
         pending: list[tuple[Tree[Token], MessageDecl]] = []
@@ -244,6 +302,9 @@ class _Builder:
     def build_const(self, item: Tree[Token]) -> None:
         name_tok, value, doc = item.children
         assert isinstance(name_tok, Token)
+        if _int(value) > 0xFFFFFFFF:
+            self.err(value, f"constant {name_tok} = {_int(value)} does not fit in 32 bits", "use a value up to 0xFFFFFFFF")
+            return
         if self.declare(name_tok):
             self.schema.consts[str(name_tok)] = ConstDecl(str(name_tok), _int(value), _doc(doc), _loc(self.path, name_tok))
 
@@ -255,6 +316,8 @@ class _Builder:
         for i, tnode in enumerate(tier_nodes):
             tname = tnode.children[0]
             assert isinstance(tname, Token)
+            if any(t.name == str(tname) for t in tiers):
+                self.err(tname, f"duplicate tier '{tname}' in checksum '{name_tok}'", "give each tier its own name")
             params: dict[str, int] = {}
             for p in tnode.children[1:]:
                 assert isinstance(p, Tree)
@@ -281,6 +344,10 @@ class _Builder:
                 self.err(tname, "the last tier must cover frames of any length", "remove `max_covered` from the last tier")
             if not last and max_cov is None:
                 self.err(tname, "only the last tier may leave `max_covered` out", "add `max_covered <bytes>` to this tier")
+            below = [t.max_covered for t in tiers if t.max_covered is not None]
+            if max_cov is not None and below and max_cov <= max(below):
+                self.err(tname, f"tier '{tname}' would never be used: max_covered {max_cov} is not above the earlier tier's {max(below)}",
+                         "list tiers from the shortest frames to the longest, with growing `max_covered`")
             tiers.append(CrcTier(str(tname), width, params.get("poly", 1), params.get("init", 0), params.get("xorout", 0), max_cov))
         if self.declare(name_tok):
             self.schema.checksums[str(name_tok)] = ChecksumDecl(
@@ -322,6 +389,11 @@ class _Builder:
             mname, mval, mdoc = m.children
             assert isinstance(mname, Token)
             value = _int(mval)
+            why = _reserved_why(str(mname), frozenset({"mro"}))
+            if why is not None:
+                self.err(mname, f"enum member '{mname}' {why}", "rename the member")
+            if value > 0x7FFFFFFF:
+                self.err(mname, f"value {value} does not fit in a C enum (an int)", "use values up to 0x7FFFFFFF")
             if str(mname) in seen_names:
                 self.err(mname, f"duplicate enum member '{mname}'", "give every member its own name")
             if value in seen_values:
@@ -405,6 +477,10 @@ class _Builder:
             if name != "_" and name in seen:
                 self.err(name_tok, f"duplicate field '{name}' (first at {seen[name]})", "rename one of the fields")
                 continue
+            why = None if name == "_" else _reserved_why(name, _PY_MESSAGE_ATTRS)
+            if why is not None:
+                self.err(name_tok, f"field name '{name}' {why}", "rename the field (it becomes a C struct member and a Python attribute)")
+                continue
             seen[name] = _loc(self.path, name_tok)
             ftype = self.resolve_type(tnode, msg)
             opts = fnode.children[2:-1]
@@ -412,9 +488,21 @@ class _Builder:
             if ftype is None:
                 continue
             f = Field(name, ftype, doc, _loc(self.path, name_tok))
+            given: set[str] = set()
             for opt in opts:
                 assert isinstance(opt, Tree)
+                if opt.data in given:
+                    self.err(opt, f"option given twice on field '{name}'", "keep one of them")
+                    continue
+                given.add(opt.data)
+                if f.is_padding and opt.data not in ("opt_implicit", "opt_position"):
+                    self.err(opt, "a reserved field `_` is always sent as zero and takes no value, range, unit or scaling",
+                             "remove the option, or give the field a name")
+                    continue
                 self.apply_option(f, opt)
+            if f.fixed is not None and f.range is not None and not f.range[0] <= f.fixed <= f.range[1]:
+                self.err(f.loc, f"fixed value {f.fixed} of '{name}' is outside its range {f.range[0]}..{f.range[1]}",
+                         "drop the range (a fixed field holds one value) or fix the value")
             msg.fields.append(f)
         self.check_message_shape(msg)
 
@@ -431,6 +519,10 @@ class _Builder:
                 return
             value = self.fixed_value(val, f)
             if value is None:
+                return
+            if isinstance(f.type, EnumDecl) and all(m.value != value for m in f.type.members):
+                self.err(opt, f"fixed value {value} is not a member of enum {f.type.name}",
+                         "use one of: " + ", ".join(m.name for m in f.type.members))
                 return
             it = f.int_type
             if not it.min <= value <= it.max:
@@ -458,10 +550,14 @@ class _Builder:
                 f.unit = _unquote(str(tok))
             elif kind == "opt_scale":
                 f.scale = float(str(tok))
-                if f.scale == 0.0:
+                if not math.isfinite(f.scale):
+                    self.err(opt, f"scale {tok} is not a finite number", "write the scale as a number such as 0.001")
+                elif f.scale == 0.0:
                     self.err(opt, "scale 0 loses every value", "use a non-zero scale")
             else:
                 f.offset = float(str(tok))
+                if not math.isfinite(f.offset):
+                    self.err(opt, f"offset {tok} is not a finite number", "write the offset as a number such as -40")
         elif kind == "opt_covers":
             first, last = (str(c) for c in opt.children)
             if not isinstance(f.type, CheckType):
@@ -514,6 +610,10 @@ class _Builder:
                              "declare the length field (an unsigned integer) before the payload")
                 elif not isinstance(counter.type, IntType) or counter.type.signed or counter.type.is_bool:
                     self.err(f.loc, f"length field '{cname}' must be an unsigned integer", "declare it as u8 (or uN)")
+                elif counter.is_padding or counter.fixed is not None or counter.implicit:
+                    what = "reserved" if counter.is_padding else "fixed" if counter.fixed is not None else "implicit"
+                    self.err(f.loc, f"length field '{cname}' is {what}, so it cannot carry the payload length",
+                             "count the payload with a named, sent field such as `n: u8 in 0..N`")
                 elif counter.range is not None and counter.range[1] > f.type.max_len:
                     self.err(f.loc, f"length field '{cname}' allows {counter.range[1]} but the payload holds {f.type.max_len}",
                              "make the range of the length field match the payload bound")
@@ -541,6 +641,10 @@ class _Builder:
             if i1 >= idx:
                 self.err(f.loc, "a check cannot cover itself", f"end the range at '{names[idx - 1]}'")
         implicit = [f for f in fields if f.implicit]
+        for f in implicit:
+            if f.name in ("cls", "data"):
+                self.err(f.loc, f"an implicit field cannot be named '{f.name}': decode() takes it as a keyword argument next to `{f.name}`",
+                         "rename the field")
         if implicit:
             if not checks:
                 self.err(implicit[0].loc, "an implicit field only matters to a check, and this message has none",
@@ -650,6 +754,9 @@ class _Builder:
                 rate_tok = rest[0]
                 assert isinstance(rate_tok, Token)
                 rate = float(str(rate_tok))
+                if not (math.isfinite(rate) and rate > 0):
+                    self.err(rate_tok, f"rate {rate_tok} is not a positive number of Hz", "write the refresh rate in Hz, e.g. `rate 100`, or leave it out")
+                    rate = None
             mdoc = _doc(rest[-1])
             number = _int(num_val)
             direction = str(dir_tok)
@@ -696,7 +803,14 @@ class _Builder:
             for direction in ("outbox", "inbox"):
                 if not any(m.direction == direction and m.number == 0 for m in mailboxes):
                     self.err(name_tok, f"a bridge must declare its {direction} 0", f"add `{direction} 0 <Message> \"doc\"`")
-        if self.declare(name_tok):
+        ident = node_ident(str(name_tok))
+        clash = next((n for n in [*self._names, *self.schema.nodes.values()]
+                      if (n.name if isinstance(n, NodeDecl) else n) == ident or
+                      (isinstance(n, NodeDecl) and node_ident(n.name) == ident)), None)
+        if ident in _PY_MODULE_NAMES or self._lookup_imported(ident) is not None or clash is not None:
+            self.err(name_tok, f"node {name_tok} is published in Python as {ident}, a name already in use",
+                     "rename the node or the item it clashes with")
+        elif self.declare(name_tok):
             self.schema.nodes[str(name_tok)] = NodeDecl(str(name_tok), kind, class_id, _doc(doc), _loc(self.path, name_tok), mailboxes, self.raw.name)
 
 

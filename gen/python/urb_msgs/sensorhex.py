@@ -103,11 +103,11 @@ class MotorFeedback(Message):
         return v
 
     @classmethod
-    def _unpack(cls, v: int) -> MotorFeedback:
-        encoder = (v >> 0) & 0xffff
-        current = sign_extend((v >> 16) & 0xffff, 16)
-        voltage = sign_extend((v >> 32) & 0xffff, 16)
-        return cls(encoder=encoder, current=current, voltage=voltage)
+    def _unpack(_cls, _v: int) -> MotorFeedback:
+        _f_encoder = (_v >> 0) & 0xffff
+        _f_current = sign_extend((_v >> 16) & 0xffff, 16)
+        _f_voltage = sign_extend((_v >> 32) & 0xffff, 16)
+        return _cls(encoder=_f_encoder, current=_f_current, voltage=_f_voltage)
 
     def encode(self) -> bytes:
         """The frame for this message (6..6 bytes); EncodeError on a bad value."""
@@ -117,10 +117,9 @@ class MotorFeedback(Message):
     def decode(cls, data: bytes | bytearray | memoryview) -> MotorFeedback:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
-        n = len(data)
-        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
-        encoder, current, voltage, = cls._STRUCT.unpack(data)
-        return cls(encoder=encoder, current=current, voltage=voltage)
+        _n = len(data)
+        check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)
+        return cls(*cls._STRUCT.unpack(data))
 
 
 @dataclass(slots=True)
@@ -148,9 +147,9 @@ class MotorCommand(Message):
         return v
 
     @classmethod
-    def _unpack(cls, v: int) -> MotorCommand:
-        voltage = sign_extend((v >> 0) & 0xffff, 16)
-        return cls(voltage=voltage)
+    def _unpack(_cls, _v: int) -> MotorCommand:
+        _f_voltage = sign_extend((_v >> 0) & 0xffff, 16)
+        return _cls(voltage=_f_voltage)
 
     def encode(self) -> bytes:
         """The frame for this message (2..2 bytes); EncodeError on a bad value."""
@@ -160,10 +159,9 @@ class MotorCommand(Message):
     def decode(cls, data: bytes | bytearray | memoryview) -> MotorCommand:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
-        n = len(data)
-        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
-        voltage, = cls._STRUCT.unpack(data)
-        return cls(voltage=voltage)
+        _n = len(data)
+        check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)
+        return cls(*cls._STRUCT.unpack(data))
 
 
 @dataclass(slots=True)
@@ -210,16 +208,16 @@ class MotorStatus(Message):
         return v
 
     @classmethod
-    def _unpack(cls, v: int) -> MotorStatus:
-        case_temp = sign_extend((v >> 0) & 0xffff, 16)
-        mode = decode_enum(MotorMode, (v >> 16) & 0x3, cls.NAME, 'mode')
-        hall = bool((v >> 18) & 0x1)
-        overcurrent = bool((v >> 19) & 0x1)
-        overtemp = bool((v >> 20) & 0x1)
-        if (v >> 21) & 0x7:
-            raise OutOfRangeError(cls.NAME, 'reserved bits 21..23 are not zero')
-        missed_commands = (v >> 24) & 0xff
-        return cls(case_temp=case_temp, mode=mode, hall=hall, overcurrent=overcurrent, overtemp=overtemp, missed_commands=missed_commands)
+    def _unpack(_cls, _v: int) -> MotorStatus:
+        _f_case_temp = sign_extend((_v >> 0) & 0xffff, 16)
+        _f_mode = decode_enum(MotorMode, (_v >> 16) & 0x3, _cls.NAME, 'mode')
+        _f_hall = bool((_v >> 18) & 0x1)
+        _f_overcurrent = bool((_v >> 19) & 0x1)
+        _f_overtemp = bool((_v >> 20) & 0x1)
+        if (_v >> 21) & 0x7:
+            raise OutOfRangeError(_cls.NAME, 'reserved bits 21..23 are not zero')
+        _f_missed_commands = (_v >> 24) & 0xff
+        return _cls(case_temp=_f_case_temp, mode=_f_mode, hall=_f_hall, overcurrent=_f_overcurrent, overtemp=_f_overtemp, missed_commands=_f_missed_commands)
 
     def encode(self) -> bytes:
         """The frame for this message (4..4 bytes); EncodeError on a bad value."""
@@ -230,11 +228,11 @@ class MotorStatus(Message):
     def decode(cls, data: bytes | bytearray | memoryview) -> MotorStatus:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
-        n = len(data)
-        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
-        body = data[:4]
-        out = cls._unpack(int.from_bytes(body[:4], 'little'))
-        return out
+        _n = len(data)
+        check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)
+        _body = data[:4]
+        _out = cls._unpack(int.from_bytes(_body[:4], 'little'))
+        return _out
 
 
 @dataclass(slots=True)
@@ -277,15 +275,15 @@ class MotorConfig(Message):
         return v
 
     @classmethod
-    def _unpack(cls, v: int) -> MotorConfig:
-        mode = decode_enum(MotorMode, (v >> 0) & 0x3, cls.NAME, 'mode')
-        if (v >> 2) & 0x3f:
-            raise OutOfRangeError(cls.NAME, 'reserved bits 2..7 are not zero')
-        kp = (v >> 8) & 0xffff
-        kd = (v >> 24) & 0xffff
-        target = sign_extend((v >> 40) & 0xffffffff, 32)
-        voltage_limit = (v >> 72) & 0xffff
-        return cls(mode=mode, kp=kp, kd=kd, target=target, voltage_limit=voltage_limit)
+    def _unpack(_cls, _v: int) -> MotorConfig:
+        _f_mode = decode_enum(MotorMode, (_v >> 0) & 0x3, _cls.NAME, 'mode')
+        if (_v >> 2) & 0x3f:
+            raise OutOfRangeError(_cls.NAME, 'reserved bits 2..7 are not zero')
+        _f_kp = (_v >> 8) & 0xffff
+        _f_kd = (_v >> 24) & 0xffff
+        _f_target = sign_extend((_v >> 40) & 0xffffffff, 32)
+        _f_voltage_limit = (_v >> 72) & 0xffff
+        return _cls(mode=_f_mode, kp=_f_kp, kd=_f_kd, target=_f_target, voltage_limit=_f_voltage_limit)
 
     def encode(self) -> bytes:
         """The frame for this message (11..11 bytes); EncodeError on a bad value."""
@@ -296,11 +294,11 @@ class MotorConfig(Message):
     def decode(cls, data: bytes | bytearray | memoryview) -> MotorConfig:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
-        n = len(data)
-        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
-        body = data[:11]
-        out = cls._unpack(int.from_bytes(body[:11], 'little'))
-        return out
+        _n = len(data)
+        check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)
+        _body = data[:11]
+        _out = cls._unpack(int.from_bytes(_body[:11], 'little'))
+        return _out
 
 
 @dataclass(slots=True)
@@ -343,15 +341,15 @@ class BatteryPack(Message):
         return v
 
     @classmethod
-    def _unpack(cls, v: int) -> BatteryPack:
-        voltage = (v >> 0) & 0xffff
-        current = sign_extend((v >> 16) & 0xffff, 16)
-        charge = (v >> 32) & 0x7f
-        if not 0 <= charge <= 100:
-            raise OutOfRangeError(cls.NAME, f'charge = {charge} is outside 0..100')
-        present = bool((v >> 39) & 0x1)
-        temp = sign_extend((v >> 40) & 0xff, 8)
-        return cls(voltage=voltage, current=current, charge=charge, present=present, temp=temp)
+    def _unpack(_cls, _v: int) -> BatteryPack:
+        _f_voltage = (_v >> 0) & 0xffff
+        _f_current = sign_extend((_v >> 16) & 0xffff, 16)
+        _f_charge = (_v >> 32) & 0x7f
+        if not 0 <= _f_charge <= 100:
+            raise OutOfRangeError(_cls.NAME, f'charge = {_f_charge} is outside 0..100')
+        _f_present = bool((_v >> 39) & 0x1)
+        _f_temp = sign_extend((_v >> 40) & 0xff, 8)
+        return _cls(voltage=_f_voltage, current=_f_current, charge=_f_charge, present=_f_present, temp=_f_temp)
 
     def encode(self) -> bytes:
         """The frame for this message (6..6 bytes); EncodeError on a bad value."""
@@ -362,11 +360,11 @@ class BatteryPack(Message):
     def decode(cls, data: bytes | bytearray | memoryview) -> BatteryPack:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
-        n = len(data)
-        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
-        body = data[:6]
-        out = cls._unpack(int.from_bytes(body[:6], 'little'))
-        return out
+        _n = len(data)
+        check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)
+        _body = data[:6]
+        _out = cls._unpack(int.from_bytes(_body[:6], 'little'))
+        return _out
 
 
 @dataclass(slots=True)
@@ -404,13 +402,13 @@ class BatteryStatus(Message):
         return v
 
     @classmethod
-    def _unpack(cls, v: int) -> BatteryStatus:
-        packs = [BatteryPack._unpack((v >> (0 + 48 * i)) & 0xffffffffffff) for i in range(3)]
-        low = bool((v >> 144) & 0x1)
-        charging = bool((v >> 145) & 0x1)
-        if (v >> 146) & 0x3f:
-            raise OutOfRangeError(cls.NAME, 'reserved bits 146..151 are not zero')
-        return cls(packs=packs, low=low, charging=charging)
+    def _unpack(_cls, _v: int) -> BatteryStatus:
+        _f_packs = [BatteryPack._unpack((_v >> (0 + 48 * _i)) & 0xffffffffffff) for _i in range(3)]
+        _f_low = bool((_v >> 144) & 0x1)
+        _f_charging = bool((_v >> 145) & 0x1)
+        if (_v >> 146) & 0x3f:
+            raise OutOfRangeError(_cls.NAME, 'reserved bits 146..151 are not zero')
+        return _cls(packs=_f_packs, low=_f_low, charging=_f_charging)
 
     def encode(self) -> bytes:
         """The frame for this message (19..19 bytes); EncodeError on a bad value."""
@@ -421,11 +419,11 @@ class BatteryStatus(Message):
     def decode(cls, data: bytes | bytearray | memoryview) -> BatteryStatus:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
-        n = len(data)
-        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
-        body = data[:19]
-        out = cls._unpack(int.from_bytes(body[:19], 'little'))
-        return out
+        _n = len(data)
+        check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)
+        _body = data[:19]
+        _out = cls._unpack(int.from_bytes(_body[:19], 'little'))
+        return _out
 
 
 @dataclass(slots=True)
@@ -466,12 +464,12 @@ class ImuSample(Message):
         return v
 
     @classmethod
-    def _unpack(cls, v: int) -> ImuSample:
-        accel = [sign_extend((v >> (0 + 16 * i)) & 0xffff, 16) for i in range(3)]
-        gyro = [sign_extend((v >> (48 + 16 * i)) & 0xffff, 16) for i in range(3)]
-        temp = sign_extend((v >> 96) & 0xff, 8)
-        sample = (v >> 104) & 0xff
-        return cls(accel=accel, gyro=gyro, temp=temp, sample=sample)
+    def _unpack(_cls, _v: int) -> ImuSample:
+        _f_accel = [sign_extend((_v >> (0 + 16 * _i)) & 0xffff, 16) for _i in range(3)]
+        _f_gyro = [sign_extend((_v >> (48 + 16 * _i)) & 0xffff, 16) for _i in range(3)]
+        _f_temp = sign_extend((_v >> 96) & 0xff, 8)
+        _f_sample = (_v >> 104) & 0xff
+        return _cls(accel=_f_accel, gyro=_f_gyro, temp=_f_temp, sample=_f_sample)
 
     def encode(self) -> bytes:
         """The frame for this message (14..14 bytes); EncodeError on a bad value."""
@@ -482,11 +480,11 @@ class ImuSample(Message):
     def decode(cls, data: bytes | bytearray | memoryview) -> ImuSample:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
-        n = len(data)
-        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
-        body = data[:14]
-        out = cls._unpack(int.from_bytes(body[:14], 'little'))
-        return out
+        _n = len(data)
+        check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)
+        _body = data[:14]
+        _out = cls._unpack(int.from_bytes(_body[:14], 'little'))
+        return _out
 
 
 @dataclass(slots=True)
@@ -521,13 +519,13 @@ class IrRange(Message):
         return v
 
     @classmethod
-    def _unpack(cls, v: int) -> IrRange:
-        distance = (v >> 0) & 0xffff
-        strength = (v >> 16) & 0xff
-        valid = bool((v >> 24) & 0x1)
-        if (v >> 25) & 0x7f:
-            raise OutOfRangeError(cls.NAME, 'reserved bits 25..31 are not zero')
-        return cls(distance=distance, strength=strength, valid=valid)
+    def _unpack(_cls, _v: int) -> IrRange:
+        _f_distance = (_v >> 0) & 0xffff
+        _f_strength = (_v >> 16) & 0xff
+        _f_valid = bool((_v >> 24) & 0x1)
+        if (_v >> 25) & 0x7f:
+            raise OutOfRangeError(_cls.NAME, 'reserved bits 25..31 are not zero')
+        return _cls(distance=_f_distance, strength=_f_strength, valid=_f_valid)
 
     def encode(self) -> bytes:
         """The frame for this message (4..4 bytes); EncodeError on a bad value."""
@@ -538,11 +536,11 @@ class IrRange(Message):
     def decode(cls, data: bytes | bytearray | memoryview) -> IrRange:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
-        n = len(data)
-        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
-        body = data[:4]
-        out = cls._unpack(int.from_bytes(body[:4], 'little'))
-        return out
+        _n = len(data)
+        check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)
+        _body = data[:4]
+        _out = cls._unpack(int.from_bytes(_body[:4], 'little'))
+        return _out
 
 
 MOTOR_DRIVER = NodeInfo(

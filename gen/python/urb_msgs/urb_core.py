@@ -174,18 +174,18 @@ class UplinkReadRequest(Message):
         return v
 
     @classmethod
-    def _unpack(cls, v: int) -> UplinkReadRequest:
-        if (v >> 0) & 0x1 != 1:
-            raise OutOfRangeError(cls.NAME, f'read = {(v >> 0) & 0x1}, expected 1')
-        address = (v >> 1) & 0x7f
-        mailbox = (v >> 8) & 0x7
-        if (v >> 11) & 0x1:
-            raise OutOfRangeError(cls.NAME, 'reserved bits 11..11 are not zero')
-        seq = (v >> 12) & 0xf
-        length = (v >> 16) & 0xff
-        if not 1 <= length <= 32:
-            raise OutOfRangeError(cls.NAME, f'length = {length} is outside 1..32')
-        return cls(address=address, mailbox=mailbox, seq=seq, length=length)
+    def _unpack(_cls, _v: int) -> UplinkReadRequest:
+        if (_v >> 0) & 0x1 != 1:
+            raise OutOfRangeError(_cls.NAME, f'read = {(_v >> 0) & 0x1}, expected 1')
+        _f_address = (_v >> 1) & 0x7f
+        _f_mailbox = (_v >> 8) & 0x7
+        if (_v >> 11) & 0x1:
+            raise OutOfRangeError(_cls.NAME, 'reserved bits 11..11 are not zero')
+        _f_seq = (_v >> 12) & 0xf
+        _f_length = (_v >> 16) & 0xff
+        if not 1 <= _f_length <= 32:
+            raise OutOfRangeError(_cls.NAME, f'length = {_f_length} is outside 1..32')
+        return _cls(address=_f_address, mailbox=_f_mailbox, seq=_f_seq, length=_f_length)
 
     def encode(self) -> bytes:
         """The frame for this message (4..4 bytes); EncodeError on a bad value."""
@@ -196,13 +196,13 @@ class UplinkReadRequest(Message):
     def decode(cls, data: bytes | bytearray | memoryview) -> UplinkReadRequest:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
-        n = len(data)
-        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
-        body = data[:3]
-        crc_bytes = data[3:]
-        _link_check.verify(cls.NAME, body, crc_bytes)
-        out = cls._unpack(int.from_bytes(body[:3], 'little'))
-        return out
+        _n = len(data)
+        check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)
+        _body = data[:3]
+        _crc_bytes = data[3:]
+        _link_check.verify(cls.NAME, _body, _crc_bytes)
+        _out = cls._unpack(int.from_bytes(_body[:3], 'little'))
+        return _out
 
 
 @dataclass(slots=True)
@@ -240,18 +240,18 @@ class UplinkWriteRequest(Message):
         return v
 
     @classmethod
-    def _unpack(cls, v: int) -> UplinkWriteRequest:
-        if (v >> 0) & 0x1 != 0:
-            raise OutOfRangeError(cls.NAME, f'read = {(v >> 0) & 0x1}, expected 0')
-        address = (v >> 1) & 0x7f
-        mailbox = (v >> 8) & 0x7
-        if (v >> 11) & 0x1:
-            raise OutOfRangeError(cls.NAME, 'reserved bits 11..11 are not zero')
-        seq = (v >> 12) & 0xf
-        length = (v >> 16) & 0xff
-        if not 1 <= length <= 32:
-            raise OutOfRangeError(cls.NAME, f'length = {length} is outside 1..32')
-        return cls(address=address, mailbox=mailbox, seq=seq)
+    def _unpack(_cls, _v: int) -> UplinkWriteRequest:
+        if (_v >> 0) & 0x1 != 0:
+            raise OutOfRangeError(_cls.NAME, f'read = {(_v >> 0) & 0x1}, expected 0')
+        _f_address = (_v >> 1) & 0x7f
+        _f_mailbox = (_v >> 8) & 0x7
+        if (_v >> 11) & 0x1:
+            raise OutOfRangeError(_cls.NAME, 'reserved bits 11..11 are not zero')
+        _f_seq = (_v >> 12) & 0xf
+        _f_length = (_v >> 16) & 0xff
+        if not 1 <= _f_length <= 32:
+            raise OutOfRangeError(_cls.NAME, f'length = {_f_length} is outside 1..32')
+        return _cls(address=_f_address, mailbox=_f_mailbox, seq=_f_seq)
 
     def encode(self) -> bytes:
         """The frame for this message (4..37 bytes); EncodeError on a bad value."""
@@ -263,18 +263,18 @@ class UplinkWriteRequest(Message):
     def decode(cls, data: bytes | bytearray | memoryview) -> UplinkWriteRequest:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
-        n = len(data)
-        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
-        length = (int.from_bytes(data[:3], 'little') >> 16) & 0xff
-        expected = 3 + length + (1 if 3 + length <= 14 else 2)  # what the length field says
-        check_length(cls.NAME, n, expected, expected)
-        payload_len = length
-        body = data[:3 + payload_len]
-        crc_bytes = data[3 + payload_len:]
-        _link_check.verify(cls.NAME, body, crc_bytes)
-        out = cls._unpack(int.from_bytes(body[:3], 'little'))
-        out.data = body[3:]
-        return out
+        _n = len(data)
+        check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)
+        _length = (int.from_bytes(data[:3], 'little') >> 16) & 0xff
+        _expected = 3 + _length + (1 if 3 + _length <= 14 else 2)  # what the length field says
+        check_length(cls.NAME, _n, _expected, _expected)
+        _payload_len = _length
+        _body = data[:3 + _payload_len]
+        _crc_bytes = data[3 + _payload_len:]
+        _link_check.verify(cls.NAME, _body, _crc_bytes)
+        _out = cls._unpack(int.from_bytes(_body[:3], 'little'))
+        _out.data = _body[3:]
+        return _out
 
 
 @dataclass(slots=True)
@@ -307,10 +307,10 @@ class UplinkResponse(Message):
         return v
 
     @classmethod
-    def _unpack(cls, v: int) -> UplinkResponse:
-        seq = (v >> 0) & 0xf
-        status = decode_enum(Status, (v >> 4) & 0xf, cls.NAME, 'status')
-        return cls(seq=seq, status=status)
+    def _unpack(_cls, _v: int) -> UplinkResponse:
+        _f_seq = (_v >> 0) & 0xf
+        _f_status = decode_enum(Status, (_v >> 4) & 0xf, _cls.NAME, 'status')
+        return _cls(seq=_f_seq, status=_f_status)
 
     def encode(self) -> bytes:
         """The frame for this message (2..35 bytes); EncodeError on a bad value."""
@@ -322,15 +322,15 @@ class UplinkResponse(Message):
     def decode(cls, data: bytes | bytearray | memoryview) -> UplinkResponse:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
-        n = len(data)
-        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
-        payload_len = cls._payload_length(n)
-        body = data[:1 + payload_len]
-        crc_bytes = data[1 + payload_len:]
-        _link_check.verify(cls.NAME, body, crc_bytes)
-        out = cls._unpack(int.from_bytes(body[:1], 'little'))
-        out.data = body[1:]
-        return out
+        _n = len(data)
+        check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)
+        _payload_len = cls._payload_length(_n)
+        _body = data[:1 + _payload_len]
+        _crc_bytes = data[1 + _payload_len:]
+        _link_check.verify(cls.NAME, _body, _crc_bytes)
+        _out = cls._unpack(int.from_bytes(_body[:1], 'little'))
+        _out.data = _body[1:]
+        return _out
 
     @staticmethod
     def _payload_length(n: int) -> int:
@@ -371,12 +371,12 @@ class UsbBatchHeader(Message):
         return v
 
     @classmethod
-    def _unpack(cls, v: int) -> UsbBatchHeader:
-        frame = (v >> 0) & 0xffff
-        count = (v >> 16) & 0xff
-        if not 0 <= count <= 128:
-            raise OutOfRangeError(cls.NAME, f'count = {count} is outside 0..128')
-        return cls(frame=frame, count=count)
+    def _unpack(_cls, _v: int) -> UsbBatchHeader:
+        _f_frame = (_v >> 0) & 0xffff
+        _f_count = (_v >> 16) & 0xff
+        if not 0 <= _f_count <= 128:
+            raise OutOfRangeError(_cls.NAME, f'count = {_f_count} is outside 0..128')
+        return _cls(frame=_f_frame, count=_f_count)
 
     def encode(self) -> bytes:
         """The frame for this message (4..4 bytes); EncodeError on a bad value."""
@@ -387,13 +387,13 @@ class UsbBatchHeader(Message):
     def decode(cls, data: bytes | bytearray | memoryview) -> UsbBatchHeader:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
-        n = len(data)
-        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
-        body = data[:3]
-        crc_bytes = data[3:]
-        _link_check.verify(cls.NAME, body, crc_bytes)
-        out = cls._unpack(int.from_bytes(body[:3], 'little'))
-        return out
+        _n = len(data)
+        check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)
+        _body = data[:3]
+        _crc_bytes = data[3:]
+        _link_check.verify(cls.NAME, _body, _crc_bytes)
+        _out = cls._unpack(int.from_bytes(_body[:3], 'little'))
+        return _out
 
 
 @dataclass(slots=True)
@@ -424,12 +424,12 @@ class MailboxSelect(Message):
         return v
 
     @classmethod
-    def _unpack(cls, v: int) -> MailboxSelect:
-        mailbox = (v >> 0) & 0x7
-        if (v >> 3) & 0xf:
-            raise OutOfRangeError(cls.NAME, 'reserved bits 3..6 are not zero')
-        read = bool((v >> 7) & 0x1)
-        return cls(mailbox=mailbox, read=read)
+    def _unpack(_cls, _v: int) -> MailboxSelect:
+        _f_mailbox = (_v >> 0) & 0x7
+        if (_v >> 3) & 0xf:
+            raise OutOfRangeError(_cls.NAME, 'reserved bits 3..6 are not zero')
+        _f_read = bool((_v >> 7) & 0x1)
+        return _cls(mailbox=_f_mailbox, read=_f_read)
 
     def encode(self) -> bytes:
         """The frame for this message (1..1 bytes); EncodeError on a bad value."""
@@ -440,11 +440,11 @@ class MailboxSelect(Message):
     def decode(cls, data: bytes | bytearray | memoryview) -> MailboxSelect:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
-        n = len(data)
-        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
-        body = data[:1]
-        out = cls._unpack(int.from_bytes(body[:1], 'little'))
-        return out
+        _n = len(data)
+        check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)
+        _body = data[:1]
+        _out = cls._unpack(int.from_bytes(_body[:1], 'little'))
+        return _out
 
 
 @dataclass(slots=True)
@@ -475,9 +475,9 @@ class DownlinkWrite(Message):
         return v
 
     @classmethod
-    def _unpack(cls, v: int) -> DownlinkWrite:
-        select = MailboxSelect._unpack((v >> 0) & 0xff)
-        return cls(select=select)
+    def _unpack(_cls, _v: int) -> DownlinkWrite:
+        _f_select = MailboxSelect._unpack((_v >> 0) & 0xff)
+        return _cls(select=_f_select)
 
     def encode(self) -> bytes:
         """The frame for this message (2..35 bytes); EncodeError on a bad value."""
@@ -489,15 +489,15 @@ class DownlinkWrite(Message):
     def decode(cls, data: bytes | bytearray | memoryview) -> DownlinkWrite:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
-        n = len(data)
-        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
-        payload_len = cls._payload_length(n)
-        body = data[:1 + payload_len]
-        crc_bytes = data[1 + payload_len:]
-        _link_check.verify(cls.NAME, body, crc_bytes)
-        out = cls._unpack(int.from_bytes(body[:1], 'little'))
-        out.data = body[1:]
-        return out
+        _n = len(data)
+        check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)
+        _payload_len = cls._payload_length(_n)
+        _body = data[:1 + _payload_len]
+        _crc_bytes = data[1 + _payload_len:]
+        _link_check.verify(cls.NAME, _body, _crc_bytes)
+        _out = cls._unpack(int.from_bytes(_body[:1], 'little'))
+        _out.data = _body[1:]
+        return _out
 
     @staticmethod
     def _payload_length(n: int) -> int:
@@ -537,9 +537,9 @@ class DownlinkReadSelect(Message):
         return v
 
     @classmethod
-    def _unpack(cls, v: int) -> DownlinkReadSelect:
-        select = MailboxSelect._unpack((v >> 0) & 0xff)
-        return cls(select=select)
+    def _unpack(_cls, _v: int) -> DownlinkReadSelect:
+        _f_select = MailboxSelect._unpack((_v >> 0) & 0xff)
+        return _cls(select=_f_select)
 
     def encode(self) -> bytes:
         """The frame for this message (1..1 bytes); EncodeError on a bad value."""
@@ -550,11 +550,11 @@ class DownlinkReadSelect(Message):
     def decode(cls, data: bytes | bytearray | memoryview) -> DownlinkReadSelect:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
-        n = len(data)
-        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
-        body = data[:1]
-        out = cls._unpack(int.from_bytes(body[:1], 'little'))
-        return out
+        _n = len(data)
+        check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)
+        _body = data[:1]
+        _out = cls._unpack(int.from_bytes(_body[:1], 'little'))
+        return _out
 
 
 @dataclass(slots=True)
@@ -582,8 +582,8 @@ class DownlinkReadResponse(Message):
         return v
 
     @classmethod
-    def _unpack(cls, v: int) -> DownlinkReadResponse:
-        return cls()
+    def _unpack(_cls, _v: int) -> DownlinkReadResponse:
+        return _cls()
 
     def _pack_implicit(self) -> int:
         v = 0
@@ -602,20 +602,20 @@ class DownlinkReadResponse(Message):
     def decode(cls, data: bytes | bytearray | memoryview, *, select: MailboxSelect | None = None) -> DownlinkReadResponse:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range); implicit fields are known to the caller and covered by the check."""
         data = bytes(data)
-        n = len(data)
-        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
+        _n = len(data)
+        check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)
         if select is None:
             raise TypeError('DownlinkReadResponse.decode needs select=: it is covered by the check but not sent')
-        proto = cls(select=select)
-        prefix = proto._pack_implicit().to_bytes(1, 'little')
-        payload_len = cls._payload_length(n)
-        body = data[:0 + payload_len]
-        crc_bytes = data[0 + payload_len:]
-        _link_check.verify(cls.NAME, prefix + body, crc_bytes)
-        out = cls._unpack(int.from_bytes(body[:0], 'little'))
-        out.select = select
-        out.data = body[0:]
-        return out
+        _proto = cls(select=select)
+        _prefix = _proto._pack_implicit().to_bytes(1, 'little')
+        _payload_len = cls._payload_length(_n)
+        _body = data[:0 + _payload_len]
+        _crc_bytes = data[0 + _payload_len:]
+        _link_check.verify(cls.NAME, _prefix + _body, _crc_bytes)
+        _out = cls._unpack(int.from_bytes(_body[:0], 'little'))
+        _out.select = select
+        _out.data = _body[0:]
+        return _out
 
     @staticmethod
     def _payload_length(n: int) -> int:
@@ -654,11 +654,11 @@ class SyncBroadcast(Message):
         return v
 
     @classmethod
-    def _unpack(cls, v: int) -> SyncBroadcast:
-        if (v >> 0) & 0xff != 165:
-            raise OutOfRangeError(cls.NAME, f'magic = {(v >> 0) & 0xff}, expected 165')
-        counter = (v >> 8) & 0xff
-        return cls(counter=counter)
+    def _unpack(_cls, _v: int) -> SyncBroadcast:
+        if (_v >> 0) & 0xff != 165:
+            raise OutOfRangeError(_cls.NAME, f'magic = {(_v >> 0) & 0xff}, expected 165')
+        _f_counter = (_v >> 8) & 0xff
+        return _cls(counter=_f_counter)
 
     def encode(self) -> bytes:
         """The frame for this message (2..2 bytes); EncodeError on a bad value."""
@@ -669,11 +669,11 @@ class SyncBroadcast(Message):
     def decode(cls, data: bytes | bytearray | memoryview) -> SyncBroadcast:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
-        n = len(data)
-        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
-        body = data[:2]
-        out = cls._unpack(int.from_bytes(body[:2], 'little'))
-        return out
+        _n = len(data)
+        check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)
+        _body = data[:2]
+        _out = cls._unpack(int.from_bytes(_body[:2], 'little'))
+        return _out
 
 
 @dataclass(slots=True)
@@ -743,25 +743,25 @@ class Identification(Message):
         return v
 
     @classmethod
-    def _unpack(cls, v: int) -> Identification:
-        class_id = (v >> 0) & 0xff
-        index = (v >> 8) & 0x3f
-        if (v >> 14) & 0x3:
-            raise OutOfRangeError(cls.NAME, 'reserved bits 14..15 are not zero')
-        if (v >> 16) & 0xff != 1:
-            raise OutOfRangeError(cls.NAME, f'protocol = {(v >> 16) & 0xff}, expected 1')
-        fingerprint = (v >> 24) & 0xffffffff
-        fw_major = (v >> 56) & 0xff
-        fw_minor = (v >> 64) & 0xff
-        fw_patch = (v >> 72) & 0xff
-        inbox_sizes = [(v >> (80 + 6 * i)) & 0x3f for i in range(8)]
-        outbox_sizes = [(v >> (128 + 6 * i)) & 0x3f for i in range(8)]
-        synced = bool((v >> 176) & 0x1)
-        fault = bool((v >> 177) & 0x1)
-        if (v >> 178) & 0x3f:
-            raise OutOfRangeError(cls.NAME, 'reserved bits 178..183 are not zero')
-        acq_time = (v >> 184) & 0xffff
-        return cls(class_id=class_id, index=index, fingerprint=fingerprint, fw_major=fw_major, fw_minor=fw_minor, fw_patch=fw_patch, inbox_sizes=inbox_sizes, outbox_sizes=outbox_sizes, synced=synced, fault=fault, acq_time=acq_time)
+    def _unpack(_cls, _v: int) -> Identification:
+        _f_class_id = (_v >> 0) & 0xff
+        _f_index = (_v >> 8) & 0x3f
+        if (_v >> 14) & 0x3:
+            raise OutOfRangeError(_cls.NAME, 'reserved bits 14..15 are not zero')
+        if (_v >> 16) & 0xff != 1:
+            raise OutOfRangeError(_cls.NAME, f'protocol = {(_v >> 16) & 0xff}, expected 1')
+        _f_fingerprint = (_v >> 24) & 0xffffffff
+        _f_fw_major = (_v >> 56) & 0xff
+        _f_fw_minor = (_v >> 64) & 0xff
+        _f_fw_patch = (_v >> 72) & 0xff
+        _f_inbox_sizes = [(_v >> (80 + 6 * _i)) & 0x3f for _i in range(8)]
+        _f_outbox_sizes = [(_v >> (128 + 6 * _i)) & 0x3f for _i in range(8)]
+        _f_synced = bool((_v >> 176) & 0x1)
+        _f_fault = bool((_v >> 177) & 0x1)
+        if (_v >> 178) & 0x3f:
+            raise OutOfRangeError(_cls.NAME, 'reserved bits 178..183 are not zero')
+        _f_acq_time = (_v >> 184) & 0xffff
+        return _cls(class_id=_f_class_id, index=_f_index, fingerprint=_f_fingerprint, fw_major=_f_fw_major, fw_minor=_f_fw_minor, fw_patch=_f_fw_patch, inbox_sizes=_f_inbox_sizes, outbox_sizes=_f_outbox_sizes, synced=_f_synced, fault=_f_fault, acq_time=_f_acq_time)
 
     def encode(self) -> bytes:
         """The frame for this message (25..25 bytes); EncodeError on a bad value."""
@@ -772,11 +772,11 @@ class Identification(Message):
     def decode(cls, data: bytes | bytearray | memoryview) -> Identification:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
-        n = len(data)
-        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
-        body = data[:25]
-        out = cls._unpack(int.from_bytes(body[:25], 'little'))
-        return out
+        _n = len(data)
+        check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)
+        _body = data[:25]
+        _out = cls._unpack(int.from_bytes(_body[:25], 'little'))
+        return _out
 
 
 @dataclass(slots=True)
@@ -815,12 +815,12 @@ class Command(Message):
         return v
 
     @classmethod
-    def _unpack(cls, v: int) -> Command:
-        opcode = decode_enum(CommandCode, (v >> 0) & 0xff, cls.NAME, 'opcode')
-        arg = (v >> 8) & 0xff
-        period_us = (v >> 16) & 0xffff
-        lead_us = (v >> 32) & 0xffff
-        return cls(opcode=opcode, arg=arg, period_us=period_us, lead_us=lead_us)
+    def _unpack(_cls, _v: int) -> Command:
+        _f_opcode = decode_enum(CommandCode, (_v >> 0) & 0xff, _cls.NAME, 'opcode')
+        _f_arg = (_v >> 8) & 0xff
+        _f_period_us = (_v >> 16) & 0xffff
+        _f_lead_us = (_v >> 32) & 0xffff
+        return _cls(opcode=_f_opcode, arg=_f_arg, period_us=_f_period_us, lead_us=_f_lead_us)
 
     def encode(self) -> bytes:
         """The frame for this message (6..6 bytes); EncodeError on a bad value."""
@@ -831,11 +831,11 @@ class Command(Message):
     def decode(cls, data: bytes | bytearray | memoryview) -> Command:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
-        n = len(data)
-        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
-        body = data[:6]
-        out = cls._unpack(int.from_bytes(body[:6], 'little'))
-        return out
+        _n = len(data)
+        check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)
+        _body = data[:6]
+        _out = cls._unpack(int.from_bytes(_body[:6], 'little'))
+        return _out
 
 
 @dataclass(slots=True)
@@ -887,17 +887,17 @@ class BridgeInfo(Message):
         return v
 
     @classmethod
-    def _unpack(cls, v: int) -> BridgeInfo:
-        downlink = decode_enum(DownlinkKind, (v >> 0) & 0xff, cls.NAME, 'downlink')
-        if (v >> 8) & 0xff != 1:
-            raise OutOfRangeError(cls.NAME, f'protocol = {(v >> 8) & 0xff}, expected 1')
-        bitrate_kbps = (v >> 16) & 0xffff
-        fifo_depth = (v >> 32) & 0xff
-        heartbeat_us = (v >> 40) & 0xffff
-        fw_major = (v >> 56) & 0xff
-        fw_minor = (v >> 64) & 0xff
-        fw_patch = (v >> 72) & 0xff
-        return cls(downlink=downlink, bitrate_kbps=bitrate_kbps, fifo_depth=fifo_depth, heartbeat_us=heartbeat_us, fw_major=fw_major, fw_minor=fw_minor, fw_patch=fw_patch)
+    def _unpack(_cls, _v: int) -> BridgeInfo:
+        _f_downlink = decode_enum(DownlinkKind, (_v >> 0) & 0xff, _cls.NAME, 'downlink')
+        if (_v >> 8) & 0xff != 1:
+            raise OutOfRangeError(_cls.NAME, f'protocol = {(_v >> 8) & 0xff}, expected 1')
+        _f_bitrate_kbps = (_v >> 16) & 0xffff
+        _f_fifo_depth = (_v >> 32) & 0xff
+        _f_heartbeat_us = (_v >> 40) & 0xffff
+        _f_fw_major = (_v >> 56) & 0xff
+        _f_fw_minor = (_v >> 64) & 0xff
+        _f_fw_patch = (_v >> 72) & 0xff
+        return _cls(downlink=_f_downlink, bitrate_kbps=_f_bitrate_kbps, fifo_depth=_f_fifo_depth, heartbeat_us=_f_heartbeat_us, fw_major=_f_fw_major, fw_minor=_f_fw_minor, fw_patch=_f_fw_patch)
 
     def encode(self) -> bytes:
         """The frame for this message (10..10 bytes); EncodeError on a bad value."""
@@ -908,11 +908,11 @@ class BridgeInfo(Message):
     def decode(cls, data: bytes | bytearray | memoryview) -> BridgeInfo:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
-        n = len(data)
-        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
-        body = data[:10]
-        out = cls._unpack(int.from_bytes(body[:10], 'little'))
-        return out
+        _n = len(data)
+        check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)
+        _body = data[:10]
+        _out = cls._unpack(int.from_bytes(_body[:10], 'little'))
+        return _out
 
 
 @dataclass(slots=True)
@@ -940,9 +940,9 @@ class BridgeScan(Message):
         return v
 
     @classmethod
-    def _unpack(cls, v: int) -> BridgeScan:
-        present = [bool((v >> (0 + 1 * i)) & 0x1) for i in range(128)]
-        return cls(present=present)
+    def _unpack(_cls, _v: int) -> BridgeScan:
+        _f_present = [bool((_v >> (0 + 1 * _i)) & 0x1) for _i in range(128)]
+        return _cls(present=_f_present)
 
     def encode(self) -> bytes:
         """The frame for this message (16..16 bytes); EncodeError on a bad value."""
@@ -953,11 +953,11 @@ class BridgeScan(Message):
     def decode(cls, data: bytes | bytearray | memoryview) -> BridgeScan:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
-        n = len(data)
-        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
-        body = data[:16]
-        out = cls._unpack(int.from_bytes(body[:16], 'little'))
-        return out
+        _n = len(data)
+        check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)
+        _body = data[:16]
+        _out = cls._unpack(int.from_bytes(_body[:16], 'little'))
+        return _out
 
 
 @dataclass(slots=True)
@@ -988,10 +988,10 @@ class BridgeCommand(Message):
         return v
 
     @classmethod
-    def _unpack(cls, v: int) -> BridgeCommand:
-        opcode = decode_enum(BridgeOpcode, (v >> 0) & 0xff, cls.NAME, 'opcode')
-        value = (v >> 8) & 0xffff
-        return cls(opcode=opcode, value=value)
+    def _unpack(_cls, _v: int) -> BridgeCommand:
+        _f_opcode = decode_enum(BridgeOpcode, (_v >> 0) & 0xff, _cls.NAME, 'opcode')
+        _f_value = (_v >> 8) & 0xffff
+        return _cls(opcode=_f_opcode, value=_f_value)
 
     def encode(self) -> bytes:
         """The frame for this message (3..3 bytes); EncodeError on a bad value."""
@@ -1002,11 +1002,11 @@ class BridgeCommand(Message):
     def decode(cls, data: bytes | bytearray | memoryview) -> BridgeCommand:
         """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
         data = bytes(data)
-        n = len(data)
-        check_length(cls.NAME, n, cls.MIN_SIZE, cls.MAX_SIZE)
-        body = data[:3]
-        out = cls._unpack(int.from_bytes(body[:3], 'little'))
-        return out
+        _n = len(data)
+        check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)
+        _body = data[:3]
+        _out = cls._unpack(int.from_bytes(_body[:3], 'little'))
+        return _out
 
 
 BRIDGE = NodeInfo(
