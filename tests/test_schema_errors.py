@@ -112,6 +112,16 @@ def test_cli_reports_errors_without_traceback(tmp_path: Path) -> None:
     assert "Traceback" not in proc.stderr + proc.stdout
 
 
+def test_cli_check_reports_what_only_the_emitters_see(tmp_path: Path) -> None:
+    """A schema `urb gen` refuses (a C name of the runtime) is refused by `urb schema check` too."""
+    bad = tmp_path / "clash.urbs"
+    bad.write_text('schema clash "c"\nconst OK = 3 "the runtime success code"\n')
+    proc = subprocess.run([sys.executable, "-m", "urb.cli", "schema", "check", str(bad)], capture_output=True, text=True)
+    assert proc.returncode == 1, proc.stdout
+    assert f"{bad}:2:" in proc.stderr and "URB_OK" in proc.stderr
+    assert "Traceback" not in proc.stderr + proc.stdout and ": ok" not in proc.stdout
+
+
 def test_cli_accepts_the_bundled_schemas() -> None:
     proc = subprocess.run([sys.executable, "-m", "urb.cli", "schema", "check"], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr

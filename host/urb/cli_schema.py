@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -38,8 +39,11 @@ def register(sub: Any) -> None:
     ssub = schema.add_subparsers(title="subcommands", dest="schema_command", metavar="SUBCOMMAND")
     check = ssub.add_parser(
         "check", help="check schema files", formatter_class=fmt,
-        description="Parse and check schema files. Every error is printed as file:line:column with the\n"
-        "source line, a caret and a one-line hint. Exit status 0 when all files are valid, 1 otherwise.",
+        description="Parse and check schema files, and generate their code into a scratch folder (the\n"
+        "checks only the C and Python emitters can make, such as a name that clashes with the\n"
+        "runtime's: a file `urb schema check` accepts, `urb gen` accepts too). Every error is printed\n"
+        "as file:line:column with the source line, a caret and a one-line hint. Exit status 0 when\n"
+        "all files are valid, 1 otherwise.",
     )
     check.add_argument("files", nargs="*", type=Path, metavar="FILE", help="schema files (default: every bundled schema)")
     check.set_defaults(run=run_check)
@@ -107,6 +111,12 @@ def run_check(args: argparse.Namespace) -> int:
     schemas = _load(paths)
     if schemas is None:
         return 1
+    with tempfile.TemporaryDirectory(prefix="urb-schema-check-") as scratch:
+        try:
+            generate(schemas, Path(scratch) / "c", Path(scratch) / "python")
+        except SchemaError as exc:  # what only an emitter sees, e.g. a C name the runtime already uses
+            print(exc.render(), file=sys.stderr)
+            return 1
     for s in schemas:
         print(f"{s.path}: ok ({len(s.messages)} messages, {len(s.enums)} enums, {len(s.nodes)} nodes)")
     return 0
