@@ -243,6 +243,49 @@ def test_c_names_of_the_runtime_are_refused(tmp_path: Path, body: str, name: str
     assert error.location.path.name == "t.urbs", error.render()
 
 
+@pytest.mark.parametrize("body, name", [
+    ('const ERR_RANGE = 3 "an error code of the runtime"\n', "URB_ERR_RANGE"),
+    ('const OK = 3 "the runtime success code"\n', "URB_OK"),
+    ('const RUNTIME_VERSION = 3 "the runtime version macro"\n', "URB_RUNTIME_VERSION"),
+    ('enum Err : u8 "members become URB_ERR_*" {\n    RANGE = 0 "r"\n}\n', "URB_ERR_RANGE"),
+], ids=["error code", "ok", "runtime version", "enum members"])
+def test_runtime_clash_says_the_name_is_reserved(tmp_path: Path, body: str, name: str) -> None:
+    """The other side of the clash is the runtime, not a place in a file (it said `urb_runtime.h:1:1`)."""
+    error = _emit_error(tmp_path, body)
+    assert "urb_runtime.h" not in error.message and ":1:1" not in error.message, error.render()
+    assert f"the C name {name}, which the generated runtime reserves" in error.message, error.render()
+
+
+@pytest.mark.parametrize("body, words", [
+    ('message M "m" {\n    URB_OK: u8 "a"\n}\n', "C macro URB_OK, defined for the generated runtime"),
+    ('const K = 1 "k"\nmessage M "m" {\n    URB_K: u8 "a"\n}\n', "C macro URB_K, defined for const K (at "),
+    ('message M "m" {\n    URB_M_SIZE: u8 "a"\n}\n', "C macro URB_M_SIZE, defined for message M (at "),
+], ids=["runtime", "const", "message size"])
+def test_field_named_like_a_generated_macro(tmp_path: Path, body: str, words: str) -> None:
+    """`uint8_t URB_OK;` became `uint8_t 0;`: the C did not compile. Refused at the field."""
+    error = _emit_error(tmp_path, body)
+    assert words in error.message, error.render()
+    assert error.location.path.name == "t.urbs" and error.location.column == 5, error.render()
+    assert error.location.line == body.count("\n", 0, body.index("URB_")) + 2
+
+
+def test_generated_modules_use_no_builtin_a_schema_may_shadow(generated: tuple[Path, Any]) -> None:
+    """A message named `bool` replaced the builtin every bool field decodes with; each builtin a generated
+    module names must be a name the checker refuses for module-level items."""
+    import builtins
+    import io
+    import tokenize
+
+    from urb_codegen.parser import _PY_MODULE_NAMES
+
+    root, _ = generated
+    modules = [p for p in (root / "py" / "user_msgs").glob("*.py") if not p.name.startswith("_")]
+    modules += [p for p in (REPO / "gen" / "python" / "urb_msgs").glob("*.py") if not p.name.startswith("_")]
+    used = {tok.string for p in modules for tok in tokenize.generate_tokens(io.StringIO(p.read_text()).readline)
+            if tok.type == tokenize.NAME and tok.string in dir(builtins) and tok.string not in ("True", "False", "None")}
+    assert used and used <= _PY_MODULE_NAMES, sorted(used - _PY_MODULE_NAMES)
+
+
 def test_gen_removes_files_of_a_removed_schema(tmp_path: Path) -> None:
     schemas = tmp_path / "schema"
     shutil.copytree(REPO / "spec" / "schema", schemas)

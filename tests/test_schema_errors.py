@@ -85,6 +85,47 @@ CASES = {
     "duplicate tier": ('checksum c "c" {\n    tier a width 8 poly 7 init 0 xorout 0 max_covered 3\n    tier a width 16 poly 0x1021 init 0 xorout 0\n}\n',
                        (5, 10), "duplicate tier 'a'"),
     "unterminated string": ('message M "m" {\n    a: u8 "a\n}\n', (4, 11), "unterminated string"),
+    # a field named like a type hid it in the Python class body: `Inner: Inner` then `y: Inner` gave
+    # field(default_factory=<the Field of Inner>), a TypeError at every construction
+    "field named like its enum": ('enum Mode : u8 "e" {\n    OFF = 0 "o"\n}\nmessage M "m" {\n    Mode: Mode "a"\n    x: Mode "b"\n}\n',
+                                  (7, 5), "field name 'Mode' is the name of enum Mode"),
+    "field named like a message": ('message Inner "i" {\n    a: u8 "a"\n}\nmessage M "m" {\n    Inner: Inner "a"\n    y: Inner "b"\n}\n',
+                                   (7, 5), "field name 'Inner' is the name of message Inner"),
+    "field named like an imported message": ('message M "m" {\n    Identification: u8 "a"\n}\n', (4, 5),
+                                             "is the name of message Identification"),
+    "field named like its own message": ('message M "m" {\n    M: u8 "a"\n}\n', (4, 5), "is the name of message M"),
+    "message named like a builtin the module calls": ('message bool "m" {\n    a: u8 "a"\n}\n', (3, 9), "name 'bool'"),
+    "field named like an annotation type": ('message M "m" {\n    int: u8 "a"\n    b: u8 "b"\n}\n', (4, 5), "field name 'int'"),
+    # a length field that cannot hold the bound: MAX_SIZE promised frames no encoder produces
+    "length field narrower than its bound": ('message M "m" {\n    n: u2 "n"\n    _: u6 "r"\n    p: bytes[n <= 32] "p"\n}\n',
+                                             (6, 5), "length field 'n' (u2) holds at most 3 but the payload bound is 32"),
+    "length field range below its bound": ('message M "m" {\n    n: u8 in 0..10 "n"\n    p: bytes[n <= 32] "p"\n}\n',
+                                           (5, 5), "allows at most 10 but the payload bound is 32"),
+    # `_` is zero bits: a message's fixed values (sent as 0 while LAYOUT said =5), an enum, a payload
+    "reserved field of message type": ('message F "f" {\n    k: u8 = 5 "k"\n}\nmessage M "m" {\n    _: F "pad"\n}\n',
+                                       (7, 8), "its type cannot be message F"),
+    "reserved field of enum type": ('enum E : u8 "e" {\n    A = 1 "a"\n}\nmessage M "m" {\n    _: E "pad"\n}\n',
+                                    (7, 8), "its type cannot be enum E"),
+    "reserved payload": ('message M "m" {\n    a: u8 "a"\n    _: bytes[<= 4] "p"\n}\n', (5, 8), "its type cannot be bytes"),
+    "reserved array of messages": ('message F "f" {\n    k: u8 "k"\n}\nmessage M "m" {\n    _: F[2] "pad"\n}\n',
+                                   (7, 8), "its type cannot be message F"),
+    "two-dimensional array": ('message M "m" {\n    a: u8[2][3] "a"\n}\n', (4, 13), "arrays have one dimension"),
+    "integer type with a leading zero": ('message M "m" {\n    a: u08 "a"\n}\n', (4, 8), "'u08' is not an integer type"),
+    "enum base with a leading zero": ('enum E : i016 "e" {\n    A = 1 "a"\n}\n', (3, 10), "'i016' is not an integer type"),
+    "message spelled like an integer type": ('message u8 "m" {\n    a: u16 "a"\n}\n', (3, 9), "spelled like an integer type"),
+    "two nodes share a class id": ('message A "a" {\n    x: u8 "x"\n}\nnode N1 class 0x40 "n" {\n    outbox 1 A "o"\n}\n'
+                                   'node N2 class 0x40 "n" {\n    outbox 1 A "o"\n}\n', (9, 6), "already the class of node N1 (at "),
+    "node sharing the bridge's class": ('message A "a" {\n    x: u8 "x"\n}\nnode N1 class 0x00 "n" {\n    outbox 1 A "o"\n}\n',
+                                        (6, 6), "already the class of bridge Bridge"),
+}
+
+# The hint of each case above, where the generic one was wrong.
+HINTS = {
+    "two-dimensional array": "Row[2]",
+    "integer type with a leading zero": "write u8",
+    "enum base with a leading zero": "write i16",
+    "length field narrower than its bound": "widen the length field to u6",
+    "field named like its enum": "`mode`",
 }
 
 
@@ -100,6 +141,8 @@ def test_broken_schema_points_at_the_problem(tmp_path: Path, case: str) -> None:
     lines = rendered.splitlines()
     assert lines[2].strip() == "^" and len(lines[2]) - 1 == 4 + column - 1  # caret under the column
     assert lines[3].startswith("  hint: ") and len(lines[3]) > 12
+    if case in HINTS:
+        assert HINTS[case] in first.hint, rendered
 
 
 def test_cli_reports_errors_without_traceback(tmp_path: Path) -> None:
@@ -188,3 +231,43 @@ def test_empty_file_says_so(tmp_path: Path) -> None:
         load([path])
     first = info.value.errors[0]
     assert first.message == "empty schema file" and "schema NAME" in first.hint
+
+
+def _siblings(tmp_path: Path, a: str, b: str) -> tuple[Path, Path, SchemaErrors]:
+    """Two schemas in one folder that do not import each other, loaded together as `urb gen` does."""
+    core = Path(__file__).resolve().parents[1] / "spec" / "schema" / "core.urbs"
+    (tmp_path / "core.urbs").write_text(core.read_text())
+    pa, pb = tmp_path / "a.urbs", tmp_path / "b.urbs"
+    pa.write_text('schema a "a"\nimport urb_core\n' + a)
+    pb.write_text('schema b "b"\nimport urb_core\n' + b)
+    with pytest.raises(SchemaErrors) as info:
+        load(sorted(tmp_path.glob("*.urbs")))
+    return pa, pb, info.value
+
+
+def test_sibling_schemas_declaring_one_message(tmp_path: Path) -> None:
+    """urb_msgs.MESSAGES merged both modules and silently kept b's X; now a load-time error at b's X naming a's."""
+    pa, pb, exc = _siblings(tmp_path, 'message X "x" {\n    a: u8 "a"\n}\n', 'const K = 1 "k"\nmessage X "x" {\n    b: u16 "b"\n}\n')
+    [error] = exc.errors
+    assert (error.location.path, error.location.line, error.location.column) == (pb, 4, 9), error.render()
+    assert error.message == f"message 'X' is already declared as message X in schema a (at {pa}:3:9)"
+    assert "MESSAGES" in error.hint
+
+
+def test_sibling_schemas_declaring_one_name_as_different_items(tmp_path: Path) -> None:
+    _, pb, exc = _siblings(tmp_path, 'enum Mode : u8 "m" {\n    A = 0 "a"\n}\n', 'const Mode = 1 "k"\n')
+    assert [(e.location.path, e.location.line) for e in exc.errors] == [(pb, 3)]
+    assert "constant 'Mode' is already declared as enum Mode in schema a" in exc.errors[0].message
+
+
+def test_sibling_schemas_sharing_a_node_class(tmp_path: Path) -> None:
+    box = 'message {m} "m" {{\n    x: u8 "x"\n}}\nnode {n} class 0x40 "n" {{\n    outbox 1 {m} "o"\n}}\n'
+    pa, pb, exc = _siblings(tmp_path, box.format(m="A", n="Na"), box.format(m="B", n="Nb"))
+    [error] = exc.errors
+    assert (error.location.path, error.location.line, error.location.column) == (pb, 6, 6), error.render()
+    assert error.message == f"node Nb has class 0x40, already the class of node Na (at {pa}:6:6)"
+
+
+def test_bundled_schemas_still_load() -> None:
+    folder = Path(__file__).resolve().parents[1] / "spec" / "schema"
+    assert {s.name for s in load(sorted(folder.glob("*.urbs")))} >= {"urb_core", "sensorhex"}

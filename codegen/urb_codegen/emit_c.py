@@ -444,15 +444,33 @@ class _Names:
     """Every global C identifier the emitter creates, so two schema items never map to one name."""
 
     def __init__(self) -> None:
-        self.seen: dict[str, tuple[str, Location]] = {}
+        self.seen: dict[str, tuple[str, Location | None]] = {}
+
+    def reserve(self, name: str, what: str) -> None:
+        """A name the generated runtime or test support declares: no schema item may take it."""
+        self.seen[name] = (what, None)
 
     def add(self, name: str, what: str, loc: Location) -> str:
         if name in self.seen:
             first, at = self.seen[name]
+            if at is None:
+                raise SchemaError(loc, f"{what} becomes the C name {name}, which the generated runtime reserves ({first})",
+                                  "rename it: every C name the runtime declares (URB_OK, URB_ERR_*, urb_get_bits, ...) is taken")
             raise SchemaError(loc, f"{what} and {first} (at {at}) both become the C name {name}",
                               "rename one of them")
         self.seen[name] = (what, loc)
         return name
+
+    def check_members(self, messages: list[CMessage]) -> None:
+        """A struct member named like one of the generated macros (`uint8_t URB_OK;`) does not compile."""
+        for view in messages:
+            for f in view.decl.fields:
+                member = _member(f)
+                if member.isupper() and member in self.seen:
+                    what, at = self.seen[member]
+                    where = f"the generated runtime ({what})" if at is None else f"{what} (at {at})"
+                    raise SchemaError(f.loc, f"field '{f.name}' of {view.decl.name} has the name of the C macro {member}, "
+                                      f"defined for {where}", "rename the field: the macro would replace the struct member")
 
 
 def _enum_view(e: EnumDecl, names: _Names) -> CEnum:
@@ -658,14 +676,13 @@ def _all_schemas(schemas: list[Schema]) -> list[Schema]:
 
 def _runtime_names(names: _Names) -> None:
     """Reserve the C names the runtime and the test support declare, so no schema item takes one."""
-    at = Location(Path("urb_runtime.h"), 1, 1)
     for name, _, _ in _ERROR_CODES:
-        names.add("URB_" + ("OK" if name == "OK" else "ERR_" + name), "the runtime's error code", at)
+        names.reserve("URB_" + ("OK" if name == "OK" else "ERR_" + name), "its error code")
     for name in ("URB_RUNTIME_VERSION", "URB_RUNTIME_H", "URB_TEST_SUPPORT_H", "urb_get_bits", "urb_put_bits",
                  "urb_get_le", "urb_put_le", "urb_sign_extend", "urb_runtime", "urb_test_support",
                  "urb_test_message_t", "urb_test_crc_t", "urb_test_messages", "urb_test_message_count",
                  "urb_test_crcs", "urb_test_crc_count", "urb_test_print_hex"):
-        names.add(name, "a name of the runtime", at)
+        names.reserve(name, "a name it declares")
 
 
 def emit_c(schemas: list[Schema], out_dir: Path) -> list[Path]:
@@ -691,6 +708,7 @@ def emit_c(schemas: list[Schema], out_dir: Path) -> list[Path]:
         view.nodes = [_node_view(n, names) for n in s.nodes.values()]
         checksums += [_checksum_view(c, names) for c in s.checksums.values()]
         views.append(view)
+    names.check_members([m for v in views for m in v.messages])
     runtime_sources = ", ".join(v.source for v in views if v.schema.checksums) or "no schema"
 
     runtime_title = "URB runtime: error codes, bit access and frame checks shared by every codec."

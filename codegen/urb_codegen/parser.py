@@ -40,7 +40,8 @@ from .model import (
 _GRAMMAR = files("urb_codegen").joinpath("grammar.lark").read_text(encoding="utf-8")
 _PARSER = Lark(_GRAMMAR, parser="lalr", propagate_positions=True, maybe_placeholders=False)
 
-_INT_RE = re.compile(r"^([ui])([0-9]+)$")
+_INT_RE = re.compile(r"^([ui])(0|[1-9][0-9]*)$")
+_INT_LIKE_RE = re.compile(r"^([ui])([0-9]+)$")  # also u08: refused, not read as u8
 
 # Names the generated code cannot use. Python: keywords, and what a generated message class or module
 # already binds (the Message API, class-body helpers, the runtime imports). C: identifiers starting with
@@ -49,12 +50,17 @@ _INT_RE = re.compile(r"^([ui])([0-9]+)$")
 _PY_KEYWORDS = frozenset(keyword.kwlist)
 _PY_MESSAGE_ATTRS = frozenset(
     "NAME DOC FINGERPRINT LAYOUT MIN_SIZE MAX_SIZE SIZE FIELDS encode decode to_dict engineering "
-    "raw_from_engineering field struct FieldInfo ClassVar".split()
+    "raw_from_engineering field struct FieldInfo ClassVar "
+    # the builtin types the class body annotates fields with (a field `int` hides them from mypy and get_type_hints)
+    "int bool bytes list".split()
 )
 _PY_MODULE_NAMES = frozenset(
     "enum struct dataclass field ClassVar EncodeError FieldInfo FrameCheck MailboxInfo Message NodeInfo "
     "OutOfRangeError TooLongError TooShortError ChecksumError DecodeError check_bool check_bytes check_enum "
-    "check_int check_length check_list decode_enum make_crc sign_extend MESSAGES NODES annotations".split()
+    "check_int check_length check_list decode_enum make_crc sign_extend MESSAGES NODES annotations "
+    # the builtins the generated module calls or annotates with: a message `bool` broke every bool field
+    "TypeError bool bytearray bytes classmethod dict enumerate int isinstance len list memoryview range "
+    "staticmethod str tuple type".split()
 )
 _C_MACRO_RE = re.compile(
     r"^(U?INT(8|16|32|64|_LEAST(8|16|32|64)|_FAST(8|16|32|64)|PTR|MAX)_(MIN|MAX|C)"
@@ -135,10 +141,15 @@ def _syntax_error(path: Path, source: str, exc: UnexpectedInput) -> SchemaError:
             "remove it; comments start with `#` and strings use double quotes",
         )
     if isinstance(exc, UnexpectedToken):
+        tok = exc.token
+        before = source[: tok.start_pos].rstrip() if tok.start_pos is not None else ""
+        if tok.type == "LSQB" and before.endswith("]"):
+            return SchemaError(Location(path, line, column), "arrays have one dimension: a second `[...]` is not allowed",
+                               "declare the inner array as a message, e.g. `message Row \"a row\" { v: u8[3] \"values\" }`, "
+                               "and make the field `Row[2]`")
         expected = sorted(exc.expected)
         hint = next((_TOKEN_HINTS[e] for e in expected if e in _TOKEN_HINTS), None)
         shown = ", ".join(_describe(e) for e in expected[:6])
-        tok = exc.token
         return SchemaError(
             Location(path, line, column),
             f"unexpected {tok.type.lower()} {str(tok)!r}; expected {shown}",
@@ -227,6 +238,10 @@ class _Builder:
     def declare(self, name_tok: Token) -> bool:
         name = str(name_tok)
         why = _reserved_why(name, _PY_MODULE_NAMES)
+        if why is None and (name == "bool" or _INT_LIKE_RE.match(name)):
+            self.err(name_tok, f"name '{name}' is spelled like an integer type",
+                     f"rename it: a field of type `{name}` would always mean the integer, never this item")
+            return False
         if why is not None:
             self.err(name_tok, f"name '{name}' {why}", "rename it; generated C and Python name their items after the schema")
             return False
@@ -362,6 +377,15 @@ class _Builder:
             return None
         return IntType(int(m.group(2)), m.group(1) == "i")
 
+    def non_canonical_int(self, tok: Token) -> bool:
+        """Report `u08`, `i016`: integer types are spelled without leading zeros (one spelling per type)."""
+        m = _INT_LIKE_RE.match(str(tok))
+        if m is None or _INT_RE.match(str(tok)):
+            return False
+        self.err(tok, f"'{tok}' is not an integer type: the width has a leading zero",
+                 f"write {m.group(1)}{int(m.group(2))}")
+        return True
+
     def check_int_width(self, tok: Token, t: IntType) -> bool:
         if t.bits < 1 or t.bits > 32:
             self.err(tok, f"bit field '{tok}' is wider than 32 bits" if t.bits > 32 else f"'{tok}' has no bits",
@@ -376,7 +400,9 @@ class _Builder:
         name_tok, base_tok, doc = item.children[:3]
         assert isinstance(name_tok, Token) and isinstance(base_tok, Token)
         base = self.int_type(str(base_tok))
-        if base is None or base.is_bool:
+        if base is None and self.non_canonical_int(base_tok):
+            base = IntType(8, False)
+        elif base is None or base.is_bool:
             self.err(base_tok, f"enum base '{base_tok}' is not an integer type", "use an unsigned type such as u8 or u4")
             base = IntType(8, False)
         elif not self.check_int_width(base_tok, base):
@@ -415,6 +441,8 @@ class _Builder:
             name = str(tok)
             elem: IntType | EnumDecl | MessageDecl | ChecksumDecl | None
             it = self.int_type(name)
+            if it is None and self.non_canonical_int(tok):
+                return None
             if it is not None:
                 if not self.check_int_width(tok, it):
                     return None
@@ -456,6 +484,31 @@ class _Builder:
             return BytesType(max_len, None)
         raise AssertionError(kind)
 
+    def visible_type(self, name: str) -> EnumDecl | MessageDecl | None:
+        """The enum or message `name` names in this schema's generated Python module (own or imported)."""
+        for s in [self.schema, *self.schema.imports]:
+            found = s.enums.get(name) or s.messages.get(name)
+            if found is not None:
+                return found
+        return None
+
+    def padding_type_ok(self, tnode: Tree[Token], t: FieldType) -> bool:
+        """`_` is reserved bits, sent as zero: only integers (and arrays of them) mean exactly that."""
+        inner = t.element if isinstance(t, ArrayType) else t
+        if isinstance(inner, IntType):
+            return True
+        if isinstance(inner, MessageDecl):
+            what = f"message {inner.name}: its fixed values and rules would not hold for the zeros sent"
+        elif isinstance(inner, EnumDecl):
+            what = f"enum {inner.name}: zero bits are not a choice among its members"
+        elif isinstance(t, BytesType):
+            what = "bytes: a reserved payload has no value to send"
+        else:
+            what = "a checksum: a check covers named fields and is never zero"
+        self.err(tnode, f"a reserved field `_` is sent as zero bits, so its type cannot be {what}",
+                 "declare reserved bits as an unsigned integer of their width, e.g. `_: u8` (or `_: u8[2]`)")
+        return False
+
     def check_payload_max(self, node: Tree[Token], max_len: int) -> bool:
         if max_len > MAX_MAILBOX_SIZE:
             self.err(node, f"payload over {MAX_MAILBOX_SIZE} bytes (bytes[<= {max_len}])",
@@ -482,10 +535,19 @@ class _Builder:
                 self.err(name_tok, f"field name '{name}' {why}", "rename the field (it becomes a C struct member and a Python attribute)")
                 continue
             seen[name] = _loc(self.path, name_tok)
+            shadowed = self.visible_type(name)
+            if shadowed is not None:
+                kind = "enum" if isinstance(shadowed, EnumDecl) else "message"
+                self.err(name_tok, f"field name '{name}' is the name of {kind} {name} (declared at {shadowed.loc})",
+                         f"rename the field, e.g. `{name[:1].lower() + name[1:]}`: in the generated Python class the "
+                         "field would hide the type from the fields after it")
+                continue
             ftype = self.resolve_type(tnode, msg)
             opts = fnode.children[2:-1]
             doc = _doc(fnode.children[-1])
             if ftype is None:
+                continue
+            if name == "_" and not self.padding_type_ok(tnode, ftype):
                 continue
             f = Field(name, ftype, doc, _loc(self.path, name_tok))
             given: set[str] = set()
@@ -617,6 +679,16 @@ class _Builder:
                 elif counter.range is not None and counter.range[1] > f.type.max_len:
                     self.err(f.loc, f"length field '{cname}' allows {counter.range[1]} but the payload holds {f.type.max_len}",
                              "make the range of the length field match the payload bound")
+                elif counter.range is not None and counter.range[1] < f.type.max_len:
+                    self.err(f.loc, f"length field '{cname}' allows at most {counter.range[1]} but the payload bound is "
+                             f"{f.type.max_len}: no frame reaches the stated maximum size",
+                             f"make the range of the length field end at {f.type.max_len}, or lower the bound to "
+                             f"`bytes[{cname} <= {counter.range[1]}]`")
+                elif counter.type.max < f.type.max_len:
+                    need = f.type.max_len.bit_length()
+                    self.err(f.loc, f"length field '{cname}' ({counter.type.name}) holds at most {counter.type.max} but the "
+                             f"payload bound is {f.type.max_len}: no frame reaches the stated maximum size",
+                             f"widen the length field to u{need} (or u8), or lower the bound to `bytes[{cname} <= {counter.type.max}]`")
         for f in checks[:1]:
             assert isinstance(f.type, CheckType)
             if fields[-1] is not f:
@@ -814,6 +886,46 @@ class _Builder:
             self.schema.nodes[str(name_tok)] = NodeDecl(str(name_tok), kind, class_id, _doc(doc), _loc(self.path, name_tok), mailboxes, self.raw.name)
 
 
+def _check_across(schemas: list[Schema]) -> list[SchemaError]:
+    """Rules over every schema loaded together (what one `urb gen` generates into one C namespace and
+    one Python package): each item name is declared once, and each node class id belongs to one node type.
+
+    A schema and its direct imports are already checked by the builder; this catches siblings (two files
+    declaring message X: urb_msgs.MESSAGES silently kept one) and imports of imports.
+    """
+    errors: list[SchemaError] = []
+    first: dict[str, tuple[str, Location, str]] = {}
+    classes: dict[int, NodeDecl] = {}
+    for s in schemas:  # imports before the schemas importing them: the later declaration is reported
+        items: list[tuple[str, str, Location]] = [
+            *(("constant", c.name, c.loc) for c in s.consts.values()),
+            *(("checksum", c.name, c.loc) for c in s.checksums.values()),
+            *(("enum", e.name, e.loc) for e in s.enums.values()),
+            *(("message", m.name, m.loc) for m in s.messages.values()),
+            *(("node", n.name, n.loc) for n in s.nodes.values()),
+        ]
+        for kind, name, loc in sorted(items, key=lambda i: (i[2].line, i[2].column)):
+            if name in first:
+                other_kind, other_loc, other_schema = first[name]
+                errors.append(SchemaError(
+                    loc, f"{kind} '{name}' is already declared as {other_kind} {name} in schema {other_schema} (at {other_loc})",
+                    "give it another name: every schema generated together shares one Python registry "
+                    "(urb_msgs.MESSAGES, NODES) and one C namespace"))
+            else:
+                first[name] = (kind, loc, s.name)
+        for node in s.nodes.values():
+            other = classes.get(node.class_id)
+            if other is not None:
+                errors.append(SchemaError(
+                    node.loc, f"{node.kind} {node.name} has class {node.class_id:#04x}, already the class of "
+                    f"{other.kind} {other.name} (at {other.loc})",
+                    "give every node type its own class id: discovery tells node types apart by it "
+                    "(find_node(name, index) looks a node up by its class)"))
+            else:
+                classes[node.class_id] = node
+    return errors
+
+
 def load(paths: list[Path]) -> list[Schema]:
     """Parse, resolve and check schema files; imports resolve among them and their folders.
 
@@ -873,6 +985,7 @@ def load(paths: list[Path]) -> list[Schema]:
 
     for raw in list(raws.values()):
         build(raw.name, None)
+    errors.extend(_check_across(list(built.values())))
     if errors:
         raise SchemaErrors(errors)
     return [s for s in built.values() if s.path.resolve() in explicit] or list(built.values())
