@@ -153,7 +153,11 @@ urbsim_ns_t urbsim_clock_virtual_at(urbsim_clock_t *c, double local_ns)
         dt = 0.0;
     }
     urbsim_ns_t t = s->t0 + (urbsim_ns_t)ceil(dt);
-    /* Rounding of the division may leave us one ns short; step until the definition holds. */
+    /* Rounding of the division may leave us one ns off either way (up: local_ns(t) * rate / rate
+     * can exceed the whole number of ns it came from); step until t is the earliest instant. */
+    while (t > s->t0 && urbsim_clock_local_ns(c, t - 1u) >= local_ns) {
+        t--;
+    }
     while (urbsim_clock_local_ns(c, t) < local_ns) {
         t++;
     }

@@ -28,7 +28,9 @@ void urbsim_i2c_init(urbsim_i2c_bus_t *b, urbsim_kernel_t *k, urbsim_trace_t *tr
     b->t_start = b->t_bit;
     b->t_rstart = (b->t_bit * 3u) / 2u;
     b->t_stop = b->t_bit;
-    b->t_buf = 1300;
+    /* Bus free time between a STOP and a START, UM10204 Table 10: 4.7 us in Standard-mode (up to
+     * 100 kb/s), 1.3 us in Fast-mode (400 kb/s), 0.5 us in Fast-mode Plus (1 Mb/s). */
+    b->t_buf = bitrate <= 100e3 ? 4700u : bitrate <= 400e3 ? 1300u : 500u;
     b->op_kind = -1;
     b->sda_until = b->scl_until = 0;
     b->drive = URBSIM_I2C_SCL | URBSIM_I2C_SDA;
@@ -120,6 +122,8 @@ static uint8_t wire(urbsim_i2c_bus_t *b, uint8_t byte, bool *ack_flip)
 
 static void ev_slave(void *ctx, uint64_t arg, urbsim_ns_t now);
 static void ev_done(void *ctx, uint64_t arg, urbsim_ns_t now);
+static void ev_bit8(void *ctx, uint64_t arg, urbsim_ns_t now);
+static void ev_end(void *ctx, uint64_t arg, urbsim_ns_t now);
 
 /* The earliest instant a new operation may start clocking. */
 static urbsim_ns_t op_begin(const urbsim_i2c_bus_t *b)
@@ -273,6 +277,7 @@ static void ev_done(void *ctx, uint64_t arg, urbsim_ns_t now)
         if (seen_ack) {
             request_tx(b, now);
         } else {
+            b->tx_byte = 0xFFu; /* the slaves saw a NACK: they release SDA until the STOP */
             for (uint32_t j = 0; j < b->n_active; j++) {
                 if (slave_live(b, j)) {
                     raise_irq(b, b->active[j], EV_TX_NACK, now);
@@ -289,8 +294,12 @@ static void ev_done(void *ctx, uint64_t arg, urbsim_ns_t now)
     }
 }
 
-/* The slaves' part of the transaction ends at bus instant t (STOP or repeated START). */
-static void end_slaves(urbsim_i2c_bus_t *b, urbsim_ns_t t, bool repeated)
+/* The slaves' part of the transaction ends at bus instant t (STOP or repeated START): their
+ * interrupts are raised at t, from an event at t when t is still to come. Interrupts are reserved on
+ * a slave's MCU (urbsim_mcu_isr) in the order of their instants: one reserved ahead of time would
+ * hold back an interrupt of that MCU that comes before it (a timer) and would not see a handler
+ * running when it comes. */
+static void end_slaves_now(urbsim_i2c_bus_t *b, urbsim_ns_t t, bool repeated)
 {
     for (uint32_t j = 0; j < b->n_active; j++) {
         if (slave_live(b, j)) {
@@ -298,6 +307,23 @@ static void end_slaves(urbsim_i2c_bus_t *b, urbsim_ns_t t, bool repeated)
         }
     }
     b->n_active = 0;
+}
+
+static void end_slaves(urbsim_i2c_bus_t *b, urbsim_ns_t t, bool repeated)
+{
+    if (t <= b->k->now) {
+        end_slaves_now(b, t, repeated);
+        return;
+    }
+    /* The condition happens on the wire whatever the master does meanwhile: not tied to b->gen. The
+     * active list stays until then (nothing is addressed before t: the next address byte is issued
+     * after the START that follows). */
+    urbsim_kernel_at(b->k, t, ev_end, b, repeated ? 1u : 0u);
+}
+
+static void ev_end(void *ctx, uint64_t arg, urbsim_ns_t now)
+{
+    end_slaves_now(ctx, now, arg != 0u);
 }
 
 void urbsim_i2c_start(urbsim_i2c_bus_t *b)
@@ -344,14 +370,32 @@ void urbsim_i2c_write(urbsim_i2c_bus_t *b, uint8_t byte)
     b->bytes++;
     b->op_byte = wire(b, byte, &b->ack_flip);
     b->op_ack = false;
-    urbsim_ns_t t8 = t0 + 8u * b->t_bit;
-    urbsim_ns_t stretch_end = t8;
     b->addressing = b->expect_address;
     if (b->expect_address) {
         b->expect_address = false;
         b->n_active = 0;
         b->read_mode = (b->op_byte & 1u) != 0u;
         b->general = b->op_byte == 0x00u;
+    }
+    /* The receivers' interrupts come at the 8th bit (t8): raised then, by ev_bit8, which schedules
+     * the completion after their clock stretching and the ACK bit. Until then the operation is in
+     * flight from t0 and ends no earlier than t8 + t_bit. */
+    urbsim_ns_t t8 = t0 + 8u * b->t_bit;
+    b->op_kind = OP_WRITE;
+    b->op_start = t0;
+    b->ready_at = t8 + b->t_bit;
+    urbsim_kernel_at(b->k, t8, ev_bit8, b, DONE_ARG(b->gen & GEN_MASK));
+}
+
+static void ev_bit8(void *ctx, uint64_t arg, urbsim_ns_t now)
+{
+    urbsim_i2c_bus_t *b = ctx;
+    if (ARG_GEN(arg) != (b->gen & GEN_MASK) || b->op_kind != OP_WRITE) {
+        return; /* aborted before the 8th bit: no slave saw the byte */
+    }
+    const urbsim_ns_t t8 = now;
+    urbsim_ns_t stretch_end = t8;
+    if (b->addressing) {
         for (uint32_t i = 0; i < b->n_slaves; i++) {
             urbsim_i2c_slave_t *s = b->slaves[i];
             bool match = b->general ? s->general_call
@@ -371,7 +415,7 @@ void urbsim_i2c_write(urbsim_i2c_bus_t *b, uint8_t byte)
         }
     }
     b->stretch_ns += stretch_end - t8;
-    schedule_done(b, OP_WRITE, t0, stretch_end + b->t_bit);
+    schedule_done(b, OP_WRITE, b->op_start, stretch_end + b->t_bit);
 }
 
 void urbsim_i2c_read(urbsim_i2c_bus_t *b, bool ack)

@@ -7,7 +7,8 @@
  *   repeated START         1.5 t_bit    (SCL low half, SCL high setup half, SDA falls, hold half)
  *   one byte + ACK bit     9.0 t_bit    (22.5 us at 400 kb/s) + clock stretching
  *   STOP                   1.0 t_bit    (SCL rises with SDA low, SDA rises)
- *   bus free after STOP    t_buf = 1.3 us (fast-mode minimum) before the next START
+ *   bus free after STOP    t_buf before the next START: the minimum of the bit rate's mode
+ *                          (UM10204: 1.3 us Fast-mode, 4.7 us Standard-mode, 0.5 us Fast-mode Plus)
  * A master operation starts when the master issues it (its interrupt latency is the caller's
  * business: the bridge HAL calls the firmware after its own latency) but not before the previous
  * operation ended.
@@ -17,7 +18,15 @@
  * (t8 + irq latency + handler time). Before a byte a slave transmits, it holds SCL low until its
  * handler has loaded the data register (requested right after the previous ACK). The handlers run
  * at their ISR instant; `t_hw` passed to them is the bus instant that raised the interrupt (what
- * an input capture would latch).
+ * an input capture would latch). Every slave interrupt is raised (isr_window called) at its bus
+ * instant, from an event then when the master issued the operation earlier (the 8th bit of a
+ * written byte, a STOP or repeated START): a slave's MCU reserves its interrupts in time order.
+ *
+ * BIT ERRORS ON THE ACK BIT. Of a written byte: the master sees the inverted ACK (the slave keeps
+ * its own view). Of a read byte: a slave that sees NACK for the master's ACK releases SDA until the
+ * STOP, so the master's further reads return 0xFF; a slave that sees ACK for the master's NACK
+ * loads its next byte (its data index advances), but the STOP is still modelled as clean (a real
+ * slave would hold SDA low if that byte began with a 0 bit: not modelled).
  *
  * GENERAL CALL (address byte 0x00): every powered slave with `general_call` set receives it and
  * the bytes that follow, each at its own ISR instant; the bus waits for the slowest.

@@ -71,7 +71,7 @@ static void ev_received(void *ctx, uint64_t arg, urbsim_ns_t now)
     /* Bit errors: walk the geometric skip counter over the 10 wire bits of this character. */
     uint64_t bits = 10;
     while (u->bits_to_error <= bits) {
-        uint64_t pos = u->bits_to_error - 1u; /* 0 = start bit, 1..8 data, 9 stop */
+        uint64_t pos = 10u - bits + u->bits_to_error - 1u; /* 0 = start bit, 1..8 data, 9 stop */
         bits -= u->bits_to_error;
         if (pos == 0u || pos == 9u) {
             flags |= URBSIM_UART_FRAMING;

@@ -103,6 +103,8 @@ static bool push_urb(urbsim_usb_bus_t *u, uint32_t dev, bool in, const uint8_t *
     r->dev = (uint8_t)dev;
     r->in = in;
     r->len = (uint16_t)len;
+    r->got = 0;
+    r->sent = 0;
     r->submitted = u->k->now;
     if (data && len) {
         memcpy(r->data, data, len);
@@ -125,8 +127,8 @@ bool urbsim_usb_read(urbsim_usb_bus_t *u, uint32_t dev)
     return push_urb(u, dev, true, NULL, u->devs[dev]->in_size);
 }
 
-/* Event kinds. */
-enum { EV_SOF, EV_TXN, EV_OUT_DONE, EV_IN_DONE, EV_CALLBACK };
+/* Event kinds (bits 0..7; EV_SOF_END carries the frame number above). */
+enum { EV_SOF, EV_TXN, EV_OUT_DONE, EV_IN_DONE, EV_CALLBACK, EV_SOF_END };
 
 static void ev_usb(void *ctx, uint64_t arg, urbsim_ns_t now);
 
@@ -170,15 +172,45 @@ static void run_txn(urbsim_usb_bus_t *u, urbsim_ns_t now)
     uint32_t n = 0;
     uint8_t buf[URBSIM_USB_MAX_XFER];
     if (r->in) {
-        if (now + urbsim_usb_bits_ns(u, URBSIM_USB_NAK_BITS) > limit) {
+        /* The token goes out only if a transaction with a full data packet fits: the controller
+         * cannot know the answer's length before. */
+        uint32_t first = r->len < u->max_packet ? r->len : u->max_packet;
+        if (now + urbsim_usb_bits_ns(u, packet_bits(u, NULL, first) + 8u * first / 6u) > limit) {
             d->deferred++;
             return;
         }
-        n = d->on_in ? d->on_in(d->ctx, buf, r->len, now) : 0u;
-        if (n > r->len) {
-            n = r->len;
+        if (r->got == 0u) {
+            n = d->on_in ? d->on_in(d->ctx, buf, r->len, now) : 0u;
+            if (n > r->len) {
+                n = r->len;
+            }
+        } else {
+            n = r->got; /* the rest of an answer begun in an earlier frame */
+            memcpy(buf, r->data, n);
         }
-        bits = n ? urbsim_usb_transfer_bits(u, buf, n) : URBSIM_USB_NAK_BITS;
+        bits = n ? urbsim_usb_transfer_bits(u, buf + r->sent, n - r->sent) : URBSIM_USB_NAK_BITS;
+        if (n && now + urbsim_usb_bits_ns(u, bits) > limit) {
+            /* Longer than what is left of the frame: the packets that fit now, the rest next frame
+             * (the URB stays at the head of the queue). */
+            uint32_t part = 0, off = r->sent;
+            while (off < n) { /* when only the zero-length packet is left, it is the rest */
+                uint32_t p = n - off < u->max_packet ? n - off : u->max_packet;
+                uint32_t pb = packet_bits(u, buf + off, p);
+                if (part > 0u && now + urbsim_usb_bits_ns(u, part + pb) > limit) {
+                    break;
+                }
+                part += pb;
+                off += p;
+            }
+            memcpy(r->data, buf, n);
+            r->got = (uint16_t)n;
+            r->sent = (uint16_t)off;
+            u->busy_bits += part;
+            d->deferred++;
+            urbsim_trace(u->tr, URBSIM_TR_BUS, now, u->name, "in_part", ",\"dev\":%u,\"len\":%u,\"end\":%llu",
+                         r->dev, off, (unsigned long long)(now + urbsim_usb_bits_ns(u, part)));
+            return; /* the frame is over for this controller */
+        }
     } else {
         bits = urbsim_usb_transfer_bits(u, r->data, r->len);
         if (now + urbsim_usb_bits_ns(u, bits) > limit) {
@@ -235,11 +267,9 @@ static void ev_usb(void *ctx, uint64_t arg, urbsim_ns_t now)
         urbsim_ns_t sof_end = now + urbsim_usb_bits_ns(u, URBSIM_USB_SOF_BITS);
         uint16_t fn = (uint16_t)(u->frame & 0x7FFu);
         urbsim_trace(u->tr, URBSIM_TR_BUS, now, u->name, "sof", ",\"frame\":%u", fn);
-        for (uint32_t i = 0; i < u->n_devs; i++) {
-            if (u->devs[i]->attached && u->devs[i]->on_sof) {
-                u->devs[i]->on_sof(u->devs[i]->ctx, fn, sof_end);
-            }
-        }
+        /* The devices see the SOF at the end of its packet: called then (before this frame's first
+         * transaction, scheduled below for the same instant). */
+        urbsim_kernel_at(u->k, sof_end, ev_usb, u, EV_SOF_END | ((uint64_t)fn << 8));
         /* The frame's schedule: every URB submitted before this SOF, in submission order. */
         uint32_t n = 0;
         while (n < u->urb_len && u->urbs[(u->urb_head + n) % URBSIM_USB_MAX_URBS].submitted < now) {
@@ -249,6 +279,15 @@ static void ev_usb(void *ctx, uint64_t arg, urbsim_ns_t now)
         u->frame++;
         if (n) {
             urbsim_kernel_at(u->k, sof_end, ev_usb, u, EV_TXN);
+        }
+        break;
+    }
+    case EV_SOF_END: {
+        uint16_t fn = (uint16_t)(arg >> 8);
+        for (uint32_t i = 0; i < u->n_devs; i++) {
+            if (u->devs[i]->attached && u->devs[i]->on_sof) {
+                u->devs[i]->on_sof(u->devs[i]->ctx, fn, now);
+            }
         }
         break;
     }

@@ -7,14 +7,19 @@
  *   its phase against the CPU's OS tick is drawn from the seed). At each SOF the controller takes
  *   the URBs submitted BEFORE that SOF, in submission order, and runs their transactions back to
  *   back after the SOF packet; a transaction that would not end before the end-of-frame guard
- *   waits for the next frame ("schedules it for transmission at the next USB cycle").
+ *   waits for the next frame ("schedules it for transmission at the next USB cycle"). An OUT
+ *   transfer runs when all of it fits. An IN token is sent only when a transaction with a full data
+ *   packet (min(requested, max_packet) bytes) fits, as a host controller budgets it before it knows
+ *   the answer's length; an IN answer longer than one packet sends the packets that fit and the
+ *   rest at the start of the next frame (its completion comes with the last packet).
  *   Wire time of a bulk transaction of n data bytes at `bitrate` (12 Mb/s):
  *       token 35 + gap 8 + data (35 + 8n + stuffed bits) + gap 8 + handshake 19 + gap 8 bits,
  *   a transfer is split in packets of `max_packet` (64) bytes with a zero-length packet after an
- *   exact multiple; stuffed bits are counted exactly (a 0 after six 1s, LSB first). An IN with
+ *   exact multiple; stuffed bits are counted in the data field (a 0 after six 1s, LSB first; not
+ *   in the PID, the CRC16 or the tokens: at most a few bits per packet). An IN with
  *   no data is NAKed (70 bits) and retried in the next frame. SOF packet: 43 bits.
- *   A device sees SOF, OUT data and IN requests at their bus instants (its HAL adds interrupt
- *   latency).
+ *   A device sees SOF (at the end of the SOF packet), OUT data and IN requests at their bus
+ *   instants, each called at that instant (its HAL adds interrupt latency).
  *
  * DRIVER (Fig. 9)
  *   write(data): the write thread hands one batch to the driver, which submits one OUT URB.
@@ -64,6 +69,8 @@ typedef struct {
     uint8_t dev;
     bool in;
     uint16_t len;
+    uint16_t got;            /**< IN split over frames: bytes the device handed (in data), 0 before */
+    uint16_t sent;           /**< IN split over frames: bytes of them transferred so far */
     urbsim_ns_t submitted;
     uint8_t data[URBSIM_USB_MAX_XFER];
 } urbsim_usb_urb_t;

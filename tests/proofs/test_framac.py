@@ -11,6 +11,7 @@ mutant must be rejected, and a missing cache entry fails instead of silently run
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -166,7 +167,7 @@ def test_mutants_need_distinct_names(tmp_path: Path) -> None:
     folder = tmp_path / "u"
     shutil.copytree(UNITS / "gen_runtime", folder)
     cfg = json.loads((folder / "unit.json").read_text())
-    cfg["mutants"] = [cfg["mutant"]]  # the same name twice, once per spelling
+    cfg["mutant"] = cfg["mutants"][0]  # the same name twice, once per spelling
     (folder / "unit.json").write_text(json.dumps(cfg))
     with pytest.raises(RUNNER.SetupError, match="share a name"):
         RUNNER.load_unit(folder)
@@ -201,6 +202,54 @@ def test_make_wires_the_part() -> None:
     assert "CHECK_TARGETS" not in mk  # mk/proofs.mk pulls the part in
 
 
+# ----------------------------------------------------------------------------- ACSL pitfalls
+
+_ACSL_FN_RE = re.compile(r"/\*@((?:(?!\*/).)*)\*/\s*(?:static\s+)?[\w\s\*]*?\b(\w+)\(([^)]*)\)\s*\{", re.DOTALL)
+_PRED_RE = re.compile(r"predicate\s+(\w+)\s*\(\s*[\w\s]+\*\s*(\w+)[^)]*\)\s*=((?:(?!predicate|logic|\*/).)*)", re.DOTALL)
+
+
+def _const_valid_contracts(text: str) -> list[str]:
+    """Functions whose `requires` apply \\valid (directly or through a predicate of the file) to a
+    parameter declared pointer-to-const."""
+    valid_preds = {name for name, param, body in _PRED_RE.findall(text)
+                   if re.search(r"\\valid\(\s*" + param + r"\s*[)+]", body)}
+    found = []
+    for contract, fn, params in _ACSL_FN_RE.findall(text):
+        requires = " ".join(c for c in contract.split(";") if c.strip().startswith("requires"))
+        for p in re.findall(r"\bconst\s+\w+\s*\*\s*(\w+)", params):
+            hit = re.search(r"\\valid\(\s*" + p + r"\s*[)+]", requires) or \
+                any(re.search(r"\b" + pred + r"\(\s*" + p + r"\s*[),]", requires) for pred in valid_preds)
+            if hit:
+                found.append(f"{fn}({p})")
+    return found
+
+
+def test_const_valid_detector_flags_the_pattern() -> None:
+    text = """/*@ predicate ok(S *s) = \\valid(s) && s->x >= 0; */
+/*@ requires ok(s); assigns \\nothing; */
+static int f(const S *s) { return s->x; }
+/*@ requires \\valid_read(s); assigns \\nothing; */
+static int g(const S *s) { return s->x; }
+"""
+    assert _const_valid_contracts(text) == ["f(s)"]
+
+
+@pytest.mark.xfail(strict=True, reason="firmware/bridge/bridge.c: urbb_fifo_ok() says \\valid(b) and slot_index and "
+                   "first_pending take a const b: in ACSL that precondition is false (WP does not model const, so "
+                   "it proves; Eva reports 'precondition got status invalid' and cuts every path through "
+                   "slot_index/first_pending, so eva_bridge_poll never reaches store_slot, complete, serve_local, "
+                   "served or probed). Fix: \\valid_read in urbb_fifo_ok, then review the new Eva alarms.")
+def test_no_valid_precondition_on_a_const_pointer() -> None:
+    """\\valid(p) is false when *p is const-qualified (ACSL: only \\valid_read holds). Such a precondition
+    makes the contract vacuous by the language's definition; WP ignores const and proves it anyway,
+    while Eva takes it as invalid at every call and silently stops the analysis of that path (the
+    runner only filters contract statuses, so no alarm shows)."""
+    found = []
+    for src in sorted((ROOT / "firmware").rglob("*.c")) + sorted((ROOT / "gen" / "c").glob("*.c")):
+        found += [f"{src.relative_to(ROOT)}: {f}" for f in _const_valid_contracts(src.read_text(encoding="utf-8"))]
+    assert not found, found
+
+
 # ----------------------------------------------------------------------------- end to end
 
 
@@ -215,4 +264,5 @@ def test_runtime_replays_from_the_committed_cache_and_its_mutant_is_rejected(tmp
     units = [r for r in rows if " mutant " not in r["function"]]
     mutants = [r for r in rows if " mutant " in r["function"]]
     assert len(units) >= 10 and all(r["result"] == "proved" and r["expected"] for r in units)
-    assert len(mutants) == 1 and mutants[0]["result"] == "killed" and mutants[0]["expected"]
+    assert len(mutants) == len(_unit("gen_runtime").mutants)
+    assert all(m["result"] == "killed" and m["expected"] for m in mutants)

@@ -11,6 +11,7 @@
 #include "clock.h"
 #include "i2c.h"
 #include "kernel.h"
+#include "mcu.h"
 #include "rng.h"
 #include "trace.h"
 #include "uart.h"
@@ -637,6 +638,13 @@ static void test_i2c(void)
     urbsim_i2c_init(&bus, &k, &tr, "i2c", 400e3, &r);
     CHECK_EQ(bus.t_bit, 2500u);
     CHECK_EQ(urbsim_i2c_byte_ns(&bus), 22500u); /* the schema README's 22.5 us per byte */
+    CHECK_EQ(bus.t_buf, 1300u);                 /* UM10204 Fast-mode t_BUF */
+    urbsim_i2c_bus_t sm, fmp;
+    urbsim_i2c_init(&sm, &k, &tr, "i2c-sm", 100e3, &r);
+    urbsim_i2c_init(&fmp, &k, &tr, "i2c-fmp", 1e6, &r);
+    CHECK_EQ(sm.t_bit, 10000u);
+    CHECK_EQ(sm.t_buf, 4700u); /* Standard-mode t_BUF (was 1.3 us at every bit rate) */
+    CHECK_EQ(fmp.t_buf, 500u); /* Fast-mode Plus */
     tslave_t s1 = {.latency = 1000, .isr = 2000, .regs = {0xAB, 0xCD, 0xEF}};
     urbsim_i2c_slave_t sl1;
     tslave_setup(&sl1, &s1, 0x10, &k);
@@ -861,6 +869,358 @@ static void test_usb(void)
     urbsim_kernel_free(&k);
 }
 
+/* ---------------------------------------------------------------- review 2026-11-26: hand-computed
+ * cases for defects found in the models (each failed before its fix). */
+
+/* Clock: virtual_at is the exact inverse of local_ns (the earliest instant whose local time reaches
+ * the value): virtual_at(local_ns(t)) == t, in every segment, with a crystal error and wander. The
+ * division in virtual_at rounded up past t for about half of all instants after the first segment. */
+static void test_clock_inverse(void)
+{
+    urbsim_rng_t r;
+    urbsim_rng_seed(&r, 11);
+    urbsim_clock_cfg_t cfg = urbsim_clock_default_cfg();
+    cfg.wander_ppm = 0.2;
+    cfg.wander_tau_s = 30.0;
+    int bad = 0, n = 0;
+    for (int dev = 0; dev < 8; dev++) {
+        cfg.ppm0 = -70.0 + 17.3 * dev;
+        urbsim_clock_t c;
+        urbsim_clock_init(&c, &cfg, &r);
+        urbsim_rng_t q;
+        urbsim_rng_seed(&q, (uint64_t)dev);
+        urbsim_ns_t t = 0;
+        for (int i = 0; i < 20000; i++, n++) {
+            t += urbsim_rng_below(&q, 100000u);
+            double l = urbsim_clock_local_ns(&c, t);
+            urbsim_ns_t v = urbsim_clock_virtual_at(&c, l);
+            /* earliest: local(v) >= l and local(v - 1) < l, so v == t since local is increasing */
+            bad += v != t;
+            uint64_t tk = urbsim_clock_ticks(&c, t);
+            urbsim_ns_t vt = urbsim_clock_virtual_at_tick(&c, tk);
+            bad += !(vt <= t && urbsim_clock_ticks(&c, vt) == tk && (vt == 0u || urbsim_clock_ticks(&c, vt - 1u) < tk));
+        }
+    }
+    CHECK(n == 160000);
+    CHECK_EQ(bad, 0);
+    /* by hand: +100 ppm, local 1 000 100 ns is reached at exactly 1 000 000 ns, not 1 ns later,
+     * also in the second segment (100 ms + 1 ms: local 100 010 000 + 1 000 100) */
+    cfg = urbsim_clock_default_cfg();
+    cfg.ppm0 = 100.0;
+    urbsim_clock_t c;
+    urbsim_clock_init(&c, &cfg, &r);
+    CHECK_EQ(urbsim_clock_virtual_at(&c, 1000100.0), 1000000u);
+    CHECK_EQ(urbsim_clock_virtual_at(&c, 101010100.0), 101000000u);
+    CHECK_EQ(urbsim_clock_virtual_at(&c, 101010100.5), 101000001u);
+}
+
+/* UART bit errors: with a bit error process over the wire bits (start, 8 data LSB first, stop),
+ * every flipped bit lands at its own place in the character. Reference: the absolute positions of
+ * the flipped bits in the stream are the running sums of the geometric draws; character i holds
+ * stream bits 10 i .. 10 i + 9. The model placed the second and later errors of a character
+ * relative to the previous error but indexed them from the start of the character. */
+static void test_uart_bit_positions(void)
+{
+    urbsim_kernel_t k;
+    urbsim_trace_t tr;
+    urbsim_rng_t r;
+    urbsim_kernel_init(&k);
+    urbsim_trace_init(&tr);
+    urbsim_rng_seed(&r, 5);
+    urbsim_uart_line_t u;
+    urbsim_uart_init(&u, &k, &tr, "uart", 115200.0, 0.0, NULL, &r);
+    static rxlog_t l;
+    l.n = 0;
+    u.rx = uart_rx;
+    u.rx_ctx = &l;
+    const double ber = 0.12;
+    urbsim_uart_set_faults(&u, ber, 0.0);
+    urbsim_rng_t ref = u.rng;           /* the line's stream after its first draw */
+    uint64_t next = u.bits_to_error - 1u; /* absolute index of the next flipped bit */
+    int bad = 0, multi = 0;
+    uint8_t sent[64];
+    for (int i = 0; i < 64; i++) {
+        sent[i] = (uint8_t)(0x5Au + 37u * (unsigned)i);
+    }
+    for (int round = 0; round < 40; round++) {
+        l.n = 0;
+        urbsim_uart_send(&u, sent, 64);
+        urbsim_kernel_run_until(&k, k.now + 10u * URBSIM_NS_PER_MS);
+        CHECK_EQ(l.n, 64);
+        for (int i = 0; i < 64; i++) {
+            uint64_t c0 = (uint64_t)(round * 64 + i) * 10u;
+            uint8_t want = sent[i];
+            bool framing = false;
+            int errs = 0;
+            while (next < c0 + 10u) {
+                uint64_t pos = next - c0;
+                if (pos == 0u || pos == 9u) {
+                    framing = true;
+                } else {
+                    want ^= (uint8_t)(1u << (pos - 1u));
+                }
+                errs++;
+                next += urbsim_rng_geometric(&ref, ber);
+            }
+            multi += errs >= 2;
+            if (framing) {
+                (void)urbsim_rng_u64(&ref); /* the model draws the garbage byte */
+                bad += !(l.flags[i] & URBSIM_UART_FRAMING);
+            } else {
+                bad += (l.flags[i] & URBSIM_UART_FRAMING) != 0u || l.b[i] != want;
+            }
+        }
+    }
+    CHECK(multi > 100); /* characters with two or more flipped bits were exercised */
+    CHECK_EQ(bad, 0);
+    urbsim_kernel_free(&k);
+}
+
+/* I2C slaves on simulated MCUs (urbsim_mcu_t: 48 MHz, 15 cycles of entry latency = 313 ns, no
+ * jitter, a 60-cycle I2C handler = 1250 ns), and a timer interrupt of 120 cycles (2500 ns). */
+typedef struct {
+    urbsim_mcu_t mcu;
+    urbsim_kernel_t *k;
+    urbsim_ns_t t_addr, t_rx, t_stop, t_timer;
+} mslave_t;
+
+static urbsim_ns_t ms_window(void *ctx, urbsim_ns_t t_irq, urbsim_ns_t *end)
+{
+    mslave_t *s = ctx;
+    return urbsim_mcu_isr(&s->mcu, t_irq, 60.0, end);
+}
+static bool ms_addr(void *ctx, bool read, bool gc, urbsim_ns_t t_hw)
+{
+    mslave_t *s = ctx;
+    (void)read, (void)gc, (void)t_hw;
+    s->t_addr = s->k->now;
+    return true;
+}
+static bool ms_rx(void *ctx, uint8_t byte, urbsim_ns_t t_hw)
+{
+    mslave_t *s = ctx;
+    (void)byte, (void)t_hw;
+    s->t_rx = s->k->now;
+    return true;
+}
+static void ms_stop(void *ctx, bool repeated, urbsim_ns_t t_hw)
+{
+    mslave_t *s = ctx;
+    (void)repeated, (void)t_hw;
+    s->t_stop = s->k->now;
+}
+static void ms_timer(void *ctx, uint64_t arg, urbsim_ns_t now)
+{
+    mslave_t *s = ctx;
+    urbsim_ns_t end;
+    (void)arg;
+    s->t_timer = urbsim_mcu_isr(&s->mcu, now, 120.0, &end);
+}
+
+/* Interrupts are raised at their bus instant, in time order on each MCU: a slave's interrupt for
+ * the 8th bit of a byte (or for a STOP) is not reserved on its MCU when the master issues the
+ * operation, 20 us (2.5 us) earlier. Before, a node's timer interrupt that came in between was
+ * tail-chained behind a handler whose interrupt had not happened yet (up to 19 us late in the
+ * SensoRHex scenario), and a handler running at the 8th bit did not delay the slave's. */
+static void test_i2c_irq_order(void)
+{
+    urbsim_kernel_t k;
+    urbsim_trace_t tr;
+    urbsim_rng_t r;
+    urbsim_kernel_init(&k);
+    urbsim_trace_init(&tr);
+    urbsim_rng_seed(&r, 9);
+    urbsim_i2c_bus_t bus;
+    urbsim_i2c_init(&bus, &k, &tr, "i2c", 400e3, &r);
+    mslave_t s = {.k = &k};
+    urbsim_clock_cfg_t cfg = urbsim_clock_default_cfg();
+    urbsim_mcu_init(&s.mcu, &cfg, &r);
+    CHECK_EQ(urbsim_clock_cycles_ns(&s.mcu.clk, 0, 15.0), 313u);
+    urbsim_i2c_slave_t sl;
+    memset(&sl, 0, sizeof sl);
+    sl.ctx = &s;
+    sl.address = 0x10;
+    sl.powered = true;
+    sl.isr_window = ms_window;
+    sl.on_address = ms_addr;
+    sl.on_rx = ms_rx;
+    sl.on_stop = ms_stop;
+    urbsim_i2c_attach(&bus, &sl);
+    tmaster_t m = {.bus = &bus};
+    bus.master = tm_event;
+    bus.master_ctx = &m;
+    static const uint8_t wr[] = {0x20, 0x55};
+    m.ops = "SWWP";
+    m.bytes = wr;
+    /* START 0..2500; address issued at 2500, 8th bit at 22500. A timer interrupt at 10000 starts at
+     * 10313 (not behind the address handler, 22813..24063); ACK bit ends 24063 + 2500 = 26563. */
+    urbsim_kernel_at(&k, 10000, ms_timer, &s, 0);
+    tm_next(&m);
+    urbsim_kernel_run_until(&k, 15000);
+    CHECK_EQ(s.t_timer, 10313u);
+    urbsim_kernel_run_until(&k, 40000);
+    CHECK_EQ(s.t_addr, 22813u);
+    CHECK_EQ(m.t[1], 26563u);
+    /* Data byte issued at 26563, 8th bit at 46563. A timer at 46000 runs 46313..48813: the slave's
+     * handler (due 46876) is tail-chained behind it, 48813..50063, and the ACK ends 52563. STOP
+     * issued at 52563 ends at 55063; a timer at 54000 runs 54313..56813 and the slave's STOP
+     * handler follows it at 56813 (it was reserved for 55376 when the STOP was issued). */
+    urbsim_kernel_at(&k, 46000, ms_timer, &s, 0);
+    urbsim_kernel_run_until(&k, 47000);
+    CHECK_EQ(s.t_timer, 46313u);
+    urbsim_kernel_run_until(&k, 53000);
+    CHECK_EQ(s.t_rx, 48813u);
+    CHECK_EQ(m.t[2], 52563u);
+    urbsim_kernel_at(&k, 54000, ms_timer, &s, 0);
+    urbsim_kernel_run_until(&k, 100000);
+    CHECK_EQ(s.t_timer, 54313u);
+    CHECK_EQ(s.t_stop, 56813u);
+    CHECK_EQ(bus.bus_free_at, 55063u + 1300u);
+    urbsim_kernel_free(&k);
+}
+
+/* I2C read whose ACK bit a bit error inverts: the master ACKs the first byte, the slave sees a NACK,
+ * releases SDA and waits for the STOP, so the master's next read samples 0xFF (SDA released), not
+ * the previous byte again. */
+static void test_i2c_lost_read_ack(void)
+{
+    urbsim_kernel_t k;
+    urbsim_trace_t tr;
+    urbsim_rng_t r;
+    urbsim_kernel_init(&k);
+    urbsim_trace_init(&tr);
+    urbsim_rng_seed(&r, 4);
+    urbsim_i2c_bus_t bus;
+    urbsim_i2c_init(&bus, &k, &tr, "i2c", 400e3, &r);
+    tslave_t s1 = {.latency = 1000, .isr = 2000, .regs = {0xAB, 0xCD, 0xEF}};
+    urbsim_i2c_slave_t sl1;
+    tslave_setup(&sl1, &s1, 0x10, &k);
+    urbsim_i2c_attach(&bus, &sl1);
+    tmaster_t m = {.bus = &bus};
+    bus.master = tm_event;
+    bus.master_ctx = &m;
+    /* the 18th wire bit is flipped: the address byte has 9, the first read's ACK bit is the 18th;
+     * no other bit error for a very long time */
+    bus.ber = 1e-15;
+    bus.bits_to_error = 18;
+    static const uint8_t rd[] = {0x21};
+    m.ops = "SWRLP";
+    m.bytes = rd;
+    tm_next(&m);
+    urbsim_kernel_run_until(&k, URBSIM_NS_PER_MS);
+    CHECK_EQ(m.n, 4);
+    CHECK_EQ(bus.flipped_bits, 1u);
+    CHECK_EQ(m.got[2], 0xABu);
+    CHECK_EQ(s1.n_tx, 1);     /* the slave loaded one byte only */
+    CHECK_EQ(m.got[3], 0xFFu); /* nobody drives SDA */
+    CHECK_EQ(s1.stops, 1);
+    urbsim_kernel_free(&k);
+}
+
+/* USB: a device sees the SOF at the end of the SOF packet, and that is when its handler is called
+ * (kernel time == the instant it is told); an IN transaction is only started when a full data
+ * packet fits before the end-of-frame guard (a host controller's rule): it never runs past the
+ * next SOF. */
+typedef struct {
+    urbsim_kernel_t *k;
+    urbsim_ns_t sof_now, sof_t, in_t;
+    uint32_t in_len, reads, in_calls;
+    urbsim_ns_t read_t;
+} udev_t;
+
+static void ud_sof(void *ctx, uint16_t f, urbsim_ns_t t)
+{
+    udev_t *d = ctx;
+    (void)f;
+    d->sof_now = d->k->now;
+    d->sof_t = t;
+}
+static uint32_t ud_in(void *ctx, uint8_t *buf, uint32_t cap, urbsim_ns_t t)
+{
+    udev_t *d = ctx;
+    uint32_t n = d->in_len < cap ? d->in_len : cap;
+    memset(buf, 0, n);
+    d->in_t = t;
+    d->in_calls++;
+    return n;
+}
+
+/* Submit OUT transfers of zero bytes whose bits after the SOF packet add up to [lo, hi]. */
+static uint32_t usb_fill(urbsim_usb_bus_t *u, uint32_t lo, uint32_t hi)
+{
+    static uint8_t zeros[512];
+    uint32_t used = 0;
+    while (used < lo) {
+        uint32_t len = 512;
+        while (len > 1u && used + urbsim_usb_transfer_bits(u, zeros, len) > hi) {
+            len--;
+        }
+        used += urbsim_usb_transfer_bits(u, zeros, len);
+        CHECK(urbsim_usb_write(u, 0, zeros, len));
+    }
+    return used;
+}
+static void ud_read(void *ctx, const uint8_t *data, uint32_t len, urbsim_ns_t t)
+{
+    udev_t *d = ctx;
+    (void)data;
+    d->reads++;
+    d->read_t = t;
+    d->in_len = len;
+}
+
+static void test_usb_frame_edges(void)
+{
+    urbsim_kernel_t k;
+    urbsim_trace_t tr;
+    urbsim_kernel_init(&k);
+    urbsim_trace_init(&tr);
+    urbsim_usb_bus_t u;
+    urbsim_usb_init(&u, &k, &tr, "usb", NULL, 250 * URBSIM_NS_PER_US);
+    udev_t d = {.k = &k, .in_len = 40};
+    urbsim_usb_dev_t dev = {.ctx = &d, .on_sof = ud_sof, .on_in = ud_in, .host_read = ud_read, .hctx = &d,
+                            .in_size = 512};
+    CHECK_EQ(urbsim_usb_attach(&u, &dev), 0);
+    urbsim_usb_run(&u);
+    urbsim_kernel_run_until(&k, 300 * URBSIM_NS_PER_US);
+    CHECK_EQ(d.sof_t, 250000u + 3583u);
+    CHECK_EQ(d.sof_now, d.sof_t);
+    /* Frame 1 starts at 1.25 ms; its usable part ends at 2.25 ms - 4 us = 2 246 000 ns, 11 909 bits
+     * after the SOF packet. Fill it with OUT transfers so that the IN token would come 120..360 bits
+     * before that end: a NAK (70 bits) would fit, not a transaction with a full data packet (the IN
+     * asks for 512 bytes: 64 bytes, 625 bits, + 85 bits of worst-case stuffing = 710), nor the
+     * 40-byte answer (35 + 8 + 35 + 320 + 8 + 19 + 8 = 433 bits, 36.1 us), which ran over the end. */
+    const uint32_t limit_bits = (uint32_t)((1000000u - 4000u - 3583u) * 12u / 1000u); /* 11909 */
+    uint32_t used = usb_fill(&u, limit_bits - 360u, limit_bits - 120u);
+    CHECK(used + 70u < limit_bits && used + 433u > limit_bits);
+    CHECK(urbsim_usb_read(&u, 0));
+    urbsim_kernel_run_until(&k, 5 * URBSIM_NS_PER_MS);
+    CHECK_EQ(d.reads, 1u);
+    CHECK_EQ(d.in_len, 40u);
+    /* the IN waited for frame 2 (SOF 2.25 ms) and is its first transaction */
+    CHECK_EQ(d.in_t, 2250000u + 3583u);
+    CHECK_EQ(d.read_t, 2250000u + 3583u + urbsim_usb_bits_ns(&u, 433u) + 20000u);
+    /* A 100-byte answer (packets of 64 and 36 bytes: 625 + 401 bits) to a token 760..980 bits before
+     * the end of frame 5 (SOF 5.25 ms): the first packet is sent then, the second at the start of
+     * frame 6, and the transfer completes with it: 6 250 000 + 3583 + 33 417 = 6 287 000 ns, read
+     * callback 20 us later. The device is asked once. */
+    static uint8_t zeros[100];
+    CHECK_EQ(urbsim_usb_transfer_bits(&u, zeros, 100), 625u + 401u);
+    d.in_len = 100;
+    d.in_calls = 0;
+    d.reads = 0;
+    urbsim_kernel_run_until(&k, 5 * URBSIM_NS_PER_MS + 100 * URBSIM_NS_PER_US);
+    used = usb_fill(&u, limit_bits - 980u, limit_bits - 760u);
+    CHECK(urbsim_usb_read(&u, 0));
+    urbsim_kernel_run_until(&k, 8 * URBSIM_NS_PER_MS);
+    CHECK_EQ(d.in_calls, 1u);
+    CHECK_EQ(d.reads, 1u);
+    CHECK_EQ(d.in_len, 100u);
+    CHECK(d.in_t > 5250000u && d.in_t < 6250000u);
+    CHECK_EQ(d.read_t, 6287000u + 20000u);
+    urbsim_kernel_free(&k);
+}
+
 int main(void)
 {
     test_kernel();
@@ -871,6 +1231,11 @@ int main(void)
     test_uart();
     test_i2c();
     test_usb();
+    test_clock_inverse();
+    test_uart_bit_positions();
+    test_i2c_irq_order();
+    test_i2c_lost_read_ack();
+    test_usb_frame_edges();
     printf("sim core: %d checks, %d failed\n", checks, failures);
     return failures ? 1 : 0;
 }

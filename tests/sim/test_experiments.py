@@ -83,13 +83,14 @@ def test_trace_validation_with_tlc(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("uplink, seed, seconds, median_ms",
-                         [("rs232", 1, 1.2, 2.0), ("rs232", 14, 1.2, 3.0), ("usb", 19, 3.0, 5.0)])
+                         [("rs232", 1, 1.2, 2.0), ("rs232", 14, 1.6, 3.0), ("usb", 19, 3.0, 5.0)])
 def test_loop_delay_is_whole_node_periods(uplink: str, seed: int, seconds: float, median_ms: float) -> None:
     """The node samples and drives on its 1-kHz update, so a loop's sensor-to-actuator delay is whole
     update periods: over RS232 two (the paper's 2 ms) or, at phases of the host loop where the command
     arrives just after the update it was due at, three; over USB the USB frames' phase can add one
     more to the paper's 3 ms (at seed 19 after 0.75 s: the phases drift, every crystal has its own
-    error). All are within Figs. 18-19's criterion."""
+    error). All are within Figs. 18-19's criterion. (Seed 14 runs 1.6 s: since slave interrupts are
+    raised at their bus instants (2026-11-26) its phase reaches the 3-ms side after about 1.2 s.)"""
     axis, _, _, _, s = control.pd_tracking(uplink, seed, seconds, 5.0, 0.05)
     s.close()
     med = statistics.median(axis.delays)

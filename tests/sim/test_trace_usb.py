@@ -55,10 +55,21 @@ def test_rejected_trace_reports_its_longest_matched_prefix(at: int, change: dict
 
 
 def test_host_library_trace_is_accepted() -> None:
-    ev, max_batch = record_usb_uplink(7, 20)
+    ev, max_batch, window = record_usb_uplink(7, 20)
     assert sum(1 for e in ev if e.ev == "callback") == 20 * 2 + 20 // 3  # every read and write answered
-    r = check_usb(ev, max_batch)
+    r = check_usb(ev, max_batch, window)
     assert r.accepted, r.message
+
+
+def test_trace_checked_against_the_window_it_was_logged_with() -> None:
+    """The window is the host's (UsbCore.window, 15 here), not a constant of the check: the same trace
+    checked as if the host kept at most 2 requests in flight is rejected (UsbUplink.tla's UsbWrite
+    cannot send past the window)."""
+    ev, max_batch, window = record_usb_uplink(7, 20)
+    assert window == 15
+    assert check_usb(ev, max_batch, window).accepted
+    r = check_usb(ev, max_batch, 2)
+    assert not r.accepted and r.matched_prefix < len(ev), r.message
 
 
 @pytest.fixture
@@ -77,8 +88,8 @@ def _newest_first(monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
 
 @pytest.mark.usefixtures("_newest_first")
 def test_host_writing_newest_first_is_rejected() -> None:
-    ev, max_batch = record_usb_uplink(7, 20)
-    r = check_usb(ev, max_batch)
+    ev, max_batch, window = record_usb_uplink(7, 20)
+    r = check_usb(ev, max_batch, window)
     assert not r.accepted
     first_batch = next(k for k, e in enumerate(ev) if e.ev == "write" and len(e.ids) > 1)
     assert ev[first_batch].ids != sorted(ev[first_batch].ids)

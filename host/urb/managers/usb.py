@@ -34,7 +34,8 @@ class USBManager(ThreadedManager):
     def __init__(self, transport: object, *, max_batch: int = 14, timeout_s: float = 0.05,
                  lost_after_s: float = 0.5, name: str | None = None) -> None:
         """`transport`: a `FrameTransport`, or a device path (str) opened with
-        `CharDeviceTransport`. `max_batch`: requests per 1-ms batch (at most 15 are in flight).
+        `CharDeviceTransport`. `max_batch`: requests per 1-ms batch (at most 15 are in flight; the
+        3-ms round trip holds up to 7 requests per frame, see `usb_core`).
         `timeout_s`: a response not back this long after its batch was written completes
         UPLINK_TIMEOUT."""
         core = UsbCore(max_batch=max_batch, timeout_ns=int(timeout_s * 1e9), lost_after_ns=int(lost_after_s * 1e9))

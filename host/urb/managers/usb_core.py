@@ -20,6 +20,12 @@ UPLINK_CHECKSUM when corrupt bytes stood in its place) or after `timeout_ns`.
 Limits per batch: `max_batch` requests, both the OUT transfer and the worst-case IN contribution
 within `USB_BATCH_MAX_BYTES` (512); in flight at most `window` (<= 15, Bridge.tla `HostWindow <
 SeqMod`: the sequence number cannot alias).
+
+Latency: the paper's three frames (Fig. 16; UsbUplink.tla `StrictLatency`) hold while at most
+window / 2 requests (7 with the usual window of 15) are submitted per frame. The OUT transfer of
+frame n goes out before the IN transfer that completes batch n-1, so two frames' requests are in
+flight at once; more per frame fills the window, and the requests beyond it wait for a later frame
+(TLC: MaxBatch = MaxSubmit = 2 with Window = 3 calls a request back in its fourth frame).
 """
 
 from __future__ import annotations

@@ -15,19 +15,26 @@
  * not an incomplete one) at any place in its buffer, hunting or flushing (a flush stopped by the
  * budget); one arbitrary byte arrives or not (after an arbitrary distance: an idle gap or not, any
  * 32-bit clock, so it may wrap), and the main loop polls at an arbitrary later time (after the
- * idle timeout or not) with ANY check budget k, then polls again with a budget that cannot run out.
+ * idle timeout or not) with ANY check budget k.
+ * Or the poll's `now` is EARLIER than the last byte's stamp (LATE, by 1 us .. 2^31 us): the UART
+ * interrupt ran after the poll read its clock, before the parser's ring check (the byte is taken)
+ * or between that check and the idle test (ARRIVE=0: the byte waits in the ring for the next step).
  * Properties:
  *   no overrun      every buffer access is in bounds (ESBMC), the assembler never holds more than
  *                   URB_BRIDGE_FRAME_MAX bytes nor runs past its buffer;
- *   budget          the first poll makes at most k checks; it stops early (counted in hunt_yields)
- *                   only where a check is due and k is spent, and the second poll's first act is
- *                   then that check; a poll that did not stop early leaves nothing to do;
- *   exactly the reference's frames: the two polls together hand admission exactly, in order, the
+ *   budget          the poll makes at most k checks; it stops early (counted in hunt_yields)
+ *                   exactly where the reference does, a check due and k spent, and leaves the held
+ *                   bytes, the mode and the ring byte as the reference does, so the next step
+ *                   starts with that check (one poll is run: polls compose by this induction);
+ *   exactly the reference's frames: the poll hands admission exactly, in order, the
  *                   frames an index-based reference parser written from the schema finds (a
  *                   complete candidate that fails its check loses its first byte: hunting; an idle
  *                   gap or the idle timeout ends a candidate: it loses its first byte and the
  *                   complete frames behind it still count), hold exactly the reference's remaining
- *                   candidate afterwards, and move the hunting and gap counters as it does.
+ *                   candidate afterwards, and move the hunting and gap counters as it does. The
+ *                   reference's idle timeout is "now is more than rx_gap_us after the last stamp",
+ *                   never a wrapped difference: a byte stamped after `now` is no idle gap (the
+ *                   held candidate waits; firmware fix 66c5bff, seeded bug rx-newer-than-now).
  *   Every state a poll leaves is again such a state, and the reference's scan of a whole stream is
  *   this step repeated, so for streams whose candidates stay within the FW_HELD bound of the tier,
  *   any split of the work into polls (any budgets) admits exactly the reference's frames.
@@ -45,6 +52,11 @@
  *               potentials start at 0 and never go negative, so summed over any stream the main
  *               loop spends at most that per byte (plus FW_POLL_CYCLES per poll), whatever the
  *               bytes. This is the value recorded in COST.
+ * Part 4, the interrupt alone from ANY receive-ring state (parts 1 and 2 start with an empty ring
+ * and no overrun pending): a byte into a full ring is lost (counted, the overrun remembered, head and
+ * every slot unchanged); otherwise it is stored at the head with the gap flag exactly when the line
+ * was idle longer than rx_gap_us or bytes were lost before it, and only then published; the stamp is
+ * kept either way. Parts 1 and 2 parse what the flag means.
  *
  * The check is abstracted (proofs/bmc/stubs/fw_uplink_model.h, shared with the USB proof).
  */
@@ -246,17 +258,23 @@ static void step(void)
     uint32_t const delta = URB_NONDET_U32();
     uint32_t const wait = URB_NONDET_U32();
     URB_ASSUME((delta >= FW_BYTE_US) && (delta <= FW_MAX_DELTA) && (wait <= FW_MAX_DELTA));
+    /* LATE: the last byte's stamp is `ahead` us after the poll's `now` (the interrupt ran after the
+     * poll read its clock); the firmware reads a difference of 2^31 us or more as such a byte. */
+    bool const late = URB_NONDET_BOOL();
+    uint32_t const ahead = URB_NONDET_U32();
+    URB_ASSUME(!late || ((ahead >= 1u) && (ahead <= 0x80000000u)));
 #if defined(URB_IDLE)
     /* sweep items with IDLE: only polls after the idle timeout, so a larger HELD stays affordable */
-    URB_ASSUME(wait > FW_GAP_US);
+    URB_ASSUME(!late && (wait > FW_GAP_US));
 #endif
     bridge.rx_started = true;
     bridge.rx_last_us = last;
-    uint32_t now = last + wait;
+    uint32_t stamp = last; /* the last byte's stamp */
 #if URB_ARRIVE
     urb_bridge_uart_rx(&bridge, stream[FW_HELD], last + delta);
-    now = last + delta + wait;
+    stamp = last + delta;
 #endif
+    uint32_t const now = late ? (uint32_t)(stamp - ahead) : (uint32_t)(stamp + wait);
     uint8_t const k1 = URB_NONDET_U8(); /* the poll's budget: any */
     uint32_t const yields = bridge.stats.hunt_yields;
     uint32_t const discards = bridge.stats.hunt_discards;
@@ -279,7 +297,8 @@ static void step(void)
      * no budget for; its state (start, end, mode, whether the byte was taken) is then all the next
      * poll needs, so polls compose into the reference's scan of the whole stream. */
     bool const gap = arrive && (delta > FW_GAP_US);
-    bool const idle = (uint32_t)(now - bridge.rx_last_us) > FW_GAP_US;
+    /* idle: `now` at least rx_gap_us after the last stamp, from the harness's own unwrapped times */
+    bool const idle = !late && (wait > FW_GAP_US);
     ref_flushing = flushing;
     ref_budget = k1;
     uint8_t s = 0u;
@@ -315,6 +334,8 @@ static void step(void)
     URB_ASSERT(p->flushing == ref_flushing, "a flush in progress is remembered exactly when the reference is in one");
     URB_ASSERT(bridge.stats.hunt_discards - discards == ref_discards, "hunting discards counted as the reference");
     URB_ASSERT(bridge.stats.gap_drops - gaps == ref_gaps, "gap drops counted as the reference");
+    URB_ASSERT(!late || gap || (bridge.stats.gap_drops == gaps),
+               "a byte stamped after the poll's now is no idle gap: no partial frame dropped");
 #else
     /* Part 2. The linear form: bytes consumed = frames' bytes + failed checks + dropped bytes. */
     uint8_t const consumed = (uint8_t)(FW_HELD + pulled - after);
@@ -363,6 +384,53 @@ static void part3_decode(void)
     }
 }
 
+/* Part 4: one byte from the UART interrupt, from any receive-ring state. */
+static void part4_rx(void)
+{
+    uint8_t const head = URB_NONDET_U8();
+    uint8_t const tail = URB_NONDET_U8();
+    URB_ASSUME((uint8_t)(head - tail) <= URB_BRIDGE_RX_RING);
+    bool const started = URB_NONDET_BOOL();
+    bool const overrun = URB_NONDET_BOOL();
+    uint32_t const last = URB_NONDET_U32();
+    uint32_t const t = URB_NONDET_U32();
+    uint8_t const byte = URB_NONDET_U8();
+    uint8_t const other = URB_NONDET_U8(); /* any other slot keeps its contents */
+    URB_ASSUME(other < URB_BRIDGE_RX_RING);
+    uint16_t const seen = URB_NONDET_U16();
+    uint16_t const at_head = URB_NONDET_U16();
+    bridge.rx_ring[other] = seen;
+    bridge.rx_ring[head & (URB_BRIDGE_RX_RING - 1u)] = at_head;
+    bridge.rx_head = head;
+    bridge.rx_tail = tail;
+    bridge.rx_started = started;
+    bridge.rx_overrun = overrun ? 1u : 0u;
+    bridge.rx_last_us = last;
+    bool const full = (uint8_t)(head - tail) == URB_BRIDGE_RX_RING;
+    /* stamps mark byte ends on a free-running 32-bit microsecond clock: the difference wraps */
+    bool const gap = started && ((uint32_t)(t - last) > FW_GAP_US);
+    URB_COST_BEGIN();
+    urb_bridge_uart_rx(&bridge, byte, t);
+    URB_ASSERT(bridge.rx_started && (bridge.rx_last_us == t), "rx: the stamp is kept, lost byte or not");
+    URB_ASSERT(bridge.stats.rx_bytes == 1u, "rx: every byte counted");
+    URB_ASSERT(bridge.rx_tail == tail, "rx: the interrupt never moves the tail");
+    if (full) {
+        URB_ASSERT(bridge.rx_head == head, "rx: a full ring publishes nothing");
+        URB_ASSERT(bridge.rx_ring[head & (URB_BRIDGE_RX_RING - 1u)] == at_head, "rx: a full ring's oldest byte is kept");
+        URB_ASSERT((bridge.rx_overrun != 0u) && (bridge.stats.rx_overruns == 1u), "rx: the lost byte is remembered and counted");
+    } else {
+        URB_ASSERT(bridge.rx_head == (uint8_t)(head + 1u), "rx: the byte is published");
+        URB_ASSERT(bridge.rx_ring[head & (URB_BRIDGE_RX_RING - 1u)] ==
+                       (uint16_t)(byte | ((gap || overrun) ? URB_BRIDGE_RX_GAP : 0u)),
+                   "rx: stored at the head, flagged exactly after an idle gap or lost bytes");
+        URB_ASSERT((bridge.rx_overrun == 0u) && (bridge.stats.rx_overruns == 0u), "rx: a stored byte clears the overrun");
+    }
+    if (other != (head & (URB_BRIDGE_RX_RING - 1u))) {
+        URB_ASSERT(bridge.rx_ring[other] == seen, "rx: no other slot is written");
+    }
+    URB_ASSERT(urb_proof_cost <= FW_UART_EVENT_BUDGET, "cost: the interrupt within half a UART byte time");
+}
+
 void harness(void)
 {
     /* What urb_bridge_init / urbb_uplink_init set for the parser at 115200 Bd with the default gap. */
@@ -381,5 +449,7 @@ void harness(void)
     step();
 #elif URB_PART == 3
     part3_decode();
+#elif URB_PART == 4
+    part4_rx();
 #endif
 }

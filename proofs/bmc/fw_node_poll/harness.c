@@ -27,7 +27,7 @@
  *   result   the returned mask is exactly the steps that ran
  *   cost     one poll, hooks excluded, within FW_POLL_BUDGET = 4800 cycles, a tenth of the 1-ms
  *            cycle at 48 MHz (fw_budgets.h): the rest of the cycle is the application's update
- *            and idle time and the interrupts. Worst case (COST): 3461 cycles = 72 us, 72% of the
+ *            and idle time and the interrupts. Worst case (COST): 3472 cycles = 72 us, 72% of the
  *            budget, 7.2% of the cycle; 2457 of them are the identification encoder's proved worst
  *            case, charged whenever outbox 0 is refreshed
  *

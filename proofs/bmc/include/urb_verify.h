@@ -19,6 +19,11 @@
  *   URB_TIGHT(c, "name")     a witness that c is reachable: a no-op in a proof run; when
  *                            URB_VERIFY_TIGHT is defined it becomes an assertion of !(c), which
  *                            the tool must then REFUTE (tools/proofs.py runs it, expects a failure)
+ *
+ * Vacuity check (make reach): with URB_VERIFY_REACH defined every URB_ASSERT is off and
+ * proofs/bmc/stubs/urb_reach.c calls harness() then asserts false ("reach: ..."), which the tool
+ * must REFUTE: some input satisfies every URB_ASSUME and the harness runs to its end, so the
+ * proof's assertions are not vacuously true.
  *   URB_COST_BEGIN()         clears the cost counter before the call under proof
  *   URB_COST_END(budget)     asserts the call's cost fits the budget and the recorded worst case
  *
@@ -117,8 +122,9 @@ void urb_native_fill(void *array, size_t size);
 
 /* ===== Properties ======================================================================== */
 
-#if defined(URB_COST_PROBE)
-/* A probe run (make probe) asks one question, the largest cost, so every other property is off. */
+#if defined(URB_COST_PROBE) || defined(URB_VERIFY_REACH)
+/* A probe run (make probe) asks one question, the largest cost, and a reachability run (make reach)
+ * whether the harness ends at all, so every other property is off. */
 #define URB_ASSERT(c, name) ((void)0)
 #else
 #define URB_ASSERT(c, name) URB_ASSERT_(c, name)

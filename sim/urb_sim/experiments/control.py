@@ -30,7 +30,7 @@ PAPER_LAG_MS = {"rs232": 2.0, "usb": 3.0}
 #: delay is a whole number of update periods: the paper's value when the command reaches the node
 #: before the update it is due at, one period more when it arrives just after it. Which of the two
 #: depends on the phase of the host's 1-kHz loop against the nodes' (synchronised) updates, drawn
-#: per seed: 2.0 ms over RS232 at seed 1, 3.0 ms at seed 14 (tests/sim/test_experiments.py). Over
+#: per seed: 2.0 ms over RS232 at seed 1, 3.0 ms at seed 14 over 1.6 s (tests/sim/test_experiments.py). Over
 #: USB the phase of the USB frames against the OS tick can add one more (the round trip alone
 #: spans 2.1-3.1 ms, Fig. 16): 5.0 ms at seed 19.
 NODE_PERIOD_MS = 1.0

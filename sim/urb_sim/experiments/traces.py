@@ -146,9 +146,9 @@ USB_PHASES_US = [100, 300, 500, 700, 900, 950, 980, 999]
 
 
 def record_usb_uplink(seed: int, cycles: int, motor_load: bool = False,
-                      phase_us: int = USB_TICK_ALIGNED_US) -> tuple[list[UsbEvent], int]:
+                      phase_us: int = USB_TICK_ALIGNED_US) -> tuple[list[UsbEvent], int, int]:
     """Log the host library's view of a USB uplink (UsbCore.trace) from the end of discovery: the
-    events and the host's batch limit. The application reads two probe nodes every millisecond and
+    events, the host's batch limit and its window. The application reads two probe nodes every millisecond and
     writes one every third; with `motor_load`, it reads (6 bytes) and writes (2 bytes) three nodes
     every other millisecond, as the motor loop of Fig. 20 does on each USB bridge. The USB frames
     start `phase_us` after the OS tick."""
@@ -181,7 +181,7 @@ def record_usb_uplink(seed: int, cycles: int, motor_load: bool = False,
     s.host.advance((cycles + 20) * NS_PER_MS)
     events = usb_trace(core.trace)
     s.close()
-    return events, core.max_batch
+    return events, core.max_batch, core.window
 
 
 def record_discovery(seed: int) -> DiscoveryTrace:
@@ -434,8 +434,8 @@ def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progres
                   f"statuses {', '.join(statuses)}" if r.accepted else r.message,
                   r.accepted and "CHECKSUM" in statuses)
         progress(4.5 / 5, "traces: USB uplink trace (UsbUplink.tla)")
-        uev, max_batch = record_usb_uplink(seed + 11, cycles)
-        r = check_usb(uev, max_batch)
+        uev, max_batch, window = record_usb_uplink(seed + 11, cycles)
+        r = check_usb(uev, max_batch, window)
         add("usb", "host library's USB uplink (UsbUplink.tla)", r)
         callbacks = sum(1 for e in uev if e.ev == "callback")
         res.check("USB uplink trace accepted", "TLC finds a behaviour of UsbUplink.tla matching every submission, "
@@ -446,7 +446,7 @@ def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progres
         for name, usb_mutant in [("responses one frame late", usb_late_read(uev)),
                                  ("batch out of order", usb_swapped_batch(uev)),
                                  ("callbacks swapped", usb_swapped_callbacks(uev))]:
-            r = check_usb(usb_mutant, max_batch)
+            r = check_usb(usb_mutant, max_batch, window)
             add("usb", f"USB uplink mutant: {name}", r)
             check_mutant(res, f"USB uplink mutant rejected: {name}",
                          "TLC finds no behaviour of UsbUplink.tla matching it", r, first_change(uev, usb_mutant))
@@ -457,8 +457,8 @@ def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progres
         verdicts = []
         tried = USB_PHASES_US[::2] if quick else USB_PHASES_US
         for phase in tried:
-            pev, max_batch = record_usb_uplink(seed + 20, 20, phase_us=phase)
-            r = check_usb(pev, max_batch)
+            pev, max_batch, window = record_usb_uplink(seed + 20, 20, phase_us=phase)
+            r = check_usb(pev, max_batch, window)
             submitted = {e.id: e.f for e in pev if e.ev == "submit"}
             frames = max(e.f - submitted[e.id] + 1 for e in pev if e.ev == "callback")
             verdicts.append((r.accepted, frames))
@@ -476,8 +476,8 @@ def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progres
                   0 < accepted < len(verdicts) and all(a == (f <= USB_MAX_LATENCY) for a, f in verdicts))
         # UsbUplink.tla assumes a batch fits the downlink in its frame. The motor traffic of one USB
         # bridge (3 reads and 3 writes per batch, ~1.1 ms of I2C) does not: measured, not a bug.
-        mev, max_batch = record_usb_uplink(seed + 12, 20, motor_load=True)
-        r = check_usb(mev, max_batch)
+        mev, max_batch, window = record_usb_uplink(seed + 12, 20, motor_load=True)
+        r = check_usb(mev, max_batch, window)
         add("usb", "USB uplink at the motor load of Fig. 20 (premise: a batch fits its frame)", r)
         stop = mev[r.matched_prefix] if r.matched_prefix < len(mev) else None
         batch = next((len(e.ids) for e in reversed(mev[:r.matched_prefix]) if e.ev == "write" and e.ids), 0)
