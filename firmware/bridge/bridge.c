@@ -363,7 +363,7 @@ static urb_bridge_slot_t *oldest_pending(urb_bridge_t *b)
       assigns \nothing;
     behavior serve_oldest:
       assumes b->slot_served < b->slot_count;
-      assigns b->ring[b->slots[urbb_slot_at(b, b->slot_served)].resp].status, b->slot_served,
+      assigns b->ring[b->slots[urbb_slot_at(b, b->slot_served)].resp].status, b->slot_served, b->size_checked,
               b->nodes[0 .. URB_BRIDGE_MAX_NODES - 1], b->node_of[0 .. 127];
       ensures b->slot_served == \old(b->slot_served) + 1;
       ensures b->ring[\old(b->slots[urbb_slot_at(b, b->slot_served)].resp)].status == status;
