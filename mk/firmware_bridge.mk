@@ -23,7 +23,7 @@ FWB_SAN := -g -O1 -fsanitize=address,undefined -fno-sanitize-recover=all -fno-om
 FWB_TEST_CFLAGS := -std=c99 -Wall -Wextra -Werror -D_DEFAULT_SOURCE
 FWB_MUTANTS := FIFO_OFF_BY_ONE DROP_WHEN_FULL NO_SEL_INVALIDATE REORDER NO_HUNT NO_GAP USB_OVERWRITE \
                NO_BUS_CLEAR SCAN_STOP_AT_GAP NO_PROBE USB_KEEP_EMPTY NO_BUDGET USB_HUNT \
-               TABLE_FULL_OVERWRITE RX_NEWER_THAN_NOW
+               TABLE_FULL_OVERWRITE RX_NEWER_THAN_NOW NO_IDENTIFY_UNKNOWN
 FWB_CROSS_CC ?= arm-none-eabi-gcc
 FWB_CROSS_SIZE ?= arm-none-eabi-size
 FWB_CROSS_NM ?= arm-none-eabi-nm

@@ -363,7 +363,7 @@ static urb_bridge_slot_t *oldest_pending(urb_bridge_t *b)
       assigns \nothing;
     behavior serve_oldest:
       assumes b->slot_served < b->slot_count;
-      assigns b->ring[b->slots[urbb_slot_at(b, b->slot_served)].resp].status, b->slot_served,
+      assigns b->ring[b->slots[urbb_slot_at(b, b->slot_served)].resp].status, b->slot_served, b->size_checked,
               b->nodes[0 .. URB_BRIDGE_MAX_NODES - 1], b->node_of[0 .. 127];
       ensures b->slot_served == \old(b->slot_served) + 1;
       ensures b->ring[\old(b->slots[urbb_slot_at(b, b->slot_served)].resp)].status == status;
@@ -383,6 +383,7 @@ static void complete(urb_bridge_t *b, uint8_t status)
     }
     b->ring[b->slots[s].resp].status = status;
     b->slot_served++;
+    b->size_checked = false; /* it belonged to this request */
 }
 
 static void start_scan(urb_bridge_t *b, bool for_request)
@@ -518,7 +519,7 @@ static void served(urb_bridge_t *b, uint8_t status)
         set_present(b, a, true); /* it acknowledged its address (the model's NodeAppear, as seen here) */
     }
     if (((status == URB_STATUS_BAD_REQUEST) || (status == URB_STATUS_SIZE_MISMATCH)) &&
-        (known_size(b, a, d->mailbox, d->read) >= 0)) {
+        ((known_size(b, a, d->mailbox, d->read) >= 0) || b->size_checked)) {
         /* admission checked mailbox and length against the node's layout: a NACKed select or data
          * byte is a corrupted byte (a node that followed the contract would not refuse it) */
         status = URB_STATUS_CHECKSUM;
@@ -547,6 +548,64 @@ static void probed(urb_bridge_t *b, uint8_t status)
     complete(b, status);
 }
 
+/* A node request's length must match the node's mailbox before it goes to the bus: a node cannot
+ * refuse a write shorter than its inbox (it ACKs every byte, takes the check for data and drops the
+ * write at STOP, and the bridge would answer OK: Bridge.tla WriteStatusTruthful), nor reliably a
+ * read shorter than its outbox (a data byte taken for the check matches it one time in 256). The
+ * table holds the sizes of the nodes the scan identified; a node it does not hold (hot-plugged, an
+ * identification that did not decode, past the table's URB_BRIDGE_MAX_NODES entries) is identified
+ * first: its outbox 0 is read, and learned when the table has room. Outbox 0 and inbox 0 have the
+ * same size on every node, so requests to them need no identification. */
+static bool needs_identification(const urb_bridge_t *b, const urb_bridge_slot_t *d)
+{
+    if ((d->address == URB_BRIDGE_ADDRESS) || b->size_checked) {
+        return false;
+    }
+    if ((d->mailbox == 0u) && (d->length == (d->read ? URB_IDENTIFICATION_SIZE : URB_COMMAND_SIZE))) {
+        return false;
+    }
+#ifdef URB_MUTANT_NO_IDENTIFY_UNKNOWN
+    return false; /* mutant: a request to a node of unknown sizes goes to the bus unchecked */
+#else
+    return known_size(b, d->address, d->mailbox, d->read) < 0;
+#endif
+}
+
+/* The identification read for the oldest pending request came back (see needs_identification).
+ * Its node's sizes answer the request SIZE_MISMATCH, or let it go to the bus; a fault of the read
+ * answers the request, which did not reach the mailbox: NO_NODE (the node is absent), TIMEOUT or
+ * BUS_STUCK, and CHECKSUM for an identification that failed its check or does not decode. */
+static void identified(urb_bridge_t *b, uint8_t status)
+{
+    urb_bridge_slot_t const *d = oldest_pending(b);
+    if (d == NULL) {
+        return;
+    }
+    uint8_t const a = d->address;
+    if ((status == URB_STATUS_TIMEOUT) || (status == URB_STATUS_BUS_STUCK)) {
+        complete(b, status);
+        return;
+    }
+    if (status == URB_STATUS_NO_NODE) {
+        set_present(b, a, false);
+        complete(b, URB_STATUS_NO_NODE);
+        return;
+    }
+    set_present(b, a, true); /* it acknowledged its address */
+    urb_identification_t id;
+    if ((status != URB_STATUS_OK) || (urb_identification_decode(&id, b->scan_buf, URB_IDENTIFICATION_SIZE) < 0)) {
+        complete(b, URB_STATUS_CHECKSUM);
+        return;
+    }
+    node_learn(b, a, b->scan_buf);
+    uint8_t const size = d->read ? id.outbox_sizes[d->mailbox & 7u] : id.inbox_sizes[d->mailbox & 7u];
+    if (size != d->length) {
+        complete(b, URB_STATUS_SIZE_MISMATCH); /* as admission answers for a node in the table */
+        return;
+    }
+    b->size_checked = true; /* start_next serves it now */
+}
+
 /* The downlink reported the outcome of what we asked it to do. */
 static void activity_done(urb_bridge_t *b, uint8_t status)
 {
@@ -557,6 +616,8 @@ static void activity_done(urb_bridge_t *b, uint8_t status)
         served(b, status); /* Bridge.tla: Serve */
     } else if (act == URBB_ACT_PROBE) {
         probed(b, status);
+    } else if (act == URBB_ACT_LEARN) {
+        identified(b, status);
     } else if (act == URBB_ACT_SCAN) {
         scan_done(b, status);
     } else if (act == URBB_ACT_SYNC) {
@@ -622,6 +683,14 @@ static void start_next(urb_bridge_t *b, uint32_t now)
                 return;
             }
             continue;
+        }
+        if (needs_identification(b, d)) {
+            urb_downlink_txn_t id = {URB_DL_READ, d->address, 0u, (uint8_t)URB_IDENTIFICATION_SIZE, 0u, true,
+                                     b->scan_buf};
+            if (b->dl.begin(b->dl.ctx, &id, now)) {
+                b->activity = URBB_ACT_LEARN;
+            }
+            return;
         }
         urb_downlink_txn_t t = {d->read ? (uint8_t)URB_DL_READ : (uint8_t)URB_DL_WRITE, d->address, d->mailbox,
                                 d->length, 0u, false, d->data};
@@ -725,6 +794,7 @@ int32_t urb_bridge_init(urb_bridge_t *b, const urb_bridge_config_t *cfg, const u
     b->slot_served = 0u;
     b->activity = URBB_ACT_NONE;
     b->probing = false;
+    b->size_checked = false;
     b->scanning = false;
     b->scan_for_request = false;
     b->scan_addr = 0u;

@@ -20,7 +20,10 @@
 #define URB_BRIDGE_RX_GAP 0x100u  /* rx ring flag: an idle gap (or an overrun) precedes this byte */
 
 enum { URBB_UPLINK_RS232 = 0u, URBB_UPLINK_USB = 1u };
-enum { URBB_ACT_NONE = 0u, URBB_ACT_REQUEST = 1u, URBB_ACT_SCAN = 2u, URBB_ACT_SYNC = 3u, URBB_ACT_PROBE = 4u };
+enum {
+    URBB_ACT_NONE = 0u, URBB_ACT_REQUEST = 1u, URBB_ACT_SCAN = 2u, URBB_ACT_SYNC = 3u, URBB_ACT_PROBE = 4u,
+    URBB_ACT_LEARN = 5u
+};
 
 /* bridge.c: a complete candidate frame of `len` bytes from `uplink`. Returns false when it fails
  * its check (the caller then discards one byte and hunts on), true when it was admitted (as a

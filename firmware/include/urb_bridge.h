@@ -162,6 +162,8 @@ typedef struct {
     /* What the downlink is doing for us. */
     uint8_t activity;
     bool probing;  /* the oldest pending request's node did not acknowledge: probe it, then answer */
+    bool size_checked; /* the oldest pending request's length was checked against the identification
+                          its node just gave (a node whose sizes the table does not hold) */
     bool scanning, scan_for_request;
     uint8_t scan_addr;
     uint8_t scan_buf[URB_IDENTIFICATION_SIZE];

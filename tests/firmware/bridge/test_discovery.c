@@ -108,7 +108,7 @@ static void nodes_vanish_and_appear(void **state)
 
 /* The SCAN command is answered when the scan is over; requests behind it wait and then see the
  * new state. A node that answers its address but not its identification is present, with sizes
- * unknown (its requests go to the node). */
+ * unknown: its next request reads the identification again first. */
 static void scan_command_orders_and_unreadable_identification(void **state)
 {
     urb_hosted_rig_t *r = rig_new(16u, 0u);
@@ -122,15 +122,24 @@ static void scan_command_orders_and_unreadable_identification(void **state)
     len += enc_read(f + len, 0u, 1u, 2u, 16u);
     send_frame(r, f, len);
     assert_true(urb_hosted_rig_settle(r, 200000u));
-    /* a 5-byte read was refused before: now the bridge does not know the size and asks the node */
-    n->corrupt_read = false;
-    send_frame(r, f, enc_read(f, 0x40u, 1u, 3u, 5u));
+    /* still unreadable: the request is answered CHECKSUM and does not reach the node */
+    uint32_t const reads = n->reads;
+    send_frame(r, f, enc_read(f, 0x40u, 1u, 3u, 4u));
     assert_true(urb_hosted_rig_settle(r, 50000u));
+    assert_int_equal(n->reads, reads + 1u);
+    /* readable again: the identification is read before the request, which is checked against it */
+    n->corrupt_read = false;
+    send_frame(r, f, enc_read(f, 0x40u, 1u, 4u, 5u));
+    send_frame(r, f, enc_read(f, 0x40u, 1u, 5u, 4u));
+    assert_true(urb_hosted_rig_settle(r, 50000u));
+    assert_int_equal(n->reads, reads + 3u); /* its identification, then the 4-byte read */
     stream_t s = rs232_stream(r);
     uint8_t data[32];
     expect_response(&s, 1u, URB_STATUS_OK, 0u, NULL);
     expect_response(&s, 2u, URB_STATUS_OK, 16u, data);
-    expect_response(&s, 3u, URB_STATUS_CHECKSUM, 0u, NULL); /* 5 bytes asked of a 4-byte outbox */
+    expect_response(&s, 3u, URB_STATUS_CHECKSUM, 0u, NULL);
+    expect_response(&s, 4u, URB_STATUS_SIZE_MISMATCH, 0u, NULL); /* 5 bytes asked of a 4-byte outbox */
+    expect_response(&s, 5u, URB_STATUS_OK, 4u, NULL);
     expect_end(&s);
     urb_bridge_scan_t scan;
     assert_int_equal(urb_bridge_scan_decode(&scan, data, 16u), 16);
@@ -198,9 +207,10 @@ static uint8_t wrong_length(uint8_t i)
 
 /* More nodes than URB_BRIDGE_MAX_NODES: all of them are in the map and served. The first
  * URB_BRIDGE_MAX_NODES the scan finds keep their own sizes (a wrong length is refused by the bridge,
- * no downlink traffic); the extra ones have no sizes remembered: their requests go to the node,
- * which checks them itself (a wrong-length read fails its check: CHECKSUM), and they take no
- * remembered node's entry. A node forgotten by a rescan frees its entry for an extra one. */
+ * no downlink traffic); the extra ones have no sizes remembered: each of their requests reads the
+ * node's identification first (downlink traffic) and is checked against it, a write shorter than
+ * the inbox included, and they take no remembered node's entry. A node forgotten by a rescan frees
+ * its entry for an extra one. */
 static void more_nodes_than_table(void **state)
 {
     urb_hosted_rig_t *r = rig_new(16u, 0u);
@@ -222,14 +232,32 @@ static void more_nodes_than_table(void **state)
         uint8_t const a = (uint8_t)(0x10u + i);
         bool const remembered = i < TABLE_NODES;
         read_alone(r, a, box_size(i), (seq++) & 0x0Fu, URB_STATUS_OK, true);
-        read_alone(r, a, wrong_length(i), (seq++) & 0x0Fu,
-                   remembered ? URB_STATUS_SIZE_MISMATCH : URB_STATUS_CHECKSUM, !remembered);
+        read_alone(r, a, wrong_length(i), (seq++) & 0x0Fu, URB_STATUS_SIZE_MISMATCH, !remembered);
     }
+    /* a write shorter than an extra node's inbox is refused, not acknowledged and dropped */
+    uint8_t const extra = TABLE_NODES;
+    uint8_t payload[32];
+    for (uint8_t i = 0u; i < 32u; i++) {
+        payload[i] = (uint8_t)(0x10u + extra + i); /* what its outbox 1 holds: the echo changes nothing */
+    }
+    uint8_t f[40];
+    size_t const before = r->hal.tx_len;
+    send_frame(r, f, enc_write(f, (uint8_t)(0x10u + extra), 1u, (seq++) & 0x0Fu, (uint8_t)(box_size(extra) - 1u),
+                               payload));
+    send_frame(r, f, enc_write(f, (uint8_t)(0x10u + extra), 1u, (seq++) & 0x0Fu, box_size(extra), payload));
+    assert_true(urb_hosted_rig_settle(r, 50000u));
+    stream_t s = rs232_stream(r);
+    s.pos = before;
+    expect_response(&s, (uint8_t)((seq - 2u) & 0x0Fu), URB_STATUS_SIZE_MISMATCH, 0u, NULL);
+    expect_response(&s, (uint8_t)((seq - 1u) & 0x0Fu), URB_STATUS_OK, 0u, NULL);
+    expect_end(&s);
+    assert_int_equal(node[extra]->writes[1], 1u);
+    assert_int_equal(node[extra]->aborted_writes, 0u);
     /* after the extra nodes were seen (again) by a rescan, the first node's entry still holds its sizes */
     scan_command(r, (seq++) & 0x0Fu);
     read_alone(r, 0x10u, box_size(0u), (seq++) & 0x0Fu, URB_STATUS_OK, true);
     read_alone(r, 0x10u, 2u, (seq++) & 0x0Fu, URB_STATUS_SIZE_MISMATCH, false);
-    read_alone(r, (uint8_t)(0x10u + TABLE_NODES), box_size(0u), (seq++) & 0x0Fu, URB_STATUS_CHECKSUM, true);
+    read_alone(r, (uint8_t)(0x10u + TABLE_NODES), box_size(0u), (seq++) & 0x0Fu, URB_STATUS_SIZE_MISMATCH, true);
     /* the first node vanishes: the next scan forgets it, and the first extra node takes its entry */
     node[0]->present = false;
     scan_command(r, (seq++) & 0x0Fu);
@@ -241,7 +269,7 @@ static void more_nodes_than_table(void **state)
                URB_STATUS_SIZE_MISMATCH, false);
     read_alone(r, (uint8_t)(0x10u + TABLE_NODES), box_size(TABLE_NODES), (seq++) & 0x0Fu, URB_STATUS_OK, true);
     read_alone(r, (uint8_t)(0x11u + TABLE_NODES), wrong_length(TABLE_NODES + 1u), (seq++) & 0x0Fu,
-               URB_STATUS_CHECKSUM, true);
+               URB_STATUS_SIZE_MISMATCH, true);
     read_alone(r, 0x11u, wrong_length(1u), (seq++) & 0x0Fu, URB_STATUS_SIZE_MISMATCH, false);
 }
 

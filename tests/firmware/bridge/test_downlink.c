@@ -134,23 +134,35 @@ static void vanished_node_is_probed(void **state)
     assert_int_equal(node(r)->writes[1], 0u);
 }
 
-/* A node the scan did not find (layout unknown) keeps the downlink's own statuses: its refused
- * select is BAD_REQUEST, a byte beyond its inbox SIZE_MISMATCH, its silence NO_NODE. */
-static void unknown_layout_keeps_downlink_statuses(void **state)
+/* A node the scan did not find (hot-plugged) is identified before its first request goes to the
+ * bus: one read of its outbox 0, and its sizes are learnt. A length that differs from its mailbox
+ * then gets SIZE_MISMATCH without bus traffic, as for a scanned node: an unused outbox, and a write
+ * shorter than its inbox, which the node acknowledges to the end and drops at the STOP (answered
+ * OK before: Bridge.tla WriteStatusTruthful). Its silence is NO_NODE. */
+static void unknown_node_identified_first(void **state)
 {
     urb_hosted_rig_t *r = *state;
     uint8_t f[40];
-    uint8_t const payload[8] = {0};
-    urb_fake_node_t *late = add_node(r, 0x21u, 0x43u, 0u, 2u, 2u); /* after the scan */
-    send_frame(r, f, enc_read(f, 0x21u, 3u, 1u, 2u));              /* outbox 3 unused */
-    send_frame(r, f, enc_write(f, 0x21u, 1u, 2u, 8u, payload));    /* inbox 1 holds 2 bytes */
+    uint8_t const payload[4] = {1u, 2u, 3u, 4u};
+    urb_fake_node_t *late = add_node(r, 0x21u, 0x43u, 0u, 4u, 4u); /* after the scan */
+    send_frame(r, f, enc_write(f, 0x21u, 1u, 1u, 2u, payload)); /* inbox 1 holds 4 bytes */
+    send_frame(r, f, enc_read(f, 0x21u, 3u, 2u, 2u));           /* outbox 3 unused */
+    send_frame(r, f, enc_write(f, 0x21u, 1u, 3u, 4u, payload));
+    assert_true(urb_hosted_rig_settle(r, 50000u));
+    assert_int_equal(late->reads, 1u); /* its identification, once: then only the 4-byte write */
+    assert_int_equal(late->selects, 1u);
+    assert_int_equal(late->writes[1], 1u);
+    assert_int_equal(late->aborted_writes, 0u);
     late->present = false;
-    send_frame(r, f, enc_read(f, 0x21u, 1u, 3u, 2u));
+    send_frame(r, f, enc_read(f, 0x21u, 1u, 4u, 4u));
+    send_frame(r, f, enc_read(f, 0x22u, 1u, 5u, 4u)); /* nobody there: the identification is not acknowledged */
     assert_true(urb_hosted_rig_settle(r, 50000u));
     stream_t s = rs232_stream(r);
-    expect_response(&s, 1u, URB_STATUS_BAD_REQUEST, 0u, NULL);
+    expect_response(&s, 1u, URB_STATUS_SIZE_MISMATCH, 0u, NULL);
     expect_response(&s, 2u, URB_STATUS_SIZE_MISMATCH, 0u, NULL);
-    expect_response(&s, 3u, URB_STATUS_NO_NODE, 0u, NULL);
+    expect_response(&s, 3u, URB_STATUS_OK, 0u, NULL);
+    expect_response(&s, 4u, URB_STATUS_NO_NODE, 0u, NULL);
+    expect_response(&s, 5u, URB_STATUS_NO_NODE, 0u, NULL);
     expect_end(&s);
 }
 
@@ -468,7 +480,7 @@ int run_downlink_tests(void)
         cmocka_unit_test_setup_teardown(inbox_busy_is_node_busy, setup, teardown),
         cmocka_unit_test_setup_teardown(read_failures, setup, teardown),
         cmocka_unit_test_setup_teardown(vanished_node_is_probed, setup, teardown),
-        cmocka_unit_test_setup_teardown(unknown_layout_keeps_downlink_statuses, setup, teardown),
+        cmocka_unit_test_setup_teardown(unknown_node_identified_first, setup, teardown),
         cmocka_unit_test_setup_teardown(selection_cache, setup, teardown),
         cmocka_unit_test_setup_teardown(node_reset_between_reads, setup, teardown),
         cmocka_unit_test_setup_teardown(node_reset_mid_transaction, setup, teardown),
