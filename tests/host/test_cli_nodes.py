@@ -429,7 +429,7 @@ def test_log_never_writes_after_closing_its_file(fake_bridge: Callable[..., Brid
             proc.communicate()
     assert "Traceback" not in err and "closed file" not in err, err
     assert re.search(r"urb: waiting up to 30.5 s for [12] read\(s\) in flight \(Ctrl-C to stop now\)", err), err
-    assert proc.returncode == 130 and "urb: interrupted" in err
+    assert proc.returncode == 130 and "urb: interrupted" in err, (proc.returncode, err)
     rows = list(csv.DictReader(out_file.open()))
     assert len(rows) > 10 and all(r["status"] == "OK" for r in rows)
 
