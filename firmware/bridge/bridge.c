@@ -453,13 +453,20 @@ static bool serve_local(urb_bridge_t *b, urb_bridge_slot_t *d, uint32_t now)
     return true;
 }
 
+/* Read node a's identification (outbox 0, selected again) into scan_buf as `activity` (a scan or an
+ * identification before a request); nothing starts while the downlink is busy. */
+static void identification_begin(urb_bridge_t *b, uint8_t a, uint8_t activity, uint32_t now)
+{
+    urb_downlink_txn_t t = {URB_DL_READ, a, 0u, (uint8_t)URB_IDENTIFICATION_SIZE, 0u, true, b->scan_buf};
+    if (b->dl.begin(b->dl.ctx, &t, now)) {
+        b->activity = activity;
+    }
+}
+
 /* Discovery.tla: ScanAddress(b), first half: probe the next address by reading its outbox 0. */
 static void scan_begin(urb_bridge_t *b, uint32_t now)
 {
-    urb_downlink_txn_t t = {URB_DL_READ, b->scan_addr, 0u, (uint8_t)URB_IDENTIFICATION_SIZE, 0u, true, b->scan_buf};
-    if (b->dl.begin(b->dl.ctx, &t, now)) {
-        b->activity = URBB_ACT_SCAN;
-    }
+    identification_begin(b, b->scan_addr, URBB_ACT_SCAN, now);
 }
 
 /* Discovery.tla: ScanAddress(b), second half. Acknowledged: present, and its identification gives
@@ -685,11 +692,7 @@ static void start_next(urb_bridge_t *b, uint32_t now)
             continue;
         }
         if (needs_identification(b, d)) {
-            urb_downlink_txn_t id = {URB_DL_READ, d->address, 0u, (uint8_t)URB_IDENTIFICATION_SIZE, 0u, true,
-                                     b->scan_buf};
-            if (b->dl.begin(b->dl.ctx, &id, now)) {
-                b->activity = URBB_ACT_LEARN;
-            }
+            identification_begin(b, d->address, URBB_ACT_LEARN, now);
             return;
         }
         urb_downlink_txn_t t = {d->read ? (uint8_t)URB_DL_READ : (uint8_t)URB_DL_WRITE, d->address, d->mailbox,
