@@ -6,7 +6,8 @@
  *
  *   local time runs at rate 1 + e(t) against virtual (true) time, where
  *     e(t) = ppm0 * 1e-6                       static crystal error, drawn per device and seed
- *          + ramp * 1e-6 * t[s]                slow deterministic drift (temperature ramp), ppm/s
+ *          + ramp * 1e-6 * t[s]                slow deterministic drift (warm-up), ppm/s, with t
+ *                                              counted from the last power-on (urbsim_clock_reset)
  *          + w(t)                              slow random wander: an Ornstein-Uhlenbeck process
  *                                              with stationary sd `wander_ppm` and time constant
  *                                              `wander_tau_s`, sampled every `segment_ns`
