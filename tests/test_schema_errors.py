@@ -271,3 +271,125 @@ def test_sibling_schemas_sharing_a_node_class(tmp_path: Path) -> None:
 def test_bundled_schemas_still_load() -> None:
     folder = Path(__file__).resolve().parents[1] / "spec" / "schema"
     assert {s.name for s in load(sorted(folder.glob("*.urbs")))} >= {"urb_core", "sensorhex"}
+
+
+# `urb schema check FILE` checks FILE with its siblings: the schemas of its folder, which `urb gen` generates together.
+
+MSG = 'message {m} "m" {{\n    x: u8 "x"\n}}\n'
+NODE = MSG + 'node {n} class 0x40 "n" {{\n    outbox 1 {m} "o"\n}}\n'
+
+
+def _check(*files: Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "urb.cli", "schema", "check", *map(str, files)],
+                          capture_output=True, text=True)
+
+
+def _folder(path: Path, core: bool = False, **bodies: str) -> dict[str, Path]:
+    """A schema folder: one `NAME.urbs` (schema NAME) a body; with core, a copy of core.urbs, imported by each."""
+    path.mkdir(parents=True, exist_ok=True)
+    if core:
+        (path / "core.urbs").write_text((Path(__file__).resolve().parents[1] / "spec" / "schema" / "core.urbs").read_text())
+    files = {}
+    for name, body in bodies.items():
+        files[name] = path / f"{name}.urbs"
+        files[name].write_text(f'schema {name} "{name}"\n' + ("import urb_core\n" if core else "") + body)
+    return files
+
+
+@pytest.mark.parametrize("focus", ["a", "b"])
+def test_check_file_reports_a_sibling_declaring_one_message(tmp_path: Path, focus: str) -> None:
+    """Both files are wrong together: checking either reports the conflict at its own line, naming the other's."""
+    f = _folder(tmp_path, a=MSG.format(m="X"), b='const K = 1 "k"\n' + MSG.format(m="X"))
+    here, there = (f["a"], f["b"]) if focus == "a" else (f["b"], f["a"])
+    at = {f["a"]: "2:9", f["b"]: "3:9"}
+    proc = _check(here)
+    assert proc.returncode == 1, proc.stdout
+    assert proc.stderr.startswith(f"{here}:{at[here]}: error: message 'X' "), proc.stderr
+    assert f"(at {there}:{at[there]})" in proc.stderr  # the other declaration, file:line:column
+    assert f"{there}:{at[there]}: note: " in proc.stderr and "hint: give it another name" in proc.stderr
+    assert proc.stderr.count(": error: ") == 1 and "Traceback" not in proc.stderr and ": ok" not in proc.stdout
+
+
+def test_check_file_reports_a_sibling_sharing_its_node_class(tmp_path: Path) -> None:
+    f = _folder(tmp_path, core=True, a=NODE.format(m="A", n="Na"), b=NODE.format(m="B", n="Nb"))
+    proc = _check(f["a"])
+    assert proc.returncode == 1, proc.stdout
+    assert proc.stderr.startswith(f"{f['a']}:6:6: error: node Na has class 0x40, also the class of "
+                                  f"node Nb (at {f['b']}:6:6)"), proc.stderr
+    assert f"{f['b']}:6:6: note: the other declaration" in proc.stderr and "hint: give every node type its own class id" in proc.stderr
+
+
+def test_check_file_reports_a_c_name_clash_with_a_sibling(tmp_path: Path) -> None:
+    """What only the C emitter sees across files: a's constant B_H is URB_B_H, the include guard of urb_b.h."""
+    f = _folder(tmp_path, a='const B_H = 1 "k"\n', b=MSG.format(m="M"))
+    proc = _check(f["a"])
+    assert proc.returncode == 1, proc.stdout
+    assert proc.stderr.startswith(f"{f['a']}:2:7: error: const B_H and schema b (at {f['b']}:1:1) both become "
+                                  "the C name URB_B_H"), proc.stderr
+    assert _check(f["b"]).stderr.startswith(f"{f['b']}:1:1: error: schema b and const B_H (at {f['a']}:2:7)")
+
+
+def test_check_file_notes_errors_of_unrelated_siblings_without_showing_them(tmp_path: Path) -> None:
+    """A sibling's own errors are not FILE's: FILE is ok (exit 0); a note names the sibling and the command,
+    and says when the sibling could not be compared with FILE (b does not build, c does not parse; d and e
+    share a node class but were compared with a)."""
+    f = _folder(tmp_path, core=True, a=MSG.format(m="A"), b=MSG.format(m="B").replace("u8", "u99"), c="message {\n",
+                d=NODE.format(m="D", n="Nd"), e=NODE.format(m="E", n="Ne"))
+    proc = _check(f["a"])
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout == f"{f['a']}: ok (1 messages, 0 enums, 0 nodes)\n"
+    assert ": error: " not in proc.stderr and "Traceback" not in proc.stderr
+    notes = {line.split()[4].rstrip(","): line for line in proc.stderr.splitlines()}
+    assert sorted(notes) == sorted(str(f[n]) for n in "bce"), proc.stderr
+    for n in "bce":
+        assert notes[str(f[n])].startswith(f"urb schema check: note: {f[n]}, generated together with {f['a']} by "
+                                           f"`urb gen`, has 1 error of its own (not shown: `urb schema check {f[n]}`")
+        assert ("could not be compared" in notes[str(f[n])]) == (n != "e")
+
+
+def test_check_file_shows_its_conflict_but_not_a_third_file_s_errors(tmp_path: Path) -> None:
+    f = _folder(tmp_path, a=MSG.format(m="X"), b=MSG.format(m="X"), c='const K = 1 "k"\nconst K = 2 "k"\n')
+    proc = _check(f["b"])
+    assert proc.returncode == 1
+    assert [line.split(": error: ")[0] for line in proc.stderr.splitlines() if ": error: " in line] == [f"{f['b']}:2:9"]
+    assert f"note: {f['c']}, generated together with {f['b']} by `urb gen`, has 1 error of its own" in proc.stderr
+
+
+def test_check_files_of_different_folders_checks_each_with_its_own_siblings(tmp_path: Path) -> None:
+    """Two folders are never generated together: the same message in both is fine; a sibling's is not."""
+    one = _folder(tmp_path / "one", a=MSG.format(m="X"))
+    two = _folder(tmp_path / "two", b=MSG.format(m="X"), c=MSG.format(m="Y"))
+    proc = _check(one["a"], two["b"])
+    assert proc.returncode == 0, proc.stderr
+    assert f"{one['a']}: ok" in proc.stdout and f"{two['b']}: ok" in proc.stdout and str(two["c"]) not in proc.stdout
+    two["c"].write_text('schema c "c"\n' + MSG.format(m="X"))
+    proc = _check(one["a"], two["b"])
+    assert proc.returncode == 1 and f"{one['a']}: ok" in proc.stdout and str(two["b"]) not in proc.stdout
+    assert proc.stderr.startswith(f"{two['b']}:2:9: error: message 'X' "), proc.stderr
+    assert str(one["a"]) not in proc.stderr
+
+
+def test_check_a_bundled_file_alone() -> None:
+    folder = Path(__file__).resolve().parents[1] / "spec" / "schema"
+    proc = _check(folder / "sensorhex.urbs")
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.startswith(f"{folder / 'sensorhex.urbs'}: ok") and "core.urbs" not in proc.stdout
+    assert proc.stderr == ""
+
+
+def test_check_file_reports_a_conflict_with_a_sibling_that_has_errors_of_its_own(tmp_path: Path) -> None:
+    """b does not build (u99), yet what it declared without error meets a's names: the conflict is shown."""
+    f = _folder(tmp_path, a=MSG.format(m="X"), b=MSG.format(m="X") + MSG.format(m="Y").replace("u8", "u99"))
+    proc = _check(f["a"])
+    assert proc.returncode == 1
+    assert proc.stderr.startswith(f"{f['a']}:2:9: error: message 'X' is declared again as message X in schema b "
+                                  f"(at {f['b']}:2:9)"), proc.stderr
+    assert proc.stderr.count(": error: ") == 1 and f"note: {f['b']}, generated together" in proc.stderr
+
+
+def test_errors_of_a_schema_two_others_import_are_reported_once(tmp_path: Path) -> None:
+    """Each importer built the broken schema again: its errors came once per importer."""
+    f = _folder(tmp_path, c='const A = 1 "a"\nconst A = 2 "b"\n', a="import c\n", b="import c\n")
+    with pytest.raises(SchemaErrors) as info:
+        load(sorted(f.values()))
+    assert [(e.location.path, e.location.line) for e in info.value.errors] == [(f["c"], 3)], info.value.render()

@@ -457,7 +457,8 @@ class _Names:
                 raise SchemaError(loc, f"{what} becomes the C name {name}, which the generated runtime reserves ({first})",
                                   "rename it: every C name the runtime declares (URB_OK, URB_ERR_*, urb_get_bits, ...) is taken")
             raise SchemaError(loc, f"{what} and {first} (at {at}) both become the C name {name}",
-                              "rename one of them")
+                              "rename one of them", related=at,
+                              message_there=f"{first} and {what} (at {loc}) both become the C name {name}")
         self.seen[name] = (what, loc)
         return name
 

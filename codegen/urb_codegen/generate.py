@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import filecmp
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
+from .errors import SchemaError
 from .model import Schema
-from .parser import load
+from .parser import load, load_report
 
 REPO = Path(__file__).resolve().parents[2]
 SCHEMA_DIR = REPO / "spec" / "schema"
@@ -90,3 +91,81 @@ def check_fresh(schemas: list[Schema], c_dir: Path = C_DIR, py_dir: Path = PY_DI
                 if not filecmp.cmp(fresh_root / p, committed_root / p, shallow=False)
             ]
     return Staleness(changed, missing, extra)
+
+
+@dataclass
+class FileCheck:
+    """`urb schema check FILE...` for the FILEs of one folder, checked with their siblings: every
+    *.urbs file of the folder, the set `urb gen --schemas FOLDER` generates together."""
+
+    files: list[Path]  # the files asked about, resolved
+    errors: list[SchemaError] = field(default_factory=list)  # the FILEs' own, their imports', and the
+    # conflicts between a FILE and a sibling, each told from the FILE's side
+    schemas: list[Schema] = field(default_factory=list)  # the FILEs' schemas, when there are no errors
+    elsewhere: dict[Path, int] = field(default_factory=dict)  # siblings' errors that involve no FILE, by file
+    uncompared: set[Path] = field(default_factory=set)  # siblings some of whose declarations could not be
+    # compared with the FILEs' (they do not parse or build, or the emitters stopped at them)
+
+
+def check_files(paths: list[Path]) -> list[FileCheck]:
+    """Check schema files each with its siblings, one FileCheck a folder (files of different folders
+    are never generated together, so they are not compared with each other)."""
+    folders: dict[Path, list[Path]] = {}
+    for p in paths:
+        folders.setdefault(p.resolve().parent, []).append(p.resolve())
+    return [_check_folder(folder, list(dict.fromkeys(files))) for folder, files in folders.items()]
+
+
+def _check_folder(folder: Path, files: list[Path]) -> FileCheck:
+    result = FileCheck(files)
+    focus = set(files)
+    siblings = [p.resolve() for p in schema_files(folder) if p.resolve() not in focus]
+    loaded = load_report([*files, *siblings])
+    relevant = focus.union(*(loaded.imports.get(f, set()) for f in files))  # what the FILEs need to build
+
+    def take(error: SchemaError) -> Path | None:
+        """Keep an error that is the FILEs' (or their imports'); else return the sibling it belongs to."""
+        target = next((f for f in files if error.involves(f)), None)
+        if target is not None:
+            result.errors.append(error.seen_from(target))
+            return None
+        if error.location.path.resolve() not in relevant:
+            return error.location.path.resolve()
+        if error.related is not None and error.related.path.resolve() not in relevant:
+            return error.related.path.resolve()
+        result.errors.append(error)
+        return None
+
+    for error in loaded.errors:
+        sibling = take(error)
+        if sibling is not None:
+            result.elsewhere[sibling] = result.elsewhere.get(sibling, 0) + 1
+    result.uncompared = {p for p in loaded.unread if p not in relevant}
+    if result.errors:
+        return result
+    own = [s for s in loaded.schemas if s.path.resolve() in focus]
+    with tempfile.TemporaryDirectory(prefix="urb-schema-check-") as scratch:
+        # What only an emitter sees (a C name the runtime or another item already has): the FILEs alone
+        # first, then with their siblings; a sibling the emitters stop at is left out, and they go on.
+        try:
+            generate(own, Path(scratch) / "own" / "c", Path(scratch) / "own" / "python")
+        except SchemaError as error:
+            result.errors.append(error)
+            return result
+        together = list(loaded.schemas)
+        while True:
+            try:
+                generate(together, Path(scratch) / "all" / "c", Path(scratch) / "all" / "python")
+                break
+            except SchemaError as error:
+                sibling = take(error)
+                if sibling is None:
+                    return result
+                result.elsewhere.setdefault(sibling, 1)
+                left = [s for s in together if s.path.resolve() != sibling and sibling not in loaded.imports.get(s.path, ())]
+                result.uncompared |= {s.path.resolve() for s in together if s not in left}
+                if len(left) == len(together):
+                    break
+                together = left
+    result.schemas = own
+    return result

@@ -910,7 +910,8 @@ def _check_across(schemas: list[Schema]) -> list[SchemaError]:
                 errors.append(SchemaError(
                     loc, f"{kind} '{name}' is already declared as {other_kind} {name} in schema {other_schema} (at {other_loc})",
                     "give it another name: every schema generated together shares one Python registry "
-                    "(urb_msgs.MESSAGES, NODES) and one C namespace"))
+                    "(urb_msgs.MESSAGES, NODES) and one C namespace", related=other_loc,
+                    message_there=f"{other_kind} '{name}' is declared again as {kind} {name} in schema {s.name} (at {loc})"))
             else:
                 first[name] = (kind, loc, s.name)
         for node in s.nodes.values():
@@ -920,10 +921,22 @@ def _check_across(schemas: list[Schema]) -> list[SchemaError]:
                     node.loc, f"{node.kind} {node.name} has class {node.class_id:#04x}, already the class of "
                     f"{other.kind} {other.name} (at {other.loc})",
                     "give every node type its own class id: discovery tells node types apart by it "
-                    "(find_node(name, index) looks a node up by its class)"))
+                    "(find_node(name, index) looks a node up by its class)", related=other.loc,
+                    message_there=f"{other.kind} {other.name} has class {other.class_id:#04x}, also the class of "
+                    f"{node.kind} {node.name} (at {node.loc})"))
             else:
                 classes[node.class_id] = node
     return errors
+
+
+@dataclass
+class Loaded:
+    """Everything `load_report` found, nothing raised."""
+
+    schemas: list[Schema]  # every schema that built: the files given, their imports, the siblings read
+    errors: list[SchemaError]  # every error of every file read, in the order found
+    unread: set[Path]  # files that did not parse or build: not all their declarations were compared
+    imports: dict[Path, set[Path]]  # each file that parsed -> the files it imports, directly or not
 
 
 def load(paths: list[Path]) -> list[Schema]:
@@ -931,10 +944,23 @@ def load(paths: list[Path]) -> list[Schema]:
 
     Raises SchemaErrors (with every problem found) when any file is wrong.
     """
+    loaded = load_report(paths, keep_going=False)
+    if loaded.errors:
+        raise SchemaErrors(loaded.errors)
+    explicit = {p.resolve() for p in paths}
+    return [s for s in loaded.schemas if s.path.resolve() in explicit] or loaded.schemas
+
+
+def load_report(paths: list[Path], keep_going: bool = True) -> Loaded:
+    """Parse, resolve and check schema files together (as `load`), and report rather than raise.
+
+    With keep_going, a file that does not parse does not stop the others from being built and
+    compared; without it (what `load` does) nothing is built when any file does not parse.
+    """
     raws: dict[str, _Raw] = {}
     errors: list[SchemaError] = []
+    unread: set[Path] = set()
     queue = [p.resolve() for p in paths]
-    explicit = set(queue)
     seen: set[Path] = set()
     while queue:
         path = queue.pop(0)
@@ -945,27 +971,36 @@ def load(paths: list[Path]) -> list[Schema]:
             raw = parse_file(path)
         except SchemaError as exc:
             errors.append(exc)
+            unread.add(path)
             continue
         if raw.name in raws:
             errors.append(SchemaError(Location(path, 1, 1), f"schema '{raw.name}' is also defined in {raws[raw.name].path}",
-                                      "give each schema file its own `schema` name"))
+                                      "give each schema file its own `schema` name", related=Location(raws[raw.name].path, 1, 1),
+                                      message_there=f"schema '{raw.name}' is also defined in {path}"))
+            unread.add(path)
             continue
         raws[raw.name] = raw
         for name, _loc_ in raw.imports:
             if name not in raws:
                 queue.extend(p for p in sorted(path.parent.glob("*.urbs")) if p not in seen)
-    if errors:
-        raise SchemaErrors(errors)
+    imports = {raw.path: _imported(raw, raws) for raw in raws.values()}
+    if errors and not keep_going:
+        return Loaded([], errors, unread, imports)
     built: dict[str, Schema] = {}
+    compared: list[Schema] = []  # what the rules across schemas see: the built ones, with keep_going the partial ones too
+    failed: set[str] = set()  # built once, with errors: a schema two others import is reported once
     visiting: list[str] = []
 
     def build(name: str, at: Location | None) -> Schema | None:
-        if name in built:
-            return built[name]
+        if name in built or name in failed:
+            return built.get(name)
         raw = raws.get(name)
         if raw is None:
             assert at is not None
-            errors.append(SchemaError(at, f"unknown schema '{name}'", "put the imported .urbs file in the same folder"))
+            broken = sorted(p for p in unread if p.parent == at.path.parent)
+            hint = "put the imported .urbs file in the same folder" + (
+                f" (or fix {', '.join(p.name for p in broken)}: a file there that does not parse)" if broken else "")
+            errors.append(SchemaError(at, f"unknown schema '{name}'", hint))
             return None
         if name in visiting:
             assert at is not None
@@ -979,13 +1014,28 @@ def load(paths: list[Path]) -> list[Schema]:
             schema = builder.build()
         except SchemaErrors as exc:
             errors.extend(exc.errors)
+            unread.add(raw.path)
+            failed.add(name)
+            if keep_going:  # what it declared without error still meets the siblings' names and classes
+                compared.append(builder.schema)
             return None
         built[name] = schema
+        compared.append(schema)
         return schema
 
     for raw in list(raws.values()):
         build(raw.name, None)
-    errors.extend(_check_across(list(built.values())))
-    if errors:
-        raise SchemaErrors(errors)
-    return [s for s in built.values() if s.path.resolve() in explicit] or list(built.values())
+    errors.extend(_check_across(compared))
+    return Loaded(list(built.values()), errors, unread, imports)
+
+
+def _imported(raw: _Raw, raws: dict[str, _Raw]) -> set[Path]:
+    """The files `raw` imports, directly or through other imports (those that parsed)."""
+    found: set[Path] = set()
+    todo = [name for name, _ in raw.imports]
+    while todo:
+        other = raws.get(todo.pop())
+        if other is not None and other.path not in found and other is not raw:
+            found.add(other.path)
+            todo += [name for name, _ in other.imports]
+    return found

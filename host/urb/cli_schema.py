@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -12,7 +11,7 @@ from rich.console import Console
 from rich.table import Table
 
 from urb_codegen.errors import SchemaError, SchemaErrors
-from urb_codegen.generate import C_DIR, PY_DIR, SCHEMA_DIR, check_fresh, generate, schema_files
+from urb_codegen.generate import C_DIR, PY_DIR, SCHEMA_DIR, check_files, check_fresh, generate, schema_files
 from urb_codegen.model import ArrayType, BytesType, CheckType, EnumDecl, IntType, MessageDecl, Schema
 from urb_codegen.parser import load
 
@@ -41,11 +40,25 @@ def register(sub: Any) -> None:
         "check", help="check schema files", formatter_class=fmt,
         description="Parse and check schema files, and generate their code into a scratch folder (the\n"
         "checks only the C and Python emitters can make, such as a name that clashes with the\n"
-        "runtime's: a file `urb schema check` accepts, `urb gen` accepts too). Every error is printed\n"
-        "as file:line:column with the source line, a caret and a one-line hint. Exit status 0 when\n"
-        "all files are valid, 1 otherwise.",
+        "runtime's). Every error is printed as file:line:column with the source line, a caret and a\n"
+        "one-line hint; a conflict between two declarations also shows the other one as\n"
+        "file:line:column: note:.\n"
+        "\n"
+        "Each FILE is checked with its siblings, the *.urbs files of its folder: `urb gen --schemas\n"
+        "FOLDER` generates them together, into one C namespace and one Python package. Shown: the\n"
+        "errors in FILE and in the files it imports, and every conflict between FILE and a sibling\n"
+        "(the same name declared twice, one node class for two nodes, two items with one C name),\n"
+        "located at FILE's declaration. A sibling's errors that do not involve FILE are not shown\n"
+        "and do not fail the check: a note names the sibling and counts them, and says when some of\n"
+        "its declarations could not be compared with FILE's (`urb schema check FOLDER/*.urbs` shows\n"
+        "every error of a folder). FILEs from different folders are checked each with its own folder,\n"
+        "never against each other. Without FILE, every bundled schema (spec/schema) is checked.\n"
+        "\n"
+        "Exit status 0 when every FILE is valid with its siblings (a folder whose files are each\n"
+        "valid, `urb gen` accepts), 1 otherwise.",
     )
-    check.add_argument("files", nargs="*", type=Path, metavar="FILE", help="schema files (default: every bundled schema)")
+    check.add_argument("files", nargs="*", type=Path, metavar="FILE",
+                       help="schema files, each checked with its folder's (default: every bundled schema)")
     check.set_defaults(run=run_check)
     show = ssub.add_parser(
         "show", help="show message and node layouts", formatter_class=fmt,
@@ -103,23 +116,32 @@ def run_gen(args: argparse.Namespace) -> int:
 
 def run_check(args: argparse.Namespace) -> int:
     paths = list(args.files) or schema_files()
+    if not paths:
+        print("urb: no schema files found; pass files or --schemas DIR with *.urbs files", file=sys.stderr)
+        return 1
     missing = [p for p in paths if not p.exists()]
     if missing:
         for p in missing:
             print(f"urb schema check: {p}: no such file", file=sys.stderr)
         return 1
-    schemas = _load(paths)
-    if schemas is None:
-        return 1
-    with tempfile.TemporaryDirectory(prefix="urb-schema-check-") as scratch:
-        try:
-            generate(schemas, Path(scratch) / "c", Path(scratch) / "python")
-        except SchemaError as exc:  # what only an emitter sees, e.g. a C name the runtime already uses
-            print(exc.render(), file=sys.stderr)
-            return 1
-    for s in schemas:
-        print(f"{s.path}: ok ({len(s.messages)} messages, {len(s.enums)} enums, {len(s.nodes)} nodes)")
-    return 0
+    checks = check_files(paths)
+    errors = [e for c in checks for e in c.errors]
+    if errors:
+        print("\n\n".join(e.render() for e in errors), file=sys.stderr)
+        print(f"\n{len(errors)} error(s)", file=sys.stderr)
+    for c in checks:
+        for s in c.schemas:
+            print(f"{s.path}: ok ({len(s.messages)} messages, {len(s.enums)} enums, {len(s.nodes)} nodes)")
+        files = " and ".join(str(f) for f in c.files)
+        for sibling in sorted(set(c.elsewhere) | c.uncompared):
+            count = c.elsewhere.get(sibling, 0)
+            says = (f"has {count} error{'s' if count > 1 else ''} of its own (not shown: `urb schema check {sibling}` "
+                    f"shows {'them' if count > 1 else 'it'})" if count else "imports a sibling with errors")
+            also = (f"; some of its declarations could not be compared with {files}'s: check again once it is fixed"
+                    if sibling in c.uncompared else "")
+            print(f"urb schema check: note: {sibling}, generated together with {files} by `urb gen`, {says}{also}",
+                  file=sys.stderr)
+    return 1 if errors else 0
 
 
 def _type_name(t: object) -> str:
