@@ -29,7 +29,7 @@ $(CODEC_BUILD)/cortex-m0plus/%.o: $(CODEC_GEN)/%.c $(CODEC_HEADERS)
 	$(CODEC_CROSS_CC) $(CODEC_CROSS_FLAGS) $(CODEC_WARNINGS) -I$(CODEC_GEN) -c $< -o $@
 
 # Sanitizer builds for tests, one per compiler: build/c/codec_driver-gcc, build/c/unit_tests-clang, ...
-$(CODEC_BUILD)/codec_driver-%: tests/c/codec_driver.c $(CODEC_GEN)/test/urb_test_support.c $(CODEC_SOURCES) $(CODEC_HEADERS)
+$(CODEC_BUILD)/codec_driver-%: tests/c/codec_driver.c tests/c/codec_error_name.h $(CODEC_GEN)/test/urb_test_support.c $(CODEC_SOURCES) $(CODEC_HEADERS)
 	@mkdir -p $(@D)
 	$* $(CODEC_WARNINGS) -Wshadow $(CODEC_SANITIZE) -I$(CODEC_GEN) -I$(CODEC_GEN)/test $(filter %.c,$^) -o $@
 

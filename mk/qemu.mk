@@ -17,7 +17,7 @@ QEMU_TIMEOUT ?= 20
 QEMU_WARN := -std=c99 -Wall -Wextra -Wconversion -Wsign-conversion -Wpedantic -Werror
 QEMU_CFLAGS := -mcpu=cortex-m0plus -mthumb -Os -g -ffunction-sections -fdata-sections
 QEMU_INC := -Itests/qemu -I$(QEMU_BUILD)/gen -Ifirmware/include -Ifirmware/node -Ifirmware/hal/hosted \
-            -Ifirmware/apps/sensorhex -Igen/c -Itests/firmware/node
+            -Ifirmware/apps/sensorhex -Igen/c -Itests/firmware/node -Itests/c
 QEMU_LD := tests/qemu/microbit.ld
 
 # The node library (urb_single.c, the adapter with its own globals and app hooks, is not needed),
@@ -28,7 +28,7 @@ QEMU_SHARED_SRC := $(filter-out firmware/node/urb_single.c,$(wildcard firmware/n
                    $(QEMU_BUILD)/gen/qt_vectors.c
 QEMU_SHARED_OBJS := $(patsubst %.c,$(QEMU_BUILD)/obj/%.o,$(QEMU_SHARED_SRC))
 QEMU_HDRS := $(wildcard tests/qemu/*.h firmware/include/*.h firmware/node/*.h firmware/hal/hosted/*.h \
-               firmware/apps/sensorhex/*.h gen/c/*.h tests/firmware/node/*.h) $(QEMU_BUILD)/gen/qt_node.h
+               firmware/apps/sensorhex/*.h gen/c/*.h tests/firmware/node/*.h tests/c/*.h) $(QEMU_BUILD)/gen/qt_node.h
 
 # Seeded bugs (#ifdefs in tests/qemu/qemu_main.c): -DURB_QEMU_MUTANT_<NAME>, and how the run must end.
 QEMU_MUTANTS := EXPECTED_BYTE UNALIGNED_LOAD

@@ -45,6 +45,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "codec_error_name.h"
 #include "urb_test_support.h"
 
 #define CANARY_SIZE 16u
@@ -57,19 +58,6 @@ static void fatal(const char *what, const char *message)
     fprintf(stderr, "codec_driver: FATAL: %s: %s\n", message, what);
     fflush(stdout);
     abort();
-}
-
-static const char *error_name(int32_t rc)
-{
-    switch (rc) {
-    case URB_ERR_SHORT: return "short";
-    case URB_ERR_LONG: return "long";
-    case URB_ERR_CHECKSUM: return "checksum";
-    case URB_ERR_RANGE: return "range";
-    case URB_ERR_CAPACITY: return "capacity";
-    case URB_ERR_ARGUMENT: return "argument";
-    default: return NULL;
-    }
 }
 
 static void *checked_malloc(size_t size)
@@ -154,7 +142,7 @@ static int32_t guarded_encode(const urb_test_message_t *m, const void *msg, size
         }
     }
     if (rc < 0) {
-        if (error_name(rc) == NULL) {
+        if (codec_error_name(rc) == NULL) {
             fatal(m->name, "encode returned an unknown error code");
         }
         for (size_t k = 0u; k < capacity; k++) {
@@ -207,10 +195,10 @@ static void *decode_command(const urb_test_message_t *m, const char *prefix_hex,
             rc = m->decode(msg, frame, frame_len);
         }
         if (rc < 0) {
-            if (error_name(rc) == NULL) {
+            if (codec_error_name(rc) == NULL) {
                 fatal(m->name, "decode returned an unknown error code");
             }
-            printf("ERR %s\n", error_name(rc));
+            printf("ERR %s\n", codec_error_name(rc));
         } else if ((size_t)rc != frame_len) {
             fatal(m->name, "decode succeeded but did not return the frame length");
         } else {
@@ -262,7 +250,7 @@ static void command_capacity(const urb_test_message_t *m, const char *capacity_t
     uint8_t *frame = checked_malloc(m->max_size);
     int32_t const rc = guarded_encode(m, msg, (size_t)capacity, frame);
     if (rc < 0) {
-        printf("ERR %s\n", error_name(rc));
+        printf("ERR %s\n", codec_error_name(rc));
     } else {
         fputs("OK ", stdout);
         print_hex(frame, (size_t)rc);

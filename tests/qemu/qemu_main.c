@@ -26,6 +26,7 @@
 #include <stdint.h>
 #include <string.h>
 
+#include "codec_error_name.h"
 #include "node_fixture.h"
 #include "qt_node.h"
 #include "qt_tables.h"
@@ -76,17 +77,11 @@ static void report(bool ok)
     sh_clear(&why);
 }
 
-static const char *error_name(int32_t rc)
+/* A codec's return value: its error's name, "bytes" for a byte count. */
+static const char *rc_name(int32_t rc)
 {
-    switch (rc) {
-    case URB_ERR_SHORT: return "short";
-    case URB_ERR_LONG: return "long";
-    case URB_ERR_CHECKSUM: return "checksum";
-    case URB_ERR_RANGE: return "range";
-    case URB_ERR_CAPACITY: return "capacity";
-    case URB_ERR_ARGUMENT: return "argument";
-    default: return rc >= 0 ? "bytes" : "unknown";
-    }
+    const char *name = codec_error_name(rc);
+    return name != NULL ? name : rc >= 0 ? "bytes" : "unknown";
 }
 
 /* "<step>: returned <got> (<name>), want <want> (<name>)"; returns false. */
@@ -96,11 +91,11 @@ static bool fail_rc(const char *step, int32_t got, int32_t want)
     sh_str(&why, ": returned ");
     sh_dec(&why, got);
     sh_str(&why, " (");
-    sh_str(&why, error_name(got));
+    sh_str(&why, rc_name(got));
     sh_str(&why, "), want ");
     sh_dec(&why, want);
     sh_str(&why, " (");
-    sh_str(&why, error_name(want));
+    sh_str(&why, rc_name(want));
     sh_str(&why, ")");
     return false;
 }
@@ -277,7 +272,7 @@ static void run_vectors(void)
             report(valid_vector(v));
         } else {
             sh_str(&desc, "decode gives ");
-            sh_str(&desc, error_name(v->error));
+            sh_str(&desc, rc_name(v->error));
             report(error_vector(v));
         }
     }
