@@ -272,6 +272,18 @@ class BusManager(ABC):
         if notice is not None:
             put(notice)
 
+    def _close_core(self, core: Core, now: int) -> None:
+        """The start of `close()`: `core` completes every outstanding request BRIDGE_LOST (reason
+        CLOSED_REASON), and the lost listeners are not told: closing is not a loss to report."""
+        self._lost_noted = True
+        core.link_lost(now, CLOSED_REASON)
+
+    def _reopen_core(self, core: Core, now: int) -> None:
+        """In `start()`: a core closed before (or lost) is reset, and its next loss is reported."""
+        if core.lost_reason is not None:
+            core.reset(now)
+            self._lost_noted = False
+
     def _notify_lost(self, reason: str) -> None:
         for fn in list(self._listeners()):
             try:
@@ -413,6 +425,23 @@ class ThreadedManager(BusManager):
             if threading.current_thread() is not self._dispatcher:
                 self._dispatcher.join(timeout=2.0)
             self._dispatcher = None
+
+    def _start_threads(self, start_io: Callable[[], None]) -> None:
+        """The end of `start()`, once the uplink is open: the core reset if it was closed, then
+        the dispatcher and the I/O threads."""
+        with self._lock:
+            self._reopen_core(self._core, self.now_ns())
+        self._start_dispatcher()
+        start_io()
+
+    def _finish_close(self) -> None:
+        """The end of `close()`, once the I/O threads are stopped: outstanding requests complete
+        BRIDGE_LOST, the dispatcher stops, and the callbacks left run on the calling thread."""
+        with self._lock:
+            self._close_core(self._core, self.now_ns())
+            self._collect()
+        self._stop_dispatcher()
+        self._drain_completions_inline()
 
     def _stay_lost(self, text: str, uplink: str) -> PortError:
         """A reconnect whose uplink would not reopen: the manager stays lost, its `lost_reason`

@@ -21,7 +21,7 @@ import threading
 import serial
 
 from ..errors import PortError
-from .base import CLOSED_REASON, NS_PER_MS, ThreadedManager
+from .base import NS_PER_MS, ThreadedManager
 from .rs232_core import Rs232Core
 
 READ_POLL_S = 0.002
@@ -56,12 +56,7 @@ class RS232Manager(ThreadedManager):
         if self._serial is not None:
             return
         self._serial = open_serial(self.port, self.baud)
-        with self._lock:
-            if self._core.lost_reason is not None:  # started again after close()
-                self._core.reset(self.now_ns())
-                self._lost_noted = False
-        self._start_dispatcher()
-        self._start_io()
+        self._start_threads(self._start_io)
 
     def _start_io(self) -> None:
         self._io_running = True
@@ -88,12 +83,7 @@ class RS232Manager(ThreadedManager):
         """Stop the threads and close the port; outstanding requests complete BRIDGE_LOST, and so
         do requests submitted later (their callbacks then run inside `submit`)."""
         self._stop_io()
-        with self._lock:
-            self._lost_noted = True  # closing is not a loss to report
-            self._core.link_lost(self.now_ns(), CLOSED_REASON)
-            self._collect()
-        self._stop_dispatcher()
-        self._drain_completions_inline()
+        self._finish_close()
 
     def reconnect(self) -> None:
         """Reopen the port (same path: a restarted bridge, a re-plugged adapter) and reset the

@@ -21,7 +21,6 @@ from collections.abc import Callable
 from ..errors import ErrorFlag
 from .base import (
     BLOCKING_IN_CALLBACK,
-    CLOSED_REASON,
     NS_PER_MS,
     NS_PER_S,
     BusManager,
@@ -225,9 +224,7 @@ class SimManager(BusManager):
 
     # -- BusManager ---------------------------------------------------------------------------
     def start(self) -> None:
-        if self.core.lost_reason is not None:  # started again after close()
-            self.core.reset(self.clock.now_ns())
-            self._lost_noted = False
+        self._reopen_core(self.core, self.clock.now_ns())  # started again after close()
         if self._started:
             return
         self._started = True
@@ -238,8 +235,7 @@ class SimManager(BusManager):
             self._bytes.set_receiver(self._on_bytes)
 
     def close(self) -> None:
-        self._lost_noted = True  # closing is not a loss to report
-        self.core.link_lost(self.clock.now_ns(), CLOSED_REASON)
+        self._close_core(self.core, self.clock.now_ns())
         self._after_step()
 
     def now_ns(self) -> int:

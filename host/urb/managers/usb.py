@@ -21,7 +21,7 @@ import time
 from collections.abc import Callable
 
 from ..errors import PortError
-from .base import CLOSED_REASON, NS_PER_MS, ThreadedManager
+from .base import NS_PER_MS, ThreadedManager
 from .loopback import BridgeModel
 from .usb_core import UsbCore
 
@@ -61,12 +61,7 @@ class USBManager(ThreadedManager):
         if callable(opener):
             opener()
         self.transport.set_batch_receiver(self._on_in)
-        with self._lock:
-            if self._core.lost_reason is not None:  # started again after close()
-                self._core.reset(self.now_ns())
-                self._lost_noted = False
-        self._start_dispatcher()
-        self._start_io()
+        self._start_threads(self._start_io)
 
     def _start_io(self) -> None:
         self._io_running = True
@@ -86,12 +81,7 @@ class USBManager(ThreadedManager):
         closer = getattr(self.transport, "close", None)
         if callable(closer):
             closer()
-        with self._lock:
-            self._lost_noted = True  # closing is not a loss to report
-            self._core.link_lost(self.now_ns(), CLOSED_REASON)
-            self._collect()
-        self._stop_dispatcher()
-        self._drain_completions_inline()
+        self._finish_close()
 
     def reconnect(self) -> None:
         """Stop and join the frame thread and the transport's reader, reopen the transport,
