@@ -13,10 +13,16 @@ A proof is any folder proofs/bmc/<name>/ with harness.c and a Makefile that incl
 proofs/bmc/Makefile.common (generated codec folders urb_*, firmware folders fw_*). Everything is run
 through `make -C <folder>`, whose `print-config` gives the settings, so a new folder needs no change
 here. Each proof runs once per sweep item of the tier and must report VERIFICATION SUCCESSFUL; each
-seeded bug in its mutants.json must make the same harness report VERIFICATION FAILED (an error or a
-timeout is not a kill; a seeded bug marked "tier": "full" needs a bound only the full tier has, and
-only that tier runs it); in the full tier, a folder with a COST file also runs its worst-case witness
-(`make tight`), which must fail, showing the recorded worst case is reached.
+seeded bug in its mutants.json must make the same harness report VERIFICATION FAILED on the property
+its mandatory "expect" names: a substring of ESBMC's violated-property description (the harness
+assertion's message, or ESBMC's own check such as "array bounds violated"), or a list of such
+alternatives. Items run until the first failure; only a failure on an expected property is a kill
+("killed"), a failure on any other property is the unexpected "KILLED ELSEWHERE" (failed on X, expected
+Y), an error or a timeout is not a kill, and a mutant without "expect" is a broken folder (exit 2).
+Mutant runs leave out the recorded-COST assertion (Makefile.common). A seeded bug marked "tier": "full"
+needs a bound only the full tier has, and only that tier runs it. In the full tier, a folder with a
+COST file also runs its worst-case witness (`make tight`), which must fail, showing the recorded worst
+case is reached. The vacuity check (`make reach`) of every item gives each proof a [reach] row.
 
 Results contract shared by every proof part (bmc here, framac, fuzz): build/proofs/<part>/summary.json
 = {"part", "rows": [{"function", "tool", "properties", "bound", "result", "expected", "time_s",
@@ -24,8 +30,9 @@ Results contract shared by every proof part (bmc here, framac, fuzz): build/proo
 and merges the parts into build/proofs/summary.md (the table, and worst-case cycles against the bus
 budgets on the Cortex-M0+ clock of proofs/bmc/cost_model.json) and build/proofs/junit.xml.
 
-Exit status: 0 every result as expected; 1 an unexpected result (a proof failed, a mutant survived)
-or, for `summary`, a part missing or malformed; 2 a missing tool or a broken proof folder.
+Exit status: 0 every result as expected; 1 an unexpected result (a proof failed, a mutant survived or
+failed on another property than its expect) or, for `summary`, a part missing or malformed; 2 a missing
+tool or a broken proof folder (a mutant without "expect" among them).
 """
 
 from __future__ import annotations
@@ -333,9 +340,13 @@ def load(folder: Path, tier: str) -> Proof:
     for name in ("harness.c", "Makefile", "PURPOSE"):
         if not (folder / name).is_file():
             raise SetupError(f"proofs/bmc/{folder.name}: {name} missing (see proofs/README.md, folder convention)")
-    config = print_config(folder, tier)
     mfile = folder / "mutants.json"
     mutants: list[dict[str, Any]] = json.loads(mfile.read_text(encoding="utf-8")) if mfile.exists() else []
+    for m in mutants:
+        problem = mutant_problem(m)
+        if problem:
+            raise SetupError(f"proofs/bmc/{folder.name}/mutants.json: {problem}")
+    config = print_config(folder, tier)
     cost, cost_item = None, ""
     if (folder / "COST").exists():
         parts = (folder / "COST").read_text(encoding="utf-8").split()
@@ -350,6 +361,31 @@ def load(folder: Path, tier: str) -> Proof:
             c = print_config(folder, tier, item)
             proof.item_bounds[item] = (c.get("bound", "?"), c.get("tier_defines", ""))
     return proof
+
+
+def expects_of(mutant: dict[str, Any]) -> list[str]:
+    """The mutant's "expect": the violated properties (substrings of ESBMC's description) that count as its kill."""
+    expect = mutant.get("expect")
+    return [expect] if isinstance(expect, str) else list(expect) if isinstance(expect, list) else []
+
+
+def mutant_problem(mutant: Any) -> str:
+    """What is wrong with one mutants.json entry for the runner ("" when nothing): a name, and an "expect"."""
+    if not isinstance(mutant, dict) or not isinstance(mutant.get("name"), str) or not mutant["name"]:
+        return f"every entry needs a \"name\" (got {mutant!r:.80})"
+    expect = mutant.get("expect")
+    ok = (isinstance(expect, str) and expect.strip() != "") or (
+        isinstance(expect, list) and bool(expect) and all(isinstance(e, str) and e.strip() for e in expect))
+    if not ok:
+        return (f"mutant {mutant['name']!r} has no \"expect\": add \"expect\": \"<part of the violated property ESBMC "
+                "must report for this bug>\" (the harness assertion's message, or e.g. \"array bounds violated\"; a "
+                "list of such strings for alternatives), see proofs/README.md, Mutants")
+    return ""
+
+
+def expected_kill(mutant: dict[str, Any], violated: str) -> bool:
+    """A failure kills the mutant only on a property its "expect" names (a substring of the description)."""
+    return any(e in violated for e in expects_of(mutant))
 
 
 def discover(only: list[str], tier: str) -> list[Proof]:
@@ -518,9 +554,15 @@ def collect(plan: Plan, tier: str) -> list[dict[str, Any]]:
     for name, fut in plan.mutants.items():
         tries = fut.result()
         last_item, last = tries[-1]
-        why = next((str(m.get("why", "")) for m in p.mutants if m["name"] == name), "")
-        if last.outcome == "fail":
+        mutant = next((m for m in p.mutants if m["name"] == name), {"name": name})
+        why = str(mutant.get("why", ""))
+        if last.outcome == "fail" and expected_kill(mutant, last.violated):
             result, ok, detail = "killed", True, f"{why}; {last_item or 'run'}: {last.violated}"
+        elif last.outcome == "fail":
+            wanted = " or ".join(f'"{e}"' for e in expects_of(mutant)) or "(no expect)"
+            result, ok = "KILLED ELSEWHERE", False
+            detail = (f"{why}; {last_item or 'run'}: failed on \"{last.violated or 'an unnamed property'}\", "
+                      f"expected {wanted} (log {last.log})")
         elif last.outcome == "pass":
             result, ok, detail = "SURVIVED", False, f"{why}; passed all {len(tries)} runs of the tier"
         else:

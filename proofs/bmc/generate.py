@@ -713,7 +713,6 @@ def encode_harness(info: MsgInfo) -> tuple[str, int]:
         c.add(f"urb_stub_{cs.name}_reset();")
     c.add("URB_COST_BEGIN();")
     c.add(f"int32_t const r = {info.fn}_encode(&m, buf, capacity);")
-    c.add("URB_COST_END(BUDGET(valid && (expected <= capacity) ? expected : MIN_SIZE));")
     c.open("if (!valid) {")
     c.add('URB_ASSERT(r == URB_ERR_RANGE, "encode: a member the schema forbids gives URB_ERR_RANGE");')
     c.close("} else if (capacity < expected) {")
@@ -727,6 +726,9 @@ def encode_harness(info: MsgInfo) -> tuple[str, int]:
     c.add('URB_ASSERT(!(r < 0 || i >= (size_t)r) || buf[i] == before[i], '
           '"encode: no byte outside the frame changes (none at all on error), none at or past capacity");')
     c.close()
+    c.add("/* The cost is asserted after the contract (nothing since the call adds to it): an encoder that")
+    c.add(" * skips a check also spends a full frame's cycles, and the contract is the property it breaks. */")
+    c.add("URB_COST_END(BUDGET(valid && (expected <= capacity) ? expected : MIN_SIZE));")
     c.add(f'URB_ASSERT({info.fn}_encode(NULL, buf, capacity) == URB_ERR_ARGUMENT, "encode: NULL message");')
     c.add(f'URB_ASSERT({info.fn}_encode(&m, NULL, capacity) == URB_ERR_ARGUMENT, "encode: NULL buffer");')
     c.out.append("#endif")
@@ -892,9 +894,18 @@ def function_body(source: str, name: str) -> str | None:
     return m.group(1) if m else None
 
 
-def _mut(name: str, file: str, function: str, find: str, replace: str, why: str, occurrence: int = 1) -> dict[str, object]:
+def _mut(name: str, file: str, function: str, find: str, replace: str, why: str, expect: str | list[str],
+         occurrence: int = 1) -> dict[str, object]:
+    """One seeded bug. `expect`: the violated property (a substring of ESBMC's description, or a list of
+    alternatives) that must report it; a failure on any other property is not a kill (tools/proofs.py)."""
     return {"name": name, "file": file, "function": function, "find": find, "replace": replace,
-            "occurrence": occurrence, "why": why}
+            "occurrence": occurrence, "why": why, "expect": expect}
+
+
+# Expected violated properties of the generated seeded bugs: the harness messages of encode_harness,
+# decode_harness, emit_wire and _round_trip, and ESBMC's own bounds check.
+OUT_OF_BOUNDS = ["array bounds violated", "out of bounds"]  # ESBMC: an array member, or past the object
+ROUND_TRIP = "decode(encode(m)) == m"
 
 
 def encode_mutants(info: MsgInfo, source: str, file: str) -> list[dict[str, object]]:
@@ -905,13 +916,16 @@ def encode_mutants(info: MsgInfo, source: str, file: str) -> list[dict[str, obje
     out = []
     if "if (capacity < size) {" in body:
         out.append(_mut("no-capacity-check", file, fn, "if (capacity < size) {", "if (0) {",
-                        "missing length check: writes past the end of a short buffer"))
+                        "missing length check: writes past the end of a short buffer",
+                        "a buffer shorter than the frame gives URB_ERR_CAPACITY"))
         out.append(_mut("capacity-off-by-one", file, fn, "if (capacity < size) {", "if (capacity + 1u < size) {",
-                        "off-by-one capacity check: writes one byte past a buffer one byte short"))
+                        "off-by-one capacity check: writes one byte past a buffer one byte short",
+                        "a buffer shorter than the frame gives URB_ERR_CAPACITY"))
     m = re.search(r"\{ return URB_ERR_RANGE; \}", body)
     if m:
         out.append(_mut("no-range-check", file, fn, "{ return URB_ERR_RANGE; }", "{ }",
-                        "a member the schema forbids is encoded instead of rejected"))
+                        "a member the schema forbids is encoded instead of rejected",
+                        "a member the schema forbids gives URB_ERR_RANGE"))
     for line in body.splitlines():
         m = re.search(r"urb_put_bits\(buf, (\d+)u, \d+u, .*msg->", line) or re.search(r"buf\[(\d+)u\] = .*msg->", line)
         if m:
@@ -920,20 +934,53 @@ def encode_mutants(info: MsgInfo, source: str, file: str) -> list[dict[str, obje
             unit = "bit" if stmt.startswith("urb_put_bits") else "byte"
             new = stmt[:m.start(1) - (len(line) - len(line.lstrip()))] + str(off + 1) + \
                 stmt[m.end(1) - (len(line) - len(line.lstrip())):]
-            out.append(_mut("field-offset", file, fn, stmt, new,
-                            f"wrong shift: a field is written at {unit} {off + 1} instead of {off}"))
+            if _past_frame(info, stmt, off + 1, unit):
+                out.append(_mut("field-offset", file, fn, stmt, new,
+                                f"wrong shift: a field is written at {unit} {off + 1} instead of {off}, past the end "
+                                "of the frame", ["nothing written past the frame", "no byte outside the frame changes"]))
+            else:
+                out.append(_mut("field-offset", file, fn, stmt, new,
+                                f"wrong shift: a field is written at {unit} {off + 1} instead of {off}",
+                                "wire: every byte as the schema lays it out"))
             break
     bf = info.payload
     if bf is not None:
         find = f"= msg->{_member(bf)}[k];"
         if find in body:
             out.append(_mut("payload-index", file, fn, find, f"= msg->{_member(bf)}[k + 1u];",
-                            "swapped index: the payload copy reads one element ahead"))
+                            "swapped index: the payload copy reads one element ahead (past the payload array "
+                            "for a full payload)", OUT_OF_BOUNDS))
     m = re.search(r"(urb_\w+\((?:NULL|prefix), \d+u, buf, )([^)]*)\)", body)
     if m:
         out.append(_mut("check-short", file, fn, m.group(0), f"{m.group(1)}{m.group(2)} - 1u)",
-                        "the frame check covers one byte less than the frame"))
+                        "the frame check covers one byte less than the frame",
+                        "wire: the check covers the fixed part and the payload"))
     return out
+
+
+def _past_frame(info: MsgInfo, stmt: str, at: int, unit: str) -> bool:
+    """Whether a field moved to `at` (a bit or byte offset) ends past the shortest frame of the message,
+    so the moved access leaves the frame (every frame, for a message of one size)."""
+    if unit == "bit":
+        m = re.search(r"urb_(?:get|put)_bits\(buf, \d+u, (\d+)u", stmt)
+        last_byte = (at + (int(m.group(1)) if m else 1) - 1) // 8
+    else:
+        last_byte = at
+    return last_byte >= info.decl.min_size
+
+
+def _range_check_kind(body: str) -> tuple[str, str]:
+    """The why and the expected property of dropping the first `{ return URB_ERR_RANGE; }` of a decoder:
+    a padding check, a fixed-value check, or a member's range or enum check."""
+    line = next(ln.strip() for ln in body.splitlines() if "{ return URB_ERR_RANGE; }" in ln)
+    if (m := re.search(r"/\* fixed: (\w+) \*/", line)):  # before padding: a fixed 0 reads like it
+        return (f"missing check: a frame whose fixed value ({m.group(1)}) is wrong is accepted",
+                f"= {m.group(1)} at its bit offset")
+    if (m := re.search(r"urb_get_bits\(buf, (\d+)u, \d+u\) != 0u\)", line)):
+        return (f"missing check: a frame whose padding at bit {m.group(1)} is not zero is accepted",
+                f"padding at bit {m.group(1)} is zero")
+    return ("missing check: a member value the schema forbids (range or enum) is accepted",
+            "every decoded member is one the schema allows")
 
 
 def kill_item(d: MessageDecl, kind: str, name: str) -> str:
@@ -957,17 +1004,21 @@ def decode_mutants(info: MsgInfo, source: str, file: str) -> list[dict[str, obje
     # dropping this check changes nothing: an equivalent mutant, which no harness can report.
     if find in body and "urb_link_check_payload_len(" not in body:
         out.append(_mut("no-short-check", file, fn, find, "if (0) {",
-                        "missing length check: a short frame is read past its end"))
+                        "missing length check: a short frame is read past its end (or, when a check on its first "
+                        "bytes rejects it first, gets another error than SHORT)",
+                        [*OUT_OF_BOUNDS, "a frame shorter than the shortest is SHORT"]))
     find = f"if (length > {info.macro}_MAX_SIZE) {{"
     if find in body and info.payload is None:  # with a payload the later length checks make it redundant
         out.append(_mut("no-long-check", file, fn, find, "if (0) {",
-                        "missing length check: a frame with trailing bytes is accepted"))
+                        "missing length check: a frame with trailing bytes is accepted",
+                        "a frame longer than the longest is LONG"))
     if "return URB_ERR_CHECKSUM;" in body:
         out.append(_mut("no-check", file, fn, "return URB_ERR_CHECKSUM;", "(void)0;",
-                        "the frame check is computed but a mismatch is accepted"))
+                        "the frame check is computed but a mismatch is accepted",
+                        "the check value closes the frame"))
     if "{ return URB_ERR_RANGE; }" in body:
-        out.append(_mut("no-range-check", file, fn, "{ return URB_ERR_RANGE; }", "{ }",
-                        "a value the schema forbids (range, enum, fixed value or padding) is accepted"))
+        why, expect = _range_check_kind(body)
+        out.append(_mut("no-range-check", file, fn, "{ return URB_ERR_RANGE; }", "{ }", why, expect))
     for line in body.splitlines():
         stmt = line.strip()
         if not re.match(r"msg->[\w.\[\]]+ = ", stmt):
@@ -977,8 +1028,15 @@ def decode_mutants(info: MsgInfo, source: str, file: str) -> list[dict[str, obje
             off = int(m.group(1))
             unit = "bit" if "urb_get_bits" in m.group(0) else "byte"
             new = stmt[:m.start(1)] + str(off + 1) + stmt[m.end(1):]
-            out.append(_mut("field-offset", file, fn, stmt, new,
-                            f"wrong shift: a field is read at {unit} {off + 1} instead of {off}"))
+            if _past_frame(info, stmt, off + 1, unit):
+                out.append(_mut("field-offset", file, fn, stmt, new,
+                                f"wrong shift: a field is read at {unit} {off + 1} instead of {off}, past the end of "
+                                "the frame", OUT_OF_BOUNDS))
+            else:
+                # part 1 sees the decoded value away from its bits, part 2 a message that does not come back
+                out.append(_mut("field-offset", file, fn, stmt, new,
+                                f"wrong shift: a field is read at {unit} {off + 1} instead of {off}",
+                                ["at its bit offset", ROUND_TRIP]))
             break
     bf = info.payload
     if bf is not None:
@@ -986,7 +1044,8 @@ def decode_mutants(info: MsgInfo, source: str, file: str) -> list[dict[str, obje
         if m:
             out.append(_mut("payload-index", file, fn, m.group(0),
                             f"msg->{_member(bf)}[k] = buf[{m.group(1)}u + k + 1u];",
-                            "swapped index: the payload is copied from one byte later"))
+                            "swapped index: the payload is copied from one byte later",
+                            ["canonical: the payload follows the fixed part", ROUND_TRIP]))
     return out
 
 
@@ -1028,21 +1087,23 @@ def crc_byte_mutants(src: str, body: str, fn: str) -> list[dict[str, object]]:
     m = re.search(r"\^ (0x[0-9A-Fa-f]+)u\)", body)
     if m:
         out.append(_mut("poly", f, fn, m.group(0), f"^ {int(m.group(1), 16) ^ 1:#x}u)",
-                        "wrong generator polynomial (lowest bit flipped)"))
+                        "wrong generator polynomial (lowest bit flipped)", "one byte step equals the bit-serial CRC"))
     if "bit < 8u" in body:
-        out.append(_mut("bit-count", f, fn, "bit < 8u", "bit < 7u", "off-by-one: seven shifts per byte"))
+        out.append(_mut("bit-count", f, fn, "bit < 8u", "bit < 7u", "off-by-one: seven shifts per byte",
+                        "one byte step equals the bit-serial CRC"))
     m = re.search(r"\(c >> (\d+)\) & 0xFu", body)
     if m:
         out.append(_mut("nibble-index", f, fn, m.group(0), f"(c >> {int(m.group(1)) - 1}) & 0xFu",
-                        "wrong shift: the table is indexed by the wrong four bits"))
+                        "wrong shift: the table is indexed by the wrong four bits", "one byte step equals the bit-serial CRC"))
     lines = [ln.strip() for ln in body.splitlines() if "_nibble[" in ln]
     if len(lines) >= 2:
-        out.append(_mut("one-nibble", f, fn, lines[1], "/* second nibble step dropped */", "one table step per byte instead of two", 2))
+        out.append(_mut("one-nibble", f, fn, lines[1], "/* second nibble step dropped */", "one table step per byte instead of two",
+                        "one byte step equals the bit-serial CRC", 2))
     table = re.search(r"static const uint\d+_t " + re.escape(fn.removesuffix("_byte")) + r"_nibble\[16\] = \{\s*(0x0+u), (0x[0-9A-Fa-f]+)u", src)
     if table:
         first, second = table.group(1), table.group(2)
         out.append(_mut("table-entry", f, "", f"{first}, {second}u", f"{first}, {int(second, 16) ^ 1:#0{len(second)}x}u",
-                        "a wrong entry in the nibble table"))
+                        "a wrong entry in the nibble table", "one byte step equals the bit-serial CRC"))
     return out
 
 
@@ -1133,12 +1194,14 @@ def checksum_proofs(cs: ChecksumDecl, schema: Schema, src: str, budget: int) -> 
         muts = []
         if "i < len" in body:
             muts.append(_mut("skip-last", "gen/c/urb_runtime.c", stem, "i < len", "i + 1u < len",
-                             "off-by-one: the last byte is not fed"))
+                             "off-by-one: the last byte is not fed",
+                             "buffer update equals the byte-wise update"))
             muts.append(_mut("overrun", "gen/c/urb_runtime.c", stem, "i < len", "i <= len",
-                             "off-by-one: reads one byte past the buffer"))
+                             "off-by-one: reads one byte past the buffer", OUT_OF_BOUNDS))
         if "data[i]" in body:
             muts.append(_mut("index", "gen/c/urb_runtime.c", stem, "data[i]", "data[len - 1u - i]",
-                             "swapped index: bytes fed in reverse order"))
+                             "swapped index: bytes fed in reverse order",
+                             "buffer update equals the byte-wise update"))
         proofs.append(Proof(stem, f"{stem} over a buffer equals {stem}_byte applied byte by byte",
                             text, max_covered + 2, sources=rt, mutants=muts, origin=f"checksum {cs.name}, tier {t.name}",
                             sweep=[f"LEN={n}" for n in range(max_covered + 1)],
@@ -1165,7 +1228,8 @@ def checksum_proofs(cs: ChecksumDecl, schema: Schema, src: str, budget: int) -> 
         if m:
             bad = int(m.group(1), 16) ^ 1
             muts.append(_mut("xorout", "gen/c/urb_runtime.c", f"{stem}_final", m.group(0), f"^ {bad:#x}u",
-                             "wrong final xor value"))
+                             "wrong final xor value",
+                             "final value is the register xor xorout"))
         proofs.append(Proof(f"{stem}_final", f"{stem}_final is the register xor {t.xorout:#x}", text, 2,
                             sources=rt, mutants=muts, origin=f"checksum {cs.name}, tier {t.name}",
                             budget_cycles=budget))
@@ -1191,7 +1255,8 @@ def checksum_proofs(cs: ChecksumDecl, schema: Schema, src: str, budget: int) -> 
     m = re.search(r"covered <= (\w+)", body)
     if m:
         muts.append(_mut("tier-boundary", "gen/c/urb_runtime.c", f"{fn}_size", m.group(0), f"covered < {m.group(1)}",
-                         "off-by-one tier boundary"))
+                         "off-by-one tier boundary",
+                         "the tier the schema chooses for this covered length"))
     proofs.append(Proof(f"{fn}_size", f"{fn}_size picks the check width of the schema's tier for every covered length",
                         text, 2, sources=rt, mutants=muts, origin=f"checksum {cs.name}",
                         budget_cycles=budget))
@@ -1245,11 +1310,13 @@ def checksum_proofs(cs: ChecksumDecl, schema: Schema, src: str, budget: int) -> 
     muts = []
     if "prefix_len + len" in body:
         muts.append(_mut("covered", "gen/c/urb_runtime.c", fn, "prefix_len + len", "len",
-                         "the tier is chosen without the implicit prefix"))
+                         "the tier is chosen without the implicit prefix",
+                         "equals the CRC of the chosen tier"))
     m = re.search(r"crc = (urb_\w+)\(prefix, prefix_len, crc\);", body)
     if m:
         muts.append(_mut("no-prefix", "gen/c/urb_runtime.c", fn, m.group(0), "(void)prefix;",
-                         "the implicit prefix is not covered by the check"))
+                         "the implicit prefix is not covered by the check",
+                         "equals the CRC of the chosen tier"))
     proofs.append(Proof(fn, f"{fn} equals the schema's tiered CRC over prefix then data, within the cost the message proofs charge for it", text,
                         max_covered + 2, sources=rt, mutants=muts, origin=f"checksum {cs.name}",
                         sweep=[f"PLEN={p},LEN={n}" for p in range(3) for n in range(max_covered + 1)],
@@ -1292,11 +1359,13 @@ def checksum_proofs(cs: ChecksumDecl, schema: Schema, src: str, budget: int) -> 
     muts = []
     if "length - fixed - 1u" in body:
         muts.append(_mut("payload-off-by-one", "gen/c/urb_runtime.c", f"{fn}_payload_len", "length - fixed - 1u",
-                         "length - fixed - 2u", "off-by-one payload length for the narrow check"))
+                         "length - fixed - 2u", "off-by-one payload length for the narrow check",
+                         ["an error only when no payload length fits", "the payload length gives exactly this frame length"]))
     m = re.search(r"== 2u\)", body)
     if m:
         muts.append(_mut("tier-test", "gen/c/urb_runtime.c", f"{fn}_payload_len", "== 2u)", "!= 1u || 1)",
-                         "accepts a wide check where the narrow tier applies"))
+                         "accepts a wide check where the narrow tier applies",
+                         "the payload length gives exactly this frame length"))
     proofs.append(Proof(f"{fn}_payload_len", f"{fn}_payload_len returns the unique payload length that fits a frame, or SHORT/LONG",
                         text, 2, sources=rt, mutants=muts, origin=f"checksum {cs.name}",
                         budget_cycles=budget))
@@ -1570,7 +1639,8 @@ def all_proofs() -> tuple[list[Proof], str, dict[str, str]]:
             if m:
                 muts.append(_mut("member-off-by-one", src_rel, fn, m.group(0),
                                  m.group(0).replace(f"{m.group(1)}u", f"{int(m.group(1)) + 1}u"),
-                                 "off-by-one: a value past the last member is accepted"))
+                                 "off-by-one: a value past the last member is accepted",
+                                 "true exactly for the declared members"))
             proofs.append(Proof(fn, f"{fn} is true exactly for the members of enum {e.name}", text, 2,
                                 sources=["gen/c/urb_runtime.c", src_rel], mutants=muts, origin=f"enum {e.name}",
                                 budget_cycles=budget))

