@@ -18,6 +18,19 @@
 (* so it never overtakes an earlier request.  The downlink serves the      *)
 (* pending requests in arrival order; a transaction ends OK or with the    *)
 (* error that names its cause.                                             *)
+(*                                                                         *)
+(* The host side of the uplink is modelled as the host library does it    *)
+(* (host/urb/managers/rs232_core.py, ResponseMatcher, shared by the USB    *)
+(* core): the n-th request carries the sequence number n mod SeqMod; the   *)
+(* requests in flight are a FIFO, and a response is matched to the OLDEST  *)
+(* request in flight whose sequence number it echoes, the ones before it   *)
+(* completing as lost (the bridge is a FIFO: a later response proves them *)
+(* lost).  With UplinkLoss a response may be lost on the uplink (corrupt   *)
+(* bytes the host hunts past; a request lost on its way to the bridge     *)
+(* looks the same to the host: no response ever comes), and the host      *)
+(* times out the oldest request in flight, freeing its window slot.  The  *)
+(* host's window counts ITS requests in flight, as the code does.  Small  *)
+(* SeqMod (4) with more than SeqMod requests makes TLC explore the wrap.   *)
 (***************************************************************************)
 EXTENDS Naturals, Sequences, FiniteSets
 
@@ -28,9 +41,9 @@ CONSTANTS
     Faults,      \* downlink failure causes explored (subset of DownlinkFaults)
     QueueLen,    \* bridge data slots
     HostWindow,  \* host's bound on outstanding requests = response slots
-    MaxReq       \* number of requests submitted in a behaviour
-
-SeqMod == 16     \* the uplink sequence number has 4 bits
+    MaxReq,      \* number of requests submitted in a behaviour
+    SeqMod,      \* sequence numbers 0..SeqMod - 1 (the uplink's 4 bits: 16)
+    UplinkLoss   \* TRUE: responses may be lost on the uplink, the host times out
 
 Statuses == {"OK", "TIMEOUT", "CHECKSUM", "BUSY", "NO_NODE", "SIZE_MISMATCH",
              "BAD_REQUEST", "BUS_STUCK", "NODE_BUSY"}
@@ -41,7 +54,7 @@ NoData == <<>>
 ASSUME /\ Faults \subseteq DownlinkFaults
        /\ QueueLen \in Nat \ {0} /\ HostWindow \in Nat \ {0}
        /\ QueueLen <= HostWindow /\ HostWindow < SeqMod
-       /\ MaxReq \in Nat
+       /\ MaxReq \in Nat /\ SeqMod \in Nat \ {0} /\ UplinkLoss \in BOOLEAN
 
 (* Content of outbox `box` of node `addr`: it names the mailbox it came     *)
 (* from, so a response carrying another mailbox's data is detected.        *)
@@ -57,12 +70,18 @@ VARIABLES
     sent,     \* sent[i]: the i-th request submitted by the host (with its id)
     queue,    \* the bridge's response ring, in arrival order: entries
               \*   [id, status ("PENDING" or final), data]
-    out,      \* the response stream the host has received, in order
+    out,      \* the response stream the bridge has sent on the uplink, in order
     applied,  \* ghost: ids of write requests a node has stored in its inbox
     cause,    \* ghost: cause[id] = what really happened to request id
-    full      \* ghost: well-formed requests that found every data slot taken
+    full,     \* ghost: well-formed requests that found every data slot taken
+    hostFrom, \* host: the oldest request it still has in flight.  Its in-flight
+              \*   FIFO (ResponseMatcher.inflight) is hostFrom..Len(sent): it
+              \*   only ever loses its head and gains a tail
+    lastMatch \* ghost: the host's latest match, [req: the request it completed,
+              \*   resp: the request the response answers] (0, 0 before any)
 
-vars == <<sent, queue, out, applied, cause, full>>
+hostVars == <<hostFrom, lastMatch>>
+vars == <<sent, queue, out, applied, cause, full, hostFrom, lastMatch>>
 
 Entry == [id: 1..MaxReq, status: Statuses \cup {"PENDING"}, data: Seq(Nat)]
 Response == [id: 1..MaxReq, seq: 0..SeqMod - 1, status: Statuses, data: Seq(Nat)]
@@ -75,13 +94,47 @@ TypeOK ==
     /\ queue \in Seq(Entry) /\ out \in Seq(Response)
     /\ applied \subseteq 1..MaxReq /\ full \subseteq 1..MaxReq
     /\ cause \in [1..MaxReq -> Statuses \cup {"NONE"}]
+    /\ hostFrom \in 1..MaxReq + 1
+    /\ lastMatch \in [req: 0..MaxReq, resp: 0..MaxReq]
+
+NoMatch == [req |-> 0, resp |-> 0]
+
+(* The request ids held by a sequence of queue entries or responses.       *)
+Ids(s) == {s[k].id : k \in DOMAIN s}
 
 Init ==
     /\ sent = <<>> /\ queue = <<>> /\ out = <<>>
     /\ applied = {} /\ full = {}
     /\ cause = [i \in 1..MaxReq |-> "NONE"]
+    /\ hostFrom = 1 /\ lastMatch = NoMatch
 
 Req(id) == sent[id][1]
+
+(* The sequence number request id carries: the host numbers its requests  *)
+(* 1, 2, ... mod SeqMod (Rs232Core/UsbCore._next_seq) and the bridge      *)
+(* echoes it.                                                              *)
+SeqOf(id) == id % SeqMod
+
+(* The host's requests in flight, oldest first. *)
+InFlight == [k \in 1..Len(sent) - hostFrom + 1 |-> hostFrom + k - 1]
+
+(***************************************************************************)
+(* Host: receive response `resp` (ResponseMatcher.parse).  It is matched  *)
+(* to the oldest request in flight whose sequence number it echoes; the   *)
+(* requests before that one complete as lost (lost_before); a response    *)
+(* whose sequence number no request in flight carries is discarded.  With *)
+(* UplinkLoss the response may instead be lost on the way.                *)
+(***************************************************************************)
+HostMatch(resp) ==
+    LET F == InFlight
+        ks == {k \in DOMAIN F : SeqOf(F[k]) = resp.seq}
+    IN IF ks = {} THEN UNCHANGED hostVars
+       ELSE LET k == CHOOSE k \in ks : \A j \in ks : k <= j IN
+            /\ hostFrom' = F[k] + 1
+            /\ lastMatch' = [req |-> F[k], resp |-> resp.id]
+
+HostReceives(resp) == IF UplinkLoss THEN HostMatch(resp) \/ UNCHANGED hostVars
+                      ELSE HostMatch(resp)
 
 (***************************************************************************)
 (* Host: submit a request, if fewer than HostWindow are outstanding.       *)
@@ -92,7 +145,7 @@ Req(id) == sent[id][1]
 (***************************************************************************)
 SubmitAndAdmit ==
     /\ Len(sent) < MaxReq
-    /\ Len(sent) - Len(out) < HostWindow
+    /\ Len(InFlight) < HostWindow    \* Rs232Core.frames_to_send: len(inflight) < window
     /\ \E r \in Requests :
          LET id == Len(sent) + 1
              st == IF AdmissionStatus(r) # "OK" THEN AdmissionStatus(r)
@@ -105,7 +158,7 @@ SubmitAndAdmit ==
             \* taken), not the answer, so BusyOnlyWhenFull checks the answer
             /\ full' = IF AdmissionStatus(r) = "OK" /\ DataSlotsUsed >= QueueLen
                          THEN full \cup {id} ELSE full
-    /\ UNCHANGED <<out, applied>>
+    /\ UNCHANGED <<out, applied, hostFrom, lastMatch>>
 
 (* Position of the oldest request still waiting for the downlink.          *)
 FirstPending == CHOOSE k \in DOMAIN queue :
@@ -139,34 +192,48 @@ Serve ==
             /\ applied' = IF st = "OK" /\ r.op = "write"
                             THEN applied \cup {id} ELSE applied
             /\ cause' = [cause EXCEPT ![id] = st]
-    /\ UNCHANGED <<sent, out, full>>
+    /\ UNCHANGED <<sent, out, full, hostFrom, lastMatch>>
 
 (***************************************************************************)
 (* Bridge: the oldest response, once final, leaves on the uplink carrying *)
-(* the request's sequence number; its slots are freed.                     *)
+(* the request's sequence number; its slots are freed.  The host receives *)
+(* it in the same step (the uplink is a FIFO; UsbUplink is about its       *)
+(* delays).                                                                *)
 (***************************************************************************)
 Emit ==
     /\ queue # <<>> /\ Head(queue).status # "PENDING"
-    /\ LET e == Head(queue) IN
-         out' = Append(out, [id |-> e.id, seq |-> e.id % SeqMod,
-                             status |-> e.status, data |-> e.data])
+    /\ LET e == Head(queue)
+           resp == [id |-> e.id, seq |-> SeqOf(e.id), status |-> e.status, data |-> e.data]
+       IN /\ out' = Append(out, resp)
+          /\ HostReceives(resp)
     /\ queue' = Tail(queue)
     /\ UNCHANGED <<sent, applied, cause, full>>
+
+(***************************************************************************)
+(* Host: the oldest request in flight got no response in time: it         *)
+(* completes UPLINK_TIMEOUT and leaves the window (Rs232Core.poll,        *)
+(* UsbCore.poll: lost_before(1)).  Premise: the timeout (100 ms RS232,    *)
+(* 50 ms USB) outlasts the bridge's worst-case answer time, so a request  *)
+(* times out only once the bridge no longer holds it (its response was    *)
+(* lost).  The mutant Bridge_TimeoutWhileQueued drops the premise.         *)
+(***************************************************************************)
+HostTimeout ==
+    /\ hostFrom <= Len(sent)
+    /\ hostFrom \notin Ids(queue)
+    /\ hostFrom' = hostFrom + 1
+    /\ UNCHANGED <<sent, queue, out, applied, cause, full, lastMatch>>
 
 (* All requests submitted and answered: the run is over. *)
 Done ==
     /\ Len(sent) = MaxReq /\ queue = <<>>
     /\ UNCHANGED vars
 
-Next == SubmitAndAdmit \/ Serve \/ Emit \/ Done
+Next == SubmitAndAdmit \/ Serve \/ Emit \/ HostTimeout \/ Done
 
 Spec == Init /\ [][Next]_vars /\ WF_vars(Serve) /\ WF_vars(Emit)
 
 -----------------------------------------------------------------------------
 Answered(id) == \E k \in DOMAIN out : out[k].id = id
-
-(* The request ids held by a sequence of queue entries or responses.       *)
-Ids(s) == {s[k].id : k \in DOMAIN s}
 
 (* No two entries of s hold the same id: as many distinct ids as entries.  *)
 DistinctIds(s) == Cardinality(Ids(s)) = Len(s)
@@ -222,12 +289,18 @@ BusyOnlyWhenFull ==
 (* data slots never more than QueueLen.                                    *)
 BoundedMemory == Len(queue) <= HostWindow /\ DataSlotsUsed <= QueueLen
 
+(* What the host relies on, across sequence-number wrap: a response it     *)
+(* matches (by sequence number, oldest first, within its window) is the   *)
+(* response to the request it completes with it, never an older or a      *)
+(* newer request's.  Checked in the state after every match.               *)
+NoSeqAliasing == lastMatch.req = lastMatch.resp
+
 (* Liveness: every submitted request is eventually answered. *)
 EveryRequestAnswered == \A id \in 1..MaxReq : (id <= Len(sent)) ~> Answered(id)
 
 THEOREM Spec => [](TypeOK /\ NoSilentDrop /\ AtMostOneResponse
                           /\ ResponsesInRequestOrder /\ ResponseMatchesRequest
                           /\ ErrorNamesCause /\ WriteStatusTruthful
-                          /\ BusyOnlyWhenFull /\ BoundedMemory)
+                          /\ BusyOnlyWhenFull /\ BoundedMemory /\ NoSeqAliasing)
 THEOREM Spec => EveryRequestAnswered
 =============================================================================

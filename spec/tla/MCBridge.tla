@@ -19,6 +19,14 @@ MCRequestsCore ==
       [addr |-> 1, box |-> 1, op |-> "write", len |-> 2],
       [addr |-> 2, box |-> 1, op |-> "read",  len |-> 2] }
 MCFaults == {"TIMEOUT", "CHECKSUM", "BUS_STUCK", "NODE_BUSY", "NO_NODE"}
+(* For the sequence-number wrap (MCBridgeWrap.cfg: SeqMod 4, more than     *)
+(* SeqMod requests, lost responses, host timeouts): the host's matching    *)
+(* does not look at the request's kind or outcome, so one good read, no    *)
+(* downlink fault and as many data slots as the window (no BUSY) keep the  *)
+(* state space small: every response is OK, the runs differ in timing,    *)
+(* lost responses and host timeouts.                                       *)
+MCRequestsWrap == { [addr |-> 1, box |-> 1, op |-> "read",  len |-> 2] }
+MCFaultsWrap == {}
 
 (* Bridge.tla states AtMostOneResponse and ResponsesInRequestOrder with    *)
 (* one quantifier (DistinctIds, IdsInOrder) for speed.  Each must equal    *)

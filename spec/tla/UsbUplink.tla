@@ -15,7 +15,8 @@
 (*   UsbRead        the bulk-IN read issued by batch n-1's write callback  *)
 (*                  fetches the bridge's PREVIOUS response buffer (n-1);   *)
 (*   Callback       the read thread invokes callbacks in order, matching   *)
-(*                  each response to the oldest outstanding request.       *)
+(*                  each response by its sequence number to the oldest    *)
+(*                  outstanding request that carries it (ResponseMatcher). *)
 (* So write n and read n-1 share a frame: the bridge double-buffers its    *)
 (* responses.  Tick ends the frame; real-time premises: every thread runs  *)
 (* once per frame and a batch fits the downlink in one frame (the         *)
@@ -30,12 +31,12 @@ CONSTANTS
     MaxReq,      \* requests submitted in a behaviour
     Window,      \* host: most requests in flight (sent, not called back);
                  \*   UsbCore.window = min(BridgeInfo.fifo_depth, 15)
-    MaxLatency   \* bound on callback latency in frames (paper: 3 ms)
+    MaxLatency,  \* bound on callback latency in frames (paper: 3 ms)
+    SeqMod       \* sequence numbers 0..SeqMod - 1 (the uplink's 4 bits: 16)
 
 ASSUME MaxBatch \in Nat \ {0} /\ MaxSubmit \in Nat \ {0} /\ MaxReq \in Nat
-       /\ Window \in 1..15 /\ MaxLatency \in Nat   \* < SeqMod: no aliasing
-
-SeqMod == 16                      \* 4-bit sequence number
+       /\ SeqMod \in Nat \ {0}
+       /\ Window \in 1..SeqMod - 1 /\ MaxLatency \in Nat   \* < SeqMod: no aliasing
 Ids == 1..MaxReq
 AgeCap == MaxLatency + MaxReq + 1 \* ages saturate here (keeps the model finite)
 
@@ -49,7 +50,8 @@ VARIABLES
     txCur,     \* bridge: responses of batch n (being produced)
     hostRx,    \* host: responses read, awaiting their callback
     done,      \* ids whose callback has run
-    cbLog,     \* callback log: [req (expected id), resp (response's id)]
+    cbLog,     \* callback log: [req (expected id), resp (response's id, 0:
+               \*   completed without one, as lost)]
     age,       \* age[id]: frames since submission, frozen at callback
     deferred,  \* deferred[id]: writes that left id queued (batch full)
     wrote, readDone  \* this frame's write / read has happened
@@ -64,7 +66,7 @@ TypeOK ==
     /\ hostQ \in Seq(Ids) /\ expect \in Seq(Ids) /\ rx \in Seq(Ids)
     /\ Len(rx) <= MaxBatch
     /\ txPrev \in Seq(Resp) /\ txCur \in Seq(Resp) /\ hostRx \in Seq(Resp)
-    /\ done \subseteq Ids /\ cbLog \in Seq([req: Ids, resp: Ids])
+    /\ done \subseteq Ids /\ cbLog \in Seq([req: Ids, resp: Ids \cup {0}])
     /\ age \in [Ids -> 0..AgeCap] /\ deferred \in [Ids -> 0..MaxReq]
     /\ wrote \in BOOLEAN /\ readDone \in BOOLEAN
 
@@ -137,17 +139,28 @@ UsbRead ==
                    deferred, wrote>>
 
 (***************************************************************************)
-(* Read thread: invoke the callback of the oldest outstanding request with *)
-(* the oldest unread response (matching by order; the 4-bit sequence      *)
-(* number is checked by the host).                                         *)
+(* Read thread: take the oldest unread response and match it as the host  *)
+(* library does (ResponseMatcher.parse, shared with the RS232 core): to    *)
+(* the oldest outstanding request whose sequence number (id mod SeqMod,   *)
+(* UsbCore._next_seq) it echoes.  The outstanding requests before that    *)
+(* one complete without a response (lost_before; logged with resp 0), and *)
+(* a response that no outstanding request's number matches is discarded.  *)
+(* Responses are never lost here (a USB transfer is checked end to end),  *)
+(* so the match must always be the oldest; MCUsbUplinkWrap (SeqMod 4,     *)
+(* 9 requests) explores the wrap.                                          *)
 (***************************************************************************)
 Callback ==
-    /\ hostRx # <<>> /\ expect # <<>>
+    /\ hostRx # <<>>
     /\ LET r == Head(hostRx)
-           id == Head(expect)
-       IN /\ cbLog' = Append(cbLog, [req |-> id, resp |-> r.id])
-          /\ done' = done \cup {id}
-    /\ hostRx' = Tail(hostRx) /\ expect' = Tail(expect)
+           ks == {k \in DOMAIN expect : expect[k] % SeqMod = r.seq}
+       IN IF ks = {} THEN UNCHANGED <<expect, done, cbLog>>
+          ELSE LET k == CHOOSE k \in ks : \A j \in ks : k <= j
+                   id == expect[k]
+               IN /\ cbLog' = cbLog \o [j \in 1..k - 1 |-> [req |-> expect[j], resp |-> 0]]
+                                  \o <<[req |-> id, resp |-> r.id]>>
+                  /\ done' = done \cup {expect[j] : j \in 1..k}
+                  /\ expect' = SubSeq(expect, k + 1, Len(expect))
+    /\ hostRx' = Tail(hostRx)
     /\ UNCHANGED <<nextId, budget, hostQ, rx, txPrev, txCur, age, deferred,
                    wrote, readDone>>
 
@@ -183,7 +196,9 @@ NothingLost == \A id \in Submitted : id \in InFlight \/ id \in done
 (* sequence number rely on it.                                             *)
 WindowRespected == Len(expect) <= Window
 
-(* Every callback receives the response to its own request.               *)
+(* Every callback receives the response to its own request, however often *)
+(* the sequence number has wrapped: never another request's, and never    *)
+(* none (no response is lost here, so none may be declared lost).         *)
 ResponsesMatched ==
     \A k \in DOMAIN cbLog : cbLog[k].req = cbLog[k].resp
 

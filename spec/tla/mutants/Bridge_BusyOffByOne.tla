@@ -5,7 +5,7 @@ EXTENDS MCBridge
 
 MutSubmit ==
     /\ Len(sent) < MaxReq
-    /\ Len(sent) - Len(out) < HostWindow
+    /\ Len(InFlight) < HostWindow
     /\ \E r \in Requests :
          LET id == Len(sent) + 1
              st == IF AdmissionStatus(r) # "OK" THEN AdmissionStatus(r)
@@ -16,7 +16,7 @@ MutSubmit ==
             /\ cause' = IF st = "PENDING" THEN cause ELSE [cause EXCEPT ![id] = st]
             /\ full' = IF AdmissionStatus(r) = "OK" /\ DataSlotsUsed >= QueueLen
                          THEN full \cup {id} ELSE full
-    /\ UNCHANGED <<out, applied>>
+    /\ UNCHANGED <<out, applied, hostFrom, lastMatch>>
 
 MutNext == MutSubmit \/ Serve \/ Emit \/ Done
 MutSpec == Init /\ [][MutNext]_vars

@@ -5,7 +5,7 @@ EXTENDS MCBridge
 
 MutSubmit ==
     /\ Len(sent) < MaxReq
-    /\ Len(sent) - Len(out) < HostWindow
+    /\ Len(InFlight) < HostWindow
     /\ \E r \in Requests :
          LET id == Len(sent) + 1
              st == IF AdmissionStatus(r) # "OK" THEN AdmissionStatus(r)
@@ -13,14 +13,14 @@ MutSubmit ==
                    ELSE "PENDING"
          IN /\ sent' = Append(sent, <<r, id>>)
             /\ IF st = "BUSY"
-                 THEN /\ out' = Append(out, [id |-> id, seq |-> id % SeqMod,
+                 THEN /\ out' = Append(out, [id |-> id, seq |-> SeqOf(id),
                                              status |-> "BUSY", data |-> NoData])
                       /\ UNCHANGED queue
                  ELSE /\ queue' = Append(queue, [id |-> id, status |-> st, data |-> NoData])
                       /\ UNCHANGED out
             /\ cause' = IF st = "PENDING" THEN cause ELSE [cause EXCEPT ![id] = st]
             /\ full' = IF st = "BUSY" THEN full \cup {id} ELSE full
-    /\ UNCHANGED applied
+    /\ UNCHANGED <<applied, hostFrom, lastMatch>>
 
 MutNext == MutSubmit \/ Serve \/ Emit \/ Done
 MutSpec == Init /\ [][MutNext]_vars

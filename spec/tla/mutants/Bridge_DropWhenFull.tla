@@ -4,7 +4,7 @@
 EXTENDS MCBridge
 
 MutSubmit ==
-    /\ Len(sent) < MaxReq /\ Len(sent) - Len(out) < HostWindow
+    /\ Len(sent) < MaxReq /\ Len(InFlight) < HostWindow
     /\ \E r \in Requests :
          LET id == Len(sent) + 1 IN
          /\ sent' = Append(sent, <<r, id>>)
@@ -16,7 +16,7 @@ MutSubmit ==
                    /\ cause' = IF AdmissionStatus(r) # "OK"
                                  THEN [cause EXCEPT ![id] = AdmissionStatus(r)] ELSE cause
                    /\ UNCHANGED full
-    /\ UNCHANGED <<out, applied>>
+    /\ UNCHANGED <<out, applied, hostFrom, lastMatch>>
 
 MutNext == MutSubmit \/ Serve \/ Emit \/ Done \/ (Len(sent) = MaxReq /\ UNCHANGED vars)
 MutSpec == Init /\ [][MutNext]_vars

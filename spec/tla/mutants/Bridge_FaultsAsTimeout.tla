@@ -5,10 +5,11 @@ EXTENDS MCBridge
 
 MutEmit ==
     /\ queue # <<>> /\ Head(queue).status # "PENDING"
-    /\ LET e == Head(queue) IN
-         out' = Append(out, [id |-> e.id, seq |-> e.id % SeqMod, data |-> e.data,
-                             status |-> IF e.status \in DownlinkFaults
-                                          THEN "TIMEOUT" ELSE e.status])
+    /\ LET e == Head(queue)
+           resp == [id |-> e.id, seq |-> SeqOf(e.id), data |-> e.data,
+                    status |-> IF e.status \in DownlinkFaults THEN "TIMEOUT" ELSE e.status]
+       IN /\ out' = Append(out, resp)
+          /\ HostReceives(resp)
     /\ queue' = Tail(queue)
     /\ UNCHANGED <<sent, applied, cause, full>>
 

@@ -10,10 +10,10 @@ MutServe ==
        /\ LET k == FirstPending
               id == queue[k].id
           IN /\ Req(id).addr \in Present /\ "BUS_STUCK" \in Faults
-             /\ out' = Append(out, [id |-> id, seq |-> id % SeqMod,
+             /\ out' = Append(out, [id |-> id, seq |-> SeqOf(id),
                                     status |-> "BUS_STUCK", data |-> NoData])
              /\ cause' = [cause EXCEPT ![id] = "BUS_STUCK"]
-       /\ UNCHANGED <<sent, queue, applied, full>>
+       /\ UNCHANGED <<sent, queue, applied, full, hostFrom, lastMatch>>
 
 MutNext == SubmitAndAdmit \/ MutServe \/ Emit \/ Done
 MutSpec == Init /\ [][MutNext]_vars
