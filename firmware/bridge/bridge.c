@@ -18,9 +18,12 @@
 
 /* ACSL for Frama-C WP (proofs/framac/fifo/): the response ring and the data-slot FIFO inside it
  * never index outside their arrays, keep their counts within the configured depth, and admission
- * answers BUSY only when every data slot is taken (Bridge.tla SubmitAndAdmit). */
+ * answers BUSY only when every data slot is taken (Bridge.tla SubmitAndAdmit). The predicate says
+ * \valid_read: slot_index and first_pending take a const bridge, and \valid is false on a
+ * const-qualified location (Eva then finds their precondition invalid and stops the analysis of
+ * every caller); the functions that write the bridge require \valid(b) next to it. */
 /*@ predicate urbb_fifo_ok(urb_bridge_t *b) =
-      \valid(b) && 1 <= b->cfg.fifo_depth <= URB_BRIDGE_FIFO_MAX &&
+      \valid_read(b) && 1 <= b->cfg.fifo_depth <= URB_BRIDGE_FIFO_MAX &&
       b->ring_head < URB_BRIDGE_RING_MAX && b->ring_count <= URB_BRIDGE_RING_MAX &&
       b->slot_head < b->cfg.fifo_depth && b->slot_served <= b->slot_count <= b->cfg.fifo_depth;
 
@@ -215,7 +218,7 @@ static void store_slot(urb_bridge_t *b, uint8_t s, uint8_t r, const urbb_request
 }
 
 /* Bridge.tla: SubmitAndAdmit. */
-/*@ requires urbb_fifo_ok(b) && urbb_nodes_ok(b);
+/*@ requires \valid(b) && urbb_fifo_ok(b) && urbb_nodes_ok(b);
     requires \valid_read(q) && \separated(q, b);
     requires q->status == URB_STATUS_OK || q->status == URB_STATUS_BAD_REQUEST;
     requires q->status == URB_STATUS_OK ==> q->address < 128 && q->mailbox < 8 && q->length <= 32;
@@ -345,7 +348,7 @@ static uint8_t first_pending(const urb_bridge_t *b)
 }
 
 /* The oldest pending request, or NULL (for the serving code; the FIFO itself works by index). */
-/*@ requires urbb_fifo_ok(b);
+/*@ requires \valid(b) && urbb_fifo_ok(b);
     assigns \nothing;
     ensures b->slot_served == b->slot_count ==> \result == \null;
     ensures b->slot_served < b->slot_count ==> \result == &b->slots[urbb_slot_at(b, b->slot_served)];
@@ -357,7 +360,7 @@ static urb_bridge_slot_t *oldest_pending(urb_bridge_t *b)
 }
 
 /* Bridge.tla: Serve (second half): the outcome of the oldest pending request is final. */
-/*@ requires urbb_fifo_ok(b) && urbb_nodes_ok(b) && urbb_slots_ok(b) && status != URB_BRIDGE_PENDING;
+/*@ requires \valid(b) && urbb_fifo_ok(b) && urbb_nodes_ok(b) && urbb_slots_ok(b) && status != URB_BRIDGE_PENDING;
     behavior nothing_pending:
       assumes b->slot_served >= b->slot_count;
       assigns \nothing;

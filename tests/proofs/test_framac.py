@@ -155,6 +155,37 @@ def test_eva_verdicts(tmp_path: Path) -> None:
     bad = RUNNER.FramacRun(True, 1.0, "[eva] NON TERMINATING FUNCTION eva_main")
     rows, _ = RUNNER.check_eva(unit, bad, report, record=False, reviewed={key})
     assert rows[0].result == "ERROR" and not rows[0].expected
+    # a contract Eva finds false is no alarm of its own but cuts the paths behind it: rejected
+    lines = report.read_text(encoding="utf-8").splitlines()
+    lines.append("firmware/node\turb_i2c.c\t12\tf\tprecondition of g\tInvalid or unreachable\t\\valid(p)")
+    report.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    rows, _ = RUNNER.check_eva(unit, ok, report, record=False, reviewed={key})
+    assert rows[0].result == "ERROR" and not rows[0].expected and "precondition of g" in rows[0].detail
+
+
+def test_eva_unit_with_a_false_precondition_is_rejected(tmp_path: Path) -> None:
+    """End to end, the bridge's former pattern: `\\valid` required of a const pointer is false in
+    ACSL, Eva stops the analysis at the call without an alarm, and the runner must say so."""
+    assert shutil.which("frama-c"), "frama-c missing: run tools/setup.sh"
+    src = tmp_path / "main.c"
+    src.write_text("""typedef struct { int n; } S;
+/*@ requires \\valid(s); assigns \\nothing; */
+static int get(const S *s) { return s->n; }
+static S g;
+int eva_main(void) { g.n = 1; return get(&g); }
+""", encoding="utf-8")
+    unit = RUNNER.Unit("fixture", tmp_path, "eva", "fixture", [str(src)], [], ["-main", "eva_main"], [],
+                       {"alarms": []})
+    report = tmp_path / "r.csv"
+    cmd = RUNNER.framac_command(unit, unit.sources, [], [], report, 1, "offline")
+    run = RUNNER.run_framac(cmd, tmp_path / "fixture.log", report)
+    rows, _ = RUNNER.check_eva(unit, run, report, record=False, reviewed=set())
+    assert rows[0].result == "ERROR" and not rows[0].expected, rows[0]
+    assert "get" in rows[0].detail and "valid(s)" in rows[0].detail
+    src.write_text(src.read_text(encoding="utf-8").replace("\\valid(s)", "\\valid_read(s)"), encoding="utf-8")
+    run = RUNNER.run_framac(cmd, tmp_path / "fixture.log", report)
+    rows, _ = RUNNER.check_eva(unit, run, report, record=False, reviewed=set())
+    assert rows[0].expected and rows[0].result == "no alarm", rows[0]
 
 
 def test_mutant_that_applies_twice_is_refused(tmp_path: Path) -> None:
@@ -234,11 +265,6 @@ static int g(const S *s) { return s->x; }
     assert _const_valid_contracts(text) == ["f(s)"]
 
 
-@pytest.mark.xfail(strict=True, reason="firmware/bridge/bridge.c: urbb_fifo_ok() says \\valid(b) and slot_index and "
-                   "first_pending take a const b: in ACSL that precondition is false (WP does not model const, so "
-                   "it proves; Eva reports 'precondition got status invalid' and cuts every path through "
-                   "slot_index/first_pending, so eva_bridge_poll never reaches store_slot, complete, serve_local, "
-                   "served or probed). Fix: \\valid_read in urbb_fifo_ok, then review the new Eva alarms.")
 def test_no_valid_precondition_on_a_const_pointer() -> None:
     """\\valid(p) is false when *p is const-qualified (ACSL: only \\valid_read holds). Such a precondition
     makes the contract vacuous by the language's definition; WP ignores const and proves it anyway,

@@ -101,6 +101,19 @@ static void eva_master_start(void)
  * eva_bridge_i2c's unit; here the bridge's own state stays precise. */
 static bool eva_dl_running;
 
+/* Reads a WRITE's or fills a READ's `length` bytes at `data` (at most 32: the downlink clamps). */
+static void eva_dl_transfer(uint8_t op, uint8_t *data, uint8_t length)
+{
+    /* loop bound: 32 bytes */
+    for (uint8_t i = 0u; (i < length) && (i < 32u); i++) {
+        if (op == URB_DL_READ) {
+            data[i] = Frama_C_unsigned_char_interval(0u, 255u);
+        } else {
+            (void)data[i];
+        }
+    }
+}
+
 static bool eva_dl_begin(void *ctx, const urb_downlink_txn_t *t, uint32_t now_us)
 {
     (void)ctx;
@@ -109,14 +122,21 @@ static bool eva_dl_begin(void *ctx, const urb_downlink_txn_t *t, uint32_t now_us
         return false;
     }
     if ((t->op == URB_DL_READ) || (t->op == URB_DL_WRITE)) {
-        /* loop bound: 32 bytes (the downlink clamps longer ones) */
-        for (uint8_t i = 0u; (i < t->length) && (i < 32u); i++) {
-            if (t->op == URB_DL_READ) {
-                t->data[i] = Frama_C_unsigned_char_interval(0u, 255u);
-            } else {
-                (void)t->data[i];
+        /* The bridge passes the payload of its oldest pending data slot (any of 16) or its
+         * identification buffer. Through the pointer as given, a store at `data + i` has an offset
+         * Eva can only bound by an interval spanning every slot, headers included, and would make
+         * the header bytes of all 16 slots arbitrary. Each slot from a branch of its own instead:
+         * the test of equality reduces the pointer to that one slot, so the store stays inside its
+         * payload. The same bytes are transferred either way. */
+        /* loop bound: URB_BRIDGE_FIFO_MAX slots */
+        for (uint8_t k = 0u; k < URB_BRIDGE_FIFO_MAX; k++) {
+            if (t->data == eva_bridge.slots[k].data) {
+                eva_dl_transfer(t->op, eva_bridge.slots[k].data, t->length);
+                eva_dl_running = true;
+                return true;
             }
         }
+        eva_dl_transfer(t->op, t->data, t->length);
     }
     eva_dl_running = true;
     return true;
