@@ -104,7 +104,8 @@ def test_a_corrupt_header_claiming_a_long_frame_is_abandoned_after_the_idle_gap(
 
 
 def test_silent_bridge_is_declared_lost_and_everything_fails_until_reset() -> None:
-    core = Rs232Core(timeout_ns=10 * NS_PER_MS, lost_after_ns=50 * NS_PER_MS, lost_after_timeouts=1000)
+    core = Rs232Core(timeout_ns=10 * NS_PER_MS, lost_after_ns=50 * NS_PER_MS, lost_after_timeouts=1000,
+                     placeholder_ns=40 * NS_PER_MS)  # below lost_after, as it must be
     now = 0
     while core.lost_reason is None and now < NS_PER_MS * 1000:  # a 1-kHz stream to a dead bridge
         core.submit(read(), now)
@@ -121,7 +122,11 @@ def test_silent_bridge_is_declared_lost_and_everything_fails_until_reset() -> No
     core.reset(now)
     again = read()
     core.submit(again, now)
-    assert len(core.frames_to_send(now)) == 1 and core.lost_reason is None
+    # the bridge was not reset: the requests in flight at the loss keep their numbers until
+    # their lifetime (placeholder_ns from their sending) is over, and hold the window until then
+    assert core.frames_to_send(now) == [] and core.lost_reason is None and core.placeholders == 4
+    core.poll(now + 40 * NS_PER_MS)
+    assert len(core.frames_to_send(now + 40 * NS_PER_MS)) == 1 and core.placeholders == 0
 
 
 def test_sparse_requests_to_a_dead_bridge_declare_it_lost_after_n_timeouts() -> None:
@@ -142,7 +147,8 @@ def test_timeouts_in_a_row_count_as_loss_only_after_lost_after_of_silence() -> N
     """A burst of lost requests times out together one `timeout` after it was sent: that alone
     is not a lost bridge. Timeouts in a row declare it lost only once the bridge has also sent
     nothing for `lost_after` (the same silence the continuous-traffic rule needs)."""
-    core = Rs232Core(timeout_ns=10 * NS_PER_MS, lost_after_ns=50 * NS_PER_MS, lost_after_timeouts=3, window=4)
+    # window 15: the 9 timed-out requests keep their numbers (placeholders) and fit in it
+    core = Rs232Core(timeout_ns=10 * NS_PER_MS, lost_after_ns=50 * NS_PER_MS, lost_after_timeouts=3, window=15)
     answered = read()
     core.submit(answered, 0)
     core.frames_to_send(0)

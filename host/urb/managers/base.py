@@ -197,6 +197,8 @@ class Core(Protocol):
     def reset(self, now: int) -> None: ...
     def set_window(self, window: int) -> None: ...
     def busy(self) -> bool: ...
+    @property
+    def late_responses(self) -> int: ...
 
 
 # --------------------------------------------------------------------------------------------
@@ -205,12 +207,17 @@ class Core(Protocol):
 
 @dataclass
 class ManagerStats:
-    """Counters a manager keeps (all since start or the last reconnect)."""
+    """Counters a manager keeps (all since start or the last reconnect; `late_responses` since the
+    manager was made)."""
 
     submitted: int = 0
     completed: int = 0
     failed: int = 0
     stray_bytes: int = 0
+    late_responses: int = 0
+    """Responses that came after their request had completed UPLINK_TIMEOUT: the bridge answered
+    late (a slow downlink); discarded, never given to another request (since the manager was
+    made)."""
 
 
 LostListener = Callable[["BusManager", str], None]
@@ -469,6 +476,7 @@ class ThreadedManager(BusManager):
         core has just found the bridge lost, the lost listeners' notice: before the callbacks
         of the requests that loss failed."""
         self._queue_completed(self._core.take_completed(), self._core.lost_reason, self._dispatch_q.put)
+        self.stats.late_responses = self._core.late_responses
 
     def _dispatch_loop(self) -> None:
         while True:

@@ -22,7 +22,7 @@ import serial
 
 from ..errors import PortError
 from .base import NS_PER_MS, ThreadedManager
-from .rs232_core import Rs232Core
+from .rs232_core import PLACEHOLDER_NS, Rs232Core
 
 READ_POLL_S = 0.002
 """How often the reader wakes without input to apply timeouts."""
@@ -32,14 +32,20 @@ class RS232Manager(ThreadedManager):
     """A URB bridge on a serial port (a real UART, a USB serial adapter, or a pseudo-terminal)."""
 
     def __init__(self, port: str, baud: int = 115200, *, window: int = 4, timeout_s: float = 0.1,
-                 lost_after_s: float = 0.5, name: str | None = None) -> None:
+                 lost_after_s: float = 0.5, placeholder_s: float = PLACEHOLDER_NS / 1e9,
+                 name: str | None = None) -> None:
         """`port`: device path (e.g. /dev/ttyS0). `window`: requests outstanding on the bridge
         before discovery tells its FIFO depth. `timeout_s`: a request without response after
         this long completes UPLINK_TIMEOUT. `lost_after_s`: the bridge is declared lost
         (BRIDGE_LOST) only after it sent nothing for this long, with requests outstanding all
         that time or 8 requests in a row timed out (host/urb/README.md, "bridge lost"); requests
-        lost in a shorter glitch just time out. Nothing is opened until `start`."""
-        core = Rs232Core(window=window, timeout_ns=int(timeout_s * 1e9), lost_after_ns=int(lost_after_s * 1e9))
+        lost in a shorter glitch just time out. `placeholder_s`: a request that timed out keeps
+        its sequence number and its place in the window this long after it was sent (the bridge
+        may still answer it; default 0.3 s, the firmware's worst case at 100 kb/s, see
+        `rs232_core.PLACEHOLDER_NS`), unless a response releases it first; keep it below
+        `lost_after_s`. Nothing is opened until `start`."""
+        core = Rs232Core(window=window, timeout_ns=int(timeout_s * 1e9), lost_after_ns=int(lost_after_s * 1e9),
+                         placeholder_ns=int(placeholder_s * 1e9))
         super().__init__(core, name or port)
         self.port = port
         self.baud = baud

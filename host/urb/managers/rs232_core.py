@@ -14,12 +14,21 @@ implements, for one bridge:
   loses its first byte and the hunt goes on at the next byte. A response that echoes a *later*
   pending request proves the earlier ones were lost (the bridge is a FIFO): they complete at once
   with UPLINK_CHECKSUM (corrupt bytes were seen in their place) or UPLINK_TIMEOUT (nothing was);
-* a per-request timeout (UPLINK_TIMEOUT), and an idle-gap rule: a partial candidate that
+* a per-request timeout (UPLINK_TIMEOUT) that does not free the request's sequence number: the
+  bridge may still hold the request and answer it late (a node stretching the clock, a slow
+  downlink), so a timed-out request stays in the in-flight list as a *placeholder* (see
+  `ResponseMatcher`), counted in the window, until its own late response arrives (discarded and
+  counted in `late_responses`), a response to a later request proves its response lost, or its
+  lifetime `placeholder_ns` (counted from when it was sent; `PLACEHOLDER_NS`) expires.
+  Freeing the number at the timeout let a late response be matched to a newer request with the
+  same 4-bit number (spec/tla/Bridge.tla `NoSeqAliasing`, mutant `Bridge_TimeoutFreesSeq`);
+* an idle-gap rule: a partial candidate that
   receives no byte for `resync_gap_ns` loses its first byte, so a corrupt header cannot stall
   the hunt;
 * bridge-lost detection: the bridge is declared lost only when it really stopped answering,
   that is when not one byte was received for `lost_after_ns` and either requests were
-  outstanding all that time (continuous traffic), or a request has just timed out and it was
+  outstanding all that time (continuous traffic; placeholders count, and so do requests queued
+  behind a window full of them), or a request has just timed out and it was
   the `lost_after_timeouts`-th in a row (sparse traffic, where the in-flight list keeps
   emptying). A burst of requests lost together (a line glitch) times out together, well within
   `lost_after_ns`: those requests complete UPLINK_TIMEOUT and the bridge stays usable. Or
@@ -41,6 +50,33 @@ from .base import NS_PER_MS, Transfer, finish
 
 SEQ_MOD = 16
 MAX_WINDOW = SEQ_MOD - 1
+
+# How long the bridge firmware can still hold a request after the host sent it, at the slowest
+# downlink rate the project supports (I2C standard mode, 100 kb/s). Per request, worst case
+# (firmware/bridge/bridge.c, i2c_master.c): an identification read of a node whose sizes the
+# bridge does not know, then the request's own transaction, each ended by the downlink timeout
+# (urb_i2c_master_timeout_us(100) = 6720 us: twice the 336 bit times of the longest transaction,
+# so clock stretching included) and a bus clear (21 steps of clear_half_us = 5 us), then the
+# response on the uplink (35 bytes, the longest, at 115200 Bd 8N1: 3038 us; a USB response
+# leaves within a frame).
+DOWNLINK_TIMEOUT_100KBPS_US = 6720
+BUS_CLEAR_US = 21 * 5
+LONGEST_RESPONSE_RS232_US = (35 * 10 * 1_000_000 + 115_199) // 115_200
+REQUEST_WORST_US = 2 * (DOWNLINK_TIMEOUT_100KBPS_US + BUS_CLEAR_US) + LONGEST_RESPONSE_RS232_US  # 16688 us
+LONGEST_REQUEST_RS232_US = (37 * 10 * 1_000_000 + 115_199) // 115_200  # the request's own bytes: 3212 us
+# The bridge serves its ring in arrival order. Since a timed-out request keeps its place in the
+# window (a placeholder), the bridge never holds more than the window (<= MAX_WINDOW = 15) of the
+# host's requests: the request a placeholder stands for waits behind at most 14 others, so it is
+# answered within LONGEST_REQUEST_RS232_US + 15 * REQUEST_WORST_US = 253.5 ms of being sent. (The
+# ring's URB_BRIDGE_RING_MAX = 32 slots are only reachable by a host that sends beyond its window,
+# which placeholders prevent: 32 * REQUEST_WORST_US = 534 ms would exceed the default
+# `lost_after` of 500 ms, and then one lost request followed by silence would look like a dead
+# bridge.) Rounded up to 300 ms, which leaves ~46 ms for heartbeat SYNCs interleaved with the
+# requests. A bridge SCAN command (one per discovery) can take longer: every present address is
+# identified, 127 * (6720 + 105) us at 100 kb/s in the worst case.
+PLACEHOLDER_WORST_US = LONGEST_REQUEST_RS232_US + MAX_WINDOW * REQUEST_WORST_US
+PLACEHOLDER_NS = 300 * NS_PER_MS
+assert PLACEHOLDER_WORST_US * 1000 <= PLACEHOLDER_NS
 _STATUS_MAX = max(int(s) for s in Status)
 
 
@@ -53,34 +89,78 @@ def encode_request(t: Transfer) -> bytes:
 
 class ResponseMatcher:
     """Matches a byte stream of responses to the requests in flight (order + sequence number),
-    hunting past corrupt bytes. Shared by the RS232 and the USB cores."""
+    hunting past corrupt bytes. Shared by the RS232 and the USB cores.
+
+    `inflight` holds, in sending order, the requests that are live (not complete) and the
+    *placeholders*: requests already completed (`done`: timed out, or failed when the bridge was
+    lost) that the bridge may still answer. A placeholder keeps its sequence number reserved and
+    its place in the window; a response echoing its number is its late response and is
+    discarded (`late_responses`); a response to a later request releases it (the bridge answers
+    in order: its response was lost); `expire` releases it once its lifetime is over."""
 
     def __init__(self) -> None:
         self.inflight: deque[Transfer] = deque()
         self.rx = bytearray()
         self.stray_bytes = 0
+        self.late_responses = 0
+        """Responses to requests that had already timed out (placeholders), discarded."""
+        self.released_placeholders = 0
+        """Placeholders released without their late response: passed by a later response, or
+        expired."""
         self.completed: list[Transfer] = []
 
     def lost_before(self, k: int, now: int) -> None:
-        """The k oldest in-flight requests got no response: complete them."""
+        """The k oldest in-flight requests got no response: complete the live ones, release the
+        placeholders."""
         for _ in range(k):
             t = self.inflight.popleft()
-            self.completed.append(finish(t, now, ErrorFlag.UPLINK_CHECKSUM if t.garbage else ErrorFlag.UPLINK_TIMEOUT))
+            if t.done:
+                self.released_placeholders += 1
+            else:
+                self.completed.append(finish(t, now, ErrorFlag.UPLINK_CHECKSUM if t.garbage else ErrorFlag.UPLINK_TIMEOUT))
+
+    def time_out(self, now: int, timeout_ns: int, lifetime_ns: int) -> int:
+        """Complete UPLINK_TIMEOUT every live request sent `timeout_ns` ago or more; it stays in
+        flight as a placeholder unless its lifetime (`lifetime_ns` from its sending) is over too.
+        Returns how many timed out."""
+        n = 0
+        for t in self.inflight:
+            if not t.done and t.sent_ns is not None and now - t.sent_ns >= timeout_ns:
+                self.completed.append(finish(t, now, ErrorFlag.UPLINK_CHECKSUM if t.garbage else ErrorFlag.UPLINK_TIMEOUT))
+                n += 1
+        self.expire(now, lifetime_ns)
+        return n
+
+    def expire(self, now: int, lifetime_ns: int) -> None:
+        """Release the placeholders sent `lifetime_ns` ago or more: the bridge no longer holds
+        their requests."""
+        if any(t.done and now - (t.sent_ns or 0) >= lifetime_ns for t in self.inflight):
+            keep = deque(t for t in self.inflight if not (t.done and now - (t.sent_ns or 0) >= lifetime_ns))
+            self.released_placeholders += len(self.inflight) - len(keep)
+            self.inflight = keep
+
+    def next_event(self, timeout_ns: int, lifetime_ns: int) -> int | None:
+        """When the oldest live request times out or the oldest placeholder expires."""
+        times = [(t.sent_ns or 0) + (lifetime_ns if t.done else timeout_ns) for t in self.inflight]
+        return min(times) if times else None
 
     def fail_all(self, queued: deque[Transfer], now: int, reason: str | None = None) -> None:
-        """The uplink is gone: every request in flight, then every queued one, completes BRIDGE_LOST."""
-        for t in list(self.inflight) + list(queued):
+        """The uplink is gone: every live request in flight, then every queued one, completes
+        BRIDGE_LOST. The requests in flight stay as placeholders: a bridge reached again through a
+        reopened uplink was not reset and may still answer them (their numbers stay reserved
+        until then, or until their lifetime is over)."""
+        for t in [t for t in self.inflight if not t.done] + list(queued):
             self.completed.append(finish(t, now, ErrorFlag.BRIDGE_LOST))
             t.lost_reason = reason
-        self.inflight.clear()
         queued.clear()
         self.rx.clear()
 
     def _discard(self, n: int) -> None:
         del self.rx[:n]
         self.stray_bytes += n
-        if self.inflight:
-            self.inflight[0].garbage = True
+        live = next((t for t in self.inflight if not t.done), None)
+        if live is not None:
+            live.garbage = True
 
     def parse(self, now: int) -> bool:
         """Match every complete response in `rx`; True when a partial candidate is left waiting."""
@@ -106,6 +186,9 @@ class ResponseMatcher:
             del self.rx[:n]
             self.lost_before(k, now)
             self.inflight.popleft()
+            if t.done:  # the late response to a request that timed out: its number is free now
+                self.late_responses += 1
+                continue
             data = bytes(resp.data) if t.read and resp.status == Status.OK else None
             self.completed.append(finish(t, now, ErrorFlag.from_status(resp.status), resp.status, data))
         return False
@@ -122,10 +205,18 @@ class Rs232Core:
         resync_gap_ns: int = 20 * NS_PER_MS,
         lost_after_ns: int = 500 * NS_PER_MS,
         lost_after_timeouts: int = 8,
+        placeholder_ns: int = PLACEHOLDER_NS,
     ) -> None:
         """`window`: requests outstanding on the bridge (1..15; raised or lowered after
-        discovery from BridgeInfo.fifo_depth). `timeout_ns`: a response not received this long
-        after its request was sent completes UPLINK_TIMEOUT. `resync_gap_ns`: idle time after
+        discovery from BridgeInfo.fifo_depth), timed-out requests the bridge may still answer
+        included. `timeout_ns`: a response not received this long after its request was sent
+        completes UPLINK_TIMEOUT. `placeholder_ns`: how long after its sending a timed-out
+        request keeps its sequence number and window slot (unless a response releases them
+        first): the longest the bridge can still answer it (`PLACEHOLDER_NS`, 300 ms, derived
+        from the firmware above); keep it below `lost_after_ns`, else a single lost request
+        followed by silence declares the bridge lost. A value <= `timeout_ns` frees the number at
+        the timeout, which is safe only for a bridge known to answer within `timeout_ns`.
+        `resync_gap_ns`: idle time after
         which a partial response candidate is abandoned. `lost_after_ns`: silence with requests
         outstanding after which the bridge is declared lost; `lost_after_timeouts`: so many
         requests timing out in a row declare it lost too (sparse traffic, where the in-flight
@@ -136,6 +227,7 @@ class Rs232Core:
         self.resync_gap_ns = resync_gap_ns
         self.lost_after_ns = lost_after_ns
         self.lost_after_timeouts = lost_after_timeouts
+        self.placeholder_ns = placeholder_ns
         self._silent_timeouts = 0
         self.lost_reason: str | None = None
         self._queued: deque[Transfer] = deque()
@@ -143,7 +235,9 @@ class Rs232Core:
         self._next_seq = 1  # the n-th request carries n mod 16, as Bridge.tla's Emit (id % SeqMod)
         self._last_rx_ns = 0
         self._active_since = 0
-        """When the in-flight list last went from empty to non-empty."""
+        """When the host last went from nothing outstanding (no request in flight, placeholders
+        included, none queued) to something: requests queued behind a window full of
+        placeholders keep the host outstanding, so their expiry is no gap in the silence."""
         self._partial = False
 
     # -- inputs ------------------------------------------------------------------------------
@@ -153,6 +247,9 @@ class Rs232Core:
             self._m.completed.append(finish(t, now, ErrorFlag.BRIDGE_LOST))
             t.lost_reason = self.lost_reason
             return
+        self._m.expire(now, self._lifetime_ns)
+        if not self._queued and not self._m.inflight:
+            self._active_since = now
         self._queued.append(t)
 
     def receive(self, data: bytes, now: int) -> None:
@@ -175,19 +272,19 @@ class Rs232Core:
         if self._partial and now - self._last_rx_ns >= self.resync_gap_ns:
             m._discard(1)
             self._partial = m.parse(now)
-        timed_out = False
-        while m.inflight and m.inflight[0].sent_ns is not None and now - m.inflight[0].sent_ns >= self.timeout_ns:
-            m.lost_before(1, now)
-            self._silent_timeouts += 1
-            timed_out = True
-            self._partial = m.parse(now)
+        before = len(m.inflight)
+        n = m.time_out(now, self.timeout_ns, self._lifetime_ns)
+        self._silent_timeouts += n
+        timed_out = n > 0
+        if len(m.inflight) != before and m.rx:
+            self._partial = m.parse(now)  # a released number no longer starts a candidate
         quiet_ns = now - self._last_rx_ns
         if timed_out and self._silent_timeouts >= self.lost_after_timeouts and quiet_ns >= self.lost_after_ns:
             self.link_lost(now, f"{self._silent_timeouts} requests in a row got no response and the bridge "
                                 f"sent nothing for {quiet_ns // NS_PER_MS} ms")
             return
         silent_since = max(self._last_rx_ns, self._active_since)
-        if m.inflight and now - silent_since >= self.lost_after_ns:
+        if (m.inflight or self._queued) and now - silent_since >= self.lost_after_ns:
             ms = (now - silent_since) // NS_PER_MS
             self.link_lost(now, f"the bridge sent nothing for {ms} ms with requests outstanding")
 
@@ -200,11 +297,19 @@ class Rs232Core:
         self._partial = False
 
     def reset(self, now: int) -> None:
-        """Forget the lost state and any partial input (after the uplink was reopened)."""
+        """Forget the lost state and any partial input (after the uplink was reopened). The
+        placeholders stay: reopening the uplink does not reset the bridge, which may still
+        answer them; they are released as usual (a response, or their lifetime)."""
         self.link_lost(now, "the uplink was reset (reconnect)")
         self.lost_reason = None
         self._last_rx_ns = now
+        self._active_since = now
         self._silent_timeouts = 0
+        self._m.expire(now, self._lifetime_ns)
+
+    @property
+    def _lifetime_ns(self) -> int:
+        return max(self.placeholder_ns, self.timeout_ns)
 
     def set_window(self, window: int) -> None:
         self.window = _check_window(window)
@@ -213,14 +318,14 @@ class Rs232Core:
     def frames_to_send(self, now: int) -> list[bytes]:
         """Request frames that may go on the wire now (each to be written with one write())."""
         out: list[bytes] = []
+        if self._queued:
+            self._m.expire(now, self._lifetime_ns)  # whatever the polling cadence
         while self._queued and len(self._m.inflight) < self.window and self.lost_reason is None:
             t = self._queued.popleft()
             t.seq = self._next_seq
             self._next_seq = (self._next_seq + 1) % SEQ_MOD
             t.sent_ns = now
             t.garbage = False
-            if not self._m.inflight:
-                self._active_since = now
             self._m.inflight.append(t)
             out.append(encode_request(t))
         return out
@@ -235,9 +340,9 @@ class Rs232Core:
         if self.lost_reason is not None or not self._m.inflight:
             return None
         times: list[int] = []
-        head = self._m.inflight[0]
-        if head.sent_ns is not None:
-            times.append(head.sent_ns + self.timeout_ns)
+        nxt = self._m.next_event(self.timeout_ns, self._lifetime_ns)
+        if nxt is not None:
+            times.append(nxt)
         if self._partial:
             times.append(self._last_rx_ns + self.resync_gap_ns)
         times.append(max(self._last_rx_ns, self._active_since) + self.lost_after_ns)
@@ -253,11 +358,28 @@ class Rs232Core:
 
     @property
     def in_flight(self) -> int:
+        """Requests in flight, placeholders included (what the window counts)."""
         return len(self._m.inflight)
+
+    @property
+    def placeholders(self) -> int:
+        """Timed-out requests whose sequence numbers stay reserved (the bridge may answer them)."""
+        return sum(1 for t in self._m.inflight if t.done)
 
     @property
     def stray_bytes(self) -> int:
         return self._m.stray_bytes
+
+    @property
+    def late_responses(self) -> int:
+        """Responses that came after their request had timed out (discarded)."""
+        return self._m.late_responses
+
+    @property
+    def released_placeholders(self) -> int:
+        """Placeholders released without their late response (a later response passed them, or
+        their lifetime expired)."""
+        return self._m.released_placeholders
 
 
 def _check_window(window: int) -> int:

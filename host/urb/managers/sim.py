@@ -33,7 +33,7 @@ from .base import (
     finish,
 )
 from .loopback import BridgeModel
-from .rs232_core import Rs232Core
+from .rs232_core import PLACEHOLDER_NS, Rs232Core
 from .usb_core import UsbCore
 
 
@@ -190,7 +190,10 @@ class SimManager(BusManager):
     a `FrameTransport` (USB core, one batch per 1-ms frame)."""
 
     def __init__(self, clock: Clock, transport: ByteTransport | FrameTransport, *, name: str = "sim",
-                 window: int = 4, timeout_ns: int | None = None, lost_after_ns: int = 500 * NS_PER_MS) -> None:
+                 window: int = 4, timeout_ns: int | None = None, lost_after_ns: int = 500 * NS_PER_MS,
+                 placeholder_ns: int = PLACEHOLDER_NS) -> None:
+        """`placeholder_ns`: how long a timed-out request keeps its sequence number and window
+        slot (`rs232_core.PLACEHOLDER_NS`); the other parameters as the real-time managers'."""
         self.name = name
         self.clock = clock
         self.transport = transport
@@ -206,10 +209,11 @@ class SimManager(BusManager):
         self._rs232_core: Rs232Core | None = None
         self._usb_core: UsbCore | None = None
         if self._frames is not None:
-            self._usb_core = UsbCore(timeout_ns=timeout_ns or 50 * NS_PER_MS, lost_after_ns=lost_after_ns)
+            self._usb_core = UsbCore(timeout_ns=timeout_ns or 50 * NS_PER_MS, lost_after_ns=lost_after_ns,
+                                     placeholder_ns=placeholder_ns)
         else:
             self._rs232_core = Rs232Core(window=window, timeout_ns=timeout_ns or 100 * NS_PER_MS,
-                                         lost_after_ns=lost_after_ns)
+                                         lost_after_ns=lost_after_ns, placeholder_ns=placeholder_ns)
         self._pending_cb: deque[Transfer | Callable[[], None]] = deque()
         self._dispatching = False
         self._ticking = False
@@ -321,6 +325,7 @@ class SimManager(BusManager):
             self._timer_at.add(deadline)
             self.clock.call_at(deadline, lambda: self._on_timer(deadline))
         self._queue_completed(self.core.take_completed(), self.core.lost_reason, self._pending_cb.append)
+        self.stats.late_responses = self.core.late_responses
         if self._dispatching:
             return
         self._dispatching = True

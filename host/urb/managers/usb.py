@@ -23,6 +23,7 @@ from collections.abc import Callable
 from ..errors import PortError
 from .base import NS_PER_MS, ThreadedManager
 from .loopback import BridgeModel
+from .rs232_core import PLACEHOLDER_NS
 from .usb_core import UsbCore
 
 FRAME_NS = NS_PER_MS
@@ -32,13 +33,16 @@ class USBManager(ThreadedManager):
     """A URB bridge on a USB uplink, over any `FrameTransport` (or a device path)."""
 
     def __init__(self, transport: object, *, max_batch: int = 14, timeout_s: float = 0.05,
-                 lost_after_s: float = 0.5, name: str | None = None) -> None:
+                 lost_after_s: float = 0.5, placeholder_s: float = PLACEHOLDER_NS / 1e9,
+                 name: str | None = None) -> None:
         """`transport`: a `FrameTransport`, or a device path (str) opened with
         `CharDeviceTransport`. `max_batch`: requests per 1-ms batch (at most 15 are in flight; the
         3-ms round trip holds up to 7 requests per frame, see `usb_core`).
         `timeout_s`: a response not back this long after its batch was written completes
-        UPLINK_TIMEOUT."""
-        core = UsbCore(max_batch=max_batch, timeout_ns=int(timeout_s * 1e9), lost_after_ns=int(lost_after_s * 1e9))
+        UPLINK_TIMEOUT. `lost_after_s` and `placeholder_s` (how long a timed-out request keeps
+        its sequence number and window slot): as `RS232Manager`'s."""
+        core = UsbCore(max_batch=max_batch, timeout_ns=int(timeout_s * 1e9), lost_after_ns=int(lost_after_s * 1e9),
+                       placeholder_ns=int(placeholder_s * 1e9))
         if isinstance(transport, str):
             label = transport
             transport = CharDeviceTransport(transport)

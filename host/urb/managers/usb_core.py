@@ -15,7 +15,9 @@ response stream, exactly as `UsbUplink!Callback` matches `Head(hostRx)` with `He
 (and as the RS232 core does): by order and 4-bit sequence number. A USB transfer never splits a
 response, so bytes left unmatched at the end of a transfer are discarded at once. A request
 without a response completes when a later response proves it lost (UPLINK_TIMEOUT, or
-UPLINK_CHECKSUM when corrupt bytes stood in its place) or after `timeout_ns`.
+UPLINK_CHECKSUM when corrupt bytes stood in its place) or after `timeout_ns`; one that timed out
+keeps its sequence number and window slot as a placeholder until a response releases it or its
+lifetime `placeholder_ns` is over (as in the RS232 core: `rs232_core.ResponseMatcher`).
 
 Limits per batch: `max_batch` requests, both the OUT transfer and the worst-case IN contribution
 within `USB_BATCH_MAX_BYTES` (512); in flight at most `window` (<= 15, Bridge.tla `HostWindow <
@@ -37,7 +39,7 @@ from urb_msgs.urb_core import USB_BATCH_MAX_BYTES, Status, UsbBatchHeader
 
 from ..errors import ErrorFlag
 from .base import NS_PER_MS, Transfer, finish
-from .rs232_core import MAX_WINDOW, SEQ_MOD, ResponseMatcher, encode_request
+from .rs232_core import MAX_WINDOW, PLACEHOLDER_NS, SEQ_MOD, ResponseMatcher, encode_request
 
 HEADER_SIZE = UsbBatchHeader.MAX_SIZE
 
@@ -60,10 +62,14 @@ class UsbCore:
         timeout_ns: int = 50 * NS_PER_MS,
         lost_after_ns: int = 500 * NS_PER_MS,
         lost_after_timeouts: int = 8,
+        placeholder_ns: int = PLACEHOLDER_NS,
     ) -> None:
-        """`max_batch`: requests per bulk-OUT transfer. `window`: requests in flight (1..15).
-        `batch_bytes`: largest transfer in either direction. `timeout_ns`: a request without
-        response this long after its batch was written completes UPLINK_TIMEOUT.
+        """`max_batch`: requests per bulk-OUT transfer. `window`: requests in flight (1..15),
+        timed-out requests the bridge may still answer included. `batch_bytes`: largest transfer
+        in either direction. `timeout_ns`: a request without response this long after its batch
+        was written completes UPLINK_TIMEOUT. `placeholder_ns`: how long after its sending a
+        timed-out request keeps its sequence number and window slot (unless a response releases
+        them first); the default and the rules are Rs232Core's (`rs232_core.PLACEHOLDER_NS`).
         `lost_after_ns`: no IN transfer for this long with requests in flight declares the bridge
         lost; so do `lost_after_timeouts` requests timing out in a row with no IN transfer for
         `lost_after_ns` either (sparse traffic, where the in-flight list keeps emptying; the
@@ -74,6 +80,7 @@ class UsbCore:
         self.timeout_ns = timeout_ns
         self.lost_after_ns = lost_after_ns
         self.lost_after_timeouts = lost_after_timeouts
+        self.placeholder_ns = placeholder_ns
         self._silent_timeouts = 0
         self.lost_reason: str | None = None
         self.frames_written = 0
@@ -95,6 +102,9 @@ class UsbCore:
             self._m.completed.append(finish(t, now, ErrorFlag.BRIDGE_LOST))
             t.lost_reason = self.lost_reason
             return
+        self._m.expire(now, self._lifetime_ns)
+        if not self._queued and not self._m.inflight:
+            self._active_since = now  # nothing was outstanding (see Rs232Core._active_since)
         self._queued.append(t)
         if self.trace is not None:
             self.trace.append(("submit", now, (t,)))
@@ -125,18 +135,16 @@ class UsbCore:
         if self.lost_reason is not None:
             return
         m = self._m
-        timed_out = False
-        while m.inflight and m.inflight[0].sent_ns is not None and now - m.inflight[0].sent_ns >= self.timeout_ns:
-            m.lost_before(1, now)
-            self._silent_timeouts += 1
-            timed_out = True
+        n = m.time_out(now, self.timeout_ns, self._lifetime_ns)
+        self._silent_timeouts += n
+        timed_out = n > 0
         quiet_ns = now - self._last_in_ns
         if timed_out and self._silent_timeouts >= self.lost_after_timeouts and quiet_ns >= self.lost_after_ns:
             self.link_lost(now, f"{self._silent_timeouts} requests in a row got no response and the bridge "
                                 f"returned no USB transfer for {quiet_ns // NS_PER_MS} ms")
             return
         silent_since = max(self._last_in_ns, self._active_since)
-        if m.inflight and now - silent_since >= self.lost_after_ns:
+        if (m.inflight or self._queued) and now - silent_since >= self.lost_after_ns:
             self.link_lost(now, f"the bridge returned no USB transfer for {(now - silent_since) // NS_PER_MS} ms")
 
     def link_lost(self, now: int, reason: str) -> None:
@@ -147,11 +155,18 @@ class UsbCore:
         self._m.fail_all(self._queued, now, reason)
 
     def reset(self, now: int) -> None:
-        """Forget the lost state (after the uplink was reopened)."""
+        """Forget the lost state (after the uplink was reopened). The placeholders stay: the
+        bridge was not reset and may still answer them (see Rs232Core.reset)."""
         self.link_lost(now, "the uplink was reset (reconnect)")
         self.lost_reason = None
         self._last_in_ns = now
+        self._active_since = now
         self._silent_timeouts = 0
+        self._m.expire(now, self._lifetime_ns)
+
+    @property
+    def _lifetime_ns(self) -> int:
+        return max(self.placeholder_ns, self.timeout_ns)
 
     def set_window(self, window: int) -> None:
         """Requests in flight (learnt from BridgeInfo.fifo_depth); batches never exceed it."""
@@ -163,6 +178,8 @@ class UsbCore:
         m = self._m
         if self.lost_reason is not None or not (self._queued or m.inflight):
             return None
+        if self._queued:
+            m.expire(now, self._lifetime_ns)  # whatever the polling cadence
         out_bytes = in_bytes = HEADER_SIZE
         frames: list[bytes] = []
         batch: list[Transfer] = []
@@ -177,8 +194,6 @@ class UsbCore:
             self._next_seq = (self._next_seq + 1) % SEQ_MOD
             t.sent_ns = now
             t.garbage = False
-            if not m.inflight:
-                self._active_since = now
             m.inflight.append(t)
             frames.append(encode_request(t))
             batch.append(t)
@@ -199,19 +214,44 @@ class UsbCore:
         m = self._m
         if self.lost_reason is not None or not m.inflight:
             return None
-        head = m.inflight[0].sent_ns or 0
-        return min(head + self.timeout_ns, max(self._last_in_ns, self._active_since) + self.lost_after_ns)
+        nxt = m.next_event(self.timeout_ns, self._lifetime_ns)
+        assert nxt is not None
+        return min(nxt, max(self._last_in_ns, self._active_since) + self.lost_after_ns)
 
     def busy(self) -> bool:
+        """Requests queued or in flight (placeholders included: their late responses are
+        fetched)."""
         return bool(self._queued or self._m.inflight)
 
     @property
+    def has_queued(self) -> bool:
+        """Requests buffered that the window lets go out now."""
+        return bool(self._queued) and len(self._m.inflight) < self.window and self.lost_reason is None
+
+    @property
     def in_flight(self) -> int:
+        """Requests in flight, placeholders included (what the window counts)."""
         return len(self._m.inflight)
+
+    @property
+    def placeholders(self) -> int:
+        """Timed-out requests whose sequence numbers stay reserved (the bridge may answer them)."""
+        return sum(1 for t in self._m.inflight if t.done)
 
     @property
     def stray_bytes(self) -> int:
         return self._m.stray_bytes
+
+    @property
+    def late_responses(self) -> int:
+        """Responses that came after their request had timed out (discarded)."""
+        return self._m.late_responses
+
+    @property
+    def released_placeholders(self) -> int:
+        """Placeholders released without their late response (passed by a later response, or
+        expired)."""
+        return self._m.released_placeholders
 
 
 def _check(n: int, what: str) -> int:
