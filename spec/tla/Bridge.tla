@@ -28,9 +28,15 @@
 (* lost).  With UplinkLoss a response may be lost on the uplink (corrupt   *)
 (* bytes the host hunts past; a request lost on its way to the bridge     *)
 (* looks the same to the host: no response ever comes), and the host      *)
-(* times out the oldest request in flight, freeing its window slot.  The  *)
-(* host's window counts ITS requests in flight, as the code does.  Small  *)
-(* SeqMod (4) with more than SeqMod requests makes TLC explore the wrap.   *)
+(* may time out a request at any time, the bridge holding it or not (a    *)
+(* bridge slower than the host's timeout).  A timed-out request completes *)
+(* UPLINK_TIMEOUT but stays in flight as a PLACEHOLDER: its sequence      *)
+(* number stays reserved and it keeps its window slot until its own late  *)
+(* response arrives (discarded), a response to a later request passes it, *)
+(* or its lifetime expires (premise: only once the bridge no longer holds *)
+(* it).  The host's window counts ITS requests in flight, placeholders    *)
+(* included, as the code does.  Small SeqMod (4) with more than SeqMod    *)
+(* requests makes TLC explore the wrap.                                    *)
 (***************************************************************************)
 EXTENDS Naturals, Sequences, FiniteSets
 
@@ -44,6 +50,7 @@ CONSTANTS
     MaxReq,      \* number of requests submitted in a behaviour
     SeqMod,      \* sequence numbers 0..SeqMod - 1 (the uplink's 4 bits: 16)
     UplinkLoss   \* TRUE: responses may be lost on the uplink, the host times out
+                 \*   requests (the bridge may still hold them)
 
 Statuses == {"OK", "TIMEOUT", "CHECKSUM", "BUSY", "NO_NODE", "SIZE_MISMATCH",
              "BAD_REQUEST", "BUS_STUCK", "NODE_BUSY"}
@@ -77,11 +84,14 @@ VARIABLES
     hostFrom, \* host: the oldest request it still has in flight.  Its in-flight
               \*   FIFO (ResponseMatcher.inflight) is hostFrom..Len(sent): it
               \*   only ever loses its head and gains a tail
-    lastMatch \* ghost: the host's latest match, [req: the request it completed,
-              \*   resp: the request the response answers] (0, 0 before any)
+    lastMatch, \* ghost: the host's latest match, [req: the request it completed
+              \*   (or, for a placeholder, discarded the response of), resp: the
+              \*   request the response answers] (0, 0 before any)
+    timedOut  \* host: the placeholders, requests in flight that completed
+              \*   UPLINK_TIMEOUT and keep their sequence numbers (Transfer.done)
 
-hostVars == <<hostFrom, lastMatch>>
-vars == <<sent, queue, out, applied, cause, full, hostFrom, lastMatch>>
+hostVars == <<hostFrom, lastMatch, timedOut>>
+vars == <<sent, queue, out, applied, cause, full, hostFrom, lastMatch, timedOut>>
 
 Entry == [id: 1..MaxReq, status: Statuses \cup {"PENDING"}, data: Seq(Nat)]
 Response == [id: 1..MaxReq, seq: 0..SeqMod - 1, status: Statuses, data: Seq(Nat)]
@@ -96,6 +106,7 @@ TypeOK ==
     /\ cause \in [1..MaxReq -> Statuses \cup {"NONE"}]
     /\ hostFrom \in 1..MaxReq + 1
     /\ lastMatch \in [req: 0..MaxReq, resp: 0..MaxReq]
+    /\ timedOut \subseteq hostFrom..Len(sent)
 
 NoMatch == [req |-> 0, resp |-> 0]
 
@@ -106,7 +117,7 @@ Init ==
     /\ sent = <<>> /\ queue = <<>> /\ out = <<>>
     /\ applied = {} /\ full = {}
     /\ cause = [i \in 1..MaxReq |-> "NONE"]
-    /\ hostFrom = 1 /\ lastMatch = NoMatch
+    /\ hostFrom = 1 /\ lastMatch = NoMatch /\ timedOut = {}
 
 Req(id) == sent[id][1]
 
@@ -120,10 +131,13 @@ InFlight == [k \in 1..Len(sent) - hostFrom + 1 |-> hostFrom + k - 1]
 
 (***************************************************************************)
 (* Host: receive response `resp` (ResponseMatcher.parse).  It is matched  *)
-(* to the oldest request in flight whose sequence number it echoes; the   *)
-(* requests before that one complete as lost (lost_before); a response    *)
-(* whose sequence number no request in flight carries is discarded.  With *)
-(* UplinkLoss the response may instead be lost on the way.                *)
+(* to the oldest request in flight (placeholders included) whose sequence *)
+(* number it echoes; the requests before that one complete as lost, the  *)
+(* placeholders before it are released (lost_before); matched to a        *)
+(* placeholder, it is that request's late response, discarded (the      *)
+(* request completed at its timeout).  A response whose sequence number  *)
+(* no request in flight carries is discarded.  With UplinkLoss the        *)
+(* response may instead be lost on the way.                               *)
 (***************************************************************************)
 HostMatch(resp) ==
     LET F == InFlight
@@ -132,6 +146,7 @@ HostMatch(resp) ==
        ELSE LET k == CHOOSE k \in ks : \A j \in ks : k <= j IN
             /\ hostFrom' = F[k] + 1
             /\ lastMatch' = [req |-> F[k], resp |-> resp.id]
+            /\ timedOut' = {i \in timedOut : i > F[k]}
 
 HostReceives(resp) == IF UplinkLoss THEN HostMatch(resp) \/ UNCHANGED hostVars
                       ELSE HostMatch(resp)
@@ -145,7 +160,8 @@ HostReceives(resp) == IF UplinkLoss THEN HostMatch(resp) \/ UNCHANGED hostVars
 (***************************************************************************)
 SubmitAndAdmit ==
     /\ Len(sent) < MaxReq
-    /\ Len(InFlight) < HostWindow    \* Rs232Core.frames_to_send: len(inflight) < window
+    /\ Len(InFlight) < HostWindow    \* Rs232Core.frames_to_send: len(inflight) < window,
+                                     \* placeholders included
     /\ \E r \in Requests :
          LET id == Len(sent) + 1
              st == IF AdmissionStatus(r) # "OK" THEN AdmissionStatus(r)
@@ -158,7 +174,7 @@ SubmitAndAdmit ==
             \* taken), not the answer, so BusyOnlyWhenFull checks the answer
             /\ full' = IF AdmissionStatus(r) = "OK" /\ DataSlotsUsed >= QueueLen
                          THEN full \cup {id} ELSE full
-    /\ UNCHANGED <<out, applied, hostFrom, lastMatch>>
+    /\ UNCHANGED <<out, applied>> /\ UNCHANGED hostVars
 
 (* Position of the oldest request still waiting for the downlink.          *)
 FirstPending == CHOOSE k \in DOMAIN queue :
@@ -192,7 +208,7 @@ Serve ==
             /\ applied' = IF st = "OK" /\ r.op = "write"
                             THEN applied \cup {id} ELSE applied
             /\ cause' = [cause EXCEPT ![id] = st]
-    /\ UNCHANGED <<sent, out, full, hostFrom, lastMatch>>
+    /\ UNCHANGED <<sent, out, full>> /\ UNCHANGED hostVars
 
 (***************************************************************************)
 (* Bridge: the oldest response, once final, leaves on the uplink carrying *)
@@ -210,17 +226,38 @@ Emit ==
     /\ UNCHANGED <<sent, applied, cause, full>>
 
 (***************************************************************************)
-(* Host: the oldest request in flight got no response in time: it         *)
-(* completes UPLINK_TIMEOUT and leaves the window (Rs232Core.poll,        *)
-(* UsbCore.poll: lost_before(1)).  Premise: the timeout (100 ms RS232,    *)
-(* 50 ms USB) outlasts the bridge's worst-case answer time, so a request  *)
-(* times out only once the bridge no longer holds it (its response was    *)
-(* lost).  The mutant Bridge_TimeoutWhileQueued drops the premise.         *)
+(* Host: the oldest live request in flight got no response in time: it    *)
+(* completes UPLINK_TIMEOUT (the application does not wait) but stays in  *)
+(* flight as a placeholder, its sequence number reserved and its window   *)
+(* slot taken (Rs232Core.poll, UsbCore.poll: ResponseMatcher.time_out).   *)
+(* No premise: the bridge may still hold the request (a bridge slower     *)
+(* than the host's 100 ms RS232 / 50 ms USB timeout).  Requests time out *)
+(* in sending order (one timeout for all).  Explored with UplinkLoss.     *)
+(* The mutant Bridge_TimeoutFreesSeq frees the number at once (the code   *)
+(* before the fix).                                                        *)
 (***************************************************************************)
 HostTimeout ==
-    /\ hostFrom <= Len(sent)
+    /\ UplinkLoss
+    /\ \E id \in hostFrom..Len(sent) :
+         /\ id \notin timedOut
+         /\ \A j \in hostFrom..id - 1 : j \in timedOut
+         /\ timedOut' = timedOut \cup {id}
+    /\ UNCHANGED <<sent, queue, out, applied, cause, full, hostFrom, lastMatch>>
+
+(***************************************************************************)
+(* Host: the oldest placeholder's lifetime is over (ResponseMatcher.expire:*)
+(* placeholder_ns after it was sent): its number and window slot are      *)
+(* free.  Premise: the lifetime outlasts the bridge's worst-case answer   *)
+(* time, so it expires only once the bridge no longer holds the request   *)
+(* (rs232_core.PLACEHOLDER_NS derives it from the firmware).  Placeholders *)
+(* expire in sending order (one lifetime for all), the oldest first.  The *)
+(* mutant Bridge_PlaceholderExpiresEarly drops the premise.                *)
+(***************************************************************************)
+HostExpire ==
+    /\ hostFrom <= Len(sent) /\ hostFrom \in timedOut
     /\ hostFrom \notin Ids(queue)
     /\ hostFrom' = hostFrom + 1
+    /\ timedOut' = timedOut \ {hostFrom}
     /\ UNCHANGED <<sent, queue, out, applied, cause, full, lastMatch>>
 
 (* All requests submitted and answered: the run is over. *)
@@ -228,7 +265,7 @@ Done ==
     /\ Len(sent) = MaxReq /\ queue = <<>>
     /\ UNCHANGED vars
 
-Next == SubmitAndAdmit \/ Serve \/ Emit \/ HostTimeout \/ Done
+Next == SubmitAndAdmit \/ Serve \/ Emit \/ HostTimeout \/ HostExpire \/ Done
 
 Spec == Init /\ [][Next]_vars /\ WF_vars(Serve) /\ WF_vars(Emit)
 
@@ -291,8 +328,10 @@ BoundedMemory == Len(queue) <= HostWindow /\ DataSlotsUsed <= QueueLen
 
 (* What the host relies on, across sequence-number wrap: a response it     *)
 (* matches (by sequence number, oldest first, within its window) is the   *)
-(* response to the request it completes with it, never an older or a      *)
-(* newer request's.  Checked in the state after every match.               *)
+(* response to the request it completes with it (or, for a placeholder,   *)
+(* discards as that request's late response), never an older or a newer  *)
+(* request's, whatever the bridge still holds when the host times out.    *)
+(* Checked in the state after every match.                                 *)
 NoSeqAliasing == lastMatch.req = lastMatch.resp
 
 (* Liveness: every submitted request is eventually answered. *)

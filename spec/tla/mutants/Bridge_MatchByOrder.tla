@@ -9,6 +9,7 @@ MutMatch(resp) ==
     /\ hostFrom <= Len(sent)
     /\ hostFrom' = hostFrom + 1
     /\ lastMatch' = [req |-> hostFrom, resp |-> resp.id]
+    /\ timedOut' = timedOut \ {hostFrom}
 
 MutEmit ==
     /\ queue # <<>> /\ Head(queue).status # "PENDING"
