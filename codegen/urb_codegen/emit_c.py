@@ -198,9 +198,19 @@ def _typed(f: Field, t: object, member: str | None, at: _At, width: int, depth: 
     body = _typed(f, t.element, f"{member}[{var}]", at.index(stride, var), stride, depth + 1, op)
     if not body:
         return []
-    assigns = ", ".join(x for x in (var, op.assigns) if x)
+    invariants: list[str] = []
+    if op.kind == "unpack":
+        # A decoder's loop writes this array only, so what was decoded before it stays known, and
+        # the elements decoded so far keep the bounds the decoder's contract states.
+        assigns = f"{var}, {member}[0 .. {t.count - 1}]"
+        bound = f"j{depth}"
+        invariants = [f"    loop invariant \\forall integer {bound}; 0 <= {bound} < {var} ==> {fact};"
+                      for _, fact in _facts(f, t.element, f"{member}[{bound}]", depth + 1, True)]
+    else:
+        assigns = ", ".join(x for x in (var, op.assigns) if x)
     return [
         f"/*@ loop invariant 0 <= {var} <= {t.count};",
+        *invariants,
         f"    loop assigns {assigns};",
         f"    loop variant {t.count} - {var}; */",
         f"for (size_t {var} = 0u; {var} < {t.count}u; {var}++) {{",
@@ -265,13 +275,27 @@ def _scalar(leaf: _Leaf, op: _Op) -> list[str]:
         fixed = leaf.field.fixed
         assert fixed is not None
         return [f"if ({raw} != {fixed & mask}u) {{ return {op.error}; }}  /* fixed: {_comment(name)} */"]
+    checks = _limits(leaf, with_width=False)
     if t.is_bool:
         value = f"({raw} != 0u)"
     elif t.signed:
         value = f"({_ctype(t)})urb_sign_extend({raw}, {w}u)"
+    elif _masked(leaf, checks):
+        value = f"({_ctype(t)})({raw} & 0x{mask:X}u)"
     else:
         value = f"({_ctype(t)}){raw}"
-    return [f"{m} = {value};", *_reject(_limits(leaf, with_width=False), op.error)]
+    return [f"{m} = {value};", *_reject(checks, op.error)]
+
+
+def _masked(leaf: _Leaf, checks: list[str]) -> bool:
+    """An unsigned member narrower than its C type and without an upper range check is masked to its
+    width when decoded: the mask changes no value (urb_get_bits returns `width` bits), but WP's
+    provers cannot bound a variable-width bit extraction, while a constant mask bounds the member at
+    once, so the decoder's contract can state the width (`ensures decoded_<member>`)."""
+    t = leaf.itype
+    if t.signed or t.is_bool or leaf.enum is not None or leaf.width >= _ctype_limits(t)[1].bit_length():
+        return False
+    return not any(" > " in c for c in checks)
 
 
 def _whole_bytes(leaf: _Leaf) -> bool:
@@ -285,6 +309,85 @@ def _reject(conds: list[str], error: str) -> list[str]:
         return []
     test = " || ".join(f"({c})" for c in conds) if len(conds) > 1 else conds[0]
     return [f"if ({test}) {{ return {error}; }}"]
+
+
+# --- decoded-member facts for the ACSL contracts ---------------------------------------------------
+
+
+def _acsl_runs(values: list[int], term: str) -> str:
+    """`term` is one of `values`, as ACSL over runs of consecutive values: `term <= 8`, `(term == 0 || 2 <= term <= 5)`."""
+    runs: list[list[int]] = []
+    for v in sorted(values):
+        if runs and runs[-1][1] == v - 1:
+            runs[-1][1] = v
+        else:
+            runs.append([v, v])
+    parts = [f"{term} == {lo}" if lo == hi else f"{term} <= {hi}" if lo == 0 else f"{lo} <= {term} <= {hi}"
+             for lo, hi in runs]
+    return parts[0] if len(parts) == 1 else "(" + " || ".join(parts) + ")"
+
+
+def _leaf_fact(f: Field, t: IntType, enum: EnumDecl | None, term: str, in_array: bool) -> str | None:
+    """What a successful decode guarantees of one scalar member beyond its C type, or None.
+
+    Unsigned members: the width and the range (the decoder masks or checks them). Enums: membership
+    (the decoder calls <enum>_is_valid, whose contract says the same). Signed members: only a range,
+    which the decoder checks; the width of a signed member narrower than its C type is not stated,
+    since urb_sign_extend has no result bound (no such member in the schemas today). Array elements:
+    only bounds the decoder checks (enum, range); a width bound that comes from the mask alone is not
+    stated, because z3 and cvc4 time out on the loop invariant that carries it (Identification's
+    u6[8] sizes: the mask's `land` bound inside the quantified invariant)."""
+    if t.is_bool:
+        return None
+    if enum is not None:
+        return _acsl_runs([m.value for m in enum.members], term)
+    cmin, cmax = _ctype_limits(t)
+    lo, hi = (t.min, t.max) if not t.signed and not in_array else (cmin, cmax)
+    if f.range is not None:
+        lo, hi = max(lo, f.range[0]), min(hi, f.range[1])
+    if lo <= cmin and hi >= cmax:
+        return None
+    if lo <= cmin:
+        return f"{term} <= {hi}"
+    if hi >= cmax:
+        return f"{lo} <= {term}"
+    return f"{lo} <= {term} <= {hi}"
+
+
+def _facts(f: Field, t: object, term: str, depth: int, in_array: bool = False) -> list[tuple[str, str]]:
+    """(label suffix, ACSL predicate) for every constrained scalar inside a member of type `t`."""
+    if isinstance(t, (IntType, EnumDecl)):
+        fact = _leaf_fact(f, t if isinstance(t, IntType) else t.base, t if isinstance(t, EnumDecl) else None, term,
+                          in_array)
+        return [] if fact is None else [("", fact)]
+    if isinstance(t, MessageDecl):
+        out = []
+        for g in t.fields:
+            if g.is_padding or g.fixed is not None or isinstance(g.type, (BytesType, CheckType)):
+                continue
+            out += [(f"_{g.name}{label}", fact)
+                    for label, fact in _facts(g, g.type, f"{term}.{_member(g)}", depth, in_array)]
+        return out
+    if isinstance(t, ArrayType):
+        var = f"j{depth}"
+        return [(label, f"\\forall integer {var}; 0 <= {var} < {t.count} ==> {fact}")
+                for label, fact in _facts(f, t.element, f"{term}[{var}]", depth + 1, True)]
+    return []
+
+
+def _decode_facts(m: MessageDecl) -> list[tuple[str, str]]:
+    """(label, predicate) of every member a successful decode bounds: `decoded_address`, ..."""
+    out = []
+    for f in m.fields:
+        if f.is_padding or f.fixed is not None or isinstance(f.type, CheckType):
+            continue
+        name = _member(f)
+        if isinstance(f.type, BytesType):
+            if f.type.count_field is None:  # the decoder sets <field>_len to the payload length
+                out.append((f"decoded_{name}_len", f"msg->{name}_len <= {f.type.max_len}"))
+            continue
+        out += [(f"decoded_{f.name}{label}", fact) for label, fact in _facts(f, f.type, f"msg->{name}", 0)]
+    return out
 
 
 # --- JSON printing for the test driver -----------------------------------------------------------
@@ -363,6 +466,7 @@ class CMessage:
     payload: CPayload | None
     checksum: str | None  # C stem of the checksum functions
     print_body: list[str]
+    decode_facts: list[tuple[str, str]]  # (label, ACSL predicate) a successful decode ensures
 
 
 @dataclass
@@ -372,6 +476,7 @@ class CEnum:
     macro: str
     value_type: str
     valid_expr: str
+    valid_acsl: str  # the same test in ACSL, for the contract of <enum>_is_valid
 
 
 @dataclass
@@ -497,7 +602,8 @@ def _enum_view(e: EnumDecl, names: _Names) -> CEnum:
         names.add(f"{macro}_{m.name}", f"enum {e.name}", e.loc)
     names.add(enum_c(e) + "_is_valid", f"enum {e.name}", e.loc)
     return CEnum(e, names.add(enum_c(e) + "_t", f"enum {e.name}", e.loc), macro,
-                 "int32_t" if e.base.signed else "uint32_t", " || ".join(parts))
+                 "int32_t" if e.base.signed else "uint32_t", " || ".join(parts),
+                 _acsl_runs([m.value for m in e.members], "value"))
 
 
 def _field_doc(f: Field) -> str:
@@ -599,6 +705,7 @@ def _message_view(m: MessageDecl, names: _Names) -> CMessage:
         payload=payload,
         checksum=None if checksum is None else "urb_" + checksum.name,
         print_body=_print_statements(m.fields, "msg->", 0),
+        decode_facts=_decode_facts(m),
     )
 
 

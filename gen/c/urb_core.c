@@ -73,10 +73,10 @@ int32_t urb_uplink_read_request_decode(urb_uplink_read_request_t *msg, const uin
         return URB_ERR_CHECKSUM;
     }
     if (urb_get_bits(buf, 0u, 1u) != 1u) { return URB_ERR_RANGE; }  /* fixed: 1 */
-    msg->address = (uint8_t)urb_get_bits(buf, 1u, 7u);
-    msg->mailbox = (uint8_t)urb_get_bits(buf, 8u, 3u);
+    msg->address = (uint8_t)(urb_get_bits(buf, 1u, 7u) & 0x7Fu);
+    msg->mailbox = (uint8_t)(urb_get_bits(buf, 8u, 3u) & 0x7u);
     if (urb_get_bits(buf, 11u, 1u) != 0u) { return URB_ERR_RANGE; }
-    msg->seq = (uint8_t)urb_get_bits(buf, 12u, 4u);
+    msg->seq = (uint8_t)(urb_get_bits(buf, 12u, 4u) & 0xFu);
     msg->length = (uint8_t)(uint32_t)buf[2u];
     if ((msg->length < 1u) || (msg->length > 32u)) { return URB_ERR_RANGE; }
     return (int32_t)length;
@@ -149,10 +149,10 @@ int32_t urb_uplink_write_request_decode(urb_uplink_write_request_t *msg, const u
         return URB_ERR_CHECKSUM;
     }
     if (urb_get_bits(buf, 0u, 1u) != 0u) { return URB_ERR_RANGE; }  /* fixed: 0 */
-    msg->address = (uint8_t)urb_get_bits(buf, 1u, 7u);
-    msg->mailbox = (uint8_t)urb_get_bits(buf, 8u, 3u);
+    msg->address = (uint8_t)(urb_get_bits(buf, 1u, 7u) & 0x7Fu);
+    msg->mailbox = (uint8_t)(urb_get_bits(buf, 8u, 3u) & 0x7u);
     if (urb_get_bits(buf, 11u, 1u) != 0u) { return URB_ERR_RANGE; }
-    msg->seq = (uint8_t)urb_get_bits(buf, 12u, 4u);
+    msg->seq = (uint8_t)(urb_get_bits(buf, 12u, 4u) & 0xFu);
     msg->length = (uint8_t)(uint32_t)buf[2u];
     if ((msg->length < 1u) || (msg->length > 32u)) { return URB_ERR_RANGE; }
     /*@ loop invariant 0 <= k <= payload_len;
@@ -230,7 +230,7 @@ int32_t urb_uplink_response_decode(urb_uplink_response_t *msg, const uint8_t *bu
     if (urb_get_le(buf, 1u + payload_len, check_size) != urb_link_check(NULL, 0u, buf, 1u + payload_len)) {
         return URB_ERR_CHECKSUM;
     }
-    msg->seq = (uint8_t)urb_get_bits(buf, 0u, 4u);
+    msg->seq = (uint8_t)(urb_get_bits(buf, 0u, 4u) & 0xFu);
     msg->status = (uint8_t)urb_get_bits(buf, 4u, 4u);
     if (!urb_status_is_valid(msg->status)) { return URB_ERR_RANGE; }
     /*@ loop invariant 0 <= k <= payload_len;
@@ -326,7 +326,7 @@ int32_t urb_mailbox_select_decode(urb_mailbox_select_t *msg, const uint8_t *buf,
     if (length > URB_MAILBOX_SELECT_MAX_SIZE) {
         return URB_ERR_LONG;
     }
-    msg->mailbox = (uint8_t)urb_get_bits(buf, 0u, 3u);
+    msg->mailbox = (uint8_t)(urb_get_bits(buf, 0u, 3u) & 0x7u);
     if (urb_get_bits(buf, 3u, 4u) != 0u) { return URB_ERR_RANGE; }
     msg->read = (urb_get_bits(buf, 7u, 1u) != 0u);
     return (int32_t)length;
@@ -397,7 +397,7 @@ int32_t urb_downlink_write_decode(urb_downlink_write_t *msg, const uint8_t *buf,
     if (urb_get_le(buf, 1u + payload_len, check_size) != urb_link_check(NULL, 0u, buf, 1u + payload_len)) {
         return URB_ERR_CHECKSUM;
     }
-    msg->select.mailbox = (uint8_t)urb_get_bits(buf, 0u, 3u);
+    msg->select.mailbox = (uint8_t)(urb_get_bits(buf, 0u, 3u) & 0x7u);
     if (urb_get_bits(buf, 3u, 4u) != 0u) { return URB_ERR_RANGE; }
     msg->select.read = (urb_get_bits(buf, 7u, 1u) != 0u);
     /*@ loop invariant 0 <= k <= payload_len;
@@ -446,7 +446,7 @@ int32_t urb_downlink_read_select_decode(urb_downlink_read_select_t *msg, const u
     if (length > URB_DOWNLINK_READ_SELECT_MAX_SIZE) {
         return URB_ERR_LONG;
     }
-    msg->select.mailbox = (uint8_t)urb_get_bits(buf, 0u, 3u);
+    msg->select.mailbox = (uint8_t)(urb_get_bits(buf, 0u, 3u) & 0x7u);
     if (urb_get_bits(buf, 3u, 4u) != 0u) { return URB_ERR_RANGE; }
     msg->select.read = (urb_get_bits(buf, 7u, 1u) != 0u);
     return (int32_t)length;
@@ -639,7 +639,7 @@ int32_t urb_identification_decode(urb_identification_t *msg, const uint8_t *buf,
         return URB_ERR_LONG;
     }
     msg->class_id = (uint8_t)(uint32_t)buf[0u];
-    msg->index = (uint8_t)urb_get_bits(buf, 8u, 6u);
+    msg->index = (uint8_t)(urb_get_bits(buf, 8u, 6u) & 0x3Fu);
     if (urb_get_bits(buf, 14u, 2u) != 0u) { return URB_ERR_RANGE; }
     if ((uint32_t)buf[2u] != 1u) { return URB_ERR_RANGE; }  /* fixed: PROTOCOL_VERSION */
     msg->fingerprint = (uint32_t)((uint32_t)buf[3u] | ((uint32_t)buf[4u] << 8u) | ((uint32_t)buf[5u] << 16u) | ((uint32_t)buf[6u] << 24u));
@@ -647,16 +647,16 @@ int32_t urb_identification_decode(urb_identification_t *msg, const uint8_t *buf,
     msg->fw_minor = (uint8_t)(uint32_t)buf[8u];
     msg->fw_patch = (uint8_t)(uint32_t)buf[9u];
     /*@ loop invariant 0 <= i0 <= 8;
-        loop assigns i0, *msg;
+        loop assigns i0, msg->inbox_sizes[0 .. 7];
         loop variant 8 - i0; */
     for (size_t i0 = 0u; i0 < 8u; i0++) {
-        msg->inbox_sizes[i0] = (uint8_t)urb_get_bits(buf, 6u * i0 + 80u, 6u);
+        msg->inbox_sizes[i0] = (uint8_t)(urb_get_bits(buf, 6u * i0 + 80u, 6u) & 0x3Fu);
     }
     /*@ loop invariant 0 <= i0 <= 8;
-        loop assigns i0, *msg;
+        loop assigns i0, msg->outbox_sizes[0 .. 7];
         loop variant 8 - i0; */
     for (size_t i0 = 0u; i0 < 8u; i0++) {
-        msg->outbox_sizes[i0] = (uint8_t)urb_get_bits(buf, 6u * i0 + 128u, 6u);
+        msg->outbox_sizes[i0] = (uint8_t)(urb_get_bits(buf, 6u * i0 + 128u, 6u) & 0x3Fu);
     }
     msg->synced = (urb_get_bits(buf, 176u, 1u) != 0u);
     msg->fault = (urb_get_bits(buf, 177u, 1u) != 0u);
@@ -808,7 +808,7 @@ int32_t urb_bridge_scan_decode(urb_bridge_scan_t *msg, const uint8_t *buf, size_
         return URB_ERR_LONG;
     }
     /*@ loop invariant 0 <= i0 <= 128;
-        loop assigns i0, *msg;
+        loop assigns i0, msg->present[0 .. 127];
         loop variant 128 - i0; */
     for (size_t i0 = 0u; i0 < 128u; i0++) {
         msg->present[i0] = (urb_get_bits(buf, 1u * i0, 1u) != 0u);

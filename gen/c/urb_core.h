@@ -45,7 +45,8 @@ typedef enum {
 } urb_status_t;
 
 /** True when `value` is a member of urb_status_t; decoders report other values as URB_ERR_RANGE. */
-/*@ assigns \nothing; */
+/*@ assigns \nothing;
+    ensures member: \result != 0 <==> value <= 8; */
 bool urb_status_is_valid(uint32_t value);
 
 /** CommandCode: Commands a node accepts on inbox 0 (on the wire: u8). */
@@ -58,7 +59,8 @@ typedef enum {
 } urb_command_code_t;
 
 /** True when `value` is a member of urb_command_code_t; decoders report other values as URB_ERR_RANGE. */
-/*@ assigns \nothing; */
+/*@ assigns \nothing;
+    ensures member: \result != 0 <==> value <= 4; */
 bool urb_command_code_is_valid(uint32_t value);
 
 /** DownlinkKind: Downlink a bridge drives (on the wire: u8). */
@@ -69,7 +71,8 @@ typedef enum {
 } urb_downlink_kind_t;
 
 /** True when `value` is a member of urb_downlink_kind_t; decoders report other values as URB_ERR_RANGE. */
-/*@ assigns \nothing; */
+/*@ assigns \nothing;
+    ensures member: \result != 0 <==> value <= 2; */
 bool urb_downlink_kind_is_valid(uint32_t value);
 
 /** BridgeOpcode: Commands the bridge accepts on its inbox 0 (on the wire: u8). */
@@ -81,7 +84,8 @@ typedef enum {
 } urb_bridge_opcode_t;
 
 /** True when `value` is a member of urb_bridge_opcode_t; decoders report other values as URB_ERR_RANGE. */
-/*@ assigns \nothing; */
+/*@ assigns \nothing;
+    ensures member: \result != 0 <==> value <= 3; */
 bool urb_bridge_opcode_is_valid(uint32_t value);
 
 /* ===== Messages =========================================================================== */
@@ -120,7 +124,11 @@ int32_t urb_uplink_read_request_encode(const urb_uplink_read_request_t *msg, uin
     requires apart: msg == \null || buf == \null || \separated(msg, buf + (0 .. length - 1));
     assigns *msg;
     ensures range: -6 <= \result <= 4;
-    ensures whole: \result >= 0 ==> \result == length; */
+    ensures whole: \result >= 0 ==> \result == length;
+    ensures decoded_address: \result >= 0 ==> msg->address <= 127;
+    ensures decoded_mailbox: \result >= 0 ==> msg->mailbox <= 7;
+    ensures decoded_seq: \result >= 0 ==> msg->seq <= 15;
+    ensures decoded_length: \result >= 0 ==> 1 <= msg->length <= 32; */
 int32_t urb_uplink_read_request_decode(urb_uplink_read_request_t *msg, const uint8_t *buf, size_t length);
 
 /**
@@ -158,7 +166,11 @@ int32_t urb_uplink_write_request_encode(const urb_uplink_write_request_t *msg, u
     requires apart: msg == \null || buf == \null || \separated(msg, buf + (0 .. length - 1));
     assigns *msg;
     ensures range: -6 <= \result <= 37;
-    ensures whole: \result >= 0 ==> \result == length; */
+    ensures whole: \result >= 0 ==> \result == length;
+    ensures decoded_address: \result >= 0 ==> msg->address <= 127;
+    ensures decoded_mailbox: \result >= 0 ==> msg->mailbox <= 7;
+    ensures decoded_seq: \result >= 0 ==> msg->seq <= 15;
+    ensures decoded_length: \result >= 0 ==> 1 <= msg->length <= 32; */
 int32_t urb_uplink_write_request_decode(urb_uplink_write_request_t *msg, const uint8_t *buf, size_t length);
 
 /**
@@ -194,7 +206,10 @@ int32_t urb_uplink_response_encode(const urb_uplink_response_t *msg, uint8_t *bu
     requires apart: msg == \null || buf == \null || \separated(msg, buf + (0 .. length - 1));
     assigns *msg;
     ensures range: -6 <= \result <= 35;
-    ensures whole: \result >= 0 ==> \result == length; */
+    ensures whole: \result >= 0 ==> \result == length;
+    ensures decoded_seq: \result >= 0 ==> msg->seq <= 15;
+    ensures decoded_status: \result >= 0 ==> msg->status <= 8;
+    ensures decoded_data_len: \result >= 0 ==> msg->data_len <= 32; */
 int32_t urb_uplink_response_decode(urb_uplink_response_t *msg, const uint8_t *buf, size_t length);
 
 /**
@@ -229,7 +244,8 @@ int32_t urb_usb_batch_header_encode(const urb_usb_batch_header_t *msg, uint8_t *
     requires apart: msg == \null || buf == \null || \separated(msg, buf + (0 .. length - 1));
     assigns *msg;
     ensures range: -6 <= \result <= 4;
-    ensures whole: \result >= 0 ==> \result == length; */
+    ensures whole: \result >= 0 ==> \result == length;
+    ensures decoded_count: \result >= 0 ==> msg->count <= 128; */
 int32_t urb_usb_batch_header_decode(urb_usb_batch_header_t *msg, const uint8_t *buf, size_t length);
 
 /**
@@ -264,7 +280,8 @@ int32_t urb_mailbox_select_encode(const urb_mailbox_select_t *msg, uint8_t *buf,
     requires apart: msg == \null || buf == \null || \separated(msg, buf + (0 .. length - 1));
     assigns *msg;
     ensures range: -6 <= \result <= 1;
-    ensures whole: \result >= 0 ==> \result == length; */
+    ensures whole: \result >= 0 ==> \result == length;
+    ensures decoded_mailbox: \result >= 0 ==> msg->mailbox <= 7; */
 int32_t urb_mailbox_select_decode(urb_mailbox_select_t *msg, const uint8_t *buf, size_t length);
 
 /**
@@ -299,7 +316,9 @@ int32_t urb_downlink_write_encode(const urb_downlink_write_t *msg, uint8_t *buf,
     requires apart: msg == \null || buf == \null || \separated(msg, buf + (0 .. length - 1));
     assigns *msg;
     ensures range: -6 <= \result <= 35;
-    ensures whole: \result >= 0 ==> \result == length; */
+    ensures whole: \result >= 0 ==> \result == length;
+    ensures decoded_select_mailbox: \result >= 0 ==> msg->select.mailbox <= 7;
+    ensures decoded_data_len: \result >= 0 ==> msg->data_len <= 32; */
 int32_t urb_downlink_write_decode(urb_downlink_write_t *msg, const uint8_t *buf, size_t length);
 
 /**
@@ -333,7 +352,8 @@ int32_t urb_downlink_read_select_encode(const urb_downlink_read_select_t *msg, u
     requires apart: msg == \null || buf == \null || \separated(msg, buf + (0 .. length - 1));
     assigns *msg;
     ensures range: -6 <= \result <= 1;
-    ensures whole: \result >= 0 ==> \result == length; */
+    ensures whole: \result >= 0 ==> \result == length;
+    ensures decoded_select_mailbox: \result >= 0 ==> msg->select.mailbox <= 7; */
 int32_t urb_downlink_read_select_decode(urb_downlink_read_select_t *msg, const uint8_t *buf, size_t length);
 
 /**
@@ -370,7 +390,9 @@ int32_t urb_downlink_read_response_encode(const urb_downlink_read_response_t *ms
     requires apart: msg == \null || buf == \null || \separated(msg, buf + (0 .. length - 1));
     assigns *msg;
     ensures range: -6 <= \result <= 34;
-    ensures whole: \result >= 0 ==> \result == length; */
+    ensures whole: \result >= 0 ==> \result == length;
+    ensures decoded_select_mailbox: \result >= 0 ==> msg->select.mailbox <= 7;
+    ensures decoded_data_len: \result >= 0 ==> msg->data_len <= 32; */
 int32_t urb_downlink_read_response_decode(urb_downlink_read_response_t *msg, const uint8_t *buf, size_t length);
 
 /**
@@ -450,7 +472,8 @@ int32_t urb_identification_encode(const urb_identification_t *msg, uint8_t *buf,
     requires apart: msg == \null || buf == \null || \separated(msg, buf + (0 .. length - 1));
     assigns *msg;
     ensures range: -6 <= \result <= 25;
-    ensures whole: \result >= 0 ==> \result == length; */
+    ensures whole: \result >= 0 ==> \result == length;
+    ensures decoded_index: \result >= 0 ==> msg->index <= 63; */
 int32_t urb_identification_decode(urb_identification_t *msg, const uint8_t *buf, size_t length);
 
 /**
@@ -487,7 +510,8 @@ int32_t urb_command_encode(const urb_command_t *msg, uint8_t *buf, size_t capaci
     requires apart: msg == \null || buf == \null || \separated(msg, buf + (0 .. length - 1));
     assigns *msg;
     ensures range: -6 <= \result <= 6;
-    ensures whole: \result >= 0 ==> \result == length; */
+    ensures whole: \result >= 0 ==> \result == length;
+    ensures decoded_opcode: \result >= 0 ==> msg->opcode <= 4; */
 int32_t urb_command_decode(urb_command_t *msg, const uint8_t *buf, size_t length);
 
 /**
@@ -528,7 +552,8 @@ int32_t urb_bridge_info_encode(const urb_bridge_info_t *msg, uint8_t *buf, size_
     requires apart: msg == \null || buf == \null || \separated(msg, buf + (0 .. length - 1));
     assigns *msg;
     ensures range: -6 <= \result <= 10;
-    ensures whole: \result >= 0 ==> \result == length; */
+    ensures whole: \result >= 0 ==> \result == length;
+    ensures decoded_downlink: \result >= 0 ==> msg->downlink <= 2; */
 int32_t urb_bridge_info_decode(urb_bridge_info_t *msg, const uint8_t *buf, size_t length);
 
 /**
@@ -597,7 +622,8 @@ int32_t urb_bridge_command_encode(const urb_bridge_command_t *msg, uint8_t *buf,
     requires apart: msg == \null || buf == \null || \separated(msg, buf + (0 .. length - 1));
     assigns *msg;
     ensures range: -6 <= \result <= 3;
-    ensures whole: \result >= 0 ==> \result == length; */
+    ensures whole: \result >= 0 ==> \result == length;
+    ensures decoded_opcode: \result >= 0 ==> msg->opcode <= 3; */
 int32_t urb_bridge_command_decode(urb_bridge_command_t *msg, const uint8_t *buf, size_t length);
 
 /* ===== Nodes ============================================================================== */

@@ -304,7 +304,8 @@ int32_t urb_battery_status_decode(urb_battery_status_t *msg, const uint8_t *buf,
         return URB_ERR_LONG;
     }
     /*@ loop invariant 0 <= i0 <= 3;
-        loop assigns i0, *msg;
+        loop invariant \forall integer j0; 0 <= j0 < i0 ==> msg->packs[j0].charge <= 100;
+        loop assigns i0, msg->packs[0 .. 2];
         loop variant 3 - i0; */
     for (size_t i0 = 0u; i0 < 3u; i0++) {
         msg->packs[i0].voltage = (uint16_t)((uint32_t)buf[6u * i0] | ((uint32_t)buf[6u * i0 + 1u] << 8u));
@@ -369,13 +370,13 @@ int32_t urb_imu_sample_decode(urb_imu_sample_t *msg, const uint8_t *buf, size_t 
         return URB_ERR_LONG;
     }
     /*@ loop invariant 0 <= i0 <= 3;
-        loop assigns i0, *msg;
+        loop assigns i0, msg->accel[0 .. 2];
         loop variant 3 - i0; */
     for (size_t i0 = 0u; i0 < 3u; i0++) {
         msg->accel[i0] = (int16_t)urb_sign_extend(((uint32_t)buf[2u * i0] | ((uint32_t)buf[2u * i0 + 1u] << 8u)), 16u);
     }
     /*@ loop invariant 0 <= i0 <= 3;
-        loop assigns i0, *msg;
+        loop assigns i0, msg->gyro[0 .. 2];
         loop variant 3 - i0; */
     for (size_t i0 = 0u; i0 < 3u; i0++) {
         msg->gyro[i0] = (int16_t)urb_sign_extend(((uint32_t)buf[2u * i0 + 6u] | ((uint32_t)buf[2u * i0 + 7u] << 8u)), 16u);

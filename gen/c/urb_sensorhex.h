@@ -36,7 +36,8 @@ typedef enum {
 } urb_motor_mode_t;
 
 /** True when `value` is a member of urb_motor_mode_t; decoders report other values as URB_ERR_RANGE. */
-/*@ assigns \nothing; */
+/*@ assigns \nothing;
+    ensures member: \result != 0 <==> value <= 2; */
 bool urb_motor_mode_is_valid(uint32_t value);
 
 /* ===== Messages =========================================================================== */
@@ -147,7 +148,8 @@ int32_t urb_motor_status_encode(const urb_motor_status_t *msg, uint8_t *buf, siz
     requires apart: msg == \null || buf == \null || \separated(msg, buf + (0 .. length - 1));
     assigns *msg;
     ensures range: -6 <= \result <= 4;
-    ensures whole: \result >= 0 ==> \result == length; */
+    ensures whole: \result >= 0 ==> \result == length;
+    ensures decoded_mode: \result >= 0 ==> msg->mode <= 2; */
 int32_t urb_motor_status_decode(urb_motor_status_t *msg, const uint8_t *buf, size_t length);
 
 /**
@@ -185,7 +187,8 @@ int32_t urb_motor_config_encode(const urb_motor_config_t *msg, uint8_t *buf, siz
     requires apart: msg == \null || buf == \null || \separated(msg, buf + (0 .. length - 1));
     assigns *msg;
     ensures range: -6 <= \result <= 11;
-    ensures whole: \result >= 0 ==> \result == length; */
+    ensures whole: \result >= 0 ==> \result == length;
+    ensures decoded_mode: \result >= 0 ==> msg->mode <= 2; */
 int32_t urb_motor_config_decode(urb_motor_config_t *msg, const uint8_t *buf, size_t length);
 
 /**
@@ -223,7 +226,8 @@ int32_t urb_battery_pack_encode(const urb_battery_pack_t *msg, uint8_t *buf, siz
     requires apart: msg == \null || buf == \null || \separated(msg, buf + (0 .. length - 1));
     assigns *msg;
     ensures range: -6 <= \result <= 6;
-    ensures whole: \result >= 0 ==> \result == length; */
+    ensures whole: \result >= 0 ==> \result == length;
+    ensures decoded_charge: \result >= 0 ==> msg->charge <= 100; */
 int32_t urb_battery_pack_decode(urb_battery_pack_t *msg, const uint8_t *buf, size_t length);
 
 /**
@@ -259,7 +263,8 @@ int32_t urb_battery_status_encode(const urb_battery_status_t *msg, uint8_t *buf,
     requires apart: msg == \null || buf == \null || \separated(msg, buf + (0 .. length - 1));
     assigns *msg;
     ensures range: -6 <= \result <= 19;
-    ensures whole: \result >= 0 ==> \result == length; */
+    ensures whole: \result >= 0 ==> \result == length;
+    ensures decoded_packs_charge: \result >= 0 ==> \forall integer j0; 0 <= j0 < 3 ==> msg->packs[j0].charge <= 100; */
 int32_t urb_battery_status_decode(urb_battery_status_t *msg, const uint8_t *buf, size_t length);
 
 /**
