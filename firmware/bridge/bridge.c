@@ -294,6 +294,10 @@ static void admit(urb_bridge_t *b, const urbb_request_t *q)
     b->ring_count++;
 }
 
+/* The decoders' contracts state every decoded member's range (gen/c): with them WP proves admit's
+ * preconditions here (proofs/framac/frame). */
+/*@ requires \valid(b) && urbb_fifo_ok(b) && urbb_nodes_ok(b);
+    requires 2 <= len && \valid_read(frame + (0 .. len - 1)) && \separated(frame + (0 .. len - 1), b); */
 bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t len)
 {
     /* A range error (r < 0 but not a check, short or long frame) in a frame whose check passed: it
