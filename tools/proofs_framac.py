@@ -249,15 +249,19 @@ _CONTRACT_KINDS = ("precondition", "postcondition", "loop invariant", "loop vari
                    "complete behaviors", "disjoint behaviors")
 
 
-def eva_alarms(report: Path) -> list[str]:
-    """Alarm keys `file:function: kind: property` from the Report plugin's CSV (unproved properties only)."""
+def _report_rows(report: Path) -> list[dict[str, str]]:
+    """The rows of the Report plugin's CSV (tab-separated, one header line), or none without a report."""
     if not report.is_file():
         return []
-    keys = []
     lines = report.read_text(encoding="utf-8").splitlines()
     header = lines[0].split("\t") if lines else []
-    for line in lines[1:]:
-        cols = dict(zip(header, line.split("\t")))
+    return [dict(zip(header, line.split("\t"))) for line in lines[1:]]
+
+
+def eva_alarms(report: Path) -> list[str]:
+    """Alarm keys `file:function: kind: property` from the Report plugin's CSV (unproved properties only)."""
+    keys = []
+    for cols in _report_rows(report):
         kind = cols.get("property kind", "")
         if cols.get("status", "") in ("Valid", "Valid under hyp.", "Considered valid", "Dead"):
             continue
@@ -274,13 +278,8 @@ def eva_invalid(report: Path) -> list[str]:
     precondition false at a call site is one: Eva stops every path through that call without an
     alarm of its own, so the code behind it goes unanalysed (a `\\valid(p)` on a const `*p` did
     that to the bridge's serving path)."""
-    if not report.is_file():
-        return []
     found = []
-    lines = report.read_text(encoding="utf-8").splitlines()
-    header = lines[0].split("\t") if lines else []
-    for line in lines[1:]:
-        cols = dict(zip(header, line.split("\t")))
+    for cols in _report_rows(report):
         status = cols.get("status", "")
         if status.startswith("Invalid") and "dead" not in status:
             prop = re.sub(r"\s+", " ", cols.get("property", "")).strip()
