@@ -24,6 +24,24 @@
 
 #define NOT_A_FRAME 0xFFu /* candidate_len(): no frame can start with these bytes */
 
+/* ACSL for Frama-C WP (proofs/framac/usb_batch/): each USB batch holds its header and at most
+ * URB_BRIDGE_USB_BUF bytes and at most 128 responses, and usb_cur names one of the two batches.
+ * usb_len, usb_count and usb_cur are written only by urbb_uplink_init (which establishes the
+ * invariant), urb_bridge_usb_sof and urbb_uplink_send (which must keep it); urb_bridge_usb_in reads
+ * a batch under it. Proved so far: init, sof and in. urbb_uplink_send is not in the unit yet (its
+ * RS232 path's TX-ring store did not prove with z3/cvc4), so eva_bridge_poll still assumes the
+ * length bound at its loop head. */
+/*@ predicate urbb_usb_ok(urb_bridge_t *b) =
+      b->usb_cur <= 1 &&
+      (\forall integer c; 0 <= c <= 1 ==>
+         URB_USB_BATCH_HEADER_MAX_SIZE <= b->usb_len[c] <= URB_BRIDGE_USB_BUF && b->usb_count[c] <= 128);
+*/
+
+/*@ requires \valid(b) && b->cfg.baud != 0;
+    ensures usb_ok: urbb_usb_ok(b);
+    ensures usb_empty: !b->usb_prev_ready && b->usb_cur == 0 &&
+      b->usb_len[0] == URB_USB_BATCH_HEADER_MAX_SIZE && b->usb_len[1] == URB_USB_BATCH_HEADER_MAX_SIZE &&
+      b->usb_count[0] == 0 && b->usb_count[1] == 0; */
 void urbb_uplink_init(urb_bridge_t *b)
 {
     b->rx_head = 0u;
@@ -42,6 +60,11 @@ void urbb_uplink_init(urb_bridge_t *b)
     b->usb_prev_ready = false;
     b->usb_last_frame = 0u;
     /* loop bound: 2 buffers */
+    /*@ loop invariant 0 <= i <= 2;
+        loop invariant \forall integer j; 0 <= j < i ==>
+          b->usb_len[j] == URB_USB_BATCH_HEADER_MAX_SIZE && b->usb_count[j] == 0;
+        loop assigns i, b->usb_len[0 .. 1], b->usb_count[0 .. 1], b->usb_frame[0 .. 1];
+        loop variant 2 - i; */
     for (uint8_t i = 0u; i < 2u; i++) {
         b->usb_len[i] = (uint16_t)URB_USB_BATCH_HEADER_MAX_SIZE;
         b->usb_count[i] = 0u;
@@ -256,6 +279,23 @@ bool urb_bridge_uart_tx_pop(urb_bridge_t *b, uint8_t *byte)
  * unread previous batch without responses holds nothing to lose (the model's txPrev is empty):
  * it is replaced, so a host that skips the IN of an idle frame (the paper's Fig. 9 driver reads
  * only after a write) does not get its next responses a frame late. */
+/*@ requires \valid(b) && urbb_usb_ok(b);
+    assigns b->stats.usb_late_reads, b->usb_prev_ready, b->usb_cur, b->usb_len[0 .. 1],
+            b->usb_count[0 .. 1], b->usb_frame[0 .. 1];
+    ensures usb_ok: urbb_usb_ok(b);
+    behavior held:
+      assumes b->usb_prev_ready && b->usb_count[1 - b->usb_cur] != 0;
+      ensures b->usb_cur == \old(b->usb_cur) && b->usb_prev_ready &&
+        b->usb_len[0] == \old(b->usb_len[0]) && b->usb_len[1] == \old(b->usb_len[1]) &&
+        b->usb_count[0] == \old(b->usb_count[0]) && b->usb_count[1] == \old(b->usb_count[1]);
+    behavior swap:
+      assumes !b->usb_prev_ready || b->usb_count[1 - b->usb_cur] == 0;
+      ensures swapped: b->usb_cur == 1 - \old(b->usb_cur) && b->usb_prev_ready;
+      ensures fresh: b->usb_len[b->usb_cur] == URB_USB_BATCH_HEADER_MAX_SIZE && b->usb_count[b->usb_cur] == 0;
+      ensures kept: b->usb_len[\old(b->usb_cur)] == \old(b->usb_len[b->usb_cur]) &&
+        b->usb_count[\old(b->usb_cur)] == \old(b->usb_count[b->usb_cur]);
+    complete behaviors;
+    disjoint behaviors; */
 void urb_bridge_usb_sof(urb_bridge_t *b)
 {
     uint8_t const next = (uint8_t)(b->usb_cur ^ 1u);
@@ -316,6 +356,11 @@ bool urb_bridge_usb_out(urb_bridge_t *b, const uint8_t *data, size_t len)
 }
 
 /* UsbUplink.tla: UsbRead. The previous frame's batch, once. */
+/*@ requires \valid(b) && urbb_usb_ok(b);
+    requires buf == \null || (\valid(buf + (0 .. cap - 1)) && \separated(buf + (0 .. cap - 1), b));
+    ensures usb_ok: urbb_usb_ok(b);
+    ensures copied: \result <= cap && \result <= URB_BRIDGE_USB_BUF;
+    ensures whole: \result == 0 || \result == \old(b->usb_len[1 - b->usb_cur]); */
 size_t urb_bridge_usb_in(urb_bridge_t *b, uint8_t *buf, size_t cap)
 {
     if (!b->usb_prev_ready) {
@@ -331,6 +376,9 @@ size_t urb_bridge_usb_in(urb_bridge_t *b, uint8_t *buf, size_t cap)
     h.count = b->usb_count[prev];
     (void)urb_usb_batch_header_encode(&h, b->usb_buf[prev], URB_USB_BATCH_HEADER_MAX_SIZE);
     /* loop bound: URB_BRIDGE_USB_BUF bytes */
+    /*@ loop invariant 0 <= i <= n;
+        loop assigns i, buf[0 .. cap - 1];
+        loop variant n - i; */
     for (uint16_t i = 0u; i < n; i++) {
         buf[i] = b->usb_buf[prev][i];
     }
