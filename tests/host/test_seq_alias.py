@@ -74,7 +74,7 @@ def _ok(t: Transfer, data: bytes = b"\x01\x02") -> bytes:
 
 
 def _late_answer(old: Transfer) -> bytes:
-    return UplinkResponse(seq=old.seq, status=Status.OK, data=b"\xaa\xbb").encode()
+    return _ok(old, b"\xaa\xbb")
 
 
 def _all_timed_out(ts: list[Transfer]) -> bool:

@@ -262,12 +262,14 @@ class BusManager(ABC):
         self._lost_noted = True
         return functools.partial(self._notify_lost, reason)
 
-    def _queue_completed(self, done: list[Transfer], lost_reason: str | None,
-                         put: Callable[[Transfer | Callable[[], None]], None]) -> None:
-        """Count the completed transfers `done` and hand them to `put` (the dispatcher's queue);
-        when the core (`lost_reason`) has just found the bridge lost, the lost listeners' notice
-        goes first, before the callbacks of the requests that loss failed."""
-        notice = self._loss_notice(lost_reason)
+    def _queue_completed(self, core: Core, put: Callable[[Transfer | Callable[[], None]], None]) -> None:
+        """Count the transfers `core` completed and hand them to `put` (the dispatcher's queue);
+        when the core has just found the bridge lost, the lost listeners' notice goes first,
+        before the callbacks of the requests that loss failed. The stats take the core's count
+        of late responses."""
+        done = core.take_completed()
+        self.stats.late_responses = core.late_responses
+        notice = self._loss_notice(core.lost_reason)
         for t in done:
             if notice is not None and t.flags & ErrorFlag.BRIDGE_LOST:
                 put(notice)
@@ -475,8 +477,7 @@ class ThreadedManager(BusManager):
         """Move completed transfers from the core to the dispatcher (lock held), and, when the
         core has just found the bridge lost, the lost listeners' notice: before the callbacks
         of the requests that loss failed."""
-        self._queue_completed(self._core.take_completed(), self._core.lost_reason, self._dispatch_q.put)
-        self.stats.late_responses = self._core.late_responses
+        self._queue_completed(self._core, self._dispatch_q.put)
 
     def _dispatch_loop(self) -> None:
         while True:

@@ -117,7 +117,7 @@ class ResponseMatcher:
             if t.done:
                 self.released_placeholders += 1
             else:
-                self.completed.append(finish(t, now, ErrorFlag.UPLINK_CHECKSUM if t.garbage else ErrorFlag.UPLINK_TIMEOUT))
+                self._unanswered(t, now)
 
     def time_out(self, now: int, timeout_ns: int, lifetime_ns: int) -> int:
         """Complete UPLINK_TIMEOUT every live request sent `timeout_ns` ago or more; it stays in
@@ -126,7 +126,7 @@ class ResponseMatcher:
         n = 0
         for t in self.inflight:
             if not t.done and t.sent_ns is not None and now - t.sent_ns >= timeout_ns:
-                self.completed.append(finish(t, now, ErrorFlag.UPLINK_CHECKSUM if t.garbage else ErrorFlag.UPLINK_TIMEOUT))
+                self._unanswered(t, now)
                 n += 1
         self.expire(now, lifetime_ns)
         return n
@@ -134,10 +134,18 @@ class ResponseMatcher:
     def expire(self, now: int, lifetime_ns: int) -> None:
         """Release the placeholders sent `lifetime_ns` ago or more: the bridge no longer holds
         their requests."""
-        if any(t.done and now - (t.sent_ns or 0) >= lifetime_ns for t in self.inflight):
-            keep = deque(t for t in self.inflight if not (t.done and now - (t.sent_ns or 0) >= lifetime_ns))
+        def over(t: Transfer) -> bool:
+            return t.done and now - (t.sent_ns or 0) >= lifetime_ns
+
+        if any(over(t) for t in self.inflight):
+            keep = deque(t for t in self.inflight if not over(t))
             self.released_placeholders += len(self.inflight) - len(keep)
             self.inflight = keep
+
+    def _unanswered(self, t: Transfer, now: int) -> None:
+        """A live request got no response: UPLINK_CHECKSUM when corrupt bytes stood in its place,
+        else UPLINK_TIMEOUT."""
+        self.completed.append(finish(t, now, ErrorFlag.UPLINK_CHECKSUM if t.garbage else ErrorFlag.UPLINK_TIMEOUT))
 
     def next_event(self, timeout_ns: int, lifetime_ns: int) -> int | None:
         """When the oldest live request times out or the oldest placeholder expires."""
@@ -194,7 +202,58 @@ class ResponseMatcher:
         return False
 
 
-class Rs232Core:
+class MatchingCore:
+    """What the RS232 and USB cores share around their `ResponseMatcher`: the window and the
+    placeholders' state, read from the matcher and the queue."""
+
+    _m: ResponseMatcher
+    _queued: deque[Transfer]
+    window: int
+    timeout_ns: int
+    placeholder_ns: int
+    lost_reason: str | None
+
+    @property
+    def _lifetime_ns(self) -> int:
+        return max(self.placeholder_ns, self.timeout_ns)
+
+    def busy(self) -> bool:
+        """Requests queued or in flight (placeholders included: their late responses are
+        fetched)."""
+        return bool(self._queued or self._m.inflight)
+
+    @property
+    def has_queued(self) -> bool:
+        """Requests buffered that the window lets go out now."""
+        return bool(self._queued) and len(self._m.inflight) < self.window and self.lost_reason is None
+
+    @property
+    def in_flight(self) -> int:
+        """Requests in flight, placeholders included (what the window counts)."""
+        return len(self._m.inflight)
+
+    @property
+    def placeholders(self) -> int:
+        """Timed-out requests whose sequence numbers stay reserved (the bridge may answer them)."""
+        return sum(1 for t in self._m.inflight if t.done)
+
+    @property
+    def stray_bytes(self) -> int:
+        return self._m.stray_bytes
+
+    @property
+    def late_responses(self) -> int:
+        """Responses that came after their request had timed out (discarded)."""
+        return self._m.late_responses
+
+    @property
+    def released_placeholders(self) -> int:
+        """Placeholders released without their late response (a later response passed them, or
+        their lifetime expired)."""
+        return self._m.released_placeholders
+
+
+class Rs232Core(MatchingCore):
     """Host protocol state machine for one bridge on a byte-stream uplink (RS232)."""
 
     def __init__(
@@ -307,10 +366,6 @@ class Rs232Core:
         self._silent_timeouts = 0
         self._m.expire(now, self._lifetime_ns)
 
-    @property
-    def _lifetime_ns(self) -> int:
-        return max(self.placeholder_ns, self.timeout_ns)
-
     def set_window(self, window: int) -> None:
         self.window = _check_window(window)
 
@@ -347,39 +402,6 @@ class Rs232Core:
             times.append(self._last_rx_ns + self.resync_gap_ns)
         times.append(max(self._last_rx_ns, self._active_since) + self.lost_after_ns)
         return min(times)
-
-    def busy(self) -> bool:
-        """Requests queued or in flight."""
-        return bool(self._queued or self._m.inflight)
-
-    @property
-    def has_queued(self) -> bool:
-        return bool(self._queued) and len(self._m.inflight) < self.window and self.lost_reason is None
-
-    @property
-    def in_flight(self) -> int:
-        """Requests in flight, placeholders included (what the window counts)."""
-        return len(self._m.inflight)
-
-    @property
-    def placeholders(self) -> int:
-        """Timed-out requests whose sequence numbers stay reserved (the bridge may answer them)."""
-        return sum(1 for t in self._m.inflight if t.done)
-
-    @property
-    def stray_bytes(self) -> int:
-        return self._m.stray_bytes
-
-    @property
-    def late_responses(self) -> int:
-        """Responses that came after their request had timed out (discarded)."""
-        return self._m.late_responses
-
-    @property
-    def released_placeholders(self) -> int:
-        """Placeholders released without their late response (a later response passed them, or
-        their lifetime expired)."""
-        return self._m.released_placeholders
 
 
 def _check_window(window: int) -> int:

@@ -324,8 +324,7 @@ class SimManager(BusManager):
         if deadline is not None and deadline not in self._timer_at:
             self._timer_at.add(deadline)
             self.clock.call_at(deadline, lambda: self._on_timer(deadline))
-        self._queue_completed(self.core.take_completed(), self.core.lost_reason, self._pending_cb.append)
-        self.stats.late_responses = self.core.late_responses
+        self._queue_completed(self.core, self._pending_cb.append)
         if self._dispatching:
             return
         self._dispatching = True

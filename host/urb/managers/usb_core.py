@@ -39,7 +39,7 @@ from urb_msgs.urb_core import USB_BATCH_MAX_BYTES, Status, UsbBatchHeader
 
 from ..errors import ErrorFlag
 from .base import NS_PER_MS, Transfer, finish
-from .rs232_core import MAX_WINDOW, PLACEHOLDER_NS, SEQ_MOD, ResponseMatcher, encode_request
+from .rs232_core import MAX_WINDOW, PLACEHOLDER_NS, SEQ_MOD, MatchingCore, ResponseMatcher, encode_request
 
 HEADER_SIZE = UsbBatchHeader.MAX_SIZE
 
@@ -50,7 +50,7 @@ HEADER_SIZE = UsbBatchHeader.MAX_SIZE
 UsbTraceEvent = tuple[str, int, tuple[Transfer, ...]]
 
 
-class UsbCore:
+class UsbCore(MatchingCore):
     """Host protocol state machine for one bridge on a USB (per-frame) uplink."""
 
     def __init__(
@@ -164,10 +164,6 @@ class UsbCore:
         self._silent_timeouts = 0
         self._m.expire(now, self._lifetime_ns)
 
-    @property
-    def _lifetime_ns(self) -> int:
-        return max(self.placeholder_ns, self.timeout_ns)
-
     def set_window(self, window: int) -> None:
         """Requests in flight (learnt from BridgeInfo.fifo_depth); batches never exceed it."""
         self.window = _check(window, "window")
@@ -217,41 +213,6 @@ class UsbCore:
         nxt = m.next_event(self.timeout_ns, self._lifetime_ns)
         assert nxt is not None
         return min(nxt, max(self._last_in_ns, self._active_since) + self.lost_after_ns)
-
-    def busy(self) -> bool:
-        """Requests queued or in flight (placeholders included: their late responses are
-        fetched)."""
-        return bool(self._queued or self._m.inflight)
-
-    @property
-    def has_queued(self) -> bool:
-        """Requests buffered that the window lets go out now."""
-        return bool(self._queued) and len(self._m.inflight) < self.window and self.lost_reason is None
-
-    @property
-    def in_flight(self) -> int:
-        """Requests in flight, placeholders included (what the window counts)."""
-        return len(self._m.inflight)
-
-    @property
-    def placeholders(self) -> int:
-        """Timed-out requests whose sequence numbers stay reserved (the bridge may answer them)."""
-        return sum(1 for t in self._m.inflight if t.done)
-
-    @property
-    def stray_bytes(self) -> int:
-        return self._m.stray_bytes
-
-    @property
-    def late_responses(self) -> int:
-        """Responses that came after their request had timed out (discarded)."""
-        return self._m.late_responses
-
-    @property
-    def released_placeholders(self) -> int:
-        """Placeholders released without their late response (passed by a later response, or
-        expired)."""
-        return self._m.released_placeholders
 
 
 def _check(n: int, what: str) -> int:
