@@ -79,11 +79,16 @@ def _load(paths: list[Path]) -> list[Schema] | None:
     try:
         return load(paths)
     except SchemaErrors as exc:
-        print(exc.render(), file=sys.stderr)
-        print(f"\n{len(exc.errors)} error(s)", file=sys.stderr)
+        _print_errors(exc.errors)
     except SchemaError as exc:
         print(exc.render(), file=sys.stderr)
     return None
+
+
+def _print_errors(errors: list[SchemaError]) -> None:
+    """Every error rendered (file:line:column, source line, caret, hint), then how many."""
+    print(SchemaErrors(errors).render(), file=sys.stderr)
+    print(f"\n{len(errors)} error(s)", file=sys.stderr)
 
 
 def run_gen(args: argparse.Namespace) -> int:
@@ -117,7 +122,7 @@ def run_gen(args: argparse.Namespace) -> int:
 def run_check(args: argparse.Namespace) -> int:
     paths = list(args.files) or schema_files()
     if not paths:
-        print("urb: no schema files found; pass files or --schemas DIR with *.urbs files", file=sys.stderr)
+        print(f"urb schema check: no schema files in {SCHEMA_DIR}; pass the FILEs to check", file=sys.stderr)
         return 1
     missing = [p for p in paths if not p.exists()]
     if missing:
@@ -127,8 +132,7 @@ def run_check(args: argparse.Namespace) -> int:
     checks = check_files(paths)
     errors = [e for c in checks for e in c.errors]
     if errors:
-        print("\n\n".join(e.render() for e in errors), file=sys.stderr)
-        print(f"\n{len(errors)} error(s)", file=sys.stderr)
+        _print_errors(errors)
     for c in checks:
         for s in c.schemas:
             print(f"{s.path}: ok ({len(s.messages)} messages, {len(s.enums)} enums, {len(s.nodes)} nodes)")
