@@ -373,10 +373,8 @@ def mutant_problem(mutant: Any) -> str:
     """What is wrong with one mutants.json entry for the runner ("" when nothing): a name, and an "expect"."""
     if not isinstance(mutant, dict) or not isinstance(mutant.get("name"), str) or not mutant["name"]:
         return f"every entry needs a \"name\" (got {mutant!r:.80})"
-    expect = mutant.get("expect")
-    ok = (isinstance(expect, str) and expect.strip() != "") or (
-        isinstance(expect, list) and bool(expect) and all(isinstance(e, str) and e.strip() for e in expect))
-    if not ok:
+    expects = expects_of(mutant)
+    if not expects or not all(isinstance(e, str) and e.strip() for e in expects):
         return (f"mutant {mutant['name']!r} has no \"expect\": add \"expect\": \"<part of the violated property ESBMC "
                 "must report for this bug>\" (the harness assertion's message, or e.g. \"array bounds violated\"; a "
                 "list of such strings for alternatives), see proofs/README.md, Mutants")

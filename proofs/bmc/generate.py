@@ -934,14 +934,11 @@ def encode_mutants(info: MsgInfo, source: str, file: str) -> list[dict[str, obje
             unit = "bit" if stmt.startswith("urb_put_bits") else "byte"
             new = stmt[:m.start(1) - (len(line) - len(line.lstrip()))] + str(off + 1) + \
                 stmt[m.end(1) - (len(line) - len(line.lstrip())):]
-            if _past_frame(info, stmt, off + 1, unit):
-                out.append(_mut("field-offset", file, fn, stmt, new,
-                                f"wrong shift: a field is written at {unit} {off + 1} instead of {off}, past the end "
-                                "of the frame", ["nothing written past the frame", "no byte outside the frame changes"]))
-            else:
-                out.append(_mut("field-offset", file, fn, stmt, new,
-                                f"wrong shift: a field is written at {unit} {off + 1} instead of {off}",
-                                "wire: every byte as the schema lays it out"))
+            past = _past_frame(info, stmt, off + 1, unit)
+            why = f"wrong shift: a field is written at {unit} {off + 1} instead of {off}"
+            out.append(_mut("field-offset", file, fn, stmt, new, why + (", past the end of the frame" if past else ""),
+                            ["nothing written past the frame", "no byte outside the frame changes"] if past
+                            else "wire: every byte as the schema lays it out"))
             break
     bf = info.payload
     if bf is not None:
@@ -1028,15 +1025,12 @@ def decode_mutants(info: MsgInfo, source: str, file: str) -> list[dict[str, obje
             off = int(m.group(1))
             unit = "bit" if "urb_get_bits" in m.group(0) else "byte"
             new = stmt[:m.start(1)] + str(off + 1) + stmt[m.end(1):]
-            if _past_frame(info, stmt, off + 1, unit):
-                out.append(_mut("field-offset", file, fn, stmt, new,
-                                f"wrong shift: a field is read at {unit} {off + 1} instead of {off}, past the end of "
-                                "the frame", OUT_OF_BOUNDS))
-            else:
-                # part 1 sees the decoded value away from its bits, part 2 a message that does not come back
-                out.append(_mut("field-offset", file, fn, stmt, new,
-                                f"wrong shift: a field is read at {unit} {off + 1} instead of {off}",
-                                ["at its bit offset", ROUND_TRIP]))
+            past = _past_frame(info, stmt, off + 1, unit)
+            why = f"wrong shift: a field is read at {unit} {off + 1} instead of {off}"
+            # inside the frame: part 1 sees the decoded value away from its bits, part 2 a message
+            # that does not come back
+            out.append(_mut("field-offset", file, fn, stmt, new, why + (", past the end of the frame" if past else ""),
+                            OUT_OF_BOUNDS if past else ["at its bit offset", ROUND_TRIP]))
             break
     bf = info.payload
     if bf is not None:
@@ -1084,26 +1078,27 @@ def crc_byte_mutants(src: str, body: str, fn: str) -> list[dict[str, object]]:
     """Seeded bugs for a CRC byte step, for the shapes the emitter has used (bit loop, nibble table)."""
     f = "gen/c/urb_runtime.c"
     out: list[dict[str, object]] = []
+    step = "one byte step equals the bit-serial CRC"  # the harness property every seeded bug here breaks
     m = re.search(r"\^ (0x[0-9A-Fa-f]+)u\)", body)
     if m:
         out.append(_mut("poly", f, fn, m.group(0), f"^ {int(m.group(1), 16) ^ 1:#x}u)",
-                        "wrong generator polynomial (lowest bit flipped)", "one byte step equals the bit-serial CRC"))
+                        "wrong generator polynomial (lowest bit flipped)", step))
     if "bit < 8u" in body:
         out.append(_mut("bit-count", f, fn, "bit < 8u", "bit < 7u", "off-by-one: seven shifts per byte",
-                        "one byte step equals the bit-serial CRC"))
+                        step))
     m = re.search(r"\(c >> (\d+)\) & 0xFu", body)
     if m:
         out.append(_mut("nibble-index", f, fn, m.group(0), f"(c >> {int(m.group(1)) - 1}) & 0xFu",
-                        "wrong shift: the table is indexed by the wrong four bits", "one byte step equals the bit-serial CRC"))
+                        "wrong shift: the table is indexed by the wrong four bits", step))
     lines = [ln.strip() for ln in body.splitlines() if "_nibble[" in ln]
     if len(lines) >= 2:
         out.append(_mut("one-nibble", f, fn, lines[1], "/* second nibble step dropped */", "one table step per byte instead of two",
-                        "one byte step equals the bit-serial CRC", 2))
+                        step, 2))
     table = re.search(r"static const uint\d+_t " + re.escape(fn.removesuffix("_byte")) + r"_nibble\[16\] = \{\s*(0x0+u), (0x[0-9A-Fa-f]+)u", src)
     if table:
         first, second = table.group(1), table.group(2)
         out.append(_mut("table-entry", f, "", f"{first}, {second}u", f"{first}, {int(second, 16) ^ 1:#0{len(second)}x}u",
-                        "a wrong entry in the nibble table", "one byte step equals the bit-serial CRC"))
+                        "a wrong entry in the nibble table", step))
     return out
 
 
