@@ -203,20 +203,121 @@ class ResponseMatcher:
 
 
 class MatchingCore:
-    """What the RS232 and USB cores share around their `ResponseMatcher`: the window and the
-    placeholders' state, read from the matcher and the queue."""
+    """What the RS232 and USB cores share around their `ResponseMatcher`: the queue, the window,
+    the sequence numbers, the placeholders, and how a silent bridge is declared lost."""
 
-    _m: ResponseMatcher
-    _queued: deque[Transfer]
-    window: int
-    timeout_ns: int
-    placeholder_ns: int
-    lost_reason: str | None
+    #: How the core says the bridge was silent, in a lost reason ("... for N ms").
+    SILENCE = "the bridge sent nothing"
+
+    def __init__(self, *, window: int, timeout_ns: int, lost_after_ns: int, lost_after_timeouts: int,
+                 placeholder_ns: int) -> None:
+        self.window = check_window(window)
+        self.timeout_ns = timeout_ns
+        self.lost_after_ns = lost_after_ns
+        self.lost_after_timeouts = lost_after_timeouts
+        self.placeholder_ns = placeholder_ns
+        self.lost_reason: str | None = None
+        self._queued: deque[Transfer] = deque()
+        self._m = ResponseMatcher()
+        self._next_seq = 1  # the n-th request carries n mod 16, as Bridge.tla's Emit (id % SeqMod)
+        self._silent_timeouts = 0
+        self._last_heard_ns = 0
+        """When the bridge last sent something (a byte on RS232, an IN transfer on USB)."""
+        self._active_since = 0
+        """When the host last went from nothing outstanding (no request in flight, placeholders
+        included, none queued) to something: requests queued behind a window full of
+        placeholders keep the host outstanding, so their expiry is no gap in the silence."""
 
     @property
     def _lifetime_ns(self) -> int:
         return max(self.placeholder_ns, self.timeout_ns)
 
+    # -- inputs ------------------------------------------------------------------------------
+    def submit(self, t: Transfer, now: int) -> None:
+        """Queue a request (it goes out when the window allows); a lost bridge fails it at once."""
+        if self.lost_reason is not None:
+            self._m.completed.append(finish(t, now, ErrorFlag.BRIDGE_LOST))
+            t.lost_reason = self.lost_reason
+            return
+        self._m.expire(now, self._lifetime_ns)
+        if not self._queued and not self._m.inflight:
+            self._active_since = now
+        self._queued.append(t)
+
+    def link_lost(self, now: int, reason: str) -> None:
+        """The runtime lost the uplink (or `poll` found the bridge silent): everything in flight
+        and queued completes BRIDGE_LOST."""
+        if self.lost_reason is not None:
+            return
+        self.lost_reason = reason
+        self._m.fail_all(self._queued, now, reason)
+
+    def reset(self, now: int) -> None:
+        """Forget the lost state (after the uplink was reopened). The placeholders stay:
+        reopening the uplink does not reset the bridge, which may still answer them; they are
+        released as usual (a response, or their lifetime)."""
+        self.link_lost(now, "the uplink was reset (reconnect)")
+        self.lost_reason = None
+        self._last_heard_ns = now
+        self._active_since = now
+        self._silent_timeouts = 0
+        self._m.expire(now, self._lifetime_ns)
+
+    def set_window(self, window: int) -> None:
+        """Requests in flight, placeholders included (learnt from BridgeInfo.fifo_depth)."""
+        self.window = check_window(window)
+
+    def _heard(self, now: int) -> None:
+        """The bridge sent something: it is alive."""
+        self._last_heard_ns = now
+        self._silent_timeouts = 0
+
+    def _time_out(self, now: int) -> int:
+        """Complete the requests whose time is over; how many timed out."""
+        n = self._m.time_out(now, self.timeout_ns, self._lifetime_ns)
+        self._silent_timeouts += n
+        return n
+
+    def _lost_if_silent(self, now: int, timed_out: int) -> None:
+        """Declare a silent bridge lost: `lost_after_timeouts` requests in a row timed out (the
+        last `timed_out` of them now) with nothing heard for `lost_after_ns`, or `lost_after_ns`
+        of silence with requests outstanding."""
+        quiet_ns = now - self._last_heard_ns
+        if timed_out and self._silent_timeouts >= self.lost_after_timeouts and quiet_ns >= self.lost_after_ns:
+            self.link_lost(now, f"{self._silent_timeouts} requests in a row got no response and "
+                                f"{self.SILENCE} for {quiet_ns // NS_PER_MS} ms")
+            return
+        silent_since = max(self._last_heard_ns, self._active_since)
+        if (self._m.inflight or self._queued) and now - silent_since >= self.lost_after_ns:
+            self.link_lost(now, f"{self.SILENCE} for {(now - silent_since) // NS_PER_MS} ms with requests "
+                                f"outstanding")
+
+    # -- outputs -----------------------------------------------------------------------------
+    def _send(self, t: Transfer, now: int) -> bytes:
+        """Give the next queued request its sequence number and put it in flight; its frame."""
+        t.seq = self._next_seq
+        self._next_seq = (self._next_seq + 1) % SEQ_MOD
+        t.sent_ns = now
+        t.garbage = False
+        self._m.inflight.append(t)
+        return encode_request(t)
+
+    def take_completed(self) -> list[Transfer]:
+        """Transfers completed since the last call, in completion (= request) order."""
+        done, self._m.completed = self._m.completed, []
+        return done
+
+    def next_deadline(self) -> int | None:
+        """When `poll` next has something to do (None: nothing pending)."""
+        if self.lost_reason is not None or not self._m.inflight:
+            return None
+        times = [max(self._last_heard_ns, self._active_since) + self.lost_after_ns]
+        nxt = self._m.next_event(self.timeout_ns, self._lifetime_ns)
+        if nxt is not None:
+            times.append(nxt)
+        return min(times)
+
+    # -- state -------------------------------------------------------------------------------
     def busy(self) -> bool:
         """Requests queued or in flight (placeholders included: their late responses are
         fetched)."""
@@ -253,6 +354,13 @@ class MatchingCore:
         return self._m.released_placeholders
 
 
+def check_window(window: int, what: str = "window") -> int:
+    """`window` (or another count of requests in flight) if 1..15, else ValueError."""
+    if not 1 <= window <= MAX_WINDOW:
+        raise ValueError(f"{what} = {window}: must be 1..{MAX_WINDOW} so the 4-bit sequence number cannot alias")
+    return window
+
+
 class Rs232Core(MatchingCore):
     """Host protocol state machine for one bridge on a byte-stream uplink (RS232)."""
 
@@ -275,48 +383,22 @@ class Rs232Core(MatchingCore):
         from the firmware above); keep it below `lost_after_ns`, else a single lost request
         followed by silence declares the bridge lost. A value <= `timeout_ns` frees the number at
         the timeout, which is safe only for a bridge known to answer within `timeout_ns`.
-        `resync_gap_ns`: idle time after
-        which a partial response candidate is abandoned. `lost_after_ns`: silence with requests
-        outstanding after which the bridge is declared lost; `lost_after_timeouts`: so many
-        requests timing out in a row declare it lost too (sparse traffic, where the in-flight
-        list keeps emptying), but only once not one byte was received for `lost_after_ns`
-        either: a burst lost in a glitch is not a lost bridge."""
-        self.window = _check_window(window)
-        self.timeout_ns = timeout_ns
+        `resync_gap_ns`: idle time after which a partial response candidate is abandoned.
+        `lost_after_ns`: silence with requests outstanding after which the bridge is declared
+        lost; `lost_after_timeouts`: so many requests timing out in a row declare it lost too
+        (sparse traffic, where the in-flight list keeps emptying), but only once not one byte was
+        received for `lost_after_ns` either: a burst lost in a glitch is not a lost bridge."""
+        super().__init__(window=window, timeout_ns=timeout_ns, lost_after_ns=lost_after_ns,
+                         lost_after_timeouts=lost_after_timeouts, placeholder_ns=placeholder_ns)
         self.resync_gap_ns = resync_gap_ns
-        self.lost_after_ns = lost_after_ns
-        self.lost_after_timeouts = lost_after_timeouts
-        self.placeholder_ns = placeholder_ns
-        self._silent_timeouts = 0
-        self.lost_reason: str | None = None
-        self._queued: deque[Transfer] = deque()
-        self._m = ResponseMatcher()
-        self._next_seq = 1  # the n-th request carries n mod 16, as Bridge.tla's Emit (id % SeqMod)
-        self._last_rx_ns = 0
-        self._active_since = 0
-        """When the host last went from nothing outstanding (no request in flight, placeholders
-        included, none queued) to something: requests queued behind a window full of
-        placeholders keep the host outstanding, so their expiry is no gap in the silence."""
         self._partial = False
 
     # -- inputs ------------------------------------------------------------------------------
-    def submit(self, t: Transfer, now: int) -> None:
-        """Queue a request (sent by `frames_to_send` when the window allows)."""
-        if self.lost_reason is not None:
-            self._m.completed.append(finish(t, now, ErrorFlag.BRIDGE_LOST))
-            t.lost_reason = self.lost_reason
-            return
-        self._m.expire(now, self._lifetime_ns)
-        if not self._queued and not self._m.inflight:
-            self._active_since = now
-        self._queued.append(t)
-
     def receive(self, data: bytes, now: int) -> None:
         """Bytes from the uplink, in arrival order."""
         if not data:
             return
-        self._last_rx_ns = now
-        self._silent_timeouts = 0
+        self._heard(now)
         if self.lost_reason is not None:
             self._m.stray_bytes += len(data)
             return
@@ -328,46 +410,18 @@ class Rs232Core(MatchingCore):
         if self.lost_reason is not None:
             return
         m = self._m
-        if self._partial and now - self._last_rx_ns >= self.resync_gap_ns:
+        if self._partial and now - self._last_heard_ns >= self.resync_gap_ns:
             m._discard(1)
             self._partial = m.parse(now)
         before = len(m.inflight)
-        n = m.time_out(now, self.timeout_ns, self._lifetime_ns)
-        self._silent_timeouts += n
-        timed_out = n > 0
+        timed_out = self._time_out(now)
         if len(m.inflight) != before and m.rx:
             self._partial = m.parse(now)  # a released number no longer starts a candidate
-        quiet_ns = now - self._last_rx_ns
-        if timed_out and self._silent_timeouts >= self.lost_after_timeouts and quiet_ns >= self.lost_after_ns:
-            self.link_lost(now, f"{self._silent_timeouts} requests in a row got no response and the bridge "
-                                f"sent nothing for {quiet_ns // NS_PER_MS} ms")
-            return
-        silent_since = max(self._last_rx_ns, self._active_since)
-        if (m.inflight or self._queued) and now - silent_since >= self.lost_after_ns:
-            ms = (now - silent_since) // NS_PER_MS
-            self.link_lost(now, f"the bridge sent nothing for {ms} ms with requests outstanding")
+        self._lost_if_silent(now, timed_out)
 
     def link_lost(self, now: int, reason: str) -> None:
-        """The runtime lost the uplink (or `poll` found the bridge silent): fail everything."""
-        if self.lost_reason is not None:
-            return
-        self.lost_reason = reason
-        self._m.fail_all(self._queued, now, reason)
+        super().link_lost(now, reason)
         self._partial = False
-
-    def reset(self, now: int) -> None:
-        """Forget the lost state and any partial input (after the uplink was reopened). The
-        placeholders stay: reopening the uplink does not reset the bridge, which may still
-        answer them; they are released as usual (a response, or their lifetime)."""
-        self.link_lost(now, "the uplink was reset (reconnect)")
-        self.lost_reason = None
-        self._last_rx_ns = now
-        self._active_since = now
-        self._silent_timeouts = 0
-        self._m.expire(now, self._lifetime_ns)
-
-    def set_window(self, window: int) -> None:
-        self.window = _check_window(window)
 
     # -- outputs -----------------------------------------------------------------------------
     def frames_to_send(self, now: int) -> list[bytes]:
@@ -376,35 +430,11 @@ class Rs232Core(MatchingCore):
         if self._queued:
             self._m.expire(now, self._lifetime_ns)  # whatever the polling cadence
         while self._queued and len(self._m.inflight) < self.window and self.lost_reason is None:
-            t = self._queued.popleft()
-            t.seq = self._next_seq
-            self._next_seq = (self._next_seq + 1) % SEQ_MOD
-            t.sent_ns = now
-            t.garbage = False
-            self._m.inflight.append(t)
-            out.append(encode_request(t))
+            out.append(self._send(self._queued.popleft(), now))
         return out
 
-    def take_completed(self) -> list[Transfer]:
-        """Transfers completed since the last call, in completion (= request) order."""
-        done, self._m.completed = self._m.completed, []
-        return done
-
     def next_deadline(self) -> int | None:
-        """When `poll` next has something to do (None: nothing pending)."""
-        if self.lost_reason is not None or not self._m.inflight:
-            return None
-        times: list[int] = []
-        nxt = self._m.next_event(self.timeout_ns, self._lifetime_ns)
-        if nxt is not None:
-            times.append(nxt)
-        if self._partial:
-            times.append(self._last_rx_ns + self.resync_gap_ns)
-        times.append(max(self._last_rx_ns, self._active_since) + self.lost_after_ns)
-        return min(times)
-
-
-def _check_window(window: int) -> int:
-    if not 1 <= window <= MAX_WINDOW:
-        raise ValueError(f"window = {window}: must be 1..{MAX_WINDOW} so the 4-bit sequence number cannot alias")
-    return window
+        nxt = super().next_deadline()
+        if nxt is not None and self._partial:
+            return min(nxt, self._last_heard_ns + self.resync_gap_ns)
+        return nxt

@@ -39,7 +39,7 @@ from urb_msgs.urb_core import USB_BATCH_MAX_BYTES, Status, UsbBatchHeader
 
 from ..errors import ErrorFlag
 from .base import NS_PER_MS, Transfer, finish
-from .rs232_core import MAX_WINDOW, PLACEHOLDER_NS, SEQ_MOD, MatchingCore, ResponseMatcher, encode_request
+from .rs232_core import MAX_WINDOW, PLACEHOLDER_NS, MatchingCore, check_window
 
 HEADER_SIZE = UsbBatchHeader.MAX_SIZE
 
@@ -52,6 +52,8 @@ UsbTraceEvent = tuple[str, int, tuple[Transfer, ...]]
 
 class UsbCore(MatchingCore):
     """Host protocol state machine for one bridge on a USB (per-frame) uplink."""
+
+    SILENCE = "the bridge returned no USB transfer"
 
     def __init__(
         self,
@@ -74,45 +76,27 @@ class UsbCore(MatchingCore):
         lost; so do `lost_after_timeouts` requests timing out in a row with no IN transfer for
         `lost_after_ns` either (sparse traffic, where the in-flight list keeps emptying; the
         same rule as Rs232Core's)."""
-        self.window = _check(window, "window")
-        self.max_batch = _check(max_batch, "max_batch")
+        super().__init__(window=window, timeout_ns=timeout_ns, lost_after_ns=lost_after_ns,
+                         lost_after_timeouts=lost_after_timeouts, placeholder_ns=placeholder_ns)
+        self.max_batch = check_window(max_batch, "max_batch")
         self.batch_bytes = batch_bytes
-        self.timeout_ns = timeout_ns
-        self.lost_after_ns = lost_after_ns
-        self.lost_after_timeouts = lost_after_timeouts
-        self.placeholder_ns = placeholder_ns
-        self._silent_timeouts = 0
-        self.lost_reason: str | None = None
         self.frames_written = 0
         self.transfers_in = 0
         self.bad_headers = 0
-        self._queued: deque[Transfer] = deque()
-        self._m = ResponseMatcher()
         self._frame = 1  # 0 is what an idle bridge labels its buffers with before the first OUT
-        self._next_seq = 1  # the n-th request carries n mod 16, as Bridge.tla's Emit (id % SeqMod)
-        self._last_in_ns = 0
-        self._active_since = 0
         self.trace: list[UsbTraceEvent] | None = None
         """Set to a list to log every Submit, UsbWrite, UsbRead and Callback (UsbTraceEvent)."""
 
     # -- inputs ------------------------------------------------------------------------------
     def submit(self, t: Transfer, now: int) -> None:
         """Buffer a request for the next bulk-OUT transfer (`Submit`)."""
-        if self.lost_reason is not None:
-            self._m.completed.append(finish(t, now, ErrorFlag.BRIDGE_LOST))
-            t.lost_reason = self.lost_reason
-            return
-        self._m.expire(now, self._lifetime_ns)
-        if not self._queued and not self._m.inflight:
-            self._active_since = now  # nothing was outstanding (see Rs232Core._active_since)
-        self._queued.append(t)
-        if self.trace is not None:
+        super().submit(t, now)
+        if self.trace is not None and self.lost_reason is None:
             self.trace.append(("submit", now, (t,)))
 
     def receive_batch(self, data: bytes, now: int) -> None:
         """One bulk-IN transfer: a header, then responses back to back (`UsbRead`)."""
-        self._last_in_ns = now
-        self._silent_timeouts = 0
+        self._heard(now)
         if self.lost_reason is not None or not data:
             return
         self.transfers_in += 1
@@ -132,41 +116,8 @@ class UsbCore(MatchingCore):
 
     def poll(self, now: int) -> None:
         """Time out requests whose responses never came; detect a silent bridge."""
-        if self.lost_reason is not None:
-            return
-        m = self._m
-        n = m.time_out(now, self.timeout_ns, self._lifetime_ns)
-        self._silent_timeouts += n
-        timed_out = n > 0
-        quiet_ns = now - self._last_in_ns
-        if timed_out and self._silent_timeouts >= self.lost_after_timeouts and quiet_ns >= self.lost_after_ns:
-            self.link_lost(now, f"{self._silent_timeouts} requests in a row got no response and the bridge "
-                                f"returned no USB transfer for {quiet_ns // NS_PER_MS} ms")
-            return
-        silent_since = max(self._last_in_ns, self._active_since)
-        if (m.inflight or self._queued) and now - silent_since >= self.lost_after_ns:
-            self.link_lost(now, f"the bridge returned no USB transfer for {(now - silent_since) // NS_PER_MS} ms")
-
-    def link_lost(self, now: int, reason: str) -> None:
-        """The uplink is gone: everything in flight and queued completes BRIDGE_LOST."""
-        if self.lost_reason is not None:
-            return
-        self.lost_reason = reason
-        self._m.fail_all(self._queued, now, reason)
-
-    def reset(self, now: int) -> None:
-        """Forget the lost state (after the uplink was reopened). The placeholders stay: the
-        bridge was not reset and may still answer them (see Rs232Core.reset)."""
-        self.link_lost(now, "the uplink was reset (reconnect)")
-        self.lost_reason = None
-        self._last_in_ns = now
-        self._active_since = now
-        self._silent_timeouts = 0
-        self._m.expire(now, self._lifetime_ns)
-
-    def set_window(self, window: int) -> None:
-        """Requests in flight (learnt from BridgeInfo.fifo_depth); batches never exceed it."""
-        self.window = _check(window, "window")
+        if self.lost_reason is None:
+            self._lost_if_silent(now, self._time_out(now))
 
     # -- outputs -----------------------------------------------------------------------------
     def frame_out(self, now: int) -> bytes | None:
@@ -186,12 +137,7 @@ class UsbCore(MatchingCore):
                 break  # stays buffered for the next frame
             self._queued.popleft()
             out_bytes, in_bytes = out_bytes + req, in_bytes + resp
-            t.seq = self._next_seq
-            self._next_seq = (self._next_seq + 1) % SEQ_MOD
-            t.sent_ns = now
-            t.garbage = False
-            m.inflight.append(t)
-            frames.append(encode_request(t))
+            frames.append(self._send(t, now))
             batch.append(t)
         header = UsbBatchHeader(frame=self._frame, count=len(batch)).encode()
         self._frame = self._frame % 0xFFFF + 1  # 1..65535, never 0
@@ -201,21 +147,7 @@ class UsbCore(MatchingCore):
         return header + b"".join(frames)
 
     def take_completed(self) -> list[Transfer]:
-        done, self._m.completed = self._m.completed, []
+        done = super().take_completed()
         if self.trace is not None and done:
             self.trace.append(("callback", done[-1].completed_ns or 0, tuple(done)))
         return done
-
-    def next_deadline(self) -> int | None:
-        m = self._m
-        if self.lost_reason is not None or not m.inflight:
-            return None
-        nxt = m.next_event(self.timeout_ns, self._lifetime_ns)
-        assert nxt is not None
-        return min(nxt, max(self._last_in_ns, self._active_since) + self.lost_after_ns)
-
-
-def _check(n: int, what: str) -> int:
-    if not 1 <= n <= MAX_WINDOW:
-        raise ValueError(f"{what} = {n}: must be 1..{MAX_WINDOW} (the 4-bit sequence number must not alias)")
-    return n
