@@ -209,6 +209,37 @@ static void host_rx_byte(void *ctx, uint8_t byte, uint32_t flags, urbsim_ns_t t)
     }
 }
 
+/* The firmware's SOF hand-over (urb_bridge_usb_sof): notes the SOF that closed the batch when the
+ * firmware swapped (it holds the swap while an earlier batch with responses is unread). */
+static void usb_take_sof(sim_bridge_t *b)
+{
+    uint32_t held = urb_bridge_stats(&b->br)->usb_late_reads;
+    urb_bridge_usb_sof(&b->br);
+    if (urb_bridge_stats(&b->br)->usb_late_reads == held) {
+        b->usb_swap_sof = b->usb_sofs;
+    }
+}
+
+/* A response batch goes out at an IN token: counts its responses, and those that go out one frame
+ * or more after the SOF that closed their batch (it was due in that SOF's frame). */
+static void usb_note_sent(sim_bridge_t *b, const uint8_t *d, size_t len, uint64_t closed_sof)
+{
+    urb_usb_batch_header_t h;
+    if (len < URB_USB_BATCH_HEADER_MAX_SIZE || urb_usb_batch_header_decode(&h, d, URB_USB_BATCH_HEADER_MAX_SIZE) < 0 ||
+        h.count == 0u) {
+        return;
+    }
+    uint64_t late = b->usb_sofs - closed_sof;
+    b->usb_resp_sent += h.count;
+    if (late) {
+        b->usb_resp_late += h.count;
+        b->usb_batches_late++;
+        if (late > b->usb_frames_late_max) {
+            b->usb_frames_late_max = late;
+        }
+    }
+}
+
 static void usb_sof(void *ctx, uint16_t frame, urbsim_ns_t t)
 {
     sim_bridge_t *b = ctx;
@@ -216,7 +247,8 @@ static void usb_sof(void *ctx, uint16_t frame, urbsim_ns_t t)
     if (!b->powered) {
         return;
     }
-    urb_bridge_usb_sof(&b->br);
+    b->usb_sofs++;
+    usb_take_sof(b);
     if (b->cfg.heartbeat_sof && b->hb_period_us) {
         b->hb_sof_us += 1000u;
         if (b->hb_sof_us >= b->hb_period_us) {
@@ -247,6 +279,7 @@ static uint32_t usb_in(void *ctx, uint8_t *buf, uint32_t cap, urbsim_ns_t t)
     }
     size_t n = urb_bridge_usb_in(&b->br, buf, cap);
     if (n) {
+        usb_note_sent(b, buf, n, b->usb_swap_sof);
         sim_log_put(&b->log, b->k->now, SIM_BMARK_EMIT, (uint32_t)n);
         obs_usb(b, buf, n, false, b->k->now);
     }
@@ -621,6 +654,10 @@ double sim_bridge_stat(const sim_bridge_t *b, const char *name)
     if (!strcmp(name, "bridge.isr_ns")) return (double)b->mcu.isr_ns;
     if (!strcmp(name, "bridge.usb_naks")) return (double)b->usb.naks;
     if (!strcmp(name, "bridge.usb_deferred")) return (double)b->usb.deferred;
+    if (!strcmp(name, "bridge.usb_responses_sent")) return (double)b->usb_resp_sent;
+    if (!strcmp(name, "bridge.usb_responses_late")) return (double)b->usb_resp_late;
+    if (!strcmp(name, "bridge.usb_batches_late")) return (double)b->usb_batches_late;
+    if (!strcmp(name, "bridge.usb_frames_late_max")) return (double)b->usb_frames_late_max;
     if (!strcmp(name, "i2c.busy_ns")) return (double)b->bus.busy_ns;
     if (!strcmp(name, "i2c.stretch_ns")) return (double)b->bus.stretch_ns;
     if (!strcmp(name, "i2c.bytes")) return (double)b->bus.bytes;
@@ -646,6 +683,7 @@ void sim_bridge_power_on(sim_bridge_t *b)
     b->boots++;
     b->tx_active = false;
     b->poll_pending = false;
+    b->usb_swap_sof = b->usb_sofs; /* the restarted firmware's first batch opens now */
     urbsim_mcu_reset(&b->mcu, now);
     urbsim_i2c_release(&b->bus);
     if (b->uplink == SIM_UPLINK_RS232) {

@@ -62,6 +62,11 @@ struct sim_bridge {
     uint8_t usb_out[URBSIM_USB_MAX_XFER];
     uint32_t usb_out_len;
     bool usb_out_pending;
+    /* USB delivery statistics: how many frames after the SOF that closed it a response batch went
+     * out (0: in the frame that SOF began; the batch filled during frame n is due in frame n + 1) */
+    uint64_t usb_sofs;           /**< SOFs the device saw since power-on */
+    uint64_t usb_swap_sof;       /**< usb_sofs when the firmware last swapped its batches */
+    uint64_t usb_resp_sent, usb_resp_late, usb_batches_late, usb_frames_late_max;
     /* port state */
     bool powered;
     uint64_t gen;
