@@ -19,6 +19,7 @@ void urbsim_usb_init(urbsim_usb_bus_t *u, urbsim_kernel_t *k, urbsim_trace_t *tr
     u->phase_ns = phase_ns % URBSIM_NS_PER_MS;
     u->hc_irq_ns = 20 * URBSIM_NS_PER_US;
     u->eof_guard_ns = 4 * URBSIM_NS_PER_US;
+    u->nak_next_frame = false;
     build_stuff_table(u->stuff);
 }
 
@@ -127,8 +128,8 @@ bool urbsim_usb_read(urbsim_usb_bus_t *u, uint32_t dev)
     return push_urb(u, dev, true, NULL, u->devs[dev]->in_size);
 }
 
-/* Event kinds (bits 0..7; EV_SOF_END carries the frame number above). */
-enum { EV_SOF, EV_TXN, EV_OUT_DONE, EV_IN_DONE, EV_CALLBACK, EV_SOF_END };
+/* Event kinds (bits 0..7; EV_SOF_END carries the frame number above, EV_DEV_IN_DONE the device). */
+enum { EV_SOF, EV_TXN, EV_OUT_DONE, EV_IN_DONE, EV_CALLBACK, EV_SOF_END, EV_DEV_IN_DONE };
 
 static void ev_usb(void *ctx, uint64_t arg, urbsim_ns_t now);
 
@@ -170,6 +171,7 @@ static void run_txn(urbsim_usb_bus_t *u, urbsim_ns_t now)
     urbsim_ns_t limit = u->next_sof_t - u->eof_guard_ns;
     uint32_t bits;
     uint32_t n = 0;
+    bool out_nak = false;
     uint8_t buf[URBSIM_USB_MAX_XFER];
     if (r->in) {
         /* The token goes out only if a transaction with a full data packet fits: the controller
@@ -217,6 +219,12 @@ static void run_txn(urbsim_usb_bus_t *u, urbsim_ns_t now)
             d->deferred++; /* does not fit in what is left of the frame: next frame */
             return;
         }
+        if (d->attached && d->out_busy && d->out_busy(d->ctx)) {
+            /* The device's buffer is still full: token and first data packet, then its NAK. */
+            uint32_t first = r->len < u->max_packet ? r->len : u->max_packet;
+            bits = packet_bits(u, r->data, first);
+            out_nak = true;
+        }
     }
     urbsim_usb_urb_t taken = *r;
     u->urb_head = (u->urb_head + 1u) % URBSIM_USB_MAX_URBS;
@@ -224,13 +232,35 @@ static void run_txn(urbsim_usb_bus_t *u, urbsim_ns_t now)
     u->cursor_budget--;
     urbsim_ns_t end = now + urbsim_usb_bits_ns(u, bits);
     u->busy_bits += bits;
-    if (taken.in && n == 0u) {
-        d->naks++;
-        urbsim_trace(u->tr, URBSIM_TR_BUS, now, u->name, "in_nak", ",\"dev\":%u", taken.dev);
-        /* Retried in the next frame: back into the queue, keeping its submission time. */
-        urbsim_usb_urb_t *again = &u->urbs[(u->urb_head + u->urb_len) % URBSIM_USB_MAX_URBS];
-        *again = taken;
-        u->urb_len++;
+    if ((taken.in && n == 0u) || out_nak) {
+        if (out_nak) {
+            d->out_naks++;
+        } else {
+            d->naks++;
+        }
+        urbsim_trace(u->tr, URBSIM_TR_BUS, now, u->name, out_nak ? "out_nak" : "in_nak", ",\"dev\":%u", taken.dev);
+        if (u->nak_next_frame) {
+            /* Retried in the next frame: back into the queue, keeping its submission time. */
+            urbsim_usb_urb_t *again = &u->urbs[(u->urb_head + u->urb_len) % URBSIM_USB_MAX_URBS];
+            *again = taken;
+            u->urb_len++;
+        } else {
+            /* Retried in this frame, after the frame's other transactions (a pass of the bulk
+             * list): back into the frame's schedule as its last URB, ahead of those submitted
+             * since its SOF, keeping its submission time. */
+#ifdef URBSIM_MUTANT_NAK_TAIL /* seeded bug (mk/sim.mk): the retry joins the queue's tail, so the frame
+                                 runs a URB submitted after its SOF */
+            u->urbs[(u->urb_head + u->urb_len) % URBSIM_USB_MAX_URBS] = taken;
+#else
+            for (uint32_t j = u->urb_len; j > u->cursor_budget; j--) {
+                u->urbs[(u->urb_head + j) % URBSIM_USB_MAX_URBS] =
+                    u->urbs[(u->urb_head + j - 1u) % URBSIM_USB_MAX_URBS];
+            }
+            u->urbs[(u->urb_head + u->cursor_budget) % URBSIM_USB_MAX_URBS] = taken;
+#endif
+            u->urb_len++;
+            u->cursor_budget++;
+        }
     } else if (u->done_len < URBSIM_USB_MAX_DONE) {
         urbsim_usb_urb_t *c = &u->done[(u->done_head + u->done_len) % URBSIM_USB_MAX_DONE];
         *c = taken;
@@ -245,6 +275,10 @@ static void run_txn(urbsim_usb_bus_t *u, urbsim_ns_t now)
         urbsim_trace(u->tr, URBSIM_TR_BUS, now, u->name, taken.in ? "in" : "out", ",\"dev\":%u,\"len\":%u,\"end\":%llu",
                      taken.dev, (unsigned)c->len, (unsigned long long)end);
         urbsim_kernel_at(u->k, end, ev_usb, u, taken.in ? EV_IN_DONE : EV_OUT_DONE);
+    } else if (taken.in) {
+        /* No room for the driver's completion (never seen: 16 within hc_irq_ns); the device still
+         * got its acknowledgement and must not keep its buffer busy. */
+        urbsim_kernel_at(u->k, end, ev_usb, u, EV_DEV_IN_DONE | ((uint64_t)taken.dev << 8));
     }
     urbsim_kernel_at(u->k, end, ev_usb, u, EV_TXN);
 }
@@ -294,15 +328,24 @@ static void ev_usb(void *ctx, uint64_t arg, urbsim_ns_t now)
     case EV_TXN:
         run_txn(u, now);
         break;
+    case EV_DEV_IN_DONE: {
+        urbsim_usb_dev_t *d = u->devs[(arg >> 8) & 0xFFu];
+        if (d->attached && d->on_in_done) {
+            d->on_in_done(d->ctx, now);
+        }
+        break;
+    }
     case EV_OUT_DONE:
     case EV_IN_DONE: {
-        /* Device side sees OUT data at the end of the transaction; the host controller raises the
-         * completion interrupt hc_irq_ns later. */
+        /* Device side sees OUT data, or the acknowledgement of its IN data, at the end of the
+         * transaction; the host controller raises the completion interrupt hc_irq_ns later. */
         urbsim_usb_urb_t *c = &u->done[(u->done_head + u->done_pending) % URBSIM_USB_MAX_DONE];
         u->done_pending++;
         urbsim_usb_dev_t *d = u->devs[c->dev];
         if (!c->in && d->attached && d->on_out) {
             d->on_out(d->ctx, c->data, c->len, now);
+        } else if (c->in && d->attached && d->on_in_done) {
+            d->on_in_done(d->ctx, now);
         }
         urbsim_kernel_at(u->k, now + u->hc_irq_ns, ev_usb, u, EV_CALLBACK);
         break;

@@ -17,9 +17,12 @@
  *   a transfer is split in packets of `max_packet` (64) bytes with a zero-length packet after an
  *   exact multiple; stuffed bits are counted in the data field (a 0 after six 1s, LSB first; not
  *   in the PID, the CRC16 or the tokens: at most a few bits per packet). An IN with
- *   no data is NAKed (70 bits) and retried in the next frame. SOF packet: 43 bits.
- *   A device sees SOF (at the end of the SOF packet), OUT data and IN requests at their bus
- *   instants, each called at that instant (its HAL adds interrupt latency).
+ *   no data is NAKed (70 bits) and retried in the next frame; so is an OUT the device cannot take
+ *   yet (its buffer still holds the previous transfer: the token and first data packet, then NAK).
+ *   SOF packet: 43 bits.
+ *   A device sees SOF (at the end of the SOF packet), OUT data, IN tokens and the acknowledgement
+ *   of its IN data at their bus instants, each called at that instant (its HAL adds interrupt
+ *   latency); at an IN token it answers from its endpoint buffer, as a device controller does.
  *
  * DRIVER (Fig. 9)
  *   write(data): the write thread hands one batch to the driver, which submits one OUT URB.
@@ -52,8 +55,16 @@ typedef struct {
     /* Device side, at bus instants. */
     void (*on_sof)(void *ctx, uint16_t frame, urbsim_ns_t t);
     void (*on_out)(void *ctx, const uint8_t *data, uint32_t len, urbsim_ns_t t);
-    /** Fill buf (cap bytes) with the IN data; 0 = NAK. Called at the IN token. */
+    /** Fill buf (cap bytes) with the IN data; 0 = NAK. Called at the IN token: a device answers
+     *  with what its endpoint buffer holds at that instant (its firmware cannot run in between). */
     uint32_t (*on_in)(void *ctx, uint8_t *buf, uint32_t cap, urbsim_ns_t t);
+    /** Optional: the host acknowledged the IN data (the end of the transaction, of its last packet
+     *  when it was split over frames): the endpoint buffer is free again. */
+    void (*on_in_done)(void *ctx, urbsim_ns_t t);
+    /** Optional, called at an OUT token: true while the endpoint buffer still holds the previous
+     *  OUT transfer. The device NAKs (the host sent the token and the first data packet) and the
+     *  host retries in the next frame. */
+    bool (*out_busy)(void *ctx);
     /* Host side: the read callback delivers the IN data to user space. */
     void (*host_read)(void *hctx, const uint8_t *data, uint32_t len, urbsim_ns_t t);
     void *hctx;
@@ -62,7 +73,7 @@ typedef struct {
                                 it (then auto_read is ignored) */
     uint32_t in_size;      /**< bytes the IN URB asks for */
     /* statistics */
-    uint64_t outs, ins, naks, deferred;
+    uint64_t outs, ins, naks, out_naks, deferred;
 } urbsim_usb_dev_t;
 
 typedef struct {
@@ -85,6 +96,8 @@ typedef struct {
     urbsim_ns_t phase_ns;    /**< local time of SOF 0 */
     urbsim_ns_t hc_irq_ns;   /**< completion interrupt latency of the host controller + driver */
     urbsim_ns_t eof_guard_ns;
+    bool nak_next_frame;     /**< a NAKed transaction waits for the next frame; false (default): it
+                                  is retried in its frame after the frame's other transactions */
     urbsim_usb_dev_t *devs[URBSIM_USB_MAX_DEVS];
     uint32_t n_devs;
     urbsim_usb_urb_t urbs[URBSIM_USB_MAX_URBS]; /**< FIFO ring, submission order */

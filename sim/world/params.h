@@ -60,6 +60,7 @@
     X(USB_HC_IRQ_US, "usb.hc_irq_us", 20.0, "host controller completion interrupt to driver callback, us") \
     X(USB_PHASE_US, "usb.phase_us", -1.0, "USB frame phase against the OS tick, us (-1: drawn per seed)") \
     X(USB_BITRATE, "usb.bitrate", 12e6, "USB bus bit rate (full speed), b/s")                         \
+    X(USB_NAK_NEXT_FRAME, "usb.nak_next_frame", 0.0, "1: a NAKed transaction is retried in the next frame; 0: in its frame, after the frame's other transactions") \
     X(USB_READ_ALWAYS, "usb.read_always", 1.0, "1: the driver keeps a bulk-IN pending every frame; 0: reads only after a write (Fig. 9)") \
     X(MOTOR_JLEG, "motor.leg_inertia", 2.4e-3, "leg inertia about the hip, kg m^2")                \
     X(MOTOR_MGR, "motor.leg_gravity", 1.1772, "leg gravity torque m g r, Nm (0: no gravity)")         \

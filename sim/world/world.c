@@ -234,6 +234,7 @@ static void ensure_usb(urbsim_world_t *w)
     urbsim_usb_init(&w->usb, &w->k, &w->tr, "usb", &w->usb_clock, phase_ns);
     w->usb.bitrate = w->p[P_USB_BITRATE];
     w->usb.hc_irq_ns = (urbsim_ns_t)(w->p[P_USB_HC_IRQ_US] * 1000.0);
+    w->usb.nak_next_frame = w->p[P_USB_NAK_NEXT_FRAME] != 0.0;
     w->usb_ready = true;
 }
 

@@ -856,12 +856,14 @@ static void test_usb(void)
     CHECK(urbsim_usb_write(&u, 0, zeros, 10));
     urbsim_kernel_run_until(&k, 6 * URBSIM_NS_PER_MS);
     CHECK_EQ(td.t_out, 4u * URBSIM_NS_PER_MS + 269666u);
-    /* A device with nothing to send is NAKed and the IN retried in the next frame. */
+    /* A device with nothing to send is NAKed; with usb.nak_next_frame the IN is retried in the next
+     * frame only (the default retries it in its frame: test_usb_handshakes). */
+    u.nak_next_frame = true;
     td.in_len = 0;
     urbsim_kernel_run_until(&k, 6 * URBSIM_NS_PER_MS + 100 * URBSIM_NS_PER_US);
     CHECK(urbsim_usb_read(&u, 0));
     urbsim_kernel_run_until(&k, 7 * URBSIM_NS_PER_MS + 100 * URBSIM_NS_PER_US);
-    CHECK(dev.naks >= 1u);
+    CHECK_EQ(dev.naks, 1u);
     td.in_len = 3;
     urbsim_kernel_run_until(&k, 9 * URBSIM_NS_PER_MS);
     CHECK_EQ(td.read_len, 3u);
@@ -1123,10 +1125,18 @@ static void test_i2c_lost_read_ack(void)
  * next SOF. */
 typedef struct {
     urbsim_kernel_t *k;
-    urbsim_ns_t sof_now, sof_t, in_t;
-    uint32_t in_len, reads, in_calls;
+    urbsim_ns_t sof_now, sof_t, in_t, in_done_t;
+    uint32_t in_len, reads, in_calls, in_dones;
     urbsim_ns_t read_t;
 } udev_t;
+
+static void ud_in_done(void *ctx, urbsim_ns_t t)
+{
+    udev_t *d = ctx;
+    CHECK_EQ(d->k->now, t);
+    d->in_done_t = t;
+    d->in_dones++;
+}
 
 static void ud_sof(void *ctx, uint16_t f, urbsim_ns_t t)
 {
@@ -1178,8 +1188,8 @@ static void test_usb_frame_edges(void)
     urbsim_usb_bus_t u;
     urbsim_usb_init(&u, &k, &tr, "usb", NULL, 250 * URBSIM_NS_PER_US);
     udev_t d = {.k = &k, .in_len = 40};
-    urbsim_usb_dev_t dev = {.ctx = &d, .on_sof = ud_sof, .on_in = ud_in, .host_read = ud_read, .hctx = &d,
-                            .in_size = 512};
+    urbsim_usb_dev_t dev = {.ctx = &d, .on_sof = ud_sof, .on_in = ud_in, .on_in_done = ud_in_done,
+                            .host_read = ud_read, .hctx = &d, .in_size = 512};
     CHECK_EQ(urbsim_usb_attach(&u, &dev), 0);
     urbsim_usb_run(&u);
     urbsim_kernel_run_until(&k, 300 * URBSIM_NS_PER_US);
@@ -1218,6 +1228,127 @@ static void test_usb_frame_edges(void)
     CHECK_EQ(d.in_len, 100u);
     CHECK(d.in_t > 5250000u && d.in_t < 6250000u);
     CHECK_EQ(d.read_t, 6287000u + 20000u);
+    /* the device learns that its buffer was taken with the last packet's handshake, not before */
+    CHECK_EQ(d.in_dones, 2u);
+    CHECK_EQ(d.in_done_t, 6287000u);
+    urbsim_kernel_free(&k);
+}
+
+/* USB handshakes of a device whose firmware is not inside its controller (firmware/hal/sim's
+ * bridge): an IN token finds what the device armed before it, or nothing (NAK); the device learns
+ * at the transaction's end that its IN buffer was taken (on_in_done); an OUT token while its OUT
+ * buffer is still full is NAKed (the host sends the token and the data packet). A NAKed transaction
+ * is retried in its frame after the frame's other transactions, never ahead of a URB submitted
+ * after the SOF (usb.nak_next_frame = 0, the default). */
+typedef struct {
+    urbsim_kernel_t *k;
+    uint32_t armed;                  /* bytes armed for the next IN token (0: NAK) */
+    int out_busy_left;               /* OUT tokens still to NAK */
+    urbsim_ns_t in_t, in_done_t, out_t, read_t;
+    uint32_t in_tokens, in_dones, outs;
+} hdev_t;
+
+static uint32_t hd_in(void *ctx, uint8_t *buf, uint32_t cap, urbsim_ns_t t)
+{
+    hdev_t *d = ctx;
+    d->in_tokens++;
+    d->in_t = t;
+    uint32_t n = d->armed < cap ? d->armed : cap;
+    memset(buf, 0, n);
+    d->armed = 0; /* taken */
+    return n;
+}
+static void hd_in_done(void *ctx, urbsim_ns_t t)
+{
+    hdev_t *d = ctx;
+    d->in_dones++;
+    d->in_done_t = t;
+}
+static bool hd_out_busy(void *ctx)
+{
+    hdev_t *d = ctx;
+    return d->out_busy_left-- > 0;
+}
+static void hd_out(void *ctx, const uint8_t *data, uint32_t len, urbsim_ns_t t)
+{
+    hdev_t *d = ctx;
+    (void)data;
+    (void)len;
+    d->outs++;
+    d->out_t = t;
+}
+static void hd_read(void *ctx, const uint8_t *data, uint32_t len, urbsim_ns_t t)
+{
+    hdev_t *d = ctx;
+    (void)data;
+    (void)len;
+    d->read_t = t;
+}
+static void hd_arm(void *ctx, uint64_t arg, urbsim_ns_t now)
+{
+    hdev_t *d = ctx;
+    (void)now;
+    d->armed = (uint32_t)arg;
+}
+
+static void test_usb_handshakes(void)
+{
+    urbsim_kernel_t k;
+    urbsim_trace_t tr;
+    urbsim_kernel_init(&k);
+    urbsim_trace_init(&tr);
+    urbsim_usb_bus_t u;
+    urbsim_usb_init(&u, &k, &tr, "usb", NULL, 250 * URBSIM_NS_PER_US); /* SOF at 0.25 ms + n ms */
+    hdev_t d = {.k = &k};
+    urbsim_usb_dev_t dev = {.ctx = &d, .on_in = hd_in, .on_in_done = hd_in_done, .out_busy = hd_out_busy,
+                            .on_out = hd_out, .host_read = hd_read, .hctx = &d, .in_size = 512};
+    CHECK_EQ(urbsim_usb_attach(&u, &dev), 0);
+    CHECK(!u.nak_next_frame);
+    urbsim_usb_run(&u);
+    static uint8_t zeros[16];
+    /* Frame 1 (SOF 1.25 ms, its packet ends 1 253 583): an IN, then a 10-byte OUT, both submitted
+     * before it. The device arms 10 bytes 4 us after the SOF packet. The IN token at 1 253 583
+     * finds nothing: NAK (70 bits, 5833 ns). The OUT follows (193 bits, 16 083 ns: 1 259 416 to
+     * 1 275 499), then the IN again: 10 bytes (193 bits) to 1 291 582, read callback 20 us later. */
+    urbsim_kernel_run_until(&k, 1 * URBSIM_NS_PER_MS);
+    CHECK(urbsim_usb_read(&u, 0));
+    CHECK(urbsim_usb_write(&u, 0, zeros, 10));
+    urbsim_kernel_at(&k, 1253583u + 4000u, hd_arm, &d, 10u);
+    urbsim_kernel_run_until(&k, 2 * URBSIM_NS_PER_MS);
+    CHECK_EQ(dev.naks, 1u);
+    CHECK_EQ(d.in_tokens, 2u);
+    CHECK_EQ(d.out_t, 1275499u);
+    CHECK_EQ(d.in_t, 1275499u);
+    CHECK_EQ(d.in_dones, 1u);
+    CHECK_EQ(d.in_done_t, 1291582u);
+    CHECK_EQ(d.read_t, 1291582u + 20000u);
+    /* Frame 3 (SOF 3.25 ms): an IN submitted before it finds nothing and is retried back to back
+     * (nothing else is scheduled in the frame) until the device arms, 20 us after the SOF packet:
+     * tokens at 3 253 583 + j * 5833 ns, the 5th (3 276 915) is the first after the arming. An OUT
+     * submitted after the SOF (at 3.26 ms) is not in the frame's schedule: the retried IN does not
+     * let it in, it goes in frame 4 (SOF 4.25 ms), the first transaction: 4 253 583 + 16 083. */
+    urbsim_kernel_run_until(&k, 3 * URBSIM_NS_PER_MS);
+    d.in_tokens = 0;
+    CHECK(urbsim_usb_read(&u, 0));
+    urbsim_kernel_at(&k, 3253583u + 20000u, hd_arm, &d, 10u);
+    urbsim_kernel_run_until(&k, 3260000u);
+    CHECK(urbsim_usb_write(&u, 0, zeros, 10));
+    urbsim_kernel_run_until(&k, 5 * URBSIM_NS_PER_MS);
+    CHECK_EQ(dev.naks, 1u + 4u);
+    CHECK_EQ(d.in_tokens, 5u);
+    CHECK_EQ(d.in_t, 3253583u + 4u * 5833u);
+    CHECK_EQ(d.out_t, 4253583u + 16083u);
+    /* Frame 6: an OUT while the device's OUT buffer is still full: the token and the data packet
+     * (193 bits) are sent and NAKed, then the OUT is retried in the frame and taken:
+     * 6 253 583 + 2 x 16 083. */
+    urbsim_kernel_run_until(&k, 6 * URBSIM_NS_PER_MS);
+    d.out_busy_left = 1;
+    uint32_t outs = d.outs;
+    CHECK(urbsim_usb_write(&u, 0, zeros, 10));
+    urbsim_kernel_run_until(&k, 7 * URBSIM_NS_PER_MS);
+    CHECK_EQ(dev.out_naks, 1u);
+    CHECK_EQ(d.outs, outs + 1u);
+    CHECK_EQ(d.out_t, 6253583u + 2u * 16083u);
     urbsim_kernel_free(&k);
 }
 
@@ -1236,6 +1367,7 @@ int main(void)
     test_i2c_irq_order();
     test_i2c_lost_read_ack();
     test_usb_frame_edges();
+    test_usb_handshakes();
     printf("sim core: %d checks, %d failed\n", checks, failures);
     return failures ? 1 : 0;
 }

@@ -13,7 +13,7 @@ enum {
     EV_RX_ISR,      /* UART byte handler (byte in bits 32..39) */
     EV_TXE_ISR,     /* UART transmit-register-empty handler */
     EV_I2C_ISR,     /* I2C master completion handler (event bits 32..39, byte 40..47) */
-    EV_USB_OUT,     /* OUT transfer handed to the firmware (main loop) */
+    EV_USB_ISR,     /* USB controller interrupt handler (SOF, OUT received, IN acknowledged) */
 };
 #define ARG(kind, gen, extra) ((uint64_t)(kind) | (((gen) & 0xFFFFFFull) << 8) | ((uint64_t)(extra) << 32))
 
@@ -211,13 +211,15 @@ static void host_rx_byte(void *ctx, uint8_t byte, uint32_t flags, urbsim_ns_t t)
 
 /* The firmware's SOF hand-over (urb_bridge_usb_sof): notes the SOF that closed the batch when the
  * firmware swapped (it holds the swap while an earlier batch with responses is unread). */
-static void usb_take_sof(sim_bridge_t *b)
+static bool usb_take_sof(sim_bridge_t *b)
 {
     uint32_t held = urb_bridge_stats(&b->br)->usb_late_reads;
     urb_bridge_usb_sof(&b->br);
-    if (urb_bridge_stats(&b->br)->usb_late_reads == held) {
-        b->usb_swap_sof = b->usb_sofs;
+    if (urb_bridge_stats(&b->br)->usb_late_reads != held) {
+        return false;
     }
+    b->usb_swap_sof = b->usb_sofs;
+    return true;
 }
 
 /* A response batch goes out at an IN token: counts its responses, and those that go out one frame
@@ -240,6 +242,54 @@ static void usb_note_sent(sim_bridge_t *b, const uint8_t *d, size_t len, uint64_
     }
 }
 
+/* The USB device controller's interrupt (SOF, OUT received, IN data acknowledged): its handler
+ * notes the controller's flags and wakes the main loop, which does the work (bridge_port.c runs
+ * USB in the main loop). One pending interrupt covers every flag raised before its handler runs. */
+static void usb_irq(sim_bridge_t *b, urbsim_ns_t t)
+{
+    if (t < b->usb_irq_at) {
+        return; /* pending, its handler not started yet: it will see this flag too */
+    }
+    urbsim_ns_t end;
+    b->usb_irq_at = urbsim_mcu_isr(&b->mcu, t, b->cfg.usb_isr_cycles, &end);
+    at(b, b->usb_irq_at, EV_USB_ISR, 0);
+}
+
+/* The main loop's USB work, in bridge_port.c's order, before urb_bridge_poll: a SOF seen since the
+ * last iteration (one hand-over however many SOFs came), an OUT transfer received, and, when the IN
+ * endpoint's buffer is free, the previous frame's batch armed there for the host's next IN token. */
+static void usb_main_loop(sim_bridge_t *b, urbsim_ns_t now)
+{
+#ifndef URBSIM_MUTANT_USB_IN_AT_TOKEN
+    if (b->usb_sof_flag) {
+        b->usb_sof_flag = false;
+        bool swapped = usb_take_sof(b);
+        urbsim_trace(b->tr, URBSIM_TR_FRAME, now, b->name, "usb_sof", ",\"swapped\":%u", swapped ? 1u : 0u);
+    }
+#endif
+    if (b->usb_out_pending) {
+        b->usb_out_pending = false;
+        (void)urb_bridge_usb_out(&b->br, b->usb_out, b->usb_out_len);
+        urbsim_trace(b->tr, URBSIM_TR_FRAME, now, b->name, "usb_out", ",\"len\":%u", b->usb_out_len);
+        obs_usb(b, b->usb_out, b->usb_out_len, true, now);
+    }
+#ifndef URBSIM_MUTANT_USB_IN_AT_TOKEN
+    if (b->usb_in_state == SIM_USB_IN_FREE) {
+        size_t n = urb_bridge_usb_in(&b->br, b->usb_in_buf, sizeof b->usb_in_buf);
+        if (n) {
+            urb_usb_batch_header_t h = {0u, 0u};
+            (void)urb_usb_batch_header_decode(&h, b->usb_in_buf, URB_USB_BATCH_HEADER_MAX_SIZE);
+            b->usb_in_state = SIM_USB_IN_ARMED;
+            b->usb_in_len = (uint32_t)n;
+            b->usb_in_closed_sof = b->usb_swap_sof;
+            b->usb_in_armed++;
+            urbsim_trace(b->tr, URBSIM_TR_FRAME, now, b->name, "in_arm", ",\"len\":%u,\"count\":%u",
+                         (unsigned)n, (unsigned)h.count);
+        }
+    }
+#endif
+}
+
 static void usb_sof(void *ctx, uint16_t frame, urbsim_ns_t t)
 {
     sim_bridge_t *b = ctx;
@@ -248,14 +298,22 @@ static void usb_sof(void *ctx, uint16_t frame, urbsim_ns_t t)
         return;
     }
     b->usb_sofs++;
-    usb_take_sof(b);
     if (b->cfg.heartbeat_sof && b->hb_period_us) {
+        /* a timer-like use of the SOF interrupt: the heartbeat tick is counted in its handler */
         b->hb_sof_us += 1000u;
         if (b->hb_sof_us >= b->hb_period_us) {
             b->hb_sof_us -= b->hb_period_us;
             irq(b, t, b->cfg.timer_isr_cycles, EV_HB_ISR, 0);
         }
     }
+#ifdef URBSIM_MUTANT_USB_IN_AT_TOKEN /* seeded bug (tests/sim/test_usb_device.py): the swap at the SOF
+                                        instant, as if the firmware ran inside the USB controller */
+    bool swapped = usb_take_sof(b);
+    urbsim_trace(b->tr, URBSIM_TR_FRAME, t, b->name, "usb_sof", ",\"swapped\":%u", swapped ? 1u : 0u);
+#else
+    b->usb_sof_flag = true;
+    usb_irq(b, t);
+#endif
 }
 
 static void usb_out(void *ctx, const uint8_t *data, uint32_t len, urbsim_ns_t t)
@@ -267,9 +325,17 @@ static void usb_out(void *ctx, const uint8_t *data, uint32_t len, urbsim_ns_t t)
     memcpy(b->usb_out, data, len);
     b->usb_out_len = len;
     b->usb_out_pending = true;
-    irq(b, t, b->cfg.usb_isr_cycles, EV_USB_OUT, 0);
+    usb_irq(b, t);
 }
 
+/* OUT token: NAKed while the main loop has not taken the previous transfer out of the buffer. */
+static bool usb_out_busy(void *ctx)
+{
+    const sim_bridge_t *b = ctx;
+    return b->powered && b->usb_out_pending;
+}
+
+/* IN token: the controller sends what is armed, or NAKs; the firmware cannot act in between. */
 static uint32_t usb_in(void *ctx, uint8_t *buf, uint32_t cap, urbsim_ns_t t)
 {
     sim_bridge_t *b = ctx;
@@ -277,13 +343,44 @@ static uint32_t usb_in(void *ctx, uint8_t *buf, uint32_t cap, urbsim_ns_t t)
     if (!b->powered) {
         return 0u;
     }
+#ifdef URBSIM_MUTANT_USB_IN_AT_TOKEN /* the firmware fills the IN transfer at the token */
     size_t n = urb_bridge_usb_in(&b->br, buf, cap);
+    uint64_t closed = b->usb_swap_sof;
     if (n) {
-        usb_note_sent(b, buf, n, b->usb_swap_sof);
+        urb_usb_batch_header_t h = {0u, 0u};
+        (void)urb_usb_batch_header_decode(&h, buf, URB_USB_BATCH_HEADER_MAX_SIZE);
+        b->usb_in_armed++;
+        urbsim_trace(b->tr, URBSIM_TR_FRAME, b->k->now, b->name, "in_arm", ",\"len\":%u,\"count\":%u",
+                     (unsigned)n, (unsigned)h.count);
+    }
+#else
+    if (b->usb_in_state != SIM_USB_IN_ARMED) {
+        return 0u; /* NAK */
+    }
+    /* The host asks for a whole buffer (in_size, URBSIM_USB_MAX_XFER >= URB_BRIDGE_USB_BUF) */
+    size_t n = b->usb_in_len < cap ? b->usb_in_len : cap;
+    memcpy(buf, b->usb_in_buf, n);
+    b->usb_in_state = SIM_USB_IN_BUSY;
+    uint64_t closed = b->usb_in_closed_sof;
+#endif
+    if (n) {
+        usb_note_sent(b, buf, n, closed);
         sim_log_put(&b->log, b->k->now, SIM_BMARK_EMIT, (uint32_t)n);
         obs_usb(b, buf, n, false, b->k->now);
     }
     return (uint32_t)n;
+}
+
+/* The host acknowledged the IN data: the buffer is free, the interrupt wakes the main loop to arm
+ * the next batch. */
+static void usb_in_done(void *ctx, urbsim_ns_t t)
+{
+    sim_bridge_t *b = ctx;
+    if (!b->powered || b->usb_in_state != SIM_USB_IN_BUSY) {
+        return;
+    }
+    b->usb_in_state = SIM_USB_IN_FREE;
+    usb_irq(b, t);
 }
 
 static void usb_host_read(void *hctx, const uint8_t *data, uint32_t len, urbsim_ns_t t)
@@ -451,6 +548,9 @@ static void bridge_event(void *ctx, uint64_t arg, urbsim_ns_t now)
         }
         b->poll_pending = false;
         b->polls++;
+        if (b->uplink == SIM_UPLINK_USB) {
+            usb_main_loop(b, now);
+        }
         urb_bridge_poll(&b->br);
         b->mcu.thread_from = now;
         b->mcu.thread_until = now + urbsim_clock_cycles_ns(&b->mcu.clk, now, b->cfg.poll_cycles);
@@ -515,12 +615,7 @@ static void bridge_event(void *ctx, uint64_t arg, urbsim_ns_t now)
         urb_i2c_master_event(&b->master, master_event((int)(extra & 0xFFu)), (uint8_t)(extra >> 8));
         want_poll(b, b->mcu.isr_free_at);
         break;
-    default: /* EV_USB_OUT */
-        if (b->usb_out_pending) {
-            b->usb_out_pending = false;
-            (void)urb_bridge_usb_out(&b->br, b->usb_out, b->usb_out_len);
-            obs_usb(b, b->usb_out, b->usb_out_len, true, now);
-        }
+    default: /* EV_USB_ISR: the flags are the controller's; the main loop acts on them */
         want_poll(b, b->mcu.isr_free_at);
         break;
     }
@@ -599,6 +694,8 @@ sim_bridge_t *sim_bridge_new(const char *name, int id, int uplink, urbsim_kernel
         b->usb.on_sof = usb_sof;
         b->usb.on_out = usb_out;
         b->usb.on_in = usb_in;
+        b->usb.on_in_done = usb_in_done;
+        b->usb.out_busy = usb_out_busy;
         b->usb.host_read = usb_host_read;
         b->usb.hctx = b;
         b->usb.auto_read = true;
@@ -654,6 +751,8 @@ double sim_bridge_stat(const sim_bridge_t *b, const char *name)
     if (!strcmp(name, "bridge.isr_ns")) return (double)b->mcu.isr_ns;
     if (!strcmp(name, "bridge.usb_naks")) return (double)b->usb.naks;
     if (!strcmp(name, "bridge.usb_deferred")) return (double)b->usb.deferred;
+    if (!strcmp(name, "bridge.usb_out_naks")) return (double)b->usb.out_naks;
+    if (!strcmp(name, "bridge.usb_in_armed")) return (double)b->usb_in_armed;
     if (!strcmp(name, "bridge.usb_responses_sent")) return (double)b->usb_resp_sent;
     if (!strcmp(name, "bridge.usb_responses_late")) return (double)b->usb_resp_late;
     if (!strcmp(name, "bridge.usb_batches_late")) return (double)b->usb_batches_late;
@@ -684,6 +783,10 @@ void sim_bridge_power_on(sim_bridge_t *b)
     b->tx_active = false;
     b->poll_pending = false;
     b->usb_swap_sof = b->usb_sofs; /* the restarted firmware's first batch opens now */
+    b->usb_sof_flag = false;       /* the USB controller restarts empty */
+    b->usb_out_pending = false;
+    b->usb_in_state = SIM_USB_IN_FREE;
+    b->usb_irq_at = 0;
     urbsim_mcu_reset(&b->mcu, now);
     urbsim_i2c_release(&b->bus);
     if (b->uplink == SIM_UPLINK_RS232) {

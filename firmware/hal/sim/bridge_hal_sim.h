@@ -11,8 +11,16 @@
  *   - RS232: every received byte raises the UART interrupt (urb_bridge_uart_rx with its time);
  *     uart_tx_kick starts transmission, each "transmit register empty" interrupt pops the next
  *     byte (urb_bridge_uart_tx_pop), so response bytes leave back to back;
- *   - USB: SOF calls urb_bridge_usb_sof at the SOF instant, an OUT transfer calls
- *     urb_bridge_usb_out from the main loop, an IN token reads urb_bridge_usb_in;
+ *   - USB, as the Cortex-M0+ port runs it (firmware/hal/cortex-m0plus/bridge_port.c: in the main
+ *     loop): the USB controller's interrupt (bridge.usb_isr_cycles) at a SOF (the end of its
+ *     packet), at the end of an OUT transfer and when the host acknowledged the IN data only notes
+ *     the controller's flags and wakes the main loop. Each main-loop iteration then, in the port's
+ *     order and before urb_bridge_poll: calls urb_bridge_usb_sof once if a SOF came since the last
+ *     one, urb_bridge_usb_out with an OUT transfer received, and, when the IN buffer is free,
+ *     urb_bridge_usb_in and arms what it returns. An IN token takes the armed buffer, or is NAKed
+ *     when none is (the firmware cannot run between the token and the answer); an OUT token while
+ *     the previous transfer has not been taken is NAKed. With bridge.heartbeat_sof the SOF
+ *     interrupt also counts the heartbeat (a timer-like use of it, in its own handler);
  *   - I2C master: each operation goes to the bus model (i2c.h) when the firmware issues it; its
  *     completion raises the I2C interrupt, whose handler is urb_i2c_master_event;
  *   - main loop: urb_bridge_poll runs after every interrupt (after the wake-up and loop cost),
@@ -37,6 +45,10 @@ typedef struct {
 
 #define SIM_PENDING_MAX 64u
 
+/** The IN endpoint's buffer: free (the main loop may arm it), armed (the next IN token takes it),
+ *  busy (being sent; free when the host acknowledges it). */
+enum { SIM_USB_IN_FREE, SIM_USB_IN_ARMED, SIM_USB_IN_BUSY };
+
 struct sim_bridge {
     char name[32];
     int id;
@@ -59,9 +71,17 @@ struct sim_bridge {
     urbsim_usb_dev_t usb;                   /* USB */
     urbsim_usb_bus_t *usb_bus;
     int usb_index;
+    /* USB device controller: what its flags and endpoint buffers hold for the main loop */
     uint8_t usb_out[URBSIM_USB_MAX_XFER];
     uint32_t usb_out_len;
-    bool usb_out_pending;
+    bool usb_out_pending;        /**< an OUT transfer the main loop has not taken (OUT tokens NAKed) */
+    bool usb_sof_flag;           /**< a SOF since the main loop last looked */
+    int usb_in_state;            /**< SIM_USB_IN_*: the IN endpoint's buffer */
+    uint8_t usb_in_buf[URB_BRIDGE_USB_BUF];
+    uint32_t usb_in_len;
+    uint64_t usb_in_closed_sof;  /**< usb_swap_sof of the armed batch */
+    uint64_t usb_in_armed;       /**< batches armed */
+    urbsim_ns_t usb_irq_at;      /**< start of the last USB interrupt handler reserved */
     /* USB delivery statistics: how many frames after the SOF that closed it a response batch went
      * out (0: in the frame that SOF began; the batch filled during frame n is due in frame n + 1) */
     uint64_t usb_sofs;           /**< SOFs the device saw since power-on */

@@ -29,10 +29,12 @@ SLOPE_NS = CHAR_NS + I2C_BYTE_NS
 #: The USB round trip's bound (Fig. 9): a request waits at most three 1-ms frames (for the write
 #: thread's tick, for the frame its OUT transfer goes in, for the bridge's response buffer to swap),
 #: then the last frame's path to the callback: its SOF, OUT and IN transactions on the wire (about
-#: 60 us with a 31-byte response), the completion interrupt (usb.hc_irq_us, 20 us) and the read
-#: thread's wake-up (cpu.io_wake_us, 20 us). Where in that range a rig lands is set by the phase of
-#: the USB frames against the OS tick (usb.phase_us, drawn per seed): about 2.1 ms just after the
-#: tick, up to 3.11 ms just before it (tests/sim/test_experiments.py sweeps it).
+#: 60 us with a 31-byte response; where the IN is the frame's first transaction, also its token
+#: NAKed while the bridge's main loop arms the batch, about 6 us, retried after the OUT), the
+#: completion interrupt (usb.hc_irq_us, 20 us) and the read thread's wake-up (cpu.io_wake_us,
+#: 20 us). Where in that range a rig lands is set by the phase of the USB frames against the OS
+#: tick (usb.phase_us, drawn per seed): about 2.15 ms just after the tick, up to 3.11 ms just
+#: before it (tests/sim/test_experiments.py sweeps it).
 USB_BOUND_MS = 3.0 + 0.15
 
 
