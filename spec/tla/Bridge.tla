@@ -37,6 +37,19 @@
 (* it).  The host's window counts ITS requests in flight, placeholders    *)
 (* included, as the code does.  Small SeqMod (4) with more than SeqMod    *)
 (* requests makes TLC explore the wrap.                                    *)
+(*                                                                         *)
+(* Two disruptions, each a specification of its own (SpecReconnect,       *)
+(* SpecReset; Spec has neither):                                           *)
+(*   - the host loses or closes its uplink and opens it again             *)
+(*     (HostLinkLost, HostReopen: close(), an I/O error or a silent        *)
+(*     bridge, then reconnect()).  The bridge is not reset by it: it keeps *)
+(*     its queue and goes on answering; what it sends while the uplink is *)
+(*     closed is lost.  The host's matcher state persists: its live        *)
+(*     requests become placeholders, which reconnect keeps, and its        *)
+(*     numbering goes on.                                                  *)
+(*   - the bridge resets (power loss, watchdog): it forgets every request *)
+(*     it holds (BridgeReset).  The host is not told; it times the         *)
+(*     forgotten requests out and their placeholders expire.               *)
 (***************************************************************************)
 EXTENDS Naturals, Sequences, FiniteSets
 
@@ -87,11 +100,15 @@ VARIABLES
     lastMatch, \* ghost: the host's latest match, [req: the request it completed
               \*   (or, for a placeholder, discarded the response of), resp: the
               \*   request the response answers] (0, 0 before any)
-    timedOut  \* host: the placeholders, requests in flight that completed
-              \*   UPLINK_TIMEOUT and keep their sequence numbers (Transfer.done)
+    timedOut, \* host: the placeholders, requests in flight that completed
+              \*   UPLINK_TIMEOUT (or BRIDGE_LOST) and keep their sequence
+              \*   numbers (Transfer.done)
+    linkUp,   \* host: its uplink is open and not lost (lost_reason is None)
+    forgotten \* ghost: requests a bridge reset forgot (never answered)
 
 hostVars == <<hostFrom, lastMatch, timedOut>>
-vars == <<sent, queue, out, applied, cause, full, hostFrom, lastMatch, timedOut>>
+vars == <<sent, queue, out, applied, cause, full, hostFrom, lastMatch, timedOut,
+          linkUp, forgotten>>
 
 Entry == [id: 1..MaxReq, status: Statuses \cup {"PENDING"}, data: Seq(Nat)]
 Response == [id: 1..MaxReq, seq: 0..SeqMod - 1, status: Statuses, data: Seq(Nat)]
@@ -107,6 +124,7 @@ TypeOK ==
     /\ hostFrom \in 1..MaxReq + 1
     /\ lastMatch \in [req: 0..MaxReq, resp: 0..MaxReq]
     /\ timedOut \subseteq hostFrom..Len(sent)
+    /\ linkUp \in BOOLEAN /\ forgotten \subseteq 1..Len(sent)
 
 NoMatch == [req |-> 0, resp |-> 0]
 
@@ -118,6 +136,7 @@ Init ==
     /\ applied = {} /\ full = {}
     /\ cause = [i \in 1..MaxReq |-> "NONE"]
     /\ hostFrom = 1 /\ lastMatch = NoMatch /\ timedOut = {}
+    /\ linkUp = TRUE /\ forgotten = {}
 
 Req(id) == sent[id][1]
 
@@ -137,7 +156,11 @@ InFlight == [k \in 1..Len(sent) - hostFrom + 1 |-> hostFrom + k - 1]
 (* placeholder, it is that request's late response, discarded (the      *)
 (* request completed at its timeout).  A response whose sequence number  *)
 (* no request in flight carries is discarded.  With UplinkLoss the        *)
-(* response may instead be lost on the way.                               *)
+(* response may instead be lost on the way.  While the host's uplink is   *)
+(* closed (~linkUp) every response is lost: the port or device is closed, *)
+(* bytes received while the core is lost count as stray                   *)
+(* (Rs232Core.receive), and reopening drops what is buffered               *)
+(* (open_serial: reset_input_buffer; ResponseMatcher.fail_all: rx).        *)
 (***************************************************************************)
 HostMatch(resp) ==
     LET F == InFlight
@@ -148,7 +171,8 @@ HostMatch(resp) ==
             /\ lastMatch' = [req |-> F[k], resp |-> resp.id]
             /\ timedOut' = {i \in timedOut : i > F[k]}
 
-HostReceives(resp) == IF UplinkLoss THEN HostMatch(resp) \/ UNCHANGED hostVars
+HostReceives(resp) == IF ~linkUp THEN UNCHANGED hostVars
+                      ELSE IF UplinkLoss THEN HostMatch(resp) \/ UNCHANGED hostVars
                       ELSE HostMatch(resp)
 
 (***************************************************************************)
@@ -159,6 +183,8 @@ HostReceives(resp) == IF UplinkLoss THEN HostMatch(resp) \/ UNCHANGED hostVars
 (* slot and waits for the downlink.                                        *)
 (***************************************************************************)
 SubmitAndAdmit ==
+    /\ linkUp                        \* a lost core sends nothing: a request
+                                     \* submitted then completes BRIDGE_LOST
     /\ Len(sent) < MaxReq
     /\ Len(InFlight) < HostWindow    \* Rs232Core.frames_to_send: len(inflight) < window,
                                      \* placeholders included
@@ -174,7 +200,7 @@ SubmitAndAdmit ==
             \* taken), not the answer, so BusyOnlyWhenFull checks the answer
             /\ full' = IF AdmissionStatus(r) = "OK" /\ DataSlotsUsed >= QueueLen
                          THEN full \cup {id} ELSE full
-    /\ UNCHANGED <<out, applied>> /\ UNCHANGED hostVars
+    /\ UNCHANGED <<out, applied, linkUp, forgotten>> /\ UNCHANGED hostVars
 
 (* Position of the oldest request still waiting for the downlink.          *)
 FirstPending == CHOOSE k \in DOMAIN queue :
@@ -208,7 +234,7 @@ Serve ==
             /\ applied' = IF st = "OK" /\ r.op = "write"
                             THEN applied \cup {id} ELSE applied
             /\ cause' = [cause EXCEPT ![id] = st]
-    /\ UNCHANGED <<sent, out, full>> /\ UNCHANGED hostVars
+    /\ UNCHANGED <<sent, out, full, linkUp, forgotten>> /\ UNCHANGED hostVars
 
 (***************************************************************************)
 (* Bridge: the oldest response, once final, leaves on the uplink carrying *)
@@ -223,7 +249,7 @@ Emit ==
        IN /\ out' = Append(out, resp)
           /\ HostReceives(resp)
     /\ queue' = Tail(queue)
-    /\ UNCHANGED <<sent, applied, cause, full>>
+    /\ UNCHANGED <<sent, applied, cause, full, linkUp, forgotten>>
 
 (***************************************************************************)
 (* Host: the oldest live request in flight got no response in time: it    *)
@@ -232,17 +258,19 @@ Emit ==
 (* slot taken (Rs232Core.poll, UsbCore.poll: ResponseMatcher.time_out).   *)
 (* No premise: the bridge may still hold the request (a bridge slower     *)
 (* than the host's 100 ms RS232 / 50 ms USB timeout).  Requests time out *)
-(* in sending order (one timeout for all).  Explored with UplinkLoss.     *)
-(* The mutant Bridge_TimeoutFreesSeq frees the number at once (the code   *)
-(* before the fix).                                                        *)
+(* in sending order (one timeout for all).  Explored where a response can *)
+(* fail to come: with UplinkLoss for any request, else for a request a    *)
+(* bridge reset forgot.  The mutant Bridge_TimeoutFreesSeq frees the      *)
+(* number at once (the code before the fix).                               *)
 (***************************************************************************)
 HostTimeout ==
-    /\ UplinkLoss
     /\ \E id \in hostFrom..Len(sent) :
+         /\ UplinkLoss \/ id \in forgotten
          /\ id \notin timedOut
          /\ \A j \in hostFrom..id - 1 : j \in timedOut
          /\ timedOut' = timedOut \cup {id}
-    /\ UNCHANGED <<sent, queue, out, applied, cause, full, hostFrom, lastMatch>>
+    /\ UNCHANGED <<sent, queue, out, applied, cause, full, hostFrom, lastMatch,
+                   linkUp, forgotten>>
 
 (***************************************************************************)
 (* Host: the oldest placeholder's lifetime is over (ResponseMatcher.expire:*)
@@ -251,14 +279,63 @@ HostTimeout ==
 (* time, so it expires only once the bridge no longer holds the request   *)
 (* (rs232_core.PLACEHOLDER_NS derives it from the firmware).  Placeholders *)
 (* expire in sending order (one lifetime for all), the oldest first.  The *)
-(* mutant Bridge_PlaceholderExpiresEarly drops the premise.                *)
+(* mutant Bridge_PlaceholderExpiresEarly drops the premise.  While the     *)
+(* uplink is closed the code expires nothing until reset() expires every  *)
+(* placeholder whose lifetime is over; the host does nothing else in       *)
+(* between, so letting them expire one by one while ~linkUp is the same.  *)
 (***************************************************************************)
 HostExpire ==
     /\ hostFrom <= Len(sent) /\ hostFrom \in timedOut
     /\ hostFrom \notin Ids(queue)
     /\ hostFrom' = hostFrom + 1
     /\ timedOut' = timedOut \ {hostFrom}
-    /\ UNCHANGED <<sent, queue, out, applied, cause, full, lastMatch>>
+    /\ UNCHANGED <<sent, queue, out, applied, cause, full, lastMatch, linkUp, forgotten>>
+
+(***************************************************************************)
+(* Host: the uplink is gone: close(), an I/O error, a silent bridge       *)
+(* (Rs232Core/UsbCore.poll: lost_after) or the start of reconnect()       *)
+(* (reset() calls link_lost first).  ResponseMatcher.fail_all: every live *)
+(* request in flight completes BRIDGE_LOST and stays in flight as a       *)
+(* placeholder, like a timed-out one (the bridge may still answer it);     *)
+(* requests queued on the host complete BRIDGE_LOST unsent (not          *)
+(* modelled: they were never sent), and so does every request submitted  *)
+(* until the uplink is open again (SubmitAndAdmit needs linkUp).          *)
+(***************************************************************************)
+HostLinkLost ==
+    /\ linkUp
+    /\ linkUp' = FALSE
+    /\ timedOut' = hostFrom..Len(sent)
+    /\ UNCHANGED <<sent, queue, out, applied, cause, full, hostFrom, lastMatch, forgotten>>
+
+(***************************************************************************)
+(* Host: reconnect() reopened the uplink (Rs232Core.reset, UsbCore.reset,  *)
+(* via ThreadedManager._restart or _reopen_core; SimManager.reconnect).    *)
+(* Reopening the port or device does not reset the bridge, which may      *)
+(* still hold and later answer requests sent before: the placeholders     *)
+(* stay (released as usual: a response, or their lifetime) and the        *)
+(* numbering goes on (_next_seq is kept).  The mutant                      *)
+(* Bridge_ReconnectClearsPlaceholders forgets them.                        *)
+(***************************************************************************)
+HostReopen ==
+    /\ ~linkUp
+    /\ linkUp' = TRUE
+    /\ UNCHANGED <<sent, queue, out, applied, cause, full, hostFrom, lastMatch, timedOut,
+                   forgotten>>
+
+(***************************************************************************)
+(* Bridge: reset or power loss.  It forgets every request it holds,        *)
+(* pending or served but not yet answered (a response being sent is cut   *)
+(* off: lost); nodes keep what they stored (applied).  Nothing tells the  *)
+(* host: it times the forgotten requests out (HostTimeout), and their     *)
+(* placeholders expire, the bridge no longer holding them (HostExpire).   *)
+(* If the reset also drops the uplink (a USB device that disappears), the *)
+(* host loses it and reconnects: HostLinkLost, HostReopen.                *)
+(***************************************************************************)
+BridgeReset ==
+    /\ queue # <<>>
+    /\ forgotten' = forgotten \cup Ids(queue)
+    /\ queue' = <<>>
+    /\ UNCHANGED <<sent, out, applied, cause, full, hostFrom, lastMatch, timedOut, linkUp>>
 
 (* All requests submitted and answered: the run is over. *)
 Done ==
@@ -267,7 +344,21 @@ Done ==
 
 Next == SubmitAndAdmit \/ Serve \/ Emit \/ HostTimeout \/ HostExpire \/ Done
 
-Spec == Init /\ [][Next]_vars /\ WF_vars(Serve) /\ WF_vars(Emit)
+(* The bridge runs and the host times out and expires placeholders when   *)
+(* it must: weak fairness (the host's timeouts and lifetimes are clocks).  *)
+Fairness == /\ WF_vars(Serve) /\ WF_vars(Emit)
+            /\ WF_vars(HostTimeout) /\ WF_vars(HostExpire)
+
+Spec == Init /\ [][Next]_vars /\ Fairness
+
+(* The host's uplink closes and reopens, any number of times (no fairness: *)
+(* it may also stay closed).                                               *)
+ReconnectNext == Next \/ HostLinkLost \/ HostReopen
+SpecReconnect == Init /\ [][ReconnectNext]_vars /\ Fairness
+
+(* The bridge resets, and the host may lose and reopen its uplink too.     *)
+ResetNext == ReconnectNext \/ BridgeReset
+SpecReset == Init /\ [][ResetNext]_vars /\ Fairness
 
 -----------------------------------------------------------------------------
 Answered(id) == \E k \in DOMAIN out : out[k].id = id
@@ -285,8 +376,9 @@ IdsInOrder(s) == \A k \in 1..Len(s) - 1 : s[k].id <= s[k + 1].id
 (* two helpers above equal the pairwise statements (MCBridge.tla checks   *)
 (* it on every short sequence).                                            *)
 
-(* Nothing is dropped: every submitted request is in the bridge or answered. *)
-NoSilentDrop == 1..Len(sent) \subseteq Ids(out) \cup Ids(queue)
+(* Nothing is dropped: every submitted request is in the bridge or         *)
+(* answered, or was forgotten in a bridge reset.                           *)
+NoSilentDrop == 1..Len(sent) \subseteq Ids(out) \cup Ids(queue) \cup forgotten
 
 (* No request is answered twice. *)
 AtMostOneResponse == DistinctIds(out)
@@ -294,13 +386,16 @@ AtMostOneResponse == DistinctIds(out)
 (* Responses leave in request order. *)
 ResponsesInRequestOrder == IdsInOrder(out)
 
-(* The k-th response answers the k-th request: it echoes its sequence      *)
+(* The k-th response answers the k-th request (of those no bridge reset   *)
+(* forgot: with no reset, simply the k-th) and echoes its sequence        *)
 (* number; a successful read carries the addressed outbox's data, any      *)
 (* other response carries no data.                                         *)
 ResponseMatchesRequest ==
     \A k \in DOMAIN out :
-        LET r == Req(out[k].id) IN
-        /\ out[k].seq = k % SeqMod
+        LET id == out[k].id
+            r == Req(id) IN
+        /\ id - Cardinality({i \in forgotten : i < id}) = k
+        /\ out[k].seq = SeqOf(id)
         /\ out[k].data = IF out[k].status = "OK" /\ r.op = "read"
                            THEN Outbox(r.addr, r.box) ELSE NoData
 
@@ -334,12 +429,25 @@ BoundedMemory == Len(queue) <= HostWindow /\ DataSlotsUsed <= QueueLen
 (* Checked in the state after every match.                                 *)
 NoSeqAliasing == lastMatch.req = lastMatch.resp
 
-(* Liveness: every submitted request is eventually answered. *)
-EveryRequestAnswered == \A id \in 1..MaxReq : (id <= Len(sent)) ~> Answered(id)
+(* Liveness: every submitted request is eventually answered, unless a     *)
+(* bridge reset forgot it.                                                  *)
+EveryRequestAnswered ==
+    \A id \in 1..MaxReq : (id <= Len(sent)) ~> (Answered(id) \/ id \in forgotten)
+
+(* Liveness: the host never waits forever.  Every request it sent leaves  *)
+(* its in-flight list (answered, passed by a later response, or its       *)
+(* placeholder expired) and gives its window slot back, whatever was lost *)
+(* on the uplink or forgotten by a bridge reset.                           *)
+EveryRequestReleased == \A id \in 1..MaxReq : (id <= Len(sent)) ~> (hostFrom > id)
 
 THEOREM Spec => [](TypeOK /\ NoSilentDrop /\ AtMostOneResponse
                           /\ ResponsesInRequestOrder /\ ResponseMatchesRequest
                           /\ ErrorNamesCause /\ WriteStatusTruthful
                           /\ BusyOnlyWhenFull /\ BoundedMemory /\ NoSeqAliasing)
-THEOREM Spec => EveryRequestAnswered
+THEOREM Spec => EveryRequestAnswered /\ EveryRequestReleased
+THEOREM SpecReset => [](TypeOK /\ NoSilentDrop /\ AtMostOneResponse
+                          /\ ResponsesInRequestOrder /\ ResponseMatchesRequest
+                          /\ ErrorNamesCause /\ WriteStatusTruthful
+                          /\ BusyOnlyWhenFull /\ BoundedMemory /\ NoSeqAliasing)
+THEOREM SpecReset => EveryRequestAnswered /\ EveryRequestReleased
 =============================================================================

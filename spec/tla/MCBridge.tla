@@ -28,6 +28,15 @@ MCFaults == {"TIMEOUT", "CHECKSUM", "BUS_STUCK", "NODE_BUSY", "NO_NODE"}
 MCRequestsWrap == { [addr |-> 1, box |-> 1, op |-> "read",  len |-> 2] }
 MCFaultsWrap == {}
 
+(* For the bridge reset (MCBridgeReset.cfg: the wrap's constants, 6        *)
+(* requests, a lossless uplink): Bridge's SpecReset with at most one       *)
+(* bridge reset per behaviour (and any number of reconnects).  A reset     *)
+(* leaves the bridge as Init does; unbounded resets multiply the histories *)
+(* of answered and forgotten requests for no new kind of host state        *)
+(* (52,128 states: the opt-in MCBridgeResetLarge.cfg).                     *)
+MCResetNext == ReconnectNext \/ (forgotten = {} /\ BridgeReset)
+MCSpecReset == Init /\ [][MCResetNext]_vars /\ Fairness
+
 (* Bridge.tla states AtMostOneResponse and ResponsesInRequestOrder with    *)
 (* one quantifier (DistinctIds, IdsInOrder) for speed.  Each must equal    *)
 (* its pairwise statement: checked on every sequence of up to 4 entries    *)

@@ -11,7 +11,7 @@ EXTENDS MCBridge
 MutTimeout ==
     /\ hostFrom <= Len(sent)
     /\ hostFrom' = hostFrom + 1
-    /\ UNCHANGED <<sent, queue, out, applied, cause, full, lastMatch, timedOut>>
+    /\ UNCHANGED <<sent, queue, out, applied, cause, full, lastMatch, timedOut, linkUp, forgotten>>
 
 MutNext == SubmitAndAdmit \/ Serve \/ Emit \/ MutTimeout \/ Done
 MutSpec == Init /\ [][MutNext]_vars
