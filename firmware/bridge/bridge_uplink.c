@@ -27,10 +27,9 @@
 /* ACSL for Frama-C WP (proofs/framac/usb_batch/): each USB batch holds its header and at most
  * URB_BRIDGE_USB_BUF bytes and at most 128 responses, and usb_cur names one of the two batches.
  * usb_len, usb_count and usb_cur are written only by urbb_uplink_init (which establishes the
- * invariant), urb_bridge_usb_sof and urbb_uplink_send (which must keep it); urb_bridge_usb_in reads
- * a batch under it. Proved so far: init, sof and in. urbb_uplink_send is not in the unit yet (its
- * RS232 path's TX-ring store did not prove with z3/cvc4), so eva_bridge_poll still assumes the
- * length bound at its loop head. */
+ * invariant), urb_bridge_usb_sof and urbb_uplink_send (which keep it); urb_bridge_usb_in reads a
+ * batch under it. WP proves all four (urbb_uplink_send: its USB behavior, and on the UART path up
+ * to the HAL's transmit kick, a call WP knows no contract of). */
 /*@ predicate urbb_usb_ok(urb_bridge_t *b) =
       b->usb_cur <= 1 &&
       (\forall integer c; 0 <= c <= 1 ==>
@@ -388,6 +387,29 @@ size_t urb_bridge_usb_in(urb_bridge_t *b, uint8_t *buf, size_t cap)
 
 /* ===== Responses out ========================================================================== */
 
+/* The only writer of a batch's length and count besides init and sof. The UART path ends in the
+ * HAL's transmit kick, a call through a pointer (urb_bridge_init rejects NULL) of which WP knows no
+ * contract, so it may change anything: the contract speaks of the USB path, which makes no call,
+ * and on the UART path WP proves the stores into the transmit ring in bounds and the batches still
+ * within urbb_usb_ok just before the kick. */
+/*@ requires \valid(b) && urbb_usb_ok(b) && \valid_read(b->hal);
+    requires \valid_read(frame + (0 .. len - 1)) && \separated(frame + (0 .. len - 1), b);
+    behavior usb:
+      assumes uplink == URBB_UPLINK_USB;
+      assigns b->usb_buf[b->usb_cur][0 .. URB_BRIDGE_USB_BUF - 1], b->usb_len[b->usb_cur], b->usb_count[b->usb_cur];
+      ensures usb_ok: urbb_usb_ok(b);
+      ensures same_batch: b->usb_cur == \old(b->usb_cur);
+      ensures queued: \result <==> (\old(b->usb_len[b->usb_cur]) + len <= URB_BRIDGE_USB_BUF &&
+                                    \old(b->usb_count[b->usb_cur]) < 128);
+      ensures appended: \result ==> b->usb_len[b->usb_cur] == \old(b->usb_len[b->usb_cur]) + len &&
+        b->usb_count[b->usb_cur] == \old(b->usb_count[b->usb_cur]) + 1 &&
+        (\forall integer k; 0 <= k < len ==> b->usb_buf[b->usb_cur][\old(b->usb_len[b->usb_cur]) + k] == frame[k]);
+      ensures refused: !\result ==> b->usb_len[b->usb_cur] == \old(b->usb_len[b->usb_cur]) &&
+        b->usb_count[b->usb_cur] == \old(b->usb_count[b->usb_cur]);
+    behavior uart:
+      assumes uplink != URBB_UPLINK_USB;
+    complete behaviors;
+    disjoint behaviors; */
 bool urbb_uplink_send(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t len)
 {
     if (uplink == URBB_UPLINK_USB) {
@@ -396,6 +418,10 @@ bool urbb_uplink_send(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uin
             return false; /* batch full: the response waits for the next frame (UsbUplink NothingLost) */
         }
         /* loop bound: URB_UPLINK_RESPONSE_MAX_SIZE bytes */
+        /*@ loop invariant 0 <= i <= len;
+            loop invariant copied: \forall integer k; 0 <= k < i ==> b->usb_buf[c][b->usb_len[c] + k] == frame[k];
+            loop assigns i, b->usb_buf[c][b->usb_len[c] .. b->usb_len[c] + len - 1];
+            loop variant len - i; */
         for (uint8_t i = 0u; i < len; i++) {
             b->usb_buf[c][b->usb_len[c] + i] = frame[i];
         }
@@ -404,15 +430,23 @@ bool urbb_uplink_send(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uin
         return true;
     }
     uint8_t const head = b->tx_head;
-    if ((uint8_t)(URB_BRIDGE_TX_RING - (uint8_t)(head - b->tx_tail)) < len) {
+    uint8_t const tail = b->tx_tail; /* read once (the interrupt moves it); WP bounds a volatile
+                                        read only through a local (proofs/framac/README.md) */
+    if ((uint8_t)(URB_BRIDGE_TX_RING - (uint8_t)(head - tail)) < len) {
         return false; /* the UART is behind: keep the order, try at the next poll */
     }
-    /* loop bound: URB_UPLINK_RESPONSE_MAX_SIZE bytes */
+    /* loop bound: URB_UPLINK_RESPONSE_MAX_SIZE bytes. `% URB_BRIDGE_TX_RING` (a power of two, of an
+     * unsigned value) compiles to the mask `& (URB_BRIDGE_TX_RING - 1u)`, the same machine code;
+     * z3 and cvc4 bound a remainder but not a bitwise and (proofs/framac/README.md). */
+    /*@ loop invariant 0 <= i <= len;
+        loop assigns i, b->tx_ring[0 .. URB_BRIDGE_TX_RING - 1];
+        loop variant len - i; */
     for (uint8_t i = 0u; i < len; i++) {
-        b->tx_ring[(uint8_t)(head + i) & (URB_BRIDGE_TX_RING - 1u)] = frame[i];
+        b->tx_ring[(uint8_t)(head + i) % URB_BRIDGE_TX_RING] = frame[i];
     }
     URB_BARRIER(); /* the bytes are stored before the interrupt can see the new head */
     b->tx_head = (uint8_t)(head + len);
+    /*@ assert uart_usb_ok: urbb_usb_ok(b); */
     b->hal->uart_tx_kick(b->hal->ctx);
     return true;
 }

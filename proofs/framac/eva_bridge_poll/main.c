@@ -19,7 +19,9 @@ int eva_main(void)
          * batch holds at most URB_BRIDGE_USB_BUF bytes: urbb_uplink_init and urb_bridge_usb_sof set
          * its length to the header's, and urbb_uplink_send appends a frame of len bytes only after
          * checking usb_len + len <= URB_BRIDGE_USB_BUF, a relation the intervals lose (they keep
-         * usb_len <= 512 + 35). These are the only hypotheses (see eva_alarms.md). */
+         * usb_len <= 512 + 35). WP proves that bound an invariant of every writer
+         * (proofs/framac/usb_batch, urbb_usb_ok), which Eva cannot use. These are the only
+         * hypotheses (see eva_alarms.md). */
         /*@ admit eva_bridge.ring_head < URB_BRIDGE_RING_MAX && eva_bridge.ring_count <= URB_BRIDGE_RING_MAX &&
                   eva_bridge.slot_head < eva_bridge.cfg.fifo_depth &&
                   eva_bridge.slot_served <= eva_bridge.slot_count <= eva_bridge.cfg.fifo_depth &&
