@@ -435,9 +435,9 @@ bool urbb_uplink_send(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uin
     if ((uint8_t)(URB_BRIDGE_TX_RING - (uint8_t)(head - tail)) < len) {
         return false; /* the UART is behind: keep the order, try at the next poll */
     }
-    /* loop bound: URB_UPLINK_RESPONSE_MAX_SIZE bytes. `% URB_BRIDGE_TX_RING` (a power of two, of an
-     * unsigned value) compiles to the mask `& (URB_BRIDGE_TX_RING - 1u)`, the same machine code;
-     * z3 and cvc4 bound a remainder but not a bitwise and (proofs/framac/README.md). */
+    /* `% URB_BRIDGE_TX_RING` (a power of two, of an unsigned value) compiles to the mask `& (URB_BRIDGE_TX_RING
+     * - 1u)`: the same machine code; z3 and cvc4 bound a remainder, not a bitwise and (proofs/framac/README.md) */
+    /* loop bound: URB_UPLINK_RESPONSE_MAX_SIZE bytes */
     /*@ loop invariant 0 <= i <= len;
         loop assigns i, b->tx_ring[0 .. URB_BRIDGE_TX_RING - 1];
         loop variant len - i; */
