@@ -21,6 +21,7 @@ TLA_DIR = REPO / "spec" / "tla"
 C_DIRS = [REPO / "firmware"]
 CITATION = re.compile(r"\b([A-Z]\w*)\.tla: ([A-Z]\w*)")
 DEFINITION = re.compile(r"^([A-Z]\w*)\s*(\([^)]*\))?\s*==", re.MULTILINE)
+NEXT_STATE = re.compile(r"\[\]\[\s*([A-Z]\w*)\s*\]_")  # [][Next]_vars
 
 # Modules whose every action must have a C counterpart, and the actions done by application code
 # through the locked buffer pointer (not by the library).
@@ -49,23 +50,33 @@ def definitions(module: str) -> dict[str, str]:
 
 
 def actions(module: str) -> list[str]:
-    """The actions `Next` is made of: operators it names that change state (have primes), found by
-    expanding the ones that only combine others (IsrNext, AppNext, ...)."""
+    """The actions of every next-state relation a specification of the module uses (`[][Next]_vars`,
+    and Bridge.tla's ReconnectNext and ResetNext): operators they name that change state (have
+    primes), found by expanding the ones that only combine others (IsrNext, AppNext, ...)."""
     defs = definitions(module)
     out: list[str] = []
 
-    def expand(name: str) -> None:
-        body = re.sub(r"\(\*.*?\*\)|\\\*[^\n]*", "", defs[name], flags=re.DOTALL)
-        if "'" in body and name != "Next":
+    def expand(name: str, seen: set[str]) -> None:
+        if name in seen:
+            return
+        seen.add(name)
+        body = _uncommented(defs[name])
+        if "'" in body and name not in roots:
             if name not in out:
                 out.append(name)
             return
         for ident in re.findall(r"\b[A-Z]\w*\b", body):
-            if ident in defs and ident != name:
-                expand(ident)
+            if ident in defs:
+                expand(ident, seen)
 
-    expand("Next")
+    roots = [m.group(1) for body in defs.values() for m in NEXT_STATE.finditer(_uncommented(body))]
+    for root in dict.fromkeys(roots):
+        expand(root, set())
     return out
+
+
+def _uncommented(tla: str) -> str:
+    return re.sub(r"\(\*.*?\*\)|\\\*[^\n]*", "", tla, flags=re.DOTALL)
 
 
 def _shown(path: Path) -> str:

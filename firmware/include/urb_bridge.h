@@ -188,8 +188,8 @@ typedef struct {
 /** Fills *cfg with the defaults: 16 slots, 115200 Bd, 2-byte-time idle gap, 1 ms SYNC, scan at start. */
 void urb_bridge_default_config(urb_bridge_config_t *cfg);
 
-/** Initialises *b (config copied, hal and dl->ctx kept by reference) and starts the heartbeat.
- *  Returns URB_OK, or URB_ERR_ARGUMENT for NULL pointers or a depth outside 1..URB_BRIDGE_FIFO_MAX. */
+/** Initialises *b (config copied, hal and dl->ctx kept by reference; the queue starts empty, as after
+ *  Bridge.tla: BridgeReset) and starts the heartbeat. URB_ERR_ARGUMENT: NULL pointer, depth not 1..MAX. */
 int32_t urb_bridge_init(urb_bridge_t *b, const urb_bridge_config_t *cfg, const urb_bridge_hal_t *hal,
                         const urb_downlink_t *dl);
 

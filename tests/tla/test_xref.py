@@ -37,3 +37,10 @@ def test_readme_table_is_current() -> None:
     begin, end = "<!-- xref:begin -->\n", "<!-- xref:end -->"
     current = readme[readme.index(begin) + len(begin): readme.index(end)]
     assert current == _xref().table(), "run `python3 tools/tla_xref.py --table` and paste it into spec/tla/README.md"
+
+
+def test_actions_of_every_specification_are_listed() -> None:
+    """Bridge.tla's SpecReconnect and SpecReset add actions outside Next: they are actions too."""
+    actions = _xref().actions("Bridge")
+    assert {"HostLinkLost", "HostReopen", "BridgeReset"} <= set(actions)
+    assert "ReconnectNext" not in actions and "Next" not in actions
