@@ -671,10 +671,11 @@ class URBInterface:
         self._merge(box[0])
         return box[0]
 
-    def close(self) -> None:
-        """Close every registered manager."""
+    def close(self, *, drain: bool = True) -> None:
+        """Close every registered manager (`BusManager.close`: each drains its requests in flight
+        first, unless `drain=False`)."""
         for report in list(self.reports.values()):
-            report.manager.close()
+            report.manager.close(drain=drain)
 
     def _merge(self, report: BridgeReport) -> None:
         """Replace the bridge's rows, keep accessors of nodes found again, recompute flags."""

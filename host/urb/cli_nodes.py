@@ -253,9 +253,11 @@ def fail(text: str) -> int:
 @contextmanager
 def connected(ports: list[str], args: argparse.Namespace) -> Iterator[URBInterface]:
     """Open every port and discover; raises URBError (handled by `guarded`), or UsageError
-    for a port given twice."""
+    for a port given twice. On the way out every manager closes, draining its requests in flight
+    (so that the next command cannot get their late responses), except after Ctrl-C."""
     check_ports(ports)
     urb = URBInterface()
+    drain = True
     try:
         for port in ports:
             m = RS232Manager(port, args.baud, timeout_s=args.timeout, lost_after_s=max(1.0, 5 * args.timeout))
@@ -265,8 +267,11 @@ def connected(ports: list[str], args: argparse.Namespace) -> Iterator[URBInterfa
                 m.close()
                 raise
         yield urb
+    except KeyboardInterrupt:
+        drain = False  # Ctrl-C: stop now (host/urb/README.md, "Closing drains")
+        raise
     finally:
-        urb.close()
+        urb.close(drain=drain)
 
 
 def guarded(fn: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:

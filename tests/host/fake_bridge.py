@@ -14,6 +14,7 @@ each answered ``ok ...`` (or ``error ...``) on stdout:
     vanish ADDR N                    the node answers N more transactions, then is unplugged
     fault ADDR STATUS [N]            the next N transactions of ADDR end with STATUS (e.g. TIMEOUT)
     lock ADDR | unlock ADDR          the node's inboxes are held by the application (NODE_BUSY)
+    stretch ADDR MS                  every transaction of ADDR lasts MS ms longer (clock stretching)
     corrupt [INDEX [XOR]]            flip bits of byte INDEX of the response stream, counted from now
     drop [N]                         ignore the next N request frames entirely (lost on the line)
     garbage HEX                      write raw bytes to the uplink
@@ -81,6 +82,8 @@ class FakeBridgeProcess:
                 nodes[int(args[0], 0)].faults.extend([Status[args[1]]] * n)
             elif op in ("lock", "unlock"):
                 nodes[int(args[0], 0)].inbox_locked = op == "lock"
+            elif op == "stretch":
+                nodes[int(args[0], 0)].stretch_ns = int(float(args[1]) * 1_000_000)
             elif op == "corrupt":
                 index = int(args[0]) if args else 0
                 self.corrupt[self.sent + index] = int(args[1], 0) if len(args) > 1 else 0x04

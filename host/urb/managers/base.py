@@ -197,6 +197,8 @@ class Core(Protocol):
     def reset(self, now: int) -> None: ...
     def set_window(self, window: int) -> None: ...
     def busy(self) -> bool: ...
+    def start_drain(self, now: int) -> int | None: ...
+    def drained(self) -> bool: ...
     @property
     def late_responses(self) -> int: ...
 
@@ -305,9 +307,19 @@ class BusManager(ABC):
         """Open the uplink and start the runtime; raises `PortError` with a hint on failure."""
 
     @abstractmethod
-    def close(self) -> None:
-        """Stop the runtime and close the uplink; pending requests complete with BRIDGE_LOST, and
-        so does every request submitted afterwards (until `start` or `reconnect`)."""
+    def close(self, *, drain: bool = True) -> None:
+        """Drain, then stop the runtime and close the uplink.
+
+        Draining: while requests are in flight (sent and unanswered, placeholders of timed-out
+        ones included) the uplink stays open and responses are matched as usual, until none is
+        left or the newest one's lifetime is over (its sending + `placeholder_ns`, 300 ms by
+        default, `rs232_core.PLACEHOLDER_NS`, or + its timeout if longer); live requests complete as usual (their response, or
+        UPLINK_TIMEOUT). Without it, a late response could reach the next process to open the
+        bridge, whose sequence numbers start again at 1, as the answer to its own request. A
+        close with nothing in flight, or of a lost manager, does not wait. Requests queued but
+        not sent, those still outstanding after the drain, and every request submitted from the
+        start of `close` on (until `start` or `reconnect`) complete BRIDGE_LOST.
+        `drain=False` skips the wait (e.g. when the process will not reopen the bridge soon)."""
 
     @abstractmethod
     def submit(self, t: Transfer) -> None:
@@ -371,6 +383,7 @@ class ThreadedManager(BusManager):
         self._dispatch_q: queue.SimpleQueue[Transfer | Callable[[], None] | None] = queue.SimpleQueue()
         self._dispatcher: threading.Thread | None = None
         self._running = False
+        self._draining = False
         self.stats = ManagerStats()
 
     # -- subclass hooks --------------------------------------------------------------------
@@ -443,6 +456,24 @@ class ThreadedManager(BusManager):
         self._start_dispatcher()
         start_io()
 
+    def _drain(self) -> None:
+        """The start of a draining `close()`: wait, the I/O threads still running, until the
+        requests in flight are answered or their lifetime is over (`MatchingCore.start_drain`),
+        then apply the timeouts due by then, so that they complete with their usual error."""
+        with self._changed:
+            deadline = self._core.start_drain(self.now_ns())
+            self._collect()
+            if deadline is None:
+                return
+            self._draining = True  # `_collect` notifies once drained
+            try:
+                while not self._core.drained() and deadline > self.now_ns():
+                    self._changed.wait((deadline - self.now_ns()) / NS_PER_S)
+                self._core.poll(self.now_ns())
+                self._collect()
+            finally:
+                self._draining = False
+
     def _finish_close(self) -> None:
         """The end of `close()`, once the I/O threads are stopped: outstanding requests complete
         BRIDGE_LOST, the dispatcher stops, and the callbacks left run on the calling thread."""
@@ -478,6 +509,8 @@ class ThreadedManager(BusManager):
         core has just found the bridge lost, the lost listeners' notice: before the callbacks
         of the requests that loss failed."""
         self._queue_completed(self._core, self._dispatch_q.put)
+        if self._draining and self._core.drained():
+            self._changed.notify_all()  # what a draining close() waits for
 
     def _dispatch_loop(self) -> None:
         while True:

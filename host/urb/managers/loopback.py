@@ -48,6 +48,10 @@ class FakeNode:
         """When set, the node answers this many more transactions, then stops acknowledging."""
         self.inbox_locked = False
         """While True every write is NACKed: the bridge answers NODE_BUSY."""
+        self.stretch_ns = 0
+        """Clock stretching: every transaction with this node holds the downlink this much longer
+        (on either uplink, timed downlink or not), so the bridge answers it, and the requests
+        queued behind it, late."""
         self.inboxes: dict[int, bytes] = {}
         self.reads = 0
         self.writes = 0
@@ -216,6 +220,12 @@ class BridgeModel:
         return sizes[1][box] if read else sizes[0][box]
 
     def _duration_ns(self, r: _Request) -> int:
+        """How long the transaction holds the downlink: its bit time (timed downlink) plus the
+        node's clock stretching."""
+        node = self.nodes.get(r.address)
+        return self._bits_ns(r) + (node.stretch_ns if node is not None and node.present else 0)
+
+    def _bits_ns(self, r: _Request) -> int:
         if not self.timed_downlink or r.address == core.BRIDGE_ADDRESS:
             return 0
         frame = 1 + 1 + 1 + r.length + (1 if r.length < 14 else 2) if r.read else 1 + 1 + r.length + 1
@@ -248,13 +258,12 @@ class BridgeModel:
         for e in self._queue:
             if e.status is not None:
                 continue
-            if self.timed_downlink:
-                if not e.started:
-                    e.started = True
-                    e.ready_ns = max(self._busy_until, e.arrival_ns) + self._duration_ns(e.req)
-                    self._busy_until = e.ready_ns
-                if e.ready_ns > now:
-                    return  # transaction in progress
+            if not e.started:
+                e.started = True
+                e.ready_ns = max(self._busy_until, e.arrival_ns) + self._duration_ns(e.req)
+                self._busy_until = e.ready_ns
+            if e.ready_ns > now:
+                return  # transaction in progress
             e.status, e.data = self._transact(e.req)
 
     def _transact(self, r: _Request) -> tuple[Status, bytes]:

@@ -85,9 +85,12 @@ class RS232Manager(ThreadedManager):
                 pass
             self._serial = None
 
-    def close(self) -> None:
-        """Stop the threads and close the port; outstanding requests complete BRIDGE_LOST, and so
-        do requests submitted later (their callbacks then run inside `submit`)."""
+    def close(self, *, drain: bool = True) -> None:
+        """Drain (`BusManager.close`; `drain=False` skips it), stop the threads and close the
+        port; outstanding requests complete BRIDGE_LOST, and so do requests submitted later
+        (their callbacks then run inside `submit`)."""
+        if drain:
+            self._drain()
         self._stop_io()
         self._finish_close()
 

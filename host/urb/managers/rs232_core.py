@@ -22,6 +22,9 @@ implements, for one bridge:
   lifetime `placeholder_ns` (counted from when it was sent; `PLACEHOLDER_NS`) expires.
   Freeing the number at the timeout let a late response be matched to a newer request with the
   same 4-bit number (spec/tla/Bridge.tla `NoSeqAliasing`, mutant `Bridge_TimeoutFreesSeq`);
+* a draining close (`start_drain`): nothing new is sent, and the requests in flight are matched
+  until none is left or the newest one's lifetime is over, so that their late responses cannot
+  reach the next process to open the bridge (it numbers its requests from 1 again);
 * an idle-gap rule: a partial candidate that
   receives no byte for `resync_gap_ns` loses its first byte, so a corrupt header cannot stall
   the hunt;
@@ -46,7 +49,7 @@ from urb_msgs import DecodeError
 from urb_msgs.urb_core import Status, UplinkReadRequest, UplinkResponse, UplinkWriteRequest
 
 from ..errors import ErrorFlag
-from .base import NS_PER_MS, Transfer, finish
+from .base import CLOSED_REASON, NS_PER_MS, Transfer, finish
 
 SEQ_MOD = 16
 MAX_WINDOW = SEQ_MOD - 1
@@ -218,6 +221,8 @@ class MatchingCore:
         self.placeholder_ns = placeholder_ns
         self.lost_reason: str | None = None
         self._queued: deque[Transfer] = deque()
+        self._closing = False
+        """`start_drain` was called: nothing more is sent until `reset`."""
         self._m = ResponseMatcher()
         self._next_seq = 1  # the n-th request carries n mod 16, as Bridge.tla's Emit (id % SeqMod)
         self._silent_timeouts = 0
@@ -234,10 +239,11 @@ class MatchingCore:
 
     # -- inputs ------------------------------------------------------------------------------
     def submit(self, t: Transfer, now: int) -> None:
-        """Queue a request (it goes out when the window allows); a lost bridge fails it at once."""
-        if self.lost_reason is not None:
+        """Queue a request (it goes out when the window allows); a lost bridge, or a closing
+        one, fails it at once."""
+        if self.lost_reason is not None or self._closing:
             self._m.completed.append(finish(t, now, ErrorFlag.BRIDGE_LOST))
-            t.lost_reason = self.lost_reason
+            t.lost_reason = self.lost_reason or CLOSED_REASON
             return
         self._m.expire(now, self._lifetime_ns)
         if not self._queued and not self._m.inflight:
@@ -258,10 +264,32 @@ class MatchingCore:
         released as usual (a response, or their lifetime)."""
         self.link_lost(now, "the uplink was reset (reconnect)")
         self.lost_reason = None
+        self._closing = False
         self._last_heard_ns = now
         self._active_since = now
         self._silent_timeouts = 0
         self._m.expire(now, self._lifetime_ns)
+
+    def start_drain(self, now: int) -> int | None:
+        """The start of a draining close: queued requests (never sent) complete BRIDGE_LOST, and
+        so does every later submission, while the requests in flight, placeholders included, go
+        on being matched and timed out as usual. Returns when the drain ends at the latest: the
+        newest request in flight's lifetime (from its sending; by then `poll` has released them
+        all), or None when nothing is in flight or the bridge is lost (nothing to wait for).
+        Draining keeps their late responses from reaching the next user of the bridge (a new
+        process numbers its requests from 1 again)."""
+        self._closing = True
+        for t in self._queued:
+            self._m.completed.append(finish(t, now, ErrorFlag.BRIDGE_LOST))
+            t.lost_reason = CLOSED_REASON
+        self._queued.clear()
+        if self.lost_reason is not None or not self._m.inflight:
+            return None
+        return (self._m.inflight[-1].sent_ns or now) + self._lifetime_ns
+
+    def drained(self) -> bool:
+        """Nothing left to wait for after `start_drain`: nothing in flight, or the bridge lost."""
+        return self.lost_reason is not None or not self._m.inflight
 
     def set_window(self, window: int) -> None:
         """Requests in flight, placeholders included (learnt from BridgeInfo.fifo_depth)."""

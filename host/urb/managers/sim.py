@@ -238,8 +238,25 @@ class SimManager(BusManager):
             assert self._bytes is not None
             self._bytes.set_receiver(self._on_bytes)
 
-    def close(self) -> None:
+    def close(self, *, drain: bool = True) -> None:
+        """`BusManager.close`: the drain runs the clock (virtual time) until nothing is in flight
+        or the newest request's lifetime is over; `drain=False` skips it, and so does a close
+        made inside a callback or with a clock that cannot be driven (as a blocking call would
+        raise there)."""
+        if drain:
+            self._drain()
         self._close_core(self.core, self.clock.now_ns())
+        self._after_step()
+
+    def _drain(self) -> None:
+        """Run the clock until the requests in flight are answered or their lifetime is over
+        (`MatchingCore.start_drain`), then apply the timeouts due by then."""
+        deadline = self.core.start_drain(self.clock.now_ns())
+        self._after_step()
+        if deadline is None or self._dispatching or not isinstance(self.clock, DrivableClock):
+            return
+        self.clock.run_until(self.core.drained, deadline)
+        self.core.poll(self.clock.now_ns())
         self._after_step()
 
     def now_ns(self) -> int:

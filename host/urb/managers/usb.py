@@ -78,9 +78,12 @@ class USBManager(ThreadedManager):
             self._thread.join(timeout=2.0)
         self._thread = None
 
-    def close(self) -> None:
-        """Stop the frame thread and the transport (joining its reader); outstanding requests
-        complete BRIDGE_LOST, and so do requests submitted later (callbacks inside `submit`)."""
+    def close(self, *, drain: bool = True) -> None:
+        """Drain (`BusManager.close`; `drain=False` skips it), stop the frame thread and the
+        transport (joining its reader); outstanding requests complete BRIDGE_LOST, and so do
+        requests submitted later (callbacks inside `submit`)."""
+        if drain:
+            self._drain()
         self._stop_io()
         closer = getattr(self.transport, "close", None)
         if callable(closer):
