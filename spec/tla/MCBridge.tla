@@ -29,7 +29,7 @@ MCRequestsWrap == { [addr |-> 1, box |-> 1, op |-> "read",  len |-> 2] }
 MCFaultsWrap == {}
 
 (* For the bridge reset (MCBridgeReset.cfg: the wrap's constants, 6        *)
-(* requests, a lossless uplink): Bridge's SpecReset with at most one       *)
+(* requests, lost responses): Bridge's SpecReset with at most one          *)
 (* bridge reset per behaviour (and any number of reconnects).  A reset     *)
 (* leaves the bridge as Init does; unbounded resets multiply the histories *)
 (* of answered and forgotten requests for no new kind of host state        *)
