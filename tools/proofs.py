@@ -425,12 +425,13 @@ def run_make(proof: Proof, target: str, tier: str, out_root: Path, item: str = "
     start = time.monotonic()
     # A session of its own, so a hung run is killed with its ESBMC child, not just make.
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    wall_limit_s = proof.wall_limit_s()
     try:
-        text, _ = proc.communicate(timeout=proof.wall_limit_s())
+        text, _ = proc.communicate(timeout=wall_limit_s)
     except subprocess.TimeoutExpired:
         os.killpg(proc.pid, signal.SIGKILL)
         text, _ = proc.communicate()
-        text = (text or "") + f"\nTimed out (tools/proofs.py killed the run after {proof.wall_limit_s()} s)"
+        text = (text or "") + f"\nTimed out (tools/proofs.py killed the run after {wall_limit_s} s)"
     run = parse_esbmc(text, time.monotonic() - start)
     if run.outcome == "error" and not run.violated:
         lines = [ln for ln in text.splitlines() if ln.strip() and not ln.startswith(("==", "/"))]

@@ -314,8 +314,9 @@ class BusManager(ABC):
         ones included) the uplink stays open and responses are matched as usual, until none is
         left or the newest one's lifetime is over (its sending + `placeholder_ns`, 300 ms by
         default, `rs232_core.PLACEHOLDER_NS`, or + its timeout if longer); live requests complete
-        as usual (their response, or UPLINK_TIMEOUT). Without it, a late response could reach the next process to open the
-        bridge, whose sequence numbers start again at 1, as the answer to its own request. A
+        as usual (their response, or UPLINK_TIMEOUT). Without it, a late response could reach the
+        next process to open the bridge, whose sequence numbers start again at 1, as the answer
+        to its own request. A
         close with nothing in flight, or of a lost manager, does not wait. Requests queued but
         not sent, those still outstanding after the drain, and every request submitted from the
         start of `close` on (until `start` or `reconnect`) complete BRIDGE_LOST.

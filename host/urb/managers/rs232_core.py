@@ -161,10 +161,14 @@ class ResponseMatcher:
         reopened uplink was not reset and may still answer them (their numbers stay reserved
         until then, or until their lifetime is over)."""
         for t in [t for t in self.inflight if not t.done] + list(queued):
-            self.completed.append(finish(t, now, ErrorFlag.BRIDGE_LOST))
-            t.lost_reason = reason
+            self.lose(t, now, reason)
         queued.clear()
         self.rx.clear()
+
+    def lose(self, t: Transfer, now: int, reason: str | None) -> None:
+        """Complete `t` BRIDGE_LOST, saying why."""
+        self.completed.append(finish(t, now, ErrorFlag.BRIDGE_LOST))
+        t.lost_reason = reason
 
     def _discard(self, n: int) -> None:
         del self.rx[:n]
@@ -242,8 +246,7 @@ class MatchingCore:
         """Queue a request (it goes out when the window allows); a lost bridge, or a closing
         one, fails it at once."""
         if self.lost_reason is not None or self._closing:
-            self._m.completed.append(finish(t, now, ErrorFlag.BRIDGE_LOST))
-            t.lost_reason = self.lost_reason or CLOSED_REASON
+            self._m.lose(t, now, self.lost_reason or CLOSED_REASON)
             return
         self._m.expire(now, self._lifetime_ns)
         if not self._queued and not self._m.inflight:
@@ -280,10 +283,9 @@ class MatchingCore:
         process numbers its requests from 1 again)."""
         self._closing = True
         for t in self._queued:
-            self._m.completed.append(finish(t, now, ErrorFlag.BRIDGE_LOST))
-            t.lost_reason = CLOSED_REASON
+            self._m.lose(t, now, CLOSED_REASON)
         self._queued.clear()
-        if self.lost_reason is not None or not self._m.inflight:
+        if self.drained():
             return None
         return (self._m.inflight[-1].sent_ns or now) + self._lifetime_ns
 
