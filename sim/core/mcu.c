@@ -1,11 +1,15 @@
 /* mcu.c: interrupt serialisation and main-loop occupancy of a simulated MCU. See mcu.h. */
 #include "mcu.h"
 
+#include <string.h>
+
 void urbsim_mcu_init(urbsim_mcu_t *m, const urbsim_clock_cfg_t *cfg, const urbsim_rng_t *rng)
 {
     urbsim_clock_init(&m->clk, cfg, rng);
     m->isr_free_at = 0;
     m->thread_from = m->thread_until = 0;
+    memset(m->win, 0, sizeof m->win);
+    m->win_next = 0;
     m->irqs = 0;
     m->isr_ns = 0;
 }
@@ -15,6 +19,7 @@ void urbsim_mcu_reset(urbsim_mcu_t *m, urbsim_ns_t now)
     urbsim_clock_reset(&m->clk, now);
     m->isr_free_at = now;
     m->thread_from = m->thread_until = now;
+    memset(m->win, 0, sizeof m->win); /* empty windows [0, 0) contain no instant */
 }
 
 urbsim_ns_t urbsim_mcu_isr(urbsim_mcu_t *m, urbsim_ns_t t_irq, double cycles, urbsim_ns_t *end)
@@ -30,6 +35,47 @@ urbsim_ns_t urbsim_mcu_isr(urbsim_mcu_t *m, urbsim_ns_t t_irq, double cycles, ur
     if (start >= m->thread_from && start < m->thread_until) {
         m->thread_until += dur; /* the handler preempted the main loop */
     }
+    m->win[m->win_next].start = start;
+    m->win[m->win_next].end = start + dur;
+    m->win_next = (m->win_next + 1u) % URBSIM_MCU_WINDOWS;
     *end = start + dur;
     return start;
+}
+
+/* Handlers are reserved in order and never overlap (each starts no earlier than the previous one
+ * returned), so the windows in the ring are sorted, oldest at win_next. */
+urbsim_ns_t urbsim_mcu_thread_free(const urbsim_mcu_t *m, urbsim_ns_t now)
+{
+#ifdef URBSIM_MUTANT_THREAD_OVER_ISR /* seeded bug (mk/sim.mk): the main loop runs over a handler */
+    (void)m;
+    return now;
+#else
+    if (now >= m->isr_free_at) {
+        return now; /* every reserved handler has returned: the common case */
+    }
+    urbsim_ns_t t = now;
+    for (uint32_t i = 0; i < URBSIM_MCU_WINDOWS; i++) {
+        const urbsim_mcu_window_t *w = &m->win[(m->win_next + i) % URBSIM_MCU_WINDOWS];
+        if (w->start <= t && t < w->end) {
+            t = w->end; /* and on through the handlers chained behind it */
+        }
+    }
+    return t;
+#endif
+}
+
+urbsim_ns_t urbsim_mcu_thread_busy(urbsim_mcu_t *m, urbsim_ns_t now, urbsim_ns_t dur)
+{
+    urbsim_ns_t until = now + dur;
+#ifndef URBSIM_MUTANT_THREAD_OVER_ISR
+    for (uint32_t i = 0; i < URBSIM_MCU_WINDOWS; i++) {
+        const urbsim_mcu_window_t *w = &m->win[(m->win_next + i) % URBSIM_MCU_WINDOWS];
+        if (w->start >= now && w->start < until) {
+            until += w->end - w->start; /* reserved before this work began, runs inside it */
+        }
+    }
+#endif
+    m->thread_from = now;
+    m->thread_until = until;
+    return until;
 }

@@ -9,18 +9,32 @@
  * cycles.
  *
  * The main loop (thread level) runs at an instant and is then busy for its cost; interrupts that
- * land inside a busy window lengthen it by their handler time (they preempt it).
+ * land inside a busy window lengthen it by their handler time (they preempt it), whether they were
+ * raised before the main loop's work began or during it. The main loop cannot begin work while a
+ * handler runs: an iteration due then waits for the handler (and any tail-chained to it) to return.
  */
 #ifndef URBSIM_MCU_H
 #define URBSIM_MCU_H
 
 #include "clock.h"
 
+/** Handlers remembered for the main loop's questions (urbsim_mcu_thread_free, _thread_busy): more
+ *  than are ever raised within one entry latency of each other. */
+#define URBSIM_MCU_WINDOWS 8u
+
+/** One reserved handler: it runs in [start, end). */
+typedef struct {
+    urbsim_ns_t start;
+    urbsim_ns_t end;
+} urbsim_mcu_window_t;
+
 typedef struct {
     urbsim_clock_t clk;
     urbsim_ns_t isr_free_at;     /**< the running handler returns here */
     urbsim_ns_t thread_from;     /**< main-loop work in progress: [thread_from, thread_until) */
     urbsim_ns_t thread_until;
+    urbsim_mcu_window_t win[URBSIM_MCU_WINDOWS]; /**< the latest handlers, oldest at win[win_next] */
+    uint32_t win_next;
     uint64_t irqs;               /**< interrupts taken */
     urbsim_ns_t isr_ns;          /**< total handler time (CPU load) */
 } urbsim_mcu_t;
@@ -34,6 +48,15 @@ void urbsim_mcu_init(urbsim_mcu_t *m, const urbsim_clock_cfg_t *cfg, const urbsi
  * *end when it returns. A main-loop busy window that contains the handler is lengthened by it.
  */
 urbsim_ns_t urbsim_mcu_isr(urbsim_mcu_t *m, urbsim_ns_t t_irq, double cycles, urbsim_ns_t *end);
+
+/** The earliest instant at or after `now` at which the main loop can run: `now`, unless a reserved
+ *  handler has started by `now` and not returned; then the return of the last handler chained to it. */
+urbsim_ns_t urbsim_mcu_thread_free(const urbsim_mcu_t *m, urbsim_ns_t now);
+
+/** The main loop works from `now` for `dur`: it is busy until now + dur, lengthened by every
+ *  handler already reserved to start in that window (urbsim_mcu_isr lengthens it for later ones).
+ *  Returns the end of the busy window. */
+urbsim_ns_t urbsim_mcu_thread_busy(urbsim_mcu_t *m, urbsim_ns_t now, urbsim_ns_t dur);
 
 /** Power-on reset at `now`: clock restarts at 0, no handler or main-loop work in progress. */
 void urbsim_mcu_reset(urbsim_mcu_t *m, urbsim_ns_t now);

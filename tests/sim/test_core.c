@@ -978,6 +978,53 @@ static void test_uart_bit_positions(void)
     urbsim_kernel_free(&k);
 }
 
+/* The main loop and the handlers share one core (48 MHz, 15 cycles of entry latency = 313 ns, no
+ * jitter; a 48-cycle handler = 1000 ns). An iteration due while a handler runs waits for it and
+ * for the handlers tail-chained behind it; work that begins before a handler reserved earlier
+ * starts is lengthened by it. Before, the main loop ran over a handler that was already running
+ * (an SOF's main-loop work done 0.7 us after the SOF, inside its 5-us handler). */
+static void test_mcu_thread(void)
+{
+    urbsim_clock_cfg_t cfg = urbsim_clock_default_cfg();
+    urbsim_rng_t r;
+    urbsim_mcu_t m;
+    urbsim_ns_t end;
+    urbsim_rng_seed(&r, 5u);
+    urbsim_mcu_init(&m, &cfg, &r);
+    urbsim_mcu_reset(&m, 10000u);
+    CHECK_EQ(urbsim_mcu_thread_free(&m, 10000u), 10000u); /* nothing reserved */
+
+    /* Raised at 20 us: runs [20313, 21313); a second raised at 20.5 us is tail-chained to it. */
+    CHECK_EQ(urbsim_mcu_isr(&m, 20000u, 48.0, &end), 20313u);
+    CHECK_EQ(urbsim_mcu_isr(&m, 20500u, 48.0, &end), 21313u);
+    CHECK_EQ(end, 22313u);
+    CHECK_EQ(urbsim_mcu_thread_free(&m, 20312u), 20312u);  /* not started yet: the loop runs */
+    CHECK_EQ(urbsim_mcu_thread_free(&m, 20313u), 22313u);  /* the instant it starts: waits for both */
+    CHECK_EQ(urbsim_mcu_thread_free(&m, 21500u), 22313u);
+    CHECK_EQ(urbsim_mcu_thread_free(&m, 22313u), 22313u);  /* returned */
+
+    /* A gap: [30313, 31313) and [40313, 41313). An instant in the first waits for the first only. */
+    urbsim_mcu_isr(&m, 30000u, 48.0, &end);
+    urbsim_mcu_isr(&m, 40000u, 48.0, &end);
+    CHECK_EQ(urbsim_mcu_thread_free(&m, 30500u), 31313u);
+    CHECK_EQ(urbsim_mcu_thread_free(&m, 35000u), 35000u);
+    CHECK_EQ(urbsim_mcu_thread_free(&m, 40313u), 41313u);
+
+    /* Work of 2 us from 40 us: the handler reserved to start at 40313 lengthens it by 1 us. */
+    CHECK_EQ(urbsim_mcu_thread_busy(&m, 40000u, 2000u), 43000u);
+    CHECK_EQ(m.thread_until, 43000u);
+    /* One raised during the work lengthens it when reserved (urbsim_mcu_isr), not twice. */
+    CHECK_EQ(urbsim_mcu_isr(&m, 42000u, 48.0, &end), 42313u);
+    CHECK_EQ(m.thread_until, 44000u);
+    /* Work that begins after a handler started does not count it. */
+    CHECK_EQ(urbsim_mcu_thread_busy(&m, 42400u, 1000u), 43400u);
+
+    /* A reset forgets every handler. */
+    urbsim_mcu_isr(&m, 50000u, 48.0, &end);
+    urbsim_mcu_reset(&m, 50400u);
+    CHECK_EQ(urbsim_mcu_thread_free(&m, 50400u), 50400u);
+}
+
 /* I2C slaves on simulated MCUs (urbsim_mcu_t: 48 MHz, 15 cycles of entry latency = 313 ns, no
  * jitter, a 60-cycle I2C handler = 1250 ns), and a timer interrupt of 120 cycles (2500 ns). */
 typedef struct {
@@ -1368,6 +1415,7 @@ int main(void)
     test_i2c_lost_read_ack();
     test_usb_frame_edges();
     test_usb_handshakes();
+    test_mcu_thread();
     printf("sim core: %d checks, %d failed\n", checks, failures);
     return failures ? 1 : 0;
 }

@@ -86,10 +86,10 @@ def test_the_gait_passes_and_its_variants_without_the_transient_fail(monkeypatch
 
 
 def test_limit_cycling_gains_are_not_kept() -> None:
-    """At seed 1 the grid's Kp 8 V/rad tracks with the smallest error but limit-cycles in stance
-    (a median stance current several times a calm PD's, as large as the transients): fig20 keeps
-    the calm 5 V/rad instead."""
-    calm = gait.run_gait(1, 500, 2 * gait.PERIOD_S + 0.1, 5.0, 0.02)
-    buzz = gait.run_gait(1, 500, 2 * gait.PERIOD_S + 0.1, 8.0, 0.02)
+    """At seed 20 the grid's Kp 8 V/rad tracks with the smallest error but limit-cycles
+    in stance (a median stance current several times a calm PD's, as large as the transients):
+    fig20 keeps the calm 5 V/rad instead."""
+    calm = gait.run_gait(20, 500, 2 * gait.PERIOD_S + 0.1, 5.0, 0.02)
+    buzz = gait.run_gait(20, 500, 2 * gait.PERIOD_S + 0.1, 8.0, 0.02)
     assert max(buzz.rms_deg) < max(calm.rms_deg)
     assert gait.stance_current(calm) <= gait.CALM_STANCE_A < 2 * gait.CALM_STANCE_A < gait.stance_current(buzz)

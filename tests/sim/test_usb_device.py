@@ -31,6 +31,10 @@ from urb_sim.system import NS_PER_MS, Loop, System
 
 #: The SOF packet (43 bits at 12 Mb/s): the device sees the SOF at its end.
 SOF_NS = 3583
+#: The bridge's USB interrupt at an SOF, from the device seeing it to the handler's return: entry
+#: latency (bridge.irq_cycles 15) and handler (bridge.usb_isr_cycles 200) at 48 MHz. The main loop
+#: cannot take the SOF before.
+SOF_HANDLER_NS = 4479
 #: The USB batch header (UsbBatchHeader): a batch without responses.
 HEADER = 4
 DEV = "usb0"
@@ -202,7 +206,7 @@ def violations() -> dict[str, list[str]]:
     busy = rig({"usb.phase_us": 999, "bridge.poll_cycles": 12000}, reads=30)
     return {
         "armed before taken": armed_before_taken(in_first) + armed_before_taken(fig9),
-        "SOF taken by the main loop": sof_taken_by_the_main_loop(in_first, min_lag_ns=1),
+        "SOF taken by the main loop": sof_taken_by_the_main_loop(in_first, min_lag_ns=SOF_HANDLER_NS),
         "IN first: NAK, retried in the frame": in_first_nakked_then_retried(in_first),
         "Fig. 9 driver: the idle batch goes first": stale_batch_goes_first(fig9),
         "busy main loop": busy_loop_delays_the_swap(busy),
@@ -212,7 +216,7 @@ def violations() -> dict[str, list[str]]:
 def test_in_token_takes_only_what_the_main_loop_armed_before_it() -> None:
     r = rig({"usb.phase_us": 100})
     assert armed_before_taken(r) == []
-    assert sof_taken_by_the_main_loop(r, min_lag_ns=1) == []
+    assert sof_taken_by_the_main_loop(r, min_lag_ns=SOF_HANDLER_NS) == []
 
 
 def test_in_token_before_the_arming_is_nakked_and_retried_in_its_frame() -> None:
@@ -235,6 +239,21 @@ def test_a_response_due_after_the_arming_waits_for_the_next_in() -> None:
 
 def test_an_sof_while_the_main_loop_is_busy_takes_effect_when_the_loop_runs() -> None:
     assert busy_loop_delays_the_swap(rig({"usb.phase_us": 999, "bridge.poll_cycles": 12000}, reads=30)) == []
+
+
+def test_the_main_loop_does_not_take_an_sof_inside_its_handler() -> None:
+    """URBSIM_MUTANT_THREAD_OVER_ISR: a main-loop iteration due at an instant when a handler runs
+    (here the SOF's own, started at the iteration's instant) runs over it; the SOF is then taken
+    before its handler returned (2.4 us after the device saw it, at seed 16)."""
+    env = {k: v for k, v in os.environ.items() if k not in ("URBSIM_MUTANT", "URBSIM_SANITIZE")}
+    env["URBSIM_MUTANT"] = "THREAD_OVER_ISR"
+    code = ("import json, test_usb_device as t; r = t.rig({'usb.phase_us': 100}); "
+            "print(json.dumps(t.sof_taken_by_the_main_loop(r, min_lag_ns=t.SOF_HANDLER_NS)))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=600,
+                          cwd=Path(__file__).parent)
+    assert proc.returncode == 0, proc.stderr
+    found = json.loads(proc.stdout)
+    assert found and all("taken" in v for v in found), found
 
 
 def test_every_check_fails_for_a_device_that_answers_at_the_token() -> None:

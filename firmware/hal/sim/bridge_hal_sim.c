@@ -546,14 +546,19 @@ static void bridge_event(void *ctx, uint64_t arg, urbsim_ns_t now)
         if (extra != (uint32_t)(b->poll_gen & 0xFFFFFFFFu)) {
             return;
         }
+        if (urbsim_mcu_thread_free(&b->mcu, now) != now) {
+            /* a handler runs: the iteration waits for it (still pending, same generation) */
+            b->poll_at = urbsim_mcu_thread_free(&b->mcu, now);
+            urbsim_kernel_at_handle(b->k, b->poll_at, bridge_event, b, arg, &b->poll_ev);
+            return;
+        }
         b->poll_pending = false;
         b->polls++;
         if (b->uplink == SIM_UPLINK_USB) {
             usb_main_loop(b, now);
         }
         urb_bridge_poll(&b->br);
-        b->mcu.thread_from = now;
-        b->mcu.thread_until = now + urbsim_clock_cycles_ns(&b->mcu.clk, now, b->cfg.poll_cycles);
+        urbsim_mcu_thread_busy(&b->mcu, now, urbsim_clock_cycles_ns(&b->mcu.clk, now, b->cfg.poll_cycles));
         if (!urb_bridge_idle(&b->br)) {
             /* Busy: the real main loop keeps iterating. Iterations only matter when they can act:
              * every half clock of a bit-banged bus clear; during a transaction, only when its

@@ -87,6 +87,22 @@ static void want_poll(sim_node_t *n, urbsim_ns_t t)
                             &n->poll_ev);
 }
 
+/* A main-loop iteration due at `now` while a handler runs waits for it: true when it was put off. */
+static bool poll_waits_for_isr(sim_node_t *n, uint64_t arg, urbsim_ns_t now)
+{
+    urbsim_ns_t free_at = urbsim_mcu_thread_free(&n->mcu, now);
+    if (free_at == now) {
+        return false;
+    }
+    if ((arg & 0xFFu) == EV_POLL) {
+        n->poll_at = free_at; /* still pending: a poll wanted before free_at is not scheduled again */
+        urbsim_kernel_at_handle(n->k, free_at, node_event, n, arg, &n->poll_ev);
+    } else {
+        urbsim_kernel_at(n->k, free_at, node_event, n, arg);
+    }
+    return true;
+}
+
 static void run_poll(sim_node_t *n, urbsim_ns_t now)
 {
     n->polls++;
@@ -94,8 +110,7 @@ static void run_poll(sim_node_t *n, urbsim_ns_t now)
     if (done & URB_NODE_POLL_UPDATE) {
         n->updates++;
     }
-    n->mcu.thread_from = now;
-    n->mcu.thread_until = now + urbsim_clock_cycles_ns(&n->mcu.clk, now, n->cfg.poll_cycles);
+    urbsim_mcu_thread_busy(&n->mcu, now, urbsim_clock_cycles_ns(&n->mcu.clk, now, n->cfg.poll_cycles));
     if (update_due(n)) {
         want_poll(n, now); /* a heartbeat came during this iteration */
     }
@@ -128,7 +143,7 @@ static void node_event(void *ctx, uint64_t arg, urbsim_ns_t now)
         break;
     }
     case EV_POLL:
-        if (sub != (n->poll_gen & 0xFFFFFFu)) {
+        if (sub != (n->poll_gen & 0xFFFFFFu) || poll_waits_for_isr(n, arg, now)) {
             return;
         }
         n->poll_pending = false;
@@ -137,9 +152,9 @@ static void node_event(void *ctx, uint64_t arg, urbsim_ns_t now)
             double extra = (double)urbsim_rng_below(&n->rng, (uint64_t)n->cfg.acq_jitter_cycles + 1u);
             n->acquiring = true;
             n->acq_start = now;
-            n->mcu.thread_from = now;
-            n->mcu.thread_until = now + (urbsim_ns_t)n->cfg.acq_ns + urbsim_clock_cycles_ns(&n->mcu.clk, now, extra);
-            urbsim_kernel_at(n->k, n->mcu.thread_until, node_event, n, NODE_ARG(n, EV_ACQ_DONE, n->gen << 24));
+            urbsim_ns_t until = urbsim_mcu_thread_busy(
+                &n->mcu, now, (urbsim_ns_t)n->cfg.acq_ns + urbsim_clock_cycles_ns(&n->mcu.clk, now, extra));
+            urbsim_kernel_at(n->k, until, node_event, n, NODE_ARG(n, EV_ACQ_DONE, n->gen << 24));
             return;
         }
         run_poll(n, now);
@@ -153,6 +168,9 @@ static void node_event(void *ctx, uint64_t arg, urbsim_ns_t now)
             /* interrupts preempted the acquisition: it ends later */
             urbsim_kernel_at(n->k, n->mcu.thread_until, node_event, n, arg);
             return;
+        }
+        if (poll_waits_for_isr(n, arg, now)) {
+            return; /* a handler raised before the acquisition began runs at its end */
         }
         n->acquiring = false;
         run_poll(n, now);
