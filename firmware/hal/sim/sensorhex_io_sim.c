@@ -51,8 +51,10 @@ static void motor_drive_mv(void *ctx, int16_t mv)
 {
     sim_node_t *n = N(ctx);
     urbsim_motor_drive(&n->plant, n->k->now, (double)mv / 1000.0);
-    /* log the applied value (offset binary in 24 bits) for the loop-delay measurement */
-    sim_log_put(&n->log, n->k->now, SIM_MARK_DRIVE, (uint32_t)((int32_t)mv + 0x8000));
+    /* log the applied value (offset binary) for the loop-delay measurement, and whether this
+     * update took a new command (the application counts updates without one in `missed`) */
+    uint32_t const fresh = n->app_state.motor.app.missed == 0u ? SIM_DRIVE_FRESH : 0u;
+    sim_log_put(&n->log, n->k->now, SIM_MARK_DRIVE, (uint32_t)((int32_t)mv + 0x8000) | fresh);
 }
 
 /* ---------------------------------------------------------------- battery, IMU, IR */

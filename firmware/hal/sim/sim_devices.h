@@ -59,7 +59,11 @@ typedef struct {
 
 /** Mark kinds in node logs (values of urb_node_mark_t, then the port's own). */
 enum { SIM_MARK_BEAT = 0, SIM_MARK_ACQ_END = 1, SIM_MARK_SYNC = 2, SIM_MARK_READ = 3, SIM_MARK_BOOT = 4,
-       SIM_MARK_DRIVE = 5 /**< motor driver applied a voltage: value = mV + 0x8000 */ };
+       SIM_MARK_DRIVE = 5 /**< motor driver applied a voltage: value = mV + 0x8000, | SIM_DRIVE_FRESH */ };
+
+/** In a DRIVE mark: the update took a command that arrived since the previous one (a command
+ *  overwritten in the inbox before an update took it never shows). */
+#define SIM_DRIVE_FRESH 0x10000u
 
 /** A new unpowered node attached to `bus`; NULL when the application is unknown or memory is out. */
 sim_node_t *sim_node_new(const char *name, urbsim_kernel_t *k, urbsim_trace_t *tr, urbsim_i2c_bus_t *bus,

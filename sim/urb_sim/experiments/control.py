@@ -64,6 +64,7 @@ class Axis:
     log: list[tuple[int, float, float, float, float]] = field(default_factory=list)  # t, ref, meas, I, V
     commands: list[int] = field(default_factory=list)  # mV, in the order computed
     delays: list[float] = field(default_factory=list)  # sensor-to-actuator delay per cycle, ms
+    superseded: int = 0  # commands overwritten in the node's inbox before an update took them
     fails: int = 0
 
     def update(self, raw: int) -> float:
@@ -124,37 +125,55 @@ def _control(sysm: System, axes: list[Axis], reference: list[object], seconds: f
             marks[k].extend(sysm.world.node_marks(m))
 
 
-def loop_delays(marks: list[tuple[int, int, int]], commands: list[int]) -> list[float]:
+#: A DRIVE mark's value: the applied mV + 0x8000, and DRIVE_FRESH when that update took a command
+#: that arrived since the previous update (firmware/hal/sim/sim_devices.h SIM_DRIVE_FRESH).
+DRIVE_FRESH = 0x10000
+
+
+@dataclass
+class LoopDelays:
+    delays: list[float]  #: sensor-to-actuator delay of every measurable cycle, ms
+    superseded: int      #: commands the node never applied: a newer one reached its inbox first
+
+
+def loop_delays(marks: list[tuple[int, int, int]], commands: list[int]) -> LoopDelays:
     """Sensor-to-actuator delay of every control cycle, ms: from the acquisition that produced the
-    k-th feedback read (the last ACQ_END before the bridge's k-th read of the node) to the first
-    time the node drives the motor with the command computed from it. Commands are matched by
-    value, in order; cycles whose command equals the previous one or saturates are skipped."""
+    k-th feedback read (the last ACQ_END before the bridge's k-th read of the node) to the update at
+    which the node first drives the motor with the command computed from it.
+
+    The node's inbox keeps the newest command, so the commands an update takes (DRIVE marks flagged
+    fresh) are the host's commands in order with some left out: a command overwritten by the next
+    one before an update took it is never applied (counted as superseded). Each fresh drive is
+    matched to the next command in order with its value that was computed before it (read before
+    it). A command equal to its predecessor or successor, or saturated, has no delay: which of two
+    equal commands an update applied cannot be told apart."""
     acq = [t for t, k, _ in marks if k == Mark.ACQ_END]
     reads = [t for t, k, _ in marks if k == Mark.READ]
-    drives = [(t, v - 0x8000) for t, k, v in marks if k == Mark.DRIVE]
+    fresh = [(t, (v & 0xFFFF) - 0x8000) for t, k, v in marks if k == Mark.DRIVE and v & DRIVE_FRESH]
+    n = min(len(commands), len(reads))
+    applied: dict[int, int] = {}
+    superseded = 0
+    k = 0  # commands before k were applied or superseded
+    for t, mv in fresh:
+        kk = k
+        while kk < n and reads[kk] < t and commands[kk] != mv:
+            kk += 1
+        if kk >= n or reads[kk] >= t:
+            continue  # not a command of this loop (the start-up's stop)
+        superseded += kk - k
+        applied[kk] = t
+        k = kk + 1
     out: list[float] = []
-    j = 0  # drives before j belong to earlier commands
     a = 0
-    prev = None
-    for k, mv in enumerate(commands):
-        if k >= len(reads):
-            break
-        while a + 1 < len(acq) and acq[a + 1] <= reads[k]:
+    for kk in sorted(applied):
+        mv = commands[kk]
+        if (kk > 0 and commands[kk - 1] == mv) or (kk + 1 < n and commands[kk + 1] == mv) or abs(mv) >= 11999:
+            continue
+        while a + 1 < len(acq) and acq[a + 1] <= reads[kk]:
             a += 1
-        sample = acq[a] if acq and acq[a] <= reads[k] else None
-        repeated, prev = mv == prev, mv
-        if repeated or abs(mv) >= 11999:
-            continue  # cannot tell this command's first application from the previous one's
-        jj = j
-        while jj < len(drives) and drives[jj][0] <= reads[k]:
-            jj += 1
-        while jj < len(drives) and drives[jj][0] <= reads[k] + 20 * NS_PER_MS and drives[jj][1] != mv:
-            jj += 1
-        if jj >= len(drives) or drives[jj][1] != mv or sample is None:
-            continue  # not applied (a lost write): no delay to measure
-        j = jj
-        out.append((drives[jj][0] - sample) / 1e6)
-    return out
+        if acq and acq[a] <= reads[kk]:
+            out.append((applied[kk] - acq[a]) / 1e6)
+    return LoopDelays(out, superseded)
 
 
 def fit_lag(samples: list[tuple[int, float, float]], amp: float, omega: float) -> tuple[float, float]:
@@ -206,7 +225,8 @@ def pd_tracking(uplink: str, seed: int, seconds: float, kp: float, kd: float, am
     _control(s, [axis], [ref], seconds, [0], truth, [n], marks)
     steady = [x for x in truth[0] if x[0] >= 1e9]  # after the first second (start-up transient)
     lag, rms = fit_lag(steady, amp, omega)
-    axis.delays = loop_delays(marks[0], axis.commands)
+    measured = loop_delays(marks[0], axis.commands)
+    axis.delays, axis.superseded = measured.delays, measured.superseded
     return axis, truth[0], lag, rms, s
 
 
@@ -252,6 +272,7 @@ def figs18_19(out: Path, *, quick: bool = False, seed: int = 18, progress: Progr
                           "sensor-to-actuator delay ms (median)": round(med, 3),
                           "delay mean ms": round(d, 3),
                           "delay max ms": round(max(axis.delays), 3) if axis.delays else "",
+                          "commands superseded": axis.superseded,
                           "paper lag ms": PAPER_LAG_MS[up], "tracking lag ms": round(lag, 2),
                           "RMS error rad": round(rms, 4), "failed requests": axis.fails})
         res.check(f"{up}: tracking", "every feedback read succeeds; RMS error (lag removed) < 1 % of the amplitude",
