@@ -546,10 +546,11 @@ static void bridge_event(void *ctx, uint64_t arg, urbsim_ns_t now)
         if (extra != (uint32_t)(b->poll_gen & 0xFFFFFFFFu)) {
             return;
         }
-        if (urbsim_mcu_thread_free(&b->mcu, now) != now) {
+        urbsim_ns_t const free_at = urbsim_mcu_thread_free(&b->mcu, now);
+        if (free_at != now) {
             /* a handler runs: the iteration waits for it (still pending, same generation) */
-            b->poll_at = urbsim_mcu_thread_free(&b->mcu, now);
-            urbsim_kernel_at_handle(b->k, b->poll_at, bridge_event, b, arg, &b->poll_ev);
+            b->poll_at = free_at;
+            urbsim_kernel_at_handle(b->k, free_at, bridge_event, b, arg, &b->poll_ev);
             return;
         }
         b->poll_pending = false;
