@@ -371,13 +371,26 @@ def check_eva(unit: Unit, run: FramacRun, report: Path, record: bool, reviewed: 
     return [row], {"alarms": alarms}
 
 
+def mutant_targets(mutant: dict[str, Any]) -> set[str] | None:
+    """The functions a WP mutant's run proves (its `-wp-fct`), or None when it names none."""
+    args = list(mutant.get("args", []))
+    for i, arg in enumerate(args[:-1]):
+        if arg == "-wp-fct":
+            return {f.strip() for f in str(args[i + 1]).split(",") if f.strip()}
+    return None
+
+
 def mutant_row(unit: Unit, mutant: dict[str, Any], rows: list[Row]) -> Row:
     tool = "frama-c wp" if unit.tool == "wp" else "frama-c eva"
     if any(r.result == "ERROR" for r in rows):
         return Row(f"{unit.name} mutant {mutant['name']}", tool, mutant["why"], "-", "ERROR", False,
                    sum(r.time_s for r in rows), rows[0].detail, unit.name)
     if unit.tool == "wp":
-        caught = [f"{r.function}: {r.detail}" for r in rows if r.result == "UNPROVED"]
+        # A kill is a goal of a mutated function left unproved: a goal elsewhere (a unit whose own
+        # proof is incomplete, a prover timeout) says nothing about the seeded bug.
+        targets = mutant_targets(mutant)
+        caught = [f"{r.function}: {r.detail}" for r in rows
+                  if r.result == "UNPROVED" and (targets is None or r.function in targets)]
     else:
         caught = [r.detail for r in rows if r.result == "ALARM" and "NEW ALARM" in r.detail]
     return Row(f"{unit.name} mutant {mutant['name']}", tool, mutant["why"], "same as the unit",

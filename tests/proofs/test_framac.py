@@ -194,6 +194,24 @@ def test_mutant_that_applies_twice_is_refused(tmp_path: Path) -> None:
         RUNNER.apply_mutant(unit, dict(unit.mutants[0], find="uint8_t"), tmp_path)
 
 
+def test_a_wp_mutant_is_killed_only_by_a_goal_of_the_function_it_mutates() -> None:
+    """A WP mutant's run proves its `-wp-fct`; an unproved goal of another function (a unit whose
+    own proof is incomplete, a prover timeout) is not the seeded bug's doing and kills nothing."""
+    unit = _unit("gen_runtime")
+    mutant = unit.mutants[0]
+    target = sorted(RUNNER.mutant_targets(mutant))[0]
+
+    def row(fn: str, result: str) -> Any:
+        return RUNNER.Row(fn, "frama-c wp", "1/2 goals", "-", result, False, 1.0, "a goal", unit.name)
+
+    elsewhere = RUNNER.mutant_row(unit, mutant, [row(target, "proved"), row("some_other_function", "UNPROVED")])
+    assert elsewhere.result == "SURVIVED" and not elsewhere.expected
+    own = RUNNER.mutant_row(unit, mutant, [row(target, "UNPROVED"), row("some_other_function", "UNPROVED")])
+    assert own.result == "killed" and own.expected and "some_other_function" not in own.detail
+    assert RUNNER.mutant_targets({"args": ["-wp-fct", "a, b"]}) == {"a", "b"}
+    assert RUNNER.mutant_targets({"args": []}) is None
+
+
 def test_mutants_need_distinct_names(tmp_path: Path) -> None:
     folder = tmp_path / "u"
     shutil.copytree(UNITS / "gen_runtime", folder)
