@@ -68,10 +68,14 @@ urbsim_ns_t urbsim_mcu_thread_busy(urbsim_mcu_t *m, urbsim_ns_t now, urbsim_ns_t
 {
     urbsim_ns_t until = now + dur;
 #ifndef URBSIM_MUTANT_THREAD_OVER_ISR
-    for (uint32_t i = 0; i < URBSIM_MCU_WINDOWS; i++) {
-        const urbsim_mcu_window_t *w = &m->win[(m->win_next + i) % URBSIM_MCU_WINDOWS];
-        if (w->start >= now && w->start < until) {
-            until += w->end - w->start; /* reserved before this work began, runs inside it */
+    /* The windows are sorted: when the newest started before `now`, none starts inside the work
+     * (the common case, on every main-loop iteration). */
+    if (m->win[(m->win_next + URBSIM_MCU_WINDOWS - 1u) % URBSIM_MCU_WINDOWS].start >= now) {
+        for (uint32_t i = 0; i < URBSIM_MCU_WINDOWS; i++) {
+            const urbsim_mcu_window_t *w = &m->win[(m->win_next + i) % URBSIM_MCU_WINDOWS];
+            if (w->start >= now && w->start < until) {
+                until += w->end - w->start; /* reserved before this work began, runs inside it */
+            }
         }
     }
 #endif
