@@ -316,10 +316,10 @@ class BusManager(ABC):
         default, `rs232_core.PLACEHOLDER_NS`, or + its timeout if longer); live requests complete
         as usual (their response, or UPLINK_TIMEOUT). Without it, a late response could reach the
         next process to open the bridge, whose sequence numbers start again at 1, as the answer
-        to its own request. A
-        close with nothing in flight, or of a lost manager, does not wait. Requests queued but
-        not sent, those still outstanding after the drain, and every request submitted from the
-        start of `close` on (until `start` or `reconnect`) complete BRIDGE_LOST.
+        to its own request. A close with nothing in flight, or of a lost manager, does not wait.
+        Requests queued but not sent, those still outstanding after the drain, and every request
+        submitted from the start of `close` on (until `start` or `reconnect`) complete
+        BRIDGE_LOST.
         `drain=False` skips the wait (e.g. when the process will not reopen the bridge soon)."""
 
     @abstractmethod
