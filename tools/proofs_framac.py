@@ -167,12 +167,30 @@ def apply_mutant(unit: Unit, mutant: dict[str, Any], work: Path) -> tuple[list[s
     return sources, cpp
 
 
+def wp_selection(unit_args: list[str], extra: list[str]) -> list[str]:
+    """The unit's WP options followed by a mutant's. A mutant's `-wp-fct` replaces the unit's
+    (frama-c adds a repeated `-wp-fct` to the list): a mutant is judged by its own functions' goals
+    only, so proving the rest of the unit again would only cost time."""
+    if "-wp-fct" not in extra[:-1]:
+        return unit_args + extra
+    kept: list[str] = []
+    skip = False
+    for arg in unit_args:
+        if skip:
+            skip = False
+        elif arg == "-wp-fct":
+            skip = True
+        else:
+            kept.append(arg)
+    return kept + extra
+
+
 def framac_command(unit: Unit, sources: list[str], cpp: list[str], extra: list[str], report: Path,
                    jobs: int, cache: str) -> list[str]:
     cmd = ["frama-c", "-machdep", MACHDEP, "-cpp-extra-args=" + " ".join(shlex.quote(c) for c in cpp)]
     cmd += [s if os.path.isabs(s) else str(ROOT / s) for s in sources]
     if unit.tool == "wp":
-        cmd += unit.args + extra
+        cmd += wp_selection(unit.args, extra)
         cmd += ["-wp", "-wp-rte", "-wp-prover", PROVERS, "-wp-timeout", str(GOAL_TIMEOUT_S), "-wp-par", str(jobs),
                 "-wp-cache", cache, "-wp-cache-dir", str(CACHE_DIR), "-wp-report-json", str(report),
                 "-wp-session", str(report.parent / (report.stem + ".session"))]

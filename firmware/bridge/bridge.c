@@ -17,20 +17,10 @@
 /* ===== Small helpers ========================================================================== */
 
 /* ACSL for Frama-C WP (proofs/framac/fifo/): the response ring and the data-slot FIFO inside it
- * never index outside their arrays, keep their counts within the configured depth, and admission
- * answers BUSY only when every data slot is taken (Bridge.tla SubmitAndAdmit). The predicate says
- * \valid_read: slot_index and first_pending take a const bridge, and \valid is false on a
- * const-qualified location (Eva then finds their precondition invalid and stops the analysis of
- * every caller); the functions that write the bridge require \valid(b) next to it. */
-/*@ predicate urbb_fifo_ok(urb_bridge_t *b) =
-      \valid_read(b) && 1 <= b->cfg.fifo_depth <= URB_BRIDGE_FIFO_MAX &&
-      b->ring_head < URB_BRIDGE_RING_MAX && b->ring_count <= URB_BRIDGE_RING_MAX &&
-      b->slot_head < b->cfg.fifo_depth && b->slot_served <= b->slot_count <= b->cfg.fifo_depth;
-
-    predicate urbb_nodes_ok(urb_bridge_t *b) =
-      \forall integer a; 0 <= a < 128 ==> b->node_of[a] <= URB_BRIDGE_MAX_NODES;
-
-    logic integer urbb_ring_at(integer head, integer offset) =
+ * never index outside their arrays, keep their counts within the configured depth (urbb_fifo_ok,
+ * bridge_internal.h), and admission answers BUSY only when every data slot is taken (Bridge.tla
+ * SubmitAndAdmit). */
+/*@ logic integer urbb_ring_at(integer head, integer offset) =
       head + offset < URB_BRIDGE_RING_MAX ? head + offset : head + offset - URB_BRIDGE_RING_MAX;
 
     logic integer urbb_slot_at(urb_bridge_t *b, integer offset) =
@@ -295,9 +285,8 @@ static void admit(urb_bridge_t *b, const urbb_request_t *q)
 }
 
 /* The decoders' contracts state every decoded member's range (gen/c): with them WP proves admit's
- * preconditions here (proofs/framac/frame). */
-/*@ requires \valid(b) && urbb_fifo_ok(b) && urbb_nodes_ok(b);
-    requires 2 <= len && \valid_read(frame + (0 .. len - 1)) && \separated(frame + (0 .. len - 1), b); */
+ * preconditions here, and this function's contract (bridge_internal.h) for its callers, the
+ * uplink parsers (proofs/framac/frame, proofs/framac/uplink_parsers). */
 bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t len)
 {
     /* A range error (r < 0 but not a check, short or long frame) in a frame whose check passed: it

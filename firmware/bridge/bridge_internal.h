@@ -25,9 +25,30 @@ enum {
     URBB_ACT_LEARN = 5u
 };
 
+/* ACSL for Frama-C: the response ring and the data-slot FIFO stay within their arrays and the
+ * configured depth; the node table's indexes stay within it. The first says \valid_read:
+ * slot_index and first_pending take a const bridge, and \valid is false on a const-qualified
+ * location (Eva then finds their precondition invalid and stops the analysis of every caller);
+ * the functions that write the bridge require \valid(b) next to it. */
+/*@ predicate urbb_fifo_ok(urb_bridge_t *b) =
+      \valid_read(b) && 1 <= b->cfg.fifo_depth <= URB_BRIDGE_FIFO_MAX &&
+      b->ring_head < URB_BRIDGE_RING_MAX && b->ring_count <= URB_BRIDGE_RING_MAX &&
+      b->slot_head < b->cfg.fifo_depth && b->slot_served <= b->slot_count <= b->cfg.fifo_depth;
+
+    predicate urbb_nodes_ok(urb_bridge_t *b) =
+      \forall integer a; 0 <= a < 128 ==> b->node_of[a] <= URB_BRIDGE_MAX_NODES;
+*/
+
 /* bridge.c: a complete candidate frame of `len` bytes from `uplink`. Returns false when it fails
  * its check (the caller then discards one byte and hunts on), true when it was admitted (as a
- * request, or answered BAD_REQUEST when it passed its check but breaks a schema rule). */
+ * request, or answered BAD_REQUEST when it passed its check but breaks a schema rule). The frame
+ * may lie inside the bridge (the RS232 assembler's buffer): it is read before anything is written,
+ * and only the response ring, the data slots and three counters are. */
+/*@ requires \valid(b) && urbb_fifo_ok(b) && urbb_nodes_ok(b);
+    requires 2 <= len && \valid_read(frame + (0 .. len - 1));
+    assigns b->ring[0 .. URB_BRIDGE_RING_MAX - 1], b->ring_count, b->slots[0 .. URB_BRIDGE_FIFO_MAX - 1], b->slot_count,
+            b->stats.frames, b->stats.window_overflow, b->stats.busy;
+    ensures urbb_fifo_ok(b) && urbb_nodes_ok(b); */
 bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t len);
 
 /* bridge_uplink.c: the uplink side of poll(): parse the bytes the UART interrupt queued, with at

@@ -36,6 +36,16 @@
          URB_USB_BATCH_HEADER_MAX_SIZE <= b->usb_len[c] <= URB_BRIDGE_USB_BUF && b->usb_count[c] <= 128);
 */
 
+/* ACSL for Frama-C WP (proofs/framac/uplink_parsers/): the RS232 assembler holds at most one
+ * candidate frame, inside its buffer. With it WP proves every index of the parsers in bounds and
+ * urbb_frame's preconditions where they call it. */
+/*@ predicate urbb_parser_ok(urb_bridge_parser_t *p) =
+      p->len <= URB_BRIDGE_FRAME_MAX && p->start + p->len <= URB_BRIDGE_PARSE_BUF;
+
+    predicate urbb_rs232_ok(urb_bridge_t *b) =
+      \valid(b) && urbb_fifo_ok(b) && urbb_nodes_ok(b) && urbb_parser_ok(&b->rs232);
+*/
+
 /*@ requires \valid(b) && b->cfg.baud != 0;
     ensures usb_ok: urbb_usb_ok(b);
     ensures usb_empty: !b->usb_prev_ready && b->usb_cur == 0 &&
@@ -77,6 +87,9 @@ void urbb_uplink_init(urb_bridge_t *b)
  * n bytes of it at hand: 0 when more bytes are needed to tell, NOT_A_FRAME when no request starts
  * like this (a write announcing > 32 bytes). The callers read the header bytes by array index: a
  * pointer at a variable offset into the bridge costs the bounded model checker the whole struct. */
+/*@ assigns \nothing;
+    ensures \result == 0 || \result == NOT_A_FRAME || 4 <= \result <= URB_BRIDGE_FRAME_MAX;
+    ensures n == 0 ==> \result == 0; */
 static uint8_t candidate_len(uint8_t first, uint8_t third, uint8_t n)
 {
     if (n == 0u) {
@@ -98,6 +111,9 @@ static uint8_t candidate_len(uint8_t first, uint8_t third, uint8_t n)
 /* ===== RS232 frame assembly and hunting ======================================================= */
 
 /* The held bytes lose their first k (a frame, or one byte while hunting): the start moves on. */
+/*@ requires \valid(p) && urbb_parser_ok(p) && k <= p->len;
+    assigns p->start, p->len;
+    ensures urbb_parser_ok(p) && p->len == \old(p->len) - k; */
 static void consume(urb_bridge_parser_t *p, uint8_t k)
 {
     p->start = (uint8_t)(p->start + k);
@@ -109,6 +125,9 @@ static void consume(urb_bridge_parser_t *p, uint8_t k)
 
 /* Appends one byte. Only an incomplete candidate (< 37 bytes) takes a byte, and the buffer has room
  * for 37 more behind it, so the held bytes move to the front at most once per 38 bytes received. */
+/*@ requires urbb_rs232_ok(b) && p == &b->rs232;
+    assigns p->buf[0 .. URB_BRIDGE_PARSE_BUF - 1], p->start, p->len, b->stats.hunt_discards;
+    ensures urbb_parser_ok(p) && 1 <= p->len; */
 static void push(urb_bridge_t *b, urb_bridge_parser_t *p, uint8_t byte)
 {
     if (p->len >= URB_BRIDGE_FRAME_MAX) {
@@ -118,6 +137,9 @@ static void push(urb_bridge_t *b, urb_bridge_parser_t *p, uint8_t byte)
     }
     if ((uint8_t)(p->start + p->len) >= URB_BRIDGE_PARSE_BUF) {
         /* loop bound: URB_BRIDGE_FRAME_MAX bytes (the held candidate) */
+        /*@ loop invariant 0 <= i <= p->len;
+            loop assigns i, p->buf[0 .. URB_BRIDGE_FRAME_MAX - 1];
+            loop variant p->len - i; */
         for (uint8_t i = 0u; i < p->len; i++) {
             p->buf[i] = p->buf[p->start + i];
         }
@@ -135,9 +157,19 @@ static void push(urb_bridge_t *b, urb_bridge_parser_t *p, uint8_t byte)
  * complete frames behind them, until nothing is held. Returns false when a check is due and
  * *checks is spent: the caller ends the poll there and the next poll resumes at exactly this point
  * (p->flushing remembers a flush in progress). */
+/*@ requires urbb_rs232_ok(b) && p == &b->rs232 && \valid(checks) && \separated(checks, b);
+    assigns p->start, p->len, p->flushing, *checks, b->stats.gap_drops, b->stats.hunt_discards,
+            b->ring[0 .. URB_BRIDGE_RING_MAX - 1], b->ring_count, b->slots[0 .. URB_BRIDGE_FIFO_MAX - 1], b->slot_count,
+            b->stats.frames, b->stats.window_overflow, b->stats.busy;
+    ensures urbb_rs232_ok(b); */
 static bool hunt(urb_bridge_t *b, urb_bridge_parser_t *p, uint8_t *checks, bool ended)
 {
     /* loop bound: URB_BRIDGE_FRAME_MAX + 1 rounds (each but a last one that returns removes a byte or more) */
+    /*@ loop invariant 0 <= round <= URB_BRIDGE_FRAME_MAX + 1 && urbb_rs232_ok(b);
+        loop assigns round, p->start, p->len, p->flushing, *checks, b->stats.gap_drops, b->stats.hunt_discards,
+            b->ring[0 .. URB_BRIDGE_RING_MAX - 1], b->ring_count, b->slots[0 .. URB_BRIDGE_FIFO_MAX - 1], b->slot_count,
+            b->stats.frames, b->stats.window_overflow, b->stats.busy;
+        loop variant URB_BRIDGE_FRAME_MAX + 1 - round; */
     for (uint8_t round = 0u; (round <= URB_BRIDGE_FRAME_MAX) && (p->len > 0u); round++) {
         uint8_t const at = p->start;
         uint8_t const need = candidate_len(p->buf[at], (p->len >= 3u) ? p->buf[at + 2u] : 0u, p->len);
@@ -180,6 +212,9 @@ static bool hunt(urb_bridge_t *b, urb_bridge_parser_t *p, uint8_t *checks, bool 
 
 /* ===== RS232 ================================================================================== */
 
+/*@ requires \valid(b);
+    assigns b->rx_ring[0 .. URB_BRIDGE_RX_RING - 1], b->rx_head, b->rx_overrun, b->rx_started, b->rx_last_us,
+            b->stats.rx_bytes, b->stats.rx_overruns; */
 void urb_bridge_uart_rx(urb_bridge_t *b, uint8_t byte, uint32_t t_us)
 {
     uint8_t const head = b->rx_head;
@@ -194,7 +229,8 @@ void urb_bridge_uart_rx(urb_bridge_t *b, uint8_t byte, uint32_t t_us)
     b->rx_started = true;
     b->rx_last_us = t_us;
     b->stats.rx_bytes++;
-    if ((uint8_t)(head - b->rx_tail) >= URB_BRIDGE_RX_RING) {
+    uint8_t const tail = b->rx_tail; /* through a local: WP bounds a volatile read only so (proofs/framac/README.md) */
+    if ((uint8_t)(head - tail) >= URB_BRIDGE_RX_RING) {
         b->rx_overrun = 1u; /* the frame in progress is broken: drop it at the next byte */
         b->stats.rx_overruns++;
         return;
@@ -203,14 +239,28 @@ void urb_bridge_uart_rx(urb_bridge_t *b, uint8_t byte, uint32_t t_us)
         flag = (uint16_t)URB_BRIDGE_RX_GAP;
         b->rx_overrun = 0u;
     }
-    b->rx_ring[head & (URB_BRIDGE_RX_RING - 1u)] = (uint16_t)(byte | flag);
+    /* a remainder, not `& (URB_BRIDGE_RX_RING - 1u)`: the same machine code (a power of two, of an
+     * unsigned value), and z3 and cvc4 bound a remainder, not a bitwise and (proofs/framac/README.md) */
+    b->rx_ring[head % URB_BRIDGE_RX_RING] = (uint16_t)(byte | flag);
     b->rx_head = (uint8_t)(head + 1u); /* publish after the byte is stored */
 }
 
+/*@ requires urbb_rs232_ok(b);
+    assigns b->rx_tail, b->rs232.buf[0 .. URB_BRIDGE_PARSE_BUF - 1], b->rs232.start, b->rs232.len,
+            b->rs232.flushing, b->stats.hunt_yields, b->stats.gap_drops, b->stats.hunt_discards,
+            b->ring[0 .. URB_BRIDGE_RING_MAX - 1], b->ring_count, b->slots[0 .. URB_BRIDGE_FIFO_MAX - 1], b->slot_count,
+            b->stats.frames, b->stats.window_overflow, b->stats.busy;
+    ensures urbb_rs232_ok(b); */
 void urbb_uart_parse(urb_bridge_t *b, uint32_t now, uint8_t checks)
 {
     urb_bridge_parser_t *const p = &b->rs232;
     /* loop bound: URB_BRIDGE_RX_PER_POLL + 1 rounds (one ring byte each; later bytes wait for the next poll) */
+    /*@ loop invariant 0 <= i <= URB_BRIDGE_RX_PER_POLL + 1 && urbb_rs232_ok(b);
+        loop assigns i, checks, b->rx_tail, b->rs232.buf[0 .. URB_BRIDGE_PARSE_BUF - 1], b->rs232.start, b->rs232.len,
+                b->rs232.flushing, b->stats.hunt_yields, b->stats.gap_drops, b->stats.hunt_discards,
+                b->ring[0 .. URB_BRIDGE_RING_MAX - 1], b->ring_count, b->slots[0 .. URB_BRIDGE_FIFO_MAX - 1], b->slot_count,
+                b->stats.frames, b->stats.window_overflow, b->stats.busy;
+        loop variant URB_BRIDGE_RX_PER_POLL + 1 - i; */
     for (uint8_t i = 0u; i <= URB_BRIDGE_RX_PER_POLL; i++) {
         uint8_t const tail = b->rx_tail;
         bool const more = (i < URB_BRIDGE_RX_PER_POLL) && (tail != b->rx_head);
@@ -218,7 +268,7 @@ void urbb_uart_parse(urb_bridge_t *b, uint32_t now, uint8_t checks)
         bool ended;
         if (more) {
             URB_BARRIER(); /* read the head before the byte the interrupt stored */
-            v = b->rx_ring[tail & (URB_BRIDGE_RX_RING - 1u)];
+            v = b->rx_ring[tail % URB_BRIDGE_RX_RING];
             ended = (v & URB_BRIDGE_RX_GAP) != 0u; /* an idle gap before this byte ends the candidate */
         } else {
 #ifndef URB_MUTANT_NO_GAP
@@ -254,18 +304,26 @@ void urbb_uart_parse(urb_bridge_t *b, uint32_t now, uint8_t checks)
     }
 }
 
+/*@ requires urbb_rs232_ok(b);
+    assigns b->rx_tail, b->rs232.buf[0 .. URB_BRIDGE_PARSE_BUF - 1], b->rs232.start, b->rs232.len,
+            b->rs232.flushing, b->stats.hunt_yields, b->stats.gap_drops, b->stats.hunt_discards,
+            b->ring[0 .. URB_BRIDGE_RING_MAX - 1], b->ring_count, b->slots[0 .. URB_BRIDGE_FIFO_MAX - 1], b->slot_count,
+            b->stats.frames, b->stats.window_overflow, b->stats.busy;
+    ensures urbb_rs232_ok(b); */
 void urbb_uart_drain(urb_bridge_t *b, uint32_t now)
 {
     urbb_uart_parse(b, now, (uint8_t)URB_BRIDGE_HUNT_CHECKS);
 }
 
+/*@ requires \valid(b) && \valid(byte) && \separated(byte, b);
+    assigns *byte, b->tx_tail; */
 bool urb_bridge_uart_tx_pop(urb_bridge_t *b, uint8_t *byte)
 {
     uint8_t const tail = b->tx_tail;
     if (tail == b->tx_head) {
         return false;
     }
-    *byte = b->tx_ring[tail & (URB_BRIDGE_TX_RING - 1u)];
+    *byte = b->tx_ring[tail % URB_BRIDGE_TX_RING];
     b->tx_tail = (uint8_t)(tail + 1u);
     return true;
 }
@@ -318,6 +376,12 @@ void urb_bridge_usb_sof(urb_bridge_t *b)
 
 /* UsbUplink.tla: UsbWrite (the batch arrives), then its requests are admitted in order (serving
  * them is Bridge.tla's business, shared with RS232). */
+/*@ requires \valid(b) && urbb_fifo_ok(b) && urbb_nodes_ok(b) && urbb_usb_ok(b);
+    requires data == \null || \valid_read(data + (0 .. len - 1));
+    assigns b->stats.usb_bad_batches, b->stats.usb_batches, b->stats.usb_cut_batches, b->usb_last_frame,
+            b->usb_frame[0 .. 1], b->ring[0 .. URB_BRIDGE_RING_MAX - 1], b->ring_count,
+            b->slots[0 .. URB_BRIDGE_FIFO_MAX - 1], b->slot_count, b->stats.frames, b->stats.window_overflow, b->stats.busy;
+    ensures urbb_fifo_ok(b) && urbb_nodes_ok(b) && urbb_usb_ok(b); */
 bool urb_bridge_usb_out(urb_bridge_t *b, const uint8_t *data, size_t len)
 {
     urb_usb_batch_header_t h;
@@ -336,6 +400,11 @@ bool urb_bridge_usb_out(urb_bridge_t *b, const uint8_t *data, size_t len)
      * dropped and counted; its requests time out at the host, whose callbacks report it. */
     size_t at = URB_USB_BATCH_HEADER_MAX_SIZE;
     /* loop bound: URB_BRIDGE_USB_BUF / 4 frames (a request is at least 4 bytes) */
+    /*@ loop invariant URB_USB_BATCH_HEADER_MAX_SIZE <= at <= len;
+        loop invariant urbb_fifo_ok(b) && urbb_nodes_ok(b) && urbb_usb_ok(b);
+        loop assigns at, b->stats.usb_cut_batches, b->ring[0 .. URB_BRIDGE_RING_MAX - 1], b->ring_count,
+            b->slots[0 .. URB_BRIDGE_FIFO_MAX - 1], b->slot_count, b->stats.frames, b->stats.window_overflow, b->stats.busy;
+        loop variant len - at; */
     while (at < len) {
         size_t const rest = len - at;
         uint8_t const n = (rest < URB_BRIDGE_FRAME_MAX) ? (uint8_t)rest : (uint8_t)URB_BRIDGE_FRAME_MAX;

@@ -212,6 +212,19 @@ def test_a_wp_mutant_is_killed_only_by_a_goal_of_the_function_it_mutates() -> No
     assert RUNNER.mutant_targets({"args": []}) is None
 
 
+def test_a_wp_mutant_proves_only_its_own_functions() -> None:
+    """frama-c adds a repeated -wp-fct to the list: the mutant's must replace the unit's, or each
+    mutant proves the whole unit again (uplink_parsers: ~80 s a mutant instead of a few)."""
+    unit = _unit("usb_batch")
+    mutant = next(m for m in unit.mutants if m["name"] == "usb_sof_keeps_length")
+    cmd = RUNNER.framac_command(unit, unit.sources, unit.cpp, list(mutant["args"]), Path("r.json"), 1, "offline")
+    selected = [cmd[i + 1] for i, arg in enumerate(cmd[:-1]) if arg == "-wp-fct"]
+    assert selected == ["urb_bridge_usb_sof"]
+    assert "-rte-no-pointer-call" in cmd  # the unit's other options stay
+    whole = RUNNER.framac_command(unit, unit.sources, unit.cpp, [], Path("r.json"), 1, "offline")
+    assert [whole[i + 1] for i, arg in enumerate(whole[:-1]) if arg == "-wp-fct"] == [unit.args[1]]
+
+
 def test_mutants_need_distinct_names(tmp_path: Path) -> None:
     folder = tmp_path / "u"
     shutil.copytree(UNITS / "gen_runtime", folder)
