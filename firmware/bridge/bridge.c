@@ -704,7 +704,12 @@ static void start_next(urb_bridge_t *b, uint32_t now)
 /* ===== Emitting =============================================================================== */
 
 /* Encode the final response in ring entry r and hand it to its uplink; false when the uplink has
- * no room. */
+ * no room. WP (proofs/framac/emit_entry) proves its accesses and urbb_uplink_send's preconditions
+ * from what a ring entry holds: no data slot, or one of the FIFO's with at most 32 bytes. No
+ * assigns: the uplink's HAL kick and the marks are calls WP knows no contract of. */
+/*@ requires \valid(b) && urbb_usb_ok(b) && \valid_read(b->hal) && r < URB_BRIDGE_RING_MAX;
+    requires b->ring[r].slot == URB_BRIDGE_NO_SLOT ||
+             (b->ring[r].slot < URB_BRIDGE_FIFO_MAX && b->slots[b->ring[r].slot].length <= 32); */
 static bool emit_entry(urb_bridge_t *b, uint8_t r)
 {
     urb_uplink_response_t out;
@@ -717,6 +722,9 @@ static bool emit_entry(urb_bridge_t *b, uint8_t r)
     if ((out.status == URB_STATUS_OK) && (s != URB_BRIDGE_NO_SLOT) && b->slots[s].read) {
         out.data_len = b->slots[s].length; /* Bridge.tla ResponseMatchesRequest: data only for an OK read */
         /* loop bound: 32 bytes */
+        /*@ loop invariant 0 <= i <= b->slots[s].length;
+            loop assigns i, out.data[0 .. 31];
+            loop variant b->slots[s].length - i; */
         for (uint8_t i = 0u; i < b->slots[s].length; i++) {
             out.data[i] = b->slots[s].data[i];
         }

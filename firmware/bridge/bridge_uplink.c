@@ -24,18 +24,6 @@
 
 #define NOT_A_FRAME 0xFFu /* candidate_len(): no frame can start with these bytes */
 
-/* ACSL for Frama-C WP (proofs/framac/usb_batch/): each USB batch holds its header and at most
- * URB_BRIDGE_USB_BUF bytes and at most 128 responses, and usb_cur names one of the two batches.
- * usb_len, usb_count and usb_cur are written only by urbb_uplink_init (which establishes the
- * invariant), urb_bridge_usb_sof and urbb_uplink_send (which keep it); urb_bridge_usb_in reads a
- * batch under it. WP proves all four (urbb_uplink_send: its USB behavior, and on the UART path up
- * to the HAL's transmit kick, a call WP knows no contract of). */
-/*@ predicate urbb_usb_ok(urb_bridge_t *b) =
-      b->usb_cur <= 1 &&
-      (\forall integer c; 0 <= c <= 1 ==>
-         URB_USB_BATCH_HEADER_MAX_SIZE <= b->usb_len[c] <= URB_BRIDGE_USB_BUF && b->usb_count[c] <= 128);
-*/
-
 /* ACSL for Frama-C WP (proofs/framac/uplink_parsers/): the RS232 assembler holds at most one
  * candidate frame, inside its buffer. With it WP proves every index of the parsers in bounds and
  * urbb_frame's preconditions where they call it. */
@@ -456,29 +444,7 @@ size_t urb_bridge_usb_in(urb_bridge_t *b, uint8_t *buf, size_t cap)
 
 /* ===== Responses out ========================================================================== */
 
-/* The only writer of a batch's length and count besides init and sof. The UART path ends in the
- * HAL's transmit kick, a call through a pointer (urb_bridge_init rejects NULL) of which WP knows no
- * contract, so it may change anything: the contract speaks of the USB path, which makes no call,
- * and on the UART path WP proves the stores into the transmit ring in bounds and the batches still
- * within urbb_usb_ok just before the kick. */
-/*@ requires \valid(b) && urbb_usb_ok(b) && \valid_read(b->hal);
-    requires \valid_read(frame + (0 .. len - 1)) && \separated(frame + (0 .. len - 1), b);
-    behavior usb:
-      assumes uplink == URBB_UPLINK_USB;
-      assigns b->usb_buf[b->usb_cur][0 .. URB_BRIDGE_USB_BUF - 1], b->usb_len[b->usb_cur], b->usb_count[b->usb_cur];
-      ensures usb_ok: urbb_usb_ok(b);
-      ensures same_batch: b->usb_cur == \old(b->usb_cur);
-      ensures queued: \result <==> (\old(b->usb_len[b->usb_cur]) + len <= URB_BRIDGE_USB_BUF &&
-                                    \old(b->usb_count[b->usb_cur]) < 128);
-      ensures appended: \result ==> b->usb_len[b->usb_cur] == \old(b->usb_len[b->usb_cur]) + len &&
-        b->usb_count[b->usb_cur] == \old(b->usb_count[b->usb_cur]) + 1 &&
-        (\forall integer k; 0 <= k < len ==> b->usb_buf[b->usb_cur][\old(b->usb_len[b->usb_cur]) + k] == frame[k]);
-      ensures refused: !\result ==> b->usb_len[b->usb_cur] == \old(b->usb_len[b->usb_cur]) &&
-        b->usb_count[b->usb_cur] == \old(b->usb_count[b->usb_cur]);
-    behavior uart:
-      assumes uplink != URBB_UPLINK_USB;
-    complete behaviors;
-    disjoint behaviors; */
+/* Contract in bridge_internal.h (proofs/framac/usb_batch, emit_entry). */
 bool urbb_uplink_send(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t len)
 {
     if (uplink == URBB_UPLINK_USB) {
