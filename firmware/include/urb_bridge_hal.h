@@ -43,9 +43,11 @@ typedef struct {
     uint32_t (*now_us)(void *ctx);
     /** (Re)starts the periodic heartbeat tick with this period; 0 stops it. */
     void (*heartbeat_period)(void *ctx, uint32_t period_us);
-    /** Bytes are waiting in the UART TX ring: start draining it with urb_bridge_uart_tx_pop(). */
+    /** Bytes are waiting in the UART TX ring: start draining it with urb_bridge_uart_tx_pop().
+     *  Called from poll(): it may call urb_bridge_uart_tx_pop() and no other bridge function. */
     void (*uart_tx_kick)(void *ctx);
-    /** Sets timing mark `id` (urb_mark_t) to `level`; NULL when the board has no mark pin. */
+    /** Sets timing mark `id` (urb_mark_t) to `level`; NULL when the board has no mark pin. Calls no
+     *  bridge function. */
     void (*mark)(void *ctx, uint8_t id, bool level);
 } urb_bridge_hal_t;
 
