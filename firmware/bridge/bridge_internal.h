@@ -39,6 +39,12 @@ enum {
       \forall integer a; 0 <= a < 128 ==> b->node_of[a] <= URB_BRIDGE_MAX_NODES;
 */
 
+/* What urbb_frame writes, for the ACSL assigns clauses of it and of the parsers that call it
+ * (Frama-C preprocesses annotations). */
+#define URBB_FRAME_WRITES                                                                                     \
+    b->ring[0 .. URB_BRIDGE_RING_MAX - 1], b->ring_count, b->slots[0 .. URB_BRIDGE_FIFO_MAX - 1], b->slot_count, \
+        b->stats.frames, b->stats.window_overflow, b->stats.busy
+
 /* bridge.c: a complete candidate frame of `len` bytes from `uplink`. Returns false when it fails
  * its check (the caller then discards one byte and hunts on), true when it was admitted (as a
  * request, or answered BAD_REQUEST when it passed its check but breaks a schema rule). The frame
@@ -46,8 +52,7 @@ enum {
  * and only the response ring, the data slots and three counters are. */
 /*@ requires \valid(b) && urbb_fifo_ok(b) && urbb_nodes_ok(b);
     requires 2 <= len && \valid_read(frame + (0 .. len - 1));
-    assigns b->ring[0 .. URB_BRIDGE_RING_MAX - 1], b->ring_count, b->slots[0 .. URB_BRIDGE_FIFO_MAX - 1], b->slot_count,
-            b->stats.frames, b->stats.window_overflow, b->stats.busy;
+    assigns URBB_FRAME_WRITES;
     ensures urbb_fifo_ok(b) && urbb_nodes_ok(b); */
 bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t len);
 

@@ -24,6 +24,11 @@
 
 #define NOT_A_FRAME 0xFFu /* candidate_len(): no frame can start with these bytes */
 
+/* What urbb_uart_parse writes, for the assigns clauses of it and of urbb_uart_drain. */
+#define URBB_PARSE_WRITES                                                                                  \
+    b->rx_tail, b->rs232.buf[0 .. URB_BRIDGE_PARSE_BUF - 1], b->rs232.start, b->rs232.len, b->rs232.flushing, \
+        b->stats.hunt_yields, b->stats.gap_drops, b->stats.hunt_discards, URBB_FRAME_WRITES
+
 /* ACSL for Frama-C WP (proofs/framac/uplink_parsers/): the RS232 assembler holds at most one
  * candidate frame, inside its buffer. With it WP proves every index of the parsers in bounds and
  * urbb_frame's preconditions where they call it. */
@@ -146,17 +151,14 @@ static void push(urb_bridge_t *b, urb_bridge_parser_t *p, uint8_t byte)
  * *checks is spent: the caller ends the poll there and the next poll resumes at exactly this point
  * (p->flushing remembers a flush in progress). */
 /*@ requires urbb_rs232_ok(b) && p == &b->rs232 && \valid(checks) && \separated(checks, b);
-    assigns p->start, p->len, p->flushing, *checks, b->stats.gap_drops, b->stats.hunt_discards,
-            b->ring[0 .. URB_BRIDGE_RING_MAX - 1], b->ring_count, b->slots[0 .. URB_BRIDGE_FIFO_MAX - 1], b->slot_count,
-            b->stats.frames, b->stats.window_overflow, b->stats.busy;
+    assigns p->start, p->len, p->flushing, *checks, b->stats.gap_drops, b->stats.hunt_discards, URBB_FRAME_WRITES;
     ensures urbb_rs232_ok(b); */
 static bool hunt(urb_bridge_t *b, urb_bridge_parser_t *p, uint8_t *checks, bool ended)
 {
     /* loop bound: URB_BRIDGE_FRAME_MAX + 1 rounds (each but a last one that returns removes a byte or more) */
     /*@ loop invariant 0 <= round <= URB_BRIDGE_FRAME_MAX + 1 && urbb_rs232_ok(b);
         loop assigns round, p->start, p->len, p->flushing, *checks, b->stats.gap_drops, b->stats.hunt_discards,
-            b->ring[0 .. URB_BRIDGE_RING_MAX - 1], b->ring_count, b->slots[0 .. URB_BRIDGE_FIFO_MAX - 1], b->slot_count,
-            b->stats.frames, b->stats.window_overflow, b->stats.busy;
+            URBB_FRAME_WRITES;
         loop variant URB_BRIDGE_FRAME_MAX + 1 - round; */
     for (uint8_t round = 0u; (round <= URB_BRIDGE_FRAME_MAX) && (p->len > 0u); round++) {
         uint8_t const at = p->start;
@@ -234,20 +236,14 @@ void urb_bridge_uart_rx(urb_bridge_t *b, uint8_t byte, uint32_t t_us)
 }
 
 /*@ requires urbb_rs232_ok(b);
-    assigns b->rx_tail, b->rs232.buf[0 .. URB_BRIDGE_PARSE_BUF - 1], b->rs232.start, b->rs232.len,
-            b->rs232.flushing, b->stats.hunt_yields, b->stats.gap_drops, b->stats.hunt_discards,
-            b->ring[0 .. URB_BRIDGE_RING_MAX - 1], b->ring_count, b->slots[0 .. URB_BRIDGE_FIFO_MAX - 1], b->slot_count,
-            b->stats.frames, b->stats.window_overflow, b->stats.busy;
+    assigns URBB_PARSE_WRITES;
     ensures urbb_rs232_ok(b); */
 void urbb_uart_parse(urb_bridge_t *b, uint32_t now, uint8_t checks)
 {
     urb_bridge_parser_t *const p = &b->rs232;
     /* loop bound: URB_BRIDGE_RX_PER_POLL + 1 rounds (one ring byte each; later bytes wait for the next poll) */
     /*@ loop invariant 0 <= i <= URB_BRIDGE_RX_PER_POLL + 1 && urbb_rs232_ok(b);
-        loop assigns i, checks, b->rx_tail, b->rs232.buf[0 .. URB_BRIDGE_PARSE_BUF - 1], b->rs232.start, b->rs232.len,
-                b->rs232.flushing, b->stats.hunt_yields, b->stats.gap_drops, b->stats.hunt_discards,
-                b->ring[0 .. URB_BRIDGE_RING_MAX - 1], b->ring_count, b->slots[0 .. URB_BRIDGE_FIFO_MAX - 1], b->slot_count,
-                b->stats.frames, b->stats.window_overflow, b->stats.busy;
+        loop assigns i, checks, URBB_PARSE_WRITES;
         loop variant URB_BRIDGE_RX_PER_POLL + 1 - i; */
     for (uint8_t i = 0u; i <= URB_BRIDGE_RX_PER_POLL; i++) {
         uint8_t const tail = b->rx_tail;
@@ -293,10 +289,7 @@ void urbb_uart_parse(urb_bridge_t *b, uint32_t now, uint8_t checks)
 }
 
 /*@ requires urbb_rs232_ok(b);
-    assigns b->rx_tail, b->rs232.buf[0 .. URB_BRIDGE_PARSE_BUF - 1], b->rs232.start, b->rs232.len,
-            b->rs232.flushing, b->stats.hunt_yields, b->stats.gap_drops, b->stats.hunt_discards,
-            b->ring[0 .. URB_BRIDGE_RING_MAX - 1], b->ring_count, b->slots[0 .. URB_BRIDGE_FIFO_MAX - 1], b->slot_count,
-            b->stats.frames, b->stats.window_overflow, b->stats.busy;
+    assigns URBB_PARSE_WRITES;
     ensures urbb_rs232_ok(b); */
 void urbb_uart_drain(urb_bridge_t *b, uint32_t now)
 {
@@ -367,8 +360,7 @@ void urb_bridge_usb_sof(urb_bridge_t *b)
 /*@ requires \valid(b) && urbb_fifo_ok(b) && urbb_nodes_ok(b) && urbb_usb_ok(b);
     requires data == \null || \valid_read(data + (0 .. len - 1));
     assigns b->stats.usb_bad_batches, b->stats.usb_batches, b->stats.usb_cut_batches, b->usb_last_frame,
-            b->usb_frame[0 .. 1], b->ring[0 .. URB_BRIDGE_RING_MAX - 1], b->ring_count,
-            b->slots[0 .. URB_BRIDGE_FIFO_MAX - 1], b->slot_count, b->stats.frames, b->stats.window_overflow, b->stats.busy;
+            b->usb_frame[0 .. 1], URBB_FRAME_WRITES;
     ensures urbb_fifo_ok(b) && urbb_nodes_ok(b) && urbb_usb_ok(b); */
 bool urb_bridge_usb_out(urb_bridge_t *b, const uint8_t *data, size_t len)
 {
@@ -390,8 +382,7 @@ bool urb_bridge_usb_out(urb_bridge_t *b, const uint8_t *data, size_t len)
     /* loop bound: URB_BRIDGE_USB_BUF / 4 frames (a request is at least 4 bytes) */
     /*@ loop invariant URB_USB_BATCH_HEADER_MAX_SIZE <= at <= len;
         loop invariant urbb_fifo_ok(b) && urbb_nodes_ok(b) && urbb_usb_ok(b);
-        loop assigns at, b->stats.usb_cut_batches, b->ring[0 .. URB_BRIDGE_RING_MAX - 1], b->ring_count,
-            b->slots[0 .. URB_BRIDGE_FIFO_MAX - 1], b->slot_count, b->stats.frames, b->stats.window_overflow, b->stats.busy;
+        loop assigns at, b->stats.usb_cut_batches, URBB_FRAME_WRITES;
         loop variant len - at; */
     while (at < len) {
         size_t const rest = len - at;
