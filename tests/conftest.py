@@ -37,3 +37,12 @@ def tlc_installed() -> None:
         find_tlc()
     except TraceCheckError as exc:
         pytest.fail(str(exc))
+
+
+@pytest.fixture(autouse=True)
+def port_handover_records(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """Each test keeps its managers' port hand-over records (host/urb/managers/handover.py) in a
+    directory of its own: a pty number reused by a later test must not inherit a record."""
+    where = tmp_path_factory.mktemp("urb-state")
+    monkeypatch.setenv("URB_STATE_DIR", str(where))
+    return where

@@ -24,6 +24,7 @@ from urb_msgs import Message
 from urb_msgs.urb_core import Status
 
 from ..errors import ErrorFlag, PortError
+from .handover import PortHandover
 
 NS_PER_MS = 1_000_000
 NS_PER_S = 1_000_000_000
@@ -199,8 +200,12 @@ class Core(Protocol):
     def busy(self) -> bool: ...
     def start_drain(self, now: int) -> int | None: ...
     def drained(self) -> bool: ...
+    def hand_over(self, until_ns: int) -> None: ...
+    def busy_until(self) -> int | None: ...
     @property
     def late_responses(self) -> int: ...
+    @property
+    def stray_bytes(self) -> int: ...
 
 
 # --------------------------------------------------------------------------------------------
@@ -216,6 +221,8 @@ class ManagerStats:
     completed: int = 0
     failed: int = 0
     stray_bytes: int = 0
+    """Received bytes that answered no request in flight (corrupt, or a previous process's late
+    responses during a hand-over), discarded (since the manager was made)."""
     late_responses: int = 0
     """Responses that came after their request had completed UPLINK_TIMEOUT: the bridge answered
     late (a slow downlink); discarded, never given to another request (since the manager was
@@ -268,9 +275,10 @@ class BusManager(ABC):
         """Count the transfers `core` completed and hand them to `put` (the dispatcher's queue);
         when the core has just found the bridge lost, the lost listeners' notice goes first,
         before the callbacks of the requests that loss failed. The stats take the core's count
-        of late responses."""
+        of late responses and stray bytes."""
         done = core.take_completed()
         self.stats.late_responses = core.late_responses
+        self.stats.stray_bytes = core.stray_bytes
         notice = self._loss_notice(core.lost_reason)
         for t in done:
             if notice is not None and t.flags & ErrorFlag.BRIDGE_LOST:
@@ -386,6 +394,9 @@ class ThreadedManager(BusManager):
         self._running = False
         self._draining = False
         self.stats = ManagerStats()
+        self._handover: PortHandover | None = None
+        """The port's record for the next process (`handover.py`); set by a manager that opens
+        a port by its path."""
 
     # -- subclass hooks --------------------------------------------------------------------
     def _wake_io(self) -> None:
@@ -453,9 +464,23 @@ class ThreadedManager(BusManager):
         """The end of `start()`, once the uplink is open: the core reset if it was closed, then
         the dispatcher and the I/O threads."""
         with self._lock:
-            self._reopen_core(self._core, self.now_ns())
+            now = self.now_ns()
+            self._reopen_core(self._core, now)
+            if self._handover is not None:
+                until = self._handover.predecessor_until(now)
+                if until is not None:
+                    self._core.hand_over(until)
         self._start_dispatcher()
         start_io()
+
+    def _note_sent(self, now: int) -> None:
+        """After a write to the uplink: the port's record covers the lifetime of the requests
+        in flight."""
+        if self._handover is not None:
+            with self._lock:
+                until = self._core.busy_until()
+            if until is not None:
+                self._handover.cover(until, now)
 
     def _drain(self) -> None:
         """The start of a draining `close()`: wait, the I/O threads still running, until the
@@ -479,8 +504,11 @@ class ThreadedManager(BusManager):
         """The end of `close()`, once the I/O threads are stopped: outstanding requests complete
         BRIDGE_LOST, the dispatcher stops, and the callbacks left run on the calling thread."""
         with self._lock:
-            self._close_core(self._core, self.now_ns())
+            now = self.now_ns()
+            self._close_core(self._core, now)
             self._collect()
+            if self._handover is not None:
+                self._handover.settle(self._core.busy_until(), now)
         self._stop_dispatcher()
         self._drain_completions_inline()
 

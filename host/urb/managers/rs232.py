@@ -22,6 +22,7 @@ import serial
 
 from ..errors import PortError
 from .base import NS_PER_MS, ThreadedManager
+from .handover import PortHandover
 from .rs232_core import PLACEHOLDER_NS, Rs232Core
 
 READ_POLL_S = 0.002
@@ -55,6 +56,7 @@ class RS232Manager(ThreadedManager):
         self._writer: threading.Thread | None = None
         self._io_running = False
         self._wake = threading.Event()
+        self._handover = PortHandover(port)
 
     # -- lifecycle ------------------------------------------------------------------------------
     def start(self) -> None:
@@ -136,6 +138,7 @@ class RS232Manager(ThreadedManager):
                 except (OSError, serial.SerialException) as exc:
                     self._lost(exc)
                     return
+                self._note_sent(self.now_ns())
 
     def _read_loop(self) -> None:
         ser = self._serial

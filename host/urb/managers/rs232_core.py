@@ -25,6 +25,9 @@ implements, for one bridge:
 * a draining close (`start_drain`): nothing new is sent, and the requests in flight are matched
   until none is left or the newest one's lifetime is over, so that their late responses cannot
   reach the next process to open the bridge (it numbers its requests from 1 again);
+* a hand-over (`hand_over`): a new user of the port sends nothing before the instant the late
+  responses to the previous process's requests are over (`handover.PortHandover`; Bridge.tla
+  `HostRestart`); what arrives before answers none of its requests and is discarded;
 * an idle-gap rule: a partial candidate that
   receives no byte for `resync_gap_ns` loses its first byte, so a corrupt header cannot stall
   the hunt;
@@ -236,10 +239,39 @@ class MatchingCore:
         """When the host last went from nothing outstanding (no request in flight, placeholders
         included, none queued) to something: requests queued behind a window full of
         placeholders keep the host outstanding, so their expiry is no gap in the silence."""
+        self._handover_until: int | None = None
+        """`hand_over`: nothing is sent before this instant."""
 
     @property
     def _lifetime_ns(self) -> int:
         return max(self.placeholder_ns, self.timeout_ns)
+
+    def busy_until(self) -> int | None:
+        """When the last response the bridge may still send to this core's requests is due at
+        the latest (the newest request in flight's lifetime), or None when nothing is in flight."""
+        if not self._m.inflight:
+            return None
+        return (self._m.inflight[-1].sent_ns or 0) + self._lifetime_ns
+
+    def hand_over(self, until_ns: int) -> None:
+        """This core is a new user of the port: send nothing before `until_ns`, when the late
+        responses to the previous process's requests are over (`handover.PortHandover`;
+        Bridge.tla `HostRestart`). Until then nothing is in flight, so whatever arrives is
+        discarded, and requests submitted wait in the queue (their timeouts run from their
+        sending); the silence rule does not count the wait."""
+        self._handover_until = max(until_ns, self._handover_until or until_ns)
+
+    def _handover_wait(self, now: int) -> bool:
+        """Before the hand-over's instant at `now`; once it has come, the silence rule counts
+        from it."""
+        if self._handover_until is not None and now >= self._handover_until:
+            self._active_since = max(self._active_since, self._handover_until)
+            self._handover_until = None
+        return self._handover_until is not None
+
+    def _handing_over(self, now: int) -> bool:
+        """Nothing may be sent at `now` (the hand-over goes on)."""
+        return self._handover_wait(now)
 
     # -- inputs ------------------------------------------------------------------------------
     def submit(self, t: Transfer, now: int) -> None:
@@ -317,7 +349,7 @@ class MatchingCore:
             self.link_lost(now, f"{self._silent_timeouts} requests in a row got no response and "
                                 f"{self.SILENCE} for {quiet_ns // NS_PER_MS} ms")
             return
-        silent_since = max(self._last_heard_ns, self._active_since)
+        silent_since = max(self._last_heard_ns, self._active_since, self._handover_until or 0)
         if (self._m.inflight or self._queued) and now - silent_since >= self.lost_after_ns:
             self.link_lost(now, f"{self.SILENCE} for {(now - silent_since) // NS_PER_MS} ms with requests "
                                 f"outstanding")
@@ -339,6 +371,8 @@ class MatchingCore:
 
     def next_deadline(self) -> int | None:
         """When `poll` next has something to do (None: nothing pending)."""
+        if self._handover_until is not None and self._queued and self.lost_reason is None:
+            return self._handover_until
         if self.lost_reason is not None or not self._m.inflight:
             return None
         times = [max(self._last_heard_ns, self._active_since) + self.lost_after_ns]
@@ -355,7 +389,7 @@ class MatchingCore:
 
     @property
     def has_queued(self) -> bool:
-        """Requests buffered that the window lets go out now."""
+        """Requests buffered that the window lets go out now (or at the hand-over's end)."""
         return bool(self._queued) and len(self._m.inflight) < self.window and self.lost_reason is None
 
     @property
@@ -457,6 +491,8 @@ class Rs232Core(MatchingCore):
     def frames_to_send(self, now: int) -> list[bytes]:
         """Request frames that may go on the wire now (each to be written with one write())."""
         out: list[bytes] = []
+        if self._handing_over(now):
+            return out
         if self._queued:
             self._m.expire(now, self._lifetime_ns)  # whatever the polling cadence
         while self._queued and len(self._m.inflight) < self.window and self.lost_reason is None:

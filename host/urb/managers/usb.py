@@ -22,6 +22,7 @@ from collections.abc import Callable
 
 from ..errors import PortError
 from .base import NS_PER_MS, ThreadedManager
+from .handover import PortHandover
 from .loopback import BridgeModel
 from .rs232_core import PLACEHOLDER_NS
 from .usb_core import UsbCore
@@ -54,6 +55,9 @@ class USBManager(ThreadedManager):
         if not isinstance(transport, FrameTransport):
             raise TypeError("USBManager needs a FrameTransport (write_batch, set_batch_receiver) or a device path")
         self.transport: FrameTransport = transport
+        path = getattr(transport, "path", None)
+        if isinstance(path, str):
+            self._handover = PortHandover(path)
         self._usb = core
         self._thread: threading.Thread | None = None
         self._io_running = False
@@ -133,6 +137,7 @@ class USBManager(ThreadedManager):
                         self._collect()
                     self._io_running = False
                     return
+                self._note_sent(now)
 
 
 class CharDeviceTransport:

@@ -23,6 +23,13 @@ Limits per batch: `max_batch` requests, both the OUT transfer and the worst-case
 within `USB_BATCH_MAX_BYTES` (512); in flight at most `window` (<= 15, Bridge.tla `HostWindow <
 SeqMod`: the sequence number cannot alias).
 
+Hand-over (`hand_over`, after a process that ended without a draining close): responses the bridge
+could not send because nobody read its IN buffers wait there for the next reader, however old.
+So besides sending no request before the previous process's lifetime is over (as the RS232
+core), the core sends empty OUT transfers, discarding what the IN transfers bring, until an IN
+transfer after that instant carries no response: the bridge then holds nothing of the previous
+process (Bridge.tla `HostRestart`'s premise).
+
 Latency: the paper's three frames (Fig. 16; UsbUplink.tla `StrictLatency`) hold while at most
 window / 2 requests (7 with the usual window of 15) are submitted per frame. The OUT transfer of
 frame n goes out before the IN transfer that completes batch n-1, so two frames' requests are in
@@ -84,6 +91,8 @@ class UsbCore(MatchingCore):
         self.transfers_in = 0
         self.bad_headers = 0
         self._frame = 1  # 0 is what an idle bridge labels its buffers with before the first OUT
+        self._flushing = False
+        """`hand_over`: fetching and discarding IN transfers until an empty one comes."""
         self.trace: list[UsbTraceEvent] | None = None
         """Set to a list to log every Submit, UsbWrite, UsbRead and Callback (UsbTraceEvent)."""
 
@@ -94,6 +103,15 @@ class UsbCore(MatchingCore):
         if self.trace is not None and self.lost_reason is None:
             self.trace.append(("submit", now, (t,)))
 
+    def hand_over(self, until_ns: int) -> None:
+        """As `MatchingCore.hand_over`, and until an IN transfer received from `until_ns` on
+        carries no response."""
+        super().hand_over(until_ns)
+        self._flushing = True
+
+    def _handing_over(self, now: int) -> bool:
+        return self._handover_wait(now) or self._flushing
+
     def receive_batch(self, data: bytes, now: int) -> None:
         """One bulk-IN transfer: a header, then responses back to back (`UsbRead`)."""
         self._heard(now)
@@ -101,9 +119,15 @@ class UsbCore(MatchingCore):
             return
         self.transfers_in += 1
         try:
-            UsbBatchHeader.decode(data[:HEADER_SIZE])
+            header = UsbBatchHeader.decode(data[:HEADER_SIZE])
         except DecodeError:
+            header = None
             self.bad_headers += 1  # the responses carry their own checks: match them anyway
+        if self._flushing:  # the previous process's responses: none of ours is in flight
+            self._m.stray_bytes += max(0, len(data) - HEADER_SIZE)
+            if header is not None and header.count == 0 and not self._handover_wait(now):
+                self._flushing = False
+            return
         m = self._m
         done_before = len(m.completed)
         m.rx += data[HEADER_SIZE:]
@@ -123,14 +147,17 @@ class UsbCore(MatchingCore):
     def frame_out(self, now: int) -> bytes | None:
         """The bulk-OUT transfer for this frame, or None when there is nothing to send or fetch."""
         m = self._m
-        if self.lost_reason is not None or not (self._queued or m.inflight):
+        if self.lost_reason is not None:
+            return None
+        flushing = self._handing_over(now)  # then fetch the previous process's responses, send nothing
+        if not (self._queued or m.inflight or flushing):
             return None
         if self._queued:
             m.expire(now, self._lifetime_ns)  # whatever the polling cadence
         out_bytes = in_bytes = HEADER_SIZE
         frames: list[bytes] = []
         batch: list[Transfer] = []
-        while self._queued and len(batch) < self.max_batch and len(m.inflight) < self.window:
+        while not flushing and self._queued and len(batch) < self.max_batch and len(m.inflight) < self.window:
             t = self._queued[0]
             req, resp = t.request_size(), t.response_size(Status.OK)
             if out_bytes + req > self.batch_bytes or in_bytes + resp > self.batch_bytes:
