@@ -161,10 +161,12 @@ def test_usb_core_fetches_and_discards_until_an_empty_buffer_after_the_lifetime(
             core.receive_batch(batch(1, ident_response(1, 0)), ms * MS)  # held since the kill
         elif ms == 4:
             core.receive_batch(batch(0), ms * MS)  # empty, but before the lifetime's end: go on
-        elif ms == 6:
+        elif ms == 5:
             core.receive_batch(batch(1, ident_response(2, 0)), ms * MS)
+        elif ms == 6:
+            core.receive_batch(batch(0), ms * MS)  # filled partly before the lifetime's end: go on
         elif ms == 7:
-            core.receive_batch(batch(0), ms * MS)  # empty after it: the bridge holds nothing old
+            core.receive_batch(batch(0), ms * MS)  # filled after it: the bridge holds nothing old
     out = core.frame_out(8 * MS)
     header = len(batch(0))
     assert out is not None and UsbBatchHeader.decode(out[:header]).count == 1 and t.seq == 1

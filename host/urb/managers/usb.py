@@ -21,13 +21,12 @@ import time
 from collections.abc import Callable
 
 from ..errors import PortError
-from .base import NS_PER_MS, ThreadedManager
+from .base import ThreadedManager
 from .handover import PortHandover
 from .loopback import BridgeModel
 from .rs232_core import PLACEHOLDER_NS
-from .usb_core import UsbCore
+from .usb_core import FRAME_NS, UsbCore
 
-FRAME_NS = NS_PER_MS
 
 
 class USBManager(ThreadedManager):

@@ -27,8 +27,9 @@ Hand-over (`hand_over`, after a process that ended without a draining close): re
 could not send because nobody read its IN buffers wait there for the next reader, however old.
 So besides sending no request before the previous process's lifetime is over (as the RS232
 core), the core sends empty OUT transfers, discarding what the IN transfers bring, until an IN
-transfer after that instant carries no response: the bridge then holds nothing of the previous
-process (Bridge.tla `HostRestart`'s premise).
+transfer carries no response that the bridge filled wholly after that instant (one received two
+frames after it or later): the bridge then holds nothing of the previous process (Bridge.tla
+`HostRestart`'s premise).
 
 Latency: the paper's three frames (Fig. 16; UsbUplink.tla `StrictLatency`) hold while at most
 window / 2 requests (7 with the usual window of 15) are submitted per frame. The OUT transfer of
@@ -49,6 +50,7 @@ from .base import NS_PER_MS, Transfer, finish
 from .rs232_core import MAX_WINDOW, PLACEHOLDER_NS, MatchingCore, check_window
 
 HEADER_SIZE = UsbBatchHeader.MAX_SIZE
+FRAME_NS = NS_PER_MS
 
 #: One step of the pipeline as UsbUplink.tla names it, for trace validation
 #: (sim/urb_sim/tracecheck.py): ("submit" | "write" | "read" | "callback", now, transfers). A write
@@ -92,7 +94,9 @@ class UsbCore(MatchingCore):
         self.bad_headers = 0
         self._frame = 1  # 0 is what an idle bridge labels its buffers with before the first OUT
         self._flushing = False
-        """`hand_over`: fetching and discarding IN transfers until an empty one comes."""
+        """`hand_over`: fetching and discarding IN transfers until an empty one comes..."""
+        self._flush_empty_from = 0
+        """... received at this instant or later."""
         self.trace: list[UsbTraceEvent] | None = None
         """Set to a list to log every Submit, UsbWrite, UsbRead and Callback (UsbTraceEvent)."""
 
@@ -104,10 +108,11 @@ class UsbCore(MatchingCore):
             self.trace.append(("submit", now, (t,)))
 
     def hand_over(self, until_ns: int) -> None:
-        """As `MatchingCore.hand_over`, and until an IN transfer received from `until_ns` on
-        carries no response."""
+        """As `MatchingCore.hand_over`, and until an IN transfer received two frames after
+        `until_ns` or later (its buffer was filled after it) carries no response."""
         super().hand_over(until_ns)
         self._flushing = True
+        self._flush_empty_from = max(self._flush_empty_from, until_ns + 2 * FRAME_NS)
 
     def _handing_over(self, now: int) -> bool:
         return self._handover_wait(now) or self._flushing
@@ -125,7 +130,7 @@ class UsbCore(MatchingCore):
             self.bad_headers += 1  # the responses carry their own checks: match them anyway
         if self._flushing:  # the previous process's responses: none of ours is in flight
             self._m.stray_bytes += max(0, len(data) - HEADER_SIZE)
-            if header is not None and header.count == 0 and not self._handover_wait(now):
+            if header is not None and header.count == 0 and now >= self._flush_empty_from:
                 self._flushing = False
             return
         m = self._m
