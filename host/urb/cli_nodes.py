@@ -48,7 +48,10 @@ MBOX_HELP = "mailbox number (0..7) or the name of its message (e.g. MotorFeedbac
 PORTS_TEXT = """\
 Ports: every PORT is opened at --baud (8N1), the bridge at address 0 is asked for its
 identification, told to rescan its downlink, and every node that answers is identified.
-Values are shown and given in engineering units from the schema (raw * scale + offset)."""
+Values are shown and given in engineering units from the schema (raw * scale + offset).
+A port whose last user ended without waiting for its answers (Ctrl-C, kill) is used once
+their time is over: with --timeout up to 0.3, at most 0.3 s after Ctrl-C and 1.3 s after
+kill -9 (records in $URB_STATE_DIR, else $XDG_RUNTIME_DIR/urb, else /tmp/urb-UID)."""
 
 SCAN_EPILOG = PORTS_TEXT + """
 
