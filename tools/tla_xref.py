@@ -51,8 +51,9 @@ def definitions(module: str) -> dict[str, str]:
 
 def actions(module: str) -> list[str]:
     """The actions of every next-state relation a specification of the module uses (`[][Next]_vars`,
-    and Bridge.tla's ReconnectNext and ResetNext): operators they name that change state (have
-    primes), found by expanding the ones that only combine others (IsrNext, AppNext, ...)."""
+    and Bridge.tla's ReconnectNext, ResetNext and RestartNext): operators they name that change
+    state (have primes), found by expanding the ones that only combine others (IsrNext, AppNext,
+    ...)."""
     defs = definitions(module)
     out: list[str] = []
 

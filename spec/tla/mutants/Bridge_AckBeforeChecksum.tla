@@ -13,7 +13,8 @@ MutServe ==
              /\ "CHECKSUM" \in Faults
              /\ queue' = [queue EXCEPT ![k] = [id |-> id, status |-> "OK", data |-> NoData]]
              /\ cause' = [cause EXCEPT ![id] = "CHECKSUM"]
-       /\ UNCHANGED <<sent, out, applied, full, hostFrom, lastMatch, timedOut, linkUp, forgotten>>
+       /\ UNCHANGED <<sent, out, applied, full, hostFrom, lastMatch, timedOut, linkUp, forgotten,
+                      starts>>
 
 MutNext == SubmitAndAdmit \/ MutServe \/ Emit \/ Done
 MutSpec == Init /\ [][MutNext]_vars

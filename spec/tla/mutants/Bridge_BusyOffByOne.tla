@@ -16,7 +16,7 @@ MutSubmit ==
             /\ cause' = IF st = "PENDING" THEN cause ELSE [cause EXCEPT ![id] = st]
             /\ full' = IF AdmissionStatus(r) = "OK" /\ DataSlotsUsed >= QueueLen
                          THEN full \cup {id} ELSE full
-    /\ UNCHANGED <<out, applied, hostFrom, lastMatch, timedOut, linkUp, forgotten>>
+    /\ UNCHANGED <<out, applied, hostFrom, lastMatch, timedOut, linkUp, forgotten, starts>>
 
 MutNext == MutSubmit \/ Serve \/ Emit \/ Done
 MutSpec == Init /\ [][MutNext]_vars

@@ -20,7 +20,7 @@ MutSubmit ==
                       /\ UNCHANGED out
             /\ cause' = IF st = "PENDING" THEN cause ELSE [cause EXCEPT ![id] = st]
             /\ full' = IF st = "BUSY" THEN full \cup {id} ELSE full
-    /\ UNCHANGED <<applied, hostFrom, lastMatch, timedOut, linkUp, forgotten>>
+    /\ UNCHANGED <<applied, hostFrom, lastMatch, timedOut, linkUp, forgotten, starts>>
 
 MutNext == MutSubmit \/ Serve \/ Emit \/ Done
 MutSpec == Init /\ [][MutNext]_vars

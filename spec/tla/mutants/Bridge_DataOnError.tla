@@ -18,7 +18,7 @@ MutServe ==
             /\ applied' = IF st = "OK" /\ r.op = "write"
                             THEN applied \cup {id} ELSE applied
             /\ cause' = [cause EXCEPT ![id] = st]
-    /\ UNCHANGED <<sent, out, full, hostFrom, lastMatch, timedOut, linkUp, forgotten>>
+    /\ UNCHANGED <<sent, out, full, hostFrom, lastMatch, timedOut, linkUp, forgotten, starts>>
 
 MutNext == SubmitAndAdmit \/ MutServe \/ Emit \/ Done
 MutSpec == Init /\ [][MutNext]_vars

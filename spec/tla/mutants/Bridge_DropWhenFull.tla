@@ -16,7 +16,7 @@ MutSubmit ==
                    /\ cause' = IF AdmissionStatus(r) # "OK"
                                  THEN [cause EXCEPT ![id] = AdmissionStatus(r)] ELSE cause
                    /\ UNCHANGED full
-    /\ UNCHANGED <<out, applied, hostFrom, lastMatch, timedOut, linkUp, forgotten>>
+    /\ UNCHANGED <<out, applied, hostFrom, lastMatch, timedOut, linkUp, forgotten, starts>>
 
 MutNext == MutSubmit \/ Serve \/ Emit \/ Done \/ (Len(sent) = MaxReq /\ UNCHANGED vars)
 MutSpec == Init /\ [][MutNext]_vars

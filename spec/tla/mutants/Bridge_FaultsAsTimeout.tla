@@ -11,7 +11,7 @@ MutEmit ==
        IN /\ out' = Append(out, resp)
           /\ HostReceives(resp)
     /\ queue' = Tail(queue)
-    /\ UNCHANGED <<sent, applied, cause, full, linkUp, forgotten>>
+    /\ UNCHANGED <<sent, applied, cause, full, linkUp, forgotten, starts>>
 
 MutNext == SubmitAndAdmit \/ Serve \/ MutEmit \/ Done
 MutSpec == Init /\ [][MutNext]_vars

@@ -14,7 +14,7 @@ MutSubmit ==
             /\ queue' = Append(queue, [id |-> id, status |-> st, data |-> NoData])
             /\ cause' = IF st = "PENDING" THEN cause ELSE [cause EXCEPT ![id] = st]
             /\ full' = IF st = "BUSY" THEN full \cup {id} ELSE full
-    /\ UNCHANGED <<out, applied, hostFrom, lastMatch, timedOut, linkUp, forgotten>>
+    /\ UNCHANGED <<out, applied, hostFrom, lastMatch, timedOut, linkUp, forgotten, starts>>
 
 MutNext == MutSubmit \/ Serve \/ Emit \/ Done
 MutSpec == Init /\ [][MutNext]_vars

@@ -18,7 +18,7 @@ MutEmit ==
        IN /\ out' = Append(out, resp)
           /\ MutMatch(resp) \/ UNCHANGED hostVars
     /\ queue' = Tail(queue)
-    /\ UNCHANGED <<sent, applied, cause, full, linkUp, forgotten>>
+    /\ UNCHANGED <<sent, applied, cause, full, linkUp, forgotten, starts>>
 
 MutNext == SubmitAndAdmit \/ Serve \/ MutEmit \/ HostTimeout \/ Done
 MutSpec == Init /\ [][MutNext]_vars

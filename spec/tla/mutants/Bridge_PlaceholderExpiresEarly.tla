@@ -11,7 +11,7 @@ MutExpire ==
     /\ hostFrom <= Len(sent) /\ hostFrom \in timedOut
     /\ hostFrom' = hostFrom + 1
     /\ timedOut' = timedOut \ {hostFrom}
-    /\ UNCHANGED <<sent, queue, out, applied, cause, full, lastMatch, linkUp, forgotten>>
+    /\ UNCHANGED <<sent, queue, out, applied, cause, full, lastMatch, linkUp, forgotten, starts>>
 
 MutNext == SubmitAndAdmit \/ Serve \/ Emit \/ HostTimeout \/ MutExpire \/ Done
 MutSpec == Init /\ [][MutNext]_vars

@@ -14,7 +14,7 @@ MutReopen ==
     /\ linkUp' = TRUE
     /\ hostFrom' = Len(sent) + 1
     /\ timedOut' = {}
-    /\ UNCHANGED <<sent, queue, out, applied, cause, full, lastMatch, forgotten>>
+    /\ UNCHANGED <<sent, queue, out, applied, cause, full, lastMatch, forgotten, starts>>
 
 MutNext == Next \/ HostLinkLost \/ MutReopen
 MutSpec == Init /\ [][MutNext]_vars

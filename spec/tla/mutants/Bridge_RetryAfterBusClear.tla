@@ -13,7 +13,8 @@ MutServe ==
              /\ out' = Append(out, [id |-> id, seq |-> SeqOf(id),
                                     status |-> "BUS_STUCK", data |-> NoData])
              /\ cause' = [cause EXCEPT ![id] = "BUS_STUCK"]
-       /\ UNCHANGED <<sent, queue, applied, full, hostFrom, lastMatch, timedOut, linkUp, forgotten>>
+       /\ UNCHANGED <<sent, queue, applied, full, hostFrom, lastMatch, timedOut, linkUp, forgotten,
+                      starts>>
 
 MutNext == SubmitAndAdmit \/ MutServe \/ Emit \/ Done
 MutSpec == Init /\ [][MutNext]_vars

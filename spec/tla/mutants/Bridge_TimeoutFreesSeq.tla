@@ -11,7 +11,8 @@ EXTENDS MCBridge
 MutTimeout ==
     /\ hostFrom <= Len(sent)
     /\ hostFrom' = hostFrom + 1
-    /\ UNCHANGED <<sent, queue, out, applied, cause, full, lastMatch, timedOut, linkUp, forgotten>>
+    /\ UNCHANGED <<sent, queue, out, applied, cause, full, lastMatch, timedOut, linkUp, forgotten,
+                   starts>>
 
 MutNext == SubmitAndAdmit \/ Serve \/ Emit \/ MutTimeout \/ Done
 MutSpec == Init /\ [][MutNext]_vars

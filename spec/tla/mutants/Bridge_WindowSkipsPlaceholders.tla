@@ -20,7 +20,7 @@ MutSubmit ==
             /\ cause' = IF st = "PENDING" THEN cause ELSE [cause EXCEPT ![id] = st]
             /\ full' = IF AdmissionStatus(r) = "OK" /\ DataSlotsUsed >= QueueLen
                          THEN full \cup {id} ELSE full
-    /\ UNCHANGED <<out, applied, hostFrom, lastMatch, timedOut, linkUp, forgotten>>
+    /\ UNCHANGED <<out, applied, hostFrom, lastMatch, timedOut, linkUp, forgotten, starts>>
 
 MutNext == MutSubmit \/ Serve \/ Emit \/ HostTimeout \/ HostExpire \/ Done
 MutSpec == Init /\ [][MutNext]_vars
