@@ -53,6 +53,7 @@ from .errors import (
     hint,
 )
 from .managers.base import BusManager, Transfer, decode_message, encode_message
+from .managers.rs232_core import SCAN_ANSWER_NS
 
 M = TypeVar("M", bound=Message)
 Callback = Callable[["NodeRequest"], object]
@@ -501,7 +502,7 @@ class _Discovery:
         self._send(0, 0, True, BRIDGE.sizes("outbox")[0], self._got_info)
 
     def _send(self, addr: int, box: int, read: bool, length: int, cb: Callable[[Transfer], None],
-              data: bytes = b"") -> None:
+              data: bytes = b"", answer_within_ns: int = 0) -> None:
         self._outstanding += 1
 
         def done(t: Transfer) -> None:
@@ -509,7 +510,7 @@ class _Discovery:
             cb(t)
             self._maybe_finish()
 
-        self.m.submit(Transfer(addr, box, read, length, data=data, on_done=done))
+        self.m.submit(Transfer(addr, box, read, length, data=data, on_done=done, answer_within_ns=answer_within_ns))
 
     def _fail(self, text: str) -> None:
         if self.report.error is None:
@@ -534,7 +535,9 @@ class _Discovery:
             self.m.set_window(min(info.fifo_depth, 15))
         if self.rescan:
             cmd = encode_message(BridgeCommand(opcode=BridgeOpcode.SCAN))
-            self._send(BRIDGE_ADDRESS, 0, False, len(cmd), self._got_scan_ack, data=cmd)
+            # answered when the scan is over; the scan-map read behind it waits for it
+            self._send(BRIDGE_ADDRESS, 0, False, len(cmd), self._got_scan_ack, data=cmd,
+                       answer_within_ns=SCAN_ANSWER_NS)
         self._send(BRIDGE_ADDRESS, 1, True, BRIDGE.sizes("outbox")[1], self._got_scan)
 
     def _got_scan_ack(self, t: Transfer) -> None:

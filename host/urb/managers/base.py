@@ -92,6 +92,14 @@ class Transfer:
     lost_reason: str | None = None
     """For BRIDGE_LOST: why the bridge was considered lost when this transfer failed."""
     done: bool = False
+    answer_within_ns: int = 0
+    """How long the bridge may take to answer this request when that is longer than the core's
+    timeout and lifetime (a bridge SCAN command: `rs232_core.SCAN_ANSWER_NS`); 0: the usual.
+    Requests sent while it is in flight wait behind it, and their clocks start after it."""
+    due_ns: int | None = field(default=None, repr=False)
+    """Internal: when it completes UPLINK_TIMEOUT without a response (set when sent)."""
+    expires_ns: int | None = field(default=None, repr=False)
+    """Internal: when the bridge no longer holds it, its placeholder's end (set when sent)."""
     garbage: bool = field(default=False, repr=False)
     """Internal: corrupt bytes were seen while this transfer was the oldest one pending."""
 

@@ -177,10 +177,12 @@ class BridgeModel:
 
     def __init__(self, nodes: dict[int, FakeNode] | None = None, *, fifo_depth: int = 8, ring: int = 15,
                  bitrate_kbps: int = 400, heartbeat_us: int = 1000, fw: tuple[int, int, int] = (0, 1, 0),
-                 idle_gap_ns: int = 174_000, timed_downlink: bool = False) -> None:
+                 idle_gap_ns: int = 174_000, timed_downlink: bool = False, scan_ns: int = 0) -> None:
         """`fifo_depth`: data slots (QueueLen); `ring`: response slots (HostWindow);
         `timed_downlink`: a transaction takes its I2C time at `bitrate_kbps` (else instantaneous);
-        `idle_gap_ns`: a partial request frame is dropped after this much silence."""
+        `idle_gap_ns`: a partial request frame is dropped after this much silence; `scan_ns`: how
+        long a SCAN command holds the downlink (answered when the scan is over, as the firmware)."""
+        self.scan_ns = scan_ns
         self.nodes: dict[int, FakeNode] = dict(nodes or {})
         self.fifo_depth = fifo_depth
         self.ring = ring
@@ -222,6 +224,12 @@ class BridgeModel:
     def _duration_ns(self, r: _Request) -> int:
         """How long the transaction holds the downlink: its bit time (timed downlink) plus the
         node's clock stretching."""
+        if r.address == core.BRIDGE_ADDRESS and not r.read and r.mailbox == 0:
+            try:
+                if core.BridgeCommand.decode(r.data).opcode == core.BridgeOpcode.SCAN:
+                    return self.scan_ns
+            except DecodeError:
+                pass
         node = self.nodes.get(r.address)
         return self._bits_ns(r) + (node.stretch_ns if node is not None and node.present else 0)
 

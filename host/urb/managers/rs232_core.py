@@ -83,6 +83,16 @@ LONGEST_REQUEST_RS232_US = (37 * 10 * 1_000_000 + 115_199) // 115_200  # the req
 PLACEHOLDER_WORST_US = LONGEST_REQUEST_RS232_US + MAX_WINDOW * REQUEST_WORST_US
 PLACEHOLDER_NS = 300 * NS_PER_MS
 assert PLACEHOLDER_WORST_US * 1000 <= PLACEHOLDER_NS
+# A SCAN command is answered when the scan is over (firmware/bridge/bridge.c `scan_done`): every
+# address 1..127 probed by reading its identification, at worst each read ending with the downlink
+# timeout and a bus clear (a node holding SCL low), 127 * (6720 + 105) us = 866.8 ms at 100 kb/s.
+# The heartbeat's SYNC broadcasts go between the probes: at most one per heartbeat tick (1 ms),
+# each (address, command, check: 4 bytes of 9 bits and the start and stop) 380 us at 100 kb/s,
+# so at most 38 % more. After the requests ahead of it (PLACEHOLDER_NS covers a full window).
+SCAN_WORST_US = 127 * (DOWNLINK_TIMEOUT_100KBPS_US + BUS_CLEAR_US)
+SYNC_SHARE = 0.38
+SCAN_ANSWER_NS = 1500 * NS_PER_MS
+assert PLACEHOLDER_NS + SCAN_WORST_US * (1 + SYNC_SHARE) * 1000 <= SCAN_ANSWER_NS
 _STATUS_MAX = max(int(s) for s in Status)
 
 
@@ -125,23 +135,23 @@ class ResponseMatcher:
             else:
                 self._unanswered(t, now)
 
-    def time_out(self, now: int, timeout_ns: int, lifetime_ns: int) -> int:
-        """Complete UPLINK_TIMEOUT every live request sent `timeout_ns` ago or more; it stays in
-        flight as a placeholder unless its lifetime (`lifetime_ns` from its sending) is over too.
-        Returns how many timed out."""
+    def time_out(self, now: int) -> int:
+        """Complete UPLINK_TIMEOUT every live request due by `now` (`due_ns`); it stays in flight
+        as a placeholder unless its lifetime (`expires_ns`) is over too. Returns how many timed
+        out."""
         n = 0
         for t in self.inflight:
-            if not t.done and t.sent_ns is not None and now - t.sent_ns >= timeout_ns:
+            if not t.done and t.due_ns is not None and now >= t.due_ns:
                 self._unanswered(t, now)
                 n += 1
-        self.expire(now, lifetime_ns)
+        self.expire(now)
         return n
 
-    def expire(self, now: int, lifetime_ns: int) -> None:
-        """Release the placeholders sent `lifetime_ns` ago or more: the bridge no longer holds
-        their requests."""
+    def expire(self, now: int) -> None:
+        """Release the placeholders whose lifetime is over by `now` (`expires_ns`): the bridge no
+        longer holds their requests."""
         def over(t: Transfer) -> bool:
-            return t.done and now - (t.sent_ns or 0) >= lifetime_ns
+            return t.done and now >= (t.expires_ns or 0)
 
         if any(over(t) for t in self.inflight):
             keep = deque(t for t in self.inflight if not over(t))
@@ -153,10 +163,15 @@ class ResponseMatcher:
         else UPLINK_TIMEOUT."""
         self.completed.append(finish(t, now, ErrorFlag.UPLINK_CHECKSUM if t.garbage else ErrorFlag.UPLINK_TIMEOUT))
 
-    def next_event(self, timeout_ns: int, lifetime_ns: int) -> int | None:
-        """When the oldest live request times out or the oldest placeholder expires."""
-        times = [(t.sent_ns or 0) + (lifetime_ns if t.done else timeout_ns) for t in self.inflight]
+    def next_event(self) -> int | None:
+        """When the first live request times out or the first placeholder expires."""
+        times = [(t.expires_ns if t.done else t.due_ns) or 0 for t in self.inflight]
         return min(times) if times else None
+
+    def long_until(self) -> int:
+        """Until when a request in flight with a long answer time (`answer_within_ns`) may hold
+        the bridge (0: none)."""
+        return max(((t.sent_ns or 0) + t.answer_within_ns for t in self.inflight if t.answer_within_ns), default=0)
 
     def fail_all(self, queued: deque[Transfer], now: int, reason: str | None = None) -> None:
         """The uplink is gone: every live request in flight, then every queued one, completes
@@ -241,6 +256,9 @@ class MatchingCore:
         placeholders keep the host outstanding, so their expiry is no gap in the silence."""
         self._handover_until: int | None = None
         """`hand_over`: nothing is sent before this instant."""
+        self._quiet_until = 0
+        """Until when the bridge may be silent because a request with a long answer time holds
+        it (`Transfer.answer_within_ns`), unless it answered that request before."""
 
     @property
     def _lifetime_ns(self) -> int:
@@ -248,10 +266,8 @@ class MatchingCore:
 
     def busy_until(self) -> int | None:
         """When the last response the bridge may still send to this core's requests is due at
-        the latest (the newest request in flight's lifetime), or None when nothing is in flight."""
-        if not self._m.inflight:
-            return None
-        return (self._m.inflight[-1].sent_ns or 0) + self._lifetime_ns
+        the latest (the latest lifetime in flight), or None when nothing is in flight."""
+        return max((t.expires_ns or 0 for t in self._m.inflight), default=None)
 
     def hand_over(self, until_ns: int) -> None:
         """This core is a new user of the port: send nothing before `until_ns`, when the late
@@ -280,7 +296,7 @@ class MatchingCore:
         if self.lost_reason is not None or self._closing:
             self._m.lose(t, now, self.lost_reason or CLOSED_REASON)
             return
-        self._m.expire(now, self._lifetime_ns)
+        self._m.expire(now)
         if not self._queued and not self._m.inflight:
             self._active_since = now
         self._queued.append(t)
@@ -303,7 +319,7 @@ class MatchingCore:
         self._last_heard_ns = now
         self._active_since = now
         self._silent_timeouts = 0
-        self._m.expire(now, self._lifetime_ns)
+        self._m.expire(now)
 
     def start_drain(self, now: int) -> int | None:
         """The start of a draining close: queued requests (never sent) complete BRIDGE_LOST, and
@@ -319,7 +335,7 @@ class MatchingCore:
         self._queued.clear()
         if self.drained():
             return None
-        return (self._m.inflight[-1].sent_ns or now) + self._lifetime_ns
+        return self.busy_until()
 
     def drained(self) -> bool:
         """Nothing left to wait for after `start_drain`: nothing in flight, or the bridge lost."""
@@ -334,9 +350,20 @@ class MatchingCore:
         self._last_heard_ns = now
         self._silent_timeouts = 0
 
+    def _silent_since(self) -> int:
+        """Whence silence counts: the bridge's last sign of life, the start of the host's
+        outstanding work, the end of a hand-over, or the end of a long request's answer time (no
+        answer is due before it)."""
+        return max(self._last_heard_ns, self._active_since, self._handover_until or 0, self._quiet_until)
+
+    def _matched(self) -> None:
+        """After received responses were matched: a long request answered no longer excuses
+        silence."""
+        self._quiet_until = min(self._quiet_until, self._m.long_until())
+
     def _time_out(self, now: int) -> int:
         """Complete the requests whose time is over; how many timed out."""
-        n = self._m.time_out(now, self.timeout_ns, self._lifetime_ns)
+        n = self._m.time_out(now)
         self._silent_timeouts += n
         return n
 
@@ -349,7 +376,7 @@ class MatchingCore:
             self.link_lost(now, f"{self._silent_timeouts} requests in a row got no response and "
                                 f"{self.SILENCE} for {quiet_ns // NS_PER_MS} ms")
             return
-        silent_since = max(self._last_heard_ns, self._active_since, self._handover_until or 0)
+        silent_since = self._silent_since()
         if (self._m.inflight or self._queued) and now - silent_since >= self.lost_after_ns:
             self.link_lost(now, f"{self.SILENCE} for {(now - silent_since) // NS_PER_MS} ms with requests "
                                 f"outstanding")
@@ -360,6 +387,11 @@ class MatchingCore:
         t.seq = self._next_seq
         self._next_seq = (self._next_seq + 1) % SEQ_MOD
         t.sent_ns = now
+        start = max(now, self._m.long_until())  # served after a long request ahead of it
+        t.due_ns = start + max(self.timeout_ns, t.answer_within_ns)
+        t.expires_ns = start + max(self._lifetime_ns, t.answer_within_ns)
+        if t.answer_within_ns:
+            self._quiet_until = max(self._quiet_until, start + t.answer_within_ns)
         t.garbage = False
         self._m.inflight.append(t)
         return encode_request(t)
@@ -375,8 +407,8 @@ class MatchingCore:
             return self._handover_until
         if self.lost_reason is not None or not self._m.inflight:
             return None
-        times = [max(self._last_heard_ns, self._active_since) + self.lost_after_ns]
-        nxt = self._m.next_event(self.timeout_ns, self._lifetime_ns)
+        times = [self._silent_since() + self.lost_after_ns]
+        nxt = self._m.next_event()
         if nxt is not None:
             times.append(nxt)
         return min(times)
@@ -468,6 +500,7 @@ class Rs232Core(MatchingCore):
             return
         self._m.rx += data
         self._partial = self._m.parse(now)
+        self._matched()
 
     def poll(self, now: int) -> None:
         """Apply timeouts, the idle-gap rule and bridge-lost detection at time `now`."""
@@ -494,7 +527,7 @@ class Rs232Core(MatchingCore):
         if self._handing_over(now):
             return out
         if self._queued:
-            self._m.expire(now, self._lifetime_ns)  # whatever the polling cadence
+            self._m.expire(now)  # whatever the polling cadence
         while self._queued and len(self._m.inflight) < self.window and self.lost_reason is None:
             out.append(self._send(self._queued.popleft(), now))
         return out

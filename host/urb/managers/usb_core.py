@@ -137,6 +137,7 @@ class UsbCore(MatchingCore):
         done_before = len(m.completed)
         m.rx += data[HEADER_SIZE:]
         m.parse(now)
+        self._matched()
         if m.rx:  # a response never spans two transfers: the rest is garbage
             m._discard(len(m.rx))
         if self.trace is not None:
@@ -158,7 +159,7 @@ class UsbCore(MatchingCore):
         if not (self._queued or m.inflight or flushing):
             return None
         if self._queued:
-            m.expire(now, self._lifetime_ns)  # whatever the polling cadence
+            m.expire(now)  # whatever the polling cadence
         out_bytes = in_bytes = HEADER_SIZE
         frames: list[bytes] = []
         batch: list[Transfer] = []
