@@ -6,6 +6,8 @@
     python3 tools/proofs_framac.py --no-mutants     # the units only
     python3 tools/proofs_framac.py --record         # rewrite each unit's expected.json from this run
     python3 tools/proofs_framac.py --list           # the units and their settings, nothing run
+    python3 tools/proofs_framac.py --prune-cache    # the whole offline replay, then delete the
+                                                    # cache entries it did not read
 
 A unit is a folder proofs/framac/<unit>/ holding PURPOSE (one line), unit.json (what to run) and
 expected.json (what the run must give). unit.json:
@@ -474,6 +476,25 @@ def print_table(rows: list[Row]) -> None:
             print(f"UNEXPECTED {r.function} ({r.unit}): {r.result} {r.detail}")
 
 
+def mark_unread(entries: list[Path]) -> None:
+    """Set each cache entry's access time to 0 (its modification time kept), so that a read
+    shows: the file system then updates it on the first read (relatime does, since 0 < mtime)."""
+    for e in entries:
+        os.utime(e, ns=(0, e.stat().st_mtime_ns))
+
+
+def prune_unread(entries: list[Path]) -> tuple[int, int]:
+    """Delete the entries not read since `mark_unread`; (kept, deleted). Deletes nothing and
+    raises SetupError when none was read: the file system records no access times (noatime)."""
+    unread = [e for e in entries if e.stat().st_atime_ns == 0]
+    if len(unread) == len(entries):
+        raise SetupError(f"no entry of {CACHE_DIR} was read, or the file system does not record access times "
+                         f"(mounted noatime?): nothing pruned")
+    for e in unread:
+        e.unlink()
+    return len(entries) - len(unread), len(unread)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--only", action="append", default=[], help="units whose folder name contains this")
@@ -484,8 +505,16 @@ def main(argv: list[str] | None = None) -> int:
                     help="WP cache mode (default update: cached answers are reused, misses run the provers)")
     ap.add_argument("--jobs", type=int, default=2, help="frama-c processes and provers in parallel (default 2)")
     ap.add_argument("--list", action="store_true", help="print the units, run nothing")
+    ap.add_argument("--prune-cache", action="store_true",
+                    help="replay every unit and mutant from the cache (offline), then delete the entries no "
+                         "goal read: answers to goals that no longer exist. Needs the whole run")
     args = ap.parse_args(argv)
     try:
+        if args.prune_cache:
+            if args.only or args.no_mutants or args.mutants_only or args.record:
+                raise SetupError("--prune-cache needs the whole run: no --only, --no-mutants, --mutants-only "
+                                 "or --record")
+            args.cache = "offline"
         units = discover(args.only)
         if args.list:
             for u in units:
@@ -493,6 +522,8 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         require_tools()
         reviewed = read_alarm_list()
+        entries = sorted(CACHE_DIR.glob("*.json")) if args.prune_cache else []
+        mark_unread(entries)
         start = time.monotonic()
         jobs: list[tuple[Unit, dict[str, Any] | None]] = []
         if not args.mutants_only:
@@ -511,13 +542,19 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"  {u.name}{' (mutant ' + m['name'] + ')' if m else ''}: {seconds:.1f} s", flush=True)
                 if args.record and not m and recorded:
                     (u.folder / "expected.json").write_text(json.dumps(recorded, indent=2) + "\n", encoding="utf-8")
+        wall = time.monotonic() - start
+        write_outputs(rows, wall)
+        print_table(rows)
+        bad = [r for r in rows if not r.expected]
+        if args.prune_cache:
+            if bad:
+                print("proofs_framac: cache not pruned: the replay had unexpected results", file=sys.stderr)
+            else:
+                kept, deleted = prune_unread(entries)
+                print(f"framac cache: {kept} entries read and kept, {deleted} unread deleted ({CACHE_DIR})")
     except SetupError as exc:
         print(f"proofs_framac: {exc}", file=sys.stderr)
         return 2
-    wall = time.monotonic() - start
-    write_outputs(rows, wall)
-    print_table(rows)
-    bad = [r for r in rows if not r.expected]
     wp_rows = [r for r in rows if r.tool == "frama-c wp" and " mutant " not in r.function]
     goals = [int(r.properties.split("/")[1].split()[0]) for r in wp_rows if "/" in r.properties]
     print(f"framac: {len(wp_rows)} WP functions, {sum(goals)} goals; "

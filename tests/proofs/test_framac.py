@@ -323,3 +323,29 @@ def test_runtime_replays_from_the_committed_cache_and_its_mutant_is_rejected(tmp
     assert len(units) >= 10 and all(r["result"] == "proved" and r["expected"] for r in units)
     assert len(mutants) == len(_unit("gen_runtime").mutants)
     assert all(m["result"] == "killed" and m["expected"] for m in mutants)
+
+
+def test_prune_deletes_only_the_entries_not_read_since_marking(tmp_path: Path) -> None:
+    entries = [tmp_path / f"{k}.json" for k in range(3)]
+    for e in entries:
+        e.write_text("{}")
+    RUNNER.mark_unread(entries)
+    assert all(e.stat().st_atime_ns == 0 for e in entries)
+    entries[1].read_text()  # what frama-c does with a cache hit
+    assert RUNNER.prune_unread(entries) == (1, 2)
+    assert [e.exists() for e in entries] == [False, True, False]
+
+
+def test_prune_refuses_when_nothing_was_read(tmp_path: Path) -> None:
+    """A noatime file system looks like a run that read nothing: prune nothing and say why."""
+    entries = [tmp_path / "a.json"]
+    entries[0].write_text("{}")
+    RUNNER.mark_unread(entries)
+    with pytest.raises(RUNNER.SetupError, match="access times"):
+        RUNNER.prune_unread(entries)
+    assert entries[0].exists()
+
+
+def test_prune_needs_the_whole_run(capsys: pytest.CaptureFixture[str]) -> None:
+    assert RUNNER.main(["--prune-cache", "--only", "mailbox"]) == 2
+    assert "needs the whole run" in capsys.readouterr().err
