@@ -278,3 +278,22 @@ def test_ctrl_c_close_without_drain_leaves_the_exact_lifetime(fake_bridge: Calla
     new, _ = next_process_reads_fast(bp.link)
     assert index_of(new) == 1 and new.sent_ns is not None and new.sent_ns >= until
     assert not PortHandover(str(bp.link)).path.exists()  # the second one drained: nothing left
+
+
+def test_a_usb_device_path_has_one_user_at_a_time(tmp_path: Path) -> None:
+    """The record assumes one process per port: a second open of the same device is refused with
+    what to do, and works once the first one closed it."""
+    from urb.errors import PortError
+    from urb.managers import CharDeviceTransport
+
+    device = tmp_path / "urb-usb0"
+    device.write_bytes(b"")
+    first, second = CharDeviceTransport(str(device)), CharDeviceTransport(str(device))
+    first.open()
+    try:
+        with pytest.raises(PortError, match="in use by another program"):
+            second.open()
+    finally:
+        first.close()
+    second.open()
+    second.close()

@@ -14,6 +14,7 @@ call), `LoopbackFrameTransport` for tests, and the simulation's USB model (throu
 
 from __future__ import annotations
 
+import fcntl
 import os
 import select
 import threading
@@ -142,7 +143,8 @@ class USBManager(ThreadedManager):
 class CharDeviceTransport:
     """A bridge behind a kernel driver's character device (or any file descriptor that keeps
     transfer boundaries, e.g. a SOCK_SEQPACKET socket): `write()` = one bulk-OUT, each `read()`
-    = one bulk-IN, pushed to the receiver from a reader thread.
+    = one bulk-IN, pushed to the receiver from a reader thread. A device opened from `path` is
+    locked (`flock`) for one process at a time.
 
     Exactly one reader runs between `open` and `close`: `close` wakes the reader (a pipe it
     polls together with the device) and joins it before returning, so a reopened transport never
@@ -165,10 +167,17 @@ class CharDeviceTransport:
         if self.fd is None:
             assert self.path is not None
             try:
-                self.fd = os.open(self.path, os.O_RDWR)
+                fd = os.open(self.path, os.O_RDWR)
             except OSError as exc:
                 raise PortError(f"{self.path}: cannot open the USB bridge device ({exc.strerror}); "
                                 f"check the kernel driver is loaded and the device permissions") from None
+            try:  # one user at a time, as pyserial's exclusive=True does for serial ports
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                os.close(fd)
+                raise PortError(f"{self.path}: the USB bridge is in use by another program (close it, or find "
+                                f"it with `fuser {self.path}`).") from None
+            self.fd = fd
         self._stop = threading.Event()
         self._wake = os.pipe()
         label = self.path if self.path is not None else f"fd {self.fd}"
