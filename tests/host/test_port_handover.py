@@ -215,6 +215,7 @@ m.submit(t)
 deadline = time.monotonic() + 2
 while t.sent_ns is None and time.monotonic() < deadline:
     time.sleep(0.001)
+time.sleep(0.05)  # the writer thread writes the frame (the node answers 300 ms later)
 print(t.seq, flush=True)
 os.kill(os.getpid(), signal.SIGKILL)
 """
@@ -297,3 +298,27 @@ def test_a_usb_device_path_has_one_user_at_a_time(tmp_path: Path) -> None:
         first.close()
     second.open()
     second.close()
+
+
+def test_the_record_covers_a_request_before_it_goes_out(fake_bridge: Callable[..., BridgeProc]) -> None:
+    """A process killed between writing a frame and noting it would leave no record: the record is
+    written first."""
+    bp = fake_bridge([f"MotorDriver:1@{FAST}"])
+    m = RS232Manager(str(bp.link), timeout_s=0.5)
+    m.start()
+    ser = m._serial
+    assert ser is not None
+    written = ser.write
+    records: list[int | None] = []
+
+    def write(data: bytes) -> int | None:
+        records.append(PortHandover(str(bp.link)).predecessor_until(time.monotonic_ns()))
+        return written(data)
+
+    ser.write = write  # type: ignore[method-assign]
+    t = read_ident(FAST)
+    m.submit(t)
+    assert m.wait_until(lambda: t.done, 2.0) and index_of(t) == 1
+    m.close()
+    assert t.expires_ns is not None and len(records) == 1
+    assert records[0] is not None and records[0] >= t.expires_ns - 20 * MS

@@ -481,9 +481,9 @@ class ThreadedManager(BusManager):
         self._start_dispatcher()
         start_io()
 
-    def _note_sent(self, now: int) -> None:
-        """After a write to the uplink: the port's record covers the lifetime of the requests
-        in flight."""
+    def _note_sending(self, now: int) -> None:
+        """Before a write to the uplink (a process killed right after it must leave a record
+        that covers it): the port's record covers the lifetime of the requests in flight."""
         if self._handover is not None:
             with self._lock:
                 until = self._core.busy_until()

@@ -132,13 +132,13 @@ class RS232Manager(ThreadedManager):
                     frames = self._rs.frames_to_send(self.now_ns())
                 if not frames:
                     break
+                self._note_sending(self.now_ns())
                 try:
                     for frame in frames:
                         ser.write(frame)  # one write() per frame: its bytes go back to back
                 except (OSError, serial.SerialException) as exc:
                     self._lost(exc)
                     return
-                self._note_sent(self.now_ns())
 
     def _read_loop(self) -> None:
         ser = self._serial

@@ -170,8 +170,8 @@ class ResponseMatcher:
 
     def long_until(self) -> int:
         """Until when a request in flight with a long answer time (`answer_within_ns`) may hold
-        the bridge (0: none)."""
-        return max(((t.sent_ns or 0) + t.answer_within_ns for t in self.inflight if t.answer_within_ns), default=0)
+        the bridge: its lifetime (0: none)."""
+        return max((t.expires_ns or 0 for t in self.inflight if t.answer_within_ns), default=0)
 
     def fail_all(self, queued: deque[Transfer], now: int, reason: str | None = None) -> None:
         """The uplink is gone: every live request in flight, then every queued one, completes
@@ -421,7 +421,7 @@ class MatchingCore:
 
     @property
     def has_queued(self) -> bool:
-        """Requests buffered that the window lets go out now (or at the hand-over's end)."""
+        """Requests buffered that the window lets go out (once a hand-over is over)."""
         return bool(self._queued) and len(self._m.inflight) < self.window and self.lost_reason is None
 
     @property

@@ -129,6 +129,7 @@ class USBManager(ThreadedManager):
                 out = self._usb.frame_out(now)
                 self._collect()
             if out is not None:
+                self._note_sending(now)
                 try:
                     self.transport.write_batch(out)
                 except OSError as exc:
@@ -137,7 +138,6 @@ class USBManager(ThreadedManager):
                         self._collect()
                     self._io_running = False
                     return
-                self._note_sent(now)
 
 
 class CharDeviceTransport:
