@@ -73,7 +73,7 @@ class PortHandover:
         try:
             until = self._to_monotonic(int(text), now_ns)
         except ValueError:
-            from .rs232_core import PLACEHOLDER_NS
+            from .rs232_core import PLACEHOLDER_NS  # here: rs232_core imports base, which imports this
 
             until = now_ns + PLACEHOLDER_NS
         return min(until, now_ns + MAX_WAIT_NS)
@@ -92,6 +92,8 @@ class PortHandover:
                 self.path.unlink()
             except FileNotFoundError:
                 pass
+            except OSError as exc:
+                self._warn(exc)
             self._written_ns = None
             return
         self._write(until_ns, now_ns)
@@ -100,17 +102,21 @@ class PortHandover:
         wall = time.time_ns() + (until_ns - now_ns)
         tmp = self.path.with_suffix(f".{os.getpid()}.tmp")
         try:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self.path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)  # the user's own
             tmp.write_text(f"{wall}\n", encoding="ascii")
             os.replace(tmp, self.path)  # a reader never sees half a record
-        except OSError as exc:  # the uplink works without it: say so once, go on
-            if not self._warned:
-                self._warned = True
-                print(f"urb: cannot write {self.path} ({exc}); a process opening the port after this one "
-                      f"ends without close() may take its late responses. Set URB_STATE_DIR to a "
-                      f"writable directory.", file=sys.stderr)
+        except OSError as exc:
+            self._warn(exc)
             return
         self._written_ns = until_ns
+
+    def _warn(self, exc: OSError) -> None:
+        """The uplink works without the record: say so once, go on."""
+        if not self._warned:
+            self._warned = True
+            print(f"urb: cannot write {self.path} ({exc}); a process opening the port after this one "
+                  f"ends without close() may take its late responses. Set URB_STATE_DIR to a "
+                  f"writable directory.", file=sys.stderr)
 
     @staticmethod
     def _to_monotonic(wall_ns: int, now_ns: int) -> int:
