@@ -322,3 +322,35 @@ def test_the_record_covers_a_request_before_it_goes_out(fake_bridge: Callable[..
     m.close()
     assert t.expires_ns is not None and len(records) == 1
     assert records[0] is not None and records[0] >= t.expires_ns - 20 * MS
+
+
+def test_usb_manager_flushes_before_its_first_request(tmp_path: Path) -> None:
+    """The threaded USB runtime with a record left by a killed process: its first frames are empty
+    OUT transfers whose IN answers are discarded, then its request goes out and is answered."""
+    from urb.managers import LoopbackUsbTransport, USBManager
+
+    nodes = dict(fake_node(spec) for spec in (f"MotorDriver:1@{FAST}",))
+    transport = LoopbackUsbTransport(BridgeModel(nodes))
+    outs: list[bytes] = []
+    write = transport.write_batch
+
+    def counted(data: bytes) -> None:
+        outs.append(data)
+        write(data)
+
+    transport.write_batch = counted  # type: ignore[method-assign]
+    m = USBManager(transport, timeout_s=1.0)
+    m._handover = PortHandover("/dev/urb-usb-test", tmp_path)
+    now = time.monotonic_ns()
+    m._handover.settle(now + 20 * MS, now)  # a Ctrl-C'd process's requests live 20 ms more
+    m.start()
+    try:
+        t = read_ident(FAST)
+        m.submit(t)
+        assert m.wait_until(lambda: t.done, 2.0) and index_of(t) == 1
+    finally:
+        m.close()
+    header = len(batch(0))
+    assert t.sent_ns is not None and t.sent_ns >= now + 20 * MS
+    counts = [UsbBatchHeader.decode(o[:header]).count for o in outs]
+    assert counts.index(1) >= 10 and sum(counts) == 1  # about 20 frames of fetching first (threads: some skip)
