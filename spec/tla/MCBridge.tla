@@ -33,7 +33,7 @@ MCFaultsWrap == {}
 (* bridge reset per behaviour (and any number of reconnects).  A reset     *)
 (* leaves the bridge as Init does; unbounded resets multiply the histories *)
 (* of answered and forgotten requests for no new kind of host state        *)
-(* (52,128 states: the opt-in MCBridgeResetLarge.cfg).                     *)
+(* (60,257 states: the opt-in MCBridgeResetLarge.cfg).                     *)
 MCResetNext == ReconnectNext \/ (forgotten = {} /\ BridgeReset)
 MCSpecReset == Init /\ [][MCResetNext]_vars /\ Fairness
 
