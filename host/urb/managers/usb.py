@@ -29,7 +29,6 @@ from .rs232_core import PLACEHOLDER_NS
 from .usb_core import FRAME_NS, UsbCore
 
 
-
 class USBManager(ThreadedManager):
     """A URB bridge on a USB uplink, over any `FrameTransport` (or a device path)."""
 
