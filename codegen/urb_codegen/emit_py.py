@@ -308,7 +308,7 @@ def _emit_message(w: _Writer, msg: MessageDecl) -> None:
     w(f"MAX_SIZE: ClassVar[int] = {msg.max_size}", 1)
     if msg.is_fixed_size:
         w(f"SIZE: ClassVar[int] = {msg.fixed_size}", 1)
-    w(f"FIELDS: ClassVar[tuple[FieldInfo, ...]] = (", 1)
+    w("FIELDS: ClassVar[tuple[FieldInfo, ...]] = (", 1)
     for f in user:
         count_name = f.type.count_field if isinstance(f.type, BytesType) else None
         counter = next((c for c in msg.fields if c.name == count_name), None)
@@ -400,9 +400,9 @@ def _emit_decode(w: _Writer, msg: MessageDecl, fmt: str | None) -> None:
             w(f"_length = (int.from_bytes(data[:{F}], 'little') >> {counter.bit_offset}) & {hex((1 << counter.bit_width) - 1)}", 2)
             w(f"_expected = {F} + _length + ({_check_width_expr(msg, '_length')})  # what the length field says", 2)
             w("check_length(cls.NAME, _n, _expected, _expected)", 2)
-            w(f"_payload_len = _length", 2)
+            w("_payload_len = _length", 2)
         else:
-            w(f"_payload_len = cls._payload_length(_n)", 2)
+            w("_payload_len = cls._payload_length(_n)", 2)
         w(f"_body = data[:{F} + _payload_len]", 2)
         if cs is not None:
             w(f"_crc_bytes = data[{F} + _payload_len:]", 2)
@@ -424,7 +424,7 @@ def _emit_decode(w: _Writer, msg: MessageDecl, fmt: str | None) -> None:
         else:
             for index, tier in enumerate(cs.tiers):
                 tw = tier.width // 8
-                cond = f"p >= 0" + (f" and {I + F} + p <= {tier.max_covered}" if tier.max_covered is not None else "")
+                cond = "p >= 0" + (f" and {I + F} + p <= {tier.max_covered}" if tier.max_covered is not None else "")
                 prev = [t for t in cs.tiers[:index] if t.max_covered is not None]  # the tiers chosen before this one
                 if prev:
                     cond += f" and {I + F} + p > {max(t.max_covered for t in prev if t.max_covered is not None)}"

@@ -40,13 +40,10 @@ flight at once; more per frame fills the window, and the requests beyond it wait
 
 from __future__ import annotations
 
-from collections import deque
-
 from urb_msgs import DecodeError
 from urb_msgs.urb_core import USB_BATCH_MAX_BYTES, Status, UsbBatchHeader
 
-from ..errors import ErrorFlag
-from .base import NS_PER_MS, Transfer, finish
+from .base import NS_PER_MS, Transfer
 from .rs232_core import MAX_WINDOW, PLACEHOLDER_NS, MatchingCore, check_window
 
 HEADER_SIZE = UsbBatchHeader.MAX_SIZE
