@@ -17,7 +17,7 @@ help:
 	@echo "make check      run every check CI runs (installs what is missing first)"
 	@echo "make gen        regenerate gen/c and gen/python from spec/schema"
 	@echo "make gen-check  fail when the committed generated files are stale"
-	@echo "make bench      run the benchmarks (prints ratio tables)"
+	@echo "make bench      run the benchmarks: codecs next to MAVLink, host library CPU per request"
 
 setup:
 	@tools/setup.sh
@@ -44,6 +44,7 @@ demo: setup
 
 bench: setup
 	$(PYTHON) bench/codec_bench.py
+	$(PYTHON) bench/host_cpu.py
 
 clean:
 	rm -rf build

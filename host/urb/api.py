@@ -347,6 +347,8 @@ class NodeAccessor:
         self._stats_lock = threading.Lock()
         self.completed = 0
         self.failed = 0
+        self._boxes: dict[tuple[type[Message], str], int] = {}
+        """`mailbox_of`'s answers (asked for every request built with read_message/write_message)."""
 
     @property
     def manager(self) -> BusManager:
@@ -369,11 +371,15 @@ class NodeAccessor:
 
     def mailbox_of(self, cls: type[Message], direction: str) -> int:
         """The number of the `direction` mailbox holding `cls` in the schema."""
+        known = self._boxes.get((cls, direction))
+        if known is not None:
+            return known
         boxes = [m.number for m in self.info.mailboxes if m.direction == direction and m.message is cls]
         if len(boxes) != 1:
             have = ", ".join(f"{m.direction} {m.number} {m.message.NAME}" for m in self.info.mailboxes)
             what = "no" if not boxes else "more than one"
             raise ValueError(f"{self.info.name} has {what} {direction} of type {cls.NAME}; pass mbox= explicitly ({have})")
+        self._boxes[(cls, direction)] = boxes[0]
         return boxes[0]
 
     def submit_request(self, req: NodeRequest) -> NodeRequest:

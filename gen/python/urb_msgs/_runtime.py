@@ -142,7 +142,10 @@ class NodeInfo:
 
     def mailbox(self, direction: str, number: int) -> MailboxInfo | None:
         """The inbox or outbox `number`, or None when the node has none."""
-        return next((m for m in self.mailboxes if m.direction == direction and m.number == number), None)
+        for m in self.mailboxes:  # a plain loop: the host library asks this for every request
+            if m.number == number and m.direction == direction:
+                return m
+        return None
 
     def sizes(self, direction: str) -> list[int]:
         """Sizes of mailboxes 0..7 in one direction (0 = unused), as identification reports them."""
@@ -183,7 +186,11 @@ class FrameCheck:
         self.tiers = tiers  # (largest covered length or None, check bytes, CRC function)
 
     def _tier(self, covered: bytes) -> tuple[int, Callable[[bytes], int]]:
-        return next((width, crc) for limit, width, crc in self.tiers if limit is None or len(covered) <= limit)
+        n = len(covered)
+        for limit, width, crc in self.tiers:
+            if limit is None or n <= limit:
+                return width, crc
+        raise AssertionError("the last tier has no limit")  # guaranteed by the schema checker
 
     def seal(self, covered: bytes) -> bytes:
         """The check bytes (little-endian) that follow `covered` on the wire."""
@@ -212,6 +219,8 @@ E = TypeVar("E", bound=enum.IntEnum)
 
 def check_int(value: Any, lo: int, hi: int, where: str) -> int:
     """`value` as an int inside lo..hi, or EncodeError naming the field."""
+    if type(value) is int and lo <= value <= hi:
+        return value  # the common case first: every field of every frame passes here
     if isinstance(value, bool) or not isinstance(value, int):
         raise EncodeError(f"{where} must be an integer, not {type(value).__name__}")
     if not lo <= value <= hi:

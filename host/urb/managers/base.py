@@ -37,6 +37,10 @@ inside a callback, by every manager."""
 CLOSED_REASON = "closed by the application"
 """`lost_reason` of a manager after `close()` (requests submitted then complete BRIDGE_LOST)."""
 
+DISPATCH_BATCH = 16
+"""Callbacks the dispatcher runs back to back before it wakes the blocking calls waiting (a USB
+frame answers up to 15 requests)."""
+
 M = TypeVar("M", bound=Message)
 
 
@@ -550,13 +554,25 @@ class ThreadedManager(BusManager):
             self._changed.notify_all()  # what a draining close() waits for
 
     def _dispatch_loop(self) -> None:
+        q = self._dispatch_q
         while True:
-            item = self._dispatch_q.get()
-            if item is None:
-                return
-            _run_item(item)
+            item = q.get()
+            # Run what is queued (at most DISPATCH_BATCH), then wake the blocking waiters once:
+            # a notify per callback cost more than the rest of the dispatch.
+            ran = 0
+            while item is not None:
+                _run_item(item)
+                ran += 1
+                if ran == DISPATCH_BATCH:
+                    break
+                try:
+                    item = q.get_nowait()
+                except queue.Empty:
+                    break
             with self._changed:
                 self._changed.notify_all()
+            if item is None:
+                return
 
     def _drain_completions_inline(self) -> None:
         """Run the callbacks of completions queued while no dispatcher runs (during and after

@@ -150,13 +150,14 @@ class ResponseMatcher:
     def expire(self, now: int) -> None:
         """Release the placeholders whose lifetime is over by `now` (`expires_ns`): the bridge no
         longer holds their requests."""
-        def over(t: Transfer) -> bool:
-            return t.done and now >= (t.expires_ns or 0)
-
-        if any(over(t) for t in self.inflight):
-            keep = deque(t for t in self.inflight if not over(t))
-            self.released_placeholders += len(self.inflight) - len(keep)
-            self.inflight = keep
+        for t in self.inflight:  # a plain loop: this runs several times per request
+            if t.done and now >= (t.expires_ns or 0):
+                break
+        else:
+            return
+        keep = deque(t for t in self.inflight if not (t.done and now >= (t.expires_ns or 0)))
+        self.released_placeholders += len(self.inflight) - len(keep)
+        self.inflight = keep
 
     def _unanswered(self, t: Transfer, now: int) -> None:
         """A live request got no response: UPLINK_CHECKSUM when corrupt bytes stood in its place,
@@ -171,7 +172,11 @@ class ResponseMatcher:
     def long_until(self) -> int:
         """Until when a request in flight with a long answer time (`answer_within_ns`) may hold
         the bridge: its lifetime (0: none)."""
-        return max((t.expires_ns or 0 for t in self.inflight if t.answer_within_ns), default=0)
+        until = 0
+        for t in self.inflight:
+            if t.answer_within_ns and (t.expires_ns or 0) > until:
+                until = t.expires_ns or 0
+        return until
 
     def fail_all(self, queued: deque[Transfer], now: int, reason: str | None = None) -> None:
         """The uplink is gone: every live request in flight, then every queued one, completes
@@ -203,7 +208,11 @@ class ResponseMatcher:
                 return False
             head = self.rx[0]
             seq, status = head & 0x0F, head >> 4
-            k = next((i for i, t in enumerate(self.inflight) if t.seq == seq), -1)
+            k = -1
+            for i, t in enumerate(self.inflight):
+                if t.seq == seq:
+                    k = i
+                    break
             if k < 0 or status > _STATUS_MAX:
                 self._discard(1)
                 continue
@@ -359,7 +368,8 @@ class MatchingCore:
     def _matched(self) -> None:
         """After received responses were matched: a long request answered no longer excuses
         silence."""
-        self._quiet_until = min(self._quiet_until, self._m.long_until())
+        if self._quiet_until:
+            self._quiet_until = min(self._quiet_until, self._m.long_until())
 
     def _time_out(self, now: int) -> int:
         """Complete the requests whose time is over; how many timed out."""

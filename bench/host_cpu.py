@@ -1,0 +1,269 @@
+#!/usr/bin/env python3
+"""CPU cost of the URB host library per request, and what the SensoRHex load costs a host core.
+
+The paper's robot asks 12.3 requests per millisecond of its host (six motor drivers read and
+commanded at 1 kHz over two USB bridges, three sensors read at 100 Hz over RS232). The host library
+is Python: this benchmark measures how much of one core that takes, on this machine. It measures
+CPU time of the host process only (time.process_time: every thread of the library, the
+application's loop and its callbacks), never the bridge's: the bridge runs in another process.
+
+  1. RS232Manager over a pseudo-terminal to the bridge firmware compiled for the host
+     (`make bridge-hosted`, two motor nodes on its simulated I2C bus): the window kept full by the
+     callbacks (each completion submits the next read), so the host runs as fast as it can.
+  2. USBManager over a SOCK_SEQPACKET socket pair (a kernel driver's character device keeps
+     transfer boundaries the same way) to the Python bridge model in a child process: one
+     SensoRHex USB bridge's load, three MotorFeedback reads and three MotorCommand writes every
+     millisecond, for --seconds of wall time.
+  3. The protocol state machines alone (Rs232Core, UsbCore; no threads, no system calls):
+     submit, frame, response, completion. What 1 and 2 cost beyond this is the real-time
+     runtime: threads waking each other, the GIL, the port's system calls.
+
+Prints microseconds of CPU per request for each, the threads' split (from /proc, counted in
+clock ticks, so rough), and the projection: the SensoRHex load at 1 kHz as a share of one core of
+this machine (two bridges as in 2, plus 300 RS232 requests per second at the cost of 1). A ratio
+above 1 means this machine could not run the paper's robot from this library at 1 kHz.
+Nothing is asserted: the numbers go to build/bench/host_cpu.json.
+
+    python3 bench/host_cpu.py                  # ~45 s
+    python3 bench/host_cpu.py --quick          # ~15 s
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "tests" / "host"))
+
+from bridge_proc import build_hosted_bridge  # noqa: E402
+from urb.api import NodeRequest, URBInterface  # noqa: E402
+from urb.managers import BridgeModel, CharDeviceTransport, RS232Manager, USBManager, fake_node  # noqa: E402
+from urb.managers.base import NS_PER_MS, Transfer  # noqa: E402
+from urb.managers.rs232_core import Rs232Core  # noqa: E402
+from urb.managers.usb_core import UsbCore  # noqa: E402
+from urb_msgs.sensorhex import MotorCommand, MotorFeedback  # noqa: E402
+from urb_msgs.urb_core import Status, UplinkResponse, UsbBatchHeader  # noqa: E402
+
+OUT = REPO / "build" / "bench"
+SENSORHEX_USB_PER_MS = 6    # per USB bridge: 3 motors, each read and commanded every ms
+SENSORHEX_USB_BRIDGES = 2
+SENSORHEX_RS232_PER_S = 300  # battery, IMU and IR read at 100 Hz
+MOTORS = [f"MotorDriver:{i}@{16 + i}" for i in range(3)]
+
+
+def thread_split(requests: int) -> dict[str, float]:
+    """CPU microseconds per request of each live thread of this process (user + system), from
+    /proc: counted in clock ticks, so rough for short runs."""
+    tick = os.sysconf("SC_CLK_TCK")
+    out: dict[str, float] = {}
+    for th in threading.enumerate():
+        try:
+            fields = Path(f"/proc/self/task/{th.native_id}/stat").read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        name = th.name.split(" ")[0]
+        out[name] = out.get(name, 0.0) + (int(fields[11]) + int(fields[12])) * 1e6 / tick / max(1, requests)
+    return out
+
+
+def rs232_pty(requests: int) -> dict[str, Any]:
+    """Case 1: the window kept full over a pty to the hosted bridge firmware."""
+    link = OUT / "host_cpu-pty"
+    OUT.mkdir(parents=True, exist_ok=True)
+    proc = subprocess.Popen([str(build_hosted_bridge()), "--node", "motor,0,0x10", "--node", "motor,1,0x11",
+                             "--link", str(link), "--seconds", "600"], stdout=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout is not None
+        proc.stdout.readline()  # "pty: ..." once the link exists
+        urb = URBInterface()
+        m = RS232Manager(str(link), window=15, timeout_s=1.0)
+        urb.add_bus_manager(m)
+        motors = [urb.find_node("MotorDriver", i) for i in range(2)]
+        window = m._rs.window  # after discovery: the bridge FIFO depth, at most 15
+        freed = threading.Semaphore(0)
+        failed = [0]
+
+        def done(r: NodeRequest) -> None:
+            failed[0] += not r.ok
+            freed.release()
+
+        before = thread_split(1)
+        cpu0, wall0 = time.process_time(), time.perf_counter()
+        for i in range(requests):
+            if i >= window:
+                freed.acquire()
+            node = motors[i % 2]
+            node.submit_request(node.new_request().read_message(MotorFeedback).set_callback(done))
+        for _ in range(min(window, requests)):
+            freed.acquire()
+        cpu, wall = time.process_time() - cpu0, time.perf_counter() - wall0
+        after = thread_split(1)
+        urb.close()
+    finally:
+        proc.terminate()
+        proc.wait(5)
+    split = {k: (after.get(k, 0.0) - before.get(k, 0.0)) / requests for k in after}
+    return {"requests": requests, "failed": failed[0], "cpu_s": cpu, "wall_s": wall,
+            "us_per_request": cpu * 1e6 / requests, "requests_per_s": requests / wall, "threads_us": split}
+
+
+def _bridge_child(sock: socket.socket) -> None:
+    """The USB bridge end in a child process: one OUT per recv, the previous IN buffer back."""
+    model = BridgeModel(dict(fake_node(s) for s in MOTORS), fifo_depth=15)
+    while True:
+        try:
+            data = sock.recv(4096)
+        except OSError:
+            os._exit(0)
+        if not data:
+            os._exit(0)
+        model.usb_out(data, time.monotonic_ns())
+        back = model.usb_in()
+        if back is not None:
+            sock.send(back)
+
+
+def usb_sensorhex(seconds: float) -> dict[str, Any]:
+    """Case 2: one SensoRHex USB bridge's motor load in real time."""
+    host_sock, dev_sock = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
+    pid = os.fork()
+    if pid == 0:
+        host_sock.close()
+        _bridge_child(dev_sock)
+    dev_sock.close()
+    fd = os.dup(host_sock.fileno())
+    host_sock.close()
+    urb = URBInterface()
+    try:
+        m = USBManager(CharDeviceTransport(fd=fd), timeout_s=1.0, name="usb")
+        urb.add_bus_manager(m)
+        motors = [urb.find_node("MotorDriver", i) for i in range(3)]
+        count, failed = [0], [0]
+
+        def done(r: NodeRequest) -> None:
+            count[0] += 1
+            failed[0] += not r.ok
+
+        before = thread_split(1)
+        sent = 0
+        cpu0, wall0 = time.process_time(), time.perf_counter()
+        tick = time.monotonic_ns()
+        end = tick + int(seconds * 1e9)
+        while tick < end:
+            tick += NS_PER_MS
+            delay = tick - time.monotonic_ns()
+            if delay > 0:
+                time.sleep(delay / 1e9)
+            for node in motors:
+                node.submit_request(node.new_request().read_message(MotorFeedback).set_callback(done))
+                node.submit_request(node.new_request().write_message(MotorCommand(voltage=1)).set_callback(done))
+                sent += 2
+        deadline = time.monotonic() + 2.0
+        while count[0] < sent and time.monotonic() < deadline:
+            time.sleep(0.001)
+        cpu, wall = time.process_time() - cpu0, time.perf_counter() - wall0
+        after = thread_split(1)
+    finally:
+        urb.close()
+        os.close(fd)  # the child sees the end of the socket and exits
+        os.waitpid(pid, 0)
+    split = {k: (after.get(k, 0.0) - before.get(k, 0.0)) / max(1, count[0]) for k in after}
+    return {"requests": sent, "completed": count[0], "failed": failed[0], "cpu_s": cpu, "wall_s": wall,
+            "us_per_request": cpu * 1e6 / max(1, count[0]), "core_share": cpu / wall, "threads_us": split}
+
+
+def rs232_core_only(requests: int) -> float:
+    """Case 3, RS232: CPU microseconds per request of Rs232Core alone (responses prepared
+    beforehand, so only the host's work is timed)."""
+    responses = [UplinkResponse(seq=s, status=Status.OK, data=bytes(6)).encode() for s in range(16)]
+    core = Rs232Core(window=15)
+    now, sent = 0, []
+    cpu0 = time.process_time()
+    for i in range(requests):
+        core.submit(Transfer(address=0x10, mailbox=1, read=True, length=6), now)
+        sent += core.frames_to_send(now)
+        if len(sent) == 15 or i == requests - 1:
+            for frame in sent:
+                now += 200_000
+                core.receive(responses[frame[1] >> 4], now)
+                core.poll(now)
+                core.take_completed()
+            sent = []
+    return (time.process_time() - cpu0) * 1e6 / requests
+
+
+def usb_core_only(requests: int) -> float:
+    """Case 3, USB: CPU microseconds per request of UsbCore alone, 6 requests per 1-ms frame
+    (responses prepared beforehand)."""
+    responses = [UplinkResponse(seq=s, status=Status.OK, data=bytes(6)).encode() for s in range(16)]
+    headers = [UsbBatchHeader(frame=1, count=n).encode() for n in range(16)]
+    core = UsbCore(max_batch=14)
+    header = UsbBatchHeader.MAX_SIZE
+    now, done = 0, 0
+    cpu0 = time.process_time()
+    while done < requests:
+        for k in range(SENSORHEX_USB_PER_MS):
+            core.submit(Transfer(address=0x10 + k % 3, mailbox=1, read=True, length=6), now)
+        now += NS_PER_MS
+        core.poll(now)
+        out = core.frame_out(now)
+        if out is not None:
+            seqs = [out[i + 1] >> 4 for i in range(header, len(out), 4)]  # UplinkReadRequest.seq
+            core.receive_batch(headers[len(seqs)] + b"".join(responses[s] for s in seqs), now)
+        done += len(core.take_completed())
+    return (time.process_time() - cpu0) * 1e6 / done
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help="shorter runs (rougher numbers)")
+    ap.add_argument("--repeats", type=int, default=3, metavar="N",
+                    help="runs of each case; the cheapest is reported (default 3: other jobs on the machine "
+                         "only ever add CPU time)")
+    ap.add_argument("--json", type=Path, default=OUT / "host_cpu.json", help="where the numbers go")
+    args = ap.parse_args(argv)
+    n, secs = (4000, 1.5) if args.quick else (20000, 5.0)
+
+    print(f"Host library CPU per request ({'quick' if args.quick else 'full'} run, best of {args.repeats}; CPU time "
+          f"of the host process, Python {sys.version.split()[0]}):")
+    if args.repeats < 1:
+        ap.error("--repeats must be 1 or more")
+    runs = range(args.repeats)
+    core_rs = min(rs232_core_only(n) for _ in runs)
+    core_usb = min(usb_core_only(n) for _ in runs)
+    rs = min((rs232_pty(n) for _ in runs), key=lambda r: float(r["us_per_request"]))
+    usb = min((usb_sensorhex(secs) for _ in runs), key=lambda r: float(r["us_per_request"]))
+    print(f"  RS232, pty to the hosted bridge firmware, window 15 : {rs['us_per_request']:6.1f} us "
+          f"({rs['requests']} reads, {rs['failed']} failed, {rs['requests_per_s']:.0f} per s)")
+    print(f"  USB, SensoRHex bridge load (6 per ms), seqpacket    : {usb['us_per_request']:6.1f} us "
+          f"({usb['completed']} of {usb['requests']} completed, {usb['failed']} failed, "
+          f"{usb['core_share'] * 100:.0f} % of one core)")
+    print(f"  protocol state machine alone: Rs232Core {core_rs:.1f} us, UsbCore {core_usb:.1f} us "
+          f"(the rest is the runtime: threads, GIL, system calls)")
+    for label, r in (("RS232", rs), ("USB", usb)):
+        split = ", ".join(f"{k} {v:.1f}" for k, v in sorted(r["threads_us"].items(), key=lambda kv: -kv[1]) if v >= 0.05)
+        print(f"  {label} threads, us per request (clock ticks, rough): {split}")
+    load = (SENSORHEX_USB_BRIDGES * SENSORHEX_USB_PER_MS * 1000 * usb["us_per_request"]
+            + SENSORHEX_RS232_PER_S * rs["us_per_request"]) / 1e6
+    per_s = SENSORHEX_USB_BRIDGES * SENSORHEX_USB_PER_MS * 1000 + SENSORHEX_RS232_PER_S
+    print(f"\nSensoRHex at 1 kHz ({per_s} requests per s): {load:.2f} of one core of this machine "
+          f"({'fits' if load < 1 else 'does NOT fit'} one core; the GIL keeps the library on one)")
+    results = {"rs232_pty": rs, "usb_sensorhex": usb, "rs232_core_us": core_rs, "usb_core_us": core_usb,
+               "sensorhex_core_share": load, "quick": args.quick}
+    args.json.parent.mkdir(parents=True, exist_ok=True)
+    args.json.write_text(json.dumps(results, indent=2) + "\n")
+    print(f"written {args.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
