@@ -16,6 +16,7 @@ from __future__ import annotations
 import errno
 import os
 import re
+import select
 import threading
 
 import serial
@@ -145,8 +146,7 @@ class RS232Manager(ThreadedManager):
         assert ser is not None
         while self._io_running:
             try:
-                waiting = ser.in_waiting
-                data = ser.read(waiting if waiting > 0 else 1)
+                data = read_available(ser)
             except (OSError, serial.SerialException, TypeError) as exc:
                 if self._io_running:
                     self._lost(exc)
@@ -160,6 +160,26 @@ class RS232Manager(ThreadedManager):
                 more = self._rs.has_queued
             if more:
                 self._wake.set()
+
+
+def read_available(ser: serial.Serial) -> bytes:
+    """What the port has received, waiting up to READ_POLL_S for the first byte (b"": nothing).
+    One select and one read on the port's descriptor: pyserial's `in_waiting` + `read` cost
+    twice as much CPU per response, and the reader runs once per response. Raises
+    `SerialException` as pyserial does when a port that reports data returns none (a USB
+    adapter unplugged), `OSError` when the read fails."""
+    fd = ser.fileno()
+    ready, _, _ = select.select([fd], [], [], READ_POLL_S)
+    if not ready:
+        return b""
+    try:
+        data = os.read(fd, 4096)
+    except BlockingIOError:  # pyserial opens the port non-blocking
+        return b""
+    if not data:
+        raise serial.SerialException("device reports readiness to read but returned no data "
+                                     "(device disconnected or multiple access on port?)")
+    return data
 
 
 def open_serial(port: str, baud: int) -> serial.Serial:
