@@ -33,6 +33,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import platform
 import socket
 import subprocess
 import sys
@@ -234,7 +235,8 @@ def main(argv: list[str] | None = None) -> int:
     n, secs = (4000, 1.5) if args.quick else (20000, 5.0)
 
     print(f"Host library CPU per request ({'quick' if args.quick else 'full'} run, best of {args.repeats}; CPU time "
-          f"of the host process, Python {sys.version.split()[0]}):")
+          f"of the host process, Python {sys.version.split()[0]}, load average {os.getloadavg()[0]:.1f} on "
+          f"{os.cpu_count()} CPUs):")
     if args.repeats < 1:
         ap.error("--repeats must be 1 or more")
     runs = range(args.repeats)
@@ -258,7 +260,9 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\nSensoRHex at 1 kHz ({per_s} requests per s): {load:.2f} of one core of this machine "
           f"({'fits' if load < 1 else 'does NOT fit'} one core; the GIL keeps the library on one)")
     results = {"rs232_pty": rs, "usb_sensorhex": usb, "rs232_core_us": core_rs, "usb_core_us": core_usb,
-               "sensorhex_core_share": load, "quick": args.quick}
+               "sensorhex_core_share": load, "quick": args.quick, "repeats": args.repeats,
+               "python": sys.version.split()[0], "machine": platform.processor() or platform.machine(),
+               "cpus": os.cpu_count(), "load_average": os.getloadavg()[0]}
     args.json.parent.mkdir(parents=True, exist_ok=True)
     args.json.write_text(json.dumps(results, indent=2) + "\n")
     print(f"written {args.json}")
