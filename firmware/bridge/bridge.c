@@ -57,6 +57,11 @@ static uint8_t slot_index(const urb_bridge_t *b, uint8_t offset)
     return i;
 }
 
+/* The contract states the HAL rule for `mark` (urb_bridge_hal.h: it calls no bridge function): a
+ * hypothesis for WP, reviewed, never proved (mark is in no -wp-fct; proofs/framac/README.md). It
+ * speaks of the bridge's memory only: the HAL's own state behind ctx is no part of it. */
+/*@ requires \valid_read(b) && \valid_read(b->hal);
+    assigns \nothing; */
 static void mark(const urb_bridge_t *b, uint8_t id, bool level)
 {
     if (b->hal->mark != NULL) {
@@ -705,11 +710,15 @@ static void start_next(urb_bridge_t *b, uint32_t now)
 
 /* Encode the final response in ring entry r and hand it to its uplink; false when the uplink has
  * no room. WP (proofs/framac/emit_entry) proves its accesses and urbb_uplink_send's preconditions
- * from what a ring entry holds: no data slot, or one of the FIFO's with at most 32 bytes. No
- * assigns: the uplink's HAL kick and the marks are calls WP knows no contract of. */
+ * from what a ring entry holds: no data slot, or one of the FIFO's with at most 32 bytes; and what
+ * it writes (the uplink's buffers and a counter) and that it keeps urbb_usb_ok, with the HAL's
+ * kick and marks through their contracts (uart_kick in bridge_uplink.c, mark above: a reviewed
+ * hypothesis). */
 /*@ requires \valid(b) && urbb_usb_ok(b) && \valid_read(b->hal) && r < URB_BRIDGE_RING_MAX;
     requires b->ring[r].slot == URB_BRIDGE_NO_SLOT ||
-             (b->ring[r].slot < URB_BRIDGE_FIFO_MAX && b->slots[b->ring[r].slot].length <= 32); */
+             (b->ring[r].slot < URB_BRIDGE_FIFO_MAX && b->slots[b->ring[r].slot].length <= 32);
+    assigns URBB_SEND_WRITES, b->stats.responses;
+    ensures usb_ok: urbb_usb_ok(b); */
 static bool emit_entry(urb_bridge_t *b, uint8_t r)
 {
     urb_uplink_response_t out;

@@ -71,25 +71,33 @@ void urbb_uart_parse(urb_bridge_t *b, uint32_t now, uint8_t checks);
  * usb_len, usb_count and usb_cur are written only by urbb_uplink_init (which establishes the
  * invariant), urb_bridge_usb_sof and urbb_uplink_send (which keep it); urb_bridge_usb_in reads a
  * batch under it. WP proves all four (urbb_uplink_send: its USB behavior, and on the UART path up
- * to the HAL's transmit kick, a call WP knows no contract of). */
+ * through the HAL's transmit kick, by the contract of uart_kick). */
 /*@ predicate urbb_usb_ok(urb_bridge_t *b) =
       b->usb_cur <= 1 &&
       (\forall integer c; 0 <= c <= 1 ==>
          URB_USB_BATCH_HEADER_MAX_SIZE <= b->usb_len[c] <= URB_BRIDGE_USB_BUF && b->usb_count[c] <= 128);
 */
 
+/* What urbb_uplink_send writes (and emit_entry), for their assigns clauses: a USB batch, or the
+ * UART transmit ring, its head, and its tail (the HAL's kick may drain the ring: see uart_kick in
+ * bridge_uplink.c). The two batches are named one by one: WP turns each into one contiguous range. */
+#define URBB_SEND_WRITES                                                                                        \
+    b->usb_buf[0][0 .. URB_BRIDGE_USB_BUF - 1], b->usb_buf[1][0 .. URB_BRIDGE_USB_BUF - 1], b->usb_len[0 .. 1], \
+        b->usb_count[0 .. 1], b->tx_ring[0 .. URB_BRIDGE_TX_RING - 1], b->tx_head, b->tx_tail
+
 /* bridge_uplink.c: queue one encoded response on `uplink`; false when it has no room now. The only
  * writer of a batch's length and count besides init and sof. The UART path ends in the HAL's
- * transmit kick, a call through a pointer (urb_bridge_init rejects NULL) of which WP knows no
- * contract, so it may change anything: the contract speaks of the USB path, which makes no call,
- * and on the UART path WP proves the stores into the transmit ring in bounds and the batches still
- * within urbb_usb_ok just before the kick. */
+ * transmit kick, called through uart_kick (bridge_uplink.c), whose contract states the HAL rule of
+ * urb_bridge_hal.h (the kick may drain the transmit ring and changes nothing else of the bridge):
+ * a reviewed hypothesis, not proved (proofs/framac/README.md). With it WP proves what both paths
+ * write and that both keep urbb_usb_ok. */
 /*@ requires \valid(b) && urbb_usb_ok(b) && \valid_read(b->hal);
     requires \valid_read(frame + (0 .. len - 1)) && \separated(frame + (0 .. len - 1), b);
+    assigns URBB_SEND_WRITES;
+    ensures usb_ok: urbb_usb_ok(b);
     behavior usb:
       assumes uplink == URBB_UPLINK_USB;
       assigns b->usb_buf[b->usb_cur][0 .. URB_BRIDGE_USB_BUF - 1], b->usb_len[b->usb_cur], b->usb_count[b->usb_cur];
-      ensures usb_ok: urbb_usb_ok(b);
       ensures same_batch: b->usb_cur == \old(b->usb_cur);
       ensures queued: \result <==> (\old(b->usb_len[b->usb_cur]) + len <= URB_BRIDGE_USB_BUF &&
                                     \old(b->usb_count[b->usb_cur]) < 128);
@@ -100,6 +108,8 @@ void urbb_uart_parse(urb_bridge_t *b, uint32_t now, uint8_t checks);
         b->usb_count[b->usb_cur] == \old(b->usb_count[b->usb_cur]);
     behavior uart:
       assumes uplink != URBB_UPLINK_USB;
+      assigns b->tx_ring[0 .. URB_BRIDGE_TX_RING - 1], b->tx_head, b->tx_tail;
+      ensures same_batch_uart: b->usb_cur == \old(b->usb_cur);
     complete behaviors;
     disjoint behaviors; */
 bool urbb_uplink_send(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t len);

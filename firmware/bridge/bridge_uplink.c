@@ -39,6 +39,20 @@
       \valid(b) && urbb_fifo_ok(b) && urbb_nodes_ok(b) && urbb_parser_ok(&b->rs232);
 */
 
+/* The HAL's transmit kick (urbb_uplink_send). A function of its own for its contract, which states
+ * the HAL rule of urb_bridge_hal.h: the kick may call urb_bridge_uart_tx_pop(), which writes the
+ * transmit tail (and a byte of the HAL's own), and no other bridge function. A hypothesis for WP,
+ * reviewed against every port (firmware/hal: each kick only enables the UART's transmit interrupt,
+ * or counts), never proved: uart_kick is in no -wp-fct (proofs/framac/README.md). It speaks of the
+ * bridge's memory only: the HAL's own state behind ctx is no part of it. GCC inlines it: the
+ * machine code is that of the call in place. */
+/*@ requires \valid_read(b) && \valid_read(b->hal);
+    assigns b->tx_tail; */
+static void uart_kick(urb_bridge_t *b)
+{
+    b->hal->uart_tx_kick(b->hal->ctx);
+}
+
 /*@ requires \valid(b) && b->cfg.baud != 0;
     ensures usb_ok: urbb_usb_ok(b);
     ensures usb_empty: !b->usb_prev_ready && b->usb_cur == 0 &&
@@ -473,6 +487,6 @@ bool urbb_uplink_send(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uin
     URB_BARRIER(); /* the bytes are stored before the interrupt can see the new head */
     b->tx_head = (uint8_t)(head + len);
     /*@ assert uart_usb_ok: urbb_usb_ok(b); */
-    b->hal->uart_tx_kick(b->hal->ctx);
+    uart_kick(b);
     return true;
 }
