@@ -32,6 +32,20 @@
 #define URB_SELECT_RESERVED 0x78u /* MailboxSelect._ (must be zero) */
 #define URB_SELECT_MAILBOX 0x07u  /* MailboxSelect.mailbox */
 
+/* ACSL for Frama-C WP (proofs/framac/node_i2c/): every call of a mailbox function below is within
+ * its contract (urb_mailbox.c) and no run-time error, for every slave state the invariant
+ * urb_i2c_ok allows: the mailbox layout, the transaction's and the read select's mailbox numbers
+ * below 8, the state one of URB_I2C_ST_*, a CRC-8 or CRC-16 check, and while data arrive the byte
+ * count below the inbox size. */
+/*@ predicate urb_i2c_ok(urb_node_t *node) =
+      urb_mb_layout(node) &&
+      node->i2c.mailbox < URB_NODE_MAILBOXES && node->i2c.selected < URB_NODE_MAILBOXES &&
+      node->i2c.state <= URB_I2C_ST_IGNORE && node->i2c.crc16 <= 1 &&
+      (node->i2c.state == URB_I2C_ST_DATA ==> node->i2c.count < node->inbox[node->i2c.mailbox].size);
+*/
+
+/*@ requires \valid(i2c);
+    assigns i2c->crc; */
 static void check_update(urb_node_i2c_t *i2c, uint8_t byte)
 {
     i2c->crc = (i2c->crc16 != 0u) ? urb_crc16_link_check_byte(i2c->crc, byte)
@@ -40,6 +54,9 @@ static void check_update(urb_node_i2c_t *i2c, uint8_t byte)
 
 /* Starts the check of a transaction on a mailbox of `size` bytes: the tier follows the covered
  * length 1 + size (select byte + data), then the select byte itself is covered. */
+/*@ requires \valid(i2c);
+    assigns i2c->crc16, i2c->crc;
+    ensures i2c->crc16 <= 1; */
 static void check_start(urb_node_i2c_t *i2c, uint8_t size, uint8_t select)
 {
     i2c->crc16 = ((1u + (unsigned)size) > URB_CRC8_LINK_CHECK_MAX_COVERED) ? 1u : 0u;
@@ -52,12 +69,17 @@ static void check_start(urb_node_i2c_t *i2c, uint8_t size, uint8_t select)
     check_update(i2c, select);
 }
 
+/*@ requires \valid_read(i2c) && i2c->crc16 <= 1;
+    assigns \nothing;
+    ensures \result == 1 + i2c->crc16; */
 static uint8_t check_len(const urb_node_i2c_t *i2c)
 {
     return (uint8_t)(1u + i2c->crc16);
 }
 
 /* Byte k (0: low) of the finished check, as sent on the wire (little-endian). */
+/*@ requires \valid_read(i2c);
+    assigns \nothing; */
 static uint8_t check_byte(const urb_node_i2c_t *i2c, uint8_t k)
 {
     if (i2c->crc16 == 0u) {
@@ -69,6 +91,12 @@ static uint8_t check_byte(const urb_node_i2c_t *i2c, uint8_t k)
 
 /* Ends the transaction in progress. `clean`: a STOP, repeated START or end of read, which
  * commits a complete write; otherwise (bus error, stuck bus) a complete write is aborted too. */
+/*@ requires urb_i2c_ok(node);
+    assigns node->i2c.state, node->id_done, node->outbox[0 .. URB_NODE_MAILBOXES - 1].isr_idx,
+            node->inbox[0 .. URB_NODE_MAILBOXES - 1].isr_idx, node->inbox[0 .. URB_NODE_MAILBOXES - 1].front,
+            node->inbox[0 .. URB_NODE_MAILBOXES - 1].fresh[0 .. 1];
+    ensures urb_i2c_ok(node);
+    ensures node->i2c.state == URB_I2C_ST_IDLE; */
 static void end_transaction(urb_node_t *node, bool clean)
 {
     urb_node_i2c_t *i2c = &node->i2c;
@@ -92,26 +120,36 @@ static void end_transaction(urb_node_t *node, bool clean)
         urb_isr_read_end(node, m); /* MailboxOutbox.tla IsrReadEnd */
         if ((m == 0u) && (i2c->count >= (uint8_t)(size + check_len(i2c)))) {
             node->id_done = node->id_reads; /* a complete identification read (clears the fault flag) */
+            /*@ assert urb_mb_layout(node); */
         }
         break;
     }
     default:
         break; /* nothing held: IDLE, SELECT, SELECTED, SYNC, IGNORE */
     }
+    /*@ assert urb_mb_layout(node); */
     i2c->state = URB_I2C_ST_IDLE;
 }
 
 /* Refuses the current byte and everything after it until STOP / START. */
+/*@ requires urb_i2c_ok(node);
+    assigns node->i2c.state;
+    ensures urb_i2c_ok(node);
+    ensures \result == URB_I2C_NACK; */
 static uint16_t refuse(urb_node_t *node)
 {
     node->i2c.state = URB_I2C_ST_IGNORE;
     return URB_I2C_NACK;
 }
 
+/*@ requires urb_i2c_ok(node);
+    assigns node->i2c;
+    ensures urb_i2c_ok(node); */
 static uint16_t rx_select(urb_node_t *node, uint8_t byte)
 {
     urb_node_i2c_t *i2c = &node->i2c;
-    uint8_t const m = (uint8_t)(byte & URB_SELECT_MAILBOX);
+    uint8_t const m = (uint8_t)(byte % (URB_SELECT_MAILBOX + 1u)); /* byte & URB_SELECT_MAILBOX (same code) */
+    /*@ assert m < URB_NODE_MAILBOXES; */
     if ((byte & URB_SELECT_RESERVED) != 0u) {
         return refuse(node); /* strict decoding: reserved bits must be zero */
     }
@@ -120,6 +158,7 @@ static uint16_t rx_select(urb_node_t *node, uint8_t byte)
             return refuse(node);
         }
         i2c->selected = m; /* kept until the next read select */
+        /*@ assert urb_mb_layout(node); */
         i2c->state = URB_I2C_ST_SELECTED;
         return URB_I2C_ACK;
     }
@@ -130,11 +169,17 @@ static uint16_t rx_select(urb_node_t *node, uint8_t byte)
     i2c->mailbox = m;
     i2c->count = 0u;
     i2c->check_ok = 1u;
+    /*@ assert urb_mb_layout(node); */
     check_start(i2c, size, byte);
+    /*@ assert urb_mb_layout(node); */
     i2c->state = URB_I2C_ST_DATA;
     return URB_I2C_ACK;
 }
 
+/*@ requires urb_i2c_ok(node) && node->i2c.state == URB_I2C_ST_DATA;
+    assigns node->i2c, node->isr_faults[0 .. URB_NODE_FAULT_CODES - 1], node->inbox[0 .. URB_NODE_MAILBOXES - 1].isr_idx,
+            node->mb0[0 .. 2 * URB_NODE_OUTBOX0_SIZE + 2 * URB_NODE_INBOX0_SIZE - 1], node->storage[0 .. node->storage_len - 1];
+    ensures urb_i2c_ok(node); */
 static uint16_t rx_data(urb_node_t *node, uint8_t byte)
 {
     urb_node_i2c_t *i2c = &node->i2c;
@@ -148,13 +193,18 @@ static uint16_t rx_data(urb_node_t *node, uint8_t byte)
     }
     urb_isr_write_byte(node, m, i2c->count, byte); /* MailboxInbox.tla IsrWriteByte */
     check_update(i2c, byte);
+    /*@ assert urb_mb_layout(node); */
     i2c->count++;
+    /*@ assert urb_mb_layout(node); */
     if (i2c->count == size) {
         i2c->state = URB_I2C_ST_CHECK;
     }
     return URB_I2C_ACK;
 }
 
+/*@ requires urb_i2c_ok(node) && node->i2c.state == URB_I2C_ST_CHECK;
+    assigns node->i2c, node->isr_faults[0 .. URB_NODE_FAULT_CODES - 1], node->inbox[0 .. URB_NODE_MAILBOXES - 1].isr_idx;
+    ensures urb_i2c_ok(node); */
 static uint16_t rx_check(urb_node_t *node, uint8_t byte)
 {
     urb_node_i2c_t *i2c = &node->i2c;
@@ -164,7 +214,9 @@ static uint16_t rx_check(urb_node_t *node, uint8_t byte)
     if (byte != check_byte(i2c, k)) {
         i2c->check_ok = 0u;
     }
+    /*@ assert urb_mb_layout(node); */
     i2c->count++;
+    /*@ assert urb_mb_layout(node); */
     if (k + 1u < check_len(i2c)) {
         return URB_I2C_ACK; /* the verdict is given on the last check byte */
     }
@@ -179,6 +231,9 @@ static uint16_t rx_check(urb_node_t *node, uint8_t byte)
     return URB_I2C_ACK;
 }
 
+/*@ requires urb_i2c_ok(node);
+    assigns node->i2c, node->pll;
+    ensures urb_i2c_ok(node); */
 static uint16_t rx_sync(urb_node_t *node, uint8_t byte)
 {
     urb_node_i2c_t *i2c = &node->i2c;
@@ -194,6 +249,10 @@ static uint16_t rx_sync(urb_node_t *node, uint8_t byte)
     return URB_I2C_ACK;
 }
 
+/* (no assigns clause: WP 25 asks the call result temporary of the default case's `return refuse()`
+ * to be assigned, a goal it reduces to false; the caller needs only the invariant) */
+/*@ requires urb_i2c_ok(node);
+    ensures urb_i2c_ok(node); */
 static uint16_t rx_byte(urb_node_t *node, uint8_t byte)
 {
     switch (node->i2c.state) {
@@ -213,6 +272,9 @@ static uint16_t rx_byte(urb_node_t *node, uint8_t byte)
     }
 }
 
+/*@ requires urb_i2c_ok(node);
+    assigns node->i2c.count, node->i2c.crc;
+    ensures urb_i2c_ok(node); */
 static uint16_t tx_byte(urb_node_t *node)
 {
     urb_node_i2c_t *i2c = &node->i2c;
@@ -225,6 +287,7 @@ static uint16_t tx_byte(urb_node_t *node)
     if (count < size) {
         uint8_t const b = urb_isr_read_byte(node, m, count); /* MailboxOutbox.tla IsrReadByte */
         check_update(i2c, b);
+        /*@ assert urb_mb_layout(node); */
         i2c->count++;
         return b;
     }
@@ -235,6 +298,9 @@ static uint16_t tx_byte(urb_node_t *node)
     return 0xFFu; /* the master clocks more than size + check bytes */
 }
 
+/*@ requires urb_i2c_ok(node);
+    assigns node->i2c, node->id_reads, node->outbox[0 .. URB_NODE_MAILBOXES - 1].isr_idx;
+    ensures urb_i2c_ok(node); */
 static uint16_t addr_read(urb_node_t *node)
 {
     urb_node_i2c_t *i2c = &node->i2c;
@@ -244,13 +310,19 @@ static uint16_t addr_read(urb_node_t *node)
     if (m == 0u) {
         node->id_reads = (uint8_t)(node->id_reads + 1u);
     }
+    /*@ assert urb_mb_layout(node); */
     i2c->mailbox = m;
     i2c->count = 0u;
+    /*@ assert urb_mb_layout(node); */
     check_start(i2c, size, (uint8_t)(m | URB_SELECT_READ)); /* the check covers the implicit select */
+    /*@ assert urb_mb_layout(node); */
     i2c->state = URB_I2C_ST_READ;
     return URB_I2C_ACK;
 }
 
+/*@ requires urb_i2c_ok(node) && \valid_read(node->hal);
+    assigns node->i2c;
+    ensures urb_i2c_ok(node); */
 static uint16_t general_call(urb_node_t *node)
 {
     urb_node_hal_t const *hal = node->hal;
@@ -265,6 +337,11 @@ static uint16_t general_call(urb_node_t *node)
     return URB_I2C_ACK;
 }
 
+/* Not (yet) ensured: urb_i2c_ok after the event. Every handler above ensures it, but z3 and cvc4
+ * time out on this function's glue (the state store of ADDR_WRITE and the fault of STUCK after
+ * end_transaction), so the invariant's preservation by a whole event stays open
+ * (proofs/framac/README.md, "Call-site preconditions"). */
+/*@ requires node == \null || (urb_i2c_ok(node) && \valid_read(node->hal)); */
 uint16_t urb_node_i2c_event(urb_node_t *node, urb_i2c_event_t event, uint8_t byte)
 {
     if ((node == NULL) || (node->started == 0u)) {

@@ -28,36 +28,8 @@
  * (-wp-no-volatile): the interleavings of the two sides are TLC's and ESBMC's job. What WP adds is
  * that no path indexes outside the mailbox storage and that each function keeps the index bytes in
  * {0, 1, NONE} and the layout intact, for every node state the layout predicate allows. */
-/*@ predicate urb_mb_indices(urb_node_t *node) =
-      \forall integer n; 0 <= n < URB_NODE_MAILBOXES ==>
-        node->outbox[n].front <= 1 && node->outbox[n].isr_idx <= URB_NONE && node->outbox[n].held <= URB_NONE &&
-        node->inbox[n].front <= 1 && node->inbox[n].isr_idx <= URB_NONE && node->inbox[n].app_idx <= URB_NONE;
-
-    predicate urb_mb_box(urb_node_t *node, integer n, integer offset, integer size) =
-      n == 0 ? offset + 2 * size <= 2 * URB_NODE_OUTBOX0_SIZE + 2 * URB_NODE_INBOX0_SIZE
-             : (size == 0 || offset + 2 * size <= node->storage_used);
-
-    predicate urb_mb_memory(urb_node_t *node) =
-      \valid(node) && node->storage_used <= node->storage_len &&
-      \valid(node->storage + (0 .. node->storage_len - 1)) &&
-      \separated(node, node->storage + (0 .. node->storage_len - 1));
-
-    predicate urb_mb_boxes(urb_node_t *node) =
-      \forall integer n; 0 <= n < URB_NODE_MAILBOXES ==>
-        urb_mb_box(node, n, node->outbox[n].offset, node->outbox[n].size) &&
-        urb_mb_box(node, n, node->inbox[n].offset, node->inbox[n].size);
-
-    predicate urb_mb_layout(urb_node_t *node) = urb_mb_memory(node) && urb_mb_indices(node) && urb_mb_boxes(node);
-
-    logic uint8_t *urb_mb_buf(urb_node_t *node, integer n, integer offset, integer size, integer b) =
-      (n == 0 ? &node->mb0[0] : node->storage) + offset + (b != 0 ? size : 0);
-
-    logic uint8_t *urb_mb_out(urb_node_t *node, integer n, integer b) =
-      urb_mb_buf(node, n, node->outbox[n].offset, node->outbox[n].size, b);
-
-    logic uint8_t *urb_mb_in(urb_node_t *node, integer n, integer b) =
-      urb_mb_buf(node, n, node->inbox[n].offset, node->inbox[n].size, b);
-*/
+/* The layout predicates (urb_mb_layout, ...) are in urb_node_internal.h: the callers' contracts
+ * (urb_i2c.c, proofs/framac/node_i2c/) use them too. */
 
 /* Buffer b of a mailbox at `offset` with `size` bytes: mailbox 0 in mb0, the others in storage. */
 /*@ requires urb_mb_layout(node) && n < URB_NODE_MAILBOXES && urb_mb_box(node, n, offset, size);
@@ -217,6 +189,7 @@ void urb_isr_read_end(urb_node_t *node, uint8_t n)
 /* ===== Inbox: interrupt writes, application reads (MailboxInbox.tla) ======================= */
 
 /*@ requires urb_mb_layout(node) && n < URB_NODE_MAILBOXES;
+    assigns node->inbox[n].isr_idx;
     ensures urb_mb_layout(node);
     behavior refused:
       assumes node->inbox[n].app_idx == 1 - node->inbox[n].front;
@@ -249,6 +222,7 @@ bool urb_isr_write_begin(urb_node_t *node, uint8_t n)
 }
 
 /*@ requires urb_mb_layout(node) && n < URB_NODE_MAILBOXES && k < node->inbox[n].size;
+    assigns urb_mb_in(node, n, node->inbox[n].isr_idx)[k];
     ensures urb_mb_layout(node);
     behavior idle:
       assumes node->inbox[n].isr_idx == URB_NONE;
@@ -269,6 +243,7 @@ void urb_isr_write_byte(urb_node_t *node, uint8_t n, uint8_t k, uint8_t byte)
 }
 
 /*@ requires urb_mb_layout(node) && n < URB_NODE_MAILBOXES;
+    assigns node->inbox[n].fresh[0 .. 1], node->inbox[n].front, node->inbox[n].isr_idx;
     ensures urb_mb_layout(node);
     behavior idle:
       assumes node->inbox[n].isr_idx == URB_NONE;

@@ -69,6 +69,39 @@ enum {
 
 /* ----- mailbox algorithms (urb_mailbox.c) ----- */
 
+/* ACSL: the mailbox layout (proofs/framac/mailbox/ proves the mailbox functions under it and that
+ * they keep it; proofs/framac/node_i2c/ that the I2C interrupt calls them within it). */
+/*@ predicate urb_mb_indices(urb_node_t *node) =
+      \forall integer n; 0 <= n < URB_NODE_MAILBOXES ==>
+        node->outbox[n].front <= 1 && node->outbox[n].isr_idx <= URB_NONE && node->outbox[n].held <= URB_NONE &&
+        node->inbox[n].front <= 1 && node->inbox[n].isr_idx <= URB_NONE && node->inbox[n].app_idx <= URB_NONE;
+
+    predicate urb_mb_box(urb_node_t *node, integer n, integer offset, integer size) =
+      n == 0 ? offset + 2 * size <= 2 * URB_NODE_OUTBOX0_SIZE + 2 * URB_NODE_INBOX0_SIZE
+             : (size == 0 || offset + 2 * size <= node->storage_used);
+
+    predicate urb_mb_memory(urb_node_t *node) =
+      \valid(node) && node->storage_used <= node->storage_len &&
+      \valid(node->storage + (0 .. node->storage_len - 1)) &&
+      \separated(node, node->storage + (0 .. node->storage_len - 1));
+
+    predicate urb_mb_boxes(urb_node_t *node) =
+      \forall integer n; 0 <= n < URB_NODE_MAILBOXES ==>
+        urb_mb_box(node, n, node->outbox[n].offset, node->outbox[n].size) &&
+        urb_mb_box(node, n, node->inbox[n].offset, node->inbox[n].size);
+
+    predicate urb_mb_layout(urb_node_t *node) = urb_mb_memory(node) && urb_mb_indices(node) && urb_mb_boxes(node);
+
+    logic uint8_t *urb_mb_buf(urb_node_t *node, integer n, integer offset, integer size, integer b) =
+      (n == 0 ? &node->mb0[0] : node->storage) + offset + (b != 0 ? size : 0);
+
+    logic uint8_t *urb_mb_out(urb_node_t *node, integer n, integer b) =
+      urb_mb_buf(node, n, node->outbox[n].offset, node->outbox[n].size, b);
+
+    logic uint8_t *urb_mb_in(urb_node_t *node, integer n, integer b) =
+      urb_mb_buf(node, n, node->inbox[n].offset, node->inbox[n].size, b);
+*/
+
 /* Buffer b of outbox n / inbox n. */
 uint8_t *urb_outbox_buf(urb_node_t *node, uint8_t n, uint8_t b);
 uint8_t *urb_inbox_buf(urb_node_t *node, uint8_t n, uint8_t b);
