@@ -164,8 +164,9 @@ class RS232Manager(ThreadedManager):
 
 def read_available(ser: serial.Serial) -> bytes:
     """What the port has received, waiting up to READ_POLL_S for the first byte (b"": nothing).
-    One select and one read on the port's descriptor: pyserial's `in_waiting` + `read` cost
-    twice as much CPU per response, and the reader runs once per response. Raises
+    One select and one read of everything there: pyserial's `in_waiting` + `read(1)` returned
+    after a response's first byte and woke the reader again for the rest (twice the wake-ups,
+    ~20 % more CPU per RS232 request, bench/host_cpu.py). Raises
     `SerialException` as pyserial does when a port that reports data returns none (a USB
     adapter unplugged), `OSError` when the read fails."""
     fd = ser.fileno()
