@@ -45,7 +45,7 @@ from typing import Any
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "tests" / "host"))
 
-from bridge_proc import build_hosted_bridge  # noqa: E402
+from bridge_proc import build_hosted_bridge, serve_usb_transfers  # noqa: E402
 from urb.api import NodeRequest, URBInterface  # noqa: E402
 from urb.managers import BridgeModel, CharDeviceTransport, RS232Manager, USBManager, fake_node  # noqa: E402
 from urb.managers.base import NS_PER_MS, Transfer  # noqa: E402
@@ -118,19 +118,9 @@ def rs232_pty(requests: int) -> dict[str, Any]:
 
 
 def _bridge_child(sock: socket.socket) -> None:
-    """The USB bridge end in a child process: one OUT per recv, the previous IN buffer back."""
-    model = BridgeModel(dict(fake_node(s) for s in MOTORS), fifo_depth=15)
-    while True:
-        try:
-            data = sock.recv(4096)
-        except OSError:
-            os._exit(0)
-        if not data:
-            os._exit(0)
-        model.usb_out(data, time.monotonic_ns())
-        back = model.usb_in()
-        if back is not None:
-            sock.send(back)
+    """The USB bridge end in a child process, until the host closes its end."""
+    serve_usb_transfers(sock, BridgeModel(dict(fake_node(s) for s in MOTORS), fifo_depth=15))
+    os._exit(0)
 
 
 def usb_sensorhex(seconds: float) -> dict[str, Any]:

@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 import select
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -19,6 +20,8 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
+
+from urb.managers import BridgeModel
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parents[1]
@@ -29,6 +32,25 @@ HOSTED_KIND = {"MotorDriver": "motor", "BatteryManager": "battery", "Imu": "imu"
 SENSORHEX = [f"MotorDriver:{i}@{0x10 + i}" for i in range(6)] + [
     "BatteryManager:0@32", "Imu:0@48", "IrDistance:0@49"]
 """The SensoRHex hexapod: six motor drivers, battery manager, IMU, IR distance node."""
+
+
+def serve_usb_transfers(sock: socket.socket, model: BridgeModel) -> None:
+    """The bridge end of a SOCK_SEQPACKET pair (a USB bridge behind a character device): one OUT
+    transfer per recv, answered with the model's previous IN buffer; returns when the pair ends."""
+    while True:
+        try:
+            data = sock.recv(4096)
+        except OSError:
+            return
+        if not data:
+            return
+        model.usb_out(data, time.monotonic_ns())
+        back = model.usb_in()
+        if back is not None:
+            try:
+                sock.send(back)
+            except OSError:
+                return
 
 
 def build_hosted_bridge() -> Path:

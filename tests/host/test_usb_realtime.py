@@ -17,6 +17,7 @@ from collections import Counter
 
 import pytest
 
+from bridge_proc import serve_usb_transfers
 from urb.api import NodeRequest, URBInterface
 from urb.errors import ErrorFlag, PortError, RequestFailed
 from urb.managers import BridgeModel, CharDeviceTransport, LoopbackUsbTransport, USBManager, fake_node
@@ -66,26 +67,9 @@ class SeqpacketBridge:
     """The bridge end of a SOCK_SEQPACKET pair: one OUT per recv, the previous buffer sent back."""
 
     def __init__(self, model: BridgeModel) -> None:
-        self.model = model
         self.host_sock, self.dev_sock = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
-        self.thread = threading.Thread(target=self.run, daemon=True)
+        self.thread = threading.Thread(target=serve_usb_transfers, args=(self.dev_sock, model), daemon=True)
         self.thread.start()
-
-    def run(self) -> None:
-        while True:
-            try:
-                data = self.dev_sock.recv(4096)
-            except OSError:
-                return
-            if not data:
-                return
-            self.model.usb_out(data, time.monotonic_ns())
-            back = self.model.usb_in()
-            if back is not None:
-                try:
-                    self.dev_sock.send(back)
-                except OSError:
-                    return
 
     def unplug(self) -> None:
         self.dev_sock.shutdown(socket.SHUT_RDWR)
