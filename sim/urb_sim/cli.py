@@ -18,6 +18,7 @@ from .runner import EXPERIMENTS, available_cpus, run_experiments, select
 
 #: `urb sim` subcommands and their one-line summaries (listed in `urb sim --help`).
 SUBCOMMANDS = {"sensorhex": "run the scenario and the paper's experiments, write the HTML report",
+               "sweep": "run the experiments over many seeds: which criteria fail, and where",
                "params": "list the model parameters, their defaults and meaning"}
 
 SENSORHEX_HELP = """\
@@ -54,6 +55,29 @@ process died: DIR/<key>/error.txt says why); an ERROR does not stop the others.
 
 Exit status: 0 when every acceptance criterion is met, 1 when one is not or an experiment
 ended in ERROR, 2 on a usage or build error (the message says what to do), 130 on Ctrl-C."""
+
+
+SWEEP_HELP = """\
+Run the paper's experiments (see `urb sim sensorhex --help`) at many seeds, several at once,
+and tell how often each acceptance criterion holds and at which seeds it fails.
+
+A seed fixes everything the simulation draws: crystal errors and drifts, interrupt latencies,
+the host's phase against the nodes and the USB frames, fault instants. One report shows one
+sample; a sweep shows whether a PASS is typical. Every failed run is listed with the command
+that runs it again alone, with its full report:
+
+  urb sim sensorhex --seed N --only EXPERIMENT [--quick]
+
+Output in DIR: checks.csv (per seed, experiment and check: required, measured, passed),
+runs.csv (per seed and experiment: verdict, simulated and wall seconds), summary.json (per
+check: runs, failures, failing seeds), and runs/seed-N/EXPERIMENT/ with the CSV and PNG files of
+each run that did not pass (of every run with --keep). DIR/runs/ is emptied first.
+
+Exit status: 0 when every criterion held at every seed, 1 when one did not or a run ended in
+ERROR, 2 on a usage or build error, 130 on Ctrl-C.
+
+Example: the synchronisation and fault experiments at 100 seeds, quick versions:
+  urb sim sweep --seeds 1-100 --only table1,faults --quick"""
 
 
 def _positive(text: str) -> int:
@@ -114,6 +138,22 @@ def register(sub: Any) -> None:
                         f"{cpus} here); the results do not depend on it")
     p.add_argument("--no-progress", action="store_true", help="no progress bar (for logs)")
     p.set_defaults(run=run_sensorhex)
+    w = simsub.add_parser("sweep", help=SUBCOMMANDS["sweep"], description=SWEEP_HELP,
+                          formatter_class=argparse.RawDescriptionHelpFormatter)
+    w.add_argument("--seeds", required=True, metavar="LIST",
+                   help="seeds to run: ranges and single seeds, comma-separated (e.g. 1-100 or 1-10,42), "
+                        f"from 0 to {SEED_MAX}")
+    w.add_argument("--only", metavar="LIST", default=None,
+                   help=f"comma-separated experiments to run (default: all of {', '.join(EXPERIMENTS)})")
+    w.add_argument("--quick", action="store_true", help="the quick version of each experiment (as sensorhex --quick)")
+    w.add_argument("--out", type=_folder, default=REPO / "build" / "sim" / "sweep", metavar="DIR",
+                   help="output folder (default build/sim/sweep)")
+    w.add_argument("--jobs", type=_positive, default=cpus, metavar="N",
+                   help=f"runs at once, each in its own process (default: the CPUs available, {cpus} here); "
+                        "the results do not depend on it")
+    w.add_argument("--keep", action="store_true", help="keep the files of every run, not only of those that failed")
+    w.add_argument("--no-progress", action="store_true", help="no progress bar (for logs)")
+    w.set_defaults(run=run_sweep_command)
     q = simsub.add_parser("params", help=SUBCOMMANDS["params"],
                           description="Print every parameter of the simulation model with its default value "
                                       "and meaning (sim/world/params.h).")
@@ -170,6 +210,35 @@ def run_sensorhex(args: argparse.Namespace) -> int:
     sim_s = sum(r.sim_s for r in results)
     print(f"{sim_s:.1f} s simulated in {wall:.1f} s; report: {path}")
     return 0 if all(r.passed for r in results) else 1
+
+
+def run_sweep_command(args: argparse.Namespace) -> int:
+    from .sweep import format_table, parse_seeds, run_sweep
+
+    try:
+        keys = select(args.only)
+        seeds = parse_seeds(args.seeds, SEED_MAX)
+    except ValueError as exc:
+        print(f"urb sim sweep: {exc}", file=sys.stderr)
+        return 2
+    problem = _unwritable(args.out)
+    if problem:
+        print(f"urb sim sweep: cannot write into {args.out}: {problem}; choose another --out DIR", file=sys.stderr)
+        return 2
+    try:
+        check_loadable()
+        ensure_library()
+    except BuildError as exc:
+        print(f"urb sim: {exc}", file=sys.stderr)
+        return 2
+    with _progress(not args.no_progress) as progress:
+        sweep = run_sweep(keys, seeds, args.out, quick=args.quick, jobs=args.jobs, keep=args.keep, progress=progress)
+    for line in format_table(sweep):
+        print(line)
+    failed = len(sweep.failed_runs())
+    print(f"{len(sweep.results)} runs ({len(keys)} experiments x {len(seeds)} seeds), {failed} not passed; "
+          f"{sweep.sim_s:.1f} s simulated in {sweep.wall_s:.1f} s; results: {args.out / 'summary.json'}")
+    return 0 if sweep.passed else 1
 
 
 def _unwritable(out: Path) -> str | None:

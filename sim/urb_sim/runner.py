@@ -18,7 +18,7 @@ import sys
 import traceback
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from .experiments import RAN_TO_COMPLETION, Progress, Result
 
@@ -73,9 +73,30 @@ def run_experiments(keys: Sequence[str], out: Path, *, quick: bool, seed: int, j
     of `keys`. An experiment that raises (a bug: a failed criterion is a FAIL result, not an
     exception) gives a failed Result whose check "ran to completion" names the exception, with the
     traceback in out/<key>/error.txt; the other experiments still run. Ctrl-C stops the whole run."""
-    if jobs <= 1 or len(keys) <= 1:
-        return _serial(keys, out, quick=quick, seed=seed, progress=progress)
-    return _parallel(keys, out, quick=quick, seed=seed, jobs=min(jobs, len(keys)), progress=progress)
+    return run_tasks([Task(key, out, seed) for key in keys], quick=quick, jobs=jobs, progress=progress)
+
+
+class Task(NamedTuple):
+    """One run of one experiment: `key` with base seed `seed`, writing into out/<key>/."""
+
+    key: str
+    out: Path
+    seed: int
+
+
+def run_tasks(tasks: Sequence[Task], *, quick: bool, jobs: int, progress: Progress,
+              on_result: Callable[[Task, Result], None] | None = None) -> list[Result]:
+    """Run `tasks` with at most `jobs` at a time (each in its own process when jobs > 1); results in
+    task order. `on_result(task, result)` is called in this process as each one ends. Errors are
+    handled as run_experiments describes. No two tasks may share a key and an out folder."""
+    if len({(t.key, t.out) for t in tasks}) != len(tasks):
+        raise ValueError("two tasks would write the same folder: give each (key, out) once")
+    # progress names a run by its experiment, and by its seed too when the seeds differ (a sweep)
+    one_seed = len({t.seed for t in tasks}) <= 1
+    labels = [t.key if one_seed else f"{t.key} seed {t.seed}" for t in tasks]
+    if jobs <= 1 or len(tasks) <= 1:
+        return _serial(tasks, labels, quick=quick, progress=progress, on_result=on_result)
+    return _pool(tasks, labels, quick=quick, jobs=min(jobs, len(tasks)), progress=progress, on_result=on_result)
 
 
 def run_one(key: str, out: Path, *, quick: bool, seed: int, progress: Progress) -> Result:
@@ -106,16 +127,19 @@ def crashed(key: str, out: Path, exc: BaseException) -> Result:
     return res
 
 
-def _serial(keys: Sequence[str], out: Path, *, quick: bool, seed: int, progress: Progress) -> list[Result]:
+def _serial(tasks: Sequence[Task], labels: Sequence[str], *, quick: bool, progress: Progress,
+            on_result: Callable[[Task, Result], None] | None) -> list[Result]:
     results = []
     with stack_on_crash():
-        for i, key in enumerate(keys):
+        for i, task in enumerate(tasks):
             def step(frac: float, msg: str, i: int = i) -> None:
-                progress((i + frac) / len(keys), msg)
+                progress((i + frac) / len(tasks), msg)
 
-            res = run_one(key, out, quick=quick, seed=seed, progress=step)
+            res = run_one(task.key, task.out, quick=quick, seed=task.seed, progress=step)
             results.append(res)
-            progress((i + 1) / len(keys), _verdict(res))
+            if on_result is not None:
+                on_result(task, res)
+            progress((i + 1) / len(tasks), f"{labels[i]}: {res.verdict}")
     return results
 
 
@@ -177,38 +201,58 @@ def _crash_text(out: Path, key: str) -> str:
         return ""
 
 
-def _worker(key: str, out: Path, quick: bool, seed: int, reports: Any) -> None:
-    """Body of a worker process: run one experiment, sending progress and then its Result."""
+def _worker(index: int, key: str, out: Path, quick: bool, seed: int, reports: Any) -> None:
+    """Run task `index` (experiment `key` into out/<key>/) in a worker process, sending progress and
+    then its Result, each tagged with `index`."""
+    def step(frac: float, msg: str) -> None:
+        reports.put((index, frac, msg))
+
+    with crash_log(out, key):
+        reports.put((index, 1.0, run_one(key, out, quick=quick, seed=seed, progress=step)))
+
+
+def _serve(orders: Any, reports: Any, quick: bool, target: Callable[..., None]) -> None:
+    """Body of a worker process: run the tasks the parent sends, one at a time, until it sends None.
+    The interpreter, the library and matplotlib load once for all of them (a fresh process per
+    task cost more than a quick experiment's run)."""
     # Ctrl-C is the parent's to handle: it terminates the workers. terminate() sends SIGTERM: exit
     # through an exception, so that subprocess.run kills the TLC process it waits for.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(128 + signum))
-
-    def step(frac: float, msg: str) -> None:
-        reports.put((key, frac, msg))
-
-    with crash_log(out, key):
-        reports.put((key, 1.0, run_one(key, out, quick=quick, seed=seed, progress=step)))
+    while (order := orders.recv()) is not None:
+        index, key, out, seed = order
+        target(index, key, out, quick, seed, reports)
 
 
 def _parallel(keys: Sequence[str], out: Path, *, quick: bool, seed: int, jobs: int, progress: Progress,
               target: Callable[..., None] = _worker) -> list[Result]:
-    """One spawned process per experiment, at most `jobs` at a time, longest first. A process that
-    ends without sending its Result (a segmentation fault in the firmware under test, the OOM
-    killer) gives that experiment an ERROR; the others go on. `target` is the worker body (tests)."""
+    """The experiments `keys` in worker processes (see _pool); `target` is the task body (tests)."""
+    tasks = [Task(key, out, seed) for key in keys]
+    return _pool(tasks, list(keys), quick=quick, jobs=jobs, progress=progress, on_result=None, target=target)
+
+
+def _pool(tasks: Sequence[Task], labels: Sequence[str], *, quick: bool, jobs: int, progress: Progress,
+          on_result: Callable[[Task, Result], None] | None, target: Callable[..., None] = _worker) -> list[Result]:
+    """`jobs` spawned worker processes run the tasks, longest experiments first. A worker that dies
+    without sending its task's Result (a segmentation fault in the firmware under test, the OOM
+    killer) gives that task an ERROR and is replaced; the other tasks go on."""
     ctx = multiprocessing.get_context("spawn")
     reports = ctx.Queue()
-    done_frac = dict.fromkeys(keys, 0.0)
-    results: dict[str, Result] = {}
-    pending = sorted(keys, key=lambda k: -EXPERIMENTS.get(k, 1.0))
-    running: dict[str, Any] = {}
+    done_frac = [0.0] * len(tasks)
+    results: dict[int, Result] = {}
+    # stable: a sweep keeps its seeds in order within each experiment
+    pending = sorted(range(len(tasks)), key=lambda i: -EXPERIMENTS.get(tasks[i].key, 1.0))
+    workers: list[tuple[Any, Any]] = []     # (process, the parent's end of its order pipe)
+    busy: dict[int, int] = {}               # worker number -> the task it runs
 
-    def record(key: str, frac: float, item: str | Result) -> None:
-        """A progress message or the final Result of experiment `key`."""
-        done_frac[key] = max(done_frac[key], min(frac, 1.0))
-        if isinstance(item, Result):
-            results[key] = item
-        progress(sum(done_frac.values()) / len(keys), _verdict(item) if isinstance(item, Result) else item)
+    def record(index: int, frac: float, item: str | Result) -> None:
+        """A progress message or the final Result of task `index`."""
+        done_frac[index] = max(done_frac[index], min(frac, 1.0))
+        if isinstance(item, Result) and index not in results:
+            results[index] = item
+            if on_result is not None:
+                on_result(tasks[index], item)
+        progress(sum(done_frac) / len(tasks), f"{labels[index]}: {item.verdict}" if isinstance(item, Result) else item)
 
     def receive(timeout: float) -> None:
         """Fold in what the workers sent, waiting up to `timeout` for the first message."""
@@ -219,33 +263,58 @@ def _parallel(keys: Sequence[str], out: Path, *, quick: bool, seed: int, jobs: i
                 return
             timeout = 0.0
 
+    def start_worker() -> tuple[Any, Any]:
+        mine, theirs = ctx.Pipe(duplex=False)
+        proc = ctx.Process(target=_serve, args=(mine, reports, quick, target), name="urb-sim-worker", daemon=True)
+        proc.start()
+        mine.close()
+        return proc, theirs
+
     try:
-        while pending or running:
-            while pending and len(running) < jobs:
-                key = pending.pop(0)
-                running[key] = ctx.Process(target=target, args=(key, out, quick, seed, reports),
-                                           name=f"urb-sim-{key}", daemon=True)
-                running[key].start()
+        workers = [start_worker() for _ in range(min(jobs, len(tasks)))]
+        while pending or busy:
+            for w, (proc, orders) in enumerate(workers):
+                if w in busy or not pending:
+                    continue
+                if not proc.is_alive():  # died between tasks: nothing lost, start another
+                    proc.join()
+                    orders.close()
+                    workers[w] = start_worker()
+                    proc, orders = workers[w]
+                i = pending.pop(0)
+                busy[w] = i
+                orders.send((i, tasks[i].key, tasks[i].out, tasks[i].seed))
             receive(0.2)
-            for key, proc in list(running.items()):
+            for w, i in list(busy.items()):
+                if i in results:
+                    del busy[w]  # idle: gets the next task above
+                    continue
+                proc, orders = workers[w]
                 if proc.is_alive():
                     continue
-                if key not in results:
-                    receive(0.5)  # what it sent just before it ended may still be on its way
-                if key not in results:
-                    stack = _crash_text(out, key)
+                receive(0.5)  # what it sent just before it ended may still be on its way
+                if i not in results:
+                    task = tasks[i]
+                    stack = _crash_text(task.out, task.key)
                     died = WorkerDied(f"the worker process ended with {_exit_status(proc.exitcode)} and no result"
                                       + (f"; its Python stack when it died ({CRASH_LOG}):\n{stack}" if stack else ""))
-                    record(key, 1.0, crashed(key, out, died))
-                proc.join()
-                del running[key]
+                    record(i, 1.0, crashed(task.key, task.out, died))
+                del busy[w]  # replaced above when a task is left for it
     finally:
-        # Normally empty; after Ctrl-C or an error here, stop what still runs.
-        for proc in running.values():
-            proc.terminate()
-        for proc in running.values():
-            proc.join()
-    return [results[k] for k in keys]
+        # Normally idle: told to stop. After Ctrl-C or an error here, stop what still runs.
+        for w, (proc, orders) in enumerate(workers):
+            if w in busy:
+                proc.terminate()
+            elif proc.is_alive():
+                with contextlib.suppress(OSError, ValueError):
+                    orders.send(None)
+        for proc, orders in workers:
+            proc.join(timeout=10)
+            if proc.is_alive():
+                proc.terminate()
+                proc.join()
+            orders.close()
+    return [results[i] for i in range(len(tasks))]
 
 
 def _exit_status(code: int) -> str:
@@ -255,7 +324,3 @@ def _exit_status(code: int) -> str:
         return f"signal {-code} ({signal.Signals(-code).name})"
     except ValueError:
         return f"signal {-code}"
-
-
-def _verdict(res: Result) -> str:
-    return f"{res.key}: {res.verdict}"

@@ -58,11 +58,11 @@ def test_sim_help_lists_each_subcommand_once(capsys: pytest.CaptureFixture[str])
     assert exc.value.code == 0
     out = capsys.readouterr().out
     assert out.startswith("usage: urb sim [-h] SUBCOMMAND ...")
-    for name in ("sensorhex", "params"):
+    for name in ("sensorhex", "sweep", "params"):
         assert sum(line.split()[:1] == [name] for line in out.splitlines()) == 1, out
 
 
-@pytest.mark.parametrize("sub", ["sensorhex", "params"])
+@pytest.mark.parametrize("sub", ["sensorhex", "sweep", "params"])
 def test_sim_subcommand_usage_names_the_command(sub: str, capsys: pytest.CaptureFixture[str]) -> None:
     # argparse used to derive "urb sim [-h] SUBCOMMAND ... sensorhex" from `urb sim`'s own usage line
     with pytest.raises(SystemExit) as exc:

@@ -94,11 +94,11 @@ def _segfault_in(victim: str) -> Any:
     return functools.partial(_worker_or_segfault, victim)
 
 
-def _worker_or_segfault(victim: str, key: str, out: Path, quick: bool, seed: int, reports: Any) -> None:
+def _worker_or_segfault(victim: str, index: int, key: str, out: Path, quick: bool, seed: int, reports: Any) -> None:
     if key == victim:
         with runner.crash_log(out, key):  # as _worker runs every experiment
             _firmware_under_test_crashes()
-    runner._worker(key, out, quick, seed, reports)
+    runner._worker(index, key, out, quick, seed, reports)
 
 
 def _firmware_under_test_crashes() -> None:

@@ -1,0 +1,197 @@
+"""`urb sim sweep`: the paper's experiments over many seeds, for how often each criterion holds.
+
+One seed is one sample of the clock errors, drifts, interrupt latencies and host phases the
+simulation draws (sim/README.md). A criterion that holds at seed 1 may fail at another: a sweep
+runs every chosen experiment at every seed, in parallel worker processes, and tells which seeds
+failed which check, each with the command that reproduces it alone.
+
+Output, in the folder given:
+  checks.csv    one row per seed, experiment and check: what was required and measured, pass or not
+  runs.csv      one row per seed and experiment: verdict, simulated and wall seconds
+  summary.json  per check: runs, failures and the failing seeds; the totals
+  runs/seed-N/<experiment>/   the CSV and PNG files of every run that did not pass (of every run
+                with keep=True), to look at next to the reproduction command's report
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import shutil
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .experiments import Progress, Result
+from .runner import Task, run_tasks
+
+#: More seeds than this in one sweep is a typing error more likely than a plan (1e5 full runs of
+#: the fastest experiment take days on one core).
+MAX_SEEDS = 100_000
+
+
+def parse_seeds(text: str, seed_max: int) -> list[int]:
+    """The seeds of a list such as "1-100", "7" or "1-10,20,30-32", in the order given, each once.
+    Raises ValueError saying what is wrong."""
+    seeds: list[int] = []
+    seen: set[int] = set()
+    for part in text.split(","):
+        part = part.strip()
+        if not part:
+            raise ValueError(f"empty item in the seed list {text!r}: write it as 1-100 or 1,5,9")
+        lo_text, dash, hi_text = part.partition("-")
+        try:
+            lo = int(lo_text)
+            hi = int(hi_text) if dash else lo
+        except ValueError:
+            raise ValueError(f"{part!r} is not a seed or a range of seeds: write it as 7 or 1-100") from None
+        if not 0 <= lo <= hi <= seed_max:
+            raise ValueError(f"{part!r}: seeds go from 0 to {seed_max}, and a range from low to high")
+        if len(seeds) + (hi - lo + 1) > MAX_SEEDS:
+            raise ValueError(f"{text!r} names more than {MAX_SEEDS} seeds: split the sweep into several")
+        for seed in range(lo, hi + 1):
+            if seed not in seen:
+                seen.add(seed)
+                seeds.append(seed)
+    return seeds
+
+
+@dataclass
+class CheckTally:
+    """How one check of one experiment fared over the seeds."""
+
+    experiment: str
+    check: str
+    runs: int = 0
+    failed_seeds: list[int] = field(default_factory=list)
+
+
+@dataclass
+class Sweep:
+    """What a sweep found."""
+
+    seeds: list[int]
+    keys: list[str]
+    quick: bool
+    results: dict[tuple[str, int], Result]
+    tallies: list[CheckTally]
+    wall_s: float = 0.0
+
+    @property
+    def passed(self) -> bool:
+        return all(r.passed for r in self.results.values())
+
+    @property
+    def sim_s(self) -> float:
+        return sum(r.sim_s for r in self.results.values())
+
+    def failed_runs(self) -> list[tuple[str, int, Result]]:
+        """(experiment, seed, result) of every run that did not pass, by experiment then seed."""
+        return [(k, s, self.results[(k, s)]) for k in self.keys for s in self.seeds if not self.results[(k, s)].passed]
+
+    def reproduce(self, key: str, seed: int) -> str:
+        """The command that runs one failed run again alone, with its report."""
+        return f"urb sim sensorhex --seed {seed} --only {key}" + (" --quick" if self.quick else "")
+
+
+def run_dir(out: Path, seed: int) -> Path:
+    """The folder whose <experiment>/ subfolders hold the files of the runs at `seed`."""
+    return out / "runs" / f"seed-{seed}"
+
+
+def run_sweep(keys: Sequence[str], seeds: Sequence[int], out: Path, *, quick: bool, jobs: int, keep: bool,
+              progress: Progress) -> Sweep:
+    """Run experiments `keys` at every seed of `seeds` (at most `jobs` at once) into `out`, write
+    checks.csv, runs.csv and summary.json there, and return the tallies. out/runs/ is emptied
+    first; the files of a run that passed are removed as soon as it ends unless `keep`."""
+    tasks = [Task(key, run_dir(out, seed), seed) for key in keys for seed in seeds]
+    shutil.rmtree(out / "runs", ignore_errors=True)  # an earlier sweep's failures are not this one's
+
+    def tidy(task: Task, res: Result) -> None:
+        if res.passed and not keep:
+            shutil.rmtree(task.out / task.key, ignore_errors=True)
+            _remove_if_empty(task.out)
+
+    t0 = time.perf_counter()
+    results = run_tasks(tasks, quick=quick, jobs=jobs, progress=progress, on_result=tidy)
+    sweep = Sweep(list(seeds), list(keys), quick, {(t.key, t.seed): r for t, r in zip(tasks, results)}, [],
+                  wall_s=time.perf_counter() - t0)
+    sweep.tallies = _tally(sweep)
+    _remove_if_empty(out / "runs")
+    write(sweep, out)
+    return sweep
+
+
+def _remove_if_empty(folder: Path) -> None:
+    try:
+        folder.rmdir()
+    except OSError:
+        pass  # not empty (a run kept its files), or already gone
+
+
+def _tally(sweep: Sweep) -> list[CheckTally]:
+    """One tally per (experiment, check name), in the order the checks first appear."""
+    tallies: dict[tuple[str, str], CheckTally] = {}
+    for key in sweep.keys:
+        for seed in sweep.seeds:
+            for c in sweep.results[(key, seed)].checks:
+                t = tallies.setdefault((key, c.name), CheckTally(key, c.name))
+                t.runs += 1
+                if not c.passed:
+                    t.failed_seeds.append(seed)
+    return list(tallies.values())
+
+
+def write(sweep: Sweep, out: Path) -> None:
+    """checks.csv, runs.csv and summary.json of `sweep` in `out`."""
+    out.mkdir(parents=True, exist_ok=True)
+    with (out / "checks.csv").open("w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(["seed", "experiment", "check", "passed", "required", "measured"])
+        for key in sweep.keys:
+            for seed in sweep.seeds:
+                for c in sweep.results[(key, seed)].checks:
+                    w.writerow([seed, key, c.name, int(c.passed), c.required, c.measured])
+    with (out / "runs.csv").open("w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(["seed", "experiment", "verdict", "sim_s", "wall_s"])
+        for key in sweep.keys:
+            for seed in sweep.seeds:
+                r = sweep.results[(key, seed)]
+                w.writerow([seed, key, r.verdict, f"{r.sim_s:.3f}", f"{r.wall_s:.3f}"])
+    summary = {
+        "passed": sweep.passed,
+        "quick": sweep.quick,
+        "experiments": sweep.keys,
+        "seeds": sweep.seeds,
+        "runs": len(sweep.results),
+        "failed_runs": [{"experiment": k, "seed": s, "verdict": r.verdict, "reproduce": sweep.reproduce(k, s)}
+                        for k, s, r in sweep.failed_runs()],
+        "checks": [{"experiment": t.experiment, "check": t.check, "runs": t.runs, "failed": len(t.failed_seeds),
+                    "failed_seeds": t.failed_seeds} for t in sweep.tallies],
+        "sim_s": round(sweep.sim_s, 3),
+        "wall_s": round(sweep.wall_s, 3),
+    }
+    (out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
+
+
+def format_table(sweep: Sweep, max_seeds_shown: int = 10) -> list[str]:
+    """The console summary: one line per check with its pass count and first failing seeds, then a
+    reproduction command per failed run (the first few)."""
+    width = max((len(f"{t.experiment} {t.check}") for t in sweep.tallies), default=0)
+    lines = []
+    for t in sweep.tallies:
+        ok = t.runs - len(t.failed_seeds)
+        line = f"{'PASS' if not t.failed_seeds else 'FAIL':<5} {t.experiment + ' ' + t.check:<{width}}  {ok}/{t.runs}"
+        if t.failed_seeds:
+            shown = ", ".join(map(str, t.failed_seeds[:max_seeds_shown]))
+            more = f" and {len(t.failed_seeds) - max_seeds_shown} more" if len(t.failed_seeds) > max_seeds_shown else ""
+            line += f"  failed at seed {shown}{more}"
+        lines.append(line)
+    failed = sweep.failed_runs()
+    for key, seed, res in failed[:max_seeds_shown]:
+        lines.append(f"  {res.verdict} {key} seed {seed}: {sweep.reproduce(key, seed)}")
+    if len(failed) > max_seeds_shown:
+        lines.append(f"  ... {len(failed) - max_seeds_shown} more failed runs in summary.json")
+    return lines
