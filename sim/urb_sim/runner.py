@@ -3,7 +3,8 @@
 Every experiment builds its own simulated worlds from its own seed and writes only into its own
 folder, so running several at once changes no number: the results are the same, byte for byte, for
 any number of workers. Workers are started with "spawn" (a fresh interpreter each), so nothing of
-the parent (the progress bar's thread, loaded libraries) leaks into them.
+the parent (the progress bar's thread, loaded libraries) leaks into them; each worker then runs one
+task after another, as `--jobs 1` runs them all in the calling process.
 """
 
 from __future__ import annotations
@@ -86,7 +87,7 @@ class Task(NamedTuple):
 
 def run_tasks(tasks: Sequence[Task], *, quick: bool, jobs: int, progress: Progress,
               on_result: Callable[[Task, Result], None] | None = None) -> list[Result]:
-    """Run `tasks` with at most `jobs` at a time (each in its own process when jobs > 1); results in
+    """Run `tasks` with at most `jobs` at a time (in worker processes when jobs > 1); results in
     task order. `on_result(task, result)` is called in this process as each one ends. Errors are
     handled as run_experiments describes. No two tasks may share a key and an out folder."""
     if len({(t.key, t.out) for t in tasks}) != len(tasks):
@@ -239,6 +240,7 @@ def _pool(tasks: Sequence[Task], labels: Sequence[str], *, quick: bool, jobs: in
     ctx = multiprocessing.get_context("spawn")
     reports = ctx.Queue()
     done_frac = [0.0] * len(tasks)
+    done = [0.0]  # sum(done_frac), kept as it changes: a sweep has thousands of tasks
     results: dict[int, Result] = {}
     # stable: a sweep keeps its seeds in order within each experiment
     pending = sorted(range(len(tasks)), key=lambda i: -EXPERIMENTS.get(tasks[i].key, 1.0))
@@ -247,12 +249,14 @@ def _pool(tasks: Sequence[Task], labels: Sequence[str], *, quick: bool, jobs: in
 
     def record(index: int, frac: float, item: str | Result) -> None:
         """A progress message or the final Result of task `index`."""
-        done_frac[index] = max(done_frac[index], min(frac, 1.0))
+        frac = max(done_frac[index], min(frac, 1.0))
+        done[0] += frac - done_frac[index]
+        done_frac[index] = frac
         if isinstance(item, Result) and index not in results:
             results[index] = item
             if on_result is not None:
                 on_result(tasks[index], item)
-        progress(sum(done_frac) / len(tasks), f"{labels[index]}: {item.verdict}" if isinstance(item, Result) else item)
+        progress(done[0] / len(tasks), f"{labels[index]}: {item.verdict}" if isinstance(item, Result) else item)
 
     def receive(timeout: float) -> None:
         """Fold in what the workers sent, waiting up to `timeout` for the first message."""
