@@ -134,7 +134,7 @@ def register(sub: Any) -> None:
                    help=f"comma-separated experiments to run (default: all of {', '.join(EXPERIMENTS)})")
     cpus = available_cpus()
     p.add_argument("--jobs", type=_positive, default=cpus, metavar="N",
-                   help="experiments run at once, each in its own process (default: the CPUs available, "
+                   help="experiments run at once, in as many worker processes (default: the CPUs available, "
                         f"{cpus} here); the results do not depend on it")
     p.add_argument("--no-progress", action="store_true", help="no progress bar (for logs)")
     p.set_defaults(run=run_sensorhex)
@@ -149,8 +149,8 @@ def register(sub: Any) -> None:
     w.add_argument("--out", type=_folder, default=REPO / "build" / "sim" / "sweep", metavar="DIR",
                    help="output folder (default build/sim/sweep)")
     w.add_argument("--jobs", type=_positive, default=cpus, metavar="N",
-                   help=f"runs at once, each in its own process (default: the CPUs available, {cpus} here); "
-                        "the results do not depend on it")
+                   help=f"runs at once, in as many worker processes that each take one run after another "
+                        f"(default: the CPUs available, {cpus} here); the results do not depend on it")
     w.add_argument("--keep", action="store_true", help="keep the files of every run, not only of those that failed")
     w.add_argument("--no-progress", action="store_true", help="no progress bar (for logs)")
     w.set_defaults(run=run_sweep_command)
