@@ -183,16 +183,7 @@ def run_sensorhex(args: argparse.Namespace) -> int:
     except ValueError as exc:
         print(f"urb sim sensorhex: {exc}", file=sys.stderr)
         return 2
-    problem = _unwritable(args.out)
-    if problem:
-        print(f"urb sim sensorhex: cannot write the report into {args.out}: {problem}; choose another --out DIR",
-              file=sys.stderr)
-        return 2
-    try:
-        check_loadable()
-        ensure_library()
-    except BuildError as exc:
-        print(f"urb sim: {exc}", file=sys.stderr)
+    if not _ready("urb sim sensorhex: cannot write the report into", args.out):
         return 2
     from .report import write_report
 
@@ -221,15 +212,7 @@ def run_sweep_command(args: argparse.Namespace) -> int:
     except ValueError as exc:
         print(f"urb sim sweep: {exc}", file=sys.stderr)
         return 2
-    problem = _unwritable(args.out)
-    if problem:
-        print(f"urb sim sweep: cannot write into {args.out}: {problem}; choose another --out DIR", file=sys.stderr)
-        return 2
-    try:
-        check_loadable()
-        ensure_library()
-    except BuildError as exc:
-        print(f"urb sim: {exc}", file=sys.stderr)
+    if not _ready("urb sim sweep: cannot write into", args.out):
         return 2
     with _progress(not args.no_progress) as progress:
         sweep = run_sweep(keys, seeds, args.out, quick=args.quick, jobs=args.jobs, keep=args.keep, progress=progress)
@@ -239,6 +222,22 @@ def run_sweep_command(args: argparse.Namespace) -> int:
     print(f"{len(sweep.results)} runs ({len(keys)} experiments x {len(seeds)} seeds), {failed} not passed; "
           f"{sweep.sim_s:.1f} s simulated in {sweep.wall_s:.1f} s; results: {args.out / 'summary.json'}")
     return 0 if sweep.passed else 1
+
+
+def _ready(cannot_write: str, out: Path) -> bool:
+    """Check before a run of minutes that `out` can be written and the library builds; print why
+    not (after `cannot_write`, for the folder) and return False when one cannot."""
+    problem = _unwritable(out)
+    if problem:
+        print(f"{cannot_write} {out}: {problem}; choose another --out DIR", file=sys.stderr)
+        return False
+    try:
+        check_loadable()
+        ensure_library()
+    except BuildError as exc:
+        print(f"urb sim: {exc}", file=sys.stderr)
+        return False
+    return True
 
 
 def _unwritable(out: Path) -> str | None:
