@@ -118,6 +118,13 @@ def test_sweep_usage_errors_exit_2(args: list[str], says: str, tmp_path: Path,
     assert list(tmp_path.iterdir()) == []  # refused before anything ran
 
 
+def test_unwritable_output_is_refused_before_the_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a folder")
+    assert main(["sim", "sweep", "--seeds", "1", "--only", "faults", "--out", str(blocker / "sweep")]) == 2
+    assert "urb sim sweep: cannot write into" in capsys.readouterr().err
+
+
 def test_worker_processes_give_the_serial_results(tmp_path: Path) -> None:
     """Real experiments in two worker processes, each running several runs in turn, against one process."""
     checks = []
