@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from .build import REPO, BuildError, check_loadable, ensure_library
-from .experiments import Progress
+from .experiments import SEED_SPAN, Progress
 from .runner import EXPERIMENTS, available_cpus, run_experiments, select
 
 #: `urb sim` subcommands and their one-line summaries (listed in `urb sim --help`).
@@ -57,7 +57,7 @@ Exit status: 0 when every acceptance criterion is met, 1 when one is not or an e
 ended in ERROR, 2 on a usage or build error (the message says what to do), 130 on Ctrl-C."""
 
 
-SWEEP_HELP = """\
+SWEEP_HELP = f"""\
 Run the paper's experiments (see `urb sim sensorhex --help`) at many seeds, several at once,
 and tell how often each acceptance criterion holds and at which seeds it fails.
 
@@ -73,11 +73,15 @@ runs.csv (per seed and experiment: verdict, simulated and wall seconds), summary
 check: runs, failures, failing seeds), and runs/seed-N/EXPERIMENT/ with the CSV and PNG files of
 each run that did not pass (of every run with --keep). DIR/runs/ is emptied first.
 
+An experiment at seed s also builds worlds at seeds s+1 .. s+{SEED_SPAN - 1} (table1's 20 runs, one per fault
+scenario, the trace recordings), so runs at neighbouring seeds share worlds: for independent
+samples take every {SEED_SPAN}th seed (--seeds 0-{99 * SEED_SPAN}/{SEED_SPAN}: 100 seeds); the sweep says so when they are closer.
+
 Exit status: 0 when every criterion held at every seed, 1 when one did not or a run ended in
 ERROR, 2 on a usage or build error, 130 on Ctrl-C.
 
-Example: the synchronisation and fault experiments at 100 seeds, quick versions:
-  urb sim sweep --seeds 1-100 --only table1,faults --quick"""
+Example: the synchronisation and fault experiments at 100 independent seeds, quick versions:
+  urb sim sweep --seeds 0-{99 * SEED_SPAN}/{SEED_SPAN} --only table1,faults --quick"""
 
 
 def _positive(text: str) -> int:
@@ -141,8 +145,8 @@ def register(sub: Any) -> None:
     w = simsub.add_parser("sweep", help=SUBCOMMANDS["sweep"], description=SWEEP_HELP,
                           formatter_class=argparse.RawDescriptionHelpFormatter)
     w.add_argument("--seeds", required=True, metavar="LIST",
-                   help="seeds to run: ranges and single seeds, comma-separated (e.g. 1-100 or 1-10,42), "
-                        f"from 0 to {SEED_MAX}")
+                   help="seeds to run: single seeds and ranges, with a step after a slash, comma-separated "
+                        f"(e.g. 1-100, 0-2079/21 or 1-10,42), from 0 to {SEED_MAX}")
     w.add_argument("--only", metavar="LIST", default=None,
                    help=f"comma-separated experiments to run (default: all of {', '.join(EXPERIMENTS)})")
     w.add_argument("--quick", action="store_true", help="the quick version of each experiment (as sensorhex --quick)")
@@ -204,7 +208,7 @@ def run_sensorhex(args: argparse.Namespace) -> int:
 
 
 def run_sweep_command(args: argparse.Namespace) -> int:
-    from .sweep import format_table, parse_seeds, run_sweep
+    from .sweep import format_table, overlap_note, parse_seeds, run_sweep
 
     try:
         keys = select(args.only)
@@ -218,6 +222,9 @@ def run_sweep_command(args: argparse.Namespace) -> int:
         sweep = run_sweep(keys, seeds, args.out, quick=args.quick, jobs=args.jobs, keep=args.keep, progress=progress)
     for line in format_table(sweep):
         print(line)
+    note = overlap_note(seeds)
+    if note:
+        print(note)
     failed = len(sweep.failed_runs())
     print(f"{len(sweep.results)} runs ({len(keys)} experiments x {len(seeds)} seeds), {failed} not passed; "
           f"{sweep.sim_s:.1f} s simulated in {sweep.wall_s:.1f} s; results: {args.out / 'summary.json'}")

@@ -23,7 +23,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .experiments import Progress, Result
+from .experiments import SEED_SPAN, Progress, Result
 from .runner import Task, run_tasks
 
 #: More seeds than this in one sweep is a typing error more likely than a plan (1e5 full runs of
@@ -32,29 +32,55 @@ MAX_SEEDS = 100_000
 
 
 def parse_seeds(text: str, seed_max: int) -> list[int]:
-    """The seeds of a list such as "1-100", "7" or "1-10,20,30-32", in the order given, each once.
-    Raises ValueError saying what is wrong."""
+    """The seeds of a list such as "1-100", "7", "0-2079/21" (every 21st) or "1-10,20,30-32", in
+    the order given, each once. Raises ValueError saying what is wrong."""
     seeds: list[int] = []
     seen: set[int] = set()
     for part in text.split(","):
         part = part.strip()
         if not part:
             raise ValueError(f"empty item in the seed list {text!r}: write it as 1-100 or 1,5,9")
-        lo_text, dash, hi_text = part.partition("-")
+        span, slash, step_text = part.partition("/")
+        lo_text, dash, hi_text = span.partition("-")
         try:
             lo = int(lo_text)
             hi = int(hi_text) if dash else lo
+            step = int(step_text) if slash else 1
         except ValueError:
-            raise ValueError(f"{part!r} is not a seed or a range of seeds: write it as 7 or 1-100") from None
+            raise ValueError(f"{part!r} is not a seed or a range of seeds: write it as 7, 1-100 or 0-2079/21") from None
         if not 0 <= lo <= hi <= seed_max:
             raise ValueError(f"{part!r}: seeds go from 0 to {seed_max}, and a range from low to high")
-        if len(seeds) + (hi - lo + 1) > MAX_SEEDS:
+        if step < 1 or (slash and not dash):
+            raise ValueError(f"{part!r}: a step follows a range and is 1 or more, as in 0-2079/21")
+        if len(seeds) + (hi - lo) // step + 1 > MAX_SEEDS:
             raise ValueError(f"{text!r} names more than {MAX_SEEDS} seeds: split the sweep into several")
-        for seed in range(lo, hi + 1):
+        for seed in range(lo, hi + 1, step):
             if seed not in seen:
                 seen.add(seed)
                 seeds.append(seed)
     return seeds
+
+
+def closest_pair(seeds: Sequence[int]) -> tuple[int, int] | None:
+    """Two of `seeds` less than SEED_SPAN apart (their runs share simulated worlds), or None."""
+    ordered = sorted(seeds)
+    for a, b in zip(ordered, ordered[1:]):
+        if b - a < SEED_SPAN:
+            return a, b
+    return None
+
+
+def overlap_note(seeds: Sequence[int]) -> str | None:
+    """What to tell a user whose seeds are not independent samples (None when they are)."""
+    pair = closest_pair(seeds)
+    if pair is None:
+        return None
+    a, b = pair
+    first = min(seeds)
+    return (f"note: seeds {a} and {b} (and maybe others) are less than {SEED_SPAN} apart, and an experiment at "
+            f"seed s also runs worlds at s+1 .. s+{SEED_SPAN - 1} (table1, faults, traces): their runs share "
+            f"worlds and are not independent samples. For independent ones take every {SEED_SPAN}th seed, "
+            f"e.g. --seeds {first}-{first + SEED_SPAN * (len(seeds) - 1)}/{SEED_SPAN}")
 
 
 @dataclass

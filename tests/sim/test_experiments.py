@@ -5,12 +5,32 @@ from __future__ import annotations
 
 import math
 import statistics
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
-from urb_sim.experiments import Result, control, latency, no_progress, sync
+from urb_sim import native
+from urb_sim.experiments import SEED_SPAN, Result, control, latency, no_progress, sync
 from urb_sim.runner import EXPERIMENTS, run_experiments
+
+
+@pytest.fixture(autouse=True)
+def seeds_within_the_span(monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
+    """Every world a test here builds comes from one base seed and the SEED_SPAN seeds after it (each
+    test runs one experiment, or part of one, at one base seed): sweeps rely on that
+    (sim/urb_sim/sweep.py)."""
+    seeds: list[int] = []
+    real = native.World.__init__
+
+    def recording(world: native.World, seed: int) -> None:
+        seeds.append(seed)
+        real(world, seed)
+
+    monkeypatch.setattr(native.World, "__init__", recording)
+    yield
+    if seeds:
+        assert max(seeds) - min(seeds) < SEED_SPAN, f"worlds seeded {min(seeds)} .. {max(seeds)}"
 
 
 def _assert_passed(res: Result) -> None:

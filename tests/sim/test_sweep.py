@@ -12,8 +12,8 @@ import pytest
 
 from urb.cli import main
 from urb_sim import runner
-from urb_sim.experiments import Result
-from urb_sim.sweep import MAX_SEEDS, format_table, parse_seeds, run_dir, run_sweep
+from urb_sim.experiments import SEED_SPAN, Result
+from urb_sim.sweep import MAX_SEEDS, format_table, overlap_note, parse_seeds, run_dir, run_sweep
 
 SEED_MAX = 2**63 - 1
 
@@ -23,11 +23,21 @@ def test_seed_lists() -> None:
     assert parse_seeds("1-3", SEED_MAX) == [1, 2, 3]
     assert parse_seeds(" 5-6, 1 ,6,2-3", SEED_MAX) == [5, 6, 1, 2, 3]  # in the order given, each once
     assert parse_seeds(f"{SEED_MAX}", SEED_MAX) == [SEED_MAX]
+    assert parse_seeds("0-63/21", SEED_MAX) == [0, 21, 42, 63]
+    assert parse_seeds("5-9/10,6", SEED_MAX) == [5, 6]
+
+
+def test_seeds_closer_than_the_span_are_noted() -> None:
+    assert overlap_note([0, SEED_SPAN, 2 * SEED_SPAN]) is None
+    note = overlap_note([40, 0, SEED_SPAN + 1])
+    assert note is not None and f"seeds 0 and {SEED_SPAN + 1}" not in note and f"{SEED_SPAN + 1} and 40" in note
+    assert f"--seeds 0-{2 * SEED_SPAN}/{SEED_SPAN}" in note
 
 
 @pytest.mark.parametrize("text, says", [("", "empty item"), ("1,,2", "empty item"), ("x", "not a seed"),
                                         ("1-x", "not a seed"), ("5-3", "from low to high"), ("-1", "not a seed"),
-                                        (f"{SEED_MAX + 1}", "seeds go from 0"),
+                                        (f"{SEED_MAX + 1}", "seeds go from 0"), ("5/2", "a step follows a range"),
+                                        ("1-9/0", "a step follows a range"), ("1-9/x", "not a seed"),
                                         (f"0-{MAX_SEEDS}", "more than")])
 def test_bad_seed_lists_say_what_is_wrong(text: str, says: str) -> None:
     with pytest.raises(ValueError, match=says):
@@ -100,6 +110,7 @@ def test_a_clean_sweep_leaves_only_its_tables(tmp_path: Path, capsys: pytest.Cap
     assert sorted(p.name for p in tmp_path.iterdir()) == ["checks.csv", "runs.csv", "summary.json"]
     out = capsys.readouterr().out
     assert "PASS  fig15 latency   2/2" in out and "2 runs (1 experiments x 2 seeds), 0 not passed" in out
+    assert "not independent samples" in out  # seeds 1 and 3 share worlds
 
 
 @pytest.mark.usefixtures("fake_fig15")

@@ -32,6 +32,11 @@ class Check:
     passed: bool
 
 
+#: An experiment run at base seed s builds its simulated worlds from seeds s .. s + SEED_SPAN - 1
+#: (table1's runs s .. s + 19, one per fault scenario, the trace recordings up to s + 20): runs at
+#: base seeds this far apart or more share no world (tests/sim/test_experiments.py checks the span).
+SEED_SPAN = 21
+
 #: The check of an experiment that raised instead of returning (sim/urb_sim/runner.py).
 RAN_TO_COMPLETION = "ran to completion"
 
