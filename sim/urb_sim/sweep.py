@@ -79,7 +79,7 @@ def overlap_note(seeds: Sequence[int]) -> str | None:
     first = min(seeds)
     return (f"note: seeds {a} and {b} (and maybe others) are less than {SEED_SPAN} apart, and an experiment at "
             f"seed s also runs worlds at s+1 .. s+{SEED_SPAN - 1} (table1, faults, traces): their runs share "
-            f"worlds and are not independent samples. For independent ones take every {SEED_SPAN}th seed, "
+            f"worlds and are not independent samples. For independent ones take seeds {SEED_SPAN} apart, "
             f"e.g. --seeds {first}-{first + SEED_SPAN * (len(seeds) - 1)}/{SEED_SPAN}")
 
 
