@@ -73,10 +73,10 @@ runs.csv (per seed and experiment: verdict, simulated and wall seconds), summary
 check: runs, failures, failing seeds), and runs/seed-N/EXPERIMENT/ with the CSV and PNG files of
 each run that did not pass (of every run with --keep). DIR/runs/ is emptied first.
 
-An experiment at seed s also builds worlds at seeds s+1 .. s+{SEED_SPAN - 1} (table1's 20 runs, one per fault
-scenario, the trace recordings), so runs at neighbouring seeds share worlds: for independent
-samples take seeds {SEED_SPAN} apart (--seeds 0-{99 * SEED_SPAN}/{SEED_SPAN}: 100 seeds); the sweep says so when they are
-closer.
+An experiment at seed s also builds worlds at seeds s+1 .. s+{SEED_SPAN - 1} (table1's 20 runs, one
+per fault scenario, the trace recordings), so runs at neighbouring seeds share worlds: for
+independent samples take seeds {SEED_SPAN} apart (--seeds 0-{99 * SEED_SPAN}/{SEED_SPAN}: 100 seeds); the sweep
+says so when they are closer.
 
 Exit status: 0 when every criterion held at every seed, 1 when one did not or a run ended in
 ERROR, 2 on a usage or build error, 130 on Ctrl-C.
