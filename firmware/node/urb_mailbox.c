@@ -451,6 +451,10 @@ void urb_mailbox_reset(urb_node_t *node)
  * range holds both buffers (offset and offset + size), so an application reads zeros before the
  * first commit (setup_zeroed). */
 /*@ requires node == \null || urb_mb_layout(node);
+    ensures setup_layout: node != \null ==> urb_mb_layout(node);
+    ensures setup_i2c: node != \null ==> node->i2c == \old(node->i2c);
+    ensures setup_sizes: node != \null ==> \forall integer m; 0 <= m < URB_NODE_MAILBOXES ==>
+              \old(node->inbox[m].size) != 0 ==> node->inbox[m].size == \old(node->inbox[m].size);
     behavior bad_argument:
       assumes node == \null || n == 0 || n >= URB_NODE_MAILBOXES || size == 0 || size > URB_NODE_MAX_SIZE;
       assigns node->setup_err;

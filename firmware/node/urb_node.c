@@ -280,6 +280,33 @@ void urb_node_mark_acquired(urb_node_t *node)
 
 /* ===== Lifecycle ============================================================================ */
 
+/* The mailbox positions and the I2C slave's start state, on a node urb_node_init has just zeroed.
+ * ACSL for Frama-C WP (proofs/framac/node_init/): the requires are what the zeroing gives (every
+ * integer field 0, the storage block valid and apart from the node: urb_node_init's caller), and
+ * the ensures are the conjuncts of the I2C slave invariant urb_i2c_ok (urb_i2c.c), which
+ * node_init proves from them: the base case of the induction over slave events. */
+/*@ requires \valid(node) && node->storage_used == 0;
+    requires \valid(node->storage + (0 .. node->storage_len - 1));
+    requires \separated(node, node->storage + (0 .. node->storage_len - 1));
+    requires \forall integer n; 0 <= n < URB_NODE_MAILBOXES ==>
+               node->outbox[n].front == 0 && node->inbox[n].front == 0 &&
+               node->outbox[n].offset == 0 && node->outbox[n].size == 0 &&
+               node->inbox[n].offset == 0 && node->inbox[n].size == 0;
+    requires node->i2c.mailbox == 0 && node->i2c.crc16 == 0;
+    assigns node->outbox[0 .. URB_NODE_MAILBOXES - 1].isr_idx, node->outbox[0 .. URB_NODE_MAILBOXES - 1].held,
+            node->inbox[0 .. URB_NODE_MAILBOXES - 1].isr_idx, node->inbox[0 .. URB_NODE_MAILBOXES - 1].app_idx,
+            node->outbox[0].size, node->inbox[0].offset, node->inbox[0].size,
+            node->i2c.state, node->i2c.selected;
+    ensures start_layout: urb_mb_layout(node);
+    ensures start_i2c: node->i2c.state == URB_I2C_ST_IDLE && node->i2c.mailbox == 0 &&
+                       node->i2c.selected == 0 && node->i2c.crc16 == 0; */
+static void start_slave(urb_node_t *node)
+{
+    urb_mailbox_reset(node);
+    node->i2c.state = URB_I2C_ST_IDLE;
+    node->i2c.selected = 0u; /* reads return outbox 0 until the first select */
+}
+
 int urb_node_init(urb_node_t *node, const urb_node_hal_t *hal, const urb_node_hooks_t *hooks, void *user,
                   const urb_node_config_t *cfg, uint8_t *storage, uint16_t storage_len)
 {
@@ -301,9 +328,7 @@ int urb_node_init(urb_node_t *node, const urb_node_hal_t *hal, const urb_node_ho
     node->cfg = cfg;
     node->storage = storage;
     node->storage_len = storage_len;
-    urb_mailbox_reset(node);
-    node->i2c.state = URB_I2C_ST_IDLE;
-    node->i2c.selected = 0u; /* reads return outbox 0 until the first select */
+    start_slave(node);
     if (hooks->bootup != NULL) {
         hooks->bootup(node, user);
     }
