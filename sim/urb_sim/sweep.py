@@ -136,14 +136,16 @@ def run_sweep(keys: Sequence[str], seeds: Sequence[int], out: Path, *, quick: bo
 
     def tidy(task: Task, res: Result) -> None:
         if res.passed and not keep:
+            # only the run's own folder: another worker may be creating one beside it right now
             shutil.rmtree(task.out / task.key, ignore_errors=True)
-            _remove_if_empty(task.out)
 
     t0 = time.perf_counter()
     results = run_tasks(tasks, quick=quick, jobs=jobs, progress=progress, on_result=tidy)
     sweep = Sweep(list(seeds), list(keys), quick, {(t.key, t.seed): r for t, r in zip(tasks, results)}, [],
                   wall_s=time.perf_counter() - t0)
     sweep.tallies = _tally(sweep)
+    for seed in seeds:
+        _remove_if_empty(run_dir(out, seed))
     _remove_if_empty(out / "runs")
     write(sweep, out)
     return sweep
