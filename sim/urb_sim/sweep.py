@@ -15,7 +15,6 @@ Output, in the folder given:
 
 from __future__ import annotations
 
-import csv
 import json
 import shutil
 import time
@@ -23,7 +22,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .experiments import SEED_SPAN, Progress, Result
+from .experiments import SEED_SPAN, Progress, Result, write_csv
 from .runner import Task, run_tasks
 
 #: More seeds than this in one sweep is a typing error more likely than a plan (1e5 full runs of
@@ -101,7 +100,6 @@ class Sweep:
     keys: list[str]
     quick: bool
     results: dict[tuple[str, int], Result]
-    tallies: list[CheckTally]
     wall_s: float = 0.0
 
     @property
@@ -112,9 +110,25 @@ class Sweep:
     def sim_s(self) -> float:
         return sum(r.sim_s for r in self.results.values())
 
+    @property
+    def tallies(self) -> list[CheckTally]:
+        """One tally per (experiment, check name), in the order the checks first appear."""
+        tallies: dict[tuple[str, str], CheckTally] = {}
+        for key, seed, res in self.runs():
+            for c in res.checks:
+                t = tallies.setdefault((key, c.name), CheckTally(key, c.name))
+                t.runs += 1
+                if not c.passed:
+                    t.failed_seeds.append(seed)
+        return list(tallies.values())
+
+    def runs(self) -> list[tuple[str, int, Result]]:
+        """(experiment, seed, result) of every run, by experiment then seed."""
+        return [(k, s, self.results[(k, s)]) for k in self.keys for s in self.seeds]
+
     def failed_runs(self) -> list[tuple[str, int, Result]]:
         """(experiment, seed, result) of every run that did not pass, by experiment then seed."""
-        return [(k, s, self.results[(k, s)]) for k in self.keys for s in self.seeds if not self.results[(k, s)].passed]
+        return [(k, s, r) for k, s, r in self.runs() if not r.passed]
 
     def reproduce(self, key: str, seed: int) -> str:
         """The command that runs one failed run again alone, with its report."""
@@ -141,9 +155,8 @@ def run_sweep(keys: Sequence[str], seeds: Sequence[int], out: Path, *, quick: bo
 
     t0 = time.perf_counter()
     results = run_tasks(tasks, quick=quick, jobs=jobs, progress=progress, on_result=tidy)
-    sweep = Sweep(list(seeds), list(keys), quick, {(t.key, t.seed): r for t, r in zip(tasks, results)}, [],
+    sweep = Sweep(list(seeds), list(keys), quick, {(t.key, t.seed): r for t, r in zip(tasks, results)},
                   wall_s=time.perf_counter() - t0)
-    sweep.tallies = _tally(sweep)
     for seed in seeds:
         _remove_if_empty(run_dir(out, seed))
     _remove_if_empty(out / "runs")
@@ -158,36 +171,13 @@ def _remove_if_empty(folder: Path) -> None:
         pass  # not empty (a run kept its files), or already gone
 
 
-def _tally(sweep: Sweep) -> list[CheckTally]:
-    """One tally per (experiment, check name), in the order the checks first appear."""
-    tallies: dict[tuple[str, str], CheckTally] = {}
-    for key in sweep.keys:
-        for seed in sweep.seeds:
-            for c in sweep.results[(key, seed)].checks:
-                t = tallies.setdefault((key, c.name), CheckTally(key, c.name))
-                t.runs += 1
-                if not c.passed:
-                    t.failed_seeds.append(seed)
-    return list(tallies.values())
-
-
 def write(sweep: Sweep, out: Path) -> None:
     """checks.csv, runs.csv and summary.json of `sweep` in `out`."""
-    out.mkdir(parents=True, exist_ok=True)
-    with (out / "checks.csv").open("w", newline="", encoding="utf-8") as f:
-        w = csv.writer(f)
-        w.writerow(["seed", "experiment", "check", "passed", "required", "measured"])
-        for key in sweep.keys:
-            for seed in sweep.seeds:
-                for c in sweep.results[(key, seed)].checks:
-                    w.writerow([seed, key, c.name, int(c.passed), c.required, c.measured])
-    with (out / "runs.csv").open("w", newline="", encoding="utf-8") as f:
-        w = csv.writer(f)
-        w.writerow(["seed", "experiment", "verdict", "sim_s", "wall_s"])
-        for key in sweep.keys:
-            for seed in sweep.seeds:
-                r = sweep.results[(key, seed)]
-                w.writerow([seed, key, r.verdict, f"{r.sim_s:.3f}", f"{r.wall_s:.3f}"])
+    write_csv(out / "checks.csv", ["seed", "experiment", "check", "passed", "required", "measured"],
+              ([seed, key, c.name, int(c.passed), c.required, c.measured]
+               for key, seed, r in sweep.runs() for c in r.checks))
+    write_csv(out / "runs.csv", ["seed", "experiment", "verdict", "sim_s", "wall_s"],
+              ([seed, key, r.verdict, f"{r.sim_s:.3f}", f"{r.wall_s:.3f}"] for key, seed, r in sweep.runs()))
     summary = {
         "passed": sweep.passed,
         "quick": sweep.quick,
@@ -207,9 +197,10 @@ def write(sweep: Sweep, out: Path) -> None:
 def format_table(sweep: Sweep, max_seeds_shown: int = 10) -> list[str]:
     """The console summary: one line per check with its pass count and first failing seeds, then a
     reproduction command per failed run (the first few)."""
-    width = max((len(f"{t.experiment} {t.check}") for t in sweep.tallies), default=0)
+    tallies = sweep.tallies
+    width = max((len(f"{t.experiment} {t.check}") for t in tallies), default=0)
     lines = []
-    for t in sweep.tallies:
+    for t in tallies:
         ok = t.runs - len(t.failed_seeds)
         line = f"{'PASS' if not t.failed_seeds else 'FAIL':<5} {t.experiment + ' ' + t.check:<{width}}  {ok}/{t.runs}"
         if t.failed_seeds:

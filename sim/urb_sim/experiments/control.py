@@ -48,6 +48,12 @@ class Pd:
     prev_t: int = 0
 
     def __call__(self, e: float, t_ns: int) -> float:
+        """The drive for error `e` sampled at the loop's instant `t_ns`: the read's submission, not
+        its callback's arrival. Where the USB frames start at the write thread's wake-up, replies
+        alternate a frame apart (arrival steps of ~0 and ~2 ms made the D term noise: seed 34 of
+        fig18_19), and a response that waits one more frame shares its IN with the next, two
+        callbacks microseconds apart (the D term drove +12 V against the reference: fig20, seed 945,
+        leg 5 7.4 degrees RMS)."""
         de = 0.0 if self.prev_e is None else (e - self.prev_e) / max(1e-6, (t_ns - self.prev_t) * 1e-9)
         self.prev_e, self.prev_t = e, t_ns
         return max(-self.limit, min(self.limit, self.kp * e + self.kd * de))
@@ -95,10 +101,7 @@ def _control(sysm: System, axes: list[Axis], reference: list[object], seconds: f
             t = host.now_ns()
             pos = axis.update(fb.encoder)
             r = ref(t - t0[0])  # type: ignore[operator]
-            # The derivative's time step is the loop's (the read's submission, every 1 ms), not the
-            # callback's arrival: where the USB frames start at the write thread's wake-up, replies
-            # alternate a frame apart and arrival-time steps of ~0 and ~2 ms make the D term noise.
-            u = axis.pd(r - pos, req.submitted_ns or t)
+            u = axis.pd(r - pos, req.submitted_ns or t)  # the loop's instant: see Pd
             mv = int(round(u * 1000))
             axis.node.submit_request(axis.node.new_request().write_message(MotorCommand(voltage=mv)))
             axis.log.append((t - t0[0], r, pos, fb.current / 1000.0, fb.voltage / 1000.0))

@@ -224,11 +224,7 @@ def run_gait(seed: int, rate_hz: int, seconds: float, kp: float = 12.0, kd: floa
             t = s.host.now_ns() - t0[0]
             pos = axis.update(fb.encoder)
             ref = leg_reference(k, max(0.0, t * 1e-9))
-            # The derivative's time step is the loop's (the read's submission), not the callback's
-            # arrival, as in control.py: a response that waits one more frame shares its USB IN
-            # with the next one, and two callbacks microseconds apart made the D term saturate the
-            # drive (+12 V against the reference's direction at seed 945, leg 5 7.4 degrees RMS).
-            u = axis.pd(ref - pos, req.submitted_ns or s.host.now_ns())
+            u = axis.pd(ref - pos, req.submitted_ns or s.host.now_ns())  # the loop's instant: see Pd
             axis.node.submit_request(axis.node.new_request().write_message(MotorCommand(voltage=int(round(u * 1000)))))
             true = s.world.plant(hx.motors[k])
             legs[k].append((t * 1e-9, ref, true[0], fb.voltage / 1000.0, fb.current / 1000.0))
@@ -292,7 +288,7 @@ def fig20(out: Path, *, quick: bool = False, seed: int = 20, progress: Progress 
         progress(i / (len(grid) + 1), f"Fig. 20: tripod gait at 500 Hz, Kp {kp:g} Kd {kd:g}")
         r = run_gait(seed, 500, seconds, kp, kd)
         tried.append((kp, kd, r, stance_current(r)))
-    kp, kd, run, _ = choose_gains(tried)
+    kp, kd, run, chosen_stance = choose_gains(tried)
     gains = (kp, kd)
     progress(len(grid) / (len(grid) + 1), "Fig. 20: the same at 1 kHz")
     fast = run_gait(seed, 1000, 0.4 if quick else seconds, *gains)
@@ -329,8 +325,7 @@ def fig20(out: Path, *, quick: bool = False, seed: int = 20, progress: Progress 
         f"Gains: Kp {gains[0]:g} V/rad, Kd {gains[1]:g} V s/rad, the smallest worst-leg error of the grid among the "
         f"pairs whose steady stance current (median |I| in stance, more than {STEADY_S * 1e3:.0f} ms from any change "
         f"of phase or direction) is at most {CALM_STANCE_A:g} A on every leg"
-        + ("" if any(c <= CALM_STANCE_A for *_, c in tried) else " (none of the grid is: the smallest error overall)")
-        + ". Grid: "
+        + ("" if chosen_stance <= CALM_STANCE_A else " (none of the grid is: the smallest error overall)") + ". Grid: "
         + "; ".join(f"Kp {p:g} Kd {d:g}: worst leg {max(r.rms_deg):.2f} deg, stance current {c:.1f} A"
                     + ("" if c <= CALM_STANCE_A else " (limit cycle)") for p, d, r, c in tried) + ".")
     grew = max(fast.latency_ms) > 3 * max(run.latency_ms)
