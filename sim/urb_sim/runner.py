@@ -12,8 +12,8 @@ from __future__ import annotations
 import contextlib
 import faulthandler
 import multiprocessing
+import multiprocessing.connection
 import os
-import queue
 import signal
 import sys
 import traceback
@@ -204,25 +204,25 @@ def _crash_text(out: Path, key: str) -> str:
 
 def _worker(index: int, key: str, out: Path, quick: bool, seed: int, reports: Any) -> None:
     """Run task `index` (experiment `key` into out/<key>/) in a worker process, sending progress and
-    then its Result, each tagged with `index`."""
+    then its Result, each tagged with `index`, on the connection `reports`."""
     def step(frac: float, msg: str) -> None:
-        reports.put((index, frac, msg))
+        reports.send((index, frac, msg))
 
     with crash_log(out, key):
-        reports.put((index, 1.0, run_one(key, out, quick=quick, seed=seed, progress=step)))
+        reports.send((index, 1.0, run_one(key, out, quick=quick, seed=seed, progress=step)))
 
 
-def _serve(orders: Any, reports: Any, quick: bool, target: Callable[..., None]) -> None:
-    """Body of a worker process: run the tasks the parent sends, one at a time, until it sends None.
-    The interpreter, the library and matplotlib load once for all of them (a fresh process per
-    task cost more than a quick experiment's run)."""
+def _serve(conn: Any, quick: bool, target: Callable[..., None]) -> None:
+    """Body of a worker process: run the tasks the parent sends on `conn`, one at a time, until it
+    sends None, and send their reports back on it. The interpreter, the library and matplotlib load
+    once for all of them (a fresh process per task cost more than a quick experiment's run)."""
     # Ctrl-C is the parent's to handle: it terminates the workers. terminate() sends SIGTERM: exit
     # through an exception, so that subprocess.run kills the TLC process it waits for.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(128 + signum))
-    while (order := orders.recv()) is not None:
+    while (order := conn.recv()) is not None:
         index, key, out, seed = order
-        target(index, key, out, quick, seed, reports)
+        target(index, key, out, quick, seed, conn)
 
 
 def _parallel(keys: Sequence[str], out: Path, *, quick: bool, seed: int, jobs: int, progress: Progress,
@@ -236,15 +236,18 @@ def _pool(tasks: Sequence[Task], labels: Sequence[str], *, quick: bool, jobs: in
           on_result: Callable[[Task, Result], None] | None, target: Callable[..., None] = _worker) -> list[Result]:
     """`jobs` spawned worker processes run the tasks, longest experiments first. A worker that dies
     without sending its task's Result (a segmentation fault in the firmware under test, the OOM
-    killer) gives that task an ERROR and is replaced; the other tasks go on."""
+    killer) gives that task an ERROR and is replaced; the other tasks go on.
+
+    Each worker has its own pipe, for its orders and its reports. A shared multiprocessing.Queue
+    would not do: its writers share one lock, and a worker killed while its queue thread held it
+    (a crash just after a report) blocked every other worker's reports for ever."""
     ctx = multiprocessing.get_context("spawn")
-    reports = ctx.Queue()
     done_frac = [0.0] * len(tasks)
     done = [0.0]  # sum(done_frac), kept as it changes: a sweep has thousands of tasks
     results: dict[int, Result] = {}
     # stable: a sweep keeps its seeds in order within each experiment
     pending = sorted(range(len(tasks)), key=lambda i: -EXPERIMENTS.get(tasks[i].key, 1.0))
-    workers: list[tuple[Any, Any]] = []     # (process, the parent's end of its order pipe)
+    workers: list[tuple[Any, Any]] = []     # (process, the parent's end of its pipe)
     busy: dict[int, int] = {}               # worker number -> the task it runs
 
     def record(index: int, frac: float, item: str | Result) -> None:
@@ -258,66 +261,70 @@ def _pool(tasks: Sequence[Task], labels: Sequence[str], *, quick: bool, jobs: in
                 on_result(tasks[index], item)
         progress(done[0] / len(tasks), f"{labels[index]}: {item.verdict}" if isinstance(item, Result) else item)
 
-    def receive(timeout: float) -> None:
-        """Fold in what the workers sent, waiting up to `timeout` for the first message."""
-        while True:
-            try:
-                record(*reports.get(timeout=timeout))
-            except queue.Empty:
-                return
-            timeout = 0.0
+    def receive(conn: Any) -> None:
+        """Fold in every report the worker at `conn` has sent so far. A worker that died while
+        sending leaves an incomplete report: its end of the pipe is closed, and that is read as the
+        end of its reports."""
+        try:
+            while conn.poll():
+                record(*conn.recv())
+        except (EOFError, OSError):
+            pass
 
     def start_worker() -> tuple[Any, Any]:
-        mine, theirs = ctx.Pipe(duplex=False)
-        proc = ctx.Process(target=_serve, args=(mine, reports, quick, target), name="urb-sim-worker", daemon=True)
+        mine, theirs = ctx.Pipe()
+        proc = ctx.Process(target=_serve, args=(theirs, quick, target), name="urb-sim-worker", daemon=True)
         proc.start()
-        mine.close()
-        return proc, theirs
+        theirs.close()  # the worker's end lives in the worker only: its death closes the pipe
+        return proc, mine
 
     try:
         workers = [start_worker() for _ in range(min(jobs, len(tasks)))]
         while pending or busy:
-            for w, (proc, orders) in enumerate(workers):
+            for w, (proc, conn) in enumerate(workers):
                 if w in busy or not pending:
                     continue
                 if not proc.is_alive():  # died between tasks: nothing lost, start another
                     proc.join()
-                    orders.close()
+                    conn.close()
                     workers[w] = start_worker()
-                    proc, orders = workers[w]
+                    proc, conn = workers[w]
                 i = pending.pop(0)
+                try:
+                    conn.send((i, tasks[i].key, tasks[i].out, tasks[i].seed))
+                except OSError:  # it ended just now: the task waits for the next worker
+                    pending.insert(0, i)
+                    continue
                 busy[w] = i
-                orders.send((i, tasks[i].key, tasks[i].out, tasks[i].seed))
-            receive(0.2)
-            for w, i in list(busy.items()):
-                if i in results:
-                    del busy[w]  # idle: gets the next task above
+            multiprocessing.connection.wait([c for _, c in workers] + [p.sentinel for p, _ in workers], timeout=1.0)
+            for w, (proc, conn) in enumerate(workers):
+                ended = not proc.is_alive()  # before reading: what it sent before it ended is then all there
+                receive(conn)
+                if w not in busy:
                     continue
-                proc, orders = workers[w]
-                if proc.is_alive():
-                    continue
-                receive(0.5)  # what it sent just before it ended may still be on its way
-                if i not in results:
+                i = busy[w]
+                if i not in results and ended:
                     task = tasks[i]
                     stack = _crash_text(task.out, task.key)
                     died = WorkerDied(f"the worker process ended with {_exit_status(proc.exitcode)} and no result"
                                       + (f"; its Python stack when it died ({CRASH_LOG}):\n{stack}" if stack else ""))
                     record(i, 1.0, crashed(task.key, task.out, died))
-                del busy[w]  # replaced above when a task is left for it
+                if i in results:
+                    del busy[w]  # idle: gets the next task above (a new process if this one ended)
     finally:
         # Normally idle: told to stop. After Ctrl-C or an error here, stop what still runs.
-        for w, (proc, orders) in enumerate(workers):
+        for w, (proc, conn) in enumerate(workers):
             if w in busy:
                 proc.terminate()
             elif proc.is_alive():
                 with contextlib.suppress(OSError, ValueError):
-                    orders.send(None)
-        for proc, orders in workers:
+                    conn.send(None)
+        for proc, conn in workers:
             proc.join(timeout=10)
             if proc.is_alive():
                 proc.terminate()
                 proc.join()
-            orders.close()
+            conn.close()
     return [results[i] for i in range(len(tasks))]
 
 

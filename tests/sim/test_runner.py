@@ -8,7 +8,9 @@ import json
 import os
 import signal
 import subprocess
+import struct
 import sys
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -115,6 +117,30 @@ def test_a_worker_that_dies_is_an_error_and_the_others_finish(tmp_path: Path) ->
     assert "_firmware_under_test_crashes" in (tmp_path / "faults" / "error.txt").read_text()
     assert not (tmp_path / "fig16" / runner.CRASH_LOG).exists()  # a worker that lived leaves none
     assert seen.count("faults: ERROR") == 1
+
+
+def test_a_worker_that_dies_while_reporting_is_an_error_and_the_others_finish(tmp_path: Path) -> None:
+    """The victim dies in the middle of sending a report. Its incomplete report must neither stall
+    the run nor hold up the other workers' reports (a shared queue's lock once did: the run hung)."""
+    results: list[Result] = []
+    run = threading.Thread(target=lambda: results.extend(runner._parallel(
+        ["fig16", "faults", "fig15"], tmp_path, quick=True, seed=1, jobs=2, progress=lambda frac, msg: None,
+        target=functools.partial(_worker_or_death_while_reporting, "faults"))), daemon=True)
+    run.start()
+    run.join(timeout=120)
+    assert not run.is_alive(), "the runner hung after a worker died while it was sending a report"
+    assert [r.verdict for r in results] == ["PASS", "ERROR", "PASS"]
+    _assert_error_reported(results[1], tmp_path, "WorkerDied", "signal 9 (SIGKILL)")
+
+
+def _worker_or_death_while_reporting(victim: str, index: int, key: str, out: Path, quick: bool, seed: int,
+                                     reports: Any) -> None:
+    if key == victim:
+        # the start of a 1-MiB report in the pipe's framing (a 4-byte length, then the bytes): the
+        # worker is killed after its first kilobyte
+        os.write(reports.fileno(), struct.pack("!i", 1 << 20) + b"x" * 1024)
+        os.kill(os.getpid(), signal.SIGKILL)
+    runner._worker(index, key, out, quick, seed, reports)
 
 
 SERIAL_CRASH = """
