@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 import statistics
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
@@ -50,6 +50,37 @@ def test_fig15_rs232_latency(tmp_path: Path) -> None:
 
 def test_fig16_usb_latency(tmp_path: Path) -> None:
     _assert_passed(latency.fig16(tmp_path, quick=True))
+
+
+def _fig16_constant(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, latency_ms: Callable[[int, int], float]) -> bool:
+    """fig16's "constant" verdict on synthetic round trips: latency_ms(payload, request)."""
+    def sweep(uplink: str, payloads: list[int], reads: int, *_: object) -> tuple[list[latency.Sample], float]:
+        return [latency.Sample(p, i, round(latency_ms(p, i) * 1e6), True, "") for p in payloads
+                for i in range(reads)], 0.0
+
+    monkeypatch.setattr(latency, "_sweep", sweep)
+    [check] = [c for c in latency.fig16(tmp_path, quick=True).checks if c.name == "constant"]
+    return check.passed
+
+
+def test_fig16_constant_rejects_a_latency_that_grows_with_the_payload(tmp_path: Path,
+                                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    def frame_per_16_bytes(p: int, i: int) -> float:
+        return 2.95 + i % 7 * 0.02 + (1.0 if p >= 16 else 0.0)
+
+    def fastest_of_short_reads(p: int, i: int) -> float:  # seeds 2814, 3045, 3885: a few a frame sooner
+        return 2.95 + i % 7 * 0.02 - (1.0 if p < 16 and i % 20 == 0 else 0.0)
+
+    def slowest_of_long_reads(p: int, i: int) -> float:
+        return 2.95 + i % 7 * 0.02 + (1.0 if p > 16 and i == 5 else 0.0)
+
+    def most_long_reads_a_frame_sooner(p: int, i: int) -> float:  # same slowest, other typical
+        return 2.95 + i % 7 * 0.02 - (1.0 if p > 16 and i % 5 < 3 else 0.0)
+
+    assert not _fig16_constant(tmp_path, monkeypatch, frame_per_16_bytes)
+    assert not _fig16_constant(tmp_path, monkeypatch, most_long_reads_a_frame_sooner)
+    assert not _fig16_constant(tmp_path, monkeypatch, slowest_of_long_reads)
+    assert _fig16_constant(tmp_path, monkeypatch, fastest_of_short_reads)
 
 
 @pytest.mark.parametrize("phase_us, low_ms, high_ms", [(100, 2.1, 2.3), (999, 3.0, latency.USB_BOUND_MS)])

@@ -195,12 +195,21 @@ def fig16(out: Path, *, quick: bool = False, seed: int = 16, progress: Progress 
     worst = max(st[p][2] for p in payloads)
     res.check("bounded by three frames", f"max latency <= 3 frames + the last frame's path to the callback "
               f"({USB_BOUND_MS:.2f} ms) for every payload", f"{worst:.3f} ms", worst <= USB_BOUND_MS)
-    # Where the USB frames start right at the write thread's wake-up, each request makes its frame
-    # or waits for the next by the wake-up's jitter: the latencies are then two values a frame apart,
-    # each independent of the payload, mixed in proportions that vary from run to run (seed 33:
-    # means 2.27-2.53 ms). "Constant" is about the payload: the fastest and the slowest round trips.
+    # The latencies take frame-spaced values. Which one a request gets follows its phase against the
+    # frames (where the frames start right at the write thread's wake-up, its jitter mixes two values
+    # a frame apart: seed 33), and near one phase also the payload: a request that reaches the bridge
+    # late in its frame is answered a frame sooner only when its read ends before the next SOF, which
+    # a short read may do and a long one not (full runs at seeds 2814, 3045, 3885: 2 to 88 of 1000
+    # short reads a frame sooner, none of the 31-byte ones). So the fastest round trip can depend on
+    # the payload; what Fig. 16 shows constant, the typical one (the median) and the slowest, must not.
+    medians = [statistics.median(s.latency_ns for s in samples if s.payload == p and s.ok
+                                 and s.latency_ns is not None) / 1e6 for p in payloads]
     lows, highs = [st[p][1] for p in payloads], [st[p][2] for p in payloads]
-    spread = max(max(lows) - min(lows), max(highs) - min(highs))
-    res.check("constant", "per-payload minimum latencies within 0.1 ms of each other, and the maxima too",
+    spread = max(max(medians) - min(medians), max(highs) - min(highs))
+    res.check("constant", "per-payload median latencies within 0.1 ms of each other, and the maxima too",
               f"spread {spread * 1e3:.0f} us", spread <= 0.1)
+    means = [st[p][0] for p in payloads]
+    res.notes.append(f"Per payload: means {min(means):.3f}-{max(means):.3f} ms, medians {min(medians):.3f}-"
+                     f"{max(medians):.3f} ms, fastest {min(lows):.3f}-{max(lows):.3f} ms, slowest "
+                     f"{min(highs):.3f}-{max(highs):.3f} ms.")
     return res
