@@ -409,7 +409,9 @@ int urb_release_inbox_any(urb_node_t *node, uint8_t n)
     ensures \forall integer n; 0 <= n < URB_NODE_MAILBOXES ==>
               node->outbox[n].front == \old(node->outbox[n].front) && node->inbox[n].front == \old(node->inbox[n].front);
     ensures reset_positions: urb_mb_only_mb0(node);
-    ensures reset_layout: urb_mb_layout(node); */
+    ensures reset_layout: urb_mb_layout(node);
+    ensures reset_i2c_mailbox: node->i2c.mailbox == \old(node->i2c.mailbox);
+    ensures reset_i2c_crc16: node->i2c.crc16 == \old(node->i2c.crc16); */
 void urb_mailbox_reset(urb_node_t *node)
 {
     /* urb_node_init has zeroed the node: sizes, offsets, fronts, fresh flags and buffers are 0 */

@@ -6,7 +6,7 @@
  * functions of the other two files without a copy of the predicate and without touching
  * urb_node_internal.h. Frama-C merges each contract below with the one on the function's
  * definition; WP proves the merged contracts of start_slave and of the two setup wrappers on their
- * bodies (the unit's -wp-fct), and assumes the clause added to urb_mailbox_reset (below).
+ * bodies (the unit's -wp-fct), with urb_mailbox_reset's own contract (reset_i2c_*: mailbox unit).
  *
  * start_slave (urb_node.c): the steps of urb_node_init after the zeroing. Its own contract
  * requires what the zeroing gives and ensures the conjuncts of urb_i2c_ok; here, that they are
@@ -17,14 +17,6 @@
  * setup_sizes, which the mailbox unit proves.
  */
 #include "urb_i2c.c"
-
-/* A reviewed HYPOTHESIS, not proved by WP: urb_mailbox_reset leaves node->i2c as it was. It follows
- * from the reset's `assigns` clause, which the mailbox unit proves and which names no field of
- * node->i2c; but z3 and cvc4 do not carry two I2C fields across that quantified frame in
- * start_slave (both give up or time out), and a loop invariant in the reset that would prove it
- * as an `ensures` makes four of the reset's own goals time out (tried 2026-11-27). */
-/*@ ensures reset_i2c: node->i2c == \old(node->i2c); */
-void urb_mailbox_reset(urb_node_t *node);
 
 /*@ ensures start_ok: urb_i2c_ok(node); */
 static void start_slave(urb_node_t *node);
