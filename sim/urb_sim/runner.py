@@ -296,13 +296,14 @@ def _pool(tasks: Sequence[Task], labels: Sequence[str], *, quick: bool, jobs: in
                     pending.insert(0, i)
                     continue
                 busy[w] = i
-            multiprocessing.connection.wait([c for _, c in workers] + [p.sentinel for p, _ in workers], timeout=1.0)
-            for w, (proc, conn) in enumerate(workers):
+            # only busy workers report; an ended worker's pipe and sentinel stay ready, and waiting on
+            # an idle one that ended would make this loop spin while the others run
+            running = [workers[w] for w in busy]
+            multiprocessing.connection.wait([c for _, c in running] + [p.sentinel for p, _ in running], timeout=1.0)
+            for w, i in list(busy.items()):
+                proc, conn = workers[w]
                 ended = not proc.is_alive()  # before reading: what it sent before it ended is then all there
                 receive(conn)
-                if w not in busy:
-                    continue
-                i = busy[w]
                 if i not in results and ended:
                     task = tasks[i]
                     stack = _crash_text(task.out, task.key)
