@@ -91,11 +91,16 @@ def _sweep(uplink: str, payloads: list[int], reads: int, seed: int, progress: Pr
     return samples, time.perf_counter() - t0
 
 
+def _answered_ms(samples: list[Sample], payload: int) -> list[float]:
+    """The round trips, in ms, of the reads of `payload` bytes that were answered."""
+    return [s.latency_ns / 1e6 for s in samples if s.payload == payload and s.ok and s.latency_ns is not None]
+
+
 def _stats(samples: list[Sample], payloads: list[int]) -> dict[int, tuple[float, float, float, int]]:
     """payload -> (mean, min, max latency in ms, failures)."""
     out: dict[int, tuple[float, float, float, int]] = {}
     for p in payloads:
-        lat = [s.latency_ns / 1e6 for s in samples if s.payload == p and s.ok and s.latency_ns is not None]
+        lat = _answered_ms(samples, p)
         fails = sum(1 for s in samples if s.payload == p and not s.ok)
         out[p] = (statistics.mean(lat), min(lat), max(lat), fails) if lat else (float("nan"),) * 3 + (fails,)
     return out
@@ -110,9 +115,7 @@ def _constant_spread(samples: list[Sample], payloads: list[int]) -> tuple[float,
     sooner than the slowest of all. Returns the largest spread, in ms, of the per-payload maxima and
     of each class's per-payload medians (NaN without answers), and per payload the share of its round
     trips a frame or more sooner than the slowest."""
-    lat = {p: [s.latency_ns / 1e6 for s in samples if s.payload == p and s.ok and s.latency_ns is not None]
-           for p in payloads}
-    lat = {p: v for p, v in lat.items() if v}
+    lat = {p: v for p in payloads if (v := _answered_ms(samples, p))}
     if not lat:
         return math.nan, {}
     maxima = [max(v) for v in lat.values()]
