@@ -280,7 +280,7 @@ void urb_node_mark_acquired(urb_node_t *node)
 
 /* ===== Lifecycle ============================================================================ */
 
-/* The mailbox positions and the I2C slave's start state, on a node urb_node_init has just zeroed.
+/* The mailbox positions and the I2C slave's start state, on a node start_node has just zeroed.
  * ACSL for Frama-C WP (proofs/framac/node_init/): the requires are what the zeroing gives (every
  * integer field 0, the storage block valid and apart from the node: urb_node_init's caller), and
  * the ensures are the conjuncts of the I2C slave invariant urb_i2c_ok (urb_i2c.c), which
@@ -307,6 +307,80 @@ static void start_slave(urb_node_t *node)
     node->i2c.selected = 0u; /* reads return outbox 0 until the first select */
 }
 
+/* ACSL for Frama-C WP (proofs/framac/node_init/), no code. WP models the zeroing below as "the
+ * struct value *node equals the zero literal", the mailbox arrays element by element (outbox[0] ..
+ * outbox[7]); start_slave's requires read the fields in memory (node->outbox[n].size). z3 and cvc4
+ * do not link the two for an arbitrary n on their own: they time out, even on one field of one box
+ * next to the literal's facts. urb_mb_number splits a mailbox number into its 8 values, each of
+ * which the literal names; zero_fields, a ghost function (nothing compiled), turns the value's
+ * fields into the memory's away from the literal's facts, its postcondition naming both so that
+ * the provers can match them. A change of URB_NODE_MAILBOXES fails this proof until
+ * urb_mb_number follows. */
+/*@ predicate urb_mb_number(integer n) = n == 0 || n == 1 || n == 2 || n == 3 || n == 4 || n == 5 || n == 6 || n == 7; */
+/*@ ghost
+  /@ requires \let s = *node;
+       s.storage_used == 0 && s.i2c.mailbox == 0 && s.i2c.crc16 == 0 &&
+       \forall integer n; 0 <= n < URB_NODE_MAILBOXES ==> urb_mb_number(n) ==>
+         s.outbox[n].front == 0 && s.outbox[n].offset == 0 && s.outbox[n].size == 0 &&
+         s.inbox[n].front == 0 && s.inbox[n].offset == 0 && s.inbox[n].size == 0;
+     assigns \nothing;
+     ensures zero_storage: node->storage_used == 0;
+     ensures zero_i2c: node->i2c.mailbox == 0 && node->i2c.crc16 == 0;
+     ensures zero_boxes: \forall integer n; 0 <= n < URB_NODE_MAILBOXES ==> \let s = *node;
+       s.outbox[n].front == 0 && s.outbox[n].offset == 0 && s.outbox[n].size == 0 &&
+       s.inbox[n].front == 0 && s.inbox[n].offset == 0 && s.inbox[n].size == 0 &&
+       node->outbox[n].front == 0 && node->outbox[n].offset == 0 && node->outbox[n].size == 0 &&
+       node->inbox[n].front == 0 && node->inbox[n].offset == 0 && node->inbox[n].size == 0; @/
+  static void zero_fields(urb_node_t *node) { }
+*/
+
+/* urb_node_init's steps before the bootup hook: zero the node (a re-init, a node reset, starts
+ * from scratch; the port keeps the node's interrupts off until set_address), keep the arguments,
+ * start the slave. The zeroing is a struct assignment, not a byte loop through an unsigned char
+ * pointer, because WP's typed memory model does not relate byte stores to the integer fields.
+ * arm-none-eabi-gcc -Os and x86 gcc -O2 emit one memset of sizeof(urb_node_t) bytes for it, as
+ * for the loop, with no copy of the literal on the stack (clang 14 builds the literal on the stack
+ * and copies it, for the volatile members: host builds only).
+ * ACSL: the storage block (storage_len valid bytes, apart from the node) is urb_node_init's
+ * caller's obligation; node_init proves this contract and start_slave's requires at its call. */
+/*@ requires \valid(node);
+    requires \valid(storage + (0 .. storage_len - 1));
+    requires \separated(node, storage + (0 .. storage_len - 1));
+    assigns *node;
+    ensures fresh_args: node->hal == hal && node->hooks == hooks && node->user == user &&
+                        node->cfg == cfg && node->storage == storage && node->storage_len == storage_len;
+    ensures fresh_layout: urb_mb_layout(node);
+    ensures fresh_i2c: node->i2c.state == URB_I2C_ST_IDLE && node->i2c.mailbox == 0 &&
+                       node->i2c.selected == 0 && node->i2c.crc16 == 0; */
+static void start_node(urb_node_t *node, const urb_node_hal_t *hal, const urb_node_hooks_t *hooks, void *user,
+                       const urb_node_config_t *cfg, uint8_t *storage, uint16_t storage_len)
+{
+    /* For WP: the guards of the stores below, stated before the zeroing; after it the provers
+     * time out on them among the literal's facts, and Qed reuses these. */
+    /*@ assert fields_valid: \valid(&node->hal) && \valid(&node->hooks) && \valid(&node->user) &&
+          \valid(&node->cfg) && \valid(&node->storage) && \valid(&node->storage_len); */
+    *node = (urb_node_t){0};
+    /*@ assert zero_value: \let s = *node;
+          s.storage_used == 0 && s.i2c.mailbox == 0 && s.i2c.crc16 == 0 &&
+          \forall integer n; 0 <= n < URB_NODE_MAILBOXES ==> urb_mb_number(n) ==>
+            s.outbox[n].front == 0 && s.outbox[n].offset == 0 && s.outbox[n].size == 0 &&
+            s.inbox[n].front == 0 && s.inbox[n].offset == 0 && s.inbox[n].size == 0; */
+    /*@ ghost zero_fields(node); */
+    node->hal = hal;
+    node->hooks = hooks;
+    node->user = user;
+    node->cfg = cfg;
+    node->storage = storage;
+    node->storage_len = storage_len;
+    start_slave(node);
+}
+
+/* ACSL: the caller's obligation (urb_node.h: storage_len bytes of storage, referenced, not copied),
+ * from which start_node's requires follow at its call; not proved here (no WP unit holds
+ * urb_node_init: it calls the hooks and the HAL through pointers). */
+/*@ requires node == \null || \valid(node);
+    requires storage == \null || \valid(storage + (0 .. storage_len - 1));
+    requires \separated(node, storage + (0 .. storage_len - 1)); */
 int urb_node_init(urb_node_t *node, const urb_node_hal_t *hal, const urb_node_hooks_t *hooks, void *user,
                   const urb_node_config_t *cfg, uint8_t *storage, uint16_t storage_len)
 {
@@ -316,19 +390,7 @@ int urb_node_init(urb_node_t *node, const urb_node_hal_t *hal, const urb_node_ho
     if ((hal->now == NULL) || (hal->set_compare == NULL) || (hal->set_address == NULL) || !config_valid(cfg)) {
         return URB_NODE_ERR_CONFIG;
     }
-    /* Zero everything: a re-init (node reset) starts from scratch; the port keeps the node's
-     * interrupts off until set_address below. bound: sizeof(urb_node_t) */
-    unsigned char *raw = (unsigned char *)node;
-    for (size_t k = 0u; k < sizeof *node; k++) {
-        raw[k] = 0u;
-    }
-    node->hal = hal;
-    node->hooks = hooks;
-    node->user = user;
-    node->cfg = cfg;
-    node->storage = storage;
-    node->storage_len = storage_len;
-    start_slave(node);
+    start_node(node, hal, hooks, user, cfg, storage, storage_len);
     if (hooks->bootup != NULL) {
         hooks->bootup(node, user);
     }

@@ -12,6 +12,10 @@
  * requires what the zeroing gives and ensures the conjuncts of urb_i2c_ok; here, that they are
  * urb_i2c_ok itself.
  *
+ * start_node (urb_node.c): urb_node_init's steps before the bootup hook, the zeroing included, up
+ * to start_slave, whose requires WP proves at that call (with the ghost function zero_fields, also
+ * in the unit's -wp-fct); here, that it ensures urb_i2c_ok.
+ *
  * urb_node_setup_inbox / urb_node_setup_outbox (urb_mailbox.c, the calls the bootup hook may make):
  * keep urb_i2c_ok, through setup_box's default postconditions setup_layout, setup_i2c and
  * setup_sizes, which the mailbox unit proves.
@@ -20,6 +24,10 @@
 
 /*@ ensures start_ok: urb_i2c_ok(node); */
 static void start_slave(urb_node_t *node);
+
+/*@ ensures fresh_ok: urb_i2c_ok(node); */
+static void start_node(urb_node_t *node, const urb_node_hal_t *hal, const urb_node_hooks_t *hooks, void *user,
+                       const urb_node_config_t *cfg, uint8_t *storage, uint16_t storage_len);
 
 #include "urb_node.c"
 
