@@ -314,21 +314,22 @@ static void start_slave(urb_node_t *node)
  * next to the literal's facts. urb_mb_number splits a mailbox number into its 8 values, each of
  * which the literal names; zero_fields, a ghost function (nothing compiled), turns the value's
  * fields into the memory's away from the literal's facts, its postcondition naming both so that
- * the provers can match them. A change of URB_NODE_MAILBOXES fails this proof until
- * urb_mb_number follows. */
+ * the provers can match them. The value's zero fields are named predicates, not spelled out under
+ * a \let: Eva evaluates those (and leaves the \let form Unknown). A change of URB_NODE_MAILBOXES
+ * fails this proof until urb_mb_number follows. */
 /*@ predicate urb_mb_number(integer n) = n == 0 || n == 1 || n == 2 || n == 3 || n == 4 || n == 5 || n == 6 || n == 7; */
+/*@ predicate urb_zero_box(urb_node_t s, integer n) =
+      s.outbox[n].front == 0 && s.outbox[n].offset == 0 && s.outbox[n].size == 0 &&
+      s.inbox[n].front == 0 && s.inbox[n].offset == 0 && s.inbox[n].size == 0;
+    predicate urb_zero_start(urb_node_t s) =
+      s.storage_used == 0 && s.i2c.mailbox == 0 && s.i2c.crc16 == 0 &&
+      \forall integer n; 0 <= n < URB_NODE_MAILBOXES ==> urb_mb_number(n) ==> urb_zero_box(s, n); */
 /*@ ghost
-  /@ requires \let s = *node;
-       s.storage_used == 0 && s.i2c.mailbox == 0 && s.i2c.crc16 == 0 &&
-       \forall integer n; 0 <= n < URB_NODE_MAILBOXES ==> urb_mb_number(n) ==>
-         s.outbox[n].front == 0 && s.outbox[n].offset == 0 && s.outbox[n].size == 0 &&
-         s.inbox[n].front == 0 && s.inbox[n].offset == 0 && s.inbox[n].size == 0;
+  /@ requires urb_zero_start(*node);
      assigns \nothing;
      ensures zero_storage: node->storage_used == 0;
      ensures zero_i2c: node->i2c.mailbox == 0 && node->i2c.crc16 == 0;
-     ensures zero_boxes: \forall integer n; 0 <= n < URB_NODE_MAILBOXES ==> \let s = *node;
-       s.outbox[n].front == 0 && s.outbox[n].offset == 0 && s.outbox[n].size == 0 &&
-       s.inbox[n].front == 0 && s.inbox[n].offset == 0 && s.inbox[n].size == 0 &&
+     ensures zero_boxes: \forall integer n; 0 <= n < URB_NODE_MAILBOXES ==> urb_zero_box(*node, n) &&
        node->outbox[n].front == 0 && node->outbox[n].offset == 0 && node->outbox[n].size == 0 &&
        node->inbox[n].front == 0 && node->inbox[n].offset == 0 && node->inbox[n].size == 0; @/
   static void zero_fields(urb_node_t *node) { }
@@ -360,11 +361,7 @@ static void start_node(urb_node_t *node, const urb_node_hal_t *hal, const urb_no
     /*@ assert fields_valid: \valid(&node->hal) && \valid(&node->hooks) && \valid(&node->user) &&
           \valid(&node->cfg) && \valid(&node->storage) && \valid(&node->storage_len); */
     *node = (urb_node_t){0};
-    /*@ assert zero_value: \let s = *node;
-          s.storage_used == 0 && s.i2c.mailbox == 0 && s.i2c.crc16 == 0 &&
-          \forall integer n; 0 <= n < URB_NODE_MAILBOXES ==> urb_mb_number(n) ==>
-            s.outbox[n].front == 0 && s.outbox[n].offset == 0 && s.outbox[n].size == 0 &&
-            s.inbox[n].front == 0 && s.inbox[n].offset == 0 && s.inbox[n].size == 0; */
+    /*@ assert zero_value: urb_zero_start(*node); */
     /*@ ghost zero_fields(node); */
     node->hal = hal;
     node->hooks = hooks;
