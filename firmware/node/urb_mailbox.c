@@ -64,6 +64,7 @@ uint8_t *urb_inbox_buf(urb_node_t *node, uint8_t n, uint8_t b)
 
 /*@ requires urb_mb_layout(node) && n < URB_NODE_MAILBOXES;
     requires \valid(data) && \separated(data, node) && \separated(data, node->storage + (0 .. node->storage_len - 1));
+    assigns node->outbox[n].held, *data;
     ensures urb_mb_layout(node);
     behavior not_set_up:
       assumes node->outbox[n].size == 0;
@@ -118,6 +119,7 @@ int urb_lock_outbox_any(urb_node_t *node, uint8_t n, uint8_t **data)
 }
 
 /*@ requires urb_mb_layout(node) && n < URB_NODE_MAILBOXES;
+    assigns node->outbox[n].front, node->outbox[n].held;
     ensures urb_mb_layout(node);
     behavior not_set_up:
       assumes node->outbox[n].size == 0;
