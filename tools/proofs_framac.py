@@ -51,6 +51,7 @@ import shlex
 import shutil
 import subprocess
 import sys
+import tempfile
 import time
 import xml.etree.ElementTree as ET
 from concurrent.futures import ThreadPoolExecutor
@@ -188,13 +189,13 @@ def wp_selection(unit_args: list[str], extra: list[str]) -> list[str]:
 
 
 def framac_command(unit: Unit, sources: list[str], cpp: list[str], extra: list[str], report: Path,
-                   jobs: int, cache: str) -> list[str]:
+                   jobs: int, cache: str, cache_dir: Path) -> list[str]:
     cmd = ["frama-c", "-machdep", MACHDEP, "-cpp-extra-args=" + " ".join(shlex.quote(c) for c in cpp)]
     cmd += [s if os.path.isabs(s) else str(ROOT / s) for s in sources]
     if unit.tool == "wp":
         cmd += wp_selection(unit.args, extra)
         cmd += ["-wp", "-wp-rte", "-wp-prover", PROVERS, "-wp-timeout", str(GOAL_TIMEOUT_S), "-wp-par", str(jobs),
-                "-wp-cache", cache, "-wp-cache-dir", str(CACHE_DIR), "-wp-report-json", str(report),
+                "-wp-cache", cache, "-wp-cache-dir", str(cache_dir), "-wp-report-json", str(report),
                 "-wp-session", str(report.parent / (report.stem + ".session"))]
     else:
         # -eva-precision is a meta-option: the unit's own options must follow it to refine it.
@@ -421,7 +422,7 @@ def mutant_row(unit: Unit, mutant: dict[str, Any], rows: list[Row]) -> Row:
 # =============================================================================== driver
 
 
-def run_unit(unit: Unit, mutant: dict[str, Any] | None, jobs: int, cache: str, record: bool,
+def run_unit(unit: Unit, mutant: dict[str, Any] | None, jobs: int, cache: str, cache_dir: Path, record: bool,
              reviewed: set[str]) -> tuple[list[Row], dict[str, Any], float]:
     tag = f"{unit.name}.mutant.{mutant['name']}" if mutant else unit.name
     report = OUT_DIR / "reports" / (tag + (".json" if unit.tool == "wp" else ".csv"))
@@ -430,7 +431,7 @@ def run_unit(unit: Unit, mutant: dict[str, Any] | None, jobs: int, cache: str, r
     if mutant:
         sources, cpp = apply_mutant(unit, mutant, OUT_DIR / "mutants" / unit.name / mutant["name"])
         extra = list(mutant.get("args", []))
-    cmd = framac_command(unit, sources, cpp, extra, report, jobs, cache)
+    cmd = framac_command(unit, sources, cpp, extra, report, jobs, cache, cache_dir)
     run = run_framac(cmd, OUT_DIR / "logs" / f"{tag}.log", report)
     if unit.tool == "wp":
         rows, recorded = check_wp(unit, run, record and not mutant)
@@ -476,23 +477,53 @@ def print_table(rows: list[Row]) -> None:
             print(f"UNEXPECTED {r.function} ({r.unit}): {r.result} {r.detail}")
 
 
-def mark_unread(entries: list[Path]) -> None:
-    """Set each cache entry's access time to 0 (its modification time kept), so that a read
-    shows: the file system then updates it on the first read (relatime does, since 0 < mtime)."""
-    for e in entries:
-        os.utime(e, ns=(0, e.stat().st_mtime_ns))
+def copy_unread(cache_dir: Path, work_dir: Path) -> list[Path]:
+    """Copy each cache entry into work_dir and set the copy's access time to 0 (its modification
+    time kept), so that a read shows: the file system then updates it on the first read (relatime
+    does, since 0 < mtime). The replay reads the copies because anything that reads the entries in
+    the work tree would count as a read: `git status` rehashes every file whose ctime changed, and
+    setting the access time changes the ctime."""
+    copies = []
+    for entry in sorted(cache_dir.glob("*.json")):
+        copy = Path(shutil.copy2(entry, work_dir / entry.name))
+        os.utime(copy, ns=(0, copy.stat().st_mtime_ns))
+        copies.append(copy)
+    return copies
 
 
-def prune_unread(entries: list[Path]) -> tuple[int, int]:
-    """Delete the entries not read since `mark_unread`; (kept, deleted). Deletes nothing and
-    raises SetupError when none was read: the file system records no access times (noatime)."""
-    unread = [e for e in entries if e.stat().st_atime_ns == 0]
-    if len(unread) == len(entries):
-        raise SetupError(f"no entry of {CACHE_DIR} was read, or the file system does not record access times "
+def prune_unread(copies: list[Path], cache_dir: Path) -> tuple[int, int]:
+    """Delete from cache_dir the entries whose copy was not read since `copy_unread`; (kept,
+    deleted). Deletes nothing and raises SetupError when no copy was read: the file system records
+    no access times (noatime)."""
+    unread = [c for c in copies if c.stat().st_atime_ns == 0]
+    if len(unread) == len(copies):
+        raise SetupError(f"no entry of {cache_dir} was read, or the file system does not record access times "
                          f"(mounted noatime?): nothing pruned")
-    for e in unread:
-        e.unlink()
-    return len(entries) - len(unread), len(unread)
+    for c in unread:
+        (cache_dir / c.name).unlink()
+    return len(copies) - len(unread), len(unread)
+
+
+def run_all(units: list[Unit], args: argparse.Namespace, cache_dir: Path, reviewed: set[str]) -> list[Row]:
+    """Run the units and their mutants as the options select; rows in unit order."""
+    jobs: list[tuple[Unit, dict[str, Any] | None]] = []
+    if not args.mutants_only:
+        jobs += [(u, None) for u in units]
+    if not args.no_mutants:
+        jobs += [(u, m) for u in units for m in u.mutants]
+    # Eva is one process per entry point; WP parallelises its provers itself, so WP units
+    # run one at a time with -wp-par jobs and the Eva units share the pool between them.
+    rows: list[Row] = []
+    with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
+        futures = [(u, m, pool.submit(run_unit, u, m, 1 if u.tool == "eva" else args.jobs, args.cache, cache_dir,
+                                      args.record, reviewed)) for u, m in jobs]
+        for u, m, fut in futures:
+            unit_rows, recorded, seconds = fut.result()
+            rows += unit_rows
+            print(f"  {u.name}{' (mutant ' + m['name'] + ')' if m else ''}: {seconds:.1f} s", flush=True)
+            if args.record and not m and recorded:
+                (u.folder / "expected.json").write_text(json.dumps(recorded, indent=2) + "\n", encoding="utf-8")
+    return rows
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -522,36 +553,22 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         require_tools()
         reviewed = read_alarm_list()
-        entries = sorted(CACHE_DIR.glob("*.json")) if args.prune_cache else []
-        mark_unread(entries)
-        start = time.monotonic()
-        jobs: list[tuple[Unit, dict[str, Any] | None]] = []
-        if not args.mutants_only:
-            jobs += [(u, None) for u in units]
-        if not args.no_mutants:
-            jobs += [(u, m) for u in units for m in u.mutants]
-        # Eva is one process per entry point; WP parallelises its provers itself, so WP units
-        # run one at a time with -wp-par jobs and the Eva units share the pool between them.
-        with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-            futures = [(u, m, pool.submit(run_unit, u, m, 1 if u.tool == "eva" else args.jobs, args.cache,
-                                          args.record, reviewed)) for u, m in jobs]
-            rows: list[Row] = []
-            for u, m, fut in futures:
-                unit_rows, recorded, seconds = fut.result()
-                rows += unit_rows
-                print(f"  {u.name}{' (mutant ' + m['name'] + ')' if m else ''}: {seconds:.1f} s", flush=True)
-                if args.record and not m and recorded:
-                    (u.folder / "expected.json").write_text(json.dumps(recorded, indent=2) + "\n", encoding="utf-8")
-        wall = time.monotonic() - start
-        write_outputs(rows, wall)
-        print_table(rows)
-        bad = [r for r in rows if not r.expected]
-        if args.prune_cache:
-            if bad:
-                print("proofs_framac: cache not pruned: the replay had unexpected results", file=sys.stderr)
-            else:
-                kept, deleted = prune_unread(entries)
-                print(f"framac cache: {kept} entries read and kept, {deleted} unread deleted ({CACHE_DIR})")
+        with tempfile.TemporaryDirectory(prefix="urb-framac-cache-") as scratch:
+            # --prune-cache replays from copies outside the work tree: see copy_unread.
+            cache_dir = Path(scratch) if args.prune_cache else CACHE_DIR
+            copies = copy_unread(CACHE_DIR, cache_dir) if args.prune_cache else []
+            start = time.monotonic()
+            rows = run_all(units, args, cache_dir, reviewed)
+            wall = time.monotonic() - start
+            write_outputs(rows, wall)
+            print_table(rows)
+            bad = [r for r in rows if not r.expected]
+            if args.prune_cache:
+                if bad:
+                    print("proofs_framac: cache not pruned: the replay had unexpected results", file=sys.stderr)
+                else:
+                    kept, deleted = prune_unread(copies, CACHE_DIR)
+                    print(f"framac cache: {kept} entries read and kept, {deleted} unread deleted ({CACHE_DIR})")
     except SetupError as exc:
         print(f"proofs_framac: {exc}", file=sys.stderr)
         return 2

@@ -177,7 +177,7 @@ int eva_main(void) { g.n = 1; return get(&g); }
     unit = RUNNER.Unit("fixture", tmp_path, "eva", "fixture", [str(src)], [], ["-main", "eva_main"], [],
                        {"alarms": []})
     report = tmp_path / "r.csv"
-    cmd = RUNNER.framac_command(unit, unit.sources, [], [], report, 1, "offline")
+    cmd = RUNNER.framac_command(unit, unit.sources, [], [], report, 1, "offline", RUNNER.CACHE_DIR)
     run = RUNNER.run_framac(cmd, tmp_path / "fixture.log", report)
     rows, _ = RUNNER.check_eva(unit, run, report, record=False, reviewed=set())
     assert rows[0].result == "ERROR" and not rows[0].expected, rows[0]
@@ -217,11 +217,11 @@ def test_a_wp_mutant_proves_only_its_own_functions() -> None:
     mutant proves the whole unit again (uplink_parsers: ~80 s a mutant instead of a few)."""
     unit = _unit("usb_batch")
     mutant = next(m for m in unit.mutants if m["name"] == "usb_sof_keeps_length")
-    cmd = RUNNER.framac_command(unit, unit.sources, unit.cpp, list(mutant["args"]), Path("r.json"), 1, "offline")
+    cmd = RUNNER.framac_command(unit, unit.sources, unit.cpp, list(mutant["args"]), Path("r.json"), 1, "offline", RUNNER.CACHE_DIR)
     selected = [cmd[i + 1] for i, arg in enumerate(cmd[:-1]) if arg == "-wp-fct"]
     assert selected == ["urb_bridge_usb_sof"]
     assert "-rte-no-pointer-call" in cmd  # the unit's other options stay
-    whole = RUNNER.framac_command(unit, unit.sources, unit.cpp, [], Path("r.json"), 1, "offline")
+    whole = RUNNER.framac_command(unit, unit.sources, unit.cpp, [], Path("r.json"), 1, "offline", RUNNER.CACHE_DIR)
     assert [whole[i + 1] for i, arg in enumerate(whole[:-1]) if arg == "-wp-fct"] == [unit.args[1]]
 
 
@@ -263,7 +263,7 @@ def test_eva_unit_options_follow_the_defaults() -> None:
     """A unit's own Eva options (precision, partitioning) refine the runner's -eva-precision."""
     unit = _unit("eva_node_i2c")
     unit.args = unit.args + ["-eva-precision", "5"]
-    cmd = RUNNER.framac_command(unit, unit.sources, unit.cpp, [], Path("r.csv"), 1, "offline")
+    cmd = RUNNER.framac_command(unit, unit.sources, unit.cpp, [], Path("r.csv"), 1, "offline", RUNNER.CACHE_DIR)
     last = len(cmd) - 1 - cmd[::-1].index("-eva-precision")
     assert cmd[last + 1] == "5" and last < cmd.index("-then")
 
@@ -349,25 +349,45 @@ def test_runtime_replays_from_the_committed_cache_and_its_mutant_is_rejected(tmp
     assert all(m["result"] == "killed" and m["expected"] for m in mutants)
 
 
-def test_prune_deletes_only_the_entries_not_read_since_marking(tmp_path: Path) -> None:
-    entries = [tmp_path / f"{k}.json" for k in range(3)]
-    for e in entries:
-        e.write_text("{}")
-    RUNNER.mark_unread(entries)
-    assert all(e.stat().st_atime_ns == 0 for e in entries)
-    entries[1].read_text()  # what frama-c does with a cache hit
-    assert RUNNER.prune_unread(entries) == (1, 2)
-    assert [e.exists() for e in entries] == [False, True, False]
+def _cache_with(tmp_path: Path, n: int) -> tuple[Path, Path]:
+    cache, scratch = tmp_path / "cache", tmp_path / "scratch"
+    cache.mkdir()
+    scratch.mkdir()
+    for k in range(n):
+        (cache / f"{k}.json").write_text("{}")
+    return cache, scratch
+
+
+def test_prune_deletes_only_the_entries_whose_copy_was_not_read(tmp_path: Path) -> None:
+    cache, scratch = _cache_with(tmp_path, 3)
+    copies = RUNNER.copy_unread(cache, scratch)
+    assert [c.name for c in copies] == ["0.json", "1.json", "2.json"]
+    assert all(c.stat().st_atime_ns == 0 for c in copies)
+    copies[1].read_text()  # what frama-c does with a cache hit
+    assert RUNNER.prune_unread(copies, cache) == (1, 2)
+    assert sorted(e.name for e in cache.iterdir()) == ["1.json"]
+
+
+def test_prune_ignores_reads_of_the_entries_in_the_work_tree(tmp_path: Path) -> None:
+    """`git status` rehashes every entry whose ctime changed, as marking the access times in place
+    did: that read every entry and the prune of 2026-11-27 deleted nothing. Only the replay's
+    reads of the copies count."""
+    cache, scratch = _cache_with(tmp_path, 2)
+    copies = RUNNER.copy_unread(cache, scratch)
+    for entry in cache.iterdir():
+        entry.read_text()
+    copies[0].read_text()
+    assert RUNNER.prune_unread(copies, cache) == (1, 1)
+    assert sorted(e.name for e in cache.iterdir()) == ["0.json"]
 
 
 def test_prune_refuses_when_nothing_was_read(tmp_path: Path) -> None:
     """A noatime file system looks like a run that read nothing: prune nothing and say why."""
-    entries = [tmp_path / "a.json"]
-    entries[0].write_text("{}")
-    RUNNER.mark_unread(entries)
+    cache, scratch = _cache_with(tmp_path, 1)
+    copies = RUNNER.copy_unread(cache, scratch)
     with pytest.raises(RUNNER.SetupError, match="access times"):
-        RUNNER.prune_unread(entries)
-    assert entries[0].exists()
+        RUNNER.prune_unread(copies, cache)
+    assert (cache / "0.json").exists()
 
 
 def test_prune_needs_the_whole_run(capsys: pytest.CaptureFixture[str]) -> None:
