@@ -21,10 +21,13 @@ expected.json (what the run must give). unit.json:
 example -eva-precision or -eva-partition-history): they come after the runner's defaults.
 
 WP units run `-wp -wp-rte` with the provers z3 and cvc4 through why3 (Alt-Ergo is not available),
-a per-goal timeout and the cache proofs/framac/cache: CI replays the cached prover answers, so a
-change of a goal shows up as a cache miss that runs the provers. Every function must prove all its
-goals, and the goal count per function must equal expected.json: a count that moves means the code
-or its contract changed, so re-record with --record after reviewing the change.
+a per-goal timeout and the cache proofs/framac/cache. The default `--cache update` reuses the cached
+prover answers and runs the provers on the goals that are not in the cache (a changed goal), adding
+their answers; `make proofs-framac` (and so `make check` and CI) replays with `--cache offline`, which
+runs no prover: a goal that is not in the cache fails as CACHE MISS, naming the command that proves
+it. Every function must prove all its goals, and the goal count per function must equal
+expected.json: a count that moves means the code or its contract changed, so re-record with
+--record after reviewing the change.
 
 Eva units analyse a main (proofs/framac/eva_*/main.c) that drives one firmware entry point with a
 HAL of arbitrary inputs. Each alarm is keyed by file, function and property text (no line numbers,
@@ -69,6 +72,7 @@ GOAL_TIMEOUT_S = 30  # per goal and prover, CPU seconds; generous because CI mac
 MACHDEP = "gcc_x86_32"  # 32-bit int, long, size_t and pointers, as on the Cortex-M0+ targets
 EVA_UNROLL = 64  # unrolls every loop of at most 64 rounds (buffers, CRCs): exact, no widening there
 EVA_PRECISION = 2  # Eva's meta-option: enough states for the I2C and parser state machines
+OFFLINE_WP_PAR = 16  # WP tasks at once when no prover runs (--cache offline): see framac_command
 RUN_TIMEOUT_S = 3600  # one frama-c process; catches a hang (a cold gen_core on a loaded 2-core machine takes ~20 min)
 
 
@@ -194,7 +198,10 @@ def framac_command(unit: Unit, sources: list[str], cpp: list[str], extra: list[s
     cmd += [s if os.path.isabs(s) else str(ROOT / s) for s in sources]
     if unit.tool == "wp":
         cmd += wp_selection(unit.args, extra)
-        cmd += ["-wp", "-wp-rte", "-wp-prover", PROVERS, "-wp-timeout", str(GOAL_TIMEOUT_S), "-wp-par", str(jobs),
+        # Offline, no prover runs: a "task" is a cache lookup, and WP polls its tasks, so with few
+        # slots it mostly waits (gen_core: 159 s of wall time for 95 s of CPU at -wp-par 2).
+        par = max(jobs, OFFLINE_WP_PAR) if cache == "offline" else jobs
+        cmd += ["-wp", "-wp-rte", "-wp-prover", PROVERS, "-wp-timeout", str(GOAL_TIMEOUT_S), "-wp-par", str(par),
                 "-wp-cache", cache, "-wp-cache-dir", str(cache_dir), "-wp-report-json", str(report),
                 "-wp-session", str(report.parent / (report.stem + ".session"))]
     else:
@@ -232,15 +239,23 @@ _GOAL_RE = re.compile(r"^\[wp\] \[[^\]]+\] Goal typed_(\S+) : (\w+)(.*)$", re.MU
 _MS_RE = re.compile(r"\((?:Qed:)?(\d+(?:\.\d+)?)(ms|s)\)")
 
 
+def _no_prover_answer(verdicts: dict[str, Any]) -> bool:
+    """A property that no prover answered: with --cache offline, a goal missing from the cache (WP
+    reports only its own "wp:main" and Qed's verdict, never a prover's)."""
+    return all(k in ("wp:main", "qed") for k in verdicts)
+
+
 def wp_functions(run: FramacRun) -> dict[str, dict[str, Any]]:
-    """Per function: proved, total, the unproved properties and the solver time of its goals."""
+    """Per function: proved, total, the unproved properties, those of them no prover answered
+    (cache misses offline) and the solver time of its goals."""
     result: dict[str, dict[str, Any]] = {}
     for fn, props in run.report.get("wp:functions", {}).items():
         main = props["wp:section"]["wp:main"]
         unproved = sorted(p for p, v in props.items()
                           if p != "wp:section" and v["wp:main"].get("valid", 0) < v["wp:main"]["total"])
+        unanswered = [p for p in unproved if _no_prover_answer(props[p])]
         result[fn] = {"proved": int(main.get("valid", 0)), "total": int(main["total"]), "unproved": unproved,
-                      "seconds": 0.0}
+                      "unanswered": unanswered, "seconds": 0.0}
     names = sorted(result, key=len, reverse=True)  # longest first: urb_x_encode before urb_x
     for goal, _status, rest in _GOAL_RE.findall(run.log):
         owner = next((n for n in names if goal.startswith(n + "_")), None)
@@ -333,7 +348,7 @@ def wp_bound() -> str:
     return f"unbounded (deductive); {PROVERS} via why3, {GOAL_TIMEOUT_S} s per goal"
 
 
-def check_wp(unit: Unit, run: FramacRun, record: bool) -> tuple[list[Row], dict[str, Any]]:
+def check_wp(unit: Unit, run: FramacRun, record: bool, cache: str) -> tuple[list[Row], dict[str, Any]]:
     if not run.ok or not run.report:
         return [Row(unit.name, "frama-c wp", "-", wp_bound(), "ERROR", False, run.seconds,
                     f"frama-c failed: see build/proofs/framac/logs/{unit.name}.log", unit.name)], {}
@@ -352,6 +367,11 @@ def check_wp(unit: Unit, run: FramacRun, record: bool) -> tuple[list[Row], dict[
         same = exp is not None and exp["total"] == got["total"] and exp["proved"] == got["proved"]
         result = "proved" if complete else "UNPROVED"
         detail = ", ".join(got["unproved"])
+        if cache == "offline" and got["unanswered"]:
+            result = "CACHE MISS"
+            detail = (f"no cached prover answer for {', '.join(got['unanswered'])}: the goal changed; run "
+                      f"`python3 tools/proofs_framac.py --only {unit.name}` to prove it and fill {CACHE_DIR.relative_to(ROOT)}, "
+                      "then commit the new cache entries with the change")
         if complete and not same and not record:
             result = "COUNT CHANGED"
             detail = (f"expected {exp['proved']}/{exp['total']} goals" if exp else "not in expected.json") + \
@@ -408,8 +428,13 @@ def mutant_row(unit: Unit, mutant: dict[str, Any], rows: list[Row]) -> Row:
                    sum(r.time_s for r in rows), rows[0].detail, unit.name)
     if unit.tool == "wp":
         # A kill is a goal of a mutated function left unproved: a goal elsewhere (a unit whose own
-        # proof is incomplete, a prover timeout) says nothing about the seeded bug.
+        # proof is incomplete, a prover timeout) says nothing about the seeded bug, and neither
+        # does a goal no prover answered (offline, not in the cache).
         targets = mutant_targets(mutant)
+        missed = [r for r in rows if r.result == "CACHE MISS" and (targets is None or r.function in targets)]
+        if missed:
+            return Row(f"{unit.name} mutant {mutant['name']}", tool, mutant["why"], "same as the unit", "CACHE MISS",
+                       False, round(sum(r.time_s for r in rows), 3), missed[0].detail[:400], unit.name)
         caught = [f"{r.function}: {r.detail}" for r in rows
                   if r.result == "UNPROVED" and (targets is None or r.function in targets)]
     else:
@@ -434,7 +459,7 @@ def run_unit(unit: Unit, mutant: dict[str, Any] | None, jobs: int, cache: str, c
     cmd = framac_command(unit, sources, cpp, extra, report, jobs, cache, cache_dir)
     run = run_framac(cmd, OUT_DIR / "logs" / f"{tag}.log", report)
     if unit.tool == "wp":
-        rows, recorded = check_wp(unit, run, record and not mutant)
+        rows, recorded = check_wp(unit, run, record and not mutant, cache)
     else:
         rows, recorded = check_eva(unit, run, report, record and not mutant, reviewed)
     if mutant:
@@ -533,7 +558,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--mutants-only", action="store_true", help="run only the seeded mutants")
     ap.add_argument("--record", action="store_true", help="rewrite each unit's expected.json from this run")
     ap.add_argument("--cache", default="update", choices=["update", "replay", "offline", "rebuild", "none"],
-                    help="WP cache mode (default update: cached answers are reused, misses run the provers)")
+                    help="WP cache mode (default update: cached answers are reused, misses run the provers; "
+                         "offline, as make proofs-framac: no prover runs, a goal not in the cache fails)")
     ap.add_argument("--jobs", type=int, default=2, help="frama-c processes and provers in parallel (default 2)")
     ap.add_argument("--list", action="store_true", help="print the units, run nothing")
     ap.add_argument("--prune-cache", action="store_true",

@@ -111,18 +111,18 @@ def _wp_unit(expected: dict[str, tuple[int, int]]) -> Any:
 
 def test_wp_verdicts() -> None:
     unit = _wp_unit({"f": (3, 3)})
-    rows, _ = RUNNER.check_wp(unit, _wp_run({"f": (3, 3)}), record=False)
+    rows, _ = RUNNER.check_wp(unit, _wp_run({"f": (3, 3)}), record=False, cache="update")
     assert [r.result for r in rows] == ["proved"] and rows[0].expected
     assert rows[0].time_s == pytest.approx(0.012)
-    rows, _ = RUNNER.check_wp(unit, _wp_run({"f": (2, 3)}), record=False)
+    rows, _ = RUNNER.check_wp(unit, _wp_run({"f": (2, 3)}), record=False, cache="update")
     assert rows[0].result == "UNPROVED" and not rows[0].expected and "f_ensures" in rows[0].detail
-    rows, _ = RUNNER.check_wp(unit, _wp_run({"f": (4, 4)}), record=False)
+    rows, _ = RUNNER.check_wp(unit, _wp_run({"f": (4, 4)}), record=False, cache="update")
     assert rows[0].result == "COUNT CHANGED" and not rows[0].expected
-    rows, _ = RUNNER.check_wp(unit, _wp_run({}), record=False)
+    rows, _ = RUNNER.check_wp(unit, _wp_run({}), record=False, cache="update")
     assert rows[0].result == "MISSING" and not rows[0].expected
-    rows, _ = RUNNER.check_wp(unit, _wp_run({"f": (3, 3), "g": (1, 1)}), record=False)
+    rows, _ = RUNNER.check_wp(unit, _wp_run({"f": (3, 3), "g": (1, 1)}), record=False, cache="update")
     assert not next(r for r in rows if r.function == "g").expected  # a new function must be recorded
-    rows, _ = RUNNER.check_wp(unit, RUNNER.FramacRun(False, 1.0, "boom"), record=False)
+    rows, _ = RUNNER.check_wp(unit, RUNNER.FramacRun(False, 1.0, "boom"), record=False, cache="update")
     assert rows[0].result == "ERROR" and not rows[0].expected
 
 
@@ -347,6 +347,44 @@ def test_runtime_replays_from_the_committed_cache_and_its_mutant_is_rejected(tmp
     assert len(units) >= 10 and all(r["result"] == "proved" and r["expected"] for r in units)
     assert len(mutants) == len(_unit("gen_runtime").mutants)
     assert all(m["result"] == "killed" and m["expected"] for m in mutants)
+
+
+def _wp_verdicts_run(verdicts: dict[str, Any]) -> Any:
+    """A WP report of one function `f` with one property per entry of `verdicts`."""
+    props = {name: v for name, v in verdicts.items()}
+    valid = sum(v["wp:main"].get("valid", 0) for v in verdicts.values())
+    props["wp:section"] = {"wp:main": {"total": len(verdicts), "valid": valid}}
+    return RUNNER.FramacRun(ok=True, seconds=1.0, log="", report={"wp:functions": {"f": props}})
+
+
+def test_a_cached_prover_failure_is_unproved_and_an_unanswered_goal_offline_is_a_cache_miss() -> None:
+    unit = RUNNER.Unit("u", ROOT, "wp", "u", [], [], [], [], {"functions": {"f": {"proved": 1, "total": 2}}})
+    answered = _wp_verdicts_run({"a": {"wp:main": {"total": 1, "valid": 1}, "qed": {"total": 1, "valid": 1}},
+                        "b": {"wp:main": {"total": 1, "unknown": 1}, "Z3:4.8.12": {"total": 1, "unknown": 1}}})
+    rows, _ = RUNNER.check_wp(unit, answered, record=False, cache="offline")
+    assert [(r.result, r.detail) for r in rows] == [("UNPROVED", "b")]
+    unanswered = _wp_verdicts_run({"a": {"wp:main": {"total": 1, "valid": 1}, "qed": {"total": 1, "valid": 1}},
+                          "b": {"wp:main": {"total": 1, "unknown": 1}}})
+    rows, _ = RUNNER.check_wp(unit, unanswered, record=False, cache="offline")
+    assert rows[0].result == "CACHE MISS" and not rows[0].expected
+    assert "--only u" in rows[0].detail and "commit" in rows[0].detail
+    rows, _ = RUNNER.check_wp(unit, unanswered, record=False, cache="update")  # a prover ran and gave up
+    assert rows[0].result == "UNPROVED"
+
+
+def test_offline_replay_without_the_cache_kills_no_mutant(tmp_path: Path) -> None:
+    """The frame unit replayed offline from an empty cache: its prover goals are cache misses, and
+    a mutant whose function has one is not counted as killed (no prover said anything about it)."""
+    unit = _unit("frame")
+    report = tmp_path / "r.json"
+    cmd = RUNNER.framac_command(unit, unit.sources, unit.cpp, [], report, 2, "offline", tmp_path)
+    run = RUNNER.run_framac(cmd, tmp_path / "frame.log", report)
+    rows, _ = RUNNER.check_wp(unit, run, record=False, cache="offline")
+    missed = [r for r in rows if r.result == "CACHE MISS"]
+    assert [r.function for r in missed] == ["urbb_frame"]
+    assert not any(r.result == "UNPROVED" for r in rows)
+    row = RUNNER.mutant_row(unit, unit.mutants[0], rows)
+    assert (row.result, row.expected) == ("CACHE MISS", False)
 
 
 def _cache_with(tmp_path: Path, n: int) -> tuple[Path, Path]:
