@@ -31,8 +31,12 @@ gen-check: setup
 lint: setup
 	$(PYTHON) -m mypy --strict host/urb codegen/urb_codegen gen/python/urb_msgs sim/urb_sim tools
 
-test-py: setup
-	$(PYTEST) -q tests --ignore=tests/test_c_codecs.py
+# The Python tests run in PYTEST_WORKERS processes (pytest-xdist), each test file in one of them (its
+# fixtures are shared within a file). The programs several files use are built first, so that the
+# workers never build the same one at once.
+PYTEST_WORKERS ?= 2
+test-py: setup sim-lib bridge-hosted
+	$(PYTEST) -q -n $(PYTEST_WORKERS) --dist loadfile tests --ignore=tests/test_c_codecs.py
 
 include $(wildcard mk/*.mk)
 
