@@ -369,7 +369,7 @@ def check_wp(unit: Unit, run: FramacRun, record: bool, cache: str) -> tuple[list
         detail = ", ".join(got["unproved"])
         if cache == "offline" and got["unanswered"]:
             result = "CACHE MISS"
-            detail = (f"no cached prover answer for {', '.join(got['unanswered'])}: the goal changed; run "
+            detail = (f"no cached prover answer for {', '.join(got['unanswered'])} (a new or changed goal); run "
                       f"`python3 tools/proofs_framac.py --only {unit.name}` to prove it and fill {CACHE_DIR.relative_to(ROOT)}, "
                       "then commit the new cache entries with the change")
         if complete and not same and not record:
@@ -536,8 +536,8 @@ def run_all(units: list[Unit], args: argparse.Namespace, cache_dir: Path, review
         jobs += [(u, None) for u in units]
     if not args.no_mutants:
         jobs += [(u, m) for u in units for m in u.mutants]
-    # Eva is one process per entry point; WP parallelises its provers itself, so WP units
-    # run one at a time with -wp-par jobs and the Eva units share the pool between them.
+    # --jobs frama-c processes at once. Eva is one process per entry point; a WP process runs up
+    # to -wp-par provers itself (--jobs; offline, OFFLINE_WP_PAR cache lookups).
     rows: list[Row] = []
     with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
         futures = [(u, m, pool.submit(run_unit, u, m, 1 if u.tool == "eva" else args.jobs, args.cache, cache_dir,
