@@ -239,10 +239,15 @@ _GOAL_RE = re.compile(r"^\[wp\] \[[^\]]+\] Goal typed_(\S+) : (\w+)(.*)$", re.MU
 _MS_RE = re.compile(r"\((?:Qed:)?(\d+(?:\.\d+)?)(ms|s)\)")
 
 
+_NOT_PROVERS = ("wp:main", "qed", "script")
+
+
 def _no_prover_answer(verdicts: dict[str, Any]) -> bool:
-    """A property that no prover answered: with --cache offline, a goal missing from the cache (WP
-    reports only its own "wp:main" and Qed's verdict, never a prover's)."""
-    return all(k in ("wp:main", "qed") for k in verdicts)
+    """A property that no prover answered: with --cache offline, a goal missing from the cache. WP
+    then reports no prover's verdict (only its own, Qed's and, under -wp-auto, the strategy's
+    "script" one), or a prover's "failed": a prover that answered says valid, unknown, timeout..."""
+    return not any(name not in _NOT_PROVERS and any(k not in ("total", "rank", "failed") for k in counts)
+                   for name, counts in verdicts.items())
 
 
 def wp_functions(run: FramacRun) -> dict[str, dict[str, Any]]:

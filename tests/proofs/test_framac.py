@@ -372,6 +372,20 @@ def test_a_cached_prover_failure_is_unproved_and_an_unanswered_goal_offline_is_a
     assert rows[0].result == "UNPROVED"
 
 
+@pytest.mark.parametrize("verdicts, answered", [
+    ({"qed": {"total": 1, "unknown": 1}}, False),
+    ({"script": {"total": 1, "unknown": 1}}, False),  # -wp-auto wp:split, both provers missed
+    ({"Z3:4.8.12": {"total": 1, "failed": 1}, "script": {"total": 1, "unknown": 1}}, False),
+    ({"Z3:4.8.12": {"total": 1, "failed": 1}, "CVC4:1.8": {"total": 1, "unknown": 1}}, True),
+    ({"Z3:4.8.12": {"total": 1, "timeout": 1, "rank": 3}}, True),
+])
+def test_which_verdicts_are_a_prover_answer(verdicts: dict[str, Any], answered: bool) -> None:
+    """The shapes WP 25 gives an unproved goal offline (seen in its reports): a miss leaves no
+    prover verdict, or a prover's "failed" (a lookup that found nothing)."""
+    goal = {"wp:main": {"total": 1, "unknown": 1}, **verdicts}
+    assert RUNNER._no_prover_answer(goal) is not answered
+
+
 def test_offline_replay_without_the_cache_kills_no_mutant(tmp_path: Path) -> None:
     """The frame unit replayed offline from an empty cache: its prover goals are cache misses, and
     a mutant whose function has one is not counted as killed (no prover said anything about it)."""
@@ -384,6 +398,20 @@ def test_offline_replay_without_the_cache_kills_no_mutant(tmp_path: Path) -> Non
     assert [r.function for r in missed] == ["urbb_frame"]
     assert not any(r.result == "UNPROVED" for r in rows)
     row = RUNNER.mutant_row(unit, unit.mutants[0], rows)
+    assert (row.result, row.expected) == ("CACHE MISS", False)
+
+
+def test_offline_replay_without_the_cache_is_a_cache_miss_under_a_strategy(tmp_path: Path) -> None:
+    """node_i2c proves with `-wp-auto wp:split`: there a goal whose provers both missed the cache is
+    reported as the strategy's "unknown", and must still be a miss, not a kill of its mutant."""
+    unit = _unit("node_i2c")
+    mutant = next(m for m in unit.mutants if m["name"] == "addr_write_skips_select")
+    report = tmp_path / "r.json"
+    cmd = RUNNER.framac_command(unit, unit.sources, unit.cpp, list(mutant["args"]), report, 2, "offline", tmp_path)
+    run = RUNNER.run_framac(cmd, tmp_path / "node_i2c.log", report)
+    rows, _ = RUNNER.check_wp(unit, run, record=False, cache="offline")
+    assert [(r.function, r.result) for r in rows if r.function == "addr_write"] == [("addr_write", "CACHE MISS")]
+    row = RUNNER.mutant_row(unit, mutant, rows)
     assert (row.result, row.expected) == ("CACHE MISS", False)
 
 
