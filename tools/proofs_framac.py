@@ -58,6 +58,7 @@ import tempfile
 import time
 import xml.etree.ElementTree as ET
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -431,22 +432,23 @@ def mutant_row(unit: Unit, mutant: dict[str, Any], rows: list[Row]) -> Row:
     if any(r.result == "ERROR" for r in rows):
         return Row(f"{unit.name} mutant {mutant['name']}", tool, mutant["why"], "-", "ERROR", False,
                    sum(r.time_s for r in rows), rows[0].detail, unit.name)
+    missed: list[Row] = []
     if unit.tool == "wp":
         # A kill is a goal of a mutated function left unproved: a goal elsewhere (a unit whose own
         # proof is incomplete, a prover timeout) says nothing about the seeded bug, and neither
         # does a goal no prover answered (offline, not in the cache).
         targets = mutant_targets(mutant)
-        missed = [r for r in rows if r.result == "CACHE MISS" and (targets is None or r.function in targets)]
-        if missed:
-            return Row(f"{unit.name} mutant {mutant['name']}", tool, mutant["why"], "same as the unit", "CACHE MISS",
-                       False, round(sum(r.time_s for r in rows), 3), missed[0].detail[:400], unit.name)
-        caught = [f"{r.function}: {r.detail}" for r in rows
-                  if r.result == "UNPROVED" and (targets is None or r.function in targets)]
+        targeted = [r for r in rows if targets is None or r.function in targets]
+        missed = [r for r in targeted if r.result == "CACHE MISS"]
+        caught = [f"{r.function}: {r.detail}" for r in targeted if r.result == "UNPROVED"]
     else:
         caught = [r.detail for r in rows if r.result == "ALARM" and "NEW ALARM" in r.detail]
-    return Row(f"{unit.name} mutant {mutant['name']}", tool, mutant["why"], "same as the unit",
-               "killed" if caught else "SURVIVED", bool(caught), round(sum(r.time_s for r in rows), 3),
-               "; ".join(caught)[:400], unit.name)
+    if missed:
+        result, detail = "CACHE MISS", missed[0].detail
+    else:
+        result, detail = ("killed" if caught else "SURVIVED"), "; ".join(caught)
+    return Row(f"{unit.name} mutant {mutant['name']}", tool, mutant["why"], "same as the unit", result,
+               result == "killed", round(sum(r.time_s for r in rows), 3), detail[:400], unit.name)
 
 
 # =============================================================================== driver
@@ -584,9 +586,10 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         require_tools()
         reviewed = read_alarm_list()
-        with tempfile.TemporaryDirectory(prefix="urb-framac-cache-") as scratch:
-            # --prune-cache replays from copies outside the work tree: see copy_unread.
-            cache_dir = Path(scratch) if args.prune_cache else CACHE_DIR
+        # --prune-cache replays from copies outside the work tree: see copy_unread.
+        scratch = tempfile.TemporaryDirectory(prefix="urb-framac-cache-") if args.prune_cache else nullcontext(None)
+        with scratch as scratch_dir:
+            cache_dir = Path(scratch_dir) if scratch_dir else CACHE_DIR
             copies = copy_unread(CACHE_DIR, cache_dir) if args.prune_cache else []
             start = time.monotonic()
             rows = run_all(units, args, cache_dir, reviewed)

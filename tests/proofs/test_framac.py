@@ -351,7 +351,7 @@ def test_runtime_replays_from_the_committed_cache_and_its_mutant_is_rejected(tmp
 
 def _wp_verdicts_run(verdicts: dict[str, Any]) -> Any:
     """A WP report of one function `f` with one property per entry of `verdicts`."""
-    props = {name: v for name, v in verdicts.items()}
+    props = dict(verdicts)
     valid = sum(v["wp:main"].get("valid", 0) for v in verdicts.values())
     props["wp:section"] = {"wp:main": {"total": len(verdicts), "valid": valid}}
     return RUNNER.FramacRun(ok=True, seconds=1.0, log="", report={"wp:functions": {"f": props}})
@@ -360,11 +360,11 @@ def _wp_verdicts_run(verdicts: dict[str, Any]) -> Any:
 def test_a_cached_prover_failure_is_unproved_and_an_unanswered_goal_offline_is_a_cache_miss() -> None:
     unit = RUNNER.Unit("u", ROOT, "wp", "u", [], [], [], [], {"functions": {"f": {"proved": 1, "total": 2}}})
     answered = _wp_verdicts_run({"a": {"wp:main": {"total": 1, "valid": 1}, "qed": {"total": 1, "valid": 1}},
-                        "b": {"wp:main": {"total": 1, "unknown": 1}, "Z3:4.8.12": {"total": 1, "unknown": 1}}})
+                                 "b": {"wp:main": {"total": 1, "unknown": 1}, "Z3:4.8.12": {"total": 1, "unknown": 1}}})
     rows, _ = RUNNER.check_wp(unit, answered, record=False, cache="offline")
     assert [(r.result, r.detail) for r in rows] == [("UNPROVED", "b")]
     unanswered = _wp_verdicts_run({"a": {"wp:main": {"total": 1, "valid": 1}, "qed": {"total": 1, "valid": 1}},
-                          "b": {"wp:main": {"total": 1, "unknown": 1}}})
+                                   "b": {"wp:main": {"total": 1, "unknown": 1}}})
     rows, _ = RUNNER.check_wp(unit, unanswered, record=False, cache="offline")
     assert rows[0].result == "CACHE MISS" and not rows[0].expected
     assert "--only u" in rows[0].detail and "commit" in rows[0].detail
@@ -386,14 +386,20 @@ def test_which_verdicts_are_a_prover_answer(verdicts: dict[str, Any], answered: 
     assert RUNNER._no_prover_answer(goal) is not answered
 
 
+def _replay_from_an_empty_cache(unit: Any, extra: list[str], tmp_path: Path) -> list[Any]:
+    """The unit's WP rows, replayed offline from the empty cache tmp_path."""
+    report = tmp_path / "r.json"
+    cmd = RUNNER.framac_command(unit, unit.sources, unit.cpp, extra, report, 2, "offline", tmp_path)
+    run = RUNNER.run_framac(cmd, tmp_path / f"{unit.name}.log", report)
+    rows, _ = RUNNER.check_wp(unit, run, record=False, cache="offline")
+    return list(rows)
+
+
 def test_offline_replay_without_the_cache_kills_no_mutant(tmp_path: Path) -> None:
     """The frame unit replayed offline from an empty cache: its prover goals are cache misses, and
     a mutant whose function has one is not counted as killed (no prover said anything about it)."""
     unit = _unit("frame")
-    report = tmp_path / "r.json"
-    cmd = RUNNER.framac_command(unit, unit.sources, unit.cpp, [], report, 2, "offline", tmp_path)
-    run = RUNNER.run_framac(cmd, tmp_path / "frame.log", report)
-    rows, _ = RUNNER.check_wp(unit, run, record=False, cache="offline")
+    rows = _replay_from_an_empty_cache(unit, [], tmp_path)
     missed = [r for r in rows if r.result == "CACHE MISS"]
     assert [r.function for r in missed] == ["urbb_frame"]
     assert not any(r.result == "UNPROVED" for r in rows)
@@ -406,10 +412,7 @@ def test_offline_replay_without_the_cache_is_a_cache_miss_under_a_strategy(tmp_p
     reported as the strategy's "unknown", and must still be a miss, not a kill of its mutant."""
     unit = _unit("node_i2c")
     mutant = next(m for m in unit.mutants if m["name"] == "addr_write_skips_select")
-    report = tmp_path / "r.json"
-    cmd = RUNNER.framac_command(unit, unit.sources, unit.cpp, list(mutant["args"]), report, 2, "offline", tmp_path)
-    run = RUNNER.run_framac(cmd, tmp_path / "node_i2c.log", report)
-    rows, _ = RUNNER.check_wp(unit, run, record=False, cache="offline")
+    rows = _replay_from_an_empty_cache(unit, list(mutant["args"]), tmp_path)
     assert [(r.function, r.result) for r in rows if r.function == "addr_write"] == [("addr_write", "CACHE MISS")]
     row = RUNNER.mutant_row(unit, mutant, rows)
     assert (row.result, row.expected) == ("CACHE MISS", False)
