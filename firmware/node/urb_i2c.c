@@ -21,7 +21,8 @@
  * else CRC-16 sent little-endian.
  *
  * Seeded bugs for the mutant check: URB_MUTANT_COMMIT_BAD_CHECK (a failed check still commits),
- * URB_MUTANT_READ_CHECK_NO_SELECT (the read check leaves out the implicit select byte).
+ * URB_MUTANT_READ_CHECK_NO_SELECT (the read check leaves out the implicit select byte),
+ * URB_MUTANT_READ_KEPT_ON_RX (a byte received during a read refuses it without ending it).
  */
 #include "urb_node_internal.h"
 
@@ -267,8 +268,16 @@ static uint16_t rx_byte(urb_node_t *node, uint8_t byte)
         return refuse(node);
     case URB_I2C_ST_SYNC:
         return rx_sync(node, byte);
+    case URB_I2C_ST_READ:
+#if !defined(URB_MUTANT_READ_KEPT_ON_RX)
+        /* a byte received while this node transmits: the port lost the direction (a glitch). The
+         * read ends here, or the outbox would stay latched (MailboxOutbox.tla IsrReadEnd) and the
+         * application's next lock but one would be BUSY until the next read of it. */
+        end_transaction(node, false);
+#endif
+        return refuse(node);
     default:
-        return refuse(node); /* IDLE, SELECTED (a select has one byte), READ, IGNORE */
+        return refuse(node); /* IDLE, SELECTED (a select has one byte), IGNORE */
     }
 }
 

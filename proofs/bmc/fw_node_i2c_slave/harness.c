@@ -19,8 +19,7 @@
  *   PART=3 step   induction over event sequences of any length: from an ARBITRARY valid driver
  *                 state (any phase, count, running check, check verdict, transaction on mailbox MB,
  *                 application inbox and outbox of arbitrary sizes 1..32, so both check tiers), ANY event
- *                 with any byte (the port's one contract: no RX_BYTE while the node transmits)
- *                 leaves a valid driver state (valid_driver: the TLA+ index invariants, count and
+ *                 with any byte (an RX_BYTE during a read too: it ends the read) leaves a valid driver state (valid_driver: the TLA+ index invariants, count and
  *                 tier consistent with the phase), answers ACK/NACK or a byte, writes at most
  *                 data byte `count` at offset `count` of the inbox's back buffer and no other
  *                 mailbox or guard byte, never moves an outbox front, moves the inbox front only at
@@ -472,10 +471,6 @@ static void part_step(void)
 
     uint8_t const e = URB_NONDET_U8();
     URB_ASSUME(e <= (uint8_t)URB_I2C_EV_ERROR); /* slave events, and master ones the slave must refuse */
-    /* the port's contract: the direction of a transaction is its address's R/W bit, so no byte is
-     * received while the node transmits (an RX_BYTE during a read would refuse it without ending
-     * the read, and the outbox would stay latched until the application's lock reports BUSY) */
-    URB_ASSUME((st0 != URB_I2C_ST_READ) || (e != (uint8_t)URB_I2C_RX_BYTE));
     uint8_t const byte = URB_NONDET_U8();
     uint16_t const r = event((urb_i2c_event_t)e, byte);
 

@@ -9,6 +9,7 @@
 #   INBOX_NO_NACK           IsrWriteBegin never refuses (MailboxInbox_NoNack)
 #   COMMIT_BAD_CHECK        a write with a failed check is committed
 #   READ_CHECK_NO_SELECT    the read check leaves out the implicit select byte
+#   READ_KEPT_ON_RX         a byte received during a read refuses it without ending it
 #   PLL_NO_PHASE            K_n = 0: the heartbeat locks its period but not its phase
 #   NO_LOST_SYNC            a lost SYNC is never declared
 #   ACQ_NO_DECAY            the t_acq window never completes: an inflated sample is kept for good
@@ -23,7 +24,7 @@ INC="-Ifirmware/include -Ifirmware/node -Ifirmware/hal/hosted -Ifirmware/apps/se
 LIB="firmware/node/urb_mailbox.c firmware/node/urb_i2c.c firmware/node/urb_pll.c firmware/node/urb_node.c firmware/node/urb_observe.c"
 COMMON="tests/firmware/node/node_fixture.c gen/c/urb_runtime.c gen/c/urb_core.c gen/c/urb_sensorhex.c firmware/hal/hosted/urb_hal_hosted.c"
 TESTS="test_mailbox test_i2c test_node test_interleave test_pll test_apps test_single"
-MUTANTS="SINGLE_BUFFER OUTBOX_NO_BUSY_CHECK INBOX_NO_FRONT_RECHECK INBOX_NO_NACK COMMIT_BAD_CHECK READ_CHECK_NO_SELECT PLL_NO_PHASE NO_LOST_SYNC ACQ_NO_DECAY"
+MUTANTS="SINGLE_BUFFER OUTBOX_NO_BUSY_CHECK INBOX_NO_FRONT_RECHECK INBOX_NO_NACK COMMIT_BAD_CHECK READ_CHECK_NO_SELECT READ_KEPT_ON_RX PLL_NO_PHASE NO_LOST_SYNC ACQ_NO_DECAY"
 
 extra() {
     case $1 in

@@ -323,6 +323,29 @@ static void read_during_release(void **state)
     assert_int_equal(urb_node_release_outbox(node, 1u), URB_NODE_OK);
 }
 
+/* A byte received while the node transmits (a port that lost the direction: tests/fuzz/README.md,
+ * Findings) is refused and ends the read: the outbox is no longer latched, so the application can
+ * publish twice in a row. */
+static void byte_received_during_read_ends_it(void **state)
+{
+    urb_node_t *node = N(state);
+    publish(node, 1u, 0xAAu);
+    assert_true(fx_select(node, 1u));
+    assert_int_equal(urb_node_i2c_event(node, URB_I2C_ADDR_READ, 0u), URB_I2C_ACK);
+    assert_int_equal(urb_node_i2c_event(node, URB_I2C_TX_BYTE, 0u), 0xAAu);
+    assert_int_equal(urb_node_i2c_event(node, URB_I2C_RX_BYTE, 0x55u), URB_I2C_NACK);
+    urb_node_downlink_t dl;
+    urb_node_downlink(node, &dl);
+    assert_int_equal(dl.phase, URB_NODE_DL_IGNORE);
+    assert_int_equal(urb_node_i2c_event(node, URB_I2C_TX_BYTE, 0u), 0xFFu); /* nothing more is sent */
+    publish(node, 1u, 0xBBu);
+    publish(node, 1u, 0xCCu); /* BUSY here if the read still held buffer "AA" */
+    (void)urb_node_i2c_event(node, URB_I2C_STOP, 0u);
+    uint8_t raw[7];
+    fx_read(node, raw, 7u);
+    assert_int_equal(raw[0], 0xCCu);
+}
+
 static void repeated_start_commits(void **state)
 {
     urb_node_t *node = N(state);
@@ -565,6 +588,7 @@ int main(void)
         cmocka_unit_test_setup(read_check_covers_select, setup),
         cmocka_unit_test_setup(default_selection_is_outbox0, setup),
         cmocka_unit_test_setup(read_during_release, setup),
+        cmocka_unit_test_setup(byte_received_during_read_ends_it, setup),
         cmocka_unit_test_setup(repeated_start_commits, setup),
         cmocka_unit_test_setup(bus_error_and_stuck_abort, setup),
         cmocka_unit_test_setup(idle_bus_events, setup),

@@ -39,6 +39,7 @@ SCENARIOS = {
     "wcet_i2c_tx_data": ("I2C", "TX_BYTE", "data byte: IsrReadByte + CRC-16 byte"),
     "wcet_i2c_tx_check": ("I2C", "TX_BYTE", "CRC-16 check byte"),
     "wcet_i2c_tx_nack": ("I2C", "TX_NACK", "end of a complete outbox-0 read: IsrReadEnd"),
+    "wcet_i2c_rx_in_read": ("I2C", "RX_BYTE", "byte received during a complete outbox-0 read: IsrReadEnd + NACK"),
     "wcet_i2c_general_call": ("I2C", "GENERAL_CALL", "SYNC time stamp (HAL capture) + mark"),
     "wcet_i2c_sync_counter_track": ("I2C", "RX_BYTE", "SYNC counter, tracking, 2 SYNCs missed: eq. 1 (one division) + eq. 2"),
     "wcet_i2c_sync_counter_acquire": ("I2C", "RX_BYTE", "SYNC counter, acquisition: phase jump"),

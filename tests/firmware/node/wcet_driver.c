@@ -93,6 +93,11 @@ NOINLINE static void wcet_i2c_rx_extra_byte(urb_node_t *node)
     sink = urb_node_i2c_event(node, URB_I2C_RX_BYTE, 0x00u); /* long write: abort + NACK */
 }
 
+NOINLINE static void wcet_i2c_rx_in_read(urb_node_t *node)
+{
+    sink = urb_node_i2c_event(node, URB_I2C_RX_BYTE, 0x00u); /* a byte received while sending: the read ends */
+}
+
 NOINLINE static void wcet_i2c_addr_read_ends_read(urb_node_t *node)
 {
     sink = urb_node_i2c_event(node, URB_I2C_ADDR_READ, 0u); /* ends a complete id read, begins another */
@@ -226,6 +231,14 @@ int main(void)
         (void)urb_node_i2c_event(node, URB_I2C_TX_BYTE, 0u);
         wcet_i2c_tx_nack(node);
     }
+
+    node = fresh();
+    (void)fx_select(node, 0u); /* a complete Identification read, then a misplaced received byte */
+    (void)urb_node_i2c_event(node, URB_I2C_ADDR_READ, 0u);
+    for (size_t i = 0u; i < 27u; i++) {
+        (void)urb_node_i2c_event(node, URB_I2C_TX_BYTE, 0u);
+    }
+    wcet_i2c_rx_in_read(node);
 
     node = fresh();
     wcet_i2c_general_call(node);
