@@ -1,4 +1,4 @@
-# libFuzzer on the C decoders and the bridge's uplink side (tests/fuzz/README.md). Included by the
+# libFuzzer on the C decoders, the bridge's uplink side and a node (tests/fuzz/README.md). Included by the
 # top-level Makefile; `make proofs` runs it as one of its parts (PROOF_PARTS).
 #   make fuzz              every target for FUZZ_SECONDS from the committed corpus, then each seeded
 #                          mutant must be caught within FUZZ_MUTANT_SECONDS (results build/proofs/fuzz/)

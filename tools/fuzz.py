@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Fuzz the C decoders and the bridge's uplink side with libFuzzer, for a bounded time.
+"""Fuzz the C decoders, the bridge's uplink side and a node with libFuzzer, for a bounded time.
 
     python3 tools/fuzz.py run [--seconds 20]   build, fuzz every target from its committed corpus,
                                               then show each seeded mutant is caught (make fuzz)
@@ -76,6 +76,22 @@ TARGETS = {
             ),
             "ASan/UBSan clean on any RS232 stream, USB transfer and node fault script; the bridge "
             "settles; every admitted request is answered",
+        ),
+        Target(
+            "fuzz_node",
+            ("firmware/include", "gen/c", "firmware/hal/hosted", "firmware/node"),
+            (
+                "tests/fuzz/fuzz_node.c",
+                "firmware/node/urb_node.c",
+                "firmware/node/urb_mailbox.c",
+                "firmware/node/urb_i2c.c",
+                "firmware/node/urb_pll.c",
+                "firmware/node/urb_observe.c",
+                *GEN,
+                "firmware/hal/hosted/urb_hal_hosted.c",
+            ),
+            "ASan/UBSan clean on any configuration, bus event and application script; every ACK/NACK, "
+            "committed message and read-back value as the mailbox models say",
         ),
     )
 }
@@ -311,7 +327,7 @@ def merge() -> int:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="tools/fuzz.py",
-        description="Bounded libFuzzer runs of the C decoders and the bridge uplink (tests/fuzz/README.md).",
+        description="Bounded libFuzzer runs of the C decoders, the bridge uplink and a node (tests/fuzz/README.md).",
     )
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="fuzz every target, then check each seeded mutant is caught")

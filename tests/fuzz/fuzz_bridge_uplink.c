@@ -28,6 +28,10 @@
 
 #define BYTE_US 87u          /* one UART byte at 115200 Bd */
 #define SETTLE_US 2000000u
+/* Longest USB OUT transfer a script sends: (op >> 3) * 17 bytes, over the bridge's largest
+ * (URB_BRIDGE_USB_BUF), which it must drop. The buffer once held only URB_BRIDGE_USB_BUF + 1 bytes,
+ * and a long fuzzing run found the script writing past it. */
+#define OUT_MAX (31u * 17u)
 /* Iteration step of the rig: bus events carry their own times, so coarser steps only delay when
  * the bridge sees them (as a slower main loop would); they cut the cost of one input tenfold. */
 #define STEP_US 10u   /* longer than any queue of 16 requests with timeouts and bus clears */
@@ -156,7 +160,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             urb_hosted_rig_run(r, 100u * (uint32_t)(op >> 3));
             break;
         case 2u: { /* a USB OUT transfer of arbitrary bytes */
-            uint8_t out[URB_BRIDGE_USB_BUF + 1u];
+            uint8_t out[OUT_MAX];
             size_t const want = (size_t)(op >> 3) * 17u;
             size_t got = 0u;
             while (got < want && next(&s, &out[got])) {
