@@ -263,18 +263,16 @@ static uint16_t rx_byte(urb_node_t *node, uint8_t byte)
         return rx_data(node, byte);
     case URB_I2C_ST_CHECK:
         return rx_check(node, byte);
-    case URB_I2C_ST_DONE:
-        urb_isr_write_abort(node, node->i2c.mailbox); /* more than size + check bytes: long write */
-        return refuse(node);
     case URB_I2C_ST_SYNC:
         return rx_sync(node, byte);
-    case URB_I2C_ST_READ:
+    case URB_I2C_ST_DONE: /* more than size + check bytes: a long write, aborted */
 #if !defined(URB_MUTANT_READ_KEPT_ON_RX)
+    case URB_I2C_ST_READ:
         /* a byte received while this node transmits: the port lost the direction (a glitch). The
          * read ends here, or the outbox would stay latched (MailboxOutbox.tla IsrReadEnd) and the
          * application's next lock but one would be BUSY until the next read of it. */
-        end_transaction(node, false);
 #endif
+        end_transaction(node, false);
         return refuse(node);
     default:
         return refuse(node); /* IDLE, SELECTED (a select has one byte), IGNORE */
