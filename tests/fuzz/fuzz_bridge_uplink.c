@@ -16,15 +16,9 @@
 #include <string.h>
 
 #include "bridge_hosted.h"
+#include "fuzz_require.h"
 #include "urb_core.h"
 #include "urb_runtime.h"
-
-#define REQUIRE(cond)     \
-    do {                  \
-        if (!(cond)) {    \
-            abort();      \
-        }                 \
-    } while (0)
 
 #define BYTE_US 87u          /* one UART byte at 115200 Bd */
 #define SETTLE_US 2000000u

@@ -12,15 +12,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "fuzz_require.h"
 #include "urb_test_support.h"
-
-/* A property the decoders promise was broken: stop the fuzzer with a crash it reports. */
-#define REQUIRE(cond)     \
-    do {                  \
-        if (!(cond)) {    \
-            abort();      \
-        }                 \
-    } while (0)
 
 static void check_message(const urb_test_message_t *m, const uint8_t *prefix, const uint8_t *bytes, size_t len)
 {

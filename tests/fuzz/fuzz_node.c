@@ -35,20 +35,13 @@
  */
 #include <stdbool.h>
 #include <stdint.h>
-#include <stdlib.h>
 #include <string.h>
 
+#include "fuzz_require.h"
 #include "urb_core.h"
 #include "urb_hal_hosted.h"
 #include "urb_node.h"
 #include "urb_runtime.h"
-
-#define REQUIRE(cond)     \
-    do {                  \
-        if (!(cond)) {    \
-            abort();      \
-        }                 \
-    } while (0)
 
 #define MB URB_NODE_MAILBOXES
 #define MAX URB_NODE_MAX_SIZE
