@@ -15,6 +15,7 @@
  *                     check; any other end (short write, bus error, stuck bus) aborts.
  *   select outbox m: START addr+W  select(m, read=1)  STOP|Sr    (NACK: outbox m not set up)
  *   read:            START addr+R  data[size] check 0xFF...      (check covers m|0x80, then data)
+ *     a byte received during a read (a port that lost the direction) ends it and is NACKed
  *   SYNC:            START 0x00+W  0xA5 counter                  (time-stamped at the address match)
  *
  * The check is link_check: CRC-8 when the covered length (select + data) is at most 14 bytes,
