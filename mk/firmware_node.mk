@@ -6,7 +6,7 @@
 #   make cross-firmware-node  node library, reference port and SensoRHex apps for Cortex-M0+ (-Os,
 #                             the strict warning set), linked into one image per app
 #   make size-node            flash/RAM of the node library and of each app image
-#   make size                 every firmware size report (see SIZE_TARGETS below)
+#   make size                 every firmware size report and budget (see SIZE_TARGETS below; in make check)
 #   make wcet-node            callgrind instruction counts of the interrupt handlers + loop bounds
 #   make pll-harness          the two-node PLL harness: convergence, inter-node error, jitter
 #
@@ -161,4 +161,5 @@ wcet-node-check: $(FWN_BUILD)/wcet_driver
 	@$(FWN_PYTHON) tests/firmware/node/wcet.py --driver $(FWN_BUILD)/wcet_driver --out $(FWN_BUILD)/wcet.md \
 	    --readme firmware/node/README.md --quiet
 
-CHECK_TARGETS += test-firmware-node wcet-node-check
+# size: every firmware's flash and RAM budget (a budget that is exceeded fails the check)
+CHECK_TARGETS += test-firmware-node wcet-node-check size
