@@ -29,7 +29,8 @@
  *     Identification of this node's layout;
  *   - an outbox lock is BUSY only while a read that began before the latest release is in progress;
  *   - a refused write and a failed check reach the fault hook at the next poll; fault codes are
- *     in range.
+ *     in range;
+ *   - the heartbeat never stops: every beat arms the next.
  * After a garbage event the ghost forgets what it cannot know (a garbage sequence may complete a
  * write) and learns the inbox contents again at the application's next lock.
  */
