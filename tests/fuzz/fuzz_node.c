@@ -208,6 +208,21 @@ static void commit(rig_t *r, uint8_t m)
     }
 }
 
+/* After the STOP or START that ended what garbage events left open: that may have committed a
+ * write the garbage completed, into any inbox, the one the application holds too. */
+static void unblind(rig_t *r)
+{
+    if (r->blind) {
+        for (uint8_t n = 0u; n < MB; n++) {
+            r->known[n] = false;
+        }
+        if (r->in_held != NONE) {
+            r->hold_blind = true;
+        }
+    }
+    r->blind = false;
+}
+
 /* Ends the transaction in progress with a STOP (clean) or a bus error. */
 static void bus_end(rig_t *r, bool clean)
 {
@@ -228,21 +243,7 @@ static void bus_end(rig_t *r, bool clean)
     if (reading && clean) {
         (void)ev(URB_I2C_STOP, 0u);
     }
-}
-
-/* After the STOP or START that ended what garbage events left open: that may have committed a
- * write the garbage completed, into any inbox, the one the application holds too. */
-static void unblind(rig_t *r)
-{
-    if (r->blind) {
-        for (uint8_t n = 0u; n < MB; n++) {
-            r->known[n] = false;
-        }
-        if (r->in_held != NONE) {
-            r->hold_blind = true;
-        }
-    }
-    r->blind = false;
+    unblind(r);
 }
 
 /* A START of a well-formed transaction: the bus is clean from here on. */
