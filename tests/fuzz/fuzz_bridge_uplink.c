@@ -22,10 +22,11 @@
 
 #define BYTE_US 87u          /* one UART byte at 115200 Bd */
 #define SETTLE_US 2000000u
-/* Longest USB OUT transfer a script sends: (op >> 3) * 17 bytes, over the bridge's largest
- * (URB_BRIDGE_USB_BUF), which it must drop. The buffer once held only URB_BRIDGE_USB_BUF + 1 bytes,
- * and a long fuzzing run found the script writing past it. */
-#define OUT_MAX (31u * 17u)
+/* A USB OUT operation sends (op >> 3) * OUT_STEP bytes, up to OUT_MAX: over the bridge's largest
+ * transfer (URB_BRIDGE_USB_BUF), which it must drop. The buffer once held only URB_BRIDGE_USB_BUF + 1
+ * bytes, and a long fuzzing run found the script writing past it. */
+#define OUT_STEP 17u
+#define OUT_MAX (31u * OUT_STEP)
 /* Iteration step of the rig: bus events carry their own times, so coarser steps only delay when
  * the bridge sees them (as a slower main loop would); they cut the cost of one input tenfold. */
 #define STEP_US 10u   /* longer than any queue of 16 requests with timeouts and bus clears */
@@ -155,7 +156,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             break;
         case 2u: { /* a USB OUT transfer of arbitrary bytes */
             uint8_t out[OUT_MAX];
-            size_t const want = (size_t)(op >> 3) * 17u;
+            size_t const want = (size_t)(op >> 3) * OUT_STEP;
             size_t got = 0u;
             while (got < want && next(&s, &out[got])) {
                 got++;

@@ -208,17 +208,23 @@ static void commit(rig_t *r, uint8_t m)
     }
 }
 
-/* After the STOP or START that ended what garbage events left open: that may have committed a
- * write the garbage completed, into any inbox, the one the application holds too. */
+/* A garbage event, or the end of what garbage left open, may have committed a write into any
+ * inbox, the one the application holds too: the ghost no longer knows them. */
+static void forget(rig_t *r)
+{
+    for (uint8_t n = 0u; n < MB; n++) {
+        r->known[n] = false;
+    }
+    if (r->in_held != NONE) {
+        r->hold_blind = true;
+    }
+}
+
+/* After the STOP or START that ended what garbage events left open. */
 static void unblind(rig_t *r)
 {
     if (r->blind) {
-        for (uint8_t n = 0u; n < MB; n++) {
-            r->known[n] = false;
-        }
-        if (r->in_held != NONE) {
-            r->hold_blind = true;
-        }
+        forget(r);
     }
     r->blind = false;
 }
@@ -257,14 +263,24 @@ static void bus_start(rig_t *r)
     REQUIRE(ev(URB_I2C_ADDR_WRITE, 0u) == URB_I2C_ACK);
 }
 
+/* The select byte of a mailbox of `size` bytes (0: not set up): ACKed exactly when it is set up;
+ * true when the transaction goes on. */
+static bool send_select(rig_t *r, uint8_t select, uint8_t size)
+{
+    REQUIRE(ev(URB_I2C_RX_BYTE, select) == (size != 0u ? URB_I2C_ACK : URB_I2C_NACK));
+    if (size == 0u) {
+        r->bus = BUS_REFUSED;
+        return false;
+    }
+    return true;
+}
+
 static void begin_write(rig_t *r, script_t *s, uint8_t m, bool corrupt)
 {
     bus_start(r);
     uint8_t const size = r->in_size[m];
     uint8_t const select = m;
-    if (ev(URB_I2C_RX_BYTE, select) != (size != 0u ? URB_I2C_ACK : URB_I2C_NACK) || size == 0u) {
-        REQUIRE(size == 0u);
-        r->bus = BUS_REFUSED;
+    if (!send_select(r, select, size)) {
         return;
     }
     r->frame[0] = select;
@@ -290,9 +306,7 @@ static void begin_read(rig_t *r, uint8_t m)
 {
     bus_start(r);
     uint8_t const size = r->out_size[m];
-    if (ev(URB_I2C_RX_BYTE, (uint8_t)(0x80u | m)) != (size != 0u ? URB_I2C_ACK : URB_I2C_NACK) || size == 0u) {
-        REQUIRE(size == 0u);
-        r->bus = BUS_REFUSED;
+    if (!send_select(r, (uint8_t)(0x80u | m), size)) {
         return;
     }
     REQUIRE(ev(URB_I2C_ADDR_READ, 0u) == URB_I2C_ACK); /* repeated START */
@@ -301,6 +315,13 @@ static void begin_read(rig_t *r, uint8_t m)
     r->got_len = 0u;
     r->releases_in_read = 0u;
     r->bus = BUS_READ;
+}
+
+/* Bytes a read of outbox m sends before 0xFF: the data and its check. */
+static size_t read_len(const rig_t *r)
+{
+    uint8_t const size = r->out_size[r->m];
+    return size + urb_link_check_size(1u + (size_t)size);
 }
 
 /* One more byte of the transaction in progress. */
@@ -338,13 +359,12 @@ static void bus_step(rig_t *r)
     }
     case BUS_READ: {
         uint8_t const size = r->out_size[r->m];
-        size_t const cl = urb_link_check_size(1u + (size_t)size);
         uint8_t const b = (uint8_t)ev(URB_I2C_TX_BYTE, 0u);
         if (r->got_len < size) {
             if (r->m != 0u) {
                 REQUIRE(b == r->expect[r->got_len]);
             }
-        } else if (r->got_len < size + cl) {
+        } else if (r->got_len < read_len(r)) {
             uint8_t const select = (uint8_t)(0x80u | r->m);
             uint32_t const check = urb_link_check(&select, 1u, r->got, size);
             REQUIRE(b == (uint8_t)(check >> (8u * (r->got_len - size))));
@@ -366,8 +386,7 @@ static void bus_step(rig_t *r)
 /* The rest of the transaction in progress: every byte of a write up to its check, or of a read. */
 static void finish(rig_t *r)
 {
-    while ((r->bus == BUS_WRITE && r->fpos < r->flen) ||
-           (r->bus == BUS_READ && r->got_len < r->out_size[r->m] + urb_link_check_size(1u + (size_t)r->out_size[r->m]))) {
+    while ((r->bus == BUS_WRITE && r->fpos < r->flen) || (r->bus == BUS_READ && r->got_len < read_len(r))) {
         bus_step(r);
     }
 }
@@ -384,12 +403,7 @@ static void garbage(rig_t *r, script_t *s)
     r->bus = BUS_IDLE;
     r->blind = true;
     r->garbage_since_poll++;
-    for (uint8_t n = 0u; n < MB; n++) {
-        r->known[n] = false;
-    }
-    if (r->in_held != NONE) {
-        r->hold_blind = true;
-    }
+    forget(r);
 }
 
 static void sync_broadcast(rig_t *r, uint8_t counter)

@@ -19,8 +19,9 @@
  *   PART=3 step   induction over event sequences of any length: from an ARBITRARY valid driver
  *                 state (any phase, count, running check, check verdict, transaction on mailbox MB,
  *                 application inbox and outbox of arbitrary sizes 1..32, so both check tiers), ANY event
- *                 with any byte (an RX_BYTE during a read too: it ends the read) leaves a valid driver state (valid_driver: the TLA+ index invariants, count and
- *                 tier consistent with the phase), answers ACK/NACK or a byte, writes at most
+ *                 with any byte (an RX_BYTE during a read too: it ends the read) leaves a valid
+ *                 driver state (valid_driver: the TLA+ index invariants, count and tier
+ *                 consistent with the phase), answers ACK/NACK or a byte, writes at most
  *                 data byte `count` at offset `count` of the inbox's back buffer and no other
  *                 mailbox or guard byte, never moves an outbox front, moves the inbox front only at
  *                 a STOP / repeated START after DONE (marking it new), and costs at most the budget.

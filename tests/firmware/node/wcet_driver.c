@@ -51,6 +51,16 @@ static uint8_t last_check_byte(void)
     return frame[n - 1u];
 }
 
+/* A complete read of outbox 0 (Identification: 25 bytes + CRC-16), not yet ended. */
+static void complete_id_read(urb_node_t *node)
+{
+    (void)fx_select(node, 0u);
+    (void)urb_node_i2c_event(node, URB_I2C_ADDR_READ, 0u);
+    for (size_t i = 0u; i < 27u; i++) {
+        (void)urb_node_i2c_event(node, URB_I2C_TX_BYTE, 0u);
+    }
+}
+
 /* ----- I2C events ----- */
 
 NOINLINE static void wcet_i2c_restart_commits(urb_node_t *node)
@@ -214,31 +224,19 @@ int main(void)
     wcet_i2c_rx_extra_byte(node);
 
     node = fresh();
-    (void)fx_select(node, 0u); /* Identification: 25 bytes, CRC-16 */
-    {
-        uint8_t raw[27];
-        (void)urb_node_i2c_event(node, URB_I2C_ADDR_READ, 0u);
-        for (size_t i = 0u; i < 27u; i++) {
-            raw[i] = (uint8_t)urb_node_i2c_event(node, URB_I2C_TX_BYTE, 0u);
-        }
-        (void)raw;
-        wcet_i2c_addr_read_ends_read(node);
-        wcet_i2c_tx_data(node);
-        for (size_t i = 1u; i < 25u; i++) {
-            (void)urb_node_i2c_event(node, URB_I2C_TX_BYTE, 0u);
-        }
-        wcet_i2c_tx_check(node);
+    complete_id_read(node);
+    wcet_i2c_addr_read_ends_read(node);
+    wcet_i2c_tx_data(node);
+    for (size_t i = 1u; i < 25u; i++) {
         (void)urb_node_i2c_event(node, URB_I2C_TX_BYTE, 0u);
-        wcet_i2c_tx_nack(node);
     }
+    wcet_i2c_tx_check(node);
+    (void)urb_node_i2c_event(node, URB_I2C_TX_BYTE, 0u);
+    wcet_i2c_tx_nack(node);
 
     node = fresh();
-    (void)fx_select(node, 0u); /* a complete Identification read, then a misplaced received byte */
-    (void)urb_node_i2c_event(node, URB_I2C_ADDR_READ, 0u);
-    for (size_t i = 0u; i < 27u; i++) {
-        (void)urb_node_i2c_event(node, URB_I2C_TX_BYTE, 0u);
-    }
-    wcet_i2c_rx_in_read(node);
+    complete_id_read(node);
+    wcet_i2c_rx_in_read(node); /* then a misplaced received byte */
 
     node = fresh();
     wcet_i2c_general_call(node);
