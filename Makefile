@@ -5,7 +5,12 @@
 # correctness to CHECK_TARGETS.
 
 SHELL := /bin/bash
-PYTHON ?= python3
+# Every target runs the project's virtual environment (.venv/, made by tools/setup.sh): its python3,
+# urb and pytest come first on PATH, for the recipes and for every program they start.
+VENV := $(CURDIR)/.venv
+export VIRTUAL_ENV := $(VENV)
+export PATH := $(VENV)/bin:$(PATH)
+PYTHON := python3
 PYTEST := tools/run-pytest
 CHECK_TARGETS :=
 
