@@ -34,7 +34,7 @@ gen-check: setup
 	urb gen --check
 
 lint: setup
-	$(PYTHON) -m mypy --strict host/urb codegen/urb_codegen gen/python/urb_msgs sim/urb_sim tools
+	$(PYTHON) -m mypy --strict host/urb codegen/urb_codegen gen/python/urb_msgs sim/urb_sim report/urb_report tools
 
 # The Python tests run in PYTEST_WORKERS processes (pytest-xdist), each test file in one of them (its
 # fixtures are shared within a file). The programs several files use are built first, so that the
