@@ -471,6 +471,17 @@ WriteStatusTruthful ==
            /\ out[k].status \in {"CHECKSUM", "NODE_BUSY", "NO_NODE"} \cup AdmissionErrors
                  => out[k].id \notin applied
 
+(* The downlink serves requests in the order they arrived: no request is   *)
+(* served while an earlier one still waits, so two writes to one inbox     *)
+(* land in the order the host sent them.  (Admission answers, BUSY,        *)
+(* SIZE_MISMATCH and BAD_REQUEST, never reach the downlink.)  Responses in *)
+(* request order (ResponsesInRequestOrder) do not imply it: the ring sends *)
+(* them in arrival order whatever order the downlink served them in.      *)
+ServedInArrivalOrder ==
+    \A j, k \in DOMAIN queue :
+        j < k /\ queue[j].status = "PENDING"
+            => queue[k].status \in {"PENDING"} \cup AdmissionErrors
+
 (* BUSY is only answered when every data slot was taken. *)
 BusyOnlyWhenFull ==
     \A k \in DOMAIN out : out[k].status = "BUSY" => out[k].id \in full
@@ -498,19 +509,80 @@ EveryRequestAnswered ==
 (* on the uplink or forgotten by a bridge reset.                           *)
 EveryRequestReleased == \A id \in 1..MaxReq : (id <= Len(sent)) ~> (hostFrom > id)
 
+-----------------------------------------------------------------------------
+(***************************************************************************)
+(* Reachability witnesses: situations a model must reach, so that no       *)
+(* invariant above holds only because its situation never arises.         *)
+(* spec/tla/manifest.json lists, per model, the ones it must reach; the    *)
+(* model-check runner fails the model when one is not (tools/             *)
+(* tla_witness.py).                                                         *)
+(***************************************************************************)
+Answers(s) == \E k \in DOMAIN out : out[k].status = s
+ReachOkAnswer == Answers("OK")
+ReachTimeoutAnswer == Answers("TIMEOUT")
+ReachChecksumAnswer == Answers("CHECKSUM")
+ReachBusStuckAnswer == Answers("BUS_STUCK")
+ReachNodeBusyAnswer == Answers("NODE_BUSY")
+ReachNoNodeAnswer == Answers("NO_NODE")
+ReachBusyAnswer == Answers("BUSY")
+ReachSizeMismatchAnswer == Answers("SIZE_MISMATCH")
+ReachBadRequestAnswer == Answers("BAD_REQUEST")
+(* an OK read carrying its mailbox's data; a write a node stored *)
+ReachReadData == \E k \in DOMAIN out : out[k].status = "OK" /\ out[k].data # NoData
+ReachWriteStored == applied # {}
+(* two requests wait for the downlink at once: the order it serves them in matters *)
+ReachTwoPending == Cardinality({k \in DOMAIN queue : queue[k].status = "PENDING"}) >= 2
+(* every data slot taken; the response ring full; the host's window full *)
+ReachDataSlotsFull == DataSlotsUsed = QueueLen
+ReachRingFull == Len(queue) = HostWindow
+ReachWindowFull == Len(InFlight) = HostWindow
+ReachAllAnswered == Len(out) = MaxReq
+(* a request numbered after the sequence number wrapped is matched *)
+ReachSeqWrap == lastMatch.req > SeqMod
+(* a response was lost: it left the bridge, its request is still in flight *)
+ReachLostResponse == \E k \in DOMAIN out : out[k].id >= hostFrom
+(* placeholders: one exists; the bridge still holds one; its late response *)
+(* is next on the uplink; a response to a later request is next and        *)
+(* passes it; one can expire; the window is full of them                   *)
+ReachPlaceholder == timedOut # {}
+ReachPlaceholderHeld == timedOut \cap Ids(queue) # {}
+NextOut == linkUp /\ queue # <<>> /\ Head(queue).status # "PENDING"
+ReachLateResponse == NextOut /\ Head(queue).id \in timedOut
+ReachPlaceholderPassed == NextOut /\ \E id \in timedOut : id < Head(queue).id
+ReachPlaceholderExpiry == ENABLED HostExpire
+ReachWindowOfPlaceholders == Len(InFlight) = HostWindow /\ timedOut = hostFrom..Len(sent)
+(* the uplink is lost with requests the bridge still holds, and a response *)
+(* leaves while it is closed (lost)                                         *)
+ReachLinkLost == ~linkUp /\ timedOut \cap Ids(queue) # {}
+ReachSentWhileClosed == ~linkUp /\ queue # <<>> /\ Head(queue).status # "PENDING"
+(* a bridge reset forgot a request; the host timed one out; its           *)
+(* placeholder can expire; a later request is answered after the reset    *)
+ReachReset == forgotten # {}
+ReachForgottenTimedOut == forgotten \cap timedOut # {}
+ReachForgottenExpiry == hostFrom \in forgotten /\ ENABLED HostExpire
+ReachAnsweredAfterReset == \E k \in DOMAIN out : \E f \in forgotten : out[k].id > f
+(* a new host process began numbering; one of its requests is matched;    *)
+(* a new process can start while the previous one left placeholders       *)
+ReachNewProcess == Cardinality(starts) >= 2
+ReachNewProcessMatched == \E s \in starts : s > 1 /\ lastMatch.req >= s
+ReachRestartOverPlaceholders == timedOut # {} /\ ENABLED HostRestart
+
 THEOREM Spec => [](TypeOK /\ NoSilentDrop /\ AtMostOneResponse
                           /\ ResponsesInRequestOrder /\ ResponseMatchesRequest
                           /\ ErrorNamesCause /\ WriteStatusTruthful
-                          /\ BusyOnlyWhenFull /\ BoundedMemory /\ NoSeqAliasing)
+                          /\ ServedInArrivalOrder /\ BusyOnlyWhenFull /\ BoundedMemory
+                          /\ NoSeqAliasing)
 THEOREM Spec => EveryRequestAnswered /\ EveryRequestReleased
 THEOREM SpecReset => [](TypeOK /\ NoSilentDrop /\ AtMostOneResponse
                           /\ ResponsesInRequestOrder /\ ResponseMatchesRequest
                           /\ ErrorNamesCause /\ WriteStatusTruthful
-                          /\ BusyOnlyWhenFull /\ BoundedMemory /\ NoSeqAliasing)
+                          /\ ServedInArrivalOrder /\ BusyOnlyWhenFull /\ BoundedMemory
+                          /\ NoSeqAliasing)
 THEOREM SpecReset => EveryRequestAnswered /\ EveryRequestReleased
 THEOREM SpecRestart => [](TypeOK /\ NoSilentDrop /\ AtMostOneResponse
                           /\ ResponsesInRequestOrder /\ ResponseMatchesRequest
                           /\ ErrorNamesCause /\ WriteStatusTruthful
-                          /\ BusyOnlyWhenFull /\ BoundedMemory /\ NoSeqAliasing)
+                          /\ ServedInArrivalOrder /\ BusyOnlyWhenFull /\ BoundedMemory
+                          /\ NoSeqAliasing)
 THEOREM SpecRestart => EveryRequestAnswered /\ EveryRequestReleased
 =============================================================================

@@ -219,6 +219,23 @@ StrictLatency == \A id \in Submitted : age[id] + 1 <= MaxLatency
 (* Liveness: every submitted request gets its callback.                    *)
 EveryCallbackRuns == \A id \in Ids : (id <= nextId) ~> (id \in done)
 
+-----------------------------------------------------------------------------
+(* Reachability witnesses (spec/tla/manifest.json lists them per model).   *)
+(* A full batch is written; the window is full; a request is left behind  *)
+(* (full batch or full window); both response buffers hold responses (the *)
+(* pipelining); a callback comes exactly at the latency bound, and one at  *)
+(* the bound plus its deferrals; a request numbered after the sequence     *)
+(* number wrapped gets its callback; every callback has run.              *)
+ReachFullBatch == Len(rx) = MaxBatch
+ReachWindowFull == Len(expect) = Window
+ReachDeferral == \E id \in Ids : deferred[id] > 0
+ReachBothBuffers == txPrev # <<>> /\ txCur # <<>>
+ReachLatencyBound == \E id \in done : age[id] + 1 = MaxLatency
+ReachDeferredLatencyBound ==
+    \E id \in done : deferred[id] > 0 /\ age[id] + 1 = MaxLatency + deferred[id]
+ReachSeqWrap == \E k \in DOMAIN cbLog : cbLog[k].req > SeqMod
+ReachAllCalledBack == done = Ids
+
 THEOREM Spec => [](TypeOK /\ NothingLost /\ ResponsesMatched /\ LatencyBound
                           /\ WindowRespected)
 THEOREM MaxSubmit <= MaxBatch /\ 2 * MaxSubmit <= Window => (Spec => []StrictLatency)
