@@ -27,8 +27,11 @@ modelcheck-large-distributed:
 	$(PYTHON) tools/modelcheck.py --optional --only Large --distributed --local-workers $(TLC_LOCAL_WORKERS)
 
 # Every generated mutant of the specifications (long: see spec/tla/README.md, "Mutation score");
-# records the results in spec/tla/mutation/results.json (commit it after a spec change).
+# records the results in spec/tla/mutation/results.json (commit it after a spec change). One module:
+#   make modelcheck-mutate TLA_MUTATE_MODULE=MailboxInbox
+TLA_MUTATE_JOBS ?= 1
+TLA_MUTATE_MODULE ?=
 modelcheck-mutate:
-	$(PYTHON) tools/tla_mutate.py --record
+	$(PYTHON) tools/tla_mutate.py --record --jobs $(TLA_MUTATE_JOBS) $(if $(TLA_MUTATE_MODULE),--only $(TLA_MUTATE_MODULE)/)
 
 CHECK_TARGETS += modelcheck

@@ -1,15 +1,21 @@
 #!/usr/bin/env python3
 """Run TLC on every URB TLA+ model and must-fail mutant listed in spec/tla/manifest.json.
 
-Good models must pass with exactly the recorded number of distinct states and depth; each
-mutant must be refuted by TLC with exactly the expected invariant or temporal property, or by a
-false ASSUME (a mutant of an operator that an MC module checks against its definition).
-Results go to build/tla/junit.xml (JUnit), build/tla/results.json and build/tla/logs/.
+Good models must pass with exactly the recorded number of distinct states and reach every
+reachability witness the manifest lists for them (checked in the same run: tools/tla_witness.py);
+each mutant must be refuted by TLC with exactly the expected invariant or temporal property, or by
+a false ASSUME (a mutant of an operator that an MC module checks against its definition); the
+distributed entries run a model with TLCServer and TLCWorkers on loopback and must find its
+recorded count (tools/tla_distributed.py). Results go to build/tla/junit.xml (JUnit),
+build/tla/results.json, build/tla/logs/ and the evidence record build/evidence/tlc.json
+(tools/tla_evidence.py).
 
     python3 tools/modelcheck.py               # all default models and mutants
     python3 tools/modelcheck.py --update      # re-record state counts, depths, runtimes
     python3 tools/modelcheck.py --only Bridge # entries whose name contains "Bridge"
+    python3 tools/modelcheck.py --exact MCBridge
     python3 tools/modelcheck.py --optional    # also the opt-in large configurations
+    python3 tools/modelcheck.py --optional --only Large --distributed --local-workers 2
 
 Exit status: 0 all as expected, 1 some result differs from the manifest, 2 setup problem.
 """
@@ -33,7 +39,6 @@ from typing import Any, Literal
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "sim"))
-
 sys.path.insert(0, str(ROOT))
 
 from urb_sim.tlc import JVM_MODEL, JVM_QUICK, TlcSetupError, find_jar, find_java, state_counts  # noqa: E402
@@ -238,9 +243,12 @@ def _scratch(tmp: Path, entry: Entry, spec_dir: Path, overrides: dict[str, str] 
 def run_tlc(
     entry: Entry, java: str, jar: Path, workers: int, spec_dir: Path = SPEC_DIR, quick: bool = False, *,
     witnesses: bool = True, overrides: dict[str, str] | None = None, timeout: float | None = None,
+    liveness: bool = True,
 ) -> RunOutcome:
     """Run TLC on one entry in a scratch directory holding every module it may need; a model's
-    reachability witnesses are checked in the same run (tools/tla_witness.py)."""
+    reachability witnesses are checked in the same run (tools/tla_witness.py). Without
+    `liveness`, the configuration's temporal properties are left out (its invariants and action
+    properties stay): the quick first pass of the mutation runs."""
     module = spec_dir / entry.module
     config = spec_dir / entry.config
     for f in (module, config):
@@ -249,6 +257,11 @@ def run_tlc(
     with tempfile.TemporaryDirectory(prefix="urb-tlc-") as tmp_s:
         tmp = Path(tmp_s)
         _scratch(tmp, entry, spec_dir, overrides)
+        texts = [p.read_text(encoding="utf-8") for p in tmp.glob("*.tla")]
+        cfg_text = config.read_text(encoding="utf-8")
+        if not liveness:
+            cfg_text = tla_distributed.split_config(cfg_text, texts)[0]
+            (tmp / config.name).write_text(cfg_text, encoding="utf-8")
         module_name, config_name = module.name, config.name
         if witnesses and entry.witnesses:
             module_name, config_name = tla_witness.write_wrapper(tmp, module.name, config.name, entry.witnesses)
@@ -267,8 +280,6 @@ def run_tlc(
             runtime = time.monotonic() - start
             return RunOutcome(entry, TlcResult("error", message=f"timeout after {timeout:.0f} s"), runtime, out)
         runtime = time.monotonic() - start
-    cfg_text = config.read_text(encoding="utf-8")
-    texts = [p.read_text(encoding="utf-8") for p in spec_dir.glob("*.tla")] + list((overrides or {}).values())
     actions = frozenset(p for p in config_properties(cfg_text) if tla_distributed.is_action_property(p, texts))
     run = RunOutcome(entry, parse_tlc_output(log, code, cfg_text, actions), runtime, log)
     run.reached = tla_witness.reached(log)
@@ -473,6 +484,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="evidence record to write (default build/evidence/tlc.json; with --distributed "
                     "build/evidence/tlc-distributed.json)")
     args = ap.parse_args(argv)
+    if args.distributed and args.update:
+        print("modelcheck: --update records counts from the ordinary runs; do not combine it with --distributed",
+              file=sys.stderr)
+        return 2
     try:
         data, entries = load_manifest()
         chosen = [

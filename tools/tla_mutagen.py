@@ -39,8 +39,7 @@ _DEF_RE = re.compile(r"^([A-Za-z_]\w*)(\([^)]*\))?\s*==", re.MULTILINE)
 _SEPARATOR_RE = re.compile(r"^-{4,}\s*$", re.MULTILINE)
 _HEADER_RE = re.compile(r"^-+\s*MODULE\s+(\w+)", re.MULTILINE)
 _VARIABLES_RE = re.compile(r"^VARIABLES?\b(.*?)(?=^\S)", re.MULTILINE | re.DOTALL)
-_KEYWORDS = ("IF", "THEN", "ELSE", "LET", "IN", "CHOOSE", "CASE", "OTHER", "EXCEPT", "UNCHANGED",
-             "ENABLED", "DOMAIN", "SUBSET", "UNION")
+_BINDER_RE = re.compile(r"(\\[EA]|CHOOSE|[\[{])\s*[A-Za-z_][\w\s,]*$")
 
 
 @dataclass(frozen=True)
@@ -444,6 +443,8 @@ def generate(text: str, specs: list[str] | None = None, companions: list[str] | 
             b.add(d, "negate", pos, pos + 1, "#" if m.group(1) == "=" else "=")
         for m in re.finditer(r"\\(notin|in)\b", "" if initial else body):
             s = d.start + m.start()
+            if _binds(masked, s):
+                continue  # `x \in S` binds x (a quantifier, CHOOSE, a set or function constructor)
             b.add(d, "negate", s, d.start + m.end(), "\\in" if m.group(1) == "notin" else "\\notin")
         # order
         for m in re.finditer(r"\bAppend\(", body):
@@ -458,15 +459,15 @@ def generate(text: str, specs: list[str] | None = None, companions: list[str] | 
             arg = text[d.start + m.end():e - 1].strip()
             b.add(d, "head-last", s, e, f"{arg}[Len({arg})]")
         for m in re.finditer(r"\bIF\b(.*?)\bTHEN\b(.*?)\bELSE\b([^\n]*)", body):
-            then_, else_ = m.group(2), m.group(3)
+            then_, else_ = m.group(2), _balanced_prefix(m.group(3)).rstrip()
             if "\n" in m.group(0) or re.search(r"\b(IF|THEN|ELSE|LET)\b", then_ + else_) \
-                    or re.search(r"/\\|\\/", else_):
+                    or re.search(r"/\\|\\/", else_) or _balanced_prefix(then_) != then_:
                 continue
             s = d.start + m.start(2)
-            e = d.start + m.end(3)
+            e = d.start + m.start(3) + len(else_)
             tt = text[d.start + m.start(2):d.start + m.end(2)].strip()
-            et = text[d.start + m.start(3):d.start + m.end(3)].rstrip()
-            b.add(d, "swap-if", s, e, f" {et.strip()} ELSE {tt}")
+            et = text[d.start + m.start(3):e].strip()
+            b.add(d, "swap-if", s, e, f" {et} ELSE {tt}")
         # publish / free: an update left out
         for start, end, var in _unchanged_sites(masked, d, vars_):
             b.add(d, "unchanged", start, end, var)
@@ -493,6 +494,57 @@ def generate(text: str, specs: list[str] | None = None, companions: list[str] | 
                     rest = ", ".join(p.strip() for j, p in enumerate(parts) if j != k)
                     b.add(d, "set-element", s, e, "{" + rest + "}")
     return b.mutants
+
+
+def _balanced_prefix(s: str) -> str:
+    """The longest prefix of `s` that closes no bracket it did not open."""
+    depth = 0
+    for i, c in enumerate(s):
+        if c in "([{":
+            depth += 1
+        elif c in ")]}":
+            depth -= 1
+            if depth < 0:
+                return s[:i]
+    return s
+
+
+def _binds(masked: str, pos: int) -> bool:
+    """True when the `\\in` at `pos` binds a variable: `\\E x \\in`, `CHOOSE x \\in`,
+    `[x \\in`, `{x \\in` (a filter), or `{e : x \\in` (a map: no `\\in` before its colon)."""
+    line = masked[_line_start(masked, pos):pos]
+    if _BINDER_RE.search(line):
+        return True
+    if not re.search(r":\s*[A-Za-z_][\w\s,]*$", line):
+        return False
+    depth, i = 0, pos - 1
+    while i >= 0:  # find the bracket this `\\in` is inside
+        c = masked[i]
+        if c in ")]}":
+            depth += 1
+        elif c in "([{":
+            if depth == 0:
+                break
+            depth -= 1
+        i -= 1
+    if i < 0 or masked[i] != "{":
+        return False
+    inner = _top_level(masked[i + 1:pos])
+    colon = inner.rfind(":")
+    return "\\in" not in inner[:colon]
+
+
+def _top_level(s: str) -> str:
+    """`s` without what its brackets enclose."""
+    out, depth = [], 0
+    for c in s:
+        if c in "([{":
+            depth += 1
+        elif c in ")]}":
+            depth -= 1
+        elif depth == 0:
+            out.append(c)
+    return "".join(out)
 
 
 def _droppable(conjunct: str) -> bool:

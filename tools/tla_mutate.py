@@ -4,8 +4,10 @@
 tools/tla_mutagen.py generates every mutant of each specification module (one change in one
 definition: a bound off by one, a guard or an error branch dropped, an update left out, a wrong
 field, a wrong order). Each mutant is the module with that change, checked by TLC against the
-module's good configurations (spec/tla/manifest.json, "mutation"), in order, one worker, the quick
-JVM flags; it is
+module's good configurations (spec/tla/manifest.json, "mutation"), one worker, the quick JVM
+flags: first every configuration without its liveness properties (cheap; most mutants break an
+invariant, an action property or a witness), then those with liveness properties in full, in
+order, stopping at the first refutation; it is
 
     killed    when TLC refutes it on some configuration: an invariant or property of that
               configuration is violated, it deadlocks, an assumption is false, an operator is
@@ -26,12 +28,16 @@ the run fails; so does an explanation of a mutant that no longer survives or exi
     python3 tools/tla_mutate.py --sample            # the fixed sample (part of make modelcheck)
     python3 tools/tla_mutate.py --only Bridge/Serve/
 
-The full run records every mutant's result in spec/tla/mutation/results.json (committed). The
-sample run (`make check`) checks that the generated mutants are still exactly the recorded ones
-(else the spec changed: rerun the full set), that every recorded survivor is explained, and
-reruns a fixed sample (per module, the `sample_per_module` mutants whose sha256(id) is smallest)
-expecting the recorded outcome. Both write build/proofs/mutation/tlc.json (the summary per module
-and kind, for the mutation table of build/proofs/summary.md) and the evidence record
+The full run records every mutant's result in spec/tla/mutation/results.json (committed); a run
+of one module (`--record --only Module/`) merges that module's results into it, so the record
+covers whole modules, and the modules it does not hold yet are listed as `not_run`. The sample
+run (`make check`) checks that the generated mutants of every recorded module are still exactly
+the recorded ones (else that spec changed: rerun it), that every recorded survivor is explained,
+and reruns a fixed sample of the recorded modules (per module, the `sample_per_module` mutants
+whose sha256(id) is smallest) expecting the recorded outcome. Both write
+build/proofs/mutation/tlc.json (the summary per module and kind, and under "mutants" one row per
+seeded bug for the mutation table of build/proofs/summary.md: the manifest's hand-written mutants
+from build/tla/results.json and the recorded generated ones) and the evidence record
 build/evidence/tlc-mutation.json.
 
 Exit status: 0 as expected, 1 an unexplained survivor, a stale record or a changed outcome,
@@ -44,7 +50,9 @@ import argparse
 import hashlib
 import json
 import os
+import shutil
 import sys
+import tempfile
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, field, replace
@@ -56,7 +64,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "report"))
 sys.path.insert(0, str(ROOT / "sim"))
 
-from tools import modelcheck as mc, tla_mutagen  # noqa: E402
+from tools import modelcheck as mc, tla_distributed, tla_mutagen  # noqa: E402
 from urb_sim.tlc import find_jar, find_java  # noqa: E402
 from urb_report.records import Item, Verdict, tree_state, write_record  # noqa: E402
 
@@ -65,9 +73,14 @@ RECORD = SPEC_DIR / "mutation" / "results.json"
 EXPLAINED = SPEC_DIR / "mutation" / "explained.json"
 SUMMARY = ROOT / "build" / "proofs" / "mutation" / "tlc.json"
 EVIDENCE = ROOT / "build" / "evidence" / "tlc-mutation.json"
+#: The results of tools/modelcheck.py (run first by `make modelcheck`): the hand-written mutants.
+HAND_WRITTEN = ROOT / "build" / "tla" / "results.json"
 
 Status = Literal["killed", "survived", "timeout", "invalid"]
-_INVALID_MARKS = ("Parsing or semantic analysis failed", "***Parse Error***", "Semantic errors:")
+#: TLC could not start checking: the change does not parse, or the configuration names an operator
+#: the (mutated) module does not define. Not a refutation.
+_INVALID_MARKS = ("Parsing or semantic analysis failed", "***Parse Error***", "Semantic errors:",
+                  "specified in the configuration file is not defined", "is not defined in the specification")
 
 
 @dataclass
@@ -165,11 +178,17 @@ def classify(run: mc.RunOutcome) -> tuple[Status | None, str]:
     return None, ""
 
 
-def run_mutant(m: tla_mutagen.Mutant, models: list[mc.Entry], java: str, jar: Path, timeout: float) -> MutantResult:
+def run_mutant(m: tla_mutagen.Mutant, models: list[mc.Entry], java: str, jar: Path, timeout: float,
+               spec_dir: Path = SPEC_DIR) -> MutantResult:
+    """Safety first: every model without its liveness properties (cheap: most mutants break an
+    invariant, an action property or a witness), then the models with liveness properties in
+    full, stopping at the first refutation."""
     res = MutantResult(m.id, m.module, m.definition, m.operator, m.kind, m.line, m.original, m.mutated)
     start = time.monotonic()
-    for entry in models:
-        run = mc.run_tlc(entry, java, jar, 1, quick=True, overrides={f"{m.module}.tla": m.text}, timeout=timeout)
+    passes = [(e, False) for e in models] + [(e, True) for e in models if _has_liveness(e, spec_dir)]
+    for entry, liveness in passes:
+        run = mc.run_tlc(entry, java, jar, 1, spec_dir, quick=True, overrides={f"{m.module}.tla": m.text},
+                         timeout=timeout, liveness=liveness)
         status, by = classify(run)
         if status is not None:
             res.status, res.by, res.model = status, by, entry.name
@@ -179,12 +198,20 @@ def run_mutant(m: tla_mutagen.Mutant, models: list[mc.Entry], java: str, jar: Pa
     return res
 
 
-def check_baseline(plan: Plan, java: str, jar: Path, jobs: int) -> tuple[dict[str, Any], list[str]]:
+def _has_liveness(entry: mc.Entry, spec_dir: Path) -> bool:
+    texts = [p.read_text(encoding="utf-8") for p in spec_dir.glob("*.tla")]
+    cfg = (spec_dir / entry.config).read_text(encoding="utf-8")
+    return bool(tla_distributed.split_config(cfg, texts)[2])
+
+
+def check_baseline(plan: Plan, java: str, jar: Path, jobs: int, spec_dir: Path = SPEC_DIR
+                   ) -> tuple[dict[str, Any], list[str]]:
     """Run every model of the plan unmutated: each must pass and reach its witnesses, or a
     mutant could be "killed" by what the model does wrong itself."""
     entries = [e for models in plan.models.values() for e in models]
     with ThreadPoolExecutor(max_workers=jobs) as pool:
-        runs = list(pool.map(lambda e: mc.run_tlc(e, java, jar, 1, quick=True, timeout=plan.timeout_s), entries))
+        runs = list(pool.map(lambda e: mc.run_tlc(e, java, jar, 1, spec_dir, quick=True, timeout=plan.timeout_s),
+                             entries))
     problems: list[str] = []
     baseline: dict[str, Any] = {}
     for run in runs:
@@ -205,6 +232,15 @@ def load_json(path: Path) -> dict[str, Any]:
     return data
 
 
+def load_hand_written() -> list[dict[str, Any]]:
+    """The rows of build/tla/results.json (a list), or none when tools/modelcheck.py has not run."""
+    try:
+        data = json.loads(HAND_WRITTEN.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError):
+        return []
+    return [r for r in data if isinstance(r, dict)] if isinstance(data, list) else []
+
+
 def check_explanations(results: dict[str, dict[str, Any]], explained: dict[str, Any]) -> list[str]:
     """Problems: a survivor or timeout without an explanation (or whose site changed since it was
     explained), an explanation of a mutant that no longer survives or exists."""
@@ -222,10 +258,75 @@ def check_explanations(results: dict[str, dict[str, Any]], explained: dict[str, 
                             f"`{e.get('mutated')}`, now `{r['original']}` -> `{r['mutated']}`): review it")
         elif not str(e.get("why", "")).strip():
             problems.append(f"explanation of {mid} has no reason")
-    for mid in sorted(set(explained) - {k for k, r in results.items() if r["status"] in ("survived", "timeout")}):
+    done = recorded_modules(results)  # an explanation of a module not run yet waits for its run
+    for mid in sorted({k for k in explained if k.split("/")[0] in done}
+                      - {k for k, r in results.items() if r["status"] in ("survived", "timeout")}):
         what = "no longer generated" if mid not in results else f"now {results[mid]['status']}"
         problems.append(f"stale explanation in {EXPLAINED.relative_to(ROOT)}: {mid} is {what}: remove it")
     return problems
+
+
+def module_runtimes(results: dict[str, dict[str, Any]]) -> dict[str, float]:
+    """Per module, the sum of its mutants' TLC time (one run at a time: about the wall time)."""
+    out: dict[str, float] = {}
+    for r in results.values():
+        out[r["module"]] = out.get(r["module"], 0.0) + float(r["runtime_s"])
+    return {m: round(t, 1) for m, t in sorted(out.items())}
+
+
+def recorded_modules(recorded: dict[str, dict[str, Any]]) -> set[str]:
+    """The modules whose generated mutants the record holds (a run per module, `--only Module/`)."""
+    return {str(r["module"]) for r in recorded.values()}
+
+
+def not_run(mutants: list[tla_mutagen.Mutant], recorded: dict[str, dict[str, Any]]) -> dict[str, int]:
+    """Per module the record does not cover yet: how many mutants the generator makes of it."""
+    done = recorded_modules(recorded)
+    out: dict[str, int] = {}
+    for m in mutants:
+        if m.module not in done:
+            out[m.module] = out.get(m.module, 0) + 1
+    return out
+
+
+def stale_modules(mutants: list[tla_mutagen.Mutant], recorded: dict[str, dict[str, Any]],
+                  runtime_s: Any = None) -> list[str]:
+    """Problems: a recorded module whose generated mutants are no longer exactly the recorded ones
+    (its specification changed since its run). Modules the record does not hold are not run (the
+    summary lists them in `not_run`), not stale."""
+    done = recorded_modules(recorded)
+    now = {m.id: (m.original, m.mutated) for m in mutants if m.module in done}
+    was = {k: (r["original"], r["mutated"]) for k, r in recorded.items()}
+    if now == was:
+        return []
+    changed = sorted(set(now) ^ set(was) | {k for k in set(now) & set(was) if now[k] != was[k]})
+    modules = sorted({k.split("/")[0] for k in changed})
+    return [f"the specifications of {', '.join(modules)} changed since their mutation run ({len(changed)} mutants "
+            f"differ, e.g. {', '.join(changed[:3])}): run `make modelcheck-mutate` (about {runtime_s or '?'} s of "
+            f"TLC) or `tools/tla_mutate.py --record --only <Module>/`, and commit {RECORD.relative_to(ROOT)}"]
+
+
+#: The mutation table's kinds (report/urb_report/mutation.py, KINDS) of the generator's kinds.
+TABLE_KINDS = {"bound": "off-by-one", "order": "order", "publish": "missing-effect", "field": "field",
+               "error": "error", "guard": "guard"}
+
+
+def table_rows(results: dict[str, dict[str, Any]], explained: dict[str, Any],
+               hand_written: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The rows the mutation table reads (`{"name", "module", "kind", "killed", "explained"}`): the
+    manifest's must-fail mutants of this `make modelcheck` (build/tla/results.json) and the
+    recorded generated mutants (those that do not parse are no seeded bug and are left out)."""
+    rows = [{"name": str(h["name"]), "module": str(h.get("covers") or h["name"]).split(".")[0].split("_")[0],
+             "kind": "hand-written", "killed": bool(h.get("ok")), "explained": "", "source": "manifest"}
+            for h in hand_written if h.get("kind") == "mutant"]
+    for k, r in sorted(results.items()):
+        if r["status"] == "invalid":
+            continue
+        rows.append({"name": k, "module": r["module"], "kind": TABLE_KINDS.get(r["kind"], r["kind"]),
+                     "killed": r["status"] == "killed",
+                     "explained": "" if r["status"] == "killed" else str(explained.get(k, {}).get("why", "")),
+                     "source": "generated"})
+    return rows
 
 
 def summarise(results: dict[str, dict[str, Any]]) -> dict[str, Any]:
@@ -249,11 +350,14 @@ def summarise(results: dict[str, dict[str, Any]]) -> dict[str, Any]:
 
 
 def write_outputs(record: dict[str, Any], sample_rows: list[dict[str, Any]], problems: list[str],
-                  explained: dict[str, Any], mode: str) -> None:
+                  explained: dict[str, Any], mode: str, missing: dict[str, int] | None = None) -> None:
     results: dict[str, dict[str, Any]] = record.get("mutants", {})
+    hand_written = load_hand_written()
     summary = {
         "tool": "TLC", "generator": "tools/tla_mutagen.py", "mode": mode,
-        "full_run": {k: record.get(k) for k in ("date", "commit", "runtime_s")},
+        "full_run": {k: record.get(k) for k in ("date", "commit", "runtime_s", "module_runtime_s")},
+        "not_run": missing or {},
+        "mutants": table_rows(results, explained, hand_written),
         **summarise(results),
         "survivors": [{"id": k, **{f: r[f] for f in ("original", "mutated", "line")},
                        "status": r["status"], "why": explained.get(k, {}).get("why", "")}
@@ -287,9 +391,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--list", action="store_true", help="print the generated mutants and stop")
     ap.add_argument("--sample", action="store_true", help="check the record and rerun the fixed sample")
     ap.add_argument("--only", metavar="PREFIX", help="run only the mutants whose id starts with PREFIX")
+    ap.add_argument("--survivors", action="store_true",
+                    help="rerun only the mutants the record lists as survived or timeout (after adding a check)")
     ap.add_argument("--record", action="store_true",
                     help=f"write the results of a full run to {RECORD.relative_to(ROOT)} (commit it)")
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="TLC runs at once (one worker each)")
+    ap.add_argument("--timeout", type=float, help="seconds per TLC run (default: the manifest's timeout_s)")
     args = ap.parse_args(argv)
     try:
         plan = load_plan()
@@ -305,58 +412,68 @@ def main(argv: list[str] | None = None) -> int:
     except mc.SetupError as exc:
         print(f"tla_mutate: {exc}", file=sys.stderr)
         return 2
+    if args.timeout:
+        plan.timeout_s = args.timeout
     problems: list[str] = []
     if args.sample:
         recorded: dict[str, dict[str, Any]] = record.get("mutants", {})
-        now = {m.id: (m.original, m.mutated) for m in mutants}
-        was = {k: (r["original"], r["mutated"]) for k, r in recorded.items()}
-        if now != was:
-            changed = sorted(set(now) ^ set(was) | {k for k in set(now) & set(was) if now[k] != was[k]})
-            problems.append(
-                f"the specifications changed since the full mutation run ({len(changed)} mutants differ, e.g. "
-                f"{', '.join(changed[:3])}): run `make modelcheck-mutate` (about "
-                f"{record.get('runtime_s', '?')} s of TLC) and commit {RECORD.relative_to(ROOT)}")
+        problems += stale_modules(mutants, recorded, record.get("runtime_s"))
         problems += check_explanations(recorded, explained)
         chosen = [m for m in sample(mutants, plan.sample_per_module) if m.id in recorded]
     else:
-        chosen = [m for m in mutants if args.only is None or m.id.startswith(args.only)]
+        again = {k for k, r in record.get("mutants", {}).items() if r["status"] in ("survived", "timeout")}
+        chosen = [m for m in mutants if (args.only is None or m.id.startswith(args.only))
+                  and (not args.survivors or m.id in again)]
+    full = not args.sample and args.only is None and not args.survivors
     baseline: dict[str, Any] = record.get("baseline", {})
-    if not args.sample and args.only is None:
-        baseline, bad = check_baseline(plan, java, jar, args.jobs)
-        if bad:
-            for p in bad:
-                print(f"tla_mutate: {p}", file=sys.stderr)
-            return 2
-    start = time.monotonic()
-    results: list[MutantResult] = []
-    with ThreadPoolExecutor(max_workers=args.jobs) as pool:
-        for res in pool.map(lambda m: run_mutant(m, plan.models[m.module], java, jar, plan.timeout_s), chosen):
-            results.append(res)
-            print(f"{res.id:50} {res.status:8} {res.by[:60]:60} {res.runtime_s:6.1f}s", flush=True)
-    total = time.monotonic() - start
+    # a snapshot of spec/tla: every run sees the specifications the mutants were generated from,
+    # whatever is edited meanwhile
+    with tempfile.TemporaryDirectory(prefix="urb-mutate-") as snap_s:
+        snap = Path(snap_s) / "tla"
+        shutil.copytree(SPEC_DIR, snap)
+        if full:
+            baseline, bad = check_baseline(plan, java, jar, args.jobs, snap)
+            if bad:
+                for p in bad:
+                    print(f"tla_mutate: {p}", file=sys.stderr)
+                return 2
+        start = time.monotonic()
+        results: list[MutantResult] = []
+        with ThreadPoolExecutor(max_workers=args.jobs) as pool:
+            for res in pool.map(lambda m: run_mutant(m, plan.models[m.module], java, jar, plan.timeout_s, snap),
+                                chosen):
+                results.append(res)
+                print(f"{res.id:50} {res.status:8} {res.by[:60]:60} {res.runtime_s:6.1f}s", flush=True)
+        total = time.monotonic() - start
     rows = [asdict(r) for r in results]
     if args.sample:
         for row in rows:
             was = record["mutants"][row["id"]]
             row["recorded"] = f"{was['status']} {was['by']}".strip()
-            if (row["status"], row["by"]) != (was["status"], was["by"]):
+            # the status, not the reason: a check added since the full run may be the first
+            # violation TLC finds now, and the recorded one still refutes the mutant
+            if row["status"] != was["status"]:
                 problems.append(f"{row['id']}: {row['status']} {row['by']} now, {row['recorded']} in the full "
                                 f"run ({RECORD.relative_to(ROOT)}); rerun `make modelcheck-mutate`")
-        write_outputs(record, rows, problems, explained, "sample")
+        write_outputs(record, rows, problems, explained, "sample", not_run(mutants, recorded))
     else:
-        full = args.only is None
         fresh = {r["id"]: r for r in rows}
+        if args.record and not full:
+            record = load_json(RECORD)  # again: a run of another module may have recorded meanwhile
         merged = {**record.get("mutants", {}), **fresh} if not full else fresh
         merged = {k: v for k, v in merged.items() if k in {m.id for m in mutants}}
         new_record = {"date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
                       "commit": tree_state()["commit"], "runtime_s": round(total, 1) if full
-                      else record.get("runtime_s"), "baseline": baseline, "mutants": dict(sorted(merged.items()))}
-        problems += check_explanations(new_record["mutants"], explained) if full else \
+                      else record.get("runtime_s"), "baseline": baseline,
+                      "module_runtime_s": module_runtimes(merged),
+                      "mutants": dict(sorted(merged.items()))}
+        problems += check_explanations(new_record["mutants"], explained) if full or args.survivors else \
             [p for p in check_explanations(fresh, explained) if not p.startswith("stale")]
         if args.record:
             RECORD.parent.mkdir(parents=True, exist_ok=True)
             RECORD.write_text(json.dumps(new_record, indent=1) + "\n", encoding="utf-8")
-        write_outputs(new_record, [], problems, explained, "full" if full else f"only {args.only}")
+        mode = "full" if full else ("survivors" if args.survivors else f"only {args.only}")
+        write_outputs(new_record, [], problems, explained, mode, not_run(mutants, new_record["mutants"]))
     s = summarise({r["id"]: r for r in rows})["total"]
     print(f"\n{len(rows)} mutants in {total:.0f} s: {s['killed']} killed, {s['survived']} survived, "
           f"{s['timeout']} timeout, {s['invalid']} invalid (summary: {SUMMARY.relative_to(ROOT)})")

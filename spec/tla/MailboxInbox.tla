@@ -261,9 +261,16 @@ LockFailsOnlyOnConflict ==
 (* in a release), so the ISR's NACKs stop.                                  *)
 ClaimReturned == (appIdx # NONE) ~> (appIdx = NONE)
 
+(* Progress: once the bridge has stopped writing, a lock call gets the     *)
+(* message: its first attempt may have loaded front before the last       *)
+(* commit, a retry loads it again and succeeds (with MaxRetry >= 1).       *)
+LockSucceedsWhenQuiet ==
+    (txs = MaxWrites /\ isrPc = "idle" /\ appPc = "claim" /\ tries = 0) ~> (appPc = "read")
+
 THEOREM Spec => [](TypeOK /\ AppLockExclusive /\ AppReadNotTorn
                           /\ AppReadFresh /\ NoAbortedDelivered /\ IsrWaitFree)
-THEOREM Spec => NackOnlyWhenClaimed /\ LockFailsOnlyOnConflict /\ ClaimReturned
+THEOREM MaxRetry >= 1 => (Spec => NackOnlyWhenClaimed /\ LockFailsOnlyOnConflict /\ ClaimReturned
+                                  /\ LockSucceedsWhenQuiet)
 
 -----------------------------------------------------------------------------
 (* Reachability witnesses (spec/tla/manifest.json lists them per model).   *)
@@ -279,4 +286,5 @@ ReachLockFailsOnFront == appPc = "checkFront" /\ front # a
 ReachLockGivesUp == appPc = "unclaim" /\ tries = MaxRetry
 ReachWholeMessageRead == Len(appGot) = MsgLen
 ReachReadDuringWrite == AppHolds /\ isrPc = "fill"
+ReachQuietLockCall == txs = MaxWrites /\ isrPc = "idle" /\ appPc = "claim" /\ tries = 0
 =============================================================================
