@@ -25,21 +25,11 @@ from __future__ import annotations
 import asyncio
 import threading
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field
 from typing import Any, ClassVar, TypeVar
 
 import urb_msgs
 from urb_msgs import DecodeError, Message, NodeInfo
-from urb_msgs.urb_core import (
-    BRIDGE,
-    BRIDGE_ADDRESS,
-    BridgeCommand,
-    BridgeInfo,
-    BridgeOpcode,
-    BridgeScan,
-    Identification,
-    Status,
-)
+from urb_msgs.urb_core import BRIDGE, BRIDGE_ADDRESS, Identification, Status
 
 from .errors import (
     DuplicateNodeError,
@@ -52,15 +42,12 @@ from .errors import (
     URBError,
     hint,
 )
+from .discovery import DUPLICATE, MISMATCH, UNKNOWN_CLASS, BridgeReport, NodeRecord, _Discovery
 from .managers.base import BusManager, Transfer, decode_message, encode_message
-from .managers.rs232_core import SCAN_ANSWER_NS
+from .raw_node import raw_node_info
 
 M = TypeVar("M", bound=Message)
 Callback = Callable[["NodeRequest"], object]
-
-DUPLICATE = "DUPLICATE"
-MISMATCH = "MISMATCH"
-UNKNOWN_CLASS = "UNKNOWN_CLASS"
 
 
 # --------------------------------------------------------------------------------------------
@@ -263,72 +250,6 @@ def _check_mbox(mbox: int) -> None:
         raise ValueError(f"mailbox {mbox!r}: mailboxes are numbered 0..7")
 
 
-# --------------------------------------------------------------------------------------------
-# Discovery table rows
-# --------------------------------------------------------------------------------------------
-
-@dataclass(eq=False)
-class NodeRecord:
-    """One row of the system table: one node that answered on one (bridge, address)."""
-
-    bridge: BusManager
-    address: int
-    ident: Identification
-    info: NodeInfo | None
-    """The schema's node type for its class (None: class unknown to this host)."""
-    flags: set[str] = field(default_factory=set)
-    active: bool = True
-    """False once a rediscovery no longer found it: requests complete UNKNOWN_NODE."""
-
-    @property
-    def class_id(self) -> int:
-        return self.ident.class_id
-
-    @property
-    def index(self) -> int:
-        return self.ident.index
-
-    @property
-    def name(self) -> str:
-        return self.info.name if self.info is not None else f"class 0x{self.ident.class_id:02x}"
-
-    @property
-    def fingerprint(self) -> int:
-        return self.ident.fingerprint
-
-    @property
-    def expected_fingerprint(self) -> int | None:
-        return self.info.fingerprint if self.info is not None else None
-
-    @property
-    def firmware(self) -> str:
-        return f"{self.ident.fw_major}.{self.ident.fw_minor}.{self.ident.fw_patch}"
-
-    @property
-    def usable(self) -> bool:
-        return self.active and not self.flags
-
-    @property
-    def label(self) -> str:
-        return f"{self.name}:{self.index}"
-
-    @property
-    def location(self) -> str:
-        return f"{self.bridge.name} address {self.address}"
-
-
-@dataclass
-class BridgeReport:
-    """What discovery found on one bridge."""
-
-    manager: BusManager
-    info: BridgeInfo | None = None
-    present: list[int] = field(default_factory=list)
-    records: list[NodeRecord] = field(default_factory=list)
-    problems: list[str] = field(default_factory=list)
-    error: str | None = None
-    """Set when discovery failed as a whole (no bridge answering, bridge lost)."""
-
 
 # --------------------------------------------------------------------------------------------
 # NodeAccessor
@@ -337,12 +258,17 @@ class BridgeReport:
 class NodeAccessor:
     """Access to one discovered node, as if directly attached (whatever bridge it is behind)."""
 
-    def __init__(self, interface: URBInterface, record: NodeRecord) -> None:
-        if record.info is None:
+    def __init__(self, interface: URBInterface, record: NodeRecord, info: NodeInfo | None = None) -> None:
+        """`info`: the layout to use instead of the schema's (`raw_node.raw_node_info`, for a node
+        reached by its address whose layout the schema does not describe)."""
+        layout = info if info is not None else record.info
+        if layout is None:
             raise UnknownClassError(f"{record.name} is not declared in the host's schema")
         self.interface = interface
         self.record = record
-        self.info: NodeInfo = record.info
+        self.info: NodeInfo = layout
+        self.own_layout = info is not None
+        """The mailboxes are the node's own report (raw bytes), not the schema's layout."""
         self._default_callback: Callback | None = None
         self._stats_lock = threading.Lock()
         self.completed = 0
@@ -398,7 +324,7 @@ class NodeAccessor:
         rec = self.record
         if not rec.active:
             return ErrorFlag.UNKNOWN_NODE
-        if MISMATCH in rec.flags:
+        if MISMATCH in rec.flags and not self.own_layout:
             return ErrorFlag.FINGERPRINT_MISMATCH
         mb = self.info.mailbox("outbox" if req.is_read else "inbox", req.mailbox)
         if mb is None or mb.size != req.size:
@@ -487,119 +413,6 @@ class NodeAccessor:
 
 
 # --------------------------------------------------------------------------------------------
-# Discovery (a chain of callbacks, so it runs in real time and in virtual time alike)
-# --------------------------------------------------------------------------------------------
-
-class _Discovery:
-    """BridgeInfo (address 0, outbox 0), optional SCAN command, BridgeScan (outbox 1), then
-    outbox 0 of every present address (Discovery.tla `ScanAddress`: gaps never end a scan)."""
-
-    def __init__(self, manager: BusManager, schema: Mapping[int, NodeInfo], rescan: bool,
-                 on_done: Callable[[BridgeReport], None]) -> None:
-        self.m = manager
-        self.schema = schema
-        self.rescan = rescan
-        self.on_done = on_done
-        self.report = BridgeReport(manager)
-        self._outstanding = 0
-        self._finished = False
-
-    def start(self) -> None:
-        self._send(0, 0, True, BRIDGE.sizes("outbox")[0], self._got_info)
-
-    def _send(self, addr: int, box: int, read: bool, length: int, cb: Callable[[Transfer], None],
-              data: bytes = b"", answer_within_ns: int = 0) -> None:
-        self._outstanding += 1
-
-        def done(t: Transfer) -> None:
-            self._outstanding -= 1
-            cb(t)
-            self._maybe_finish()
-
-        self.m.submit(Transfer(addr, box, read, length, data=data, on_done=done, answer_within_ns=answer_within_ns))
-
-    def _fail(self, text: str) -> None:
-        if self.report.error is None:
-            self.report.error = text
-
-    def _got_info(self, t: Transfer) -> None:
-        if not t.ok or t.response is None:
-            if t.flags & (ErrorFlag.UPLINK_TIMEOUT | ErrorFlag.UPLINK_CHECKSUM | ErrorFlag.BRIDGE_LOST):
-                lost = f" ({self.m.lost_reason})" if self.m.lost_reason else ""
-                self._fail(f"no URB bridge answered on {self.m.name}{lost}: check that the bridge is powered "
-                           f"and connected, and that the baud rate matches its firmware")
-            else:
-                self._fail(f"the bridge on {self.m.name} refused its identification read: {t.flags.describe()}")
-            return
-        try:
-            info = decode_message(BridgeInfo, t.response)
-        except DecodeError as exc:
-            self._fail(f"{self.m.name}: the device answers, but not as a URB bridge of this protocol version ({exc})")
-            return
-        self.report.info = info
-        if info.fifo_depth:
-            self.m.set_window(min(info.fifo_depth, 15))
-        if self.rescan:
-            cmd = encode_message(BridgeCommand(opcode=BridgeOpcode.SCAN))
-            # answered when the scan is over; the scan-map read behind it waits for it
-            self._send(BRIDGE_ADDRESS, 0, False, len(cmd), self._got_scan_ack, data=cmd,
-                       answer_within_ns=SCAN_ANSWER_NS)
-        self._send(BRIDGE_ADDRESS, 1, True, BRIDGE.sizes("outbox")[1], self._got_scan)
-
-    def _got_scan_ack(self, t: Transfer) -> None:
-        if not t.ok:
-            self.report.problems.append(f"the bridge did not accept SCAN ({t.flags.describe()}); using its last scan")
-
-    def _got_scan(self, t: Transfer) -> None:
-        if not t.ok or t.response is None:
-            self._fail(f"reading the scan map of {self.m.name} failed: {t.flags.describe()}: {hint(t.flags)}")
-            return
-        scan = decode_message(BridgeScan, t.response)
-        self.report.present = [a for a in range(1, 128) if scan.present[a]]
-        for addr in self.report.present:
-            self._send(addr, 0, True, Identification.SIZE, self._ident_callback(addr))
-
-    def _ident_callback(self, addr: int) -> Callable[[Transfer], None]:
-        return lambda t: self._got_ident(addr, t)
-
-    IDENT_RETRIES = 2
-    """A present address whose identification read fails with a transient downlink status is
-    read again (a rescan of that address, Discovery.tla's remedy); application requests are never
-    retransmitted."""
-
-    def _got_ident(self, addr: int, t: Transfer, attempt: int = 0) -> None:
-        transient = ErrorFlag.TIMEOUT | ErrorFlag.CHECKSUM | ErrorFlag.BUS_STUCK | ErrorFlag.BUSY | ErrorFlag.UPLINK_CHECKSUM
-        if not t.ok and t.flags & transient and attempt < self.IDENT_RETRIES:
-            self._send(addr, 0, True, Identification.SIZE, lambda tr: self._got_ident(addr, tr, attempt + 1))
-            return
-        if not t.ok or t.response is None:
-            self.report.problems.append(
-                f"{self.m.name} address {addr}: identification read failed ({t.flags.describe()}: {hint(t.flags)}); "
-                f"rescan when the node is back")
-            return
-        try:
-            ident = decode_message(Identification, t.response)
-        except DecodeError as exc:
-            self.report.problems.append(f"{self.m.name} address {addr}: identification does not decode ({exc})")
-            return
-        rec = NodeRecord(self.m, addr, ident, self.schema.get(ident.class_id))
-        if rec.info is None:
-            rec.flags.add(UNKNOWN_CLASS)
-        elif ident.fingerprint != rec.info.fingerprint:
-            rec.flags.add(MISMATCH)
-        elif list(ident.inbox_sizes) != rec.info.sizes("inbox") or list(ident.outbox_sizes) != rec.info.sizes("outbox"):
-            rec.flags.add(MISMATCH)
-            self.report.problems.append(f"{rec.label} at {rec.location}: fingerprint matches but mailbox sizes differ")
-        self.report.records.append(rec)
-
-    def _maybe_finish(self) -> None:
-        if self._outstanding == 0 and not self._finished:
-            self._finished = True
-            self.report.records.sort(key=lambda r: r.address)
-            self.on_done(self.report)
-
-
-# --------------------------------------------------------------------------------------------
 # URBInterface
 # --------------------------------------------------------------------------------------------
 
@@ -616,7 +429,7 @@ class URBInterface:
         self.schema: dict[int, NodeInfo] = {n.class_id: n for n in nodes if n.kind == "node"}
         self.reports: dict[int, BridgeReport] = {}
         self._records: list[NodeRecord] = []
-        self._accessors: dict[int, NodeAccessor] = {}
+        self._accessors: dict[int | tuple[str, int], NodeAccessor] = {}
         self._lock = threading.RLock()
         self.on_bridge_lost: Callable[[BusManager, str], None] | None = None
         """`fn(manager, reason)`, called when a registered bridge's manager detects that the bridge
@@ -766,6 +579,34 @@ class URBInterface:
                 self._accessors[id(rec)] = acc
             return acc
 
+    def node_at(self, manager: BusManager, address: int) -> NodeAccessor:
+        """The accessor of the node that answered discovery at downlink `address` of `manager`'s
+        bridge (0: the bridge itself, `bridge_node`), whatever its class and flags: the address
+        tells duplicates apart. A node whose class and layout fingerprint are the schema's gets the
+        schema's layout (typed messages); any other (UNKNOWN_CLASS, MISMATCH) its mailboxes as
+        the raw bytes of the sizes it reported (`raw_node.RawMailbox`). Raises
+        `NodeNotFoundError` when nothing answered there."""
+        if not 0 <= address <= 127:
+            raise ValueError(f"address {address}: downlink addresses are 1..127 (0 is the bridge)")
+        if address == BRIDGE_ADDRESS:
+            return self.bridge_node(manager)
+        with self._lock:
+            rows = [r for r in self._records if r.active and r.bridge is manager and r.address == address]
+            if not rows:
+                found = ", ".join(f"{r.address} ({r.label})" for r in self._records
+                                  if r.active and r.bridge is manager) or "none"
+                raise NodeNotFoundError(
+                    f"no node answered at address {address} of {manager.name} (addresses that did: {found}). "
+                    f"Check that the node is powered and its address, then rediscover (urb scan PORT).")
+            rec = rows[0]
+            schema_layout = rec.info is not None and MISMATCH not in rec.flags
+            key: int | tuple[str, int] = id(rec) if schema_layout else ("raw", id(rec))
+            acc = self._accessors.get(key)
+            if acc is None:
+                acc = NodeAccessor(self, rec, None if schema_layout else raw_node_info(rec.ident))
+                self._accessors[key] = acc
+            return acc
+
     def bridge_node(self, manager: BusManager) -> NodeAccessor:
         """An accessor for the bridge itself (uplink address 0): outbox 0 `BridgeInfo`, outbox 1
         `BridgeScan`, inbox 0 `BridgeCommand` (rescan, heartbeat period, bus clear)."""
@@ -801,6 +642,9 @@ class URBInterface:
 
 
 __all__ = [
+    "DUPLICATE",
+    "MISMATCH",
+    "UNKNOWN_CLASS",
     "BridgeReport",
     "NodeAccessor",
     "NodeRecord",
