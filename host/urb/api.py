@@ -25,11 +25,20 @@ from __future__ import annotations
 import asyncio
 import threading
 from collections.abc import Callable, Iterable, Mapping
-from typing import Any, ClassVar, TypeVar
+from dataclasses import dataclass, field
+from typing import ClassVar
 
 import urb_msgs
 from urb_msgs import DecodeError, Message, NodeInfo
-from urb_msgs.urb_core import BRIDGE, BRIDGE_ADDRESS, Identification, Status
+from urb_msgs.urb_core import (
+    BRIDGE,
+    BRIDGE_ADDRESS,
+    BridgeCommand,
+    BridgeInfo,
+    BridgeOpcode,
+    BridgeScan,
+    Identification,
+)
 
 from .errors import (
     DuplicateNodeError,
@@ -39,215 +48,83 @@ from .errors import (
     NodeNotFoundError,
     RequestFailed,
     UnknownClassError,
-    URBError,
     hint,
 )
-from .discovery import DUPLICATE, MISMATCH, UNKNOWN_CLASS, BridgeReport, NodeRecord, _Discovery
 from .managers.base import BusManager, Transfer, decode_message, encode_message
+from .managers.rs232_core import SCAN_ANSWER_NS
 from .raw_node import raw_node_info
+from .request import Callback, M, NodeRequest
 
-M = TypeVar("M", bound=Message)
-Callback = Callable[["NodeRequest"], object]
+DUPLICATE = "DUPLICATE"
+MISMATCH = "MISMATCH"
+UNKNOWN_CLASS = "UNKNOWN_CLASS"
 
 
 # --------------------------------------------------------------------------------------------
-# NodeRequest
+# Discovery table rows
 # --------------------------------------------------------------------------------------------
 
-class NodeRequest:
-    """One read or write of one mailbox of one node, and (once complete) its outcome.
+@dataclass(eq=False)
+class NodeRecord:
+    """One row of the system table: one node that answered on one (bridge, address)."""
 
-    Build it with `read`/`write` (or the typed `read_message`/`write_message`), optionally
-    `set_callback`, then `NodeAccessor.submit_request`. A request is submitted once; make a new
-    one for the next cycle (`NodeAccessor.new_request`). In the callback, `ok` tells success;
-    otherwise `flags` holds exactly one `ErrorFlag` and `error` explains it.
-    """
-
-    def __init__(self, node: NodeAccessor) -> None:
-        self.node = node
-        self._mailbox: int | None = None
-        self._read = True
-        self._size = 0
-        self._payload = b""
-        self._callback: Callback | None = None
-        self._transfer: Transfer | None = None
-        self._finished = False
-        self.callback_ns: int | None = None
-        """When the callback was invoked (manager clock)."""
-
-    # -- building -----------------------------------------------------------------------------
-    def read(self, mbox: int, size: int | None = None) -> NodeRequest:
-        """Read outbox `mbox`; `size` defaults to the schema's size (a different size is refused
-        with HOST_SIZE_MISMATCH when submitted)."""
-        _check_mbox(mbox)
-        if size is not None and not 1 <= size <= 32:
-            raise ValueError(f"size = {size}: a mailbox holds 1..32 bytes")
-        mb = self.node.info.mailbox("outbox", mbox)
-        self._mailbox, self._read = mbox, True
-        # an outbox the schema does not have: size 0, refused with HOST_SIZE_MISMATCH on submission
-        self._size = size if size is not None else (mb.size if mb is not None else 0)
-        return self
-
-    def write(self, mbox: int, data: bytes | Message) -> NodeRequest:
-        """Write inbox `mbox` with raw bytes or a message (encoded here)."""
-        _check_mbox(mbox)
-        payload = encode_message(data) if isinstance(data, Message) else bytes(data)
-        if not 1 <= len(payload) <= 32:
-            raise ValueError(f"{len(payload)} data bytes: a mailbox holds 1..32 bytes")
-        self._mailbox, self._read, self._size, self._payload = mbox, False, len(payload), payload
-        return self
-
-    def read_message(self, cls: type[Message], mbox: int | None = None) -> NodeRequest:
-        """Read the outbox that holds `cls` (found in the schema when `mbox` is omitted)."""
-        return self.read(self.node.mailbox_of(cls, "outbox") if mbox is None else mbox)
-
-    def write_message(self, msg: Message, mbox: int | None = None) -> NodeRequest:
-        """Write `msg` to the inbox that takes its type (found in the schema when omitted)."""
-        return self.write(self.node.mailbox_of(type(msg), "inbox") if mbox is None else mbox, msg)
-
-    def set_callback(self, fn: Callback | None) -> NodeRequest:
-        """`fn(request)` runs once when the request completes (on the manager's dispatcher)."""
-        self._callback = fn
-        return self
-
-    # -- outcome ------------------------------------------------------------------------------
-    @property
-    def mailbox(self) -> int:
-        if self._mailbox is None:
-            raise ValueError("the request has no mailbox yet: call read() or write() first")
-        return self._mailbox
+    bridge: BusManager
+    address: int
+    ident: Identification
+    info: NodeInfo | None
+    """The schema's node type for its class (None: class unknown to this host)."""
+    flags: set[str] = field(default_factory=set)
+    active: bool = True
+    """False once a rediscovery no longer found it: requests complete UNKNOWN_NODE."""
 
     @property
-    def is_read(self) -> bool:
-        return self._read
+    def class_id(self) -> int:
+        return self.ident.class_id
 
     @property
-    def size(self) -> int:
-        return self._size
+    def index(self) -> int:
+        return self.ident.index
 
     @property
-    def done(self) -> bool:
-        """The request completed and its callback (if any) has returned."""
-        return self._finished
+    def name(self) -> str:
+        return self.info.name if self.info is not None else f"class 0x{self.ident.class_id:02x}"
 
     @property
-    def flags(self) -> ErrorFlag:
-        """`ErrorFlag.NONE` on success, else the one flag naming the failure."""
-        return self._transfer.flags if self._transfer is not None and self._transfer.done else ErrorFlag.NONE
+    def fingerprint(self) -> int:
+        return self.ident.fingerprint
 
     @property
-    def ok(self) -> bool:
-        return self._transfer is not None and self._transfer.done and self._transfer.flags == ErrorFlag.NONE
+    def expected_fingerprint(self) -> int | None:
+        return self.info.fingerprint if self.info is not None else None
 
     @property
-    def status(self) -> Status | None:
-        """The bridge's status, when the bridge answered."""
-        return self._transfer.status if self._transfer is not None else None
+    def firmware(self) -> str:
+        return f"{self.ident.fw_major}.{self.ident.fw_minor}.{self.ident.fw_patch}"
 
     @property
-    def error(self) -> str | None:
-        """What went wrong and what to do, or None on success."""
-        if self._transfer is None or not self._transfer.done or self.ok:
-            return None
-        why = f" ({self._transfer.lost_reason})" if self._transfer.lost_reason else ""
-        return (f"{self.node.label} {'outbox' if self._read else 'inbox'} {self._mailbox}: "
-                f"{self.flags.describe()}{why}: {hint(self.flags)}")
+    def usable(self) -> bool:
+        return self.active and not self.flags
 
     @property
-    def data(self) -> bytes | None:
-        """Outbox contents of a successful read (None otherwise)."""
-        return self._transfer.response if self._transfer is not None else None
-
-    def message(self, cls: type[M] | None = None) -> Any:
-        """The read data decoded with the schema's message for this outbox (or `cls`).
-
-        Typed use: ``req.message(MotorFeedback)`` returns a `MotorFeedback`. Raises
-        `RequestFailed` when the request failed and `URBError` when the data do not decode."""
-        if not self.ok or self.data is None:
-            raise RequestFailed(self.error or "the request has not completed", self.flags)
-        target: type[Message]
-        if cls is not None:
-            target = cls
-        else:
-            mb = self.node.info.mailbox("outbox", self.mailbox)
-            if mb is None:
-                raise URBError(f"{self.node.label} has no outbox {self.mailbox} in the schema; read raw bytes (.data)")
-            target = mb.message
-        try:
-            return decode_message(target, self.data)
-        except DecodeError as exc:
-            raise URBError(f"{self.node.label} outbox {self.mailbox}: the data do not decode as {target.NAME}: {exc}") from None
-
-    # timestamps (manager clock, ns)
-    @property
-    def submitted_ns(self) -> int | None:
-        return self._transfer.submitted_ns if self._transfer is not None else None
+    def label(self) -> str:
+        return f"{self.name}:{self.index}"
 
     @property
-    def sent_ns(self) -> int | None:
-        return self._transfer.sent_ns if self._transfer is not None else None
-
-    @property
-    def completed_ns(self) -> int | None:
-        """When the response was received and matched (or the failure decided)."""
-        return self._transfer.completed_ns if self._transfer is not None else None
-
-    @property
-    def latency_ns(self) -> int | None:
-        """Round trip as the paper measures it: submission to callback invocation."""
-        t = self._transfer
-        if t is None or self.callback_ns is None:
-            return None
-        return self.callback_ns - t.submitted_ns
-
-    @property
-    def response_latency_ns(self) -> int | None:
-        """Submission to response received (without the dispatcher hand-off)."""
-        t = self._transfer
-        if t is None or t.completed_ns is None:
-            return None
-        return t.completed_ns - t.submitted_ns
-
-    def wait(self, timeout_s: float = 1.0) -> bool:
-        """Block until the request is done (callback returned); False on timeout."""
-        return self.node.manager.wait_until(lambda: self._finished, timeout_s)
-
-    def raise_for_error(self) -> NodeRequest:
-        """Raise `RequestFailed` unless the request succeeded."""
-        if not self.ok:
-            raise RequestFailed(self.error or f"{self.node.label}: request not complete", self.flags)
-        return self
-
-    def __repr__(self) -> str:
-        kind = "read" if self._read else "write"
-        state = self.flags.describe() if self._transfer is not None and self._transfer.done else "pending"
-        return f"<NodeRequest {self.node.label} {kind} {self._mailbox} {state}>"
-
-    # -- internal -----------------------------------------------------------------------------
-    def _make_transfer(self) -> Transfer:
-        if self._mailbox is None:
-            raise ValueError("call read() or write() on the request before submitting it")
-        if self._transfer is not None:
-            raise RuntimeError("this NodeRequest was already submitted; make a new one with node.new_request()")
-        t = Transfer(address=self.node.address, mailbox=self._mailbox, read=self._read,
-                     length=self._size, data=self._payload, on_done=self._on_done, owner=self)
-        self._transfer = t
-        return t
-
-    def _on_done(self, t: Transfer) -> None:
-        self.callback_ns = self.node.manager.now_ns()
-        try:
-            self.node._note(self)
-            cb = self._callback or self.node._default_callback
-            if cb is not None:
-                cb(self)
-        finally:
-            self._finished = True
+    def location(self) -> str:
+        return f"{self.bridge.name} address {self.address}"
 
 
-def _check_mbox(mbox: int) -> None:
-    if not isinstance(mbox, int) or not 0 <= mbox <= 7:
-        raise ValueError(f"mailbox {mbox!r}: mailboxes are numbered 0..7")
+@dataclass
+class BridgeReport:
+    """What discovery found on one bridge."""
+
+    manager: BusManager
+    info: BridgeInfo | None = None
+    present: list[int] = field(default_factory=list)
+    records: list[NodeRecord] = field(default_factory=list)
+    problems: list[str] = field(default_factory=list)
+    error: str | None = None
+    """Set when discovery failed as a whole (no bridge answering, bridge lost)."""
 
 
 
@@ -410,6 +287,155 @@ class NodeAccessor:
 
     def __repr__(self) -> str:
         return f"<NodeAccessor {self.label} at {self.record.location}>"
+
+
+# --------------------------------------------------------------------------------------------
+# Discovery (a chain of callbacks, so it runs in real time and in virtual time alike)
+# --------------------------------------------------------------------------------------------
+
+class _Discovery:
+    """BridgeInfo (address 0, outbox 0), optional SCAN command, BridgeScan (outbox 1), then
+    outbox 0 of every present address (Discovery.tla `ScanAddress`: gaps never end a scan).
+
+    A device on the uplink is believed to be a URB bridge only once its identification read
+    came back OK and decodes as a BridgeInfo that checks (`believed_bridge`). Anything else,
+    whatever bytes came back, is reported in the same words (`no_bridge_answered`): a port that
+    carries noise (a wrong baud rate turns a bridge's answers into noise) passes a frame check by
+    chance (a CRC-8 once in 256 candidates), so the outcome of that one read is no evidence of a
+    bridge, nor of what is wrong with one."""
+
+    def __init__(self, manager: BusManager, schema: Mapping[int, NodeInfo], rescan: bool,
+                 on_done: Callable[[BridgeReport], None]) -> None:
+        self.m = manager
+        self.schema = schema
+        self.rescan = rescan
+        self.on_done = on_done
+        self.report = BridgeReport(manager)
+        self._outstanding = 0
+        self._finished = False
+
+    def start(self) -> None:
+        self._send(0, 0, True, BRIDGE.sizes("outbox")[0], self._got_info)
+
+    def _send(self, addr: int, box: int, read: bool, length: int, cb: Callable[[Transfer], None],
+              data: bytes = b"", answer_within_ns: int = 0) -> None:
+        self._outstanding += 1
+
+        def done(t: Transfer) -> None:
+            self._outstanding -= 1
+            cb(t)
+            self._maybe_finish()
+
+        self.m.submit(Transfer(addr, box, read, length, data=data, on_done=done, answer_within_ns=answer_within_ns))
+
+    def _fail(self, text: str) -> None:
+        if self.report.error is None:
+            self.report.error = text
+
+    def _got_info(self, t: Transfer) -> None:
+        """The bridge's own identification: the only evidence that a URB bridge is there."""
+        info = believed_bridge(t)
+        if info is None:
+            self._fail(no_bridge_answered(self.m))
+            return
+        self.report.info = info
+        self.m.set_window(min(info.fifo_depth, 15))
+        if self.rescan:
+            cmd = encode_message(BridgeCommand(opcode=BridgeOpcode.SCAN))
+            # answered when the scan is over; the scan-map read behind it waits for it
+            self._send(BRIDGE_ADDRESS, 0, False, len(cmd), self._got_scan_ack, data=cmd,
+                       answer_within_ns=SCAN_ANSWER_NS)
+        self._send(BRIDGE_ADDRESS, 1, True, BRIDGE.sizes("outbox")[1], self._got_scan)
+
+    def _got_scan_ack(self, t: Transfer) -> None:
+        if not t.ok:
+            self.report.problems.append(f"the bridge did not accept SCAN ({t.flags.describe()}); using its last scan")
+
+    def _got_scan(self, t: Transfer) -> None:
+        if not t.ok or t.response is None:
+            self._fail(f"reading the scan map of {self.m.name} failed: {t.flags.describe()}: {hint(t.flags)}")
+            return
+        scan = decode_message(BridgeScan, t.response)
+        self.report.present = [a for a in range(1, 128) if scan.present[a]]
+        for addr in self.report.present:
+            self._send(addr, 0, True, Identification.SIZE, self._ident_callback(addr))
+
+    def _ident_callback(self, addr: int) -> Callable[[Transfer], None]:
+        return lambda t: self._got_ident(addr, t)
+
+    IDENT_RETRIES = 2
+    """A present address whose identification read fails with a transient downlink status is
+    read again (a rescan of that address, Discovery.tla's remedy); application requests are never
+    retransmitted."""
+
+    def _got_ident(self, addr: int, t: Transfer, attempt: int = 0) -> None:
+        transient = ErrorFlag.TIMEOUT | ErrorFlag.CHECKSUM | ErrorFlag.BUS_STUCK | ErrorFlag.BUSY | ErrorFlag.UPLINK_CHECKSUM
+        if not t.ok and t.flags & transient and attempt < self.IDENT_RETRIES:
+            self._send(addr, 0, True, Identification.SIZE, lambda tr: self._got_ident(addr, tr, attempt + 1))
+            return
+        if not t.ok or t.response is None:
+            self.report.problems.append(
+                f"{self.m.name} address {addr}: identification read failed ({t.flags.describe()}: {hint(t.flags)}); "
+                f"rescan when the node is back")
+            return
+        try:
+            ident = decode_message(Identification, t.response)
+        except DecodeError as exc:
+            self.report.problems.append(f"{self.m.name} address {addr}: identification does not decode ({exc})")
+            return
+        rec = NodeRecord(self.m, addr, ident, self.schema.get(ident.class_id))
+        if rec.info is None:
+            rec.flags.add(UNKNOWN_CLASS)
+        elif ident.fingerprint != rec.info.fingerprint:
+            rec.flags.add(MISMATCH)
+        elif list(ident.inbox_sizes) != rec.info.sizes("inbox") or list(ident.outbox_sizes) != rec.info.sizes("outbox"):
+            rec.flags.add(MISMATCH)
+            self.report.problems.append(f"{rec.label} at {rec.location}: fingerprint matches but mailbox sizes differ")
+        self.report.records.append(rec)
+
+    def _maybe_finish(self) -> None:
+        if self._outstanding == 0 and not self._finished:
+            self._finished = True
+            self.report.records.sort(key=lambda r: r.address)
+            self.on_done(self.report)
+
+
+
+
+def bridge_info_problem(info: BridgeInfo) -> str:
+    """What makes a decoded BridgeInfo impossible for a working bridge ("" when nothing does);
+    the decoder has already checked the protocol version and the downlink kind."""
+    if info.fifo_depth == 0:
+        return "a request FIFO of depth 0"
+    if info.bitrate_kbps == 0:
+        return "a downlink bit rate of 0 kb/s"
+    return ""
+
+
+def believed_bridge(t: Transfer) -> BridgeInfo | None:
+    """The BridgeInfo of a completed identification read, when it came back OK, decodes and
+    checks; None otherwise (a failed read, a refusal, bytes that are no BridgeInfo)."""
+    if not t.ok or t.response is None:
+        return None
+    try:
+        info = decode_message(BridgeInfo, t.response)
+    except DecodeError:
+        return None
+    return None if bridge_info_problem(info) else info
+
+
+def no_bridge_answered(manager: BusManager) -> str:
+    """Why discovery on `manager` found no bridge, and what to check; the same words whatever
+    bytes came back (random bytes pass a frame check now and then, and mean nothing)."""
+    if manager.lost_reason is not None:
+        heard = manager.lost_reason
+    elif manager.stats.stray_bytes:
+        heard = (f"{manager.stats.stray_bytes} byte(s) came back, none of them a URB bridge's identification: "
+                 f"what a wrong baud rate or another device looks like")
+    else:
+        heard = "nothing came back"
+    return (f"no URB bridge answered on {manager.name} ({heard}). Check that the baud rate matches the bridge "
+            f"firmware's, that {manager.name} is the bridge's device, and that the bridge is powered and connected.")
 
 
 # --------------------------------------------------------------------------------------------

@@ -26,7 +26,7 @@ from rich.table import Table
 
 from urb_msgs import NodeInfo
 
-from .api import NodeAccessor, NodeRecord
+from .api import DUPLICATE, MISMATCH, UNKNOWN_CLASS, NodeAccessor, NodeRecord
 from .cli_args import (
     BAUD,
     COUNT,
@@ -48,7 +48,6 @@ from .cli_args import (
 )
 from .cli_common import EXIT_FAIL, EXIT_OK, connected, console, fail, find, flatten, fmt_value, guarded, request_failure
 from .cli_poll import run_log, run_monitor
-from .discovery import DUPLICATE, MISMATCH, UNKNOWN_CLASS
 from .errors import ErrorFlag
 from .managers.base import encode_message
 
