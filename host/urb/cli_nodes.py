@@ -76,32 +76,40 @@ its mailboxes as raw bytes (message RawMailbox, one field `data`, in hex) of the
 identification reports."""
 
 USAGE_ERRORS = """\
-2 a usage error, with the command's usage line: an option out of range (--timeout above 0
-and at most 60 s, --baud 300..20000000, never NaN or infinity), a port given twice (also
-through a symbolic link), a NODE or MAILBOX that is malformed or that the host's schemas do not
-have (mailbox 9, MotorDriver:x, an unknown node type); all found before any port is opened.
-For a node given by address, a mailbox its identification does not report is a usage error
-too, found once it has answered."""
+  2  a usage error, with the command's usage line and one explanation: an option out of
+     range (never NaN or infinity), a port given twice (also through a symbolic link), a
+     NODE or MAILBOX that is malformed or that the host's schemas do not have (mailbox 9,
+     mailbox -1, MotorDriver:x, an unknown node type); all found before any port is opened.
+     For a node given by address, a mailbox its identification does not report is found once
+     it has answered."""
 
 SCAN_EPILOG = PORTS_TEXT + """
 
-Exit status: 0 every node is usable; 1 a failure (a port missing, not a serial port or not
-permitted, no bridge answering, a node flagged DUPLICATE, MISMATCH or UNKNOWN_CLASS: the lines
-under the table say what to do about each); """ + USAGE_ERRORS
+Exit status:
+  0  every node answered and is usable
+  1  a failure: a port missing, not a serial port or not permitted, no bridge answering, a
+     node flagged DUPLICATE, MISMATCH or UNKNOWN_CLASS (a line under the table says what to
+     do about each)
+""" + USAGE_ERRORS
 
 READ_EPILOG = PORTS_TEXT + "\n\n" + NODES_TEXT + """
 
-Exit status: 0 every read succeeded; 1 a failure (a port missing, not a serial port or not
-permitted, no bridge answering, the node not found or flagged, a read that failed, the bridge
-gone away); """ + USAGE_ERRORS
+Exit status:
+  0  every read succeeded
+  1  a failure: a port missing, not a serial port or not permitted, no bridge answering, the
+     node not found or flagged, a read that failed, the bridge gone away
+""" + USAGE_ERRORS
 
 WRITE_EPILOG = PORTS_TEXT + "\n\n" + NODES_TEXT + """
 
-Exit status: 0 the node stored the message; 1 a failure (a port missing, not a serial port or
-not permitted, no bridge answering, the node not found or flagged, the write refused, the bridge
-gone away); """ + USAGE_ERRORS + """ A FIELD=VALUE or --raw HEX that the
-schema refuses (a value out of range, not a number, the wrong number of bytes) is a usage error
-as well; the message names the field and the values it takes."""
+Exit status:
+  0  the node stored the message
+  1  a failure: a port missing, not a serial port or not permitted, no bridge answering, the
+     node not found or flagged, the write refused or unconfirmed, the bridge gone away
+""" + USAGE_ERRORS + """
+     So is a FIELD=VALUE or --raw HEX that the schema (or the node's identification)
+     refuses: a value out of range or not a number, the wrong number of bytes; the message
+     names the field and the values it takes."""
 
 POLL_EPILOG = PORTS_TEXT + "\n\n" + NODES_TEXT + """
 
@@ -114,10 +122,13 @@ UNKNOWN_NODE). With --no-reconnect (the default of `urb log`) the bridge is no l
 other bridges go on, and the command stops when no bridge is left. At the end, reads still in
 flight are waited for up to --timeout (plus 0.5 s).
 
-Exit status: 0 success, including a bridge that went away and came back; 1 a failure (a port
-missing, not a serial port or not permitted, no bridge answering, a node not found or flagged,
-a node that stopped answering (NO_NODE), a bridge that went away and was not back at the end,
-or a bridge whose last read of every mailbox got no response); """ + USAGE_ERRORS
+Exit status:
+  0  success, also when a bridge went away and came back
+  1  a failure: a port missing, not a serial port or not permitted, no bridge answering, a
+     node not found or flagged, a node that stopped answering (NO_NODE), a bridge that went
+     away and was not back at the end, or a bridge whose last read of every mailbox got no
+     response
+""" + USAGE_ERRORS
 
 
 def register(sub: Any) -> None:

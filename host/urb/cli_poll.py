@@ -42,7 +42,7 @@ from .cli_common import (
     guarded,
     went_away,
 )
-from .errors import ErrorFlag, URBError
+from .errors import ErrorFlag, PortError, URBError
 from .managers.base import BusManager
 
 
@@ -149,8 +149,8 @@ class Reconnector:
             self.attempts += 1
             try:
                 self._reconnect(self.manager)
-            except URBError as exc:
-                self.last_error = str(exc)
+            except URBError as exc:  # a PortError's detail: without the advice meant for a library caller
+                self.last_error = exc.detail if isinstance(exc, PortError) else str(exc)
                 wait = min(2 * wait, self.MAX_WAIT_S)
                 continue
             self.back_after_s = time.monotonic() - self.started

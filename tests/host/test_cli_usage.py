@@ -293,3 +293,20 @@ def test_monitor_without_reconnect_stops_at_the_loss(fake_bridge: Callable[..., 
     finally:
         killer.join()
     assert code == 1 and "stopping (no bridge left)" in err and "reconnecting" not in err, err
+
+
+def test_monitor_says_when_a_bridge_did_not_come_back(fake_bridge: Callable[..., BridgeProc],
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    """Killed (its pty gone): the reconnection attempts fail until the end, which says so, in the
+    command line's words (not the library's "call reconnect() again")."""
+    bp = fake_bridge(["Imu:0@48"])
+    killer = threading.Timer(1.5, bp.kill)
+    killer.start()
+    try:
+        code, _, err = run(capsys, "monitor", str(bp.link), "--node", "Imu", "--rate", "100", "--duration", "4")
+    finally:
+        killer.join()
+    assert code == 1 and "reconnecting in the background" in err, err
+    assert re.search(r"urb: the bridge on \S+ did not come back \(\d+ attempts to reconnect; last attempt: \S+: no "
+                     r"such port\. Check the path and the cable; [^\n]*\)\n", err), err
+    assert "reconnect()" not in err and "is back" not in err

@@ -103,8 +103,9 @@ def test_noise_is_never_a_bridge_and_always_the_same_diagnosis(first_seed: int) 
 
 @pytest.mark.parametrize("status", [s for s in Status if s != Status.OK])
 def test_a_refused_identification_read_is_no_bridge(status: Status) -> None:
-    """A frame that checks, echoes the request's sequence number and carries a refusal: what one
-    random frame in 65536 looks like. It is no evidence of a bridge."""
+    """A frame that checks, echoes the request's sequence number and carries a refusal: what noise
+    produces about once in 8000 bytes (a matching sequence number, a refusal status, a CRC-8 that
+    passes). It is no evidence of a bridge."""
     clock = VirtualClock()
     text = discover(ScriptedLine(clock, lambda req: UplinkResponse(seq=req.seq, status=status).encode()), clock)
     assert says_no_bridge(text) and status.name not in text, text
