@@ -14,7 +14,6 @@ from bridge_proc import BridgeProc, fake_bridge, hosted_bridge  # noqa: F401 (fi
 from urb.api import URBInterface
 from urb.cli import main
 from urb.errors import DuplicateNodeError, ErrorFlag, FingerprintMismatchError, NodeNotFoundError
-from urb.raw_node import RawMailbox
 from urb.managers import BridgeModel, LoopbackByteTransport, SimManager, VirtualClock, fake_node
 from urb_msgs import sensorhex as sx
 
@@ -97,6 +96,8 @@ def test_a_mismatched_node_is_read_raw_by_address_and_the_advice_names_only_mism
 def test_node_at_in_the_api() -> None:
     """URBInterface.node_at: the address tells duplicates apart; a node built from another schema
     gets its own layout (raw bytes), while find_node refuses both."""
+    from urb.raw_node import RawMailbox
+
     clock = VirtualClock()
     bridge = BridgeModel(dict(fake_node(s) for s in ["Imu:0@48", "Imu:0@50", "MotorDriver:0@16!fp=00c0ffee"]))
     m = SimManager(clock, LoopbackByteTransport(clock, bridge), name="sim")
