@@ -11,24 +11,14 @@ from collections.abc import Callable
 import pytest
 
 from bridge_proc import BridgeProc, fake_bridge, hosted_bridge  # noqa: F401 (fixtures)
+from cli_run import run
 from urb.api import URBInterface
-from urb.cli import main
 from urb.errors import DuplicateNodeError, ErrorFlag, FingerprintMismatchError, NodeNotFoundError
 from urb.managers import BridgeModel, LoopbackByteTransport, SimManager, VirtualClock, fake_node
 from urb_msgs import sensorhex as sx
 
 README_NODES = ["motor,0,0x20", "0x42,3,0x30,in1=8,out1=8"]
 """firmware/bridge/README.md, "Hosted bridge program": a motor driver and a generic node."""
-
-
-def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:
-        code = exc.code  # type: ignore[assignment]
-    out, err = capsys.readouterr()
-    assert "Traceback" not in out + err
-    return code, out, err
 
 
 def test_the_readme_generic_node_is_read_and_written_by_address(hosted_bridge: Callable[..., BridgeProc],

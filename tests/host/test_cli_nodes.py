@@ -19,6 +19,7 @@ from typing import Any
 import pytest
 
 from bridge_proc import BridgeProc, build_hosted_bridge, fake_bridge, hosted_bridge  # noqa: F401 (fixtures)
+from cli_run import run, usage_error
 from urb import cli_nodes, cli_poll
 from urb.cli import main
 
@@ -29,27 +30,6 @@ NODES = ["MotorDriver:0@16", "MotorDriver:1@17", "BatteryManager:0@32", "Imu:0@4
 def port(fake_bridge: Callable[..., BridgeProc]) -> tuple[str, BridgeProc]:
     bp = fake_bridge(NODES)
     return str(bp.link), bp
-
-
-def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    code = main(list(argv))
-    out, err = capsys.readouterr()
-    assert "Traceback" not in out + err
-    return code, out, err
-
-
-def usage_error(capsys: pytest.CaptureFixture[str], *argv: str) -> str:
-    """Run a command that must end in a usage error (exit 2, the command's usage line, no
-    traceback, whether argparse or the command itself found it); returns stderr."""
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:
-        code = exc.code  # type: ignore[assignment]
-    out, err = capsys.readouterr()
-    assert "Traceback" not in out + err
-    assert code == 2, err
-    assert err.startswith(f"usage: urb {argv[0]} ") and f"urb {argv[0]}: error: " in err, err
-    return err
 
 
 def test_scan_lists_nodes_and_flags(fake_bridge: Callable[..., BridgeProc], capsys: pytest.CaptureFixture[str]) -> None:

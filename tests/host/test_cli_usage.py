@@ -19,20 +19,10 @@ from pathlib import Path
 import pytest
 
 from bridge_proc import REPO, BridgeProc, fake_bridge  # noqa: F401 (fixture)
-from urb.cli import build_parser, main
+from cli_run import killed_after, run, usage_error
+from urb.cli import build_parser
 from urb_codegen.generate import load_bundled
 from urb_codegen.model import fingerprint_of
-
-
-def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    """`urb ARGV`: (exit status, stdout, stderr); never a traceback."""
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:
-        code = exc.code  # type: ignore[assignment]
-    out, err = capsys.readouterr()
-    assert "Traceback" not in out + err
-    return code, out, err
 
 
 @pytest.fixture
@@ -73,9 +63,7 @@ def test_usage_errors_exit_2_before_any_port_is_opened(never_opened: Path, capsy
                                                        argv: list[str], message: str) -> None:
     if "{p}2" in argv:
         Path(f"{never_opened}2").symlink_to("/dev/zero")
-    code, out, err = run(capsys, *[a.format(p=never_opened) for a in argv])
-    assert code == 2, err
-    assert err.startswith(f"usage: urb {argv[0]} ") and f"urb {argv[0]}: error: " in err, err
+    err = usage_error(capsys, *[a.format(p=never_opened) for a in argv])
     assert message in err, err
     assert "not a serial port" not in err  # refused before the port was opened
 
@@ -195,12 +183,8 @@ def test_a_bridge_that_goes_away_is_said_once(fake_bridge: Callable[..., BridgeP
     """The port failing mid-command: "went away" once, with why (it read "went away (the device
     went away ...)")."""
     bp = fake_bridge(["Imu:0@48"])
-    killer = threading.Timer(1.5, bp.kill)
-    killer.start()
-    try:
+    with killed_after(bp, 1.5):
         code, _, err = run(capsys, "read", str(bp.link), "Imu", "1", "--count", "100000", "--interval", "0.01")
-    finally:
-        killer.join()
     assert code == 1 and err.count("went away") == 1, err
     assert re.search(r"the bridge on \S+ went away \((I/O error: the device was unplugged, or the bridge process ended|"
                      r"it sent nothing for \d+ ms with requests outstanding)\); reconnect it and run the command again",
@@ -285,13 +269,9 @@ def test_monitor_keeps_going_when_its_bridge_stalls_and_comes_back(
 def test_monitor_without_reconnect_stops_at_the_loss(fake_bridge: Callable[..., BridgeProc],
                                                      capsys: pytest.CaptureFixture[str]) -> None:
     bp = fake_bridge(["Imu:0@48"])
-    killer = threading.Timer(2.0, bp.kill)
-    killer.start()
-    try:
+    with killed_after(bp, 2.0):
         code, _, err = run(capsys, "monitor", str(bp.link), "--node", "Imu", "--rate", "100", "--duration", "30",
                            "--no-reconnect")
-    finally:
-        killer.join()
     assert code == 1 and "stopping (no bridge left)" in err and "reconnecting" not in err, err
 
 
@@ -300,12 +280,8 @@ def test_monitor_says_when_a_bridge_did_not_come_back(fake_bridge: Callable[...,
     """Killed (its pty gone): the reconnection attempts fail until the end, which says so, in the
     command line's words (not the library's "call reconnect() again")."""
     bp = fake_bridge(["Imu:0@48"])
-    killer = threading.Timer(1.5, bp.kill)
-    killer.start()
-    try:
+    with killed_after(bp, 1.5):
         code, _, err = run(capsys, "monitor", str(bp.link), "--node", "Imu", "--rate", "100", "--duration", "4")
-    finally:
-        killer.join()
     assert code == 1 and "reconnecting in the background" in err, err
     assert re.search(r"urb: the bridge on \S+ did not come back \(\d+ attempts to reconnect; last attempt: \S+: no "
                      r"such port\. Check the path and the cable; [^\n]*\)\n", err), err
