@@ -393,3 +393,27 @@ def test_errors_of_a_schema_two_others_import_are_reported_once(tmp_path: Path) 
     with pytest.raises(SchemaErrors) as info:
         load(sorted(f.values()))
     assert [(e.location.path, e.location.line) for e in info.value.errors] == [(f["c"], 3)], info.value.render()
+
+
+def test_check_a_folder_checks_its_files(tmp_path: Path) -> None:
+    """`urb schema check DIR` checks the folder's *.urbs files together (it said "cannot read
+    schema: Is a directory")."""
+    good = _folder(tmp_path / "good", core=True, a=NODE.format(m="M", n="N"), b=MSG.format(m="Other"))
+    proc = _check(tmp_path / "good")
+    assert proc.returncode == 0, proc.stderr
+    assert sorted(proc.stdout.splitlines()) == [f"{tmp_path / 'good' / name}.urbs: ok" + rest for name, rest in (
+        ("a", " (1 messages, 0 enums, 1 nodes)"), ("b", " (1 messages, 0 enums, 0 nodes)"),
+        ("core", " (14 messages, 4 enums, 1 nodes)"))], proc.stdout
+    assert set(good) == {"a", "b"}
+    bad = _folder(tmp_path / "bad", a=MSG.format(m="X"), b=MSG.format(m="Y").replace("u8", "u99"))
+    proc = _check(tmp_path / "bad")
+    assert proc.returncode == 1 and f"{bad['b']}:3:8: error:" in proc.stderr and "Is a directory" not in proc.stderr
+    assert "Traceback" not in proc.stderr + proc.stdout
+
+
+def test_check_a_folder_without_schemas_says_so(tmp_path: Path) -> None:
+    (tmp_path / "notes.txt").write_text("no schema here\n")
+    proc = _check(tmp_path)
+    assert proc.returncode == 1 and proc.stdout == ""
+    assert proc.stderr == (f"urb schema check: {tmp_path}: no *.urbs files in this folder; give schema files, or a "
+                           f"folder that holds them\n"), proc.stderr
