@@ -5,8 +5,11 @@
 #                     (the Python tests in tests/sim/ run in the main pytest run of `make check`)
 #   make test-sim-san the experiments on an ASan+UBSan build of the whole simulation (firmware, HALs,
 #                     world) and a leak check of its C API (tests/sim/world_leaks.c): no sanitizer
-#                     report, and a seeded off-by-one (sim_log.h) and leak (world.c) are reported
-#   make sim-report   the full run: `urb sim sensorhex` (HTML summary in build/sim/report/)
+#                     report, and a seeded off-by-one (sim_log.h) and leak (world.c) are reported;
+#                     its `urb sim sensorhex --quick` run is the one in make check that writes the
+#                     evidence records build/evidence/sim-<experiment>.json (issue #36)
+#   make sim-report   the full run: `urb sim sensorhex` (HTML summary in build/sim/report/, evidence
+#                     records in build/evidence/)
 #   make sim-bench    simulated seconds per wall-clock second, and scaling with the node count
 PYTHON ?= python3
 

@@ -48,7 +48,15 @@ traces) PNG figures, and states PASS or FAIL against its acceptance criterion:
            host's USB frames (UsbUplink.tla) and its discovery (Discovery.tla)
 
 Output: DIR/index.html (open it first), DIR/summary.json, and one folder per experiment.
-The same seed gives the same numbers, byte for byte.
+The same seed gives the same numbers, byte for byte. The report's headline names every
+acceptance criterion that is not met and every result that does not reproduce the paper; the
+page ends with the run's provenance (commit, clean tree or not, date, machine, seed, compiler
+and flags of the simulation library, Python).
+
+Evidence: one record per experiment, EVIDENCE/sim-<experiment>.json (default build/evidence),
+one item per acceptance criterion (sim:<experiment>/<criterion>) with its verdict, required and
+measured value, source file and the command that runs it again (report/urb_report/records.py).
+A build with a seeded bug (URBSIM_MUTANT) writes none.
 
 Each experiment ends PASS, FAIL (a criterion is not met) or ERROR (it raised, or its worker
 process died: DIR/<key>/error.txt says why); an ERROR does not stop the others.
@@ -142,6 +150,8 @@ def register(sub: Any) -> None:
                    help="experiments run at once, in as many worker processes (default: the CPUs available, "
                         f"{cpus} here); the results do not depend on it")
     p.add_argument("--no-progress", action="store_true", help="no progress bar (for logs)")
+    p.add_argument("--evidence", type=_folder, default=REPO / "build" / "evidence", metavar="DIR",
+                   help="folder of the evidence records, sim-<experiment>.json (default build/evidence)")
     p.set_defaults(run=run_sensorhex)
     w = simsub.add_parser("sweep", help=SUBCOMMANDS["sweep"], description=SWEEP_HELP,
                           formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -190,21 +200,38 @@ def run_sensorhex(args: argparse.Namespace) -> int:
         return 2
     if not _ready("urb sim sensorhex: cannot write the report into", args.out):
         return 2
-    from .report import write_report
+    problem = _unwritable(args.evidence)
+    if problem:
+        print(f"urb sim sensorhex: cannot write the evidence records into {args.evidence}: {problem}; choose another "
+              "--evidence DIR", file=sys.stderr)
+        return 2
+    from . import evidence
+    from .report import headline, write_report
 
     out: Path = args.out
     t0 = time.perf_counter()
     with _progress(not args.no_progress) as progress:
         results = run_experiments(keys, out, quick=args.quick, seed=args.seed, jobs=args.jobs, progress=progress)
     wall = time.perf_counter() - t0
-    path = write_report(out, results, seed=args.seed, quick=args.quick, overrides={}, wall_s=wall)
+    # stamped when written, as the records are
+    path = write_report(out, results, seed=args.seed, quick=args.quick, overrides={}, wall_s=wall,
+                        provenance=evidence.page_provenance(args.seed, keys))
+    records = evidence.write(results, seed=args.seed, quick=args.quick, out=out, evidence_dir=args.evidence)
     for r in results:
         print(f"{r.verdict:<5} {r.key:<8} {r.title}")
         for c in r.checks:
             if not c.passed:
                 print(f"        failed: {c.name}: required {c.required}; measured {c.measured}")
+    sentence, lines = headline(results)
+    print(sentence)
+    for line in lines:
+        print(f"  - {line}")
     sim_s = sum(r.sim_s for r in results)
     print(f"{sim_s:.1f} s simulated in {wall:.1f} s; report: {path}")
+    if records:
+        print(f"evidence: {len(records)} record(s) in {args.evidence} (sim-<experiment>.json)")
+    else:
+        print(f"evidence: none written: this build has the seeded bug URBSIM_MUTANT={evidence.mutant_build()}")
     return 0 if all(r.passed for r in results) else 1
 
 

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from urb.cli import main
+from urb_report.records import read_record
 
 
 def test_sim_help(capsys: pytest.CaptureFixture[str]) -> None:
@@ -43,13 +44,54 @@ def test_sim_unwritable_output_is_refused_before_the_run(tmp_path: Path, capsys:
     assert blocker.read_text() == "not a folder"
 
 
-def test_sim_report(tmp_path: Path) -> None:
-    assert main(["sim", "sensorhex", "--quick", "--only", "fig16", "--out", str(tmp_path), "--no-progress"]) == 0
+def test_sim_unwritable_evidence_folder_is_refused_before_the_run(tmp_path: Path,
+                                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a folder")
+    assert main(["sim", "sensorhex", "--quick", "--only", "faults", "--out", str(tmp_path / "report"),
+                 "--evidence", str(blocker / "evidence")]) == 2
+    err = capsys.readouterr().err
+    assert (f"cannot write the evidence records into {blocker / 'evidence'}: Not a directory; choose another "
+            "--evidence DIR") in err
+    assert not (tmp_path / "report" / "faults").exists()
+
+
+def test_sim_report(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A run writes the report, stamped with its provenance, and one evidence record per experiment
+    (issue #36): an item per acceptance criterion with its verdict, required and measured value,
+    seed, source and the command that runs it again."""
+    evidence = tmp_path / "evidence"
+    assert main(["sim", "sensorhex", "--quick", "--only", "fig16", "--out", str(tmp_path), "--no-progress",
+                 "--evidence", str(evidence)]) == 0
     html = (tmp_path / "index.html").read_text()
     assert "PASS" in html and "fig16_usb_latency.png" in html
     assert "<code>urb sim sensorhex --quick --seed 1</code>" in html  # reproduces this run, quick included
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["passed"] and summary["experiments"][0]["key"] == "fig16"
+    assert summary["headline"] == ["All acceptance criteria met, and every result reproduces the paper."]
+    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, check=True).stdout.strip()
+    prov = summary["provenance"]
+    assert prov["commit"] == commit and prov["seed"] == 1 and isinstance(prov["clean"], bool)
+    assert {"simulation library compiler", "simulation library flags", "Python"} <= set(prov["tools"])
+    assert f"<td>{commit} (" in html and f"commit {commit[:12]}" in html
+    assert "<td>simulation library flags</td><td>-std=c99 -O3" in html and "<td>Python</td><td>CPython 3." in html
+
+    [path] = sorted(evidence.glob("*.json"))
+    assert path.name == "sim-fig16.json"
+    record = read_record(path)
+    assert record.activity == "sim" and record.provenance["commit"] == commit and record.provenance["seed"] == 1
+    assert set(record.tools) == {"simulation library compiler", "simulation library flags", "Python"}
+    assert record.config["quick"] is True and record.config["build"] == "optimised"
+    checks = summary["experiments"][0]["checks"]
+    assert [i.id for i in record.items] == ["sim:fig16/every-request-answered", "sim:fig16/bounded-by-three-frames",
+                                            "sim:fig16/constant"]
+    for item, check in zip(record.items, checks):
+        assert (item.kind, item.verdict, item.expected, item.measured) == ("criterion", "pass", check["required"],
+                                                                          check["measured"])
+        assert item.source == "sim/urb_sim/experiments/latency.py"
+        assert item.rerun == "urb sim sensorhex --seed 1 --quick --only fig16"
+        assert item.data["seed"] == 1
+    assert f"evidence: 1 record(s) in {evidence}" in capsys.readouterr().out
 
 
 def test_sim_help_lists_each_subcommand_once(capsys: pytest.CaptureFixture[str]) -> None:
@@ -80,8 +122,11 @@ def test_sim_usage_error_names_the_command(capsys: pytest.CaptureFixture[str]) -
 
 
 def _without_wall_times(summary: dict[str, object]) -> dict[str, object]:
+    """The summary without what differs from run to run: wall times and the provenance's date."""
     experiments = [{k: v for k, v in e.items() if k != "wall_s"} for e in summary["experiments"]]  # type: ignore[attr-defined]
-    return {**{k: v for k, v in summary.items() if k != "wall_s"}, "experiments": experiments}
+    provenance = {k: v for k, v in summary["provenance"].items() if k != "date"}  # type: ignore[attr-defined]
+    return {**{k: v for k, v in summary.items() if k != "wall_s"}, "experiments": experiments,
+            "provenance": provenance}
 
 
 def test_parallel_experiments_give_the_serial_results(tmp_path: Path) -> None:
@@ -89,7 +134,7 @@ def test_parallel_experiments_give_the_serial_results(tmp_path: Path) -> None:
     for jobs in ("1", "3"):
         out = tmp_path / f"jobs{jobs}"
         assert main(["sim", "sensorhex", "--quick", "--only", only, "--jobs", jobs, "--out", str(out),
-                     "--no-progress"]) == 0
+                     "--no-progress", "--evidence", str(out / "evidence")]) == 0
     serial, parallel = tmp_path / "jobs1", tmp_path / "jobs3"
     files = sorted(p.relative_to(serial) for p in serial.rglob("*") if p.is_file() and p.suffix in (".csv", ".png"))
     assert len(files) >= 6

@@ -779,7 +779,7 @@ static void test_i2c(void)
 /* ---------------------------------------------------------------- USB */
 
 typedef struct {
-    urbsim_ns_t t_out, t_in_req, t_read;
+    urbsim_ns_t t_sof, t_out, t_in_req, t_read;
     uint32_t out_len, read_len;
     uint8_t in_data[64];
     uint32_t in_len;
@@ -790,7 +790,7 @@ static void td_sof(void *ctx, uint16_t f, urbsim_ns_t t)
 {
     tdev_t *d = ctx;
     (void)f;
-    (void)t;
+    d->t_sof = t;
     d->sofs++;
 }
 static void td_out(void *ctx, const uint8_t *data, uint32_t len, urbsim_ns_t t)
@@ -839,11 +839,19 @@ static void test_usb(void)
     CHECK_EQ(urbsim_usb_transfer_bits(&u, zeros, 512), 8u * 625u + 113u);
     urbsim_usb_run(&u);
     /* Submit an OUT at 0.1 ms (before the SOF at 0.25 ms): it runs in that frame after the SOF
-     * packet (43 bits = 3583 ns): OUT of 10 bytes ends at 250000 + 3583 + 16083 = 269666 ns. The
-     * write callback (20 us later) submits the IN, served in the next frame: IN token at
-     * 1250000 + 3583 = 1253583, 10 bytes end 1269666, read callback at 1289666. */
+     * packet and the inter-packet gap. The SOF packet is 35 bits like a token (SYNC 8, PID 8, frame
+     * 11, CRC5 5, EOP 3): the device sees it at 250000 + 2917 ns (a 43-bit packet, 3583 ns, before
+     * 2026-11-28). The OUT's token follows 8 bit times later (35 + 8 bits = 3583 ns): OUT of 10
+     * bytes ends at 250000 + 3583 + 16083 = 269666 ns. The write callback (20 us later) submits the
+     * IN, served in the next frame: IN token at 1250000 + 3583 = 1253583, 10 bytes end 1269666,
+     * read callback at 1289666. */
     urbsim_kernel_run_until(&k, 100 * URBSIM_NS_PER_US);
     CHECK(urbsim_usb_write(&u, 0, zeros, 10));
+    urbsim_kernel_run_until(&k, 250 * URBSIM_NS_PER_US + 2916u);
+    CHECK_EQ(td.sofs, 0);
+    urbsim_kernel_run_until(&k, 250 * URBSIM_NS_PER_US + 2917u);
+    CHECK_EQ(td.sofs, 1);
+    CHECK_EQ(td.t_sof, 252917u);
     urbsim_kernel_run_until(&k, 3 * URBSIM_NS_PER_MS);
     CHECK_EQ(td.t_out, 269666u);
     CHECK_EQ(td.out_len, 10u);
@@ -1240,10 +1248,10 @@ static void test_usb_frame_edges(void)
     CHECK_EQ(urbsim_usb_attach(&u, &dev), 0);
     urbsim_usb_run(&u);
     urbsim_kernel_run_until(&k, 300 * URBSIM_NS_PER_US);
-    CHECK_EQ(d.sof_t, 250000u + 3583u);
+    CHECK_EQ(d.sof_t, 250000u + 2917u); /* the end of the 35-bit SOF packet */
     CHECK_EQ(d.sof_now, d.sof_t);
     /* Frame 1 starts at 1.25 ms; its usable part ends at 2.25 ms - 4 us = 2 246 000 ns, 11 909 bits
-     * after the SOF packet. Fill it with OUT transfers so that the IN token would come 120..360 bits
+     * after the first token's slot (the SOF packet and the inter-packet gap, 43 bits). Fill it with OUT transfers so that the IN token would come 120..360 bits
      * before that end: a NAK (70 bits) would fit, not a transaction with a full data packet (the IN
      * asks for 512 bytes: 64 bytes, 625 bits, + 85 bits of worst-case stuffing = 710), nor the
      * 40-byte answer (35 + 8 + 35 + 320 + 8 + 19 + 8 = 433 bits, 36.1 us), which ran over the end. */
@@ -1353,8 +1361,9 @@ static void test_usb_handshakes(void)
     CHECK(!u.nak_next_frame);
     urbsim_usb_run(&u);
     static uint8_t zeros[16];
-    /* Frame 1 (SOF 1.25 ms, its packet ends 1 253 583): an IN, then a 10-byte OUT, both submitted
-     * before it. The device arms 10 bytes 4 us after the SOF packet. The IN token at 1 253 583
+    /* Frame 1 (SOF 1.25 ms, its packet ends 1 252 917, the first token 8 bit times later at
+     * 1 253 583): an IN, then a 10-byte OUT, both submitted before it. The device arms 10 bytes 4 us
+     * after that token's slot. The IN token at 1 253 583
      * finds nothing: NAK (70 bits, 5833 ns). The OUT follows (193 bits, 16 083 ns: 1 259 416 to
      * 1 275 499), then the IN again: 10 bytes (193 bits) to 1 291 582, read callback 20 us later. */
     urbsim_kernel_run_until(&k, 1 * URBSIM_NS_PER_MS);
@@ -1370,7 +1379,7 @@ static void test_usb_handshakes(void)
     CHECK_EQ(d.in_done_t, 1291582u);
     CHECK_EQ(d.read_t, 1291582u + 20000u);
     /* Frame 3 (SOF 3.25 ms): an IN submitted before it finds nothing and is retried back to back
-     * (nothing else is scheduled in the frame) until the device arms, 20 us after the SOF packet:
+     * (nothing else is scheduled in the frame) until the device arms, 20 us after the first token:
      * tokens at 3 253 583 + j * 5833 ns, the 5th (3 276 915) is the first after the arming. An OUT
      * submitted after the SOF (at 3.26 ms) is not in the frame's schedule: the retried IN does not
      * let it in, it goes in frame 4 (SOF 4.25 ms), the first transaction: 4 253 583 + 16 083. */

@@ -17,7 +17,12 @@ Metrics, per run (20 runs, seeds seed..seed+19):
   single-node jitter          standard deviation of a node's ACQ_END period over the steady state
                               (mean of the two nodes), and the largest deviation from the mean period;
   data age                    time from a node's last ACQ_END to the bridge's read of it (Fig. 11).
-Table I's "average" and "max" columns are the mean and the largest of the per-run figures.
+The report's "average" and "max of runs" columns are the mean and the largest of the per-run
+figures, and "worst single cycle" the largest single cycle of any run's steady state (the largest
+|difference| of one cycle; the largest deviation of one ACQ_END period from its node's mean
+period; the oldest single read). The paper's Table I gives "Average" and "Max" of 20 experiments
+and does not say whether its Max is the largest per-experiment figure or the largest single
+cycle its oscilloscope saw, so both must be within it (DEFINITIONS, shown next to ours).
 
 One procedure, as booted: nothing happens after discovery but the 1-kHz reads. Each node's phase
 lead is its measured acquisition time t_acq, a windowed maximum (firmware/node/README.md), so an
@@ -39,6 +44,33 @@ from . import Progress, Result, no_progress, pyplot, write_csv
 
 PAPER = {"convergence_ms": (78.4, 88.4), "internode_us": (0.19, 0.56), "jitter_us": (0.92, 1.33)}
 THRESHOLD_NS = 2000
+
+#: What every column of Table I means: the paper's words (Sec. VI-C and Table I's caption: "for 20
+#: experiments measuring key transitions with an oscilloscope", "Average" and "Max") next to the
+#: simulation's, per metric: (metric, paper's definition, paper's Average, paper's Max, ours).
+DEFINITIONS = [
+    ("initial convergence delay",
+     "\"the time it takes for all nodes to converge to the same heartbeat period and phase\"",
+     "\"Average\" of the 20 experiments (not defined further)", "\"Max\" of the 20 experiments: one delay each, so the "
+     "largest of them",
+     "from the first SYNC until both nodes' ACQ_END stay within 2 us of their final phase against SYNC and of "
+     "the SYNC period; average: mean of the runs' figures; max of runs: the largest (one figure per run, so no "
+     "single-cycle worst case)"),
+    ("inter-node difference in t_acq_end",
+     "\"the time difference between any two nodes on the same bus\" (of the end of acquisition)",
+     "\"Average\" of the 20 experiments (not defined further)", "\"Max\" of the 20 experiments, not defined further: "
+     "the largest experiment's figure, or the largest single difference the oscilloscope saw",
+     "per run: mean |t_acq_end(A) - t_acq_end(B)| over the steady state (the run's last 300 ms); average: mean of "
+     "the runs' figures; max of runs: the largest run's mean; worst single cycle: the largest |difference| of "
+     "one cycle in any run's steady state"),
+    ("single-node jitter on t_acq_end",
+     "\"the variation in the heartbeat period of a single node\"",
+     "\"Average\" of the 20 experiments (not defined further)", "\"Max\" of the 20 experiments, not defined further: "
+     "the largest experiment's figure, or the largest single period deviation the oscilloscope saw",
+     "per run: the standard deviation of a node's ACQ_END period over the steady state (mean of the two nodes); "
+     "average: mean of the runs' figures; max of runs: the largest run's; worst single cycle: the largest "
+     "deviation of one period from its node's mean period in any run's steady state"),
+]
 
 
 @dataclass
@@ -189,30 +221,44 @@ def table1(out: Path, *, quick: bool = False, seed: int = 100, progress: Progres
                                  r.jitter_us, r.jitter_max_us, r.age_mean_us, r.age_max_us, r.failed_reads)
                                 for label, bucket, _ in plan for r in bucket)))
 
-    def avg_max(vals: list[float]) -> tuple[float, float]:
-        v = [x for x in vals if x == x]
-        return (statistics.mean(v), max(v)) if v else (float("nan"), float("nan"))
+    def stats(per_run: list[float], worst: list[float]) -> tuple[float, float, float]:
+        """(mean and largest of the runs' figures, worst single cycle) of the runs that gave them."""
+        v, w = [x for x in per_run if x == x], [x for x in worst if x == x]
+        nan = float("nan")
+        return (statistics.mean(v) if v else nan, max(v) if v else nan, max(w) if w else nan)
 
-    conv = avg_max([r.convergence_ms for r in synced])
-    inter = avg_max([r.internode_us for r in synced])
-    jit = avg_max([r.jitter_us for r in synced])
-    age_s = avg_max([r.age_mean_us for r in synced])
-    age_f = avg_max([r.age_mean_us for r in free])
-    inter_f = avg_max([r.internode_us for r in free])
-    rows = [("initial convergence delay (ms)", conv, PAPER["convergence_ms"]),
-            ("inter-node difference in t_acq_end (us)", inter, PAPER["internode_us"]),
-            ("single-node jitter on t_acq_end (us)", jit, PAPER["jitter_us"])]
-    for name, (av, mx), (pav, pmx) in rows:
-        res.table.append({"metric": name, "sim_average": round(av, 3), "sim_max": round(mx, 3),
-                          "paper_average": pav, "paper_max": pmx})
-        res.check(name, f"average <= {pav} and max <= {pmx} (match or beat the paper)",
-                  f"average {av:.3f}, max {mx:.3f}", av <= pav and mx <= pmx)
-    res.table.append({"metric": "unsynchronised: inter-node difference (us)", "sim_average": round(inter_f[0], 1),
-                      "sim_max": round(inter_f[1], 1), "paper_average": "", "paper_max": ""})
-    res.table.append({"metric": "data age at the bridge's read, synchronised (us)", "sim_average": round(age_s[0], 1),
-                      "sim_max": round(age_s[1], 1), "paper_average": "", "paper_max": ""})
-    res.table.append({"metric": "data age at the bridge's read, unsynchronised (us)", "sim_average": round(age_f[0], 1),
-                      "sim_max": round(age_f[1], 1), "paper_average": "", "paper_max": ""})
+    conv = stats([r.convergence_ms for r in synced], [])
+    inter = stats([r.internode_us for r in synced], [r.internode_max_us for r in synced])
+    jit = stats([r.jitter_us for r in synced], [r.jitter_max_us for r in synced])
+    age_s = stats([r.age_mean_us for r in synced], [r.age_max_us for r in synced])
+    age_f = stats([r.age_mean_us for r in free], [r.age_max_us for r in free])
+    inter_f = stats([r.internode_us for r in free], [r.internode_max_us for r in free])
+    # (metric, figures, the paper's, whether it has single cycles: convergence is one figure per run)
+    rows = [("initial convergence delay (ms)", conv, PAPER["convergence_ms"], False),
+            ("inter-node difference in t_acq_end (us)", inter, PAPER["internode_us"], True),
+            ("single-node jitter on t_acq_end (us)", jit, PAPER["jitter_us"], True)]
+    for name, (av, mx, worst), (pav, pmx), per_cycle in rows:
+        res.table.append({"metric": name, "paper average": pav, "paper max": pmx, "sim average": round(av, 3),
+                          "sim max of runs": round(mx, 3),
+                          "sim worst single cycle": round(worst, 3) if per_cycle else "(one figure per run)"})
+        if not per_cycle:
+            res.check(name, f"average <= {pav} and max <= {pmx} (match or beat the paper)",
+                      f"average {av:.3f}, max {mx:.3f}", av <= pav and mx <= pmx)
+        else:
+            res.check(name, f"average <= {pav}, and max <= {pmx} under both readings of the paper's Max: the "
+                      "largest run's figure and the worst single cycle (match or beat the paper)",
+                      f"average {av:.3f}, max of runs {mx:.3f}, worst single cycle {worst:.3f}",
+                      av <= pav and mx <= pmx and worst <= pmx)
+    for name, (av, mx, worst) in [("unsynchronised: inter-node difference (us)", inter_f),
+                                  ("data age at the bridge's read, synchronised (us)", age_s),
+                                  ("data age at the bridge's read, unsynchronised (us)", age_f)]:
+        res.table.append({"metric": name, "paper average": "", "paper max": "", "sim average": round(av, 1),
+                          "sim max of runs": round(mx, 1), "sim worst single cycle": round(worst, 1)})
+    res.tables.append(("What each column means: the paper's definition next to the simulation's (the paper: Sec. "
+                       "VI-C and Table I, 20 experiments measured with an oscilloscope)",
+                       [{"metric": m, "paper's definition": d, "paper's Average": a, "paper's Max": x,
+                         "simulation's (average, max of runs, worst single cycle)": ours}
+                        for m, d, a, x, ours in DEFINITIONS]))
     fails = sum(r.failed_reads for r in synced + free)
     res.check("reads answered", "every host read of both nodes completes OK", f"{fails} failed", fails == 0)
     res.check("Fig. 11 vs Fig. 12", "synchronisation makes data fresher: mean data age synchronised < unsynchronised",
@@ -221,7 +267,7 @@ def table1(out: Path, *, quick: bool = False, seed: int = 100, progress: Progres
     res.notes.append("No inbox-0 RESET after discovery: every figure is from the runs as booted (the phase lead "
                      "t_acq is a windowed maximum that forgets acquisitions the start-up scan preempted).")
     res.notes.append(f"Steady-state thresholds: {THRESHOLD_NS / 1e3:.0f} us; jitter = standard deviation of the "
-                     f"ACQ_END period; the per-cycle worst cases are in table1_sync_runs.csv.")
+                     f"ACQ_END period; each run's figures and worst cycles are in table1_sync_runs.csv.")
     return res
 
 
