@@ -33,6 +33,8 @@ updates and needs no inbox-0 RESET.
 from __future__ import annotations
 
 import bisect
+import math
+import random
 import statistics
 import time
 from dataclasses import dataclass, field
@@ -94,6 +96,25 @@ def _wrap(d: float, period: float) -> float:
     return (d + period / 2) % period - period / 2
 
 
+class Scope:
+    """Table I's marks as an oscilloscope sees them (scope.sample_ns, scope.skew_ns; sim/profiles): every
+    channel sampled on one grid of `sample_ns` whose phase the trigger sets (drawn per run), each
+    mark's path (GPIO pin, probe, channel) late by a fixed skew drawn per node in [0, skew_ns]. An
+    edge is seen at the first sample at or after it. sample_ns 0: true (virtual) time."""
+
+    def __init__(self, seed: int, sample_ns: float, skew_ns: float, channels: int) -> None:
+        rng = random.Random(f"scope/{seed}")
+        self.sample_ns = sample_ns
+        self.phase = rng.uniform(0.0, sample_ns) if sample_ns > 0 else 0.0
+        self.skew = [rng.uniform(0.0, skew_ns) for _ in range(channels)]
+
+    def see(self, channel: int, times: list[int]) -> list[int]:
+        if self.sample_ns <= 0:
+            return times
+        d, ph, sk = self.sample_ns, self.phase, self.skew[channel]
+        return [int(math.ceil((t + sk - ph) / d) * d + ph) for t in times]
+
+
 def one_run(seed: int, synced: bool, duration_ms: int, steady_ms: int = 300) -> Run:
     s = System(seed=seed, probe_out=6, params={"node.sync": 1.0 if synced else 0.0, "bridge.heartbeat_sof": 1.0})
     b = s.bridge("usb")
@@ -107,6 +128,7 @@ def one_run(seed: int, synced: bool, duration_ms: int, steady_ms: int = 300) -> 
             marks[n].extend(s.world.node_marks(n))
         bmarks.extend(s.world.bridge_marks(b))
 
+    scope = Scope(seed, s.world.get("scope.sample_ns"), s.world.get("scope.skew_ns"), 3)
     s.start(settle_ms=40)
     drain()
     nodes = [s.urb.find_node(0x7E, 0), s.urb.find_node(0x7E, 1)]
@@ -126,9 +148,10 @@ def one_run(seed: int, synced: bool, duration_ms: int, steady_ms: int = 300) -> 
         drain()
     s.close()
 
-    acq = {n: [t for t, k, _ in marks[n] if k == Mark.ACQ_END] for n in (na, nb)}
+    # the SYNC on the bus (channel 0) and each node's ACQ_END pin (channels 1, 2), as the scope sees them
+    acq = {n: scope.see(1 + i, [t for t, k, _ in marks[n] if k == Mark.ACQ_END]) for i, n in enumerate((na, nb))}
     reads = {n: [t for t, k, _ in marks[n] if k == Mark.READ] for n in (na, nb)}
-    syncs = [t for t, k, v in bmarks if k == Mark.BRIDGE_SYNC and v == 1]
+    syncs = scope.see(0, [t for t, k, v in bmarks if k == Mark.BRIDGE_SYNC and v == 1])
     if not syncs or len(acq[na]) < 100 or len(acq[nb]) < 100:
         return run
     t_sync0 = syncs[0]
