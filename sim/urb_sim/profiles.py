@@ -23,6 +23,7 @@ the paper (table1 checks them).
     statistic = "average"          # average | max of runs
     paper = 0.19
     tolerance = 0.06               # absolute, in the metric's unit
+    required = true                # false: reported (a deviation when missed), with `why`
 
 The loader refuses what it cannot trust, with a message that says what to change: an unknown key,
 an unknown parameter, a value without a source, a parameter set twice, a value outside its
@@ -74,7 +75,7 @@ RANGES: dict[str, tuple[float, float]] = {
 T_RISE_NS = ((100e3, 1000.0), (400e3, 300.0), (1e6, 120.0))
 ALLOWED = {"profile": {"title", "about"},
            "assumption": {"param", "value", "from_code", "source", "affects"},
-           "target": {"metric", "statistic", "paper", "tolerance", "why"}}
+           "target": {"metric", "statistic", "paper", "tolerance", "required", "why"}}
 
 
 class ProfileError(ValueError):
@@ -100,6 +101,8 @@ class Target:
     statistic: str
     paper: float
     tolerance: float
+    #: True: table1 checks it (the calibration's claim); False: reported, a deviation when missed
+    required: bool = True
     why: str = ""
 
     def holds(self, value: float) -> bool:
@@ -260,7 +263,12 @@ def _targets(where: str, raw: Any) -> list[Target]:
         paper, tol = entry.get("paper"), entry.get("tolerance")
         if not isinstance(paper, (int, float)) or not isinstance(tol, (int, float)) or tol <= 0:
             raise ProfileError(f"{where}: target {i}: `paper` must be a number and `tolerance` a positive one")
-        out.append(Target(str(metric), str(stat), float(paper), float(tol), str(entry.get("why", ""))))
+        required = entry.get("required", True)
+        if not isinstance(required, bool):
+            raise ProfileError(f"{where}: target {i}: `required` is true or false")
+        if not required and not str(entry.get("why", "")).strip():
+            raise ProfileError(f"{where}: target {i}: a target that is not required says why (`why`)")
+        out.append(Target(str(metric), str(stat), float(paper), float(tol), required, str(entry.get("why", ""))))
     return out
 
 

@@ -92,7 +92,8 @@
     X(PROBE_IN, "probe.in_size", 0.0, "probe inbox 1 size, bytes (0: none)")                         \
     X(PROBE_FILL, "probe.fill_counter", 0.0, "1: every probe outbox byte carries the update counter (trace validation)") \
     X(SCOPE_SAMPLE, "scope.sample_ns", 0.0, "Table I's marks as an oscilloscope samples them: sample period, ns (0: true time)") \
-    X(SCOPE_SKEW, "scope.skew_ns", 0.0, "largest fixed skew of one mark's path (pin, probe, channel), ns (drawn per node)")
+    X(SCOPE_SKEW, "scope.skew_ns", 0.0, "largest fixed skew of one mark's path (pin, probe, channel), ns (drawn per node)") \
+    X(SCOPE_PPM, "scope.ppm", 0.0, "the oscilloscope's timebase error against true time, ppm")
 
 #define URBSIM_PARAM_ENUM(id, name, def, doc) P_##id,
 enum { URBSIM_PARAMS(URBSIM_PARAM_ENUM) P_COUNT };
