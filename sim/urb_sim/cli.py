@@ -220,6 +220,8 @@ def register(sub: Any) -> None:
     w.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run on the Dask cluster whose scheduler is at ADDRESS (tcp://HOST:PORT) instead of local "
                         "processes")
+    w.add_argument("--connect-timeout", type=_positive, default=30, metavar="S",
+                   help="seconds to wait for the Dask scheduler and its first worker (default 30)")
     w.add_argument("--shard", default=None, metavar="K/N",
                    help="run only shard K of N (every N-th run from the K-th) and write DIR/shard-K-of-N.json")
     w.set_defaults(run=run_sweep_command)
@@ -393,7 +395,8 @@ def run_sweep_command(args: argparse.Namespace) -> int:
     try:
         with _progress(not args.no_progress) as progress:
             sweep = run_sweep(keys, seeds, args.out, quick=args.quick, jobs=args.jobs, keep=args.keep,
-                              progress=progress, scheduler=args.scheduler, shard=shard)
+                              progress=progress, scheduler=args.scheduler, shard=shard,
+                              connect_timeout_s=args.connect_timeout)
     except RuntimeError as exc:  # the Dask scheduler cannot be reached, or Dask is missing
         print(f"urb sim sweep: {exc}", file=sys.stderr)
         return 2

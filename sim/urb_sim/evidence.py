@@ -87,10 +87,12 @@ def rerun(key: str, *, seed: int, quick: bool) -> str:
     from .runner import split_key
     from .profiles import DEFAULT
 
+    from .profiles import PROFILE_EXPERIMENTS
+
     name, profile = split_key(key)
     where = "" if profile == DEFAULT else f" --profile {profile}"
-    return (f"{variant_prefix()}urb sim sensorhex --seed {seed}{' --quick' if quick else ''} --only {name}{where} "
-            "--compare none")
+    alone = " --compare none" if name in PROFILE_EXPERIMENTS else ""  # not also under the other profiles
+    return f"{variant_prefix()}urb sim sensorhex --seed {seed}{' --quick' if quick else ''} --only {name}{where}{alone}"
 
 
 def verdict(check: Check) -> Verdict:

@@ -29,13 +29,14 @@ The loader refuses what it cannot trust, with a message that says what to change
 an unknown parameter, a value without a source, a parameter set twice, a value outside its
 physical range (RANGES), a bus outside UM10204's Fast-mode rise time, an unknown experiment.
 
-While a profile is active (`applied`), every `World` created in this process starts from its
+While a profile is active (`applied`), every `World` created in that context starts from its
 values; an experiment's own rig settings (`System(params=...)`) are applied after and win.
 """
 
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import math
 import tomllib
 from collections.abc import Iterator, Mapping, Sequence
@@ -324,35 +325,35 @@ def pullup_for(bus_pf: float, vdd: float = 3.3, rise_limit_ns: float = 300.0) ->
 
 # ---------------------------------------------------------------- the active profile of this process
 
-_active: Profile | None = None
+#: The profile in force (a context variable: each thread that runs tasks has its own).
+_active: contextvars.ContextVar[Profile | None] = contextvars.ContextVar("urb_sim_profile", default=None)
 
 
 @contextlib.contextmanager
 def applied(profile: Profile | None, extra: Mapping[str, float] | None = None) -> Iterator[None]:
-    """While inside, every World created in this process starts from `profile`'s values, then
+    """While inside, every World created in this context starts from `profile`'s values, then
     `extra` (a sensitivity point); None: the parameters' defaults (params.h)."""
-    global _active
-    before = _active
     if extra:
         base = profile or Profile("defaults", "params.h defaults", "", ())
         more = tuple(Assumption(k, float(v), "sensitivity point", ()) for k, v in extra.items())
         kept = tuple(a for a in base.assumptions if a.param not in extra)
         profile = Profile(base.name, base.title, base.about, kept + more, base.targets, base.path)
-    _active = profile
+    token = _active.set(profile)
     try:
         yield
     finally:
-        _active = before
+        _active.reset(token)
 
 
 def active() -> Profile | None:
-    """The profile applied in this process now (None: params.h defaults)."""
-    return _active
+    """The profile in force now (None: params.h defaults)."""
+    return _active.get()
 
 
 def active_params() -> dict[str, float]:
     """The parameter values a new World starts from (empty: params.h defaults)."""
-    return dict(_active.params) if _active is not None else {}
+    prof = _active.get()
+    return dict(prof.params) if prof is not None else {}
 
 
 def markdown(profiles: Sequence[Profile]) -> str:

@@ -148,9 +148,11 @@ class Sweep:
         name, profile = split_key(key)
         if name.startswith("sens:"):
             return f"urb sim sensitivity --seed {seed} --only {name[5:]}" + (" --quick" if self.quick else "")
+        from .profiles import PROFILE_EXPERIMENTS
+
         where = "" if profile == DEFAULT else f" --profile {profile}"
-        return (f"urb sim sensorhex --seed {seed} --only {name}{where} --compare none"
-                + (" --quick" if self.quick else ""))
+        alone = " --compare none" if name in PROFILE_EXPERIMENTS else ""
+        return f"urb sim sensorhex --seed {seed} --only {name}{where}{alone}" + (" --quick" if self.quick else "")
 
 
 def run_dir(out: Path, seed: int) -> Path:
@@ -159,7 +161,8 @@ def run_dir(out: Path, seed: int) -> Path:
 
 
 def run_sweep(keys: Sequence[str], seeds: Sequence[int], out: Path, *, quick: bool, jobs: int, keep: bool,
-              progress: Progress, scheduler: str | None = None, shard: tuple[int, int] | None = None) -> Sweep:
+              progress: Progress, scheduler: str | None = None, shard: tuple[int, int] | None = None,
+              connect_timeout_s: float = 30.0) -> Sweep:
     """Run experiments `keys` (task keys: an experiment, @profile for another hardware profile) at
     every seed of `seeds` into `out`, write checks.csv, runs.csv and summary.json there (with the
     records' order-independent hash), and return the tallies. Locally at most `jobs` at once; on
@@ -172,7 +175,8 @@ def run_sweep(keys: Sequence[str], seeds: Sequence[int], out: Path, *, quick: bo
     shutil.rmtree(out / "runs", ignore_errors=True)  # an earlier sweep's failures are not this one's
     t0 = time.perf_counter()
     if scheduler is not None:
-        records = run_dask(specs, scheduler=scheduler, quick=quick, out=out, progress=progress)
+        records = run_dask(specs, scheduler=scheduler, quick=quick, out=out, progress=progress,
+                           connect_timeout_s=connect_timeout_s)
         if not keep:
             for rec in records:
                 if rec["verdict"] == "PASS":

@@ -124,12 +124,24 @@ def run_dask(specs: Sequence[Spec], *, scheduler: str, quick: bool, out: Path, p
     except ImportError as exc:  # the dev extra installs it
         raise RuntimeError("--scheduler needs Dask distributed: pip install -c constraints.txt -e .[dev]") from exc
     try:
-        client = Client(scheduler, timeout=connect_timeout_s, set_as_default=False)
+        client = Client(scheduler, timeout=connect_timeout_s)  # as_completed finds it as the default
     except OSError as exc:
         raise RuntimeError(f"cannot reach the Dask scheduler at {scheduler}: {exc}; start one with "
                            "`dask scheduler` and workers with `dask worker ADDRESS` (sim/README.md)") from exc
     records: dict[int, dict[str, Any]] = {}
     try:
+        if not client.scheduler_info()["workers"]:
+            try:
+                client.wait_for_workers(1, timeout=connect_timeout_s)
+            except TimeoutError as exc:
+                raise RuntimeError(f"no Dask worker joined the scheduler at {scheduler} within {connect_timeout_s:g} s: "
+                                   "start some with `dask worker ADDRESS --nthreads 1`") from exc
+        threaded = {w: info.get("nthreads", 1) for w, info in client.scheduler_info()["workers"].items()
+                    if info.get("nthreads", 1) != 1}
+        if threaded:
+            raise RuntimeError(f"Dask workers with more than one thread ({', '.join(sorted(threaded))}): start them "
+                               "with `dask worker ADDRESS --nthreads 1 --nworkers N` (an experiment draws with "
+                               "matplotlib, which is not thread-safe)")
         futures = {client.submit(run_task, s.key, s.seed, quick, str(out), pure=False,
                                  key=f"urb-sim-{s.key}-{s.seed}-{os.getpid()}-{i}"): i
                    for i, s in enumerate(specs)}
