@@ -238,7 +238,7 @@ def _check_bounds() -> None:
 
 def sections(funcs: dict[str, list[Insn]], device: str, source: str) -> list[dict[str, Any]]:
     """Every PRIMASK section of one image, worst path first."""
-    found = []
+    found: list[dict[str, Any]] = []
     for name, insns in funcs.items():
         for k, insn in enumerate(insns):
             if insn.op != "cpsid":

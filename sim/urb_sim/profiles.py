@@ -364,7 +364,9 @@ def markdown(profiles: Sequence[Profile]) -> str:
     head = "| parameter | " + " | ".join(f"`{p.name}`" for p in profiles) + " | affects | source |"
     lines = [head, "|" + "---|" * (len(profiles) + 3)]
     for param in params:
-        cells, sources, affects = [], [], []
+        cells: list[str] = []
+        sources: list[str] = []
+        affects: list[str] = []
         for p in profiles:
             a = next((x for x in p.assumptions if x.param == param), None)
             cells.append("(default)" if a is None else f"{a.value:g}")

@@ -116,9 +116,10 @@ def _profiles_html(results: Sequence[Result]) -> str:
         t1 = by_profile[name].get("table1")
         row: dict[str, object] = {"profile": name}
         if t1 is not None:
-            for r in t1.table[:3]:
-                label = str(r["metric"]).split(" (")[0].replace("initial ", "").replace(" in t_acq_end", "")
-                row[label] = f"{r['sim average']} / {r['sim max of runs']} / {r['sim worst single cycle']}"
+            for t1_row in t1.table[:3]:
+                label = str(t1_row["metric"]).split(" (")[0].replace("initial ", "").replace(" in t_acq_end", "")
+                row[label] = (f"{t1_row['sim average']} / {t1_row['sim max of runs']} / "
+                              f"{t1_row['sim worst single cycle']}")
         for key in ("fig15", "fig16"):
             if key in by_profile[name]:
                 row[key] = _latency_summary(by_profile[name][key])
@@ -137,10 +138,10 @@ def _profiles_html(results: Sequence[Result]) -> str:
         parts.append(f"<h3 id='profile-{html.escape(name)}'>{html.escape(name)}: {html.escape(prof.title)}</h3>"
                      f"<p>{html.escape(prof.about)}</p>")
         for key in prof_mod.PROFILE_EXPERIMENTS:
-            r = by_profile[name].get(key)
-            if r is None:
+            found = by_profile[name].get(key)
+            if found is None:
                 continue
-            for d in r.deviations:
+            for d in found.deviations:
                 parts.append(f"<div class='note'><b>Does not reproduce the paper:</b> {html.escape(d)}</div>")
         t1 = by_profile[name].get("table1")
         if t1 is not None:

@@ -145,14 +145,16 @@ def measure_point(factor: Factor, index: int, out: Path, *, quick: bool, seed: i
         s.close()
     row: dict[str, Any] = {"factor": factor.id, "value": value, "unit": factor.unit,
                            "params": ", ".join(f"{k}={v:g}" for k, v in extra.items())}
-    for metric, get, worst in (("convergence_ms", lambda r: r.convergence_ms, None),
-                               ("internode_us", lambda r: r.internode_us, lambda r: r.internode_max_us),
-                               ("jitter_us", lambda r: r.jitter_us, lambda r: r.jitter_max_us)):
-        figures = [get(r) for r in runs if get(r) == get(r)]
+    per_run: dict[str, tuple[list[float], list[float] | None]] = {
+        "convergence_ms": ([r.convergence_ms for r in runs], None),
+        "internode_us": ([r.internode_us for r in runs], [r.internode_max_us for r in runs]),
+        "jitter_us": ([r.jitter_us for r in runs], [r.jitter_max_us for r in runs])}
+    for metric, (figures_of_runs, worst) in per_run.items():
+        figures = [v for v in figures_of_runs if v == v]
         row[f"{metric} average"] = round(statistics.mean(figures), 4) if figures else math.nan
         row[f"{metric} max of runs"] = round(max(figures), 4) if figures else math.nan
         if worst is not None:
-            cycles = [worst(r) for r in runs if worst(r) == worst(r)]
+            cycles = [v for v in worst if v == v]
             row[f"{metric} worst cycle"] = round(max(cycles), 4) if cycles else math.nan
     for up, ms in lat.items():
         row[f"{up} latency mean ms"] = round(statistics.mean(ms), 4) if ms else math.nan

@@ -124,7 +124,7 @@ def run_dask(specs: Sequence[Spec], *, scheduler: str, quick: bool, out: Path, p
     except ImportError as exc:  # the dev extra installs it
         raise RuntimeError("--scheduler needs Dask distributed: pip install -c constraints.txt -e .[dev]") from exc
     try:
-        client = Client(scheduler, timeout=connect_timeout_s)  # as_completed finds it as the default
+        client = Client(scheduler, timeout=connect_timeout_s)  # type: ignore[no-untyped-call]  # default client
     except OSError as exc:
         raise RuntimeError(f"cannot reach the Dask scheduler at {scheduler}: {exc}; start one with "
                            "`dask scheduler` and workers with `dask worker ADDRESS` (sim/README.md)") from exc
@@ -145,7 +145,7 @@ def run_dask(specs: Sequence[Spec], *, scheduler: str, quick: bool, out: Path, p
         futures = {client.submit(run_task, s.key, s.seed, quick, str(out), pure=False,
                                  key=f"urb-sim-{s.key}-{s.seed}-{os.getpid()}-{i}"): i
                    for i, s in enumerate(specs)}
-        for done, fut in enumerate(as_completed(list(futures)), 1):
+        for done, fut in enumerate(as_completed(list(futures)), 1):  # type: ignore[no-untyped-call]
             i = futures[fut]
             try:
                 records[i] = fut.result()
@@ -155,7 +155,7 @@ def run_dask(specs: Sequence[Spec], *, scheduler: str, quick: bool, out: Path, p
                 records[i] = record(crashed(specs[i].key, out, exc), seed=specs[i].seed, quick=quick)
             progress(done / len(specs), f"{specs[i].key} seed {specs[i].seed}: {records[i]['verdict']}")
     finally:
-        client.close()
+        client.close()  # type: ignore[no-untyped-call]
     return [records[i] for i in range(len(specs))]
 
 

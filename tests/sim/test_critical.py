@@ -5,6 +5,8 @@ interrupts masked. `make sim-critical-check` compares the committed table with t
 
 from __future__ import annotations
 
+from typing import Any
+
 import pytest
 
 from urb_sim import critical
@@ -30,7 +32,7 @@ SLEEP = """
 """
 
 
-def _table(text: str) -> list[dict[str, object]]:
+def _table(text: str) -> list[dict[str, Any]]:
     funcs = critical.parse(text)
     return critical.sections(funcs, "node", "x.c")
 
@@ -42,7 +44,7 @@ def test_the_worst_path_runs_the_call_and_its_loop_to_its_bound(monkeypatch: pyt
     # sleep after cpsid: bl 3 + 26 + cmp 1 + bne not taken 1 + wfi 2 + cpsie 1 = 34
     assert section["id"] == "node:sleep" and section["cycles"] == 34
     assert section["instructions"] == 1 + 18 + 4  # bl; has_work: movs, 4 x 4 in the loop, bx; cmp, bne, wfi, cpsie
-    assert section["fetches"] > 0
+    assert int(section["fetches"]) > 0
 
 
 def test_one_more_instruction_in_the_section_changes_the_table(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -50,7 +52,7 @@ def test_one_more_instruction_in_the_section_changes_the_table(monkeypatch: pyte
     monkeypatch.setitem(critical.LOOP_BOUNDS, "has_work", (4, "x.c", "bound: 4"))
     changed = SLEEP.replace(" 8000108:\t2800      \tcmp\tr0, #0\n",
                             " 8000108:\t2800      \tcmp\tr0, #0\n 8000109:\t6003      \tstr\tr3, [r0, #0]\n")
-    assert _table(changed)[0]["cycles"] == _table(SLEEP)[0]["cycles"] + 2
+    assert int(_table(changed)[0]["cycles"]) == int(_table(SLEEP)[0]["cycles"]) + 2
 
 
 def test_a_loop_without_a_stated_bound_is_refused() -> None:

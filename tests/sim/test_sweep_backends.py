@@ -5,22 +5,15 @@ merge refuses shards that are missing, doubled, changed or from another sweep.""
 
 from __future__ import annotations
 
-import contextlib
 import json
-import os
-import signal
-import socket
-import subprocess
-import sys
 import time
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
 
 from urb.cli import main
-from urb_sim import sweep, tasks
+from urb_sim import loopback, sweep, tasks
 from urb_sim.experiments import no_progress
 
 KEYS = ["fig16", "fig16@paper"]  # the default profile and another: the key carries the profile
@@ -98,41 +91,9 @@ def test_the_merge_refuses_shards_it_cannot_trust(local: sweep.Sweep, tmp_path: 
         tasks.merge([tmp_path / "h.json"])
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-@contextlib.contextmanager
-def loopback_cluster(workers: int) -> Iterator[str]:
-    """A Dask scheduler and `workers` single-threaded worker processes on 127.0.0.1, stopped after."""
-    port = _free_port()
-    address = f"tcp://127.0.0.1:{port}"
-    common = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "start_new_session": True,
-              "env": {**os.environ, "DASK_DISTRIBUTED__WORKER__DAEMON": "False"}}
-    procs = [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
-                               "--port", str(port), "--no-dashboard"], **common)]  # type: ignore[call-overload]
-    try:
-        procs.append(subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", address, "--nworkers",
-                                       str(workers), "--nthreads", "1", "--no-dashboard", "--host", "127.0.0.1"],
-                                      **common))  # type: ignore[call-overload]
-        yield address
-    finally:
-        for p in reversed(procs):
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(p.pid, signal.SIGTERM)
-        for p in reversed(procs):
-            try:
-                p.wait(timeout=20)
-            except subprocess.TimeoutExpired:
-                os.killpg(p.pid, signal.SIGKILL)
-                p.wait()
-
-
 def test_a_sweep_on_a_loopback_dask_cluster_gives_the_local_hash(local: sweep.Sweep, tmp_path: Path) -> None:
     t0 = time.perf_counter()
-    with loopback_cluster(workers=2) as address:
+    with loopback.cluster(workers=2) as address:
         on_cluster = sweep.run_sweep(KEYS, SEEDS, tmp_path, quick=True, jobs=1, keep=False, progress=no_progress,
                                      scheduler=address)
     assert on_cluster.hash == local.hash
@@ -142,7 +103,7 @@ def test_a_sweep_on_a_loopback_dask_cluster_gives_the_local_hash(local: sweep.Sw
 
 
 def test_an_unreachable_scheduler_is_a_clear_error(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    address = f"tcp://127.0.0.1:{_free_port()}"
+    address = f"tcp://127.0.0.1:{loopback.free_port()}"
     assert main(["sim", "sweep", "--seeds", "1", "--only", "fig16", "--quick", "--scheduler", address, "--out",
                  str(tmp_path), "--no-progress", "--connect-timeout", "2"]) == 2
     assert f"cannot reach the Dask scheduler at {address}" in capsys.readouterr().err

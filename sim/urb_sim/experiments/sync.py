@@ -316,7 +316,9 @@ def _targets(res: Result, figures: dict[str, tuple[float, float, float]]) -> Non
     from .. import profiles
 
     prof = profiles.active()
-    for t in prof.targets if prof is not None else ():
+    if prof is None:
+        return
+    for t in prof.targets:
         av, mx, _ = figures[t.metric]
         value = av if t.statistic == "average" else mx
         unit = profiles.TARGET_METRICS[t.metric]
