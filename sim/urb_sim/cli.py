@@ -125,7 +125,7 @@ the node PLL stops meeting the paper's Table I. Factors (--only):
   timer       node heartbeat timer resolution, 48-1 MHz
   crystal     crystal frequency error of nodes and bridge, 10-3000 ppm (sd)
   bus         downlink capacitance, 50-400 pF (pull-up for a 300-ns rise time)
-  heartbeat   heartbeat and SYNC rate, 4-0.25 kHz
+  heartbeat   heartbeat and SYNC rate, 1-0.1 kHz (the SYNC comes from the 1-ms USB frames)
 
 Writes DIR/index.html with one figure per factor, DIR/sensitivity/sensitivity.csv, summary.json.
 --quick: three values per factor and shorter runs (the same figures, noisier). Runs locally on
