@@ -39,7 +39,11 @@ static urbsim_ns_t idle_start(urbsim_mcu_t *m, urbsim_ns_t t_irq, urbsim_ns_t la
     }
     if (t_irq < masked_until) {
         m->masked++;
+#ifdef URBSIM_MUTANT_MASK_IGNORED /* seeded bug (mk/sim.mk): PRIMASK does not hold the interrupt back */
+        return t_irq + lat;
+#else
         return masked_until + lat;
+#endif
     }
     return t_irq + urbsim_clock_cycles_ns(&m->clk, t_irq, cfg->wfi_wake_cycles) + lat;
 }
