@@ -5,10 +5,15 @@ simulation draws (sim/README.md). A criterion that holds at seed 1 may fail at a
 runs every chosen experiment at every seed, in parallel worker processes, and tells which seeds
 failed which check, each with the command that reproduces it alone.
 
+The runs are tasks (urb_sim.tasks): on local worker processes (runner.run_tasks), on a Dask
+cluster (`scheduler`), or one shard of the plan (`shard`, merged later by `merge_shards`); each
+gives a record, and the sweep's hash over all records does not depend on which.
+
 Output, in the folder given:
   checks.csv    one row per seed, experiment and check: what was required and measured, pass or not
   runs.csv      one row per seed and experiment: verdict, simulated and wall seconds
-  summary.json  per check: runs, failures and the failing seeds; the totals
+  summary.json  per check: runs, failures and the failing seeds; the totals; the records' hash
+  shard-K-of-N.json  with `shard`: the shard's records and their hash, for `urb sim merge`
   runs/seed-N/<experiment>/   the CSV and PNG files of every run that did not pass (of every run
                 with keep=True), to look at next to the reproduction command's report
 """
