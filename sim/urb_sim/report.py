@@ -98,11 +98,13 @@ def _profiles_html(results: Sequence[Result]) -> str:
     from . import profiles as prof_mod
     from .runner import split_key
 
-    by_profile: dict[str, dict[str, Result]] = {}
+    by_profile: dict[str, dict[str, Result]] = {}  # every profile a result ran under, with its comparison results
     for r in results:
         name, profile = split_key(r.key)
         if name in prof_mod.PROFILE_EXPERIMENTS:
             by_profile.setdefault(profile, {})[name] = r
+        else:
+            by_profile.setdefault(profile, {})
     if not by_profile:
         return ""
     order = [n for n in prof_mod.names() if n in by_profile] + sorted(set(by_profile) - set(prof_mod.names()))
@@ -225,9 +227,9 @@ def write_report(out: Path, results: Sequence[Result], *, seed: int, quick: bool
     for r in results:
         if r.key.startswith("sens:"):
             continue  # in the sensitivity section
-        profile = _profile_of(r.key)
-        under = "" if "@" not in r.key else f" (profile {profile})"
-        parts.append(f"<section id='{r.key}'><h2>{html.escape(r.title + under)}</h2>")
+        profile = _profile_of(r.key)  # every figure says which hardware profile produced it
+        parts.append(f"<section id='{r.key}'><h2>{html.escape(r.title)} <span class='small'>(hardware profile "
+                     f"<a href='#profile-{html.escape(profile)}'>{html.escape(profile)}</a>)</span></h2>")
         parts.append(f"<p><b>Paper:</b> {html.escape(r.paper)}. <b>Result:</b> "
                      f"{r.verdict} ({r.sim_s:.1f} s simulated, {r.wall_s:.1f} s wall).</p>")
         for d in r.deviations:

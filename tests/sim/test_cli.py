@@ -213,7 +213,9 @@ def test_each_profile_has_its_evidence_ids_and_report_section(tmp_path: Path) ->
     default, paper = read_record(evidence / "sim-fig16.json"), read_record(evidence / "sim-fig16@paper.json")
     assert default.config["profile"] == "cortex-m0plus" and paper.config["profile"] == "paper"
     assert [i.id for i in paper.items] == ["sim@paper:fig16/every-request-answered",
-                                           "sim@paper:fig16/bounded-by-three-frames", "sim@paper:fig16/constant"]
+                                           "sim@paper:fig16/bounded-by-three-frames", "sim@paper:fig16/constant",
+                                           "sim@paper:fig16/paper-profile-reproduces-the-paper-s-fig16_ms-average"]
+    assert paper.items[-1].verdict == "pass" and paper.items[-1].expected.startswith("3 +- 0.1 ms")
     assert all(i.data["profile"] == "paper" for i in paper.items)
     assert paper.items[0].rerun == "urb sim sensorhex --seed 1 --quick --only fig16 --profile paper --compare none"
     html = (tmp_path / "index.html").read_text()
