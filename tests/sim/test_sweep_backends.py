@@ -32,6 +32,8 @@ def test_the_hash_covers_every_record_and_not_their_order(local: sweep.Sweep) ->
     assert tasks.merged_hash(list(reversed(records))) == local.hash
     slower = [dict(r, wall_s=r["wall_s"] + 5) for r in records]
     assert tasks.merged_hash(slower) == local.hash  # wall time is not a result
+    timed = [dict(r, table=[dict(row, **{"TLC wall s": 1.0 + i}) for row in r["table"]]) for i, r in enumerate(records)]
+    assert tasks.merged_hash(timed) == local.hash  # nor a wall-time column of its table (traces' TLC seconds)
     changed = json.loads(json.dumps(records))
     changed[0]["checks"][0]["measured"] += " "
     assert tasks.merged_hash(changed) != local.hash  # any measured value is
