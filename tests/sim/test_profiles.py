@@ -147,3 +147,22 @@ def test_the_readme_lists_every_assumption_as_the_profiles_state_it() -> None:
     assert found, "sim/README.md lacks the generated table of assumptions"
     assert found.group(1) == profiles.markdown([profiles.load(n) for n in profiles.names()]), (
         "sim/README.md's table of assumptions is stale: replace it with `urb sim profiles --markdown`")
+
+
+def test_targets_become_checks_and_deviations() -> None:
+    """A calibrated profile's required targets are checks that fail when the figure is off; the other
+    targets are deviations (with their reason) only when they are missed."""
+    from urb_sim.experiments import Result, profile_targets
+
+    prof = profiles.load("paper")
+    with profiles.applied(prof):
+        near, off = Result("table1", "Table I: t", "p"), Result("table1", "Table I: t", "p")
+        profile_targets(near, {"internode_us": (0.2, 0.5), "jitter_us": (0.9, 1.3), "convergence_ms": (80.0, 90.0)})
+        profile_targets(off, {"internode_us": (0.4, 0.5), "jitter_us": (0.9, 1.3), "convergence_ms": (40.0, 50.0)})
+    assert [c.passed for c in near.checks] == [True, True, True] and near.deviations == []
+    assert [c.name for c in off.checks if not c.passed] == ["paper profile reproduces the paper's internode_us average"]
+    assert len(off.deviations) == 2 and all("convergence_ms" in d and "PLL" in d or "as for" in d
+                                            for d in off.deviations)
+    plain = Result("table1", "Table I: t", "p")
+    profile_targets(plain, {"internode_us": (9.0, 9.0)})  # no profile applied: nothing to check
+    assert plain.checks == [] and plain.deviations == []
