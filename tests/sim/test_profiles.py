@@ -158,11 +158,13 @@ def test_targets_become_checks_and_deviations() -> None:
     with profiles.applied(prof):
         near, off = Result("table1", "Table I: t", "p"), Result("table1", "Table I: t", "p")
         profile_targets(near, {"internode_us": (0.2, 0.5), "jitter_us": (0.9, 1.3), "convergence_ms": (80.0, 90.0)})
-        profile_targets(off, {"internode_us": (0.4, 0.5), "jitter_us": (0.9, 1.3), "convergence_ms": (40.0, 50.0)})
-    assert [c.passed for c in near.checks] == [True, True, True] and near.deviations == []
+        assert len(near.deviations) == 0
+        profile_targets(off, {"internode_us": (0.4, 0.1), "jitter_us": (0.9, 1.3), "convergence_ms": (40.0, 50.0)})
+    # required: the inter-node and jitter averages; reported: both max of runs and the convergence
+    assert [c.passed for c in near.checks] == [True, True] and near.deviations == []
     assert [c.name for c in off.checks if not c.passed] == ["paper profile reproduces the paper's internode_us average"]
-    assert len(off.deviations) == 2 and all("convergence_ms" in d and "PLL" in d or "as for" in d
-                                            for d in off.deviations)
+    assert [d.split(":")[1].split(",")[0].strip() for d in off.deviations] == [
+        "internode_us max of runs 0.100 us", "convergence_ms average 40.000 ms", "convergence_ms max of runs 50.000 ms"]
     plain = Result("table1", "Table I: t", "p")
     profile_targets(plain, {"internode_us": (9.0, 9.0)})  # no profile applied: nothing to check
     assert plain.checks == [] and plain.deviations == []
