@@ -67,3 +67,22 @@ coverage: setup coverage-build
 	    --clang $(COV_CLANG) --llvm-suffix=$(COV_LLVM_SUFFIX) \
 	    --gcc-flags="$(COV_GCC_FLAGS)" --clang-flags="$(COV_CLANG_FLAGS)" \
 	    --clang-cflags="$(COV_WARN) $(FWN_INC) -Ifirmware/bridge -DURB_NODE_TESTING"
+
+# ===== MISRA C:2012 and static analysis =========================================================
+
+# What ships: the node and bridge libraries, the SensoRHex apps and their target mains and board
+# stubs, the Cortex-M0+ port and startup code, and the generated codecs. Not the hosted and
+# simulation HALs or the hosted bridge's main (test doubles that run on a PC with its C library and
+# are never linked into a firmware image), nor gen/c/test (test support that uses stdio).
+QUALITY_SOURCES := $(sort $(wildcard firmware/node/*.c) $(FWB_LIB_SRC) $(wildcard firmware/apps/sensorhex/*.c) \
+                   $(wildcard firmware/apps/sensorhex/targets/*.c) $(wildcard firmware/hal/cortex-m0plus/*.c) \
+                   $(wildcard gen/c/*.c))
+QUALITY_INC := -Ifirmware/include -Ifirmware/node -Ifirmware/bridge -Ifirmware/hal/cortex-m0plus \
+               -Ifirmware/apps/sensorhex -Ifirmware/apps/sensorhex/targets -Igen/c
+# The target's configuration (arm-none-eabi-gcc 12 predefines __GNUC__ and __arm__); the motor app
+# stands for SENSORHEX_APP in targets/main_node.c, which every app image compiles the same way.
+QUALITY_DEFS := -D__GNUC__=12 -D__arm__=1 -DSENSORHEX_APP=motor -DSENSORHEX_APP_STORAGE=SENSORHEX_MOTOR_STORAGE
+
+misra: setup
+	$(PYTHON) tools/misra.py --sources "$(QUALITY_SOURCES)" \
+	    --cppcheck-args "--std=c99 --platform=arm32-wchar_t4 --suppress=missingIncludeSystem -j2 $(QUALITY_DEFS) $(QUALITY_INC)"

@@ -260,7 +260,7 @@ class SourceIndex:
     def token_at(self, file: str, number: int, column: int) -> str:
         """The identifier, number or operator starting at the 1-based `column` of line `number`."""
         text = self.line(file, number)[max(column - 1, 0):]
-        m = re.match(r"[A-Za-z_0-9.]+|\S", text)
+        m = re.match(r"[A-Za-z_]\w*|[0-9][\w.]*|\S", text)
         return m.group(0) if m else ""
 
 
