@@ -86,3 +86,15 @@ QUALITY_DEFS := -D__GNUC__=12 -D__arm__=1 -DSENSORHEX_APP=motor -DSENSORHEX_APP_
 misra: setup
 	$(PYTHON) tools/misra.py --sources "$(QUALITY_SOURCES)" \
 	    --cppcheck-args "--std=c99 --platform=arm32-wchar_t4 --suppress=missingIncludeSystem -j2 $(QUALITY_DEFS) $(QUALITY_INC)"
+
+# clang-tidy parses for the target with newlib's headers; gcc -fanalyzer is the images' compiler at -Os.
+STATIC_TIDY_FLAGS := --target=armv6m-none-eabi -mthumb -std=c99 -isystem /usr/lib/arm-none-eabi/include \
+                     $(QUALITY_DEFS) $(QUALITY_INC)
+STATIC_GCC_FLAGS := -mcpu=cortex-m0plus -mthumb -Os -std=c99 -DSENSORHEX_APP=motor \
+                    -DSENSORHEX_APP_STORAGE=SENSORHEX_MOTOR_STORAGE $(QUALITY_INC)
+
+static: setup
+	$(PYTHON) tools/static_analysis.py --sources "$(QUALITY_SOURCES)" --tidy clang-tidy-19 \
+	    --tidy-cflags "$(STATIC_TIDY_FLAGS)" --gcc $(FWN_CROSS_CC) --gcc-cflags "$(STATIC_GCC_FLAGS)"
+
+CHECK_TARGETS += coverage misra static

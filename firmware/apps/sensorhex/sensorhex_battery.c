@@ -67,12 +67,18 @@ static void battery_update(urb_node_t *node, void *user)
     for (uint8_t i = 0u; i < SENSORHEX_BATTERY_PACKS; i++) {
         urb_battery_pack_t *p = &st.packs[i];
         p->present = io->present(io->ctx, i);
-        p->voltage = p->present ? io->voltage_mv(io->ctx, i) : 0u;
-        p->current = p->present ? io->current_ma(io->ctx, i) : 0;
-        p->temp = p->present ? io->temp_c(io->ctx, i) : 0;
-        p->charge = p->present ? sensorhex_battery_charge(&app->cfg, p->voltage, p->current) : 0u;
-        if (p->present && (p->voltage < app->cfg.cutoff_mv)) {
-            st.low = true;
+        p->voltage = 0u; /* an absent pack reports zeros */
+        p->current = 0;
+        p->temp = 0;
+        p->charge = 0u;
+        if (p->present) {
+            p->voltage = io->voltage_mv(io->ctx, i);
+            p->current = io->current_ma(io->ctx, i);
+            p->temp = io->temp_c(io->ctx, i);
+            p->charge = sensorhex_battery_charge(&app->cfg, p->voltage, p->current);
+            if (p->voltage < app->cfg.cutoff_mv) {
+                st.low = true;
+            }
         }
     }
     st.charging = io->charger(io->ctx);
