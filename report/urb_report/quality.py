@@ -81,10 +81,12 @@ def _strs(value: Any, what: str) -> tuple[str, ...]:
 
 
 def load_entries(path: Path, table: str, *, rule_key: str, required: Sequence[str] = (),
-                 default_rules: Sequence[str] = ()) -> list[Entry]:
+                 optional: Sequence[str] = ("evidence",), default_rules: Sequence[str] = ()) -> list[Entry]:
     """The `[[table]]` entries of the TOML file `path`. Each needs `id` (unique), `files`, `reason`
     (a sentence, not a placeholder), `rule_key` (unless `default_rules`) and every key of `required`;
-    `function`, `anchors` and `tokens` are optional; other keys are kept in `extra`."""
+    `function`, `anchors`, `tokens` and the keys of `optional` may be given, and those of `required`
+    and `optional` are kept in `extra`. Any other key is an error: a misspelt `anchor` would
+    otherwise widen the entry to the whole file."""
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except (OSError, tomllib.TOMLDecodeError) as exc:
@@ -109,6 +111,10 @@ def load_entries(path: Path, table: str, *, rule_key: str, required: Sequence[st
         for key in ("files", "reason", *required):
             if key not in item:
                 raise QualityError(f"{where}: `{key}` is missing")
+        unknown = sorted(set(item) - known - set(required) - set(optional))
+        if unknown:
+            allowed = ", ".join(sorted(known | set(required) | set(optional)))
+            raise QualityError(f"{where}: unknown key(s) {', '.join(unknown)} (known: {allowed})")
         reason = item["reason"]
         if not isinstance(reason, str) or len(reason.split()) < 5:
             raise QualityError(f"{where}: `reason` must say in a sentence why the finding is safe or unreachable")
