@@ -63,7 +63,7 @@ coverage: setup coverage-build
 	$(PYTHON) tools/coverage.py --build $(COV_BUILD) \
 	    --run "$(call cov_programs,gcc,gcc) $(call cov_programs,clang,$(COV_CLANG))" \
 	    --llvm-objects "$(call cov_programs,clang,$(COV_CLANG)) $(call cov_codecs,clang,$(COV_CLANG))" \
-	    --codec-programs $(COV_BUILD)/gcc/c:$(COV_BUILD)/clang/c --codec-compilers "gcc $(COV_CLANG)" \
+	    --codec-programs $(COV_BUILD)/gcc/c:$(COV_BUILD)/clang/c --codec-compilers "gcc $(COV_CLANG)" --fuzz-replay \
 	    --clang $(COV_CLANG) --llvm-suffix=$(COV_LLVM_SUFFIX) \
 	    --gcc-flags="$(COV_GCC_FLAGS)" --clang-flags="$(COV_CLANG_FLAGS)" \
 	    --clang-cflags="$(COV_WARN) $(FWN_INC) -Ifirmware/bridge -DURB_NODE_TESTING"

@@ -32,6 +32,7 @@ MC/DC vectors), build/coverage/summary.md.
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import os
 import re
@@ -102,13 +103,15 @@ def load_scope(path: Path, root: Path) -> Scope:
 
 # ----- running the tests ---------------------------------------------------------------------------
 
-def run_programs(programs: Sequence[str], env: dict[str, str], root: Path, log_dir: Path) -> None:
+def run_programs(programs: Sequence[str], env: dict[str, str], root: Path, log_dir: Path,
+                 args: Sequence[str] = ()) -> None:
     """Each test program must pass: a failing test under instrumentation is a broken run, not data."""
     log_dir.mkdir(parents=True, exist_ok=True)
     for prog in programs:
         log = log_dir / (prog.replace("/", "_") + ".log")
+        extra = [a.replace("{name}", Path(prog).name) for a in args]
         with log.open("w") as out:
-            proc = subprocess.run([str(root / prog)], cwd=root, env=env, stdout=out, stderr=subprocess.STDOUT,
+            proc = subprocess.run([str(root / prog), *extra], cwd=root, env=env, stdout=out, stderr=subprocess.STDOUT,
                                   timeout=900, check=False)
         if proc.returncode != 0:
             raise CoverageError(f"{prog} failed under coverage instrumentation (exit {proc.returncode}); "
@@ -123,6 +126,33 @@ def run_codec_tests(dirs: str, compilers: str, env: dict[str, str], root: Path, 
                               cwd=root, env=env, stdout=out, stderr=subprocess.STDOUT, timeout=1800, check=False)
     if proc.returncode != 0:
         raise CoverageError(f"tests/test_c_codecs.py failed on the instrumented codecs; see {log}")
+
+
+def fuzz_replays(root: Path, build: Path, toolchains: Sequence[tuple[str, str, str]]) -> tuple[list[str], list[str]]:
+    """Builds every fuzz target of tools/fuzz.py (its sources and include directories) with
+    tests/fuzz/replay_main.c instead of libFuzzer, once per (build subdirectory, compiler, flags), and
+    replays its committed corpus (the inputs make fuzz starts from, each checked by the target's
+    REQUIREs). Returns the replay programs and the clang ones among them (for llvm-cov)."""
+    spec = importlib.util.spec_from_file_location("urb_fuzz_tool", ROOT / "tools" / "fuzz.py")
+    if spec is None or spec.loader is None:
+        raise CoverageError("cannot load tools/fuzz.py for its target list")
+    fuzz = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = fuzz
+    spec.loader.exec_module(fuzz)
+    programs: list[str] = []
+    clang_programs: list[str] = []
+    for sub, cc, flags in toolchains:
+        for name, target in sorted(fuzz.TARGETS.items()):
+            exe = build / sub / "fuzz" / name
+            exe.parent.mkdir(parents=True, exist_ok=True)
+            argv = [cc, "-std=c99", "-D_DEFAULT_SOURCE", *shlex.split(flags), *[f"-I{i}" for i in target.includes],
+                    *target.sources, "tests/fuzz/replay_main.c", "-o", str(exe)]
+            _tool(argv, f"building the {name} corpus replay with {cc}", root)
+            rel = exe.relative_to(root).as_posix()
+            programs.append(rel)
+            if sub == "clang":
+                clang_programs.append(rel)
+    return programs, clang_programs
 
 
 def _tool(argv: list[str], what: str, cwd: Path) -> str:
@@ -305,6 +335,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--gcc-flags", default="", help="instrumentation flags of the gcc build (for the record)")
     ap.add_argument("--clang-flags", default="", help="instrumentation flags of the clang build")
     ap.add_argument("--clang-cflags", default="", help="warning, include and define flags for the MC/DC check")
+    ap.add_argument("--fuzz-replay", action="store_true",
+                    help="also replay the committed fuzz corpora (tests/fuzz/corpus/) on both instrumented builds")
     ap.add_argument("--no-run", action="store_true", help="analyse the data of the last run again")
     ap.add_argument("--evidence", type=Path, default=None, help="record directory (default build/evidence)")
     args = ap.parse_args(argv)
@@ -330,6 +362,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             run_programs(programs, env, root, build / "logs")
             if args.codec_programs:
                 run_codec_tests(args.codec_programs, args.codec_compilers, env, root, build / "logs" / "test_c_codecs.log")
+            if args.fuzz_replay:
+                replays, clang_replays = fuzz_replays(root, build, [("gcc", "gcc", args.gcc_flags),
+                                                                    ("clang", args.clang, args.clang_flags)])
+                run_programs(replays, env, root, build / "logs", args=["tests/fuzz/corpus/{name}"])
+                llvm_objects += clang_replays
         files = scope.measured
         cov: dict[str, FileCoverage] = defaultdict(FileCoverage)
         index = SourceIndex(root)
@@ -363,6 +400,7 @@ def main(argv: Sequence[str] | None = None) -> int:
               "mcdc_definition": "unique-cause MC/DC with short-circuit don't-cares (llvm-cov, clang 19)",
               "programs": programs, "llvm_objects": llvm_objects,
               "codec_tests": "tests/test_c_codecs.py" if args.codec_programs else "",
+              "fuzz_corpus_replay": "tests/fuzz/corpus/<target>/ through tests/fuzz/replay_main.c" if args.fuzz_replay else "",
               "justifications": str(args.justifications), "seconds": round(time.monotonic() - started, 1)}
     write_record("coverage", items, tools, config=config, out_dir=args.evidence)
     summary = summary_markdown(scope, cov, m)
