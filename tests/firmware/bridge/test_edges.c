@@ -70,13 +70,17 @@ static void init_refuses_each_bad_argument(void **state)
     c = cfg;
     c.baud = 0u;
     assert_int_equal(urb_bridge_init(b, &c, &hal, &dl), URB_ERR_ARGUMENT);
-    /* an idle gap of 0 means "two byte times at the configured rate"; no scan when not asked */
+    /* an idle gap of 0 means "two byte times at the configured rate", another value is kept; no scan
+     * when not asked */
     c = cfg;
     c.idle_gap_us = 0u;
     c.scan_at_start = false;
     assert_int_equal(urb_bridge_init(b, &c, &hal, &dl), URB_OK);
-    assert_true(b->cfg.idle_gap_us > 0u);
+    assert_int_equal(b->cfg.idle_gap_us, (20000000u + c.baud - 1u) / c.baud);
     assert_false(b->scanning);
+    c.idle_gap_us = 500u;
+    assert_int_equal(urb_bridge_init(b, &c, &hal, &dl), URB_OK);
+    assert_int_equal(b->cfg.idle_gap_us, 500u);
 }
 
 /* ===== USB entry points ========================================================================= */
@@ -89,8 +93,18 @@ static void usb_entry_points_refuse_null(void **state)
     uint32_t const bad = urb_bridge_stats(&r->bridge)->usb_bad_batches;
     assert_false(urb_bridge_usb_out(&r->bridge, NULL, 16u));
     assert_int_equal(urb_bridge_stats(&r->bridge)->usb_bad_batches, bad + 1u);
-    uint8_t buf[16];
-    assert_int_equal(urb_bridge_usb_in(&r->bridge, NULL, sizeof buf), 0u);
+    /* a response batch ready for the IN transfer: a NULL buffer takes nothing, and it is still there */
+    urb_bridge_usb_sof(&r->bridge);
+    uint8_t f[4];
+    const uint8_t *ptrs[1] = {f};
+    size_t lens[1] = {enc_read(f, URB_BRIDGE_ADDRESS, URB_NODE_BRIDGE_OUTBOX_BRIDGE_INFO, 1u, URB_BRIDGE_INFO_SIZE)};
+    uint8_t batch[32];
+    assert_true(urb_bridge_usb_out(&r->bridge, batch, usb_batch(batch, 1u, ptrs, lens, 1u)));
+    urb_hosted_rig_run(r, 1000u);
+    urb_bridge_usb_sof(&r->bridge);
+    uint8_t in[512];
+    assert_int_equal(urb_bridge_usb_in(&r->bridge, NULL, sizeof in), 0u);
+    assert_true(urb_bridge_usb_in(&r->bridge, in, sizeof in) > 0u);
 }
 
 /* ===== I2C master on a recording HAL ============================================================ */
@@ -324,8 +338,77 @@ static void undecodable_identification_forgets_sizes(void **state)
     request(r, true, NODE, 0u, 1u, URB_IDENTIFICATION_SIZE, NULL);
     stream_t s = rs232_stream(r);
     expect_response(&s, 1u, URB_STATUS_OK, URB_IDENTIFICATION_SIZE, NULL);
-    expect_end(&s);
     assert_int_equal(r->bridge.node_of[NODE], 0u);
+    /* the next request to it needs its sizes: the identification read before it does not decode
+     * (CHECKSUM), then a bus held low during that read (BUS_STUCK); neither request reached the node */
+    uint32_t const reads = n->reads;
+    request(r, true, NODE, 1u, 2u, 4u, NULL);
+    n->hold_scl = true;
+    request(r, true, NODE, 1u, 3u, 4u, NULL);
+    n->hold_scl = false;
+    s = rs232_stream(r);
+    expect_response(&s, 1u, URB_STATUS_OK, URB_IDENTIFICATION_SIZE, NULL);
+    expect_response(&s, 2u, URB_STATUS_CHECKSUM, 0u, NULL);
+    expect_response(&s, 3u, URB_STATUS_BUS_STUCK, 0u, NULL);
+    expect_end(&s);
+    assert_int_equal(n->outbox[1][0], NODE); /* outbox 1 untouched; only identification reads ran */
+    assert_true(n->reads >= reads + 1u);
+}
+
+/* A full FIFO of requests to the bridge itself is served in one poll (the serving loop ends at its
+ * bound, URB_BRIDGE_FIFO_MAX, not at an empty FIFO). */
+static void fifo_of_local_requests_in_one_poll(void **state)
+{
+    urb_hosted_rig_t *r = rig_new(URB_BRIDGE_FIFO_MAX, 0u);
+    *state = r;
+    rig_start(r);
+    uint8_t frames[URB_BRIDGE_FIFO_MAX][4];
+    const uint8_t *ptrs[URB_BRIDGE_FIFO_MAX];
+    size_t lens[URB_BRIDGE_FIFO_MAX];
+    for (uint8_t k = 0u; k < URB_BRIDGE_FIFO_MAX; k++) {
+        lens[k] = enc_read(frames[k], URB_BRIDGE_ADDRESS, URB_NODE_BRIDGE_OUTBOX_BRIDGE_INFO, k, URB_BRIDGE_INFO_SIZE);
+        ptrs[k] = frames[k];
+    }
+    uint8_t batch[128];
+    urb_bridge_usb_sof(&r->bridge);
+    assert_true(urb_bridge_usb_out(&r->bridge, batch, usb_batch(batch, 1u, ptrs, lens, URB_BRIDGE_FIFO_MAX)));
+    urb_bridge_poll(&r->bridge);
+    assert_int_equal(urb_bridge_stats(&r->bridge)->responses, URB_BRIDGE_FIFO_MAX);
+    assert_int_equal(urb_bridge_stats(&r->bridge)->busy, 0u);
+}
+
+/* Responses that the RS232 uplink cannot take yet (its transmit ring is full: nobody drains it) keep
+ * the bridge from being idle; once the ring drains, the next poll sends them and the bridge is idle. */
+static void idle_waits_for_a_full_uart(void **state)
+{
+    urb_hosted_rig_t *r = rig_new(16u, 0u);
+    *state = r;
+    rig_start(r);
+    urb_bridge_t *b = &r->bridge;
+    for (uint8_t k = 0u; k < 8u; k++) { /* 8 BridgeScan responses: more than the 128-byte ring holds */
+        uint8_t f[4];
+        size_t const n = enc_read(f, URB_BRIDGE_ADDRESS, URB_NODE_BRIDGE_OUTBOX_BRIDGE_SCAN, k, URB_BRIDGE_SCAN_SIZE);
+        for (size_t i = 0u; i < n; i++) {
+            urb_bridge_uart_rx(b, f[i], r->hal.now);
+            r->hal.now += BYTE_US;
+        }
+    }
+    r->hal.now += 2000u; /* the line goes idle */
+    for (int i = 0; i < 8; i++) {
+        urb_bridge_poll(b);
+    }
+    assert_true(urb_bridge_stats(b)->responses < 8u);
+    assert_false(urb_bridge_idle(b)); /* nothing to serve, but responses wait for the uplink */
+    uint8_t byte;
+    for (int i = 0; i < 8; i++) {
+        while (urb_bridge_uart_tx_pop(b, &byte)) {
+        }
+        urb_bridge_poll(b);
+    }
+    while (urb_bridge_uart_tx_pop(b, &byte)) {
+    }
+    assert_int_equal(urb_bridge_stats(b)->responses, 8u);
+    assert_true(urb_bridge_idle(b));
 }
 
 int run_edges_tests(void)
@@ -340,6 +423,8 @@ int run_edges_tests(void)
         cmocka_unit_test_teardown(hal_without_marks, teardown),
         cmocka_unit_test_teardown(heartbeat_tick_while_sync_off, teardown),
         cmocka_unit_test_teardown(undecodable_identification_forgets_sizes, teardown),
+        cmocka_unit_test_teardown(fifo_of_local_requests_in_one_poll, teardown),
+        cmocka_unit_test_teardown(idle_waits_for_a_full_uart, teardown),
     };
     return cmocka_run_group_tests_name("edges", tests, NULL, NULL);
 }
