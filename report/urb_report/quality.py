@@ -8,7 +8,7 @@ committed TOML file under quality/ (a coverage justification or a deviation) or 
 Entries never name bare line numbers, which move with every edit. They say where they apply with
 stable anchors:
   files     glob patterns of repository paths ("firmware/node/*.c"; "**" crosses directories)
-  function  the name of the C function that encloses the finding ("" or absent: anywhere)
+  function  the name of the C function that encloses the finding, or a list of names (absent: anywhere)
   anchors   texts that the finding's source line contains (whitespace is normalised)
   tokens    the token a finding's column points at (MISRA: the identifier the addon flagged)
   rules     the rule, check or coverage kind the entry applies to ("*": any)
@@ -55,7 +55,7 @@ class Entry:
     id: str
     rules: tuple[str, ...]
     files: tuple[str, ...]
-    function: str
+    functions: tuple[str, ...]
     anchors: tuple[str, ...]
     tokens: tuple[str, ...]
     reason: str
@@ -63,8 +63,8 @@ class Entry:
 
     def where(self) -> str:
         parts = [", ".join(self.files)]
-        if self.function:
-            parts.append(f"in {self.function}()")
+        if self.functions:
+            parts.append("in " + ", ".join(f"{f}()" for f in self.functions))
         if self.anchors:
             parts.append("on lines with " + " | ".join(repr(a) for a in self.anchors))
         if self.tokens:
@@ -124,11 +124,9 @@ def load_entries(path: Path, table: str, *, rule_key: str, required: Sequence[st
             rules = tuple(default_rules)
         else:
             raise QualityError(f"{where}: `{rule_key}` is missing")
-        function = item.get("function", "")
-        if not isinstance(function, str):
-            raise QualityError(f"{where}: `function` must be a C function name")
+        functions = _strs(item["function"], f"{where}: `function`") if "function" in item else ()
         entries.append(Entry(
-            id=ident, rules=rules, files=_strs(item["files"], f"{where}: `files`"), function=function,
+            id=ident, rules=rules, files=_strs(item["files"], f"{where}: `files`"), functions=functions,
             anchors=_strs(item.get("anchors", []), f"{where}: `anchors`") if item.get("anchors") else (),
             tokens=_strs(item.get("tokens", []), f"{where}: `tokens`") if item.get("tokens") else (),
             reason=" ".join(reason.split()), extra={k: v for k, v in item.items() if k not in known}))
@@ -309,7 +307,7 @@ def _entry_matches(entry: Entry, finding: Finding, index: SourceIndex) -> tuple[
         return False, "", ""
     if not path_matches(finding.file, entry.files):
         return False, "", ""
-    if entry.function and index.function_at(finding.file, finding.line) != entry.function:
+    if entry.functions and index.function_at(finding.file, finding.line) not in entry.functions:
         return False, "", ""
     anchor = token = ""
     if entry.anchors:

@@ -346,13 +346,77 @@ static void undecodable_identification_forgets_sizes(void **state)
     n->hold_scl = true;
     request(r, true, NODE, 1u, 3u, 4u, NULL);
     n->hold_scl = false;
+    /* a Command to inbox 0 needs no identification (inbox 0 has one size on every node); refused at
+     * its select byte by a node whose sizes the bridge does not hold, it stays BAD_REQUEST (with
+     * known sizes, a refused select is a corrupted byte: CHECKSUM) */
+    n->nack_at = 1;
+    n->nack_once = true;
+    uint8_t const cmd[URB_COMMAND_SIZE] = {0u};
+    request(r, false, NODE, 0u, 4u, URB_COMMAND_SIZE, cmd);
     s = rs232_stream(r);
     expect_response(&s, 1u, URB_STATUS_OK, URB_IDENTIFICATION_SIZE, NULL);
     expect_response(&s, 2u, URB_STATUS_CHECKSUM, 0u, NULL);
     expect_response(&s, 3u, URB_STATUS_BUS_STUCK, 0u, NULL);
+    expect_response(&s, 4u, URB_STATUS_BAD_REQUEST, 0u, NULL);
     expect_end(&s);
     assert_int_equal(n->outbox[1][0], NODE); /* outbox 1 untouched; only identification reads ran */
     assert_true(n->reads >= reads + 1u);
+}
+
+/* A present node that does not acknowledge a request's address is probed; a probe that itself
+ * faults (the bus is held low meanwhile) answers the request with that fault (BUS_STUCK), and the node
+ * stays present: nothing says it left. */
+static void probe_that_faults(void **state)
+{
+    urb_hosted_rig_t *r = rig_new(16u, 0u);
+    *state = r;
+    urb_fake_node_t *n = add_node(r, NODE, 0x42u, 1u, 4u, 4u);
+    rig_start(r);
+    n->nack_at = 0;
+    n->nack_once = true;
+    uint8_t f[4];
+    urb_hosted_rig_uart_send(r, f, enc_read(f, NODE, 1u, 1u, 4u), BYTE_US);
+    for (uint32_t t = 0u; (t < 50000u) && !urb_i2c_master_busy(&r->master); t++) {
+        urb_hosted_rig_run(r, 1u);
+    }
+    assert_true(urb_i2c_master_busy(&r->master)); /* the request is on the bus (its address will be NACKed) */
+    n->hold_sda = 3u; /* SDA gets stuck low now: the probe that follows the NACK finds the bus stuck */
+    assert_true(urb_hosted_rig_settle(r, 200000u));
+    assert_false(r->bridge.probing);
+    stream_t s = rs232_stream(r);
+    expect_response(&s, 1u, URB_STATUS_BUS_STUCK, 0u, NULL);
+    expect_end(&s);
+    assert_true(urb_bridge_present(&r->bridge, NODE));
+}
+
+/* A node past the bridge's node table is identified before each request (its sizes cannot be kept);
+ * when it then refuses the select byte, the bridge knows the request matched the node's layout (the
+ * identification checked it), so the refusal is a corrupted byte: CHECKSUM, as for a node in the table. */
+static void refused_select_after_identification(void **state)
+{
+    urb_hosted_rig_t *r = rig_new(16u, 0u);
+    *state = r;
+    urb_fake_node_t *last = NULL;
+    for (uint8_t i = 0u; i <= URB_BRIDGE_MAX_NODES; i++) {
+        last = add_node(r, (uint8_t)(0x10u + i), 0x42u, i, 4u, 4u);
+    }
+    rig_start(r);
+    uint8_t const a = (uint8_t)(0x10u + URB_BRIDGE_MAX_NODES);
+    assert_int_equal(r->bridge.node_of[a], 0u); /* the table is full */
+    uint8_t const data[4] = {1u, 2u, 3u, 4u};
+    uint8_t f[16];
+    urb_hosted_rig_uart_send(r, f, enc_write(f, a, 1u, 5u, 4u, data), BYTE_US);
+    for (uint32_t t = 0u; (t < 50000u) && !r->bridge.size_checked; t++) {
+        urb_hosted_rig_run(r, 1u);
+    }
+    assert_true(r->bridge.size_checked); /* identified; now the write goes to the bus */
+    last->nack_at = 1;
+    last->nack_once = true;
+    assert_true(urb_hosted_rig_settle(r, 50000u));
+    assert_int_equal(r->bridge.node_of[a], 0u); /* still past the table */
+    stream_t s = rs232_stream(r);
+    expect_response(&s, 5u, URB_STATUS_CHECKSUM, 0u, NULL);
+    expect_end(&s);
 }
 
 /* A full FIFO of requests to the bridge itself is served in one poll (the serving loop ends at its
@@ -423,6 +487,8 @@ int run_edges_tests(void)
         cmocka_unit_test_teardown(hal_without_marks, teardown),
         cmocka_unit_test_teardown(heartbeat_tick_while_sync_off, teardown),
         cmocka_unit_test_teardown(undecodable_identification_forgets_sizes, teardown),
+        cmocka_unit_test_teardown(probe_that_faults, teardown),
+        cmocka_unit_test_teardown(refused_select_after_identification, teardown),
         cmocka_unit_test_teardown(fifo_of_local_requests_in_one_poll, teardown),
         cmocka_unit_test_teardown(idle_waits_for_a_full_uart, teardown),
     };

@@ -223,10 +223,11 @@ static void silence_too_long_to_measure(void **state)
     assert_int_equal(after.period_q8, before.period_q8);
     urb_node_timer_event(&f->node);
     assert_true((int32_t)(f->port.compare - f->port.now) > 0);
-    /* a capture two periods before the latest heartbeat: phase > period, clamped */
-    f->port.capture = f->port.compare - 3u * PERIOD;
+    /* a capture three periods before the latest heartbeat: phase > period, clamped */
+    f->port.capture = after.last_beat - 3u * PERIOD;
     fx_sync(&f->node, 13u);
     urb_node_sync_status(&f->node, &after);
+    assert_int_equal(after.phase_q8, (int32_t)(after.period_q8 & ~0xFFu)); /* +1 period, its fraction dropped */
     assert_true(after.phase_q8 <= (int32_t)(PERIOD * 256u) && after.phase_q8 >= -(int32_t)(PERIOD * 256u));
 }
 
