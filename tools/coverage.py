@@ -317,7 +317,11 @@ def summary_markdown(scope: Scope, cov: dict[str, FileCoverage], m: Matching) ->
     totm = [sum(cov[n].mcdc[i] for n in scope.measured) for i in (0, 1)]
     rows.append(f"| **total** | {cell((tot[0], tot[1]))} | {cell((totb[0], totb[1]))} | {cell((totm[0], totm[1]))} | "
                 f"{len(m.justified)} | {len(m.unjustified)} |")
-    rows += ["", "Excluded from the scope:", ""] + [f"- {f}: {r}" for f, r in sorted(scope.excluded.items())]
+    by_reason: dict[str, list[str]] = defaultdict(list)
+    for f, reason in sorted(scope.excluded.items()):
+        by_reason[reason].append(f)
+    rows += ["", "Excluded from the scope:", ""]
+    rows += [f"- {', '.join(files)}: {reason}" for reason, files in by_reason.items()]
     return "\n".join(["# Structural coverage of the firmware and the generated C", "", *rows, ""])
 
 
