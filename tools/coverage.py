@@ -396,7 +396,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     tools = {
         "gcc": command_version(["gcc", "--version"]), "gcov": command_version(["gcov", "--version"]),
         "gcovr": package_version("gcovr"), "clang": command_version([args.clang, "--version"]),
-        "llvm-cov": command_version([f"llvm-cov{args.llvm_suffix}", "--version"], line=1),
+        "llvm-cov": command_version([f"llvm-cov{args.llvm_suffix}", "--version"]),
         "llvm-profdata": f"llvm-profdata{args.llvm_suffix} (LLVM of {args.clang})",
     }
     config = {"gcc_flags": args.gcc_flags, "clang_flags": args.clang_flags,

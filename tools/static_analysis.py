@@ -133,7 +133,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                           expected="no finding, or a deviation in quality/static_deviations.toml explains it")
     items += entry_items(entries, m, index, prefix="static-deviation", rerun=rerun,
                          expected="explains at least one finding at each of its anchors")
-    tools = {"clang-tidy": command_version([args.tidy, "--version"], line=1) + f" ({args.tidy})",
+    tools = {"clang-tidy": command_version([args.tidy, "--version"]) + f" ({args.tidy})",
              "gcc": command_version([args.gcc, "--version"])}
     config = {"sources": sources, "clang_tidy_checks": TIDY_CHECKS, "clang_tidy_flags": args.tidy_cflags,
               "gcc_flags": args.gcc_cflags + " -fanalyzer", "deviations": str(args.deviations),
