@@ -300,6 +300,56 @@ static void test_implicit(void)
     CHECK(urb_downlink_read_response_decode(&msg, frame, sizeof frame) == URB_ERR_ARGUMENT);
 }
 
+/* The schema's rules (`require`): encode refuses a message that breaks one with URB_ERR_RANGE (the
+ * buffer untouched), decode refuses such a frame with URB_ERR_RANGE, and a rule over implicit
+ * members only is the decoder's argument check (URB_ERR_ARGUMENT, before the frame is read). */
+static void test_rules(void)
+{
+    uint8_t buf[40];
+    memset(buf, 0x5A, sizeof buf);
+    urb_uplink_response_t resp;
+    memset(&resp, 0, sizeof resp);
+    resp.seq = 1u;
+    resp.status = URB_STATUS_TIMEOUT;
+    resp.data_len = 2u; /* require status == OK or len(data) == 0 */
+    CHECK(urb_uplink_response_encode(&resp, buf, sizeof buf) == URB_ERR_RANGE);
+    for (size_t k = 0u; k < sizeof buf; k++) {
+        CHECK(buf[k] == 0x5Au);
+    }
+    resp.data_len = 0u;
+    CHECK(urb_uplink_response_encode(&resp, buf, sizeof buf) == 2);
+    resp.status = URB_STATUS_OK;
+    resp.data_len = 2u;
+    CHECK(urb_uplink_response_encode(&resp, buf, sizeof buf) == 4);
+    static const uint8_t timeout_with_data[] = {0x11, 0xab, 0xcd, 0x65}; /* tests/vectors/errors.json */
+    CHECK(urb_uplink_response_decode(&resp, timeout_with_data, sizeof timeout_with_data) == URB_ERR_RANGE);
+
+    urb_downlink_write_t write;
+    memset(&write, 0, sizeof write);
+    write.select.mailbox = 2u;
+    write.select.read = true; /* require not select.read */
+    write.data_len = 1u;
+    CHECK(urb_downlink_write_encode(&write, buf, sizeof buf) == URB_ERR_RANGE);
+    write.select.read = false;
+    CHECK(urb_downlink_write_encode(&write, buf, sizeof buf) == 3);
+
+    urb_downlink_read_select_t select;
+    memset(&select, 0, sizeof select);
+    select.select.mailbox = 3u; /* require select.read */
+    CHECK(urb_downlink_read_select_encode(&select, buf, sizeof buf) == URB_ERR_RANGE);
+    static const uint8_t write_select[] = {0x03};
+    CHECK(urb_downlink_read_select_decode(&select, write_select, sizeof write_select) == URB_ERR_RANGE);
+
+    urb_downlink_read_response_t read;
+    memset(&read, 0, sizeof read);
+    read.select.mailbox = 1u;
+    read.select.read = false; /* require select.read, over the implicit member: the caller's mistake */
+    CHECK(urb_downlink_read_response_encode(&read, buf, sizeof buf) == URB_ERR_RANGE);
+    static const uint8_t valid_for_prefix_01[] = {0xe8, 0x03, 0xb5}; /* tests/vectors/errors.json */
+    CHECK(urb_downlink_read_response_decode(&read, valid_for_prefix_01, sizeof valid_for_prefix_01) == URB_ERR_ARGUMENT);
+    CHECK(urb_downlink_read_response_decode(&read, valid_for_prefix_01, 0u) == URB_ERR_ARGUMENT); /* before SHORT */
+}
+
 static void test_node_tables(void)
 {
     CHECK(urb_node_motor_driver_inbox_sizes[URB_NODE_MOTOR_DRIVER_INBOX_MOTOR_CONFIG] == URB_MOTOR_CONFIG_SIZE);
@@ -316,6 +366,7 @@ int main(void)
     test_encode_range();
     test_encode_range_every_member();
     test_implicit();
+    test_rules();
     test_node_tables();
     printf("%s (%d failures)\n", failures == 0 ? "PASS" : "FAIL", failures);
     return failures == 0 ? 0 : 1;
