@@ -134,12 +134,14 @@ def mutant_build() -> str | None:
 
 
 def write(results: Sequence[Result], *, seed: int, quick: bool, out: Path, evidence_dir: Path) -> list[Path]:
-    """Write build/evidence/sim-<experiment>.json (in `evidence_dir`) for every result; returns the
-    paths, none for a seeded-bug build (see the module's docstring)."""
+    """Write build/evidence/sim-<experiment>.json (in `evidence_dir`) for every experiment's result;
+    returns the paths, none for a seeded-bug build (see the module's docstring). The sensitivity
+    study's points are measurements, not acceptance criteria: they have no record."""
     if mutant_build() is not None:
         return []
+    experiments = [r for r in results if not r.key.startswith("sens:")]
     with unpreloaded():
-        return _write(results, seed=seed, quick=quick, out=out, evidence_dir=evidence_dir)
+        return _write(experiments, seed=seed, quick=quick, out=out, evidence_dir=evidence_dir)
 
 
 def _write(results: Sequence[Result], *, seed: int, quick: bool, out: Path, evidence_dir: Path) -> list[Path]:

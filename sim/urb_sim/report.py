@@ -218,6 +218,8 @@ def write_report(out: Path, results: Sequence[Result], *, seed: int, quick: bool
              "<h2>Acceptance</h2><table><tr><th>experiment</th><th>check</th><th>required</th><th>measured</th>"
              "<th></th></tr>"]
     for r in results:
+        if r.key.startswith("sens:"):
+            continue  # a sensitivity point's figures are in its section
         for c in r.checks:
             parts.append(f"<tr><td><a href='#{r.key}'>{html.escape(r.key)}</a></td><td>{html.escape(c.name)}</td>"
                          f"<td>{html.escape(c.required)}</td><td>{html.escape(c.measured)}</td>{_badge(c.passed)}</tr>")

@@ -73,3 +73,17 @@ def test_points_are_named_by_factor_and_index() -> None:
 def test_an_unknown_factor_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["sim", "sensitivity", "--only", "voltage"]) == 2
     assert "unknown factor(s) voltage; choose from irq_jitter, timer, crystal, bus, heartbeat" in capsys.readouterr().err
+
+
+def test_points_have_no_evidence_record(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The points are measurements, not acceptance criteria: `urb sim sensorhex --sensitivity` writes
+    records for the experiments only."""
+    from urb_sim import evidence
+
+    monkeypatch.delenv("URBSIM_MUTANT", raising=False)
+    point = Result("sens:timer=0", "Sensitivity", "p")
+    point.check("measured", "every figure", "0 missing", True)
+    fig16 = Result("fig16", "Fig. 16", "p")
+    fig16.check("constant", "spread <= 0.1 ms", "21 us", True)
+    paths = evidence.write([point, fig16], seed=1, quick=True, out=tmp_path, evidence_dir=tmp_path / "evidence")
+    assert [p.name for p in paths] == ["sim-fig16.json"]
