@@ -5,6 +5,7 @@ interrupts masked. `make sim-critical-check` compares the committed table with t
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -101,3 +102,19 @@ def test_the_committed_table_names_each_device_s_worst_section() -> None:
     table = critical.load()
     assert table["worst"] == {"node": "node:urb_hal_cm0_sleep", "bridge": "bridge:main"}
     assert all(s["cycles"] > 0 and s["fetches"] > 0 for s in table["sections"])
+
+
+def test_check_fails_when_the_committed_table_is_stale(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                       capsys: pytest.CaptureFixture[str]) -> None:
+    """`make sim-critical-check`: the committed table against the measured one."""
+    table = tmp_path / "critical_sections.json"
+    section: dict[str, Any] = {"id": "node:sleep", "cycles": 34, "fetches": 12}
+    measured: dict[str, Any] = {"about": "", "sections": [section], "worst": {}}
+    monkeypatch.setattr(critical, "TABLE", table)
+    monkeypatch.setattr(critical, "REPO", tmp_path)
+    monkeypatch.setattr(critical, "measure", lambda: measured)
+    assert critical.main(["--write"]) == 0
+    assert critical.main(["--check"]) == 0
+    section["cycles"] = 36  # the code changed: the committed table is stale
+    assert critical.main(["--check"]) == 1
+    assert "critical_sections.json is stale" in capsys.readouterr().err
