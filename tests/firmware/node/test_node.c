@@ -404,6 +404,40 @@ static void identification_refreshes(void **state)
     assert_true((urb_node_poll(node) & URB_NODE_POLL_IDENT) != 0u);
 }
 
+/* Mutation score (tests/mutation/README.md): RESET itself clears the fault flag and republishes
+ * the identification (no identification read in between, which would clear the flag anyway), and
+ * the command after it still runs. */
+static void command_reset_republishes_and_the_next_command_runs(void **state)
+{
+    fixture_t *f = *state;
+    urb_node_t *node = &f->node;
+    (void)urb_node_i2c_event(node, URB_I2C_STUCK, 0u); /* a fault */
+    (void)urb_node_poll(node);                          /* delivered and published, never read */
+    assert_int_equal(fx_command(node, URB_COMMAND_CODE_RESET, 0u, 0u, 0u), FX_ALL_ACKED);
+    assert_true((urb_node_poll(node) & URB_NODE_POLL_COMMAND) != 0u);
+    assert_false(read_id(node).fault);
+    assert_int_equal(fx_command(node, URB_COMMAND_CODE_SIGNAL, 5u, 0u, 0u), FX_ALL_ACKED);
+    assert_true((urb_node_poll(node) & URB_NODE_POLL_COMMAND) != 0u);
+    assert_int_equal(f->signals, 1u);
+    assert_int_equal(f->last_signal, 5u);
+}
+
+/* Mutation score: the window keeps its largest sample even when it is one tick larger than the
+ * one before it (the window's end then drops t_acq to that largest sample, not to the earlier one). */
+static void acquisition_window_keeps_a_max_one_tick_larger(void **state)
+{
+    fixture_t *f = *state;
+    urb_node_t *node = &f->node;
+    f->cfg.acq_guard_us = 0u;
+    one_update(f, 480u);
+    one_update(f, 481u);
+    assert_int_equal(node->acq_ticks, 481u);
+    while (node->acq_count != 0u) {
+        one_update(f, 400u);
+    }
+    assert_int_equal(node->acq_ticks, 481u);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -423,6 +457,8 @@ int main(void)
         cmocka_unit_test_setup(identification_refreshes, setup),
         cmocka_unit_test_setup(fault_after_identification_read_is_published, setup),
         cmocka_unit_test_setup(overrun_once_per_poll, setup),
+        cmocka_unit_test_setup(command_reset_republishes_and_the_next_command_runs, setup),
+        cmocka_unit_test_setup(acquisition_window_keeps_a_max_one_tick_larger, setup),
     };
     return cmocka_run_group_tests_name("node_main_loop", tests, NULL, NULL);
 }
