@@ -3,6 +3,8 @@
 
     python3 tools/proofs_framac.py                  # every unit and its mutant (replays proofs/framac/cache)
     python3 tools/proofs_framac.py --only mailbox   # units whose folder name contains "mailbox"
+    python3 tools/proofs_framac.py --unit fifo --mutant complete_marks_ring_head --mutants-only
+                                                    # exactly that unit and mutant
     python3 tools/proofs_framac.py --no-mutants     # the units only
     python3 tools/proofs_framac.py --record         # rewrite each unit's expected.json from this run
     python3 tools/proofs_framac.py --list           # the units and their settings, nothing run
@@ -33,14 +35,19 @@ Eva units analyse a main (proofs/framac/eva_*/main.c) that drives one firmware e
 HAL of arbitrary inputs. Each alarm is keyed by file, function and property text (no line numbers,
 so edits elsewhere in the file do not invalidate the list); every alarm must be in expected.json
 and explained in proofs/framac/eva_alarms.md, and an alarm listed there that no longer occurs must
-be removed (the list stays exact).
+be removed (the list stays exact). A contract Eva finds invalid at any call site fails the unit
+(INVALID): Eva's consolidated status of such a property is Unknown, so the runner reads its red
+statuses (-eva-report-red-statuses); a behavior's postcondition red only where Eva could not decide
+the behavior's assumes ("Behavior may be inactive") is counted, not failed. Contract statuses are
+counted per unit.
 
 Each mutant of a unit copies one source file, replaces `find` (which must occur exactly once) by
 `replace` and runs the same analysis: WP must leave a goal unproved, Eva must raise an alarm that
 is not in the reviewed list.
 
 Outputs build/proofs/framac/summary.json ({"part": "framac", "rows": [...]}, one row per function
-or Eva entry point and one per mutant), junit.xml and the Frama-C logs under logs/. Exit status:
+or Eva entry point and one per mutant), junit.xml, the Frama-C logs under logs/, and the evidence
+record build/evidence/framac.json (WP goals per prover, Eva alarms with their reviews, mutants). Exit status:
 0 every result as expected, 1 an unexpected result, 2 a missing tool or a broken unit folder.
 """
 

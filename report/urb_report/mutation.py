@@ -254,11 +254,14 @@ def _tlc(out_root: Path, found: Loaded) -> None:
 def load(out_root: Path) -> Loaded:
     """Every tool's seeded bugs from the results under out_root (build/proofs)."""
     found = Loaded()
-    for reader in (_tlc, _esbmc, _framac, _fuzz, _unit_tests):
+    for tool, reader in zip(TOOLS, (_tlc, _esbmc, _framac, _fuzz, _unit_tests)):
         try:
             reader(out_root, found)
         except (OSError, ValueError, KeyError, TypeError) as exc:
             found.problems.append(f"mutation table: cannot read the results of {reader.__name__.strip('_')}: {exc}")
+            found.missing[tool] = f"unreadable results ({exc})"
+        if tool not in found.missing and not any(s.tool == tool for s in found.seeded):
+            found.missing[tool] = "no mutant in its results (a run without mutants?)"
     for s in found.seeded:
         if not s.killed and not s.explained:
             found.problems.append(f"mutation table: {s.tool} mutant {s.name} ({s.component}, {KINDS[s.kind]}) "
@@ -287,8 +290,9 @@ def _cell(group: Iterable[Seeded]) -> str:
 
 def markdown(found: Loaded) -> list[str]:
     """The mutation score section of build/proofs/summary.md."""
-    comps = [c.name for c in COMPONENTS]
-    comps += sorted({s.component for s in found.seeded} - set(comps))
+    comps = [c.name for c in COMPONENTS if c.mutated]  # always shown; others when a tool seeded bugs there
+    comps += [c.name for c in COMPONENTS if not c.mutated and any(s.component == c.name for s in found.seeded)]
+    comps += sorted({s.component for s in found.seeded} - {c.name for c in COMPONENTS})
     md = ["## Mutation score", "",
           "Seeded bugs per component (rows) and tool (columns): killed/total per kind (off-by-one in a bound, "
           "wrong order, missing publish or free, wrong field, dropped error, other); \"eq.\" counts survivors "
@@ -298,11 +302,10 @@ def markdown(found: Loaded) -> list[str]:
         cells = []
         for tool in TOOLS:
             if tool in found.missing:
-                cells.append(found.missing[tool].split(" (")[0])
+                cells.append(found.missing[tool].split(" (")[0])  # "not run", "no mutant in its results", ...
             else:
                 cells.append(_cell(s for s in found.seeded if s.tool == tool and s.component == comp))
-        if any(c != "-" and not c.startswith("not run") for c in cells):
-            md.append(f"| {comp} | " + " | ".join(cells) + " |")
+        md.append(f"| {comp} | " + " | ".join(cells) + " |")
     md += ["", "Totals: " + "; ".join(
         f"{tool} {sum(s.killed for s in found.seeded if s.tool == tool)}/"
         f"{sum(s.tool == tool for s in found.seeded)}" if tool not in found.missing else f"{tool} {found.missing[tool]}"

@@ -89,3 +89,14 @@ def test_components_name_every_mutated_file_once_per_function() -> None:
     assert mutation.component_of("firmware/bridge/bridge.c", "urb_bridge_poll") == "bridge, other"
     assert mutation.component_of("firmware/node/urb_node.c", "run_command") == "inbox-0 commands"
     assert mutation.kind_of(None) == "other" and mutation.kind_of("Off-by-one") == "off-by-one"
+
+
+def test_results_without_mutants_are_not_a_zero(tmp_path: Path) -> None:
+    """A part run without its mutants (--no-mutants) has results but no seeded bug: its cells say
+    so, and the totals do not print 0/0."""
+    out = _results(tmp_path)
+    _write(out / "framac" / "summary.json", {"part": "framac", "rows": [{"function": "f", "result": "proved"}]})
+    found = mutation.load(out)
+    assert found.missing["Frama-C"].startswith("no mutant")
+    md = "\n".join(mutation.markdown(found))
+    assert "Frama-C 0/0" not in md and "| no mutant in its results |" in md

@@ -295,6 +295,17 @@ static void commit_without_a_write_publishes_nothing(void **state)
     assert_int_equal(urb_node_release_inbox(node, 1u), URB_NODE_OK);
 }
 
+/* The interrupt's byte store with no write begun changes no storage byte: without its guard it
+ * would store into "buffer NONE", past the inbox's two buffers. */
+static void byte_without_a_write_stores_nothing(void **state)
+{
+    fixture_t *f = (fixture_t *)*state;
+    uint8_t before[FX_STORAGE];
+    memcpy(before, f->storage, sizeof before);
+    urb_isr_write_byte(&f->node, 1u, 0u, 0x77u);
+    assert_memory_equal(f->storage, before, sizeof before);
+}
+
 /* Mailbox 7 is the last one: the size queries answer it, and answer 0 from 8 on; its lock and
  * release work like any other's. */
 static void mailbox_7_is_usable_and_8_is_not(void **state)
@@ -331,6 +342,7 @@ int main(void)
         cmocka_unit_test_setup(status_and_synced, setup),
         cmocka_unit_test_setup(commit_without_a_write_publishes_nothing, setup),
         cmocka_unit_test_setup(mailbox_7_is_usable_and_8_is_not, setup),
+        cmocka_unit_test_setup(byte_without_a_write_stores_nothing, setup),
     };
     return cmocka_run_group_tests_name("node_mailbox", tests, NULL, NULL);
 }

@@ -438,6 +438,29 @@ static void acquisition_window_keeps_a_max_one_tick_larger(void **state)
     assert_int_equal(node->acq_ticks, 481u);
 }
 
+/* A heartbeat during the application's reset hook: the update it makes due is run, not dropped
+ * with the ones due before the reset (those are dropped before the hook runs). */
+static void reset_with_a_heartbeat(urb_node_t *node, void *user)
+{
+    fixture_t *f = user;
+    f->resets++;
+    (void)urb_hal_hosted_advance(&f->port, node, PERIOD);
+}
+
+static void update_due_during_the_reset_hook_runs(void **state)
+{
+    fixture_t *f = *state;
+    urb_node_t *node = &f->node;
+    f->hooks.reset = reset_with_a_heartbeat;
+    assert_int_equal(fx_command(node, URB_COMMAND_CODE_RESET, 0u, 0u, 0u), FX_ALL_ACKED);
+    unsigned const updates = f->updates;
+    uint8_t const done = urb_node_poll(node);
+    assert_true((done & URB_NODE_POLL_COMMAND) != 0u);
+    assert_int_equal(f->resets, 1u);
+    assert_true((done & URB_NODE_POLL_UPDATE) != 0u);
+    assert_int_equal(f->updates, updates + 1u);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -459,6 +482,7 @@ int main(void)
         cmocka_unit_test_setup(overrun_once_per_poll, setup),
         cmocka_unit_test_setup(command_reset_republishes_and_the_next_command_runs, setup),
         cmocka_unit_test_setup(acquisition_window_keeps_a_max_one_tick_larger, setup),
+        cmocka_unit_test_setup(update_due_during_the_reset_hook_runs, setup),
     };
     return cmocka_run_group_tests_name("node_main_loop", tests, NULL, NULL);
 }

@@ -275,9 +275,11 @@ static void late_interrupt_rearms_a_full_microsecond_ahead(void **state)
 {
     fixture_t *f = *state;
     uint32_t const margin = f->node.cfg->ticks_per_us;
+    f->node.pll.period_q8 = (PERIOD << 8) + 128u; /* a period estimate with half a tick: beats carry a fraction */
     f->port.now = f->port.compare + PERIOD - (margin - 1u);
     urb_node_timer_event(&f->node);
     assert_int_equal(f->port.compare, f->port.now + margin);
+    assert_int_equal(f->node.pll.next_frac, 0u); /* the re-armed beat is a whole tick: its fraction goes */
     /* a full microsecond away is left as it is */
     f->port.now = f->port.compare + PERIOD - margin;
     uint32_t const next = f->port.compare + PERIOD;
