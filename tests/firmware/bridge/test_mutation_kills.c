@@ -178,6 +178,38 @@ static void responses_counted_once_when_a_batch_is_full(void **state)
     rig_free(r);
 }
 
+/* A transmit kick that drains the ring at once, as urb_bridge_hal.h allows (the kick may call
+ * urb_bridge_uart_tx_pop): every response byte is queued before the kick, so it all leaves. */
+static urb_hosted_rig_t *kicked;
+static uint8_t kick_out[256];
+static size_t kick_len;
+
+static void kick_drains_at_once(void *ctx)
+{
+    (void)ctx;
+    uint8_t byte;
+    while ((kick_len < sizeof kick_out) && urb_bridge_uart_tx_pop(&kicked->bridge, &byte)) {
+        kick_out[kick_len++] = byte;
+    }
+}
+
+static void response_queued_before_a_draining_kick(void **state)
+{
+    (void)state;
+    kicked = rig_new(16u, 0u);
+    add_node(kicked, NODE, 0x42u, 1u, 4u, 4u);
+    rig_start(kicked);
+    kicked->hal.hal.uart_tx_kick = kick_drains_at_once;
+    kick_len = 0u;
+    uint8_t f[8];
+    send_frame(kicked, f, enc_read(f, NODE, 1u, 9u, 4u));
+    assert_true(urb_hosted_rig_settle(kicked, 50000u));
+    stream_t s = {kick_out, kick_len, 0u};
+    expect_response(&s, 9u, URB_STATUS_OK, 4u, NULL);
+    expect_end(&s);
+    rig_free(kicked);
+}
+
 /* urb_bridge_init over memory in any state (a restart without zeroing): every field it needs is
  * set, so the first requests on RS232 and USB are answered like on zeroed memory. */
 static void init_over_garbage_memory(void **state)
@@ -224,6 +256,7 @@ int run_mutation_kill_tests(void)
         cmocka_unit_test(init_over_garbage_memory),
         cmocka_unit_test(master_ignores_a_late_event_after_finishing),
         cmocka_unit_test(responses_counted_once_when_a_batch_is_full),
+        cmocka_unit_test(response_queued_before_a_draining_kick),
     };
     return cmocka_run_group_tests_name("bridge_mutation_kills", tests, NULL, NULL);
 }

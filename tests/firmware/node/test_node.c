@@ -461,6 +461,37 @@ static void update_due_during_the_reset_hook_runs(void **state)
     assert_int_equal(f->updates, updates + 1u);
 }
 
+/* Two bus writes to inbox 0 land right after the command's inbox is released (interrupts at that
+ * step): the command run is the one that was locked, read before the release, not a later one
+ * that the second write put into the same buffer. */
+static void two_writes_at_release(urb_node_t *node, uint8_t step, void *ctx)
+{
+    unsigned *writes = ctx;
+    if ((step == URB_STEP_IN_RELEASE) && (*writes == 0u)) {
+        *writes = 2u;
+        assert_int_equal(fx_command(node, URB_COMMAND_CODE_SIGNAL, 2u, 0u, 0u), FX_ALL_ACKED);
+        assert_int_equal(fx_command(node, URB_COMMAND_CODE_SIGNAL, 3u, 0u, 0u), FX_ALL_ACKED);
+    }
+}
+
+static void command_read_before_its_inbox_is_released(void **state)
+{
+    fixture_t *f = *state;
+    urb_node_t *node = &f->node;
+    assert_int_equal(fx_command(node, URB_COMMAND_CODE_SIGNAL, 1u, 0u, 0u), FX_ALL_ACKED);
+    unsigned writes = 0u;
+    fx_step_hook = two_writes_at_release;
+    fx_step_ctx = &writes;
+    uint8_t const done = urb_node_poll(node);
+    fx_step_hook = NULL;
+    assert_int_equal(writes, 2u);
+    assert_true((done & URB_NODE_POLL_COMMAND) != 0u);
+    assert_int_equal(f->signals, 1u);
+    assert_int_equal(f->last_signal, 1u);
+    assert_true((urb_node_poll(node) & URB_NODE_POLL_COMMAND) != 0u); /* then the latest one */
+    assert_int_equal(f->last_signal, 3u);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -483,6 +514,7 @@ int main(void)
         cmocka_unit_test_setup(command_reset_republishes_and_the_next_command_runs, setup),
         cmocka_unit_test_setup(acquisition_window_keeps_a_max_one_tick_larger, setup),
         cmocka_unit_test_setup(update_due_during_the_reset_hook_runs, setup),
+        cmocka_unit_test_setup(command_read_before_its_inbox_is_released, setup),
     };
     return cmocka_run_group_tests_name("node_main_loop", tests, NULL, NULL);
 }
