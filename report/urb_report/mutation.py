@@ -34,6 +34,8 @@ ROOT = Path(__file__).resolve().parents[2]
 KINDS = {"off-by-one": "off-by-one in a bound", "order": "wrong order", "missing-effect": "missing publish or free",
          "field": "wrong field", "error": "dropped error", "other": "other"}
 TOOLS = ("TLC", "ESBMC", "Frama-C", "fuzzing", "unit tests")
+SHORT = {"off-by-one": "off-by-one", "order": "order", "missing-effect": "publish/free", "field": "field",
+         "error": "error", "other": "other"}  # the kinds in the table's cells
 
 
 @dataclass(frozen=True)
@@ -284,7 +286,7 @@ def _cell(group: Iterable[Seeded]) -> str:
         if items:
             killed = sum(s.killed for s in items)
             explained = sum(not s.killed and bool(s.explained) for s in items)
-            parts.append(f"{kind} {killed}/{len(items)}" + (f" (+{explained} eq.)" if explained else ""))
+            parts.append(f"{SHORT[kind]} {killed}/{len(items)}" + (f" (+{explained} eq.)" if explained else ""))
     return "<br>".join(parts)
 
 
@@ -294,9 +296,10 @@ def markdown(found: Loaded) -> list[str]:
     comps += [c.name for c in COMPONENTS if not c.mutated and any(s.component == c.name for s in found.seeded)]
     comps += sorted({s.component for s in found.seeded} - {c.name for c in COMPONENTS})
     md = ["## Mutation score", "",
-          "Seeded bugs per component (rows) and tool (columns): killed/total per kind (off-by-one in a bound, "
-          "wrong order, missing publish or free, wrong field, dropped error, other); \"eq.\" counts survivors "
-          "explained as equivalent. Sources: urb_report/mutation.py.", "",
+          "Seeded bugs per component (rows) and tool (columns): killed/total per kind (off-by-one: in a bound; "
+          "order: wrong order; publish/free: a missing publish or free; field: wrong field; error: dropped error; "
+          "other); \"eq.\" counts survivors explained as equivalent. Sources: urb_report/mutation.py, "
+          "tests/mutation/README.md.", "",
           "| component | " + " | ".join(TOOLS) + " |", "|---|" + "---|" * len(TOOLS)]
     for comp in comps:
         cells = []
