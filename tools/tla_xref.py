@@ -31,6 +31,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping
 
+from urb_report import c_source
+
 REPO = Path(__file__).resolve().parents[1]
 TLA_DIRS = [REPO / "spec" / "tla", REPO / "sim" / "tla"]
 SPEC_DIR = REPO / "spec" / "tla"
@@ -173,53 +175,17 @@ def role(path: str) -> str:
     return "production" if path.startswith(PRODUCTION) else ""
 
 
-_LEXEME = re.compile(r"/\*(.*?)(?:\*/|\Z)|//([^\n]*)|\"(?:\\.|[^\"\\\n])*\"|'(?:\\.|[^'\\\n])*'", re.DOTALL)
-
-
-def _comments_and_code(text: str) -> tuple[list[tuple[int, str]], str]:
-    """The comments (offset of their text, text) and the code with comments and literals blanked
-    (same length, newlines kept), so offsets stay valid."""
-    comments: list[tuple[int, str]] = []
-
-    def blank(m: re.Match[str]) -> str:
-        for group in (1, 2):
-            if m.group(group) is not None:
-                comments.append((m.start(group), m.group(group)))
-        return re.sub(r"[^\n]", " ", m.group())
-
-    return comments, _LEXEME.sub(blank, text)
-
-
-def function_bodies(code: str) -> list[tuple[str, int, int]]:
-    """(name, offset of `{`, offset after `}`) of every function definition in comment-free code."""
-    out: list[tuple[str, int, int]] = []
-    depth, start = 0, 0
-    for m in re.finditer(r"[{}]", code):
-        if m.group() == "{":
-            if depth == 0:
-                start = m.start()
-            depth += 1
-        else:
-            depth -= 1
-            if depth == 0:
-                head = code[max(0, start - 2000):start].rstrip()
-                sig = re.search(r"\b([A-Za-z_]\w*)\s*\([^;{}()]*(?:\([^;{}()]*\)[^;{}()]*)*\)$", head)
-                if sig and sig.group(1) not in ("if", "while", "for", "switch"):
-                    out.append((sig.group(1), start, m.end()))
-    return out
-
-
-def _owner(code: str, bodies: list[tuple[str, int, int]], at: int, comment_end: int) -> str:
+def _owner(code: str, bodies: list[c_source.Function], at: int, comment_end: int) -> str:
     """The function a citation at `at` belongs to: the one whose body holds it, or the one whose
     signature follows its comment directly; "" when neither."""
-    for name, start, end in bodies:
-        if start <= at < end:
-            return name
-    nxt = next(((name, start) for name, start, _ in bodies if start > at), None)
+    for f in bodies:
+        if f.open <= at < f.close:
+            return f.name
+    nxt = next((f for f in bodies if f.open > at), None)
     if nxt is None:
         return ""
-    between = code[comment_end:nxt[1]]
-    return nxt[0] if not re.search(r"[;{}#]", between) and re.search(rf"\b{nxt[0]}\s*\(", between) else ""
+    between = code[comment_end:nxt.open]
+    return nxt.name if not re.search(r"[;{}#]", between) and re.search(rf"\b{nxt.name}\s*\(", between) else ""
 
 
 def _flatten(comment: str) -> tuple[str, list[int]]:
@@ -245,9 +211,9 @@ def scan(sources: Mapping[str, str] | None = None) -> tuple[list[Citation], list
     found: list[Citation] = []
     errors: list[str] = []
     for path, text in (firmware_sources() if sources is None else sources).items():
-        comments, code = _comments_and_code(text)
-        bodies = function_bodies(code)
-        for offset, comment in comments:
+        code = c_source.code_of(text)
+        bodies = c_source.functions(code)
+        for offset, comment in c_source.comments(text):
             flat, where = _flatten(comment)
             for m in MENTION.finditer(flat):
                 at = offset + where[m.start()]

@@ -1,5 +1,6 @@
-"""Just enough C structure for the mutation tools: code without comments, literals and dead
-seeded-bug branches, function bodies, statements and struct fields, all by offset into the text.
+"""Just enough C structure for tools/c_mutate.py and tools/tla_xref.py: comments, code without
+comments, literals, directives and dead seeded-bug branches, function bodies, statements and struct
+fields, all by offset into the text.
 
 The firmware follows a house style (C99, one statement per line mostly, braces on every block);
 this is not a C parser, and every result is an offset range into the original text, so a
@@ -20,6 +21,19 @@ _KEYWORDS = {"if", "while", "for", "switch", "return", "sizeof", "do", "else", "
 
 def _blank(text: str) -> str:
     return re.sub(r"[^\n]", " ", text)
+
+
+def comments(text: str) -> list[tuple[int, str]]:
+    """Every comment's text (without its `/*`, `*/` or `//`) and the offset where that text starts;
+    string and character literals are skipped."""
+    out = []
+    for m in _LEXEME.finditer(text):
+        lexeme = m.group()
+        if lexeme.startswith("/*"):
+            out.append((m.start() + 2, lexeme[2:-2] if lexeme.endswith("*/") and len(lexeme) >= 4 else lexeme[2:]))
+        elif lexeme.startswith("//"):
+            out.append((m.start() + 2, lexeme[2:]))
+    return out
 
 
 def seeded_dead(text: str) -> list[tuple[int, int]]:
