@@ -233,6 +233,12 @@ def _unit_tests(out_root: Path, found: Loaded) -> None:
         found.seeded.append(Seeded("unit tests", str(m["id"]), str(m["component"]), kind_of(m.get("kind")),
                                    m.get("result") == "killed", explained=str(m.get("explained", "")),
                                    detail=str(m.get("killed_by", ""))))
+        verdicts = m.get("esbmc") or {}
+        if verdicts:  # a unit-test survivor also run through the component's BMC proofs (--esbmc)
+            killed = any(str(v).startswith("killed") for v in verdicts.values())
+            found.seeded.append(Seeded("ESBMC", f"c:{m['id']}", str(m["component"]), kind_of(m.get("kind")), killed,
+                                       explained="" if killed else str(m.get("explained", "")),
+                                       detail="; ".join(f"{f}: {v}" for f, v in verdicts.items())))
 
 
 def _tlc(out_root: Path, found: Loaded) -> None:

@@ -179,3 +179,17 @@ def test_a_run_where_no_mutant_dies_fails(monkeypatch: pytest.MonkeyPatch, tmp_p
     why = [{"id": m.id, "original": m.original, "replacement": m.replacement, "why": "y" * 40} for m in mutants]
     status, summary = _run_with(monkeypatch, tmp_path, mutants, {m.id: "survived" for m in mutants}, why)
     assert status == 1 and any(r["result"] == "NO KILL" for r in summary["rows"])
+
+
+def test_a_mutant_as_a_bmc_proof_entry_makes_the_same_change(tmp_path: Path) -> None:
+    """--esbmc hands a mutant to a proof folder as a mutants.json entry (find, replace, occurrence
+    inside a function), which proofs/bmc/prepare.py applies: the result must be the mutant's own."""
+    prepare = load_module("bmc_prepare", Path("proofs/bmc/prepare.py"))
+    for m in CM.sample(ALL)[::3]:
+        entry = CM.as_bmc_mutant(m, "x")
+        text = (ROOT / m.file).read_text(encoding="utf-8")
+        copy = tmp_path / m.file
+        copy.parent.mkdir(parents=True, exist_ok=True)
+        copy.write_text(text, encoding="utf-8")
+        prepare._rewrite(tmp_path, entry, m.id, "-")
+        assert copy.read_text(encoding="utf-8") == m.apply(text), m.id
