@@ -242,21 +242,27 @@ def _unit_tests(out_root: Path, found: Loaded) -> None:
 
 
 def _tlc(out_root: Path, found: Loaded) -> None:
+    """TLA+ mutants: {"mutants": [...]} (or a proof-part {"rows": [...]}, or a bare list), each with a
+    name ("name", "id" or "function"), the model ("module", "model" or "component"), "kind", and its
+    outcome ("killed": bool, or "result": "killed", or "verdict": "pass"), optionally "explained"."""
     path = out_root / "mutation" / "tlc.json"
     if not path.is_file():
         found.missing["TLC"] = "not run (build/proofs/mutation/tlc.json missing: the TLA+ mutation run writes it)"
         return
     data = _read_json(path)
-    mutants = data.get("mutants") if isinstance(data, dict) else None
-    if not isinstance(mutants, list):
-        found.problems.append(f"{path}: no \"mutants\" list: it must follow the format in urb_report/mutation.py")
+    entries = data if isinstance(data, list) else next(
+        (data[k] for k in ("mutants", "rows", "items") if isinstance(data, dict) and isinstance(data.get(k), list)), None)
+    if entries is None or not all(isinstance(e, dict) for e in entries):
+        found.problems.append(f"{path}: no list of mutants (\"mutants\": [...]): see urb_report/mutation.py, _tlc")
         found.missing["TLC"] = "unreadable (build/proofs/mutation/tlc.json)"
         return
     by_module = {mod: c.name for c in COMPONENTS for mod in c.modules}
-    for m in mutants:
-        comp = str(m.get("component") or by_module.get(str(m.get("module", "")), m.get("module", "TLA+")))
-        found.seeded.append(Seeded("TLC", str(m.get("name", "?")), comp, kind_of(m.get("kind")),
-                                   bool(m.get("killed")), explained=str(m.get("explained", ""))))
+    for m in entries:
+        module = str(m.get("module") or m.get("model") or "")
+        comp = str(m.get("component") or by_module.get(module, module or "TLA+"))
+        killed = m.get("killed") is True or str(m.get("result", "")).lower() == "killed" or m.get("verdict") == "pass"
+        found.seeded.append(Seeded("TLC", str(m.get("name") or m.get("id") or m.get("function") or "?"), comp,
+                                   kind_of(m.get("kind")), killed, explained=str(m.get("explained", "") or "")))
 
 
 def load(out_root: Path) -> Loaded:
