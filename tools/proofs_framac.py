@@ -278,8 +278,9 @@ PROVER_NAMES = {"qed": "qed", "z3": "z3", "cvc4": "cvc4", "cvc5": "cvc5", "alt-e
 
 
 def proved_by(goals: dict[str, Any]) -> dict[str, int]:
-    """How many of the goals each prover proved (qed is WP's simplifier; a goal two provers proved
-    counts for both; "script" is a -wp-auto strategy whose parts the provers proved)."""
+    """How many of a function's WP properties each prover proved (qed is WP's simplifier; a
+    property two provers proved counts for both; "script" is a -wp-auto strategy whose parts the
+    provers proved). WP's report gives verdicts per property, and a property may hold several goals."""
     counts: dict[str, int] = {}
     for verdicts in goals.values():
         for name, v in verdicts.items():
