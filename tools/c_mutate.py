@@ -73,7 +73,6 @@ NOT_MUTATED_CALLS = {
     "mark": "a timing probe for the logic analyser (bridge.c): no behaviour depends on it",
     "URB_STEP": "the interleaving hook of the node tests; empty in the firmware",
     "URB_NODE_BARRIER": "a compiler barrier: no host test can observe reordering; TLC and ESBMC check the order",
-    "URB_NODE_TEST_STEP": "the interleaving hook of the node tests; empty in the firmware",
 }
 OPERATOR_KIND = {"ror": "off-by-one", "bound": "off-by-one", "swap": "order", "del-store": "missing-effect",
                  "del-call": "missing-effect", "field": "field", "del-return": "error", "del-error-set": "error"}
