@@ -5,6 +5,7 @@ the committed record. TLC runs the mutants in `make modelcheck` (the sample) and
 
 from __future__ import annotations
 
+import importlib
 import json
 from pathlib import Path
 from typing import Any
@@ -208,3 +209,19 @@ def test_table_rows_are_what_the_mutation_table_reads() -> None:
         ("M/A/cmp#1", "M", "off-by-one", False, "equivalent"),
         ("M/A/cmp#2", "M", "off-by-one", True, "")]
     assert set(mut.TABLE_KINDS) == set(gen.KINDS.values())
+
+
+def test_the_mutation_table_reads_the_rows(tmp_path: Path) -> None:
+    """The rows go through report/urb_report/mutation.py as written: components, kinds, survivors."""
+    table: Any = importlib.import_module("urb_report.mutation")  # report/ is on the path: tools/tla_mutate.py
+    results = {"MailboxOutbox/A/cmp#1": {**_row("survived"), "module": "MailboxOutbox"},
+               "Bridge/B/cmp#1": {**_row("killed"), "module": "Bridge"}}
+    explained = {"MailboxOutbox/A/cmp#1": {"original": "<", "mutated": "<=", "why": "equivalent"}}
+    (tmp_path / "mutation").mkdir()
+    (tmp_path / "mutation" / "tlc.json").write_text(
+        json.dumps({"mutants": mut.table_rows(results, explained, [])}), encoding="utf-8")
+    found = table.load(tmp_path)
+    tlc = sorted((s.name, s.component, s.kind, s.killed, s.explained) for s in found.seeded if s.tool == "TLC")
+    assert tlc == [("Bridge/B/cmp#1", "bridge FIFO", "off-by-one", True, ""),
+                   ("MailboxOutbox/A/cmp#1", "node mailbox", "off-by-one", False, "equivalent")]
+    assert not [p for p in found.problems if "TLC" in p]
