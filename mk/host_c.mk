@@ -11,3 +11,39 @@ HOSTC_HDRS := $(wildcard host/c/include/*.h host/c/core/*.h gen/c/*.h)
 $(HOSTC_BUILD)/libcoreshim.so: tests/host_c/core_shim.c $(HOSTC_CORE_SRC) $(HOSTC_GEN_SRC) $(HOSTC_HDRS)
 	@mkdir -p $(@D)
 	gcc $(HOSTC_CFLAGS) -g -O1 -fPIC -shared $(HOSTC_INC) $(filter %.c,$^) -o $@
+
+# --- the library -----------------------------------------------------------------------------------
+HOSTC_PORT_SRC := $(sort $(wildcard host/c/port/*.c))
+HOSTC_LIB_SRC := $(HOSTC_CORE_SRC) $(HOSTC_PORT_SRC) $(HOSTC_GEN_SRC)
+HOSTC_OPT := -O2 -g
+HOSTC_OBJS := $(patsubst %.c,$(HOSTC_BUILD)/obj/%.o,$(HOSTC_LIB_SRC))
+HOSTC_PIC_OBJS := $(patsubst %.c,$(HOSTC_BUILD)/pic/%.o,$(HOSTC_LIB_SRC))
+
+# The library's own sources get the strict warning set; the generated codecs are compiled as gen/c's
+# own Makefile fragment compiles them.
+$(HOSTC_BUILD)/obj/host/%.o: host/%.c $(HOSTC_HDRS)
+	@mkdir -p $(@D)
+	gcc $(HOSTC_STRICT) $(HOSTC_OPT) $(HOSTC_INC) -c $< -o $@
+$(HOSTC_BUILD)/pic/host/%.o: host/%.c $(HOSTC_HDRS)
+	@mkdir -p $(@D)
+	gcc $(HOSTC_STRICT) $(HOSTC_OPT) -fPIC $(HOSTC_INC) -c $< -o $@
+$(HOSTC_BUILD)/obj/gen/%.o: gen/%.c $(HOSTC_HDRS)
+	@mkdir -p $(@D)
+	gcc $(HOSTC_CFLAGS) $(HOSTC_OPT) $(HOSTC_INC) -c $< -o $@
+$(HOSTC_BUILD)/pic/gen/%.o: gen/%.c $(HOSTC_HDRS)
+	@mkdir -p $(@D)
+	gcc $(HOSTC_CFLAGS) $(HOSTC_OPT) -fPIC $(HOSTC_INC) -c $< -o $@
+
+$(HOSTC_BUILD)/liburbhost.a: $(HOSTC_OBJS)
+	@rm -f $@
+	ar rcs $@ $^
+$(HOSTC_BUILD)/liburbhost.so: $(HOSTC_PIC_OBJS)
+	gcc -shared -Wl,-soname,liburbhost.so $^ -lpthread -o $@
+
+# --- the C++ example (urb.hpp) ------------------------------------------------------------------------
+HOSTC_CXXFLAGS := -std=c++17 -Wall -Wextra -Werror -pedantic -fno-exceptions
+$(HOSTC_BUILD)/pd_control: host/c/examples/pd_control.cpp host/c/include/urb.hpp $(HOSTC_BUILD)/liburbhost.a
+	g++ $(HOSTC_CXXFLAGS) -O2 -g $(HOSTC_INC) $< $(HOSTC_BUILD)/liburbhost.a -lpthread -o $@
+
+.PHONY: host-c-lib
+host-c-lib: $(HOSTC_BUILD)/liburbhost.a $(HOSTC_BUILD)/liburbhost.so $(HOSTC_BUILD)/pd_control
