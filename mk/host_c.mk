@@ -47,3 +47,21 @@ $(HOSTC_BUILD)/pd_control: host/c/examples/pd_control.cpp host/c/include/urb.hpp
 
 .PHONY: host-c-lib
 host-c-lib: $(HOSTC_BUILD)/liburbhost.a $(HOSTC_BUILD)/liburbhost.so $(HOSTC_BUILD)/pd_control
+
+# --- cmocka tests under ASan+UBSan, gcc and clang ------------------------------------------------------
+# The tests run the library against the real bridge firmware compiled for the host (its hosted rig).
+HOSTC_FW_SRC := firmware/bridge/bridge.c firmware/bridge/bridge_uplink.c firmware/bridge/i2c_master.c \
+                firmware/hal/hosted/bridge_hosted.c firmware/hal/hosted/bridge_fake_i2c.c
+HOSTC_FW_INC := -Ifirmware/include -Ifirmware/hal/hosted -Ifirmware/bridge
+HOSTC_TEST_SRC := $(filter-out tests/host_c/core_shim.c tests/host_c/fuzz_%.c,$(wildcard tests/host_c/*.c))
+HOSTC_SAN := -g -O1 -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
+HOSTC_TEST_DEPS := $(HOSTC_LIB_SRC) $(HOSTC_FW_SRC) $(HOSTC_TEST_SRC) $(HOSTC_HDRS) $(wildcard tests/host_c/*.h)
+
+define HOSTC_TEST_BINARY
+$(HOSTC_BUILD)/$(1)/host-tests: $(HOSTC_TEST_DEPS)
+	@mkdir -p $$(@D)
+	$(1) $(HOSTC_CFLAGS) $(HOSTC_SAN) $(HOSTC_INC) $(HOSTC_FW_INC) $(HOSTC_MUTANT_FLAGS) $(HOSTC_LIB_SRC) $(HOSTC_FW_SRC) \
+	  $(HOSTC_TEST_SRC) -lcmocka -lutil -lpthread -o $$@
+endef
+$(eval $(call HOSTC_TEST_BINARY,gcc))
+$(eval $(call HOSTC_TEST_BINARY,clang))
