@@ -233,21 +233,23 @@ static void test_a_full_window_of_placeholders_holds_new_requests_back(void **st
 static void test_idle_gap_drops_the_first_byte_of_a_stalled_candidate(void **state)
 {
     (void)state;
-    urb_transfer_t *a = submit_read(&pool, 0, &core, 6u, 0);
+    urb_transfer_t *a = submit_read(&pool, 0, &core, 32u, 0);
     urb_transfer_t *b = submit_read(&pool, 1, &core, 6u, 0);
     send_all(&core, 0);
     uint8_t ra[URB_RESPONSE_MAX];
     uint8_t rb[URB_RESPONSE_MAX];
     response(ra, a, 0u, 1u);
     size_t const nb = response(rb, b, 0u, 2u);
-    feed(ra, 3u, MS); /* a's response cut short */
+    feed(ra, 1u, MS); /* only the first byte of a's 35-byte answer came ... */
+    feed(rb, nb, 2 * MS); /* ... then b's whole answer, which the 35-byte candidate swallows */
     assert_true(core.partial);
-    assert_int_equal(urb_core_next_deadline(&core), MS + 20 * MS);
-    (void)urb_core_poll(&core, 21 * MS); /* the gap: the candidate loses a byte, the rest is hunted */
-    feed(rb, nb, 22 * MS);
+    assert_int_equal(pool_take(&pool, &core), 0u);
+    assert_int_equal(urb_core_next_deadline(&core), 2 * MS + 20 * MS);
+    (void)urb_core_poll(&core, 22 * MS); /* the gap: the stalled candidate loses its first byte, b is found */
     assert_int_equal(pool_take(&pool, &core), 2u);
     assert_int_equal(a->flags, URB_FLAG_UPLINK_CHECKSUM);
     assert_true(urb_transfer_ok(b));
+    assert_int_equal(b->response[0], 2);
 }
 
 static void test_silence_with_requests_outstanding_loses_the_bridge(void **state)
@@ -433,7 +435,8 @@ static void test_bad_arguments_change_nothing(void **state)
     assert_int_equal(urb_transfer_read(&t, 8u, 1u, 6u), URB_HOST_OK);
     assert_int_equal(urb_core_submit(&core, &t, 0), URB_HOST_OK);
     assert_int_equal(urb_core_submit(&core, &t, 0), URB_HOST_EBUSY); /* submitted once */
-    assert_int_equal(urb_transfer_read(&t, 8u, 1u, 6u), URB_HOST_EBUSY); /* the core owns it */
+    assert_true(urb_transfer_owned(&t)); /* the core owns it */
+    assert_int_equal(urb_transfer_set_callback(&t, NULL, NULL), URB_HOST_EBUSY);
     assert_int_equal(urb_core_next_frame(&core, 0, buf, 10u), URB_HOST_ENOSPC);
     assert_int_equal(urb_core_frame_out(&core, 0, buf, sizeof buf), URB_HOST_EINVAL); /* not USB */
     assert_int_equal(urb_core_receive_batch(&core, buf, 4u, 0), URB_HOST_EINVAL);

@@ -144,6 +144,11 @@ static void test_duplicates_across_bridges_and_rediscovery(void **state)
         discover(i, 3000000u);
         assert_int_equal(urb_system_merge(&sys, (uint8_t)i, &disc[i]), URB_HOST_OK);
     }
+    for (uint8_t b = 0u; b < 2u; b++) { /* both rows flagged (Discovery.tla Flags), never merged */
+        int32_t const r = urb_system_at(&sys, b, 0x20u);
+        assert_true(r >= 0);
+        assert_int_equal(sys.rows[r].flags, URB_NODE_DUPLICATE);
+    }
     urb_find_t why;
     assert_int_equal(urb_system_find(&sys, URB_NODE_MOTOR_DRIVER_CLASS, 0u, &why), URB_HOST_ENOTFOUND);
     assert_int_equal(why, URB_FIND_DUPLICATE);

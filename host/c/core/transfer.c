@@ -28,12 +28,14 @@ static void reset(urb_transfer_t *t, uint8_t address, uint8_t mailbox, bool read
     t->callback_ns = URB_NO_TIME;
 }
 
+/* Whether a request can be built; the transfer's own state is not read: a fresh, uninitialised
+ * transfer on the stack must build (its state bytes are garbage until then). */
 static int32_t check(const urb_transfer_t *t, uint8_t address, uint8_t mailbox, uint8_t length)
 {
     if ((t == NULL) || (address > 127u) || (mailbox > 7u) || (length < 1u) || (length > URB_HOST_MAILBOX_MAX)) {
         return URB_HOST_EINVAL;
     }
-    return urb_transfer_owned(t) ? URB_HOST_EBUSY : URB_HOST_OK;
+    return URB_HOST_OK;
 }
 
 int32_t urb_transfer_read(urb_transfer_t *t, uint8_t address, uint8_t mailbox, uint8_t length)

@@ -82,10 +82,11 @@ struct urb_transfer {
 
 /**
  * Makes `t` a read of outbox `mailbox` (0..7) of the node at downlink `address` (0..127),
- * `length` (1..32) bytes, and clears its outcome, callback and answer time.
- * Returns URB_HOST_OK; URB_HOST_EINVAL for t == NULL or an argument out of range;
- * URB_HOST_EBUSY when t is queued, in flight or completed but not yet taken (a core owns it).
- * On error nothing changes. O(1) (clears about 150 bytes), no memory beyond *t.
+ * `length` (1..32) bytes, and clears its outcome, callback and answer time. `t` may be fresh,
+ * uninitialised memory; it must not be a transfer a core owns (urb_transfer_owned(): submitted and
+ * not handed back), whose links the core still uses. Returns URB_HOST_OK, or URB_HOST_EINVAL for
+ * t == NULL or an argument out of range (then nothing changes). O(1) (clears about 250 bytes), no
+ * memory beyond *t.
  */
 int32_t urb_transfer_read(urb_transfer_t *t, uint8_t address, uint8_t mailbox, uint8_t length);
 
