@@ -8,7 +8,8 @@ HOSTC_CORE_SRC := $(sort $(wildcard host/c/core/*.c))
 HOSTC_GEN_SRC := gen/c/urb_core.c gen/c/urb_runtime.c gen/c/urb_sensorhex.c
 HOSTC_HDRS := $(wildcard host/c/include/*.h host/c/core/*.h gen/c/*.h)
 
-$(HOSTC_BUILD)/libcoreshim.so: tests/host_c/core_shim.c $(HOSTC_CORE_SRC) $(HOSTC_GEN_SRC) $(HOSTC_HDRS)
+$(HOSTC_BUILD)/libcoreshim.so: tests/host_c/core_shim.c $(HOSTC_CORE_SRC) host/c/port/handover.c host/c/port/serial.c \
+                               $(HOSTC_GEN_SRC) $(HOSTC_HDRS)
 	@mkdir -p $(@D)
 	gcc $(HOSTC_CFLAGS) -g -O1 -fPIC -shared $(HOSTC_INC) $(filter %.c,$^) -o $@
 
@@ -65,3 +66,37 @@ $(HOSTC_BUILD)/$(1)/host-tests: $(HOSTC_TEST_DEPS)
 endef
 $(eval $(call HOSTC_TEST_BINARY,gcc))
 $(eval $(call HOSTC_TEST_BINARY,clang))
+
+$(HOSTC_BUILD)/hpp_check: tests/host_c/hpp_check.cpp host/c/include/urb.hpp $(HOSTC_BUILD)/liburbhost.a
+	g++ $(HOSTC_CXXFLAGS) -g -O1 -fsanitize=address,undefined -fno-sanitize-recover=all $(HOSTC_INC) $< \
+	  $(HOSTC_BUILD)/liburbhost.a -lpthread -o $@
+
+# --- what make check runs --------------------------------------------------------------------------------
+#   make test-host-c      the library and the example (strict warnings), the cmocka tests under ASan+UBSan
+#                         with gcc and clang (JUnit: build/host_c/junit/, record build/evidence/cmocka-host_c.json),
+#                         every seeded bug of tests/host_c/mutants.json caught, the urb.hpp check program
+#   make proofs-hostfuzz  libFuzzer on the RS232 and USB receive paths and their mutants (a part of make proofs)
+# The pytest files of tests/host_c/ (the differential test against the Python core, the example and
+# header against the hosted bridge over a pty, the hand-over record against handover.py) run in test-py.
+PYTHON ?= python3
+HOSTC_FUZZ_SECONDS ?= $(or $(FUZZ_SECONDS),20)
+HOSTC_FUZZ_MUTANT_SECONDS ?= $(or $(FUZZ_MUTANT_SECONDS),60)
+
+.PHONY: test-host-c host-c-tests host-c-mutants proofs-hostfuzz host-c-pytest-deps
+host-c-tests: $(HOSTC_BUILD)/gcc/host-tests $(HOSTC_BUILD)/clang/host-tests
+	$(PYTHON) tests/host_c/check_host_c.py cmocka $^
+
+host-c-mutants:
+	$(PYTHON) tests/host_c/check_host_c.py mutants
+
+test-host-c: host-c-lib $(HOSTC_BUILD)/hpp_check host-c-tests host-c-mutants
+
+proofs-hostfuzz:
+	$(PYTHON) tests/host_c/check_host_c.py fuzz --seconds $(HOSTC_FUZZ_SECONDS) --mutant-seconds $(HOSTC_FUZZ_MUTANT_SECONDS)
+
+# Built before the pytest workers start, so that no two of them build one at once.
+host-c-pytest-deps: $(HOSTC_BUILD)/libcoreshim.so $(HOSTC_BUILD)/pd_control $(HOSTC_BUILD)/hpp_check
+test-py: host-c-pytest-deps
+
+CHECK_TARGETS += test-host-c
+PROOF_PARTS += hostfuzz

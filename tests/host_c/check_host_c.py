@@ -35,7 +35,6 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[2]
 HERE = ROOT / "tests" / "host_c"
 BUILD = ROOT / "build" / "host_c"
-OUT = ROOT / "build" / "proofs" / "hostfuzz"
 sys.path.insert(0, str(ROOT / "report"))
 
 from urb_report.records import Item, write_record  # noqa: E402
@@ -58,14 +57,16 @@ class SetupError(Exception):
     """A compiler missing, a mutant whose find no longer matches."""
 
 
-def _fuzz_module() -> Any:
-    spec = importlib.util.spec_from_file_location("urb_tools_fuzz", ROOT / "tools" / "fuzz.py")
-    assert spec is not None and spec.loader is not None
-    mod = sys.modules.get("urb_tools_fuzz") or importlib.util.module_from_spec(spec)
-    if "urb_tools_fuzz" not in sys.modules:
-        sys.modules["urb_tools_fuzz"] = mod  # its dataclasses look their module up there
+def _tool(name: str) -> Any:
+    """tools/<name>.py as a module (run_fuzzer from fuzz.py, write_part from proofs.py)."""
+    key = f"urb_tools_{name}"
+    if key not in sys.modules:
+        spec = importlib.util.spec_from_file_location(key, ROOT / "tools" / f"{name}.py")
+        assert spec is not None and spec.loader is not None
+        mod = importlib.util.module_from_spec(spec)
+        sys.modules[key] = mod  # its dataclasses look their module up there
         spec.loader.exec_module(mod)
-    return mod
+    return sys.modules[key]
 
 
 def compile_(cmd: list[str]) -> None:
@@ -165,7 +166,7 @@ def load_mutants(only: list[str]) -> list[dict[str, Any]]:
 
 
 def fuzz_kills(binary: Path, target: str, seconds: int, log: Path) -> tuple[bool, str]:
-    fz = _fuzz_module()
+    fz = _tool("fuzz")
     found = BUILD / "fuzz-mutants" / "found"
     shutil.rmtree(found, ignore_errors=True)
     code, stats = fz.run_fuzzer(binary, found, HERE / "corpus" / target, seconds, log)
@@ -210,7 +211,7 @@ def cmd_mutants(only: list[str], mutant_seconds: int, fuzz: bool) -> tuple[int, 
 
 
 def cmd_fuzz(seconds: int, mutant_seconds: int) -> int:
-    fz = _fuzz_module()
+    fz = _tool("fuzz")
     rows: list[dict[str, Any]] = []
     items: list[Item] = []
     status = 0
@@ -231,15 +232,7 @@ def cmd_fuzz(seconds: int, mutant_seconds: int) -> int:
     write_record("fuzz", items, {"libFuzzer": "clang 14"}, name="fuzz-host_c", seed=1)
     mstatus, mrows = cmd_mutants([], mutant_seconds, fuzz=True)
     rows += mrows
-    OUT.mkdir(parents=True, exist_ok=True)
-    (OUT / "summary.json").write_text(json.dumps({"part": "hostfuzz", "rows": rows}, indent=1) + "\n", encoding="utf-8")
-    suite = ET.Element("testsuite", name="hostfuzz", tests=str(len(rows)),
-                       failures=str(sum(1 for r in rows if not r["expected"])))
-    for r in rows:
-        case = ET.SubElement(suite, "testcase", name=r["function"], time=str(r["time_s"]))
-        if not r["expected"]:
-            ET.SubElement(case, "failure", message=r["detail"])
-    ET.ElementTree(suite).write(OUT / "junit.xml", encoding="utf-8", xml_declaration=True)
+    _tool("proofs").write_part("hostfuzz", rows)  # build/proofs/hostfuzz/: summary.json, junit.xml
     return status | mstatus
 
 

@@ -158,3 +158,45 @@ const char *shim_lost_reason(shim_t *s)
     const char *r = urb_core_lost_reason(&s->core);
     return (r == NULL) ? "" : r;
 }
+
+/* ----- the hand-over record, for the interoperability test with handover.py ----------------------- */
+
+#include "urb_port.h"
+
+long long shim_now(void);
+int shim_handover_path(const char *port, const char *dir, char *out, int cap);
+long long shim_handover_until(const char *port, const char *dir, long long now);
+int shim_handover_cover(const char *port, const char *dir, long long until, long long now);
+int shim_handover_settle(const char *port, const char *dir, long long until, long long now);
+
+long long shim_now(void) { return urb_now_ns(); }
+
+static urb_handover_t shim_record; /* test shim only: one record at a time */
+
+int shim_handover_path(const char *port, const char *dir, char *out, int cap)
+{
+    int32_t const rc = urb_handover_init(&shim_record, port, dir);
+    if (rc == URB_HOST_OK) {
+        strncpy(out, shim_record.path, (size_t)cap - 1u);
+        out[cap - 1] = '\0';
+    }
+    return rc;
+}
+
+long long shim_handover_until(const char *port, const char *dir, long long now)
+{
+    return (urb_handover_init(&shim_record, port, dir) == URB_HOST_OK) ? urb_handover_predecessor_until(&shim_record, now)
+                                                                      : -1;
+}
+
+int shim_handover_cover(const char *port, const char *dir, long long until, long long now)
+{
+    int32_t const rc = urb_handover_init(&shim_record, port, dir);
+    return (rc == URB_HOST_OK) ? urb_handover_cover(&shim_record, until, now) : rc;
+}
+
+int shim_handover_settle(const char *port, const char *dir, long long until, long long now)
+{
+    int32_t const rc = urb_handover_init(&shim_record, port, dir);
+    return (rc == URB_HOST_OK) ? urb_handover_settle(&shim_record, until, now) : rc;
+}
