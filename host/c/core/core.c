@@ -137,7 +137,7 @@ urb_ns_t urb_core_busy_until(const urb_core_t *core)
     }
     urb_ns_t until = URB_NO_TIME;
     for (uint32_t i = 0u; i < core->m.count; i++) {
-        until = max_ns(until, core->m.slot[(core->m.head + i) % URB_MAX_WINDOW].expires_ns);
+        until = max_ns(until, core->m.slot[urbh_at(&core->m, i)].expires_ns);
     }
     return until;
 }
@@ -217,14 +217,15 @@ void urb_core_link_lost(urb_core_t *core, urb_ns_t now, const char *reason)
     core->lost = true;
     urbh_copy_reason(core->lost_reason, (reason == NULL) ? "the uplink was lost" : reason);
     for (uint32_t i = 0u; i < core->m.count; i++) {
-        urb_slot_t *s = urbh_slot(&core->m, i);
-        if (s->t != NULL) {
-            urbh_lose(&core->m, s->t, now, core->lost_reason);
-            s->t = NULL;
+        uint32_t const x = urbh_at(&core->m, i);
+        if (core->m.slot[x].t != NULL) {
+            urbh_lose(&core->m, core->m.slot[x].t, now, core->lost_reason);
+            core->m.slot[x].t = NULL;
         }
     }
     lose_queued(core, now, core->lost_reason);
     core->m.rx_len = 0u;
+    core->m.rx_start = 0u;
     core->partial = false;
 }
 
@@ -335,7 +336,7 @@ static size_t send(urb_core_t *core, urb_ns_t now, uint8_t *buf, size_t cap)
     if (t->answer_within_ns > 0) {
         core->quiet_until_ns = max_ns(core->quiet_until_ns, start + t->answer_within_ns);
     }
-    (void)urb_matcher_push(&core->m, t, seq, due, expires); /* the window keeps count < URB_MAX_WINDOW */
+    (void)urb_matcher_push(&core->m, t, seq, due, expires); /* the window keeps count < URB_MATCHER_SLOTS */
     int32_t n;
     if (t->read) {
         urb_uplink_read_request_t r = {t->address, t->mailbox, seq, t->length};
@@ -395,7 +396,7 @@ uint32_t urb_core_placeholders(const urb_core_t *core)
     uint32_t n = 0u;
     if (core != NULL) {
         for (uint32_t i = 0u; i < core->m.count; i++) {
-            n += (core->m.slot[(core->m.head + i) % URB_MAX_WINDOW].t == NULL) ? 1u : 0u;
+            n += (core->m.slot[urbh_at(&core->m, i)].t == NULL) ? 1u : 0u;
         }
     }
     return n;

@@ -6,8 +6,8 @@
 
 #include "urb_host_core.h"
 
-/** The i-th request in flight, oldest first (i < m->count). */
-urb_slot_t *urbh_slot(urb_matcher_t *m, uint32_t i);
+/** The index in m->slot of the i-th request in flight, oldest first (i < m->count). */
+uint32_t urbh_at(const urb_matcher_t *m, uint32_t i);
 
 /** Completes `t` (exactly once: it is no longer in the queue or a live slot) and appends it to the
  *  completion list. status -1: no response; data/len: an OK read's mailbox bytes. */

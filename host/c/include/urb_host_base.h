@@ -78,8 +78,11 @@ const char *urb_host_error_name(int32_t code);
 #define URB_USB_HEADER_SIZE 4u
 /** Largest USB transfer the host builds or accepts as one batch (core.urbs USB_BATCH_MAX_BYTES). */
 #define URB_USB_BATCH_MAX 512u
-/** Room for one lost reason, terminating NUL included (longer texts are cut). */
+/** Room for one lost reason, terminating NUL included (longer texts are cut). A build may change it
+ *  (a bounded proof shrinks it: ESBMC copies a whole transfer at each store into one). */
+#ifndef URB_REASON_MAX
 #define URB_REASON_MAX 112u
+#endif
 
 #ifdef __cplusplus
 }

@@ -69,8 +69,16 @@ extern "C" {
 /* ===== The response matcher (rs232_core.ResponseMatcher), shared by both uplinks ============ */
 
 /** Bytes the matcher holds between calls: a partial response candidate (at most 34 bytes) plus
- *  room to take received bytes in chunks. */
+ *  room to take received bytes in chunks (at least URB_RESPONSE_MAX; a build may change it). */
+#ifndef URB_MATCHER_RX
 #define URB_MATCHER_RX 64u
+#endif
+
+/** Slots of the in-flight ring: the window's maximum. Only a bounded proof sets it lower (keeping
+ *  every window it uses within it): ESBMC copies the whole matcher at each store into it. */
+#ifndef URB_MATCHER_SLOTS
+#define URB_MATCHER_SLOTS URB_MAX_WINDOW
+#endif
 
 /** One request in flight: live (t != NULL) or a placeholder (t == NULL: it completed, timed out or
  *  failed BRIDGE_LOST, and the bridge may still answer it). */
@@ -87,10 +95,11 @@ typedef struct {
 
 /** The requests in flight (oldest first, a ring), the bytes held, the completions not yet taken. */
 typedef struct {
-    urb_slot_t slot[URB_MAX_WINDOW];
+    urb_slot_t slot[URB_MATCHER_SLOTS];
     uint8_t head;            /**< Ring index of the oldest request in flight */
     uint8_t count;           /**< Requests in flight, placeholders included */
-    uint8_t rx_len;          /**< Bytes held in rx */
+    uint8_t rx_start;        /**< Where the bytes held start in rx: dropping bytes moves it, not them */
+    uint8_t rx_len;          /**< Bytes held: rx[rx_start .. rx_start + rx_len) */
     uint8_t rx[URB_MATCHER_RX];
     uint64_t stray_bytes;    /**< Bytes that answered no request (corrupt, or nothing in flight) */
     uint64_t late_responses; /**< Responses to placeholders, discarded */
@@ -105,7 +114,7 @@ void urb_matcher_init(urb_matcher_t *m);
 /**
  * Puts a live request in flight behind the others, with sequence number seq (0..15) and its
  * timeout and lifetime. Returns URB_HOST_OK; URB_HOST_EINVAL for NULL arguments or seq > 15;
- * URB_HOST_ENOSPC when URB_MAX_WINDOW requests are in flight (the caller's window prevents it).
+ * URB_HOST_ENOSPC when URB_MATCHER_SLOTS requests are in flight (the caller's window prevents it).
  * t->seq is set; t->state becomes URB_XFER_IN_FLIGHT. O(1).
  */
 int32_t urb_matcher_push(urb_matcher_t *m, urb_transfer_t *t, uint8_t seq, urb_ns_t due_ns,
