@@ -42,7 +42,8 @@ def run(argv: list[str], timeout: float = 60) -> subprocess.CompletedProcess[str
 
 def test_pd_control_runs_the_loop_at_1khz(motor_bridge: Path) -> None:
     exe = build("build/host_c/pd_control")
-    out = run([str(exe), str(motor_bridge), "--seconds", "1"])
+    # a 1-s timeout: a shared machine's scheduler may stall the bridge process for 100 ms (the default)
+    out = run([str(exe), str(motor_bridge), "--seconds", "1", "--timeout-ms", "1000"])
     text = out.stdout
     assert out.returncode == 0, text + out.stderr
     assert "pd_control: bridge " in text and "MotorDriver:0 at address 32" in text
@@ -77,6 +78,7 @@ def test_pd_control_usage_errors_exit_2() -> None:
     assert run([str(exe)]).returncode == 2
     assert run([str(exe), "/dev/null", "--hz"]).returncode == 2
     assert run([str(exe), "/dev/null", "--bogus", "1"]).returncode == 2
+    assert run([str(exe), "/dev/null", "--timeout-ms", "0"]).returncode == 2
 
 
 def test_the_header_as_a_program_uses_it(motor_bridge: Path) -> None:

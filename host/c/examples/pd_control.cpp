@@ -4,12 +4,14 @@
 // embedded in the program's own: one ppoll() on the interface's descriptor with the earlier of the
 // next control tick and the library's next deadline, then runOnce(0).
 //
-//     build/host_c/pd_control PORT [--seconds S] [--hz F] [--kp V/rad] [--kd Vs/rad]
+//     build/host_c/pd_control PORT [--seconds S] [--hz F] [--kp V/rad] [--kd Vs/rad] [--timeout-ms MS]
 //     (against the hosted bridge: build/firmware/urb-bridge-hosted --node motor,0,0x20 --link /tmp/urbX)
 //
 // It prints what it did: cycles, late ticks, reads and commands with their outcomes, the read
 // latency (submission to callback), the last position, reference and command. Exit status 0 when
-// every request succeeded, 1 otherwise, 2 for a usage error.
+// every request succeeded, 1 otherwise, 2 for a usage error. --timeout-ms sets the response timeout
+// (default: the library's, 100 ms on RS232) and stretches the lost-bridge silence to 5 times it: a
+// machine whose scheduler stalls the bridge longer than that sees UPLINK_TIMEOUT, correctly.
 #include <poll.h>
 #include <signal.h>
 #include <time.h>
@@ -101,7 +103,8 @@ void onSignal(int) { stopRequested = 1; }
 
 int usage(const char *why)
 {
-    std::fprintf(stderr, "pd_control: %s\nusage: pd_control PORT [--seconds S] [--hz F] [--kp V/rad] [--kd Vs/rad]\n",
+    std::fprintf(stderr, "pd_control: %s\nusage: pd_control PORT [--seconds S] [--hz F] [--kp V/rad] [--kd Vs/rad] "
+                 "[--timeout-ms MS]\n",
                  why);
     return 2;
 }
@@ -116,6 +119,8 @@ int main(int argc, char **argv)
     const char *port = argv[1];
     double seconds = 2.0, hz = 1000.0;
     Axis axis;
+    urb_core_config_t link;
+    urb_core_default_config(&link, URB_LINK_RS232);
     for (int i = 2; i < argc; i += 2) {
         if (i + 1 >= argc) {
             return usage("an option lacks its value");
@@ -129,6 +134,9 @@ int main(int argc, char **argv)
             axis.kp = v;
         } else if (std::strcmp(argv[i], "--kd") == 0 && v >= 0) {
             axis.kd = v;
+        } else if (std::strcmp(argv[i], "--timeout-ms") == 0 && v >= 1 && v <= 60000) {
+            link.timeout_ns = static_cast<urb_ns_t>(v * 1e6);
+            link.lost_after_ns = std::max(link.lost_after_ns, 5 * link.timeout_ns);
         } else {
             return usage("unknown option or bad value");
         }
@@ -141,7 +149,7 @@ int main(int argc, char **argv)
     if (intf == nullptr) {
         return usage("the URB interface could not be created");
     }
-    if (intf->addBusManager(new urb::RS232Manager(port)) != URB_HOST_OK) {
+    if (intf->addBusManager(new urb::RS232Manager(port, 115200, &link)) != URB_HOST_OK) {
         std::fprintf(stderr, "pd_control: %s\n", intf->lastError());
         return 1;
     }
