@@ -100,3 +100,16 @@ test-py: host-c-pytest-deps
 
 CHECK_TARGETS += test-host-c
 PROOF_PARTS += hostfuzz
+
+# --- benchmark: bench/host_cpu_c.py (make bench runs it after bench/host_cpu.py, whose numbers it prints
+# side by side; make bench-host-c runs it alone) --------------------------------------------------------
+.PHONY: host-c-bench bench-host-c
+$(HOSTC_BUILD)/bench/host_cpu_c: bench/host_cpu_c.c $(HOSTC_BUILD)/liburbhost.a
+	@mkdir -p $(@D)
+	gcc $(HOSTC_CFLAGS) -O2 -g $(HOSTC_INC) $< $(HOSTC_BUILD)/liburbhost.a -lpthread -o $@
+$(HOSTC_BUILD)/bench/host_cpu_c_bridges: bench/host_cpu_c_bridges.c $(HOSTC_FW_SRC) $(HOSTC_GEN_SRC)
+	@mkdir -p $(@D)
+	gcc $(HOSTC_CFLAGS) -O2 $(HOSTC_INC) $(HOSTC_FW_INC) $< $(HOSTC_FW_SRC) $(HOSTC_GEN_SRC) -o $@
+host-c-bench: $(HOSTC_BUILD)/bench/host_cpu_c $(HOSTC_BUILD)/bench/host_cpu_c_bridges
+bench-host-c: setup bridge-hosted host-c-bench
+	$(PYTHON) bench/host_cpu_c.py
