@@ -186,6 +186,7 @@ int32_t urb_core_submit(urb_core_t *core, urb_transfer_t *t, urb_ns_t now)
     if (urb_transfer_owned(t)) {
         return URB_HOST_EBUSY;
     }
+    /* UsbUplink.tla: Submit (and the host's part of Bridge.tla SubmitAndAdmit) */
     t->seq = -1;
     t->status = -1;
     t->response_len = 0u;
@@ -196,7 +197,7 @@ int32_t urb_core_submit(urb_core_t *core, urb_transfer_t *t, urb_ns_t now)
     t->callback_ns = URB_NO_TIME;
     t->lost_reason[0] = '\0';
     if (core->lost || core->closing) {
-        /* Bridge.tla: SubmitAndAdmit needs linkUp: a lost core completes it at once */
+        /* Bridge.tla SubmitAndAdmit needs linkUp: a lost core completes it at once */
         urbh_lose(&core->m, t, now, core->lost ? core->lost_reason : URBH_CLOSED_REASON);
         return URB_HOST_OK;
     }
@@ -470,7 +471,7 @@ int32_t urb_core_next_frame(urb_core_t *core, urb_ns_t now, uint8_t *buf, size_t
     if ((core->queued == 0u) || (core->m.count >= core->cfg.window) || core->lost) {
         return 0;
     }
-    /* Bridge.tla: SubmitAndAdmit (the host's side: Len(InFlight) < HostWindow) */
+    /* the host's side of Bridge.tla SubmitAndAdmit: Len(InFlight) < HostWindow */
     return (int32_t)send(core, now, buf, cap);
 }
 
@@ -481,7 +482,7 @@ int32_t urb_core_receive_batch(urb_core_t *core, const uint8_t *data, size_t n, 
     if ((core == NULL) || (core->kind != URB_LINK_USB) || ((data == NULL) && (n > 0u))) {
         return URB_HOST_EINVAL;
     }
-    /* UsbUplink.tla: UsbRead, then Callback for each response */
+    /* UsbUplink.tla: Callback, for each response of the IN transfer (UsbUplink.tla UsbRead) */
     heard(core, now);
     if (core->lost || (n == 0u)) {
         return URB_HOST_OK;
@@ -534,7 +535,7 @@ int32_t urb_core_frame_out(urb_core_t *core, urb_ns_t now, uint8_t *buf, size_t 
     if (core->queued > 0u) {
         urb_matcher_expire(&core->m, now); /* whatever the polling cadence */
     }
-    /* UsbUplink.tla: UsbWrite (at most MaxBatch, no more than the window leaves room for) */
+    /* the OUT transfer of UsbUplink.tla UsbWrite: at most MaxBatch, no more than the window leaves room for */
     size_t out_bytes = URB_USB_HEADER_SIZE;
     size_t in_bytes = URB_USB_HEADER_SIZE;
     uint8_t count = 0u;

@@ -130,7 +130,7 @@ static void got_scan(urb_discovery_t *d, const urb_transfer_t *t, urb_ns_t now)
         fail(d, URB_DISCOVERY_SCAN_FAILED);
         return;
     }
-    /* Discovery.tla: ScanAddress (a gap never ends the scan) */
+    /* Discovery.tla ScanAddress: a gap never ends the scan */
     for (uint8_t a = 1u; a <= URB_ADDRESSES; a++) {
         if (scan.present[a]) {
             d->present[d->present_count++] = a;

@@ -138,8 +138,8 @@ static size_t response_size(bool read, uint8_t length, uint8_t status)
 }
 
 /* Matches every complete response held in rx; true when a partial candidate is left waiting.
- * Bridge.tla: HostMatch (the oldest request in flight whose number the response echoes; the ones
- * before it complete as lost) */
+ * It does the host's part of Bridge.tla HostMatch (the oldest request in flight whose number the
+ * response echoes; the ones before it complete as lost), a step of the bridge's Emit. */
 static bool parse(urb_matcher_t *m, urb_ns_t now)
 {
     while (m->rx_len > 0u) {

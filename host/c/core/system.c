@@ -59,6 +59,7 @@ static bool free_slot(const urb_node_row_t *r)
     return !r->used || (!r->active && !r->pinned);
 }
 
+/* Discovery.tla: HostBuildTable (one bridge's rows at a time, every row kept) */
 int32_t urb_system_merge(urb_system_t *s, uint8_t bridge, const urb_discovery_t *d)
 {
     if ((s == NULL) || (d == NULL)) {

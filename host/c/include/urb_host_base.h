@@ -59,7 +59,7 @@ const char *urb_host_error_name(int32_t code);
 /** Sequence numbers are 4 bits: the n-th request of a process carries n mod 16 (Bridge.tla SeqOf). */
 #define URB_SEQ_MOD 16u
 /** At most this many requests in flight per bridge, so the sequence number cannot alias
- *  (Bridge.tla: HostWindow < SeqMod). */
+ *  (Bridge.tla HostWindow < SeqMod). */
 #define URB_MAX_WINDOW 15u
 /** How long a timed-out request keeps its sequence number and window slot after it was sent: the
  *  bridge firmware's worst-case answer time at 100 kb/s, rounded up (rs232_core.PLACEHOLDER_NS). */

@@ -1,7 +1,7 @@
 /*
  * The port hand-over record (host/urb/managers/handover.py PortHandover): same directory rules,
  * file name and format, so C and Python processes hand a port over to each other.
- * Bridge.tla: HostRestart (its premise: the next process sends nothing before this instant)
+ * Bridge.tla HostRestart (its premise: the next process sends nothing before this instant)
  */
 #include "urb_port.h"
 

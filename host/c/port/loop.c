@@ -608,7 +608,7 @@ static int32_t register_manager(urb_loop_t *loop, urb_link_kind_t kind, int fd, 
         m->use_handover = true;
         urb_ns_t const until = urb_handover_predecessor_until(&m->handover, urb_now_ns());
         if (until != URB_NO_TIME) {
-            urb_core_hand_over(&m->core, until); /* Bridge.tla: HostRestart */
+            urb_core_hand_over(&m->core, until); /* Bridge.tla HostRestart */
         }
     }
     loop->manager_count++;
@@ -1034,7 +1034,7 @@ int32_t urb_loop_reconnect(urb_loop_t *loop, urb_manager_t *m, char *err, size_t
     }
     m->open = true;
     m->closed = false;
-    urb_core_reset(&m->core, now); /* Bridge.tla: HostReopen */
+    urb_core_reset(&m->core, now); /* Bridge.tla HostReopen */
     dispatch_inline(loop, m);
     m->lost_noted = false;
     unlock(loop);
