@@ -10,7 +10,8 @@
 // It prints what it did: cycles, late ticks, reads and commands with their outcomes, the read
 // latency (submission to callback), the last position, reference and command. Exit status 0 when
 // every request succeeded, 1 otherwise, 2 for a usage error. --timeout-ms sets the response timeout
-// (default: the library's, 100 ms on RS232) and stretches the lost-bridge silence to 5 times it: a
+// (default: the library's, 100 ms on RS232), stretches the lost-bridge silence to 5 times it and the
+// gap that ends a partial response to a fifth of it (at least their defaults, 500 and 20 ms): a
 // machine whose scheduler stalls the bridge longer than that sees UPLINK_TIMEOUT, correctly.
 #include <poll.h>
 #include <signal.h>
@@ -137,6 +138,7 @@ int main(int argc, char **argv)
         } else if (std::strcmp(argv[i], "--timeout-ms") == 0 && v >= 1 && v <= 60000) {
             link.timeout_ns = static_cast<urb_ns_t>(v * 1e6);
             link.lost_after_ns = std::max(link.lost_after_ns, 5 * link.timeout_ns);
+            link.resync_gap_ns = std::max(link.resync_gap_ns, link.timeout_ns / 5);
         } else {
             return usage("unknown option or bad value");
         }
