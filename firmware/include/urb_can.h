@@ -66,6 +66,9 @@ uint8_t urb_can_session(uint8_t mailbox, bool read);
  * s data bytes, g = 34 (11-bit identifier) or 54 (29-bit), i.e. 55 + 10s and 80 + 10s. Without
  * stuffing 47 + 8s (11-bit). Both include the 3-bit interframe space. */
 
+/** Bit times of bus-off recovery: 128 occurrences of 11 recessive bits (ISO 11898-1). */
+#define URB_CAN_RECOVERY_BITS (128u * 11u)
+
 /** Worst-case bit times of a frame with `len` data bytes (0..8), 11-bit (`extended` false) or
  *  29-bit identifier, stuffing included. O(1). */
 uint16_t urb_can_frame_bits_max(uint8_t len, bool extended);

@@ -45,8 +45,6 @@ extern "C" {
 /** Worst-case bit times of the longest transaction: a 32-byte write (5 frames) and a refusal, or
  *  an empty read request and a 32-byte answer, whichever is longer (urb_can_transfer_bits_max). */
 #define URB_CAN_LONGEST_BITS 740u
-/** Bit times of bus-off recovery: 128 occurrences of 11 recessive bits. */
-#define URB_CAN_RECOVERY_BITS (128u * 11u)
 
 /** Configuration; urb_can_master_default_config() fills in the defaults. */
 typedef struct {
