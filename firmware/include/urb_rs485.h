@@ -93,13 +93,17 @@ void urb_rs485_rx_init(urb_rs485_rx_t *rx, const urb_rs485_timing_t *t, uint32_t
 uint8_t urb_rs485_rx_byte(urb_rs485_rx_t *rx, uint8_t byte, uint32_t t);
 
 /** The line has been silent until `now`: returns URB_RS485_EV_END when that ends the frame in
- *  progress (summary in rx->last), else 0. O(1). */
+ *  progress (summary in rx->last), else 0. Without a byte, the receiver knows the line was silent
+ *  only up to one character before `now` (a character may be on its way), so a frame ends when
+ *  now - (its last byte's time stamp) reaches t3.5 + one character. O(1). */
 uint8_t urb_rs485_rx_poll(urb_rs485_rx_t *rx, uint32_t now);
 
-/** True when the line has been silent for t3.5 at `now` (a frame may start). O(1). */
+/** True when the line has certainly been silent for t3.5 at `now` (a frame may start): t3.5 + one
+ *  character since the last byte's time stamp. O(1). */
 bool urb_rs485_rx_silent(const urb_rs485_rx_t *rx, uint32_t now);
 
-/** The time at which the current silence reaches t3.5 (when a poll ends the frame in progress). */
+/** The time at which a poll ends the frame in progress: the last byte's time stamp + one character
+ *  + t3.5. */
 uint32_t urb_rs485_rx_deadline(const urb_rs485_rx_t *rx);
 
 /** Bytes of the frame in progress (0 when none). */

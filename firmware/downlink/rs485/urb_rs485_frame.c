@@ -73,10 +73,12 @@ static uint32_t silence_before(const urb_rs485_rx_t *rx, uint32_t t)
     return (d > rx->tm.char_us) ? (d - rx->tm.char_us) : 0u;
 }
 
-/* Silence from the end of the last byte until `now` (no character in between). */
+/* Silence from the end of the last byte until `now` that is certain: a character whose stop bit
+ * has not come yet may have started up to one character time ago, so that much is not counted. */
 static uint32_t silence_until(const urb_rs485_rx_t *rx, uint32_t now)
 {
-    return (uint32_t)(now - rx->t_last);
+    uint32_t const d = (uint32_t)(now - rx->t_last);
+    return (d > rx->tm.char_us) ? (d - rx->tm.char_us) : 0u;
 }
 
 bool urb_rs485_rx_silent(const urb_rs485_rx_t *rx, uint32_t now)
@@ -86,7 +88,7 @@ bool urb_rs485_rx_silent(const urb_rs485_rx_t *rx, uint32_t now)
 
 uint32_t urb_rs485_rx_deadline(const urb_rs485_rx_t *rx)
 {
-    return rx->t_last + rx->tm.t35_us;
+    return rx->t_last + rx->tm.char_us + rx->tm.t35_us;
 }
 
 uint8_t urb_rs485_rx_count(const urb_rs485_rx_t *rx)
