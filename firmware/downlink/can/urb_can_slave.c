@@ -162,7 +162,9 @@ static void request_done(urb_can_slave_t *s, uint8_t session, uint8_t tid, bool 
     }
     uint8_t *const wbuf = s->wbuf;
     s->wbuf = NULL;
-#if !defined(URB_MUTANT_CAN_COMMIT_BAD_CRC)
+#if defined(URB_MUTANT_CAN_COMMIT_BAD_CRC)
+    crc_ok = true; /* mutant: the failed CRC is not looked at */
+#endif
     if (!crc_ok) {
         if (wbuf != NULL) {
             s->mb->write_abort(s->mb->ctx, m); /* MailboxInbox.tla IsrWriteAbort */
@@ -172,7 +174,6 @@ static void request_done(urb_can_slave_t *s, uint8_t session, uint8_t tid, bool 
         refuse(s, session, tid, URB_STATUS_CHECKSUM);
         return;
     }
-#endif
     if (s->refusal != URB_STATUS_OK) {
         refuse(s, session, tid, s->refusal); /* decided at the start frame: nothing was written */
         return;
@@ -194,6 +195,9 @@ static bool request_start(urb_can_slave_t *s, uint8_t session, uint8_t tid, bool
         s->stats.duplicates++; /* CanTransfer.tla: DuplicateIgnored */
         return false;
     }
+#else
+    (void)tid;
+    (void)t;
 #endif
     drop_write(s);
 #if !defined(URB_MUTANT_CAN_KEEP_READ_ON_NEW)

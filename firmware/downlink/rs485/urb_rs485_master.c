@@ -167,12 +167,11 @@ void urb_rs485_master_rx(urb_rs485_master_t *m, uint8_t byte, uint32_t t)
     uint8_t const ph = m->phase;
     if (ph == PH_SEND) {
         uint8_t const k = m->echo;
-        bool const same = (k < m->n_tx) && (byte == m->buf[k]);
+        bool same = (k < m->n_tx) && (byte == m->buf[k]) && ((ev & URB_RS485_EV_BROKEN) == 0u);
 #if defined(URB_MUTANT_RS485_NO_ECHO_CHECK)
-        if (k < m->n_tx) {
-#else
-        if (same && ((ev & URB_RS485_EV_BROKEN) == 0u)) {
+        same = k < m->n_tx; /* mutant: the echo is not compared */
 #endif
+        if (same) {
             m->echo = (uint8_t)(k + 1u);
             if (m->echo == m->n_tx) {
                 m->phase = PH_SENT; /* all out; the frame ends at its t3.5 */
