@@ -47,7 +47,7 @@ FWD_TEST_BINS := $(foreach cc,gcc clang,$(FWD_BUILD)/$(cc)/test_can $(FWD_BUILD)
 downlinks-tests: $(FWD_TEST_BINS)
 	@for t in $(FWD_TEST_BINS); do CMOCKA_MESSAGE_OUTPUT=stdout $$t > $$t.log 2>&1 || { cat $$t.log; exit 1; }; \
 	  echo "$$t: $$(grep -c '^\[       OK \]' $$t.log) passed, 0 failed"; done
-	@mkdir -p $(FWD_BUILD)/junit
+	@mkdir -p $(FWD_BUILD)/junit && rm -f $(FWD_BUILD)/junit/*.xml
 	@CMOCKA_MESSAGE_OUTPUT=xml CMOCKA_XML_FILE=$(FWD_BUILD)/junit/%g.xml $(FWD_BUILD)/gcc/test_can >/dev/null
 	@CMOCKA_MESSAGE_OUTPUT=xml CMOCKA_XML_FILE=$(FWD_BUILD)/junit/%g.xml $(FWD_BUILD)/gcc/test_rs485 >/dev/null
 

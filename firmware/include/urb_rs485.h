@@ -89,7 +89,7 @@ void urb_rs485_rx_init(urb_rs485_rx_t *rx, const urb_rs485_timing_t *t, uint32_t
 /** One received byte with its time stamp (stamps never decrease). Returns URB_RS485_EV_* bits: END
  *  first when the silence before it ended the previous frame (read rx->last before the next
  *  call), then START or BYTE, or BROKEN (also when the frame was already being discarded: then
- *  no other bit). Rs485Poll.tla: Receive. O(1). */
+ *  no other bit). O(1). */
 uint8_t urb_rs485_rx_byte(urb_rs485_rx_t *rx, uint8_t byte, uint32_t t);
 
 /** The line has been silent until `now`: returns URB_RS485_EV_END when that ends the frame in

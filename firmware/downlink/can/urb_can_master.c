@@ -162,16 +162,18 @@ static uint8_t answer_status(urb_can_master_t *m)
     if (n == 0u) {
         return URB_STATUS_OK; /* a write the node stored */
     }
+    /* Not an answer a node sends: corrupt. The node may have stored the write before its answer
+     * was garbled, so only TIMEOUT is true (Bridge.tla WriteStatusTruthful; Rs485Poll.tla found it). */
     urb_can_write_refusal_t refusal;
     if ((n != 1u) || (urb_can_write_refusal_decode(&refusal, m->refusal, 1u) < 0)) {
-        return URB_STATUS_CHECKSUM; /* not an answer a node sends: corrupt */
+        return URB_STATUS_TIMEOUT;
     }
     uint8_t const st = refusal.status;
     if ((st == URB_STATUS_NODE_BUSY) || (st == URB_STATUS_CHECKSUM) || (st == URB_STATUS_SIZE_MISMATCH) ||
         (st == URB_STATUS_BAD_REQUEST)) {
         return st;
     }
-    return URB_STATUS_CHECKSUM;
+    return URB_STATUS_TIMEOUT;
 }
 
 void urb_can_master_rx(urb_can_master_t *m, const urb_can_frame_t *frame)
@@ -186,7 +188,7 @@ void urb_can_master_rx(urb_can_master_t *m, const urb_can_frame_t *frame)
     }
 #if !defined(URB_MUTANT_CAN_NO_TID_FILTER)
     if ((frame->data[frame->len - 1u] & URB_CAN_TAIL_TID) != m->tid) {
-        m->stats.stale++; /* an answer to an earlier request on this mailbox: CanTransfer.tla StaleIgnored */
+        m->stats.stale++; /* an answer to an earlier request on this mailbox (the transfer id filter) */
         return;
     }
 #endif

@@ -142,7 +142,7 @@ static void refuse(urb_can_slave_t *s, uint8_t session, uint8_t tid, uint8_t sta
     answer(s, session, tid, s->answer, 1u);
 }
 
-/* A complete request (CanTransfer.tla: Deliver): the write is committed or refused, the read's
+/* A complete request (CanTransfer.tla: Complete): the write is committed or refused, the read's
  * outbox latched, and the answer started. */
 static void request_done(urb_can_slave_t *s, uint8_t session, uint8_t tid, bool crc_ok)
 {
@@ -192,7 +192,7 @@ static bool request_start(urb_can_slave_t *s, uint8_t session, uint8_t tid, bool
 {
 #if !defined(URB_MUTANT_CAN_NO_DEDUP)
     if ((session == s->last_session) && (tid == s->last_tid) && ((uint32_t)(t - s->last_t) < s->dup_window_us)) {
-        s->stats.duplicates++; /* CanTransfer.tla: DuplicateIgnored */
+        s->stats.duplicates++; /* CanTransfer.tla: Receive, the duplicate filter */
         return false;
     }
 #else

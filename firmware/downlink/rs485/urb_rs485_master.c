@@ -1,7 +1,7 @@
 /*
  * RS485 downlink master: the bridge side of the poll cycle in urb_rs485_master.h.
  *
- * Phases follow Rs485Poll.tla: QUIET (waiting for t3.5 of silence before sending), SEND (driving
+ * Phases (the bridge side of Rs485Poll.tla): QUIET (waiting for t3.5 of silence before sending), SEND (driving
  * the line, echo checked byte by byte), SENT (own frame out, waiting for its t3.5 end), WAIT (the
  * node's turn, nothing heard yet), ANSWER (its answer arriving), DRAIN (after a collision: waiting
  * for silence), DONE (outcome ready for poll).
@@ -95,14 +95,22 @@ static void finish(urb_rs485_master_t *m, uint8_t result)
     m->phase = PH_DONE;
 }
 
-/* The answer frame ended: its outcome (Rs485Poll.tla: Judge). */
+/* An answer that is not what a node sends: corrupt. For a read, CHECKSUM (nothing changed at the
+ * node); for a write or a probe the node may have stored the request before its answer was
+ * garbled, so only TIMEOUT is true (Rs485Poll.tla: StatusTruthful). */
+static uint8_t garbled(urb_rs485_master_t *m)
+{
+    m->stats.bad++;
+    return (m->op == URB_DL_READ) ? URB_STATUS_CHECKSUM : URB_STATUS_TIMEOUT;
+}
+
+/* The answer frame ended: its outcome (Rs485Poll.tla: AnswerEnd). */
 static uint8_t judge(urb_rs485_master_t *m, const urb_rs485_frame_t *f)
 {
     urb_rs485_response_t r;
     if (!f->check_ok || (f->n > URB_RS485_MAX_FRAME) ||
         (urb_rs485_response_decode(&r, m->ans, f->n) < 0) || (r.mailbox != m->mailbox)) {
-        m->stats.bad++;
-        return URB_STATUS_CHECKSUM; /* corrupt, not an answer, or for another mailbox */
+        return garbled(m); /* corrupt, not an answer, or for another mailbox */
     }
     if (m->op == URB_DL_PROBE) {
         return URB_STATUS_OK; /* any answer: the node took its address */
@@ -118,12 +126,11 @@ static uint8_t judge(urb_rs485_master_t *m, const urb_rs485_frame_t *f)
             }
             return URB_STATUS_OK;
         }
-        return (r.data_len == 0u) ? URB_STATUS_OK : URB_STATUS_CHECKSUM;
+        return (r.data_len == 0u) ? URB_STATUS_OK : garbled(m);
     }
     if ((r.data_len != 0u) || ((r.status != URB_STATUS_NODE_BUSY) && (r.status != URB_STATUS_CHECKSUM) &&
                              (r.status != URB_STATUS_SIZE_MISMATCH) && (r.status != URB_STATUS_BAD_REQUEST))) {
-        m->stats.bad++;
-        return URB_STATUS_CHECKSUM; /* a refusal a node does not send */
+        return garbled(m); /* a refusal a node does not send */
     }
     return r.status;
 }
@@ -145,7 +152,7 @@ static void frame_end(urb_rs485_master_t *m)
             return;
         }
         m->t_sent = f->t_last;
-        m->phase = PH_WAIT; /* Rs485Poll.tla: the node's turn */
+        m->phase = PH_WAIT; /* Rs485Poll.tla: SendEnd, the node's turn */
         return;
     }
     if (ph == PH_ANSWER) {
@@ -178,7 +185,7 @@ void urb_rs485_master_rx(urb_rs485_master_t *m, uint8_t byte, uint32_t t)
             }
             return;
         }
-        /* Rs485Poll.tla: Collide. Stop driving; a frame cut before its last byte reaches nobody. */
+        /* Rs485Poll.tla: CollideMid. Stop driving; a frame cut before its last byte reaches nobody. */
         m->hal->tx_abort(m->hal->ctx);
         m->stats.collisions++;
         m->cut = (uint8_t)(k + 1u) < m->n_tx;
@@ -197,8 +204,7 @@ void urb_rs485_master_rx(urb_rs485_master_t *m, uint8_t byte, uint32_t t)
     if (ph == PH_ANSWER) {
         if ((ev & URB_RS485_EV_BROKEN) != 0u) {
             if (m->rx.too_long != long_before) {
-                m->stats.bad++;
-                finish(m, URB_STATUS_CHECKSUM); /* longer than any answer: babbling */
+                finish(m, garbled(m)); /* longer than any answer: babbling */
             } else {
                 m->stats.broken++;
                 finish(m, URB_STATUS_TIMEOUT); /* the answer stalled: Modbus discards it */
@@ -212,7 +218,7 @@ void urb_rs485_master_rx(urb_rs485_master_t *m, uint8_t byte, uint32_t t)
         return;
     }
     if ((ph == PH_IDLE) || (ph == PH_DONE) || (ph == PH_QUIET) || (ph == PH_WAIT)) {
-        m->stats.babble++; /* Rs485Poll.tla: Babble, heard while nobody was polled */
+        m->stats.babble++; /* Rs485Poll.tla: BabbleStart, heard while nobody was polled */
     }
 }
 

@@ -391,6 +391,10 @@ static void test_corruption(void **state)
     L.corrupt_at_nodes = false;
     L.corrupt_nth = L.line_bytes + 3u + 2u; /* the answer's second data byte */
     assert_int_equal(run(URB_DL_READ, 20u, 1u, 6u), URB_STATUS_CHECKSUM);
+    /* a write's answer garbled: the node stored it, so not CHECKSUM but TIMEOUT (Rs485Poll.tla) */
+    L.corrupt_nth = L.line_bytes + 5u + 1u; /* the answer's header */
+    assert_int_equal(run(URB_DL_WRITE, 20u, 1u, 2u), URB_STATUS_TIMEOUT);
+    assert_int_equal(L.fm[0].commits[1], 1u);
     assert_int_equal(L.fm[0].rule_violations, 0u);
 }
 
