@@ -18,8 +18,7 @@ uint32_t urb_can_slave_dup_window_us(uint32_t bitrate_kbps)
     return (8u * FRAME_BITS_MAX * 1000u + rate - 1u) / rate;
 }
 
-bool urb_can_slave_init(urb_can_slave_t *s, const urb_can_hal_t *hal, const urb_dl_mailbox_t *mb, uint8_t address,
-                        uint32_t dup_window_us)
+bool urb_can_slave_init(urb_can_slave_t *s, const urb_can_hal_t *hal, const urb_dl_mailbox_t *mb, uint8_t address, uint32_t dup_window_us)
 {
     if ((s == NULL) || (hal == NULL) || (mb == NULL) || (address < URB_CAN_FIRST_ADDRESS) ||
         (address > URB_CAN_LAST_ADDRESS) || (hal->tx == NULL) || (hal->tx_abort == NULL) || (hal->recover == NULL) ||

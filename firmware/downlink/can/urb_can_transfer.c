@@ -175,8 +175,7 @@ bool urb_can_rx_active(const urb_can_rx_t *rx)
 /* CanTransfer.tla: Receive. The checks come in the order of the model's guards: a start frame
  * that is not a repeat opens a transfer; everything else must continue the one in progress with
  * its transfer id and the toggle bit it expects. */
-urb_can_rx_result_t urb_can_rx_frame(urb_can_rx_t *rx, const uint8_t *data, uint8_t len, uint8_t *out,
-                                     uint8_t cap)
+urb_can_rx_result_t urb_can_rx_frame(urb_can_rx_t *rx, const uint8_t *data, uint8_t len, uint8_t *out, uint8_t cap)
 {
     if (len == 0u) {
         return URB_CAN_RX_EMPTY;

@@ -15,8 +15,7 @@
 #define SELECT_MAILBOX 0x07u
 #define RESPONSE_BIT 0x80u    /* Rs485Response.response, Rs485Request.response */
 
-bool urb_rs485_slave_init(urb_rs485_slave_t *s, const urb_rs485_hal_t *hal, const urb_dl_mailbox_t *mb,
-                          uint8_t address, const urb_rs485_timing_t *t, uint32_t now)
+bool urb_rs485_slave_init(urb_rs485_slave_t *s, const urb_rs485_hal_t *hal, const urb_dl_mailbox_t *mb, uint8_t address, const urb_rs485_timing_t *t, uint32_t now)
 {
     if ((s == NULL) || (hal == NULL) || (mb == NULL) || (t == NULL) || (address == 0u) ||
         (address > URB_RS485_LAST_ADDRESS) || (hal->tx_start == NULL) || (hal->wake_at == NULL) ||
