@@ -173,6 +173,10 @@ static void request_done(urb_can_slave_t *s, uint8_t session, uint8_t tid, bool 
         refuse(s, session, tid, URB_STATUS_CHECKSUM);
         return;
     }
+    if ((n == 0u) && (wbuf == NULL) && (s->refusal == URB_STATUS_OK)) {
+        answer(s, session, tid, NULL, 0u); /* a probe: answered, no mailbox touched */
+        return;
+    }
     if (s->refusal != URB_STATUS_OK) {
         refuse(s, session, tid, s->refusal); /* decided at the start frame: nothing was written */
         return;

@@ -352,6 +352,8 @@ static void test_probe_and_absent(void **state)
     (void)state;
     assert_int_equal(run(URB_DL_PROBE, 11u, 0u, 0u), URB_STATUS_OK);
     assert_int_equal(fake_mailbox_commits(&rig.fm[1]) + rig.fm[1].aborts[0] + rig.fm[1].refusals[0], 0u);
+    /* nor a commit without a begin (found by fuzz_can: the probe committed inbox 0) */
+    assert_int_equal(rig.fm[1].rule_violations, 0u);
     assert_int_equal(run(URB_DL_PROBE, 12u, 0u, 0u), URB_STATUS_NO_NODE);
     assert_int_equal(run(URB_DL_READ, 40u, 1u, 6u), URB_STATUS_NO_NODE);
     urb_can_master_stats_t st;
