@@ -26,7 +26,6 @@ enum {
 };
 
 #define BOTH_LINES (URB_I2C_SCL | URB_I2C_SDA)
-#define CLEAR_STEPS 21u   /* 9 pulses = 18 half periods, then 3 steps of STOP */
 #define CLEAR_FOR_COMMAND 0xFEu /* clear_for: an explicit URB_DL_CLEAR (OK when the bus is free after) */
 
 uint32_t urb_i2c_master_timeout_us(uint32_t bitrate_kbps)

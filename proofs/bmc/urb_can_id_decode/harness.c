@@ -85,6 +85,9 @@ void harness(void)
         if (!((m.address <= 63u))) { valid = false; }
         if (!((m.direction <= 1u))) { valid = false; }
         URB_ASSERT(valid, "decode: every decoded member is one the schema allows");
+        bool rules = true;
+        if (!(((int64_t)m.address != (int64_t)0) || (((int64_t)m.mailbox == (int64_t)0) && (!((int64_t)(m.read ? 1 : 0) != 0)) && ((int64_t)m.direction == (int64_t)0)))) { rules = false; } /* require address != 0 or mailbox == 0 and not read and direction == REQUEST */
+        URB_ASSERT(rules, "decode: the decoded message keeps every rule (require) of the schema");
         URB_ASSERT(len <= URB_LEN_BOUND && spec_size(len) == length, "decode: the frame length matches the payload");
         /* Every bit of the frame is the schema's image of the decoded message: fields, fixed values and
          * zero padding at their offsets, the payload after the fixed part and the check at the end. So
@@ -113,6 +116,7 @@ void harness(void)
     if (!((v.mailbox <= 7u))) { valid = false; }
     if (!((v.address <= 63u))) { valid = false; }
     if (!((v.direction <= 1u))) { valid = false; }
+    if (!(((int64_t)v.address != (int64_t)0) || (((int64_t)v.mailbox == (int64_t)0) && (!((int64_t)(v.read ? 1 : 0) != 0)) && ((int64_t)v.direction == (int64_t)0)))) { valid = false; } /* require address != 0 or mailbox == 0 and not read and direction == REQUEST */
     if (fits && valid) {
         uint8_t frame[FRAME_BOUND];
         size_t const n = spec_frame(&v, frame, 0u);

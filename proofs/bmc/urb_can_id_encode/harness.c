@@ -55,6 +55,7 @@ void harness(void)
     if (!((m.mailbox <= 7u))) { valid = false; }
     if (!((m.address <= 63u))) { valid = false; }
     if (!((m.direction <= 1u))) { valid = false; }
+    if (!(((int64_t)m.address != (int64_t)0) || (((int64_t)m.mailbox == (int64_t)0) && (!((int64_t)(m.read ? 1 : 0) != 0)) && ((int64_t)m.direction == (int64_t)0)))) { valid = false; } /* require address != 0 or mailbox == 0 and not read and direction == REQUEST */
     size_t const expected = spec_size(0u);
 
 #if !defined(URB_PART) || URB_PART == 1

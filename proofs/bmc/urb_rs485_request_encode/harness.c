@@ -72,6 +72,7 @@ void harness(void)
     if (!((m.address >= 1u) && (m.address <= 127u))) { valid = false; }
     if (!((m.select.mailbox <= 7u))) { valid = false; }
     if (!(m.data_len <= 32u)) { valid = false; }
+    if (!((!((int64_t)(m.select.read ? 1 : 0) != 0)) || ((int64_t)m.data_len == (int64_t)0))) { valid = false; } /* require not select.read or len(data) == 0 */
     size_t const expected = spec_size((size_t)m.data_len);
 
 #if !defined(URB_PART) || URB_PART == 1

@@ -13,5 +13,6 @@ int main(void)
     failed += run_usb_tests();
     failed += run_sync_tests();
     failed += run_discovery_tests();
+    failed += run_edges_tests();
     return failed > 255 ? 255 : failed;
 }

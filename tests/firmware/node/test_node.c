@@ -220,6 +220,41 @@ static void command_nop_and_unknown(void **state)
     assert_int_equal(f->resets + f->signals, 0u);
 }
 
+/* Step hook: the bridge writes inbox 0 again right after each AppLockClaim of the command lock, so
+ * each attempt fails its front check: the main loop's lock of inbox 0 returns BUSY. */
+static void command_lands_at_claim(urb_node_t *node, uint8_t step, void *ctx)
+{
+    unsigned *writes = ctx;
+    if ((step == URB_STEP_IN_CLAIM) && (node->inbox[0].app_idx != URB_NONE)) {
+        uint8_t buf[URB_COMMAND_SIZE];
+        urb_command_t const cmd = {URB_COMMAND_CODE_SIGNAL, (uint8_t)(10u + *writes), 0u, 0u};
+        assert_int_equal(urb_command_encode(&cmd, buf, sizeof buf), (int)sizeof buf);
+        assert_int_equal(fx_write(node, 0u, buf, sizeof buf), FX_ALL_ACKED);
+        (*writes)++;
+    }
+}
+
+/* A command lock that finds bridge writes landing on every attempt (BUSY) leaves inbox 0 alone; the
+ * next poll runs the newest command, once. */
+static void command_busy_waits_for_the_next_poll(void **state)
+{
+    fixture_t *f = *state;
+    urb_node_t *node = &f->node;
+    assert_int_equal(fx_command(node, URB_COMMAND_CODE_SIGNAL, 1u, 0u, 0u), FX_ALL_ACKED);
+    unsigned writes = 0u;
+    fx_step_hook = command_lands_at_claim;
+    fx_step_ctx = &writes;
+    uint8_t const result = urb_node_poll(node);
+    fx_step_hook = NULL;
+    assert_int_equal(writes, 3u); /* 1 + MaxRetry attempts, each overtaken by a write */
+    assert_int_equal(result & URB_NODE_POLL_COMMAND, 0u);
+    assert_int_equal(f->signals, 0u);
+    assert_true((urb_node_poll(node) & URB_NODE_POLL_COMMAND) != 0u);
+    assert_int_equal(f->signals, 1u);
+    assert_int_equal(f->last_signal, 12u); /* the last write won */
+    assert_int_equal(urb_node_poll(node) & URB_NODE_POLL_COMMAND, 0u);
+}
+
 static void command_reset(void **state)
 {
     fixture_t *f = *state;
@@ -416,6 +451,7 @@ int main(void)
         cmocka_unit_test_setup(explicit_mark, setup),
         cmocka_unit_test_setup(command_nop_and_unknown, setup),
         cmocka_unit_test_setup(command_reset, setup),
+        cmocka_unit_test_setup(command_busy_waits_for_the_next_poll, setup),
         cmocka_unit_test_setup(command_signal, setup),
         cmocka_unit_test_setup(command_identify, setup),
         cmocka_unit_test_setup(command_sync_config, setup),

@@ -205,6 +205,32 @@ static void timer_stall_is_harmless(void **state)
     assert_true((int32_t)(f->port.compare - f->port.now) > 0);
 }
 
+/* SYNCs after a silence longer than the period measurement can represent (2^24 ticks) and captures
+ * from far behind the latest heartbeat: the period estimate is kept, the phase error is clamped to
+ * one period, nothing overflows (UBSan), and the heartbeat stays armed ahead. */
+static void silence_too_long_to_measure(void **state)
+{
+    fixture_t *f = *state;
+    (void)syncs(f, PERIOD, PERIOD, 12u, 0u);
+    urb_node_sync_status_t before;
+    urb_node_sync_status(&f->node, &before);
+    assert_true(urb_node_synced(&f->node));
+    f->port.now += 400u * PERIOD; /* 19.2 M ticks > 2^24 without a heartbeat interrupt */
+    f->port.capture = f->port.now;
+    fx_sync(&f->node, 12u); /* the next counter: one SYNC period, but 19.2 M ticks measured */
+    urb_node_sync_status_t after;
+    urb_node_sync_status(&f->node, &after);
+    assert_int_equal(after.period_q8, before.period_q8);
+    urb_node_timer_event(&f->node);
+    assert_true((int32_t)(f->port.compare - f->port.now) > 0);
+    /* a capture three periods before the latest heartbeat: phase > period, clamped */
+    f->port.capture = after.last_beat - 3u * PERIOD;
+    fx_sync(&f->node, 13u);
+    urb_node_sync_status(&f->node, &after);
+    assert_int_equal(after.phase_q8, (int32_t)(after.period_q8 & ~0xFFu)); /* +1 period, its fraction dropped */
+    assert_true(after.phase_q8 <= (int32_t)(PERIOD * 256u) && after.phase_q8 >= -(int32_t)(PERIOD * 256u));
+}
+
 /* Two nodes on the model clock: the paper's Table I, beaten on every seed. */
 static void two_nodes_beat_table1(void **state)
 {
@@ -258,6 +284,7 @@ int main(void)
         cmocka_unit_test_setup(lost_sync_free_runs, setup),
         cmocka_unit_test(disabled_and_fixed_lead),
         cmocka_unit_test_setup(timer_stall_is_harmless, setup),
+        cmocka_unit_test_setup(silence_too_long_to_measure, setup),
         cmocka_unit_test(two_nodes_beat_table1),
         cmocka_unit_test(two_nodes_outage),
     };
