@@ -33,6 +33,11 @@ static void test_id_matches_schema(void **state)
                 for (unsigned d = 0u; d < 2u; d++) {
                     urb_can_id_t id = {(uint8_t)m, r != 0u, (uint8_t)a, (uint8_t)d};
                     uint8_t buf[2];
+                    if ((a == 0u) && ((m | r | d) != 0u)) {
+                        /* the schema's rule: address 0 only in SYNC's identifier */
+                        assert_int_equal(urb_can_id_encode(&id, buf, sizeof buf), URB_ERR_RANGE);
+                        continue;
+                    }
                     assert_int_equal(urb_can_id_encode(&id, buf, sizeof buf), 2);
                     uint16_t const want = (uint16_t)(buf[0] | (buf[1] << 8));
                     assert_int_equal(urb_can_id((uint8_t)a, (uint8_t)m, r != 0u, (uint8_t)d), want);
