@@ -52,7 +52,7 @@ typedef struct {
 
 /** The identifier of a frame to or from node `address` about mailbox `mailbox` (0..7) of the inbox
  *  (`read` false) or outbox (`read` true) set, in `direction` (URB_CAN_REQUEST / _RESPONSE): bits
- *  0..2 mailbox, bit 3 read, bits 4..9 address, bit 10 direction. Arguments are masked to their
+ *  0..2 mailbox, bit 3 read, bits 4..9 address, bit 10 the response bit. Arguments are masked to their
  *  widths. O(1). */
 uint16_t urb_can_id(uint8_t address, uint8_t mailbox, bool read, uint8_t direction);
 

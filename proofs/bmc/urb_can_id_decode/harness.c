@@ -39,7 +39,7 @@ static size_t spec_frame(const urb_can_id_t *m, uint8_t *out, uint32_t check)
     spec_put_bits(out, 0u, 3u, (uint32_t)m->mailbox);
     spec_put_bits(out, 3u, 1u, (m->read ? 1u : 0u));
     spec_put_bits(out, 4u, 6u, (uint32_t)m->address);
-    spec_put_bits(out, 10u, 1u, (uint32_t)m->direction);
+    spec_put_bits(out, 10u, 1u, (m->response ? 1u : 0u));
     (void)check;
     return size;
 }
@@ -64,7 +64,7 @@ void harness(void)
     m.mailbox = URB_NONDET_U8();
     m.read = URB_NONDET_BOOL();
     m.address = URB_NONDET_U8();
-    m.direction = URB_NONDET_U8();
+    m.response = URB_NONDET_BOOL();
     bool implicit_ok = true; /* the implicit members the caller set are valid */
     URB_COST_BEGIN();
     int32_t const r = urb_can_id_decode(&m, buf, length);
@@ -83,10 +83,9 @@ void harness(void)
         bool valid = true;
         if (!((m.mailbox <= 7u))) { valid = false; }
         if (!((m.address <= 63u))) { valid = false; }
-        if (!((m.direction <= 1u))) { valid = false; }
         URB_ASSERT(valid, "decode: every decoded member is one the schema allows");
         bool rules = true;
-        if (!(((int64_t)m.address != (int64_t)0) || (((int64_t)m.mailbox == (int64_t)0) && (!((int64_t)(m.read ? 1 : 0) != 0)) && ((int64_t)m.direction == (int64_t)0)))) { rules = false; } /* require address != 0 or mailbox == 0 and not read and direction == REQUEST */
+        if (!(((int64_t)m.address != (int64_t)0) || (((int64_t)m.mailbox == (int64_t)0) && (!((int64_t)(m.read ? 1 : 0) != 0)) && (!((int64_t)(m.response ? 1 : 0) != 0))))) { rules = false; } /* require address != 0 or mailbox == 0 and not read and not response */
         URB_ASSERT(rules, "decode: the decoded message keeps every rule (require) of the schema");
         URB_ASSERT(len <= URB_LEN_BOUND && spec_size(len) == length, "decode: the frame length matches the payload");
         /* Every bit of the frame is the schema's image of the decoded message: fields, fixed values and
@@ -95,7 +94,7 @@ void harness(void)
         URB_ASSERT(spec_bits(buf, 0u, 3u) == (uint32_t)m.mailbox, "canonical: mailbox at its bit offset");
         URB_ASSERT(spec_bits(buf, 3u, 1u) == (m.read ? 1u : 0u), "canonical: read at its bit offset");
         URB_ASSERT(spec_bits(buf, 4u, 6u) == (uint32_t)m.address, "canonical: address at its bit offset");
-        URB_ASSERT(spec_bits(buf, 10u, 1u) == (uint32_t)m.direction, "canonical: direction at its bit offset");
+        URB_ASSERT(spec_bits(buf, 10u, 1u) == (m.response ? 1u : 0u), "canonical: response at its bit offset");
         URB_ASSERT(spec_bits(buf, 11u, 5u) == 0u, "canonical: padding at bit 11 is zero");
     }
     URB_ASSERT(urb_can_id_decode(NULL, buf, length) == URB_ERR_ARGUMENT, "decode: NULL message");
@@ -110,13 +109,12 @@ void harness(void)
     v.mailbox = URB_NONDET_U8();
     v.read = URB_NONDET_BOOL();
     v.address = URB_NONDET_U8();
-    v.direction = URB_NONDET_U8();
+    v.response = URB_NONDET_BOOL();
     bool const fits = true;
     bool valid = true;
     if (!((v.mailbox <= 7u))) { valid = false; }
     if (!((v.address <= 63u))) { valid = false; }
-    if (!((v.direction <= 1u))) { valid = false; }
-    if (!(((int64_t)v.address != (int64_t)0) || (((int64_t)v.mailbox == (int64_t)0) && (!((int64_t)(v.read ? 1 : 0) != 0)) && ((int64_t)v.direction == (int64_t)0)))) { valid = false; } /* require address != 0 or mailbox == 0 and not read and direction == REQUEST */
+    if (!(((int64_t)v.address != (int64_t)0) || (((int64_t)v.mailbox == (int64_t)0) && (!((int64_t)(v.read ? 1 : 0) != 0)) && (!((int64_t)(v.response ? 1 : 0) != 0))))) { valid = false; } /* require address != 0 or mailbox == 0 and not read and not response */
     if (fits && valid) {
         uint8_t frame[FRAME_BOUND];
         size_t const n = spec_frame(&v, frame, 0u);
@@ -124,13 +122,13 @@ void harness(void)
         back.mailbox = URB_NONDET_U8();
         back.read = URB_NONDET_BOOL();
         back.address = URB_NONDET_U8();
-        back.direction = URB_NONDET_U8();
+        back.response = URB_NONDET_BOOL();
         int32_t const back_r = urb_can_id_decode(&back, frame, n);
         URB_ASSERT(back_r == (int32_t)n, "decode(encode(m)) == m: decode accepts the frame");
         URB_ASSERT(back.mailbox == v.mailbox, "decode(encode(m)) == m: mailbox");
         URB_ASSERT(back.read == v.read, "decode(encode(m)) == m: read");
         URB_ASSERT(back.address == v.address, "decode(encode(m)) == m: address");
-        URB_ASSERT(back.direction == v.direction, "decode(encode(m)) == m: direction");
+        URB_ASSERT(back.response == v.response, "decode(encode(m)) == m: response");
     }
 #endif
 }

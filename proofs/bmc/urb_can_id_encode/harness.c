@@ -39,7 +39,7 @@ static size_t spec_frame(const urb_can_id_t *m, uint8_t *out, uint32_t check)
     spec_put_bits(out, 0u, 3u, (uint32_t)m->mailbox);
     spec_put_bits(out, 3u, 1u, (m->read ? 1u : 0u));
     spec_put_bits(out, 4u, 6u, (uint32_t)m->address);
-    spec_put_bits(out, 10u, 1u, (uint32_t)m->direction);
+    spec_put_bits(out, 10u, 1u, (m->response ? 1u : 0u));
     (void)check;
     return size;
 }
@@ -50,12 +50,11 @@ void harness(void)
     m.mailbox = URB_NONDET_U8();
     m.read = URB_NONDET_BOOL();
     m.address = URB_NONDET_U8();
-    m.direction = URB_NONDET_U8();
+    m.response = URB_NONDET_BOOL();
     bool valid = true; /* the schema allows every member value */
     if (!((m.mailbox <= 7u))) { valid = false; }
     if (!((m.address <= 63u))) { valid = false; }
-    if (!((m.direction <= 1u))) { valid = false; }
-    if (!(((int64_t)m.address != (int64_t)0) || (((int64_t)m.mailbox == (int64_t)0) && (!((int64_t)(m.read ? 1 : 0) != 0)) && ((int64_t)m.direction == (int64_t)0)))) { valid = false; } /* require address != 0 or mailbox == 0 and not read and direction == REQUEST */
+    if (!(((int64_t)m.address != (int64_t)0) || (((int64_t)m.mailbox == (int64_t)0) && (!((int64_t)(m.read ? 1 : 0) != 0)) && (!((int64_t)(m.response ? 1 : 0) != 0))))) { valid = false; } /* require address != 0 or mailbox == 0 and not read and not response */
     size_t const expected = spec_size(0u);
 
 #if !defined(URB_PART) || URB_PART == 1
@@ -110,13 +109,13 @@ void harness(void)
         back.mailbox = URB_NONDET_U8();
         back.read = URB_NONDET_BOOL();
         back.address = URB_NONDET_U8();
-        back.direction = URB_NONDET_U8();
+        back.response = URB_NONDET_BOOL();
         int32_t const back_r = urb_can_id_decode(&back, spec, expected);
         URB_ASSERT(back_r == (int32_t)expected, "round trip: decode accepts the frame");
         URB_ASSERT(back.mailbox == m.mailbox, "round trip: mailbox");
         URB_ASSERT(back.read == m.read, "round trip: read");
         URB_ASSERT(back.address == m.address, "round trip: address");
-        URB_ASSERT(back.direction == m.direction, "round trip: direction");
+        URB_ASSERT(back.response == m.response, "round trip: response");
     }
 #endif
 }

@@ -77,9 +77,6 @@ void harness(void)
         bool valid = true;
         if (!((m.status <= 8u))) { valid = false; }
         URB_ASSERT(valid, "decode: every decoded member is one the schema allows");
-        bool rules = true;
-        if (!(((int64_t)m.status == (int64_t)8) || ((int64_t)m.status == (int64_t)2) || ((int64_t)m.status == (int64_t)5) || ((int64_t)m.status == (int64_t)6))) { rules = false; } /* require status == NODE_BUSY or status == CHECKSUM or status == SIZE_MISMATCH or status == BAD_REQUEST */
-        URB_ASSERT(rules, "decode: the decoded message keeps every rule (require) of the schema");
         URB_ASSERT(len <= URB_LEN_BOUND && spec_size(len) == length, "decode: the frame length matches the payload");
         /* Every bit of the frame is the schema's image of the decoded message: fields, fixed values and
          * zero padding at their offsets, the payload after the fixed part and the check at the end. So
@@ -100,7 +97,6 @@ void harness(void)
     bool const fits = true;
     bool valid = true;
     if (!((v.status <= 8u))) { valid = false; }
-    if (!(((int64_t)v.status == (int64_t)8) || ((int64_t)v.status == (int64_t)2) || ((int64_t)v.status == (int64_t)5) || ((int64_t)v.status == (int64_t)6))) { valid = false; } /* require status == NODE_BUSY or status == CHECKSUM or status == SIZE_MISMATCH or status == BAD_REQUEST */
     if (fits && valid) {
         uint8_t frame[FRAME_BOUND];
         size_t const n = spec_frame(&v, frame, 0u);
