@@ -103,11 +103,11 @@ typedef struct {
 } urb_can_tx_t;
 
 /** Prepares the transfer of `len` (0..32; larger is cut to 32) bytes at `payload` (NULL allowed
- *  when len is 0) with transfer id `tid` (masked to 5 bits). CanTransfer.tla: SendStart. O(1). */
+ *  when len is 0) with transfer id `tid` (masked to 5 bits). CanTransfer.tla SendStart. O(1). */
 void urb_can_tx_init(urb_can_tx_t *tx, const uint8_t *payload, uint8_t len, uint8_t tid);
 
 /** Writes the next frame's data into `data` (8 bytes of room) and returns its length 1..8, or 0
- *  when every frame was taken. Reads at most 7 payload bytes. CanTransfer.tla: SendFrame. O(7). */
+ *  when every frame was taken. Reads at most 7 payload bytes. CanTransfer.tla SendFrame. O(7). */
 uint8_t urb_can_tx_next(urb_can_tx_t *tx, uint8_t *data);
 
 /** True when every frame of the transfer was taken. O(1). */
@@ -140,7 +140,7 @@ typedef struct {
 /** Forgets any transfer in progress. O(1). */
 void urb_can_rx_reset(urb_can_rx_t *rx);
 
-/** One received frame of this session (CanTransfer.tla: Receive). A start frame whose transfer id
+/** One received frame of this session (CanTransfer.tla Receive). A start frame whose transfer id
  *  differs from the transfer in progress (or with none in progress) begins a transfer, dropping
  *  the one in progress; any other frame must carry the transfer id in progress and the expected
  *  toggle bit, so a repeated frame is ignored. Payload bytes go to out[0 .. cap-1]; bytes beyond

@@ -111,7 +111,7 @@ void urb_can_master_init(urb_can_master_t *m, const urb_can_hal_t *hal, const ur
 void urb_can_master_downlink(urb_can_master_t *m, urb_downlink_t *dl);
 
 /** Interrupt side: the controller received `frame`. Frames other than the awaited answer are
- *  counted and ignored. CanTransfer.tla: Receive. O(7). */
+ *  counted and ignored. CanTransfer.tla Receive. O(7). */
 void urb_can_master_rx(urb_can_master_t *m, const urb_can_frame_t *frame);
 
 /** Interrupt side: the oldest queued frame was sent (acknowledged on the bus). O(7). */

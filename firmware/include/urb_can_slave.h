@@ -14,7 +14,7 @@
  *  - A repeated transfer is not taken twice: CAN may deliver a frame twice (a receiver that saw an
  *    error in the last bit of the end of frame takes the frame, the sender sends it again), so a
  *    start frame with the session and transfer id of the request completed last, within
- *    `dup_window_us` of it, is ignored (CanTransfer.tla: Receive, the duplicate filter); frames repeated inside
+ *    `dup_window_us` of it, is ignored (CanTransfer.tla Receive, the duplicate filter); frames repeated inside
  *    a transfer are the toggle bit's business.
  *  - A new request drops the one in progress: an unfinished write is aborted, an answer still being
  *    sent is abandoned (read ended, incomplete).

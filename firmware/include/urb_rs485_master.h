@@ -81,7 +81,7 @@ void urb_rs485_master_init(urb_rs485_master_t *m, const urb_rs485_hal_t *hal, ui
 void urb_rs485_master_downlink(urb_rs485_master_t *m, urb_downlink_t *dl);
 
 /** Interrupt side: a byte was received (the echo of our own, or anyone else's) at time `t`.
- *  Rs485Poll.tla: SendEnd, AnswerEnd. O(1). */
+ *  Rs485Poll.tla SendEnd, Rs485Poll.tla AnswerEnd. O(1). */
 void urb_rs485_master_rx(urb_rs485_master_t *m, uint8_t byte, uint32_t t);
 
 /** Interrupt side: the UART can take a byte; true and *byte set, or false when the frame is all

@@ -4,7 +4,7 @@
  * begin() plans the request's transfer and queues its frames as the controller takes them; the
  * interrupt side queues the rest as frames leave (tx_done) and reassembles the answer (rx); poll()
  * gives the outcome, times out, and follows a recovery. Each outcome names its cause with the
- * status the I2C master gives for the same failure (Bridge.tla: Serve, ErrorNamesCause).
+ * status the I2C master gives for the same failure (Bridge.tla Serve, Bridge.tla ErrorNamesCause).
  *
  * Seeded bugs for the mutant checks: URB_MUTANT_CAN_NO_TID_FILTER (an answer with another
  * transfer id, a late one, is taken), URB_MUTANT_CAN_BUSOFF_AS_TIMEOUT (a bus-off controller is
@@ -132,7 +132,7 @@ static void pump(urb_can_master_t *m)
     /* loop bound: URB_CAN_MAX_FRAMES frames */
     for (uint8_t i = 0u; i < URB_CAN_MAX_FRAMES; i++) {
         if (!m->frame_ready) {
-            uint8_t const n = urb_can_tx_next(&m->tx, m->frame.data); /* CanTransfer.tla: SendFrame */
+            uint8_t const n = urb_can_tx_next(&m->tx, m->frame.data); /* CanTransfer.tla SendFrame */
             if (n == 0u) {
                 return;
             }
@@ -301,7 +301,7 @@ static bool master_begin(void *ctx, const urb_downlink_txn_t *t, uint32_t now)
         }
     }
     m->frame.id = id;
-    urb_can_tx_init(&m->tx, payload, len, m->tid); /* CanTransfer.tla: SendStart */
+    urb_can_tx_init(&m->tx, payload, len, m->tid); /* CanTransfer.tla SendStart */
     m->frames_total = urb_can_frames(len);
     m->t0 = now;
     m->phase = PH_SEND;

@@ -107,7 +107,7 @@ static void pump(urb_can_slave_t *s)
     /* loop bound: URB_CAN_MAX_FRAMES frames */
     for (uint8_t i = 0u; i < URB_CAN_MAX_FRAMES; i++) {
         if (!s->frame_ready) {
-            uint8_t const n = urb_can_tx_next(&s->tx, s->frame.data); /* CanTransfer.tla: SendFrame */
+            uint8_t const n = urb_can_tx_next(&s->tx, s->frame.data); /* CanTransfer.tla SendFrame */
             if (n == 0u) {
                 return;
             }
@@ -125,7 +125,7 @@ static void pump(urb_can_slave_t *s)
 static void answer(urb_can_slave_t *s, uint8_t session, uint8_t tid, const uint8_t *payload, uint8_t len)
 {
     s->frame.id = urb_can_id(s->address, (uint8_t)(session & 7u), (session & 8u) != 0u, URB_CAN_RESPONSE);
-    urb_can_tx_init(&s->tx, payload, len, tid); /* CanTransfer.tla: SendStart, the request's id */
+    urb_can_tx_init(&s->tx, payload, len, tid); /* CanTransfer.tla SendStart, the request's id */
     s->frames_total = urb_can_frames(len);
     s->frames_sent = 0u;
     s->frame_ready = false;
@@ -141,7 +141,7 @@ static void refuse(urb_can_slave_t *s, uint8_t session, uint8_t tid, uint8_t sta
     answer(s, session, tid, s->answer, 1u);
 }
 
-/* A complete request (CanTransfer.tla: Complete): the write is committed or refused, the read's
+/* A complete request (CanTransfer.tla Complete): the write is committed or refused, the read's
  * outbox latched, and the answer started. */
 static void request_done(urb_can_slave_t *s, uint8_t session, uint8_t tid, bool crc_ok)
 {
@@ -195,7 +195,7 @@ static bool request_start(urb_can_slave_t *s, uint8_t session, uint8_t tid, bool
 {
 #if !defined(URB_MUTANT_CAN_NO_DEDUP)
     if ((session == s->last_session) && (tid == s->last_tid) && ((uint32_t)(t - s->last_t) < s->dup_window_us)) {
-        s->stats.duplicates++; /* CanTransfer.tla: Receive, the duplicate filter */
+        s->stats.duplicates++; /* CanTransfer.tla Receive, the duplicate filter */
         return false;
     }
 #else

@@ -172,7 +172,7 @@ bool urb_can_rx_active(const urb_can_rx_t *rx)
     return rx->active != 0u;
 }
 
-/* CanTransfer.tla: Receive. The checks come in the order of the model's guards: a start frame
+/* CanTransfer.tla: SendFrame, the receiving side (CanTransfer.tla Receive). The checks come in the order of the model's guards: a start frame
  * that is not a repeat opens a transfer; everything else must continue the one in progress with
  * its transfer id and the toggle bit it expects. */
 urb_can_rx_result_t urb_can_rx_frame(urb_can_rx_t *rx, const uint8_t *data, uint8_t len, uint8_t *out, uint8_t cap)
@@ -192,7 +192,7 @@ urb_can_rx_result_t urb_can_rx_frame(urb_can_rx_t *rx, const uint8_t *data, uint
         return URB_CAN_RX_BAD_START;
     }
     if (start && ((rx->active == 0u) || (tid != rx->tid))) {
-        /* CanTransfer.tla: Receive, a new transfer (one in progress is dropped) */
+        /* CanTransfer.tla Receive, a new transfer (one in progress is dropped) */
         rx->crc = CRC_INIT;
         rx->count = 0u;
         rx->tid = tid;

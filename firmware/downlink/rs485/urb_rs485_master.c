@@ -97,7 +97,7 @@ static void finish(urb_rs485_master_t *m, uint8_t result)
 
 /* An answer that is not what a node sends: corrupt. For a read, CHECKSUM (nothing changed at the
  * node); for a write or a probe the node may have stored the request before its answer was
- * garbled, so only TIMEOUT is true (Rs485Poll.tla: StatusTruthful). */
+ * garbled, so only TIMEOUT is true (Rs485Poll.tla StatusTruthful). */
 static uint8_t garbled(urb_rs485_master_t *m)
 {
     m->stats.bad++;
@@ -160,6 +160,7 @@ static void frame_end(urb_rs485_master_t *m)
         return;
     }
     if (ph == PH_DRAIN) {
+        /* Rs485Poll.tla: Drain, the line is silent after a collision */
         finish(m, m->cut ? URB_STATUS_BUS_STUCK : URB_STATUS_TIMEOUT);
     }
 }
@@ -197,7 +198,7 @@ void urb_rs485_master_rx(urb_rs485_master_t *m, uint8_t byte, uint32_t t)
         return;
     }
     if ((ph == PH_WAIT) && ((ev & URB_RS485_EV_START) != 0u)) {
-        m->phase = PH_ANSWER; /* Rs485Poll.tla: Answer */
+        m->phase = PH_ANSWER; /* Rs485Poll.tla Answer (the node's) */
         m->ans[0] = byte;
         return;
     }
@@ -218,7 +219,7 @@ void urb_rs485_master_rx(urb_rs485_master_t *m, uint8_t byte, uint32_t t)
         return;
     }
     if ((ph == PH_IDLE) || (ph == PH_DONE) || (ph == PH_QUIET) || (ph == PH_WAIT)) {
-        m->stats.babble++; /* Rs485Poll.tla: BabbleStart, heard while nobody was polled */
+        m->stats.babble++; /* Rs485Poll.tla BabbleStart, heard while nobody was polled */
     }
 }
 
@@ -301,7 +302,7 @@ static int8_t master_poll(void *ctx, uint32_t now)
     if (ph == PH_IDLE) {
         out = URB_DOWNLINK_IDLE;
     } else if (ph == PH_DONE) {
-        m->phase = PH_IDLE;
+        m->phase = PH_IDLE; /* Rs485Poll.tla: Report */
         out = (int8_t)m->result;
     } else if (ph == PH_QUIET) {
         if (urb_rs485_rx_silent(&m->rx, now)) {
