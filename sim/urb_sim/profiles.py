@@ -359,6 +359,15 @@ def active_params() -> dict[str, float]:
     return dict(prof.params) if prof is not None else {}
 
 
+def model_values(extra: Mapping[str, float] | None = None) -> dict[str, float]:
+    """Every parameter's value as a World created now starts with it: params.h's default, then the
+    active profile's value, then `extra` (an experiment's rig settings, which win)."""
+    values = dict(_known_params())
+    values.update(active_params())
+    values.update(extra or {})
+    return values
+
+
 def markdown(profiles: Sequence[Profile]) -> str:
     """Every assumption once, a column per profile: the table sim/README.md holds (and the report)."""
     params: list[str] = []
