@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import bisect
 import json
+import math
 import statistics
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -214,3 +215,23 @@ def test_bounded_accepts_a_fourth_frame_only_where_derived(synthetic: Callable[[
     assert synthetic("cortex-m0plus", later_31_late)  # 31 bytes may miss in the worst case, warm too
     assert not synthetic("ideal", later_31_late)  # not on the idealised model
     assert not synthetic("cortex-m0plus", two_frames_late)
+
+
+@pytest.mark.parametrize("profile", ["cortex-m0plus", "ideal"])
+def test_the_handler_budget_is_where_the_derivation_turns_to_a_fourth_frame(profile: str) -> None:
+    """usb_bound.handler_budget_cycles (fig16's note on what three frames need) against bound()
+    itself: a node I2C handler a cycle within the budget keeps the read in three frames, a cycle
+    beyond it takes a fourth, for the first read (with the select) and for the later ones."""
+    for select, index in ((True, 0), (False, 100)):  # a later read once a late first one is past
+        with profiles.applied(profiles.load(profile)):
+            budget = usb_bound.handler_budget_cycles(profiles.model_values(), usb_bound.LONGEST_PAYLOAD, select)
+        if budget < 1:
+            assert profile == "cortex-m0plus" and select  # its first read: even a 0-cycle handler misses
+            with profiles.applied(profiles.load(profile), {"node.i2c_isr_cycles": 0.0}):
+                assert usb_bound.bound(profiles.model_values(), usb_bound.LONGEST_PAYLOAD).frames_of(index) == 4
+            continue
+        frames = {}
+        for cycles in (math.floor(budget) - 1, math.ceil(budget) + 1):
+            with profiles.applied(profiles.load(profile), {"node.i2c_isr_cycles": float(cycles)}):
+                frames[cycles] = usb_bound.bound(profiles.model_values(), usb_bound.LONGEST_PAYLOAD).frames_of(index)
+        assert list(frames.values()) == [3, 4], f"{profile}, select {select}: budget {budget:.1f}, frames {frames}"

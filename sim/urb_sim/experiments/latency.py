@@ -268,6 +268,8 @@ def _check_bounded(res: Result, samples: list[Sample], bounds: dict[int, usb_bou
             f"{first.payload}, read {first.index}, {first_ms:.3f} ms), not the paper's constant 3 ms: the frame's "
             "downlink work (the SYNC, the select, the read with the nodes' clock stretching) did not fit the frame")
     b = bounds[max(bounds)]
+    if max(b.frames) > 3:
+        res.notes.append(_three_frames_need(values, b))
     res.tables.append((
         f"Fig. 16's bound for {b.payload}-byte reads, derived from this profile's parameters (usb_bound): after the "
         f"SOF of the request's frame its response must be in the batch before the next SOF's flag, {b.deadline:.1f} "
@@ -277,6 +279,20 @@ def _check_bounded(res: Result, samples: list[Sample], bounds: dict[int, usb_bou
          for part, terms in (("request taken", b.request), ("SYNC first", b.sync), ("interference", b.interference),
                              ("first read (select)", b.cold), ("after the frames", b.path))
          for t in terms.terms]))
+
+
+def _three_frames_need(values: dict[str, float], b: usb_bound.Bound) -> str:
+    """What the paper's three frames would need from the node's I2C handler under this profile, for
+    the reads whose worst case may take a fourth (usb_bound.handler_budget_cycles)."""
+    isr, ws = values["node.i2c_isr_cycles"], values["node.flash_ws"]
+    parts = []
+    for what, select in (("a run's first read (it selects the outbox)", True), ("every later read", False)):
+        need = usb_bound.handler_budget_cycles(values, b.payload, select)
+        parts.append(f"{what}: {need:.0f} cycles" if need >= 0 else
+                     f"{what}: none (its worst case misses the frame even with a handler of 0 cycles)")
+    return (f"Three frames for every {b.payload}-byte read, in the worst case, would need the node's I2C handler "
+            f"(node.i2c_isr_cycles, {isr:g} here, before the factor of its {ws:g} flash wait state(s)) within: "
+            + "; ".join(parts) + " (usb_bound.handler_budget_cycles, everything else as this profile states).")
 
 
 def _frames_text(frames: tuple[int, ...]) -> str:

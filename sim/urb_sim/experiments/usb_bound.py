@@ -301,3 +301,26 @@ def three_frames_ms(v: Mapping[str, float], payload: int = LONGEST_PAYLOAD) -> f
     """Three frames and the last frame's path to the callback (path_terms), in ms: the round trip of
     a response that is in the batch its frame closes."""
     return 3.0 + path_terms(v, payload).us / 1000
+
+
+def stretch_budget_us(v: Mapping[str, float], payload: int, select: bool) -> float:
+    """The longest clock stretching per byte (Downlink.stretch, us) with which the worst case of a
+    `payload`-byte read still has its response in the batch before the next SOF, everything else as
+    in `v`: what the paper's three frames need from a node's I2C input path, interrupt entry and
+    handler. Negative when even a node that never stretches would not make it."""
+    b = bound(v, payload)
+    d = Downlink.of(v)
+    end = b.cold_end if select else b.warm_end
+    n_rx = framed(1 + payload) - 1
+    # bytes whose stretching is on the path: the SYNC's, the select's, the read address, then a
+    # wait for every data byte (the node loads each one; the bridge's turnaround is shorter)
+    stretched = SYNC_BYTES + (2 if select else 0) + 1 + n_rx
+    return d.stretch + (b.deadline - end) / stretched
+
+
+def handler_budget_cycles(v: Mapping[str, float], payload: int, select: bool) -> float:
+    """stretch_budget_us as the node's I2C handler length (node.i2c_isr_cycles, before the flash
+    wait states' factor), the rest of the stretching (edge, wake-up, entry) as in `v`."""
+    d, node = Downlink.of(v), Core.of(v, "node")
+    rest = d.stretch - node.us(node.code("i2c_isr_cycles"))
+    return (stretch_budget_us(v, payload, select) - rest) * node.hz / 1e6 / (1.0 + 0.5 * node.ws)
