@@ -99,7 +99,8 @@
     X(PROBE_FILL, "probe.fill_counter", 0.0, "1: every probe outbox byte carries the update counter (trace validation)") \
     X(SCOPE_SAMPLE, "scope.sample_ns", 0.0, "Table I's marks as an oscilloscope samples them: sample period, ns (0: true time)") \
     X(SCOPE_SKEW, "scope.skew_ns", 0.0, "largest fixed skew of one mark's path (pin, probe, channel), ns (drawn per node)") \
-    X(SCOPE_PPM, "scope.ppm", 0.0, "the oscilloscope's timebase error against true time, ppm")
+    X(SCOPE_PPM, "scope.ppm", 0.0, "the oscilloscope's timebase error against true time, ppm") \
+    X(SCOPE_CAPTURE, "scope.capture_periods", 0.0, "Table I read once per run, as from one oscilloscope capture at a trigger drawn in the steady state: the inter-node difference of that cycle, a node's period peak to peak over this many periods (0: statistics over the whole steady state)")
 
 #define URBSIM_PARAM_ENUM(id, name, def, doc) P_##id,
 enum { URBSIM_PARAMS(URBSIM_PARAM_ENUM) P_COUNT };
