@@ -22,15 +22,17 @@ Y), an error or a timeout is not a kill, and a mutant without "expect" is a brok
 Mutant runs leave out the recorded-COST assertion (Makefile.common). A seeded bug marked "tier": "full"
 needs a bound only the full tier has, and only that tier runs it. In the full tier, a folder with a
 COST file also runs its worst-case witness (`make tight`), which must fail, showing the recorded worst
-case is reached. The vacuity check (`make reach`) of every item gives each proof a [reach] row, and
-the same runs check the harness's cover points (URB_COVER; tools/bmc_evidence.py): a [cover] row
-fails naming each point that no item of its part reaches, and each part needs at least one point.
+case is reached. The vacuity check (`make reach`) of every item gives each proof a [reach] row. With
+--covers (make proofs-cover, make proofs-full; too costly for make check) the same runs check the
+harness's cover points (URB_COVER; tools/bmc_evidence.py): a [cover] row fails naming each point that
+no item of its part reaches, and each part needs at least one point.
 Every mutant names its "kind" of bug (off-by-one, wrong-order, missing-publish-or-free, wrong-field,
 dropped-error, other) for the mutation table.
 
 Evidence (issue #36): build/evidence/bmc.json (report/urb_report/records.py), items bmc:<folder>,
-bmc-mutant:<folder>/<mutant> and bmc-cover:<folder>/<cover>; a run with --only writes its record
-next to its results instead (build/proofs/bmc-only/bmc.json), never over the whole run's.
+bmc-mutant:<folder>/<mutant> and (with --covers) bmc-cover:<folder>/<cover>; a run with --only or
+--no-mutants writes its record next to its results instead (build/proofs/bmc-only/bmc.json,
+build/proofs/bmc-partial/bmc.json), never over the whole run's.
 
 Results contract shared by every proof part (bmc here, framac, fuzz): build/proofs/<part>/summary.json
 = {"part", "rows": [{"function", "tool", "properties", "bound", "result", "expected", "time_s",
@@ -482,20 +484,22 @@ def cover_points(proof: Proof, tier: str, item: str) -> list[str] | None:
     return out.stdout.split() if out.returncode == 0 else None
 
 
-def run_reach_part(proof: Proof, tier: str, out_root: Path, futures: dict[str, Future[Run]]) -> None:
+def run_reach_part(proof: Proof, tier: str, out_root: Path, futures: dict[str, Future[Run]],
+                   covers: bool = True) -> None:
     """The reach runs of the items of one harness part, largest first, each resolving its future.
 
-    A run checks the cover points too while the item compiles one that no earlier item of the part
-    reached; after that the item runs with COVERS=0 (the reach assertion alone, as cheap as the plain
-    vacuity check): a point needs one item of its part that reaches it."""
+    With `covers`, a run checks the cover points too while the item compiles one that no earlier item
+    of the part reached; after that the item runs with COVERS=0 (the reach assertion alone, the plain
+    vacuity check): a point needs one item of its part that reaches it. Without, every item runs
+    with COVERS=0."""
     reached: set[str] = set()
     pending = dict(futures)
     try:
         for item in item_order(list(futures)):
-            points = cover_points(proof, tier, item)
-            need = points is None or not set(points) <= reached
+            points = cover_points(proof, tier, item) if covers else []
+            need = covers and (points is None or not set(points) <= reached)
             run = run_make(proof, "reach", tier, out_root, item, "", ("REACH_LOG=1",) + (() if need else ("COVERS=0",)))
-            if not need and points is not None:
+            if covers and not need and points is not None:
                 run.points = points  # compiled into this item, reached by an earlier one of its part
             reached |= {n.removeprefix(bmc_evidence.COVER_PREFIX) for n, hit in run.claims.items()
                         if hit and n.startswith(bmc_evidence.COVER_PREFIX)}
@@ -574,15 +578,18 @@ class Plan:
     mutants: dict[str, Future[list[tuple[str, Run]]]] = field(default_factory=dict)
     tight: Future[Run] | None = None
     reach: dict[str, Future[Run]] = field(default_factory=dict)
+    #: the reach runs checked the cover points (tools/proofs.py --covers): collect() gives a [cover] row
+    covers: bool = True
     #: filled by collect(): what the evidence record says of this proof
     evidence: bmc_evidence.ProofEvidence | None = None
 
 
 def bmc(proofs: list[Proof], tier: str, jobs: int, mutants: bool, out_root: Path,
-        evidence: list[bmc_evidence.ProofEvidence] | None = None) -> list[dict[str, Any]]:
+        evidence: list[bmc_evidence.ProofEvidence] | None = None, covers: bool = False) -> list[dict[str, Any]]:
     """Runs the proofs (and their mutants and witnesses) on `jobs` workers; one row per run group.
-    What each proof showed is appended to `evidence` (for the evidence record)."""
-    plans = [Plan(p) for p in proofs]
+    With `covers` the reach runs check the cover points too (a [cover] row per proof). What each
+    proof showed is appended to `evidence` (for the evidence record)."""
+    plans = [Plan(p, covers=covers) for p in proofs]
     with ThreadPoolExecutor(max_workers=jobs) as pool:
         for plan in plans:  # the proofs first, so a broken proof shows early; then mutants and witnesses
             for item in plan.proof.items(tier):
@@ -594,7 +601,7 @@ def bmc(proofs: list[Proof], tier: str, jobs: int, mutants: bool, out_root: Path
             for items in parts.values():
                 futures: dict[str, Future[Run]] = {item: Future() for item in items}
                 plan.reach.update(futures)
-                pool.submit(run_reach_part, plan.proof, tier, out_root, futures)
+                pool.submit(run_reach_part, plan.proof, tier, out_root, futures, covers)
         for plan in plans:
             if mutants:
                 for m in plan.proof.mutants_of(tier):
@@ -684,6 +691,8 @@ def collect(plan: Plan, tier: str) -> list[dict[str, Any]]:
                              sum(r.seconds for r in reach.values()), detail))
         rows[-1]["cpu_s"] = round(sum(r.cpu_s for r in reach.values()), 2)
         reach_row = rows[-1]
+    if plan.reach and plan.covers:
+        reach = {item: f.result() for item, f in plan.reach.items()}
         covers, problems = bmc_evidence.judge_covers(
             bmc_evidence.CoverRun(item, r.outcome, r.points, {n.removeprefix(bmc_evidence.COVER_PREFIX)
                                                               for n, hit in r.claims.items() if hit}, r.log)
@@ -826,6 +835,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", action="append", default=[], help="folders whose name contains this (repeatable)")
     ap.add_argument("--jobs", type=int, default=2, help="parallel ESBMC runs (default 2)")
     ap.add_argument("--no-mutants", action="store_true", help="skip the seeded mutants")
+    ap.add_argument("--covers", action="store_true",
+                    help="check every cover point (URB_COVER) in the reach runs: a [cover] row per proof (costly: "
+                         "make proofs-cover, make proofs-full)")
     ap.add_argument("--update-costs", action="store_true", help="record worst-case costs (COST files) and stop")
     ap.add_argument("--list", action="store_true", help="list the proofs and their settings and stop")
     ap.add_argument("--out", type=Path, default=OUT_ROOT, help="results folder (default build/proofs)")
@@ -845,7 +857,7 @@ def main(argv: list[str] | None = None) -> int:
             return update_costs(proofs, args.jobs, args.tier, args.out)
         rows = [check_fresh()] if not args.only else []
         evidence: list[bmc_evidence.ProofEvidence] = []
-        rows += bmc(proofs, args.tier, args.jobs, not args.no_mutants, args.out, evidence)
+        rows += bmc(proofs, args.tier, args.jobs, not args.no_mutants, args.out, evidence, args.covers)
     except SetupError as e:
         print(f"proofs: {e}", file=sys.stderr)
         return 2
@@ -857,7 +869,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\nproofs-bmc ({args.tier}): {len(proofs)} proofs, {n_mut} mutants, {len(rows)} results, {len(bad)} unexpected; "
           f"{wall:.0f} s wall on {args.jobs} jobs, {cpu:.0f} s CPU (ideal wall on {args.jobs} idle cores "
           f"{cpu / max(1, args.jobs):.0f} s)")
-    run_config = {"jobs": args.jobs, "mutants": not args.no_mutants, "proofs": len(proofs), "cpu_s": round(cpu, 1),
+    run_config = {"jobs": args.jobs, "mutants": not args.no_mutants, "covers": args.covers, "proofs": len(proofs), "cpu_s": round(cpu, 1),
                   "wall_s": round(wall, 1)}
     if args.only:
         out = args.out / "bmc-only"
@@ -868,7 +880,8 @@ def main(argv: list[str] | None = None) -> int:
     else:
         out = write_part("bmc", rows, args.out, {"tier": args.tier, "wall_s": round(wall, 1), "cpu_s": round(cpu, 1),
                                                  "jobs": args.jobs})
-        record = write_evidence(evidence, args.tier, None, run_config)
+        # a run without its mutants is not the part's record (make check's run has them)
+        record = write_evidence(evidence, args.tier, args.out / "bmc-partial" if args.no_mutants else None, run_config)
         print(f"wrote {out / 'summary.json'}, {out / 'junit.xml'} and {record}")
     return 1 if bad else 0
 

@@ -130,14 +130,19 @@ void urb_native_fill(void *array, size_t size);
 
 /* ===== Properties ======================================================================== */
 
-#if defined(URB_COST_PROBE) || defined(URB_VERIFY_REACH)
-/* A probe run (make probe) asks one question, the largest cost, and a reachability run (make reach)
+#if defined(URB_COST_PROBE) || (defined(URB_VERIFY_REACH) && !defined(URB_COVER_OFF))
+/* A probe run (make probe) asks one question, the largest cost, and a cover run (make reach)
  * whether the harness ends at all and which cover points it reaches, so every other property is off.
  * The condition is still evaluated: harnesses call the code under proof inside assertions
  * (`URB_ASSERT(release() == URB_NODE_OK, ...)`), and a run without those calls would be another
- * program than the proof's (until 2026-11-29 it was: the reach run of fw_mailbox_outbox never set
- * its outbox up, which its first cover points showed). */
+ * program than the proof's (the reach run of fw_mailbox_outbox never set its outbox up, which its
+ * first cover points showed). */
 #define URB_ASSERT(c, name) ((void)(c))
+#elif defined(URB_VERIFY_REACH)
+/* The plain vacuity check (make reach COVERS=0, the one make check runs): the harness's end
+ * reachable, its assertions left out whole, calls inside them too. It is the cheap check (a cover
+ * run costs up to 30 times more); the cover run checks the program as proved. */
+#define URB_ASSERT(c, name) ((void)0)
 #else
 #define URB_ASSERT(c, name) URB_ASSERT_(c, name)
 #endif
