@@ -595,9 +595,9 @@ def bmc(proofs: list[Proof], tier: str, jobs: int, mutants: bool, out_root: Path
             for item in plan.proof.items(tier):
                 plan.runs[item] = pool.submit(run_make, plan.proof, "proof", tier, out_root, item)
         for plan in plans:  # vacuity and cover points: the items of one part in turn (run_reach_part)
-            parts: dict[str, list[str]] = {}
+            parts: dict[str, list[str]] = {}  # without covers every item is its own job, as before them
             for item in plan.proof.items(tier):
-                parts.setdefault(bmc_evidence.part_of(item), []).append(item)
+                parts.setdefault(bmc_evidence.part_of(item) if covers else item, []).append(item)
             for items in parts.values():
                 futures: dict[str, Future[Run]] = {item: Future() for item in items}
                 plan.reach.update(futures)

@@ -360,6 +360,34 @@ def test_the_evidence_record_names_every_proof_mutant_and_cover(tmp_path: Path) 
     assert record.tools["ESBMC"].startswith("ESBMC version")
 
 
+def test_without_covers_the_runner_gives_no_cover_row_and_runs_the_plain_vacuity_check(monkeypatch: Any) -> None:
+    """make check's run (no --covers): each item's reach run has COVERS=0 (points compiled out), and no
+    [cover] row or bmc-cover item is claimed; --covers (make proofs-cover, proofs-full) adds them."""
+    from concurrent.futures import Future
+
+    proofs = load_module("proofs", ROOT / "tools" / "proofs.py")
+    calls: list[tuple[str, ...]] = []
+
+    def fake_run_make(proof: Any, target: str, tier: str, out: Path, item: str, mutant: str = "",
+                      extra: tuple[str, ...] = ()) -> Any:
+        calls.append(extra)
+        return proofs.Run("fail", 1.0, claims={proofs.bmc_evidence.REACH_CLAIM: True})
+
+    monkeypatch.setattr(proofs, "run_make", fake_run_make)
+    monkeypatch.setattr(proofs, "cover_points", lambda *a: ["a-point"])
+    proof = proofs.Proof("fw_x", Path("."), {"fast_sweep": "PART=1 PART=2", "sweep": "", "budget_cycles": "100"},
+                         "purpose", [], None, "", 3)
+    futures: dict[str, Any] = {"PART=1": Future()}
+    proofs.run_reach_part(proof, "fast", Path("."), futures, covers=False)
+    assert calls == [("REACH_LOG=1", "COVERS=0")]
+    plan = proofs.Plan(proof, covers=False)
+    plan.runs = {"PART=1": futures["PART=1"]}
+    plan.reach = futures
+    functions = [r["function"] for r in proofs.collect(plan, "fast")]
+    assert functions == ["fw_x", "fw_x [reach]"]
+    assert plan.evidence is not None and plan.evidence.covers == []
+
+
 def _seeded_copy(folder: str, tmp_path: Path, find: str, insert: str) -> Path:
     """A copy of proofs/bmc/<folder> under tmp_path (same name plus -seeded) whose harness has `insert`
     right after the line containing `find`: an over-constraining assumption planted in the harness."""
