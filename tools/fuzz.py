@@ -49,7 +49,7 @@ CFLAGS = ["-std=c99", "-g", "-O1", "-fsanitize=fuzzer,address,undefined", "-fno-
 SEED = 1  # libFuzzer's -seed: the same seed and corpus give the same inputs
 LIBFUZZER_FLAGS = [f"-seed={SEED}", "-timeout=10", "-rss_limit_mb=2048", "-print_final_stats=1"]
 MUTANT_KINDS = ("off-by-one", "wrong-order", "missing-publish-or-free", "wrong-field", "dropped-error", "other")
-GEN = ["gen/c/urb_runtime.c", "gen/c/urb_core.c", "gen/c/urb_sensorhex.c"]
+GEN = ["gen/c/urb_runtime.c", "gen/c/urb_core.c", "gen/c/urb_sensorhex.c", "gen/c/urb_can_wire.c", "gen/c/urb_rs485_wire.c"]
 
 
 @dataclass(frozen=True)
@@ -100,6 +100,35 @@ TARGETS = {
             ),
             "ASan/UBSan clean on any configuration, bus event and application script; every ACK/NACK, "
             "committed message and read-back value as the mailbox models say",
+        ),
+        Target(
+            "fuzz_can",
+            ("firmware/include", "gen/c", "tests/firmware/can", "tests/firmware/dl_common", "tests/fuzz"),
+            (
+                "tests/fuzz/fuzz_can.c",
+                "tests/firmware/can/can_bus.c",
+                "tests/firmware/dl_common/fake_mailbox.c",
+                "firmware/downlink/can/urb_can_transfer.c",
+                "firmware/downlink/can/urb_can_master.c",
+                "firmware/downlink/can/urb_can_slave.c",
+                *GEN,
+            ),
+            "ASan/UBSan clean on any script of CAN transactions, injected frames, bus faults and bus-off; "
+            "mailbox calling rules kept; every outcome in time, named by the contract and truthful",
+        ),
+        Target(
+            "fuzz_rs485",
+            ("firmware/include", "gen/c", "tests/firmware/dl_common", "tests/fuzz"),
+            (
+                "tests/fuzz/fuzz_rs485.c",
+                "tests/firmware/dl_common/fake_mailbox.c",
+                "firmware/downlink/rs485/urb_rs485_frame.c",
+                "firmware/downlink/rs485/urb_rs485_master.c",
+                "firmware/downlink/rs485/urb_rs485_slave.c",
+                *GEN,
+            ),
+            "ASan/UBSan clean on any script of RS485 polls, babbling, corrupted bytes and stalls; "
+            "mailbox calling rules kept; every outcome in time, named by the contract and truthful",
         ),
     )
 }
