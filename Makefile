@@ -22,7 +22,7 @@ help:
 	@echo "make check      run every check CI runs (installs what is missing first)"
 	@echo "make gen        regenerate gen/c and gen/python from spec/schema"
 	@echo "make gen-check  fail when the committed generated files are stale"
-	@echo "make bench      run the benchmarks: codecs next to MAVLink, host library CPU per request"
+	@echo "make bench      run the benchmarks: codecs next to MAVLink, host library CPU per request, C next to Python"
 
 setup:
 	@tools/setup.sh
@@ -51,9 +51,10 @@ check: setup gen-check lint test-py $(CHECK_TARGETS)
 demo: setup
 	urb sim sensorhex --sensitivity
 
-bench: setup
+bench: setup bridge-hosted host-c-bench
 	$(PYTHON) bench/codec_bench.py
 	$(PYTHON) bench/host_cpu.py
+	$(PYTHON) bench/host_cpu_c.py
 
 clean:
 	rm -rf build
