@@ -436,18 +436,22 @@ IdsInOrder(s) == \A k \in 1..Len(s) - 1 : s[k].id <= s[k + 1].id
 
 (* Nothing is dropped: every submitted request is in the bridge or         *)
 (* answered, or was forgotten in a bridge reset.                           *)
+\* lobster-trace: urb.ORD_001
 NoSilentDrop == 1..Len(sent) \subseteq Ids(out) \cup Ids(queue) \cup forgotten
 
 (* No request is answered twice. *)
+\* lobster-trace: urb.ORD_002
 AtMostOneResponse == DistinctIds(out)
 
 (* Responses leave in request order. *)
+\* lobster-trace: urb.ORD_003
 ResponsesInRequestOrder == IdsInOrder(out)
 
 (* The k-th response answers the k-th request (of those no bridge reset   *)
 (* forgot: with no reset, simply the k-th) and echoes its sequence        *)
 (* number; a successful read carries the addressed outbox's data, any      *)
 (* other response carries no data.                                         *)
+\* lobster-trace: urb.ORD_004
 ResponseMatchesRequest ==
     \A k \in DOMAIN out :
         LET id == out[k].id
@@ -458,12 +462,14 @@ ResponseMatchesRequest ==
                            THEN Outbox(r.addr, r.box) ELSE NoData
 
 (* An error response names what really happened. *)
+\* lobster-trace: urb.ERR_001
 ErrorNamesCause ==
     \A k \in DOMAIN out : out[k].status # "OK" => out[k].status = cause[out[k].id]
 
 (* OK for a write means the node stored it; a write answered CHECKSUM,     *)
 (* NODE_BUSY, NO_NODE or an admission error was not stored.  (TIMEOUT and  *)
 (* BUS_STUCK leave it unknown: the host must not assume either.)           *)
+\* lobster-trace: urb.ERR_002
 WriteStatusTruthful ==
     \A k \in DOMAIN out :
         Req(out[k].id).op = "write" =>
@@ -472,11 +478,13 @@ WriteStatusTruthful ==
                  => out[k].id \notin applied
 
 (* BUSY is only answered when every data slot was taken. *)
+\* lobster-trace: urb.ORD_005
 BusyOnlyWhenFull ==
     \A k \in DOMAIN out : out[k].status = "BUSY" => out[k].id \in full
 
 (* The response ring never holds more than HostWindow entries, and the    *)
 (* data slots never more than QueueLen.                                    *)
+\* lobster-trace: urb.RES_003
 BoundedMemory == Len(queue) <= HostWindow /\ DataSlotsUsed <= QueueLen
 
 (* What the host relies on, across sequence-number wrap: a response it     *)
@@ -485,10 +493,12 @@ BoundedMemory == Len(queue) <= HostWindow /\ DataSlotsUsed <= QueueLen
 (* discards as that request's late response), never an older or a newer  *)
 (* request's, whatever the bridge still holds when the host times out.    *)
 (* Checked in the state after every match.                                 *)
+\* lobster-trace: urb.HOST_002
 NoSeqAliasing == lastMatch.req = lastMatch.resp
 
 (* Liveness: every submitted request is eventually answered, unless a     *)
 (* bridge reset forgot it.                                                  *)
+\* lobster-trace: urb.ORD_006
 EveryRequestAnswered ==
     \A id \in 1..MaxReq : (id <= Len(sent)) ~> (Answered(id) \/ id \in forgotten)
 
@@ -496,6 +506,7 @@ EveryRequestAnswered ==
 (* its in-flight list (answered, passed by a later response, or its       *)
 (* placeholder expired) and gives its window slot back, whatever was lost *)
 (* on the uplink or forgotten by a bridge reset.                           *)
+\* lobster-trace: urb.FLT_005
 EveryRequestReleased == \A id \in 1..MaxReq : (id <= Len(sent)) ~> (hostFrom > id)
 
 THEOREM Spec => [](TypeOK /\ NoSilentDrop /\ AtMostOneResponse

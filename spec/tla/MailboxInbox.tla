@@ -216,19 +216,24 @@ AppHolds == appPc = "read"
 (* The application never loses its lock: while it holds buf[a], app_idx    *)
 (* still names a, the ISR is not filling a and a stays the published one's *)
 (* twin only through a commit of the other buffer.                         *)
+\* lobster-trace: urb.MBX_009
 AppLockExclusive == AppHolds => (appIdx = a /\ isrIdx # a)
 
 (* The bytes the application reads under one lock come from one write.   *)
+\* lobster-trace: urb.MBX_006
 AppReadNotTorn == \A i, j \in DOMAIN appGot : appGot[i] = appGot[j]
 
 (* ...from the most recently committed write at the linearization point.  *)
+\* lobster-trace: urb.MBX_007
 AppReadFresh == appGot # <<>> => appGot[1] = appSnap
 
 (* The application never sees bytes of an aborted (corrupt) transaction.  *)
+\* lobster-trace: urb.MBX_008
 NoAbortedDelivered == \A i \in DOMAIN appGot : appGot[i] \notin aborted
 
 (* The interrupt never waits: it can always take its next step (a new     *)
 (* transaction is NACKed at once rather than delayed).                    *)
+\* lobster-trace: urb.MBX_005
 IsrWaitFree == txs < MaxWrites \/ isrPc # "idle" => ENABLED IsrNext
 
 THEOREM Spec => [](TypeOK /\ AppLockExclusive /\ AppReadNotTorn

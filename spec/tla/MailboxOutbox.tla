@@ -148,15 +148,19 @@ AppHolds == appPc \in {"write", "release"}
 
 (* Nobody else touches the buffer the application holds: the ISR does not  *)
 (* read it and it is not the published buffer.                             *)
+\* lobster-trace: urb.MBX_004
 AppLockExclusive == AppHolds => (isrIdx # w /\ front # w)
 
 (* The bytes the ISR has sent in one read all come from the same write.    *)
+\* lobster-trace: urb.MBX_002
 IsrReadNotTorn == \A i, j \in DOMAIN isrGot : isrGot[i] = isrGot[j]
 
 (* ...and from the most recently released write at the read's start.       *)
+\* lobster-trace: urb.MBX_003
 IsrReadFresh == isrGot # <<>> => isrGot[1] = isrSnap
 
 (* The interrupt never waits: in every state it can take its next step.    *)
+\* lobster-trace: urb.MBX_001
 IsrWaitFree == ENABLED IsrNext
 
 THEOREM Spec => [](TypeOK /\ AppLockExclusive /\ IsrReadNotTorn

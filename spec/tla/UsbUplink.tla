@@ -189,16 +189,19 @@ InFlight == Range(hostQ) \cup Range(rx) \cup {r.id : r \in Range(txPrev)}
 
 (* Nothing is lost: every submitted request is somewhere in the pipeline  *)
 (* or has had its callback.                                                *)
+\* lobster-trace: urb.HOST_004
 NothingLost == \A id \in Submitted : id \in InFlight \/ id \in done
 
 (* The host never has more than Window requests in flight: the bridge's  *)
 (* data slots and response ring (Bridge.tla HostWindow) and the 4-bit     *)
 (* sequence number rely on it.                                             *)
+\* lobster-trace: urb.HOST_003
 WindowRespected == Len(expect) <= Window
 
 (* Every callback receives the response to its own request, however often *)
 (* the sequence number has wrapped: never another request's, and never    *)
 (* none (no response is lost here, so none may be declared lost).         *)
+\* lobster-trace: urb.HOST_004
 ResponsesMatched ==
     \A k \in DOMAIN cbLog : cbLog[k].req = cbLog[k].resp
 
@@ -206,6 +209,7 @@ ResponsesMatched ==
 (* plus one frame for every time the request was left behind (full batch *)
 (* or full window).  Checked for requests still waiting too, so it fails  *)
 (* as soon as a frame ends without the callback that was due.             *)
+\* lobster-trace: urb.LAT_002
 LatencyBound == \A id \in Submitted : age[id] + 1 <= MaxLatency + deferred[id]
 
 (* Within the budget nothing is deferred: the paper's strict bound of     *)
@@ -214,9 +218,11 @@ LatencyBound == \A id \in Submitted : age[id] + 1 <= MaxLatency + deferred[id]
 (* that completes batch n-1, so two frames' requests are in flight at     *)
 (* once.  (TLC: MaxBatch = MaxSubmit = 2 with Window = 3 defers a request *)
 (* and misses the bound in 4 frames; Window = 4 meets it.)                 *)
+\* lobster-trace: urb.LAT_001
 StrictLatency == \A id \in Submitted : age[id] + 1 <= MaxLatency
 
 (* Liveness: every submitted request gets its callback.                    *)
+\* lobster-trace: urb.HOST_001
 EveryCallbackRuns == \A id \in Ids : (id <= nextId) ~> (id \in done)
 
 THEOREM Spec => [](TypeOK /\ NothingLost /\ ResponsesMatched /\ LatencyBound

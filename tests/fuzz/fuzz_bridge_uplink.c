@@ -11,6 +11,7 @@
  * settles, every request frame it accepted is answered (or counted as beyond the host's window),
  * and every USB IN batch fits the host's buffer and starts with a valid header.
  */
+/* lobster-trace: urb.MEM_003, urb.ORD_001 (the requirements this fuzz target verifies) */
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>

@@ -8,6 +8,7 @@
  * encoder must reproduce it byte for byte (a decoder accepts only canonical frames), must refuse a
  * buffer one byte short, and decoding the re-encoded bytes must succeed again.
  */
+/* lobster-trace: urb.MEM_001, urb.PKT_002 (the requirements this fuzz target verifies) */
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>

@@ -64,6 +64,7 @@ def test_scan_lists_nodes_and_flags(fake_bridge: Callable[..., BridgeProc], caps
     assert rows[-1]["flags"] == ["MISMATCH"] and rows[-1]["schema_file"] == "spec/schema/sensorhex.urbs"
 
 
+# lobster-trace: urb.DSC_002
 def test_scan_two_ports_reports_duplicates(fake_bridge: Callable[..., BridgeProc], capsys: pytest.CaptureFixture[str]) -> None:
     a = fake_bridge(["Imu:0@48"], name="ttyA")
     b = fake_bridge(["Imu:0@50"], name="ttyB")

@@ -50,6 +50,7 @@ def run(seed: int, trace: Path | None = None) -> Run:
     return out
 
 
+# lobster-trace: urb.HOST_007
 def test_same_seed_same_trace_bytes(tmp_path: Path) -> None:
     a, b = tmp_path / "a.ndjson", tmp_path / "b.ndjson"
     ha = run(7, a)
@@ -79,6 +80,7 @@ def runs_in_a_new_process(seed: int, runs: int, mutant: str | None = None) -> li
     return [(h, lines, events) for h, lines, events in json.loads(proc.stdout)]
 
 
+# lobster-trace: urb.HOST_007
 def test_same_seed_same_trace_in_another_process() -> None:
     """This process has run other worlds before; the new one has not."""
     assert runs_in_a_new_process(7, 1) == [run(7)]

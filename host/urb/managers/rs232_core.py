@@ -103,6 +103,7 @@ def encode_request(t: Transfer) -> bytes:
     return UplinkWriteRequest(address=t.address, mailbox=t.mailbox, seq=t.seq, data=t.data).encode()
 
 
+# lobster-trace: urb.HOST_002, urb.HOST_004
 class ResponseMatcher:
     """Matches a byte stream of responses to the requests in flight (order + sequence number),
     hunting past corrupt bytes. Shared by the RS232 and the USB cores.
@@ -178,6 +179,7 @@ class ResponseMatcher:
                 until = t.expires_ns or 0
         return until
 
+    # lobster-trace: urb.FLT_004, urb.HOST_001
     def fail_all(self, queued: deque[Transfer], now: int, reason: str | None = None) -> None:
         """The uplink is gone: every live request in flight, then every queued one, completes
         BRIDGE_LOST. The requests in flight stay as placeholders: a bridge reached again through a
@@ -299,6 +301,7 @@ class MatchingCore:
         return self._handover_wait(now)
 
     # -- inputs ------------------------------------------------------------------------------
+    # lobster-trace: urb.HOST_001, urb.HOST_003
     def submit(self, t: Transfer, now: int) -> None:
         """Queue a request (it goes out when the window allows); a lost bridge, or a closing
         one, fails it at once."""

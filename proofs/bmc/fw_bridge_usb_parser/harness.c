@@ -27,6 +27,7 @@
  *                 the value recorded in COST. (Before, one 512-byte transfer of garbage cost a
  *                 failing check per byte: ~34 ms.)
  */
+/* lobster-trace: urb.PKT_006, urb.WCET_006 (the requirements this proof verifies) */
 #include "urb_verify.h"
 
 #include "bridge_internal.h"

@@ -29,6 +29,7 @@
  *   isolation         the neighbouring mailbox's bytes stay untouched
  *   API               double lock and release without lock are refused (ERR_STATE)
  */
+/* lobster-trace: urb.MBX_001, urb.MBX_002, urb.MBX_003, urb.MBX_004, urb.WCET_004 (the requirements this proof verifies) */
 #include "urb_verify.h"
 
 #include "urb_node_internal.h"

@@ -30,6 +30,7 @@
  * The harness includes the prepared (instrumented, possibly mutated) urb_node.c itself, because
  * run_command is static.
  */
+/* lobster-trace: urb.MBX_011, urb.WCET_003 (the requirements this proof verifies) */
 #include "urb_verify.h"
 
 #include "urb_node.c"

@@ -34,6 +34,7 @@
  *                FW_TIMER_EVENT_BUDGET (cycles at 48 MHz, HAL calls FW_HAL_CALL_CYCLES each,
  *                the software division FW_UDIV_CYCLES: views.json)
  */
+/* lobster-trace: urb.SYN_005, urb.WCET_002 (the requirements this proof verifies) */
 #include "urb_verify.h"
 
 #include "urb_node_internal.h"

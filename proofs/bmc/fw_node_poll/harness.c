@@ -37,6 +37,7 @@
  * preempting the poll is not modelled here: fw_mailbox_inbox / fw_mailbox_outbox prove the lock
  * code against every interleaving, and the counters the interrupts share are single-writer.
  */
+/* lobster-trace: urb.ERR_005, urb.WCET_003 (the requirements this proof verifies) */
 #include "urb_verify.h"
 
 #include "urb_node.c"

@@ -35,6 +35,7 @@ static urb_identification_t read_id(urb_node_t *node)
     return id;
 }
 
+/* lobster-trace: urb.MBX_012 */
 static void update_once_per_heartbeat(void **state)
 {
     fixture_t *f = *state;
@@ -220,6 +221,7 @@ static void command_nop_and_unknown(void **state)
     assert_int_equal(f->resets + f->signals, 0u);
 }
 
+/* lobster-trace: urb.MBX_011 */
 static void command_reset(void **state)
 {
     fixture_t *f = *state;
@@ -245,6 +247,7 @@ static void command_reset(void **state)
     assert_false(read_id(node).fault);
 }
 
+/* lobster-trace: urb.MBX_011 */
 static void command_signal(void **state)
 {
     fixture_t *f = *state;
@@ -258,6 +261,7 @@ static void command_signal(void **state)
     assert_int_equal(f->signals, 2u);
 }
 
+/* lobster-trace: urb.MBX_011 */
 static void command_identify(void **state)
 {
     fixture_t *f = *state;
@@ -274,6 +278,7 @@ static void command_identify(void **state)
     assert_int_equal(f->port.identify_calls, 1u);
 }
 
+/* lobster-trace: urb.MBX_011 */
 static void command_sync_config(void **state)
 {
     fixture_t *f = *state;
@@ -315,6 +320,7 @@ static void command_sync_config(void **state)
     assert_int_equal(node->pll.period_q8, 72000u * 256u);
 }
 
+/* lobster-trace: urb.ERR_005 */
 static void faults_delivered_in_poll(void **state)
 {
     fixture_t *f = *state;
@@ -363,6 +369,7 @@ static void fault_after_identification_read_is_published(void **state)
 
 /* A refused write's OVERRUN and a missed heartbeat's OVERRUN in the same poll: one delivery
  * (README: "at most once per code per poll"; before the fix: two, review F7). */
+/* lobster-trace: urb.ERR_005 */
 static void overrun_once_per_poll(void **state)
 {
     fixture_t *f = *state;
@@ -387,6 +394,7 @@ static void overrun_once_per_poll(void **state)
     assert_int_equal(f->faults[URB_NODE_FAULT_OVERRUN], 2u);
 }
 
+/* lobster-trace: urb.MBX_011 */
 static void identification_refreshes(void **state)
 {
     fixture_t *f = *state;
