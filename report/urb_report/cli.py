@@ -1,4 +1,5 @@
-"""`urb report`: the certification evidence report and its gate (host/urb/cli.py dispatches here).
+"""`urb report`: the certification evidence report and its gate (host/urb/cli.py defines the
+command line and calls run() when the command runs).
 
     urb report                    build/report/index.html and report.pdf; prints the gate's verdict
     urb report --gate             the same, exit status 1 when the gate fails (make check runs it)
@@ -23,17 +24,6 @@ from .records import ROOT
 REPORT_DIR = ROOT / "build" / "report"
 SIM_FIGURES = ROOT / "build" / "sim" / "report"
 ASSUMPTIONS = requirements.REQUIREMENTS_DIR / "ASSUMPTIONS.md"
-
-
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--gate", action="store_true", help="exit 1 when the gate fails (what make check runs)")
-    p.add_argument("--no-pdf", action="store_true", help="write the HTML only (no Chromium)")
-    p.add_argument("--update-baseline", action="store_true",
-                   help="accept the current requirement texts as the baseline, when history.trlc explains "
-                        "every change; then commit spec/requirements/baseline.json")
-    p.add_argument("--evidence", type=Path, default=None, metavar="DIR",
-                   help="read the records from DIR instead of build/evidence/")
-    p.add_argument("--out", type=Path, default=REPORT_DIR, metavar="DIR", help="where to write (build/report/)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -100,14 +90,3 @@ def _markdown(path: Path) -> str:
 
     text = path.read_text(encoding="utf-8")
     return str(markdown.markdown(text.split("\n", 1)[1] if text.startswith("# ") else text, extensions=["tables"]))
-
-
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="urb report", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
-    add_arguments(p)
-    return run(p.parse_args(argv))
-
-
-if __name__ == "__main__":
-    sys.exit(main())

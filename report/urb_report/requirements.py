@@ -85,8 +85,8 @@ def load(directory: Path | None = None) -> Catalogue:
     if not d.is_dir():
         raise RequirementsError(f"{d}: no requirements folder; spec/requirements/README.md says what goes there")
     out = io.StringIO()
-    mh = Message_Handler()
-    with redirect_stdout(out):  # TRLC prints its diagnostics; keep them for the error message
+    mh = Message_Handler(out=out)  # TRLC's diagnostics, kept for the error message
+    with redirect_stdout(out):  # the source manager's own progress messages
         sm = Source_Manager(mh)
         sm.register_directory(str(d))
         symbols = sm.process()

@@ -488,7 +488,7 @@ def test_top_level_help_lists_each_command_once(capsys: pytest.CaptureFixture[st
         main(["--help"])
     text = capsys.readouterr().out
     assert exc.value.code == 0
-    commands = ("scan", "read", "write", "monitor", "log", "gen", "schema", "demo", "sim")
+    commands = ("scan", "read", "write", "monitor", "log", "gen", "schema", "demo", "sim", "report")
     listed = [line.split()[0] for line in text.splitlines() if line.startswith("    ") and line.split()]
     assert listed == list(commands), text
     assert "urb COMMAND --help" in text
