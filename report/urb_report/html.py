@@ -3,7 +3,7 @@
 Sections: summary (verdict, counts per requirement category and per activity), the traceability
 matrix, one section per requirement, the proof tables, tests, coverage and MISRA, the simulation
 figures, the tool list, assumptions and limits, history, the gate's problems, and how to
-regenerate everything. A fixed footer carries the provenance, so every printed page has it.
+regenerate everything. The layout table's footer carries the provenance, so every printed page has it.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from .requirements import Requirement
 from .tools import ToolRow
 
 CSS = """
-@page { size: A4; margin: 16mm 14mm 18mm 14mm; }
+@page { size: A4; margin: 14mm 14mm 10mm 14mm; }
 body { font: 10pt/1.35 'DejaVu Sans', Arial, sans-serif; color: #111; margin: 0 0 8mm 0; }
 h1 { font-size: 20pt; margin: 0 0 4pt 0; } h2 { font-size: 14pt; border-bottom: 1.5pt solid #333;
   margin-top: 16pt; page-break-after: avoid; } h3 { font-size: 11pt; margin: 10pt 0 3pt 0; page-break-after: avoid; }
@@ -35,11 +35,15 @@ code, .id { font-family: 'DejaVu Sans Mono', monospace; font-size: 8pt; word-bre
 .stale { color: #a15c00; font-weight: bold; }
 .verdict { font-size: 14pt; padding: 6pt; border: 2pt solid; margin: 8pt 0; }
 .verdict.pass { border-color: #0a6b0a; } .verdict.fail { border-color: #b00000; }
+
 .req { page-break-inside: avoid; border-left: 3pt solid #bbb; padding-left: 6pt; margin: 8pt 0; }
-.req.fail { border-left-color: #b00000; } .req.pass { border-left-color: #0a6b0a; }
+.req.r-fail { border-left-color: #b00000; } .req.r-pass { border-left-color: #0a6b0a; }
+.gate { font-size: 8pt; color: #8a0000; }
 .meta { color: #444; font-size: 8.5pt; } .small { font-size: 8pt; color: #333; }
-.footer { position: fixed; bottom: 0; left: 0; right: 0; font-size: 7pt; color: #444;
-  border-top: 0.5pt solid #999; padding-top: 1pt; background: white; }
+table.layout, table.layout > tbody > tr > td, table.layout > tfoot > tr > td { border: none; padding: 0;
+  font-size: 10pt; }
+table.layout > tfoot > tr > td.footer { font-size: 7pt; color: #444; border-top: 0.5pt solid #999;
+  padding-top: 2pt; height: 8mm; vertical-align: top; }
 figure { page-break-inside: avoid; margin: 6pt 0; } figure img { max-width: 100%; max-height: 120mm; }
 figcaption { font-size: 8pt; color: #333; }
 .toc a { text-decoration: none; } a { color: #0645ad; }
@@ -97,7 +101,9 @@ def render(a: Analysis, out_dir: Path, *, state: Mapping[str, Any], date: str, m
         "<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>",
         f"<title>URB certification evidence report, commit {_e(str(state.get('commit'))[:12])}</title>",
         f"<style>{CSS}</style></head><body>",
-        f"<div class='footer'>URB evidence report · {_e(prov)}</div>",
+        # a table's footer repeats on every printed page: the provenance is on each one
+        "<table class='layout'><tfoot><tr><td class='footer'>URB evidence report · " + _e(prov) +
+        "</td></tr></tfoot><tbody><tr><td>",
         _summary(a, state, date, machine, seeds),
         _contents(),
         _matrix(a),
@@ -114,7 +120,7 @@ def render(a: Analysis, out_dir: Path, *, state: Mapping[str, Any], date: str, m
         _history(a),
         _problems(a),
         _regenerate(a),
-        "</body></html>",
+        "</td></tr></tbody></table></body></html>",
     ]
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / "index.html"
@@ -127,8 +133,8 @@ def _summary(a: Analysis, state: Mapping[str, Any], date: str, machine: Mapping[
     failing = {p.requirement for p in a.problems if p.requirement}
     verdict = "pass" if a.ok else "fail"
     words = ("The gate passes: every requirement is traced and every cited item passed on this tree."
-             if a.ok else f"The gate FAILS: {len(a.problems)} problems, {len(failing)} of {n} requirements "
-                          f"affected (section Gate problems).")
+             if a.ok else f"The gate FAILS: {len(a.problems)} problem{'s' if len(a.problems) != 1 else ''}, "
+                          f"{len(failing)} of {n} requirements affected (section Gate problems).")
     rows = []
     for cat, desc in a.catalogue.categories.items():
         reqs = [r for r in a.catalogue.requirements if r.category == cat]
@@ -223,7 +229,7 @@ def _matrix(a: Analysis) -> str:
 
 def _requirements(a: Analysis) -> str:
     out = ["<section class='break' id='requirements'><h2>Requirements</h2>"]
-    changes = {}
+    changes: dict[str, list[Any]] = {}
     for c in a.catalogue.changes:
         changes.setdefault(c.requirement, []).append(c)
     impl: dict[str, list[str]] = {}
@@ -255,7 +261,7 @@ def _requirement(a: Analysis, r: Requirement, changes: list[Any], impl: list[str
     for e in r.verified_by:
         res = a.resolutions[e]
         rows.append(_evidence_row(e, res, r.name))
-    probs = [p for p in a.problems if p.requirement == r.tag]
+    probs = [p for p in a.problems if p.requirement == r.tag and p.check != "evidence"]  # those are in the table
     crit = f"<p><b>Acceptance criterion:</b> {_e(r.criterion)}</p>" if r.criterion else ""
     hist = ""
     if changes:
@@ -264,10 +270,10 @@ def _requirement(a: Analysis, r: Requirement, changes: list[Any], impl: list[str
             f"<td>{_e(c.new_text)}</td><td>{_e(c.reason)}</td></tr>" for c in changes) + "</table>"
     code = ("<p class='small'><b>Implemented at</b> (markers): " + ", ".join(_src_link(s.split(' ')[0]) + _e(
         s[len(s.split(' ')[0]):]) for s in impl[:12]) + "</p>") if impl else ""
-    problems = ("<p class='small fail'>Gate: " + "<br>".join(_e(f"[{p.check}] {p.message}") for p in probs) + "</p>"
+    problems = ("<p class='gate'>Gate: " + "<br>".join(_e(f"[{p.check}] {p.message}") for p in probs) + "</p>"
                 if probs else "")
     return f"""
-<div class='req {status}' id='{_e(r.name)}'>
+<div class='req r-{status}' id='{_e(r.name)}'>
 <h3><code>{_e(r.tag)}</code> {_badge(status)} <span class='meta'>version {r.version} · {_e(', '.join(r.methods))}
 · LOBSTER: {_e(trace or 'not run')}</span></h3>
 <p>{_e(r.statement)}</p>{crit}

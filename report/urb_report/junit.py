@@ -128,9 +128,10 @@ def cmocka_cases(xml: Sequence[tuple[str, Path]], logs: Sequence[tuple[str, Path
                    compiler)
     for label, path in logs:
         compiler, _, program = label.partition(":")
-        suites = suites_of.get(program)
-        if suites is None:
+        found = suites_of.get(program)
+        if found is None:
             raise RecordError(f"{path}: no JUnit XML of program {program} to name its cmocka groups; pass --xml for it")
+        suites = found
         groups = cmocka_std_log(path)
         if len(groups) != len(suites):
             raise RecordError(f"{path}: {len(groups)} cmocka groups ran under {compiler}, the XML of {program} has "

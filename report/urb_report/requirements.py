@@ -77,9 +77,9 @@ def _rel(path: str) -> str:
 
 def load(directory: Path | None = None) -> Catalogue:
     """Every Requirement and Change record under `directory` (default spec/requirements/)."""
-    from trlc import ast
-    from trlc.errors import Message_Handler
-    from trlc.trlc import Source_Manager
+    from trlc import ast  # type: ignore[import-untyped]
+    from trlc.errors import Message_Handler  # type: ignore[import-untyped]
+    from trlc.trlc import Source_Manager  # type: ignore[import-untyped]
 
     d = directory or REQUIREMENTS_DIR
     if not d.is_dir():
