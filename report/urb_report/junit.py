@@ -60,25 +60,46 @@ def read_junit(path: Path) -> list[tuple[ET.Element, ET.Element]]:
     return [(s, c) for s in suites for c in s.findall("testcase")]
 
 
-def pytest_cases(path: Path) -> list[Case]:
-    """pytest's xunit1 JUnit XML -> cases named by node id."""
+def pytest_cases(path: Path, root: Path = ROOT) -> list[Case]:
+    """pytest's xunit1 JUnit XML -> cases named by node id. The node id's file comes from the
+    classname (the longest dotted prefix that is a test file under `root`), since the `file`
+    attribute names where the test function is defined, which for hypothesis state machines is
+    hypothesis itself; the `file` attribute is the fallback."""
     cases = []
     for _, tc in read_junit(path):
-        file = tc.get("file") or ""
         classname = tc.get("classname") or ""
+        parts = classname.split(".") if classname else []
+        file, classes = "", []
+        for i in range(len(parts), 0, -1):
+            candidate = "/".join(parts[:i]) + ".py"
+            if (root / candidate).is_file():
+                file, classes = candidate, parts[i:]
+                break
         if not file:
-            raise RecordError(f"{path}: a test case has no file attribute: run pytest with -o junit_family=xunit1")
-        module = file[:-3].replace("/", ".") if file.endswith(".py") else file
-        classes = classname[len(module) + 1:].split(".") if classname.startswith(module + ".") else []
+            file = tc.get("file") or ""
+            if not file:
+                raise RecordError(f"{path}: test case {classname}.{tc.get('name')} names no test file: run pytest "
+                                  "with -o junit_family=xunit1 from the repository root")
+            module = file[:-3].replace("/", ".")
+            classes = classname[len(module) + 1:].split(".") if classname.startswith(module + ".") else []
         nodeid = "::".join([file, *[c for c in classes if c], tc.get("name") or ""])
         verdict, message = _verdict(tc)
-        cases.append(Case("", nodeid, verdict, message, float(tc.get("time") or 0.0), file, int(tc.get("line") or 0) + 1))
+        line = int(tc.get("line") or 0) + 1 if tc.get("file") == file else 0
+        cases.append(Case("", nodeid, verdict, message, float(tc.get("time") or 0.0), file, line))
     return cases
 
 
 def pytest_items(cases: Sequence[Case]) -> list[Item]:
+    """One item per node id; a node id reported twice keeps its worst verdict."""
+    merged: dict[str, Case] = {}
+    rank = {"pass": 0, "error": 1, "fail": 2}
+    for c in cases:
+        old = merged.get(c.name)
+        if old is None or rank[c.verdict] > rank[old.verdict]:
+            merged[c.name] = c
+    cases = list(merged.values())
     return [Item(id=f"pytest:{c.name}", kind="test", verdict=c.verdict, expected="passes",
-                 measured=c.message or "passed", source=f"{c.file}:{c.line}",
+                 measured=c.message or "passed", source=f"{c.file}:{c.line}" if c.line else c.file,
                  rerun=f".venv/bin/python -m pytest -q '{c.name}'", data={"time_s": round(c.time_s, 3)})
             for c in cases]
 

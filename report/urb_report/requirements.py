@@ -113,6 +113,8 @@ def load(directory: Path | None = None) -> Catalogue:
                 requirement=_ref_name(v["requirement"]), from_version=int(v["from_version"]),
                 to_version=int(v["to_version"]), old_text=_flat(v["old_text"]), new_text=_flat(v["new_text"]),
                 reason=_flat(v["reason"]), date=str(v["date"]), file=_rel(loc.file_name), line=int(loc.line_no)))
+    if not reqs:
+        raise RequirementsError(f"{_rel(str(d))}: no Requirement records; a gate over no requirements proves nothing")
     pkg = symbols.lookup_assuming(mh, "urb", ast.Package)
     for enum_name, target in (("Category", categories), ("Method", methods)):
         enum = pkg.symbols.lookup_assuming(mh, enum_name, ast.Enumeration_Type)

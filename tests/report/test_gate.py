@@ -13,6 +13,7 @@ import pytest
 from urb_report import gate, markers, records, requirements
 from urb_report.junit import cmocka_group_sources
 from urb_report.records import ROOT, Item
+from report_fixtures import baseline, catalogue, real_markers, state, write_records  # noqa: F401  (pytest fixtures)
 
 WriteRecords = Any  # conftest.write_records: (drop=, verdicts=, skip_activities=, extra=) -> records
 

@@ -14,6 +14,7 @@ from urb_report import gate, html, markers, pdf, records, requirements, tools
 from urb_report.cli import ASSUMPTIONS, _markdown
 from urb_report.junit import cmocka_group_sources
 from urb_report.records import Item
+from report_fixtures import baseline, catalogue, real_markers, state, write_records  # noqa: F401  (pytest fixtures)
 
 WriteRecords = Any
 

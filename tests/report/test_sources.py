@@ -12,6 +12,7 @@ import pytest
 
 from urb_report import history, junit, markers, requirements
 from urb_report.records import ROOT, RecordError, read_record
+from report_fixtures import baseline, catalogue, real_markers, state, write_records  # noqa: F401  (pytest fixtures)
 
 REQS = ROOT / "spec" / "requirements"
 
@@ -185,6 +186,14 @@ def test_pytest_junit_becomes_items_named_by_node_id(tmp_path: Path) -> None:
         ("pytest:tests/host/test_a.py::test_z", "error")]
     assert items[0].source == "tests/host/test_a.py:10" and items[1].measured == "assert 1 == 2"
     assert items[2].measured.startswith("skipped")
+    stateful = tmp_path / "s.xml"
+    stateful.write_text('<testsuite><testcase classname="tests.host.test_protocol_ref.TestHostCoreVsBridgeTla" '
+                        'name="runTest" file=".venv/lib/python3.11/site-packages/hypothesis/stateful.py" line="3"/>'
+                        '<testcase classname="tests.host.test_protocol_ref.TestBridgeModelVsBridgeTla" name="runTest" '
+                        'file=".venv/lib/python3.11/site-packages/hypothesis/stateful.py" line="3"/></testsuite>')
+    assert [i.id for i in junit.pytest_items(junit.pytest_cases(stateful))] == [
+        "pytest:tests/host/test_protocol_ref.py::TestHostCoreVsBridgeTla::runTest",
+        "pytest:tests/host/test_protocol_ref.py::TestBridgeModelVsBridgeTla::runTest"]
     (tmp_path / "bad.xml").write_text("<html/>")
     with pytest.raises(RecordError, match="not JUnit"):
         junit.pytest_cases(tmp_path / "bad.xml")

@@ -1,4 +1,5 @@
-"""Fixtures of the report's tests: the real requirements, markers and baseline, and fixture records
+"""Fixtures of the report's tests (imported by each test module: a conftest.py here would shadow
+tests/conftest.py, which tests/test_vectors.py imports by name): the real requirements, markers and baseline, and fixture records
 (written with records.write_record) in which every cited item passed on this tree."""
 
 from __future__ import annotations
