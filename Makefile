@@ -60,7 +60,7 @@ check: setup gen-check lint test-py $(CHECK_TARGETS)
 	@echo "make check: all checks passed"
 
 demo: setup
-	urb sim sensorhex
+	urb sim sensorhex --sensitivity
 
 bench: setup
 	$(PYTHON) bench/codec_bench.py

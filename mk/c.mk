@@ -40,8 +40,8 @@ $(CODEC_BUILD)/codec_driver-%: tests/c/codec_driver.c tests/c/codec_error_name.h
 	@mkdir -p $(@D)
 	$* $(CODEC_WARNINGS) -Wshadow $(CODEC_SANITIZE) -I$(CODEC_GEN) -I$(CODEC_GEN)/test $(filter %.c,$^) -o $@
 
-$(CODEC_BUILD)/unit_tests-%: tests/c/unit_tests.c $(CODEC_SOURCES) $(CODEC_HEADERS)
+$(CODEC_BUILD)/unit_tests-%: tests/c/unit_tests.c $(CODEC_GEN)/test/urb_test_support.c $(CODEC_SOURCES) $(CODEC_HEADERS)
 	@mkdir -p $(@D)
-	$* $(CODEC_WARNINGS) -Wshadow $(CODEC_SANITIZE) -I$(CODEC_GEN) $(filter %.c,$^) -o $@
+	$* $(CODEC_WARNINGS) -Wshadow $(CODEC_SANITIZE) -I$(CODEC_GEN) -I$(CODEC_GEN)/test $(filter %.c,$^) -o $@
 
 CHECK_TARGETS += test-c cross-c

@@ -33,7 +33,11 @@ from conftest import load_vectors
 
 REPO = Path(__file__).resolve().parents[1]
 GEN = REPO / "gen" / "c"
-COMPILERS = ["gcc", "clang"]
+# `make coverage` (tools/coverage.py) runs this file on its instrumented builds of the same programs:
+# URB_CODEC_PROGRAMS lists the directories that hold them (os.pathsep between; already built, nothing
+# is rebuilt) and URB_CODEC_COMPILERS the compilers they are named after (<program>-<compiler>).
+COMPILERS = os.environ.get("URB_CODEC_COMPILERS", "gcc clang").split()
+PREBUILT = [Path(d).resolve() for d in os.environ.get("URB_CODEC_PROGRAMS", "").split(os.pathsep) if d]
 SEED = 20261121
 CASES_PER_MESSAGE = 900  # random and mutated frames per message and compiler
 
@@ -51,6 +55,12 @@ PY_ERRORS = {
 
 def _build(program: str, cc: str) -> Path:
     """build/c/<program>-<cc>, made by mk/c.mk (the one place that knows the flags)."""
+    if PREBUILT:
+        found = [d / f"{program}-{cc}" for d in PREBUILT if (d / f"{program}-{cc}").is_file()]
+        if not found:
+            pytest.fail(f"URB_CODEC_PROGRAMS: no {program}-{cc} in {', '.join(map(str, PREBUILT))}; "
+                        "build it first (make coverage-build)")
+        return found[0]
     target = f"build/c/{program}-{cc}"
     done = subprocess.run(["make", "-s", "--no-print-directory", "-f", "mk/c.mk", target],
                           cwd=REPO, capture_output=True, text=True)

@@ -7,6 +7,7 @@ and its C and Python codecs must agree byte for byte (hypothesis, the C side und
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import random
 import re
@@ -33,7 +34,9 @@ STRICT = WARNINGS.group(1).split()
 
 # Field names the generated Python binds itself (v, cls, self, data, n, out, length, i, e), docs with
 # quotes and backslashes, a three-tier check, signed fields of odd widths at odd offsets, an implicit
-# field named like a local of decode(), an empty message and a payload with no check.
+# field named like a local of decode(), an empty message and a payload with no check; rules over
+# signed and unsigned members (compared with each other), enums, payload lengths, a constant and an
+# implicit member.
 USER = r'''
 schema user "A user's node: \"quoted\" docs, C:\\paths and a trailing backslash \\"
 
@@ -42,6 +45,8 @@ checksum tri "Three tiers: CRC-8 up to 4 covered bytes, CRC-16 up to 10, then CR
     tier mid width 16 poly 0x1021 init 0xFFFF xorout 0x0000 max_covered 10
     tier long width 32 poly 0x04C11DB7 init 0xFFFFFFFF xorout 0xFFFFFFFF
 }
+
+const SHORTEST = 2 "A rule's constant"
 
 enum Mode : i4 "A signed enum" {
     OFF = 0 "off"
@@ -64,6 +69,7 @@ message Names "Fields named like the generated code's own variables \"v\" and \"
     i: i3 "i"
     e: Mode "e"
     _: u1 "reserved"
+    require self < data or e == MAX "a signed member against an unsigned one, or an enum member"
 }
 
 message Odd "Signed fields of odd widths, one across five bytes" {
@@ -77,6 +83,7 @@ message Odd "Signed fields of odd widths, one across five bytes" {
     big: Big "big"
     k: u3 = 5 "fixed"
     _: u8 "reserved"
+    require (c >= b and r != -5) or not (d > -1000) "signed members, a negative bound, nested not"
 }
 
 message Tail "A payload running to a three-tier check" {
@@ -84,6 +91,7 @@ message Tail "A payload running to a three-tier check" {
     _: u3 "reserved"
     p: bytes[<= 32] "payload \"p\" ends with a backslash \\"
     c: tri covers a..p "check"
+    require len(p) >= SHORTEST or a == 0 "a tail payload's length against a constant"
 }
 
 message Counted "A counted payload and a three-tier check" {
@@ -91,12 +99,14 @@ message Counted "A counted payload and a three-tier check" {
     s: i2 "s"
     p: bytes[count <= 20] "payload"
     c: tri covers count..p "check"
+    require len(p) != 7 or s == -1 "a counted payload's length"
 }
 
 message Prefixed "An implicit field named like decode()'s locals" {
     n: u8 implicit "not sent"
     body: u8 "body"
     c: tri covers n..body "check"
+    require n != 255 "a rule over the implicit member only: the caller's"
 }
 
 message Empty "Nothing on the wire" {
@@ -208,6 +218,70 @@ def test_c_and_python_agree_on_any_bytes(generated: tuple[Path, Any], driver: Co
     else:
         assert answer.ok and answer.frame == data, (cls.NAME, data.hex(), answer)
         assert msg.encode() == data
+
+
+def test_rules_hold_in_both_languages(generated: tuple[Path, Any], driver: CodecDriver) -> None:
+    """A frame that breaks a rule is out of range in both; a rule over the implicit member alone is the
+    caller's mistake in both (ArgumentError, URB_ERR_ARGUMENT), whatever the frame."""
+    _, mod = generated
+    user = mod.user
+    assert user.Tail.RULES == ("len(p) >= SHORTEST or a == 0",)
+    for msg in (user.Names(self=5, data=4, e=user.Mode.OFF), user.Tail(a=1, p=b"x"), user.Counted(p=bytes(7), s=0),
+                user.Odd(b=5, c=4, d=0, r=-6)):
+        assert msg.broken_rule() is not None
+        with pytest.raises(mod.EncodeError, match="breaks the rule"):
+            msg.encode()
+        fixed = dataclasses.replace(msg, **({"e": user.Mode.MAX} if isinstance(msg, user.Names) else
+                                             {"a": 0} if isinstance(msg, user.Tail) else
+                                             {"s": -1} if isinstance(msg, user.Counted) else {"c": 5}))
+        frame = fixed.encode()
+        assert _c_answer(driver, type(msg), frame).frame == frame and type(msg).decode(frame) == fixed
+    tail = user.Tail(a=1, p=b"xy").encode()  # one payload byte less breaks the rule: cut it, re-check
+    body = tail[:2]
+    broken = body + user._tri.seal(body)
+    with pytest.raises(mod.OutOfRangeError, match="breaks the rule"):
+        user.Tail.decode(broken)
+    assert _c_answer(driver, user.Tail, broken).error == "range"
+    frame = user.Prefixed(n=254, body=7).encode()
+    with pytest.raises(mod.ArgumentError, match="break the rule"):
+        user.Prefixed.decode(frame, n=255)
+    assert driver.roundtrip("Prefixed", frame, bytes([255])).error == "argument"
+    assert driver.roundtrip("Prefixed", b"", bytes([255])).error == "argument"  # before the frame is read
+
+
+def test_generated_rules_mean_what_the_model_says(generated: tuple[Path, Any]) -> None:
+    """broken_rule() of the generated Python against model.rule_holds (the rules' semantics, evaluated
+    from the schema model alone) on messages drawn without regard to the rules: both verdicts occur."""
+    import typing
+
+    import urb.msgtools as msgtools
+    from urb_codegen.model import RuleConst, RuleField, rule_holds
+
+    root, mod = generated
+    model = {m.name: m for m in load([root / "schema" / "user.urbs"])[0].messages.values()}
+    rng = random.Random(35)
+    verdicts: dict[str, set[bool]] = {}
+    for name, decl in model.items():
+        if not decl.rules:
+            continue
+        cls = mod.MESSAGES[name]
+        hints = typing.get_type_hints(cls)
+        for _ in range(300):
+            msg = cls(**{f.name: msgtools._random_field(f, hints[f.name], rng) for f in cls.FIELDS})
+            values: dict[str, int] = {}
+            for rule in decl.rules:
+                for o in rule.operands:
+                    if isinstance(o, RuleField):
+                        value: Any = msg
+                        for f in o.path:
+                            value = getattr(value, f.name)
+                        values[o.key] = int(value)
+                    elif not isinstance(o, RuleConst):
+                        values[o.key] = len(getattr(msg, o.payload.name))
+            holds = all(rule_holds(rule.expr, values) for rule in decl.rules)
+            assert (msg.broken_rule() is None) == holds, (msg, values)
+            verdicts.setdefault(name, set()).add(holds)
+    assert verdicts and all(v == {True, False} for v in verdicts.values()), verdicts
 
 
 def test_three_tier_frame_between_tiers_is_too_long_in_both(generated: tuple[Path, Any], driver: CodecDriver) -> None:

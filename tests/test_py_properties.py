@@ -51,7 +51,7 @@ def test_random_bytes_decode_cleanly_or_canonically(name: str, data: bytes) -> N
     assert msg.encode() == data
 
 
-@settings(max_examples=400)
+@settings(max_examples=400, suppress_health_check=[HealthCheck.too_slow])  # random_message redraws for the rules
 @given(st.sampled_from(CHECKED).flatmap(
     lambda name: st.tuples(st.randoms(use_true_random=False).map(lambda r: random_message(urb_msgs.MESSAGES[name], r)),
                            st.lists(st.integers(min_value=0, max_value=10_000), min_size=1, max_size=3, unique=True))))

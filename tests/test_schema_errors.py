@@ -117,6 +117,38 @@ CASES = {
                                    'node N2 class 0x40 "n" {\n    outbox 1 A "o"\n}\n', (9, 6), "already the class of node N1 (at "),
     "node sharing the bridge's class": ('message A "a" {\n    x: u8 "x"\n}\nnode N1 class 0x00 "n" {\n    outbox 1 A "o"\n}\n',
                                         (6, 6), "already the class of bridge Bridge"),
+    # rules (`require`): every way a rule can be meaningless or unimplementable
+    "rule naming no field": ('message M "m" {\n    a: u8 "a"\n    require a == b "r"\n}\n', (5, 18),
+                             "unknown name 'b': not a field of M, nor a constant"),
+    "rule comparing an enum with a number": ('message M "m" {\n    s: Status "s"\n    _: u4 "r"\n    require s == 3 "r"\n}\n',
+                                             (6, 13), "compared here with the number 3"),
+    "rule naming no member": ('message M "m" {\n    s: Status "s"\n    _: u4 "r"\n    require s == FINE "r"\n}\n', (6, 18),
+                              "'FINE' is not a member of enum Status"),
+    "rule ordering an enum": ('message M "m" {\n    s: Status "s"\n    _: u4 "r"\n    require s < OK "r"\n}\n', (6, 13),
+                              "compares enum members"),
+    "rule value outside the type": ('message M "m" {\n    a: u3 "a"\n    _: u5 "r"\n    require a != 9 "r"\n}\n', (6, 13),
+                                    "`a` holds 0..7"),
+    "rule on a number alone": ('message M "m" {\n    a: u8 "a"\n    require a "r"\n}\n', (5, 13), "not a bool"),
+    "rule on a payload": ('message M "m" {\n    d: bytes[<= 4] "d"\n    require d == 0 "r"\n}\n', (5, 13), "is a byte payload"),
+    "rule on a length field": ('message M "m" {\n    n: u8 "n"\n    d: bytes[n <= 4] "d"\n    require n != 3 "r"\n}\n', (6, 13),
+                               "`n` counts the payload d"),
+    "rule on a fixed field": ('message M "m" {\n    a: u8 = 3 "a"\n    b: u8 "b"\n    require a == b "r"\n}\n', (6, 13),
+                              "is fixed to 3"),
+    "rule on an array": ('message M "m" {\n    a: u8[2] "a"\n    require a == 1 "r"\n}\n', (5, 13), "is an array"),
+    "rule on a whole message": ('message M "m" {\n    s: MailboxSelect "a"\n    require s == 1 "r"\n}\n', (5, 13),
+                                "is a message (MailboxSelect)"),
+    "rule path through a number": ('message M "m" {\n    a: u8 "a"\n    require a.b == 1 "r"\n}\n', (5, 15), "is not a message"),
+    "rule nobody meets": ('message M "m" {\n    a: u2 "a"\n    _: u6 "r"\n    require a == 1 and a == 2 "r"\n}\n', (6, 5),
+                          "no message satisfies `require a == 1 and a == 2`"),
+    "rule everybody meets": ('message M "m" {\n    a: u2 "a"\n    _: u6 "r"\n    require a <= 3 "r"\n}\n', (6, 5),
+                             "every message satisfies `require a <= 3`"),
+    "rule comparing constants": ('message M "m" {\n    a: u8 "a"\n    require 1 == 2 "r"\n}\n', (5, 13), "names no field"),
+    "rule comparing a number with a bool": ('message M "m" {\n    a: u8 "a"\n    b: bool "b"\n    _: u7 "r"\n    require a == b "r"\n}\n',
+                                            (7, 13), "cannot be compared"),
+    "rule inside a nested message": ('message In "i" {\n    a: u8 "a"\n    require a != 0 "r"\n}\nmessage M "m" {\n    i: In "a"\n}\n',
+                                     (8, 5), "message In has rules"),
+    "rule without documentation": ('message M "m" {\n    a: u8 "a"\n    require a != 0\n}\n', (6, 1), "expected"),
+    "rule with a single =": ('message M "m" {\n    a: u8 "a"\n    require a = 0 "r"\n}\n', (5, 15), "unexpected equal"),
 }
 
 # The hint of each case above, where the generic one was wrong.
@@ -126,6 +158,11 @@ HINTS = {
     "enum base with a leading zero": "write i16",
     "length field narrower than its bound": "widen the length field to u6",
     "field named like its enum": "`mode`",
+    "rule on a length field": "len(d)",
+    "rule on a payload": "len(d)",
+    "rule without documentation": "documentation string",
+    "rule with a single =": "==",
+    "rule naming no member": "OK, TIMEOUT",
 }
 
 
@@ -393,3 +430,27 @@ def test_errors_of_a_schema_two_others_import_are_reported_once(tmp_path: Path) 
     with pytest.raises(SchemaErrors) as info:
         load(sorted(f.values()))
     assert [(e.location.path, e.location.line) for e in info.value.errors] == [(f["c"], 3)], info.value.render()
+
+
+def test_check_a_folder_checks_its_files(tmp_path: Path) -> None:
+    """`urb schema check DIR` checks the folder's *.urbs files together (it said "cannot read
+    schema: Is a directory")."""
+    good = _folder(tmp_path / "good", core=True, a=NODE.format(m="M", n="N"), b=MSG.format(m="Other"))
+    proc = _check(tmp_path / "good")
+    assert proc.returncode == 0, proc.stderr
+    assert sorted(proc.stdout.splitlines()) == [f"{tmp_path / 'good' / name}.urbs: ok" + rest for name, rest in (
+        ("a", " (1 messages, 0 enums, 1 nodes)"), ("b", " (1 messages, 0 enums, 0 nodes)"),
+        ("core", " (14 messages, 4 enums, 1 nodes)"))], proc.stdout
+    assert set(good) == {"a", "b"}
+    bad = _folder(tmp_path / "bad", a=MSG.format(m="X"), b=MSG.format(m="Y").replace("u8", "u99"))
+    proc = _check(tmp_path / "bad")
+    assert proc.returncode == 1 and f"{bad['b']}:3:8: error:" in proc.stderr and "Is a directory" not in proc.stderr
+    assert "Traceback" not in proc.stderr + proc.stdout
+
+
+def test_check_a_folder_without_schemas_says_so(tmp_path: Path) -> None:
+    (tmp_path / "notes.txt").write_text("no schema here\n")
+    proc = _check(tmp_path)
+    assert proc.returncode == 1 and proc.stdout == ""
+    assert proc.stderr == (f"urb schema check: {tmp_path}: no *.urbs files in this folder; give schema files, or a "
+                           f"folder that holds them\n"), proc.stderr

@@ -9,13 +9,14 @@ import pytest
 
 import urb_msgs
 from urb.msgtools import from_plain, to_plain
-from urb_msgs import ChecksumError, OutOfRangeError, TooLongError, TooShortError
+from urb_msgs import ArgumentError, ChecksumError, OutOfRangeError, TooLongError, TooShortError
 
 from conftest import load_vectors
 
 VALID = load_vectors("valid")
 ERRORS = load_vectors("error")
-ERROR_CLASSES = {"short": TooShortError, "long": TooLongError, "checksum": ChecksumError, "range": OutOfRangeError}
+ERROR_CLASSES = {"short": TooShortError, "long": TooLongError, "checksum": ChecksumError, "range": OutOfRangeError,
+                 "argument": ArgumentError}
 
 
 def _implicit(v: dict[str, Any]) -> dict[str, Any]:

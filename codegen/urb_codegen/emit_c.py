@@ -10,7 +10,8 @@ which own the shape of every file. Design choices the generated code relies on:
 * Nested messages and arrays are flattened into the enclosing codec: an array becomes a loop whose
   bit offset grows by the element width. Only `encode`/`decode` are public per message.
 * Encoders validate the whole struct before writing, so on any error the output buffer is untouched.
-* Decoders classify errors in the wire order: SHORT, LONG, CHECKSUM, then RANGE.
+* Decoders classify errors in the wire order: ARGUMENT (the caller's members, including the rules
+  over implicit members only), SHORT, LONG, CHECKSUM, then RANGE (fields, then the frame's rules).
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from pathlib import Path
 
 from jinja2 import Environment, FileSystemLoader, StrictUndefined
 
+from .emit_rules import acsl_condition, c_violation
 from .errors import Location, SchemaError
 from .model import (
     MAILBOXES,
@@ -34,6 +36,7 @@ from .model import (
     IntType,
     MessageDecl,
     NodeDecl,
+    Rule,
     Schema,
 )
 
@@ -54,7 +57,7 @@ _ERROR_CODES = [
     ("CHECKSUM", -3, "The frame check does not match"),
     ("RANGE", -4, "A value is outside its range, its width, its enum, its fixed value, or padding is not zero"),
     ("CAPACITY", -5, "The output buffer is too small"),
-    ("ARGUMENT", -6, "A NULL pointer, or invalid implicit members given to a decoder"),
+    ("ARGUMENT", -6, "A NULL pointer, or implicit members given to a decoder that are invalid or break a rule"),
 ]
 
 
@@ -64,7 +67,12 @@ def snake(name: str) -> str:
 
 
 def _member(f: Field) -> str:
-    return f.name + "_" if f.name in _C_RESERVED else f.name
+    return _c_name(f.name)
+
+
+def _c_name(name: str) -> str:
+    """The C struct member of a field named `name`: a C keyword gets a trailing `_`."""
+    return name + "_" if name in _C_RESERVED else name
 
 
 def _rule(title: str, char: str = "=") -> str:
@@ -387,7 +395,18 @@ def _decode_facts(m: MessageDecl) -> list[tuple[str, str]]:
                 out.append((f"decoded_{name}_len", f"msg->{name}_len <= {f.type.max_len}"))
             continue
         out += [(f"decoded_{f.name}{label}", fact) for label, fact in _facts(f, f.type, f"msg->{name}", 0)]
+    # the rules hold too: the caller's were checked before the frame (decode never changes those
+    # members), the frame's after every field
+    out += [(f"rule_{i}", acsl_condition(r, _c_name)) for i, r in enumerate(m.rules, 1)]
     return out
+
+
+def _rule_checks(m: MessageDecl, rules: list[Rule], error: str) -> list[str]:
+    """`if (!(rule)) { return error; }` for each rule, with the rule's schema text as a comment."""
+    def prefix(e: EnumDecl) -> str:
+        return "URB_" + snake(e.name).upper()
+    return [f"if ({c_violation(r, _c_name, prefix)}) {{ return {error}; }}  /* require {_comment(r.text)} */"
+            for r in rules]
 
 
 # --- JSON printing for the test driver -----------------------------------------------------------
@@ -467,6 +486,9 @@ class CMessage:
     checksum: str | None  # C stem of the checksum functions
     print_body: list[str]
     decode_facts: list[tuple[str, str]]  # (label, ACSL predicate) a successful decode ensures
+    rule_checks: list[str]  # encode: every rule, URB_ERR_RANGE when broken
+    caller_rule_checks: list[str]  # decode, with the implicit members: URB_ERR_ARGUMENT
+    frame_rule_checks: list[str]  # decode, after every field: URB_ERR_RANGE
 
 
 @dataclass
@@ -706,6 +728,9 @@ def _message_view(m: MessageDecl, names: _Names) -> CMessage:
         checksum=None if checksum is None else "urb_" + checksum.name,
         print_body=_print_statements(m.fields, "msg->", 0),
         decode_facts=_decode_facts(m),
+        rule_checks=_rule_checks(m, m.rules, "URB_ERR_RANGE"),
+        caller_rule_checks=_rule_checks(m, m.caller_rules, "URB_ERR_ARGUMENT"),
+        frame_rule_checks=_rule_checks(m, m.frame_rules, "URB_ERR_RANGE"),
     )
 
 

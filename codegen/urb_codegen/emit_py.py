@@ -11,6 +11,7 @@ from pathlib import Path
 
 from jinja2 import Environment, StrictUndefined
 
+from .emit_rules import python_violation
 from .model import (
     ArrayType,
     BytesType,
@@ -21,6 +22,7 @@ from .model import (
     IntType,
     MessageDecl,
     NodeDecl,
+    Rule,
     Schema,
 )
 
@@ -279,7 +281,7 @@ def _struct_format(msg: MessageDecl) -> str | None:
             return None
         fmt += codes[(t.bits, t.signed)]
         pos += t.bits
-    return fmt if msg.is_fixed_size and pos == msg.fixed_bits and msg.fixed_bits else None
+    return fmt if msg.is_fixed_size and pos == msg.fixed_bits and msg.fixed_bits and not msg.rules else None
 
 
 def _crc_name(cs: ChecksumDecl, tier_name: str) -> str:
@@ -314,10 +316,16 @@ def _emit_message(w: _Writer, msg: MessageDecl) -> None:
         counter = next((c for c in msg.fields if c.name == count_name), None)
         w(f"{_field_info(f, counter)},", 2)
     w(")", 1)
+    if msg.rules:
+        texts = [_q(r.text) for r in msg.rules]
+        w(f"RULES: ClassVar[tuple[str, ...]] = ({', '.join(texts)}{',' if len(texts) == 1 else ''})", 1)
     fmt = _struct_format(msg)
     if fmt:
         w(f"_STRUCT: ClassVar[struct.Struct] = struct.Struct({_q(fmt)})", 1)
     w()
+    if msg.rules:
+        _emit_broken_rule(w, msg)
+        w()
     # fixed part as an integer (used by nesting and by encode/decode)
     w("def _pack(self) -> int:", 1)
     _emit_pack(w, msg, implicit=False)
@@ -339,9 +347,24 @@ def _emit_message(w: _Writer, msg: MessageDecl) -> None:
     w()
 
 
+def _rule_words(rule: Rule) -> str:
+    """How an error names a rule: its schema text and its documentation."""
+    return f"`require {rule.text}`: {rule.doc}"
+
+
+def _emit_broken_rule(w: _Writer, msg: MessageDecl) -> None:
+    w("def broken_rule(self) -> str | None:", 1)
+    w('"""The first rule (`require`) this message breaks, or None; its fields are assumed valid."""', 2)
+    for rule in msg.rules:
+        w(f"if {python_violation(rule, 'self.')}:", 2)
+        w(f"return {_q(_rule_words(rule))}", 3)
+    w("return None", 2)
+
+
 def _emit_encode(w: _Writer, msg: MessageDecl, fmt: str | None) -> None:
     w("def encode(self) -> bytes:", 1)
-    w(f'"""The frame for this message ({msg.min_size}..{msg.max_size} bytes); EncodeError on a bad value."""', 2)
+    why = "a bad value or a broken rule" if msg.rules else "a bad value"
+    w(f'"""The frame for this message ({msg.min_size}..{msg.max_size} bytes); EncodeError on {why}."""', 2)
     if fmt:
         args = ", ".join(
             f"check_int(self.{f.name}, {f.int_type.min}, {f.int_type.max}, {_q(msg.name + '.' + f.name)})"
@@ -355,8 +378,14 @@ def _emit_encode(w: _Writer, msg: MessageDecl, fmt: str | None) -> None:
     if payload is not None:
         assert isinstance(payload.type, BytesType)
         w(f"out += check_bytes(self.{payload.name}, 0, {payload.type.max_len}, {_q(msg.name + '.' + payload.name)})", 2)
+    if msg.implicit_fields:
+        w(f"_prefix = self._pack_implicit().to_bytes({msg.implicit_size}, 'little')", 2)
+    if msg.rules:  # after every field is known to be valid
+        w("_broken = self.broken_rule()", 2)
+        w("if _broken is not None:", 2)
+        w(f"raise EncodeError({_q(msg.name + ' breaks the rule ')} + _broken)", 3)
     if cs is not None:
-        prefix = f"self._pack_implicit().to_bytes({msg.implicit_size}, 'little') + " if msg.implicit_fields else ""
+        prefix = "_prefix + " if msg.implicit_fields else ""
         w(f"return out + {_check_name(cs)}.seal({prefix}out)", 2)
         return
     w("return out", 2)
@@ -368,26 +397,36 @@ def _emit_decode(w: _Writer, msg: MessageDecl, fmt: str | None) -> None:
     sig_kw = f", *{kw}" if implicit else ""
     w("@classmethod", 1)
     w(f"def decode(cls, data: bytes | bytearray | memoryview{sig_kw}) -> {msg.name}:", 1)
-    doc = "Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."
+    doc = ("Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range"
+           + (", a broken rule" if msg.frame_rules else "") + "), or ArgumentError when `data` is not bytes-like")
     if implicit:
-        doc = doc[:-1] + "; implicit fields are known to the caller and covered by the check."
-    w(f'"""{doc}"""', 2)
-    w("data = bytes(data)", 2)
-    w("_n = len(data)", 2)  # locals start with `_`: no implicit field (a keyword argument) is named so
-    w("check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)", 2)
+        doc += ("; implicit fields are known to the caller and covered by the check: ArgumentError (before the frame "
+                "is read) when one is missing, invalid" + (" or breaks a rule" if msg.caller_rules else "") + ".")
+    else:
+        doc += "."
+    w(_doc(doc), 2)
+    w("data = frame_bytes(cls.NAME, data)", 2)
     if fmt:  # the wire fields are the dataclass fields, in order
+        w("check_length(cls.NAME, len(data), cls.MIN_SIZE, cls.MAX_SIZE)", 2)
         w("return cls(*cls._STRUCT.unpack(data))", 2)
         return
     payload = msg.bytes_field
     cs = msg.checksum
     F = msg.fixed_size
     I = msg.implicit_size
-    if implicit:
+    if implicit:  # the caller's arguments first, as the C decoder checks its implicit members first
         for f in implicit:
             w(f"if {f.name} is None:", 2)
-            w(f"raise TypeError({_q(msg.name + '.decode needs ' + f.name + '=: it is covered by the check but not sent')})", 3)
-        w(f"_proto = cls({', '.join(f'{f.name}={f.name}' for f in implicit)})", 2)
-        w(f"_prefix = _proto._pack_implicit().to_bytes({I}, 'little')", 2)
+            w(f"raise ArgumentError({_q(msg.name + '.decode needs ' + f.name + '=: it is covered by the check but not sent')})", 3)
+        w("try:", 2)
+        w(f"_prefix = cls({', '.join(f'{f.name}={f.name}' for f in implicit)})._pack_implicit().to_bytes({I}, 'little')", 3)
+        w("except EncodeError as _exc:", 2)
+        w(f"raise ArgumentError(f'{msg.name}.decode: invalid implicit argument: {{_exc}}') from None", 3)
+        for rule in msg.caller_rules:
+            w(f"if {python_violation(rule, '')}:", 2)
+            w(f"raise ArgumentError({_q(msg.name + '.decode: the implicit arguments break the rule ' + _rule_words(rule))})", 3)
+    w("_n = len(data)", 2)  # locals start with `_`: no implicit field (a keyword argument) is named so
+    w("check_length(cls.NAME, _n, cls.MIN_SIZE, cls.MAX_SIZE)", 2)
     prefix = "_prefix + " if implicit else ""
     if payload is None:
         w(f"_body = data[:{F}]", 2)
@@ -413,6 +452,9 @@ def _emit_decode(w: _Writer, msg: MessageDecl, fmt: str | None) -> None:
         w(f"_out.{f.name} = {f.name}", 2)
     if payload is not None:
         w(f"_out.{payload.name} = _body[{F}:]", 2)
+    for rule in msg.frame_rules:
+        w(f"if {python_violation(rule, '_out.')}:", 2)
+        w(f"raise OutOfRangeError(cls.NAME, {_q('breaks the rule ' + _rule_words(rule))})", 3)
     w("return _out", 2)
     if payload is not None and isinstance(payload.type, BytesType) and payload.type.count_field is None:
         w()
@@ -496,9 +538,9 @@ def emit_module(schema: Schema) -> str:
     w("from typing import ClassVar")
     w()
     w("from ._runtime import (")
-    for name in ["EncodeError", "FieldInfo", "FrameCheck", "MailboxInfo", "Message", "NodeInfo", "OutOfRangeError",
-                 "TooLongError", "check_bool", "check_bytes", "check_enum", "check_int", "check_length", "check_list",
-                 "decode_enum", "make_crc", "sign_extend"]:
+    for name in ["ArgumentError", "EncodeError", "FieldInfo", "FrameCheck", "MailboxInfo", "Message", "NodeInfo",
+                 "OutOfRangeError", "TooLongError", "check_bool", "check_bytes", "check_enum", "check_int",
+                 "check_length", "check_list", "decode_enum", "frame_bytes", "make_crc", "sign_extend"]:
         w(f"{name},", 1)
     w(")")
     for imp in schema.imports:
@@ -564,8 +606,8 @@ def emit_python(schemas: list[Schema], out_dir: Path) -> list[Path]:
     w('"""Generated URB message codecs: one module per schema, plus a registry of every message and node."""')
     w()
     w("from ._runtime import (")
-    for name in ["ChecksumError", "DecodeError", "EncodeError", "FieldInfo", "MailboxInfo", "Message", "NodeInfo",
-                 "OutOfRangeError", "TooLongError", "TooShortError"]:
+    for name in ["ArgumentError", "ChecksumError", "DecodeError", "EncodeError", "FieldInfo", "MailboxInfo", "Message",
+                 "NodeInfo", "OutOfRangeError", "TooLongError", "TooShortError"]:
         w(f"{name},", 1)
     w(")")
     for s in everything:
@@ -583,8 +625,8 @@ def emit_python(schemas: list[Schema], out_dir: Path) -> list[Path]:
     w('"""Every node type of every bundled schema by name."""')
     w()
     w("__all__ = [")
-    for name in ["ChecksumError", "DecodeError", "EncodeError", "FieldInfo", "MailboxInfo", "Message", "NodeInfo",
-                 "OutOfRangeError", "TooLongError", "TooShortError", "MESSAGES", "NODES",
+    for name in ["ArgumentError", "ChecksumError", "DecodeError", "EncodeError", "FieldInfo", "MailboxInfo", "Message",
+                 "NodeInfo", "OutOfRangeError", "TooLongError", "TooShortError", "MESSAGES", "NODES",
                  *[module_name(s) for s in everything]]:
         w(f"{_q(name)},", 1)
     w("]")

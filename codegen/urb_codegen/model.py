@@ -161,6 +161,163 @@ class Field:
         return self.unit is not None or self.scale is not None or self.offset is not None
 
 
+# --- rules (`require EXPR "doc"`) ------------------------------------------------------------------
+
+
+@dataclass
+class RuleField:
+    """A scalar member named by a path of fields: `status`, `select.read`."""
+
+    path: tuple["Field", ...]
+
+    @property
+    def leaf(self) -> "Field":
+        return self.path[-1]
+
+    @property
+    def text(self) -> str:
+        return ".".join(f.name for f in self.path)
+
+    @property
+    def key(self) -> str:
+        return self.text
+
+
+@dataclass
+class RuleLength:
+    """`len(payload)`: the number of payload bytes."""
+
+    payload: "Field"
+
+    @property
+    def text(self) -> str:
+        return f"len({self.payload.name})"
+
+    @property
+    def key(self) -> str:
+        return self.text
+
+
+@dataclass
+class RuleConst:
+    """A number, a constant, an enum member or true/false, as the rule spells it (`name`)."""
+
+    value: int
+    name: str | None = None
+
+    @property
+    def text(self) -> str:
+        return self.name if self.name is not None else str(self.value)
+
+
+RuleOperand = Union[RuleField, RuleLength, RuleConst]
+COMPARISONS = ("==", "!=", "<", "<=", ">", ">=")
+
+
+@dataclass
+class RuleCompare:
+    left: RuleOperand
+    op: str  # one of COMPARISONS
+    right: RuleOperand
+
+
+@dataclass
+class RuleTruth:
+    """A bool member on its own: true when the member is."""
+
+    member: RuleField
+
+
+@dataclass
+class RuleNot:
+    inner: "RuleExpr"
+
+
+@dataclass
+class RuleAll:
+    """`a and b and ...`"""
+
+    items: list["RuleExpr"]
+
+
+@dataclass
+class RuleAny:
+    """`a or b or ...`"""
+
+    items: list["RuleExpr"]
+
+
+RuleExpr = Union[RuleCompare, RuleTruth, RuleNot, RuleAll, RuleAny]
+_PRECEDENCE = {RuleAny: 1, RuleAll: 2, RuleNot: 3}
+
+
+def rule_text(expr: RuleExpr, outer: int = 0) -> str:
+    """The canonical text of a rule expression: single spaces, parentheses only where needed."""
+    own = _PRECEDENCE.get(type(expr), 4)
+    if isinstance(expr, RuleCompare):
+        text = f"{expr.left.text} {expr.op} {expr.right.text}"
+    elif isinstance(expr, RuleTruth):
+        text = expr.member.text
+    elif isinstance(expr, RuleNot):
+        text = "not " + rule_text(expr.inner, own)
+    else:
+        joiner = " or " if isinstance(expr, RuleAny) else " and "
+        text = joiner.join(rule_text(item, own) for item in expr.items)
+    return f"({text})" if own < outer or (own == outer and own < 3) else text
+
+
+def rule_operands(expr: RuleExpr) -> list[RuleOperand]:
+    """Every operand of the expression, left to right."""
+    if isinstance(expr, RuleCompare):
+        return [expr.left, expr.right]
+    if isinstance(expr, RuleTruth):
+        return [expr.member]
+    if isinstance(expr, RuleNot):
+        return rule_operands(expr.inner)
+    return [o for item in expr.items for o in rule_operands(item)]
+
+
+def rule_holds(expr: RuleExpr, values: dict[str, int]) -> bool:
+    """The rule evaluated with `values` (operand key -> raw integer value; bools are 0 or 1)."""
+    if isinstance(expr, RuleCompare):
+        a, b = (o.value if isinstance(o, RuleConst) else values[o.key] for o in (expr.left, expr.right))
+        return {"==": a == b, "!=": a != b, "<": a < b, "<=": a <= b, ">": a > b, ">=": a >= b}[expr.op]
+    if isinstance(expr, RuleTruth):
+        return values[expr.member.key] != 0
+    if isinstance(expr, RuleNot):
+        return not rule_holds(expr.inner, values)
+    if isinstance(expr, RuleAll):
+        return all(rule_holds(item, values) for item in expr.items)
+    return any(rule_holds(item, values) for item in expr.items)
+
+
+@dataclass
+class Rule:
+    """`require EXPR "doc"`: a condition over several fields that every valid message meets.
+
+    A rule whose members are all implicit (supplied by the decoder's caller, never sent) is the
+    caller's: a decoder checks it with its other arguments, before the frame. Any other rule is the
+    frame's: a decoder checks it after every field, and a frame that breaks it is out of range."""
+
+    expr: RuleExpr
+    doc: str
+    loc: Location
+
+    @property
+    def text(self) -> str:
+        return rule_text(self.expr)
+
+    @property
+    def operands(self) -> list[RuleOperand]:
+        return rule_operands(self.expr)
+
+    @property
+    def caller_only(self) -> bool:
+        """True when every operand is an implicit member: the rule is about the decoder's arguments."""
+        members = [o for o in self.operands if not isinstance(o, RuleConst)]
+        return all(isinstance(o, RuleField) and o.path[0].implicit for o in members)
+
+
 @dataclass
 class MessageDecl:
     name: str
@@ -168,6 +325,7 @@ class MessageDecl:
     loc: Location
     fields: list[Field]
     schema: str = ""
+    rules: list[Rule] = field(default_factory=list)
     # Filled in by the layout pass:
     implicit_bits: int = 0
     fixed_bits: int = 0
@@ -242,7 +400,19 @@ class MessageDecl:
 
     @property
     def layout_text(self) -> str:
-        return "\n".join([f"message {self.name}", *self.layout_lines()]) + "\n"
+        """Fields, then the rules: a rule narrows the frames a decoder accepts, as a range does."""
+        rules = [f"rule {r.text}" for r in self.rules]
+        return "\n".join([f"message {self.name}", *self.layout_lines(), *rules]) + "\n"
+
+    @property
+    def frame_rules(self) -> list[Rule]:
+        """Rules a decoder checks on the frame, after every field (out of range when broken)."""
+        return [r for r in self.rules if not r.caller_only]
+
+    @property
+    def caller_rules(self) -> list[Rule]:
+        """Rules over implicit members only: a decoder checks them with its arguments, first."""
+        return [r for r in self.rules if r.caller_only]
 
     @property
     def fingerprint(self) -> int:

@@ -17,6 +17,7 @@ from lark import Lark, Token, Tree
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
 
 from .errors import Location, SchemaError, SchemaErrors
+from .rule_check import RuleResolver
 from .model import (
     MAILBOXES,
     MAX_MAILBOX_SIZE,
@@ -50,14 +51,14 @@ _INT_LIKE_RE = re.compile(r"^([ui])([0-9]+)$")  # also u08: refused, not read as
 _PY_KEYWORDS = frozenset(keyword.kwlist)
 _PY_MESSAGE_ATTRS = frozenset(
     "NAME DOC FINGERPRINT LAYOUT MIN_SIZE MAX_SIZE SIZE FIELDS encode decode to_dict engineering "
-    "raw_from_engineering field struct FieldInfo ClassVar "
+    "raw_from_engineering field struct FieldInfo ClassVar RULES broken_rule "
     # the builtin types the class body annotates fields with (a field `int` hides them from mypy and get_type_hints)
     "int bool bytes list".split()
 )
 _PY_MODULE_NAMES = frozenset(
-    "enum struct dataclass field ClassVar EncodeError FieldInfo FrameCheck MailboxInfo Message NodeInfo "
+    "enum struct dataclass field ClassVar ArgumentError EncodeError FieldInfo FrameCheck MailboxInfo Message NodeInfo "
     "OutOfRangeError TooLongError TooShortError ChecksumError DecodeError check_bool check_bytes check_enum "
-    "check_int check_length check_list decode_enum make_crc sign_extend MESSAGES NODES annotations "
+    "check_int check_length check_list decode_enum frame_bytes make_crc sign_extend MESSAGES NODES annotations "
     # the builtins the generated module calls or annotates with: a message `bool` broke every bool field
     "TypeError bool bytearray bytes classmethod dict enumerate int isinstance len list memoryview range "
     "staticmethod str tuple type".split()
@@ -96,6 +97,7 @@ _TOKEN_HINTS = {
     "RBRACE": "close the block with `}`",
     "LBRACE": "open the block with `{`",
     "COLON": "write fields as `name: type \"doc\"`",
+    "CMP_OP": "a rule compares with ==, !=, <, <=, > or >= (e.g. `require status == OK or len(data) == 0 \"doc\"`)",
 }
 
 
@@ -148,7 +150,10 @@ def _syntax_error(path: Path, source: str, exc: UnexpectedInput) -> SchemaError:
                                "declare the inner array as a message, e.g. `message Row \"a row\" { v: u8[3] \"values\" }`, "
                                "and make the field `Row[2]`")
         expected = sorted(exc.expected)
-        hint = next((_TOKEN_HINTS[e] for e in expected if e in _TOKEN_HINTS), None)
+        # a rule's comparison hint for a lone `=` in a rule; otherwise the more basic token (a doc string) first
+        cmp_first = tok.type == "EQUAL" and "CMP_OP" in expected
+        hint = next((_TOKEN_HINTS[e] for e in sorted(expected, key=lambda e: (e == "CMP_OP") != cmp_first)
+                     if e in _TOKEN_HINTS), None)
         shown = ", ".join(_describe(e) for e in expected[:6])
         return SchemaError(
             Location(path, line, column),
@@ -162,6 +167,8 @@ def _describe(terminal: str) -> str:
     literal = {
         "LBRACE": "'{'", "RBRACE": "'}'", "COLON": "':'", "EQUAL": "'='", "LSQB": "'['", "RSQB": "']'",
         "STRING": "a doc string", "NAME": "a name", "INTEGER": "a number", "HEX": "a number",
+        "REQUIRE": "'require'", "CMP_OP": "a comparison (==, !=, <, <=, >, >=)", "SIGNED_INTEGER": "a number",
+        "LPAR": "'('", "RPAR": "')'", "DOT": "'.'",
     }
     return literal.get(terminal, terminal.lower().replace("__anon", "token"))
 
@@ -303,6 +310,9 @@ class _Builder:
                 self.build_enum(item)
         for item, msg in pending:
             self.build_fields(item, msg)
+        for item, msg in pending:  # after every message's fields: a rule may name a nested message's field
+            self.build_rules(item, msg)
+        self.check_nested_rules()
         self.check_cycles()
         if not self.errors:
             for _, msg in pending:
@@ -519,10 +529,31 @@ class _Builder:
             return False
         return True
 
+    def build_rules(self, item: Tree[Token], msg: MessageDecl) -> None:
+        resolver = RuleResolver(msg, self.path, self.lookup, lambda loc, message, hint: self.err(loc, message, hint))
+        for rnode in item.children[2:]:
+            if isinstance(rnode, Tree) and rnode.data == "rule":
+                rule = resolver.resolve(rnode, _doc(rnode.children[-1]))
+                if rule is not None:
+                    msg.rules.append(rule)
+
+    def check_nested_rules(self) -> None:
+        """A message with rules is checked by its own encode and decode only; nesting it would drop them."""
+        for msg in self.schema.messages.values():
+            for f in msg.fields:
+                inner = f.type.element if isinstance(f.type, ArrayType) else f.type
+                if isinstance(inner, MessageDecl) and inner.rules:
+                    self.err(f.loc, f"message {inner.name} has rules (`require`), which only its own encode and decode "
+                             f"check: nested in {msg.name}, they would not hold",
+                             f"state the rule in {msg.name} on the nested fields (`require {f.name}.<field> ...`), "
+                             f"or nest a message without rules")
+
     def build_fields(self, item: Tree[Token], msg: MessageDecl) -> None:
         seen: dict[str, Location] = {}
         for fnode in item.children[2:]:
             assert isinstance(fnode, Tree)
+            if fnode.data == "rule":
+                continue
             name_tok = fnode.children[0]
             tnode = fnode.children[1]
             assert isinstance(name_tok, Token) and isinstance(tnode, Tree)

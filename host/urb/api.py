@@ -26,7 +26,7 @@ import asyncio
 import threading
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, TypeVar
+from typing import ClassVar
 
 import urb_msgs
 from urb_msgs import DecodeError, Message, NodeInfo
@@ -38,7 +38,6 @@ from urb_msgs.urb_core import (
     BridgeOpcode,
     BridgeScan,
     Identification,
-    Status,
 )
 
 from .errors import (
@@ -49,218 +48,16 @@ from .errors import (
     NodeNotFoundError,
     RequestFailed,
     UnknownClassError,
-    URBError,
     hint,
 )
 from .managers.base import BusManager, Transfer, decode_message, encode_message
 from .managers.rs232_core import SCAN_ANSWER_NS
-
-M = TypeVar("M", bound=Message)
-Callback = Callable[["NodeRequest"], object]
+from .raw_node import raw_node_info
+from .request import Callback, M, NodeRequest
 
 DUPLICATE = "DUPLICATE"
 MISMATCH = "MISMATCH"
 UNKNOWN_CLASS = "UNKNOWN_CLASS"
-
-
-# --------------------------------------------------------------------------------------------
-# NodeRequest
-# --------------------------------------------------------------------------------------------
-
-class NodeRequest:
-    """One read or write of one mailbox of one node, and (once complete) its outcome.
-
-    Build it with `read`/`write` (or the typed `read_message`/`write_message`), optionally
-    `set_callback`, then `NodeAccessor.submit_request`. A request is submitted once; make a new
-    one for the next cycle (`NodeAccessor.new_request`). In the callback, `ok` tells success;
-    otherwise `flags` holds exactly one `ErrorFlag` and `error` explains it.
-    """
-
-    def __init__(self, node: NodeAccessor) -> None:
-        self.node = node
-        self._mailbox: int | None = None
-        self._read = True
-        self._size = 0
-        self._payload = b""
-        self._callback: Callback | None = None
-        self._transfer: Transfer | None = None
-        self._finished = False
-        self.callback_ns: int | None = None
-        """When the callback was invoked (manager clock)."""
-
-    # -- building -----------------------------------------------------------------------------
-    def read(self, mbox: int, size: int | None = None) -> NodeRequest:
-        """Read outbox `mbox`; `size` defaults to the schema's size (a different size is refused
-        with HOST_SIZE_MISMATCH when submitted)."""
-        _check_mbox(mbox)
-        if size is not None and not 1 <= size <= 32:
-            raise ValueError(f"size = {size}: a mailbox holds 1..32 bytes")
-        mb = self.node.info.mailbox("outbox", mbox)
-        self._mailbox, self._read = mbox, True
-        # an outbox the schema does not have: size 0, refused with HOST_SIZE_MISMATCH on submission
-        self._size = size if size is not None else (mb.size if mb is not None else 0)
-        return self
-
-    def write(self, mbox: int, data: bytes | Message) -> NodeRequest:
-        """Write inbox `mbox` with raw bytes or a message (encoded here)."""
-        _check_mbox(mbox)
-        payload = encode_message(data) if isinstance(data, Message) else bytes(data)
-        if not 1 <= len(payload) <= 32:
-            raise ValueError(f"{len(payload)} data bytes: a mailbox holds 1..32 bytes")
-        self._mailbox, self._read, self._size, self._payload = mbox, False, len(payload), payload
-        return self
-
-    def read_message(self, cls: type[Message], mbox: int | None = None) -> NodeRequest:
-        """Read the outbox that holds `cls` (found in the schema when `mbox` is omitted)."""
-        return self.read(self.node.mailbox_of(cls, "outbox") if mbox is None else mbox)
-
-    def write_message(self, msg: Message, mbox: int | None = None) -> NodeRequest:
-        """Write `msg` to the inbox that takes its type (found in the schema when omitted)."""
-        return self.write(self.node.mailbox_of(type(msg), "inbox") if mbox is None else mbox, msg)
-
-    def set_callback(self, fn: Callback | None) -> NodeRequest:
-        """`fn(request)` runs once when the request completes (on the manager's dispatcher)."""
-        self._callback = fn
-        return self
-
-    # -- outcome ------------------------------------------------------------------------------
-    @property
-    def mailbox(self) -> int:
-        if self._mailbox is None:
-            raise ValueError("the request has no mailbox yet: call read() or write() first")
-        return self._mailbox
-
-    @property
-    def is_read(self) -> bool:
-        return self._read
-
-    @property
-    def size(self) -> int:
-        return self._size
-
-    @property
-    def done(self) -> bool:
-        """The request completed and its callback (if any) has returned."""
-        return self._finished
-
-    @property
-    def flags(self) -> ErrorFlag:
-        """`ErrorFlag.NONE` on success, else the one flag naming the failure."""
-        return self._transfer.flags if self._transfer is not None and self._transfer.done else ErrorFlag.NONE
-
-    @property
-    def ok(self) -> bool:
-        return self._transfer is not None and self._transfer.done and self._transfer.flags == ErrorFlag.NONE
-
-    @property
-    def status(self) -> Status | None:
-        """The bridge's status, when the bridge answered."""
-        return self._transfer.status if self._transfer is not None else None
-
-    @property
-    def error(self) -> str | None:
-        """What went wrong and what to do, or None on success."""
-        if self._transfer is None or not self._transfer.done or self.ok:
-            return None
-        why = f" ({self._transfer.lost_reason})" if self._transfer.lost_reason else ""
-        return (f"{self.node.label} {'outbox' if self._read else 'inbox'} {self._mailbox}: "
-                f"{self.flags.describe()}{why}: {hint(self.flags)}")
-
-    @property
-    def data(self) -> bytes | None:
-        """Outbox contents of a successful read (None otherwise)."""
-        return self._transfer.response if self._transfer is not None else None
-
-    def message(self, cls: type[M] | None = None) -> Any:
-        """The read data decoded with the schema's message for this outbox (or `cls`).
-
-        Typed use: ``req.message(MotorFeedback)`` returns a `MotorFeedback`. Raises
-        `RequestFailed` when the request failed and `URBError` when the data do not decode."""
-        if not self.ok or self.data is None:
-            raise RequestFailed(self.error or "the request has not completed", self.flags)
-        target: type[Message]
-        if cls is not None:
-            target = cls
-        else:
-            mb = self.node.info.mailbox("outbox", self.mailbox)
-            if mb is None:
-                raise URBError(f"{self.node.label} has no outbox {self.mailbox} in the schema; read raw bytes (.data)")
-            target = mb.message
-        try:
-            return decode_message(target, self.data)
-        except DecodeError as exc:
-            raise URBError(f"{self.node.label} outbox {self.mailbox}: the data do not decode as {target.NAME}: {exc}") from None
-
-    # timestamps (manager clock, ns)
-    @property
-    def submitted_ns(self) -> int | None:
-        return self._transfer.submitted_ns if self._transfer is not None else None
-
-    @property
-    def sent_ns(self) -> int | None:
-        return self._transfer.sent_ns if self._transfer is not None else None
-
-    @property
-    def completed_ns(self) -> int | None:
-        """When the response was received and matched (or the failure decided)."""
-        return self._transfer.completed_ns if self._transfer is not None else None
-
-    @property
-    def latency_ns(self) -> int | None:
-        """Round trip as the paper measures it: submission to callback invocation."""
-        t = self._transfer
-        if t is None or self.callback_ns is None:
-            return None
-        return self.callback_ns - t.submitted_ns
-
-    @property
-    def response_latency_ns(self) -> int | None:
-        """Submission to response received (without the dispatcher hand-off)."""
-        t = self._transfer
-        if t is None or t.completed_ns is None:
-            return None
-        return t.completed_ns - t.submitted_ns
-
-    def wait(self, timeout_s: float = 1.0) -> bool:
-        """Block until the request is done (callback returned); False on timeout."""
-        return self.node.manager.wait_until(lambda: self._finished, timeout_s)
-
-    def raise_for_error(self) -> NodeRequest:
-        """Raise `RequestFailed` unless the request succeeded."""
-        if not self.ok:
-            raise RequestFailed(self.error or f"{self.node.label}: request not complete", self.flags)
-        return self
-
-    def __repr__(self) -> str:
-        kind = "read" if self._read else "write"
-        state = self.flags.describe() if self._transfer is not None and self._transfer.done else "pending"
-        return f"<NodeRequest {self.node.label} {kind} {self._mailbox} {state}>"
-
-    # -- internal -----------------------------------------------------------------------------
-    def _make_transfer(self) -> Transfer:
-        if self._mailbox is None:
-            raise ValueError("call read() or write() on the request before submitting it")
-        if self._transfer is not None:
-            raise RuntimeError("this NodeRequest was already submitted; make a new one with node.new_request()")
-        t = Transfer(address=self.node.address, mailbox=self._mailbox, read=self._read,
-                     length=self._size, data=self._payload, on_done=self._on_done, owner=self)
-        self._transfer = t
-        return t
-
-    def _on_done(self, t: Transfer) -> None:
-        self.callback_ns = self.node.manager.now_ns()
-        try:
-            self.node._note(self)
-            cb = self._callback or self.node._default_callback
-            if cb is not None:
-                cb(self)
-        finally:
-            self._finished = True
-
-
-def _check_mbox(mbox: int) -> None:
-    if not isinstance(mbox, int) or not 0 <= mbox <= 7:
-        raise ValueError(f"mailbox {mbox!r}: mailboxes are numbered 0..7")
 
 
 # --------------------------------------------------------------------------------------------
@@ -330,6 +127,7 @@ class BridgeReport:
     """Set when discovery failed as a whole (no bridge answering, bridge lost)."""
 
 
+
 # --------------------------------------------------------------------------------------------
 # NodeAccessor
 # --------------------------------------------------------------------------------------------
@@ -337,12 +135,17 @@ class BridgeReport:
 class NodeAccessor:
     """Access to one discovered node, as if directly attached (whatever bridge it is behind)."""
 
-    def __init__(self, interface: URBInterface, record: NodeRecord) -> None:
-        if record.info is None:
+    def __init__(self, interface: URBInterface, record: NodeRecord, info: NodeInfo | None = None) -> None:
+        """`info`: the layout to use instead of the schema's (`raw_node.raw_node_info`, for a node
+        reached by its address whose layout the schema does not describe)."""
+        layout = info if info is not None else record.info
+        if layout is None:
             raise UnknownClassError(f"{record.name} is not declared in the host's schema")
         self.interface = interface
         self.record = record
-        self.info: NodeInfo = record.info
+        self.info: NodeInfo = layout
+        self.own_layout = info is not None
+        """The mailboxes are the node's own report (raw bytes), not the schema's layout."""
         self._default_callback: Callback | None = None
         self._stats_lock = threading.Lock()
         self.completed = 0
@@ -398,7 +201,7 @@ class NodeAccessor:
         rec = self.record
         if not rec.active:
             return ErrorFlag.UNKNOWN_NODE
-        if MISMATCH in rec.flags:
+        if MISMATCH in rec.flags and not self.own_layout:
             return ErrorFlag.FINGERPRINT_MISMATCH
         mb = self.info.mailbox("outbox" if req.is_read else "inbox", req.mailbox)
         if mb is None or mb.size != req.size:
@@ -492,7 +295,14 @@ class NodeAccessor:
 
 class _Discovery:
     """BridgeInfo (address 0, outbox 0), optional SCAN command, BridgeScan (outbox 1), then
-    outbox 0 of every present address (Discovery.tla `ScanAddress`: gaps never end a scan)."""
+    outbox 0 of every present address (Discovery.tla `ScanAddress`: gaps never end a scan).
+
+    A device on the uplink is believed to be a URB bridge only once its identification read
+    came back OK and decodes as a BridgeInfo that checks (`believed_bridge`). Anything else,
+    whatever bytes came back, is reported in the same words (`no_bridge_answered`): a port that
+    carries noise (a wrong baud rate turns a bridge's answers into noise) passes a frame check by
+    chance (a CRC-8 once in 256 candidates), so the outcome of that one read is no evidence of a
+    bridge, nor of what is wrong with one."""
 
     def __init__(self, manager: BusManager, schema: Mapping[int, NodeInfo], rescan: bool,
                  on_done: Callable[[BridgeReport], None]) -> None:
@@ -523,22 +333,13 @@ class _Discovery:
             self.report.error = text
 
     def _got_info(self, t: Transfer) -> None:
-        if not t.ok or t.response is None:
-            if t.flags & (ErrorFlag.UPLINK_TIMEOUT | ErrorFlag.UPLINK_CHECKSUM | ErrorFlag.BRIDGE_LOST):
-                lost = f" ({self.m.lost_reason})" if self.m.lost_reason else ""
-                self._fail(f"no URB bridge answered on {self.m.name}{lost}: check that the bridge is powered "
-                           f"and connected, and that the baud rate matches its firmware")
-            else:
-                self._fail(f"the bridge on {self.m.name} refused its identification read: {t.flags.describe()}")
-            return
-        try:
-            info = decode_message(BridgeInfo, t.response)
-        except DecodeError as exc:
-            self._fail(f"{self.m.name}: the device answers, but not as a URB bridge of this protocol version ({exc})")
+        """The bridge's own identification: the only evidence that a URB bridge is there."""
+        info = believed_bridge(t)
+        if info is None:
+            self._fail(no_bridge_answered(self.m))
             return
         self.report.info = info
-        if info.fifo_depth:
-            self.m.set_window(min(info.fifo_depth, 15))
+        self.m.set_window(min(info.fifo_depth, 15))
         if self.rescan:
             cmd = encode_message(BridgeCommand(opcode=BridgeOpcode.SCAN))
             # answered when the scan is over; the scan-map read behind it waits for it
@@ -600,6 +401,44 @@ class _Discovery:
             self.on_done(self.report)
 
 
+
+
+def bridge_info_problem(info: BridgeInfo) -> str:
+    """What makes a decoded BridgeInfo impossible for a working bridge ("" when nothing does);
+    the decoder has already checked the protocol version and the downlink kind."""
+    if info.fifo_depth == 0:
+        return "a request FIFO of depth 0"
+    if info.bitrate_kbps == 0:
+        return "a downlink bit rate of 0 kb/s"
+    return ""
+
+
+def believed_bridge(t: Transfer) -> BridgeInfo | None:
+    """The BridgeInfo of a completed identification read, when it came back OK, decodes and
+    checks; None otherwise (a failed read, a refusal, bytes that are no BridgeInfo)."""
+    if not t.ok or t.response is None:
+        return None
+    try:
+        info = decode_message(BridgeInfo, t.response)
+    except DecodeError:
+        return None
+    return None if bridge_info_problem(info) else info
+
+
+def no_bridge_answered(manager: BusManager) -> str:
+    """Why discovery on `manager` found no bridge, and what to check; the same words whatever
+    bytes came back (random bytes pass a frame check now and then, and mean nothing)."""
+    if manager.lost_reason is not None:
+        heard = manager.lost_reason
+    elif manager.stats.stray_bytes:
+        heard = (f"{manager.stats.stray_bytes} byte(s) came back, none of them a URB bridge's identification: "
+                 f"what a wrong baud rate or another device looks like")
+    else:
+        heard = "nothing came back"
+    return (f"no URB bridge answered on {manager.name} ({heard}). Check that the baud rate matches the bridge "
+            f"firmware's, that {manager.name} is the bridge's device, and that the bridge is powered and connected.")
+
+
 # --------------------------------------------------------------------------------------------
 # URBInterface
 # --------------------------------------------------------------------------------------------
@@ -617,7 +456,7 @@ class URBInterface:
         self.schema: dict[int, NodeInfo] = {n.class_id: n for n in nodes if n.kind == "node"}
         self.reports: dict[int, BridgeReport] = {}
         self._records: list[NodeRecord] = []
-        self._accessors: dict[int, NodeAccessor] = {}
+        self._accessors: dict[int | tuple[str, int], NodeAccessor] = {}
         self._lock = threading.RLock()
         self.on_bridge_lost: Callable[[BusManager, str], None] | None = None
         """`fn(manager, reason)`, called when a registered bridge's manager detects that the bridge
@@ -768,6 +607,34 @@ class URBInterface:
                 self._accessors[id(rec)] = acc
             return acc
 
+    def node_at(self, manager: BusManager, address: int) -> NodeAccessor:
+        """The accessor of the node that answered discovery at downlink `address` of `manager`'s
+        bridge (0: the bridge itself, `bridge_node`), whatever its class and flags: the address
+        tells duplicates apart. A node whose class and layout fingerprint are the schema's gets the
+        schema's layout (typed messages); any other (UNKNOWN_CLASS, MISMATCH) its mailboxes as
+        the raw bytes of the sizes it reported (`raw_node.RawMailbox`). Raises
+        `NodeNotFoundError` when nothing answered there."""
+        if not 0 <= address <= 127:
+            raise ValueError(f"address {address}: downlink addresses are 1..127 (0 is the bridge)")
+        if address == BRIDGE_ADDRESS:
+            return self.bridge_node(manager)
+        with self._lock:
+            rows = [r for r in self._records if r.active and r.bridge is manager and r.address == address]
+            if not rows:
+                found = ", ".join(f"{r.address} ({r.label})" for r in self._records
+                                  if r.active and r.bridge is manager) or "none"
+                raise NodeNotFoundError(
+                    f"no node answered at address {address} of {manager.name} (addresses that did: {found}). "
+                    f"Check that the node is powered and its address, then rediscover (urb scan PORT).")
+            rec = rows[0]
+            schema_layout = rec.info is not None and MISMATCH not in rec.flags
+            key: int | tuple[str, int] = id(rec) if schema_layout else ("raw", id(rec))
+            acc = self._accessors.get(key)
+            if acc is None:
+                acc = NodeAccessor(self, rec, None if schema_layout else raw_node_info(rec.ident))
+                self._accessors[key] = acc
+            return acc
+
     def bridge_node(self, manager: BusManager) -> NodeAccessor:
         """An accessor for the bridge itself (uplink address 0): outbox 0 `BridgeInfo`, outbox 1
         `BridgeScan`, inbox 0 `BridgeCommand` (rescan, heartbeat period, bus clear)."""
@@ -803,6 +670,9 @@ class URBInterface:
 
 
 __all__ = [
+    "DUPLICATE",
+    "MISMATCH",
+    "UNKNOWN_CLASS",
     "BridgeReport",
     "NodeAccessor",
     "NodeRecord",

@@ -11,10 +11,41 @@ from pathlib import Path
 
 from urb_sim import cli as sim_cli
 
-from . import __version__, cli_nodes, cli_schema, demo
+from . import cli_nodes, cli_schema, demo
+from .cli_args import UsageError
+from .version import version_text
 
 DESCRIPTION = "URB, the Universal Robot Bus: schema compiler, codecs and tools."
-EPILOG = "Run `urb COMMAND --help` for the options of one command."
+EPILOG = """\
+Run `urb COMMAND --help` for the manual of one command.
+
+Exit status (every command; its own --help says what counts as a failure there):
+  0    success
+  1    a failure: a check that did not pass, a port, bridge, node or file that could not be
+       used; stderr says what happened and what to do next
+  2    a usage error: no command, an unknown command or option, a value out of range, an argument that
+       names nothing (a node type, mailbox or field the schemas do not have); the command's
+       usage line and one explanation on stderr
+  130  interrupted by Ctrl-C before the command could finish (`urb monitor` and `urb log`
+       stop cleanly on the first Ctrl-C and exit 0 or 1 as above)
+  141  the reader of the output went away (`urb sim params | head -1`): the command ends
+       quietly, as other Unix tools do (128 + SIGPIPE)
+
+`urb --version` prints the version, the commit it was run from (or "unknown commit" outside a
+git checkout) and the layout fingerprint of the bundled schemas."""
+
+
+class VersionAction(argparse.Action):
+    """--version: computed when asked for (it runs git), printed, exit 0."""
+
+    def __init__(self, option_strings: list[str], dest: str = argparse.SUPPRESS, **kwargs: object) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS,
+                         help="print the version, commit and schema layout fingerprint, and exit")
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: object,
+                 option_string: str | None = None) -> None:
+        print(version_text())
+        parser.exit(0)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -27,7 +58,7 @@ def _build() -> tuple[argparse.ArgumentParser, dict[str, argparse.ArgumentParser
     parser = argparse.ArgumentParser(
         prog="urb", description=DESCRIPTION, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    parser.add_argument("--version", action="version", version=f"urb {__version__}")
+    parser.add_argument("--version", action=VersionAction)
     sub = parser.add_subparsers(title="commands", dest="command", metavar="COMMAND")
     cli_nodes.register(sub)
     cli_schema.register(sub)
@@ -90,12 +121,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser, commands = _build()
     args = parse(parser, commands, list(sys.argv[1:] if argv is None else argv))
     if not getattr(args, "run", None):
-        parser.print_help()
-        return 2
+        parser.error("give a COMMAND (`urb --help` lists them)")
     try:
         status: int = args.run(args)
         sys.stdout.flush()  # here, not at exit, so that a closed pipe is caught below
-    except cli_nodes.UsageError as exc:  # found by the command itself (e.g. a FIELD=VALUE the schema refuses)
+    except UsageError as exc:  # found by the command itself (e.g. a FIELD=VALUE the schema refuses)
         command = commands.get(args.command, parser)
         command.print_usage(sys.stderr)
         print(f"{command.prog}: error: {exc}", file=sys.stderr)

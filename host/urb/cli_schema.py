@@ -25,7 +25,11 @@ def register(sub: Any) -> None:
         "gen", help="generate the C and Python codecs from the schemas", formatter_class=fmt,
         description="Generate the C codecs (gen/c/) and Python codecs (gen/python/urb_msgs/) from every\n"
         "schema in the schema folder. With --check, generate into a temporary folder and fail\n"
-        "(exit 1) when the committed files differ: the staleness check CI runs.",
+        "(exit 1) when the committed files differ: the staleness check CI runs.\n"
+        "\n"
+        "Exit status: 0 the codecs were written (with --check: the committed ones are up to date);\n"
+        "1 a schema error, no *.urbs file in the schema folder, or (with --check) stale files; 2 a\n"
+        "usage error (an unknown option).",
     )
     gen.add_argument("--schemas", type=Path, default=SCHEMA_DIR, metavar="DIR", help="schema folder (default: spec/schema)")
     gen.add_argument("--c-out", type=Path, default=C_DIR, metavar="DIR", help="C output folder (default: gen/c)")
@@ -34,7 +38,8 @@ def register(sub: Any) -> None:
     gen.set_defaults(run=run_gen)
 
     schema = sub.add_parser("schema", help="check schema files or show wire layouts", formatter_class=fmt,
-                            description="Check schema files or show their wire layouts.")
+                            description="Check schema files or show their wire layouts.",
+                            epilog="Exit status: that of the SUBCOMMAND; 2 (a usage error) without one.")
     ssub = schema.add_subparsers(title="subcommands", dest="schema_command", metavar="SUBCOMMAND")
     check = ssub.add_parser(
         "check", help="check schema files", formatter_class=fmt,
@@ -52,23 +57,29 @@ def register(sub: Any) -> None:
         "and do not fail the check: a note names the sibling and counts them, and says when some of\n"
         "its declarations could not be compared with FILE's (`urb schema check FOLDER/*.urbs` shows\n"
         "every error of a folder). FILEs from different folders are checked each with its own folder,\n"
-        "never against each other. Without FILE, every bundled schema (spec/schema) is checked.\n"
+        "never against each other. A FOLDER given as FILE stands for its *.urbs files. Without\n"
+        "FILE, every bundled schema (spec/schema) is checked.\n"
         "\n"
-        "Exit status 0 when every FILE is valid with its siblings (a folder whose files are each\n"
-        "valid, `urb gen` accepts), 1 otherwise.",
+        "Exit status: 0 when every FILE is valid with its siblings (a folder whose files are each\n"
+        "valid, `urb gen` accepts); 1 otherwise, or when a FILE does not exist or a folder holds no\n"
+        "*.urbs file; 2 a usage error (an unknown option).",
     )
     check.add_argument("files", nargs="*", type=Path, metavar="FILE",
-                       help="schema files, each checked with its folder's (default: every bundled schema)")
+                       help="schema files, each checked with its folder's, or folders of them "
+                            "(default: every bundled schema)")
     check.set_defaults(run=run_check)
     show = ssub.add_parser(
         "show", help="show message and node layouts", formatter_class=fmt,
         description="Show the wire layout of a message (bit offsets, types, units, fingerprint) or the\n"
-        "mailboxes of a node. Without NAME, list every message and node.",
+        "mailboxes of a node. Without NAME, list every message and node.\n"
+        "\n"
+        "Exit status: 0 shown; 1 no message or node named NAME, or schemas that do not load (their\n"
+        "errors are printed); 2 a usage error (an unknown option).",
     )
     show.add_argument("name", nargs="?", metavar="NAME", help="message or node name")
     show.add_argument("--schemas", type=Path, default=SCHEMA_DIR, metavar="DIR", help="schema folder (default: spec/schema)")
     show.set_defaults(run=run_show)
-    schema.set_defaults(run=lambda args: (schema.print_help(), 2)[1])
+    schema.set_defaults(run=lambda args: schema.error("give a SUBCOMMAND: check or show (`urb schema --help`)"))
 
 
 def _load(paths: list[Path]) -> list[Schema] | None:
@@ -120,14 +131,24 @@ def run_gen(args: argparse.Namespace) -> int:
 
 
 def run_check(args: argparse.Namespace) -> int:
-    paths = list(args.files) or schema_files()
-    if not paths:
-        print(f"urb schema check: no schema files in {SCHEMA_DIR}; pass the FILEs to check", file=sys.stderr)
-        return 1
+    paths: list[Path] = []
+    empty: list[Path] = []
+    for given in list(args.files) or [SCHEMA_DIR]:
+        if given.is_dir():  # a folder: its *.urbs files, which `urb gen --schemas` takes together
+            found = schema_files(given)
+            paths += found
+            if not found:
+                empty.append(given)
+        else:
+            paths.append(given)
+    for folder in empty:
+        print(f"urb schema check: {folder}: no *.urbs files in this folder; give schema files, or a folder "
+              f"that holds them", file=sys.stderr)
     missing = [p for p in paths if not p.exists()]
-    if missing:
-        for p in missing:
-            print(f"urb schema check: {p}: no such file", file=sys.stderr)
+    for p in missing:
+        print(f"urb schema check: {p}: no such file; give schema files (*.urbs) or a folder that holds them",
+              file=sys.stderr)
+    if empty or missing:
         return 1
     checks = check_files(paths)
     errors = [e for c in checks for e in c.errors]

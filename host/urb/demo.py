@@ -18,8 +18,12 @@ from urb_codegen.generate import REPO, check_fresh, generate, load_bundled
 from urb_msgs import DecodeError, Message
 from urb_msgs.urb_core import DownlinkReadResponse
 
+from .cli_args import integer
 from .codec_driver import CodecDriver, DriverError, build_driver
 from .msgtools import random_message, to_plain
+
+SAMPLES = integer("a number of messages, 1 or more", 1)
+SEED = integer("a whole number", -(2**63), 2**63 - 1)
 
 ERROR_NAMES = {urb_msgs.TooShortError: "short", urb_msgs.TooLongError: "long",
                urb_msgs.ChecksumError: "checksum", urb_msgs.OutOfRangeError: "range"}
@@ -34,10 +38,14 @@ def register(sub: Any) -> None:
         "driver (with AddressSanitizer and UndefinedBehaviorSanitizer), then for every message:\n"
         "encode random valid messages in Python, decode and re-encode them in C, decode C's bytes\n"
         "in Python again, and corrupt one bit of every checked frame to show both sides reject it.\n"
-        "Exit status 0 when every round trip is identical.",
+        "\n"
+        "Exit status: 0 every round trip is identical; 1 a message type differs, or the schemas,\n"
+        "the codecs or the C driver could not be built; 2 a usage error (--samples below 1, a\n"
+        "--seed that is not a whole number).",
     )
-    demo.add_argument("--samples", type=int, default=200, metavar="N", help="random messages per type (default 200)")
-    demo.add_argument("--seed", type=int, default=1, help="random seed (default 1); the same seed gives the same table")
+    demo.add_argument("--samples", type=SAMPLES, default=200, metavar="N",
+                      help="random messages per type, 1 or more (default 200)")
+    demo.add_argument("--seed", type=SEED, default=1, help="random seed (default 1); the same seed gives the same table")
     demo.add_argument("--out", type=Path, default=REPO / "build" / "demo", metavar="DIR", help="work folder (default build/demo)")
     demo.set_defaults(run=run_demo)
 

@@ -114,6 +114,11 @@ class URBError(Exception):
 class PortError(URBError):
     """The serial port (or other transport) could not be opened or used."""
 
+    def __init__(self, message: str, detail: str | None = None) -> None:
+        super().__init__(message)
+        self.detail = detail if detail is not None else message
+        """What went wrong with the port, without the advice to the library's caller."""
+
 
 class NoBridgeError(URBError):
     """Nothing answered on the uplink like a URB bridge."""

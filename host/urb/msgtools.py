@@ -49,9 +49,14 @@ def _plain(value: Any) -> Any:
 
 
 def random_message(cls: type[Message], rng: random.Random) -> Message:
-    """A valid message with every field drawn from its allowed values (edges included often)."""
+    """A valid message with every field drawn from its allowed values (edges included often), drawn
+    again until it keeps the schema's rules (`require`, msg.broken_rule())."""
     hints = typing.get_type_hints(cls)
-    return cls(**{f.name: _random_field(f, hints[f.name], rng) for f in cls.FIELDS})
+    for _ in range(1000):
+        msg = cls(**{f.name: _random_field(f, hints[f.name], rng) for f in cls.FIELDS})
+        if msg.broken_rule() is None:
+            return msg
+    raise ValueError(f"1000 random {cls.NAME} messages all broke a rule: {msg.broken_rule()}")
 
 
 def _random_field(info: FieldInfo, hint: Any, rng: random.Random) -> Any:

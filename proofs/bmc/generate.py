@@ -45,6 +45,15 @@ from urb_codegen.model import (
     Field,
     IntType,
     MessageDecl,
+    Rule,
+    RuleAll,
+    RuleCompare,
+    RuleConst,
+    RuleExpr,
+    RuleField,
+    RuleNot,
+    RuleOperand,
+    RuleTruth,
     Schema,
 )
 
@@ -222,6 +231,36 @@ def _valid_typed(c: Lines, f: Field, t: object, name: str, flag: str, msg: Messa
         c.open(f"for (size_t {i} = 0u; {i} < {t.count}u; {i}++) {{")
         _valid_typed(c, f, t.element, f"{name}[{i}]", flag, msg)
         c.close()
+
+
+def emit_rules(c: Lines, rules: list[Rule], lv: str, flag: str, msg: MessageDecl) -> None:
+    """`flag = false` when the struct at `lv` breaks one of `rules` (the schema's `require`), each
+    stated from the model alone: every operand as a 64-bit integer, constants as numbers."""
+    for rule in rules:
+        c.add(f"if (!{_rule_cond(rule.expr, lv, msg)}) {{ {flag} = false; }} /* require {rule.text} */")
+
+
+def _rule_cond(e: RuleExpr, lv: str, msg: MessageDecl) -> str:
+    if isinstance(e, RuleCompare):
+        return f"({_rule_value(e.left, lv, msg)} {e.op} {_rule_value(e.right, lv, msg)})"
+    if isinstance(e, RuleTruth):
+        return f"({_rule_value(e.member, lv, msg)} != 0)"
+    if isinstance(e, RuleNot):
+        return f"(!{_rule_cond(e.inner, lv, msg)})"
+    joiner = " && " if isinstance(e, RuleAll) else " || "
+    return "(" + joiner.join(_rule_cond(item, lv, msg) for item in e.items) + ")"
+
+
+def _rule_value(o: RuleOperand, lv: str, msg: MessageDecl) -> str:
+    if isinstance(o, RuleConst):
+        return f"(int64_t){o.value}"
+    if isinstance(o, RuleField):
+        name = lv + ".".join(_member(f) for f in o.path)
+        return f"(int64_t)({name} ? 1 : 0)" if isinstance(o.leaf.type, IntType) and o.leaf.type.is_bool \
+            else f"(int64_t){name}"
+    t = o.payload.type
+    assert isinstance(t, BytesType)
+    return f"(int64_t){lv}{_count_member(msg, t) if t.count_field else _member(o.payload) + '_len'}"
 
 
 def emit_equal(c: Lines, fields: list[Field], a: str, b: str, what: str, msg: MessageDecl) -> None:
@@ -696,6 +735,7 @@ def encode_harness(info: MsgInfo) -> tuple[str, int]:
     _payload_len_lines(c, info, "m.")
     c.add("bool valid = true; /* the schema allows every member value */")
     emit_valid(c, d.fields, "m.", "valid", d)
+    emit_rules(c, d.rules, "m.", "valid", d)
     c.add(f"size_t const expected = spec_size({info.length_expr('m.')});")
     c.add("")
     c.out.append("#if !defined(URB_PART) || URB_PART == 1")
@@ -790,6 +830,7 @@ def decode_harness(info: MsgInfo) -> tuple[str, int]:
     emit_nondet(c, d.fields, "m.")
     c.add("bool implicit_ok = true; /* the implicit members the caller set are valid */")
     emit_valid(c, implicit, "m.", "implicit_ok", d)
+    emit_rules(c, d.caller_rules, "m.", "implicit_ok", d)
     if implicit:
         c.add(f"{info.type} const given = m;")
     if cs is not None:
@@ -815,6 +856,10 @@ def decode_harness(info: MsgInfo) -> tuple[str, int]:
     c.add("bool valid = true;")
     emit_valid(c, d.fields, "m.", "valid", d)
     c.add('URB_ASSERT(valid, "decode: every decoded member is one the schema allows");')
+    if d.rules:
+        c.add("bool rules = true;")
+        emit_rules(c, d.rules, "m.", "rules", d)
+        c.add('URB_ASSERT(rules, "decode: the decoded message keeps every rule (require) of the schema");')
     c.add('URB_ASSERT(len <= URB_LEN_BOUND && spec_size(len) == length, "decode: the frame length matches the payload");')
     check = "0u"
     if cs is not None:
@@ -863,6 +908,7 @@ def decode_harness(info: MsgInfo) -> tuple[str, int]:
         c.add("bool const fits = true;")
     c.add("bool valid = true;")
     emit_valid(c, d.fields, "v.", "valid", d)
+    emit_rules(c, d.rules, "v.", "valid", d)
     c.open("if (fits && valid) {")
     c.add("uint8_t frame[FRAME_BOUND];")
     c.add("size_t const n = spec_frame(&v, frame, 0u);")
@@ -926,6 +972,8 @@ def encode_mutants(info: MsgInfo, source: str, file: str) -> list[dict[str, obje
         out.append(_mut("no-range-check", file, fn, "{ return URB_ERR_RANGE; }", "{ }",
                         "a member the schema forbids is encoded instead of rejected",
                         "a member the schema forbids gives URB_ERR_RANGE"))
+    out += _rule_mutants(body, file, fn, "URB_ERR_RANGE", "a message that breaks a rule (require) is encoded",
+                         "a member the schema forbids gives URB_ERR_RANGE")
     for line in body.splitlines():
         m = re.search(r"urb_put_bits\(buf, (\d+)u, \d+u, .*msg->", line) or re.search(r"buf\[(\d+)u\] = .*msg->", line)
         if m:
@@ -955,6 +1003,15 @@ def encode_mutants(info: MsgInfo, source: str, file: str) -> list[dict[str, obje
     return out
 
 
+def _rule_mutants(body: str, file: str, fn: str, error: str, why: str, expect: str) -> list[dict[str, object]]:
+    """Seeded bug: the first check of a rule (`require`) that returns `error` is dropped."""
+    find = f"{{ return {error}; }}  /* require "
+    if find not in body:
+        return []
+    name = "no-rule-check" if error == "URB_ERR_RANGE" else "no-caller-rule-check"
+    return [_mut(name, file, fn, find, "{ }  /* require ", why, expect)]
+
+
 def _past_frame(info: MsgInfo, stmt: str, at: int, unit: str) -> bool:
     """Whether a field moved to `at` (a bit or byte offset) ends past the shortest frame of the message,
     so the moved access leaves the frame (every frame, for a message of one size)."""
@@ -970,6 +1027,8 @@ def _range_check_kind(body: str) -> tuple[str, str]:
     """The why and the expected property of dropping the first `{ return URB_ERR_RANGE; }` of a decoder:
     a padding check, a fixed-value check, or a member's range or enum check."""
     line = next(ln.strip() for ln in body.splitlines() if "{ return URB_ERR_RANGE; }" in ln)
+    if "/* require " in line:  # a message whose only value check is a rule
+        return ("missing check: a frame that breaks a rule (require) is accepted", "keeps every rule (require)")
     if (m := re.search(r"/\* fixed: (\w+) \*/", line)):  # before padding: a fixed 0 reads like it
         return (f"missing check: a frame whose fixed value ({m.group(1)}) is wrong is accepted",
                 f"= {m.group(1)} at its bit offset")
@@ -1016,6 +1075,11 @@ def decode_mutants(info: MsgInfo, source: str, file: str) -> list[dict[str, obje
     if "{ return URB_ERR_RANGE; }" in body:
         why, expect = _range_check_kind(body)
         out.append(_mut("no-range-check", file, fn, "{ return URB_ERR_RANGE; }", "{ }", why, expect))
+    out += _rule_mutants(body, file, fn, "URB_ERR_RANGE", "a frame that breaks a rule (require) is accepted",
+                         "keeps every rule (require) of the schema")
+    out += _rule_mutants(body, file, fn, "URB_ERR_ARGUMENT",
+                         "implicit members that break a rule (require) are taken as the caller's valid arguments",
+                         "invalid implicit members give URB_ERR_ARGUMENT")
     for line in body.splitlines():
         stmt = line.strip()
         if not re.match(r"msg->[\w.\[\]]+ = ", stmt):

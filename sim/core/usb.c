@@ -73,7 +73,10 @@ static uint32_t stuffed_bits(const uint8_t (*stuff_table)[6][2], const uint8_t *
 
 static uint32_t packet_bits(const urbsim_usb_bus_t *u, const uint8_t *data, uint32_t n)
 {
-    return 35u + 8u + (35u + 8u * n + (data ? stuffed_bits(u->stuff, data, n) : 0u)) + 8u + 19u + 8u;
+    /* token, gap, data packet (SYNC, PID, data, CRC16, EOP: 35 + 8n bits and the stuffed ones), gap,
+     * handshake, gap */
+    return 35u + URBSIM_USB_GAP_BITS + (35u + 8u * n + (data ? stuffed_bits(u->stuff, data, n) : 0u)) +
+           URBSIM_USB_GAP_BITS + 19u + URBSIM_USB_GAP_BITS;
 }
 
 uint32_t urbsim_usb_transfer_bits(const urbsim_usb_bus_t *u, const uint8_t *data, uint32_t len)
@@ -299,10 +302,12 @@ static void ev_usb(void *ctx, uint64_t arg, urbsim_ns_t now)
         u->next_sof_t = sof_time(u, u->frame + 1u);
         urbsim_kernel_at(u->k, u->next_sof_t, ev_usb, u, EV_SOF);
         urbsim_ns_t sof_end = now + urbsim_usb_bits_ns(u, URBSIM_USB_SOF_BITS);
+        /* The first token after the inter-packet gap (rounded once: the bits, not the two parts). */
+        urbsim_ns_t first_txn = now + urbsim_usb_bits_ns(u, URBSIM_USB_SOF_BITS + URBSIM_USB_GAP_BITS);
         uint16_t fn = (uint16_t)(u->frame & 0x7FFu);
         urbsim_trace(u->tr, URBSIM_TR_BUS, now, u->name, "sof", ",\"frame\":%u", fn);
-        /* The devices see the SOF at the end of its packet: called then (before this frame's first
-         * transaction, scheduled below for the same instant). */
+        /* The devices see the SOF at the end of its packet: called then, before this frame's first
+         * transaction. */
         urbsim_kernel_at(u->k, sof_end, ev_usb, u, EV_SOF_END | ((uint64_t)fn << 8));
         /* The frame's schedule: every URB submitted before this SOF, in submission order. */
         uint32_t n = 0;
@@ -312,7 +317,7 @@ static void ev_usb(void *ctx, uint64_t arg, urbsim_ns_t now)
         u->cursor_budget = n;
         u->frame++;
         if (n) {
-            urbsim_kernel_at(u->k, sof_end, ev_usb, u, EV_TXN);
+            urbsim_kernel_at(u->k, first_txn, ev_usb, u, EV_TXN);
         }
         break;
     }

@@ -19,7 +19,8 @@
  *   in the PID, the CRC16 or the tokens: at most a few bits per packet). An IN with
  *   no data is NAKed (70 bits) and retried in the next frame; so is an OUT the device cannot take
  *   yet (its buffer still holds the previous transfer: the token and first data packet, then NAK).
- *   SOF packet: 43 bits.
+ *   SOF packet: 35 bits (SYNC 8, PID 8, frame number 11, CRC5 5, EOP 3), like a token; the
+ *   frame's first token follows after an inter-packet gap of 8 bit times, as within a transaction.
  *   A device sees SOF (at the end of the SOF packet), OUT data, IN tokens and the acknowledgement
  *   of its IN data at their bus instants, each called at that instant (its HAL adds interrupt
  *   latency); at an IN token it answers from its endpoint buffer, as a device controller does.
@@ -137,7 +138,11 @@ uint32_t urbsim_usb_transfer_bits(const urbsim_usb_bus_t *u, const uint8_t *data
 /** Nanoseconds of `bits` at the bus bit rate, rounded to nearest. */
 urbsim_ns_t urbsim_usb_bits_ns(const urbsim_usb_bus_t *u, uint32_t bits);
 
-#define URBSIM_USB_SOF_BITS 43u
+/** Bits of the SOF packet: SYNC 8 + PID 8 + frame number 11 + CRC5 5 + EOP 3 (a token's 35). */
+#define URBSIM_USB_SOF_BITS 35u
+/** Bit times between two packets: the model's inter-packet gap (USB 2.0 7.1.18.1 lets a full-speed
+ *  device take up to 6.5 to answer), after the SOF as between the packets of a transaction. */
+#define URBSIM_USB_GAP_BITS 8u
 #define URBSIM_USB_NAK_BITS 70u
 
 #endif /* URBSIM_USB_H */

@@ -80,7 +80,7 @@ class BuildError(RuntimeError):
     """The compiler failed; the message holds its command line and output."""
 
 
-def _variant() -> tuple[bool, str | None]:
+def variant() -> tuple[bool, str | None]:
     """(sanitized, mutant name) asked for by URBSIM_SANITIZE and URBSIM_MUTANT."""
     sanitize = os.environ.get("URBSIM_SANITIZE", "") not in ("", "0")
     mutant = os.environ.get("URBSIM_MUTANT") or None
@@ -91,7 +91,7 @@ def _variant() -> tuple[bool, str | None]:
 
 def library_path() -> Path:
     """Where the library of the build variant selected by the environment lives."""
-    sanitize, mutant = _variant()
+    sanitize, mutant = variant()
     if not sanitize and mutant is None:
         return LIBRARY
     folder = "-".join((["san"] if sanitize else []) + ([f"mutant-{mutant}"] if mutant else []))
@@ -100,7 +100,7 @@ def library_path() -> Path:
 
 def variant_flags() -> list[str]:
     """Compiler flags of the selected variant, in place of CFLAGS."""
-    sanitize, mutant = _variant()
+    sanitize, mutant = variant()
     flags = [f for f in CFLAGS if not (sanitize and f in SPEED_FLAGS)]
     if sanitize:
         flags += SANITIZE_FLAGS
@@ -134,7 +134,7 @@ def sanitizer_preload() -> str:
 def check_loadable() -> None:
     """Raise BuildError unless this process can load the selected library: a sanitized one needs
     the runtimes preloaded, or ASan ends the whole process from inside ctypes.CDLL."""
-    if _variant()[0] and "libasan" not in os.environ.get("LD_PRELOAD", ""):
+    if variant()[0] and "libasan" not in os.environ.get("LD_PRELOAD", ""):
         raise BuildError("URBSIM_SANITIZE=1 needs the sanitizer runtimes preloaded: run with "
                          'LD_PRELOAD="$(python3 -m urb_sim.build --preload)", or use tools/sim_sanitized.py')
 

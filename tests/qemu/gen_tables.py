@@ -34,7 +34,8 @@ try:
 except ImportError as exc:  # a bare checkout: `make setup` installs the packages
     sys.exit(f"gen_tables.py: {exc}; run `make setup` (tools/setup.sh) first")
 
-ERRORS = {"short": "URB_ERR_SHORT", "long": "URB_ERR_LONG", "checksum": "URB_ERR_CHECKSUM", "range": "URB_ERR_RANGE"}
+ERRORS = {"short": "URB_ERR_SHORT", "long": "URB_ERR_LONG", "checksum": "URB_ERR_CHECKSUM", "range": "URB_ERR_RANGE",
+          "argument": "URB_ERR_ARGUMENT"}
 
 # ----- the node smoke test scenario (qemu_main.c runs it; the bytes are computed here) ------------
 NODE_ADDRESS = 0x40

@@ -779,7 +779,7 @@ static void test_i2c(void)
 /* ---------------------------------------------------------------- USB */
 
 typedef struct {
-    urbsim_ns_t t_out, t_in_req, t_read;
+    urbsim_ns_t t_sof, t_out, t_in_req, t_read;
     uint32_t out_len, read_len;
     uint8_t in_data[64];
     uint32_t in_len;
@@ -790,7 +790,7 @@ static void td_sof(void *ctx, uint16_t f, urbsim_ns_t t)
 {
     tdev_t *d = ctx;
     (void)f;
-    (void)t;
+    d->t_sof = t;
     d->sofs++;
 }
 static void td_out(void *ctx, const uint8_t *data, uint32_t len, urbsim_ns_t t)
@@ -839,11 +839,19 @@ static void test_usb(void)
     CHECK_EQ(urbsim_usb_transfer_bits(&u, zeros, 512), 8u * 625u + 113u);
     urbsim_usb_run(&u);
     /* Submit an OUT at 0.1 ms (before the SOF at 0.25 ms): it runs in that frame after the SOF
-     * packet (43 bits = 3583 ns): OUT of 10 bytes ends at 250000 + 3583 + 16083 = 269666 ns. The
-     * write callback (20 us later) submits the IN, served in the next frame: IN token at
-     * 1250000 + 3583 = 1253583, 10 bytes end 1269666, read callback at 1289666. */
+     * packet and the inter-packet gap. The SOF packet is 35 bits like a token (SYNC 8, PID 8, frame
+     * 11, CRC5 5, EOP 3): the device sees it at 250000 + 2917 ns (a 43-bit packet, 3583 ns, before
+     * 2026-11-28). The OUT's token follows 8 bit times later (35 + 8 bits = 3583 ns): OUT of 10
+     * bytes ends at 250000 + 3583 + 16083 = 269666 ns. The write callback (20 us later) submits the
+     * IN, served in the next frame: IN token at 1250000 + 3583 = 1253583, 10 bytes end 1269666,
+     * read callback at 1289666. */
     urbsim_kernel_run_until(&k, 100 * URBSIM_NS_PER_US);
     CHECK(urbsim_usb_write(&u, 0, zeros, 10));
+    urbsim_kernel_run_until(&k, 250 * URBSIM_NS_PER_US + 2916u);
+    CHECK_EQ(td.sofs, 0);
+    urbsim_kernel_run_until(&k, 250 * URBSIM_NS_PER_US + 2917u);
+    CHECK_EQ(td.sofs, 1);
+    CHECK_EQ(td.t_sof, 252917u);
     urbsim_kernel_run_until(&k, 3 * URBSIM_NS_PER_MS);
     CHECK_EQ(td.t_out, 269666u);
     CHECK_EQ(td.out_len, 10u);
@@ -1240,10 +1248,10 @@ static void test_usb_frame_edges(void)
     CHECK_EQ(urbsim_usb_attach(&u, &dev), 0);
     urbsim_usb_run(&u);
     urbsim_kernel_run_until(&k, 300 * URBSIM_NS_PER_US);
-    CHECK_EQ(d.sof_t, 250000u + 3583u);
+    CHECK_EQ(d.sof_t, 250000u + 2917u); /* the end of the 35-bit SOF packet */
     CHECK_EQ(d.sof_now, d.sof_t);
     /* Frame 1 starts at 1.25 ms; its usable part ends at 2.25 ms - 4 us = 2 246 000 ns, 11 909 bits
-     * after the SOF packet. Fill it with OUT transfers so that the IN token would come 120..360 bits
+     * after the first token's slot (the SOF packet and the inter-packet gap, 43 bits). Fill it with OUT transfers so that the IN token would come 120..360 bits
      * before that end: a NAK (70 bits) would fit, not a transaction with a full data packet (the IN
      * asks for 512 bytes: 64 bytes, 625 bits, + 85 bits of worst-case stuffing = 710), nor the
      * 40-byte answer (35 + 8 + 35 + 320 + 8 + 19 + 8 = 433 bits, 36.1 us), which ran over the end. */
@@ -1353,8 +1361,9 @@ static void test_usb_handshakes(void)
     CHECK(!u.nak_next_frame);
     urbsim_usb_run(&u);
     static uint8_t zeros[16];
-    /* Frame 1 (SOF 1.25 ms, its packet ends 1 253 583): an IN, then a 10-byte OUT, both submitted
-     * before it. The device arms 10 bytes 4 us after the SOF packet. The IN token at 1 253 583
+    /* Frame 1 (SOF 1.25 ms, its packet ends 1 252 917, the first token 8 bit times later at
+     * 1 253 583): an IN, then a 10-byte OUT, both submitted before it. The device arms 10 bytes 4 us
+     * after that token's slot. The IN token at 1 253 583
      * finds nothing: NAK (70 bits, 5833 ns). The OUT follows (193 bits, 16 083 ns: 1 259 416 to
      * 1 275 499), then the IN again: 10 bytes (193 bits) to 1 291 582, read callback 20 us later. */
     urbsim_kernel_run_until(&k, 1 * URBSIM_NS_PER_MS);
@@ -1370,7 +1379,7 @@ static void test_usb_handshakes(void)
     CHECK_EQ(d.in_done_t, 1291582u);
     CHECK_EQ(d.read_t, 1291582u + 20000u);
     /* Frame 3 (SOF 3.25 ms): an IN submitted before it finds nothing and is retried back to back
-     * (nothing else is scheduled in the frame) until the device arms, 20 us after the SOF packet:
+     * (nothing else is scheduled in the frame) until the device arms, 20 us after the first token:
      * tokens at 3 253 583 + j * 5833 ns, the 5th (3 276 915) is the first after the arming. An OUT
      * submitted after the SOF (at 3.26 ms) is not in the frame's schedule: the retried IN does not
      * let it in, it goes in frame 4 (SOF 4.25 ms), the first transaction: 4 253 583 + 16 083. */
@@ -1399,6 +1408,99 @@ static void test_usb_handshakes(void)
     urbsim_kernel_free(&k);
 }
 
+/* The idle path of a hardware profile (mcu.h): after the latest handler or main-loop work ends, the
+ * loop runs idle_cycles, then the PRIMASK section (an interrupt raised in it starts at its end plus
+ * the entry latency), then WFI (an interrupt first wakes the core). Zero jitter, 48 MHz: 15 cycles
+ * are 313 ns, 48 cycles 1 us. */
+static void test_mcu_idle_path(void)
+{
+    urbsim_clock_cfg_t cfg = urbsim_clock_default_cfg();
+    cfg.idle_cycles = 48.0;
+    cfg.mask_cycles = 96.0;
+    cfg.wfi_wake_cycles = 48.0;
+    urbsim_rng_t r;
+    urbsim_mcu_t m;
+    urbsim_ns_t end;
+    urbsim_rng_seed(&r, 5u);
+    urbsim_mcu_init(&m, &cfg, &r);
+    urbsim_mcu_reset(&m, 10000u);
+    CHECK_EQ(urbsim_mcu_thread_busy(&m, 10000u, 5000u), 15000u);
+    CHECK_EQ(urbsim_mcu_isr(&m, 12000u, 48.0, &end), 12313u); /* during work: the entry latency only */
+    /* the work now ends at 16000: idle pass to 17000, masked [17000, 19000) */
+    CHECK_EQ(urbsim_mcu_isr(&m, 16500u, 48.0, &end), 16813u); /* in the idle pass */
+    CHECK_EQ(end, 17813u);
+    /* after that handler: idle to 18813, masked [18813, 20813) */
+    CHECK_EQ(urbsim_mcu_isr(&m, 19500u, 48.0, &end), 21126u); /* masked: at the section's end + 313 */
+    CHECK_EQ(m.masked, 1u);
+    /* after it (ends 22126): masked until 25126, then asleep: wake 1 us + entry */
+    CHECK_EQ(urbsim_mcu_isr(&m, 30000u, 48.0, &end), 31313u);
+    CHECK_EQ(m.masked, 1u);
+    /* all three 0: the model before profiles */
+    urbsim_clock_cfg_t plain = urbsim_clock_default_cfg();
+    urbsim_mcu_init(&m, &plain, &r);
+    urbsim_mcu_reset(&m, 10000u);
+    CHECK_EQ(urbsim_mcu_isr(&m, 30000u, 48.0, &end), 30313u);
+}
+
+/* Per-slave edges (i2c.h urbsim_i2c_edges_t): the address byte's 8th bit at 22500 is seen after the
+ * fall to the slave's threshold and its glitch filter, so its handler starts that much later. */
+static void test_i2c_edges(void)
+{
+    urbsim_kernel_t k;
+    urbsim_trace_t tr;
+    urbsim_rng_t r;
+    urbsim_kernel_init(&k);
+    urbsim_trace_init(&tr);
+    urbsim_rng_seed(&r, 9);
+    urbsim_i2c_bus_t bus;
+    urbsim_i2c_init(&bus, &k, &tr, "i2c", 400e3, &r);
+    urbsim_i2c_edges_t e;
+    memset(&e, 0, sizeof e);
+    e.fall_ns = 1000.0;
+    e.vth_min = e.vth_max = 0.3;     /* crossed 700 ns into the fall */
+    e.filter_min_ns = e.filter_max_ns = 100.0;
+    e.rise_tau_ns = 1000.0;          /* a STOP: 1000 ln(1 / 0.7) = 357 ns, + 100 */
+    e.seed = 3;
+    urbsim_i2c_set_edges(&bus, &e);
+    mslave_t s = {.k = &k};
+    urbsim_clock_cfg_t cfg = urbsim_clock_default_cfg();
+    urbsim_mcu_init(&s.mcu, &cfg, &r);
+    urbsim_i2c_slave_t sl;
+    memset(&sl, 0, sizeof sl);
+    sl.ctx = &s;
+    sl.address = 0x10;
+    sl.powered = true;
+    sl.isr_window = ms_window;
+    sl.on_address = ms_addr;
+    sl.on_rx = ms_rx;
+    sl.on_stop = ms_stop;
+    urbsim_i2c_attach(&bus, &sl); /* attached after the edges were set: drawn at attach */
+    CHECK_EQ(urbsim_i2c_edge_delay(&bus, 0, false), 800u);
+    CHECK_EQ(urbsim_i2c_edge_delay(&bus, 0, true), 457u);
+    tmaster_t m = {.bus = &bus};
+    bus.master = tm_event;
+    bus.master_ctx = &m;
+    static const uint8_t wr[] = {0x20};
+    m.ops = "SWP";
+    m.bytes = wr;
+    tm_next(&m);
+    urbsim_kernel_run_until(&k, 100000);
+    CHECK_EQ(s.t_addr, 22500u + 800u + 313u); /* 22813 with instant edges */
+    /* a range of thresholds: two slaves draw their own, within the fall's 30 %..70 % */
+    e.vth_min = 0.3;
+    e.vth_max = 0.7;
+    e.filter_min_ns = e.filter_max_ns = 0.0;
+    urbsim_i2c_slave_t other = sl;
+    urbsim_i2c_attach(&bus, &other);
+    urbsim_i2c_set_edges(&bus, &e);
+    urbsim_ns_t a = urbsim_i2c_edge_delay(&bus, 0, false), b = urbsim_i2c_edge_delay(&bus, 1, false);
+    CHECK(a != b && a >= 300u && a <= 700u && b >= 300u && b <= 700u);
+    memset(&e, 0, sizeof e);
+    urbsim_i2c_set_edges(&bus, &e);
+    CHECK_EQ(urbsim_i2c_edge_delay(&bus, 1, false), 0u); /* all zero: instant edges again */
+    urbsim_kernel_free(&k);
+}
+
 int main(void)
 {
     test_kernel();
@@ -1416,6 +1518,8 @@ int main(void)
     test_usb_frame_edges();
     test_usb_handshakes();
     test_mcu_thread();
+    test_mcu_idle_path();
+    test_i2c_edges();
     printf("sim core: %d checks, %d failed\n", checks, failures);
     return failures ? 1 : 0;
 }

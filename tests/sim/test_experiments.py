@@ -46,10 +46,15 @@ def test_fig15_rs232_latency(tmp_path: Path) -> None:
     rows = {r["payload"]: r for r in res.table}
     assert rows[1]["mean_ms"] < rows[9]["mean_ms"] <= 2.0
     assert any("10-byte payload" in n for n in res.notes)  # the over-budget point is explained
+    # and named as not reproducing the paper (its 2-ms maximum covers 10 bytes), for the headline
+    [deviation] = res.deviations
+    assert deviation.startswith("Fig. 15: the 10-byte payload at 1 kHz takes up to ")
 
 
 def test_fig16_usb_latency(tmp_path: Path) -> None:
-    _assert_passed(latency.fig16(tmp_path, quick=True))
+    res = latency.fig16(tmp_path, quick=True)
+    _assert_passed(res)
+    assert res.deviations == []  # within the paper's three frames
 
 
 def _fig16_constant(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, latency_ms: Callable[[int, int], float]) -> bool:
@@ -168,6 +173,9 @@ def test_fig20_tripod_gait(tmp_path: Path) -> None:
 
     res = gait.fig20(tmp_path, quick=True)
     _assert_passed(res)
+    # the criteria hold at 500 Hz; the paper's 1 kHz is named as not reproduced, for the headline
+    [deviation] = res.deviations
+    assert deviation.startswith("Fig. 20: the paper's six legs under 1-kHz control do not fit")
 
 
 def test_bandwidth_limits(tmp_path: Path) -> None:
@@ -175,6 +183,8 @@ def test_bandwidth_limits(tmp_path: Path) -> None:
 
     res = bandwidth.bandwidth(tmp_path, quick=True)
     _assert_passed(res)
+    assert [d.split(":")[1].split(" at ")[0].strip() for d in res.deviations] == [
+        "RS232 sustains 9-byte reads", "three motors per USB bridge"]
     # the uplink table holds uplink rows only; the motor workload has its own table and columns
     assert all(r["uplink"] in ("rs232", "usb") and isinstance(r["payload B"], int) for r in res.table)
     [(caption, motors)] = res.tables

@@ -29,8 +29,10 @@ from urb.api import NodeRequest
 from urb_sim.native import App, Trace
 from urb_sim.system import NS_PER_MS, Loop, System
 
-#: The SOF packet (43 bits at 12 Mb/s): the device sees the SOF at its end.
-SOF_NS = 3583
+#: The SOF packet (35 bits at 12 Mb/s, like a token): the device sees the SOF at its end.
+SOF_NS = 2917
+#: The frame's first token: after the SOF packet and the inter-packet gap (35 + 8 bits).
+FIRST_TOKEN_NS = 3583
 #: The bridge's USB interrupt at an SOF, from the device seeing it to the handler's return: entry
 #: latency (bridge.irq_cycles 15) and handler (bridge.usb_isr_cycles 200) at 48 MHz. The main loop
 #: cannot take the SOF before.
@@ -141,17 +143,17 @@ def sof_taken_by_the_main_loop(r: Rig, min_lag_ns: int, since_ns: int = 0) -> li
 
 def in_first_nakked_then_retried(r: Rig) -> list[str]:
     """USB frames 0.1 ms after the OS tick: the driver's pending IN is the frame's first transaction,
-    its token comes at the end of the SOF packet, before the bridge could arm anything: NAK, and the
+    its token comes right after the SOF packet, before the bridge could arm anything: NAK, and the
     host controller retries it in the frame. No response goes out later than the frame after its
     batch (the paper's three frames hold)."""
     out = []
     naks = {e["t"] for e in r.bus("in_nak")}
     sofs = r.sofs()
     data = [e["t"] for e in r.bus("in") if e["t"] >= r.start_ns]
-    firsts = [t + SOF_NS for t in sofs if any(t < d < t + 1_000_000 for d in data)]
+    firsts = [t + FIRST_TOKEN_NS for t in sofs if any(t < d < t + 1_000_000 for d in data)]
     nakked = sum(1 for t in firsts if t in naks)
     if nakked < len(firsts):
-        out.append(f"{len(firsts) - nakked} of {len(firsts)} frames' first IN tokens (at the end of the SOF packet) "
+        out.append(f"{len(firsts) - nakked} of {len(firsts)} frames' first IN tokens (right after the SOF packet) "
                    "were not NAKed")
     if r.stats["usb_responses_late"]:
         out.append(f"{r.stats['usb_responses_late']:.0f} responses a frame late")

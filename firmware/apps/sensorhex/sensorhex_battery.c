@@ -37,13 +37,14 @@ uint8_t sensorhex_battery_charge(const sensorhex_battery_config_t *cfg, uint16_t
     /* open-circuit voltage = terminal voltage + I * R (current positive when discharging) */
     int32_t const ocv = (int32_t)voltage_mv + ((int32_t)current_ma * (int32_t)cfg->resistance_mohm) / 1000;
     int32_t const span = (int32_t)cfg->full_mv - (int32_t)cfg->empty_mv;
-    if (span <= 0 || ocv <= (int32_t)cfg->empty_mv) {
+    if ((span <= 0) || (ocv <= (int32_t)cfg->empty_mv)) {
         return 0u;
     }
     if (ocv >= (int32_t)cfg->full_mv) {
         return 100u;
     }
-    return (uint8_t)(((ocv - (int32_t)cfg->empty_mv) * 100) / span);
+    int32_t const percent = ((ocv - (int32_t)cfg->empty_mv) * 100) / span; /* 0..99: empty < ocv < full */
+    return (uint8_t)percent;
 }
 
 static void battery_bootup(urb_node_t *node, void *user)
@@ -66,12 +67,18 @@ static void battery_update(urb_node_t *node, void *user)
     for (uint8_t i = 0u; i < SENSORHEX_BATTERY_PACKS; i++) {
         urb_battery_pack_t *p = &st.packs[i];
         p->present = io->present(io->ctx, i);
-        p->voltage = p->present ? io->voltage_mv(io->ctx, i) : 0u;
-        p->current = p->present ? io->current_ma(io->ctx, i) : 0;
-        p->temp = p->present ? io->temp_c(io->ctx, i) : 0;
-        p->charge = p->present ? sensorhex_battery_charge(&app->cfg, p->voltage, p->current) : 0u;
-        if (p->present && p->voltage < app->cfg.cutoff_mv) {
-            st.low = true;
+        p->voltage = 0u; /* an absent pack reports zeros */
+        p->current = 0;
+        p->temp = 0;
+        p->charge = 0u;
+        if (p->present) {
+            p->voltage = io->voltage_mv(io->ctx, i);
+            p->current = io->current_ma(io->ctx, i);
+            p->temp = io->temp_c(io->ctx, i);
+            p->charge = sensorhex_battery_charge(&app->cfg, p->voltage, p->current);
+            if (p->voltage < app->cfg.cutoff_mv) {
+                st.low = true;
+            }
         }
     }
     st.charging = io->charger(io->ctx);

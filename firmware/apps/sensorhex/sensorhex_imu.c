@@ -51,7 +51,7 @@ void sensorhex_imu_node_config(urb_node_config_t *cfg)
 static void imu_take(sensorhex_imu_t *app)
 {
     sensorhex_imu_reading_t r;
-    if (app->count >= app->cfg.oversample || !app->io->read(app->io->ctx, &r)) {
+    if ((app->count >= app->cfg.oversample) || !app->io->read(app->io->ctx, &r)) {
         return;
     }
     /* bound: 3 axes */

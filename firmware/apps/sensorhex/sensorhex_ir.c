@@ -36,16 +36,12 @@ void sensorhex_ir_node_config(urb_node_config_t *cfg)
 
 uint16_t sensorhex_ir_median3(uint16_t a, uint16_t b, uint16_t c)
 {
-    if (a > b) {
-        uint16_t const t = a;
-        a = b;
-        b = t;
+    uint16_t const lo = (a > b) ? b : a;
+    uint16_t const hi = (a > b) ? a : b;
+    if (c <= lo) {
+        return lo;
     }
-    /* now a <= b */
-    if (c <= a) {
-        return a;
-    }
-    return (c >= b) ? b : c;
+    return (c >= hi) ? hi : c;
 }
 
 static void ir_bootup(urb_node_t *node, void *user)

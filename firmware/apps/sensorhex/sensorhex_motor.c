@@ -16,7 +16,7 @@ static int32_t clamp32(int32_t v, int32_t lo, int32_t hi)
     return (v < lo) ? lo : ((v > hi) ? hi : v);
 }
 
-static int32_t abs32(int32_t v)
+static int32_t motor_abs32(int32_t v)
 {
     return (v < 0) ? -v : v; /* callers pass values far from INT32_MIN */
 }
@@ -119,6 +119,8 @@ static void motor_inputs(urb_node_t *node, sensorhex_motor_t *app)
         app->missed = 0u;
     } else if (app->missed < 0xFFFFu) {
         app->missed++; /* 16 bits: counts past the largest timeout (255), so 255 still cuts */
+    } else {
+        /* saturated: stays at 0xFFFF, past every timeout */
     }
     rc = urb_node_lock_inbox(node, URB_NODE_MOTOR_DRIVER_INBOX_MOTOR_CONFIG, &data);
     if (rc == URB_NODE_NEW) {
@@ -149,7 +151,7 @@ static int32_t motor_pd(const sensorhex_motor_t *app)
      * magnitude is limited first, then multiplied in 32 unsigned bits (<= 65535 * 65535): the exact
      * value, clamped, as before wherever that did not overflow. No 64-bit multiply on Cortex-M0+. */
     int32_t const q = ((int32_t)app->kd * delta) / 1000;
-    uint32_t mag = (uint32_t)abs32(q);
+    uint32_t mag = (uint32_t)motor_abs32(q);
     mag = ((mag > (uint32_t)lim) ? (uint32_t)lim : mag) * app->cfg.update_hz;
     mag = (mag > (uint32_t)lim) ? (uint32_t)lim : mag;
     int32_t const d = (q < 0) ? -(int32_t)mag : (int32_t)mag;
@@ -184,8 +186,8 @@ static void motor_update(urb_node_t *node, void *user)
     /* 4. protection and control */
     int16_t const temp = io->case_temp_cdeg(io->ctx);
     bool const hot = temp > app->cfg.temp_limit_cdeg;
-    bool const over = abs32(current) > (int32_t)app->cfg.current_limit_ma;
-    bool const cut = hot || (abs32(current) > 2 * (int32_t)app->cfg.current_limit_ma);
+    bool const over = motor_abs32(current) > (int32_t)app->cfg.current_limit_ma;
+    bool const cut = hot || (motor_abs32(current) > (2 * (int32_t)app->cfg.current_limit_ma));
     if (hot) {
         app->overtemp = 1u;
     }
@@ -198,6 +200,8 @@ static void motor_update(urb_node_t *node, void *user)
         u = timed_out ? 0 : app->command_mv;
     } else if (app->mode == (uint8_t)URB_MOTOR_MODE_LOCAL_PD) {
         u = motor_pd(app);
+    } else {
+        /* DISABLED: drive 0 */
     }
     u = clamp32(u, -(int32_t)app->limit_mv, (int32_t)app->limit_mv);
     if (cut) {

@@ -72,7 +72,7 @@ WEAK void bsp_usb_in_arm(const uint8_t *buf, size_t len) { (void)buf; (void)len;
 #define SYST_RVR (*(volatile uint32_t *)0xE000E014u)
 #define SYST_CVR (*(volatile uint32_t *)0xE000E018u)
 #define SCB_ICSR (*(volatile uint32_t *)0xE000ED04u)
-#define ICSR_PENDSTSET (1u << 26) /* SysTick exception pending (reads 1 until the handler is entered) */
+#define ICSR_PENDSTSET ((uint32_t)1u << 26) /* SysTick exception pending (reads 1 until the handler is entered) */
 
 static inline uint32_t irq_save(void)
 {
@@ -264,13 +264,18 @@ void Default_Handler(void);
 
 void Reset_Handler(void)
 {
-    uint32_t *src = __data_load;
+    uint32_t const *src = __data_load;
+    uint32_t *dst = __data_start;
     /* loop bound: the .data section, fixed at link time */
-    for (uint32_t *dst = __data_start; dst < __data_end; dst++) {
-        *dst = *src++;
+    while (dst < __data_end) {
+        *dst = *src;
+        dst++;
+        src++;
     }
-    for (uint32_t *dst = __bss_start; dst < __bss_end; dst++) {
+    dst = __bss_start;
+    while (dst < __bss_end) {
         *dst = 0u;
+        dst++;
     }
     (void)main();
     for (;;) {

@@ -44,11 +44,16 @@ void Reset_Handler(void)
 {
     /* bound: the size of .data / .bss, fixed at link time */
     uint32_t const *src = &_sidata;
-    for (uint32_t *dst = &_sdata; dst < &_edata; dst++) {
-        *dst = *src++;
+    uint32_t *dst = &_sdata;
+    while (dst < &_edata) {
+        *dst = *src;
+        dst++;
+        src++;
     }
-    for (uint32_t *dst = &_sbss; dst < &_ebss; dst++) {
+    dst = &_sbss;
+    while (dst < &_ebss) {
         *dst = 0u;
+        dst++;
     }
     (void)main();
     for (;;) {

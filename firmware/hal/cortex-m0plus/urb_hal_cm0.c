@@ -12,10 +12,10 @@
 #define RCC_BASE 0x40021000u
 #define RCC_IOPENR REG32(RCC_BASE + 0x34u)
 #define RCC_APBENR1 REG32(RCC_BASE + 0x3Cu)
-#define RCC_IOPENR_GPIOA (1u << 0)
-#define RCC_IOPENR_GPIOB (1u << 1)
-#define RCC_APBENR1_TIM2 (1u << 0)
-#define RCC_APBENR1_I2C1 (1u << 21)
+#define RCC_IOPENR_GPIOA ((uint32_t)1u << 0)
+#define RCC_IOPENR_GPIOB ((uint32_t)1u << 1)
+#define RCC_APBENR1_TIM2 ((uint32_t)1u << 0)
+#define RCC_APBENR1_I2C1 ((uint32_t)1u << 21)
 
 #define GPIOA_BASE 0x50000000u
 #define GPIOB_BASE 0x50000400u
@@ -32,9 +32,9 @@
 #define TIM2_PSC REG32(TIM2_BASE + 0x28u)
 #define TIM2_ARR REG32(TIM2_BASE + 0x2Cu)
 #define TIM2_CCR1 REG32(TIM2_BASE + 0x34u)
-#define TIM_CR1_CEN (1u << 0)
-#define TIM_DIER_CC1IE (1u << 1)
-#define TIM_SR_CC1IF (1u << 1)
+#define TIM_CR1_CEN ((uint32_t)1u << 0)
+#define TIM_DIER_CC1IE ((uint32_t)1u << 1)
+#define TIM_SR_CC1IF ((uint32_t)1u << 1)
 
 #define I2C1_BASE 0x40005400u
 #define I2C_CR1 REG32(I2C1_BASE + 0x00u)
@@ -46,34 +46,34 @@
 #define I2C_ICR REG32(I2C1_BASE + 0x1Cu)
 #define I2C_RXDR REG32(I2C1_BASE + 0x24u)
 #define I2C_TXDR REG32(I2C1_BASE + 0x28u)
-#define I2C_CR1_PE (1u << 0)
-#define I2C_CR1_TXIE (1u << 1)
-#define I2C_CR1_ADDRIE (1u << 3)
-#define I2C_CR1_NACKIE (1u << 4)
-#define I2C_CR1_STOPIE (1u << 5)
-#define I2C_CR1_TCIE (1u << 6) /* TCR interrupt in slave byte control */
-#define I2C_CR1_ERRIE (1u << 7)
-#define I2C_CR1_SBC (1u << 16)
-#define I2C_CR1_GCEN (1u << 19)
-#define I2C_CR2_NBYTES_1 (1u << 16)
-#define I2C_CR2_NBYTES_MASK (0xFFu << 16)
-#define I2C_CR2_RELOAD (1u << 24)
-#define I2C_CR2_NACK (1u << 15)
-#define I2C_OAR1_EN (1u << 15)
-#define I2C_ISR_TXE (1u << 0)
-#define I2C_ISR_TXIS (1u << 1)
-#define I2C_ISR_ADDR (1u << 3)
-#define I2C_ISR_NACKF (1u << 4)
-#define I2C_ISR_STOPF (1u << 5)
-#define I2C_ISR_TCR (1u << 7)
-#define I2C_ISR_BERR (1u << 8)
-#define I2C_ISR_ARLO (1u << 9)
-#define I2C_ISR_OVR (1u << 10)
-#define I2C_ISR_TIMEOUT (1u << 12)
-#define I2C_ISR_DIR (1u << 16)
+#define I2C_CR1_PE ((uint32_t)1u << 0)
+#define I2C_CR1_TXIE ((uint32_t)1u << 1)
+#define I2C_CR1_ADDRIE ((uint32_t)1u << 3)
+#define I2C_CR1_NACKIE ((uint32_t)1u << 4)
+#define I2C_CR1_STOPIE ((uint32_t)1u << 5)
+#define I2C_CR1_TCIE ((uint32_t)1u << 6) /* TCR interrupt in slave byte control */
+#define I2C_CR1_ERRIE ((uint32_t)1u << 7)
+#define I2C_CR1_SBC ((uint32_t)1u << 16)
+#define I2C_CR1_GCEN ((uint32_t)1u << 19)
+#define I2C_CR2_NBYTES_1 ((uint32_t)1u << 16)
+#define I2C_CR2_NBYTES_MASK ((uint32_t)0xFFu << 16)
+#define I2C_CR2_RELOAD ((uint32_t)1u << 24)
+#define I2C_CR2_NACK ((uint32_t)1u << 15)
+#define I2C_OAR1_EN ((uint32_t)1u << 15)
+#define I2C_ISR_TXE ((uint32_t)1u << 0)
+#define I2C_ISR_TXIS ((uint32_t)1u << 1)
+#define I2C_ISR_ADDR ((uint32_t)1u << 3)
+#define I2C_ISR_NACKF ((uint32_t)1u << 4)
+#define I2C_ISR_STOPF ((uint32_t)1u << 5)
+#define I2C_ISR_TCR ((uint32_t)1u << 7)
+#define I2C_ISR_BERR ((uint32_t)1u << 8)
+#define I2C_ISR_ARLO ((uint32_t)1u << 9)
+#define I2C_ISR_OVR ((uint32_t)1u << 10)
+#define I2C_ISR_TIMEOUT ((uint32_t)1u << 12)
+#define I2C_ISR_DIR ((uint32_t)1u << 16)
 #define I2C_ISR_ADDCODE_SHIFT 17u
 #define I2C_ICR_ALL 0x3F38u /* ADDRCF NACKCF STOPCF BERRCF ARLOCF OVRCF PECCF TIMOUTCF ALERTCF */
-#define I2C_TIMEOUTR_STUCK ((1u << 15) | 1094u) /* TIMOUTEN, SCL low > ~35 ms (TIMEOUTA at 48 MHz / 2048) */
+#define I2C_TIMEOUTR_STUCK (((uint32_t)1u << 15) | 1094u) /* TIMOUTEN, SCL low > ~35 ms (TIMEOUTA at 48 MHz / 2048) */
 
 #define IRQ_TIM2 15u
 #define IRQ_I2C1 23u
@@ -82,7 +82,7 @@
 #define IRQ_PRIORITY 0x80u /* the same for both: they must not preempt each other */
 
 /* Mark pins: PA0..PA2, one per urb_node_mark_t (board-specific). */
-#define MARK_PIN(m) (1u << (unsigned)(m))
+#define MARK_PIN(m) ((uint32_t)1u << (unsigned)(m))
 
 /* ----- HAL functions ----- */
 
@@ -119,8 +119,8 @@ static void cm0_mark(void *ctx, urb_node_mark_t mark)
 static void nvic_enable(uint32_t irq)
 {
     uint32_t const shift = 8u * (irq % 4u);
-    NVIC_IPR(irq) = (NVIC_IPR(irq) & ~(0xFFu << shift)) | (IRQ_PRIORITY << shift);
-    NVIC_ISER = 1u << irq;
+    NVIC_IPR(irq) = (NVIC_IPR(irq) & ~((uint32_t)0xFFu << shift)) | ((uint32_t)IRQ_PRIORITY << shift);
+    NVIC_ISER = (uint32_t)1u << irq;
 }
 
 void urb_hal_cm0_init(urb_hal_cm0_t *port)
@@ -140,9 +140,9 @@ void urb_hal_cm0_init(urb_hal_cm0_t *port)
 
     /* VENDOR: PA0..PA2 outputs (marks); PB6/PB7 = I2C1 SCL/SDA, alternate function 6, open drain */
     GPIO_MODER(GPIOA_BASE) = (GPIO_MODER(GPIOA_BASE) & ~0x3Fu) | 0x15u;
-    GPIO_MODER(GPIOB_BASE) = (GPIO_MODER(GPIOB_BASE) & ~(0xFu << 12)) | (0xAu << 12);
-    GPIO_OTYPER(GPIOB_BASE) |= (1u << 6) | (1u << 7);
-    GPIO_AFRL(GPIOB_BASE) = (GPIO_AFRL(GPIOB_BASE) & ~(0xFFu << 24)) | (0x66u << 24);
+    GPIO_MODER(GPIOB_BASE) = (GPIO_MODER(GPIOB_BASE) & ~((uint32_t)0xFu << 12)) | ((uint32_t)0xAu << 12);
+    GPIO_OTYPER(GPIOB_BASE) |= ((uint32_t)1u << 6) | ((uint32_t)1u << 7);
+    GPIO_AFRL(GPIOB_BASE) = (GPIO_AFRL(GPIOB_BASE) & ~((uint32_t)0xFFu << 24)) | ((uint32_t)0x66u << 24);
 
     /* TIM2: free-running 32-bit counter at the core clock; CC1 = heartbeat compare */
     TIM2_PSC = 0u;
@@ -209,7 +209,7 @@ void urb_hal_cm0_i2c_irq(urb_hal_cm0_t *port)
             rx_reload(URB_I2C_ACK); /* one byte at a time, ACK decided per byte */
         }
         (void)verdict;            /* the address is always ACKed by the peripheral */
-        I2C_ICR = 1u << 3;        /* ADDRCF: release the clock */
+        I2C_ICR = (uint32_t)1u << 3;        /* ADDRCF: release the clock */
     }
     if ((isr & I2C_ISR_TCR) != 0u) {
         uint8_t const byte = (uint8_t)I2C_RXDR;
@@ -219,11 +219,11 @@ void urb_hal_cm0_i2c_irq(urb_hal_cm0_t *port)
         I2C_TXDR = (uint32_t)urb_node_i2c_event(node, URB_I2C_TX_BYTE, 0u) & 0xFFu;
     }
     if ((isr & I2C_ISR_NACKF) != 0u) {
-        I2C_ICR = 1u << 4;
+        I2C_ICR = (uint32_t)1u << 4;
         (void)urb_node_i2c_event(node, URB_I2C_TX_NACK, 0u);
     }
     if ((isr & I2C_ISR_STOPF) != 0u) {
-        I2C_ICR = 1u << 5;
+        I2C_ICR = (uint32_t)1u << 5;
         (void)urb_node_i2c_event(node, URB_I2C_STOP, 0u);
     }
 }

@@ -2,6 +2,7 @@
 """Generated URB message codecs: one module per schema, plus a registry of every message and node."""
 
 from ._runtime import (
+    ArgumentError,
     ChecksumError,
     DecodeError,
     EncodeError,
@@ -28,6 +29,7 @@ NODES: dict[str, NodeInfo] = {
 """Every node type of every bundled schema by name."""
 
 __all__ = [
+    'ArgumentError',
     'ChecksumError',
     'DecodeError',
     'EncodeError',

@@ -34,7 +34,26 @@ class OutOfRangeError(DecodeError):
 
 
 class EncodeError(ValueError):
-    """A field value cannot be encoded (wrong type or out of range)."""
+    """A field value cannot be encoded (wrong type, out of range, or a broken rule)."""
+
+
+class ArgumentError(TypeError):
+    """A decoder was called wrongly, whatever the frame holds: `data` is not bytes, bytearray or
+    memoryview, or an implicit field (the caller's, covered by the check but not sent) is missing,
+    of the wrong type, out of range or breaks a rule over implicit fields. The caller's mistake,
+    so not a DecodeError; checked before the frame, as the C decoder returns URB_ERR_ARGUMENT
+    before it reads the frame."""
+
+
+def frame_bytes(message: str, data: object) -> bytes:
+    """`data` as bytes when it is bytes, bytearray or memoryview; ArgumentError for anything else
+    (`bytes(5)` would be five zero bytes, `bytes([1, 2])` a frame made of a list)."""
+    if type(data) is bytes:
+        return data  # the common case first: every frame from a port or a file is bytes
+    if isinstance(data, (bytes, bytearray, memoryview)):
+        return bytes(data)
+    raise ArgumentError(f"{message}.decode takes the frame as bytes, bytearray or memoryview, not "
+                        f"{type(data).__name__}: pass the received bytes (e.g. bytes.fromhex('1f89'))")
 
 
 @dataclass(frozen=True)
@@ -64,15 +83,22 @@ class Message:
     MIN_SIZE: ClassVar[int]
     MAX_SIZE: ClassVar[int]
     FIELDS: ClassVar[tuple[FieldInfo, ...]]
+    RULES: ClassVar[tuple[str, ...]] = ()
+    """The schema's rules (`require`) of this message, as written there."""
 
     def encode(self) -> bytes:
-        """The frame for this message; EncodeError on a bad value."""
+        """The frame for this message; EncodeError on a bad value or a broken rule."""
         raise NotImplementedError
 
     @classmethod
     def decode(cls, data: bytes | bytearray | memoryview) -> Self:
-        """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range)."""
+        """Parse one frame; raises a DecodeError subclass (too short, too long, checksum, out of range,
+        broken rule), or ArgumentError when the call itself is wrong (see ArgumentError)."""
         raise NotImplementedError
+
+    def broken_rule(self) -> str | None:
+        """The first rule (`require`) this message breaks, or None; its fields are assumed valid."""
+        return None
 
     def to_dict(self) -> dict[str, Any]:
         """Field values as plain Python data (nested dicts, lists, ints, bools, bytes)."""

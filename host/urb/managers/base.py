@@ -534,7 +534,7 @@ class ThreadedManager(BusManager):
             self._collect()
         self._complete_without_dispatcher()
         return PortError(f"{text} The bridge stays lost (requests complete BRIDGE_LOST); call reconnect() again "
-                         f"once the {uplink} is back.")
+                         f"once the {uplink} is back.", detail=text)
 
     def _restart(self, start_io: Callable[[], None]) -> None:
         """A reconnect whose uplink reopened: reset the protocol and start the threads again."""

@@ -17,6 +17,7 @@ import errno
 import os
 import re
 import select
+import termios
 import threading
 
 import serial
@@ -200,13 +201,16 @@ def open_serial(port: str, baud: int) -> serial.Serial:
 
 def port_error_message(port: str, exc: BaseException) -> str:
     """A one-paragraph explanation of why `port` cannot be used and what to do."""
-    code = getattr(exc, "errno", None)
-    if code is None and isinstance(exc.__context__, OSError):
-        code = exc.__context__.errno
+    code = error_number(exc)
     text = str(exc)
+    ports = "serial ports are usually /dev/ttyS*, /dev/ttyUSB* or /dev/ttyACM* (`ls /dev/tty[SUA]*`)"
     if code == errno.ENOENT or "No such file" in text:
-        return (f"{port}: no such port. Check the path and the cable; serial ports are usually "
-                f"/dev/ttyS*, /dev/ttyUSB* or /dev/ttyACM* (`ls /dev/tty[SUA]*`).")
+        return f"{port}: no such port. Check the path and the cable; {ports}."
+    if code == errno.EISDIR or os.path.isdir(port):
+        return f"{port}: is a directory, not a serial port. Give the bridge's device; {ports}."
+    if code == errno.ENOTTY:
+        kind = "a regular file" if os.path.isfile(port) else "a device that is not a terminal"
+        return f"{port}: not a serial port ({kind}). Give the bridge's device; {ports}."
     if code == errno.EACCES or "Permission denied" in text:
         user = os.environ.get("USER", "$USER")
         return (f"{port}: permission denied. Add yourself to the group owning the port "
@@ -218,13 +222,28 @@ def port_error_message(port: str, exc: BaseException) -> str:
     return f"{port}: cannot open the port: {describe_io_error(exc)}."
 
 
+def error_number(exc: BaseException) -> int | None:
+    """The errno behind an exception, wherever pyserial put it: the exception's own, its
+    context's (an OSError, or termios.error's first argument), or one quoted in its text
+    ("[Errno 21] ...", "(25, 'Inappropriate ioctl for device')")."""
+    for candidate in (exc, exc.__context__, exc.__cause__):
+        if candidate is None:
+            continue
+        code = getattr(candidate, "errno", None)
+        if isinstance(code, int):
+            return code
+        args = getattr(candidate, "args", ())
+        if isinstance(candidate, termios.error) and args and isinstance(args[0], int):
+            return args[0]
+    found = re.search(r"\[Errno (\d+)\]|\((\d+), '", str(exc))
+    return int(found.group(1) or found.group(2)) if found else None
+
+
 def describe_io_error(exc: BaseException) -> str:
-    code = getattr(exc, "errno", None)
-    if code is None:  # pyserial wraps OSError text in SerialException("write failed: [Errno 5] ...")
-        found = re.search(r"\[Errno (\d+)\]", str(exc))
-        code = int(found.group(1)) if found else None
+    """What an I/O error on an open port means (the port is named by the caller)."""
+    code = error_number(exc)
     if code == errno.EIO or "returned no data" in str(exc):
-        return "the device went away (I/O error: unplugged, or the bridge process ended)"
+        return "I/O error: the device was unplugged, or the bridge process ended"
     return str(exc) or type(exc).__name__
 
 

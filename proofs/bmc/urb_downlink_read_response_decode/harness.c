@@ -70,6 +70,7 @@ void harness(void)
     m.data_len = URB_NONDET_U8();
     bool implicit_ok = true; /* the implicit members the caller set are valid */
     if (!((m.select.mailbox <= 7u))) { implicit_ok = false; }
+    if (!((int64_t)(m.select.read ? 1 : 0) != 0)) { implicit_ok = false; } /* require select.read */
     urb_downlink_read_response_t const given = m;
     urb_stub_link_check_reset();
     URB_COST_BEGIN();
@@ -92,6 +93,9 @@ void harness(void)
         if (!((m.select.mailbox <= 7u))) { valid = false; }
         if (!(m.data_len <= 32u)) { valid = false; }
         URB_ASSERT(valid, "decode: every decoded member is one the schema allows");
+        bool rules = true;
+        if (!((int64_t)(m.select.read ? 1 : 0) != 0)) { rules = false; } /* require select.read */
+        URB_ASSERT(rules, "decode: the decoded message keeps every rule (require) of the schema");
         URB_ASSERT(len <= URB_LEN_BOUND && spec_size(len) == length, "decode: the frame length matches the payload");
         size_t const cov = 0u + len;
         uint8_t prefix[1] = {0u};
@@ -137,6 +141,7 @@ void harness(void)
     bool valid = true;
     if (!((v.select.mailbox <= 7u))) { valid = false; }
     if (!(v.data_len <= 32u)) { valid = false; }
+    if (!((int64_t)(v.select.read ? 1 : 0) != 0)) { valid = false; } /* require select.read */
     if (fits && valid) {
         uint8_t frame[FRAME_BOUND];
         size_t const n = spec_frame(&v, frame, 0u);

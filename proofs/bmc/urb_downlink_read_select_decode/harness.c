@@ -79,6 +79,9 @@ void harness(void)
         bool valid = true;
         if (!((m.select.mailbox <= 7u))) { valid = false; }
         URB_ASSERT(valid, "decode: every decoded member is one the schema allows");
+        bool rules = true;
+        if (!((int64_t)(m.select.read ? 1 : 0) != 0)) { rules = false; } /* require select.read */
+        URB_ASSERT(rules, "decode: the decoded message keeps every rule (require) of the schema");
         URB_ASSERT(len <= URB_LEN_BOUND && spec_size(len) == length, "decode: the frame length matches the payload");
         /* Every bit of the frame is the schema's image of the decoded message: fields, fixed values and
          * zero padding at their offsets, the payload after the fixed part and the check at the end. So
@@ -101,6 +104,7 @@ void harness(void)
     bool const fits = true;
     bool valid = true;
     if (!((v.select.mailbox <= 7u))) { valid = false; }
+    if (!((int64_t)(v.select.read ? 1 : 0) != 0)) { valid = false; } /* require select.read */
     if (fits && valid) {
         uint8_t frame[FRAME_BOUND];
         size_t const n = spec_frame(&v, frame, 0u);

@@ -49,6 +49,7 @@ void harness(void)
     m.select.read = URB_NONDET_BOOL();
     bool valid = true; /* the schema allows every member value */
     if (!((m.select.mailbox <= 7u))) { valid = false; }
+    if (!((int64_t)(m.select.read ? 1 : 0) != 0)) { valid = false; } /* require select.read */
     size_t const expected = spec_size(0u);
 
 #if !defined(URB_PART) || URB_PART == 1

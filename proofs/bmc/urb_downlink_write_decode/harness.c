@@ -90,6 +90,9 @@ void harness(void)
         if (!((m.select.mailbox <= 7u))) { valid = false; }
         if (!(m.data_len <= 32u)) { valid = false; }
         URB_ASSERT(valid, "decode: every decoded member is one the schema allows");
+        bool rules = true;
+        if (!(!((int64_t)(m.select.read ? 1 : 0) != 0))) { rules = false; } /* require not select.read */
+        URB_ASSERT(rules, "decode: the decoded message keeps every rule (require) of the schema");
         URB_ASSERT(len <= URB_LEN_BOUND && spec_size(len) == length, "decode: the frame length matches the payload");
         size_t const cov = 1u + len;
         URB_ASSERT(urb_stub_link_check_count == 1u, "decode: computes the check once");
@@ -134,6 +137,7 @@ void harness(void)
     bool valid = true;
     if (!((v.select.mailbox <= 7u))) { valid = false; }
     if (!(v.data_len <= 32u)) { valid = false; }
+    if (!(!((int64_t)(v.select.read ? 1 : 0) != 0))) { valid = false; } /* require not select.read */
     if (fits && valid) {
         uint8_t frame[FRAME_BOUND];
         size_t const n = spec_frame(&v, frame, 0u);

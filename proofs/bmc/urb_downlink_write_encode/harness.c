@@ -68,6 +68,7 @@ void harness(void)
     bool valid = true; /* the schema allows every member value */
     if (!((m.select.mailbox <= 7u))) { valid = false; }
     if (!(m.data_len <= 32u)) { valid = false; }
+    if (!(!((int64_t)(m.select.read ? 1 : 0) != 0))) { valid = false; } /* require not select.read */
     size_t const expected = spec_size((size_t)m.data_len);
 
 #if !defined(URB_PART) || URB_PART == 1

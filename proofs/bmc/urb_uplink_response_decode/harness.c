@@ -91,6 +91,9 @@ void harness(void)
         if (!((m.status <= 8u))) { valid = false; }
         if (!(m.data_len <= 32u)) { valid = false; }
         URB_ASSERT(valid, "decode: every decoded member is one the schema allows");
+        bool rules = true;
+        if (!(((int64_t)m.status == (int64_t)0) || ((int64_t)m.data_len == (int64_t)0))) { rules = false; } /* require status == OK or len(data) == 0 */
+        URB_ASSERT(rules, "decode: the decoded message keeps every rule (require) of the schema");
         URB_ASSERT(len <= URB_LEN_BOUND && spec_size(len) == length, "decode: the frame length matches the payload");
         size_t const cov = 1u + len;
         URB_ASSERT(urb_stub_link_check_count == 1u, "decode: computes the check once");
@@ -135,6 +138,7 @@ void harness(void)
     if (!((v.seq <= 15u))) { valid = false; }
     if (!((v.status <= 8u))) { valid = false; }
     if (!(v.data_len <= 32u)) { valid = false; }
+    if (!(((int64_t)v.status == (int64_t)0) || ((int64_t)v.data_len == (int64_t)0))) { valid = false; } /* require status == OK or len(data) == 0 */
     if (fits && valid) {
         uint8_t frame[FRAME_BOUND];
         size_t const n = spec_frame(&v, frame, 0u);

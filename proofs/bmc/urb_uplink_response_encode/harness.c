@@ -69,6 +69,7 @@ void harness(void)
     if (!((m.seq <= 15u))) { valid = false; }
     if (!((m.status <= 8u))) { valid = false; }
     if (!(m.data_len <= 32u)) { valid = false; }
+    if (!(((int64_t)m.status == (int64_t)0) || ((int64_t)m.data_len == (int64_t)0))) { valid = false; } /* require status == OK or len(data) == 0 */
     size_t const expected = spec_size((size_t)m.data_len);
 
 #if !defined(URB_PART) || URB_PART == 1

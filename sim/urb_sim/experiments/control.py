@@ -288,6 +288,10 @@ def figs18_19(out: Path, *, quick: bool = False, seed: int = 18, progress: Progr
                   f"{extra} node update period(s) more (the node samples and drives on its 1-kHz update; {why})",
                   f"median {med:.3f} ms, mean {d:.3f} ms (over {len(axis.delays)} cycles)",
                   paper - 0.05 <= med <= paper + extra * NODE_PERIOD_MS + 0.05)
+        if med > paper + 0.05:
+            res.deviations.append(f"Figs. 18-19: over {up.upper()} the median sensor-to-actuator delay is {med:.1f} ms, "
+                                  f"not the paper's {paper:.0f} ms (whole node update periods more at this seed's "
+                                  f"phases)")
         res.check(f"{up}: tracking lag", f"tracking lag with the tuned gains <= the paper's {paper:.0f} ms",
                   f"{lag:.2f} ms", lag <= paper)
     progress(1.0, "Figs. 18-19: done")

@@ -8,7 +8,10 @@ node and writes one of them every millisecond over USB (3 reads and 1 write per 
 and writes every 5 ms. A fault is injected 100 ms after the loop starts (discovery has finished by
 then) and cleared at 300 ms (or is a one-off event then). The checks:
 
-  accounted   every submitted request reaches its callback exactly once;
+  accounted   every submitted request reaches its callback exactly once, request by request
+              (each request's number among the callbacks once: a lost callback and a doubled one
+              leave the totals equal, and fail); the experiment shows it on its own seeded bug, the
+              first scenario's callbacks with one lost and another doubled, which must be rejected;
   flags       at least one request fails, and every failure carries an error flag the fault can
               cause (the allowed set is listed per scenario: a wrong flag would name the wrong
               cause; no failure at all means the fault was not exercised);
@@ -36,7 +39,7 @@ from __future__ import annotations
 import math
 import time
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -70,7 +73,8 @@ class Outcome:
     what: str
     expect_failures: bool = True
     submitted: int = 0
-    callbacks: int = 0
+    called_back: list[int] = field(default_factory=list)
+    """The submission number (0, 1, ...) of the request of every callback, in callback order."""
     failures: Counter[str] = field(default_factory=Counter)
     flagged: Counter[str] = field(default_factory=Counter)
     """Failed requests per single flag (a request with two flags counts under both)."""
@@ -277,6 +281,44 @@ def _pattern_ok(data: bytes | None) -> bool:
     return all(data[i] == 0xA0 + i for i in range(4, 6)) or data == bytes(6)
 
 
+def accounting(submitted: int, called_back: Sequence[int]) -> tuple[str, bool]:
+    """The "accounted" check, request by request: (measured, passed). Requests are numbered 0 ..
+    submitted - 1 in submission order and `called_back` holds the number of each callback's
+    request; every number must be there exactly once. Comparing the totals is not enough: a lost
+    callback and a doubled one leave them equal."""
+    count = Counter(called_back)
+    lost = [n for n in range(submitted) if count[n] == 0]
+    repeated = sorted(n for n, c in count.items() if c > 1 and 0 <= n < submitted)
+    strays = sum(c for n, c in count.items() if not 0 <= n < submitted)
+    problems = []
+    if lost:
+        problems.append(f"{_n(len(lost), 'request')} never called back (#{_numbers(lost)})")
+    if repeated:
+        problems.append(f"{_n(len(repeated), 'request')} called back more than once (#{_numbers(repeated)})")
+    if strays:
+        problems.append(f"{_n(strays, 'callback')} for no request submitted")
+    measured = f"{len(called_back)} callbacks for {submitted} requests"
+    return measured + (": " + "; ".join(problems) if problems else ", each request exactly once"), not problems
+
+
+def _numbers(ns: Sequence[int], most: int = 5) -> str:
+    """'3, 17, 40' (and how many more)."""
+    shown = ", ".join(map(str, ns[:most]))
+    return shown + (f" and {len(ns) - most} more" if len(ns) > most else "")
+
+
+def lose_one_double_another(called_back: Sequence[int]) -> list[int]:
+    """The accounting check's seeded bug: the callbacks of a run with one lost (the middle one's)
+    and the next one run twice. The totals stay equal."""
+    if len(called_back) < 2:
+        raise ValueError(f"{len(called_back)} callbacks: the seeded bug needs two")
+    i = len(called_back) // 2
+    return [*called_back[:i], called_back[i + 1], *called_back[i + 1:]]
+
+
+MUTANT_CHECK = "mutant rejected: a lost callback and a doubled one"
+
+
 def crc8_residual_bound(detected: int, p_false: float = 1e-6) -> int:
     """The most corrupted frames a CRC-8 lets through, given `detected` caught ones, that a correct
     check exceeds with probability below `p_false`: a frame of random bits passes an 8-bit check
@@ -304,16 +346,17 @@ def run_scenario(sc: Scenario, seed: int, trace: Path | None = None, params: dic
         s.world.trace(trace, Trace.FAULT)
     acc = [s.urb.find_node(0x7E, i) for i in range(3)]
     out = Outcome(sc.key, sc.what, sc.expect_failures)
-    seen: set[int] = set()
-    alive: list[NodeRequest] = []  # keeps ids unique
+    number: dict[int, int] = {}  # id(request) -> its submission number
+    alive: list[NodeRequest] = []  # keeps the requests, hence their ids, alive and unique
+    called: set[int] = set()
     t0 = s.world.now  # the time origin of the fault schedule and of the timeline
 
     def cb(req: NodeRequest) -> None:
-        out.callbacks += 1
-        if id(req) in seen:
-            out.failures["CALLBACK TWICE"] += 1
-            out.wrong_flags["CALLBACK TWICE"] += 1
-        seen.add(id(req))
+        n = number.get(id(req), -1)
+        out.called_back.append(n)
+        if n in called:
+            return  # its outcome is counted once; accounting() reports the repeat
+        called.add(n)
         out.timeline.append(((s.world.now - t0) / 1e6, req.ok))
         if req.status is not None:
             out.answered += 1
@@ -340,8 +383,9 @@ def run_scenario(sc: Scenario, seed: int, trace: Path | None = None, params: dic
                 reqs.append(acc[1].new_request().write(1, b"\x12\x34"))
         for r in reqs:
             alive.append(r)
-            r.node.submit_request(r.set_callback(cb))
+            number[id(r)] = out.submitted
             out.submitted += 1
+            r.node.submit_request(r.set_callback(cb))
 
     out.base = {name: _stat(s, name, b) for name in _BASE}
     loop = Loop(s.host, NS_PER_MS, tick)
@@ -377,15 +421,15 @@ def faults(out: Path, *, quick: bool = False, seed: int = 300, progress: Progres
     res.sim_s = len(scs) * 1.1
     rows = []
     for o in outcomes:
-        rows.append([o.key, o.what, o.submitted, o.callbacks, sum(o.failures.values()),
+        rows.append([o.key, o.what, o.submitted, len(o.called_back), sum(o.failures.values()),
                      "; ".join(f"{k}={v}" for k, v in sorted(o.failures.items())),
                      "; ".join(f"{k}={v}" for k, v in sorted(o.wrong_flags.items())), o.corrupt_ok,
                      int(o.recovered), o.reaction])
         res.table.append({"scenario": o.key, "requests": o.submitted, "failed": sum(o.failures.values()),
                           "flags": ", ".join(f"{k} {v}" for k, v in o.failures.most_common()),
                           "recovered": o.recovered, "firmware reaction": o.reaction})
-        res.check(f"{o.key}: accounted", "every request reaches its callback exactly once",
-                  f"{o.callbacks} callbacks for {o.submitted} requests", o.callbacks == o.submitted)
+        res.check(f"{o.key}: accounted", "every request reaches its callback exactly once, matched request by "
+                  "request", *accounting(o.submitted, o.called_back))
         res.check(f"{o.key}: flags", *_flags_check(o))
         residual = crc8_residual_bound(sum(o.failures.values()))
         res.check(f"{o.key}: no silent corruption", "reads reported OK return the exact data, up to the CRC-8 "
@@ -395,6 +439,12 @@ def faults(out: Path, *, quick: bool = False, seed: int = 300, progress: Progres
         res.check(f"{o.key}: recovery and reaction", "the last 100 requests succeed; the firmware or host library "
                   "reacted to the fault as designed, by its own counters (for a random fault: it hit something)",
                   f"{'recovered' if o.recovered else 'NOT recovered'}; {o.reaction}", o.recovered and o.reaction_ok)
+    first = outcomes[0]
+    mutant = lose_one_double_another(first.called_back)
+    measured, accepted = accounting(first.submitted, mutant)
+    res.check(MUTANT_CHECK, f"the accounted check rejects {first.key}'s callbacks with one lost and another doubled "
+              "(the totals stay equal, so a comparison of totals would accept them)", f"{first.key}: {measured}",
+              not accepted and len(mutant) == len(first.called_back))
     res.files.append(write_csv(out / "faults.csv", ["scenario", "fault", "requests", "callbacks", "failed", "flags",
                                                     "unexpected_flags", "corrupt_ok_reads", "recovered", "reaction"],
                                rows))

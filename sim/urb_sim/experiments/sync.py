@@ -17,7 +17,12 @@ Metrics, per run (20 runs, seeds seed..seed+19):
   single-node jitter          standard deviation of a node's ACQ_END period over the steady state
                               (mean of the two nodes), and the largest deviation from the mean period;
   data age                    time from a node's last ACQ_END to the bridge's read of it (Fig. 11).
-Table I's "average" and "max" columns are the mean and the largest of the per-run figures.
+The report's "average" and "max of runs" columns are the mean and the largest of the per-run
+figures, and "worst single cycle" the largest single cycle of any run's steady state (the largest
+|difference| of one cycle; the largest deviation of one ACQ_END period from its node's mean
+period; the oldest single read). The paper's Table I gives "Average" and "Max" of 20 experiments
+and does not say whether its Max is the largest per-experiment figure or the largest single
+cycle its oscilloscope saw, so both must be within it (DEFINITIONS, shown next to ours).
 
 One procedure, as booted: nothing happens after discovery but the 1-kHz reads. Each node's phase
 lead is its measured acquisition time t_acq, a windowed maximum (firmware/node/README.md), so an
@@ -28,6 +33,8 @@ updates and needs no inbox-0 RESET.
 from __future__ import annotations
 
 import bisect
+import math
+import random
 import statistics
 import time
 from dataclasses import dataclass, field
@@ -35,10 +42,37 @@ from pathlib import Path
 
 from ..native import App, Mark
 from ..system import NS_PER_MS, Loop, System
-from . import Progress, Result, no_progress, pyplot, write_csv
+from . import Progress, Result, no_progress, profile_targets, pyplot, write_csv
 
 PAPER = {"convergence_ms": (78.4, 88.4), "internode_us": (0.19, 0.56), "jitter_us": (0.92, 1.33)}
 THRESHOLD_NS = 2000
+
+#: What every column of Table I means: the paper's words (Sec. VI-C and Table I's caption: "for 20
+#: experiments measuring key transitions with an oscilloscope", "Average" and "Max") next to the
+#: simulation's, per metric: (metric, paper's definition, paper's Average, paper's Max, ours).
+DEFINITIONS = [
+    ("initial convergence delay",
+     "\"the time it takes for all nodes to converge to the same heartbeat period and phase\"",
+     "\"Average\" of the 20 experiments (not defined further)", "\"Max\" of the 20 experiments: one delay each, so the "
+     "largest of them",
+     "from the first SYNC until both nodes' ACQ_END stay within 2 us of their final phase against SYNC and of "
+     "the SYNC period; average: mean of the runs' figures; max of runs: the largest (one figure per run, so no "
+     "single-cycle worst case)"),
+    ("inter-node difference in t_acq_end",
+     "\"the time difference between any two nodes on the same bus\" (of the end of acquisition)",
+     "\"Average\" of the 20 experiments (not defined further)", "\"Max\" of the 20 experiments, not defined further: "
+     "the largest experiment's figure, or the largest single difference the oscilloscope saw",
+     "per run: mean |t_acq_end(A) - t_acq_end(B)| over the steady state (the run's last 300 ms); average: mean of "
+     "the runs' figures; max of runs: the largest run's mean; worst single cycle: the largest |difference| of "
+     "one cycle in any run's steady state"),
+    ("single-node jitter on t_acq_end",
+     "\"the variation in the heartbeat period of a single node\"",
+     "\"Average\" of the 20 experiments (not defined further)", "\"Max\" of the 20 experiments, not defined further: "
+     "the largest experiment's figure, or the largest single period deviation the oscilloscope saw",
+     "per run: the standard deviation of a node's ACQ_END period over the steady state (mean of the two nodes); "
+     "average: mean of the runs' figures; max of runs: the largest run's; worst single cycle: the largest "
+     "deviation of one period from its node's mean period in any run's steady state"),
+]
 
 
 @dataclass
@@ -62,6 +96,27 @@ def _wrap(d: float, period: float) -> float:
     return (d + period / 2) % period - period / 2
 
 
+class Scope:
+    """Table I's marks as an oscilloscope sees them (scope.sample_ns, scope.skew_ns, scope.ppm;
+    sim/profiles): every channel sampled on one grid of `sample_ns` of the scope's own timebase (off
+    by `ppm`) whose phase the trigger sets (drawn per run), each mark's path (GPIO pin, probe,
+    channel) late by a fixed skew drawn per node in [0, skew_ns]. An edge is seen at the first
+    sample at or after it. sample_ns 0: true (virtual) time."""
+
+    def __init__(self, seed: int, sample_ns: float, skew_ns: float, channels: int, ppm: float = 0.0) -> None:
+        rng = random.Random(f"scope/{seed}")
+        self.rate = 1.0 + ppm * 1e-6
+        self.sample_ns = sample_ns
+        self.phase = rng.uniform(0.0, sample_ns) if sample_ns > 0 else 0.0
+        self.skew = [rng.uniform(0.0, skew_ns) for _ in range(channels)]
+
+    def see(self, channel: int, times: list[int]) -> list[int]:
+        if self.sample_ns <= 0:
+            return times
+        d, ph, sk, rate = self.sample_ns, self.phase, self.skew[channel], self.rate
+        return [int(math.ceil(((t + sk) * rate - ph) / d) * d + ph) for t in times]
+
+
 def one_run(seed: int, synced: bool, duration_ms: int, steady_ms: int = 300) -> Run:
     s = System(seed=seed, probe_out=6, params={"node.sync": 1.0 if synced else 0.0, "bridge.heartbeat_sof": 1.0})
     b = s.bridge("usb")
@@ -75,6 +130,7 @@ def one_run(seed: int, synced: bool, duration_ms: int, steady_ms: int = 300) -> 
             marks[n].extend(s.world.node_marks(n))
         bmarks.extend(s.world.bridge_marks(b))
 
+    scope = Scope(seed, s.world.get("scope.sample_ns"), s.world.get("scope.skew_ns"), 3, s.world.get("scope.ppm"))
     s.start(settle_ms=40)
     drain()
     nodes = [s.urb.find_node(0x7E, 0), s.urb.find_node(0x7E, 1)]
@@ -94,9 +150,11 @@ def one_run(seed: int, synced: bool, duration_ms: int, steady_ms: int = 300) -> 
         drain()
     s.close()
 
-    acq = {n: [t for t, k, _ in marks[n] if k == Mark.ACQ_END] for n in (na, nb)}
+    # the SYNC on the bus (channel 0) and each node's ACQ_END pin (channels 1, 2), as the scope sees them
+    true_acq = {n: [t for t, k, _ in marks[n] if k == Mark.ACQ_END] for n in (na, nb)}
+    acq = {n: scope.see(1 + i, true_acq[n]) for i, n in enumerate((na, nb))}
     reads = {n: [t for t, k, _ in marks[n] if k == Mark.READ] for n in (na, nb)}
-    syncs = [t for t, k, v in bmarks if k == Mark.BRIDGE_SYNC and v == 1]
+    syncs = scope.see(0, [t for t, k, v in bmarks if k == Mark.BRIDGE_SYNC and v == 1])
     if not syncs or len(acq[na]) < 100 or len(acq[nb]) < 100:
         return run
     t_sync0 = syncs[0]
@@ -153,9 +211,9 @@ def one_run(seed: int, synced: bool, duration_ms: int, steady_ms: int = 300) -> 
         for t in reads[n]:
             if t < steady_from:
                 continue
-            i = bisect.bisect_right(acq[n], t) - 1
+            i = bisect.bisect_right(true_acq[n], t) - 1  # the data's age is the bridge's, not the scope's
             if i >= 0:
-                run.ages.append((t - acq[n][i]) / 1e3)
+                run.ages.append((t - true_acq[n][i]) / 1e3)
     if run.ages:
         run.age_mean_us = statistics.mean(run.ages)
         run.age_max_us = max(run.ages)
@@ -189,30 +247,49 @@ def table1(out: Path, *, quick: bool = False, seed: int = 100, progress: Progres
                                  r.jitter_us, r.jitter_max_us, r.age_mean_us, r.age_max_us, r.failed_reads)
                                 for label, bucket, _ in plan for r in bucket)))
 
-    def avg_max(vals: list[float]) -> tuple[float, float]:
-        v = [x for x in vals if x == x]
-        return (statistics.mean(v), max(v)) if v else (float("nan"), float("nan"))
+    def stats(per_run: list[float], worst: list[float]) -> tuple[float, float, float]:
+        """(mean and largest of the runs' figures, worst single cycle) of the runs that gave them."""
+        v, w = [x for x in per_run if x == x], [x for x in worst if x == x]
+        nan = float("nan")
+        return (statistics.mean(v) if v else nan, max(v) if v else nan, max(w) if w else nan)
 
-    conv = avg_max([r.convergence_ms for r in synced])
-    inter = avg_max([r.internode_us for r in synced])
-    jit = avg_max([r.jitter_us for r in synced])
-    age_s = avg_max([r.age_mean_us for r in synced])
-    age_f = avg_max([r.age_mean_us for r in free])
-    inter_f = avg_max([r.internode_us for r in free])
-    rows = [("initial convergence delay (ms)", conv, PAPER["convergence_ms"]),
-            ("inter-node difference in t_acq_end (us)", inter, PAPER["internode_us"]),
-            ("single-node jitter on t_acq_end (us)", jit, PAPER["jitter_us"])]
-    for name, (av, mx), (pav, pmx) in rows:
-        res.table.append({"metric": name, "sim_average": round(av, 3), "sim_max": round(mx, 3),
-                          "paper_average": pav, "paper_max": pmx})
-        res.check(name, f"average <= {pav} and max <= {pmx} (match or beat the paper)",
-                  f"average {av:.3f}, max {mx:.3f}", av <= pav and mx <= pmx)
-    res.table.append({"metric": "unsynchronised: inter-node difference (us)", "sim_average": round(inter_f[0], 1),
-                      "sim_max": round(inter_f[1], 1), "paper_average": "", "paper_max": ""})
-    res.table.append({"metric": "data age at the bridge's read, synchronised (us)", "sim_average": round(age_s[0], 1),
-                      "sim_max": round(age_s[1], 1), "paper_average": "", "paper_max": ""})
-    res.table.append({"metric": "data age at the bridge's read, unsynchronised (us)", "sim_average": round(age_f[0], 1),
-                      "sim_max": round(age_f[1], 1), "paper_average": "", "paper_max": ""})
+    conv = stats([r.convergence_ms for r in synced], [])
+    inter = stats([r.internode_us for r in synced], [r.internode_max_us for r in synced])
+    jit = stats([r.jitter_us for r in synced], [r.jitter_max_us for r in synced])
+    age_s = stats([r.age_mean_us for r in synced], [r.age_max_us for r in synced])
+    age_f = stats([r.age_mean_us for r in free], [r.age_max_us for r in free])
+    inter_f = stats([r.internode_us for r in free], [r.internode_max_us for r in free])
+    # (metric, figures, the paper's, whether it has single cycles: convergence is one figure per run)
+    rows = [("initial convergence delay (ms)", conv, PAPER["convergence_ms"], False),
+            ("inter-node difference in t_acq_end (us)", inter, PAPER["internode_us"], True),
+            ("single-node jitter on t_acq_end (us)", jit, PAPER["jitter_us"], True)]
+    calibrated = _calibrated()
+    for name, (av, mx, worst), (pav, pmx), per_cycle in rows:
+        res.table.append({"metric": name, "paper average": pav, "paper max": pmx, "sim average": round(av, 3),
+                          "sim max of runs": round(mx, 3),
+                          "sim worst single cycle": round(worst, 3) if per_cycle else "(one figure per run)"})
+        if calibrated:
+            continue  # a profile calibrated to the paper is held to its targets instead (_targets)
+        if not per_cycle:
+            res.check(name, f"average <= {pav} and max <= {pmx} (match or beat the paper)",
+                      f"average {av:.3f}, max {mx:.3f}", av <= pav and mx <= pmx)
+        else:
+            res.check(name, f"average <= {pav}, and max <= {pmx} under both readings of the paper's Max: the "
+                      "largest run's figure and the worst single cycle (match or beat the paper)",
+                      f"average {av:.3f}, max of runs {mx:.3f}, worst single cycle {worst:.3f}",
+                      av <= pav and mx <= pmx and worst <= pmx)
+    for name, (av, mx, worst) in [("unsynchronised: inter-node difference (us)", inter_f),
+                                  ("data age at the bridge's read, synchronised (us)", age_s),
+                                  ("data age at the bridge's read, unsynchronised (us)", age_f)]:
+        res.table.append({"metric": name, "paper average": "", "paper max": "", "sim average": round(av, 1),
+                          "sim max of runs": round(mx, 1), "sim worst single cycle": round(worst, 1)})
+    res.tables.append(("What each column means: the paper's definition next to the simulation's (the paper: Sec. "
+                       "VI-C and Table I, 20 experiments measured with an oscilloscope)",
+                       [{"metric": m, "paper's definition": d, "paper's Average": a, "paper's Max": x,
+                         "simulation's (average, max of runs, worst single cycle)": ours}
+                        for m, d, a, x, ours in DEFINITIONS]))
+    profile_targets(res, {m: (av, mx) for m, (av, mx, _) in
+                          (("convergence_ms", conv), ("internode_us", inter), ("jitter_us", jit))})
     fails = sum(r.failed_reads for r in synced + free)
     res.check("reads answered", "every host read of both nodes completes OK", f"{fails} failed", fails == 0)
     res.check("Fig. 11 vs Fig. 12", "synchronisation makes data fresher: mean data age synchronised < unsynchronised",
@@ -221,8 +298,17 @@ def table1(out: Path, *, quick: bool = False, seed: int = 100, progress: Progres
     res.notes.append("No inbox-0 RESET after discovery: every figure is from the runs as booted (the phase lead "
                      "t_acq is a windowed maximum that forgets acquisitions the start-up scan preempted).")
     res.notes.append(f"Steady-state thresholds: {THRESHOLD_NS / 1e3:.0f} us; jitter = standard deviation of the "
-                     f"ACQ_END period; the per-cycle worst cases are in table1_sync_runs.csv.")
+                     f"ACQ_END period; each run's figures and worst cycles are in table1_sync_runs.csv.")
     return res
+
+
+def _calibrated() -> bool:
+    """Whether the active hardware profile is calibrated to the paper's Table I (has targets for it):
+    its Table I is then checked against the targets' tolerances, not against "match or beat the paper"."""
+    from .. import profiles
+
+    prof = profiles.active()
+    return prof is not None and any(t.metric in profiles.TABLE1_METRICS for t in prof.targets)
 
 
 def _plot(path: Path, s0: Run, f0: Run, synced: list[Run], free: list[Run]) -> Path:

@@ -67,5 +67,7 @@ int run_downlink_tests(void);
 int run_usb_tests(void);
 int run_sync_tests(void);
 int run_discovery_tests(void);
+int run_edges_tests(void);
+int run_mutation_kill_tests(void);
 
 #endif

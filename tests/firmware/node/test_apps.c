@@ -57,6 +57,39 @@ static urb_identification_t identification(rig_t *r)
     return id;
 }
 
+/* The bridge's read of outbox m, begun (its first byte clocked out) and held open: the interrupt
+ * keeps that buffer (MailboxOutbox.tla IsrReadBegin) until end_read(). */
+static void hold_read(urb_node_t *node, uint8_t m)
+{
+    assert_true(fx_select(node, m));
+    (void)urb_node_i2c_event(node, URB_I2C_ADDR_READ, 0u);
+    (void)urb_node_i2c_event(node, URB_I2C_TX_BYTE, 0u);
+}
+
+static void end_read(urb_node_t *node)
+{
+    (void)urb_node_i2c_event(node, URB_I2C_TX_NACK, 0u);
+    (void)urb_node_i2c_event(node, URB_I2C_STOP, 0u);
+}
+
+/* Step hook: the bridge commits a write to inbox `inbox` right after each AppLockClaim of that
+ * inbox, so every attempt of the application's lock fails its front check: BUSY. */
+typedef struct {
+    uint8_t inbox;
+    const uint8_t *data;
+    size_t len;
+    unsigned writes;
+} lander_t;
+
+static void lands_at_claim(urb_node_t *node, uint8_t step, void *ctx)
+{
+    lander_t *l = ctx;
+    if ((step == URB_STEP_IN_CLAIM) && (node->inbox[l->inbox].app_idx != URB_NONE)) {
+        assert_int_equal(fx_write(node, l->inbox, l->data, l->len), FX_ALL_ACKED);
+        l->writes++;
+    }
+}
+
 /* ===== Motor ================================================================================ */
 
 static fake_motor_t fm;
@@ -310,6 +343,88 @@ static void motor_protection(void **state)
     assert_int_equal(motor.mode, URB_MOTOR_MODE_DISABLED);
 }
 
+/* An update whose outbox lock finds the bridge still reading the buffer it would fill (BUSY) skips
+ * publishing; the first update after the read publishes again: the host never sees a torn or a
+ * skipped-then-stale value. Feedback (every update) and status (every 100th; its counter waits). */
+static void motor_skips_a_busy_outbox(void **state)
+{
+    (void)state;
+    fm.encoder = 1u;
+    beats(&rig, 1u);           /* feedback in buffer A */
+    hold_read(&rig.node, 1u);  /* the bridge reads A */
+    fm.encoder = 2u;
+    beats(&rig, 1u);           /* B published */
+    fm.encoder = 3u;
+    beats(&rig, 1u);           /* A still read: BUSY, nothing published */
+    end_read(&rig.node);
+    assert_int_equal(motor_feedback().encoder, 2u);
+    fm.encoder = 4u;
+    beats(&rig, 1u);
+    assert_int_equal(motor_feedback().encoder, 4u);
+
+    beats(&rig, 100u);         /* a status published, its counter restarted */
+    hold_read(&rig.node, 2u);
+    beats(&rig, 200u);         /* the next one published, the one after that BUSY: its counter waits */
+    assert_true(motor.status_count >= 100u);
+    end_read(&rig.node);
+    beats(&rig, 1u);
+    assert_int_equal(motor.status_count, 0u);
+}
+
+/* A lock of the command or configuration inbox that stays BUSY (the bridge writes it again during
+ * every attempt) keeps the previous command and configuration for this update; the next update reads
+ * the newest ones. */
+static void motor_busy_inboxes(void **state)
+{
+    (void)state;
+    motor_config(URB_MOTOR_MODE_VOLTAGE, 0u, 0u, 0, 6000u);
+    motor_command(1000);
+    beats(&rig, 1u);
+    assert_int_equal(fm.drive, 1000);
+    uint8_t cmd[URB_MOTOR_COMMAND_SIZE];
+    urb_motor_command_t const c = {2000};
+    assert_int_equal(urb_motor_command_encode(&c, cmd, sizeof cmd), (int)sizeof cmd);
+    lander_t l = {1u, cmd, sizeof cmd, 0u};
+    fx_step_hook = lands_at_claim;
+    fx_step_ctx = &l;
+    beats(&rig, 1u);
+    fx_step_hook = NULL;
+    assert_int_equal(l.writes, 3u);
+    assert_int_equal(fm.drive, 1000); /* no fresh command this update */
+    beats(&rig, 1u);
+    assert_int_equal(fm.drive, 2000);
+
+    uint8_t mc[URB_MOTOR_CONFIG_SIZE];
+    urb_motor_config_t const off = {URB_MOTOR_MODE_DISABLED, 0u, 0u, 0, 6000u};
+    assert_int_equal(urb_motor_config_encode(&off, mc, sizeof mc), (int)sizeof mc);
+    l = (lander_t){2u, mc, sizeof mc, 0u};
+    fx_step_hook = lands_at_claim;
+    fx_step_ctx = &l;
+    motor_command(2500);
+    beats(&rig, 1u);
+    fx_step_hook = NULL;
+    assert_int_equal(l.writes, 3u);
+    assert_int_equal(motor.mode, URB_MOTOR_MODE_VOLTAGE); /* the new configuration waits */
+    assert_int_equal(fm.drive, 2500);
+    beats(&rig, 1u);
+    assert_int_equal(motor.mode, URB_MOTOR_MODE_DISABLED);
+}
+
+/* Only signal 1 (calibrate) means something to the motor: another signal changes nothing. */
+static void motor_other_signals_ignored(void **state)
+{
+    (void)state;
+    fm.encoder = 0u;
+    beats(&rig, 1u);
+    fm.encoder = 100u;
+    beats(&rig, 1u);
+    int32_t const position = motor.position;
+    assert_true(position != 0);
+    assert_int_equal(fx_command(&rig.node, URB_COMMAND_CODE_SIGNAL, 2u, 0u, 0u), FX_ALL_ACKED);
+    (void)urb_node_poll(&rig.node);
+    assert_int_equal(motor.position, position);
+}
+
 /* ===== Battery ============================================================================== */
 
 typedef struct {
@@ -356,6 +471,23 @@ static void battery_status(void **state)
     assert_true(st.charging);
     assert_int_equal(sensorhex_battery_charge(&cfg, 9000u, 0), 0u);
     assert_int_equal(sensorhex_battery_charge(&cfg, 11250u, 0), 50u);
+    sensorhex_battery_config_t flat = cfg; /* a misconfigured curve (full <= empty): 0 %, no division by 0 */
+    flat.full_mv = flat.empty_mv;
+    assert_int_equal(sensorhex_battery_charge(&flat, 11250u, 0), 0u);
+    /* the bridge still reading the status buffer the next update would fill: that update skips */
+    hold_read(&rig.node, 1u);
+    fb_.mv[0] = 12000u;
+    beats(&rig, 10u);
+    fb_.mv[0] = 11000u;
+    beats(&rig, 10u);
+    end_read(&rig.node);
+    assert_true(fx_read_checked(&rig.node, 1u, 19u, data));
+    assert_int_equal(urb_battery_status_decode(&st, data, 19u), 19);
+    assert_int_equal(st.packs[0].voltage, 12000u);
+    beats(&rig, 10u);
+    assert_true(fx_read_checked(&rig.node, 1u, 19u, data));
+    assert_int_equal(urb_battery_status_decode(&st, data, 19u), 19);
+    assert_int_equal(st.packs[0].voltage, 11000u);
     (void)urb_node_i2c_event(&rig.node, URB_I2C_STUCK, 0u);
     (void)urb_node_poll(&rig.node);
     assert_int_equal(app.faults, 1u);
@@ -430,6 +562,36 @@ static void imu_oversamples(void **state)
     assert_int_equal(fx_command(&rig.node, URB_COMMAND_CODE_RESET, 0u, 0u, 0u), FX_ALL_ACKED);
     (void)urb_node_poll(&rig.node);
     assert_int_equal(app.sample, 0u);
+    /* a fault reaches the app */
+    (void)urb_node_i2c_event(&rig.node, URB_I2C_STUCK, 0u);
+    (void)urb_node_poll(&rig.node);
+    assert_int_equal(app.faults, 1u);
+}
+
+/* An IMU update that finds the bridge reading the buffer it would fill skips that sample's publication. */
+static void imu_skips_a_busy_outbox(void **state)
+{
+    (void)state;
+    static const sensorhex_imu_io_t io = {&fi, fi_read};
+    sensorhex_imu_t app;
+    sensorhex_imu_config_t cfg;
+    sensorhex_imu_defaults(&cfg, 1u);
+    sensorhex_imu_setup(&app, &io, &cfg);
+    fi = (fake_imu_t){100, 0u, false};
+    rig_start(&rig, &sensorhex_imu_hooks, &app, sensorhex_imu_node_config);
+    beats(&rig, 10u); /* sample 0 published */
+    hold_read(&rig.node, 1u);
+    beats(&rig, 20u); /* sample 1 published, sample 2 skipped */
+    end_read(&rig.node);
+    uint8_t data[14];
+    urb_imu_sample_t s;
+    assert_true(fx_read_checked(&rig.node, 1u, 14u, data));
+    assert_int_equal(urb_imu_sample_decode(&s, data, 14u), 14);
+    assert_int_equal(s.sample, 1u);
+    beats(&rig, 10u);
+    assert_true(fx_read_checked(&rig.node, 1u, 14u, data));
+    assert_int_equal(urb_imu_sample_decode(&s, data, 14u), 14);
+    assert_true(s.sample > 1u);
 }
 
 /* ===== IR distance ========================================================================== */
@@ -484,6 +646,21 @@ static void ir_median_and_validity(void **state)
     r = ir_read();
     assert_false(r.valid); /* weak return */
     assert_int_equal(r.strength, 5u);
+    fir = (fake_ir_t){50u, 80u};
+    beats(&rig, 30u);
+    r = ir_read();
+    assert_int_equal(r.distance, 50u);
+    assert_false(r.valid); /* closer than the sensor's range */
+    /* the bridge still reading the buffer the next update would fill: the updates skip until it ends */
+    fir.mm = 700u;
+    beats(&rig, 30u);
+    hold_read(&rig.node, 1u);
+    fir.mm = 800u;
+    beats(&rig, 30u); /* median 700 published, then 800 twice skipped */
+    end_read(&rig.node);
+    assert_int_equal(ir_read().distance, 700u);
+    beats(&rig, 10u);
+    assert_int_equal(ir_read().distance, 800u);
     assert_int_equal(sensorhex_ir_median3(3u, 1u, 2u), 2u);
     assert_int_equal(sensorhex_ir_median3(1u, 3u, 2u), 2u);
     assert_int_equal(sensorhex_ir_median3(2u, 3u, 1u), 2u);
@@ -507,8 +684,12 @@ int main(void)
         cmocka_unit_test_setup(motor_timeout_255_cuts, motor_setup),
         cmocka_unit_test_setup(motor_timeout_0_never, motor_setup),
         cmocka_unit_test_setup(motor_pd_fast_rate_no_overflow, motor_setup),
+        cmocka_unit_test_setup(motor_skips_a_busy_outbox, motor_setup),
+        cmocka_unit_test_setup(motor_busy_inboxes, motor_setup),
+        cmocka_unit_test_setup(motor_other_signals_ignored, motor_setup),
         cmocka_unit_test(battery_status),
         cmocka_unit_test(imu_oversamples),
+        cmocka_unit_test(imu_skips_a_busy_outbox),
         cmocka_unit_test(ir_median_and_validity),
     };
     return cmocka_run_group_tests_name("sensorhex_apps", tests, NULL, NULL);

@@ -280,6 +280,103 @@ static void status_and_synced(void **state)
     assert_false(urb_node_has_work(NULL));
 }
 
+/* Queries and entry points called with NULL, an out-of-range mailbox or a node that never started
+ * answer their neutral value and change nothing. */
+static void api_edges(void **state)
+{
+    urb_node_t *node = &((fixture_t *)*state)->node;
+    assert_int_equal(urb_node_outbox_size(node, 1u), 6u);
+    assert_int_equal(urb_node_outbox_size(node, 8u), 0u);
+    assert_int_equal(urb_node_outbox_size(NULL, 1u), 0u);
+    urb_node_buffers_t b;
+    assert_false(urb_node_inbox_buffers(node, 1u, NULL));
+    assert_true(urb_node_inbox_buffers(node, 1u, &b));
+    assert_int_equal(b.isr, URB_NODE_NO_BUFFER);
+    assert_int_equal(urb_node_poll(NULL), 0u);
+    uint32_t const compare = ((fixture_t *)*state)->port.compare;
+    urb_node_timer_event(NULL);
+    assert_int_equal(((fixture_t *)*state)->port.compare, compare);
+    static urb_node_t never_started; /* zeroed: urb_node_init never ran */
+    assert_false(urb_node_has_work(&never_started));
+    assert_int_equal(urb_node_poll(&never_started), 0u);
+    urb_node_timer_event(&never_started);
+    assert_int_equal(never_started.update_due, 0u);
+}
+
+/* The interrupt-side mailbox steps when no transfer is in progress (isr_idx == NONE): their ACSL
+ * `idle` behaviours. The I2C state machine never calls them then (a read or store only follows a
+ * begin, proofs/bmc/fw_node_i2c_slave); these are the defensive answers: a read gives 0xFF, a store
+ * and a commit change nothing. */
+static void isr_steps_without_a_transfer(void **state)
+{
+    urb_node_t *node = &((fixture_t *)*state)->node;
+    assert_int_equal(node->outbox[1].isr_idx, URB_NONE);
+    assert_int_equal(urb_isr_read_byte(node, 1u, 0u), 0xFFu);
+    assert_int_equal(node->inbox[1].isr_idx, URB_NONE);
+    uint8_t before[FX_STORAGE];
+    memcpy(before, ((fixture_t *)*state)->storage, sizeof before);
+    uint8_t const front = node->inbox[1].front;
+    urb_isr_write_byte(node, 1u, 0u, 0xABu);
+    urb_isr_write_commit(node, 1u);
+    assert_memory_equal(before, ((fixture_t *)*state)->storage, sizeof before);
+    assert_int_equal(node->inbox[1].front, front);
+    assert_int_equal(node->inbox[1].fresh[0] | node->inbox[1].fresh[1], 0u);
+    const uint8_t *data = NULL;
+    assert_int_equal(urb_node_lock_inbox(node, 1u, &data), URB_NODE_OK); /* still the setup value: not NEW */
+    assert_int_equal(urb_node_release_inbox(node, 1u), URB_NODE_OK);
+}
+
+/* Mutation score (tests/mutation/README.md): seeded bugs the tests above let through. */
+
+/* The interrupt's commit with no write begun (a refused write, a select alone) publishes nothing:
+ * without its guard it would store fresh[NONE] and make NONE the front buffer. */
+static void commit_without_a_write_publishes_nothing(void **state)
+{
+    urb_node_t *node = &((fixture_t *)*state)->node;
+    urb_node_buffers_t before, after;
+    assert_true(urb_node_inbox_buffers(node, 1u, &before));
+    urb_isr_write_commit(node, 1u);
+    assert_true(urb_node_inbox_buffers(node, 1u, &after));
+    assert_int_equal(after.front, before.front);
+    assert_int_equal(after.isr, URB_NODE_NO_BUFFER);
+    const uint8_t *data = NULL;
+    assert_int_equal(urb_node_lock_inbox(node, 1u, &data), URB_NODE_OK); /* not NEW: nothing arrived */
+    assert_int_equal(urb_node_release_inbox(node, 1u), URB_NODE_OK);
+}
+
+/* The interrupt's byte store with no write begun changes no storage byte: without its guard it
+ * would store into "buffer NONE", past the inbox's two buffers. */
+static void byte_without_a_write_stores_nothing(void **state)
+{
+    fixture_t *f = (fixture_t *)*state;
+    uint8_t before[FX_STORAGE];
+    memcpy(before, f->storage, sizeof before);
+    urb_isr_write_byte(&f->node, 1u, 0u, 0x77u);
+    assert_memory_equal(f->storage, before, sizeof before);
+}
+
+/* Mailbox 7 is the last one: the size queries answer it, and answer 0 from 8 on; its lock and
+ * release work like any other's. */
+static void mailbox_7_is_usable_and_8_is_not(void **state)
+{
+    fixture_t *f = (fixture_t *)*state;
+    fx_defaults(f);
+    f->in_sizes[7] = 3u;
+    f->out_sizes[7] = 4u;
+    assert_int_equal(fx_start(f), URB_NODE_OK);
+    urb_node_t *node = &f->node;
+    assert_int_equal(urb_node_inbox_size(node, 7u), 3u);
+    assert_int_equal(urb_node_outbox_size(node, 7u), 4u);
+    assert_int_equal(urb_node_inbox_size(node, 8u), 0u);
+    assert_int_equal(urb_node_outbox_size(node, 8u), 0u); /* outbox[8] would be inbox 0, size != 0 */
+    uint8_t *out = NULL;
+    assert_int_equal(urb_node_lock_outbox(node, 7u, &out), URB_NODE_OK);
+    assert_int_equal(urb_node_release_outbox(node, 7u), URB_NODE_OK);
+    const uint8_t *in = NULL;
+    assert_int_equal(urb_node_lock_inbox(node, 7u, &in), URB_NODE_OK);
+    assert_int_equal(urb_node_release_inbox(node, 7u), URB_NODE_OK);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -292,6 +389,11 @@ int main(void)
         cmocka_unit_test_setup(inbox_errors, setup),
         cmocka_unit_test_setup(inbox_busy_after_retries, setup),
         cmocka_unit_test_setup(status_and_synced, setup),
+        cmocka_unit_test_setup(api_edges, setup),
+        cmocka_unit_test_setup(isr_steps_without_a_transfer, setup),
+        cmocka_unit_test_setup(commit_without_a_write_publishes_nothing, setup),
+        cmocka_unit_test_setup(mailbox_7_is_usable_and_8_is_not, setup),
+        cmocka_unit_test_setup(byte_without_a_write_stores_nothing, setup),
     };
     return cmocka_run_group_tests_name("node_mailbox", tests, NULL, NULL);
 }

@@ -209,6 +209,32 @@ static void timer_stall_is_harmless(void **state)
     assert_true((int32_t)(f->port.compare - f->port.now) > 0);
 }
 
+/* SYNCs after a silence longer than the period measurement can represent (2^24 ticks) and captures
+ * from far behind the latest heartbeat: the period estimate is kept, the phase error is clamped to
+ * one period, nothing overflows (UBSan), and the heartbeat stays armed ahead. */
+static void silence_too_long_to_measure(void **state)
+{
+    fixture_t *f = *state;
+    (void)syncs(f, PERIOD, PERIOD, 12u, 0u);
+    urb_node_sync_status_t before;
+    urb_node_sync_status(&f->node, &before);
+    assert_true(urb_node_synced(&f->node));
+    f->port.now += 400u * PERIOD; /* 19.2 M ticks > 2^24 without a heartbeat interrupt */
+    f->port.capture = f->port.now;
+    fx_sync(&f->node, 12u); /* the next counter: one SYNC period, but 19.2 M ticks measured */
+    urb_node_sync_status_t after;
+    urb_node_sync_status(&f->node, &after);
+    assert_int_equal(after.period_q8, before.period_q8);
+    urb_node_timer_event(&f->node);
+    assert_true((int32_t)(f->port.compare - f->port.now) > 0);
+    /* a capture three periods before the latest heartbeat: phase > period, clamped */
+    f->port.capture = after.last_beat - 3u * PERIOD;
+    fx_sync(&f->node, 13u);
+    urb_node_sync_status(&f->node, &after);
+    assert_int_equal(after.phase_q8, (int32_t)(after.period_q8 & ~0xFFu)); /* +1 period, its fraction dropped */
+    assert_true(after.phase_q8 <= (int32_t)(PERIOD * 256u) && after.phase_q8 >= -(int32_t)(PERIOD * 256u));
+}
+
 /* Two nodes on the model clock: the paper's Table I, beaten on every seed. */
 /* lobster-trace: urb.SYN_002, urb.SYN_003 */
 static void two_nodes_beat_table1(void **state)
@@ -255,6 +281,44 @@ static void two_nodes_outage(void **state)
     assert_true(r.all_synced_at_end);
 }
 
+/* Mutation score (tests/mutation/README.md): seeded bugs the tests above let through. */
+
+/* `synced` after exactly lock_count in-lock SYNCs in a row (the acquisition's first tracked SYNC
+ * still carries the lead's step, so the count starts after it), not one earlier. */
+static void locks_after_exactly_lock_count_syncs(void **state)
+{
+    fixture_t *f = *state;
+    unsigned const n = f->node.cfg->lock_count;
+    assert_true(n >= 2u);
+    uint32_t t = 30000u;
+    uint8_t c = 1u;
+    while (f->node.pll.good < n - 1u) {
+        assert_true(c < 20u);
+        t = syncs(f, t, PERIOD, 1u, c++);
+    }
+    assert_false(urb_node_synced(&f->node));
+    (void)syncs(f, t, PERIOD, 1u, c);
+    assert_true(urb_node_synced(&f->node));
+}
+
+/* A heartbeat interrupt so late that the following beat is one tick short of 1 us away moves that
+ * beat to exactly 1 us from now (at least 1 us ahead, never less). */
+static void late_interrupt_rearms_a_full_microsecond_ahead(void **state)
+{
+    fixture_t *f = *state;
+    uint32_t const margin = f->node.cfg->ticks_per_us;
+    f->node.pll.period_q8 = (PERIOD << 8) + 128u; /* a period estimate with half a tick: beats carry a fraction */
+    f->port.now = f->port.compare + PERIOD - (margin - 1u);
+    urb_node_timer_event(&f->node);
+    assert_int_equal(f->port.compare, f->port.now + margin);
+    assert_int_equal(f->node.pll.next_frac, 0u); /* the re-armed beat is a whole tick: its fraction goes */
+    /* a full microsecond away is left as it is */
+    f->port.now = f->port.compare + PERIOD - margin;
+    uint32_t const next = f->port.compare + PERIOD;
+    urb_node_timer_event(&f->node);
+    assert_int_equal(f->port.compare, next);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -264,8 +328,11 @@ int main(void)
         cmocka_unit_test_setup(lost_sync_free_runs, setup),
         cmocka_unit_test(disabled_and_fixed_lead),
         cmocka_unit_test_setup(timer_stall_is_harmless, setup),
+        cmocka_unit_test_setup(silence_too_long_to_measure, setup),
         cmocka_unit_test(two_nodes_beat_table1),
         cmocka_unit_test(two_nodes_outage),
+        cmocka_unit_test_setup(locks_after_exactly_lock_count_syncs, setup),
+        cmocka_unit_test_setup(late_interrupt_rearms_a_full_microsecond_ahead, setup),
     };
     return cmocka_run_group_tests_name("node_pll", tests, NULL, NULL);
 }

@@ -24,7 +24,8 @@ uint8_t board_index(void)
 
 static int16_t adc_scaled(int32_t gain, int32_t offset)
 {
-    int32_t const v = ((int32_t)(ADC_DR & 0xFFFu) * gain) / 4096 + offset;
+    uint32_t const raw = ADC_DR & 0xFFFu; /* 12-bit conversion result */
+    int32_t const v = (((int32_t)raw * gain) / 4096) + offset;
     return (int16_t)((v > 32767) ? 32767 : ((v < -32768) ? -32768 : v));
 }
 
@@ -51,13 +52,13 @@ static int16_t m_temp(void *ctx)
 static bool m_hall(void *ctx)
 {
     (void)ctx;
-    return (GPIOB_IDR & (1u << 8)) != 0u;
+    return (GPIOB_IDR & ((uint32_t)1u << 8)) != 0u;
 }
 static void m_drive(void *ctx, int16_t mv)
 {
     (void)ctx;
     uint32_t const mag = (uint32_t)((mv < 0) ? -(int32_t)mv : (int32_t)mv);
-    GPIOA_BSRR = (mv < 0) ? (1u << 8) : (1u << 24);
+    GPIOA_BSRR = (mv < 0) ? ((uint32_t)1u << 8) : ((uint32_t)1u << 24);
     TIM1_CCR1 = (mag * 1200u) / 24000u; /* ARR 1200: 40 kHz PWM at 48 MHz, 24 V supply */
 }
 
@@ -66,7 +67,8 @@ const sensorhex_motor_io_t board_motor_io = {NULL, m_encoder, m_current, m_volta
 static bool b_present(void *ctx, uint8_t pack)
 {
     (void)ctx;
-    return (GPIOB_IDR & (1u << (9u + pack))) != 0u;
+    uint32_t const pin = 9u + (uint32_t)pack; /* presence inputs PB9..PB11 */
+    return (GPIOB_IDR & ((uint32_t)1u << pin)) != 0u;
 }
 static uint16_t b_voltage(void *ctx, uint8_t pack)
 {
@@ -89,7 +91,7 @@ static int8_t b_temp(void *ctx, uint8_t pack)
 static bool b_charger(void *ctx)
 {
     (void)ctx;
-    return (GPIOB_IDR & (1u << 12)) != 0u;
+    return (GPIOB_IDR & ((uint32_t)1u << 12)) != 0u;
 }
 
 const sensorhex_battery_io_t board_battery_io = {NULL, b_present, b_voltage, b_current, b_temp, b_charger};

@@ -21,6 +21,10 @@
 #define APP(suffix) PASTE3(sensorhex_, SENSORHEX_APP, suffix)
 #define BOARD_IO PASTE3(board_, SENSORHEX_APP, _io)
 
+/* The vector table (startup_cm0.c) refers to these by name. */
+void TIM2_IRQHandler(void);
+void I2C1_IRQHandler(void);
+
 static urb_hal_cm0_t port;
 static urb_node_t node;
 static APP(_t) app;
