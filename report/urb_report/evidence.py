@@ -32,26 +32,42 @@ class Activity:
 
 ACTIVITIES: dict[str, Activity] = {a.name: a for a in (
     Activity("tlc", "TLC model checking", "make modelcheck"),
+    Activity("tlc-mutation", "TLA+ generated mutants (TLC)", "python3 tools/tla_mutate.py"),
     Activity("bmc", "ESBMC bounded model checking", "make proofs-bmc"),
     Activity("framac", "Frama-C WP and Eva", "make proofs-framac"),
     Activity("fuzz", "libFuzzer", "make fuzz"),
+    Activity("mutation", "C mutation score (cmocka against generated mutants)", "make proofs-mutation"),
     Activity("pytest", "pytest", "make test-py (and make test-c)"),
     Activity("cmocka", "cmocka", "make test-firmware-node test-firmware-bridge"),
-    Activity("sim", "simulation acceptance criteria", "make demo (urb sim sensorhex)"),
-    Activity("coverage", "structural coverage", "the coverage target (mk/coverage.mk)"),
-    Activity("misra", "MISRA C:2012 (cppcheck)", "the MISRA target"),
-    Activity("static", "static analysis", "the static-analysis target"),
+    Activity("sim", "simulation acceptance criteria",
+             "make test-sim-san (urb sim sensorhex --quick; make sim-report for the full run)"),
+    Activity("coverage", "structural coverage (gcovr, llvm-cov MC/DC)", "make coverage"),
+    Activity("misra", "MISRA C:2012 (cppcheck)", "make misra"),
+    Activity("static", "static analysis (clang-tidy, gcc -fanalyzer)", "make static"),
     Activity("size", "flash and RAM budgets", "make size-node"),
 )}
 
 KIND_ACTIVITY: dict[str, str] = {
-    "tla": "tlc", "tlc": "tlc", "tlc-mutant": "tlc", "tlc-reach": "tlc",
+    "tla": "tlc", "tlc": "tlc", "tlc-mutant": "tlc", "tlc-reach": "tlc", "tlc-distributed": "tlc",
+    "tlc-mutation": "tlc-mutation",
     "bmc": "bmc", "bmc-mutant": "bmc", "bmc-cover": "bmc",
     "wp": "framac", "eva": "framac", "framac-mutant": "framac",
     "fuzz": "fuzz", "fuzz-mutant": "fuzz",
+    "mutation": "mutation", "c-mutant": "mutation",
     "pytest": "pytest", "cmocka": "cmocka", "sim": "sim",
-    "coverage": "coverage", "misra": "misra", "static": "static", "size": "size",
+    "coverage": "coverage", "coverage-justification": "coverage",
+    "misra": "misra", "misra-deviation": "misra",
+    "static": "static", "static-deviation": "static", "size": "size",
 }
+
+
+def activity_of(kind: str) -> str | None:
+    """The activity whose record holds items of `kind`; `sim@<profile>` (a simulation criterion under
+    another hardware profile than the default) is the simulation's."""
+    if kind.startswith("sim@"):
+        return "sim"
+    return KIND_ACTIVITY.get(kind)
+
 
 STATUSES = ("pass", "fail", "error", "stale", "missing")
 
@@ -69,7 +85,7 @@ class Resolution:
         kind = self.evidence.split(":", 1)[0]
         if kind == "record":
             return self.evidence.split(":", 1)[1]
-        return KIND_ACTIVITY.get(kind, kind)
+        return activity_of(kind) or kind
 
 
 @dataclass
@@ -97,17 +113,18 @@ class EvidenceIndex:
         kind, _, name = evidence.partition(":")
         if kind == "record":
             return self._resolve_record(evidence, name)
-        activity = KIND_ACTIVITY.get(kind)
+        activity = activity_of(kind)
         if activity is None:
             return Resolution(evidence, "missing", f"unknown kind of evidence {kind!r} (known: "
-                              f"{', '.join(sorted(KIND_ACTIVITY))}, record)")
-        recs = self.by_activity.get(activity, [])
-        if not recs:
-            return Resolution(evidence, "missing", _no_record(activity))
+                              f"{', '.join(sorted(KIND_ACTIVITY))}, sim@<profile>, record)")
+        # an id is found in whichever record holds it; its activity only says where to look when none does
         hits = list(self.by_id.get(evidence, []))
         if kind == "pytest":
             prefix = evidence + "["
             hits += [h for key, hs in self.by_id.items() if key.startswith(prefix) for h in hs]
+        recs = self.by_activity.get(activity, [])
+        if not hits and not recs:
+            return Resolution(evidence, "missing", _no_record(activity))
         if not hits:
             known = [i.id for r in recs for i in r.items]
             near = difflib.get_close_matches(evidence, known, n=2, cutoff=0.75)

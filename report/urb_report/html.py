@@ -109,11 +109,16 @@ def render(a: Analysis, out_dir: Path, *, state: Mapping[str, Any], date: str, m
         _matrix(a),
         _requirements(a),
         _records_section(a, "proofs", "Proof and model-checking results",
-                         ("tlc", "bmc", "framac", "fuzz"),
-                         "Every item of the TLC, ESBMC, Frama-C and fuzzing records, with its expected and measured "
-                         "result. A mutant passes when the tool rejects it on the expected property."),
+                         ("tlc", "tlc-mutation", "bmc", "framac", "fuzz", "mutation"),
+                         "Every item of the TLC, ESBMC, Frama-C, fuzzing and mutation-score records, with its "
+                         "expected and measured result. A mutant passes when the tool rejects it on the expected "
+                         "property, or a survivor when it is explained as equivalent."),
         _tests(a),
+        _records_section(a, "simulation", "Simulation acceptance criteria", ("sim",),
+                         "Every criterion of every experiment's record: required (expected) against measured value, "
+                         "under the hardware profile its id names (sim@<profile>:, the default profile otherwise)."),
         _review(a),
+        _other_records(a),
         _figures(copied),
         _tools(tools),
         f"<section class='break' id='assumptions'><h2>Assumptions and limits</h2>{assumptions_html}</section>",
@@ -203,6 +208,7 @@ says what none of this covers.</p>
 def _contents() -> str:
     entries = [("summary", "Summary"), ("matrix", "Traceability matrix"), ("requirements", "Requirements"),
                ("proofs", "Proof and model-checking results"), ("tests", "Tests"),
+               ("simulation", "Simulation acceptance criteria"),
                ("review", "Coverage, MISRA and static analysis"), ("figures", "Simulation figures"),
                ("tools", "Tools"), ("assumptions", "Assumptions and limits"), ("history", "History of requirements"),
                ("problems", "Gate problems"), ("regenerate", "How to regenerate")]
@@ -331,6 +337,19 @@ def _record_table(a: Analysis, r: Record, limit: int = 2000) -> str:
     more = f"<p class='small'>... and {len(r.items) - limit} more in the record.</p>" if len(r.items) > limit else ""
     return (head + "<table><tr><th>item (★ cited)</th><th>verdict</th><th>expected</th><th>measured</th><th>data</th>"
             f"</tr>{''.join(rows)}</table>{more}")
+
+
+SHOWN_ACTIVITIES = ("tlc", "tlc-mutation", "bmc", "framac", "fuzz", "mutation", "sim", "pytest", "cmocka",
+                    "coverage", "misra", "static", "size")
+
+
+def _other_records(a: Analysis) -> str:
+    """Records of activities no section above is about: shown too, so the report holds every record read."""
+    others = [r for r in a.index.records if r.activity not in SHOWN_ACTIVITIES]
+    if not others:
+        return ""
+    return ("<section class='break' id='other-records'><h2>Other records</h2>"
+            + "".join(_record_table(a, r, limit=400) for r in others) + "</section>")
 
 
 def _tests(a: Analysis) -> str:

@@ -16,7 +16,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from .evidence import KIND_ACTIVITY, Resolution
+from .evidence import Resolution, activity_of
 from .markers import Marker
 from .records import ROOT
 from .requirements import REQUIREMENTS_DIR
@@ -26,7 +26,8 @@ TRLC_CONFIG = REQUIREMENTS_DIR / "lobster-trlc.yaml"
 GENERATOR = "urb_report"
 FRAMEWORK = {"tlc": "TLC", "bmc": "ESBMC", "framac": "Frama-C", "fuzz": "libFuzzer", "pytest": "pytest",
              "cmocka": "cmocka", "sim": "urb sim", "coverage": "gcovr/llvm-cov", "misra": "cppcheck",
-             "static": "static analysis", "size": "arm-none-eabi-size"}
+             "static": "static analysis", "size": "arm-none-eabi-size",
+             "mutation": "c_mutate", "tlc-mutation": "TLC"}
 
 
 @dataclass(frozen=True)
@@ -96,7 +97,7 @@ def evidence_items(cited: Mapping[str, Sequence[str]], resolutions: Mapping[str,
                 file = ""
         kind = evidence.split(":", 1)[0]
         item = _item(f"evidence {evidence}", tags, _location(file, line or None), evidence)
-        item.update({"framework": FRAMEWORK.get(KIND_ACTIVITY.get(kind, kind), kind), "kind": kind,
+        item.update({"framework": FRAMEWORK.get(activity_of(kind) or kind, kind), "kind": kind,
                      "status": {"pass": "ok"}.get(res.status, res.status)})
         out.append(item)
     return out

@@ -37,7 +37,7 @@ def page(catalogue: requirements.Catalogue, real_markers: list[markers.Marker],
 def test_the_html_has_every_section_requirement_and_the_provenance(page: Path, catalogue: requirements.Catalogue,
                                                                    state: dict[str, Any]) -> None:
     text = page.read_text()
-    for section in ("summary", "matrix", "requirements", "proofs", "tests", "review", "figures", "tools",
+    for section in ("summary", "matrix", "requirements", "proofs", "tests", "simulation", "review", "figures", "tools",
                     "assumptions", "history", "problems", "regenerate"):
         assert f"id='{section}'" in text, section
     for r in catalogue.requirements:
@@ -69,6 +69,16 @@ def test_the_pdf_has_the_provenance_on_every_page(page: Path, state: dict[str, A
         text = subprocess.run(["pdftotext", "-f", str(n), "-l", str(n), str(out), "-"], capture_output=True,
                               text=True, check=True).stdout
         assert f"commit {state['commit'][:12]}" in text, n
+    whole = subprocess.run(["pdftotext", str(out), "-"], capture_output=True, text=True, check=True).stdout
+    for heading in PDF_SECTIONS:
+        assert heading in whole, f"the PDF has no section {heading!r}"
+
+
+# The headings a reviewer finds in the PDF, in its order (html.render).
+PDF_SECTIONS = ("Summary per requirement category", "Traceability matrix", "Requirements",
+                "Proof and model-checking results", "Tests", "Simulation acceptance criteria",
+                "Coverage, MISRA and static analysis", "Simulation figures", "Tools (qualification record)",
+                "Assumptions and limits", "History of requirements", "Gate problems", "How to regenerate")
 
 
 def test_a_missing_chromium_is_a_clear_error(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
