@@ -130,8 +130,9 @@ class EvidenceIndex:
             near = difflib.get_close_matches(evidence, known, n=2, cutoff=0.75)
             hint = f"; the nearest ids there: {', '.join(near)}" if near else ""
             where = ", ".join(f"build/evidence/{r.name}.json" for r in recs)
+            how = f"; {ACTIVITIES[activity].make} writes it" if activity in ACTIVITIES else ""
             return Resolution(evidence, "missing", f"no item with this id in the {activity} record ({where}): "
-                              f"renamed, deleted or not run{hint}", records=tuple(recs))
+                              f"renamed, deleted or not run{hint}{how}", records=tuple(recs))
         return self._judge(evidence, hits)
 
     def _resolve_record(self, evidence: str, name: str) -> Resolution:

@@ -6,7 +6,9 @@ baseline, and fails (one Problem per reason, each naming its requirement where t
              other uncommitted changes), or missing (no record of its activity, or no such item)
   marker     a cited test, cmocka test, TLA+ property, fuzz target or BMC harness without the
              `lobster-trace` marker naming the requirement; a marker naming an unknown
-             requirement; a marker saying an item verifies a requirement that does not cite it
+             requirement; a marker saying an item verifies a requirement that does not cite it;
+             an implementation marker that belongs to no function, or names a requirement twice
+             for one function
   trace      LOBSTER's tracing policy (lobster-ci-report): a requirement without verification,
              code or evidence tracing to an unknown requirement
   record     a stale record, or a failed item in any record
@@ -141,6 +143,19 @@ def _markers(a: Analysis, tags: set[str], group_sources: Mapping[str, str]) -> N
                 a.problems.append(Problem(tag, "marker", f"{m.file}:{m.line} marks {m.evidence} as verifying {tag}, "
                                                          f"which does not cite it: add it to {tag}'s verified_by or "
                                                          f"remove the marker"))
+    seen: set[tuple[str, str, str]] = set()
+    for m in a.markers:
+        if m.is_activity:
+            continue
+        if not m.item:
+            a.problems.append(Problem(m.requirements[0], "marker", f"{m.file}:{m.line}: an implementation marker "
+                                                                   "that belongs to no function: put it directly above "
+                                                                   "the function that implements the requirement"))
+        for tag in m.requirements:
+            if (m.file, m.item, tag) in seen:
+                a.problems.append(Problem(tag, "marker", f"{m.file}:{m.line}: {m.item or m.file} names {tag} twice: "
+                                                         "one marker per function"))
+            seen.add((m.file, m.item, tag))
     generated = _generated_bmc()
     for req in a.catalogue.requirements:
         for e in req.verified_by:

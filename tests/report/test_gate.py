@@ -147,6 +147,20 @@ def test_a_marker_citing_an_unknown_requirement_or_an_uncited_item_fails(
                              "pytest:tests/host/test_fake.py::test_b as verifying urb.MBX_001") for ln in lines), lines
 
 
+def test_implementation_markers_belong_to_one_function_each(
+        catalogue: requirements.Catalogue, real_markers: list[markers.Marker], baseline: dict[str, dict[str, object]],
+        state: dict[str, Any], write_records: WriteRecords) -> None:
+    impl = [m for m in real_markers if not m.is_activity]
+    assert {m.file.split("/")[1] for m in impl if m.file.startswith("firmware/")} >= {"node", "bridge"}
+    assert any(m.file.startswith("host/urb/") for m in impl)
+    stray = markers.scan_text("firmware/node/urb_fake.c", "/* lobster-trace: urb.MBX_001 */\nstatic int x;\n\n"
+                                                          "/* lobster-trace: urb.MBX_002 */\nvoid f(void)\n{\n"
+                                                          "    /* lobster-trace: urb.MBX_002 */\n}\n")
+    a = _analyse(catalogue, write_records(), state, [*real_markers, *stray], baseline)
+    assert {(p.requirement, "no function" in p.message, "twice" in p.message) for p in a.problems} == {
+        ("urb.MBX_001", True, False), ("urb.MBX_002", False, True)}, _lines(a)
+
+
 def test_uncovered_lines_and_misra_findings_without_reason_fail_naming_the_requirement(
         catalogue: requirements.Catalogue, real_markers: list[markers.Marker], baseline: dict[str, dict[str, object]],
         state: dict[str, Any], write_records: WriteRecords) -> None:
@@ -190,3 +204,23 @@ def test_the_gate_is_a_fresh_check_of_this_tree(catalogue: requirements.Catalogu
     recs = write_records()
     a = _analyse(catalogue, recs, {"commit": "f" * 40, "clean": True, "changes": ""}, real_markers, baseline)
     assert not a.ok and all(p.check in ("evidence", "record") for p in a.problems)
+
+
+def test_urb_report_gate_exits_non_zero_naming_the_requirement_of_a_deleted_item(
+        write_records: WriteRecords, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """End to end, as `make report-gate` runs it: every cited item passing exits 0; the same records
+    without one bounded-model-checking proof exit 1 with a line naming the requirement, the item and
+    the make target that writes it."""
+    from urb.cli import main
+
+    write_records()
+    args = ["report", "--gate", "--no-pdf", "--evidence", str(tmp_path / "evidence"), "--out", str(tmp_path / "out")]
+    assert main(args) == 0, capsys.readouterr().out[-3000:]
+    assert "report gate: passed" in capsys.readouterr().out
+    for stale in (tmp_path / "evidence").glob("*.json"):
+        stale.unlink()
+    write_records(drop=["bmc:fw_node_pll_update"])
+    assert main(args) == 1
+    out = capsys.readouterr().out
+    assert "GATE FAIL urb.SYN_005 [evidence] bmc:fw_node_pll_update: missing: no item with this id" in out, out[-3000:]
+    assert "report gate: FAILED" in out and "urb.SYN_005" in out.splitlines()[-1]

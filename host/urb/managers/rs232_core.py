@@ -148,6 +148,7 @@ class ResponseMatcher:
         self.expire(now)
         return n
 
+    # lobster-trace: urb.FLT_005
     def expire(self, now: int) -> None:
         """Release the placeholders whose lifetime is over by `now` (`expires_ns`): the bridge no
         longer holds their requests."""
@@ -321,6 +322,7 @@ class MatchingCore:
         self.lost_reason = reason
         self._m.fail_all(self._queued, now, reason)
 
+    # lobster-trace: urb.FLT_005
     def reset(self, now: int) -> None:
         """Forget the lost state (after the uplink was reopened). The placeholders stay:
         reopening the uplink does not reset the bridge, which may still answer them; they are
@@ -380,6 +382,7 @@ class MatchingCore:
         self._silent_timeouts += n
         return n
 
+    # lobster-trace: urb.FLT_004
     def _lost_if_silent(self, now: int, timed_out: int) -> None:
         """Declare a silent bridge lost: `lost_after_timeouts` requests in a row timed out (the
         last `timed_out` of them now) with nothing heard for `lost_after_ns`, or `lost_after_ns`
