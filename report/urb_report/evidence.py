@@ -148,7 +148,9 @@ class EvidenceIndex:
         recs = tuple({r.name: r for r, _ in hits}.values())
         stale = [f"{r.name}.json: {self.stale[r.name]}" for r in recs if r.name in self.stale]
         if stale:
-            return Resolution(evidence, "stale", "; ".join(stale) + " (rerun it on this tree)", tuple(hits), recs)
+            how = "; ".join(sorted({ACTIVITIES[r.activity].make for r in recs if r.activity in ACTIVITIES}))
+            return Resolution(evidence, "stale", "; ".join(stale) + f" (rerun {how or 'it'} on this tree)", tuple(hits),
+                              recs)
         for verdict in ("fail", "error"):
             bad = [i for _, i in hits if i.verdict == verdict]
             if bad:

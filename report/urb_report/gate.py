@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from . import history, lobster
-from .evidence import EvidenceIndex, Resolution
+from .evidence import ACTIVITIES, EvidenceIndex, Resolution
 from .markers import Marker
 from .records import ROOT, Record
 from .requirements import Catalogue
@@ -169,8 +169,9 @@ def _records(a: Analysis) -> None:
         rec = next(r for r in a.index.records if r.name == name)
         cited = sorted({t for i in rec.items for t in a.cited_by.get(i.id, [])})
         who = f" (cited by {', '.join(cited[:6])}{' ...' if len(cited) > 6 else ''})" if cited else ""
+        how = ACTIVITIES[rec.activity].make if rec.activity in ACTIVITIES else f"the {rec.activity} activity"
         a.problems.append(Problem("", "record", f"build/evidence/{name}.json is stale: {why}{who}; rerun "
-                                                f"{rec.activity} on this tree"))
+                                                f"{how} on this tree (or make check)"))
     for rec in a.index.records:
         if rec.activity in REVIEW_ACTIVITIES:
             continue
