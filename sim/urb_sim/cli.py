@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import sys
 import tempfile
+import textwrap
 import time
 from pathlib import Path
 from typing import Any
@@ -23,6 +24,14 @@ SUBCOMMANDS = {"sensorhex": "run the scenario and the paper's experiments, write
                "sensitivity": "Table I, latency and loop lag as functions of the hardware",
                "profiles": "list the hardware profiles and their model assumptions",
                "params": "list the model parameters, their defaults and meaning"}
+
+SIM_EXIT_STATUS = """\
+Exit status (each subcommand's --help says what counts as a failure there):
+  0    success: every acceptance criterion met, every point measured, every profile valid
+  1    a criterion not met, or an experiment or run that ended in ERROR
+  2    a usage error (an unknown experiment, profile or option, a value out of range, an output
+       folder that cannot be written) or a simulation library that cannot be built
+  130  interrupted by Ctrl-C"""
 
 SENSORHEX_HELP = """\
 Run the SensoRHex simulation and the paper's experiments, and write an HTML summary.
@@ -157,6 +166,11 @@ def _seed(text: str) -> int:
     return value
 
 
+def _paragraphs(*texts: str) -> str:
+    """Help text of several paragraphs, each wrapped to the width of the rest of `urb --help`."""
+    return "\n\n".join(textwrap.fill(t, width=100) for t in texts)
+
+
 def _folder(text: str) -> Path:
     if not text.strip():
         raise argparse.ArgumentTypeError("expected a folder name, got an empty one (the default is build/sim/report)")
@@ -171,7 +185,7 @@ def register(sub: Any) -> None:
                                      "Subcommands:\n"
                                      + "".join(f"  {name:<11} {summary}\n" for name, summary in SUBCOMMANDS.items())
                                      + "\nRun `urb sim SUBCOMMAND --help` for its options.",
-                         formatter_class=argparse.RawDescriptionHelpFormatter)
+                         epilog=SIM_EXIT_STATUS, formatter_class=argparse.RawDescriptionHelpFormatter)
     # The description lists the subcommands (argparse's own list would wrap "sensorhex" onto two lines).
     # prog: without it argparse builds "urb sim [-h] SUBCOMMAND ... sensorhex" from the usage above.
     simsub = sim.add_subparsers(dest="sim_command", metavar="SUBCOMMAND", help=argparse.SUPPRESS, prog=sim.prog)
@@ -226,10 +240,15 @@ def register(sub: Any) -> None:
                    help="run only shard K of N (every N-th run from the K-th) and write DIR/shard-K-of-N.json")
     w.set_defaults(run=run_sweep_command)
     m = simsub.add_parser("merge", help=SUBCOMMANDS["merge"],
-                          description="Merge the shard files that `urb sim sweep --shard K/N` wrote into one sweep: "
+                          description=_paragraphs("Merge the shard files that `urb sim sweep --shard K/N` wrote into one sweep: "
                                       "checks that every shard of the sweep is there once, that no run is missing "
                                       "or given twice with different results, and writes checks.csv, runs.csv and "
-                                      "summary.json (with the hash of all records) as a sweep run in one piece.")
+                                      "summary.json (with the hash of all records) as a sweep run in one piece.",
+                                      "Exit status: 0 when the merged sweep met every criterion at every seed, 1 when "
+                                      "it did not, 2 when the shards cannot be merged (one missing or given twice, "
+                                      "from another sweep, or with results that differ: the message says which) or "
+                                      "the output folder cannot be written."),
+                          formatter_class=argparse.RawDescriptionHelpFormatter)
     m.add_argument("shards", nargs="+", type=Path, metavar="SHARD", help="shard files (shard-K-of-N.json)")
     m.add_argument("--out", type=_folder, default=REPO / "build" / "sim" / "sweep", metavar="DIR",
                    help="output folder (default build/sim/sweep)")
@@ -248,13 +267,19 @@ def register(sub: Any) -> None:
     v.add_argument("--no-progress", action="store_true", help="no progress bar (for logs)")
     v.set_defaults(run=run_sensitivity)
     r = simsub.add_parser("profiles", help=SUBCOMMANDS["profiles"],
-                          description="Print every hardware profile of sim/profiles with its model assumptions "
-                                      "(value, source, experiments affected), validated.")
+                          description=_paragraphs("Print every hardware profile of sim/profiles with its model assumptions "
+                                      "(value, source, experiments affected), validated.",
+                                      "Exit status: 0 when every profile is valid, 2 when one is not (the message "
+                                      "names the file and the value) or the simulation library cannot be built."),
+                          formatter_class=argparse.RawDescriptionHelpFormatter)
     r.add_argument("--markdown", action="store_true", help="one Markdown table of every assumption (sim/README.md)")
     r.set_defaults(run=run_profiles)
     q = simsub.add_parser("params", help=SUBCOMMANDS["params"],
-                          description="Print every parameter of the simulation model with its default value "
-                                      "and meaning (sim/world/params.h).")
+                          description=_paragraphs("Print every parameter of the simulation model with its default value "
+                                      "and meaning (sim/world/params.h).",
+                                      "Exit status: 0, or 2 when the simulation library cannot be built (the "
+                                      "message says what to install or fix)."),
+                          formatter_class=argparse.RawDescriptionHelpFormatter)
     q.set_defaults(run=run_params)
     sim.set_defaults(run=lambda args: (sim.print_help(), 2)[1])
 

@@ -221,10 +221,10 @@ SubmitAndAdmit ==
                          THEN full \cup {id} ELSE full
     /\ UNCHANGED <<out, applied, linkUp, forgotten, starts>> /\ UNCHANGED hostVars
 
-(* Position of the oldest request still waiting for the downlink.          *)
-FirstPending == CHOOSE k \in DOMAIN queue :
-                   /\ queue[k].status = "PENDING"
-                   /\ \A j \in 1..k - 1 : queue[j].status # "PENDING"
+(* Position k holds the oldest request still waiting for the downlink.    *)
+OldestPending(k) == /\ queue[k].status = "PENDING"
+                    /\ \A j \in 1..k - 1 : queue[j].status # "PENDING"
+FirstPending == CHOOSE k \in DOMAIN queue : OldestPending(k)
 HasPending == \E k \in DOMAIN queue : queue[k].status = "PENDING"
 
 (***************************************************************************)
@@ -239,21 +239,23 @@ HasPending == \E k \in DOMAIN queue : queue[k].status = "PENDING"
 (* No retransmission.                                                      *)
 (***************************************************************************)
 Serve ==
-    /\ HasPending
-    /\ LET k == FirstPending
-           id == queue[k].id
-           r == Req(id)
-       IN \E st \in IF r.addr \notin Present THEN {"NO_NODE"}
-                    ELSE {"OK"} \cup (Faults \ (IF r.op = "read"
-                                                  THEN {"NODE_BUSY"} ELSE {})) :
-            /\ queue' = [queue EXCEPT ![k] =
-                   [id |-> id, status |-> st,
-                    data |-> IF st = "OK" /\ r.op = "read"
-                               THEN Outbox(r.addr, r.box) ELSE NoData]]
-            /\ applied' = IF st = "OK" /\ r.op = "write"
-                            THEN applied \cup {id} ELSE applied
-            /\ cause' = [cause EXCEPT ![id] = st]
-    /\ UNCHANGED <<sent, out, full, linkUp, forgotten, starts>> /\ UNCHANGED hostVars
+    \E k \in DOMAIN queue :
+       \* the oldest pending request (an existential, not CHOOSE: TLC's CHOOSE
+       \* returns the smallest k, so a weakened "oldest" would go unnoticed)
+       /\ OldestPending(k)
+       /\ LET id == queue[k].id
+              r == Req(id)
+          IN \E st \in IF r.addr \notin Present THEN {"NO_NODE"}
+                       ELSE {"OK"} \cup (Faults \ (IF r.op = "read"
+                                                     THEN {"NODE_BUSY"} ELSE {})) :
+               /\ queue' = [queue EXCEPT ![k] =
+                      [id |-> id, status |-> st,
+                       data |-> IF st = "OK" /\ r.op = "read"
+                                  THEN Outbox(r.addr, r.box) ELSE NoData]]
+               /\ applied' = IF st = "OK" /\ r.op = "write"
+                               THEN applied \cup {id} ELSE applied
+               /\ cause' = [cause EXCEPT ![id] = st]
+       /\ UNCHANGED <<sent, out, full, linkUp, forgotten, starts>> /\ UNCHANGED hostVars
 
 (***************************************************************************)
 (* Bridge: the oldest response, once final, leaves on the uplink carrying *)
@@ -477,6 +479,23 @@ WriteStatusTruthful ==
            /\ out[k].status \in {"CHECKSUM", "NODE_BUSY", "NO_NODE"} \cup AdmissionErrors
                  => out[k].id \notin applied
 
+(* The downlink serves requests in the order they arrived: no request is   *)
+(* served while an earlier one still waits, so two writes to one inbox     *)
+(* land in the order the host sent them.  (Admission answers, BUSY,        *)
+(* SIZE_MISMATCH and BAD_REQUEST, never reach the downlink.)  Responses in *)
+(* request order (ResponsesInRequestOrder) do not imply it: the ring sends *)
+(* them in arrival order whatever order the downlink served them in.      *)
+ServedInArrivalOrder ==
+    \A j, k \in DOMAIN queue :
+        j < k /\ queue[j].status = "PENDING"
+            => queue[k].status \in {"PENDING"} \cup AdmissionErrors
+
+(* NODE_BUSY (the node NACKed: both inbox buffers in use) answers writes   *)
+(* only: a node never refuses a read of its outbox (its ISR never waits,    *)
+(* MailboxOutbox.tla).                                                      *)
+NodeBusyOnlyForWrites ==
+    \A k \in DOMAIN out : out[k].status = "NODE_BUSY" => Req(out[k].id).op = "write"
+
 (* BUSY is only answered when every data slot was taken. *)
 \* lobster-trace: urb.ORD_005
 BusyOnlyWhenFull ==
@@ -497,31 +516,105 @@ BoundedMemory == Len(queue) <= HostWindow /\ DataSlotsUsed <= QueueLen
 NoSeqAliasing == lastMatch.req = lastMatch.resp
 
 (* Liveness: every submitted request is eventually answered, unless a     *)
-(* bridge reset forgot it.                                                  *)
+(* bridge reset forgot it:                                                  *)
+(*     \A id \in 1..MaxReq : (id <= Len(sent)) ~> (Answered(id) \/ id \in forgotten) *)
+(* stated as: again and again, every request sent so far is answered or    *)
+(* forgotten.  The two are equivalent here: no action ever shrinks sent,   *)
+(* out or forgotten, and at most MaxReq requests are sent, so once each   *)
+(* request is answered or forgotten it stays so, and after the last send  *)
+(* all are at once; conversely, a request sent before such a moment is    *)
+(* answered or forgotten at it.  TLC checks the one formula with one      *)
+(* tableau instead of one per request: 4.4 s instead of 30 s of CPU for    *)
+(* a 5-request MCBridgeRestart (issue #37's mutation runs).                *)
 \* lobster-trace: urb.ORD_006
 EveryRequestAnswered ==
-    \A id \in 1..MaxReq : (id <= Len(sent)) ~> (Answered(id) \/ id \in forgotten)
+    []<>(\A id \in 1..Len(sent) : Answered(id) \/ id \in forgotten)
 
 (* Liveness: the host never waits forever.  Every request it sent leaves  *)
 (* its in-flight list (answered, passed by a later response, or its       *)
 (* placeholder expired) and gives its window slot back, whatever was lost *)
-(* on the uplink or forgotten by a bridge reset.                           *)
+(* on the uplink or forgotten by a bridge reset:                            *)
+(*     \A id \in 1..MaxReq : (id <= Len(sent)) ~> (hostFrom > id)           *)
+(* stated as: again and again, nothing is in flight.  Equivalent as above: *)
+(* hostFrom never decreases (a match moves it past the matched request, an *)
+(* expiry by one, a new process past every request sent).                  *)
 \* lobster-trace: urb.FLT_005
-EveryRequestReleased == \A id \in 1..MaxReq : (id <= Len(sent)) ~> (hostFrom > id)
+EveryRequestReleased == []<>(hostFrom > Len(sent))
+
+-----------------------------------------------------------------------------
+(***************************************************************************)
+(* Reachability witnesses: situations a model must reach, so that no       *)
+(* invariant above holds only because its situation never arises.         *)
+(* spec/tla/manifest.json lists, per model, the ones it must reach; the    *)
+(* model-check runner fails the model when one is not (tools/             *)
+(* tla_witness.py).                                                         *)
+(***************************************************************************)
+Answers(s) == \E k \in DOMAIN out : out[k].status = s
+ReachOkAnswer == Answers("OK")
+ReachTimeoutAnswer == Answers("TIMEOUT")
+ReachChecksumAnswer == Answers("CHECKSUM")
+ReachBusStuckAnswer == Answers("BUS_STUCK")
+ReachNodeBusyAnswer == Answers("NODE_BUSY")
+ReachNoNodeAnswer == Answers("NO_NODE")
+ReachBusyAnswer == Answers("BUSY")
+ReachSizeMismatchAnswer == Answers("SIZE_MISMATCH")
+ReachBadRequestAnswer == Answers("BAD_REQUEST")
+(* an OK read carrying its mailbox's data; a write a node stored *)
+ReachReadData == \E k \in DOMAIN out : out[k].status = "OK" /\ out[k].data # NoData
+ReachWriteStored == applied # {}
+(* two requests wait for the downlink at once: the order it serves them in matters *)
+ReachTwoPending == Cardinality({k \in DOMAIN queue : queue[k].status = "PENDING"}) >= 2
+(* every data slot taken; the response ring full; the host's window full *)
+ReachDataSlotsFull == DataSlotsUsed = QueueLen
+ReachRingFull == Len(queue) = HostWindow
+ReachWindowFull == Len(InFlight) = HostWindow
+ReachAllAnswered == Len(out) = MaxReq
+(* a request numbered after the sequence number wrapped is matched *)
+ReachSeqWrap == lastMatch.req > SeqMod
+(* a response was lost: it left the bridge, its request is still in flight *)
+ReachLostResponse == \E k \in DOMAIN out : out[k].id >= hostFrom
+(* placeholders: one exists; the bridge still holds one; its late response *)
+(* is next on the uplink; a response to a later request is next and        *)
+(* passes it; one can expire; the window is full of them                   *)
+ReachPlaceholder == timedOut # {}
+ReachPlaceholderHeld == timedOut \cap Ids(queue) # {}
+NextOut == linkUp /\ queue # <<>> /\ Head(queue).status # "PENDING"
+ReachLateResponse == NextOut /\ Head(queue).id \in timedOut
+ReachPlaceholderPassed == NextOut /\ \E id \in timedOut : id < Head(queue).id
+ReachPlaceholderExpiry == ENABLED HostExpire
+ReachWindowOfPlaceholders == Len(InFlight) = HostWindow /\ timedOut = hostFrom..Len(sent)
+(* the uplink is lost with requests the bridge still holds, and a response *)
+(* leaves while it is closed (lost)                                         *)
+ReachLinkLost == ~linkUp /\ timedOut \cap Ids(queue) # {}
+ReachSentWhileClosed == ~linkUp /\ queue # <<>> /\ Head(queue).status # "PENDING"
+(* a bridge reset forgot a request; the host timed one out; its           *)
+(* placeholder can expire; a later request is answered after the reset    *)
+ReachReset == forgotten # {}
+ReachForgottenTimedOut == forgotten \cap timedOut # {}
+ReachForgottenExpiry == hostFrom \in forgotten /\ ENABLED HostExpire
+ReachAnsweredAfterReset == \E k \in DOMAIN out : \E f \in forgotten : out[k].id > f
+(* a new host process began numbering; one of its requests is matched;    *)
+(* a new process can start while the previous one left placeholders       *)
+ReachNewProcess == Cardinality(starts) >= 2
+ReachNewProcessMatched == \E s \in starts : s > 1 /\ lastMatch.req >= s
+ReachRestartOverPlaceholders == timedOut # {} /\ ENABLED HostRestart
 
 THEOREM Spec => [](TypeOK /\ NoSilentDrop /\ AtMostOneResponse
                           /\ ResponsesInRequestOrder /\ ResponseMatchesRequest
-                          /\ ErrorNamesCause /\ WriteStatusTruthful
-                          /\ BusyOnlyWhenFull /\ BoundedMemory /\ NoSeqAliasing)
+                          /\ ErrorNamesCause /\ WriteStatusTruthful /\ NodeBusyOnlyForWrites
+                          /\ ServedInArrivalOrder /\ BusyOnlyWhenFull /\ BoundedMemory
+                          /\ NoSeqAliasing)
 THEOREM Spec => EveryRequestAnswered /\ EveryRequestReleased
 THEOREM SpecReset => [](TypeOK /\ NoSilentDrop /\ AtMostOneResponse
                           /\ ResponsesInRequestOrder /\ ResponseMatchesRequest
-                          /\ ErrorNamesCause /\ WriteStatusTruthful
-                          /\ BusyOnlyWhenFull /\ BoundedMemory /\ NoSeqAliasing)
+                          /\ ErrorNamesCause /\ WriteStatusTruthful /\ NodeBusyOnlyForWrites
+                          /\ ServedInArrivalOrder /\ BusyOnlyWhenFull /\ BoundedMemory
+                          /\ NoSeqAliasing)
 THEOREM SpecReset => EveryRequestAnswered /\ EveryRequestReleased
 THEOREM SpecRestart => [](TypeOK /\ NoSilentDrop /\ AtMostOneResponse
                           /\ ResponsesInRequestOrder /\ ResponseMatchesRequest
-                          /\ ErrorNamesCause /\ WriteStatusTruthful
-                          /\ BusyOnlyWhenFull /\ BoundedMemory /\ NoSeqAliasing)
+                          /\ ErrorNamesCause /\ WriteStatusTruthful /\ NodeBusyOnlyForWrites
+                          /\ ServedInArrivalOrder /\ BusyOnlyWhenFull /\ BoundedMemory
+                          /\ NoSeqAliasing)
 THEOREM SpecRestart => EveryRequestAnswered /\ EveryRequestReleased
 =============================================================================

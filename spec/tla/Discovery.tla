@@ -185,6 +185,30 @@ VanishedGetNoNode ==
 \* lobster-trace: urb.DSC_007
 DiscoveryCompletes == <>built
 
+-----------------------------------------------------------------------------
+(* Reachability witnesses (spec/tla/manifest.json lists them per model).   *)
+Flagged(r, f) == f \in r.flags
+ReachDuplicate == \E r \in table : Flagged(r, "DUPLICATE")
+ReachDuplicateAcrossBridges ==
+    \E r, q \in table : r.bridge # q.bridge /\ r.class = q.class /\ r.index = q.index
+ReachMismatch == \E r \in table : Flagged(r, "MISMATCH")
+ReachDuplicateAndMismatch == \E r \in table : Flagged(r, "DUPLICATE") /\ Flagged(r, "MISMATCH")
+(* not duplicates: the same class with another index, the same index of   *)
+(* another class (a duplicate test that ignores one of them flags these)  *)
+ReachSameClassOtherIndex == \E r, q \in table : r.class = q.class /\ r.index # q.index
+ReachSameIndexOtherClass == \E r, q \in table : r.class # q.class /\ r.index = q.index
+(* a node with the layout another class expects (a fingerprint check      *)
+(* against the wrong class passes it)                                      *)
+ReachOtherClassLayout ==
+    \E r \in table : r.fp # Expected[r.class] /\ \E c \in DOMAIN Expected : r.fp = Expected[c]
+ReachNoNode == lastReq # NONE /\ lastReq.status = "NO_NODE"
+ReachVanishedKept == built /\ \E r \in table : ~present[<<r.bridge, r.addr>>]
+(* a scan went past an address that did not answer and found a node after it *)
+ReachGapInScan ==
+    \E r \in table : \E a \in Addrs : a < r.addr /\ <<r.bridge, a>> \notin RowSlots
+(* a node missed by the scan (it vanished before its address was read)    *)
+ReachMissedByScan == built /\ \E s \in Slots : pop[s] # NONE /\ s \notin RowSlots
+
 THEOREM Spec => [](TypeOK /\ NeverMerged /\ DuplicatesReported /\ MismatchReported
                           /\ NoPhantoms /\ VanishedNodesKept /\ StableNodesFound
                           /\ VanishedGetNoNode)

@@ -48,4 +48,17 @@ FormsAgree(Distinct(_), InOrder(_)) ==
         /\ Distinct(Entries(o)) <=> \A k, j \in DOMAIN o : k # j => o[k] # o[j]
         /\ InOrder(Entries(o)) <=> \A k, j \in DOMAIN o : k < j => o[k] <= o[j]
 ASSUME FormsAgree(DistinctIds, IdsInOrder)
+
+(* The header limits (mailbox 0..7, length 1..32: spec/schema) restated    *)
+(* for every mailbox 0..9 and length 0..34 with other operators than       *)
+(* AdmissionStatus uses.  The model's requests probe one bad mailbox (9)   *)
+(* and one wrong length (3), not the boundaries; this pins them (the       *)
+(* mutant Bridge_MailboxLimitOffByOne and the mutation run's off-by-one    *)
+(* mutants of AdmissionStatus make it false).  Node 2 is absent, so only   *)
+(* the header decides.                                                     *)
+HeaderLimitsAgree(Admit(_)) ==
+    \A box \in 0..9, len \in 0..34 :
+        (Admit([addr |-> 2, box |-> box, op |-> "read", len |-> len]) = "BAD_REQUEST")
+            <=> ~(box >= 0 /\ box < 8 /\ len > 0 /\ len < 33)
+ASSUME HeaderLimitsAgree(AdmissionStatus)
 =============================================================================

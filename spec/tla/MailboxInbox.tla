@@ -208,7 +208,16 @@ AppNext == AppLockLoadFront \/ AppLockClaim \/ AppLockCheckIsr
            \/ AppLockCheckFront \/ AppLockUnclaim \/ AppReadByte \/ AppRelease
 Next == IsrNext \/ AppNext
 
-Spec == Init /\ [][Next]_vars
+(* Inside the library the application makes progress (a lock call, with  *)
+(* its retries, returns), and it releases what it locked.  It starts a    *)
+(* lock call when it wants (AppLockLoadFront is fair only for a retry)    *)
+(* and reads as many bytes as it wants; the bridge writes when it wants.  *)
+Fairness ==
+    /\ WF_vars(tries > 0 /\ AppLockLoadFront)
+    /\ WF_vars(AppLockClaim) /\ WF_vars(AppLockCheckIsr) /\ WF_vars(AppLockCheckFront)
+    /\ WF_vars(AppLockUnclaim) /\ WF_vars(AppRelease)
+
+Spec == Init /\ [][Next]_vars /\ Fairness
 
 -----------------------------------------------------------------------------
 AppHolds == appPc = "read"
@@ -236,6 +245,51 @@ NoAbortedDelivered == \A i \in DOMAIN appGot : appGot[i] \notin aborted
 \* lobster-trace: urb.MBX_005
 IsrWaitFree == txs < MaxWrites \/ isrPc # "idle" => ENABLED IsrNext
 
+(* The ISR refuses a write (NACK; the bridge answers NODE_BUSY) only when  *)
+(* it must: the application has claimed the buffer the write would fill   *)
+(* and not given it back (it is inside URB_LockInbox or holds the lock).  *)
+(* Stated on the step, whatever action takes it (the counterpart of the   *)
+(* bridge's BusyOnlyWhenFull).                                             *)
+NackOnlyWhenClaimed ==
+    [][isrPc = "idle" /\ txs' = txs + 1 /\ isrPc' = "idle"
+         => appIdx = 1 - front /\ appPc \in {"checkIsr", "checkFront", "unclaim", "read"}]_vars
+
+(* A lock attempt fails only when it must: the ISR is really filling the  *)
+(* claimed buffer, or a newer message was committed since front was       *)
+(* loaded; and the lock gives up (URB_BUSY) only after MaxRetry retries.   *)
+LockFailsOnlyOnConflict ==
+    [][/\ appPc = "checkIsr" /\ appPc' = "unclaim" => isrPc = "fill" /\ isrIdx = a
+       /\ appPc = "checkFront" /\ appPc' = "unclaim" => front # a
+       /\ appPc = "unclaim" /\ appPc' = "idle" /\ tries' = 0 => tries = MaxRetry]_vars
+
+(* Progress: every claim is given back (a lock call returns, a read ends  *)
+(* in a release), so the ISR's NACKs stop.                                  *)
+ClaimReturned == (appIdx # NONE) ~> (appIdx = NONE)
+
+(* Progress: once the bridge has stopped writing, a lock call gets the     *)
+(* message: its first attempt may have loaded front before the last       *)
+(* commit, a retry loads it again and succeeds (with MaxRetry >= 1).       *)
+LockSucceedsWhenQuiet ==
+    (txs = MaxWrites /\ isrPc = "idle" /\ appPc = "claim" /\ tries = 0) ~> (appPc = "read")
+
 THEOREM Spec => [](TypeOK /\ AppLockExclusive /\ AppReadNotTorn
                           /\ AppReadFresh /\ NoAbortedDelivered /\ IsrWaitFree)
+THEOREM MaxRetry >= 1 => (Spec => NackOnlyWhenClaimed /\ LockFailsOnlyOnConflict /\ ClaimReturned
+                                  /\ LockSucceedsWhenQuiet)
+
+-----------------------------------------------------------------------------
+(* Reachability witnesses (spec/tla/manifest.json lists them per model).   *)
+(* A write is NACKed; one commits; one aborts leaving its bytes in a      *)
+(* buffer; a lock attempt fails on each check; the lock gives up; the     *)
+(* application reads a whole message, and reads while the ISR fills the   *)
+(* other buffer.                                                           *)
+ReachNack == isrPc = "idle" /\ txs < MaxWrites /\ appIdx = 1 - front
+ReachCommit == committed > 0
+ReachAbortLeftBytes == \E i \in Bufs : \E k \in 1..MsgLen : buf[i][k] \in aborted
+ReachLockFailsOnIsr == appPc = "checkIsr" /\ isrIdx = a
+ReachLockFailsOnFront == appPc = "checkFront" /\ front # a
+ReachLockGivesUp == appPc = "unclaim" /\ tries = MaxRetry
+ReachWholeMessageRead == Len(appGot) = MsgLen
+ReachReadDuringWrite == AppHolds /\ isrPc = "fill"
+ReachQuietLockCall == txs = MaxWrites /\ isrPc = "idle" /\ appPc = "claim" /\ tries = 0
 =============================================================================

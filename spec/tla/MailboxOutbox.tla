@@ -140,7 +140,12 @@ AppNext == AppLockPick \/ AppLockCheck \/ AppWriteByte \/ AppRelease
 IsrNext == IsrReadBegin \/ IsrReadByte \/ IsrReadEnd
 Next == AppNext \/ IsrNext
 
-Spec == Init /\ [][Next]_vars
+(* The application keeps running (it retries a refused lock), and a bus    *)
+(* read ends (complete, or cut short by a bus error or timeout).  Nothing  *)
+(* obliges the bridge to read: IsrReadBegin has no fairness.               *)
+Fairness == WF_vars(AppNext) /\ WF_vars(IsrReadEnd)
+
+Spec == Init /\ [][Next]_vars /\ Fairness
 
 -----------------------------------------------------------------------------
 (* The application holds the lock on buf[w]. *)
@@ -163,6 +168,31 @@ IsrReadFresh == isrGot # <<>> => isrGot[1] = isrSnap
 \* lobster-trace: urb.MBX_001
 IsrWaitFree == ENABLED IsrNext
 
+(* The lock refuses (URB_BUSY) only when it must: the ISR is in a read of  *)
+(* the very buffer the application wants (the counterpart of the bridge's *)
+(* BusyOnlyWhenFull).  Stated on the step from the check back to idle,    *)
+(* whatever action takes it, and against the ISR's real state (isrPc),    *)
+(* not the index it publishes: an ISR that leaves isr_idx set after a     *)
+(* read refuses the application for nothing.                              *)
+LockBusyOnlyWhenReading ==
+    [][appPc = "check" /\ appPc' = "idle" => isrPc = "copy" /\ isrIdx = w]_vars
+
+(* Progress: an application that keeps trying publishes every write; a    *)
+(* refused lock succeeds once the read that blocked it is over.           *)
+WritesPublished == <>(writes = MaxWrites)
+
 THEOREM Spec => [](TypeOK /\ AppLockExclusive /\ IsrReadNotTorn
                           /\ IsrReadFresh /\ IsrWaitFree)
+THEOREM Spec => LockBusyOnlyWhenReading /\ WritesPublished
+
+-----------------------------------------------------------------------------
+(* Reachability witnesses (spec/tla/manifest.json lists them per model).   *)
+(* The lock is refused; the ISR reads while the application writes the    *)
+(* other buffer; a release lands during a read (which still sends the     *)
+(* older message); a whole message is sent; every write is published.     *)
+ReachLockRefused == appPc = "check" /\ isrIdx = w
+ReachReadDuringWrite == AppHolds /\ isrPc = "copy"
+ReachReleaseDuringRead == isrPc = "copy" /\ released > isrSnap
+ReachWholeMessageSent == Len(isrGot) = MsgLen
+ReachAllPublished == writes = MaxWrites
 =============================================================================

@@ -64,8 +64,10 @@ Resp == [id: Ids, seq: 0..SeqMod - 1]
 TypeOK ==
     /\ nextId \in 0..MaxReq /\ budget \in 0..MaxSubmit
     /\ hostQ \in Seq(Ids) /\ expect \in Seq(Ids) /\ rx \in Seq(Ids)
-    /\ Len(rx) <= MaxBatch
+    /\ Len(hostQ) <= MaxReq /\ Len(expect) <= MaxReq /\ Len(rx) <= MaxBatch
     /\ txPrev \in Seq(Resp) /\ txCur \in Seq(Resp) /\ hostRx \in Seq(Resp)
+    \* the firmware's response buffers hold one batch each
+    /\ Len(txPrev) <= MaxBatch /\ Len(txCur) <= MaxBatch /\ Len(hostRx) <= MaxBatch
     /\ done \subseteq Ids /\ cbLog \in Seq([req: Ids, resp: Ids \cup {0}])
     /\ age \in [Ids -> 0..AgeCap] /\ deferred \in [Ids -> 0..MaxReq]
     /\ wrote \in BOOLEAN /\ readDone \in BOOLEAN
@@ -192,6 +194,13 @@ InFlight == Range(hostQ) \cup Range(rx) \cup {r.id : r \in Range(txPrev)}
 \* lobster-trace: urb.HOST_004
 NothingLost == \A id \in Submitted : id \in InFlight \/ id \in done
 
+(* Requests leave the host in the order they were submitted: those sent   *)
+(* and not yet called back, then those still buffered, have increasing ids *)
+(* (the bridge serves a batch in order, so two writes to one inbox land in *)
+(* the order the application submitted them).                              *)
+SubmissionOrderKept ==
+    LET q == expect \o hostQ IN \A k \in 1..Len(q) - 1 : q[k] < q[k + 1]
+
 (* The host never has more than Window requests in flight: the bridge's  *)
 (* data slots and response ring (Bridge.tla HostWindow) and the 4-bit     *)
 (* sequence number rely on it.                                             *)
@@ -221,11 +230,33 @@ LatencyBound == \A id \in Submitted : age[id] + 1 <= MaxLatency + deferred[id]
 \* lobster-trace: urb.LAT_001
 StrictLatency == \A id \in Submitted : age[id] + 1 <= MaxLatency
 
-(* Liveness: every submitted request gets its callback.                    *)
+(* Liveness: every submitted request gets its callback:                    *)
+(*     \A id \in Ids : (id <= nextId) ~> (id \in done)                       *)
+(* stated as: again and again, every request submitted so far has had its *)
+(* callback.  Equivalent: done never shrinks and at most MaxReq requests   *)
+(* are submitted (see Bridge.tla's EveryRequestAnswered); TLC checks one   *)
+(* tableau instead of one per request.                                      *)
 \* lobster-trace: urb.HOST_001
-EveryCallbackRuns == \A id \in Ids : (id <= nextId) ~> (id \in done)
+EveryCallbackRuns == []<>(1..nextId \subseteq done)
+
+-----------------------------------------------------------------------------
+(* Reachability witnesses (spec/tla/manifest.json lists them per model).   *)
+(* A full batch is written; the window is full; a request is left behind  *)
+(* (full batch or full window); both response buffers hold responses (the *)
+(* pipelining); a callback comes exactly at the latency bound, and one at  *)
+(* the bound plus its deferrals; a request numbered after the sequence     *)
+(* number wrapped gets its callback; every callback has run.              *)
+ReachFullBatch == Len(rx) = MaxBatch
+ReachWindowFull == Len(expect) = Window
+ReachDeferral == \E id \in Ids : deferred[id] > 0
+ReachBothBuffers == txPrev # <<>> /\ txCur # <<>>
+ReachLatencyBound == \E id \in done : age[id] + 1 = MaxLatency
+ReachDeferredLatencyBound ==
+    \E id \in done : deferred[id] > 0 /\ age[id] + 1 = MaxLatency + deferred[id]
+ReachSeqWrap == \E k \in DOMAIN cbLog : cbLog[k].req > SeqMod
+ReachAllCalledBack == done = Ids
 
 THEOREM Spec => [](TypeOK /\ NothingLost /\ ResponsesMatched /\ LatencyBound
-                          /\ WindowRespected)
+                          /\ WindowRespected /\ SubmissionOrderKept)
 THEOREM MaxSubmit <= MaxBatch /\ 2 * MaxSubmit <= Window => (Spec => []StrictLatency)
 =============================================================================

@@ -113,6 +113,16 @@ def test_sim_subcommand_usage_names_the_command(sub: str, capsys: pytest.Capture
     assert capsys.readouterr().out.startswith(f"usage: urb sim {sub} [-h]")
 
 
+@pytest.mark.parametrize("sub", [[], ["sensorhex"], ["sweep"], ["merge"], ["sensitivity"], ["profiles"], ["params"]])
+def test_sim_help_states_the_exit_status(sub: list[str], capsys: pytest.CaptureFixture[str]) -> None:
+    # every page of the manual says what its exit codes mean (issue #35: `urb sim --help` did not)
+    with pytest.raises(SystemExit) as exc:
+        main(["sim", *sub, "--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert "Exit status" in out and " 2 " in out.replace("\n", " "), out
+
+
 def test_sim_usage_error_names_the_command(capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as exc:
         main(["sim", "sensorhex", "--jobs", "0"])

@@ -54,6 +54,12 @@ def test_manifest_lists_every_file_and_only_existing_ones(manifest: Any) -> None
         for rel in (e.module, e.config):
             assert (SPEC / rel).is_file(), f"{e.name}: {rel} does not exist"
             listed.add(rel)
+    data, _ = manifest
+    for rows in data["mutation"]["modules"].values():
+        for row in rows:
+            if isinstance(row, dict):
+                assert (SPEC / row["config"]).is_file(), f"mutation config {row['config']} does not exist"
+                listed.add(row["config"])
     on_disk = {p.relative_to(SPEC).as_posix() for p in SPEC.rglob("*") if p.suffix in {".tla", ".cfg"}}
     # Base modules are used through their MC module or a mutant that EXTENDS them.
     extended = set()
@@ -63,6 +69,20 @@ def test_manifest_lists_every_file_and_only_existing_ones(manifest: Any) -> None
                          re.findall(r"^EXTENDS\s+(.+)$", (SPEC / rel).read_text(), re.M)[0].split(",")}
     orphans = on_disk - listed - extended
     assert not orphans, f"files in spec/tla not in the manifest (orphans): {sorted(orphans)}"
+
+
+def test_mutation_configs_check_what_their_model_checks(manifest: Any) -> None:
+    """A smaller configuration for the mutation run may change constants, never the checks."""
+    data, entries = manifest
+    models = {e.name: e for e in entries if e.kind == "model"}
+    for rows in data["mutation"]["modules"].values():
+        for row in rows:
+            if isinstance(row, dict):
+                mine, theirs = SPEC / row["config"], SPEC / models[row["model"]].config
+                assert _invariants(mine) == _invariants(theirs), row
+                assert _properties(mine) == _properties(theirs), row
+                spec = [ln for ln in mine.read_text().splitlines() if ln.startswith("SPECIFICATION")]
+                assert spec == [ln for ln in theirs.read_text().splitlines() if ln.startswith("SPECIFICATION")]
 
 
 def test_names_are_unique_and_models_have_counts(manifest: Any) -> None:
