@@ -90,6 +90,7 @@ ASSUME /\ Faults \subseteq DownlinkFaults
 Outbox(addr, box) == <<addr, box>>
 
 (* Header validation done at admission (no downlink traffic).              *)
+\* lobster-trace: urb.PKT_003
 AdmissionStatus(r) ==
     IF r.box \notin 0..7 \/ r.len \notin 1..32 THEN "BAD_REQUEST"
     ELSE IF r.addr \in Present /\ r.len # Size[r.addr][r.box]
@@ -485,6 +486,7 @@ WriteStatusTruthful ==
 (* SIZE_MISMATCH and BAD_REQUEST, never reach the downlink.)  Responses in *)
 (* request order (ResponsesInRequestOrder) do not imply it: the ring sends *)
 (* them in arrival order whatever order the downlink served them in.      *)
+\* lobster-trace: urb.ORD_003
 ServedInArrivalOrder ==
     \A j, k \in DOMAIN queue :
         j < k /\ queue[j].status = "PENDING"
@@ -493,6 +495,7 @@ ServedInArrivalOrder ==
 (* NODE_BUSY (the node NACKed: both inbox buffers in use) answers writes   *)
 (* only: a node never refuses a read of its outbox (its ISR never waits,    *)
 (* MailboxOutbox.tla).                                                      *)
+\* lobster-trace: urb.ERR_001
 NodeBusyOnlyForWrites ==
     \A k \in DOMAIN out : out[k].status = "NODE_BUSY" => Req(out[k].id).op = "write"
 

@@ -250,6 +250,7 @@ IsrWaitFree == txs < MaxWrites \/ isrPc # "idle" => ENABLED IsrNext
 (* and not given it back (it is inside URB_LockInbox or holds the lock).  *)
 (* Stated on the step, whatever action takes it (the counterpart of the   *)
 (* bridge's BusyOnlyWhenFull).                                             *)
+\* lobster-trace: urb.MBX_009
 NackOnlyWhenClaimed ==
     [][isrPc = "idle" /\ txs' = txs + 1 /\ isrPc' = "idle"
          => appIdx = 1 - front /\ appPc \in {"checkIsr", "checkFront", "unclaim", "read"}]_vars
@@ -257,6 +258,7 @@ NackOnlyWhenClaimed ==
 (* A lock attempt fails only when it must: the ISR is really filling the  *)
 (* claimed buffer, or a newer message was committed since front was       *)
 (* loaded; and the lock gives up (URB_BUSY) only after MaxRetry retries.   *)
+\* lobster-trace: urb.MBX_010
 LockFailsOnlyOnConflict ==
     [][/\ appPc = "checkIsr" /\ appPc' = "unclaim" => isrPc = "fill" /\ isrIdx = a
        /\ appPc = "checkFront" /\ appPc' = "unclaim" => front # a
@@ -264,11 +266,13 @@ LockFailsOnlyOnConflict ==
 
 (* Progress: every claim is given back (a lock call returns, a read ends  *)
 (* in a release), so the ISR's NACKs stop.                                  *)
+\* lobster-trace: urb.MBX_009
 ClaimReturned == (appIdx # NONE) ~> (appIdx = NONE)
 
 (* Progress: once the bridge has stopped writing, a lock call gets the     *)
 (* message: its first attempt may have loaded front before the last       *)
 (* commit, a retry loads it again and succeeds (with MaxRetry >= 1).       *)
+\* lobster-trace: urb.MBX_010
 LockSucceedsWhenQuiet ==
     (txs = MaxWrites /\ isrPc = "idle" /\ appPc = "claim" /\ tries = 0) ~> (appPc = "read")
 

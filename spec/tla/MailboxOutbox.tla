@@ -174,11 +174,13 @@ IsrWaitFree == ENABLED IsrNext
 (* whatever action takes it, and against the ISR's real state (isrPc),    *)
 (* not the index it publishes: an ISR that leaves isr_idx set after a     *)
 (* read refuses the application for nothing.                              *)
+\* lobster-trace: urb.MBX_004
 LockBusyOnlyWhenReading ==
     [][appPc = "check" /\ appPc' = "idle" => isrPc = "copy" /\ isrIdx = w]_vars
 
 (* Progress: an application that keeps trying publishes every write; a    *)
 (* refused lock succeeds once the read that blocked it is over.           *)
+\* lobster-trace: urb.MBX_003
 WritesPublished == <>(writes = MaxWrites)
 
 THEOREM Spec => [](TypeOK /\ AppLockExclusive /\ IsrReadNotTorn

@@ -198,6 +198,7 @@ NothingLost == \A id \in Submitted : id \in InFlight \/ id \in done
 (* and not yet called back, then those still buffered, have increasing ids *)
 (* (the bridge serves a batch in order, so two writes to one inbox land in *)
 (* the order the application submitted them).                              *)
+\* lobster-trace: urb.HOST_005
 SubmissionOrderKept ==
     LET q == expect \o hostQ IN \A k \in 1..Len(q) - 1 : q[k] < q[k + 1]
 
