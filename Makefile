@@ -23,6 +23,7 @@ help:
 	@echo "make gen        regenerate gen/c and gen/python from spec/schema"
 	@echo "make gen-check  fail when the committed generated files are stale"
 	@echo "make bench      run the benchmarks: codecs next to MAVLink, host library CPU per request, C next to Python"
+	@echo "make report     the certification evidence report: build/report/index.html and report.pdf"
 
 setup:
 	@tools/setup.sh
@@ -39,13 +40,23 @@ lint: setup
 # The Python tests run in PYTEST_WORKERS processes (pytest-xdist), each test file in one of them (its
 # fixtures are shared within a file). The programs several files use are built first, so that the
 # workers never build the same one at once.
+# The run's JUnit XML becomes the evidence record build/evidence/pytest.json (report/urb_report/junit.py),
+# written whether the tests passed or not; hypothesis draws from PYTEST_SEED, so the same commit and
+# seed give the same examples and verdicts.
 PYTEST_WORKERS ?= 2
+PYTEST_SEED ?= 0
+PYTEST_PY_ARGS := -q -n $(PYTEST_WORKERS) --dist loadfile tests --ignore=tests/test_c_codecs.py --hypothesis-seed=$(PYTEST_SEED)
 test-py: setup sim-lib bridge-hosted
-	$(PYTEST) -q -n $(PYTEST_WORKERS) --dist loadfile tests --ignore=tests/test_c_codecs.py
+	@rm -f build/evidence/pytest.json build/junit/pytest.xml
+	$(PYTEST) $(PYTEST_PY_ARGS) --junitxml=build/junit/pytest.xml -o junit_family=xunit1; status=$$?; \
+	$(PYTHON) -m urb_report.junit pytest build/junit/pytest.xml --name pytest --seed $(PYTEST_SEED) \
+	  --args "pytest $(PYTEST_PY_ARGS)" || status=1; exit $$status
 
 include $(wildcard mk/*.mk)
 
+# The report gate runs last, once every target above has written its evidence record.
 check: setup gen-check lint test-py $(CHECK_TARGETS)
+	@$(MAKE) --no-print-directory report-gate
 	@echo "make check: all checks passed"
 
 demo: setup

@@ -5,6 +5,7 @@
 #                  against the Python codecs, capacity and canary checks
 #   make cross-c   compile every gen/c/*.c for Cortex-M0+ with the strict warning set; print sizes
 PYTEST ?= tools/run-pytest
+PYTHON ?= python3
 
 CODEC_GEN := gen/c
 CODEC_BUILD := build/c
@@ -18,8 +19,14 @@ CODEC_CROSS_FLAGS := -mcpu=cortex-m0plus -mthumb -Os
 CODEC_CROSS_OBJS := $(patsubst $(CODEC_GEN)/%.c,$(CODEC_BUILD)/cortex-m0plus/%.o,$(CODEC_SOURCES))
 
 .PHONY: test-c cross-c
+# Its JUnit XML becomes the evidence record build/evidence/pytest-c.json (report/urb_report/junit.py).
+PYTEST_SEED ?= 0
 test-c:
-	$(PYTEST) -q tests/test_c_codecs.py
+	@rm -f build/evidence/pytest-c.json build/junit/pytest-c.xml
+	$(PYTEST) -q tests/test_c_codecs.py --hypothesis-seed=$(PYTEST_SEED) --junitxml=build/junit/pytest-c.xml \
+	  -o junit_family=xunit1; status=$$?; \
+	$(PYTHON) -m urb_report.junit pytest build/junit/pytest-c.xml --name pytest-c --seed $(PYTEST_SEED) \
+	  --args "pytest -q tests/test_c_codecs.py --hypothesis-seed=$(PYTEST_SEED)" || status=1; exit $$status
 
 cross-c: $(CODEC_CROSS_OBJS)
 	$(CODEC_CROSS_SIZE) -t $^

@@ -47,12 +47,23 @@ endef
 $(eval $(call FWB_TEST_BINARY,gcc))
 $(eval $(call FWB_TEST_BINARY,clang))
 
+# gcc prints cmocka's report (kept in junit/gcc-bridge-tests.log), clang writes JUnit XML; both go
+# into the evidence record build/evidence/cmocka-bridge.json (report/urb_report/junit.py), which is
+# written whether the tests passed or not.
 bridge-tests: $(FWB_BUILD)/gcc/bridge-tests $(FWB_BUILD)/clang/bridge-tests
-	CMOCKA_MESSAGE_OUTPUT=stdout $(FWB_BUILD)/gcc/bridge-tests
-	CMOCKA_MESSAGE_OUTPUT=stdout $(FWB_BUILD)/clang/bridge-tests
 	@mkdir -p $(FWB_BUILD)/junit
-	@CMOCKA_MESSAGE_OUTPUT=xml CMOCKA_XML_FILE=$(FWB_BUILD)/junit/%g.xml $(FWB_BUILD)/gcc/bridge-tests >/dev/null
-	@echo "bridge tests: passed with gcc and clang (JUnit: $(FWB_BUILD)/junit/)"
+	@rm -f $(FWB_BUILD)/junit/clang-bridge_*.xml
+	@status=0; \
+	CMOCKA_MESSAGE_OUTPUT=stdout $(FWB_BUILD)/gcc/bridge-tests 2>&1 | tee $(FWB_BUILD)/junit/gcc-bridge-tests.log; \
+	[ $${PIPESTATUS[0]} -eq 0 ] || status=1; \
+	CMOCKA_MESSAGE_OUTPUT=xml CMOCKA_XML_FILE=$(FWB_BUILD)/junit/clang-%g.xml $(FWB_BUILD)/clang/bridge-tests \
+	  > $(FWB_BUILD)/junit/clang-bridge-tests.out 2>&1 || { status=1; cat $(FWB_BUILD)/junit/clang-bridge-tests.out; }; \
+	xmls=; for f in $(FWB_BUILD)/junit/clang-bridge_*.xml; do xmls="$$xmls --xml clang:bridge-tests=$$f"; done; \
+	$(PYTHON) -m urb_report.junit cmocka --name cmocka-bridge $$xmls \
+	  --log gcc:bridge-tests=$(FWB_BUILD)/junit/gcc-bridge-tests.log \
+	  --rerun "make bridge-tests" --tool "gcc=$$(gcc --version | head -1)" \
+	  --tool "clang=$$(clang --version | head -1)" || status=1; \
+	[ $$status -eq 0 ] && echo "bridge tests: passed with gcc and clang (JUnit: $(FWB_BUILD)/junit/)"; exit $$status
 
 # --- mutants: each seeded bug must be caught -----------------------------------------------------
 # A mutant build compiles the same sources with -DURB_MUTANT_<NAME> (see the #ifdefs in

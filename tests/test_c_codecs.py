@@ -230,6 +230,7 @@ def random_implicit(m: MessageDecl, rng: random.Random) -> dict[str, Any]:
 # --- tests -------------------------------------------------------------------------------------
 
 
+# lobster-trace: urb.CRC_002
 def test_crc_check_values(driver: Driver) -> None:
     """CRC-8/AUTOSAR and CRC-16/CCITT-FALSE check values; the driver also compares byte-wise and buffer CRCs."""
     assert driver.ask("K crc8_link_check " + b"123456789".hex()) == "OK df"
@@ -241,6 +242,7 @@ def test_crc_check_values(driver: Driver) -> None:
     assert answers == expected
 
 
+# lobster-trace: urb.CRC_002
 def test_python_crc_model_agrees_with_fastcrc() -> None:
     tiers = {t.name: t for t in MESSAGES["UplinkResponse"].checksum.tiers}  # type: ignore[union-attr]
     assert crc(tiers["crc8"], b"123456789") == 0xDF == fastcrc.crc8.autosar(b"123456789")
@@ -310,6 +312,7 @@ def _random_cases(m: MessageDecl, rng: random.Random) -> Iterator[tuple[bytes, d
         yield frame, implicit
 
 
+# lobster-trace: urb.MEM_001, urb.PKT_004
 @pytest.mark.parametrize("name", sorted(MESSAGES))
 def test_random_frames_decode_like_python(driver: Driver, name: str) -> None:
     """Never crashes; same verdict as the Python codec; an accepted frame re-encodes to itself."""
@@ -331,6 +334,7 @@ def test_random_frames_decode_like_python(driver: Driver, name: str) -> None:
         assert verdicts.get("range", 0) > 0, verdicts  # and the mutations reached the range checks
 
 
+# lobster-trace: urb.PKT_004
 @pytest.mark.parametrize("name", sorted(MESSAGES))
 def test_encode_respects_capacity(driver: Driver, name: str) -> None:
     """Every capacity below the frame size is URB_ERR_CAPACITY with the buffer untouched (the

@@ -58,6 +58,7 @@ def test_python_c_python_round_trip_is_identical(driver: CodecDriver, msg: Messa
     assert _py_decode(msg.NAME, answer.frame, msg) == msg
 
 
+# lobster-trace: urb.PKT_002
 @settings(max_examples=1500, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(name=st.sampled_from(NAMES), data=st.binary(max_size=40))
 def test_c_and_python_agree_on_any_bytes(driver: CodecDriver, name: str, data: bytes) -> None:

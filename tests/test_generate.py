@@ -11,6 +11,7 @@ from pathlib import Path
 from urb_codegen.generate import C_DIR, PY_DIR, check_fresh, generate, load_bundled
 
 
+# lobster-trace: urb.PKT_007
 def test_generation_is_deterministic(tmp_path: Path) -> None:
     schemas = load_bundled()
     first = generate(schemas, tmp_path / "a" / "c", tmp_path / "a" / "py")
@@ -20,11 +21,13 @@ def test_generation_is_deterministic(tmp_path: Path) -> None:
         assert filecmp.cmp(path, twin, shallow=False), path
 
 
+# lobster-trace: urb.PKT_007
 def test_committed_output_is_fresh() -> None:
     result = check_fresh(load_bundled())
     assert result.fresh, result
 
 
+# lobster-trace: urb.PKT_007
 def test_staleness_is_detected(tmp_path: Path) -> None:
     c_dir, py_dir = tmp_path / "c", tmp_path / "py"
     shutil.copytree(C_DIR, c_dir)

@@ -38,6 +38,7 @@ def test_valid_messages_round_trip(msg: Message) -> None:
     assert _decode(type(msg), frame, msg) == msg
 
 
+# lobster-trace: urb.PKT_002
 @settings(max_examples=1500)
 @given(st.sampled_from(ALL), st.binary(max_size=40))
 def test_random_bytes_decode_cleanly_or_canonically(name: str, data: bytes) -> None:
@@ -54,6 +55,7 @@ def test_random_bytes_decode_cleanly_or_canonically(name: str, data: bytes) -> N
 @given(st.sampled_from(CHECKED).flatmap(
     lambda name: st.tuples(st.randoms(use_true_random=False).map(lambda r: random_message(urb_msgs.MESSAGES[name], r)),
                            st.lists(st.integers(min_value=0, max_value=10_000), min_size=1, max_size=3, unique=True))))
+# lobster-trace: urb.CRC_001
 def test_checked_frames_reject_one_to_three_bit_errors(case: tuple[Message, list[int]]) -> None:
     """link_check keeps Hamming distance 4 for every length it is used at (see spec/schema/README.md)."""
     msg, positions = case
@@ -65,6 +67,7 @@ def test_checked_frames_reject_one_to_three_bit_errors(case: tuple[Message, list
         _decode(type(msg), bytes(frame), msg)
 
 
+# lobster-trace: urb.CRC_001
 @pytest.mark.parametrize("name", CHECKED)
 def test_every_single_bit_flip_is_detected(name: str) -> None:
     rng = random.Random(name)

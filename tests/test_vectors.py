@@ -38,6 +38,7 @@ def test_every_message_has_a_vector() -> None:
     assert missing <= allowed_without, f"messages without a reference vector: {sorted(missing - allowed_without)}"
 
 
+# lobster-trace: urb.PKT_001
 @pytest.mark.parametrize("v", VALID, ids=_ident)
 def test_encode_matches_vector(v: dict[str, Any]) -> None:
     cls = urb_msgs.MESSAGES[v["message"]]
@@ -45,6 +46,7 @@ def test_encode_matches_vector(v: dict[str, Any]) -> None:
     assert msg.encode().hex() == v["hex"]
 
 
+# lobster-trace: urb.PKT_001
 @pytest.mark.parametrize("v", VALID, ids=_ident)
 def test_decode_matches_vector(v: dict[str, Any]) -> None:
     cls = urb_msgs.MESSAGES[v["message"]]
@@ -54,6 +56,7 @@ def test_decode_matches_vector(v: dict[str, Any]) -> None:
         assert plain[key] == value, key
 
 
+# lobster-trace: urb.PKT_002
 @pytest.mark.parametrize("v", ERRORS, ids=_ident)
 def test_error_vectors_raise_the_precise_error(v: dict[str, Any]) -> None:
     cls = urb_msgs.MESSAGES[v["message"]]
@@ -68,6 +71,7 @@ def test_vectors_cover_checked_frames() -> None:
     assert len(CHECKED) >= 6
 
 
+# lobster-trace: urb.CRC_002
 @pytest.mark.parametrize("v", CHECKED, ids=_ident)
 def test_vector_check_bytes_agree_with_an_independent_crc(v: dict[str, Any]) -> None:
     """Guards the vector files: recompute each check with fastcrc (a separate implementation)."""

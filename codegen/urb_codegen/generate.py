@@ -74,6 +74,7 @@ def _tree(root: Path) -> set[Path]:
     return {p.relative_to(root) for p in root.rglob("*") if p.is_file() and "__pycache__" not in p.parts}
 
 
+# lobster-trace: urb.PKT_007
 def check_fresh(schemas: list[Schema], c_dir: Path = C_DIR, py_dir: Path = PY_DIR) -> Staleness:
     """Generate into a temporary folder and compare it with the committed output."""
     changed: list[Path] = []

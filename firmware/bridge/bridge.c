@@ -84,6 +84,7 @@ static void set_present(urb_bridge_t *b, uint8_t a, bool on)
 /*@ requires \valid(b) && urbb_nodes_ok(b);
     assigns b->nodes[0 .. URB_BRIDGE_MAX_NODES - 1].address, b->node_of[0 .. 127];
     ensures urbb_nodes_ok(b); */
+/* lobster-trace: urb.DSC_006 */
 static void node_forget(urb_bridge_t *b, uint8_t a)
 {
     uint8_t const i = (uint8_t)(a % 128u); /* % rather than & 0x7F: the provers reason about it */
@@ -163,6 +164,7 @@ static int16_t known_size(const urb_bridge_t *b, uint8_t a, uint8_t box, bool re
 /*@ requires \valid_read(b) && urbb_nodes_ok(b) && a < 128 && box < 8;
     assigns \nothing;
     ensures \result == URB_STATUS_OK || \result == URB_STATUS_BAD_REQUEST || \result == URB_STATUS_SIZE_MISMATCH; */
+/* lobster-trace: urb.ERR_003, urb.PKT_003 */
 static uint8_t admission_status(const urb_bridge_t *b, uint8_t a, uint8_t box, bool read, uint8_t len)
 {
     if ((a != URB_BRIDGE_ADDRESS) && ((a < b->dl.first_address) || (a > b->dl.last_address))) {
@@ -239,6 +241,7 @@ static void store_slot(urb_bridge_t *b, uint8_t s, uint8_t r, const urbb_request
                 b->slot_count == \old(b->slot_count);
     complete behaviors;
     disjoint behaviors; */
+/* lobster-trace: urb.ORD_001, urb.ORD_005 */
 static void admit(urb_bridge_t *b, const urbb_request_t *q)
 {
     if (b->ring_count >= URB_BRIDGE_RING_MAX) {
@@ -351,6 +354,7 @@ static uint8_t first_pending(const urb_bridge_t *b)
     ensures b->slot_served == b->slot_count ==> \result == \null;
     ensures b->slot_served < b->slot_count ==> \result == &b->slots[urbb_slot_at(b, b->slot_served)];
     ensures \result == \null || \valid(\result); */
+/* lobster-trace: urb.ORD_003 */
 static urb_bridge_slot_t *oldest_pending(urb_bridge_t *b)
 {
     uint8_t const s = first_pending(b);
@@ -472,6 +476,7 @@ static void scan_begin(urb_bridge_t *b, uint32_t now)
 
 /* Discovery.tla: ScanAddress(b), second half. Acknowledged: present, and its identification gives
  * the mailbox sizes. Not acknowledged: absent and forgotten; the scan goes on (a gap never ends it). */
+/* lobster-trace: urb.DSC_004 */
 static void scan_done(urb_bridge_t *b, uint8_t status)
 {
     uint8_t const a = b->scan_addr;
@@ -505,6 +510,7 @@ static void scan_done(urb_bridge_t *b, uint8_t status)
  * node its presence state calls absent (Discovery.tla: HostRequest), OK or a downlink fault for a
  * present one. A present node that does not acknowledge its address is probed first (a bit error
  * or a vanished node: the probe tells). Requests to address 0 complete here unchanged. */
+/* lobster-trace: urb.ERR_001, urb.ERR_002, urb.ORD_004 */
 static void served(urb_bridge_t *b, uint8_t status)
 {
     urb_bridge_slot_t const *d = oldest_pending(b);
@@ -564,6 +570,7 @@ static void probed(urb_bridge_t *b, uint8_t status)
  * identification that did not decode, past the table's URB_BRIDGE_MAX_NODES entries) is identified
  * first: its outbox 0 is read, and learned when the table has room. Outbox 0 and inbox 0 have the
  * same size on every node, so requests to them need no identification. */
+/* lobster-trace: urb.ERR_003 */
 static bool needs_identification(const urb_bridge_t *b, const urb_bridge_slot_t *d)
 {
     if ((d->address == URB_BRIDGE_ADDRESS) || b->size_checked) {
@@ -638,6 +645,7 @@ static void activity_done(urb_bridge_t *b, uint8_t status)
 /* The SYNC heartbeat goes first: its timing matters to every node (paper Sec. V-E), and a
  * transaction in progress delays it by at most one transaction. Ticks that pass while the
  * downlink is busy are not queued: the counter skips, so nodes can tell a missed SYNC. */
+/* lobster-trace: urb.SYN_007 */
 static bool start_sync(urb_bridge_t *b, uint32_t now)
 {
     uint8_t const ticks = b->hb_ticks;
@@ -752,6 +760,7 @@ static bool emit_entry(urb_bridge_t *b, uint8_t r)
 }
 
 /* Bridge.tla: Emit. The oldest response leaves once final; its slots are freed. */
+/* lobster-trace: urb.ORD_002, urb.ORD_003 */
 static void emit(urb_bridge_t *b)
 {
     /* loop bound: URB_BRIDGE_RING_MAX responses */
@@ -785,6 +794,7 @@ void urb_bridge_default_config(urb_bridge_config_t *cfg)
     cfg->scan_at_start = true;
 }
 
+/* lobster-trace: urb.RES_003 */
 int32_t urb_bridge_init(urb_bridge_t *b, const urb_bridge_config_t *cfg, const urb_bridge_hal_t *hal,
                         const urb_downlink_t *dl)
 {

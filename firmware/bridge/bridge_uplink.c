@@ -97,6 +97,7 @@ void urbb_uplink_init(urb_bridge_t *b)
 /*@ assigns \nothing;
     ensures \result == 0 || \result == NOT_A_FRAME || 4 <= \result <= URB_BRIDGE_FRAME_MAX;
     ensures n == 0 ==> \result == 0; */
+/* lobster-trace: urb.PKT_001 */
 static uint8_t candidate_len(uint8_t first, uint8_t third, uint8_t n)
 {
     if (n == 0u) {
@@ -167,6 +168,7 @@ static void push(urb_bridge_t *b, urb_bridge_parser_t *p, uint8_t byte)
 /*@ requires urbb_rs232_ok(b) && p == &b->rs232 && \valid(checks) && \separated(checks, b);
     assigns p->start, p->len, p->flushing, *checks, b->stats.gap_drops, b->stats.hunt_discards, URBB_FRAME_WRITES;
     ensures urbb_rs232_ok(b); */
+/* lobster-trace: urb.CRC_005, urb.FLT_006 */
 static bool hunt(urb_bridge_t *b, urb_bridge_parser_t *p, uint8_t *checks, bool ended)
 {
     /* loop bound: URB_BRIDGE_FRAME_MAX + 1 rounds (each but a last one that returns removes a byte or more) */
@@ -252,6 +254,7 @@ void urb_bridge_uart_rx(urb_bridge_t *b, uint8_t byte, uint32_t t_us)
 /*@ requires urbb_rs232_ok(b);
     assigns URBB_PARSE_WRITES;
     ensures urbb_rs232_ok(b); */
+/* lobster-trace: urb.WCET_005 */
 void urbb_uart_parse(urb_bridge_t *b, uint32_t now, uint8_t checks)
 {
     urb_bridge_parser_t *const p = &b->rs232;
@@ -376,6 +379,7 @@ void urb_bridge_usb_sof(urb_bridge_t *b)
     assigns b->stats.usb_bad_batches, b->stats.usb_batches, b->stats.usb_cut_batches, b->usb_last_frame,
             b->usb_frame[0 .. 1], URBB_FRAME_WRITES;
     ensures urbb_fifo_ok(b) && urbb_nodes_ok(b) && urbb_usb_ok(b); */
+/* lobster-trace: urb.PKT_006, urb.WCET_006 */
 bool urb_bridge_usb_out(urb_bridge_t *b, const uint8_t *data, size_t len)
 {
     urb_usb_batch_header_t h;

@@ -28,6 +28,7 @@ enum {
 #define BOTH_LINES (URB_I2C_SCL | URB_I2C_SDA)
 #define CLEAR_FOR_COMMAND 0xFEu /* clear_for: an explicit URB_DL_CLEAR (OK when the bus is free after) */
 
+/* lobster-trace: urb.FLT_002 */
 uint32_t urb_i2c_master_timeout_us(uint32_t bitrate_kbps)
 {
     /* bits x 1000 / kb/s = us; x 2 for stretching; rounded up without overflow for any rate */
@@ -156,6 +157,7 @@ static void finish_bus(urb_i2c_master_t *m, uint8_t result)
 
 /* Interrupt side. Every branch does O(1) work and issues at most one HAL operation. The phase is
  * written before the operation so that an event arriving at once finds the right phase. */
+/* lobster-trace: urb.WCET_007 */
 void urb_i2c_master_event(urb_i2c_master_t *m, urb_i2c_event_t ev, uint8_t byte)
 {
     const urb_i2c_hal_t *h = m->hal;
@@ -256,6 +258,7 @@ static void start_clear(urb_i2c_master_t *m, uint32_t now, uint8_t clear_for)
 /* One step of the standard bus clear (UM10204 3.1.16): nine SCL pulses with SDA released, so a
  * node stuck in the middle of a byte clocks it out and releases SDA, then a STOP. One half clock
  * per call; the caller returns to the main loop in between (never waits). */
+/* lobster-trace: urb.FLT_001 */
 static int8_t clear_step(urb_i2c_master_t *m, uint32_t now)
 {
     const urb_i2c_hal_t *h = m->hal;
@@ -288,6 +291,7 @@ static int8_t clear_step(urb_i2c_master_t *m, uint32_t now)
 
 /* After an error event or a timeout (the controller is already stopped): a line held low means a
  * stuck bus, cleared before anything else; free lines mean the node did not finish in time. */
+/* lobster-trace: urb.FLT_001 */
 static int8_t fault(urb_i2c_master_t *m, uint32_t now)
 {
     const urb_i2c_hal_t *h = m->hal;

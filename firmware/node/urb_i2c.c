@@ -59,6 +59,7 @@ static void check_update(urb_node_i2c_t *i2c, uint8_t byte)
 /*@ requires \valid(i2c);
     assigns i2c->crc16, i2c->crc;
     ensures i2c->crc16 <= 1; */
+/* lobster-trace: urb.CRC_003 */
 static void check_start(urb_node_i2c_t *i2c, uint8_t size, uint8_t select)
 {
     i2c->crc16 = ((1u + (unsigned)size) > URB_CRC8_LINK_CHECK_MAX_COVERED) ? 1u : 0u;
@@ -138,6 +139,7 @@ static void end_transaction(urb_node_t *node, bool clean)
     assigns node->i2c.state;
     ensures urb_i2c_ok(node);
     ensures \result == URB_I2C_NACK; */
+/* lobster-trace: urb.MBX_005 */
 static uint16_t refuse(urb_node_t *node)
 {
     node->i2c.state = URB_I2C_ST_IGNORE;
@@ -207,6 +209,7 @@ static uint16_t rx_data(urb_node_t *node, uint8_t byte)
 /*@ requires urb_i2c_ok(node) && node->i2c.state == URB_I2C_ST_CHECK;
     assigns node->i2c, node->isr_faults[0 .. URB_NODE_FAULT_CODES - 1], node->inbox[0 .. URB_NODE_MAILBOXES - 1].isr_idx;
     ensures urb_i2c_ok(node); */
+/* lobster-trace: urb.CRC_004 */
 static uint16_t rx_check(urb_node_t *node, uint8_t byte)
 {
     urb_node_i2c_t *i2c = &node->i2c;
@@ -371,6 +374,7 @@ static void bus_stuck(urb_node_t *node)
  * end_transaction's inbox[0 .. 7].fresh[0 .. 1] does not prove included in one here (README). */
 /*@ requires node == \null || (urb_i2c_ok(node) && \valid_read(node->hal));
     ensures node != \null ==> urb_i2c_ok(node); */
+/* lobster-trace: urb.WCET_001 */
 uint16_t urb_node_i2c_event(urb_node_t *node, urb_i2c_event_t event, uint8_t byte)
 {
     if ((node == NULL) || (node->started == 0u)) {

@@ -90,6 +90,7 @@ uint8_t *urb_inbox_buf(urb_node_t *node, uint8_t n, uint8_t b)
       ensures \valid(*data + (0 .. node->outbox[n].size - 1));
     complete behaviors;
     disjoint behaviors; */
+/* lobster-trace: urb.MBX_004 */
 int urb_lock_outbox_any(urb_node_t *node, uint8_t n, uint8_t **data)
 {
     urb_node_outbox_t *ob = &node->outbox[n];
@@ -137,6 +138,7 @@ int urb_lock_outbox_any(urb_node_t *node, uint8_t n, uint8_t **data)
       ensures node->outbox[n].held == URB_NONE;
     complete behaviors;
     disjoint behaviors; */
+/* lobster-trace: urb.MBX_003 */
 int urb_release_outbox_any(urb_node_t *node, uint8_t n)
 {
     urb_node_outbox_t *ob = &node->outbox[n];
@@ -157,6 +159,7 @@ int urb_release_outbox_any(urb_node_t *node, uint8_t n)
     assigns node->outbox[n].isr_idx;
     ensures urb_mb_layout(node);
     ensures node->outbox[n].isr_idx == node->outbox[n].front; */
+/* lobster-trace: urb.MBX_001, urb.MBX_002, urb.MBX_003 */
 void urb_isr_read_begin(urb_node_t *node, uint8_t n)
 {
     urb_node_outbox_t *ob = &node->outbox[n];
@@ -205,6 +208,7 @@ void urb_isr_read_end(urb_node_t *node, uint8_t n)
       ensures node->inbox[n].isr_idx != node->inbox[n].app_idx;
     complete behaviors;
     disjoint behaviors; */
+/* lobster-trace: urb.MBX_005, urb.MBX_009 */
 bool urb_isr_write_begin(urb_node_t *node, uint8_t n)
 {
     urb_node_inbox_t *ib = &node->inbox[n];
@@ -258,6 +262,7 @@ void urb_isr_write_byte(urb_node_t *node, uint8_t n, uint8_t k, uint8_t byte)
       ensures node->inbox[n].isr_idx == URB_NONE;
     complete behaviors;
     disjoint behaviors; */
+/* lobster-trace: urb.MBX_006, urb.MBX_007 */
 void urb_isr_write_commit(urb_node_t *node, uint8_t n)
 {
     urb_node_inbox_t *ib = &node->inbox[n];
@@ -275,6 +280,7 @@ void urb_isr_write_commit(urb_node_t *node, uint8_t n)
     assigns node->inbox[n].isr_idx;
     ensures urb_mb_layout(node);
     ensures node->inbox[n].isr_idx == URB_NONE; */
+/* lobster-trace: urb.MBX_008 */
 void urb_isr_write_abort(urb_node_t *node, uint8_t n)
 {
     urb_node_inbox_t *ib = &node->inbox[n];
@@ -303,6 +309,7 @@ void urb_isr_write_abort(urb_node_t *node, uint8_t n)
       ensures \result < 0 ==> node->inbox[n].app_idx == URB_NONE;
     complete behaviors;
     disjoint behaviors; */
+/* lobster-trace: urb.MBX_006, urb.MBX_007, urb.MBX_010 */
 int urb_lock_inbox_any(urb_node_t *node, uint8_t n, const uint8_t **data)
 {
     urb_node_inbox_t *ib = &node->inbox[n];
@@ -368,6 +375,7 @@ int urb_lock_inbox_any(urb_node_t *node, uint8_t n, const uint8_t **data)
       ensures node->inbox[n].app_idx == URB_NONE;
     complete behaviors;
     disjoint behaviors; */
+/* lobster-trace: urb.MBX_009 */
 int urb_release_inbox_any(urb_node_t *node, uint8_t n)
 {
     urb_node_inbox_t *ib = &node->inbox[n];
@@ -489,6 +497,7 @@ void urb_mailbox_reset(urb_node_t *node)
                 node->storage[k] == 0;
     complete behaviors;
     disjoint behaviors; */
+/* lobster-trace: urb.PKT_003 */
 static int setup_box(urb_node_t *node, uint8_t n, uint8_t size, bool inbox)
 {
     int rc = URB_NODE_OK;
@@ -546,6 +555,7 @@ uint8_t urb_node_outbox_size(const urb_node_t *node, uint8_t n)
 
 /* ===== Public application-side wrappers (mailboxes 1..7) ==================================== */
 
+/* lobster-trace: urb.MBX_012 */
 int urb_node_lock_inbox(urb_node_t *node, uint8_t n, const uint8_t **data)
 {
     if ((node == NULL) || (data == NULL) || (n == 0u) || (n >= URB_NODE_MAILBOXES)) {
@@ -554,6 +564,7 @@ int urb_node_lock_inbox(urb_node_t *node, uint8_t n, const uint8_t **data)
     return urb_lock_inbox_any(node, n, data);
 }
 
+/* lobster-trace: urb.MBX_012 */
 int urb_node_release_inbox(urb_node_t *node, uint8_t n)
 {
     if ((node == NULL) || (n == 0u) || (n >= URB_NODE_MAILBOXES)) {
@@ -562,6 +573,7 @@ int urb_node_release_inbox(urb_node_t *node, uint8_t n)
     return urb_release_inbox_any(node, n);
 }
 
+/* lobster-trace: urb.MBX_012 */
 int urb_node_lock_outbox(urb_node_t *node, uint8_t n, uint8_t **data)
 {
     if ((node == NULL) || (data == NULL) || (n == 0u) || (n >= URB_NODE_MAILBOXES)) {
@@ -570,6 +582,7 @@ int urb_node_lock_outbox(urb_node_t *node, uint8_t n, uint8_t **data)
     return urb_lock_outbox_any(node, n, data);
 }
 
+/* lobster-trace: urb.MBX_012 */
 int urb_node_release_outbox(urb_node_t *node, uint8_t n)
 {
     if ((node == NULL) || (n == 0u) || (n >= URB_NODE_MAILBOXES)) {

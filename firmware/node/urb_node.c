@@ -69,6 +69,7 @@ void urb_isr_fault(urb_node_t *node, urb_node_fault_t code)
 /* ===== Identification (outbox 0) ============================================================ */
 
 /* Publishes Identification when anything in it changed; returns URB_NODE_POLL_IDENT if it did. */
+/* lobster-trace: urb.MBX_011 */
 static uint8_t refresh_identification(urb_node_t *node)
 {
     uint8_t const synced = (node->pll.state == URB_NODE_SYNC_LOCKED) ? URB_F_ID_SYNCED : 0u;
@@ -129,6 +130,7 @@ static void deliver_fault(urb_node_t *node, urb_node_fault_t code)
 
 /* Delivers the faults counted since the last poll (by the interrupts, and a missed heartbeat by
  * run_update): once per code per poll. */
+/* lobster-trace: urb.ERR_005 */
 static uint8_t deliver_isr_faults(urb_node_t *node)
 {
     uint8_t delivered = 0u;
@@ -159,6 +161,7 @@ static void reset_application(urb_node_t *node)
 }
 
 /* Executes a new inbox-0 command, if any. Runs in the main loop, never in the interrupt. */
+/* lobster-trace: urb.MBX_011, urb.WCET_003 */
 static uint8_t run_command(urb_node_t *node)
 {
     if (node->req_seq != node->pll.req_ack) {
@@ -239,6 +242,7 @@ static uint8_t run_update(urb_node_t *node)
  * Samples carry the guard: without it the lead would settle where the acquisition ends on the
  * SYNC, whose interrupt then lengthens some samples, and the window would make the lead oscillate
  * by an interrupt's length (firmware/node/README.md). */
+/* lobster-trace: urb.SYN_004 */
 static void acq_sample(urb_node_t *node, uint32_t sample)
 {
     if (sample > node->acq_ticks) {
@@ -378,6 +382,7 @@ static void start_node(urb_node_t *node, const urb_node_hal_t *hal, const urb_no
 /*@ requires node == \null || \valid(node);
     requires storage == \null || \valid(storage + (0 .. storage_len - 1));
     requires \separated(node, storage + (0 .. storage_len - 1)); */
+/* lobster-trace: urb.MBX_012 */
 int urb_node_init(urb_node_t *node, const urb_node_hal_t *hal, const urb_node_hooks_t *hooks, void *user,
                   const urb_node_config_t *cfg, uint8_t *storage, uint16_t storage_len)
 {
@@ -405,6 +410,7 @@ int urb_node_init(urb_node_t *node, const urb_node_hal_t *hal, const urb_node_ho
     return URB_NODE_OK;
 }
 
+/* lobster-trace: urb.WCET_003 */
 uint8_t urb_node_poll(urb_node_t *node)
 {
     if ((node == NULL) || (node->started == 0u)) {
@@ -451,6 +457,7 @@ static int setup_allowed(const urb_node_t *node)
     return (node->started != 0u) ? URB_NODE_ERR_STATE : URB_NODE_OK;
 }
 
+/* lobster-trace: urb.MBX_012 */
 int urb_node_set_class(urb_node_t *node, uint8_t class_id)
 {
     int const rc = setup_allowed(node);
@@ -460,6 +467,7 @@ int urb_node_set_class(urb_node_t *node, uint8_t class_id)
     return rc;
 }
 
+/* lobster-trace: urb.MBX_012 */
 int urb_node_set_index(urb_node_t *node, uint8_t index)
 {
     int rc = setup_allowed(node);
@@ -473,6 +481,7 @@ int urb_node_set_index(urb_node_t *node, uint8_t index)
     return rc;
 }
 
+/* lobster-trace: urb.MBX_011 */
 int urb_node_set_fingerprint(urb_node_t *node, uint32_t fingerprint)
 {
     int const rc = setup_allowed(node);

@@ -111,6 +111,7 @@ static void schedule(urb_node_t *node, uint32_t ref, uint8_t ref_frac, int32_t o
 }
 
 /* Restarts acquisition: the next SYNC jumps the phase, the period filter restarts in gear 0. */
+/* lobster-trace: urb.SYN_006 */
 static void reacquire(urb_node_pll_t *pll, uint8_t state)
 {
     pll->state = state;
@@ -134,6 +135,7 @@ static bool measure(uint32_t delta, uint8_t gap, uint32_t *td_q8)
 }
 
 /* eq. 1 with gear shifting and outlier rejection. */
+/* lobster-trace: urb.SYN_003, urb.SYN_005 */
 static void update_period(urb_node_t *node, uint32_t t_d, uint8_t gap)
 {
     urb_node_pll_t *pll = &node->pll;
@@ -166,6 +168,7 @@ static int32_t phase_of(uint32_t t_n, uint32_t t_d, uint32_t lead, int32_t perio
     return (phase > period) ? period : ((phase < -period) ? -period : phase);
 }
 
+/* lobster-trace: urb.SYN_001, urb.SYN_002, urb.SYN_005, urb.WCET_002 */
 void urb_pll_sync(urb_node_t *node, uint32_t t_d, uint8_t counter)
 {
     urb_node_pll_t *pll = &node->pll;
@@ -269,6 +272,7 @@ static void apply_request(urb_node_t *node)
     pll->req_ack = node->req_seq;
 }
 
+/* lobster-trace: urb.SYN_006, urb.WCET_002 */
 void urb_node_timer_event(urb_node_t *node)
 {
     if ((node == NULL) || (node->started == 0u)) {

@@ -368,6 +368,7 @@ class _Discovery:
     read again (a rescan of that address, Discovery.tla's remedy); application requests are never
     retransmitted."""
 
+    # lobster-trace: urb.DSC_002, urb.DSC_003
     def _got_ident(self, addr: int, t: Transfer, attempt: int = 0) -> None:
         transient = ErrorFlag.TIMEOUT | ErrorFlag.CHECKSUM | ErrorFlag.BUS_STUCK | ErrorFlag.BUSY | ErrorFlag.UPLINK_CHECKSUM
         if not t.ok and t.flags & transient and attempt < self.IDENT_RETRIES:
@@ -571,6 +572,7 @@ class URBInterface:
         with self._lock:
             return [r for r in self._records if r.active]
 
+    # lobster-trace: urb.DSC_008
     def find_node(self, cls: int | str | NodeInfo, index: int = 0) -> NodeAccessor:
         """The accessor of the node with class `cls` (class id, schema name or NodeInfo) and
         `index`. Raises `NodeNotFoundError`, `DuplicateNodeError`, `FingerprintMismatchError`

@@ -7,6 +7,7 @@ import os
 import signal
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 from urb_sim import cli as sim_cli
 
@@ -63,7 +64,37 @@ def _build() -> tuple[argparse.ArgumentParser, dict[str, argparse.ArgumentParser
     cli_schema.register(sub)
     demo.register(sub)
     sim_cli.register(sub)
+    _register_report(sub)
     return parser, dict(sub.choices)
+
+
+def _register_report(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """`urb report`: the certification evidence report and its gate (report/urb_report/cli.py,
+    imported only when the command runs)."""
+    p = sub.add_parser(
+        "report", help="certification evidence report (HTML, PDF) and its gate",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Collect the evidence records of build/evidence/, trace them to the requirements of "
+                    "spec/requirements/ and write build/report/index.html and build/report/report.pdf. "
+                    "Nothing is rerun: each activity of `make check` writes its record, this reads them.",
+        epilog="Exit status: 0 written (with --gate: and the gate passed), 1 the gate failed (one line per "
+               "problem, naming its requirement), 2 the report could not be made.\n"
+               "Example: make check && urb report   (then open build/report/report.pdf)")
+    p.add_argument("--gate", action="store_true", help="exit 1 when the gate fails (make check runs this)")
+    p.add_argument("--no-pdf", action="store_true", help="write the HTML only (no Chromium)")
+    p.add_argument("--update-baseline", action="store_true",
+                   help="accept changed requirement texts that spec/requirements/history.trlc explains")
+    p.add_argument("--evidence", type=Path, default=None, metavar="DIR", help="records from DIR, not build/evidence/")
+    p.add_argument("--out", type=Path, default=None, metavar="DIR", help="write to DIR, not build/report/")
+    p.set_defaults(run=_run_report)
+
+
+def _run_report(args: argparse.Namespace) -> int:
+    from urb_report import cli as report_cli
+
+    if args.out is None:
+        args.out = report_cli.REPORT_DIR
+    return report_cli.run(args)
 
 
 def parse(parser: argparse.ArgumentParser, commands: dict[str, argparse.ArgumentParser],

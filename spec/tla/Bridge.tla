@@ -90,6 +90,7 @@ ASSUME /\ Faults \subseteq DownlinkFaults
 Outbox(addr, box) == <<addr, box>>
 
 (* Header validation done at admission (no downlink traffic).              *)
+\* lobster-trace: urb.PKT_003
 AdmissionStatus(r) ==
     IF r.box \notin 0..7 \/ r.len \notin 1..32 THEN "BAD_REQUEST"
     ELSE IF r.addr \in Present /\ r.len # Size[r.addr][r.box]
@@ -438,18 +439,22 @@ IdsInOrder(s) == \A k \in 1..Len(s) - 1 : s[k].id <= s[k + 1].id
 
 (* Nothing is dropped: every submitted request is in the bridge or         *)
 (* answered, or was forgotten in a bridge reset.                           *)
+\* lobster-trace: urb.ORD_001
 NoSilentDrop == 1..Len(sent) \subseteq Ids(out) \cup Ids(queue) \cup forgotten
 
 (* No request is answered twice. *)
+\* lobster-trace: urb.ORD_002
 AtMostOneResponse == DistinctIds(out)
 
 (* Responses leave in request order. *)
+\* lobster-trace: urb.ORD_003
 ResponsesInRequestOrder == IdsInOrder(out)
 
 (* The k-th response answers the k-th request (of those no bridge reset   *)
 (* forgot: with no reset, simply the k-th) and echoes its sequence        *)
 (* number; a successful read carries the addressed outbox's data, any      *)
 (* other response carries no data.                                         *)
+\* lobster-trace: urb.ORD_004
 ResponseMatchesRequest ==
     \A k \in DOMAIN out :
         LET id == out[k].id
@@ -460,12 +465,14 @@ ResponseMatchesRequest ==
                            THEN Outbox(r.addr, r.box) ELSE NoData
 
 (* An error response names what really happened. *)
+\* lobster-trace: urb.ERR_001
 ErrorNamesCause ==
     \A k \in DOMAIN out : out[k].status # "OK" => out[k].status = cause[out[k].id]
 
 (* OK for a write means the node stored it; a write answered CHECKSUM,     *)
 (* NODE_BUSY, NO_NODE or an admission error was not stored.  (TIMEOUT and  *)
 (* BUS_STUCK leave it unknown: the host must not assume either.)           *)
+\* lobster-trace: urb.ERR_002
 WriteStatusTruthful ==
     \A k \in DOMAIN out :
         Req(out[k].id).op = "write" =>
@@ -479,6 +486,7 @@ WriteStatusTruthful ==
 (* SIZE_MISMATCH and BAD_REQUEST, never reach the downlink.)  Responses in *)
 (* request order (ResponsesInRequestOrder) do not imply it: the ring sends *)
 (* them in arrival order whatever order the downlink served them in.      *)
+\* lobster-trace: urb.ORD_003
 ServedInArrivalOrder ==
     \A j, k \in DOMAIN queue :
         j < k /\ queue[j].status = "PENDING"
@@ -487,15 +495,18 @@ ServedInArrivalOrder ==
 (* NODE_BUSY (the node NACKed: both inbox buffers in use) answers writes   *)
 (* only: a node never refuses a read of its outbox (its ISR never waits,    *)
 (* MailboxOutbox.tla).                                                      *)
+\* lobster-trace: urb.ERR_001
 NodeBusyOnlyForWrites ==
     \A k \in DOMAIN out : out[k].status = "NODE_BUSY" => Req(out[k].id).op = "write"
 
 (* BUSY is only answered when every data slot was taken. *)
+\* lobster-trace: urb.ORD_005
 BusyOnlyWhenFull ==
     \A k \in DOMAIN out : out[k].status = "BUSY" => out[k].id \in full
 
 (* The response ring never holds more than HostWindow entries, and the    *)
 (* data slots never more than QueueLen.                                    *)
+\* lobster-trace: urb.RES_003
 BoundedMemory == Len(queue) <= HostWindow /\ DataSlotsUsed <= QueueLen
 
 (* What the host relies on, across sequence-number wrap: a response it     *)
@@ -504,6 +515,7 @@ BoundedMemory == Len(queue) <= HostWindow /\ DataSlotsUsed <= QueueLen
 (* discards as that request's late response), never an older or a newer  *)
 (* request's, whatever the bridge still holds when the host times out.    *)
 (* Checked in the state after every match.                                 *)
+\* lobster-trace: urb.HOST_002
 NoSeqAliasing == lastMatch.req = lastMatch.resp
 
 (* Liveness: every submitted request is eventually answered, unless a     *)
@@ -517,6 +529,7 @@ NoSeqAliasing == lastMatch.req = lastMatch.resp
 (* answered or forgotten at it.  TLC checks the one formula with one      *)
 (* tableau instead of one per request: 4.4 s instead of 30 s of CPU for    *)
 (* a 5-request MCBridgeRestart (issue #37's mutation runs).                *)
+\* lobster-trace: urb.ORD_006
 EveryRequestAnswered ==
     []<>(\A id \in 1..Len(sent) : Answered(id) \/ id \in forgotten)
 
@@ -528,6 +541,7 @@ EveryRequestAnswered ==
 (* stated as: again and again, nothing is in flight.  Equivalent as above: *)
 (* hostFrom never decreases (a match moves it past the matched request, an *)
 (* expiry by one, a new process past every request sent).                  *)
+\* lobster-trace: urb.FLT_005
 EveryRequestReleased == []<>(hostFrom > Len(sent))
 
 -----------------------------------------------------------------------------

@@ -143,19 +143,23 @@ RowSlots == { <<r.bridge, r.addr>> : r \in table }
 FoundSlots == { <<f.bridge, f.addr>> : f \in AllFound }
 
 (* Rows are never merged: one row per answering (bridge, address).         *)
+\* lobster-trace: urb.DSC_001
 NeverMerged == built => (RowSlots = FoundSlots /\ Cardinality(table) = Cardinality(AllFound))
 
 (* Same (class, index) twice in the system: every such row says DUPLICATE. *)
+\* lobster-trace: urb.DSC_002
 DuplicatesReported ==
     \A r \in table :
         ("DUPLICATE" \in r.flags) <=>
             \E q \in table : q # r /\ q.class = r.class /\ q.index = r.index
 
 (* A fingerprint other than the expected one for the class: MISMATCH.     *)
+\* lobster-trace: urb.DSC_003
 MismatchReported ==
     \A r \in table : ("MISMATCH" \in r.flags) <=> (r.fp # Expected[r.class])
 
 (* No phantom: every row is the node wired at that slot, as it reported.   *)
+\* lobster-trace: urb.DSC_004
 NoPhantoms ==
     \A r \in table : LET s == <<r.bridge, r.addr>> IN
         /\ pop[s] # NONE
@@ -163,18 +167,22 @@ NoPhantoms ==
 
 (* A node that answered the scan keeps its row even if it has vanished    *)
 (* since (present at scan; requests to it then get NO_NODE).              *)
+\* lobster-trace: urb.DSC_006
 VanishedNodesKept ==
     built => \A f \in AllFound : ~present[<<f.bridge, f.addr>>] =>
                  <<f.bridge, f.addr>> \in RowSlots
 
 (* A node present during the whole scan is in the table.                  *)
+\* lobster-trace: urb.DSC_005
 StableNodesFound == built => \A s \in stable : s \in RowSlots
 
 (* Requests to a vanished node are answered NO_NODE, to a present one not. *)
+\* lobster-trace: urb.DSC_006
 VanishedGetNoNode ==
     lastReq # NONE => ((lastReq.status = "NO_NODE") <=> ~lastReq.present)
 
 (* Liveness: discovery terminates with a table, whatever the churn.       *)
+\* lobster-trace: urb.DSC_007
 DiscoveryCompletes == <>built
 
 -----------------------------------------------------------------------------

@@ -225,19 +225,24 @@ AppHolds == appPc = "read"
 (* The application never loses its lock: while it holds buf[a], app_idx    *)
 (* still names a, the ISR is not filling a and a stays the published one's *)
 (* twin only through a commit of the other buffer.                         *)
+\* lobster-trace: urb.MBX_009
 AppLockExclusive == AppHolds => (appIdx = a /\ isrIdx # a)
 
 (* The bytes the application reads under one lock come from one write.   *)
+\* lobster-trace: urb.MBX_006
 AppReadNotTorn == \A i, j \in DOMAIN appGot : appGot[i] = appGot[j]
 
 (* ...from the most recently committed write at the linearization point.  *)
+\* lobster-trace: urb.MBX_007
 AppReadFresh == appGot # <<>> => appGot[1] = appSnap
 
 (* The application never sees bytes of an aborted (corrupt) transaction.  *)
+\* lobster-trace: urb.MBX_008
 NoAbortedDelivered == \A i \in DOMAIN appGot : appGot[i] \notin aborted
 
 (* The interrupt never waits: it can always take its next step (a new     *)
 (* transaction is NACKed at once rather than delayed).                    *)
+\* lobster-trace: urb.MBX_005
 IsrWaitFree == txs < MaxWrites \/ isrPc # "idle" => ENABLED IsrNext
 
 (* The ISR refuses a write (NACK; the bridge answers NODE_BUSY) only when  *)
@@ -245,6 +250,7 @@ IsrWaitFree == txs < MaxWrites \/ isrPc # "idle" => ENABLED IsrNext
 (* and not given it back (it is inside URB_LockInbox or holds the lock).  *)
 (* Stated on the step, whatever action takes it (the counterpart of the   *)
 (* bridge's BusyOnlyWhenFull).                                             *)
+\* lobster-trace: urb.MBX_009
 NackOnlyWhenClaimed ==
     [][isrPc = "idle" /\ txs' = txs + 1 /\ isrPc' = "idle"
          => appIdx = 1 - front /\ appPc \in {"checkIsr", "checkFront", "unclaim", "read"}]_vars
@@ -252,6 +258,7 @@ NackOnlyWhenClaimed ==
 (* A lock attempt fails only when it must: the ISR is really filling the  *)
 (* claimed buffer, or a newer message was committed since front was       *)
 (* loaded; and the lock gives up (URB_BUSY) only after MaxRetry retries.   *)
+\* lobster-trace: urb.MBX_010
 LockFailsOnlyOnConflict ==
     [][/\ appPc = "checkIsr" /\ appPc' = "unclaim" => isrPc = "fill" /\ isrIdx = a
        /\ appPc = "checkFront" /\ appPc' = "unclaim" => front # a
@@ -259,11 +266,13 @@ LockFailsOnlyOnConflict ==
 
 (* Progress: every claim is given back (a lock call returns, a read ends  *)
 (* in a release), so the ISR's NACKs stop.                                  *)
+\* lobster-trace: urb.MBX_009
 ClaimReturned == (appIdx # NONE) ~> (appIdx = NONE)
 
 (* Progress: once the bridge has stopped writing, a lock call gets the     *)
 (* message: its first attempt may have loaded front before the last       *)
 (* commit, a retry loads it again and succeeds (with MaxRetry >= 1).       *)
+\* lobster-trace: urb.MBX_010
 LockSucceedsWhenQuiet ==
     (txs = MaxWrites /\ isrPc = "idle" /\ appPc = "claim" /\ tries = 0) ~> (appPc = "read")
 

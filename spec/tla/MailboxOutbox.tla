@@ -153,15 +153,19 @@ AppHolds == appPc \in {"write", "release"}
 
 (* Nobody else touches the buffer the application holds: the ISR does not  *)
 (* read it and it is not the published buffer.                             *)
+\* lobster-trace: urb.MBX_004
 AppLockExclusive == AppHolds => (isrIdx # w /\ front # w)
 
 (* The bytes the ISR has sent in one read all come from the same write.    *)
+\* lobster-trace: urb.MBX_002
 IsrReadNotTorn == \A i, j \in DOMAIN isrGot : isrGot[i] = isrGot[j]
 
 (* ...and from the most recently released write at the read's start.       *)
+\* lobster-trace: urb.MBX_003
 IsrReadFresh == isrGot # <<>> => isrGot[1] = isrSnap
 
 (* The interrupt never waits: in every state it can take its next step.    *)
+\* lobster-trace: urb.MBX_001
 IsrWaitFree == ENABLED IsrNext
 
 (* The lock refuses (URB_BUSY) only when it must: the ISR is in a read of  *)
@@ -170,11 +174,13 @@ IsrWaitFree == ENABLED IsrNext
 (* whatever action takes it, and against the ISR's real state (isrPc),    *)
 (* not the index it publishes: an ISR that leaves isr_idx set after a     *)
 (* read refuses the application for nothing.                              *)
+\* lobster-trace: urb.MBX_004
 LockBusyOnlyWhenReading ==
     [][appPc = "check" /\ appPc' = "idle" => isrPc = "copy" /\ isrIdx = w]_vars
 
 (* Progress: an application that keeps trying publishes every write; a    *)
 (* refused lock succeeds once the read that blocked it is over.           *)
+\* lobster-trace: urb.MBX_003
 WritesPublished == <>(writes = MaxWrites)
 
 THEOREM Spec => [](TypeOK /\ AppLockExclusive /\ IsrReadNotTorn

@@ -191,23 +191,27 @@ InFlight == Range(hostQ) \cup Range(rx) \cup {r.id : r \in Range(txPrev)}
 
 (* Nothing is lost: every submitted request is somewhere in the pipeline  *)
 (* or has had its callback.                                                *)
+\* lobster-trace: urb.HOST_004
 NothingLost == \A id \in Submitted : id \in InFlight \/ id \in done
 
 (* Requests leave the host in the order they were submitted: those sent   *)
 (* and not yet called back, then those still buffered, have increasing ids *)
 (* (the bridge serves a batch in order, so two writes to one inbox land in *)
 (* the order the application submitted them).                              *)
+\* lobster-trace: urb.HOST_005
 SubmissionOrderKept ==
     LET q == expect \o hostQ IN \A k \in 1..Len(q) - 1 : q[k] < q[k + 1]
 
 (* The host never has more than Window requests in flight: the bridge's  *)
 (* data slots and response ring (Bridge.tla HostWindow) and the 4-bit     *)
 (* sequence number rely on it.                                             *)
+\* lobster-trace: urb.HOST_003
 WindowRespected == Len(expect) <= Window
 
 (* Every callback receives the response to its own request, however often *)
 (* the sequence number has wrapped: never another request's, and never    *)
 (* none (no response is lost here, so none may be declared lost).         *)
+\* lobster-trace: urb.HOST_004
 ResponsesMatched ==
     \A k \in DOMAIN cbLog : cbLog[k].req = cbLog[k].resp
 
@@ -215,6 +219,7 @@ ResponsesMatched ==
 (* plus one frame for every time the request was left behind (full batch *)
 (* or full window).  Checked for requests still waiting too, so it fails  *)
 (* as soon as a frame ends without the callback that was due.             *)
+\* lobster-trace: urb.LAT_002
 LatencyBound == \A id \in Submitted : age[id] + 1 <= MaxLatency + deferred[id]
 
 (* Within the budget nothing is deferred: the paper's strict bound of     *)
@@ -223,6 +228,7 @@ LatencyBound == \A id \in Submitted : age[id] + 1 <= MaxLatency + deferred[id]
 (* that completes batch n-1, so two frames' requests are in flight at     *)
 (* once.  (TLC: MaxBatch = MaxSubmit = 2 with Window = 3 defers a request *)
 (* and misses the bound in 4 frames; Window = 4 meets it.)                 *)
+\* lobster-trace: urb.LAT_001
 StrictLatency == \A id \in Submitted : age[id] + 1 <= MaxLatency
 
 (* Liveness: every submitted request gets its callback:                    *)
@@ -231,6 +237,7 @@ StrictLatency == \A id \in Submitted : age[id] + 1 <= MaxLatency
 (* callback.  Equivalent: done never shrinks and at most MaxReq requests   *)
 (* are submitted (see Bridge.tla's EveryRequestAnswered); TLC checks one   *)
 (* tableau instead of one per request.                                      *)
+\* lobster-trace: urb.HOST_001
 EveryCallbackRuns == []<>(1..nextId \subseteq done)
 
 -----------------------------------------------------------------------------

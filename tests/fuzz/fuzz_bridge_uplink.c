@@ -17,6 +17,7 @@
  * candidates passes a CRC-8), so those only count for the answers. Requests are up to the longest
  * (a write of 32 bytes, 37 on the wire): a cap one byte short of it fails here.
  */
+/* lobster-trace: urb.MEM_003, urb.ORD_001 (the requirements this fuzz target verifies) */
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>

@@ -10,6 +10,7 @@
  * wire error, or the caller error URB_ERR_ARGUMENT for implicit members that break a schema rule,
  * which must not depend on the frame.
  */
+/* lobster-trace: urb.MEM_001, urb.PKT_002 (the requirements this fuzz target verifies) */
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>

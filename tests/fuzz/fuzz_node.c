@@ -34,6 +34,7 @@
  * After a garbage event the ghost forgets what it cannot know (a garbage sequence may complete a
  * write) and learns the inbox contents again at the application's next lock.
  */
+/* lobster-trace: urb.CRC_004, urb.MEM_002 (the requirements this fuzz target verifies) */
 #include <stdbool.h>
 #include <stdint.h>
 #include <string.h>

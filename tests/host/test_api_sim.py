@@ -41,6 +41,7 @@ def system(kind: str = "rs232", nodes: list[str] | None = None, **bridge_opts: o
     return urb, m, clock, bridge
 
 
+# lobster-trace: urb.DSC_008
 @pytest.mark.parametrize("kind", ["rs232", "usb"])
 def test_discovery_and_typed_access(kind: str) -> None:
     urb, m, clock, _ = system(kind)
@@ -57,6 +58,7 @@ def test_discovery_and_typed_access(kind: str) -> None:
         urb.find_node("Imu", 1)
 
 
+# lobster-trace: urb.PKT_005
 def test_rs232_round_trip_matches_the_byte_budget() -> None:
     """A 10-byte read: 4 request bytes + I2C transaction + 12 response bytes at 115200 Bd."""
     urb, m, clock, bridge = system("rs232")
@@ -69,6 +71,7 @@ def test_rs232_round_trip_matches_the_byte_budget() -> None:
     assert req.latency_ns == (4 + 17) * byte_ns + i2c
 
 
+# lobster-trace: urb.LAT_003
 @settings(max_examples=30, deadline=None)
 @given(per_frame=st.lists(st.integers(0, 20), min_size=1, max_size=12))
 def test_usb_latency_is_at_most_three_frames_within_the_budget(per_frame: list[int]) -> None:
@@ -101,6 +104,7 @@ def test_usb_latency_is_at_most_three_frames_within_the_budget(per_frame: list[i
             assert touched <= 3, (frame, touched)
 
 
+# lobster-trace: urb.LAT_003
 def test_usb_latency_is_three_ms_in_steady_state() -> None:
     urb, m, clock, _ = system("usb")
     motor = urb.find_node("MotorDriver", 0)
@@ -115,6 +119,7 @@ def test_usb_latency_is_three_ms_in_steady_state() -> None:
     assert len(lat) == 100 and max(lat) <= 3 * NS_PER_MS and min(lat) >= NS_PER_MS
 
 
+# lobster-trace: urb.DSC_006
 def test_node_vanishes_then_rediscovery_marks_it_unknown() -> None:
     urb, m, clock, bridge = system("rs232")
     imu = urb.find_node("Imu", 0)
@@ -130,6 +135,7 @@ def test_node_vanishes_then_rediscovery_marks_it_unknown() -> None:
     assert motor.read_message(sx.MotorFeedback) is not None
 
 
+# lobster-trace: urb.DSC_003
 def test_node_reflashed_with_another_schema_is_refused_without_traffic() -> None:
     urb, m, clock, bridge = system("rs232")
     ir = urb.find_node("IrDistance", 0)
@@ -178,6 +184,7 @@ def test_bridge_busy_answers_reach_callbacks_when_the_fifo_is_small() -> None:
     assert order == list(range(6))  # every callback once, in submission order
 
 
+# lobster-trace: urb.FLT_005
 def test_lost_line_is_detected_and_reconnect_recovers() -> None:
     urb, m, clock, bridge = system("rs232")
     assert isinstance(m.transport, LoopbackByteTransport)
@@ -239,6 +246,7 @@ def test_bridge_node_gives_the_bridge_mailboxes() -> None:
     assert b.read_message(core.BridgeInfo).heartbeat_us == 500
 
 
+# lobster-trace: urb.DSC_007
 def test_discovery_reads_a_failed_identification_again_but_not_forever() -> None:
     from urb_msgs.urb_core import Status
 
@@ -280,6 +288,7 @@ def test_a_short_glitch_times_requests_out_but_the_bridge_stays_usable() -> None
     assert motor.read_message(sx.MotorFeedback) is not None  # the line is fine again
 
 
+# lobster-trace: urb.FLT_004
 def test_a_dead_bridge_is_lost_after_lost_after_of_silence_and_reported_at_once() -> None:
     """Bursts of 8 reads every 200 ms to a bridge that stopped answering: each burst times out
     (UPLINK_TIMEOUT) but keeps its sequence numbers (placeholders, 300 ms), so the next burst
@@ -341,6 +350,7 @@ def test_refused_requests_count_in_sim_stats_like_the_real_time_managers() -> No
     assert (m.stats.submitted, m.stats.completed, m.stats.failed) == (before[0] + 1, before[1] + 1, before[2] + 1)
 
 
+# lobster-trace: urb.PKT_003
 def test_read_size_outside_1_to_32_is_rejected_with_its_message() -> None:
     urb, m, clock, _ = system("rs232", HEX[:2])
     motor = urb.find_node("MotorDriver", 0)

@@ -44,6 +44,7 @@ def test_scan_lists_nodes_and_flags(fake_bridge: Callable[..., BridgeProc], caps
     assert rows[-1]["flags"] == ["MISMATCH"] and rows[-1]["schema_file"] == "spec/schema/sensorhex.urbs"
 
 
+# lobster-trace: urb.DSC_002
 def test_scan_two_ports_reports_duplicates(fake_bridge: Callable[..., BridgeProc], capsys: pytest.CaptureFixture[str]) -> None:
     a = fake_bridge(["Imu:0@48"], name="ttyA")
     b = fake_bridge(["Imu:0@50"], name="ttyB")
@@ -470,7 +471,7 @@ def test_top_level_help_lists_each_command_once(capsys: pytest.CaptureFixture[st
         main(["--help"])
     text = capsys.readouterr().out
     assert exc.value.code == 0
-    commands = ("scan", "read", "write", "monitor", "log", "gen", "schema", "demo", "sim")
+    commands = ("scan", "read", "write", "monitor", "log", "gen", "schema", "demo", "sim", "report")
     section = text[text.index("\ncommands:\n"):].split("\n\n")[0]
     listed = [line.split()[0] for line in section.splitlines() if line.startswith("    ") and line.split()]
     assert listed == list(commands), text

@@ -95,6 +95,7 @@ def silence(sim: Sim) -> None:
         transport.connected = False
 
 
+# lobster-trace: urb.HOST_006
 @pytest.mark.parametrize("kind", KINDS)
 def test_late_response_of_a_closed_manager_does_not_reach_the_next_one(kind: str) -> None:
     """The reproducer: the first manager's request times out and it closes; a second manager on
@@ -162,6 +163,7 @@ def test_close_without_drain_does_not_wait(kind: str) -> None:
     assert t.flags == ErrorFlag.BRIDGE_LOST and t.lost_reason == CLOSED_REASON
 
 
+# lobster-trace: urb.HOST_001
 @pytest.mark.parametrize("kind", KINDS)
 def test_request_submitted_while_draining_is_refused(kind: str) -> None:
     """A callback run during the drain (here: the slow request's timeout) that submits gets

@@ -19,6 +19,7 @@ def ok(t: Transfer, data: bytes | None = None) -> bytes:
     return UplinkResponse(seq=t.seq, status=Status.OK, data=data if data is not None else bytes(t.length)).encode()
 
 
+# lobster-trace: urb.HOST_003
 def test_window_bounds_requests_in_flight_and_sequence_numbers_count_from_one() -> None:
     core = Rs232Core(window=3)
     ts = [read() for _ in range(5)]
@@ -49,6 +50,7 @@ def test_response_split_anywhere_and_two_in_one_chunk() -> None:
     assert len(ok(b, bytes(range(25)))) == 28  # 1 + 25 + CRC-16
 
 
+# lobster-trace: urb.ERR_001
 def test_error_response_has_no_data_and_names_the_status() -> None:
     core = Rs232Core()
     t = read()
@@ -59,6 +61,7 @@ def test_error_response_has_no_data_and_names_the_status() -> None:
     assert done.flags == ErrorFlag.NO_NODE and done.status == Status.NO_NODE and done.response is None
 
 
+# lobster-trace: urb.CRC_005
 def test_hunting_skips_a_corrupt_response_and_a_later_seq_proves_the_earlier_lost() -> None:
     core = Rs232Core()
     a, b, c = read(), read(), read()
@@ -103,6 +106,7 @@ def test_a_corrupt_header_claiming_a_long_frame_is_abandoned_after_the_idle_gap(
     assert [t.flags for t in core.take_completed()] == [ErrorFlag.NONE, ErrorFlag.NONE]
 
 
+# lobster-trace: urb.FLT_004
 def test_silent_bridge_is_declared_lost_and_everything_fails_until_reset() -> None:
     core = Rs232Core(timeout_ns=10 * NS_PER_MS, lost_after_ns=50 * NS_PER_MS, lost_after_timeouts=1000,
                      placeholder_ns=40 * NS_PER_MS)  # below lost_after, as it must be
@@ -165,6 +169,7 @@ def test_timeouts_in_a_row_count_as_loss_only_after_lost_after_of_silence() -> N
     assert core.lost_reason is not None and "9 requests in a row" in core.lost_reason and "54 ms" in core.lost_reason
 
 
+# lobster-trace: urb.FLT_004
 def test_one_lost_request_among_answered_ones_is_not_a_lost_bridge() -> None:
     core = Rs232Core(timeout_ns=10 * NS_PER_MS, lost_after_timeouts=2)
     for k in range(10):
@@ -195,6 +200,7 @@ def usb_in(frame: int, *responses: bytes) -> bytes:
     return UsbBatchHeader(frame=frame, count=len(responses)).encode() + b"".join(responses)
 
 
+# lobster-trace: urb.PKT_006
 def test_usb_batches_respect_count_window_and_512_byte_limits() -> None:
     core = UsbCore(max_batch=14, window=15)
     ts = [read(n=32) for _ in range(20)]  # 35-byte responses: 14 fit in 512 with the header

@@ -58,6 +58,7 @@ def system(hosted_bridge: Callable[..., BridgeProc]) -> Iterator[tuple[URBInterf
     urb.close()
 
 
+# lobster-trace: urb.DSC_005
 def test_discovery_of_every_node_through_the_firmware(system: tuple[URBInterface, RS232Manager, BridgeProc]) -> None:
     urb, m, _ = system
     rows = urb.nodes()
@@ -91,6 +92,7 @@ def test_reads_and_writes_on_every_mailbox(system: tuple[URBInterface, RS232Mana
     assert bridge.read_message(core.BridgeScan).present[0x60]
 
 
+# lobster-trace: urb.HOST_005
 def test_callbacks_in_order_with_timestamps(system: tuple[URBInterface, RS232Manager, BridgeProc]) -> None:
     urb, _, _ = system
     nodes = [urb.find_node("MotorDriver", i) for i in range(6)] + [urb.find_node("Imu", 0)]
@@ -109,6 +111,7 @@ def test_callbacks_in_order_with_timestamps(system: tuple[URBInterface, RS232Man
         assert r.callback_ns is not None and r.submitted_ns <= r.sent_ns <= r.completed_ns <= r.callback_ns
 
 
+# lobster-trace: urb.ERR_001
 def test_bridge_admission_errors_reach_the_callback(system: tuple[URBInterface, RS232Manager, BridgeProc]) -> None:
     """SIZE_MISMATCH decided by the firmware from the sizes it learnt at its scan: sent raw."""
     urb, m, _ = system
@@ -124,6 +127,7 @@ def test_bridge_admission_errors_reach_the_callback(system: tuple[URBInterface, 
     assert m.wait_until(lambda: len(done) == 2, 2.0) and t2.flags == ErrorFlag.NO_NODE
 
 
+# lobster-trace: urb.FLT_006
 def test_corrupted_byte_and_lost_request_on_the_line(hosted_bridge: Callable[..., BridgeProc], tmp_path: Path) -> None:
     bp = hosted_bridge(SENSORHEX)
     tap = LineTap(bp.pty, tmp_path / "ttyTAP")
@@ -183,6 +187,7 @@ def test_bridge_killed_restarted_and_a_node_gone(hosted_bridge: Callable[..., Br
         urb.close()
 
 
+# lobster-trace: urb.DSC_003
 def test_fingerprint_mismatch_names_both(hosted_bridge: Callable[..., BridgeProc]) -> None:
     bp = hosted_bridge(["imu,0,0x30,fp=0x12345678", "motor,0,0x10"])
     urb, _ = connect(bp.link)
@@ -195,6 +200,7 @@ def test_fingerprint_mismatch_names_both(hosted_bridge: Callable[..., BridgeProc
         urb.close()
 
 
+# lobster-trace: urb.HOST_001, urb.ORD_003
 @pytest.mark.slow
 def test_10000_requests_at_1khz_without_loss_or_reordering(system: tuple[URBInterface, RS232Manager, BridgeProc]) -> None:
     urb, m, _ = system

@@ -242,6 +242,7 @@ def next_process_reads_fast(link: Path) -> tuple[Transfer, RS232Manager]:
     return t, m
 
 
+# lobster-trace: urb.HOST_006
 @pytest.mark.parametrize("handed_over", [True, False], ids=["handover", "mutant-no-handover"])
 def test_killed_process_late_response_does_not_reach_the_next_one(
         fake_bridge: Callable[..., BridgeProc], monkeypatch: pytest.MonkeyPatch, handed_over: bool) -> None:

@@ -314,6 +314,7 @@ def _failures(exc: BaseException) -> list[BaseException]:
     return [exc]
 
 
+# lobster-trace: urb.HOST_001
 @pytest.mark.parametrize("bug", ["ignores-link-check", "window-plus-one"])
 def test_the_state_machine_catches_seeded_host_bugs(bug: str, monkeypatch: pytest.MonkeyPatch) -> None:
     if bug == "ignores-link-check":

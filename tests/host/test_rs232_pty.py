@@ -44,6 +44,7 @@ def system(fake_bridge: Callable[..., BridgeProc]) -> Iterator[tuple[URBInterfac
     urb.close()
 
 
+# lobster-trace: urb.DSC_008
 def test_discovery_lists_every_sensorhex_node(system: tuple[URBInterface, RS232Manager, BridgeProc]) -> None:
     urb, m, bp = system
     rows = urb.nodes()
@@ -85,6 +86,7 @@ def test_reads_and_writes_on_every_mailbox(system: tuple[URBInterface, RS232Mana
     assert motor.read_message(sx.MotorFeedback).voltage == 2500
 
 
+# lobster-trace: urb.HOST_005
 def test_callbacks_in_order_on_the_dispatcher_with_timestamps(system: tuple[URBInterface, RS232Manager, BridgeProc]) -> None:
     urb, _, _ = system
     nodes = [urb.find_node("MotorDriver", i) for i in range(6)] + [urb.find_node("Imu", 0)]
@@ -115,6 +117,7 @@ def test_callbacks_in_order_on_the_dispatcher_with_timestamps(system: tuple[URBI
     assert all(s.accel[2] == 9810 for s in imu)
 
 
+# lobster-trace: urb.DSC_006
 def test_unplugged_node_mid_run_gets_no_node_then_recovers(system: tuple[URBInterface, RS232Manager, BridgeProc]) -> None:
     urb, _, bp = system
     motor = urb.find_node("MotorDriver", 2)
@@ -153,6 +156,7 @@ def test_bridge_reported_errors_reach_the_callback(system: tuple[URBInterface, R
     assert missing.wait(2) and missing.flags == ErrorFlag.HOST_SIZE_MISMATCH
 
 
+# lobster-trace: urb.FLT_006
 def test_corrupted_byte_on_the_line_fails_one_request_and_resynchronises(system: tuple[URBInterface, RS232Manager, BridgeProc]) -> None:
     urb, m, bp = system
     motor = urb.find_node("MotorDriver", 0)
@@ -176,6 +180,7 @@ def test_corrupted_byte_on_the_line_fails_one_request_and_resynchronises(system:
     assert m.lost_reason is None
 
 
+# lobster-trace: urb.FLT_005
 def test_bridge_killed_and_restarted(system: tuple[URBInterface, RS232Manager, BridgeProc]) -> None:
     urb, m, bp = system
     motor = urb.find_node("MotorDriver", 4)
@@ -216,6 +221,7 @@ def test_asyncio_conveniences(system: tuple[URBInterface, RS232Manager, BridgePr
     assert isinstance(out[-1], sx.BatteryStatus) and out[-1].packs[0].present
 
 
+# lobster-trace: urb.DSC_003
 def test_fingerprint_mismatch_is_refused_with_both_fingerprints(fake_bridge: Callable[..., BridgeProc]) -> None:
     bp = fake_bridge(["MotorDriver:0@16", "Imu:0@48!fp=12345678!fw=2.1.0"])
     urb = URBInterface()
@@ -232,6 +238,7 @@ def test_fingerprint_mismatch_is_refused_with_both_fingerprints(fake_bridge: Cal
         urb.close()
 
 
+# lobster-trace: urb.DSC_002
 def test_duplicates_across_bridges_are_reported_never_merged(fake_bridge: Callable[..., BridgeProc]) -> None:
     a = fake_bridge(["MotorDriver:0@16", "Imu:0@48"], name="ttyA")
     b = fake_bridge(["MotorDriver:0@17", "IrDistance:0@49"], name="ttyB")
@@ -330,6 +337,7 @@ def test_10000_requests_at_1khz_without_loss_or_reordering(system: tuple[URBInte
 
 # -- lifecycle: close, a failed reconnect, a loss while idle (review findings 1, 2, 9) ------------
 
+# lobster-trace: urb.HOST_001
 def test_requests_after_close_complete_bridge_lost_at_once(system: tuple[URBInterface, RS232Manager, BridgeProc]) -> None:
     urb, m, _ = system
     motor = urb.find_node("MotorDriver", 0)
@@ -379,6 +387,7 @@ def test_failed_reconnect_leaves_the_manager_lost_and_a_later_one_recovers(
     assert m.lost_reason is None and motor.read_message(sx.MotorFeedback) is not None
 
 
+# lobster-trace: urb.FLT_004
 def test_on_bridge_lost_fires_when_the_loss_is_detected_without_a_request(
         system: tuple[URBInterface, RS232Manager, BridgeProc]) -> None:
     urb, m, bp = system

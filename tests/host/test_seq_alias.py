@@ -81,11 +81,13 @@ def _all_timed_out(ts: list[Transfer]) -> bool:
     return all(t.done and t.flags == ErrorFlag.UPLINK_TIMEOUT for t in ts)
 
 
+# lobster-trace: urb.HOST_002
 def test_default_lifetime_covers_the_firmware_worst_case() -> None:
     assert PLACEHOLDER_WORST_US * 1000 <= PLACEHOLDER_NS < 500 * MS  # below the default lost_after
     assert Rs232Core().placeholder_ns == UsbCore().placeholder_ns == PLACEHOLDER_NS
 
 
+# lobster-trace: urb.HOST_002
 @pytest.mark.parametrize("kind", CORES)
 def test_late_response_to_a_timed_out_request_is_not_given_to_a_newer_one(kind: str) -> None:
     """The reproducer of the finding: 15 requests time out on the host while the bridge still

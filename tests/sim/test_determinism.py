@@ -59,6 +59,7 @@ def _run(seed: int, trace: Path | None) -> Run:
     return out
 
 
+# lobster-trace: urb.HOST_007
 def test_same_seed_same_trace_bytes(tmp_path: Path) -> None:
     a, b = tmp_path / "a.ndjson", tmp_path / "b.ndjson"
     ha = run(7, a)
@@ -106,6 +107,7 @@ def runs_in_a_new_process(seed: int, runs: int, mutant: str | None = None, profi
     return [(h, lines, events) for h, lines, events in json.loads(proc.stdout)]
 
 
+# lobster-trace: urb.HOST_007
 def test_same_seed_same_trace_in_another_process() -> None:
     """This process has run other worlds before; the new one has not."""
     assert runs_in_a_new_process(7, 1) == [run(7)]

@@ -104,12 +104,14 @@ def test_usb_latency_follows_the_frame_phase(phase_us: int, low_ms: float, high_
     assert low_ms < min(lat) and max(lat) <= high
 
 
+# lobster-trace: urb.SYN_001
 @pytest.mark.slow
 def test_table1_synchronisation(tmp_path: Path) -> None:
     res = sync.table1(tmp_path, quick=True)
     _assert_passed(res)
 
 
+# lobster-trace: urb.CRC_006
 def test_faults_nothing_lost_silently(tmp_path: Path) -> None:
     from urb_sim.experiments import faults
 
@@ -119,6 +121,7 @@ def test_faults_nothing_lost_silently(tmp_path: Path) -> None:
     # bridge reset, babbling node, uplink byte loss, UART bit errors, USB IN loss
 
 
+# lobster-trace: urb.ORD_007
 @pytest.mark.slow
 def test_trace_validation_with_tlc(tmp_path: Path) -> None:
     from urb_sim.experiments import traces
@@ -206,6 +209,7 @@ def test_every_experiment_passes_at_other_seeds(tmp_path: Path, seed: int) -> No
     assert [r.key for r in results] == list(EXPERIMENTS)
 
 
+# lobster-trace: urb.CRC_006
 @pytest.mark.parametrize("detected", [0, 1, 40, 255, 2000])
 def test_crc8_residual_bound_is_the_poisson_quantile(detected: int) -> None:
     """The largest count of undetected frames that a correct CRC-8 exceeds less than once in a

@@ -55,6 +55,7 @@ def next_process_reads(uplink: str, handed_over: bool) -> tuple[Transfer, SimMan
         s.close()
 
 
+# lobster-trace: urb.HOST_006
 @pytest.mark.parametrize("uplink", ["rs232", "usb"])
 def test_the_next_process_gets_its_own_answer(uplink: str) -> None:
     new, second = next_process_reads(uplink, handed_over=True)
@@ -62,6 +63,7 @@ def test_the_next_process_gets_its_own_answer(uplink: str) -> None:
     assert second.core.stray_bytes == 4 * ident_read(OLD).response_size(Status.OK)  # the 4 old answers
 
 
+# lobster-trace: urb.HOST_006
 @pytest.mark.parametrize("uplink", ["rs232", "usb"])
 def test_without_the_hand_over_it_takes_an_old_answer(uplink: str) -> None:
     """The mutant: what the host did before (and what Bridge_RestartWithoutHandover refutes)."""

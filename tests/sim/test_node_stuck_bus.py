@@ -21,6 +21,7 @@ def _events(path: Path) -> list[dict[str, object]]:
     return [json.loads(line) for line in path.read_text().splitlines()]
 
 
+# lobster-trace: urb.ERR_005
 def test_nodes_report_stuck_bus(tmp_path: Path) -> None:
     trace = tmp_path / "faults.ndjson"
     out = faults.run_scenario(_scl_scenario(), seed=302, trace=trace)

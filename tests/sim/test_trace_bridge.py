@@ -22,6 +22,7 @@ def _reads(n: int) -> list[Event]:
     return out
 
 
+# lobster-trace: urb.ORD_007
 def test_fault_free_trace_is_accepted() -> None:
     r = check_bridge(_reads(3), PRESENT)
     assert r.accepted, r.message
@@ -47,6 +48,7 @@ def test_no_node_for_a_present_node_needs_the_vanish_fault() -> None:
     assert r.accepted, r.message
 
 
+# lobster-trace: urb.ORD_007
 def test_a_mutant_must_be_rejected_where_its_mutation_is() -> None:
     from urb_sim.experiments import Result
     from urb_sim.experiments.traces import check_mutant, first_change

@@ -29,6 +29,7 @@ def _read(buf: int, tags: list[int]) -> list[Ev]:
 pytestmark = pytest.mark.usefixtures("tlc_installed")
 
 
+# lobster-trace: urb.MBX_009
 def test_nack_while_the_application_holds_the_other_buffer() -> None:
     # the app locks buffer 0; write 1 fills and commits buffer 1; write 2 would fill buffer 0,
     # which the app still holds: NACKed; the app still reads the zeroed setup (tag 0)
@@ -44,6 +45,7 @@ def test_nack_without_a_reason_is_rejected() -> None:
     assert not check_inbox([{"ev": "wnack"}], 2).accepted
 
 
+# lobster-trace: urb.MBX_008
 def test_reads_follow_commits_and_skip_aborts() -> None:
     ok = _write(1, 2) + _read(1, [1, 1]) + _write(0, 1, "abort") + _read(1, [1, 1])
     assert check_inbox(ok, 2).accepted
@@ -51,6 +53,7 @@ def test_reads_follow_commits_and_skip_aborts() -> None:
     assert not check_inbox(_write(0, 2), 2).accepted  # a write into the front buffer (single buffering)
 
 
+# lobster-trace: urb.MBX_010
 def test_busy_only_after_every_retry() -> None:
     assert not check_inbox([{"ev": "busy"}], 2).accepted  # nothing stops the first attempt
     assert not check_inbox([{"ev": "lock_error"}], 2).accepted  # a misused lock is no spec behaviour

@@ -54,6 +54,7 @@ def test_rejected_trace_reports_its_longest_matched_prefix(at: int, change: dict
     assert f"matches up to event {at} of {len(trace)}" in r.message
 
 
+# lobster-trace: urb.HOST_004
 def test_host_library_trace_is_accepted() -> None:
     ev, max_batch, window = record_usb_uplink(7, 20)
     assert sum(1 for e in ev if e.ev == "callback") == 20 * 2 + 20 // 3  # every read and write answered

@@ -18,6 +18,7 @@ ADDRESSES = list(range(0x08, 0x08 + 33))  # one more node than the bridge's tabl
 INBOX = 4                                 # the probe nodes' inbox 1
 
 
+# lobster-trace: urb.ERR_002, urb.ERR_003
 def test_short_write_to_a_node_past_the_table_is_refused(tmp_path: Path) -> None:
     trace = tmp_path / "mailbox.ndjson"
     system = System(seed=1, probe_out=6, probe_in=INBOX)

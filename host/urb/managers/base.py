@@ -283,6 +283,7 @@ class BusManager(ABC):
         self._lost_noted = True
         return functools.partial(self._notify_lost, reason)
 
+    # lobster-trace: urb.HOST_005
     def _queue_completed(self, core: Core, put: Callable[[Transfer | Callable[[], None]], None]) -> None:
         """Count the transfers `core` completed and hand them to `put` (the dispatcher's queue);
         when the core has just found the bridge lost, the lost listeners' notice goes first,

@@ -50,6 +50,7 @@ def record_name(port: str) -> str:
     return os.path.abspath(port).strip("/").replace("/", "_") + ".handover"
 
 
+# lobster-trace: urb.HOST_006
 class PortHandover:
     """The record of one port, for the process that has it open. Times are the caller's
     monotonic nanoseconds (`time.monotonic_ns`, the threaded managers' clock)."""

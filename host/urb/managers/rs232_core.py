@@ -103,6 +103,7 @@ def encode_request(t: Transfer) -> bytes:
     return UplinkWriteRequest(address=t.address, mailbox=t.mailbox, seq=t.seq, data=t.data).encode()
 
 
+# lobster-trace: urb.HOST_002, urb.HOST_004
 class ResponseMatcher:
     """Matches a byte stream of responses to the requests in flight (order + sequence number),
     hunting past corrupt bytes. Shared by the RS232 and the USB cores.
@@ -147,6 +148,7 @@ class ResponseMatcher:
         self.expire(now)
         return n
 
+    # lobster-trace: urb.FLT_005
     def expire(self, now: int) -> None:
         """Release the placeholders whose lifetime is over by `now` (`expires_ns`): the bridge no
         longer holds their requests."""
@@ -178,6 +180,7 @@ class ResponseMatcher:
                 until = t.expires_ns or 0
         return until
 
+    # lobster-trace: urb.FLT_004, urb.HOST_001
     def fail_all(self, queued: deque[Transfer], now: int, reason: str | None = None) -> None:
         """The uplink is gone: every live request in flight, then every queued one, completes
         BRIDGE_LOST. The requests in flight stay as placeholders: a bridge reached again through a
@@ -299,6 +302,7 @@ class MatchingCore:
         return self._handover_wait(now)
 
     # -- inputs ------------------------------------------------------------------------------
+    # lobster-trace: urb.HOST_001, urb.HOST_003
     def submit(self, t: Transfer, now: int) -> None:
         """Queue a request (it goes out when the window allows); a lost bridge, or a closing
         one, fails it at once."""
@@ -318,6 +322,7 @@ class MatchingCore:
         self.lost_reason = reason
         self._m.fail_all(self._queued, now, reason)
 
+    # lobster-trace: urb.FLT_005
     def reset(self, now: int) -> None:
         """Forget the lost state (after the uplink was reopened). The placeholders stay:
         reopening the uplink does not reset the bridge, which may still answer them; they are
@@ -377,6 +382,7 @@ class MatchingCore:
         self._silent_timeouts += n
         return n
 
+    # lobster-trace: urb.FLT_004
     def _lost_if_silent(self, now: int, timed_out: int) -> None:
         """Declare a silent bridge lost: `lost_after_timeouts` requests in a row timed out (the
         last `timed_out` of them now) with nothing heard for `lost_after_ns`, or `lost_after_ns`

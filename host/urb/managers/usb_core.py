@@ -114,6 +114,7 @@ class UsbCore(MatchingCore):
     def _handing_over(self, now: int) -> bool:
         return self._handover_wait(now) or self._flushing
 
+    # lobster-trace: urb.HOST_004
     def receive_batch(self, data: bytes, now: int) -> None:
         """One bulk-IN transfer: a header, then responses back to back (`UsbRead`)."""
         self._heard(now)
@@ -147,6 +148,7 @@ class UsbCore(MatchingCore):
             self._lost_if_silent(now, self._time_out(now))
 
     # -- outputs -----------------------------------------------------------------------------
+    # lobster-trace: urb.LAT_001, urb.LAT_002
     def frame_out(self, now: int) -> bytes | None:
         """The bulk-OUT transfer for this frame, or None when there is nothing to send or fetch."""
         m = self._m

@@ -57,6 +57,7 @@
  * every poll (main loop, the check over up to 33 bytes) within FW_BRIDGE_MASTER_CALL_BUDGET (two
  * byte times of idle bus: begin() runs before the START, the final poll after the STOP).
  */
+/* lobster-trace: urb.FLT_001, urb.FLT_002, urb.WCET_007 (the requirements this proof verifies) */
 #include "urb_verify.h"
 
 #include "bridge_internal.h"

@@ -46,6 +46,7 @@
  * in both. Payload lengths 1..FW_LEN_MAX (fast 2, full also 32 with URB_LEN, for the cost of the
  * longest copy and an identification read in lemma 2).
  */
+/* lobster-trace: urb.ORD_001, urb.ORD_003, urb.ORD_005, urb.WCET_009 (the requirements this proof verifies) */
 #include "urb_verify.h"
 
 #include "bridge.c"

@@ -84,6 +84,7 @@
  *
  * The check is abstracted (proofs/bmc/stubs/fw_uplink_model.h, shared with the USB proof).
  */
+/* lobster-trace: urb.CRC_005, urb.MEM_003, urb.WCET_005 (the requirements this proof verifies) */
 #include "urb_verify.h"
 
 #include "bridge_internal.h"

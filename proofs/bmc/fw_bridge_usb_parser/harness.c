@@ -35,6 +35,7 @@
  * frame admitted, two frames, a cut transfer; the longest frame admitted, the longest frame then
  * another admitted, the longest frame failing its check.
  */
+/* lobster-trace: urb.PKT_006, urb.WCET_006 (the requirements this proof verifies) */
 #include "urb_verify.h"
 
 #include "bridge_internal.h"

@@ -44,6 +44,7 @@
  * byte-level update of the whole struct (pointers included), which exhausted 4 GiB even for one
  * write; the rewritten store stays field-level.
  */
+/* lobster-trace: urb.MBX_005, urb.MBX_006, urb.MBX_007, urb.MBX_008, urb.MBX_009, urb.MBX_010, urb.WCET_004 (the requirements this proof verifies) */
 #include "urb_verify.h"
 
 #include "urb_node_internal.h"

@@ -34,6 +34,7 @@
  * lock granted during a read, and completes its rounds; part 2 reaches its end after a partial
  * first read; a neighbour is present.
  */
+/* lobster-trace: urb.MBX_001, urb.MBX_002, urb.MBX_003, urb.MBX_004, urb.WCET_004 (the requirements this proof verifies) */
 #include "urb_verify.h"
 
 #include "urb_node_internal.h"

@@ -63,6 +63,7 @@
  * array (arbitrary contents without a set-up loop) and "no other byte changes" is checked at one
  * arbitrary probe index, which stands for every index.
  */
+/* lobster-trace: urb.CRC_003, urb.CRC_004, urb.MEM_002, urb.WCET_001 (the requirements this proof verifies) */
 #include "urb_verify.h"
 
 #include "urb_node.c"

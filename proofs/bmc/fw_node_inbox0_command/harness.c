@@ -32,6 +32,7 @@
  *
  * Cover points (URB_COVER, checked by the reach run): listed at the end of harness().
  */
+/* lobster-trace: urb.MBX_011, urb.WCET_003 (the requirements this proof verifies) */
 #include "urb_verify.h"
 
 #include "urb_node.c"

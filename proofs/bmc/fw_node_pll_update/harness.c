@@ -37,6 +37,7 @@
  * arms a compare, a first SYNC, one whose interval is not used; a heartbeat that applies a
  * pending request, one that makes an update due, one that reports a lost sync.
  */
+/* lobster-trace: urb.SYN_005, urb.WCET_002 (the requirements this proof verifies) */
 #include "urb_verify.h"
 
 #include "urb_node_internal.h"

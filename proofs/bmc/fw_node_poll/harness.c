@@ -38,6 +38,7 @@
  * code against every interleaving, and the counters the interrupts share are single-writer.
  * Cover points (URB_COVER, checked by the reach run): listed at the end of harness().
  */
+/* lobster-trace: urb.ERR_005, urb.WCET_003 (the requirements this proof verifies) */
 #include "urb_verify.h"
 
 #include "urb_node.c"

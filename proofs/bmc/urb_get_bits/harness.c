@@ -4,6 +4,7 @@
  * result holds bit offset + i of the buffer at bit i (wire rule 1: bit k is bit k % 8 of byte k / 8)
  * and nothing above `width`; no out-of-bounds read; at most five rounds; cost within one bus byte.
  */
+/* lobster-trace: urb.PKT_004 (the requirements this proof verifies) */
 #include <stdlib.h>
 
 #include "urb_verify.h"

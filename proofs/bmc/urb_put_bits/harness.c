@@ -4,6 +4,7 @@
  * is bit i of the value for i < width and every other bit keeps its value; no out-of-bounds access;
  * at most five rounds; cost within one bus byte.
  */
+/* lobster-trace: urb.PKT_004 (the requirements this proof verifies) */
 #include <stdlib.h>
 
 #include "urb_verify.h"

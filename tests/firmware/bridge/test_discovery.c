@@ -36,6 +36,7 @@ static void scan_command(urb_hosted_rig_t *r, uint8_t seq)
 
 /* Nodes at both ends of the range and in the middle, with gaps between: all found, nothing else;
  * two nodes with the same (class, index) are two entries (duplicates are the host's business). */
+/* lobster-trace: urb.DSC_004, urb.DSC_005 */
 static void scan_finds_exactly_the_nodes(void **state)
 {
     urb_hosted_rig_t *r = rig_new(16u, 0u);
@@ -70,6 +71,7 @@ static void scan_finds_exactly_the_nodes(void **state)
 /* A node vanishes: requests to it get NO_NODE (its sizes are still known); a rescan drops it from
  * the map and forgets its sizes. It comes back: requests work before the next scan (no refusal
  * of an address the scan did not find), and the next scan finds it. */
+/* lobster-trace: urb.DSC_006 */
 static void nodes_vanish_and_appear(void **state)
 {
     urb_hosted_rig_t *r = rig_new(16u, 0u);
@@ -147,6 +149,7 @@ static void scan_command_orders_and_unreadable_identification(void **state)
 }
 
 /* A scan with no node at all terminates (DiscoveryCompletes) and reports an empty map. */
+/* lobster-trace: urb.DSC_004 */
 static void empty_bus(void **state)
 {
     urb_hosted_rig_t *r = rig_new(16u, 0u);

@@ -46,6 +46,7 @@ static void request(urb_hosted_rig_t *r, bool read, uint8_t mailbox, uint8_t seq
  * acknowledge): address (the probe finds the node: TIMEOUT), select and data bytes (admission
  * checked them: CHECKSUM), first data byte (NODE_BUSY), check. Bridge.tla: Serve allows nothing
  * else for a present node; nothing was stored. */
+/* lobster-trace: urb.ERR_002 */
 static void write_nack_positions(void **state)
 {
     urb_hosted_rig_t *r = *state;
@@ -69,6 +70,7 @@ static void write_nack_positions(void **state)
 }
 
 /* A node whose both inbox buffers are taken refuses the first data byte: NODE_BUSY. */
+/* lobster-trace: urb.MBX_009 */
 static void inbox_busy_is_node_busy(void **state)
 {
     urb_hosted_rig_t *r = *state;
@@ -84,6 +86,7 @@ static void inbox_busy_is_node_busy(void **state)
 
 /* Read of a present node NACKed once at the address (probe: TIMEOUT), at the select (CHECKSUM);
  * a corrupted read fails its check. */
+/* lobster-trace: urb.ERR_001 */
 static void read_failures(void **state)
 {
     urb_hosted_rig_t *r = *state;
@@ -139,6 +142,7 @@ static void vanished_node_is_probed(void **state)
  * then gets SIZE_MISMATCH without bus traffic, as for a scanned node: an unused outbox, and a write
  * shorter than its inbox, which the node acknowledges to the end and drops at the STOP (answered
  * OK before: Bridge.tla WriteStatusTruthful). Its silence is NO_NODE. */
+/* lobster-trace: urb.ERR_003 */
 static void unknown_node_identified_first(void **state)
 {
     urb_hosted_rig_t *r = *state;
@@ -200,6 +204,7 @@ static void selection_cache(void **state)
 /* A node that resets between two reads answers from outbox 0 under the cached selection: the
  * check (covering the implicit select byte) fails, the bridge forgets the selection, and the next
  * read selects again and succeeds. */
+/* lobster-trace: urb.CRC_003 */
 static void node_reset_between_reads(void **state)
 {
     urb_hosted_rig_t *r = *state;
@@ -231,6 +236,7 @@ static void node_reset_mid_transaction(void **state)
 }
 
 /* A node that stretches the clock past the timeout: TIMEOUT, and the bridge goes on. */
+/* lobster-trace: urb.FLT_002 */
 static void timeout_then_recovery(void **state)
 {
     urb_hosted_rig_t *r = *state;
@@ -252,6 +258,7 @@ static void timeout_then_recovery(void **state)
 
 /* SDA held low before a request: nine clock pulses and a STOP, BUS_STUCK (not executed), then the
  * freed bus works. */
+/* lobster-trace: urb.FLT_001 */
 static void stuck_sda_cleared(void **state)
 {
     urb_hosted_rig_t *r = *state;
@@ -271,6 +278,7 @@ static void stuck_sda_cleared(void **state)
 }
 
 /* A bus that stays stuck: every request is answered BUS_STUCK (never wedged, never dropped). */
+/* lobster-trace: urb.FLT_001 */
 static void permanently_stuck(void **state)
 {
     urb_hosted_rig_t *r = *state;
@@ -293,6 +301,7 @@ static void permanently_stuck(void **state)
 
 /* The bus gets stuck in the middle of a transaction: the timeout finds a line low, clears the bus,
  * BUS_STUCK; the selection cache is forgotten (the node may be anywhere in its frame). */
+/* lobster-trace: urb.FLT_001 */
 static void stuck_during_transaction(void **state)
 {
     urb_hosted_rig_t *r = *state;
@@ -375,6 +384,7 @@ static void long_mailboxes(void **state)
  * 30-byte identification read of the start-up scan and a 32-byte write (36 bytes) take about 3 ms,
  * more than the 2 ms of 400 kb/s. Set up as hosted_main.c does for --i2c-khz 100: the node is
  * found, a 32-byte write is committed, a 32-byte read comes back, nothing times out. */
+/* lobster-trace: urb.FLT_002 */
 static void standard_mode_timeout_follows_bitrate(void **state)
 {
     (void)state;

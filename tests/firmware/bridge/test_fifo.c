@@ -16,6 +16,7 @@ static int teardown(void **state)
 
 /* A USB batch delivers many requests at once: with 16 slots, 16 are served and the rest get BUSY,
  * and every response is in request order. */
+/* lobster-trace: urb.ORD_001 */
 static void overflow_busy_in_order(void **state)
 {
     urb_hosted_rig_t *r = rig_new(16u, 0u);
@@ -47,6 +48,7 @@ static void overflow_busy_in_order(void **state)
 
 /* BUSY, BAD_REQUEST and SIZE_MISMATCH are decided at admission but never overtake an earlier
  * request still on the downlink (Bridge.tla ResponsesInRequestOrder, Bridge_BusyOvertakes). */
+/* lobster-trace: urb.ORD_003 */
 static void admission_errors_keep_their_place(void **state)
 {
     urb_hosted_rig_t *r = rig_new(2u, 0u);
@@ -144,6 +146,7 @@ static void rs232_overflow_then_recovery(void **state)
 
 /* A host that ignores its window: requests beyond the response slots are counted, not answered,
  * and memory stays bounded (ASan); the bridge works on afterwards. */
+/* lobster-trace: urb.RES_003 */
 static void window_overflow_is_bounded(void **state)
 {
     urb_hosted_rig_t *r = rig_new(4u, 0u);

@@ -87,6 +87,7 @@ static void back_to_back_frames(void **state)
 }
 
 /* Every single-bit error of a frame is caught by its check: no response; the next frame is fine. */
+/* lobster-trace: urb.CRC_005 */
 static void bad_checksums_get_no_response(void **state)
 {
     urb_hosted_rig_t *r = *state;
@@ -108,6 +109,7 @@ static void bad_checksums_get_no_response(void **state)
 }
 
 /* A byte inserted before a frame: hunting discards it and finds the frame without a gap. */
+/* lobster-trace: urb.CRC_005 */
 static void inserted_byte_is_hunted_away(void **state)
 {
     urb_hosted_rig_t *r = *state;
@@ -130,6 +132,7 @@ static void inserted_byte_is_hunted_away(void **state)
 
 /* A byte lost inside a frame followed at once by a good frame: the damaged one is not answered,
  * the good one is found by hunting. */
+/* lobster-trace: urb.CRC_005 */
 static void lost_byte_then_good_frame(void **state)
 {
     urb_hosted_rig_t *r = *state;
@@ -153,6 +156,7 @@ static void lost_byte_then_good_frame(void **state)
 
 /* A truncated frame, an idle gap, then a good frame: the partial frame is dropped at the gap and
  * does not swallow or delay the next frame (it announced 20 data bytes). */
+/* lobster-trace: urb.FLT_006 */
 static void truncated_frame_dropped_at_gap(void **state)
 {
     urb_hosted_rig_t *r = *state;
@@ -190,6 +194,7 @@ static void gap_threshold(void **state)
 
 /* Oversized: a write announcing 40 bytes cannot be a request (hunted away, no response); extra
  * bytes after a good frame do not hurt it. */
+/* lobster-trace: urb.PKT_003 */
 static void oversized_requests(void **state)
 {
     urb_hosted_rig_t *r = *state;
@@ -249,6 +254,7 @@ static void malformed_but_checked_is_bad_request(void **state)
 }
 
 /* Unknown nodes and mailboxes. */
+/* lobster-trace: urb.ERR_003 */
 static void unknown_nodes_and_mailboxes(void **state)
 {
     urb_hosted_rig_t *r = *state;

@@ -15,6 +15,7 @@ static int teardown(void **state)
 }
 
 /* Every 1 ms a SYNC with the next counter, each within a few microseconds of its tick. */
+/* lobster-trace: urb.SYN_007 */
 static void sync_every_period(void **state)
 {
     urb_hosted_rig_t *r = rig_new(16u, 1000u);
@@ -71,6 +72,7 @@ static void sync_after_current_before_next(void **state)
 
 /* A transaction longer than two periods: the ticks in between do not queue up SYNCs; the counter
  * skips so nodes can tell. */
+/* lobster-trace: urb.SYN_007 */
 static void missed_ticks_skip_the_counter(void **state)
 {
     urb_hosted_rig_t *r = rig_new(16u, 500u);

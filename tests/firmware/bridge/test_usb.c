@@ -185,6 +185,7 @@ static void empty_unread_batch_is_replaced(void **state)
  * fails its check means the host sent no batch: the frames before it are answered, the transfer is
  * cut there (counted) and the frames behind it are not hunted for; a frame cut short by the end of
  * the transfer cuts it too. */
+/* lobster-trace: urb.PKT_006 */
 static void bad_batches(void **state)
 {
     urb_hosted_rig_t *r = *state;
@@ -223,6 +224,7 @@ static void bad_batches(void **state)
 /* A 512-byte transfer of garbage behind a good header: cut at its first frame, one check at most,
  * whatever it holds; a good request hidden at byte 100 is not found (hunting would find it, and a
  * false frame once in 256 positions). The next transfer is parsed from its start as usual. */
+/* lobster-trace: urb.PKT_006 */
 static void garbage_transfer_is_cut_at_its_first_frame(void **state)
 {
     urb_hosted_rig_t *r = *state;

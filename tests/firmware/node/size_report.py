@@ -7,6 +7,9 @@ buffers it embeds (mailboxes 1..7 live in the caller's storage block).
 
 Images: the kept input sections of the linker map, summed per component, so the library's share
 of a real image (after --gc-sections) is visible next to the codecs, the app, the port and libc.
+
+The three budgets are also written as the evidence record build/evidence/size.json
+(report/urb_report/records.py): size:node/library-flash, size:node/state-ram, size:node/no-static-data.
 """
 from __future__ import annotations
 
@@ -15,6 +18,7 @@ import re
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 BUDGET_FLASH = 4096
 BUDGET_RAM = 256
@@ -100,12 +104,17 @@ def main() -> int:
     print("Node library, Cortex-M0+ (-mcpu=cortex-m0plus -mthumb -Os), per object:")
     print(f"  {'object':<18}{'text':>7}{'data':>7}{'bss':>7}")
     total_flash = 0
+    static = []
     for name, text, data, bss in rows:
         print(f"  {name:<18}{text:>7}{data:>7}{bss:>7}")
         total_flash += text + data
         if data or bss:
             print(f"  error: {name} has static data: the library must keep no state of its own")
-            return 1
+            static.append(f"{name}: data {data} B, bss {bss} B")
+    if static:
+        write_evidence(args.size, [_budget("no-static-data", "0 B of static data in every library object",
+                                           "; ".join(static), False)])
+        return 1
     single = size_objects(args.size, [args.single])[0]
     probe = nm_sizes(args.probe)
     node_size = probe["urb_probe_node"]
@@ -140,7 +149,30 @@ def main() -> int:
           f" (includes status/size getters no image links)")
     if state >= BUDGET_RAM or linked >= BUDGET_FLASH:
         status = 1
+    write_evidence(args.size, [
+        _budget("no-static-data", "0 B of static data in every library object", "0 B in every object", True),
+        _budget("library-flash", f"< {BUDGET_FLASH} B of library flash in the largest image",
+                f"{linked} B (all objects: {total_flash} B)", linked < BUDGET_FLASH),
+        _budget("state-ram", f"< {BUDGET_RAM} B of node state besides mailbox buffers",
+                f"{state} B (sizeof(urb_node_t) = {node_size} B with {mb0} B mailbox-0 buffers)", state < BUDGET_RAM)])
     return status
+
+
+def _budget(name: str, expected: str, measured: str, ok: bool) -> Any:
+    from urb_report.records import Item
+
+    return Item(id=f"size:node/{name}", kind="budget", verdict="pass" if ok else "fail", expected=expected,
+                measured=measured, source="tests/firmware/node/size_report.py", rerun="make size-node")
+
+
+def write_evidence(size_tool: str, items: list[Any]) -> None:
+    """The budgets as the evidence record build/evidence/size.json, for the certification report."""
+    from urb_report.records import command_version, write_record
+
+    write_record("size", items, {"arm-none-eabi-gcc": command_version(["arm-none-eabi-gcc", "--version"]),
+                                 "arm-none-eabi-size": command_version([size_tool, "--version"])},
+                 config={"flags": "-mcpu=cortex-m0plus -mthumb -Os -ffunction-sections -fdata-sections, --gc-sections",
+                         "budget_flash_B": BUDGET_FLASH, "budget_ram_B": BUDGET_RAM})
 
 
 if __name__ == "__main__":

@@ -170,6 +170,7 @@ static void long_write_nacked(void **state)
     assert_int_equal(F(state)->faults[URB_NODE_FAULT_CHECKSUM], 1u);
 }
 
+/* lobster-trace: urb.CRC_004 */
 static void bad_check_nacked(void **state)
 {
     uint8_t const data[2] = {7u, 8u};
@@ -196,6 +197,7 @@ static void bad_check_nacked(void **state)
     assert_int_equal(F(state)->last_fault, URB_NODE_FAULT_CHECKSUM);
 }
 
+/* lobster-trace: urb.MBX_009 */
 static void write_refused_when_both_buffers_busy(void **state)
 {
     urb_node_t *node = N(state);
@@ -241,6 +243,7 @@ static void read_outbox_with_check(void **state)
     assert_int_equal(node->outbox[2].isr_idx, URB_NONE);
 }
 
+/* lobster-trace: urb.CRC_003 */
 static void read_check_covers_select(void **state)
 {
     urb_node_t *node = N(state);
@@ -461,6 +464,7 @@ static void reset_in_the_middle(void **state)
     assert_int_equal(take_inbox(node, 2u, got), URB_NODE_NEW);
 }
 
+/* lobster-trace: urb.SYN_007 */
 static void sync_framing(void **state)
 {
     urb_node_t *node = N(state);

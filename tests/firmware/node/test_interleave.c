@@ -253,6 +253,7 @@ static unsigned explore_inbox(const uint8_t *kinds, size_t ntx)
     return x.runs;
 }
 
+/* lobster-trace: urb.MBX_006 */
 static void inbox_all_scripts(void **state)
 {
     (void)state;
@@ -376,6 +377,7 @@ static unsigned explore_outbox(size_t reads, uint8_t messages)
     return x.runs;
 }
 
+/* lobster-trace: urb.MBX_002 */
 static void outbox_all_scripts(void **state)
 {
     (void)state;

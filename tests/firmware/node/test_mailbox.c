@@ -102,6 +102,7 @@ static void init_config_checks(void **state)
     urb_node_config_default(NULL); /* harmless */
 }
 
+/* lobster-trace: urb.MBX_012 */
 static void init_runs_hooks_and_starts(void **state)
 {
     fixture_t *f = *state;
@@ -122,6 +123,7 @@ static void init_runs_hooks_and_starts(void **state)
     assert_int_equal(f->node.storage_used, 2u * (2u + 20u + 6u + 20u));
 }
 
+/* lobster-trace: urb.PKT_003 */
 static void setup_errors(void **state)
 {
     (void)state;
@@ -242,6 +244,7 @@ static void commit_at_load(urb_node_t *node, uint8_t step, void *ctx)
     }
 }
 
+/* lobster-trace: urb.MBX_010 */
 static void inbox_busy_after_retries(void **state)
 {
     urb_node_t *node = &((fixture_t *)*state)->node;

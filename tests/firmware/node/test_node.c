@@ -35,6 +35,7 @@ static urb_identification_t read_id(urb_node_t *node)
     return id;
 }
 
+/* lobster-trace: urb.MBX_012 */
 static void update_once_per_heartbeat(void **state)
 {
     fixture_t *f = *state;
@@ -255,6 +256,7 @@ static void command_busy_waits_for_the_next_poll(void **state)
     assert_int_equal(urb_node_poll(node) & URB_NODE_POLL_COMMAND, 0u);
 }
 
+/* lobster-trace: urb.MBX_011 */
 static void command_reset(void **state)
 {
     fixture_t *f = *state;
@@ -280,6 +282,7 @@ static void command_reset(void **state)
     assert_false(read_id(node).fault);
 }
 
+/* lobster-trace: urb.MBX_011 */
 static void command_signal(void **state)
 {
     fixture_t *f = *state;
@@ -293,6 +296,7 @@ static void command_signal(void **state)
     assert_int_equal(f->signals, 2u);
 }
 
+/* lobster-trace: urb.MBX_011 */
 static void command_identify(void **state)
 {
     fixture_t *f = *state;
@@ -309,6 +313,7 @@ static void command_identify(void **state)
     assert_int_equal(f->port.identify_calls, 1u);
 }
 
+/* lobster-trace: urb.MBX_011 */
 static void command_sync_config(void **state)
 {
     fixture_t *f = *state;
@@ -350,6 +355,7 @@ static void command_sync_config(void **state)
     assert_int_equal(node->pll.period_q8, 72000u * 256u);
 }
 
+/* lobster-trace: urb.ERR_005 */
 static void faults_delivered_in_poll(void **state)
 {
     fixture_t *f = *state;
@@ -398,6 +404,7 @@ static void fault_after_identification_read_is_published(void **state)
 
 /* A refused write's OVERRUN and a missed heartbeat's OVERRUN in the same poll: one delivery
  * (README: "at most once per code per poll"; before the fix: two, review F7). */
+/* lobster-trace: urb.ERR_005 */
 static void overrun_once_per_poll(void **state)
 {
     fixture_t *f = *state;
@@ -422,6 +429,7 @@ static void overrun_once_per_poll(void **state)
     assert_int_equal(f->faults[URB_NODE_FAULT_OVERRUN], 2u);
 }
 
+/* lobster-trace: urb.MBX_011 */
 static void identification_refreshes(void **state)
 {
     fixture_t *f = *state;

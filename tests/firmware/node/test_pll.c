@@ -75,6 +75,7 @@ static double phase_ticks(fixture_t *f)
     return (double)st.phase_q8 / 256.0;
 }
 
+/* lobster-trace: urb.SYN_001 */
 static void locks_and_measures_period(void **state)
 {
     fixture_t *f = *state;
@@ -92,6 +93,7 @@ static void locks_and_measures_period(void **state)
     (void)t;
 }
 
+/* lobster-trace: urb.SYN_006 */
 static void missed_and_duplicate_syncs(void **state)
 {
     fixture_t *f = *state;
@@ -117,6 +119,7 @@ static void missed_and_duplicate_syncs(void **state)
     assert_true(fabs(phase_ticks(f)) < 40.0);
 }
 
+/* lobster-trace: urb.SYN_006 */
 static void outliers_rejected_then_reacquired(void **state)
 {
     fixture_t *f = *state;
@@ -135,6 +138,7 @@ static void outliers_rejected_then_reacquired(void **state)
     assert_true(fabs(phase_ticks(f)) < 2.0);
 }
 
+/* lobster-trace: urb.SYN_006 */
 static void lost_sync_free_runs(void **state)
 {
     fixture_t *f = *state;
@@ -232,6 +236,7 @@ static void silence_too_long_to_measure(void **state)
 }
 
 /* Two nodes on the model clock: the paper's Table I, beaten on every seed. */
+/* lobster-trace: urb.SYN_002, urb.SYN_003 */
 static void two_nodes_beat_table1(void **state)
 {
     (void)state;
@@ -257,6 +262,7 @@ static void two_nodes_beat_table1(void **state)
            diff / 1e3, jit / 1e3);
 }
 
+/* lobster-trace: urb.SYN_006 */
 static void two_nodes_outage(void **state)
 {
     (void)state;

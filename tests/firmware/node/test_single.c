@@ -90,6 +90,7 @@ static int setup(void **state)
     return 0;
 }
 
+/* lobster-trace: urb.MBX_012 */
 static void paper_style_end_to_end(void **state)
 {
     (void)state;
