@@ -208,6 +208,15 @@ def test_frames_that_are_no_bytes_fail_alike(cls: type[Message], data: object) -
     assert_same_decode(cls, data, **implicit_for(cls, None))
 
 
+@pytest.mark.parametrize("cls", CLASSES, ids=ALL)
+def test_a_deleted_field_fails_alike(cls: type[Message]) -> None:
+    """An empty slot (`del msg.field`): the pure codec's AttributeError, for every field."""
+    for f in cls.FIELDS:
+        msg = random_message(cls, random.Random(f.name))
+        delattr(msg, f.name)
+        assert assert_same_encode(msg)[:2] == ("raised", AttributeError)
+
+
 def test_an_implicit_member_decodes_to_the_callers_object() -> None:
     select = MailboxSelect(mailbox=2, read=True)
     frame = DownlinkReadResponse(select=select, data=b"\x01\x02").encode()

@@ -89,7 +89,7 @@ def _from_py(w: _Writer, f: Field, t: object, value: str, lv: str, depth: int, i
           indent)
         w(f"{lv} = ({_ctype(t.base)})x;", indent)
     elif isinstance(t, MessageDecl):
-        w(f"if ((PyObject *)Py_TYPE({value}) != (PyObject *)info_{t.name}.cls || "
+        w(f"if ({value} == NULL || (PyObject *)Py_TYPE({value}) != (PyObject *)info_{t.name}.cls || "
           f"!from_py_{t.name}({value}, &{lv})) {{ return false; }}", indent)
     elif isinstance(t, ArrayType):
         items, i = f"items{depth}", f"i{depth}"

@@ -37,7 +37,7 @@
 #include "urb_sensorhex.h"
 
 
-#define URB_ACCEL_FINGERPRINT "0911d12c4f7f7433"
+#define URB_ACCEL_FINGERPRINT "95522eeed98089cb"
 #define URB_MAX_FIELDS 11 /* the most fields of one message */
 
 /* ===== What the module knows of each class ================================================= */
@@ -1018,7 +1018,7 @@ static bool from_py_DownlinkWrite(PyObject *obj, urb_downlink_write_t *m)
     bool flag;
     (void)x;
     (void)flag;
-    if ((PyObject *)Py_TYPE(urb_slot(obj, offsets_DownlinkWrite[0])) != (PyObject *)info_MailboxSelect.cls || !from_py_MailboxSelect(urb_slot(obj, offsets_DownlinkWrite[0]), &m->select)) { return false; }
+    if (urb_slot(obj, offsets_DownlinkWrite[0]) == NULL || (PyObject *)Py_TYPE(urb_slot(obj, offsets_DownlinkWrite[0])) != (PyObject *)info_MailboxSelect.cls || !from_py_MailboxSelect(urb_slot(obj, offsets_DownlinkWrite[0]), &m->select)) { return false; }
     {
         size_t len;
         if (!urb_get_bytes(urb_slot(obj, offsets_DownlinkWrite[1]), 32u, m->data, &len)) { return false; }
@@ -1122,7 +1122,7 @@ static bool from_py_DownlinkReadSelect(PyObject *obj, urb_downlink_read_select_t
     bool flag;
     (void)x;
     (void)flag;
-    if ((PyObject *)Py_TYPE(urb_slot(obj, offsets_DownlinkReadSelect[0])) != (PyObject *)info_MailboxSelect.cls || !from_py_MailboxSelect(urb_slot(obj, offsets_DownlinkReadSelect[0]), &m->select)) { return false; }
+    if (urb_slot(obj, offsets_DownlinkReadSelect[0]) == NULL || (PyObject *)Py_TYPE(urb_slot(obj, offsets_DownlinkReadSelect[0])) != (PyObject *)info_MailboxSelect.cls || !from_py_MailboxSelect(urb_slot(obj, offsets_DownlinkReadSelect[0]), &m->select)) { return false; }
     return true;
 }
 
@@ -1212,7 +1212,7 @@ static bool from_py_DownlinkReadResponse(PyObject *obj, urb_downlink_read_respon
     bool flag;
     (void)x;
     (void)flag;
-    if ((PyObject *)Py_TYPE(urb_slot(obj, offsets_DownlinkReadResponse[0])) != (PyObject *)info_MailboxSelect.cls || !from_py_MailboxSelect(urb_slot(obj, offsets_DownlinkReadResponse[0]), &m->select)) { return false; }
+    if (urb_slot(obj, offsets_DownlinkReadResponse[0]) == NULL || (PyObject *)Py_TYPE(urb_slot(obj, offsets_DownlinkReadResponse[0])) != (PyObject *)info_MailboxSelect.cls || !from_py_MailboxSelect(urb_slot(obj, offsets_DownlinkReadResponse[0]), &m->select)) { return false; }
     {
         size_t len;
         if (!urb_get_bytes(urb_slot(obj, offsets_DownlinkReadResponse[1]), 32u, m->data, &len)) { return false; }
@@ -1283,7 +1283,7 @@ static PyObject *decode_DownlinkReadResponse(PyObject *cls, PyObject *const *arg
         bool flag;
         (void)x;
         (void)flag;
-        if ((PyObject *)Py_TYPE(given[0]) != (PyObject *)info_MailboxSelect.cls || !from_py_MailboxSelect(given[0], &m.select)) { return urb_pure_decode(&info_DownlinkReadResponse, cls, args, nargs, kwnames); }
+        if (given[0] == NULL || (PyObject *)Py_TYPE(given[0]) != (PyObject *)info_MailboxSelect.cls || !from_py_MailboxSelect(given[0], &m.select)) { return urb_pure_decode(&info_DownlinkReadResponse, cls, args, nargs, kwnames); }
     }
     int32_t const r = urb_downlink_read_response_decode(&m, buf, len);
     if (r < 0) {
@@ -2753,7 +2753,7 @@ static bool from_py_BatteryStatus(PyObject *obj, urb_battery_status_t *m)
         PyObject *const *items0 = urb_get_items(urb_slot(obj, offsets_BatteryStatus[0]), 3);
         if (items0 == NULL) { return false; }
         for (Py_ssize_t i0 = 0; i0 < 3; i0++) {
-            if ((PyObject *)Py_TYPE(items0[i0]) != (PyObject *)info_BatteryPack.cls || !from_py_BatteryPack(items0[i0], &m->packs[i0])) { return false; }
+            if (items0[i0] == NULL || (PyObject *)Py_TYPE(items0[i0]) != (PyObject *)info_BatteryPack.cls || !from_py_BatteryPack(items0[i0], &m->packs[i0])) { return false; }
         }
     }
     if (!urb_get_bool(urb_slot(obj, offsets_BatteryStatus[1]), &flag)) { return false; }
