@@ -19,7 +19,7 @@ from pathlib import Path
 
 from jinja2 import Environment, FileSystemLoader, StrictUndefined
 
-from .c_names import _ctype, _member, enum_c, file_stem, msg_c
+from .emit_c import _ctype, _member, enum_c, file_stem, msg_c
 from .emit_py import _user_fields, banner, module_name
 from .model import ArrayType, BytesType, EnumDecl, Field, IntType, MessageDecl, Schema
 

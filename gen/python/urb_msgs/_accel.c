@@ -37,7 +37,7 @@
 #include "urb_sensorhex.h"
 
 
-#define URB_ACCEL_FINGERPRINT "95522eeed98089cb"
+#define URB_ACCEL_FINGERPRINT "420f2c1232b85591"
 #define URB_MAX_FIELDS 11 /* the most fields of one message */
 
 /* ===== What the module knows of each class ================================================= */

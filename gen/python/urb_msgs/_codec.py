@@ -27,7 +27,7 @@ from typing import Any
 
 from ._runtime import Message
 
-FINGERPRINT = "95522eeed98089cb"
+FINGERPRINT = "420f2c1232b85591"
 """The generated sources the extension must be built from (its own FINGERPRINT)."""
 MODULES = ("urb_core", "sensorhex", )
 """The schema modules whose classes it serves."""
