@@ -56,7 +56,7 @@ check: setup gen-check lint test-py $(CHECK_TARGETS)
 	@echo "make check: all checks passed"
 
 demo: setup
-	urb sim sensorhex
+	urb sim sensorhex --sensitivity
 
 bench: setup accel
 	$(PYTHON) bench/codec_bench.py

@@ -51,6 +51,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from urb_report.mutation import summary_section
+
 ROOT = Path(__file__).resolve().parent.parent
 BMC_DIR = ROOT / "proofs" / "bmc"
 OUT_ROOT = ROOT / "build" / "proofs"
@@ -183,6 +185,7 @@ def merge(parts: list[str], out_root: Path = OUT_ROOT) -> tuple[int, list[str]]:
     for part, r in rows:
         if not r["expected"]:
             problems.append(f"part {part}: {r['function']} ({r['tool']}): {r['result']} {r['detail']}".rstrip())
+    mutation_score = summary_section(out_root, problems, out_root.parent / "evidence")  # urb_report/mutation.py
     model = cost_model()
     clock = int(model["target"]["clock_hz"])
     cpu = str(model["target"]["cpu"])
@@ -213,6 +216,7 @@ def merge(parts: list[str], out_root: Path = OUT_ROOT) -> tuple[int, list[str]]:
                       f"{budget if budget else '-'} | {share} |")
     else:
         md.append("No result records a worst-case cycle count (run `python3 tools/proofs.py --update-costs`).")
+    md += [""] + mutation_score
     out_root.mkdir(parents=True, exist_ok=True)
     (out_root / "summary.md").write_text("\n".join(md) + "\n", encoding="utf-8")
     suites = ET.Element("testsuites", name="urb-proofs")

@@ -3,6 +3,8 @@
 
     python3 tools/proofs_framac.py                  # every unit and its mutant (replays proofs/framac/cache)
     python3 tools/proofs_framac.py --only mailbox   # units whose folder name contains "mailbox"
+    python3 tools/proofs_framac.py --unit fifo --mutant complete_marks_ring_head --mutants-only
+                                                    # exactly that unit and mutant
     python3 tools/proofs_framac.py --no-mutants     # the units only
     python3 tools/proofs_framac.py --record         # rewrite each unit's expected.json from this run
     python3 tools/proofs_framac.py --list           # the units and their settings, nothing run
@@ -33,14 +35,19 @@ Eva units analyse a main (proofs/framac/eva_*/main.c) that drives one firmware e
 HAL of arbitrary inputs. Each alarm is keyed by file, function and property text (no line numbers,
 so edits elsewhere in the file do not invalidate the list); every alarm must be in expected.json
 and explained in proofs/framac/eva_alarms.md, and an alarm listed there that no longer occurs must
-be removed (the list stays exact).
+be removed (the list stays exact). A contract Eva finds invalid at any call site fails the unit
+(INVALID): Eva's consolidated status of such a property is Unknown, so the runner reads its red
+statuses (-eva-report-red-statuses); a behavior's postcondition red only where Eva could not decide
+the behavior's assumes ("Behavior may be inactive") is counted, not failed. Contract statuses are
+counted per unit.
 
 Each mutant of a unit copies one source file, replaces `find` (which must occur exactly once) by
 `replace` and runs the same analysis: WP must leave a goal unproved, Eva must raise an alarm that
 is not in the reviewed list.
 
 Outputs build/proofs/framac/summary.json ({"part": "framac", "rows": [...]}, one row per function
-or Eva entry point and one per mutant), junit.xml and the Frama-C logs under logs/. Exit status:
+or Eva entry point and one per mutant), junit.xml, the Frama-C logs under logs/, and the evidence
+record build/evidence/framac.json (WP goals per prover, Eva alarms with their reviews, mutants). Exit status:
 0 every result as expected, 1 an unexpected result, 2 a missing tool or a broken unit folder.
 """
 
@@ -62,6 +69,9 @@ from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+from urb_report import c_source
+from urb_report.records import Item, Verdict, command_version, write_record
 
 ROOT = Path(__file__).resolve().parent.parent
 UNITS_DIR = ROOT / "proofs" / "framac"
@@ -124,10 +134,14 @@ def load_unit(folder: Path) -> Unit:
                 list(cfg.get("args", [])), mutants, expected)
 
 
-def discover(only: list[str]) -> list[Unit]:
+def discover(only: list[str], exact: list[str] | None = None) -> list[Unit]:
+    """The units whose folder name contains one of `only` or is one of `exact` (all when neither)."""
     folders = sorted(p.parent for p in UNITS_DIR.glob("*/unit.json"))
-    if only:
-        folders = [f for f in folders if any(o in f.name for o in only)]
+    unknown = sorted(set(exact or []) - {f.name for f in folders})
+    if unknown:
+        raise SetupError(f"no unit named {', '.join(unknown)} under {UNITS_DIR.relative_to(ROOT)}: see --list")
+    if only or exact:
+        folders = [f for f in folders if any(o in f.name for o in only) or f.name in (exact or [])]
     if not folders:
         raise SetupError(f"no unit under {UNITS_DIR.relative_to(ROOT)} matches {only}: see --list")
     return [load_unit(f) for f in folders]
@@ -210,13 +224,22 @@ def framac_command(unit: Unit, sources: list[str], cpp: list[str], extra: list[s
         cmd += ["-eva", "-eva-no-show-progress", "-eva-msg-key=-final-states", "-eva-precision", str(EVA_PRECISION),
                 "-eva-auto-loop-unroll", str(EVA_UNROLL)]
         cmd += unit.args + extra
-        cmd += ["-then", "-report-csv", str(report), "-report-no-proven"]
+        # Every property with its status (contracts counted too), and the properties Eva found
+        # invalid for some states: their consolidated status may still be Unknown (see eva_red).
+        cmd += ["-eva-report-red-statuses", str(red_report(report))]
+        cmd += ["-then", "-report-csv", str(report)]
     return cmd
+
+
+def red_report(report: Path) -> Path:
+    """Where an Eva run lists its red properties (next to its report)."""
+    return report.with_name(report.stem + ".red.csv")
 
 
 def run_framac(cmd: list[str], log_path: Path, report: Path) -> FramacRun:
     log_path.parent.mkdir(parents=True, exist_ok=True)
     report.unlink(missing_ok=True)
+    red_report(report).unlink(missing_ok=True)
     start = time.monotonic()
     try:
         out = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=RUN_TIMEOUT_S)
@@ -251,6 +274,42 @@ def _no_prover_answer(verdicts: dict[str, Any]) -> bool:
                    for name, counts in verdicts.items())
 
 
+PROVER_NAMES = {"qed": "qed", "z3": "z3", "cvc4": "cvc4", "cvc5": "cvc5", "alt-ergo": "alt-ergo", "script": "script"}
+
+
+def proved_by(goals: dict[str, Any]) -> dict[str, int]:
+    """How many of a function's WP properties each prover proved (qed is WP's simplifier; a
+    property two provers proved counts for both; "script" is a -wp-auto strategy whose parts the
+    provers proved). WP's report gives verdicts per property, and a property may hold several goals."""
+    counts: dict[str, int] = {}
+    for verdicts in goals.values():
+        for name, v in verdicts.items():
+            key = PROVER_NAMES.get(name.split(":")[0].lower())
+            if key and v.get("valid", 0) > 0:
+                counts[key] = counts.get(key, 0) + 1
+    return dict(sorted(counts.items()))
+
+
+def miss_kind(goal: str, recorded: dict[str, Any] | None) -> str:
+    """Why an offline replay found no cached answer for `goal`: "changed" when the unit's
+    expected.json records a goal of that name (its formula changed: the code, its contract or a
+    callee's contract moved), "new" when it records the function's goals and this one is not among
+    them, "new or changed" when expected.json holds no goal names for the function."""
+    names = (recorded or {}).get("goals")
+    if not names:
+        return "new or changed (expected.json records no goal names for this function: run --record)"
+    return "changed" if goal in names else "new"
+
+
+def real_verdict_command(units: list[str], mutants: list[str], unit_rows: bool) -> str:
+    """The one command that runs the provers on the goals an offline replay missed: the units
+    (their own functions when `unit_rows`) and the named mutants, in update mode."""
+    cmd = ".venv/bin/python tools/proofs_framac.py --cache update"
+    cmd += "".join(f" --unit {u}" for u in sorted(set(units)))
+    cmd += "".join(f" --mutant {m}" for m in sorted(set(mutants))) if mutants else " --no-mutants"
+    return cmd + ("" if unit_rows else " --mutants-only")
+
+
 def wp_functions(run: FramacRun) -> dict[str, dict[str, Any]]:
     """Per function: proved, total, the unproved properties, those of them no prover answered
     (cache misses offline) and the solver time of its goals."""
@@ -261,7 +320,8 @@ def wp_functions(run: FramacRun) -> dict[str, dict[str, Any]]:
                           if p != "wp:section" and v["wp:main"].get("valid", 0) < v["wp:main"]["total"])
         unanswered = [p for p in unproved if _no_prover_answer(props[p])]
         result[fn] = {"proved": int(main.get("valid", 0)), "total": int(main["total"]), "unproved": unproved,
-                      "unanswered": unanswered, "seconds": 0.0}
+                      "unanswered": unanswered, "seconds": 0.0, "goals": sorted(p for p in props if p != "wp:section"),
+                      "by": proved_by({p: v for p, v in props.items() if p != "wp:section"})}
     names = sorted(result, key=len, reverse=True)  # longest first: urb_x_encode before urb_x
     for goal, _status, rest in _GOAL_RE.findall(run.log):
         owner = next((n for n in names if goal.startswith(n + "_")), None)
@@ -277,14 +337,19 @@ def wp_functions(run: FramacRun) -> dict[str, dict[str, Any]]:
 
 def read_alarm_list() -> set[str]:
     """Alarm keys explained in eva_alarms.md: the first column of its table, in backquotes."""
+    return set(read_alarm_reviews())
+
+
+def read_alarm_reviews() -> dict[str, str]:
+    """Alarm key -> its review (why it is not a bug) from eva_alarms.md."""
     if not ALARMS_MD.is_file():
-        return set()
-    keys = set()
+        return {}
+    reviews = {}
     for line in ALARMS_MD.read_text(encoding="utf-8").splitlines():
-        m = re.match(r"^\|\s*`([^`]+)`\s*\|", line)
+        m = re.match(r"^\|\s*`([^`]+)`\s*\|(.*)\|\s*$", line)
         if m:
-            keys.add(m.group(1))
-    return keys
+            reviews[m.group(1)] = m.group(2).strip()
+    return reviews
 
 
 _CONTRACT_KINDS = ("precondition", "postcondition", "loop invariant", "loop variant", "assigns", "from",
@@ -300,12 +365,15 @@ def _report_rows(report: Path) -> list[dict[str, str]]:
     return [dict(zip(header, line.split("\t"))) for line in lines[1:]]
 
 
+_PROVEN = ("Valid", "Valid under hyp.", "Considered valid", "Dead")
+
+
 def eva_alarms(report: Path) -> list[str]:
     """Alarm keys `file:function: kind: property` from the Report plugin's CSV (unproved properties only)."""
     keys = []
     for cols in _report_rows(report):
         kind = cols.get("property kind", "")
-        if cols.get("status", "") in ("Valid", "Valid under hyp.", "Considered valid", "Dead"):
+        if cols.get("status", "") in _PROVEN:
             continue
         if kind.startswith(_CONTRACT_KINDS):
             continue  # the ACSL contracts are WP's to prove; Eva's verdict on them is not an alarm
@@ -330,6 +398,54 @@ def eva_invalid(report: Path) -> list[str]:
     return sorted(set(found))
 
 
+_INVALID_MESSAGE = re.compile(r"^\[eva:alarm\] (\S+):(\d+): Warning: *\n\s*(function [^\n]*? got status invalid\.[^\n]*)",
+                              re.MULTILINE)
+_INACTIVE = "Behavior may be inactive"
+
+
+def eva_red(report: Path, log: str) -> dict[str, list[str]]:
+    """The properties Eva found invalid for some states (`-eva-report-red-statuses`). A contract
+    false at one call site but true at another is consolidated to Unknown in the report, so it was
+    neither an alarm nor an invalid property; here it is "invalid" (a precondition at a call site,
+    a postcondition...). Except "undecided": a named behavior's postcondition Eva found false in
+    a context where it could not tell whether the behavior applies (its log says "Behavior may be
+    inactive, no reduction performed"; WP proves the behaviors). "alarms": run-time-error alarms
+    that are definite in some context; like every alarm they must be recorded and reviewed."""
+    messages: dict[tuple[str, str], list[str]] = {}
+    for m in _INVALID_MESSAGE.finditer(log):
+        messages.setdefault((Path(m.group(1)).name, m.group(2)), []).append(m.group(3))
+    out: dict[str, list[str]] = {"invalid": [], "undecided": [], "alarms": []}
+    for cols in _report_rows(red_report(report)):
+        prop = re.sub(r"\s+", " ", cols.get("property", "")).strip()
+        name, line = Path(cols.get("file", "?")).name, cols.get("line", "?")
+        text = (f"{name}:{line}:{cols.get('function', '?')}: {cols.get('name', '')} (consolidated status "
+                f"{cols.get('status', '?')}, invalid in {cols.get('#contexts', '?')} context(s)): {prop}")
+        said = messages.get((name, line), [])
+        if cols.get("kind") == "Alarm":
+            out["alarms"].append(text)
+        elif said and all(_INACTIVE in msg for msg in said):
+            out["undecided"].append(text)
+        else:
+            out["invalid"].append(text)
+    return {k: sorted(set(v)) for k, v in out.items()}
+
+
+def contract_statuses(report: Path) -> dict[str, int]:
+    """How many ACSL contract properties of the analysed sources (pre- and postconditions, assigns,
+    loop annotations...) the Eva report holds per consolidated status: valid, unknown, invalid, not
+    reached. (A contract invalid at one call site only is consolidated to unknown: eva_red.)"""
+    counts = {"valid": 0, "unknown": 0, "invalid": 0, "not reached": 0}
+    for cols in _report_rows(report):
+        if not cols.get("property kind", "").startswith(_CONTRACT_KINDS) or \
+                cols.get("directory", "").startswith("FRAMAC_SHARE"):
+            continue  # Frama-C's own library specifications are not ours to count
+        status = cols.get("status", "")
+        key = ("invalid" if status.startswith("Invalid") else "valid" if status in _PROVEN else
+               "not reached" if status == "Never tried" or "dead" in status else "unknown")
+        counts[key] += 1
+    return counts
+
+
 _EVA_BAD_RE = re.compile(r"NON TERMINATING FUNCTION|\[kernel\] User Error|\[kernel\] Failure|"
                          r"Completely invalid destination|Assertion got status invalid", re.MULTILINE)
 
@@ -348,13 +464,15 @@ class Row:
     time_s: float
     detail: str = ""
     unit: str = ""
+    data: dict[str, Any] = field(default_factory=dict)  # for the evidence record (build/evidence/framac.json)
 
 
 def wp_bound() -> str:
     return f"unbounded (deductive); {PROVERS} via why3, {GOAL_TIMEOUT_S} s per goal"
 
 
-def check_wp(unit: Unit, run: FramacRun, record: bool, cache: str) -> tuple[list[Row], dict[str, Any]]:
+def check_wp(unit: Unit, run: FramacRun, record: bool, cache: str, mutant: str = "") -> tuple[list[Row],
+                                                                                            dict[str, Any]]:
     if not run.ok or not run.report:
         return [Row(unit.name, "frama-c wp", "-", wp_bound(), "ERROR", False, run.seconds,
                     f"frama-c failed: see build/proofs/framac/logs/{unit.name}.log", unit.name)], {}
@@ -375,16 +493,21 @@ def check_wp(unit: Unit, run: FramacRun, record: bool, cache: str) -> tuple[list
         detail = ", ".join(got["unproved"])
         if cache == "offline" and got["unanswered"]:
             result = "CACHE MISS"
-            detail = (f"no cached prover answer for {', '.join(got['unanswered'])} (a new or changed goal); run "
-                      f"`python3 tools/proofs_framac.py --only {unit.name}` to prove it and fill {CACHE_DIR.relative_to(ROOT)}, "
-                      "then commit the new cache entries with the change")
+            goals = "; ".join(f"{g} ({miss_kind(g, exp)})" for g in got["unanswered"])
+            command = real_verdict_command([unit.name], [mutant] if mutant else [], unit_rows=not mutant)
+            detail = (f"no cached prover answer (offline: no prover ran, so no verdict) for {goals}; the real "
+                      f"verdict: `{command}` (fills {CACHE_DIR.relative_to(ROOT)}: commit the new entries with the "
+                      "change)")
         if complete and not same and not record:
             result = "COUNT CHANGED"
             detail = (f"expected {exp['proved']}/{exp['total']} goals" if exp else "not in expected.json") + \
                 "; review the change, then run tools/proofs_framac.py --record"
+        data = {"total": got["total"], "proved": got["proved"], "by": got["by"], "unproved": got["unproved"],
+                "cache_misses": got["unanswered"] if cache == "offline" else []}
         rows.append(Row(fn, "frama-c wp", f"{got['proved']}/{got['total']} goals (RTE + ACSL contract)", wp_bound(),
-                        result, complete and (same or record), round(got["seconds"], 3), detail, unit.name))
-    recorded = {"functions": {fn: {"proved": g["proved"], "total": g["total"]} for fn, g in sorted(funcs.items())}}
+                        result, complete and (same or record), round(got["seconds"], 3), detail, unit.name, data))
+    recorded = {"functions": {fn: {"proved": g["proved"], "total": g["total"], "goals": g["goals"]}
+                              for fn, g in sorted(funcs.items())}}
     return rows, recorded
 
 
@@ -396,10 +519,18 @@ def check_eva(unit: Unit, run: FramacRun, report: Path, record: bool, reviewed: 
         why = bad.group(0) if bad else "frama-c failed"
         return [Row(unit.name, "frama-c eva", "-", bound, "ERROR", False, run.seconds,
                     f"{why}: see build/proofs/framac/logs/{unit.name}.log", unit.name)], {}
-    invalid = eva_invalid(report)
-    if invalid:
+    if not red_report(report).is_file():
         return [Row(unit.name, "frama-c eva", "-", bound, "ERROR", False, run.seconds,
-                    "property found invalid (Eva cuts the paths behind it): " + "; ".join(invalid), unit.name)], {}
+                    f"Eva wrote no list of red properties ({red_report(report).name}): see "
+                    f"build/proofs/framac/logs/{unit.name}.log", unit.name)], {}
+    contracts = contract_statuses(report)
+    invalid, red = eva_invalid(report), eva_red(report, run.log)
+    if invalid or red["invalid"]:
+        # A property false in some context: Eva cuts the paths behind it (no alarm of its own),
+        # and its consolidated status may say Unknown. Never a reviewed result.
+        detail = "; ".join([f"invalid: {p}" for p in invalid] + [f"invalid at some call site: {p}" for p in red["invalid"]])
+        return [Row(unit.name, "frama-c eva", f"{len(invalid) + len(red['invalid'])} properties invalid in some context",
+                    bound, "INVALID", False, run.seconds, detail, unit.name, {"contracts": contracts, "red": red})], {}
     alarms = eva_alarms(report)
     listed = set(unit.expected.get("alarms", []))
     new = [a for a in alarms if a not in listed or a not in reviewed]
@@ -413,8 +544,11 @@ def check_eva(unit: Unit, run: FramacRun, report: Path, record: bool, reviewed: 
     if new and record:
         detail += "; explain each alarm in proofs/framac/eva_alarms.md (why it is not a bug), or fix the code"
     result = "no alarm" if not alarms else ("reviewed alarms" if ok else "ALARM")
-    row = Row(unit.name, "frama-c eva", f"{len(alarms)} alarms ({len(alarms) - len(new)} reviewed)", bound, result,
-              ok, round(run.seconds, 3), detail, unit.name)
+    shown = ", ".join(f"{n} {status}" for status, n in contracts.items())
+    row = Row(unit.name, "frama-c eva", f"{len(alarms)} alarms ({len(alarms) - len(new)} reviewed); contracts: {shown} "
+              f"({len(red['undecided'])} behavior postconditions undecided in some context)",
+              bound, result, ok, round(run.seconds, 3), detail, unit.name, {"alarms": alarms, "new": new,
+                                                                           "contracts": contracts, "red": red})
     return [row], {"alarms": alarms}
 
 
@@ -429,9 +563,10 @@ def mutant_targets(mutant: dict[str, Any]) -> set[str] | None:
 
 def mutant_row(unit: Unit, mutant: dict[str, Any], rows: list[Row]) -> Row:
     tool = "frama-c wp" if unit.tool == "wp" else "frama-c eva"
+    data = mutant_data(mutant)
     if any(r.result == "ERROR" for r in rows):
         return Row(f"{unit.name} mutant {mutant['name']}", tool, mutant["why"], "-", "ERROR", False,
-                   sum(r.time_s for r in rows), rows[0].detail, unit.name)
+                   sum(r.time_s for r in rows), rows[0].detail, unit.name, data)
     missed: list[Row] = []
     if unit.tool == "wp":
         # A kill is a goal of a mutated function left unproved: a goal elsewhere (a unit whose own
@@ -441,14 +576,23 @@ def mutant_row(unit: Unit, mutant: dict[str, Any], rows: list[Row]) -> Row:
         targeted = [r for r in rows if targets is None or r.function in targets]
         missed = [r for r in targeted if r.result == "CACHE MISS"]
         caught = [f"{r.function}: {r.detail}" for r in targeted if r.result == "UNPROVED"]
-    else:
-        caught = [r.detail for r in rows if r.result == "ALARM" and "NEW ALARM" in r.detail]
+    else:  # a new alarm, or a property Eva finds invalid in some context (a broken contract)
+        caught = [r.detail for r in rows if (r.result == "ALARM" and "NEW ALARM" in r.detail) or r.result == "INVALID"]
     if missed:
         result, detail = "CACHE MISS", missed[0].detail
     else:
         result, detail = ("killed" if caught else "SURVIVED"), "; ".join(caught)
     return Row(f"{unit.name} mutant {mutant['name']}", tool, mutant["why"], "same as the unit", result,
-               result == "killed", round(sum(r.time_s for r in rows), 3), detail[:400], unit.name)
+               result == "killed", round(sum(r.time_s for r in rows), 3), detail[:400], unit.name, data)
+
+
+def mutant_data(mutant: dict[str, Any]) -> dict[str, Any]:
+    """What the mutation table needs of a mutant: the file, the function it changes, its kind."""
+    text = (ROOT / mutant["file"]).read_text(encoding="utf-8") if (ROOT / mutant["file"]).is_file() else ""
+    at = text.find(mutant["find"])
+    function = c_source.function_at(c_source.code_of(text), at) if at >= 0 else ""
+    return {"mutant": mutant["name"], "file": mutant["file"], "mutated_function": function,
+            "kind": mutant.get("kind", "other")}
 
 
 # =============================================================================== driver
@@ -466,7 +610,7 @@ def run_unit(unit: Unit, mutant: dict[str, Any] | None, jobs: int, cache: str, c
     cmd = framac_command(unit, sources, cpp, extra, report, jobs, cache, cache_dir)
     run = run_framac(cmd, OUT_DIR / "logs" / f"{tag}.log", report)
     if unit.tool == "wp":
-        rows, recorded = check_wp(unit, run, record and not mutant, cache)
+        rows, recorded = check_wp(unit, run, record and not mutant, cache, mutant["name"] if mutant else "")
     else:
         rows, recorded = check_eva(unit, run, report, record and not mutant, reviewed)
     if mutant:
@@ -479,7 +623,8 @@ def write_outputs(rows: list[Row], wall: float) -> None:
     data = {"part": "framac", "wall_s": round(wall, 1),
             "rows": [{"function": r.function, "tool": r.tool, "properties": r.properties, "bound": r.bound,
                       "result": r.result, "expected": r.expected, "time_s": r.time_s, "detail": r.detail,
-                      "unit": r.unit} for r in rows]}
+                      "unit": r.unit, **({k: r.data[k] for k in ("mutant", "file", "mutated_function", "kind")}
+                                         if "mutant" in r.data else {})} for r in rows]}
     (OUT_DIR / "summary.json").write_text(json.dumps(data, indent=2) + "\n", encoding="utf-8")
     suites = ET.Element("testsuites", name="urb-proofs-framac")
     for tool in ("frama-c wp", "frama-c eva"):
@@ -496,6 +641,49 @@ def write_outputs(rows: list[Row], wall: float) -> None:
             if not r.expected:
                 ET.SubElement(case, "failure", message=r.result).text = r.detail
     ET.ElementTree(suites).write(OUT_DIR / "junit.xml", encoding="utf-8", xml_declaration=True)
+
+
+def evidence_items(rows: list[Row], reviews: dict[str, str]) -> list[Item]:
+    """The evidence record's items: `wp:<unit>/<function>` with its goals table (total, proved by
+    each prover, unproved, justified), `eva:<unit>` with its alarms and their reviews and the
+    contract statuses, `framac-mutant:<unit>/<mutant>`."""
+    items = []
+    for r in rows:
+        verdict: Verdict = "pass" if r.expected else ("error" if r.result == "ERROR" else "fail")
+        if "mutant" in r.data:
+            items.append(Item(f"framac-mutant:{r.unit}/{r.data['mutant']}", "mutant", verdict, "killed", r.result,
+                              r.data["file"], f"python3 tools/proofs_framac.py --unit {r.unit} --mutant "
+                              f"{r.data['mutant']} --mutants-only", {**r.data, "detail": r.detail}))
+        elif r.tool == "frama-c wp":
+            goals = {"total": r.data.get("total", 0), "proved": r.data.get("proved", 0),
+                     "by": {p: r.data.get("by", {}).get(p, 0) for p in ("qed", "z3", "cvc4", "cvc5", "script")},
+                     "unproved": r.data.get("unproved", []), "justified": [], "cache_misses": r.data.get("cache_misses", [])}
+            items.append(Item(f"wp:{r.unit}/{r.function}", "wp", verdict, "every goal proved", r.properties,
+                              f"proofs/framac/{r.unit}/unit.json", f"python3 tools/proofs_framac.py --unit {r.unit} "
+                              "--no-mutants", {"goals": goals, "result": r.result, "time_s": r.time_s, "detail": r.detail}))
+        else:
+            alarms = [{"alarm": a, "review": reviews.get(a, ""), "status": "reviewed" if a in reviews and
+                       a not in r.data.get("new", []) else "NOT REVIEWED"} for a in r.data.get("alarms", [])]
+            items.append(Item(f"eva:{r.unit}", "eva", verdict, "every alarm recorded and reviewed, no invalid property",
+                              r.properties, f"proofs/framac/{r.unit}/unit.json",
+                              f"python3 tools/proofs_framac.py --unit {r.unit} --no-mutants",
+                              {"alarms": alarms, "contracts": r.data.get("contracts", {}), "result": r.result,
+                               "detail": r.detail}))
+    return items
+
+
+def write_evidence(rows: list[Row], args: argparse.Namespace) -> Path:
+    """build/evidence/framac.json (report/urb_report/records.py)."""
+    tools = {"Frama-C": command_version(["frama-c", "-version"]), "why3": command_version(["why3", "--version"]),
+             "z3": command_version(["z3", "--version"]), "cvc4": command_version(["cvc4", "--version"]),
+             "flags": f"-machdep {MACHDEP}; WP: -wp -wp-rte -wp-prover {PROVERS} -wp-timeout {GOAL_TIMEOUT_S} "
+                      f"-wp-cache {args.cache}; Eva: -eva-precision {EVA_PRECISION} -eva-auto-loop-unroll {EVA_UNROLL} "
+                      "-eva-report-red-statuses; each unit's own options in its unit.json"}
+    config = {"cache": args.cache, "jobs": args.jobs, "units": sorted({r.unit for r in rows}),
+              "mutants": not args.no_mutants, "provers": PROVERS.split(","), "goal_timeout_s": GOAL_TIMEOUT_S,
+              "hypotheses": "HAL contracts assumed at their call sites, never proved: proofs/framac/README.md, "
+                            "\"HAL contracts (WP hypotheses)\"; Eva admits: eva_alarms.md, Hypotheses"}
+    return write_record("framac", evidence_items(rows, read_alarm_reviews()), tools, config=config)
 
 
 def print_table(rows: list[Row]) -> None:
@@ -542,7 +730,7 @@ def run_all(units: list[Unit], args: argparse.Namespace, cache_dir: Path, review
     if not args.mutants_only:
         jobs += [(u, None) for u in units]
     if not args.no_mutants:
-        jobs += [(u, m) for u in units for m in u.mutants]
+        jobs += [(u, m) for u in units for m in u.mutants if not args.mutant or m["name"] in args.mutant]
     # --jobs frama-c processes at once. Eva is one process per entry point; a WP process runs up
     # to -wp-par provers itself (--jobs; offline, OFFLINE_WP_PAR cache lookups).
     rows: list[Row] = []
@@ -561,6 +749,10 @@ def run_all(units: list[Unit], args: argparse.Namespace, cache_dir: Path, review
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--only", action="append", default=[], help="units whose folder name contains this")
+    ap.add_argument("--unit", action="append", default=[], help="the unit of exactly this name (repeatable)")
+    ap.add_argument("--mutant", action="append", default=[],
+                    help="only the mutants of this name (repeatable; the selected units still run unless "
+                         "--mutants-only)")
     ap.add_argument("--no-mutants", action="store_true", help="skip the seeded mutants")
     ap.add_argument("--mutants-only", action="store_true", help="run only the seeded mutants")
     ap.add_argument("--record", action="store_true", help="rewrite each unit's expected.json from this run")
@@ -575,11 +767,14 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     try:
         if args.prune_cache:
-            if args.only or args.no_mutants or args.mutants_only or args.record:
+            if args.only or args.unit or args.mutant or args.no_mutants or args.mutants_only or args.record:
                 raise SetupError("--prune-cache needs the whole run: no --only, --no-mutants, --mutants-only "
                                  "or --record")
             args.cache = "offline"
-        units = discover(args.only)
+        units = discover(args.only, args.unit)
+        missing = sorted(set(args.mutant) - {m["name"] for u in units for m in u.mutants})
+        if missing:
+            raise SetupError(f"no mutant named {', '.join(missing)} in the selected units: see their unit.json")
         if args.list:
             for u in units:
                 print(f"{u.name:24} {u.tool:4} {u.purpose}")
@@ -595,6 +790,7 @@ def main(argv: list[str] | None = None) -> int:
             rows = run_all(units, args, cache_dir, reviewed)
             wall = time.monotonic() - start
             write_outputs(rows, wall)
+            evidence = write_evidence(rows, args)
             print_table(rows)
             bad = [r for r in rows if not r.expected]
             if args.prune_cache:
@@ -611,7 +807,12 @@ def main(argv: list[str] | None = None) -> int:
     print(f"framac: {len(wp_rows)} WP functions, {sum(goals)} goals; "
           f"{sum(r.tool == 'frama-c eva' and ' mutant ' not in r.function for r in rows)} Eva entry points; "
           f"{sum(' mutant ' in r.function for r in rows)} mutants; {len(bad)} unexpected; {wall:.0f} s wall; "
-          f"build/proofs/framac/summary.json, junit.xml")
+          f"build/proofs/framac/summary.json, junit.xml, {evidence.relative_to(ROOT)}")
+    missed = [r for r in rows if r.result == "CACHE MISS"]
+    if missed:
+        command = real_verdict_command([r.unit for r in missed], [r.data["mutant"] for r in missed if "mutant" in r.data],
+                                       unit_rows=any("mutant" not in r.data for r in missed))
+        print(f"framac: {len(missed)} CACHE MISS (no prover ran, no verdict): the real verdict: {command}")
     return 1 if bad else 0
 
 

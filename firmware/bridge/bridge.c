@@ -2,7 +2,7 @@
  * URB bridge core: admission, the request FIFO, serving on the downlink or locally (address 0),
  * emitting responses in order, discovery and the SYNC heartbeat.
  *
- * Memory follows Bridge.tla: a ring of response slots (header only) in arrival order, and a FIFO
+ * Memory follows Bridge.tla (its queue): a ring of response slots (header only) in arrival order, and a FIFO
  * of data slots (payload buffers) held from admission until the response has left. Admission
  * errors take a response slot but no data slot, so they keep their place in the answer order
  * without using a payload buffer. Data slots are allocated in ring order and freed in ring order
@@ -158,7 +158,7 @@ static int16_t known_size(const urb_bridge_t *b, uint8_t a, uint8_t box, bool re
 
 /* ===== Admission ============================================================================== */
 
-/* Bridge.tla: AdmissionStatus. Header validation without downlink traffic. An address the last
+/* Bridge.tla AdmissionStatus. Header validation without downlink traffic. An address the last
  * scan did not find is NOT refused: a node may appear after the scan; the downlink decides. */
 /*@ requires \valid_read(b) && urbb_nodes_ok(b) && a < 128 && box < 8;
     assigns \nothing;
@@ -331,7 +331,7 @@ bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t l
 
 /* ===== Serving ================================================================================ */
 
-/* Bridge.tla: FirstPending, in O(1): served slots form a prefix of the slot FIFO. The data slot of
+/* Bridge.tla FirstPending, in O(1): served slots form a prefix of the slot FIFO. The data slot of
  * the oldest pending request, or URB_BRIDGE_NO_SLOT when nothing is pending. */
 /*@ requires urbb_fifo_ok(b);
     assigns \nothing;
@@ -621,7 +621,7 @@ static void activity_done(urb_bridge_t *b, uint8_t status)
     b->activity = URBB_ACT_NONE;
     if (act == URBB_ACT_REQUEST) {
         mark(b, URB_MARK_SERVE, false);
-        served(b, status); /* Bridge.tla: Serve */
+        served(b, status); /* Bridge.tla Serve: the request's outcome (served) */
     } else if (act == URBB_ACT_PROBE) {
         probed(b, status);
     } else if (act == URBB_ACT_LEARN) {
@@ -803,7 +803,7 @@ int32_t urb_bridge_init(urb_bridge_t *b, const urb_bridge_config_t *cfg, const u
     }
     b->hb_ticks = 0u;
     b->hb_done = 0u;
-    b->ring_head = 0u;
+    b->ring_head = 0u; /* Bridge.tla: BridgeReset (the queue starts empty) */
     b->ring_count = 0u;
     b->slot_head = 0u;
     b->slot_count = 0u;
@@ -839,7 +839,7 @@ int32_t urb_bridge_init(urb_bridge_t *b, const urb_bridge_config_t *cfg, const u
 void urb_bridge_poll(urb_bridge_t *b)
 {
     uint32_t const now = b->hal->now_us(b->hal->ctx);
-    urbb_uart_drain(b, now); /* Bridge.tla: SubmitAndAdmit for every complete RS232 frame */
+    urbb_uart_drain(b, now); /* Bridge.tla SubmitAndAdmit for every complete RS232 frame */
     int8_t const r = b->dl.poll(b->dl.ctx, now);
     if (r >= 0) {
         activity_done(b, (uint8_t)r);

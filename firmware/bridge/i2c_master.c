@@ -5,7 +5,7 @@
  *  - urb_i2c_master_event() (interrupt): one HAL event in, at most one HAL operation out, O(1);
  *  - master_begin()/master_poll() (main loop): set up a transaction (the write check is computed
  *    here, O(length)), verify a read check, time out, bit-bang a bus clear one half clock per call.
- * Each bus outcome maps to the status that names its cause (Bridge.tla: Serve, ErrorNamesCause).
+ * Each bus outcome maps to the status that names its cause (Bridge.tla Serve, ErrorNamesCause).
  */
 #include "bridge_internal.h"
 
@@ -133,18 +133,18 @@ static uint8_t nack_status(const urb_i2c_master_t *m, uint8_t pos)
         return URB_STATUS_OK; /* no node acknowledging the general call is not an error */
     }
     if (pos == 0u) {
-        return URB_STATUS_NO_NODE; /* Discovery.tla: HostRequest, a vanished node gets NO_NODE */
+        return URB_STATUS_NO_NODE; /* Discovery.tla HostRequest: a vanished node gets NO_NODE (bridge.c decides) */
     }
     if (pos == 1u) {
         return URB_STATUS_BAD_REQUEST; /* the node has no such mailbox */
     }
     if (pos == 2u) {
-        return URB_STATUS_NODE_BUSY; /* MailboxInbox.tla: IsrWriteBegin NACKs when both buffers are taken */
+        return URB_STATUS_NODE_BUSY; /* the node's MailboxInbox.tla IsrWriteBegin NACKs when both buffers are taken */
     }
     if (pos < (uint8_t)(2u + m->n_data)) {
         return URB_STATUS_SIZE_MISMATCH; /* more data than the inbox holds */
     }
-    return URB_STATUS_CHECKSUM; /* MailboxInbox.tla: IsrWriteAbort, the node refused the check */
+    return URB_STATUS_CHECKSUM; /* the node's MailboxInbox.tla IsrWriteAbort: it refused the check */
 }
 
 static void finish_bus(urb_i2c_master_t *m, uint8_t result)
@@ -206,7 +206,7 @@ void urb_i2c_master_event(urb_i2c_master_t *m, urb_i2c_event_t ev, uint8_t byte)
         return;
     case PH_ADDR_R:
         if (ev == URB_I2C_EV_NACK) {
-            finish_bus(m, URB_STATUS_NO_NODE); /* Discovery.tla: HostRequest (VanishedGetNoNode) */
+            finish_bus(m, URB_STATUS_NO_NODE); /* Discovery.tla HostRequest (VanishedGetNoNode) */
             return;
         }
         if (ev != URB_I2C_EV_ACK) {

@@ -189,7 +189,7 @@ typedef struct {
 void urb_bridge_default_config(urb_bridge_config_t *cfg);
 
 /** Initialises *b (config copied, hal and dl->ctx kept by reference; the queue starts empty, as after
- *  Bridge.tla: BridgeReset) and starts the heartbeat. URB_ERR_ARGUMENT: NULL pointer, depth not 1..MAX. */
+ *  Bridge.tla BridgeReset) and starts the heartbeat. URB_ERR_ARGUMENT: NULL pointer, depth not 1..MAX. */
 int32_t urb_bridge_init(urb_bridge_t *b, const urb_bridge_config_t *cfg, const urb_bridge_hal_t *hal,
                         const urb_downlink_t *dl);
 

@@ -18,7 +18,7 @@
  */
 #include "urb_node_internal.h"
 
-/* MaxRetry of MailboxInbox.tla: attempts after the first before URB_NODE_ERR_BUSY. */
+/* MaxRetry of MailboxInbox.tla (attempts after the first before URB_NODE_ERR_BUSY). */
 #define URB_INBOX_MAX_RETRY 2u
 
 /* Mailbox 0 buffers inside urb_node_t.mb0: outbox 0 first, then inbox 0. */

@@ -26,16 +26,16 @@
  * shared state, so a test can run interrupt events at every point the application can be
  * preempted (exhaustive interleavings, tests/firmware/node/test_interleave.c). */
 enum {
-    URB_STEP_OUT_LOCK_PICK = 1,     /* MailboxOutbox.tla: AppLockPick */
-    URB_STEP_OUT_LOCK_CHECK = 2,    /* MailboxOutbox.tla: AppLockCheck (lock granted or BUSY) */
-    URB_STEP_OUT_RELEASE = 3,       /* MailboxOutbox.tla: AppRelease */
-    URB_STEP_IN_LOAD_FRONT = 4,     /* MailboxInbox.tla: AppLockLoadFront */
-    URB_STEP_IN_CLAIM = 5,          /* MailboxInbox.tla: AppLockClaim */
-    URB_STEP_IN_CHECK_ISR = 6,      /* MailboxInbox.tla: AppLockCheckIsr (passed or failed) */
-    URB_STEP_IN_CHECK_FRONT = 7,    /* MailboxInbox.tla: AppLockCheckFront passed: linearization point */
-    URB_STEP_IN_CHECK_FAILED = 8,   /* MailboxInbox.tla: AppLockCheckFront failed */
-    URB_STEP_IN_UNCLAIM = 9,        /* MailboxInbox.tla: AppLockUnclaim (app_idx := NONE) */
-    URB_STEP_IN_RELEASE = 10        /* MailboxInbox.tla: AppRelease */
+    URB_STEP_OUT_LOCK_PICK = 1,     /* step AppLockPick of MailboxOutbox.tla */
+    URB_STEP_OUT_LOCK_CHECK = 2,    /* step AppLockCheck of MailboxOutbox.tla (lock granted or BUSY) */
+    URB_STEP_OUT_RELEASE = 3,       /* step AppRelease of MailboxOutbox.tla */
+    URB_STEP_IN_LOAD_FRONT = 4,     /* step AppLockLoadFront of MailboxInbox.tla */
+    URB_STEP_IN_CLAIM = 5,          /* step AppLockClaim of MailboxInbox.tla */
+    URB_STEP_IN_CHECK_ISR = 6,      /* step AppLockCheckIsr of MailboxInbox.tla (passed or failed) */
+    URB_STEP_IN_CHECK_FRONT = 7,    /* step AppLockCheckFront of MailboxInbox.tla passed: linearization point */
+    URB_STEP_IN_CHECK_FAILED = 8,   /* step AppLockCheckFront of MailboxInbox.tla failed */
+    URB_STEP_IN_UNCLAIM = 9,        /* step AppLockUnclaim of MailboxInbox.tla (app_idx := NONE) */
+    URB_STEP_IN_RELEASE = 10        /* step AppRelease of MailboxInbox.tla */
 };
 
 #if defined(URB_NODE_TESTING)

@@ -70,8 +70,9 @@ def register(sub: Any) -> None:
     check.set_defaults(run=run_check)
     show = ssub.add_parser(
         "show", help="show message and node layouts", formatter_class=fmt,
-        description="Show the wire layout of a message (bit offsets, types, units, fingerprint) or the\n"
-        "mailboxes of a node. Without NAME, list every message and node.\n"
+        description="Show the wire layout of a message (bit offsets, types, units, fingerprint) and the\n"
+        "rules every valid message meets, or the mailboxes of a node. Without NAME, list every message\n"
+        "and node.\n"
         "\n"
         "Exit status: 0 shown; 1 no message or node named NAME, or schemas that do not load (their\n"
         "errors are printed); 2 a usage error (an unknown option).",
@@ -194,11 +195,11 @@ def run_show(args: argparse.Namespace) -> int:
     nodes = {n.name: n for s in schemas for sch in [*s.imports, s] for n in sch.nodes.values()}
     if args.name is None:
         table = Table(title="Messages")
-        for col in ("name", "schema", "bytes", "fingerprint", "doc"):
+        for col in ("name", "schema", "bytes", "fingerprint", "rules", "doc"):
             table.add_column(col)
         for m in messages.values():
             size = str(m.min_size) if m.min_size == m.max_size else f"{m.min_size}..{m.max_size}"
-            table.add_row(m.name, m.schema, size, f"{m.fingerprint:08x}", m.doc)
+            table.add_row(m.name, m.schema, size, f"{m.fingerprint:08x}", str(len(m.rules)) if m.rules else "", m.doc)
         console.print(table)
         ntable = Table(title="Nodes")
         for col in ("name", "class", "fingerprint", "mailboxes", "doc"):
@@ -223,6 +224,14 @@ def run_show(args: argparse.Namespace) -> int:
             unit = (f.unit or "") + (f" x{f.scale:g}" if f.scale is not None else "") + (f" {f.offset:+g}" if f.offset else "")
             table.add_row(bits, f.name, _type_name(f.type), value, unit, f.doc)
         console.print(table)
+        if m.rules:
+            rules = Table(title=f"{m.name}: rules a valid message meets (a decoder refuses any other)")
+            for col in ("rule", "checked", "doc"):
+                rules.add_column(col)
+            for r in m.rules:
+                # a caller's rule is about the decoder's arguments (implicit members), checked before the frame
+                rules.add_row(f"require {r.text}", "on the arguments" if r.caller_only else "on the frame", r.doc)
+            console.print(rules)
         return 0
     if args.name in nodes:
         n = nodes[args.name]

@@ -15,6 +15,9 @@ urbsim_clock_cfg_t urbsim_clock_default_cfg(void)
         .irq_base_cycles = 15, /* Cortex-M0+ exception entry, zero wait states */
         .irq_jitter_cycles = 0,
         .segment_ns = 100 * URBSIM_NS_PER_MS,
+        .idle_cycles = 0.0,
+        .mask_cycles = 0.0,
+        .wfi_wake_cycles = 0.0,
     };
     return cfg;
 }

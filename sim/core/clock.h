@@ -43,6 +43,13 @@ typedef struct {
     uint32_t irq_base_cycles;   /**< fixed interrupt entry latency, core cycles */
     uint32_t irq_jitter_cycles; /**< extra latency, uniform in 0..this, core cycles */
     urbsim_ns_t segment_ns; /**< rate update period (0 means 100 ms) */
+    /* The core's idle path (mcu.h): after a handler returns or main-loop work ends the main loop
+     * runs idle_cycles, then a PRIMASK section of mask_cycles (interrupts raised in it start at its
+     * end), then sleeps in WFI (an interrupt first takes wfi_wake_cycles). All 0: the core is
+     * always ready, the model before hardware profiles. */
+    double idle_cycles;
+    double mask_cycles;
+    double wfi_wake_cycles;
 } urbsim_clock_cfg_t;
 
 typedef struct {

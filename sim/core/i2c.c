@@ -43,10 +43,54 @@ urbsim_ns_t urbsim_i2c_byte_ns(const urbsim_i2c_bus_t *b)
     return 9u * b->t_bit;
 }
 
+/* Slave idx's own threshold and filter delay, from its stream (derived from the seed and its index). */
+static void draw_edges(urbsim_i2c_bus_t *b, uint32_t idx)
+{
+    const urbsim_i2c_edges_t *e = &b->edges;
+    urbsim_rng_t *r = &b->edge_rng[idx];
+    urbsim_rng_derive(r, e->seed, "i2c/edge", idx);
+    double vth = e->vth_min + (e->vth_max - e->vth_min) * urbsim_rng_uniform(r);
+    double filter = e->filter_min_ns + (e->filter_max_ns - e->filter_min_ns) * urbsim_rng_uniform(r);
+    /* falling: linear from VDD to 0 over fall_ns, crossing vth at (1 - vth) fall_ns; rising: RC
+     * from 0, crossing vth at -tau ln(1 - vth) */
+    b->fall_delay_ns[idx] = (1.0 - vth) * e->fall_ns + filter;
+    b->rise_delay_ns[idx] = (vth < 1.0 ? -e->rise_tau_ns * log(1.0 - vth) : 0.0) + filter;
+}
+
+void urbsim_i2c_set_edges(urbsim_i2c_bus_t *b, const urbsim_i2c_edges_t *edges)
+{
+    b->edges = *edges;
+    b->edges_on = edges->fall_ns > 0.0 || edges->rise_tau_ns > 0.0 || edges->filter_max_ns > 0.0 ||
+                  edges->sync_max_ns > 0.0;
+    for (uint32_t i = 0; i < b->n_slaves; i++) {
+        if (b->edges_on) {
+            draw_edges(b, i);
+        } else {
+            b->fall_delay_ns[i] = b->rise_delay_ns[i] = 0.0;
+        }
+    }
+}
+
+urbsim_ns_t urbsim_i2c_edge_delay(urbsim_i2c_bus_t *b, uint32_t idx, bool rising)
+{
+    if (!b->edges_on) {
+        return 0;
+    }
+    const urbsim_i2c_edges_t *e = &b->edges;
+    double d = rising ? b->rise_delay_ns[idx] : b->fall_delay_ns[idx];
+    if (e->sync_max_ns > 0.0) {
+        d += e->sync_min_ns + (e->sync_max_ns - e->sync_min_ns) * urbsim_rng_uniform(&b->edge_rng[idx]);
+    }
+    return (urbsim_ns_t)(int64_t)(d + 0.5);
+}
+
 bool urbsim_i2c_attach(urbsim_i2c_bus_t *b, urbsim_i2c_slave_t *s)
 {
     if (b->n_slaves >= URBSIM_I2C_MAX_SLAVES) {
         return false;
+    }
+    if (b->edges_on) {
+        draw_edges(b, b->n_slaves);
     }
     b->slaves[b->n_slaves++] = s;
     return true;
@@ -157,6 +201,7 @@ static void schedule_done(urbsim_i2c_bus_t *b, int kind, urbsim_ns_t t0, urbsim_
 static urbsim_ns_t raise_irq(urbsim_i2c_bus_t *b, uint32_t idx, int kind, urbsim_ns_t t_irq)
 {
     urbsim_i2c_slave_t *s = b->slaves[idx];
+    t_irq += urbsim_i2c_edge_delay(b, idx, kind == EV_STOP); /* the slave sees the edge this late */
     urbsim_ns_t end = t_irq;
     urbsim_ns_t start = s->isr_window(s->ctx, t_irq, &end);
     b->hw[idx][kind] = t_irq;

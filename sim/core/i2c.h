@@ -90,6 +90,27 @@ typedef struct {
     void (*on_stop)(void *ctx, bool repeated, urbsim_ns_t t_hw);
 } urbsim_i2c_slave_t;
 
+/**
+ * How each slave sees the bus's edges (hardware profiles; all 0, the default: every slave sees an
+ * edge at its bus instant). A falling edge (SCL after the 8th bit and after the ACK, SDA of a
+ * repeated START) drops linearly at the pull-down current, VDD to 0 in `fall_ns`; a rising one (SDA
+ * of a STOP) rises through the pull-up with time constant `rise_tau_ns`. Each slave switches at its
+ * own input threshold, drawn per slave uniformly in [vth_min, vth_max] x VDD, then passes its input
+ * glitch filter (a delay drawn per slave in [filter_min_ns, filter_max_ns]) and its peripheral's
+ * synchroniser (a delay drawn per edge in [sync_min_ns, sync_max_ns]). The slave's interrupt is
+ * raised that much after the bus instant, and its `t_hw` is that instant (what it latches).
+ * Modelling choice: the delay is charged like the entry latency, when the bus instant comes, so an
+ * interrupt of the same MCU raised within it (at most a few hundred ns) is taken after this one.
+ */
+typedef struct {
+    double fall_ns;        /**< VDD to 0 at the pull-down current: C VDD / I (0: instant) */
+    double rise_tau_ns;    /**< pull-up time constant R C (0: instant) */
+    double vth_min, vth_max;            /**< input thresholds, fractions of VDD, drawn per slave */
+    double filter_min_ns, filter_max_ns; /**< input glitch filter's delay, drawn per slave */
+    double sync_min_ns, sync_max_ns;     /**< synchroniser's delay, drawn per edge */
+    uint64_t seed;         /**< the per-slave draws come from streams derived from it */
+} urbsim_i2c_edges_t;
+
 /** Master completion callback, at the bus instant the operation completed (no latency added). */
 typedef void (*urbsim_i2c_master_fn)(void *ctx, int ev, uint8_t byte, urbsim_ns_t t_hw);
 
@@ -137,6 +158,12 @@ typedef struct {
     /* statistics */
     uint64_t bytes, starts, stops, stretch_ns, busy_ns, flipped_bits, stalls;
     urbsim_ns_t txn_start;
+    /* edges (urbsim_i2c_set_edges): per slave, its fixed delays and its synchroniser's stream */
+    urbsim_i2c_edges_t edges;
+    bool edges_on;
+    double fall_delay_ns[URBSIM_I2C_MAX_SLAVES];
+    double rise_delay_ns[URBSIM_I2C_MAX_SLAVES];
+    urbsim_rng_t edge_rng[URBSIM_I2C_MAX_SLAVES];
 } urbsim_i2c_bus_t;
 
 /** Set up an idle bus at `bitrate` b/s. `rng` is the bus's fault stream (copied). */
@@ -163,6 +190,13 @@ uint8_t urbsim_i2c_lines(urbsim_i2c_bus_t *b);
 void urbsim_i2c_drive(urbsim_i2c_bus_t *b, uint8_t lines);
 /** End bit-banging; the controller is re-initialised and idle. */
 void urbsim_i2c_release(urbsim_i2c_bus_t *b);
+
+/** Set how the slaves see the bus's edges (see urbsim_i2c_edges_t): draws each slave's threshold and
+ *  filter delay, for the slaves attached now and later. All-zero edges restore instant edges. */
+void urbsim_i2c_set_edges(urbsim_i2c_bus_t *b, const urbsim_i2c_edges_t *edges);
+/** The delay from a bus edge to slave `idx`'s peripheral seeing it: a rising edge (STOP) or a
+ *  falling one; draws the synchroniser's delay. 0 when edges are instant. */
+urbsim_ns_t urbsim_i2c_edge_delay(urbsim_i2c_bus_t *b, uint32_t idx, bool rising);
 
 /* Faults */
 void urbsim_i2c_set_ber(urbsim_i2c_bus_t *b, double ber);

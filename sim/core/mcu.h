@@ -11,7 +11,13 @@
  * The main loop (thread level) runs at an instant and is then busy for its cost; interrupts that
  * land inside a busy window lengthen it by their handler time (they preempt it), whether they were
  * raised before the main loop's work began or during it. The main loop cannot begin work while a
- * handler runs: an iteration due then waits for the handler (and any tail-chained to it) to return.
+ * handler runs: an iteration due then waits for the handler (and any tail-chained to it) to return. *
+ * IDLE PATH (hardware profiles; clock.h idle_cycles, mask_cycles, wfi_wake_cycles, all 0 by
+ * default): when neither a handler nor main-loop work is in progress, the core runs the main loop's
+ * last pass (idle_cycles after the latest ended), then the sleep idiom's PRIMASK section (cpsid i;
+ * check for work; wfi; cpsie i: mask_cycles), then sleeps. An interrupt raised inside the section
+ * starts at its end plus the entry latency; one raised while the core sleeps first wakes it
+ * (wfi_wake_cycles).
  */
 #ifndef URBSIM_MCU_H
 #define URBSIM_MCU_H
@@ -37,6 +43,7 @@ typedef struct {
     uint32_t win_next;
     uint64_t irqs;               /**< interrupts taken */
     urbsim_ns_t isr_ns;          /**< total handler time (CPU load) */
+    uint64_t masked;             /**< interrupts raised inside the idle path's PRIMASK section */
 } urbsim_mcu_t;
 
 /** Set up with a clock configuration and the device's random stream. */

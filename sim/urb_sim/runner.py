@@ -57,9 +57,31 @@ def select(only: str | None) -> list[str]:
     return keys
 
 
+def split_key(key: str) -> tuple[str, str]:
+    """A task key is an experiment, or `<experiment>@<profile>` for a hardware profile other than the
+    default (sim/profiles): (experiment, profile)."""
+    from .profiles import DEFAULT
+
+    name, at, profile = key.partition("@")
+    return name, (profile if at else DEFAULT)
+
+
+def task_key(name: str, profile: str) -> str:
+    """The key of experiment `name` run under `profile` (the inverse of split_key)."""
+    from .profiles import DEFAULT
+
+    return name if profile == DEFAULT else f"{name}@{profile}"
+
+
 def experiment(key: str) -> Callable[..., Result]:
-    """The function that runs experiment `key`."""
+    """The function that runs experiment `key` (a sensitivity point for `sens:...` keys)."""
     from .experiments import bandwidth, control, faults, gait, latency, sync, traces
+
+    key = split_key(key)[0]
+    if key.startswith("sens:"):
+        from . import sensitivity
+
+        return sensitivity.point_function(key)
 
     table: dict[str, Callable[..., Result]] = {"fig15": latency.fig15, "fig16": latency.fig16, "table1": sync.table1,
                                                "fig18_19": control.figs18_19, "fig20": gait.fig20,
@@ -101,9 +123,15 @@ def run_tasks(tasks: Sequence[Task], *, quick: bool, jobs: int, progress: Progre
 
 
 def run_one(key: str, out: Path, *, quick: bool, seed: int, progress: Progress) -> Result:
-    """Run experiment `key` into out/<key>/; an exception becomes a failed Result (see run_experiments)."""
+    """Run experiment `key` into out/<key>/ under its hardware profile (split_key); an exception
+    becomes a failed Result (see run_experiments)."""
+    from . import profiles
+
     try:
-        return experiment(key)(out / key, quick=quick, seed=seed, progress=progress)
+        with profiles.applied(profiles.load(split_key(key)[1])):
+            res = experiment(key)(out / key, quick=quick, seed=seed, progress=progress)
+        res.key = key  # the task's key: the experiment, with its profile when not the default
+        return res
     except Exception as exc:  # noqa: BLE001 - reported in the Result; KeyboardInterrupt still stops the run
         return crashed(key, out, exc)
 
@@ -246,7 +274,7 @@ def _pool(tasks: Sequence[Task], labels: Sequence[str], *, quick: bool, jobs: in
     done = [0.0]  # sum(done_frac), kept as it changes: a sweep has thousands of tasks
     results: dict[int, Result] = {}
     # stable: a sweep keeps its seeds in order within each experiment
-    pending = sorted(range(len(tasks)), key=lambda i: -EXPERIMENTS.get(tasks[i].key, 1.0))
+    pending = sorted(range(len(tasks)), key=lambda i: -EXPERIMENTS.get(split_key(tasks[i].key)[0], 1.0))
     workers: list[tuple[Any, Any]] = []     # (process, the parent's end of its pipe)
     busy: dict[int, int] = {}               # worker number -> the task it runs
 

@@ -5,10 +5,15 @@ simulation draws (sim/README.md). A criterion that holds at seed 1 may fail at a
 runs every chosen experiment at every seed, in parallel worker processes, and tells which seeds
 failed which check, each with the command that reproduces it alone.
 
+The runs are tasks (urb_sim.tasks): on local worker processes (runner.run_tasks), on a Dask
+cluster (`scheduler`), or one shard of the plan (`shard`, merged later by `merge_shards`); each
+gives a record, and the sweep's hash over all records does not depend on which.
+
 Output, in the folder given:
   checks.csv    one row per seed, experiment and check: what was required and measured, pass or not
   runs.csv      one row per seed and experiment: verdict, simulated and wall seconds
-  summary.json  per check: runs, failures and the failing seeds; the totals
+  summary.json  per check: runs, failures and the failing seeds; the totals; the records' hash
+  shard-K-of-N.json  with `shard`: the shard's records and their hash, for `urb sim merge`
   runs/seed-N/<experiment>/   the CSV and PNG files of every run that did not pass (of every run
                 with keep=True), to look at next to the reproduction command's report
 """
@@ -21,9 +26,12 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from .experiments import SEED_SPAN, Progress, Result, write_csv
 from .runner import Task, run_tasks
+from .tasks import merge, merged_hash, plan, record, results_of, run_dask, write_shard
+from .tasks import shard as pick_shard
 
 #: More seeds than this in one sweep is a typing error more likely than a plan (1e5 full runs of
 #: the fastest experiment take days on one core).
@@ -94,13 +102,20 @@ class CheckTally:
 
 @dataclass
 class Sweep:
-    """What a sweep found."""
+    """What a sweep found (or one shard of it: `shard` (K, N))."""
 
     seeds: list[int]
     keys: list[str]
     quick: bool
     results: dict[tuple[str, int], Result]
     wall_s: float = 0.0
+    #: the runs' records (urb_sim.tasks.record) and their order-independent hash
+    records: list[dict[str, Any]] = field(default_factory=list)
+    shard: tuple[int, int] | None = None
+
+    @property
+    def hash(self) -> str:
+        return merged_hash(self.records)
 
     @property
     def passed(self) -> bool:
@@ -123,8 +138,8 @@ class Sweep:
         return list(tallies.values())
 
     def runs(self) -> list[tuple[str, int, Result]]:
-        """(experiment, seed, result) of every run, by experiment then seed."""
-        return [(k, s, self.results[(k, s)]) for k in self.keys for s in self.seeds]
+        """(experiment, seed, result) of every run, by experiment then seed (a shard's runs only)."""
+        return [(k, s, self.results[(k, s)]) for k in self.keys for s in self.seeds if (k, s) in self.results]
 
     def failed_runs(self) -> list[tuple[str, int, Result]]:
         """(experiment, seed, result) of every run that did not pass, by experiment then seed."""
@@ -132,7 +147,17 @@ class Sweep:
 
     def reproduce(self, key: str, seed: int) -> str:
         """The command that runs one failed run again alone, with its report."""
-        return f"urb sim sensorhex --seed {seed} --only {key}" + (" --quick" if self.quick else "")
+        from .runner import split_key
+        from .profiles import DEFAULT
+
+        name, profile = split_key(key)
+        if name.startswith("sens:"):
+            return f"urb sim sensitivity --seed {seed} --only {name[5:]}" + (" --quick" if self.quick else "")
+        from .profiles import PROFILE_EXPERIMENTS
+
+        where = "" if profile == DEFAULT else f" --profile {profile}"
+        alone = " --compare none" if name in PROFILE_EXPERIMENTS else ""
+        return f"urb sim sensorhex --seed {seed} --only {name}{where}{alone}" + (" --quick" if self.quick else "")
 
 
 def run_dir(out: Path, seed: int) -> Path:
@@ -141,25 +166,58 @@ def run_dir(out: Path, seed: int) -> Path:
 
 
 def run_sweep(keys: Sequence[str], seeds: Sequence[int], out: Path, *, quick: bool, jobs: int, keep: bool,
-              progress: Progress) -> Sweep:
-    """Run experiments `keys` at every seed of `seeds` (at most `jobs` at once) into `out`, write
-    checks.csv, runs.csv and summary.json there, and return the tallies. out/runs/ is emptied
-    first; the files of a run that passed are removed as soon as it ends unless `keep`."""
-    tasks = [Task(key, run_dir(out, seed), seed) for key in keys for seed in seeds]
+              progress: Progress, scheduler: str | None = None, shard: tuple[int, int] | None = None,
+              connect_timeout_s: float = 30.0) -> Sweep:
+    """Run experiments `keys` (task keys: an experiment, @profile for another hardware profile) at
+    every seed of `seeds` into `out`, write checks.csv, runs.csv and summary.json there (with the
+    records' order-independent hash), and return the tallies. Locally at most `jobs` at once; on
+    the Dask cluster at `scheduler` instead; only shard K of N of the plan with `shard` (which also
+    writes shard-K-of-N.json for `urb sim merge`). out/runs/ is emptied first; the files of a run
+    that passed are removed as soon as it ends unless `keep` (on a cluster, where the workers run)."""
+    specs = plan(keys, seeds)
+    if shard is not None:
+        specs = pick_shard(specs, *shard)
     shutil.rmtree(out / "runs", ignore_errors=True)  # an earlier sweep's failures are not this one's
-
-    def tidy(task: Task, res: Result) -> None:
-        if res.passed and not keep:
-            # only the run's own folder: another worker may be creating one beside it right now
-            shutil.rmtree(task.out / task.key, ignore_errors=True)
-
     t0 = time.perf_counter()
-    results = run_tasks(tasks, quick=quick, jobs=jobs, progress=progress, on_result=tidy)
-    sweep = Sweep(list(seeds), list(keys), quick, {(t.key, t.seed): r for t, r in zip(tasks, results)},
-                  wall_s=time.perf_counter() - t0)
+    if scheduler is not None:
+        records = run_dask(specs, scheduler=scheduler, quick=quick, out=out, progress=progress,
+                           connect_timeout_s=connect_timeout_s)
+        if not keep:
+            for rec in records:
+                if rec["verdict"] == "PASS":
+                    shutil.rmtree(run_dir(out, rec["seed"]) / rec["key"], ignore_errors=True)
+    else:
+        tasks = [Task(s.key, run_dir(out, s.seed), s.seed) for s in specs]
+
+        def tidy(task: Task, res: Result) -> None:
+            if res.passed and not keep:
+                # only the run's own folder: another worker may be creating one beside it right now
+                shutil.rmtree(task.out / task.key, ignore_errors=True)
+
+        results = run_tasks(tasks, quick=quick, jobs=jobs, progress=progress, on_result=tidy)
+        records = [record(r, seed=t.seed, quick=quick) for t, r in zip(tasks, results)]
+    sweep = Sweep(list(seeds), list(keys), quick, results_of(records), wall_s=time.perf_counter() - t0,
+                  records=records, shard=shard)
     for seed in seeds:
         _remove_if_empty(run_dir(out, seed))
     _remove_if_empty(out / "runs")
+    write(sweep, out)
+    if shard is not None:
+        write_shard(shard_path(out, *shard), records, k=shard[0], n=shard[1], keys=keys, seeds=seeds, quick=quick)
+    return sweep
+
+
+def shard_path(out: Path, k: int, n: int) -> Path:
+    """Where shard K of N writes its records."""
+    return out / f"shard-{k}-of-{n}.json"
+
+
+def merge_shards(paths: Sequence[Path], out: Path) -> Sweep:
+    """The sweep of shard files (urb_sim.tasks.merge: every shard once, none disagreeing), written into
+    `out` like a sweep run in one piece."""
+    define, records = merge(paths)
+    sweep = Sweep(list(define["seeds"]), list(define["keys"]), bool(define["quick"]), results_of(records),
+                  wall_s=sum(float(r["wall_s"]) for r in records), records=records)
     write(sweep, out)
     return sweep
 
@@ -190,6 +248,8 @@ def write(sweep: Sweep, out: Path) -> None:
                     "failed_seeds": t.failed_seeds} for t in sweep.tallies],
         "sim_s": round(sweep.sim_s, 3),
         "wall_s": round(sweep.wall_s, 3),
+        "shard": list(sweep.shard) if sweep.shard else None,
+        "hash": sweep.hash,
     }
     (out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
 

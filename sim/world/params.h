@@ -28,6 +28,17 @@
     X(NODE_HEARTBEAT_US, "node.heartbeat_us", 1000.0, "node nominal heartbeat period, us")           \
     X(NODE_BOOT_MS, "node.boot_spread_ms", 20.0, "nodes power on at uniform times in 0..N ms")        \
     X(NODE_SCL_TIMEOUT, "node.scl_timeout_ms", 25.0, "node I2C peripheral's SCL low timeout (SMBus t_TIMEOUT), ms") \
+    X(NODE_FLASH_WS, "node.flash_ws", 0.0, "node flash wait states: +2 per interrupt entry, +0..1 entry jitter each, handlers x (1 + ws/2)") \
+    X(NODE_MASK_CYCLES, "node.mask_cycles", 0.0, "node main loop's PRIMASK section before WFI (interrupts wait for its end), cycles") \
+    X(NODE_IDLE_CYCLES, "node.idle_cycles", 0.0, "node main-loop pass from a handler's return to that masked section, cycles") \
+    X(NODE_WFI_WAKE, "node.wfi_wake_cycles", 0.0, "node wake-up from WFI (sleep mode) before the interrupt entry, cycles") \
+    X(NODE_VTH_MIN, "node.vth_min", 0.5, "lowest node input threshold, fraction of VDD (drawn per node in [min, max])") \
+    X(NODE_VTH_MAX, "node.vth_max", 0.5, "highest node input threshold, fraction of VDD") \
+    X(NODE_FILTER_MIN, "node.filter_ns_min", 0.0, "shortest node I2C input glitch-filter delay, ns (drawn per node)") \
+    X(NODE_FILTER_MAX, "node.filter_ns_max", 0.0, "longest node I2C input glitch-filter delay, ns") \
+    X(NODE_I2C_CLK, "node.i2c_clk_hz", 48e6, "node I2C peripheral kernel clock (input synchroniser), Hz") \
+    X(NODE_SYNC_MIN, "node.i2c_sync_min_cycles", 0.0, "fewest kernel-clock cycles to synchronise a bus edge") \
+    X(NODE_SYNC_MAX, "node.i2c_sync_max_cycles", 0.0, "most kernel-clock cycles to synchronise a bus edge (uniform per edge)") \
     X(BRIDGE_PPM_MEAN, "bridge.ppm_mean", 0.0, "mean crystal error of the bridges, ppm")             \
     X(BRIDGE_PPM_SD, "bridge.ppm_sd", 30.0, "sd of each bridge's crystal error, ppm")                 \
     X(BRIDGE_WANDER_PPM, "bridge.wander_ppm", 0.2, "sd of a bridge crystal's slow wander, ppm")       \
@@ -48,7 +59,15 @@
     X(BRIDGE_SCAN, "bridge.scan_at_start", 1.0, "1: the bridge scans its downlink at power-on")      \
     X(BRIDGE_HB_SOF, "bridge.heartbeat_sof", 0.0, "1: USB bridges derive the heartbeat from USB SOF (SYNC aligned with frames)") \
     X(BRIDGE_BOOT_MS, "bridge.boot_ms", 25.0, "bridges power on at this time, ms (after the nodes)")  \
+    X(BRIDGE_FLASH_WS, "bridge.flash_ws", 0.0, "bridge flash wait states (as node.flash_ws)")              \
+    X(BRIDGE_MASK_CYCLES, "bridge.mask_cycles", 0.0, "bridge main loop's PRIMASK section before WFI, cycles") \
+    X(BRIDGE_IDLE_CYCLES, "bridge.idle_cycles", 0.0, "bridge main-loop pass from a handler's return to that section, cycles") \
+    X(BRIDGE_WFI_WAKE, "bridge.wfi_wake_cycles", 0.0, "bridge wake-up from WFI before the interrupt entry, cycles") \
     X(I2C_BITRATE, "i2c.bitrate", 400e3, "downlink I2C bit rate, b/s")                                \
+    X(I2C_BUS_PF, "i2c.bus_pf", 0.0, "downlink bus capacitance, pF (0: ideal edges, every node sees them at once)") \
+    X(I2C_PULLUP, "i2c.pullup_ohm", 0.0, "downlink pull-up resistance (rising edges), ohm") \
+    X(I2C_SINK_MA, "i2c.sink_ma", 3.0, "current pulling SCL/SDA low (falling edges), mA")              \
+    X(I2C_VDD, "i2c.vdd", 3.3, "bus supply, V")                                                        \
     X(CPU_PPM_MEAN, "cpu.ppm_mean", 0.0, "mean crystal error of the host CPU, ppm")                  \
     X(CPU_PPM_SD, "cpu.ppm_sd", 50.0, "sd of the host CPU's crystal error, ppm")                      \
     X(CPU_TICK_US, "cpu.tick_us", 1000.0, "OS tick period (1 kHz Linux), us")                         \
@@ -71,7 +90,10 @@
     X(PROBE_FINGERPRINT, "probe.fingerprint", 2119565312.0, "layout fingerprint probe nodes report")  \
     X(PROBE_OUT, "probe.out_size", 6.0, "probe outbox 1 size, bytes")                                 \
     X(PROBE_IN, "probe.in_size", 0.0, "probe inbox 1 size, bytes (0: none)")                         \
-    X(PROBE_FILL, "probe.fill_counter", 0.0, "1: every probe outbox byte carries the update counter (trace validation)")
+    X(PROBE_FILL, "probe.fill_counter", 0.0, "1: every probe outbox byte carries the update counter (trace validation)") \
+    X(SCOPE_SAMPLE, "scope.sample_ns", 0.0, "Table I's marks as an oscilloscope samples them: sample period, ns (0: true time)") \
+    X(SCOPE_SKEW, "scope.skew_ns", 0.0, "largest fixed skew of one mark's path (pin, probe, channel), ns (drawn per node)") \
+    X(SCOPE_PPM, "scope.ppm", 0.0, "the oscilloscope's timebase error against true time, ppm")
 
 #define URBSIM_PARAM_ENUM(id, name, def, doc) P_##id,
 enum { URBSIM_PARAMS(URBSIM_PARAM_ENUM) P_COUNT };

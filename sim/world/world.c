@@ -218,6 +218,49 @@ static urbsim_clock_cfg_t crystal(urbsim_rng_t *r, double hz, double mean, doubl
     return c;
 }
 
+/* A Cortex-M0+ core's flash wait states `ws` and idle path (mcu.h) on its clock: the vector fetch and
+ * the handler's first fetch wait 2 ws more, the instruction in flight 0..ws more; mask_cycles come
+ * from the code's critical sections, already counted with the wait states (sim/profiles). */
+static void core_timing(urbsim_clock_cfg_t *c, double ws, double idle, double mask, double wfi_wake)
+{
+    c->irq_base_cycles += (uint32_t)(2.0 * ws);
+    c->irq_jitter_cycles += (uint32_t)ws;
+    c->idle_cycles = idle * (1.0 + 0.5 * ws);
+    c->mask_cycles = mask;
+    c->wfi_wake_cycles = wfi_wake;
+}
+
+/* Code run from flash with `ws` wait states: one per 32-bit fetch of two 16-bit instructions, no
+ * cache or prefetch hit (conservative). */
+static double from_flash(double cycles, double ws)
+{
+    return cycles * (1.0 + 0.5 * ws);
+}
+
+/* How the nodes on a downlink see its edges, from the bus and node parameters (urbsim_i2c_edges_t). */
+static void bus_edges(urbsim_world_t *w, urbsim_i2c_bus_t *bus, int bridge)
+{
+    urbsim_i2c_edges_t e;
+    memset(&e, 0, sizeof e);
+    double c_f = w->p[P_I2C_BUS_PF] * 1e-12;
+    if (c_f > 0.0 && w->p[P_I2C_SINK_MA] > 0.0) {
+        e.fall_ns = c_f * w->p[P_I2C_VDD] / (w->p[P_I2C_SINK_MA] * 1e-3) * 1e9;
+    }
+    e.rise_tau_ns = w->p[P_I2C_PULLUP] * c_f * 1e9;
+    e.vth_min = w->p[P_NODE_VTH_MIN];
+    e.vth_max = w->p[P_NODE_VTH_MAX];
+    e.filter_min_ns = w->p[P_NODE_FILTER_MIN];
+    e.filter_max_ns = w->p[P_NODE_FILTER_MAX];
+    if (w->p[P_NODE_I2C_CLK] > 0.0) {
+        e.sync_min_ns = w->p[P_NODE_SYNC_MIN] / w->p[P_NODE_I2C_CLK] * 1e9;
+        e.sync_max_ns = w->p[P_NODE_SYNC_MAX] / w->p[P_NODE_I2C_CLK] * 1e9;
+    }
+    urbsim_rng_t r;
+    urbsim_rng_derive(&r, w->seed, "i2c/edges", (uint64_t)bridge);
+    e.seed = urbsim_rng_u64(&r);
+    urbsim_i2c_set_edges(bus, &e);
+}
+
 static void host_deliver(void *hctx, int bridge, const uint8_t *data, uint32_t n, urbsim_ns_t t);
 
 static void ensure_usb(urbsim_world_t *w)
@@ -249,12 +292,14 @@ int urbsim_add_bridge(urbsim_world_t *w, int uplink)
     sim_bridge_cfg_t cfg;
     cfg.clock = crystal(&r, w->p[P_BRIDGE_CPU_HZ], w->p[P_BRIDGE_PPM_MEAN], w->p[P_BRIDGE_PPM_SD],
                         w->p[P_BRIDGE_WANDER_PPM], 30.0, 0.0, w->p[P_BRIDGE_IRQ_CYCLES], w->p[P_BRIDGE_IRQ_JITTER]);
-    cfg.i2c_isr_cycles = w->p[P_BRIDGE_I2C_ISR];
-    cfg.uart_isr_cycles = w->p[P_BRIDGE_UART_ISR];
-    cfg.timer_isr_cycles = w->p[P_BRIDGE_TIMER_ISR];
-    cfg.usb_isr_cycles = w->p[P_BRIDGE_USB_ISR];
-    cfg.wake_cycles = w->p[P_BRIDGE_WAKE];
-    cfg.poll_cycles = w->p[P_BRIDGE_POLL];
+    double ws = w->p[P_BRIDGE_FLASH_WS];
+    core_timing(&cfg.clock, ws, w->p[P_BRIDGE_IDLE_CYCLES], w->p[P_BRIDGE_MASK_CYCLES], w->p[P_BRIDGE_WFI_WAKE]);
+    cfg.i2c_isr_cycles = from_flash(w->p[P_BRIDGE_I2C_ISR], ws);
+    cfg.uart_isr_cycles = from_flash(w->p[P_BRIDGE_UART_ISR], ws);
+    cfg.timer_isr_cycles = from_flash(w->p[P_BRIDGE_TIMER_ISR], ws);
+    cfg.usb_isr_cycles = from_flash(w->p[P_BRIDGE_USB_ISR], ws);
+    cfg.wake_cycles = from_flash(w->p[P_BRIDGE_WAKE], ws);
+    cfg.poll_cycles = from_flash(w->p[P_BRIDGE_POLL], ws);
     cfg.busy_poll_ns = (urbsim_ns_t)(w->p[P_BRIDGE_BUSY_POLL_US] * 1000.0);
     cfg.uart_divider_hz = w->p[P_BRIDGE_DIVIDER];
     cfg.i2c_bitrate = w->p[P_I2C_BITRATE];
@@ -276,6 +321,7 @@ int urbsim_add_bridge(urbsim_world_t *w, int uplink)
     }
     w->bridges[id] = b;
     w->n_bridges++;
+    bus_edges(w, sim_bridge_bus(b), id);
     return id;
 }
 
@@ -306,10 +352,12 @@ int urbsim_add_node(urbsim_world_t *w, int bridge, int app, int address, int ind
     cfg.clock = crystal(&r, w->p[P_NODE_CPU_HZ], w->p[P_NODE_PPM_MEAN], w->p[P_NODE_PPM_SD], w->p[P_NODE_WANDER_PPM],
                         w->p[P_NODE_WANDER_TAU], w->p[P_NODE_RAMP], w->p[P_NODE_IRQ_CYCLES], w->p[P_NODE_IRQ_JITTER]);
     cfg.ticks_per_us = (uint16_t)w->p[P_NODE_TICKS_PER_US];
-    cfg.i2c_isr_cycles = w->p[P_NODE_I2C_ISR];
-    cfg.timer_isr_cycles = w->p[P_NODE_TIMER_ISR];
-    cfg.wake_cycles = w->p[P_NODE_WAKE];
-    cfg.poll_cycles = w->p[P_NODE_POLL];
+    double ws = w->p[P_NODE_FLASH_WS];
+    core_timing(&cfg.clock, ws, w->p[P_NODE_IDLE_CYCLES], w->p[P_NODE_MASK_CYCLES], w->p[P_NODE_WFI_WAKE]);
+    cfg.i2c_isr_cycles = from_flash(w->p[P_NODE_I2C_ISR], ws);
+    cfg.timer_isr_cycles = from_flash(w->p[P_NODE_TIMER_ISR], ws);
+    cfg.wake_cycles = from_flash(w->p[P_NODE_WAKE], ws);
+    cfg.poll_cycles = from_flash(w->p[P_NODE_POLL], ws);
     cfg.acq_ns = w->p[P_NODE_ACQ_US] * 1000.0;
     cfg.acq_jitter_cycles = (uint32_t)w->p[P_NODE_ACQ_JITTER];
     cfg.sync_capture = w->p[P_NODE_SYNC_CAPTURE] != 0.0;

@@ -223,7 +223,9 @@ def test_log_to_csv(port: tuple[str, BridgeProc], capsys: pytest.CaptureFixture[
                        "--mailbox", "1", "--rate", "200", "--duration", "0.5")
     assert code == 0 and "rows to" in err
     rows = list(csv.DictReader(out_file.open()))
-    assert len(rows) > 50
+    # every row the summary counts is in the file; how many there are depends on the machine's load
+    # (200 Hz x 0.5 s x 2 nodes at most), so only "several per node" is required here
+    assert f"{len(rows)} rows to" in err and len(rows) >= 10
     nodes = {r["node"] for r in rows}
     assert nodes == {"MotorDriver:0", "BatteryManager:0"}
     motor = next(r for r in rows if r["node"] == "MotorDriver:0")

@@ -132,7 +132,11 @@ def _eva_report(tmp_path: Path, props: list[tuple[str, str, str]]) -> Path:
     lines.append("firmware/node\turb_i2c.c\t11\tf\tprecondition of g\tUnknown\tn < 8")  # contract: WP's
     path = tmp_path / "r.csv"
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    RUNNER.red_report(path).write_text(RED_HEADER + "\n", encoding="utf-8")
     return path
+
+
+RED_HEADER = "directory\tfile\tline\tfunction\tkind\tname\t#contexts\tstatus\tproperty"
 
 
 def test_eva_verdicts(tmp_path: Path) -> None:
@@ -160,7 +164,25 @@ def test_eva_verdicts(tmp_path: Path) -> None:
     lines.append("firmware/node\turb_i2c.c\t12\tf\tprecondition of g\tInvalid or unreachable\t\\valid(p)")
     report.write_text("\n".join(lines) + "\n", encoding="utf-8")
     rows, _ = RUNNER.check_eva(unit, ok, report, record=False, reviewed={key})
-    assert rows[0].result == "ERROR" and not rows[0].expected and "precondition of g" in rows[0].detail
+    assert rows[0].result == "INVALID" and not rows[0].expected and "precondition of g" in rows[0].detail
+    # a postcondition false at one call site only: the report says Unknown, the red list says it
+    report.write_text("\n".join(lines[:-1]) + "\n", encoding="utf-8")
+    unit.expected = {"alarms": [key]}
+    rows, _ = RUNNER.check_eva(unit, ok, report, record=False, reviewed={key})
+    assert rows[0].expected
+    RUNNER.red_report(report).write_text(RED_HEADER + "\n.\turb_i2c.c\t4\th\tProperty\tpostcondition\t1\tUnknown\t"
+                                         "r_small: \\result < 5\n", encoding="utf-8")
+    rows, _ = RUNNER.check_eva(unit, ok, report, record=False, reviewed={key})
+    assert rows[0].result == "INVALID" and not rows[0].expected and "r_small" in rows[0].detail
+    # the same red postcondition in a named behavior whose assumes Eva could not decide there
+    undecided = RUNNER.FramacRun(True, 1.0, "[eva:alarm] urb_i2c.c:4: Warning: \n  function h, behavior b: postcondition "
+                                 "'r_small' got status invalid. (Behavior may be inactive, no reduction performed.)\n")
+    rows, _ = RUNNER.check_eva(unit, undecided, report, record=False, reviewed={key})
+    assert rows[0].expected and rows[0].data["red"]["undecided"] and "1 behavior postconditions undecided" in \
+        rows[0].properties
+    RUNNER.red_report(report).unlink()
+    rows, _ = RUNNER.check_eva(unit, ok, report, record=False, reviewed={key})
+    assert rows[0].result == "ERROR" and "red properties" in rows[0].detail
 
 
 def test_eva_unit_with_a_false_precondition_is_rejected(tmp_path: Path) -> None:
@@ -180,12 +202,140 @@ int eva_main(void) { g.n = 1; return get(&g); }
     cmd = RUNNER.framac_command(unit, unit.sources, [], [], report, 1, "offline", RUNNER.CACHE_DIR)
     run = RUNNER.run_framac(cmd, tmp_path / "fixture.log", report)
     rows, _ = RUNNER.check_eva(unit, run, report, record=False, reviewed=set())
-    assert rows[0].result == "ERROR" and not rows[0].expected, rows[0]
+    assert rows[0].result == "INVALID" and not rows[0].expected, rows[0]
     assert "get" in rows[0].detail and "valid(s)" in rows[0].detail
     src.write_text(src.read_text(encoding="utf-8").replace("\\valid(s)", "\\valid_read(s)"), encoding="utf-8")
     run = RUNNER.run_framac(cmd, tmp_path / "fixture.log", report)
     rows, _ = RUNNER.check_eva(unit, run, report, record=False, reviewed=set())
     assert rows[0].expected and rows[0].result == "no alarm", rows[0]
+
+
+def _eva_fixture(tmp_path: Path, source: str) -> Any:
+    """An Eva unit over one fixture file, with its Row after a real Frama-C run."""
+    src = tmp_path / "main.c"
+    src.write_text(source, encoding="utf-8")
+    unit = RUNNER.Unit("fixture", tmp_path, "eva", "fixture", [str(src)], [], ["-main", "eva_main"], [],
+                       {"alarms": []})
+    report = tmp_path / "r.csv"
+    cmd = RUNNER.framac_command(unit, unit.sources, [], [], report, 1, "offline", RUNNER.CACHE_DIR)
+    run = RUNNER.run_framac(cmd, tmp_path / "fixture.log", report)
+    rows, _ = RUNNER.check_eva(unit, run, report, record=False, reviewed=set())
+    return rows[0]
+
+
+INVALID_AT_ONE_CALL_SITE = """#include "__fc_builtin.h"
+/*@ ensures small: \\result < 5; */
+static int h(int x) { return x; }
+int eva_main(void) {
+  int s = 0;
+  while (Frama_C_nondet(0, 1)) {
+    s += h(1);
+    if (Frama_C_nondet(0, 1)) s += h(7);
+    s &= 0xff;
+  }
+  return s;
+}
+"""
+
+
+def test_eva_postcondition_invalid_at_one_call_site_is_rejected(tmp_path: Path) -> None:
+    """Seeded case of issue #37: `small` holds at h(1) and is false at h(7). Eva's consolidated
+    status is Unknown (so it was neither an alarm nor an invalid property for the old runner); the
+    red-status list names it, and the unit fails."""
+    assert shutil.which("frama-c"), "frama-c missing: run tools/setup.sh"
+    row = _eva_fixture(tmp_path, INVALID_AT_ONE_CALL_SITE)
+    assert row.result == "INVALID" and not row.expected, row
+    assert "small" in row.detail and "consolidated status Unknown" in row.detail
+    assert RUNNER.eva_invalid(tmp_path / "r.csv") == [], "the report alone does not show it"
+    row = _eva_fixture(tmp_path, INVALID_AT_ONE_CALL_SITE.replace("h(7)", "h(3)"))
+    assert row.expected and row.result == "no alarm", row
+    assert row.data["contracts"]["valid"] == 1  # the postcondition, counted
+
+
+UNDECIDED_BEHAVIORS = """#include "__fc_builtin.h"
+int t[2];
+/*@ behavior zero: assumes t[n] == 0; ensures \\result == -3;
+    behavior other: assumes t[n] != 0; ensures \\result == 0;
+    complete behaviors; disjoint behaviors; */
+static int f(int n) { if (t[n] == 0) return -3; return 0; }
+int eva_main(void) {
+  int s = 0;
+  t[0] = 0; t[1] = 5;
+  while (Frama_C_nondet(0, 1)) { s += f(Frama_C_interval(0, 1)); s &= 0xff; }
+  return s;
+}
+"""
+
+
+def test_eva_behaviors_it_cannot_tell_apart_are_not_invalid(tmp_path: Path) -> None:
+    """A correct contract with behaviors, called with an argument Eva keeps as {0, 1}: Eva checks
+    each behavior's postcondition in a state where its assumes is undecided and lists both as red
+    ("Behavior may be inactive"). Not a violation; counted, never failing."""
+    assert shutil.which("frama-c"), "frama-c missing: run tools/setup.sh"
+    row = _eva_fixture(tmp_path, UNDECIDED_BEHAVIORS)
+    assert row.expected and row.result == "no alarm", row
+    assert len(row.data["red"]["undecided"]) == 2 and row.data["red"]["invalid"] == []
+    row = _eva_fixture(tmp_path, UNDECIDED_BEHAVIORS.replace("return -3; return 0;", "return -3; return 1;"))
+    assert not row.expected, row  # `other` really is false (in every context where it applies)
+
+
+def test_an_eva_mutant_that_breaks_a_contract_is_killed() -> None:
+    unit = _unit("eva_node_i2c")
+    broken = RUNNER.Row("eva_node_i2c", "frama-c eva", "1 properties invalid in some context", "-", "INVALID", False,
+                        1.0, "invalid at some call site: x", "eva_node_i2c")
+    row = RUNNER.mutant_row(unit, unit.mutants[0], [broken])
+    assert row.result == "killed" and row.expected
+    assert row.data["kind"] == "off-by-one" and row.data["mutated_function"]
+
+
+def test_a_cache_miss_says_new_or_changed_and_the_command_for_the_verdict() -> None:
+    unit = RUNNER.Unit("u", ROOT, "wp", "u", [], [], [], [],
+                       {"functions": {"f": {"proved": 2, "total": 2, "goals": ["a", "b"]}}})
+    run = _wp_verdicts_run({"a": {"wp:main": {"total": 1, "unknown": 1}},
+                            "c": {"wp:main": {"total": 1, "unknown": 1}}})
+    rows, _ = RUNNER.check_wp(unit, run, record=False, cache="offline")
+    assert rows[0].result == "CACHE MISS"
+    assert "a (changed)" in rows[0].detail and "c (new)" in rows[0].detail
+    assert "`.venv/bin/python tools/proofs_framac.py --cache update --unit u --no-mutants`" in rows[0].detail
+    rows, _ = RUNNER.check_wp(unit, run, record=False, cache="offline", mutant="m")
+    assert "--unit u --mutant m --mutants-only`" in rows[0].detail
+    unit.expected = {"functions": {"f": {"proved": 2, "total": 2}}}
+    rows, _ = RUNNER.check_wp(unit, run, record=False, cache="offline")
+    assert "new or changed (expected.json records no goal names" in rows[0].detail
+
+
+def test_unit_and_mutant_selection_is_exact() -> None:
+    assert [u.name for u in RUNNER.discover([], ["node_i2c"])] == ["node_i2c"]
+    assert {u.name for u in RUNNER.discover(["node_i2c"])} == {"node_i2c", "eva_node_i2c"}
+    with pytest.raises(RUNNER.SetupError, match="no unit named"):
+        RUNNER.discover([], ["node"])
+
+
+def test_the_evidence_record_holds_goals_alarms_and_mutants(tmp_path: Path) -> None:
+    wp = RUNNER.Row("f", "frama-c wp", "3/3 goals", "-", "proved", True, 1.0, "", "u",
+                    {"total": 3, "proved": 3, "by": {"qed": 1, "z3": 2, "cvc4": 1}, "unproved": [], "cache_misses": []})
+    key = "urb_i2c.c:f: mem_access: \\valid(p)"
+    eva = RUNNER.Row("e", "frama-c eva", "1 alarms", "-", "reviewed alarms", True, 1.0, "", "e",
+                     {"alarms": [key], "new": [], "contracts": {"valid": 4, "unknown": 1, "invalid": 0}})
+    unit = _unit("fifo")
+    mutant = RUNNER.mutant_row(unit, unit.mutants[0], [RUNNER.Row("slot_index", "frama-c wp", "", "", "UNPROVED",
+                                                                  False, 1.0, "g", "fifo")])
+    items = {i.id: i for i in RUNNER.evidence_items([wp, eva, mutant], {key: "why not a bug"})}
+    assert items["wp:u/f"].data["goals"]["by"] == {"qed": 1, "z3": 2, "cvc4": 1, "cvc5": 0, "script": 0}
+    assert items["wp:u/f"].data["goals"]["justified"] == [] and items["wp:u/f"].verdict == "pass"
+    assert items["eva:e"].data["alarms"] == [{"alarm": key, "review": "why not a bug", "status": "reviewed"}]
+    assert items["eva:e"].data["contracts"]["valid"] == 4
+    m = items[f"framac-mutant:fifo/{unit.mutants[0]['name']}"]
+    assert m.verdict == "pass" and m.data["kind"] and m.data["file"] == unit.mutants[0]["file"]
+
+
+def test_every_mutant_has_a_kind_of_the_score() -> None:
+    from urb_report.mutation import kind_of
+
+    for folder in FOLDERS:
+        for mutant in RUNNER.load_unit(folder).mutants:
+            assert mutant.get("kind"), f"{folder.name}/{mutant['name']}: give it a kind (mutation score)"
+            assert kind_of(mutant["kind"]) != "other" or mutant["kind"] == "other", mutant["kind"]
 
 
 def test_mutant_that_applies_twice_is_refused(tmp_path: Path) -> None:
@@ -367,7 +517,7 @@ def test_a_cached_prover_failure_is_unproved_and_an_unanswered_goal_offline_is_a
                                    "b": {"wp:main": {"total": 1, "unknown": 1}}})
     rows, _ = RUNNER.check_wp(unit, unanswered, record=False, cache="offline")
     assert rows[0].result == "CACHE MISS" and not rows[0].expected
-    assert "--only u" in rows[0].detail and "commit" in rows[0].detail
+    assert "--unit u" in rows[0].detail and "commit" in rows[0].detail
     rows, _ = RUNNER.check_wp(unit, unanswered, record=False, cache="update")  # a prover ran and gave up
     assert rows[0].result == "UNPROVED"
 

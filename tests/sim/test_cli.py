@@ -62,7 +62,7 @@ def test_sim_report(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     seed, source and the command that runs it again."""
     evidence = tmp_path / "evidence"
     assert main(["sim", "sensorhex", "--quick", "--only", "fig16", "--out", str(tmp_path), "--no-progress",
-                 "--evidence", str(evidence)]) == 0
+                 "--evidence", str(evidence), "--compare", "none"]) == 0
     html = (tmp_path / "index.html").read_text()
     assert "PASS" in html and "fig16_usb_latency.png" in html
     assert "<code>urb sim sensorhex --quick --seed 1</code>" in html  # reproduces this run, quick included
@@ -89,7 +89,7 @@ def test_sim_report(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
         assert (item.kind, item.verdict, item.expected, item.measured) == ("criterion", "pass", check["required"],
                                                                           check["measured"])
         assert item.source == "sim/urb_sim/experiments/latency.py"
-        assert item.rerun == "urb sim sensorhex --seed 1 --quick --only fig16"
+        assert item.rerun == "urb sim sensorhex --seed 1 --quick --only fig16 --compare none"
         assert item.data["seed"] == 1
     assert f"evidence: 1 record(s) in {evidence}" in capsys.readouterr().out
 
@@ -100,17 +100,27 @@ def test_sim_help_lists_each_subcommand_once(capsys: pytest.CaptureFixture[str])
     assert exc.value.code == 0
     out = capsys.readouterr().out
     assert out.startswith("usage: urb sim [-h] SUBCOMMAND ...")
-    for name in ("sensorhex", "sweep", "params"):
+    for name in ("sensorhex", "sweep", "merge", "sensitivity", "profiles", "params"):
         assert sum(line.split()[:1] == [name] for line in out.splitlines()) == 1, out
 
 
-@pytest.mark.parametrize("sub", ["sensorhex", "sweep", "params"])
+@pytest.mark.parametrize("sub", ["sensorhex", "sweep", "merge", "sensitivity", "profiles", "params"])
 def test_sim_subcommand_usage_names_the_command(sub: str, capsys: pytest.CaptureFixture[str]) -> None:
     # argparse used to derive "urb sim [-h] SUBCOMMAND ... sensorhex" from `urb sim`'s own usage line
     with pytest.raises(SystemExit) as exc:
         main(["sim", sub, "--help"])
     assert exc.value.code == 0
     assert capsys.readouterr().out.startswith(f"usage: urb sim {sub} [-h]")
+
+
+@pytest.mark.parametrize("sub", [[], ["sensorhex"], ["sweep"], ["merge"], ["sensitivity"], ["profiles"], ["params"]])
+def test_sim_help_states_the_exit_status(sub: list[str], capsys: pytest.CaptureFixture[str]) -> None:
+    # every page of the manual says what its exit codes mean (issue #35: `urb sim --help` did not)
+    with pytest.raises(SystemExit) as exc:
+        main(["sim", *sub, "--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert "Exit status" in out and " 2 " in out.replace("\n", " "), out
 
 
 def test_sim_usage_error_names_the_command(capsys: pytest.CaptureFixture[str]) -> None:
@@ -141,7 +151,9 @@ def test_parallel_experiments_give_the_serial_results(tmp_path: Path) -> None:
     for rel in files:
         assert (serial / rel).read_bytes() == (parallel / rel).read_bytes(), rel
     s, p = (json.loads((d / "summary.json").read_text()) for d in (serial, parallel))
-    assert [e["key"] for e in p["experiments"]] == ["fig16", "faults", "fig15"]  # the order asked for
+    # the order asked for, then the same under each other hardware profile
+    assert [e["key"] for e in p["experiments"]] == ["fig16", "faults", "fig15", "fig16@ideal", "fig15@ideal",
+                                                   "fig16@paper", "fig15@paper"]
     assert _without_wall_times(s) == _without_wall_times(p)
 
 
@@ -198,3 +210,31 @@ def test_closed_pipe_ends_quietly(unbuffered: bool) -> None:
     err = proc.stderr.read().decode()
     assert proc.wait(timeout=60) == 141
     assert err == ""
+
+
+def test_each_profile_has_its_evidence_ids_and_report_section(tmp_path: Path) -> None:
+    """Under another hardware profile an experiment's record is sim-<experiment>@<profile>.json with ids
+    sim@<profile>:<experiment>/<criterion>, its config names the profile, and its command reruns it
+    under that profile alone; the report shows each profile's figures beside its assumptions."""
+    evidence = tmp_path / "evidence"
+    assert main(["sim", "sensorhex", "--quick", "--only", "fig16", "--compare", "paper", "--out", str(tmp_path),
+                 "--no-progress", "--evidence", str(evidence)]) == 0
+    assert sorted(p.name for p in evidence.glob("*.json")) == ["sim-fig16.json", "sim-fig16@paper.json"]
+    default, paper = read_record(evidence / "sim-fig16.json"), read_record(evidence / "sim-fig16@paper.json")
+    assert default.config["profile"] == "cortex-m0plus" and paper.config["profile"] == "paper"
+    assert [i.id for i in paper.items] == ["sim@paper:fig16/every-request-answered",
+                                           "sim@paper:fig16/bounded-by-three-frames", "sim@paper:fig16/constant",
+                                           "sim@paper:fig16/paper-profile-reproduces-the-paper-s-fig16_ms-average"]
+    assert paper.items[-1].verdict == "pass" and paper.items[-1].expected.startswith("3 +- 0.1 ms")
+    assert all(i.data["profile"] == "paper" for i in paper.items)
+    assert paper.items[0].rerun == "urb sim sensorhex --seed 1 --quick --only fig16 --profile paper --compare none"
+    html = (tmp_path / "index.html").read_text()
+    assert "<section id='profiles'>" in html and "id='profile-paper'" in html and "id='profile-cortex-m0plus'" in html
+    assert "scope.sample_ns" in html and "node.mask_cycles" in html  # each profile's assumptions beside its figures
+
+
+def test_an_unknown_profile_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["sim", "sensorhex", "--only", "fig16", "--profile", "pic18"]) == 2
+    assert "no hardware profile 'pic18': choose one of cortex-m0plus" in capsys.readouterr().err
+    assert main(["sim", "sensorhex", "--only", "fig16", "--compare", "ideal,avr"]) == 2
+    assert "no hardware profile 'avr'" in capsys.readouterr().err

@@ -1408,6 +1408,99 @@ static void test_usb_handshakes(void)
     urbsim_kernel_free(&k);
 }
 
+/* The idle path of a hardware profile (mcu.h): after the latest handler or main-loop work ends, the
+ * loop runs idle_cycles, then the PRIMASK section (an interrupt raised in it starts at its end plus
+ * the entry latency), then WFI (an interrupt first wakes the core). Zero jitter, 48 MHz: 15 cycles
+ * are 313 ns, 48 cycles 1 us. */
+static void test_mcu_idle_path(void)
+{
+    urbsim_clock_cfg_t cfg = urbsim_clock_default_cfg();
+    cfg.idle_cycles = 48.0;
+    cfg.mask_cycles = 96.0;
+    cfg.wfi_wake_cycles = 48.0;
+    urbsim_rng_t r;
+    urbsim_mcu_t m;
+    urbsim_ns_t end;
+    urbsim_rng_seed(&r, 5u);
+    urbsim_mcu_init(&m, &cfg, &r);
+    urbsim_mcu_reset(&m, 10000u);
+    CHECK_EQ(urbsim_mcu_thread_busy(&m, 10000u, 5000u), 15000u);
+    CHECK_EQ(urbsim_mcu_isr(&m, 12000u, 48.0, &end), 12313u); /* during work: the entry latency only */
+    /* the work now ends at 16000: idle pass to 17000, masked [17000, 19000) */
+    CHECK_EQ(urbsim_mcu_isr(&m, 16500u, 48.0, &end), 16813u); /* in the idle pass */
+    CHECK_EQ(end, 17813u);
+    /* after that handler: idle to 18813, masked [18813, 20813) */
+    CHECK_EQ(urbsim_mcu_isr(&m, 19500u, 48.0, &end), 21126u); /* masked: at the section's end + 313 */
+    CHECK_EQ(m.masked, 1u);
+    /* after it (ends 22126): masked until 25126, then asleep: wake 1 us + entry */
+    CHECK_EQ(urbsim_mcu_isr(&m, 30000u, 48.0, &end), 31313u);
+    CHECK_EQ(m.masked, 1u);
+    /* all three 0: the model before profiles */
+    urbsim_clock_cfg_t plain = urbsim_clock_default_cfg();
+    urbsim_mcu_init(&m, &plain, &r);
+    urbsim_mcu_reset(&m, 10000u);
+    CHECK_EQ(urbsim_mcu_isr(&m, 30000u, 48.0, &end), 30313u);
+}
+
+/* Per-slave edges (i2c.h urbsim_i2c_edges_t): the address byte's 8th bit at 22500 is seen after the
+ * fall to the slave's threshold and its glitch filter, so its handler starts that much later. */
+static void test_i2c_edges(void)
+{
+    urbsim_kernel_t k;
+    urbsim_trace_t tr;
+    urbsim_rng_t r;
+    urbsim_kernel_init(&k);
+    urbsim_trace_init(&tr);
+    urbsim_rng_seed(&r, 9);
+    urbsim_i2c_bus_t bus;
+    urbsim_i2c_init(&bus, &k, &tr, "i2c", 400e3, &r);
+    urbsim_i2c_edges_t e;
+    memset(&e, 0, sizeof e);
+    e.fall_ns = 1000.0;
+    e.vth_min = e.vth_max = 0.3;     /* crossed 700 ns into the fall */
+    e.filter_min_ns = e.filter_max_ns = 100.0;
+    e.rise_tau_ns = 1000.0;          /* a STOP: 1000 ln(1 / 0.7) = 357 ns, + 100 */
+    e.seed = 3;
+    urbsim_i2c_set_edges(&bus, &e);
+    mslave_t s = {.k = &k};
+    urbsim_clock_cfg_t cfg = urbsim_clock_default_cfg();
+    urbsim_mcu_init(&s.mcu, &cfg, &r);
+    urbsim_i2c_slave_t sl;
+    memset(&sl, 0, sizeof sl);
+    sl.ctx = &s;
+    sl.address = 0x10;
+    sl.powered = true;
+    sl.isr_window = ms_window;
+    sl.on_address = ms_addr;
+    sl.on_rx = ms_rx;
+    sl.on_stop = ms_stop;
+    urbsim_i2c_attach(&bus, &sl); /* attached after the edges were set: drawn at attach */
+    CHECK_EQ(urbsim_i2c_edge_delay(&bus, 0, false), 800u);
+    CHECK_EQ(urbsim_i2c_edge_delay(&bus, 0, true), 457u);
+    tmaster_t m = {.bus = &bus};
+    bus.master = tm_event;
+    bus.master_ctx = &m;
+    static const uint8_t wr[] = {0x20};
+    m.ops = "SWP";
+    m.bytes = wr;
+    tm_next(&m);
+    urbsim_kernel_run_until(&k, 100000);
+    CHECK_EQ(s.t_addr, 22500u + 800u + 313u); /* 22813 with instant edges */
+    /* a range of thresholds: two slaves draw their own, within the fall's 30 %..70 % */
+    e.vth_min = 0.3;
+    e.vth_max = 0.7;
+    e.filter_min_ns = e.filter_max_ns = 0.0;
+    urbsim_i2c_slave_t other = sl;
+    urbsim_i2c_attach(&bus, &other);
+    urbsim_i2c_set_edges(&bus, &e);
+    urbsim_ns_t a = urbsim_i2c_edge_delay(&bus, 0, false), b = urbsim_i2c_edge_delay(&bus, 1, false);
+    CHECK(a != b && a >= 300u && a <= 700u && b >= 300u && b <= 700u);
+    memset(&e, 0, sizeof e);
+    urbsim_i2c_set_edges(&bus, &e);
+    CHECK_EQ(urbsim_i2c_edge_delay(&bus, 1, false), 0u); /* all zero: instant edges again */
+    urbsim_kernel_free(&k);
+}
+
 int main(void)
 {
     test_kernel();
@@ -1425,6 +1518,8 @@ int main(void)
     test_usb_frame_edges();
     test_usb_handshakes();
     test_mcu_thread();
+    test_mcu_idle_path();
+    test_i2c_edges();
     printf("sim core: %d checks, %d failed\n", checks, failures);
     return failures ? 1 : 0;
 }

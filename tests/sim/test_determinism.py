@@ -19,6 +19,9 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
+from urb_sim import profiles
 from urb_sim.native import App, Trace
 from urb_sim.system import Loop, System
 
@@ -26,8 +29,14 @@ NS_PER_MS = 1_000_000
 Run = tuple[int, int, int]  #: trace hash, trace lines, events
 
 
-def run(seed: int, trace: Path | None = None) -> Run:
-    """A small two-bridge system with host traffic for 150 ms; returns (hash, lines, events)."""
+def run(seed: int, trace: Path | None = None, profile: str | None = None) -> Run:
+    """A small two-bridge system with host traffic for 150 ms, under hardware `profile` (None: the
+    parameters' defaults); returns (hash, lines, events)."""
+    with profiles.applied(profiles.load(profile) if profile else None):
+        return _run(seed, trace)
+
+
+def _run(seed: int, trace: Path | None) -> Run:
     s = System(seed=seed, probe_out=4)
     rs = s.bridge("rs232")
     usb = s.bridge("usb")
@@ -67,14 +76,32 @@ def test_hash_does_not_depend_on_writing_the_file(tmp_path: Path) -> None:
     assert run(3)[0] == run(3, tmp_path / "t.ndjson")[0]
 
 
-def runs_in_a_new_process(seed: int, runs: int, mutant: str | None = None) -> list[Run]:
+@pytest.mark.parametrize("profile", ["cortex-m0plus", "paper"])
+def test_same_seed_same_trace_per_profile(profile: str, tmp_path: Path) -> None:
+    """Each hardware profile is deterministic too, in this process and in another one."""
+    a, b = tmp_path / "a.ndjson", tmp_path / "b.ndjson"
+    first = run(7, a, profile)
+    assert run(7, b, profile) == first
+    assert a.read_bytes() == b.read_bytes()
+    assert runs_in_a_new_process(7, 1, profile=profile) == [first]
+
+
+def test_a_profile_changes_the_world() -> None:
+    """Witness that the profiles reach the model: the Cortex-M0+ profile's edges, masked sections and
+    wait states change the trace from the defaults', and its per-node draws differ by seed."""
+    ideal, m0 = run(7), run(7, profile="cortex-m0plus")
+    assert ideal[0] != m0[0]
+    assert run(8, profile="cortex-m0plus")[0] != m0[0]
+
+
+def runs_in_a_new_process(seed: int, runs: int, mutant: str | None = None, profile: str | None = None) -> list[Run]:
     """`runs` runs of `seed`, one after the other in a new Python process, with the library built
     with the seeded bug `mutant` (None: the real library)."""
     env = {k: v for k, v in os.environ.items() if k not in ("URBSIM_MUTANT", "URBSIM_SANITIZE")}
     if mutant is not None:
         env["URBSIM_MUTANT"] = mutant
-    proc = subprocess.run([sys.executable, __file__, str(seed), str(runs)], capture_output=True, text=True, env=env,
-                          timeout=300)
+    proc = subprocess.run([sys.executable, __file__, str(seed), str(runs), profile or ""], capture_output=True,
+                          text=True, env=env, timeout=300)
     assert proc.returncode == 0, proc.stderr
     return [(h, lines, events) for h, lines, events in json.loads(proc.stdout)]
 
@@ -99,4 +126,5 @@ def test_a_dependence_on_the_process_is_caught_across_processes() -> None:
 
 if __name__ == "__main__":
     seed, runs = int(sys.argv[1]), int(sys.argv[2])
-    print(json.dumps([run(seed) for _ in range(runs)]))
+    chosen = sys.argv[3] if len(sys.argv) > 3 and sys.argv[3] else None
+    print(json.dumps([run(seed, profile=chosen) for _ in range(runs)]))

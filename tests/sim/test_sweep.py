@@ -87,11 +87,11 @@ def test_failing_seeds_are_tallied_and_keep_their_files(tmp_path: Path) -> None:
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["passed"] is False and summary["runs"] == 5 and summary["seeds"] == [1, 2, 3, 4, 5]
     assert summary["failed_runs"][0] == {"experiment": "fig15", "seed": 2, "verdict": "FAIL",
-                                         "reproduce": "urb sim sensorhex --seed 2 --only fig15 --quick"}
+                                         "reproduce": "urb sim sensorhex --seed 2 --only fig15 --compare none --quick"}
     table = format_table(sweep)
     assert table[1].startswith("FAIL  fig15 latency") and "3/5" not in table[1]
     assert "2/4  failed at seed 2, 5" in table[1]
-    assert "  ERROR fig15 seed 4: urb sim sensorhex --seed 4 --only fig15 --quick" in table
+    assert "  ERROR fig15 seed 4: urb sim sensorhex --seed 4 --only fig15 --compare none --quick" in table
 
 
 @pytest.mark.usefixtures("fake_fig15")
@@ -100,7 +100,7 @@ def test_keep_keeps_every_run(tmp_path: Path) -> None:
     assert sweep.passed
     assert (run_dir(tmp_path, 1) / "fig15" / "latency.csv").is_file()
     assert (run_dir(tmp_path, 3) / "fig15" / "latency.csv").is_file()
-    assert sweep.reproduce("fig15", 3) == "urb sim sensorhex --seed 3 --only fig15"
+    assert sweep.reproduce("fig15", 3) == "urb sim sensorhex --seed 3 --only fig15 --compare none"
 
 
 @pytest.mark.usefixtures("fake_fig15")

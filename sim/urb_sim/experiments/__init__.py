@@ -97,3 +97,27 @@ def pyplot() -> Any:
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def profile_targets(res: Result, figures: dict[str, tuple[float, float]]) -> None:
+    """The active hardware profile's targets for the metrics in `figures` (metric -> (average, max)):
+    each required one becomes a check of `res`, each other one a deviation when it is missed
+    (sim/profiles: a profile calibrated to the paper states how closely it reproduces each figure)."""
+    from .. import profiles
+
+    prof = profiles.active()
+    if prof is None:
+        return
+    for t in prof.targets:
+        if t.metric not in figures:
+            continue
+        av, mx = figures[t.metric]
+        value = av if t.statistic == "average" else mx
+        unit = profiles.TARGET_METRICS[t.metric]
+        what = f"{prof.name} profile reproduces the paper's {t.metric} {t.statistic}"
+        required = f"{t.paper:g} +- {t.tolerance:g} {unit} (the paper's {t.statistic}; calibration, sim/profiles)"
+        if t.required:
+            res.check(what, required, f"{value:.3f} {unit}", t.holds(value))
+        elif not t.holds(value):
+            res.deviations.append(f"{res.title.split(':')[0]} under the {prof.name} profile: {t.metric} {t.statistic} "
+                                  f"{value:.3f} {unit}, not the paper's {t.paper:g} +- {t.tolerance:g}: {t.why}")

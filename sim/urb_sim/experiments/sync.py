@@ -33,6 +33,8 @@ updates and needs no inbox-0 RESET.
 from __future__ import annotations
 
 import bisect
+import math
+import random
 import statistics
 import time
 from dataclasses import dataclass, field
@@ -40,7 +42,7 @@ from pathlib import Path
 
 from ..native import App, Mark
 from ..system import NS_PER_MS, Loop, System
-from . import Progress, Result, no_progress, pyplot, write_csv
+from . import Progress, Result, no_progress, profile_targets, pyplot, write_csv
 
 PAPER = {"convergence_ms": (78.4, 88.4), "internode_us": (0.19, 0.56), "jitter_us": (0.92, 1.33)}
 THRESHOLD_NS = 2000
@@ -94,6 +96,27 @@ def _wrap(d: float, period: float) -> float:
     return (d + period / 2) % period - period / 2
 
 
+class Scope:
+    """Table I's marks as an oscilloscope sees them (scope.sample_ns, scope.skew_ns, scope.ppm;
+    sim/profiles): every channel sampled on one grid of `sample_ns` of the scope's own timebase (off
+    by `ppm`) whose phase the trigger sets (drawn per run), each mark's path (GPIO pin, probe,
+    channel) late by a fixed skew drawn per node in [0, skew_ns]. An edge is seen at the first
+    sample at or after it. sample_ns 0: true (virtual) time."""
+
+    def __init__(self, seed: int, sample_ns: float, skew_ns: float, channels: int, ppm: float = 0.0) -> None:
+        rng = random.Random(f"scope/{seed}")
+        self.rate = 1.0 + ppm * 1e-6
+        self.sample_ns = sample_ns
+        self.phase = rng.uniform(0.0, sample_ns) if sample_ns > 0 else 0.0
+        self.skew = [rng.uniform(0.0, skew_ns) for _ in range(channels)]
+
+    def see(self, channel: int, times: list[int]) -> list[int]:
+        if self.sample_ns <= 0:
+            return times
+        d, ph, sk, rate = self.sample_ns, self.phase, self.skew[channel], self.rate
+        return [int(math.ceil(((t + sk) * rate - ph) / d) * d + ph) for t in times]
+
+
 def one_run(seed: int, synced: bool, duration_ms: int, steady_ms: int = 300) -> Run:
     s = System(seed=seed, probe_out=6, params={"node.sync": 1.0 if synced else 0.0, "bridge.heartbeat_sof": 1.0})
     b = s.bridge("usb")
@@ -107,6 +130,7 @@ def one_run(seed: int, synced: bool, duration_ms: int, steady_ms: int = 300) -> 
             marks[n].extend(s.world.node_marks(n))
         bmarks.extend(s.world.bridge_marks(b))
 
+    scope = Scope(seed, s.world.get("scope.sample_ns"), s.world.get("scope.skew_ns"), 3, s.world.get("scope.ppm"))
     s.start(settle_ms=40)
     drain()
     nodes = [s.urb.find_node(0x7E, 0), s.urb.find_node(0x7E, 1)]
@@ -126,9 +150,11 @@ def one_run(seed: int, synced: bool, duration_ms: int, steady_ms: int = 300) -> 
         drain()
     s.close()
 
-    acq = {n: [t for t, k, _ in marks[n] if k == Mark.ACQ_END] for n in (na, nb)}
+    # the SYNC on the bus (channel 0) and each node's ACQ_END pin (channels 1, 2), as the scope sees them
+    true_acq = {n: [t for t, k, _ in marks[n] if k == Mark.ACQ_END] for n in (na, nb)}
+    acq = {n: scope.see(1 + i, true_acq[n]) for i, n in enumerate((na, nb))}
     reads = {n: [t for t, k, _ in marks[n] if k == Mark.READ] for n in (na, nb)}
-    syncs = [t for t, k, v in bmarks if k == Mark.BRIDGE_SYNC and v == 1]
+    syncs = scope.see(0, [t for t, k, v in bmarks if k == Mark.BRIDGE_SYNC and v == 1])
     if not syncs or len(acq[na]) < 100 or len(acq[nb]) < 100:
         return run
     t_sync0 = syncs[0]
@@ -185,9 +211,9 @@ def one_run(seed: int, synced: bool, duration_ms: int, steady_ms: int = 300) -> 
         for t in reads[n]:
             if t < steady_from:
                 continue
-            i = bisect.bisect_right(acq[n], t) - 1
+            i = bisect.bisect_right(true_acq[n], t) - 1  # the data's age is the bridge's, not the scope's
             if i >= 0:
-                run.ages.append((t - acq[n][i]) / 1e3)
+                run.ages.append((t - true_acq[n][i]) / 1e3)
     if run.ages:
         run.age_mean_us = statistics.mean(run.ages)
         run.age_max_us = max(run.ages)
@@ -237,10 +263,13 @@ def table1(out: Path, *, quick: bool = False, seed: int = 100, progress: Progres
     rows = [("initial convergence delay (ms)", conv, PAPER["convergence_ms"], False),
             ("inter-node difference in t_acq_end (us)", inter, PAPER["internode_us"], True),
             ("single-node jitter on t_acq_end (us)", jit, PAPER["jitter_us"], True)]
+    calibrated = _calibrated()
     for name, (av, mx, worst), (pav, pmx), per_cycle in rows:
         res.table.append({"metric": name, "paper average": pav, "paper max": pmx, "sim average": round(av, 3),
                           "sim max of runs": round(mx, 3),
                           "sim worst single cycle": round(worst, 3) if per_cycle else "(one figure per run)"})
+        if calibrated:
+            continue  # a profile calibrated to the paper is held to its targets instead (_targets)
         if not per_cycle:
             res.check(name, f"average <= {pav} and max <= {pmx} (match or beat the paper)",
                       f"average {av:.3f}, max {mx:.3f}", av <= pav and mx <= pmx)
@@ -259,6 +288,8 @@ def table1(out: Path, *, quick: bool = False, seed: int = 100, progress: Progres
                        [{"metric": m, "paper's definition": d, "paper's Average": a, "paper's Max": x,
                          "simulation's (average, max of runs, worst single cycle)": ours}
                         for m, d, a, x, ours in DEFINITIONS]))
+    profile_targets(res, {m: (av, mx) for m, (av, mx, _) in
+                          (("convergence_ms", conv), ("internode_us", inter), ("jitter_us", jit))})
     fails = sum(r.failed_reads for r in synced + free)
     res.check("reads answered", "every host read of both nodes completes OK", f"{fails} failed", fails == 0)
     res.check("Fig. 11 vs Fig. 12", "synchronisation makes data fresher: mean data age synchronised < unsynchronised",
@@ -269,6 +300,15 @@ def table1(out: Path, *, quick: bool = False, seed: int = 100, progress: Progres
     res.notes.append(f"Steady-state thresholds: {THRESHOLD_NS / 1e3:.0f} us; jitter = standard deviation of the "
                      f"ACQ_END period; each run's figures and worst cycles are in table1_sync_runs.csv.")
     return res
+
+
+def _calibrated() -> bool:
+    """Whether the active hardware profile is calibrated to the paper's Table I (has targets for it):
+    its Table I is then checked against the targets' tolerances, not against "match or beat the paper"."""
+    from .. import profiles
+
+    prof = profiles.active()
+    return prof is not None and any(t.metric in profiles.TABLE1_METRICS for t in prof.targets)
 
 
 def _plot(path: Path, s0: Run, f0: Run, synced: list[Run], free: list[Run]) -> Path:

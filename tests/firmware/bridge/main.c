@@ -14,5 +14,6 @@ int main(void)
     failed += run_sync_tests();
     failed += run_discovery_tests();
     failed += run_edges_tests();
+    failed += run_mutation_kill_tests();
     return failed > 255 ? 255 : failed;
 }

@@ -68,5 +68,6 @@ int run_usb_tests(void);
 int run_sync_tests(void);
 int run_discovery_tests(void);
 int run_edges_tests(void);
+int run_mutation_kill_tests(void);
 
 #endif

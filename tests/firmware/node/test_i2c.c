@@ -574,6 +574,47 @@ static void identification_fault_flag(void **state)
     assert_false(id.fault);
 }
 
+/* Mutation score (tests/mutation/README.md): seeded bugs the tests above let through. */
+
+/* The check tier switches exactly after 14 covered bytes (select + 13 data: CRC-8, one byte;
+ * select + 14 data: CRC-16, two), on the node's side too. */
+static void write_at_the_crc8_tier_boundary(void **state)
+{
+    fixture_t *f = F(state);
+    fx_defaults(f);
+    f->in_sizes[3] = 13u;
+    f->in_sizes[4] = 14u;
+    assert_int_equal(fx_start(f), URB_NODE_OK);
+    for (uint8_t m = 3u; m <= 4u; m++) {
+        uint8_t const size = f->in_sizes[m];
+        uint8_t data[14];
+        uint8_t got[14];
+        for (uint8_t i = 0u; i < size; i++) {
+            data[i] = (uint8_t)(0x50u + i + m);
+        }
+        uint8_t frame[40];
+        size_t const n = fx_frame(frame, m, data, size, 0u);
+        assert_int_equal(n, 1u + size + ((size == 13u) ? 1u : 2u));
+        assert_int_equal(fx_write_raw(N(state), frame, n, true), FX_ALL_ACKED);
+        assert_int_equal(take_inbox(N(state), m, got), URB_NODE_NEW);
+        assert_memory_equal(got, data, size);
+    }
+}
+
+/* A write cut short by STOP after a wrong first check byte (CRC-16: the verdict waits for the
+ * second) leaves no write open in the inbox: the interrupt gave its buffer up. */
+static void write_cut_after_a_wrong_check_byte_is_aborted(void **state)
+{
+    uint8_t data[20] = {0};
+    uint8_t frame[40];
+    size_t const n = fx_frame(frame, 2u, data, 20u, 0u);
+    frame[n - 2u] ^= 0x5Au; /* the first check byte */
+    assert_int_equal(fx_write_raw(N(state), frame, n - 1u, true), FX_ALL_ACKED);
+    urb_node_buffers_t bufs;
+    assert_true(urb_node_inbox_buffers(N(state), 2u, &bufs));
+    assert_int_equal(bufs.isr, URB_NODE_NO_BUFFER);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -597,6 +638,8 @@ int main(void)
         cmocka_unit_test_setup(sync_framing, setup),
         cmocka_unit_test_setup(identification_fault_flag, setup),
         cmocka_unit_test_setup(observation_views, setup),
+        cmocka_unit_test_setup(write_at_the_crc8_tier_boundary, setup),
+        cmocka_unit_test_setup(write_cut_after_a_wrong_check_byte_is_aborted, setup),
     };
     return cmocka_run_group_tests_name("node_i2c", tests, NULL, NULL);
 }

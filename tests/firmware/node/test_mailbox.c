@@ -323,6 +323,57 @@ static void isr_steps_without_a_transfer(void **state)
     assert_int_equal(urb_node_release_inbox(node, 1u), URB_NODE_OK);
 }
 
+/* Mutation score (tests/mutation/README.md): seeded bugs the tests above let through. */
+
+/* The interrupt's commit with no write begun (a refused write, a select alone) publishes nothing:
+ * without its guard it would store fresh[NONE] and make NONE the front buffer. */
+static void commit_without_a_write_publishes_nothing(void **state)
+{
+    urb_node_t *node = &((fixture_t *)*state)->node;
+    urb_node_buffers_t before, after;
+    assert_true(urb_node_inbox_buffers(node, 1u, &before));
+    urb_isr_write_commit(node, 1u);
+    assert_true(urb_node_inbox_buffers(node, 1u, &after));
+    assert_int_equal(after.front, before.front);
+    assert_int_equal(after.isr, URB_NODE_NO_BUFFER);
+    const uint8_t *data = NULL;
+    assert_int_equal(urb_node_lock_inbox(node, 1u, &data), URB_NODE_OK); /* not NEW: nothing arrived */
+    assert_int_equal(urb_node_release_inbox(node, 1u), URB_NODE_OK);
+}
+
+/* The interrupt's byte store with no write begun changes no storage byte: without its guard it
+ * would store into "buffer NONE", past the inbox's two buffers. */
+static void byte_without_a_write_stores_nothing(void **state)
+{
+    fixture_t *f = (fixture_t *)*state;
+    uint8_t before[FX_STORAGE];
+    memcpy(before, f->storage, sizeof before);
+    urb_isr_write_byte(&f->node, 1u, 0u, 0x77u);
+    assert_memory_equal(f->storage, before, sizeof before);
+}
+
+/* Mailbox 7 is the last one: the size queries answer it, and answer 0 from 8 on; its lock and
+ * release work like any other's. */
+static void mailbox_7_is_usable_and_8_is_not(void **state)
+{
+    fixture_t *f = (fixture_t *)*state;
+    fx_defaults(f);
+    f->in_sizes[7] = 3u;
+    f->out_sizes[7] = 4u;
+    assert_int_equal(fx_start(f), URB_NODE_OK);
+    urb_node_t *node = &f->node;
+    assert_int_equal(urb_node_inbox_size(node, 7u), 3u);
+    assert_int_equal(urb_node_outbox_size(node, 7u), 4u);
+    assert_int_equal(urb_node_inbox_size(node, 8u), 0u);
+    assert_int_equal(urb_node_outbox_size(node, 8u), 0u); /* outbox[8] would be inbox 0, size != 0 */
+    uint8_t *out = NULL;
+    assert_int_equal(urb_node_lock_outbox(node, 7u, &out), URB_NODE_OK);
+    assert_int_equal(urb_node_release_outbox(node, 7u), URB_NODE_OK);
+    const uint8_t *in = NULL;
+    assert_int_equal(urb_node_lock_inbox(node, 7u, &in), URB_NODE_OK);
+    assert_int_equal(urb_node_release_inbox(node, 7u), URB_NODE_OK);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -337,6 +388,9 @@ int main(void)
         cmocka_unit_test_setup(status_and_synced, setup),
         cmocka_unit_test_setup(api_edges, setup),
         cmocka_unit_test_setup(isr_steps_without_a_transfer, setup),
+        cmocka_unit_test_setup(commit_without_a_write_publishes_nothing, setup),
+        cmocka_unit_test_setup(mailbox_7_is_usable_and_8_is_not, setup),
+        cmocka_unit_test_setup(byte_without_a_write_stores_nothing, setup),
     };
     return cmocka_run_group_tests_name("node_mailbox", tests, NULL, NULL);
 }

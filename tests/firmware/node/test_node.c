@@ -439,6 +439,94 @@ static void identification_refreshes(void **state)
     assert_true((urb_node_poll(node) & URB_NODE_POLL_IDENT) != 0u);
 }
 
+/* Mutation score (tests/mutation/README.md): RESET itself clears the fault flag and republishes
+ * the identification (no identification read in between, which would clear the flag anyway), and
+ * the command after it still runs. */
+static void command_reset_republishes_and_the_next_command_runs(void **state)
+{
+    fixture_t *f = *state;
+    urb_node_t *node = &f->node;
+    (void)urb_node_i2c_event(node, URB_I2C_STUCK, 0u); /* a fault */
+    (void)urb_node_poll(node);                          /* delivered and published, never read */
+    assert_int_equal(fx_command(node, URB_COMMAND_CODE_RESET, 0u, 0u, 0u), FX_ALL_ACKED);
+    assert_true((urb_node_poll(node) & URB_NODE_POLL_COMMAND) != 0u);
+    assert_false(read_id(node).fault);
+    assert_int_equal(fx_command(node, URB_COMMAND_CODE_SIGNAL, 5u, 0u, 0u), FX_ALL_ACKED);
+    assert_true((urb_node_poll(node) & URB_NODE_POLL_COMMAND) != 0u);
+    assert_int_equal(f->signals, 1u);
+    assert_int_equal(f->last_signal, 5u);
+}
+
+/* Mutation score: the window keeps its largest sample even when it is one tick larger than the
+ * one before it (the window's end then drops t_acq to that largest sample, not to the earlier one). */
+static void acquisition_window_keeps_a_max_one_tick_larger(void **state)
+{
+    fixture_t *f = *state;
+    urb_node_t *node = &f->node;
+    f->cfg.acq_guard_us = 0u;
+    one_update(f, 480u);
+    one_update(f, 481u);
+    assert_int_equal(node->acq_ticks, 481u);
+    while (node->acq_count != 0u) {
+        one_update(f, 400u);
+    }
+    assert_int_equal(node->acq_ticks, 481u);
+}
+
+/* A heartbeat during the application's reset hook: the update it makes due is run, not dropped
+ * with the ones due before the reset (those are dropped before the hook runs). */
+static void reset_with_a_heartbeat(urb_node_t *node, void *user)
+{
+    fixture_t *f = user;
+    f->resets++;
+    (void)urb_hal_hosted_advance(&f->port, node, PERIOD);
+}
+
+static void update_due_during_the_reset_hook_runs(void **state)
+{
+    fixture_t *f = *state;
+    urb_node_t *node = &f->node;
+    f->hooks.reset = reset_with_a_heartbeat;
+    assert_int_equal(fx_command(node, URB_COMMAND_CODE_RESET, 0u, 0u, 0u), FX_ALL_ACKED);
+    unsigned const updates = f->updates;
+    uint8_t const done = urb_node_poll(node);
+    assert_true((done & URB_NODE_POLL_COMMAND) != 0u);
+    assert_int_equal(f->resets, 1u);
+    assert_true((done & URB_NODE_POLL_UPDATE) != 0u);
+    assert_int_equal(f->updates, updates + 1u);
+}
+
+/* Two bus writes to inbox 0 land right after the command's inbox is released (interrupts at that
+ * step): the command run is the one that was locked, read before the release, not a later one
+ * that the second write put into the same buffer. */
+static void two_writes_at_release(urb_node_t *node, uint8_t step, void *ctx)
+{
+    unsigned *writes = ctx;
+    if ((step == URB_STEP_IN_RELEASE) && (*writes == 0u)) {
+        *writes = 2u;
+        assert_int_equal(fx_command(node, URB_COMMAND_CODE_SIGNAL, 2u, 0u, 0u), FX_ALL_ACKED);
+        assert_int_equal(fx_command(node, URB_COMMAND_CODE_SIGNAL, 3u, 0u, 0u), FX_ALL_ACKED);
+    }
+}
+
+static void command_read_before_its_inbox_is_released(void **state)
+{
+    fixture_t *f = *state;
+    urb_node_t *node = &f->node;
+    assert_int_equal(fx_command(node, URB_COMMAND_CODE_SIGNAL, 1u, 0u, 0u), FX_ALL_ACKED);
+    unsigned writes = 0u;
+    fx_step_hook = two_writes_at_release;
+    fx_step_ctx = &writes;
+    uint8_t const done = urb_node_poll(node);
+    fx_step_hook = NULL;
+    assert_int_equal(writes, 2u);
+    assert_true((done & URB_NODE_POLL_COMMAND) != 0u);
+    assert_int_equal(f->signals, 1u);
+    assert_int_equal(f->last_signal, 1u);
+    assert_true((urb_node_poll(node) & URB_NODE_POLL_COMMAND) != 0u); /* then the latest one */
+    assert_int_equal(f->last_signal, 3u);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -459,6 +547,10 @@ int main(void)
         cmocka_unit_test_setup(identification_refreshes, setup),
         cmocka_unit_test_setup(fault_after_identification_read_is_published, setup),
         cmocka_unit_test_setup(overrun_once_per_poll, setup),
+        cmocka_unit_test_setup(command_reset_republishes_and_the_next_command_runs, setup),
+        cmocka_unit_test_setup(acquisition_window_keeps_a_max_one_tick_larger, setup),
+        cmocka_unit_test_setup(update_due_during_the_reset_hook_runs, setup),
+        cmocka_unit_test_setup(command_read_before_its_inbox_is_released, setup),
     };
     return cmocka_run_group_tests_name("node_main_loop", tests, NULL, NULL);
 }

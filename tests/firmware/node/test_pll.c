@@ -275,6 +275,44 @@ static void two_nodes_outage(void **state)
     assert_true(r.all_synced_at_end);
 }
 
+/* Mutation score (tests/mutation/README.md): seeded bugs the tests above let through. */
+
+/* `synced` after exactly lock_count in-lock SYNCs in a row (the acquisition's first tracked SYNC
+ * still carries the lead's step, so the count starts after it), not one earlier. */
+static void locks_after_exactly_lock_count_syncs(void **state)
+{
+    fixture_t *f = *state;
+    unsigned const n = f->node.cfg->lock_count;
+    assert_true(n >= 2u);
+    uint32_t t = 30000u;
+    uint8_t c = 1u;
+    while (f->node.pll.good < n - 1u) {
+        assert_true(c < 20u);
+        t = syncs(f, t, PERIOD, 1u, c++);
+    }
+    assert_false(urb_node_synced(&f->node));
+    (void)syncs(f, t, PERIOD, 1u, c);
+    assert_true(urb_node_synced(&f->node));
+}
+
+/* A heartbeat interrupt so late that the following beat is one tick short of 1 us away moves that
+ * beat to exactly 1 us from now (at least 1 us ahead, never less). */
+static void late_interrupt_rearms_a_full_microsecond_ahead(void **state)
+{
+    fixture_t *f = *state;
+    uint32_t const margin = f->node.cfg->ticks_per_us;
+    f->node.pll.period_q8 = (PERIOD << 8) + 128u; /* a period estimate with half a tick: beats carry a fraction */
+    f->port.now = f->port.compare + PERIOD - (margin - 1u);
+    urb_node_timer_event(&f->node);
+    assert_int_equal(f->port.compare, f->port.now + margin);
+    assert_int_equal(f->node.pll.next_frac, 0u); /* the re-armed beat is a whole tick: its fraction goes */
+    /* a full microsecond away is left as it is */
+    f->port.now = f->port.compare + PERIOD - margin;
+    uint32_t const next = f->port.compare + PERIOD;
+    urb_node_timer_event(&f->node);
+    assert_int_equal(f->port.compare, next);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -287,6 +325,8 @@ int main(void)
         cmocka_unit_test_setup(silence_too_long_to_measure, setup),
         cmocka_unit_test(two_nodes_beat_table1),
         cmocka_unit_test(two_nodes_outage),
+        cmocka_unit_test_setup(locks_after_exactly_lock_count_syncs, setup),
+        cmocka_unit_test_setup(late_interrupt_rearms_a_full_microsecond_ahead, setup),
     };
     return cmocka_run_group_tests_name("node_pll", tests, NULL, NULL);
 }
