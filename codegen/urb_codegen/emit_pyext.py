@@ -308,10 +308,13 @@ def emit_pyext(schemas: list[Schema], out_dir: Path, c_dir: Path) -> list[Path]:
     messages = _nested_first(everything)
     for m in messages:
         _message(w, m)
-    w(f"static urb_msg_info_t *const urb_messages[] = {{{', '.join(f'&info_{m.name}' for m in messages)}}};")
+    # C has no empty arrays: a schema without messages or enums gets a NULL entry that the count leaves out
+    w(f"static urb_msg_info_t *const urb_messages[] = {{{', '.join(f'&info_{m.name}' for m in messages) or 'NULL'}}};")
+    w(f"static const size_t urb_message_count = {len(messages)}u;")
     w(f"static urb_enum_info_t *const urb_enums[] = {{{', '.join(f'&enum_{e.name}' for e in enums) or 'NULL'}}};")
+    w(f"static const size_t urb_enum_count = {len(enums)}u;")
     body = "\n".join(w.lines)
-    max_fields = max(1, max(len(_user_fields(m)) for m in messages))
+    max_fields = max([1, *(len(_user_fields(m)) for m in messages)])
     c_texts = {p.name: p.read_text(encoding="utf-8") for p in sorted(c_dir.glob("*.[ch]"))}
     fp = fingerprint(c_texts, body)
     env = Environment(loader=FileSystemLoader(str(Path(__file__).parent / "templates")), undefined=StrictUndefined,

@@ -37,7 +37,7 @@
 #include "urb_sensorhex.h"
 
 
-#define URB_ACCEL_FINGERPRINT "420f2c1232b85591"
+#define URB_ACCEL_FINGERPRINT "4cafbcc2b1dc0eb4"
 #define URB_MAX_FIELDS 11 /* the most fields of one message */
 
 /* ===== What the module knows of each class ================================================= */
@@ -3100,7 +3100,9 @@ static PyObject *decode_IrRange(PyObject *cls, PyObject *const *args, Py_ssize_t
 }
 
 static urb_msg_info_t *const urb_messages[] = {&info_UplinkReadRequest, &info_UplinkWriteRequest, &info_UplinkResponse, &info_UsbBatchHeader, &info_MailboxSelect, &info_DownlinkWrite, &info_DownlinkReadSelect, &info_DownlinkReadResponse, &info_SyncBroadcast, &info_Identification, &info_Command, &info_BridgeInfo, &info_BridgeScan, &info_BridgeCommand, &info_MotorFeedback, &info_MotorCommand, &info_MotorStatus, &info_MotorConfig, &info_BatteryPack, &info_BatteryStatus, &info_ImuSample, &info_IrRange};
+static const size_t urb_message_count = 22u;
 static urb_enum_info_t *const urb_enums[] = {&enum_Status, &enum_CommandCode, &enum_DownlinkKind, &enum_BridgeOpcode, &enum_MotorMode};
+static const size_t urb_enum_count = 5u;
 
 /* ===== The decode descriptor: the accelerated classmethod for the exact class ================= */
 
@@ -3146,7 +3148,7 @@ static PyTypeObject urb_decoder_type = {
 
 static urb_msg_info_t *urb_find_message(const char *name)
 {
-    for (size_t i = 0; i < sizeof urb_messages / sizeof urb_messages[0]; i++) {
+    for (size_t i = 0; i < urb_message_count; i++) {
         if (strcmp(urb_messages[i]->name, name) == 0) {
             return urb_messages[i];
         }
@@ -3165,7 +3167,7 @@ static PyObject *urb_register_enum(PyObject *module, PyObject *const *args, Py_s
     if (name == NULL) {
         return NULL;
     }
-    for (size_t i = 0; i < sizeof urb_enums / sizeof urb_enums[0]; i++) {
+    for (size_t i = 0; i < urb_enum_count; i++) {
         urb_enum_info_t *e = urb_enums[i];
         if (strcmp(e->name, name) != 0) {
             continue;
@@ -3297,18 +3299,18 @@ PyMODINIT_FUNC PyInit__accel(void)
     if (m == NULL) {
         return NULL;
     }
-    PyObject *messages = PyTuple_New((Py_ssize_t)(sizeof urb_messages / sizeof urb_messages[0]));
-    PyObject *enums = PyTuple_New((Py_ssize_t)(sizeof urb_enums / sizeof urb_enums[0]));
+    PyObject *messages = PyTuple_New((Py_ssize_t)(urb_message_count));
+    PyObject *enums = PyTuple_New((Py_ssize_t)(urb_enum_count));
     if (messages == NULL || enums == NULL) {
         Py_XDECREF(messages);
         Py_XDECREF(enums);
         Py_DECREF(m);
         return NULL;
     }
-    for (size_t i = 0; i < sizeof urb_messages / sizeof urb_messages[0]; i++) {
+    for (size_t i = 0; i < urb_message_count; i++) {
         PyTuple_SET_ITEM(messages, (Py_ssize_t)i, PyUnicode_FromString(urb_messages[i]->name));
     }
-    for (size_t i = 0; i < sizeof urb_enums / sizeof urb_enums[0]; i++) {
+    for (size_t i = 0; i < urb_enum_count; i++) {
         PyTuple_SET_ITEM(enums, (Py_ssize_t)i, PyUnicode_FromString(urb_enums[i]->name));
     }
     if (PyModule_AddObject(m, "MESSAGES", messages) < 0 || PyModule_AddObject(m, "ENUMS", enums) < 0 ||

@@ -27,7 +27,7 @@ from typing import Any
 
 from ._runtime import Message
 
-FINGERPRINT = "420f2c1232b85591"
+FINGERPRINT = "4cafbcc2b1dc0eb4"
 """The generated sources the extension must be built from (its own FINGERPRINT)."""
 MODULES = ("urb_core", "sensorhex", )
 """The schema modules whose classes it serves."""
