@@ -41,7 +41,7 @@ BUILD = ROOT / "build" / "fuzz"
 OUT = ROOT / "build" / "proofs" / "fuzz"
 CLANG = "clang"
 CFLAGS = ["-std=c99", "-g", "-O1", "-fsanitize=fuzzer,address,undefined", "-fno-sanitize-recover=all"]
-GEN = ["gen/c/urb_runtime.c", "gen/c/urb_core.c", "gen/c/urb_sensorhex.c"]
+GEN = ["gen/c/urb_runtime.c", "gen/c/urb_core.c", "gen/c/urb_sensorhex.c", "gen/c/urb_can_wire.c", "gen/c/urb_rs485_wire.c"]
 
 
 @dataclass(frozen=True)
@@ -92,6 +92,35 @@ TARGETS = {
             ),
             "ASan/UBSan clean on any configuration, bus event and application script; every ACK/NACK, "
             "committed message and read-back value as the mailbox models say",
+        ),
+        Target(
+            "fuzz_can",
+            ("firmware/include", "gen/c", "tests/firmware/can", "tests/firmware/dl_common", "tests/fuzz"),
+            (
+                "tests/fuzz/fuzz_can.c",
+                "tests/firmware/can/can_bus.c",
+                "tests/firmware/dl_common/fake_mailbox.c",
+                "firmware/downlink/can/urb_can_transfer.c",
+                "firmware/downlink/can/urb_can_master.c",
+                "firmware/downlink/can/urb_can_slave.c",
+                *GEN,
+            ),
+            "ASan/UBSan clean on any script of CAN transactions, injected frames, bus faults and bus-off; "
+            "mailbox calling rules kept; every outcome in time, named by the contract and truthful",
+        ),
+        Target(
+            "fuzz_rs485",
+            ("firmware/include", "gen/c", "tests/firmware/dl_common", "tests/fuzz"),
+            (
+                "tests/fuzz/fuzz_rs485.c",
+                "tests/firmware/dl_common/fake_mailbox.c",
+                "firmware/downlink/rs485/urb_rs485_frame.c",
+                "firmware/downlink/rs485/urb_rs485_master.c",
+                "firmware/downlink/rs485/urb_rs485_slave.c",
+                *GEN,
+            ),
+            "ASan/UBSan clean on any script of RS485 polls, babbling, corrupted bytes and stalls; "
+            "mailbox calling rules kept; every outcome in time, named by the contract and truthful",
         ),
     )
 }

@@ -41,7 +41,7 @@ FIRMWARE = "firmware"
 # Every C file under firmware/ is one or the other; the test doubles are matched first.
 TEST_DOUBLES = ("firmware/hal/hosted/", "firmware/hal/sim/", "firmware/bridge/hosted_main.c")
 PRODUCTION = ("firmware/node/", "firmware/bridge/", "firmware/include/", "firmware/apps/",
-              "firmware/hal/cortex-m0plus/")
+              "firmware/hal/cortex-m0plus/", "firmware/downlink/")
 
 # The production folder whose code each model describes: an implementation citation elsewhere (the
 # bridge's I2C master citing the node's mailbox) is an error.
@@ -51,6 +51,8 @@ MODULE_HOME = {
     "Bridge": "firmware/bridge/",
     "UsbUplink": "firmware/bridge/",
     "Discovery": "firmware/bridge/",
+    "CanTransfer": "firmware/downlink/can/",
+    "Rs485Poll": "firmware/downlink/rs485/",
 }
 
 # Actions done by application code through the locked buffer pointer, not by the library.
@@ -64,10 +66,18 @@ BY_ENVIRONMENT = {
     "Discovery": {"NodeVanish": "the bus: a node leaves", "NodeAppear": "the bus: a node joins",
                   "HostBuildTable": "the host"},
     "UsbUplink": {"Submit": "the host application", "Callback": "the host application"},
+    "CanTransfer": {"Lose": "the bus: a receiver's controller overruns",
+                    "Duplicate": "the bus: an error in the end of frame's last bit",
+                    "ErrorFrame": "the CAN controller: error frames, error counter, bus-off",
+                    "Recover": "the CAN controller: bus-off recovery"},
+    "Rs485Poll": {"BabbleStart": "the line: a babbling node", "BabbleStop": "the line: a babbling node"},
 }
 
-DEFINITION = re.compile(r"^([A-Z]\w*)\s*(\([^)]*\))?\s*==", re.MULTILINE)
+DEFINITION = re.compile(r"^([A-Z]\w*)\s*(\((?:[^()]|\([^()]*\))*\))?\s*==", re.MULTILINE)  # parameters may be operators: R(_, _)
 DECLARED = re.compile(r"^(?:CONSTANTS?|VARIABLES?)\b(.*?)(?=^\S|\Z)", re.MULTILINE | re.DOTALL)
+# `SendEnd == SendEndWith(FALSE)`: an action fixed from a parameterised one (whose other arguments
+# make the mutants) is the action the next-state relation names.
+SPECIALISATION = re.compile(r"([A-Z]\w*)\s*\([^()]*\)")
 NEXT_STATE = re.compile(r"\[\]\[\s*([A-Z]\w*)\s*\]_")  # [][Next]_vars
 # A module mention, with an optional path (spec/tla/Bridge.tla), and what follows it.
 MENTION = re.compile(r"(?<![\w.])((?:[\w.-]+/)*)([A-Za-z]\w*)\.tla\b")
@@ -130,7 +140,8 @@ def actions(module: str) -> list[str]:
     """The actions of every next-state relation a specification of the module uses (`[][Next]_vars`,
     and Bridge.tla's ReconnectNext, ResetNext and RestartNext): operators they name that change
     state (have primes), found by expanding the ones that only combine others (IsrNext, AppNext,
-    ...)."""
+    ...); an operator that only applies a primed one to fixed arguments (Rs485Poll.tla's
+    `SendEnd == SendEndWith(FALSE)`) is an action under its own name."""
     defs = definitions(module)
     out: list[str] = []
 
@@ -139,7 +150,9 @@ def actions(module: str) -> list[str]:
             return
         seen.add(name)
         body = _uncommented(defs[name])
-        if "'" in body and name not in roots:
+        special = SPECIALISATION.fullmatch(body.strip())
+        if name not in roots and ("'" in body or (special is not None and special.group(1) in defs
+                                                   and "'" in _uncommented(defs[special.group(1)]))):
             if name not in out:
                 out.append(name)
             return

@@ -139,3 +139,22 @@ def test_actions_of_every_specification_are_listed() -> None:
     actions = _xref().actions("Bridge")
     assert {"HostLinkLost", "HostReopen", "BridgeReset"} <= set(actions)
     assert "ReconnectNext" not in actions and "Next" not in actions
+
+
+def test_operator_parameters_and_fixed_actions_are_read() -> None:
+    """CanTransfer.tla's `SendFrameBy(s, R(_, _)) ==` is a definition (an operator parameter's
+    parentheses inside the parameter list), and Rs485Poll.tla's `SendEnd == SendEndWith(FALSE)`, an
+    action fixed from a parameterised one, is the action under the name the next-state relation uses."""
+    xref = _xref()
+    assert {"SendFrameBy", "DuplicateBy", "NextBy"} <= set(xref.definitions("CanTransfer"))
+    assert xref.actions("CanTransfer") == ["SendStart", "SendFrame", "Lose", "Duplicate", "ErrorFrame", "Recover"]
+    rs485 = xref.actions("Rs485Poll")
+    assert {"SendEnd", "Silence", "BabbleStart"} <= set(rs485)
+    assert not {"SendEndWith", "SilenceWith", "BabbleStartWith"} & set(rs485)
+
+
+def test_a_downlink_action_cited_in_the_other_downlink_fails() -> None:
+    """The downlinks have their own homes: the CAN master citing the RS485 poll is no implementation."""
+    problems = _xref().problems(_edited("firmware/downlink/can/urb_can_master.c",
+                                        "/* CanTransfer.tla SendStart */", "/* Rs485Poll.tla: Poll */"))
+    assert any("outside firmware/downlink/rs485/" in p for p in problems)

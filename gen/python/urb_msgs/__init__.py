@@ -16,21 +16,27 @@ from ._runtime import (
 )
 from . import _codec
 from . import urb_core
+from . import urb_can_wire
+from . import urb_rs485_wire
 from . import sensorhex
 
 MESSAGES: dict[str, type[Message]] = {
     **urb_core.MESSAGES,
+    **urb_can_wire.MESSAGES,
+    **urb_rs485_wire.MESSAGES,
     **sensorhex.MESSAGES,
 }
 """Every message of every bundled schema by name."""
 NODES: dict[str, NodeInfo] = {
     **urb_core.NODES,
+    **urb_can_wire.NODES,
+    **urb_rs485_wire.NODES,
     **sensorhex.NODES,
 }
 """Every node type of every bundled schema by name."""
 
 # the classes' codec: the accelerated one of _accel when built, else the pure-Python one (_codec.py)
-_codec.install([urb_core, sensorhex])
+_codec.install([urb_core, urb_can_wire, urb_rs485_wire, sensorhex])
 
 __all__ = [
     'ArgumentError',
@@ -47,5 +53,7 @@ __all__ = [
     'MESSAGES',
     'NODES',
     'urb_core',
+    'urb_can_wire',
+    'urb_rs485_wire',
     'sensorhex',
 ]

@@ -27,9 +27,9 @@ from typing import Any
 
 from ._runtime import Message
 
-FINGERPRINT = "4cafbcc2b1dc0eb4"
+FINGERPRINT = "99393918688b0a31"
 """The generated sources the extension must be built from (its own FINGERPRINT)."""
-MODULES = ("urb_core", "sensorhex", )
+MODULES = ("urb_core", "urb_can_wire", "urb_rs485_wire", "sensorhex", )
 """The schema modules whose classes it serves."""
 ENV = "URB_PURE_PYTHON"
 

@@ -121,4 +121,25 @@
  * read's, comes from a transaction of at least 37 I2C byte times (~40 000 cycles). */
 #define FW_BRIDGE_FIFO_OP_BUDGET (FW_CYCLE_CYCLES / 6u)
 
+/* ===== Downlink proofs (proofs/bmc/fw_can_*, fw_rs485_*; issue #39) ========================= */
+
+/* CAN at 1 Mb/s: the shortest URB frame (one data byte, the tail; no stuff bit) is 47 + 8 = 55 bit
+ * times = 55 us = 2640 cycles, the least time between two frame interrupts. A frame's handling
+ * (urb_can_tx_next building the next frame, urb_can_rx_frame taking one) gets half of it, as every
+ * interrupt path. (A frame of 8 data bytes takes up to 135 bit times: 135 us; the short frames set
+ * the budget.) */
+#define FW_CAN_BIT_RATE 1000000u
+#define FW_CAN_SHORTEST_FRAME_BITS 55u
+#define FW_CAN_FRAME_BUDGET (((FW_CPU_HZ / FW_CAN_BIT_RATE) * FW_CAN_SHORTEST_FRAME_BITS) / 2u)
+
+/* RS485 at 1 Mb/s: one character (8N1) is 10 bit times = 10 us = 480 cycles. A received byte's
+ * handling (urb_rs485_rx_byte: both CRC tiers advance, two bytes behind the line) costs up to ~370
+ * cycles by the model, so it does NOT fit half a character at 1 Mb/s (it does at 500 kBd, where a
+ * character is 960 cycles). The budget is the whole character: at 1 Mb/s the port must take bytes
+ * from the UART's receive FIFO (the STM32G0 USART holds 8) so that the interrupt's entry and the
+ * other interrupts do not lose a byte (fw_rs485_frame proves the cycles; the README says it). */
+#define FW_RS485_BAUD 1000000u
+#define FW_RS485_BYTE_CYCLES ((FW_CPU_HZ / FW_RS485_BAUD) * 10u)
+#define FW_RS485_BYTE_BUDGET FW_RS485_BYTE_CYCLES
+
 #endif /* FW_BUDGETS_H */

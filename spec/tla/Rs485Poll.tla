@@ -1,0 +1,199 @@
+----------------------------- MODULE Rs485Poll -----------------------------
+(***************************************************************************)
+(* The RS485 poll cycle (spec/schema/README.md, "RS485 downlink";           *)
+(* firmware/downlink/rs485/: urb_rs485_master.c, urb_rs485_slave.c), at    *)
+(* the level of whole frames on a half-duplex line.                        *)
+(*                                                                         *)
+(* The bridge polls one address at a time with a write (a request that     *)
+(* changes the node when it takes it).  It sends only on a silent line; it *)
+(* hears its own frame, and an echo that differs (a babbler drives too) is *)
+(* a collision: cut before the last byte, no node can take the frame; on   *)
+(* the last byte the node may or may not.  The polled node, if present and *)
+(* if its frame arrived whole, takes it at the frame's end (t3.5 of        *)
+(* silence) and answers at once; a babbler that talks before that breaks   *)
+(* the frame (Modbus: discarded).  No answer: the bridge's silence timeout *)
+(* (t3.5 + turnaround + a character) gives NO_NODE.  A babbler may talk at *)
+(* any time; bytes the bridge hears while nobody was polled are counted.   *)
+(* Outcomes (status names of core.urbs): OK, CHECKSUM (the node's check    *)
+(* failed: not stored), TIMEOUT (a corrupted answer: unknown), NO_NODE,    *)
+(* BUS_STUCK (cut: not executed).                                          *)
+(***************************************************************************)
+EXTENDS Naturals, Sequences, FiniteSets
+
+CONSTANTS
+    Nodes,      \* addresses of the nodes on the line
+    Polls,      \* the addresses the bridge polls, in order (some may be absent)
+    MaxBabble   \* bursts of the babbler
+
+ASSUME MaxBabble \in Nat
+
+BRIDGE == "bridge"
+BABBLER == "babbler"
+NOBODY == "nobody"
+Talkers == Nodes \cup {BRIDGE, BABBLER}
+Results == {"none", "OK", "CHECKSUM", "TIMEOUT", "NO_NODE", "BUS_STUCK"}
+
+VARIABLES
+    k,          \* the poll in progress (index into Polls), Len(Polls) + 1 when all done
+    phase,      \* bridge: "idle", "send", "wait", "answer", "drain", "done"
+    drivers,    \* who drives the line now
+    cut,        \* the collision cut the request before its last byte
+    due,        \* the node that will answer (it took the request or must refuse it), or NOBODY
+    got,        \* what the polled node received: "none", "intact", "corrupt"
+    executed,   \* ghost: the polled node stored the request
+    garbled,    \* the answer heard was overlapped by the babbler
+    from,       \* who sent the answer the bridge hears
+    result,     \* the bridge's outcome of the poll in progress
+    babbleLeft, \* babbler bursts left
+    babbledIdle,\* ghost: the babbler talked while nobody was polled
+    heard,      \* the bridge's babble counter (capped at 1)
+    reported    \* ghost: outcomes reported, as [result, executed] records
+
+vars == <<k, phase, drivers, cut, due, got, executed, garbled, from, result, babbleLeft,
+          babbledIdle, heard, reported>>
+
+Target == Polls[k]
+
+TypeOK ==
+    /\ k \in 1..Len(Polls) + 1
+    /\ phase \in {"idle", "send", "wait", "answer", "drain", "done"}
+    /\ drivers \subseteq Talkers /\ cut \in BOOLEAN
+    /\ due \in Nodes \cup {NOBODY} /\ got \in {"none", "intact", "corrupt"}
+    /\ executed \in BOOLEAN /\ garbled \in BOOLEAN /\ from \in Talkers \cup {NOBODY}
+    /\ result \in Results /\ babbleLeft \in 0..MaxBabble
+    /\ babbledIdle \in BOOLEAN /\ heard \in 0..1
+    /\ reported \in Seq([result : Results, executed : BOOLEAN])
+
+Init ==
+    /\ k = 1 /\ phase = "idle" /\ drivers = {} /\ cut = FALSE /\ due = NOBODY
+    /\ got = "none" /\ executed = FALSE /\ garbled = FALSE /\ from = NOBODY
+    /\ result = "none" /\ babbleLeft = MaxBabble /\ babbledIdle = FALSE /\ heard = 0
+    /\ reported = <<>>
+
+(***************************************************************************)
+(* master_begin / send: the bridge polls the next address on a silent line.*)
+(***************************************************************************)
+Poll ==
+    /\ phase = "idle" /\ k <= Len(Polls) /\ drivers = {}
+    /\ phase' = "send" /\ drivers' = {BRIDGE}
+    /\ cut' = FALSE /\ got' = "none" /\ executed' = FALSE /\ garbled' = FALSE
+    /\ from' = NOBODY /\ result' = "none" /\ due' = NOBODY
+    /\ UNCHANGED <<k, babbleLeft, babbledIdle, heard, reported>>
+
+(* urb_rs485_master_rx, Collide: an echo byte before the last differs. The *)
+(* bridge stops driving; the frame reaches nobody.                         *)
+CollideMid ==
+    /\ phase = "send" /\ BABBLER \in drivers
+    /\ phase' = "drain" /\ drivers' = drivers \ {BRIDGE} /\ cut' = TRUE
+    /\ UNCHANGED <<k, due, got, executed, garbled, from, result, babbleLeft, babbledIdle, heard, reported>>
+
+(* The request's last byte is out: the polled node (if any) has the frame, *)
+(* whole or (a babbler on the last byte) possibly corrupted.              *)
+SendEndWith(stuck) ==
+    /\ phase = "send"
+    /\ \E g \in (IF BABBLER \in drivers THEN {"intact", "corrupt"} ELSE {"intact"}) :
+          /\ got' = IF Target \in Nodes THEN g ELSE "none"
+          /\ due' = IF Target \in Nodes THEN Target ELSE NOBODY
+    /\ phase' = IF stuck /\ BABBLER \in drivers THEN "drain" ELSE "wait"
+    /\ drivers' = drivers \ {BRIDGE}
+    /\ UNCHANGED <<k, cut, executed, garbled, from, result, babbleLeft, babbledIdle, heard, reported>>
+
+SendEnd == SendEndWith(FALSE)
+
+(* urb_rs485_slave: at t3.5 of silence the node takes the frame (stored if *)
+(* whole, CHECKSUM if not) and drives its answer.                          *)
+Answer(n) ==
+    /\ due = n /\ drivers = {}
+    /\ executed' = (got = "intact")
+    /\ drivers' = {n} /\ due' = NOBODY /\ from' = n
+    /\ phase' = IF phase = "wait" THEN "answer" ELSE phase
+    /\ UNCHANGED <<k, cut, got, garbled, result, babbleLeft, babbledIdle, heard, reported>>
+
+(* The answer's last byte: the bridge judges it (at its t3.5, folded in).  *)
+AnswerEnd(n) ==
+    /\ n \in drivers /\ n \in Nodes
+    /\ drivers' = drivers \ {n}
+    /\ IF phase = "answer"
+       THEN /\ result' = IF garbled \/ BABBLER \in drivers THEN "TIMEOUT"
+                         ELSE IF got = "intact" THEN "OK" ELSE "CHECKSUM"
+            /\ phase' = "done"
+       ELSE UNCHANGED <<result, phase>>
+    /\ UNCHANGED <<k, cut, due, got, executed, garbled, from, babbleLeft, babbledIdle, heard, reported>>
+
+(* Silence: no answer began within t3.5 + the turnaround: NO_NODE.        *)
+SilenceWith(early) ==
+    /\ phase = "wait" /\ drivers = {} /\ (early \/ due = NOBODY)
+    /\ result' = "NO_NODE" /\ phase' = "done"
+    /\ UNCHANGED <<k, drivers, cut, due, got, executed, garbled, from, babbleLeft, babbledIdle, heard, reported>>
+
+Silence == SilenceWith(FALSE)
+
+(* After a collision the bridge waits for silence: BUS_STUCK, not executed.*)
+Drain ==
+    /\ phase = "drain" /\ drivers = {}
+    /\ result' = "BUS_STUCK" /\ phase' = "done"
+    /\ UNCHANGED <<k, drivers, cut, due, got, executed, garbled, from, babbleLeft, babbledIdle, heard, reported>>
+
+(* poll() returns the outcome; the next poll may follow.                   *)
+Report ==
+    /\ phase = "done"
+    /\ reported' = Append(reported, [result |-> result, executed |-> executed])
+    /\ k' = k + 1 /\ phase' = "idle"
+    /\ UNCHANGED <<drivers, cut, due, got, executed, garbled, from, result, babbleLeft, babbledIdle, heard>>
+
+(***************************************************************************)
+(* The babbler starts talking: while nobody is polled the bridge counts it;*)
+(* during the request it collides; before a node's t3.5 it breaks the     *)
+(* frame the node waits on; during an answer it garbles it; in the bridge's*)
+(* wait it is heard as an answer that will not check.                      *)
+(***************************************************************************)
+BabbleStartWith(count) ==
+    /\ babbleLeft > 0 /\ BABBLER \notin drivers
+    /\ drivers' = drivers \cup {BABBLER} /\ babbleLeft' = babbleLeft - 1
+    /\ babbledIdle' = (babbledIdle \/ phase \in {"idle", "done"})
+    /\ heard' = IF count /\ phase \in {"idle", "done"} THEN 1 ELSE heard
+    /\ due' = IF drivers = {} /\ phase = "wait" THEN NOBODY ELSE due
+    /\ garbled' = (garbled \/ phase = "answer" \/ (phase = "wait" /\ drivers = {}))
+    /\ IF phase = "wait" /\ drivers = {}
+       THEN phase' = "answer" /\ from' = BABBLER
+       ELSE UNCHANGED <<phase, from>>
+    /\ UNCHANGED <<k, cut, got, executed, result, reported>>
+
+BabbleStart == BabbleStartWith(TRUE)
+
+BabbleStop ==
+    /\ BABBLER \in drivers
+    /\ drivers' = drivers \ {BABBLER}
+    /\ IF phase = "answer" /\ from = BABBLER
+       THEN result' = "TIMEOUT" /\ phase' = "done"
+       ELSE UNCHANGED <<result, phase>>
+    /\ UNCHANGED <<k, cut, due, got, executed, garbled, from, babbleLeft, babbledIdle, heard, reported>>
+
+Terminated == k > Len(Polls) /\ drivers = {} /\ UNCHANGED vars
+
+NextWith(send, silence, babble) ==
+        \/ Poll \/ CollideMid \/ send \/ silence \/ Drain \/ Report
+        \/ \E n \in Nodes : Answer(n) \/ AnswerEnd(n)
+        \/ babble \/ BabbleStop \/ Terminated
+
+Next == NextWith(SendEnd, Silence, BabbleStart)
+
+Spec == Init /\ [][Next]_vars
+
+-----------------------------------------------------------------------------
+(* One talker at a time among the bridge and the nodes (the babbler is the *)
+(* fault the others detect).                                               *)
+OneTalker == Cardinality(drivers \ {BABBLER}) <= 1
+
+(* A reported outcome tells the truth about the node's mailbox: OK only if *)
+(* it stored the request; CHECKSUM, NO_NODE and BUS_STUCK only if it did   *)
+(* not (TIMEOUT says nothing).  Bridge.tla's WriteStatusTruthful.          *)
+StatusTruthful == \A i \in DOMAIN reported :
+    /\ reported[i].result = "OK" => reported[i].executed
+    /\ reported[i].result \in {"CHECKSUM", "NO_NODE", "BUS_STUCK"} => ~reported[i].executed
+
+(* Bytes heard while nobody was polled are counted (babbling detected).    *)
+BabbleCounted == babbledIdle => heard > 0
+
+THEOREM Spec => [](TypeOK /\ OneTalker /\ StatusTruthful /\ BabbleCounted)
+=============================================================================

@@ -1,0 +1,7 @@
+---------------------- MODULE Rs485Poll_NoBabbleCount ----------------------
+(* MUTANT of Rs485Poll: bytes heard while nobody was polled are not counted: a babbler goes unnoticed. *)
+(* Expected: BabbleCounted *)
+EXTENDS MCRs485Poll
+
+MutSpec == Init /\ [][NextWith(SendEnd, Silence, BabbleStartWith(FALSE))]_vars
+=============================================================================

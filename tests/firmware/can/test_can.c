@@ -1,0 +1,741 @@
+/*
+ * cmocka tests of the CAN downlink: the transfer layer (identifiers against the schema's codec,
+ * timing, segmentation, every reassembly error path), and the master and slave end to end on the
+ * in-memory bus (can_bus.h) with every outcome of urb_can_master.h, duplicates, losses, stale
+ * answers, bus-off and recovery. The segmentation's independent oracle is pycyphal
+ * (test_can_pycyphal.py, the `vectors` mode of this program).
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "can_bus.h"
+#include "fake_mailbox.h"
+#include "urb_can.h"
+#include "urb_can_master.h"
+#include "urb_can_slave.h"
+#include "urb_can_wire.h"
+#include "urb_core.h"
+
+/* ===== Transfer layer ========================================================================== */
+
+static void test_id_matches_schema(void **state)
+{
+    (void)state;
+    for (unsigned a = 0u; a < 64u; a++) {
+        for (unsigned m = 0u; m < 8u; m++) {
+            for (unsigned r = 0u; r < 2u; r++) {
+                for (unsigned d = 0u; d < 2u; d++) {
+                    urb_can_id_t id = {(uint8_t)m, r != 0u, (uint8_t)a, (uint8_t)d};
+                    uint8_t buf[2];
+                    if ((a == 0u) && ((m | r | d) != 0u)) {
+                        /* the schema's rule: address 0 only in SYNC's identifier */
+                        assert_int_equal(urb_can_id_encode(&id, buf, sizeof buf), URB_ERR_RANGE);
+                        continue;
+                    }
+                    assert_int_equal(urb_can_id_encode(&id, buf, sizeof buf), 2);
+                    uint16_t const want = (uint16_t)(buf[0] | (buf[1] << 8));
+                    assert_int_equal(urb_can_id((uint8_t)a, (uint8_t)m, r != 0u, (uint8_t)d), want);
+                    assert_true(want <= 0x7FFu);
+                }
+            }
+        }
+    }
+    assert_int_equal(urb_can_id(0u, 0u, false, URB_CAN_REQUEST), URB_CAN_SYNC_ID);
+    /* every bridge frame outranks every node frame */
+    assert_true(urb_can_id(63u, 7u, true, URB_CAN_REQUEST) < urb_can_id(1u, 0u, false, URB_CAN_RESPONSE));
+    assert_int_equal(urb_can_session(3u, true), 11u);
+    assert_int_equal(urb_can_session(3u, false), 3u);
+}
+
+static void test_timing(void **state)
+{
+    (void)state;
+    for (uint8_t s = 0u; s <= 8u; s++) {
+        assert_int_equal(urb_can_frame_bits_max(s, false), 55u + 10u * s);
+        assert_int_equal(urb_can_frame_bits_max(s, true), 80u + 10u * s);
+        assert_int_equal(urb_can_frame_bits_min(s, false), 47u + 8u * s);
+    }
+    assert_int_equal(urb_can_frame_bits_max(8u, false), 135u); /* 135 us at 1 Mb/s */
+    assert_int_equal(urb_can_frames(0u), 1u);
+    assert_int_equal(urb_can_frames(7u), 1u);
+    assert_int_equal(urb_can_frames(8u), 2u);
+    assert_int_equal(urb_can_frames(12u), 2u);
+    assert_int_equal(urb_can_frames(13u), 3u);
+    assert_int_equal(urb_can_frames(32u), 5u);
+    assert_int_equal(urb_can_frames(200u), 5u);
+    /* the longest transaction: a 32-byte write (5 frames) and a refusal (2 bytes) */
+    assert_int_equal(urb_can_transfer_bits_max(32u) + urb_can_transfer_bits_max(1u), URB_CAN_LONGEST_BITS);
+    assert_true(urb_can_transfer_bits_max(0u) + urb_can_transfer_bits_max(32u) <= URB_CAN_LONGEST_BITS);
+    assert_int_equal(urb_can_master_timeout_us(1000u), 2000u);
+    assert_int_equal(urb_can_master_timeout_us(500u), 3460u);
+    assert_int_equal(urb_can_master_timeout_us(250u), 6420u);
+    assert_int_equal(urb_can_master_timeout_us(0u), URB_CAN_MIN_TIMEOUT_US);
+    assert_int_equal(urb_can_master_recover_us(1000u), 2816u);
+    assert_int_equal(urb_can_master_recover_us(0u), 1000u);
+    assert_int_equal(urb_can_slave_dup_window_us(1000u), 1080u);
+    assert_int_equal(urb_can_slave_dup_window_us(250u), 4320u);
+}
+
+/* Frames of a transfer into f[], returns their number. */
+static uint8_t segment(const uint8_t *payload, uint8_t len, uint8_t tid, urb_can_frame_t f[8])
+{
+    urb_can_tx_t tx;
+    urb_can_tx_init(&tx, payload, len, tid);
+    uint8_t n = 0u;
+    while (n < 8u) {
+        uint8_t const k = urb_can_tx_next(&tx, f[n].data);
+        if (k == 0u) {
+            break;
+        }
+        f[n].len = k;
+        n++;
+    }
+    assert_true(urb_can_tx_done(&tx));
+    assert_int_equal(urb_can_tx_next(&tx, f[7].data), 0u);
+    return n;
+}
+
+static void test_segment_and_reassemble(void **state)
+{
+    (void)state;
+    uint8_t payload[32];
+    for (uint8_t i = 0u; i < 32u; i++) {
+        payload[i] = (uint8_t)(0x5Au ^ (i * 7u));
+    }
+    for (uint8_t len = 0u; len <= 32u; len++) {
+        for (uint8_t tid = 0u; tid < 32u; tid = (uint8_t)(tid + 7u)) {
+            urb_can_frame_t f[8];
+            uint8_t const n = segment(payload, len, tid, f);
+            assert_int_equal(n, urb_can_frames(len));
+            urb_can_rx_t rx;
+            urb_can_rx_reset(&rx);
+            uint8_t out[40];
+            memset(out, 0, sizeof out);
+            for (uint8_t k = 0u; k < n; k++) {
+                uint8_t const tail = f[k].data[f[k].len - 1u];
+                assert_int_equal(tail & URB_CAN_TAIL_TID, tid);
+                assert_int_equal((tail & URB_CAN_TAIL_START) != 0u, k == 0u);
+                assert_int_equal((tail & URB_CAN_TAIL_END) != 0u, k + 1u == n);
+                assert_int_equal((tail & URB_CAN_TAIL_TOGGLE) != 0u, (k % 2u) == 0u);
+                if (k + 1u < n) {
+                    assert_int_equal(f[k].len, 8u); /* every frame but the last is full */
+                }
+                urb_can_tail_t t;
+                assert_int_equal(urb_can_tail_decode(&t, &tail, 1u), 1); /* the schema's tail byte */
+                assert_int_equal(t.transfer_id, tid);
+                urb_can_rx_result_t const r = urb_can_rx_frame(&rx, f[k].data, f[k].len, out, 32u);
+                assert_int_equal(r, (k + 1u == n) ? URB_CAN_RX_DONE : URB_CAN_RX_MORE);
+            }
+            assert_int_equal(urb_can_rx_len(&rx), len);
+            assert_int_equal(urb_can_rx_tid(&rx), tid);
+            assert_false(urb_can_rx_active(&rx));
+            assert_memory_equal(out, payload, len);
+            if (len > 7u) {
+                /* the CRC is CRC-16/CCITT-FALSE, appended most significant byte first */
+                uint16_t const crc = urb_can_crc(0xFFFFu, payload, len);
+                uint8_t all[34];
+                uint8_t at = 0u;
+                for (uint8_t k = 0u; k < n; k++) {
+                    memcpy(&all[at], f[k].data, f[k].len - 1u);
+                    at = (uint8_t)(at + f[k].len - 1u);
+                }
+                assert_int_equal(at, len + 2u);
+                assert_int_equal(all[len], crc >> 8);
+                assert_int_equal(all[len + 1u], crc & 0xFFu);
+                assert_int_equal(urb_can_crc(0xFFFFu, all, at), 0u);
+            }
+        }
+    }
+    /* the check value of CRC-16/CCITT-FALSE */
+    assert_int_equal(urb_can_crc(0xFFFFu, (const uint8_t *)"123456789", 9u), 0x29B1u);
+}
+
+static void test_reassembly_errors(void **state)
+{
+    (void)state;
+    uint8_t payload[20];
+    for (uint8_t i = 0u; i < 20u; i++) {
+        payload[i] = i;
+    }
+    urb_can_frame_t f[8];
+    uint8_t const n = segment(payload, 19u, 9u, f); /* 21 bytes: 3 frames */
+    assert_int_equal(n, 3u);
+    urb_can_rx_t rx;
+    uint8_t out[32];
+    urb_can_rx_reset(&rx);
+    assert_int_equal(urb_can_rx_frame(&rx, f[0].data, 0u, out, 32u), URB_CAN_RX_EMPTY);
+    assert_int_equal(urb_can_rx_frame(&rx, f[1].data, f[1].len, out, 32u), URB_CAN_RX_NO_START);
+    uint8_t bad_start[2] = {1u, (uint8_t)(URB_CAN_TAIL_START | URB_CAN_TAIL_END | 3u)}; /* toggle 0 */
+    assert_int_equal(urb_can_rx_frame(&rx, bad_start, 2u, out, 32u), URB_CAN_RX_BAD_START);
+    /* a repeated frame (toggle), a repeated start, another transfer id */
+    assert_int_equal(urb_can_rx_frame(&rx, f[0].data, f[0].len, out, 32u), URB_CAN_RX_MORE);
+    assert_int_equal(urb_can_rx_frame(&rx, f[0].data, f[0].len, out, 32u), URB_CAN_RX_TOGGLE);
+    assert_int_equal(urb_can_rx_frame(&rx, f[1].data, f[1].len, out, 32u), URB_CAN_RX_MORE);
+    assert_int_equal(urb_can_rx_frame(&rx, f[1].data, f[1].len, out, 32u), URB_CAN_RX_TOGGLE);
+    urb_can_frame_t other = f[2];
+    other.data[other.len - 1u] = (uint8_t)((other.data[other.len - 1u] & ~URB_CAN_TAIL_TID) | 10u);
+    assert_int_equal(urb_can_rx_frame(&rx, other.data, other.len, out, 32u), URB_CAN_RX_OTHER_TID);
+    assert_int_equal(urb_can_rx_frame(&rx, f[2].data, f[2].len, out, 32u), URB_CAN_RX_DONE);
+    assert_int_equal(urb_can_rx_frame(&rx, f[2].data, f[2].len, out, 32u), URB_CAN_RX_NO_START);
+    /* a lost middle frame: the toggle rule takes the last one (same toggle as the first), the CRC
+     * refuses the transfer */
+    urb_can_rx_reset(&rx);
+    assert_int_equal(urb_can_rx_frame(&rx, f[0].data, f[0].len, out, 32u), URB_CAN_RX_MORE);
+    assert_int_equal(urb_can_rx_frame(&rx, f[2].data, f[2].len, out, 32u), URB_CAN_RX_TOGGLE);
+    /* a corrupted byte: CRC */
+    urb_can_rx_reset(&rx);
+    urb_can_frame_t bad = f[1];
+    bad.data[2] ^= 0x10u;
+    assert_int_equal(urb_can_rx_frame(&rx, f[0].data, f[0].len, out, 32u), URB_CAN_RX_MORE);
+    assert_int_equal(urb_can_rx_frame(&rx, bad.data, bad.len, out, 32u), URB_CAN_RX_MORE);
+    assert_int_equal(urb_can_rx_frame(&rx, f[2].data, f[2].len, out, 32u), URB_CAN_RX_CRC);
+    /* a new start drops the transfer in progress */
+    urb_can_frame_t g[8];
+    (void)segment(payload, 5u, 11u, g);
+    urb_can_rx_reset(&rx);
+    assert_int_equal(urb_can_rx_frame(&rx, f[0].data, f[0].len, out, 32u), URB_CAN_RX_MORE);
+    assert_int_equal(urb_can_rx_frame(&rx, g[0].data, g[0].len, out, 32u), URB_CAN_RX_DONE);
+    assert_int_equal(urb_can_rx_len(&rx), 5u);
+    /* beyond the caller's room: counted, not stored */
+    urb_can_rx_reset(&rx);
+    uint8_t small[4] = {0u, 0u, 0u, 0xA5u};
+    for (uint8_t k = 0u; k < n; k++) {
+        (void)urb_can_rx_frame(&rx, f[k].data, f[k].len, small, 3u);
+    }
+    assert_int_equal(urb_can_rx_len(&rx), 19u);
+    assert_int_equal(small[3], 0xA5u);
+    /* a frame longer than 8 bytes is taken as 8 */
+    assert_int_equal(urb_can_rx_frame(&rx, f[0].data, 200u, out, 32u), URB_CAN_RX_MORE);
+}
+
+/* ===== End to end: a bridge master, two node slaves, the in-memory bus ========================= */
+
+typedef struct {
+    can_bus_t bus;
+    can_port_t bport, nport[2];
+    urb_can_master_t master;
+    urb_downlink_t dl;
+    urb_can_slave_t slave[2];
+    fake_mailbox_t fm[2];
+    uint8_t data[32];
+    uint32_t states_seen;
+} rig_t;
+
+static rig_t rig;
+
+static void m_rx(void *o, const urb_can_frame_t *f, uint32_t t)
+{
+    (void)t;
+    urb_can_master_rx((urb_can_master_t *)o, f);
+}
+static void m_txd(void *o)
+{
+    urb_can_master_tx_done((urb_can_master_t *)o);
+}
+static void m_state(void *o, uint8_t s)
+{
+    (void)o;
+    (void)s;
+    rig.states_seen++;
+}
+static void s_rx(void *o, const urb_can_frame_t *f, uint32_t t)
+{
+    urb_can_slave_rx((urb_can_slave_t *)o, f, t);
+}
+static void s_txd(void *o)
+{
+    urb_can_slave_tx_done((urb_can_slave_t *)o);
+}
+static void s_state(void *o, uint8_t s)
+{
+    urb_can_slave_state((urb_can_slave_t *)o, s);
+}
+
+static int rig_setup(void **state)
+{
+    (void)state;
+    memset(&rig, 0, sizeof rig);
+    can_bus_init(&rig.bus, 1000u);
+    urb_can_master_config_t cfg;
+    urb_can_master_default_config(&cfg);
+    assert_true(can_bus_attach(&rig.bus, &rig.bport, 3u, &rig.master, m_rx, m_txd, m_state));
+    urb_can_master_init(&rig.master, &rig.bport.hal, &cfg);
+    urb_can_master_downlink(&rig.master, &rig.dl);
+    static const uint8_t in0[8] = {6u, 2u, 32u, 8u, 0u, 7u, 1u, 0u};
+    static const uint8_t out0[8] = {25u, 6u, 32u, 0u, 7u, 8u, 1u, 13u};
+    for (uint8_t i = 0u; i < 2u; i++) {
+        fake_mailbox_init(&rig.fm[i], in0, out0);
+        assert_true(can_bus_attach(&rig.bus, &rig.nport[i], 3u, &rig.slave[i], s_rx, s_txd, s_state));
+        assert_true(urb_can_slave_init(&rig.slave[i], &rig.nport[i].hal, &rig.fm[i].ops, (uint8_t)(10u + i),
+                                       urb_can_slave_dup_window_us(1000u)));
+    }
+    return 0;
+}
+
+/* Runs one transaction to its outcome: bus steps and polls, at most `limit_us`. */
+static int run(uint8_t op, uint8_t address, uint8_t mailbox, uint8_t length)
+{
+    urb_downlink_txn_t t = {op, address, mailbox, length, 0x42u, false, rig.data};
+    assert_true(rig.dl.begin(rig.dl.ctx, &t, rig.bus.now_us));
+    assert_false(rig.dl.begin(rig.dl.ctx, &t, rig.bus.now_us)); /* one at a time */
+    for (int i = 0; i < 100000; i++) {
+        if (!can_bus_step(&rig.bus)) {
+            rig.bus.now_us += 10u;
+        }
+        int8_t const r = rig.dl.poll(rig.dl.ctx, rig.bus.now_us);
+        if (r != URB_DOWNLINK_BUSY) {
+            assert_int_equal(rig.dl.poll(rig.dl.ctx, rig.bus.now_us), URB_DOWNLINK_IDLE);
+            return r;
+        }
+    }
+    fail_msg("the transaction never ended");
+    return -100;
+}
+
+static void settle(uint32_t us)
+{
+    uint32_t const end = rig.bus.now_us + us;
+    while ((int32_t)(rig.bus.now_us - end) < 0) {
+        if (!can_bus_step(&rig.bus)) {
+            rig.bus.now_us += 10u;
+        }
+    }
+}
+
+static void test_write_read_every_length(void **state)
+{
+    (void)state;
+    /* inbox 2 and outbox 2 are 32 bytes: every length path of the segmenter through both ends */
+    for (uint8_t i = 0u; i < 32u; i++) {
+        rig.data[i] = (uint8_t)(i * 3u + 1u);
+    }
+    assert_int_equal(run(URB_DL_WRITE, 10u, 2u, 32u), URB_STATUS_OK);
+    assert_memory_equal(rig.fm[0].inbox[2], rig.data, 32u);
+    assert_int_equal(rig.fm[0].commits[2], 1u);
+    assert_int_equal(run(URB_DL_WRITE, 10u, 0u, 6u), URB_STATUS_OK); /* single frame */
+    assert_int_equal(run(URB_DL_WRITE, 10u, 3u, 8u), URB_STATUS_OK); /* two frames */
+    assert_int_equal(run(URB_DL_WRITE, 10u, 5u, 7u), URB_STATUS_OK); /* the longest single frame */
+    memset(rig.data, 0, sizeof rig.data);
+    assert_int_equal(run(URB_DL_READ, 10u, 2u, 32u), URB_STATUS_OK);
+    assert_memory_equal(rig.data, rig.fm[0].outbox[2], 32u);
+    assert_int_equal(rig.fm[0].reads_complete[2], 1u);
+    assert_false(rig.fm[0].latched[2]);
+    assert_int_equal(run(URB_DL_READ, 11u, 1u, 6u), URB_STATUS_OK);
+    assert_memory_equal(rig.data, rig.fm[1].outbox[1], 6u);
+    assert_int_equal(run(URB_DL_READ, 11u, 0u, 25u), URB_STATUS_OK);
+    assert_int_equal(run(URB_DL_READ, 11u, 7u, 13u), URB_STATUS_OK);
+    assert_int_equal(rig.fm[0].rule_violations + rig.fm[1].rule_violations, 0u);
+    /* node 11 saw node 10's traffic and took none of it */
+    assert_int_equal(fake_mailbox_commits(&rig.fm[1]), 0u);
+}
+
+static void test_refusals(void **state)
+{
+    (void)state;
+    assert_int_equal(run(URB_DL_READ, 10u, 3u, 4u), URB_STATUS_BAD_REQUEST); /* no outbox 3 */
+    assert_int_equal(run(URB_DL_WRITE, 10u, 4u, 4u), URB_STATUS_BAD_REQUEST); /* no inbox 4 */
+    assert_int_equal(run(URB_DL_READ, 10u, 1u, 5u), URB_STATUS_SIZE_MISMATCH); /* outbox 1 is 6 */
+    assert_int_equal(run(URB_DL_WRITE, 10u, 1u, 5u), URB_STATUS_SIZE_MISMATCH); /* inbox 1 is 2 */
+    assert_int_equal(rig.fm[0].aborts[1], 1u);
+    rig.fm[0].app_holds[1] = true;
+    assert_int_equal(run(URB_DL_WRITE, 10u, 1u, 2u), URB_STATUS_NODE_BUSY);
+    assert_int_equal(rig.fm[0].faults[URB_DL_FAULT_OVERRUN], 1u);
+    rig.fm[0].app_holds[1] = false;
+    assert_int_equal(run(URB_DL_WRITE, 10u, 1u, 2u), URB_STATUS_OK);
+    assert_int_equal(fake_mailbox_commits(&rig.fm[0]), 1u);
+    assert_int_equal(rig.fm[0].rule_violations, 0u);
+}
+
+static void test_probe_and_absent(void **state)
+{
+    (void)state;
+    assert_int_equal(run(URB_DL_PROBE, 11u, 0u, 0u), URB_STATUS_OK);
+    assert_int_equal(fake_mailbox_commits(&rig.fm[1]) + rig.fm[1].aborts[0] + rig.fm[1].refusals[0], 0u);
+    /* nor a commit without a begin (found by fuzz_can: the probe committed inbox 0) */
+    assert_int_equal(rig.fm[1].rule_violations, 0u);
+    assert_int_equal(run(URB_DL_PROBE, 12u, 0u, 0u), URB_STATUS_NO_NODE);
+    assert_int_equal(run(URB_DL_READ, 40u, 1u, 6u), URB_STATUS_NO_NODE);
+    urb_can_master_stats_t st;
+    urb_can_master_stats(&rig.master, &st);
+    assert_int_equal(st.timeouts, 2u);
+}
+
+static void test_sync(void **state)
+{
+    (void)state;
+    uint32_t const t = rig.bus.now_us;
+    assert_int_equal(run(URB_DL_SYNC, 0u, 0u, 0u), URB_STATUS_OK);
+    for (uint8_t i = 0u; i < 2u; i++) {
+        assert_int_equal(rig.fm[i].syncs, 1u);
+        assert_int_equal(rig.fm[i].sync_counter, 0x42u);
+        assert_int_equal(rig.fm[i].sync_t, t); /* the start of the frame */
+    }
+    /* a SYNC frame of the wrong shape is not one */
+    urb_can_frame_t f = {URB_CAN_SYNC_ID, 3u, {1u, 2u, 0xE0u}};
+    urb_can_slave_rx(&rig.slave[0], &f, 5u);
+    f.len = 2u;
+    f.data[1] = 0xC0u; /* toggle 0 */
+    urb_can_slave_rx(&rig.slave[0], &f, 5u);
+    assert_int_equal(rig.fm[0].syncs, 1u);
+}
+
+/* A frame the sender sees fail in the last bit of its end of frame arrives twice (CAN's known
+ * duplicate): the write is committed once, the answer still comes. */
+static uint16_t eof_on_request(void *ctx, const can_port_t *sender, const urb_can_frame_t *f)
+{
+    uint32_t *count = (uint32_t *)ctx;
+    if ((sender == &rig.bport) && ((f->id >> 10) == 0u) && (*count > 0u)) {
+        (*count)--;
+        if (*count == 0u) {
+            return CAN_FAULT_EOF;
+        }
+    }
+    return CAN_FAULT_NONE;
+}
+
+static void test_duplicates_taken_once(void **state)
+{
+    (void)state;
+    uint32_t which = 1u; /* the first request frame: a single-frame write */
+    rig.bus.fault = eof_on_request;
+    rig.bus.fault_ctx = &which;
+    rig.data[0] = 7u;
+    rig.data[1] = 9u;
+    assert_int_equal(run(URB_DL_WRITE, 10u, 1u, 2u), URB_STATUS_OK);
+    assert_int_equal(rig.fm[0].commits[1], 1u);
+    urb_can_slave_stats_t ss;
+    urb_can_slave_stats(&rig.slave[0], &ss);
+    assert_int_equal(ss.duplicates, 1u);
+    /* the middle frame of a 5-frame write: the toggle bit */
+    for (uint32_t k = 1u; k <= 5u; k++) {
+        which = k;
+        assert_int_equal(run(URB_DL_WRITE, 10u, 2u, 32u), URB_STATUS_OK);
+    }
+    assert_int_equal(rig.fm[0].commits[2], 5u);
+    assert_int_equal(rig.fm[0].rule_violations, 0u);
+    rig.bus.fault = NULL;
+}
+
+/* A receiver that loses a frame: the bridge's answer is never complete (TIMEOUT) or never starts
+ * (NO_NODE); the node's write is never complete (aborted by the next request). */
+static uint16_t drop_at(void *ctx, const can_port_t *sender, const urb_can_frame_t *f)
+{
+    uint32_t *count = (uint32_t *)ctx;
+    (void)f;
+    if (*count > 0u) {
+        (*count)--;
+        if (*count == 0u) {
+            return (sender == &rig.bport) ? (uint16_t)(1u << rig.nport[0].index) : (uint16_t)(1u << rig.bport.index);
+        }
+    }
+    return CAN_FAULT_NONE;
+}
+
+static void test_lost_frames(void **state)
+{
+    (void)state;
+    uint32_t which = 3u; /* read request, answer frame 1, answer frame 2 (of 5): lost at the bridge */
+    rig.bus.fault = drop_at;
+    rig.bus.fault_ctx = &which;
+    /* the toggle rule skips frame 3 and takes 4 and 5: the transfer's CRC refuses it (Cyphal) */
+    assert_int_equal(run(URB_DL_READ, 10u, 2u, 32u), URB_STATUS_CHECKSUM);
+    which = 6u; /* the answer's last frame lost: it never ends */
+    assert_int_equal(run(URB_DL_READ, 10u, 2u, 32u), URB_STATUS_TIMEOUT);
+    which = 2u; /* write frames: the second one lost at the node, whose CRC then fails */
+    assert_int_equal(run(URB_DL_WRITE, 10u, 2u, 32u), URB_STATUS_CHECKSUM);
+    assert_int_equal(rig.fm[0].faults[URB_DL_FAULT_CHECKSUM], 1u);
+    which = 5u; /* the last one lost at the node: it never completes, never answers */
+    assert_int_equal(run(URB_DL_WRITE, 10u, 2u, 32u), URB_STATUS_NO_NODE);
+    rig.bus.fault = NULL;
+    assert_int_equal(run(URB_DL_WRITE, 10u, 0u, 6u), URB_STATUS_OK);
+    assert_int_equal(rig.fm[0].commits[2], 0u);
+    assert_int_equal(rig.fm[0].aborts[2], 2u);
+    assert_int_equal(rig.fm[0].rule_violations, 0u);
+    /* the read that lost its answer's frame ended (complete: the node sent it all) */
+    assert_false(rig.fm[0].latched[2]);
+}
+
+/* Answers the bridge did not expect: a stale transfer id, another identifier, a corrupted CRC, a
+ * malformed refusal, handed to the master directly. */
+static void test_master_answer_checks(void **state)
+{
+    (void)state;
+    urb_downlink_txn_t t = {URB_DL_WRITE, 10u, 1u, 2u, 0u, false, rig.data};
+    uint8_t const tid = urb_can_master_next_tid(&rig.master, 10u, urb_can_session(1u, false));
+    assert_true(rig.dl.begin(rig.dl.ctx, &t, rig.bus.now_us));
+    urb_can_master_tx_done(&rig.master); /* the request went out */
+    uint16_t const id = urb_can_id(10u, 1u, false, URB_CAN_RESPONSE);
+    urb_can_frame_t stale = {id, 1u, {(uint8_t)(0xE0u | ((tid + 31u) & 31u))}};
+    urb_can_master_rx(&rig.master, &stale);
+    urb_can_frame_t other = {(uint16_t)(id + 16u), 1u, {(uint8_t)(0xE0u | tid)}};
+    urb_can_master_rx(&rig.master, &other);
+    assert_int_equal(rig.dl.poll(rig.dl.ctx, rig.bus.now_us), URB_DOWNLINK_BUSY);
+    urb_can_frame_t two = {id, 3u, {4u, 0u, (uint8_t)(0xE0u | tid)}};
+    urb_can_master_rx(&rig.master, &two);
+    /* a garbled answer to a write: the node may have stored it, so TIMEOUT, not CHECKSUM */
+    assert_int_equal(rig.dl.poll(rig.dl.ctx, rig.bus.now_us), URB_STATUS_TIMEOUT);
+    urb_can_master_stats_t st;
+    urb_can_master_stats(&rig.master, &st);
+    assert_int_equal(st.stale, 1u);
+    assert_int_equal(st.foreign, 1u);
+    /* a refusal with a status no node sends (OK, BUSY) or reserved bits set: TIMEOUT */
+    static const uint8_t bad[3] = {URB_STATUS_OK, URB_STATUS_BUSY, (uint8_t)(URB_STATUS_NODE_BUSY | 0x10u)};
+    for (uint8_t i = 0u; i < 3u; i++) {
+        uint8_t const tid2 = urb_can_master_next_tid(&rig.master, 10u, urb_can_session(1u, false));
+        assert_true(rig.dl.begin(rig.dl.ctx, &t, rig.bus.now_us));
+        urb_can_master_tx_done(&rig.master);
+        urb_can_frame_t r = {id, 2u, {bad[i], (uint8_t)(0xE0u | tid2)}};
+        urb_can_master_rx(&rig.master, &r);
+        assert_int_equal(rig.dl.poll(rig.dl.ctx, rig.bus.now_us), URB_STATUS_TIMEOUT);
+    }
+    /* a multi-frame answer whose CRC fails */
+    urb_downlink_txn_t rd = {URB_DL_READ, 10u, 2u, 32u, 0u, false, rig.data};
+    uint8_t const tid3 = urb_can_master_next_tid(&rig.master, 10u, urb_can_session(2u, true));
+    assert_true(rig.dl.begin(rig.dl.ctx, &rd, rig.bus.now_us));
+    urb_can_master_tx_done(&rig.master);
+    uint8_t junk[32];
+    memset(junk, 0x33, sizeof junk);
+    urb_can_frame_t f[8];
+    uint8_t const n = segment(junk, 32u, tid3, f);
+    f[2].data[0] ^= 1u;
+    for (uint8_t k = 0u; k < n; k++) {
+        f[k].id = urb_can_id(10u, 2u, true, URB_CAN_RESPONSE);
+        urb_can_master_rx(&rig.master, &f[k]);
+    }
+    assert_int_equal(rig.dl.poll(rig.dl.ctx, rig.bus.now_us), URB_STATUS_CHECKSUM);
+    /* frames with no transaction running change nothing */
+    urb_can_master_rx(&rig.master, &f[0]);
+    urb_can_master_tx_done(&rig.master);
+    assert_int_equal(rig.dl.poll(rig.dl.ctx, rig.bus.now_us), URB_DOWNLINK_IDLE);
+}
+
+static void test_transfer_ids(void **state)
+{
+    (void)state;
+    uint8_t const s = urb_can_session(1u, true);
+    for (unsigned k = 0u; k < 40u; k++) {
+        assert_int_equal(urb_can_master_next_tid(&rig.master, 10u, s), k % 32u);
+        assert_int_equal(run(URB_DL_READ, 10u, 1u, 6u), URB_STATUS_OK);
+    }
+    /* other sessions and nodes keep their own counters */
+    assert_int_equal(urb_can_master_next_tid(&rig.master, 10u, urb_can_session(1u, false)), 0u);
+    assert_int_equal(urb_can_master_next_tid(&rig.master, 11u, s), 0u);
+}
+
+/* The same transfer id on the same session after the duplicate window is a new request (a bridge
+ * that restarted). */
+static void test_dedup_window(void **state)
+{
+    (void)state;
+    urb_can_frame_t f[8];
+    uint8_t payload[2] = {1u, 2u};
+    (void)segment(payload, 2u, 4u, f);
+    f[0].id = urb_can_id(10u, 1u, false, URB_CAN_REQUEST);
+    urb_can_slave_rx(&rig.slave[0], &f[0], 1000u);
+    urb_can_slave_rx(&rig.slave[0], &f[0], 1000u + 1079u); /* within the window: a repeat */
+    assert_int_equal(rig.fm[0].commits[1], 1u);
+    urb_can_slave_rx(&rig.slave[0], &f[0], 1000u + 1080u); /* past it: new */
+    assert_int_equal(rig.fm[0].commits[1], 2u);
+}
+
+/* A new request while an answer is still being sent drops the answer; the outbox is freed. */
+static void test_new_request_drops_answer(void **state)
+{
+    (void)state;
+    urb_can_frame_t f[8];
+    (void)segment(NULL, 0u, 0u, f);
+    f[0].id = urb_can_id(10u, 2u, true, URB_CAN_REQUEST);
+    urb_can_slave_rx(&rig.slave[0], &f[0], 10u);
+    assert_true(urb_can_slave_sending(&rig.slave[0]));
+    assert_true(rig.fm[0].latched[2]);
+    (void)segment(NULL, 0u, 1u, f);
+    f[0].id = urb_can_id(10u, 1u, true, URB_CAN_REQUEST);
+    urb_can_slave_rx(&rig.slave[0], &f[0], 20u);
+    assert_false(rig.fm[0].latched[2]);
+    assert_int_equal(rig.fm[0].reads_cut[2], 1u);
+    assert_true(rig.fm[0].latched[1]);
+    settle(2000u);
+    assert_int_equal(rig.fm[0].reads_complete[1], 1u);
+    /* a write cut by a new request is aborted */
+    uint8_t big[32] = {0};
+    (void)segment(big, 32u, 5u, f);
+    f[0].id = urb_can_id(10u, 2u, false, URB_CAN_REQUEST);
+    urb_can_slave_rx(&rig.slave[0], &f[0], 5000u);
+    assert_true(rig.fm[0].writing[2]);
+    (void)segment(NULL, 0u, 2u, f);
+    f[0].id = urb_can_id(10u, 0u, true, URB_CAN_REQUEST);
+    urb_can_slave_rx(&rig.slave[0], &f[0], 5100u);
+    assert_false(rig.fm[0].writing[2]);
+    assert_int_equal(rig.fm[0].aborts[2], 1u);
+    assert_int_equal(rig.fm[0].rule_violations, 0u);
+}
+
+/* A write whose transfer CRC fails: CHECKSUM, nothing stored, fault counted. */
+static void test_write_crc_error(void **state)
+{
+    (void)state;
+    uint8_t payload[8] = {1, 2, 3, 4, 5, 6, 7, 8};
+    urb_can_frame_t f[8];
+    uint8_t const n = segment(payload, 8u, 3u, f);
+    f[1].data[0] ^= 0x80u;
+    for (uint8_t k = 0u; k < n; k++) {
+        f[k].id = urb_can_id(10u, 3u, false, URB_CAN_REQUEST);
+        urb_can_slave_rx(&rig.slave[0], &f[k], 100u);
+    }
+    assert_int_equal(rig.fm[0].commits[3], 0u);
+    assert_int_equal(rig.fm[0].aborts[3], 1u);
+    assert_int_equal(rig.fm[0].faults[URB_DL_FAULT_CHECKSUM], 1u);
+    /* its answer is a CHECKSUM refusal */
+    assert_int_equal(rig.nport[0].queued, 1u);
+    assert_int_equal(rig.nport[0].queue[0].data[0], URB_STATUS_CHECKSUM);
+    assert_int_equal(rig.nport[0].queue[0].id, urb_can_id(10u, 3u, false, URB_CAN_RESPONSE));
+    /* a read request with data, a request to another node, an answer frame: not requests */
+    uint8_t one = 1u;
+    (void)segment(&one, 1u, 6u, f);
+    f[0].id = urb_can_id(10u, 1u, true, URB_CAN_REQUEST);
+    urb_can_slave_rx(&rig.slave[0], &f[0], 300u);
+    assert_int_equal(rig.nport[0].queue[0].len, 1u); /* the refusal frame was replaced: empty read answer */
+    f[0].id = urb_can_id(11u, 1u, false, URB_CAN_REQUEST);
+    urb_can_slave_rx(&rig.slave[0], &f[0], 400u);
+    f[0].id = urb_can_id(10u, 1u, false, URB_CAN_RESPONSE);
+    urb_can_slave_rx(&rig.slave[0], &f[0], 500u);
+    assert_int_equal(fake_mailbox_commits(&rig.fm[0]), 0u);
+}
+
+/* Bus-off at the bridge: the next request is not executed (BUS_STUCK) and the controller is
+ * recovered; a CLEAR recovers and answers OK; a lonely bridge (nobody acknowledges) times out. */
+static void test_bus_off(void **state)
+{
+    (void)state;
+    rig.bport.tec = 256u;
+    rig.bport.state = URB_CAN_BUS_OFF;
+    assert_int_equal(run(URB_DL_WRITE, 10u, 1u, 2u), URB_STATUS_BUS_STUCK);
+    assert_int_equal(rig.fm[0].commits[1], 0u);
+    assert_int_equal(rig.bport.state, URB_CAN_ERROR_ACTIVE);
+    assert_int_equal(rig.bport.recovers, 1u);
+    assert_int_equal(run(URB_DL_WRITE, 10u, 1u, 2u), URB_STATUS_OK);
+    assert_int_equal(run(URB_DL_CLEAR, 0u, 0u, 0u), URB_STATUS_OK);
+    assert_int_equal(rig.bport.recovers, 2u);
+    /* a recovery that never ends (the port stays bus-off) */
+    rig.bport.tec = 300u;
+    rig.bport.state = URB_CAN_BUS_OFF;
+    urb_downlink_txn_t t = {URB_DL_CLEAR, 0u, 0u, 0u, 0u, false, NULL};
+    assert_true(rig.dl.begin(rig.dl.ctx, &t, 0u));
+    rig.bport.recovering = false; /* the controller ignores the request */
+    assert_int_equal(rig.dl.poll(rig.dl.ctx, 100u), URB_DOWNLINK_BUSY);
+    assert_int_equal(rig.dl.poll(rig.dl.ctx, rig.master.cfg.recover_us + 1u), URB_STATUS_BUS_STUCK);
+    rig.bport.tec = 0u;
+    rig.bport.state = URB_CAN_ERROR_ACTIVE;
+    /* nodes gone: nobody acknowledges, the bridge goes error-passive and times out */
+    rig.nport[0].state = URB_CAN_BUS_OFF;
+    rig.nport[1].state = URB_CAN_BUS_OFF;
+    assert_int_equal(run(URB_DL_READ, 10u, 1u, 6u), URB_STATUS_TIMEOUT);
+    assert_int_equal(rig.bport.state, URB_CAN_ERROR_PASSIVE);
+}
+
+/* Bus-off at a node: its answer and write are dropped, STUCK_BUS is counted, it recovers. */
+static void test_node_bus_off(void **state)
+{
+    (void)state;
+    urb_can_frame_t f[8];
+    (void)segment(NULL, 0u, 0u, f);
+    f[0].id = urb_can_id(10u, 2u, true, URB_CAN_REQUEST);
+    urb_can_slave_rx(&rig.slave[0], &f[0], 10u);
+    assert_true(rig.fm[0].latched[2]);
+    rig.nport[0].tec = 256u;
+    urb_can_slave_state(&rig.slave[0], URB_CAN_BUS_OFF);
+    assert_false(rig.fm[0].latched[2]);
+    assert_int_equal(rig.fm[0].faults[URB_DL_FAULT_STUCK_BUS], 1u);
+    assert_int_equal(rig.nport[0].recovers, 1u);
+    assert_false(urb_can_slave_sending(&rig.slave[0]));
+    urb_can_slave_state(&rig.slave[0], URB_CAN_ERROR_PASSIVE); /* not acted on */
+    assert_int_equal(rig.fm[0].faults[URB_DL_FAULT_STUCK_BUS], 1u);
+    /* repeated errors on the bus drive a node bus-off by themselves: 32 error frames */
+    rig.nport[0].tec = 0u;
+    rig.nport[0].state = URB_CAN_ERROR_ACTIVE;
+    rig.nport[0].recovering = false;
+    for (int i = 0; i < 32; i++) {
+        urb_can_frame_t g = {urb_can_id(10u, 0u, false, URB_CAN_RESPONSE), 1u, {0xE0u}};
+        rig.nport[0].queue[0] = g;
+        rig.nport[0].queued = 1u;
+        rig.bus.next_fault = CAN_FAULT_ERROR;
+        assert_true(can_bus_step(&rig.bus));
+    }
+    assert_int_equal(rig.nport[0].state, URB_CAN_BUS_OFF);
+    assert_int_equal(rig.fm[0].faults[URB_DL_FAULT_STUCK_BUS], 2u);
+}
+
+static void test_slave_init_refuses(void **state)
+{
+    (void)state;
+    urb_can_slave_t s;
+    assert_false(urb_can_slave_init(&s, &rig.nport[0].hal, &rig.fm[0].ops, 0u, 0u));
+    assert_false(urb_can_slave_init(&s, &rig.nport[0].hal, &rig.fm[0].ops, 64u, 0u));
+    assert_false(urb_can_slave_init(&s, NULL, &rig.fm[0].ops, 5u, 0u));
+    urb_dl_mailbox_t ops = rig.fm[0].ops;
+    ops.read_end = NULL;
+    assert_false(urb_can_slave_init(&s, &rig.nport[0].hal, &ops, 5u, 0u));
+    assert_true(urb_can_slave_init(&s, &rig.nport[0].hal, &rig.fm[0].ops, 63u, 0u));
+}
+
+/* `vectors` mode: every transfer of lengths 0..32 with a few transfer ids, one line per frame
+ * ("len tid: hex" frames), for the pycyphal comparison in test_can_pycyphal.py. */
+static int print_vectors(void)
+{
+    uint8_t payload[32];
+    for (uint8_t i = 0u; i < 32u; i++) {
+        payload[i] = (uint8_t)(i * 37u + 11u);
+    }
+    static const uint8_t tids[] = {0u, 1u, 17u, 31u};
+    for (uint8_t len = 0u; len <= 32u; len++) {
+        for (size_t j = 0u; j < sizeof tids; j++) {
+            urb_can_tx_t tx;
+            urb_can_tx_init(&tx, payload, len, tids[j]);
+            printf("%u %u:", len, tids[j]);
+            uint8_t data[8];
+            uint8_t n;
+            while ((n = urb_can_tx_next(&tx, data)) != 0u) {
+                printf(" ");
+                for (uint8_t k = 0u; k < n; k++) {
+                    printf("%02x", data[k]);
+                }
+            }
+            printf("\n");
+        }
+    }
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    if ((argc > 1) && (strcmp(argv[1], "vectors") == 0)) {
+        return print_vectors();
+    }
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_id_matches_schema),
+        cmocka_unit_test(test_timing),
+        cmocka_unit_test(test_segment_and_reassemble),
+        cmocka_unit_test(test_reassembly_errors),
+        cmocka_unit_test_setup(test_write_read_every_length, rig_setup),
+        cmocka_unit_test_setup(test_refusals, rig_setup),
+        cmocka_unit_test_setup(test_probe_and_absent, rig_setup),
+        cmocka_unit_test_setup(test_sync, rig_setup),
+        cmocka_unit_test_setup(test_duplicates_taken_once, rig_setup),
+        cmocka_unit_test_setup(test_lost_frames, rig_setup),
+        cmocka_unit_test_setup(test_master_answer_checks, rig_setup),
+        cmocka_unit_test_setup(test_transfer_ids, rig_setup),
+        cmocka_unit_test_setup(test_dedup_window, rig_setup),
+        cmocka_unit_test_setup(test_new_request_drops_answer, rig_setup),
+        cmocka_unit_test_setup(test_write_crc_error, rig_setup),
+        cmocka_unit_test_setup(test_bus_off, rig_setup),
+        cmocka_unit_test_setup(test_node_bus_off, rig_setup),
+        cmocka_unit_test_setup(test_slave_init_refuses, rig_setup),
+    };
+    return cmocka_run_group_tests_name("can", tests, NULL, NULL);
+}

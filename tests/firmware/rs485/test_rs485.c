@@ -1,0 +1,483 @@
+/*
+ * cmocka tests of the RS485 downlink: line timing, the silence-delimited receiver (every path:
+ * end by t3.5, a gap over t1.5, a frame too long, start-up, the delayed CRCs against the schema's
+ * encoder for every length), and the master and slave end to end on an in-memory half-duplex line
+ * (every outcome of urb_rs485_master.h: OK, refusals, silence, collision, babble, a stalled answer,
+ * a corrupted request, SYNC).
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "fake_mailbox.h"
+#include "urb_core.h"
+#include "urb_rs485.h"
+#include "urb_rs485_master.h"
+#include "urb_rs485_slave.h"
+#include "urb_rs485_wire.h"
+#include "urb_runtime.h"
+
+/* ===== Timing and the receiver ================================================================= */
+
+static void test_timing(void **state)
+{
+    (void)state;
+    urb_rs485_timing_t t;
+    urb_rs485_timing(&t, 115200u);
+    assert_int_equal(t.char_us, 87u);
+    assert_int_equal(t.t15_us, 131u);
+    assert_int_equal(t.t35_us, 304u);
+    urb_rs485_timing(&t, 1000000u);
+    assert_int_equal(t.char_us, 10u);
+    assert_int_equal(t.t15_us, 15u);
+    assert_int_equal(t.t35_us, 35u);
+    assert_int_equal(t.turnaround_us, 90u);
+    urb_rs485_timing(&t, 0u);
+    assert_int_equal(t.baud, 115200u);
+    assert_int_equal(urb_rs485_master_timeout_us(1000000u), 2000u);
+    assert_int_equal(urb_rs485_master_timeout_us(115200u), 14366u);
+    /* the check's length follows link_check's tiers */
+    assert_int_equal(urb_rs485_check_len(1u), 0u);
+    assert_int_equal(urb_rs485_check_len(2u), 1u);
+    assert_int_equal(urb_rs485_check_len(15u), 1u);
+    assert_int_equal(urb_rs485_check_len(16u), 0u);
+    assert_int_equal(urb_rs485_check_len(17u), 2u);
+    for (uint8_t n = 2u; n <= 36u; n++) {
+        uint8_t const cl = urb_rs485_check_len(n);
+        if (cl != 0u) {
+            assert_int_equal(urb_link_check_size((size_t)(n - cl)), cl);
+        }
+    }
+}
+
+/* Feeds `len` bytes back to back from time t (one character each); returns the time of the last. */
+static uint32_t feed(urb_rs485_rx_t *rx, const uint8_t *b, uint8_t len, uint32_t t, uint8_t *ev_or)
+{
+    for (uint8_t i = 0u; i < len; i++) {
+        t += rx->tm.char_us;
+        *ev_or = (uint8_t)(*ev_or | urb_rs485_rx_byte(rx, b[i], t));
+    }
+    return t;
+}
+
+static void test_receiver_checks_every_length(void **state)
+{
+    (void)state;
+    urb_rs485_timing_t tm;
+    urb_rs485_timing(&tm, 1000000u);
+    urb_rs485_rx_t rx;
+    urb_rs485_rx_init(&rx, &tm, 0u);
+    uint32_t t = 100u;
+    for (uint8_t len = 0u; len <= 32u; len++) {
+        urb_rs485_request_t q;
+        memset(&q, 0, sizeof q);
+        q.address = 5u;
+        q.select.mailbox = 3u;
+        q.data_len = len;
+        for (uint8_t i = 0u; i < len; i++) {
+            q.data[i] = (uint8_t)(i ^ 0xA7u);
+        }
+        uint8_t buf[URB_RS485_MAX_FRAME];
+        int32_t const n = urb_rs485_request_encode(&q, buf, sizeof buf);
+        assert_true(n >= 3);
+        for (int flip = -1; flip < n * 8; flip += 13) {
+            uint8_t b[URB_RS485_MAX_FRAME];
+            memcpy(b, buf, (size_t)n);
+            if (flip >= 0) {
+                b[flip / 8] ^= (uint8_t)(1u << (flip % 8));
+            }
+            uint8_t ev = 0u;
+            t = feed(&rx, b, (uint8_t)n, t + 100u, &ev);
+            assert_int_equal(ev & URB_RS485_EV_START, URB_RS485_EV_START);
+            assert_int_equal(urb_rs485_rx_count(&rx), n);
+            assert_int_equal(urb_rs485_rx_poll(&rx, t + tm.char_us + tm.t35_us - 1u), 0u); /* not yet */
+            assert_int_equal(urb_rs485_rx_poll(&rx, t + tm.char_us + tm.t35_us), URB_RS485_EV_END);
+            assert_int_equal(rx.last.n, n);
+            assert_int_equal(rx.last.check_ok, flip < 0); /* a one-bit error is always found (HD 4) */
+            assert_int_equal(rx.last.head[0], b[0]);
+            assert_int_equal(rx.last.head[1], b[1]);
+            t += tm.t35_us;
+        }
+    }
+}
+
+static void test_receiver_silences(void **state)
+{
+    (void)state;
+    urb_rs485_timing_t tm;
+    urb_rs485_timing(&tm, 1000000u);
+    urb_rs485_rx_t rx;
+    urb_rs485_rx_init(&rx, &tm, 0u);
+    /* start-up: a byte before t3.5 of silence is discarded, with what follows it */
+    assert_int_equal(urb_rs485_rx_byte(&rx, 1u, 20u), URB_RS485_EV_BROKEN);
+    assert_false(urb_rs485_rx_silent(&rx, 20u + 44u)); /* a character may be on its way */
+    assert_true(urb_rs485_rx_silent(&rx, 20u + 45u));
+    assert_int_equal(urb_rs485_rx_deadline(&rx), 65u);
+    assert_int_equal(urb_rs485_rx_poll(&rx, 65u), 0u); /* a broken frame ends without an event */
+    /* a silence of t1.5 inside a frame is allowed, more breaks it */
+    uint32_t t = 100u;
+    assert_int_equal(urb_rs485_rx_byte(&rx, 1u, t), URB_RS485_EV_START);
+    t += tm.char_us + tm.t15_us;
+    assert_int_equal(urb_rs485_rx_byte(&rx, 2u, t), URB_RS485_EV_BYTE);
+    t += tm.char_us + tm.t15_us + 1u;
+    assert_int_equal(urb_rs485_rx_byte(&rx, 3u, t), URB_RS485_EV_BROKEN);
+    assert_int_equal(rx.broken, 1u);
+    t += tm.char_us + tm.t35_us - 1u;
+    assert_int_equal(urb_rs485_rx_byte(&rx, 4u, t), URB_RS485_EV_BROKEN); /* still discarding */
+    /* after t3.5 the next byte starts a frame; a byte after t3.5 ends the previous one itself */
+    t += tm.char_us + tm.t35_us;
+    assert_int_equal(urb_rs485_rx_byte(&rx, 5u, t), URB_RS485_EV_START);
+    t += tm.char_us;
+    assert_int_equal(urb_rs485_rx_byte(&rx, 6u, t), URB_RS485_EV_BYTE);
+    t += tm.char_us + tm.t35_us;
+    assert_int_equal(urb_rs485_rx_byte(&rx, 7u, t), URB_RS485_EV_END | URB_RS485_EV_START);
+    assert_int_equal(rx.last.n, 2u);
+    /* a frame longer than 36 bytes: a babbler */
+    uint8_t junk[40];
+    memset(junk, 0x55, sizeof junk);
+    uint8_t ev = 0u;
+    t = feed(&rx, junk, 40u, t + 100u, &ev);
+    assert_int_equal(ev & URB_RS485_EV_BROKEN, URB_RS485_EV_BROKEN);
+    assert_int_equal(rx.too_long, 1u);
+    assert_int_equal(urb_rs485_rx_poll(&rx, t + tm.char_us + tm.t35_us), 0u);
+    /* a one-byte frame has no check */
+    assert_int_equal(urb_rs485_rx_byte(&rx, 9u, t + 200u), URB_RS485_EV_START);
+    assert_int_equal(urb_rs485_rx_poll(&rx, t + 200u + tm.char_us + tm.t35_us), URB_RS485_EV_END);
+    assert_false(rx.last.check_ok);
+}
+
+/* ===== End to end on an in-memory half-duplex line ============================================= */
+
+typedef struct {
+    urb_rs485_hal_t hal;
+    bool driving;
+    uint32_t delay_after; /* test: pause this long (us) after this many bytes sent (stall) */
+    uint8_t delay_at;
+    uint8_t sent;
+} end_t;
+
+typedef struct {
+    end_t bridge, node[2];
+    urb_rs485_master_t master;
+    urb_downlink_t dl;
+    urb_rs485_slave_t slave[2];
+    fake_mailbox_t fm[2];
+    urb_rs485_timing_t tm;
+    uint32_t now;
+    uint8_t data[32];
+    /* a babbler: drives `babble` bytes from time babble_at */
+    uint32_t babble_at;
+    uint8_t babble;
+    /* corrupt the n-th byte on the line (1-based; 0: none) by xor */
+    uint32_t corrupt_nth, line_bytes;
+    uint8_t corrupt_xor;
+    bool corrupt_at_nodes; /* only the nodes receive the corrupted byte (a receiver-side error) */
+} line_t;
+
+static line_t L;
+static uint32_t busy_until;
+static bool pending;
+static uint8_t pending_byte;
+
+static void hal_tx_start(void *ctx)
+{
+    end_t *e = (end_t *)ctx;
+    e->driving = true;
+    e->sent = 0u;
+}
+static void hal_tx_abort(void *ctx)
+{
+    ((end_t *)ctx)->driving = false;
+}
+static void hal_wake(void *ctx, uint32_t at)
+{
+    (void)ctx;
+    (void)at; /* the loop polls every microsecond */
+}
+
+static void end_init(end_t *e)
+{
+    memset(e, 0, sizeof *e);
+    e->hal.ctx = e;
+    e->hal.tx_start = hal_tx_start;
+    e->hal.tx_abort = hal_tx_abort;
+    e->hal.wake_at = hal_wake;
+    e->hal.lock = NULL;
+}
+
+static int line_setup(void **state)
+{
+    (void)state;
+    memset(&L, 0, sizeof L);
+    urb_rs485_timing(&L.tm, 1000000u);
+    end_init(&L.bridge);
+    urb_rs485_master_init(&L.master, &L.bridge.hal, 1000000u, 0u);
+    urb_rs485_master_downlink(&L.master, &L.dl);
+    static const uint8_t in0[8] = {6u, 2u, 32u, 1u, 0u, 0u, 0u, 0u};
+    static const uint8_t out0[8] = {25u, 6u, 32u, 0u, 1u, 0u, 0u, 0u};
+    for (uint8_t i = 0u; i < 2u; i++) {
+        end_init(&L.node[i]);
+        fake_mailbox_init(&L.fm[i], in0, out0);
+        assert_true(urb_rs485_slave_init(&L.slave[i], &L.node[i].hal, &L.fm[i].ops, (uint8_t)(20u + i), &L.tm, 0u));
+    }
+    L.babble = 0u;
+    busy_until = 0u;
+    pending = false;
+    return 0;
+}
+
+/* One microsecond of the line: a character starts when nothing is on the line and is received by
+ * every end (its senders too: the echo) when its stop bit ends, char_us later. */
+static bool pull(end_t *e, uint8_t i, uint8_t *b)
+{
+    if (e == &L.bridge) {
+        return urb_rs485_master_tx_next(&L.master, b);
+    }
+    return urb_rs485_slave_tx_next(&L.slave[i], b);
+}
+
+static void line_tick(void)
+{
+    L.now++;
+    if (pending && (L.now == busy_until)) {
+        pending = false;
+        bool const hit = L.line_bytes == L.corrupt_nth;
+        uint8_t const at_bridge = (hit && !L.corrupt_at_nodes) ? (uint8_t)(pending_byte ^ L.corrupt_xor) : pending_byte;
+        uint8_t const at_nodes = hit ? (uint8_t)(pending_byte ^ L.corrupt_xor) : pending_byte;
+        urb_rs485_master_rx(&L.master, at_bridge, L.now);
+        for (uint8_t i = 0u; i < 2u; i++) {
+            urb_rs485_slave_rx(&L.slave[i], at_nodes, L.now);
+        }
+    }
+    for (uint8_t i = 0u; i < 2u; i++) {
+        urb_rs485_slave_poll(&L.slave[i], L.now);
+    }
+    if ((int32_t)(L.now - busy_until) < 0) {
+        return;
+    }
+    uint8_t combined = 0xFFu;
+    bool any = false;
+    end_t *ends[3] = {&L.bridge, &L.node[0], &L.node[1]};
+    for (uint8_t k = 0u; k < 3u; k++) {
+        end_t *e = ends[k];
+        if (!e->driving) {
+            continue;
+        }
+        if ((e->delay_after != 0u) && (e->sent == e->delay_at)) {
+            e->delay_at = 0xFFu;
+            busy_until = L.now + e->delay_after;
+            return;
+        }
+        uint8_t b;
+        if (!pull(e, (uint8_t)(k == 0u ? 0u : k - 1u), &b)) {
+            e->driving = false;
+            continue;
+        }
+        e->sent++;
+        combined &= b;
+        any = true;
+    }
+    if ((L.babble > 0u) && ((int32_t)(L.now - L.babble_at) >= 0)) {
+        combined &= 0x5Au;
+        L.babble--;
+        any = true;
+    }
+    if (!any) {
+        return;
+    }
+    L.line_bytes++;
+    busy_until = L.now + L.tm.char_us;
+    pending = true;
+    pending_byte = combined;
+}
+
+static int run(uint8_t op, uint8_t address, uint8_t mailbox, uint8_t length)
+{
+    urb_downlink_txn_t t = {op, address, mailbox, length, 0x37u, false, L.data};
+    assert_true(L.dl.begin(L.dl.ctx, &t, L.now));
+    assert_false(L.dl.begin(L.dl.ctx, &t, L.now));
+    for (int i = 0; i < 200000; i++) {
+        line_tick();
+        int8_t const r = L.dl.poll(L.dl.ctx, L.now);
+        if (r != URB_DOWNLINK_BUSY) {
+            assert_int_equal(L.dl.poll(L.dl.ctx, L.now), URB_DOWNLINK_IDLE);
+            /* the rest of the line's activity (an answer still going out), then silence */
+            for (int k = 0; k < 1000; k++) {
+                line_tick();
+                (void)L.dl.poll(L.dl.ctx, L.now);
+            }
+            return r;
+        }
+    }
+    fail_msg("the transaction never ended");
+    return -100;
+}
+
+static void test_write_read(void **state)
+{
+    (void)state;
+    for (uint8_t i = 0u; i < 32u; i++) {
+        L.data[i] = (uint8_t)(i + 100u);
+    }
+    assert_int_equal(run(URB_DL_WRITE, 20u, 2u, 32u), URB_STATUS_OK);
+    assert_memory_equal(L.fm[0].inbox[2], L.data, 32u);
+    assert_int_equal(run(URB_DL_WRITE, 20u, 3u, 1u), URB_STATUS_OK); /* the shortest write */
+    assert_int_equal(L.fm[0].inbox[3][0], 100u);
+    assert_int_equal(run(URB_DL_WRITE, 21u, 0u, 6u), URB_STATUS_OK);
+    assert_int_equal(L.fm[1].commits[0], 1u);
+    memset(L.data, 0, sizeof L.data);
+    assert_int_equal(run(URB_DL_READ, 20u, 2u, 32u), URB_STATUS_OK);
+    assert_memory_equal(L.data, L.fm[0].outbox[2], 32u);
+    assert_int_equal(run(URB_DL_READ, 21u, 4u, 1u), URB_STATUS_OK);
+    assert_int_equal(L.data[0], L.fm[1].outbox[4][0]);
+    assert_int_equal(run(URB_DL_READ, 21u, 0u, 25u), URB_STATUS_OK);
+    assert_int_equal(L.fm[1].reads_complete[0], 1u);
+    assert_false(L.fm[1].latched[0]);
+    assert_int_equal(L.fm[0].rule_violations + L.fm[1].rule_violations, 0u);
+    assert_int_equal(fake_mailbox_commits(&L.fm[0]), 2u);
+    urb_rs485_master_stats_t st;
+    urb_rs485_master_stats(&L.master, &st);
+    assert_int_equal(st.collisions + st.babble + st.bad + st.broken, 0u);
+}
+
+static void test_refusals_probe_silence(void **state)
+{
+    (void)state;
+    assert_int_equal(run(URB_DL_READ, 20u, 3u, 4u), URB_STATUS_BAD_REQUEST);
+    assert_int_equal(run(URB_DL_WRITE, 20u, 4u, 4u), URB_STATUS_BAD_REQUEST);
+    assert_int_equal(run(URB_DL_READ, 20u, 1u, 5u), URB_STATUS_SIZE_MISMATCH);
+    assert_int_equal(run(URB_DL_WRITE, 20u, 1u, 3u), URB_STATUS_SIZE_MISMATCH);
+    L.fm[0].app_holds[1] = true;
+    assert_int_equal(run(URB_DL_WRITE, 20u, 1u, 2u), URB_STATUS_NODE_BUSY);
+    assert_int_equal(L.fm[0].faults[URB_DL_FAULT_OVERRUN], 1u);
+    L.fm[0].app_holds[1] = false;
+    assert_int_equal(run(URB_DL_PROBE, 21u, 0u, 0u), URB_STATUS_OK);
+    assert_int_equal(L.fm[1].commits[0] + L.fm[1].aborts[0] + L.fm[1].refusals[0], 0u); /* untouched */
+    assert_int_equal(run(URB_DL_PROBE, 22u, 0u, 0u), URB_STATUS_NO_NODE);
+    assert_int_equal(run(URB_DL_READ, 99u, 1u, 6u), URB_STATUS_NO_NODE);
+    assert_int_equal(fake_mailbox_commits(&L.fm[0]), 0u);
+    assert_int_equal(L.fm[0].rule_violations, 0u);
+    urb_rs485_master_stats_t st;
+    urb_rs485_master_stats(&L.master, &st);
+    assert_int_equal(st.silences, 2u);
+}
+
+static void test_sync(void **state)
+{
+    (void)state;
+    assert_int_equal(run(URB_DL_SYNC, 0u, 0u, 0u), URB_STATUS_OK);
+    for (uint8_t i = 0u; i < 2u; i++) {
+        assert_int_equal(L.fm[i].syncs, 1u);
+        assert_int_equal(L.fm[i].sync_counter, 0x37u);
+    }
+    assert_int_equal(L.fm[0].sync_t, L.fm[1].sync_t);
+}
+
+/* A request corrupted on the line: the node answers CHECKSUM (its check failed) and stores
+ * nothing; the answer corrupted: the bridge says CHECKSUM. */
+static void test_corruption(void **state)
+{
+    (void)state;
+    L.corrupt_nth = L.line_bytes + 4u; /* a data byte of the request, as the nodes receive it */
+    L.corrupt_xor = 0x01u;
+    L.corrupt_at_nodes = true;
+    assert_int_equal(run(URB_DL_WRITE, 20u, 1u, 2u), URB_STATUS_CHECKSUM);
+    assert_int_equal(L.fm[0].commits[1], 0u);
+    assert_int_equal(L.fm[0].faults[URB_DL_FAULT_CHECKSUM], 1u);
+    L.corrupt_at_nodes = false;
+    L.corrupt_nth = L.line_bytes + 3u + 2u; /* the answer's second data byte */
+    assert_int_equal(run(URB_DL_READ, 20u, 1u, 6u), URB_STATUS_CHECKSUM);
+    /* a write's answer garbled: the node stored it, so not CHECKSUM but TIMEOUT (Rs485Poll.tla) */
+    L.corrupt_nth = L.line_bytes + 5u + 1u; /* the answer's header */
+    assert_int_equal(run(URB_DL_WRITE, 20u, 1u, 2u), URB_STATUS_TIMEOUT);
+    assert_int_equal(L.fm[0].commits[1], 1u);
+    assert_int_equal(L.fm[0].rule_violations, 0u);
+}
+
+/* A babbler talks over the request: the echo differs, the bridge stops and the request is not
+ * executed (BUS_STUCK); bytes while nobody was polled are counted; a line never silent keeps the
+ * bridge from sending (BUS_STUCK after the timeout); CLEAR waits for silence. */
+static void test_collision_and_babble(void **state)
+{
+    (void)state;
+    memset(L.data, 0xFF, sizeof L.data);
+    L.babble_at = L.now + 60u; /* during the request's third byte (sent from t3.5 on) */
+    L.babble = 1u;
+    assert_int_equal(run(URB_DL_WRITE, 20u, 2u, 32u), URB_STATUS_BUS_STUCK);
+    assert_int_equal(L.fm[0].commits[2], 0u);
+    urb_rs485_master_stats_t st;
+    urb_rs485_master_stats(&L.master, &st);
+    assert_int_equal(st.collisions, 1u);
+    /* babble while idle */
+    uint32_t const before = st.babble;
+    L.babble_at = L.now + 1u;
+    L.babble = 3u;
+    for (int k = 0; k < 100; k++) {
+        line_tick();
+    }
+    urb_rs485_master_stats(&L.master, &st);
+    assert_int_equal(st.babble, before + 3u);
+    /* a line that never goes quiet */
+    L.babble_at = L.now;
+    L.babble = 255u;
+    for (int k = 0; k < 20; k++) {
+        line_tick(); /* the babbler is talking when the request comes */
+    }
+    assert_int_equal(run(URB_DL_READ, 20u, 1u, 6u), URB_STATUS_BUS_STUCK);
+    urb_rs485_master_stats(&L.master, &st);
+    assert_int_equal(st.busy_line, 1u);
+    L.babble = 0u;
+    for (int k = 0; k < 100; k++) {
+        line_tick();
+    }
+    assert_int_equal(run(URB_DL_CLEAR, 0u, 0u, 0u), URB_STATUS_OK);
+    assert_int_equal(run(URB_DL_READ, 20u, 1u, 6u), URB_STATUS_OK);
+    assert_int_equal(L.fm[0].rule_violations, 0u);
+}
+
+/* A node that stalls inside its answer (a silence over t1.5): TIMEOUT. */
+static void test_stalled_answer(void **state)
+{
+    (void)state;
+    L.node[0].delay_at = 3u;
+    L.node[0].delay_after = 30u;
+    assert_int_equal(run(URB_DL_READ, 20u, 2u, 32u), URB_STATUS_TIMEOUT);
+    urb_rs485_master_stats_t st;
+    urb_rs485_master_stats(&L.master, &st);
+    assert_int_equal(st.broken, 1u);
+    /* the outbox was released when the answer was all out */
+    assert_false(L.fm[0].latched[2]);
+}
+
+static void test_slave_init_refuses(void **state)
+{
+    (void)state;
+    urb_rs485_slave_t s;
+    assert_false(urb_rs485_slave_init(&s, &L.node[0].hal, &L.fm[0].ops, 0u, &L.tm, 0u));
+    assert_false(urb_rs485_slave_init(&s, &L.node[0].hal, &L.fm[0].ops, 128u, &L.tm, 0u));
+    urb_rs485_hal_t h = L.node[0].hal;
+    h.wake_at = NULL;
+    assert_false(urb_rs485_slave_init(&s, &h, &L.fm[0].ops, 5u, &L.tm, 0u));
+    assert_true(urb_rs485_slave_init(&s, &L.node[0].hal, &L.fm[0].ops, 127u, &L.tm, 0u));
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_timing),
+        cmocka_unit_test(test_receiver_checks_every_length),
+        cmocka_unit_test(test_receiver_silences),
+        cmocka_unit_test_setup(test_write_read, line_setup),
+        cmocka_unit_test_setup(test_refusals_probe_silence, line_setup),
+        cmocka_unit_test_setup(test_sync, line_setup),
+        cmocka_unit_test_setup(test_corruption, line_setup),
+        cmocka_unit_test_setup(test_collision_and_babble, line_setup),
+        cmocka_unit_test_setup(test_stalled_answer, line_setup),
+        cmocka_unit_test_setup(test_slave_init_refuses, line_setup),
+    };
+    return cmocka_run_group_tests_name("rs485", tests, NULL, NULL);
+}
