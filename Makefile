@@ -23,7 +23,7 @@ help:
 	@echo "make gen        regenerate gen/c and gen/python from spec/schema"
 	@echo "make gen-check  fail when the committed generated files are stale"
 	@echo "make accel      build urb_msgs._accel, the Python message classes' C codecs (from gen/c)"
-	@echo "make bench      run the benchmarks: codecs next to MAVLink, host library CPU per request"
+	@echo "make bench      run the benchmarks: codecs next to MAVLink, host library CPU per request, C next to Python"
 
 setup:
 	@tools/setup.sh
@@ -58,9 +58,10 @@ check: setup gen-check lint test-py $(CHECK_TARGETS)
 demo: setup
 	urb sim sensorhex --sensitivity
 
-bench: setup accel
+bench: setup accel bridge-hosted host-c-bench
 	$(PYTHON) bench/codec_bench.py
 	$(PYTHON) bench/host_cpu.py
+	$(PYTHON) bench/host_cpu_c.py
 
 clean:
 	rm -rf build

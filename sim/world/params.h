@@ -26,6 +26,12 @@
     X(NODE_SYNC, "node.sync", 1.0, "1: heartbeat locked to SYNC (paper Fig. 12), 0: free-running (Fig. 11)") \
     X(NODE_LEAD_US, "node.lead_us", 0.0, "fixed phase lead, us; 0 = the measured acquisition time")   \
     X(NODE_HEARTBEAT_US, "node.heartbeat_us", 1000.0, "node nominal heartbeat period, us")           \
+    X(NODE_KD_Q8, "node.kd_q8", 32.0, "node PLL K_d of eq. 1 in 1/256 (urb_node_config_t.kd_q8)")                \
+    X(NODE_KN_Q8, "node.kn_q8", 64.0, "node PLL K_n of eq. 2 in 1/256 (urb_node_config_t.kn_q8)")                \
+    X(NODE_OUTLIER_NS, "node.outlier_ns", 2000.0, "node PLL: phase or period error rejected as an outlier, ns (urb_node_config_t.outlier_ns, at most 65535)") \
+    X(NODE_MAX_OUTLIERS, "node.max_outliers", 4.0, "node PLL: outliers in a row before re-acquiring (urb_node_config_t.max_outliers)") \
+    X(NODE_ACQ_WINDOW, "node.acq_window", 16.0, "node t_acq window, updates (urb_node_config_t.acq_window)")   \
+    X(NODE_ACQ_GUARD, "node.acq_guard_us", 1.0, "node guard added to t_acq, us (urb_node_config_t.acq_guard_us)") \
     X(NODE_BOOT_MS, "node.boot_spread_ms", 20.0, "nodes power on at uniform times in 0..N ms")        \
     X(NODE_SCL_TIMEOUT, "node.scl_timeout_ms", 25.0, "node I2C peripheral's SCL low timeout (SMBus t_TIMEOUT), ms") \
     X(NODE_FLASH_WS, "node.flash_ws", 0.0, "node flash wait states: +2 per interrupt entry, +0..1 entry jitter each, handlers x (1 + ws/2)") \
@@ -93,7 +99,8 @@
     X(PROBE_FILL, "probe.fill_counter", 0.0, "1: every probe outbox byte carries the update counter (trace validation)") \
     X(SCOPE_SAMPLE, "scope.sample_ns", 0.0, "Table I's marks as an oscilloscope samples them: sample period, ns (0: true time)") \
     X(SCOPE_SKEW, "scope.skew_ns", 0.0, "largest fixed skew of one mark's path (pin, probe, channel), ns (drawn per node)") \
-    X(SCOPE_PPM, "scope.ppm", 0.0, "the oscilloscope's timebase error against true time, ppm")
+    X(SCOPE_PPM, "scope.ppm", 0.0, "the oscilloscope's timebase error against true time, ppm") \
+    X(SCOPE_CAPTURE, "scope.capture_periods", 0.0, "Table I read once per run, as from one oscilloscope capture at a trigger drawn in the steady state: the inter-node difference of that cycle, a node's period peak to peak over this many periods (0: statistics over the whole steady state)")
 
 #define URBSIM_PARAM_ENUM(id, name, def, doc) P_##id,
 enum { URBSIM_PARAMS(URBSIM_PARAM_ENUM) P_COUNT };

@@ -365,6 +365,12 @@ int urbsim_add_node(urbsim_world_t *w, int bridge, int app, int address, int ind
     cfg.heartbeat_us = (uint16_t)w->p[P_NODE_HEARTBEAT_US];
     cfg.sync_enabled = w->p[P_NODE_SYNC] != 0.0;
     cfg.lead_us = (uint16_t)w->p[P_NODE_LEAD_US];
+    cfg.kd_q8 = (uint8_t)w->p[P_NODE_KD_Q8];
+    cfg.kn_q8 = (uint8_t)w->p[P_NODE_KN_Q8];
+    cfg.outlier_ns = (uint16_t)w->p[P_NODE_OUTLIER_NS];
+    cfg.max_outliers = (uint8_t)w->p[P_NODE_MAX_OUTLIERS];
+    cfg.acq_window = (uint8_t)w->p[P_NODE_ACQ_WINDOW];
+    cfg.acq_guard_us = (uint8_t)w->p[P_NODE_ACQ_GUARD];
     char name[48];
     snprintf(name, sizeof name, "%s/n%d", sim_bridge_name(w->bridges[bridge]), address);
     sim_node_t *n = sim_node_new(name, &w->k, &w->tr, sim_bridge_bus(w->bridges[bridge]), &cfg, &a, &r);

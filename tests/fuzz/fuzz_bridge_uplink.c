@@ -9,7 +9,13 @@
  * (so the fuzzer reaches the FIFO and downlink paths, not only the hunting parser).
  * Sanitizers catch memory errors; the script then asserts what Bridge.tla promises: the bridge
  * settles, every request frame it accepted is answered (or counted as beyond the host's window),
- * and every USB IN batch fits the host's buffer and starts with a valid header.
+ * and every USB IN batch fits the host's buffer and starts with a valid header. And every valid
+ * request is accepted, not only answered when accepted: a well-formed request in a USB transfer of
+ * its own is admitted by that transfer, and one sent on a quiet RS232 line (seq bit 6: the line
+ * idles first, so nothing held can join it) is admitted once its last byte is in. A request sent
+ * back to back after garbage may be lost to a false frame that the hunt finds first (one in 256
+ * candidates passes a CRC-8), so those only count for the answers. Requests are up to the longest
+ * (a write of 32 bytes, 37 on the wire): a cap one byte short of it fails here.
  */
 #include <stdint.h>
 #include <stdlib.h>
@@ -30,6 +36,11 @@
 /* Iteration step of the rig: bus events carry their own times, so coarser steps only delay when
  * the bridge sees them (as a slower main loop would); they cut the cost of one input tenfold. */
 #define STEP_US 10u   /* longer than any queue of 16 requests with timeouts and bus clears */
+/* A quiet RS232 line: longer than the idle gap (a byte time + 2 byte times), and enough polls to
+ * parse a full receive ring (64 bytes, 16 a poll) and flush what is held. */
+#define QUIET_US 2000u
+/* After a request's last byte: a few polls admit it. */
+#define PARSE_US 200u
 
 typedef struct {
     const uint8_t *data;
@@ -98,6 +109,7 @@ static void send_request(urb_hosted_rig_t *r, script_t *s, bool write)
     if (n <= 0) {
         return; /* a field the schema rejects: nothing to send */
     }
+    uint32_t const before = urb_bridge_stats(&r->bridge)->frames;
     if ((seq & 0x80u) != 0u) {
         uint8_t batch[URB_USB_BATCH_HEADER_MAX_SIZE + sizeof frame];
         urb_usb_batch_header_t h;
@@ -106,7 +118,16 @@ static void send_request(urb_hosted_rig_t *r, script_t *s, bool write)
         h.count = 1u;
         REQUIRE(urb_usb_batch_header_encode(&h, batch, URB_USB_BATCH_HEADER_MAX_SIZE) == (int32_t)URB_USB_BATCH_HEADER_MAX_SIZE);
         memcpy(batch + URB_USB_BATCH_HEADER_MAX_SIZE, frame, (size_t)n);
-        (void)urb_bridge_usb_out(&r->bridge, batch, URB_USB_BATCH_HEADER_MAX_SIZE + (size_t)n);
+        /* a valid batch is accepted, and its one valid request admitted */
+        REQUIRE(urb_bridge_usb_out(&r->bridge, batch, URB_USB_BATCH_HEADER_MAX_SIZE + (size_t)n));
+        REQUIRE(urb_bridge_stats(&r->bridge)->frames == before + 1u);
+    } else if ((seq & 0x40u) != 0u) {
+        /* on a quiet line the request is admitted, whatever came before */
+        urb_hosted_rig_run(r, QUIET_US);
+        uint32_t const quiet = urb_bridge_stats(&r->bridge)->frames;
+        urb_hosted_rig_uart_send(r, frame, (size_t)n, BYTE_US);
+        urb_hosted_rig_run(r, PARSE_US);
+        REQUIRE(urb_bridge_stats(&r->bridge)->frames == quiet + 1u);
     } else {
         urb_hosted_rig_uart_send(r, frame, (size_t)n, BYTE_US);
     }

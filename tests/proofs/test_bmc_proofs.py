@@ -1,5 +1,6 @@
 """Layout of every BMC proof folder (proofs/bmc/*/) and of the codec proofs, without running ESBMC
-(but for one slow check that `make reach`, the vacuity check, tells a vacuous harness; skipped without ESBMC).
+(but for slow checks that `make reach`, the vacuity check, tells a vacuous harness, and that the cover
+points tell harnesses that went partly vacuous; they fail without ESBMC).
 
 Every folder follows the convention (harness, bounds in a Makefile on Makefile.common, one-line
 purpose, at least one seeded mutant); every generated C function has its proof; the generated
@@ -11,6 +12,7 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -63,9 +65,11 @@ def test_folder_convention(folder: Path) -> None:
     assert len({m["name"] for m in mutants}) == len(mutants)
     runner = load_module("proofs", ROOT / "tools" / "proofs.py")
     for m in mutants:
-        assert {"name", "file", "function", "find", "replace", "why", "expect"} <= set(m), m
+        assert {"name", "file", "function", "find", "replace", "why", "expect", "kind"} <= set(m), m
         assert m["find"] != m["replace"]
         assert runner.mutant_problem(m) == "", "every mutant names the property that must report it"
+        assert runner.bmc_evidence.mutant_kind_problem(m) == "", "every mutant names its kind of bug"
+    assert "URB_COVER" in code, "every harness has cover points (URB_COVER), at least one per part"
 
 
 @pytest.mark.parametrize("folder", CODEC, ids=[p.name for p in CODEC])
@@ -274,3 +278,192 @@ def test_runner_kills_a_mutant_only_on_its_expected_property(tmp_path: Path) -> 
     assert (other["result"], other["expected"]) == ("KILLED ELSEWHERE", False)
     assert 'failed on "the two\'s complement value of the low width bits", expected "array bounds violated"' \
         in other["detail"], other["detail"]
+
+
+# ----------------------------------------------------------------------------- cover points
+
+
+def _cover_run(item: str, points: list[str], reached: list[str], outcome: str = "fail") -> Any:
+    ev = load_module("proofs", ROOT / "tools" / "proofs.py").bmc_evidence
+    return ev.CoverRun(item, outcome, points, set(reached), "log")
+
+
+def test_a_cover_point_counts_per_part_and_an_unreached_one_is_named() -> None:
+    """A point is reached when some item of its part reaches it (items of one length reach SHORT,
+    others the accepted frame); a point that no item of a part reaches fails the proof by name, even
+    if another part reaches it; a part that compiles no point at all is a problem too."""
+    ev = load_module("proofs", ROOT / "tools" / "proofs.py").bmc_evidence
+    runs = [_cover_run("PART=1,FRAME_LEN=0", ["accepts", "short"], ["short"]),
+            _cover_run("PART=1,FRAME_LEN=5", ["accepts", "short"], ["accepts"]),
+            _cover_run("PART=2,FRAME_LEN=5", ["round-trip"], ["round-trip"])]
+    verdicts, problems = ev.judge_covers(runs)
+    assert problems == [] and all(v.ok for v in verdicts)
+    assert next(v for v in verdicts if v.name == "accepts").reached_by == {"PART=1": ["PART=1,FRAME_LEN=5"]}
+    runs[1] = _cover_run("PART=1,FRAME_LEN=5", ["accepts", "short"], [])
+    verdicts, problems = ev.judge_covers(runs)
+    assert problems == ["cover point accepts NOT REACHED in PART=1 (items PART=1,FRAME_LEN=0, PART=1,FRAME_LEN=5)"]
+    shared = [_cover_run("PART=1", ["admitted"], ["admitted"]), _cover_run("PART=2", ["admitted"], [], "timeout")]
+    _, problems = ev.judge_covers(shared)
+    assert len(problems) == 1 and "NOT REACHED in PART=2" in problems[0] and "gave no verdict (timeout" in problems[0]
+    _, problems = ev.judge_covers([_cover_run("PART=1", ["a"], ["a"]), _cover_run("PART=4", [], [], "fail")])
+    assert problems and problems[0].startswith("PART=4: no cover point (URB_COVER)")
+
+
+def test_cover_results_are_read_from_the_multi_property_table() -> None:
+    ev = load_module("proofs", ROOT / "tools" / "proofs.py").bmc_evidence
+    text = ("urb-cover-point: a-frame\nurb-cover-point: cut\n** Results:\nharness.c, function harness\n"
+            "  FAILED       [urb_reach.assertion.1]  line  18  reach: the harness runs to its end on some input\n"
+            "  FAILED       [harness.assertion.2]    line 254  cover: a-frame\n"
+            "  PASSED       [harness.assertion.3]    line 255  cover: cut\n")
+    assert ev.parse_cover_points(text) == ["a-frame", "cut"]
+    assert ev.parse_claims(text) == {ev.REACH_CLAIM: True, "cover: a-frame": True, "cover: cut": False}
+    assert ev.part_of("PART=2,FRAME_LEN=5") == "PART=2" and ev.part_of("LEN=3") == "" and ev.part_of("") == ""
+
+
+def test_the_evidence_record_names_every_proof_mutant_and_cover(tmp_path: Path) -> None:
+    """tools/proofs.py's record (report/urb_report/records.py): bmc:<folder> with the bound, the result
+    and the worst case against its budget, bmc-mutant:<folder>/<mutant> with its kind,
+    bmc-cover:<folder>/<cover>; a failed cover fails its item."""
+    from concurrent.futures import Future
+
+    from urb_report.records import read_record
+
+    proofs = load_module("proofs", ROOT / "tools" / "proofs.py")
+    proof = proofs.Proof("fw_x", tmp_path, {"fast_sweep": "PART=1 PART=2", "sweep": "", "budget_cycles": "100"},
+                         "purpose",
+                         [{"name": "m", "why": "bug", "expect": "violated", "kind": "off-by-one"}], 90, "", 3)
+    plan = proofs.Plan(proof)
+    for item in ("PART=1", "PART=2"):
+        done: Future[Any] = Future()
+        done.set_result(proofs.Run("pass", 1.0))
+        plan.runs[item] = done
+        claims = {proofs.bmc_evidence.REACH_CLAIM: True, f"cover: {item.lower()}-point": item == "PART=1"}
+        reach: Future[Any] = Future()
+        reach.set_result(proofs.Run("fail", 1.0, claims=claims, points=[f"{item.lower()}-point"]))
+        plan.reach[item] = reach
+    killed: Future[Any] = Future()
+    killed.set_result([("PART=1", proofs.Run("fail", 1.0, "violated"))])
+    plan.mutants = {"m": killed}
+    rows = proofs.collect(plan, "fast")
+    cover = next(r for r in rows if r["function"] == "fw_x [cover]")
+    assert (cover["result"], cover["expected"]) == ("NOT REACHED", False)
+    assert "cover point part=2-point NOT REACHED in PART=2" in cover["detail"]
+    assert plan.evidence is not None
+    path = proofs.write_evidence([plan.evidence], "fast", tmp_path, {"jobs": 1})
+    record = read_record(path)
+    items = {i.id: i for i in record.items}
+    assert set(items) == {"bmc:fw_x", "bmc-mutant:fw_x/m", "bmc-cover:fw_x/part=1-point", "bmc-cover:fw_x/part=2-point"}
+    assert items["bmc:fw_x"].verdict == "pass" and items["bmc:fw_x"].data["worst_case_cycles"] == 90
+    assert (items["bmc:fw_x"].data["budget_cycles"], items["bmc:fw_x"].data["share_of_budget"]) == (100, 0.9)
+    assert items["bmc-mutant:fw_x/m"].data["kind"] == "off-by-one" and items["bmc-mutant:fw_x/m"].verdict == "pass"
+    assert items["bmc-cover:fw_x/part=2-point"].verdict == "fail"
+    assert record.tools["ESBMC"].startswith("ESBMC version")
+
+
+def test_without_covers_the_runner_gives_no_cover_row_and_runs_the_plain_vacuity_check(monkeypatch: Any) -> None:
+    """make check's run (no --covers): each item's reach run has COVERS=0 (points compiled out), and no
+    [cover] row or bmc-cover item is claimed; --covers (make proofs-cover, proofs-full) adds them."""
+    from concurrent.futures import Future
+
+    proofs = load_module("proofs", ROOT / "tools" / "proofs.py")
+    calls: list[tuple[str, ...]] = []
+
+    def fake_run_make(proof: Any, target: str, tier: str, out: Path, item: str, mutant: str = "",
+                      extra: tuple[str, ...] = ()) -> Any:
+        calls.append(extra)
+        return proofs.Run("fail", 1.0, claims={proofs.bmc_evidence.REACH_CLAIM: True})
+
+    monkeypatch.setattr(proofs, "run_make", fake_run_make)
+    monkeypatch.setattr(proofs, "cover_points", lambda *a: ["a-point"])
+    proof = proofs.Proof("fw_x", Path("."), {"fast_sweep": "PART=1 PART=2", "sweep": "", "budget_cycles": "100"},
+                         "purpose", [], None, "", 3)
+    futures: dict[str, Any] = {"PART=1": Future()}
+    proofs.run_reach_part(proof, "fast", Path("."), futures, covers=False)
+    assert calls == [("REACH_LOG=1", "COVERS=0")]
+    plan = proofs.Plan(proof, covers=False)
+    plan.runs = {"PART=1": futures["PART=1"]}
+    plan.reach = futures
+    functions = [r["function"] for r in proofs.collect(plan, "fast")]
+    assert functions == ["fw_x", "fw_x [reach]"]
+    assert plan.evidence is not None and plan.evidence.covers == []
+
+
+def _seeded_copy(folder: str, tmp_path: Path, find: str, insert: str) -> Path:
+    """A copy of proofs/bmc/<folder> under tmp_path (same name plus -seeded) whose harness has `insert`
+    right after the line containing `find`: an over-constraining assumption planted in the harness."""
+    copy = tmp_path / f"{folder}_seeded"
+    shutil.copytree(BMC / folder, copy)
+    makefile = (copy / "Makefile").read_text(encoding="utf-8")
+    (copy / "Makefile").write_text(makefile.replace("include ../Makefile.common", f"include {BMC}/Makefile.common"),
+                                   encoding="utf-8")
+    harness = (copy / "harness.c").read_text(encoding="utf-8")
+    assert harness.count(find) == 1, find
+    at = harness.index(find) + len(find)
+    (copy / "harness.c").write_text(harness[:at] + insert + harness[at:], encoding="utf-8")
+    return copy
+
+
+def _rows(folder: Path, tier: str, tmp_path: Path) -> dict[str, dict[str, Any]]:
+    """The proof, [reach] and [cover] rows of one folder run by the runner's own functions."""
+    from concurrent.futures import Future
+
+    proofs = load_module("proofs", ROOT / "tools" / "proofs.py")
+    proof = proofs.load(folder, tier)
+    plan = proofs.Plan(proof)
+    for item in proof.items(tier):
+        done: Future[Any] = Future()
+        done.set_result(proofs.run_make(proof, "proof", tier, tmp_path, item))
+        plan.runs[item] = done
+    futures: dict[str, Any] = {item: Future() for item in proof.items(tier)}
+    proofs.run_reach_part(proof, tier, tmp_path, futures)
+    plan.reach = futures
+    return {r["function"].removeprefix(folder.name).strip() or "proof": r for r in proofs.collect(plan, tier)}
+
+
+@pytest.mark.slow
+def test_covers_catch_an_assumption_that_rules_out_every_isr_read(tmp_path: Path) -> None:
+    """The issue's example (#37): an assumption that rules out every interrupt read in the outbox
+    proof's interleaving part. The proof still says proved and the harness's end is still reached, so
+    the vacuity check passes; the cover points name what part 1 no longer reaches."""
+    _require_esbmc()
+    seeded = _seeded_copy("fw_mailbox_outbox", tmp_path, "static void isr_event(void)\n{\n",
+                          "    URB_ASSUME(!interleave || reading); /* seeded: no read ever begins in part 1 */\n")
+    rows = _rows(seeded, "fast", tmp_path)
+    assert rows["proof"]["result"] == "proved", rows["proof"]
+    assert rows["[reach]"]["result"] == "reached", rows["[reach]"]
+    cover = rows["[cover]"]
+    assert (cover["result"], cover["expected"]) == ("NOT REACHED", False), cover
+    for point in ("part1-isr-read-begins", "part1-lock-busy", "part1-release-during-a-read"):
+        assert f"cover point {point} NOT REACHED" in cover["detail"], cover["detail"]
+    assert "part2-b-read-back-after-a-partial-read-of-a NOT REACHED" not in cover["detail"]
+
+
+@pytest.mark.slow
+def test_covers_catch_an_assumption_that_makes_a_decoders_success_unreachable(tmp_path: Path) -> None:
+    """The issue's other example: a decoder harness whose assumption leaves no accepted frame on
+    arbitrary bytes. Proved and reached as before; its cover point part1-decode-accepts is not."""
+    _require_esbmc()
+    folder = "urb_motor_command_decode"
+    seeded = _seeded_copy(folder, tmp_path, "URB_COST_END(BUDGET(length));\n",
+                          "    URB_ASSUME(r < 0); /* seeded: the success branch is never taken */\n")
+    rows = _rows(seeded, "fast", tmp_path)
+    assert rows["proof"]["result"] == "proved" and rows["[reach]"]["result"] == "reached", rows
+    assert rows["[cover]"]["result"] == "NOT REACHED", rows["[cover]"]
+    assert "cover point part1-decode-accepts NOT REACHED" in rows["[cover]"]["detail"]
+    clean = _rows(BMC / folder, "fast", tmp_path)
+    assert (clean["[cover]"]["result"], clean["[cover]"]["expected"]) == ("reached", True), clean["[cover]"]
+
+
+def test_one_seeded_bug_for_the_longest_frame_across_bmc_fuzzing_and_unit_tests() -> None:
+    """Issue #37: a cap one byte too small on the longest frame passed every check. The same edit is a
+    seeded bug of the USB uplink proof (its full-size part kills it), of the fuzz oracle and of the
+    bridge's unit tests (tests/firmware/bridge/test_seeded_bugs.py), so none of them can drift."""
+    def edit(entries: list[dict[str, Any]], name: str) -> tuple[str, str, str]:
+        m = next(e for e in entries if e["name"] == name)
+        return m["file"], m["find"], m["replace"]
+
+    want = edit(_mutants(BMC / "fw_bridge_usb_parser"), "frame-max-one-short")
+    fuzz = json.loads((ROOT / "tests" / "fuzz" / "mutants.json").read_text(encoding="utf-8"))
+    assert edit(fuzz, "bridge-frame-max-one-short") == want
+    unit = json.loads((ROOT / "tests" / "firmware" / "bridge" / "mutants.json").read_text(encoding="utf-8"))
+    assert edit(unit, "frame-max-one-short") == want

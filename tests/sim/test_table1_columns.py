@@ -59,3 +59,25 @@ def test_a_single_cycle_beyond_the_papers_max_fails(tmp_path: Path, monkeypatch:
     check = next(c for c in res.checks if c.name == "inter-node difference in t_acq_end (us)")
     assert not check.passed
     assert "max of runs 0.050, worst single cycle 0.600" in check.measured
+
+
+def test_a_run_read_once_takes_one_cycle_and_the_periods_of_the_same_capture() -> None:
+    """scope.capture_periods (the paper profile): each run is one capture at a trigger drawn from the
+    seed: the inter-node difference of the trigger's cycle and node A's period peak to peak over the
+    capture's periods from the same cycle; the same seed gives the same trigger, others others."""
+    deltas = [(-1) ** i * float(i) for i in range(200)]  # cycle i's difference is +-i
+    a_periods = [1000 + (i * 7) % 13 for i in range(200)]
+    readings = {seed: sync.read_once(seed, 30, deltas, a_periods) for seed in range(40)}
+    for inter, pp in readings.values():
+        k = int(inter)  # the trigger's cycle, from its difference
+        window = a_periods[k:k + 30]
+        assert 0 <= k <= 170 and len(window) == 30 and pp == max(window) - min(window)
+    assert readings[3] == sync.read_once(3, 30, deltas, a_periods)
+    assert len({r[0] for r in readings.values()}) > 20  # the trigger moves with the seed
+
+
+def test_the_columns_say_when_a_run_is_read_once() -> None:
+    assert sync.definitions(0) == sync.DEFINITIONS
+    once = sync.definitions(30)
+    assert once[0] == sync.DEFINITIONS[0] and [r[:4] for r in once] == [r[:4] for r in sync.DEFINITIONS]
+    assert "one oscilloscope capture" in once[1][4] and "peak to peak over the 30 periods" in once[2][4]

@@ -18,13 +18,13 @@ def _xref() -> ModuleType:
 
 def _with(path: str, text: str) -> dict[str, str]:
     """The firmware sources with `path` added (or replaced by `text`)."""
-    sources: dict[str, str] = _xref().firmware_sources()
+    sources: dict[str, str] = _xref().c_sources()
     sources[path] = text
     return sources
 
 
 def _edited(path: str, old: str, new: str) -> dict[str, str]:
-    sources: dict[str, str] = _xref().firmware_sources()
+    sources: dict[str, str] = _xref().c_sources()
     assert sources[path].count(old) == 1, f"{old!r} no longer in {path}: update the test"
     sources[path] = sources[path].replace(old, new)
     return sources
@@ -158,3 +158,34 @@ def test_a_downlink_action_cited_in_the_other_downlink_fails() -> None:
     problems = _xref().problems(_edited("firmware/downlink/can/urb_can_master.c",
                                         "/* CanTransfer.tla SendStart */", "/* Rs485Poll.tla: Poll */"))
     assert any("outside firmware/downlink/rs485/" in p for p in problems)
+
+
+def test_the_host_actions_are_implemented_once_in_the_host_library() -> None:
+    """Witness: the native host library's citations are read and name its functions."""
+    xref = _xref()
+    impl = xref.implementations(xref.citations())
+    for module, acts in xref.BY_HOST.items():
+        for action in acts:
+            files = impl.get((module, action), {})
+            assert len(files) == 1 and next(iter(files)).startswith("host/c/"), (module, action, files)
+    assert impl[("Bridge", "HostExpire")] == {"host/c/core/matcher.c": ["urb_matcher_expire"]}
+
+
+def test_a_host_action_without_its_host_citation_fails() -> None:
+    bad = _xref().problems(_edited("host/c/core/matcher.c", "/* Bridge.tla: HostExpire */", "/* expiry */"))
+    assert bad == ["spec/tla/Bridge.tla: action HostExpire has no production C citing `Bridge.tla: HostExpire` "
+                   "(nor is it listed as the application's or environment's)"]
+
+
+def test_a_second_host_file_implementing_a_host_action_fails() -> None:
+    bad = _xref().problems(_edited("host/c/port/loop.c", "/* Bridge.tla HostReopen */", "/* Bridge.tla: HostReopen */"))
+    assert len(bad) == 1 and "action HostReopen has 2 production implementations" in bad[0]
+
+
+def test_a_host_action_in_the_firmware_and_a_bridge_action_in_the_host_library_fail() -> None:
+    sources = _with("firmware/bridge/extra.c", "void f(void)\n{\n    x = 1; /* Bridge.tla: HostTimeout */\n}\n")
+    sources["host/c/core/extra.c"] = "void g(void)\n{\n    y = 2; /* Bridge.tla: Emit */\n}\n"
+    bad = _xref().problems(sources)
+    assert len(bad) == 2
+    assert "firmware/bridge/extra.c:3" in bad[0] and "outside host/c/" in bad[0]
+    assert "host/c/core/extra.c:3" in bad[1] and "outside firmware/bridge/" in bad[1]

@@ -434,6 +434,12 @@ sim_node_t *sim_node_new(const char *name, urbsim_kernel_t *k, urbsim_trace_t *t
     n->ncfg.heartbeat_us = cfg->heartbeat_us;
     n->ncfg.sync_enabled = cfg->sync_enabled ? 1u : 0u;
     n->ncfg.lead_us = cfg->lead_us;
+    n->ncfg.kd_q8 = cfg->kd_q8;
+    n->ncfg.kn_q8 = cfg->kn_q8;
+    n->ncfg.outlier_ns = cfg->outlier_ns;
+    n->ncfg.max_outliers = cfg->max_outliers;
+    n->ncfg.acq_window = cfg->acq_window;
+    n->ncfg.acq_guard_us = cfg->acq_guard_us;
     if (n->storage_len > sizeof n->storage) {
         n->storage_len = (uint16_t)sizeof n->storage;
     }

@@ -41,6 +41,12 @@ typedef struct {
     uint16_t heartbeat_us;
     bool sync_enabled;
     uint16_t lead_us;
+    uint8_t kd_q8;
+    uint8_t kn_q8;
+    uint16_t outlier_ns;
+    uint8_t max_outliers;
+    uint8_t acq_window;
+    uint8_t acq_guard_us;
 } sim_node_cfg_t;
 
 /** Applications a simulated node can run. */

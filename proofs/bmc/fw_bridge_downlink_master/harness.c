@@ -47,6 +47,12 @@
  * phase; FINISH and FAULT end at the next poll or start the clear; each clear step takes one poll
  * at least clear_half_us apart and the outcome comes at step 21. So the outcome comes within
  * timeout_us + 22 x clear_half_us of begin() (plus the main loop's poll period), exactly once.
+ * Cover points (URB_COVER, checked by the reach run): every lemma's branches: 1 a bus clear for a
+ * stuck line and for CLEAR, a write, a read with and without its select, a probe, a SYNC; 2 a NACK
+ * of the address and of a data byte, a data and a check byte read, the last byte, an unexpected
+ * and a late event; 3 still waiting, a timeout, a fault into the bus clear and into TIMEOUT, a read
+ * OK and a read CHECKSUM; 4 a half clock not yet passed, a clear step, CLEAR OK, BUS_STUCK; 5 the
+ * forget itself.
  * Cost: every event (interrupt) within FW_I2C_EVENT_BUDGET (half an I2C byte time); begin() and
  * every poll (main loop, the check over up to 33 bytes) within FW_BRIDGE_MASTER_CALL_BUDGET (two
  * byte times of idle bus: begin() runs before the START, the final poll after the STOP).
@@ -269,6 +275,11 @@ static void lemma_begin(void)
                    "begin: a CLEAR is judged by the lines after it, a stuck bus is BUS_STUCK");
         URB_ASSERT(forget_calls == 1u, "a bus clear forgets every cached selection (forget_all, lemma 5)");
         URB_ASSERT(master.bus_clears == clears_before + 1u, "begin: the bus clear is counted");
+        if (t.op == (uint8_t)URB_DL_CLEAR) {
+            URB_COVER("part1-clear-command-starts-the-bus-clear");
+        } else {
+            URB_COVER("part1-a-line-held-low-starts-the-bus-clear");
+        }
         return;
     }
     URB_ASSERT((forget_calls == 0u) && (master.bus_clears == clears_before), "begin: no clear on free lines");
@@ -292,6 +303,7 @@ static void lemma_begin(void)
             got = master.tail[(k - 2u - t.length) & 1u];
         }
         URB_ASSERT(got == want, "write: the planned bytes are the request's, the check over select + data");
+        URB_COVER("part1-write-planned");
     } else if (t.op == (uint8_t)URB_DL_READ) {
         bool const select = t.reselect || (sel_before != t.mailbox);
         URB_ASSERT(master.read_after == select, "read: the select only when needed (reselect, or another cached)");
@@ -301,12 +313,19 @@ static void lemma_begin(void)
                        "read: a DownlinkReadSelect of the outbox");
         }
         URB_ASSERT(master.n_rx == (uint8_t)(t.length + check_size(t.length)), "read: data and check");
+        if (select) {
+            URB_COVER("part1-read-with-its-select");
+        } else {
+            URB_COVER("part1-read-of-the-cached-selection");
+        }
     } else if (t.op == (uint8_t)URB_DL_PROBE) {
         URB_ASSERT((master.n_hdr == 1u) && (master.hdr[0] == (uint8_t)(t.address << 1)) && (master.n_rx == 0u),
                    "probe: the address alone");
+        URB_COVER("part1-probe-planned");
     } else {
         URB_ASSERT((master.n_hdr == 3u) && (master.hdr[0] == 0u) && (master.hdr[1] == (uint8_t)URB_SYNC_MAGIC) &&
                    (master.hdr[2] == t.counter), "sync: general call, magic, counter");
+        URB_COVER("part1-sync-planned");
     }
 }
 #endif
@@ -359,6 +378,7 @@ static void lemma_event(void)
     URB_ASSERT(!aborted && (drives == 0u), "an event never aborts or bit-bangs");
     if ((ph == PH_IDLE) || (ph >= PH_FINISH)) {
         URB_ASSERT((ops == 0u) && (now_ph == ph), "a late event starts nothing and changes nothing");
+        URB_COVER("part2-late-event-ignored");
         return;
     }
     URB_ASSERT(now_ph <= PH_FAULT, "an event never starts a bus clear (poll() does)");
@@ -378,6 +398,7 @@ static void lemma_event(void)
                           ((ph == PH_RX) && (ev == URB_I2C_EV_BYTE));
     if (!expected) {
         URB_ASSERT(now_ph == PH_FAULT, "an event the phase does not expect: the transaction faults");
+        URB_COVER("part2-unexpected-event-faults");
         return;
     }
     if ((ph == PH_TX) && (ev == URB_I2C_EV_NACK)) {
@@ -397,10 +418,17 @@ static void lemma_event(void)
         }
         /* (a READ's header and a PROBE have at most 2 bytes, a SYNC's NACK is nobody's error) */
         URB_ASSERT((now_ph == PH_FINISH) && (master.result == want), "error flags: a NACK gets the status the contract names");
+        if (want == URB_STATUS_SIZE_MISMATCH) {
+            URB_COVER("part2-nack-of-a-data-byte");
+        }
+        if (want == URB_STATUS_CHECKSUM) {
+            URB_COVER("part2-nack-of-a-check-byte");
+        }
         return;
     }
     if ((ph == PH_ADDR_R) && (ev == URB_I2C_EV_NACK)) {
         URB_ASSERT((now_ph == PH_FINISH) && (master.result == URB_STATUS_NO_NODE), "error flags: a read address NACKed is NO_NODE");
+        URB_COVER("part2-read-address-nacked");
         return;
     }
     if ((ph == PH_TX) && (now_ph == PH_TX)) {
@@ -417,12 +445,18 @@ static void lemma_event(void)
             URB_ASSERT(data[data_k] == data_before, "read: a check byte writes no data");
         }
         URB_ASSERT((now_ph == PH_FINISH) == ((uint8_t)(pos + 1u) >= master.n_rx), "read: the last byte ends the bus part");
+        if (pos < t.length) {
+            URB_COVER("part2-a-data-byte-read");
+        } else if (now_ph == PH_FINISH) {
+            URB_COVER("part2-the-last-check-byte-read");
+        }
     }
     if ((ph != PH_RX) && (data_k < 32u)) {
         URB_ASSERT(data[data_k] == data_before, "only a read byte writes the request's buffer");
     }
     if ((now_ph == PH_FINISH) && (ph != PH_RX)) {
         URB_ASSERT(master.result == URB_STATUS_OK, "a bus part acknowledged throughout is OK");
+        URB_COVER("part2-a-write-acknowledged-to-its-stop");
     }
 }
 #endif
@@ -485,6 +519,9 @@ static void lemma_poll(void)
         URB_ASSERT(master.timeouts == timeouts_before + (timed_out ? 1u : 0u), "timeout: counted once");
         if (!timed_out) {
             URB_ASSERT((r == URB_DOWNLINK_BUSY) && (now_ph == ph), "before the timeout: still waiting");
+#if URB_PART == 3
+            URB_COVER("part3-still-waiting");
+#endif
             return;
         }
     }
@@ -498,8 +535,16 @@ static void lemma_poll(void)
                        (master.clear_for == URB_STATUS_BUS_STUCK) && (master.t_step == now),
                        "a line low after a fault: the bus clear starts, timed from this poll");
             URB_ASSERT(!released && (drives == 0u), "the clear's first half clock is the next poll's");
+#if URB_PART == 3
+            URB_COVER("part3-a-fault-with-a-line-low-starts-the-bus-clear");
+#endif
         } else {
             URB_ASSERT((r == (int8_t)URB_STATUS_TIMEOUT) && released, "free lines after a fault: TIMEOUT");
+            if (timed_out && (ph != PH_FAULT)) {
+#if URB_PART == 3
+                URB_COVER("part3-a-waiting-transaction-times-out");
+#endif
+            }
         }
         return;
     }
@@ -515,6 +560,15 @@ static void lemma_poll(void)
                 URB_ASSERT((st == URB_STATUS_OK) == (got == fw_bridge_check_last),
                            "a read received in full: OK exactly when its check matches, else CHECKSUM");
                 URB_ASSERT((st == URB_STATUS_OK) || (st == URB_STATUS_CHECKSUM), "a read: OK or CHECKSUM");
+                if (st == URB_STATUS_OK) {
+#if URB_PART == 3
+                    URB_COVER("part3-a-read-ok");
+#endif
+                } else {
+#if URB_PART == 3
+                    URB_COVER("part3-a-read-checksum");
+#endif
+                }
             } else {
                 URB_ASSERT(st == result, "a read refused on the bus keeps its status");
             }
@@ -534,6 +588,9 @@ static void lemma_poll(void)
     URB_ASSERT(!aborted, "a bus clear aborts nothing");
     if ((k > 0u) && ((uint32_t)(now - t_step) < FW_CLEAR_HALF_US)) {
         URB_ASSERT((r == URB_DOWNLINK_BUSY) && (master.clear_step == k) && (drives == 0u), "the half clock has not passed");
+#if URB_PART == 4
+        URB_COVER("part4-the-half-clock-has-not-passed");
+#endif
         return;
     }
     if (k < FW_CLEAR_STEPS) {
@@ -542,13 +599,22 @@ static void lemma_poll(void)
         uint8_t const want = (k < 18u) ? (((k & 1u) != 0u) ? 3u : (uint8_t)URB_I2C_SDA)
                                        : ((k == 18u) ? 0u : ((k == 19u) ? (uint8_t)URB_I2C_SCL : 3u));
         URB_ASSERT(last_drive == want, "clear: nine SCL pulses with SDA released, then a STOP");
+#if URB_PART == 4
+        URB_COVER("part4-a-clear-step");
+#endif
         return;
     }
     URB_ASSERT(released && (drives == 0u), "clear: the lines go back to the controller");
     if ((clear_for == 0xFEu) && ((last_lines & 3u) == 3u)) {
         URB_ASSERT(r == (int8_t)URB_STATUS_OK, "CLEAR: OK when the lines are free after");
+#if URB_PART == 4
+        URB_COVER("part4-clear-ok");
+#endif
     } else {
         URB_ASSERT(r == (int8_t)URB_STATUS_BUS_STUCK, "BUS_STUCK after the full clear of a stuck bus or lines still low");
+#if URB_PART == 4
+        URB_COVER("part4-bus-stuck");
+#endif
     }
 }
 #endif
@@ -623,6 +689,7 @@ static void lemma_forget_all(void)
     URB_ASSERT(same_but_selections(&fm, &before), "forget_all: nothing but the selections changes");
     URB_ASSERT(urb_proof_cost <= FW_FORGET_ALL_COST, "forget_all: costs at most what its contract charges");
     URB_TIGHT(urb_proof_cost == FW_FORGET_ALL_COST, "forget_all: the contract charges what it costs");
+    URB_COVER("part5-every-selection-forgotten");
 }
 #endif
 

@@ -38,6 +38,10 @@
  * FIFO, which the solver decides far faster than the same property by ring offset; together with
  * the lemma's own "the entry / slot written is not an outstanding one" it says that the outstanding
  * responses and their held slots stay intact.
+ * Cover points (URB_COVER, checked by the reach run): 1 every admission status (admitted, BUSY,
+ * BAD_REQUEST, SIZE_MISMATCH) and a request beyond the window, an admission into a wrapped ring;
+ * 2 nothing pending, and a completion behind an outstanding final response; 3 an emission that
+ * stops at a pending response, one stopped by the uplink, one that frees a data slot.
  * Capacities are lowered (fast tier FIFO 2, ring 3; full tier FIFO 3, ring 4): the code is generic
  * in both. Payload lengths 1..FW_LEN_MAX (fast 2, full also 32 with URB_LEN, for the cost of the
  * longest copy and an identification read in lemma 2).
@@ -312,6 +316,7 @@ static void lemma_admit(void)
         check_frame(FW_NONE, FW_NONE);
         URB_ASSERT(bridge.stats.window_overflow == windows + 1u, "beyond the window: counted ...");
         URB_ASSERT((bridge.ring_count == old_count) && (bridge.slot_count == old_slot_count), "... and not answered");
+        URB_COVER("part1-beyond-the-window");
         return;
     }
     URB_ASSERT(bridge.ring_count == (uint8_t)(old_count + 1u), "bounded: one response slot per request");
@@ -331,10 +336,13 @@ static void lemma_admit(void)
     }
     if (!well_formed || reserved) {
         URB_ASSERT(e.status == URB_STATUS_BAD_REQUEST, "admission: a malformed request or reserved address is BAD_REQUEST");
+        URB_COVER("part1-bad-request");
     } else if ((size >= 0) && (size != (int16_t)len)) {
         URB_ASSERT(e.status == URB_STATUS_SIZE_MISMATCH, "admission: a length the mailbox does not have");
+        URB_COVER("part1-size-mismatch");
     } else if (old_slot_count >= bridge.cfg.fifo_depth) {
         URB_ASSERT(e.status == URB_STATUS_BUSY, "BUSY when every data slot is taken");
+        URB_COVER("part1-busy");
     } else {
         URB_ASSERT(e.status == URB_BRIDGE_PENDING, "BUSY only when every data slot is taken: admitted");
         for (uint8_t j = 0u; j < FW_RING; j++) {
@@ -347,6 +355,10 @@ static void lemma_admit(void)
                    "the slot holds the request");
         if (!read) {
             URB_ASSERT(d.data[k] == payload[k], "the slot holds the request's payload");
+            URB_COVER("part1-write-admitted");
+        }
+        if (r < old_head) {
+            URB_COVER("part1-admitted-into-a-wrapped-ring");
         }
         return;
     }
@@ -384,6 +396,7 @@ static void lemma_complete(void)
         URB_ASSERT((s == URB_BRIDGE_NO_SLOT) && (d == NULL), "nothing pending: nothing to serve");
         URB_ASSERT(bridge.slot_served == old_served, "nothing pending: nothing served");
         check_frame(FW_NONE, FW_NONE);
+        URB_COVER("part2-nothing-pending");
         return;
     }
     URB_ASSERT((s == old_e[oldest].slot) && (d == &bridge.slots[s]), "serve order: the oldest pending request is served");
@@ -394,6 +407,9 @@ static void lemma_complete(void)
     URB_ASSERT((e.seq == old_e[oldest].seq) && (e.uplink == old_e[oldest].uplink) && (e.slot == old_e[oldest].slot),
                "its response keeps its place, seq, uplink and slot");
     check_frame(r, FW_NONE);
+    if (oldest > 0u) {
+        URB_COVER("part2-served-behind-an-outstanding-response");
+    }
 }
 #endif
 
@@ -465,6 +481,15 @@ static void lemma_emit(void)
                (bridge.slot_head == wrap((uint8_t)(old_slot_head + freed), bridge.cfg.fifo_depth)),
                "the data slots of the responses sent are freed, in FIFO order");
     check_frame(FW_NONE, FW_NONE); /* emit moves heads and counts only: the rest of the ring stays as it was */
+    if ((sent == finals) && (finals < old_count)) {
+        URB_COVER("part3-emission-stops-at-a-pending-response");
+    }
+    if ((sent == room0) && (sent < finals)) {
+        URB_COVER("part3-emission-stopped-by-the-uplink");
+    }
+    if (freed > 0u) {
+        URB_COVER("part3-a-data-slot-freed");
+    }
 }
 #else
 bool urbb_uplink_send(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t len)

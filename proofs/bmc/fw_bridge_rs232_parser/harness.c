@@ -58,6 +58,30 @@
  * was idle longer than rx_gap_us or bytes were lost before it, and only then published; the stamp is
  * kept either way. Parts 1 and 2 parse what the flag means.
  *
+ * The full-size frames. Items with LONG run the step with the longest request (a write of 32
+ * bytes, 37 bytes on the wire) at the front of the held bytes, every other byte and the state
+ * arbitrary but for its shape (its first byte a write's, its length field 32, its payload zero):
+ * HELD=36 with its last byte arriving (the longest candidate completes, after the compaction the
+ * arriving byte forces, and is checked: admitted, or hunted through), and HELD=37 (a poll that ran
+ * out of checks left it complete) with the first byte of the next frame arriving (the longest
+ * frame admitted, the frame behind it started at the front of the buffer). Their poll has the
+ * budget urbb_uart_drain gives it (URB_BRIDGE_HUNT_CHECKS): hunting through a failed longest
+ * candidate with any budget up to 255 did not finish within minutes; the small items keep any
+ * budget. By the induction the
+ * longest frame followed by any other is then admitted exactly as the reference says. The payload
+ * is zero and the first byte fixed because the parser never reads them beyond bit 0: it measures a
+ * candidate by its first and third byte and hands it whole to admission, whose abstract verdict
+ * still passes or fails it through the arbitrary key and check bytes. The bounds of the other
+ * items (at most 6 bytes) hold no such frame, and a cap one byte too short for the longest frame
+ * (seeded bug frame-max-one-short) passed them.
+ *
+ * Cover points (URB_COVER, checked by the reach run) per part: part 1 a frame admitted, a failed
+ * check hunted, a gap drop, an idle flush, a poll stopped by its budget, a byte stamped after the
+ * poll's now; in LONG items the longest frame admitted and the longest candidate failing its check;
+ * part 2 a poll that compacts the buffer and one that admits a frame (in LONG items the longest);
+ * part 3 a checked read and a checked write of 37 bytes; part 4 a full ring, a gap flag, an
+ * overrun flag.
+ *
  * The check is abstracted (proofs/bmc/stubs/fw_uplink_model.h, shared with the USB proof).
  */
 #include "urb_verify.h"
@@ -69,6 +93,9 @@
 #include "../stubs/fw_budgets.h"
 
 #define FW_COST_BUDGET FW_BRIDGE_RS232_BYTE_BUDGET
+/* The longest request, from the schema (not the firmware's own URB_BRIDGE_FRAME_MAX, which a bug
+ * may get wrong): a write of URB_MAX_MAILBOX_SIZE bytes. */
+#define FW_REQUEST_MAX URB_UPLINK_WRITE_REQUEST_MAX_SIZE
 
 #if defined(URB_HELD)
 #define FW_HELD ((uint8_t)URB_HELD) /* bytes held before the step (sweep item) */
@@ -107,7 +134,7 @@
 #define FW_ROUND_CYCLES 115u
 #define FW_FILL_CYCLES 10u
 /* Potential per byte held or waiting: pays one hunt round with a check of the longest candidate. */
-#define FW_HUNT_ROUND_CYCLES (FW_ROUND_CYCLES + FW_DECODE_CYCLES(URB_BRIDGE_FRAME_MAX))
+#define FW_HUNT_ROUND_CYCLES (FW_ROUND_CYCLES + FW_DECODE_CYCLES(FW_REQUEST_MAX))
 /* The worst poll: URB_BRIDGE_RX_PER_POLL bytes taken, URB_BRIDGE_HUNT_CHECKS checks of 37 bytes,
  * every other byte held or taken dropped, the buffer emptied from full. */
 #define FW_POLL_WORST                                                                              \
@@ -139,6 +166,7 @@ static uint8_t got_frame_bytes; /* bytes of the frames admitted */
 static uint32_t got_decode;     /* their decoding cycles */
 
 static const uint8_t *key; /* one arbitrary key per length (the harness's uninitialised local) */
+
 #define FW_FRAME_WIDTH FW_N
 #include "../stubs/fw_uplink_model.h"
 
@@ -146,7 +174,7 @@ bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t l
 {
     URB_ASSERT(b == &bridge, "admission: the bridge under proof");
     URB_ASSERT(uplink == URBB_UPLINK_RS232, "admission: RS232 frames come from the RS232 uplink");
-    URB_ASSERT((len >= 4u) && (len <= URB_BRIDGE_FRAME_MAX), "admission: a candidate of a request's length");
+    URB_ASSERT((len >= 4u) && (len <= FW_REQUEST_MAX), "admission: a candidate of a request's length");
     URB_ASSERT(frame == &b->rs232.buf[b->rs232.start], "admission: the candidate starts at the held bytes' start");
     URB_ASSERT(len <= b->rs232.len, "admission: only complete candidates");
     /* urbb_frame's cost: the strict decoder on `len` bytes, as part 3 proves, and the call */
@@ -183,6 +211,8 @@ static bool ref_stopped;      /* a check was due with none left: the poll ends h
 static uint32_t ref_discards; /* bytes discarded while hunting (failed checks, impossible headers) */
 static uint32_t ref_gaps;     /* partial frames dropped at a gap */
 
+/* Each part's functions are compiled into its items only, and with them its cover points. */
+#if (URB_PART == 1) || (URB_PART == 2)
 /* The reference parser on stream positions: candidate start s, bytes s..e-1 arrived since the
  * last gap. Hunting waits at an incomplete candidate, unless the candidate has `ended` (an idle gap
  * follows): then it is not a frame, and from there on every byte that starts no complete frame is
@@ -236,6 +266,14 @@ static void step(void)
     for (uint8_t k = 0u; k < FW_N; k++) {
         stream[k] = URB_NONDET_U8();
     }
+#if defined(URB_LONG)
+    /* the held bytes start the longest request (assigned, not assumed: its length is a constant) */
+    stream[0] = 0x22u; /* a write (bit 0 clear) to node 0x11 */
+    stream[2] = URB_MAX_MAILBOX_SIZE;
+    for (uint8_t k = 3u; k < (uint8_t)(FW_REQUEST_MAX - 2u); k++) {
+        stream[k] = 0u; /* the payload: see the header comment */
+    }
+#endif
 #if defined(URB_START0)
     uint8_t const start = 0u; /* sweep items with START0: the held bytes at the front */
 #else
@@ -275,7 +313,11 @@ static void step(void)
     stamp = last + delta;
 #endif
     uint32_t const now = late ? (uint32_t)(stamp - ahead) : (uint32_t)(stamp + wait);
+#if defined(URB_LONG)
+    uint8_t const k1 = URB_BRIDGE_HUNT_CHECKS; /* LONG items: the main loop's own budget (see above) */
+#else
     uint8_t const k1 = URB_NONDET_U8(); /* the poll's budget: any */
+#endif
     uint32_t const yields = bridge.stats.hunt_yields;
     uint32_t const discards = bridge.stats.hunt_discards;
     uint32_t const gaps = bridge.stats.gap_drops;
@@ -286,7 +328,7 @@ static void step(void)
     uint32_t const actual = urb_proof_cost;
     uint8_t const after = p->len;
     uint8_t const pulled = (uint8_t)(bridge.rx_tail - tail);
-    URB_ASSERT(after <= URB_BRIDGE_FRAME_MAX, "no overrun: the assembler holds at most one frame");
+    URB_ASSERT(after <= FW_REQUEST_MAX, "no overrun: the assembler holds at most one frame");
     URB_ASSERT((uint32_t)p->start + after <= URB_BRIDGE_PARSE_BUF, "no overrun: the held bytes lie in the buffer");
     URB_ASSERT(got_checks <= k1, "budget: at most k checks in a poll");
     URB_ASSERT(pulled <= (arrive ? 1u : 0u), "only the bytes that arrived are taken");
@@ -336,6 +378,38 @@ static void step(void)
     URB_ASSERT(bridge.stats.gap_drops - gaps == ref_gaps, "gap drops counted as the reference");
     URB_ASSERT(!late || gap || (bridge.stats.gap_drops == gaps),
                "a byte stamped after the poll's now is no idle gap: no partial frame dropped");
+#if defined(URB_LONG)
+    if ((got_count >= 1u) && (got_len[0] == FW_REQUEST_MAX)) {
+        URB_COVER("part1-longest-frame-admitted");
+    }
+    if ((got_failed >= 1u) && (got_count == 0u)) {
+        URB_COVER("part1-longest-candidate-fails-its-check");
+    }
+#if URB_HELD >= 37 /* a complete longest candidate held */
+    if ((got_count >= 1u) && (got_len[0] == FW_REQUEST_MAX) && (pulled == 1u)) {
+        URB_COVER("part1-longest-frame-admitted-then-the-next-frame-starts");
+    }
+#endif
+#else
+    if (got_count >= 1u) {
+        URB_COVER("part1-frame-admitted");
+    }
+    if (got_failed >= 1u) {
+        URB_COVER("part1-failed-check-hunted");
+    }
+    if (gap && (ref_gaps > 0u)) {
+        URB_COVER("part1-partial-frame-dropped-at-a-gap");
+    }
+    if (!gap && idle && (ref_gaps > 0u)) {
+        URB_COVER("part1-partial-frame-flushed-when-idle");
+    }
+    if (ref_stopped) {
+        URB_COVER("part1-poll-stopped-by-its-budget");
+    }
+    if (late) {
+        URB_COVER("part1-byte-stamped-after-the-polls-now");
+    }
+#endif
 #else
     /* Part 2. The linear form: bytes consumed = frames' bytes + failed checks + dropped bytes. */
     uint8_t const consumed = (uint8_t)(FW_HELD + pulled - after);
@@ -353,15 +427,30 @@ static void step(void)
                             FW_FILL_CYCLES * fill_after;
     urb_proof_cost = (charge > credit) ? (charge - credit) : 0u;
     URB_COST_END(FW_COST_BUDGET);
+#if defined(URB_LONG)
+    if ((got_count >= 1u) && (got_len[0] == FW_REQUEST_MAX)) {
+        URB_COVER("part2-longest-frame-admitted");
+    }
+#else
+    if (got_count >= 1u) {
+        URB_COVER("part2-frame-admitted");
+    }
+    if ((pulled == 1u) && (fill + 1u > URB_BRIDGE_PARSE_BUF)) {
+        URB_COVER("part2-the-byte-compacts-the-buffer");
+    }
+#endif
 #endif
 }
 
+#endif /* URB_PART == 1 || URB_PART == 2 */
+
+#if URB_PART == 3
 /* Part 3: the cost urbb_frame's decoding charges in parts 1 and 2 (FW_DECODE_CYCLES), proved on
  * the real generated decoders and CRC for any candidate of 4..37 bytes; and the abstraction's
  * length rule: the strict decoder never passes a frame of another length. */
 static void part3_decode(void)
 {
-    uint8_t frame[URB_BRIDGE_FRAME_MAX];
+    uint8_t frame[FW_REQUEST_MAX];
     URB_NONDET_BYTES(frame, sizeof frame);
     uint8_t const len = URB_NONDET_U8();
     URB_ASSUME((len >= 4u) && (len <= FW_HELD_MAX + 1u));
@@ -381,9 +470,17 @@ static void part3_decode(void)
             : (uint8_t)(3u + frame[2] + ((3u + frame[2] <= URB_CRC8_LINK_CHECK_MAX_COVERED) ? 1u : 2u));
         URB_ASSERT((frame[0] & 1u) || (frame[2] <= 32u), "decode lemma: a checked write announces <= 32 bytes");
         URB_ASSERT(len == want, "decode lemma: a checked frame has its header's length");
+        if ((frame[0] & 1u) != 0u) {
+            URB_COVER("part3-read-request-checked");
+        } else if (len == FW_REQUEST_MAX) {
+            URB_COVER("part3-longest-write-checked");
+        }
     }
 }
 
+#endif /* URB_PART == 3 */
+
+#if URB_PART == 4
 /* Part 4: one byte from the UART interrupt, from any receive-ring state. */
 static void part4_rx(void)
 {
@@ -428,9 +525,17 @@ static void part4_rx(void)
     if (other != (head & (URB_BRIDGE_RX_RING - 1u))) {
         URB_ASSERT(bridge.rx_ring[other] == seen, "rx: no other slot is written");
     }
+    if (full) {
+        URB_COVER("part4-a-full-ring-loses-the-byte");
+    } else if (overrun) {
+        URB_COVER("part4-the-byte-after-a-loss-is-flagged");
+    } else if (gap) {
+        URB_COVER("part4-the-byte-after-an-idle-gap-is-flagged");
+    }
     URB_ASSERT(urb_proof_cost <= FW_UART_EVENT_BUDGET, "cost: the interrupt within half a UART byte time");
 }
 
+#endif /* URB_PART == 4 */
 void harness(void)
 {
     /* What urb_bridge_init / urbb_uplink_init set for the parser at 115200 Bd with the default gap. */
@@ -440,7 +545,7 @@ void harness(void)
     bridge.rx_head = 0u;
     bridge.rx_tail = 0u;
     bridge.rs232.len = 0u;
-    uint8_t keys[URB_BRIDGE_FRAME_MAX + 1u];
+    uint8_t keys[FW_REQUEST_MAX + 1u];
     URB_NONDET_BYTES(keys, sizeof keys);
     key = keys;
 #if !defined(URB_PART)

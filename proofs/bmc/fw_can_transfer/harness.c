@@ -90,6 +90,7 @@ void harness(void)
     urb_can_rx_t rx;
     urb_can_rx_reset(&rx);
     reassemble(&rx, n, payload, (uint8_t)URB_LEN, tid);
+    URB_COVER("part1-transfer-reassembled");
 }
 #elif URB_PART == 2
 void harness(void)
@@ -127,6 +128,15 @@ void harness(void)
         URB_ASSERT(r == URB_CAN_RX_EMPTY, "one frame: an empty frame is EMPTY");
     }
     URB_ASSERT(rx.tid < 32u && rx.toggle <= 1u && rx.active <= 1u && rx.single <= 1u, "one frame: invariant kept");
+    if (r == URB_CAN_RX_DONE) {
+        URB_COVER("part2-frame-completes-a-transfer");
+    }
+    if (r == URB_CAN_RX_MORE) {
+        URB_COVER("part2-frame-taken-more-due");
+    }
+    if (len == 0u) {
+        URB_COVER("part2-empty-frame");
+    }
 }
 #elif URB_PART == 3
 void harness(void)
@@ -145,6 +155,7 @@ void harness(void)
     uint8_t const tid2 = (uint8_t)((tid + 1u) & 31u);
     n = segment(next, (uint8_t)URB_LEN, tid2);
     reassemble(&rx, n, next, (uint8_t)URB_LEN, tid2);
+    URB_COVER("part3-largest-transfer-then-another");
 }
 #else
 #error "URB_PART must be 1, 2 or 3"

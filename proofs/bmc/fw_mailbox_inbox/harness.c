@@ -32,6 +32,11 @@
  *   write then read a committed write of arbitrary bytes is what the next lock returns
  *   isolation       the neighbouring mailbox's bytes stay untouched
  *
+ * Cover points (URB_COVER, checked by the reach run): part 1 reaches an accepted and a refused
+ * write, a commit and an abort, a commit while the application holds the inbox, a NEW and a not-new
+ * lock, a BUSY lock (full tier: its three defeated attempts need more writes than the fast tier's),
+ * and completes its rounds; part 2 its end; a neighbour is present.
+ *
  * Proof view (views.json): the two stores `ib->fresh[x] = v` with a variable x are rewritten as
  * `if (x == 0) fresh[0] = v; else { assert(x == 1); fresh[1] = v; }`, which has the same meaning
  * for every x the original accepts and fails where the original would store out of bounds.
@@ -112,9 +117,13 @@ static void isr_event(void)
                 writing = true;
                 write_ver = versions;
                 buf_ver[t] = FW_NO_VERSION; /* being overwritten */
+                if (interleave) {
+                    URB_COVER("part1-write-accepted");
+                }
             } else {
                 URB_ASSERT(ib->app_idx == t, "NACK only while the application claims the buffer it needs");
                 URB_ASSERT(ib->isr_idx == URB_NONE, "a refused write changes nothing");
+                URB_COVER("part1-write-refused");
             }
         }
     } else if (URB_NONDET_BOOL()) {
@@ -126,10 +135,15 @@ static void isr_event(void)
         committed = write_ver;
         writing = false;
         commits++;
+        URB_COVER("part1-write-committed");
+        if (holding) {
+            URB_COVER("part1-commit-while-the-application-holds-the-inbox");
+        }
     } else {
         urb_isr_write_abort(&node, box);
         URB_ASSERT(ib->isr_idx == URB_NONE, "IsrWriteAbort frees the buffer");
         writing = false; /* the buffer keeps FW_NO_VERSION: its bytes are garbage */
+        URB_COVER("part1-write-aborted");
     }
     check_exclusive();
 }
@@ -182,6 +196,7 @@ static void setup(urb_node_t *n, uint8_t *st, uint8_t pre)
     n->storage_len = (uint16_t)sizeof storage;
     if (pre > 0u) {
         URB_ASSERT(urb_node_setup_outbox(n, box, pre) == URB_NODE_OK, "setup of the neighbour");
+        URB_COVER("a-neighbour-precedes-the-inbox");
     }
     URB_ASSERT(urb_node_setup_inbox(n, box, size) == URB_NODE_OK, "setup of the inbox");
 }
@@ -197,11 +212,18 @@ static void part1_interleavings(void)
         if (rc == URB_NODE_ERR_BUSY) {
             URB_ASSERT(commits >= 3u, "BUSY only after three attempts, each defeated by a commit");
             URB_ASSERT(node.inbox[box].app_idx == URB_NONE, "BUSY leaves nothing claimed");
+            URB_COVER_FULL("part1-lock-busy");
             continue;
         }
         URB_ASSERT((rc == URB_NODE_OK) || (rc == URB_NODE_NEW), "lock: OK, NEW or BUSY");
         URB_ASSERT(holding, "a granted lock passed AppLockCheckFront");
         URB_ASSERT((rc == URB_NODE_NEW) == linearized_new, "NEW exactly for a version no lock returned");
+        if ((rc == URB_NODE_NEW) && (linearized != 0u)) {
+            URB_COVER("part1-lock-new-version");
+        }
+        if (rc == URB_NODE_OK) {
+            URB_COVER("part1-lock-same-version");
+        }
         returned = linearized;
         URB_ASSERT(data == urb_inbox_buf(&node, box, node.inbox[box].app_idx), "the lock hands out its buffer");
         URB_ASSERT(lock(&node, &data) == URB_NODE_ERR_STATE, "double lock");
@@ -209,6 +231,9 @@ static void part1_interleavings(void)
         check_exclusive();
         URB_ASSERT(release(&node) == URB_NODE_OK, "release");
         URB_ASSERT(!holding, "released");
+        if (r == (uint8_t)(FW_ROUNDS - 1u)) {
+            URB_COVER("part1-last-round-released");
+        }
     }
 }
 
@@ -252,6 +277,7 @@ static void part2_data(uint8_t pre)
     URB_ASSERT(release(&node) == URB_NODE_OK, "release B");
     URB_ASSERT(lock(&node, &data) == URB_NODE_OK, "the same version again: OK, not NEW");
     URB_ASSERT(release(&node) == URB_NODE_OK, "release");
+    URB_COVER("part2-both-versions-read-back");
 
     /* The neighbour in the storage block was never written. */
     for (uint8_t k = 0u; k < 2u * FW_PRE_MAX; k++) {

@@ -28,6 +28,11 @@
  *   write then read   after a release, a complete read returns exactly the bytes written
  *   isolation         the neighbouring mailbox's bytes stay untouched
  *   API               double lock and release without lock are refused (ERR_STATE)
+ *
+ * Cover points (URB_COVER, checked by the reach run): part 1 reaches every interrupt event, a read
+ * that begins while the application holds its buffer, a release during a read, a BUSY lock and a
+ * lock granted during a read, and completes its rounds; part 2 reaches its end after a partial
+ * first read; a neighbour is present.
  */
 #include "urb_verify.h"
 
@@ -87,16 +92,24 @@ static void isr_event(void)
     if (!reading) {
         urb_isr_read_begin(&node, box);
         URB_ASSERT(ob->isr_idx == ob->front, "IsrReadBegin latches front");
+        if (interleave) {
+            URB_COVER("part1-isr-read-begins");
+            if (ob->held != URB_NONE) {
+                URB_COVER("part1-read-begins-while-the-application-holds-a-buffer");
+            }
+        }
         reading = true;
         read_count = 0u;
         expect = published; /* the linearization point of the read */
     } else if (URB_NONDET_BOOL() && (read_count < size)) {
         (void)urb_isr_read_byte(&node, box, read_count); /* the bytes are part 2's business */
         read_count++;
+        URB_COVER("part1-isr-sends-a-byte");
     } else {
         urb_isr_read_end(&node, box);
         URB_ASSERT(ob->isr_idx == URB_NONE, "IsrReadEnd frees the buffer");
         reading = false;
+        URB_COVER("part1-isr-read-ends");
     }
     check_exclusive();
 }
@@ -126,6 +139,9 @@ void urb_node_test_step(urb_node_t *n, uint8_t step)
         }
     }
     if (step == URB_STEP_OUT_RELEASE) {
+        if (reading) {
+            URB_COVER("part1-release-during-a-read");
+        }
         published = (uint8_t)(published + 1u); /* AppRelease: the linearization point of the write */
         buf_ver[ob->front] = published;
     }
@@ -153,9 +169,13 @@ static void part1_interleavings(void)
         if (rc == URB_NODE_ERR_BUSY) {
             URB_ASSERT(isr_at_check == (uint8_t)(1u - front),
                        "BUSY only while the interrupt sends the buffer the lock needs");
+            URB_COVER("part1-lock-busy");
             continue;
         }
         URB_ASSERT(rc == URB_NODE_OK, "lock: OK or BUSY");
+        if (reading) {
+            URB_COVER("part1-lock-granted-during-a-read");
+        }
         uint8_t const w = node.outbox[box].held;
         URB_ASSERT(w == (uint8_t)(1u - front), "AppLockPick: the buffer that is not published");
         URB_ASSERT(isr_at_check != w, "granted only when the interrupt is not sending w");
@@ -165,6 +185,9 @@ static void part1_interleavings(void)
         check_exclusive();
         URB_ASSERT(release() == URB_NODE_OK, "release");
         URB_ASSERT(node.outbox[box].front == w, "AppRelease publishes w");
+        if (r == (uint8_t)(FW_ROUNDS - 1u)) {
+            URB_COVER("part1-last-round-publishes");
+        }
     }
 }
 
@@ -212,6 +235,9 @@ static void part2_data(void)
         }
     }
     urb_isr_read_end(&node, box);
+    if ((sent > 0u) && (sent < size)) {
+        URB_COVER("part2-b-read-back-after-a-partial-read-of-a");
+    }
 }
 
 void harness(void)
@@ -225,6 +251,7 @@ void harness(void)
     URB_ASSUME(pre <= FW_PRE_MAX);
     if (pre > 0u) {
         URB_ASSERT(urb_node_setup_inbox(&node, box, pre) == URB_NODE_OK, "setup of the neighbour");
+        URB_COVER("a-neighbour-precedes-the-outbox");
     }
     size = URB_NONDET_U8();
     URB_ASSUME((size >= 1u) && (size <= FW_SIZE_MAX));

@@ -51,6 +51,12 @@
  * I2C byte time, on mailbox 0 (its reads also count the identification reads); on an application
  * mailbox 357 cycles.
  *
+ * Cover points (URB_COVER, checked by the reach run): part 1 a read with and without the
+ * application publishing meanwhile; part 2 a SYNC and a refused general call; part 3 every write
+ * step (select, a data byte stored, a write refused with OVERRUN, a good and a bad last check byte,
+ * a byte after DONE), a publish at a clean end, a byte sent by a read and a byte received during a
+ * read.
+ *
  * The harness includes the prepared urb_node.c (urb_isr_fault is the real one); urb_pll_sync is a
  * stub recording its call (fw_node_pll_update proves it); the CRC byte steps are an order-sensitive
  * stand-in (stubs/fw_node_crc_stub.c: the state machine only carries the check). Storage is a local
@@ -259,6 +265,11 @@ static void part_read(void)
     if (probe != published_at) {
         URB_ASSERT(storage[probe] == probe0, "a read writes no mailbox or guard byte");
     }
+    if (published_at != FW_STORAGE) {
+        URB_COVER("part1-read-while-the-application-publishes");
+    } else {
+        URB_COVER("part1-read-of-an-unchanged-outbox");
+    }
 }
 #endif
 
@@ -284,6 +295,11 @@ static void part_sync(void)
     URB_ASSERT(event(URB_I2C_RX_BYTE, URB_NONDET_U8()) == URB_I2C_NACK, "a SYNC has two bytes");
     URB_ASSERT(event(URB_I2C_STOP, 0u) == URB_I2C_ACK, "STOP");
     URB_ASSERT(pll_calls == ((magic == URB_SYNC_MAGIC) ? 1u : 0u), "the PLL runs for a SYNC only");
+    if (magic == URB_SYNC_MAGIC) {
+        URB_COVER("part2-sync-taken");
+    } else {
+        URB_COVER("part2-other-general-call-refused");
+    }
 }
 #endif
 
@@ -379,6 +395,9 @@ static void write_step(uint8_t st0, uint8_t count0, uint16_t check0, uint8_t che
         if (ok && read) {
             URB_ASSERT((i2c->state == URB_I2C_ST_SELECTED) && (i2c->selected == n), "read select: outbox n selected");
         }
+        if (ok && !read) {
+            URB_COVER("part3-write-select-taken");
+        }
     }
     uint8_t const size = ib->size;
     uint8_t const back = (uint8_t)(1u - ib->front);
@@ -386,6 +405,11 @@ static void write_step(uint8_t st0, uint8_t count0, uint16_t check0, uint8_t che
         bool const refused = (count0 == 0u) && (app0 == back);
         URB_ASSERT((r == URB_I2C_NACK) == refused, "data: NACK exactly when the application holds the back buffer");
         URB_ASSERT(overrun == (uint8_t)(overrun0 + (refused ? 1u : 0u)), "data: OVERRUN exactly for a refused write");
+        if (refused) {
+            URB_COVER("part3-write-refused-overrun");
+        } else {
+            URB_COVER("part3-data-byte-taken");
+        }
         if (!refused) {
             uint16_t const next = (crc16_0 != 0u) ? urb_crc16_link_check_byte(check0, byte)
                                                   : urb_crc8_link_check_byte((uint8_t)check0, byte);
@@ -411,11 +435,17 @@ static void write_step(uint8_t st0, uint8_t count0, uint16_t check0, uint8_t che
             URB_ASSERT((r == URB_I2C_ACK) == matched, "check: the last check byte is NACKed exactly when a check byte differed");
             URB_ASSERT((i2c->state == URB_I2C_ST_DONE) == matched, "check: DONE (commit at STOP) only for a good check");
             URB_ASSERT(checksum == (uint8_t)(checksum0 + (matched ? 0u : 1u)), "check: CHECKSUM exactly for a bad check");
+            if (matched) {
+                URB_COVER("part3-last-check-byte-good");
+            } else {
+                URB_COVER("part3-last-check-byte-bad");
+            }
         }
     }
     if (st0 == URB_I2C_ST_DONE) {
         URB_ASSERT((r == URB_I2C_NACK) && (i2c->state == URB_I2C_ST_IGNORE),
                    "a byte after size + check is NACKed and aborts the write");
+        URB_COVER("part3-byte-after-done-aborts");
     }
 }
 
@@ -493,6 +523,13 @@ static void part_step(void)
     URB_ASSERT(ib->front == (publish ? back : in_front0), "step: an inbox front moves only at the clean end of a checked write");
     if (publish) {
         URB_ASSERT(ib->fresh[back] == 1u, "step: a published write is new");
+        URB_COVER("part3-write-published");
+    }
+    if ((st0 == URB_I2C_ST_READ) && (e == (uint8_t)URB_I2C_TX_BYTE)) {
+        URB_COVER("part3-read-sends-a-byte");
+    }
+    if ((st0 == URB_I2C_ST_READ) && (e == (uint8_t)URB_I2C_RX_BYTE)) {
+        URB_COVER("part3-byte-received-during-a-read");
     }
     URB_ASSERT((node.outbox[URB_MB].front == out_front0) && (node.outbox[0].front == out0_front0),
                "step: outbox fronts are the application's");

@@ -29,6 +29,8 @@
  *
  * The harness includes the prepared (instrumented, possibly mutated) urb_node.c itself, because
  * run_command is static.
+ *
+ * Cover points (URB_COVER, checked by the reach run): listed at the end of harness().
  */
 #include "urb_verify.h"
 
@@ -217,5 +219,32 @@ void harness(void)
     /* once: the same message is not executed again */
     if (taken) {
         URB_ASSERT(run_command(&node) == 0u, "once: a taken command does not run twice");
+    }
+
+    /* cover points: every command runs (with and without its hook), an unknown opcode is taken and
+     * dropped, a command waits while a SYNC_CONFIG is pending, an old command is not taken */
+    if (do_reset && (reset_calls != 0u)) {
+        URB_COVER("reset-runs-its-hook");
+    }
+    if (do_signal && (signal_calls != 0u)) {
+        URB_COVER("signal-runs-its-hook");
+    }
+    if (do_identify && (identify_calls != 0u)) {
+        URB_COVER("identify-calls-the-hal");
+    }
+    if (do_identify && (hal.identify == NULL)) {
+        URB_COVER("identify-without-a-hal-hook");
+    }
+    if (do_sync) {
+        URB_COVER("sync-config-posted");
+    }
+    if (taken && !runs) {
+        URB_COVER("unknown-opcode-dropped");
+    }
+    if (pending && is_new) {
+        URB_COVER("a-command-waits-for-a-pending-sync-config");
+    }
+    if (!is_new) {
+        URB_COVER("an-old-command-is-not-taken");
     }
 }

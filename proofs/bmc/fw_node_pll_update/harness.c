@@ -33,6 +33,9 @@
  *   cost         one SYNC update within FW_PLL_SYNC_BUDGET, one timer event within
  *                FW_TIMER_EVENT_BUDGET (cycles at 48 MHz, HAL calls FW_HAL_CALL_CYCLES each,
  *                the software division FW_UDIV_CYCLES: views.json)
+ * Cover points (URB_COVER, checked by the reach run): a SYNC that updates the period, one that
+ * arms a compare, a first SYNC, one whose interval is not used; a heartbeat that applies a
+ * pending request, one that makes an update due, one that reports a lost sync.
  */
 #include "urb_verify.h"
 
@@ -189,6 +192,15 @@ static void part_sync(void)
 #endif
         URB_ASSERT((pll->gear == ((gear < 8u) ? (uint8_t)(gear + 1u) : 8u)) || (pll->gear == 0u),
                    "gear shifting: one step per update (0: the phase test then re-acquired)");
+        URB_COVER("sync-updates-the-period");
+    } else if (had_prev) {
+        URB_COVER("sync-interval-not-used");
+    }
+    if (compares == 1u) {
+        URB_COVER("sync-arms-a-compare");
+    }
+    if (!had_prev) {
+        URB_COVER("first-sync");
     }
 }
 
@@ -202,6 +214,7 @@ static void part_timer(void)
     node.div = URB_NONDET_U8();
     node.update_due = URB_NONDET_U8();
     uint8_t const due = node.update_due;
+    uint8_t const acked = pll->req_ack;
 
     URB_COST_BEGIN();
     urb_node_timer_event(&node);
@@ -211,6 +224,15 @@ static void part_timer(void)
     URB_ASSERT(compares == 1u, "a heartbeat arms the next one");
     URB_ASSERT(pll->req_ack == node.req_seq, "a pending request is applied at the heartbeat");
     URB_ASSERT((uint8_t)(node.update_due - due) <= 1u, "at most one update per heartbeat");
+    if (acked != node.req_seq) {
+        URB_COVER("heartbeat-applies-a-pending-request");
+    }
+    if (node.update_due != due) {
+        URB_COVER("heartbeat-makes-an-update-due");
+    }
+    if (faults_lost != 0u) {
+        URB_COVER("heartbeat-reports-a-lost-sync");
+    }
 }
 
 void harness(void)

@@ -36,6 +36,7 @@
  * asserted, its recorded worst-case cost charged). The interrupt
  * preempting the poll is not modelled here: fw_mailbox_inbox / fw_mailbox_outbox prove the lock
  * code against every interleaving, and the counters the interrupts share are single-writer.
+ * Cover points (URB_COVER, checked by the reach run): listed at the end of harness().
  */
 #include "urb_verify.h"
 
@@ -256,4 +257,28 @@ void harness(void)
     URB_ASSERT(node.outbox[0].held == URB_NONE, "identification: outbox 0 released");
     URB_ASSERT((done & (uint8_t)~(URB_NODE_POLL_COMMAND | URB_NODE_POLL_UPDATE | URB_NODE_POLL_IDENT | URB_NODE_POLL_FAULT)) == 0u,
                "result: only the documented bits");
+
+    /* cover points: a fault delivered, a missed update counted as OVERRUN, a command run, a RESET
+     * dropping a due update, an update, the identification refreshed, a quiet poll */
+    if (any_fault) {
+        URB_COVER("a-fault-delivered");
+    }
+    if ((pending > 1u) && !reset) {
+        URB_COVER("a-missed-update-is-an-overrun");
+    }
+    if (runs) {
+        URB_COVER("a-command-runs");
+    }
+    if (reset && (pending != 0u)) {
+        URB_COVER("reset-drops-a-due-update");
+    }
+    if (update) {
+        URB_COVER("an-update-runs");
+    }
+    if ((done & URB_NODE_POLL_IDENT) != 0u) {
+        URB_COVER("identification-refreshed");
+    }
+    if (done == 0u) {
+        URB_COVER("a-quiet-poll");
+    }
 }

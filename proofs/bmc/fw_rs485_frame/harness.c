@@ -67,6 +67,10 @@ void harness(void)
         want = (got == c);
     }
     URB_ASSERT(rx.last.check_ok == want, "a frame: check_ok exactly when the link_check matches");
+    URB_COVER("part1-frame-ended");
+    if (want) {
+        URB_COVER("part1-frame-check-passes");
+    }
 }
 #elif URB_PART == 2
 void harness(void)
@@ -101,6 +105,10 @@ void harness(void)
     }
     if ((ev & URB_RS485_EV_START) != 0u) {
         URB_ASSERT(rx.n == 1u && rx.head[0] == byte, "a byte: START makes it byte 0");
+        URB_COVER("part2-byte-starts-a-frame");
+    }
+    if (ev == URB_RS485_EV_BROKEN) {
+        URB_COVER("part2-silence-breaks-a-frame");
     }
 }
 #else

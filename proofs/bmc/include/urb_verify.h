@@ -19,6 +19,14 @@
  *   URB_TIGHT(c, "name")     a witness that c is reachable: a no-op in a proof run; when
  *                            URB_VERIFY_TIGHT is defined it becomes an assertion of !(c), which
  *                            the tool must then REFUTE (tools/proofs.py runs it, expects a failure)
+ *   URB_COVER("name")        a cover point: this statement must be reachable. A no-op in a proof
+ *                            run; in the reach run (URB_VERIFY_REACH) the assertion "cover: name"
+ *                            of false, which the tool must REFUTE (some input gets here). Write
+ *                            `if (c) { URB_COVER("name"); }` to cover a condition. The name is the
+ *                            evidence id (bmc-cover:<folder>/<name>): letters, digits, - _ . only.
+ *   URB_COVER_FULL("name")   the same, checked only in the full tier (URB_TIER_FAST undefined): for
+ *                            a cover point too costly for the fast tier or reached only by a
+ *                            full-tier item
  *
  * Vacuity check (make reach): with URB_VERIFY_REACH defined every URB_ASSERT is off and
  * proofs/bmc/stubs/urb_reach.c calls harness() then asserts false ("reach: ..."), which the tool
@@ -122,9 +130,18 @@ void urb_native_fill(void *array, size_t size);
 
 /* ===== Properties ======================================================================== */
 
-#if defined(URB_COST_PROBE) || defined(URB_VERIFY_REACH)
-/* A probe run (make probe) asks one question, the largest cost, and a reachability run (make reach)
- * whether the harness ends at all, so every other property is off. */
+#if defined(URB_COST_PROBE) || (defined(URB_VERIFY_REACH) && !defined(URB_COVER_OFF))
+/* A probe run (make probe) asks one question, the largest cost, and a cover run (make reach)
+ * whether the harness ends at all and which cover points it reaches, so every other property is off.
+ * The condition is still evaluated: harnesses call the code under proof inside assertions
+ * (`URB_ASSERT(release() == URB_NODE_OK, ...)`), and a run without those calls would be another
+ * program than the proof's (the reach run of fw_mailbox_outbox never set its outbox up, which its
+ * first cover points showed). */
+#define URB_ASSERT(c, name) ((void)(c))
+#elif defined(URB_VERIFY_REACH)
+/* The plain vacuity check (make reach COVERS=0, the one make check runs): the harness's end
+ * reachable, its assertions left out whole, calls inside them too. It is the cheap check (a cover
+ * run costs up to 30 times more); the cover run checks the program as proved. */
 #define URB_ASSERT(c, name) ((void)0)
 #else
 #define URB_ASSERT(c, name) URB_ASSERT_(c, name)
@@ -134,6 +151,24 @@ void urb_native_fill(void *array, size_t size);
 #define URB_TIGHT(c, name) URB_ASSERT_(!(c), "tight: " name)
 #else
 #define URB_TIGHT(c, name) ((void)0)
+#endif
+
+/* Cover points (proofs/README.md, Cover points): tools/proofs.py lists the points compiled into a
+ * run from the preprocessed harness, runs every one as its own property (--multi-property) and
+ * fails the proof naming each point that no run of its part reaches. */
+#if defined(URB_VERIFY_REACH) && !defined(URB_COVER_OFF) && !defined(URB_VERIFY_NATIVE)
+/* False, but not a constant: ESBMC 8.4 drops every statement after an assertion of the literal
+ * false from the program (so a second cover point right behind a first one would vanish and never
+ * be reported reached); stubs/urb_reach.c defines it. */
+extern bool urb_cover_off;
+#define URB_COVER(name) URB_ASSERT_(urb_cover_off, "cover: " name)
+#else
+#define URB_COVER(name) ((void)0)
+#endif
+#if defined(URB_TIER_FAST)
+#define URB_COVER_FULL(name) ((void)0)
+#else
+#define URB_COVER_FULL(name) URB_COVER(name)
 #endif
 
 /* ===== Cost counter ======================================================================= */

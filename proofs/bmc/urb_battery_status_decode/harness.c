@@ -79,6 +79,10 @@ void harness(void)
     URB_COST_BEGIN();
     int32_t const r = urb_battery_status_decode(&m, buf, length);
     URB_COST_END(BUDGET(length));
+    if (r == (int32_t)length) { URB_COVER("part1-decode-accepts"); }
+    if (r == URB_ERR_LONG) { URB_COVER("part1-decode-long"); }
+    if (r == URB_ERR_RANGE) { URB_COVER("part1-decode-range"); }
+    if (r == URB_ERR_SHORT) { URB_COVER("part1-decode-short"); }
     URB_ASSERT(r == (int32_t)length || r == URB_ERR_SHORT || r == URB_ERR_LONG || r == URB_ERR_CHECKSUM || r == URB_ERR_RANGE || r == URB_ERR_ARGUMENT, "decode: returns the length or a decode error");
     if (!implicit_ok) {
         URB_ASSERT(r == URB_ERR_ARGUMENT, "decode: invalid implicit members give URB_ERR_ARGUMENT");
@@ -148,6 +152,7 @@ void harness(void)
         back.charging = URB_NONDET_BOOL();
         int32_t const back_r = urb_battery_status_decode(&back, frame, n);
         URB_ASSERT(back_r == (int32_t)n, "decode(encode(m)) == m: decode accepts the frame");
+        URB_COVER("part2-valid-frame-decodes");
         for (size_t i7 = 0u; i7 < 3u; i7++) {
             URB_ASSERT(back.packs[i7].voltage == v.packs[i7].voltage, "decode(encode(m)) == m: packs[].voltage");
             URB_ASSERT(back.packs[i7].current == v.packs[i7].current, "decode(encode(m)) == m: packs[].current");

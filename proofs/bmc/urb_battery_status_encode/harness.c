@@ -93,6 +93,9 @@ void harness(void)
     /* The cost is asserted after the contract (nothing since the call adds to it): an encoder that
      * skips a check also spends a full frame's cycles, and the contract is the property it breaks. */
     URB_COST_END(BUDGET(valid && (expected <= capacity) ? expected : MIN_SIZE));
+    if (r == (int32_t)expected) { URB_COVER("part1-encodes"); }
+    if (r == URB_ERR_CAPACITY) { URB_COVER("part1-encode-capacity"); }
+    if (r == URB_ERR_RANGE) { URB_COVER("part1-encode-range"); }
     URB_ASSERT(urb_battery_status_encode(NULL, buf, capacity) == URB_ERR_ARGUMENT, "encode: NULL message");
     URB_ASSERT(urb_battery_status_encode(&m, NULL, capacity) == URB_ERR_ARGUMENT, "encode: NULL buffer");
 #endif
@@ -127,6 +130,7 @@ void harness(void)
         back.charging = URB_NONDET_BOOL();
         int32_t const back_r = urb_battery_status_decode(&back, spec, expected);
         URB_ASSERT(back_r == (int32_t)expected, "round trip: decode accepts the frame");
+        URB_COVER("part2-round-trip");
         for (size_t i4 = 0u; i4 < 3u; i4++) {
             URB_ASSERT(back.packs[i4].voltage == m.packs[i4].voltage, "round trip: packs[].voltage");
             URB_ASSERT(back.packs[i4].current == m.packs[i4].current, "round trip: packs[].current");

@@ -77,6 +77,9 @@ void harness(void)
     /* The cost is asserted after the contract (nothing since the call adds to it): an encoder that
      * skips a check also spends a full frame's cycles, and the contract is the property it breaks. */
     URB_COST_END(BUDGET(valid && (expected <= capacity) ? expected : MIN_SIZE));
+    if (r == (int32_t)expected) { URB_COVER("part1-encodes"); }
+    if (r == URB_ERR_CAPACITY) { URB_COVER("part1-encode-capacity"); }
+    if (r == URB_ERR_RANGE) { URB_COVER("part1-encode-range"); }
     URB_ASSERT(urb_bridge_command_encode(NULL, buf, capacity) == URB_ERR_ARGUMENT, "encode: NULL message");
     URB_ASSERT(urb_bridge_command_encode(&m, NULL, capacity) == URB_ERR_ARGUMENT, "encode: NULL buffer");
 #endif
@@ -104,6 +107,7 @@ void harness(void)
         back.value = URB_NONDET_U16();
         int32_t const back_r = urb_bridge_command_decode(&back, spec, expected);
         URB_ASSERT(back_r == (int32_t)expected, "round trip: decode accepts the frame");
+        URB_COVER("part2-round-trip");
         URB_ASSERT(back.opcode == m.opcode, "round trip: opcode");
         URB_ASSERT(back.value == m.value, "round trip: value");
     }

@@ -78,6 +78,8 @@ void harness(void)
     /* The cost is asserted after the contract (nothing since the call adds to it): an encoder that
      * skips a check also spends a full frame's cycles, and the contract is the property it breaks. */
     URB_COST_END(BUDGET(valid && (expected <= capacity) ? expected : MIN_SIZE));
+    if (r == (int32_t)expected) { URB_COVER("part1-encodes"); }
+    if (r == URB_ERR_CAPACITY) { URB_COVER("part1-encode-capacity"); }
     URB_ASSERT(urb_bridge_scan_encode(NULL, buf, capacity) == URB_ERR_ARGUMENT, "encode: NULL message");
     URB_ASSERT(urb_bridge_scan_encode(&m, NULL, capacity) == URB_ERR_ARGUMENT, "encode: NULL buffer");
 #endif
@@ -106,6 +108,7 @@ void harness(void)
         }
         int32_t const back_r = urb_bridge_scan_decode(&back, spec, expected);
         URB_ASSERT(back_r == (int32_t)expected, "round trip: decode accepts the frame");
+        URB_COVER("part2-round-trip");
         for (size_t i3 = 0u; i3 < 128u; i3++) {
             URB_ASSERT(back.present[i3] == m.present[i3], "round trip: present[]");
         }

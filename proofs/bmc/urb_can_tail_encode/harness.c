@@ -81,6 +81,9 @@ void harness(void)
     /* The cost is asserted after the contract (nothing since the call adds to it): an encoder that
      * skips a check also spends a full frame's cycles, and the contract is the property it breaks. */
     URB_COST_END(BUDGET(valid && (expected <= capacity) ? expected : MIN_SIZE));
+    if (r == (int32_t)expected) { URB_COVER("part1-encodes"); }
+    if (r == URB_ERR_CAPACITY) { URB_COVER("part1-encode-capacity"); }
+    if (r == URB_ERR_RANGE) { URB_COVER("part1-encode-range"); }
     URB_ASSERT(urb_can_tail_encode(NULL, buf, capacity) == URB_ERR_ARGUMENT, "encode: NULL message");
     URB_ASSERT(urb_can_tail_encode(&m, NULL, capacity) == URB_ERR_ARGUMENT, "encode: NULL buffer");
 #endif
@@ -110,6 +113,7 @@ void harness(void)
         back.start = URB_NONDET_BOOL();
         int32_t const back_r = urb_can_tail_decode(&back, spec, expected);
         URB_ASSERT(back_r == (int32_t)expected, "round trip: decode accepts the frame");
+        URB_COVER("part2-round-trip");
         URB_ASSERT(back.transfer_id == m.transfer_id, "round trip: transfer_id");
         URB_ASSERT(back.toggle == m.toggle, "round trip: toggle");
         URB_ASSERT(back.end == m.end, "round trip: end");

@@ -35,6 +35,8 @@ void harness(void)
     URB_COST_BEGIN();
     uint16_t const got = urb_crc16_link_check(data, len, start);
     URB_COST_END(URB_BUDGET_PER_BYTE * (len > 0u ? (uint32_t)len : 1u));
+    if (len == 0u) { URB_COVER("empty-buffer"); }
+    if (len > 0u) { URB_COVER("bytes-fed"); }
     uint16_t want = start;
     for (size_t i = 0u; i < URB_LEN_BOUND; i++) {
         if (i < len) {

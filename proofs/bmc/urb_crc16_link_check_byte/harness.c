@@ -17,5 +17,6 @@ void harness(void)
     URB_COST_BEGIN();
     uint16_t const got = urb_crc16_link_check_byte(crc, byte);
     URB_COST_END(URB_BUDGET_PER_BYTE);
+    URB_COVER("step-computed");
     URB_ASSERT((uint32_t)got == spec_crc_byte(16u, 0x1021u, (uint32_t)crc, byte), "one byte step equals the bit-serial CRC");
 }

@@ -14,5 +14,6 @@ void harness(void)
     URB_COST_BEGIN();
     uint16_t const got = urb_crc16_link_check_final(crc);
     URB_COST_END(URB_BUDGET_PER_BYTE);
+    URB_COVER("step-computed");
     URB_ASSERT((uint32_t)got == (((uint32_t)crc ^ 0x0u) & 0xffffu), "final value is the register xor xorout");
 }

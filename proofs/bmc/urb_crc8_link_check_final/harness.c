@@ -14,5 +14,6 @@ void harness(void)
     URB_COST_BEGIN();
     uint8_t const got = urb_crc8_link_check_final(crc);
     URB_COST_END(URB_BUDGET_PER_BYTE);
+    URB_COVER("step-computed");
     URB_ASSERT((uint32_t)got == (((uint32_t)crc ^ 0xffu) & 0xffu), "final value is the register xor xorout");
 }

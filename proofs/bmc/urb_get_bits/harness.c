@@ -37,5 +37,9 @@ void harness(void)
     } else {
         URB_ASSERT(((got >> i) & 1u) == 0u, "no bits above width");
     }
+    /* cover points: a field that crosses a byte boundary, a full 32-bit field, a bit above the width */
+    if ((offset % 8u) + width > 8u) { URB_COVER("field-spans-bytes"); }
+    if (width == 32u) { URB_COVER("full-width"); }
+    if (i >= width) { URB_COVER("bit-above-width"); }
     free(buf);
 }

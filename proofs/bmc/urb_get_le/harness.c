@@ -25,5 +25,7 @@ void harness(void)
     URB_COST_END(URB_BUDGET_PER_BYTE);
 
     URB_ASSERT(got == spec_le(buf, at, (unsigned)size), "the little-endian number of the bytes");
+    if (size == 4u) { URB_COVER("four-bytes"); }
+    if (size == 1u) { URB_COVER("one-byte"); }
     free(buf);
 }

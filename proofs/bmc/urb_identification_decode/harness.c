@@ -92,6 +92,10 @@ void harness(void)
     URB_COST_BEGIN();
     int32_t const r = urb_identification_decode(&m, buf, length);
     URB_COST_END(BUDGET(length));
+    if (r == (int32_t)length) { URB_COVER("part1-decode-accepts"); }
+    if (r == URB_ERR_LONG) { URB_COVER("part1-decode-long"); }
+    if (r == URB_ERR_RANGE) { URB_COVER("part1-decode-range"); }
+    if (r == URB_ERR_SHORT) { URB_COVER("part1-decode-short"); }
     URB_ASSERT(r == (int32_t)length || r == URB_ERR_SHORT || r == URB_ERR_LONG || r == URB_ERR_CHECKSUM || r == URB_ERR_RANGE || r == URB_ERR_ARGUMENT, "decode: returns the length or a decode error");
     if (!implicit_ok) {
         URB_ASSERT(r == URB_ERR_ARGUMENT, "decode: invalid implicit members give URB_ERR_ARGUMENT");
@@ -189,6 +193,7 @@ void harness(void)
         back.acq_time = URB_NONDET_U16();
         int32_t const back_r = urb_identification_decode(&back, frame, n);
         URB_ASSERT(back_r == (int32_t)n, "decode(encode(m)) == m: decode accepts the frame");
+        URB_COVER("part2-valid-frame-decodes");
         URB_ASSERT(back.class_id == v.class_id, "decode(encode(m)) == m: class_id");
         URB_ASSERT(back.index == v.index, "decode(encode(m)) == m: index");
         URB_ASSERT(back.fingerprint == v.fingerprint, "decode(encode(m)) == m: fingerprint");

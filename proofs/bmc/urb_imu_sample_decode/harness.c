@@ -77,6 +77,9 @@ void harness(void)
     URB_COST_BEGIN();
     int32_t const r = urb_imu_sample_decode(&m, buf, length);
     URB_COST_END(BUDGET(length));
+    if (r == (int32_t)length) { URB_COVER("part1-decode-accepts"); }
+    if (r == URB_ERR_LONG) { URB_COVER("part1-decode-long"); }
+    if (r == URB_ERR_SHORT) { URB_COVER("part1-decode-short"); }
     URB_ASSERT(r == (int32_t)length || r == URB_ERR_SHORT || r == URB_ERR_LONG || r == URB_ERR_CHECKSUM || r == URB_ERR_RANGE || r == URB_ERR_ARGUMENT, "decode: returns the length or a decode error");
     if (!implicit_ok) {
         URB_ASSERT(r == URB_ERR_ARGUMENT, "decode: invalid implicit members give URB_ERR_ARGUMENT");
@@ -136,6 +139,7 @@ void harness(void)
         back.sample = URB_NONDET_U8();
         int32_t const back_r = urb_imu_sample_decode(&back, frame, n);
         URB_ASSERT(back_r == (int32_t)n, "decode(encode(m)) == m: decode accepts the frame");
+        URB_COVER("part2-valid-frame-decodes");
         for (size_t i9 = 0u; i9 < 3u; i9++) {
             URB_ASSERT(back.accel[i9] == v.accel[i9], "decode(encode(m)) == m: accel[]");
         }

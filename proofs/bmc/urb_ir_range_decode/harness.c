@@ -67,6 +67,10 @@ void harness(void)
     URB_COST_BEGIN();
     int32_t const r = urb_ir_range_decode(&m, buf, length);
     URB_COST_END(BUDGET(length));
+    if (r == (int32_t)length) { URB_COVER("part1-decode-accepts"); }
+    if (r == URB_ERR_LONG) { URB_COVER("part1-decode-long"); }
+    if (r == URB_ERR_RANGE) { URB_COVER("part1-decode-range"); }
+    if (r == URB_ERR_SHORT) { URB_COVER("part1-decode-short"); }
     URB_ASSERT(r == (int32_t)length || r == URB_ERR_SHORT || r == URB_ERR_LONG || r == URB_ERR_CHECKSUM || r == URB_ERR_RANGE || r == URB_ERR_ARGUMENT, "decode: returns the length or a decode error");
     if (!implicit_ok) {
         URB_ASSERT(r == URB_ERR_ARGUMENT, "decode: invalid implicit members give URB_ERR_ARGUMENT");
@@ -112,6 +116,7 @@ void harness(void)
         back.valid = URB_NONDET_BOOL();
         int32_t const back_r = urb_ir_range_decode(&back, frame, n);
         URB_ASSERT(back_r == (int32_t)n, "decode(encode(m)) == m: decode accepts the frame");
+        URB_COVER("part2-valid-frame-decodes");
         URB_ASSERT(back.distance == v.distance, "decode(encode(m)) == m: distance");
         URB_ASSERT(back.strength == v.strength, "decode(encode(m)) == m: strength");
         URB_ASSERT(back.valid == v.valid, "decode(encode(m)) == m: valid");

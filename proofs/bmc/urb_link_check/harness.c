@@ -47,6 +47,9 @@ void harness(void)
     URB_COST_BEGIN();
     uint32_t const got = urb_link_check(prefix, plen, data, len);
     URB_COST_END(URB_BUDGET_PER_BYTE * (uint32_t)(plen + len + 1u));
+    if (spec_link_check_size(plen + len) == 1u) { URB_COVER("narrow-check"); }
+    if (spec_link_check_size(plen + len) == 2u) { URB_COVER("wide-check"); }
+    if (plen > 0u && len > 0u) { URB_COVER("prefix-and-data"); }
     URB_ASSERT(urb_proof_cost_seen <= URB_COST_LINK_CHECK(plen + len), "cost: within what the stub of the message proofs charges");
     URB_ASSERT(got == spec_link_check(prefix, plen, data, len), "equals the CRC of the chosen tier (byte step folded; see urb_spec_gen.h)");
     free(prefix);

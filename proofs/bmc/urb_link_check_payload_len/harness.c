@@ -18,6 +18,9 @@ void harness(void)
     URB_COST_BEGIN();
     int32_t const r = urb_link_check_payload_len(length, implicit, fixed);
     URB_COST_END(URB_BUDGET_PER_BYTE);
+    if (r >= 0) { URB_COVER("a-payload-length-fits"); }
+    if (r == URB_ERR_SHORT) { URB_COVER("short"); }
+    if (r == URB_ERR_LONG) { URB_COVER("long"); }
     URB_ASSERT(r >= 0 || r == URB_ERR_SHORT || r == URB_ERR_LONG, "a length or SHORT or LONG");
     if (r >= 0) {
         size_t const p = (size_t)r;

@@ -15,5 +15,7 @@ void harness(void)
     URB_COST_BEGIN();
     size_t const got = urb_link_check_size(covered);
     URB_COST_END(URB_BUDGET_PER_BYTE);
+    if (got == 1u) { URB_COVER("narrow-check"); }
+    if (got == 2u) { URB_COVER("wide-check"); }
     URB_ASSERT(got == spec_link_check_size(covered), "the tier the schema chooses for this covered length");
 }

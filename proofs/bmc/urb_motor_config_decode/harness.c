@@ -71,6 +71,10 @@ void harness(void)
     URB_COST_BEGIN();
     int32_t const r = urb_motor_config_decode(&m, buf, length);
     URB_COST_END(BUDGET(length));
+    if (r == (int32_t)length) { URB_COVER("part1-decode-accepts"); }
+    if (r == URB_ERR_LONG) { URB_COVER("part1-decode-long"); }
+    if (r == URB_ERR_RANGE) { URB_COVER("part1-decode-range"); }
+    if (r == URB_ERR_SHORT) { URB_COVER("part1-decode-short"); }
     URB_ASSERT(r == (int32_t)length || r == URB_ERR_SHORT || r == URB_ERR_LONG || r == URB_ERR_CHECKSUM || r == URB_ERR_RANGE || r == URB_ERR_ARGUMENT, "decode: returns the length or a decode error");
     if (!implicit_ok) {
         URB_ASSERT(r == URB_ERR_ARGUMENT, "decode: invalid implicit members give URB_ERR_ARGUMENT");
@@ -124,6 +128,7 @@ void harness(void)
         back.voltage_limit = URB_NONDET_U16();
         int32_t const back_r = urb_motor_config_decode(&back, frame, n);
         URB_ASSERT(back_r == (int32_t)n, "decode(encode(m)) == m: decode accepts the frame");
+        URB_COVER("part2-valid-frame-decodes");
         URB_ASSERT(back.mode == v.mode, "decode(encode(m)) == m: mode");
         URB_ASSERT(back.kp == v.kp, "decode(encode(m)) == m: kp");
         URB_ASSERT(back.kd == v.kd, "decode(encode(m)) == m: kd");

@@ -78,6 +78,8 @@ void harness(void)
     /* The cost is asserted after the contract (nothing since the call adds to it): an encoder that
      * skips a check also spends a full frame's cycles, and the contract is the property it breaks. */
     URB_COST_END(BUDGET(valid && (expected <= capacity) ? expected : MIN_SIZE));
+    if (r == (int32_t)expected) { URB_COVER("part1-encodes"); }
+    if (r == URB_ERR_CAPACITY) { URB_COVER("part1-encode-capacity"); }
     URB_ASSERT(urb_motor_feedback_encode(NULL, buf, capacity) == URB_ERR_ARGUMENT, "encode: NULL message");
     URB_ASSERT(urb_motor_feedback_encode(&m, NULL, capacity) == URB_ERR_ARGUMENT, "encode: NULL buffer");
 #endif
@@ -106,6 +108,7 @@ void harness(void)
         back.voltage = URB_NONDET_I16();
         int32_t const back_r = urb_motor_feedback_decode(&back, spec, expected);
         URB_ASSERT(back_r == (int32_t)expected, "round trip: decode accepts the frame");
+        URB_COVER("part2-round-trip");
         URB_ASSERT(back.encoder == m.encoder, "round trip: encoder");
         URB_ASSERT(back.current == m.current, "round trip: current");
         URB_ASSERT(back.voltage == m.voltage, "round trip: voltage");

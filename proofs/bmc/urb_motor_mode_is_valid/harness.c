@@ -15,5 +15,7 @@ void harness(void)
     URB_COST_BEGIN();
     bool const ok = urb_motor_mode_is_valid(value);
     URB_COST_END(URB_BUDGET_PER_BYTE);
+    if (ok) { URB_COVER("a-member"); }
+    if (!ok) { URB_COVER("not-a-member"); }
     URB_ASSERT(ok == ((value == 0u) || (value == 1u) || (value == 2u)), "true exactly for the declared members");
 }

@@ -39,5 +39,9 @@ void harness(void)
     } else {
         URB_ASSERT(spec_bit(buf, j) == old, "every other bit keeps its value");
     }
+    /* cover points: a bit inside the field and one beside it in the same byte, a field across bytes */
+    if (j >= offset && j < offset + width) { URB_COVER("bit-in-field"); }
+    if ((j / 8u == offset / 8u) && (j < offset)) { URB_COVER("bit-beside-field"); }
+    if ((offset % 8u) + width > 8u) { URB_COVER("field-spans-bytes"); }
     free(buf);
 }

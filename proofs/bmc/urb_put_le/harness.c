@@ -36,5 +36,7 @@ void harness(void)
     } else {
         URB_ASSERT(buf[j] == old, "bytes before the number keep their values");
     }
+    if (j + 1u == at + size && size == 4u) { URB_COVER("top-byte-of-four"); }
+    if (j < at) { URB_COVER("byte-before-the-number"); }
     free(buf);
 }

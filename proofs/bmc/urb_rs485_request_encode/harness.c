@@ -102,6 +102,9 @@ void harness(void)
     /* The cost is asserted after the contract (nothing since the call adds to it): an encoder that
      * skips a check also spends a full frame's cycles, and the contract is the property it breaks. */
     URB_COST_END(BUDGET(valid && (expected <= capacity) ? expected : MIN_SIZE));
+    if (r == (int32_t)expected) { URB_COVER("part1-encodes"); }
+    if (r == URB_ERR_CAPACITY) { URB_COVER("part1-encode-capacity"); }
+    if (r == URB_ERR_RANGE) { URB_COVER("part1-encode-range"); }
     URB_ASSERT(urb_rs485_request_encode(NULL, buf, capacity) == URB_ERR_ARGUMENT, "encode: NULL message");
     URB_ASSERT(urb_rs485_request_encode(&m, NULL, capacity) == URB_ERR_ARGUMENT, "encode: NULL buffer");
 #endif
@@ -139,6 +142,7 @@ void harness(void)
         urb_stub_link_check_count = 0u; /* same function: the check the frame carries */
         int32_t const back_r = urb_rs485_request_decode(&back, spec, expected);
         URB_ASSERT(back_r == (int32_t)expected, "round trip: decode accepts the frame");
+        URB_COVER("part2-round-trip");
         URB_ASSERT(back.address == m.address, "round trip: address");
         URB_ASSERT(back.select.mailbox == m.select.mailbox, "round trip: select.mailbox");
         URB_ASSERT(back.select.read == m.select.read, "round trip: select.read");

@@ -76,6 +76,11 @@ void harness(void)
     URB_COST_BEGIN();
     int32_t const r = urb_rs485_response_decode(&m, buf, length);
     URB_COST_END(BUDGET(length));
+    if (r == (int32_t)length) { URB_COVER("part1-decode-accepts"); }
+    if (r == URB_ERR_CHECKSUM) { URB_COVER("part1-decode-checksum"); }
+    if (r == URB_ERR_LONG) { URB_COVER("part1-decode-long"); }
+    if (r == URB_ERR_RANGE) { URB_COVER("part1-decode-range"); }
+    if (r == URB_ERR_SHORT) { URB_COVER("part1-decode-short"); }
     URB_ASSERT(r == (int32_t)length || r == URB_ERR_SHORT || r == URB_ERR_LONG || r == URB_ERR_CHECKSUM || r == URB_ERR_RANGE || r == URB_ERR_ARGUMENT, "decode: returns the length or a decode error");
     if (!implicit_ok) {
         URB_ASSERT(r == URB_ERR_ARGUMENT, "decode: invalid implicit members give URB_ERR_ARGUMENT");
@@ -158,6 +163,7 @@ void harness(void)
         urb_stub_link_check_count = 0u; /* same function: the check the frame carries */
         int32_t const back_r = urb_rs485_response_decode(&back, frame, n);
         URB_ASSERT(back_r == (int32_t)n, "decode(encode(m)) == m: decode accepts the frame");
+        URB_COVER("part2-valid-frame-decodes");
         URB_ASSERT(back.status == v.status, "decode(encode(m)) == m: status");
         URB_ASSERT(back.mailbox == v.mailbox, "decode(encode(m)) == m: mailbox");
         URB_ASSERT(back.data_len == v.data_len, "decode(encode(m)) == m: data length");

@@ -21,4 +21,6 @@ void harness(void)
     URB_COST_END(URB_BUDGET_PER_BYTE);
 
     URB_ASSERT((int64_t)got == spec_signed(raw, width), "the two's complement value of the low width bits");
+    if (got < 0) { URB_COVER("negative"); }
+    if (got >= 0) { URB_COVER("non-negative"); }
 }

@@ -1,0 +1,233 @@
+#!/usr/bin/env python3
+"""CPU cost of the SensoRHex load through the native host library (host/c), and its projection for
+a 500-MHz Geode-class core (issue #38).
+
+The load (bench/host_cpu_c.c): two USB bridges with three motor drivers each, every motor read and
+commanded every millisecond, three sensors read at 100 Hz over RS232: 12.3 requests per ms, in real
+time for --seconds. The bridges are the bridge firmware compiled for the host, in other processes:
+the USB ones behind SOCK_SEQPACKET pairs (bench/host_cpu_c_bridges.c; one write = one bulk-OUT, one
+read = one bulk-IN, as a kernel driver's character device), the RS232 one the hosted bridge program on
+a pty. What is measured is the host process's CPU time (getrusage: the library, its system calls and
+the control loop), per request completed, and that times 12.3 requests per ms as a share of one core
+(the share over the run's wall time too: lower when other jobs stall the run below the load's rate).
+
+Then the same program under valgrind's callgrind, for --cg-seconds of load and for none, gives the
+user-space instructions per request (the difference, so start-up cancels), and under strace -c the
+system calls per request. This VM has no hardware counters (perf counts no instructions) and its
+getrusage splits user and system time unreliably, so the kernel's instructions are estimated: KERNEL_INSTR_PER_CALL (4000) per system call, about what a read, write or epoll_wait on a
+socket or pty costs in a current Linux kernel (0.5 to 2 us on a 2-4 GHz core). The projection for a
+500-MHz Geode-class core is (user instructions + system calls x 4000) per second of the load / (500
+MHz x IPC), at IPC 1 (Geode LX's best case for integer code) and 0.5.
+
+Next to it, the Python library on the same load, from bench/host_cpu.py's numbers
+(build/bench/host_cpu.json; `make bench` runs that first): CPU per request and share of a core, C /
+Python.
+
+    python3 bench/host_cpu_c.py [--seconds 5] [--cg-seconds 2] [--python-json PATH]
+
+Prints a table with ratios; never fails on timing (it fails, saying why, when it cannot measure).
+Numbers also go to build/bench/host_cpu_c.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import re
+import shutil
+import socket
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+REPO = Path(__file__).resolve().parents[1]
+OUT = REPO / "build" / "bench"
+HOST = REPO / "build" / "host_c" / "bench" / "host_cpu_c"
+BRIDGES = REPO / "build" / "host_c" / "bench" / "host_cpu_c_bridges"
+HOSTED = REPO / "build" / "firmware" / "urb-bridge-hosted"
+GOAL_SHARE = 0.02           # issue #38: at most 2 % of one core of this machine
+GEODE_HZ = 500e6
+KERNEL_INSTR_PER_CALL = 4000
+PER_MS = 12.3
+
+
+def make(*targets: str) -> None:
+    proc = subprocess.run(["make", "-s", *targets], cwd=REPO, capture_output=True, text=True)
+    if proc.returncode != 0:
+        sys.exit(f"host_cpu_c: cannot build {' '.join(targets)}:\n{proc.stdout[-2000:]}{proc.stderr[-3000:]}")
+
+
+def run_load(seconds: float, prefix: list[str], slow: bool = False) -> dict[str, Any]:
+    """One run of the load: bridges up, the host program (maybe under `prefix`), its JSON."""
+    with tempfile.TemporaryDirectory() as tmp:
+        link = Path(tmp) / "pty"
+        rs232 = subprocess.Popen([str(HOSTED), "--node", "battery,0,0x30", "--node", "imu,0,0x31", "--node", "ir,0,0x32",
+                                  "--link", str(link), "--seconds", "3600"], stdout=subprocess.PIPE, text=True)
+        pairs = [socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET) for _ in range(2)]
+        for host_end, _ in pairs:
+            host_end.setblocking(False)
+        bridge_fds = [b.fileno() for _, b in pairs]
+        host_fds = [h.fileno() for h, _ in pairs]
+        bridges = subprocess.Popen([str(BRIDGES), *map(str, bridge_fds)], pass_fds=bridge_fds, stdout=subprocess.PIPE,
+                                   text=True)
+        for _, b in pairs:
+            b.close()
+        try:
+            assert rs232.stdout is not None and bridges.stdout is not None
+            rs232.stdout.readline()
+            bridges.stdout.readline()  # "ready"
+            env = dict(os.environ, URB_STATE_DIR=tmp)
+            proc = subprocess.run([*prefix, str(HOST), *map(str, host_fds), str(link), str(seconds)] + (["slow"] if slow else []),
+                                  pass_fds=host_fds,
+                                  capture_output=True, text=True, env=env, timeout=seconds * 200 + 120)
+        finally:
+            for h, _ in pairs:
+                h.close()
+            bridges.wait(10)
+            rs232.terminate()
+            rs232.wait(10)
+        if proc.returncode != 0:
+            sys.exit(f"host_cpu_c: the load run failed (exit {proc.returncode}):\n{proc.stderr[-3000:]}")
+        result: dict[str, Any] = json.loads(proc.stdout.strip().splitlines()[-1])
+        result["stderr"] = proc.stderr
+        return result
+
+
+def callgrind_ir(seconds: float) -> tuple[int, int]:
+    """(instructions, requests completed) of the host program under callgrind."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "cg.out"
+        res = run_load(seconds, ["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}"], slow=True)
+        m = re.search(r"Collected : (\d+)", res["stderr"])
+        if m is None:
+            text = out.read_text(encoding="utf-8", errors="replace")
+            m = re.search(r"^summary: (\d+)", text, re.M) or re.search(r"^totals: (\d+)", text, re.M)
+        if m is None:
+            sys.exit("host_cpu_c: callgrind gave no instruction count")
+        return int(m.group(1)), int(res["ok"]) + int(res["failed"])
+
+
+def syscalls_per_request(seconds: float) -> tuple[float, dict[str, float]]:
+    """System calls of the host program per request completed, in all and per call name (strace -c)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "strace.txt"
+        base = run_load(0, ["strace", "-c", "-f", "-o", str(Path(tmp) / "base.txt")])
+        res = run_load(seconds, ["strace", "-c", "-f", "-o", str(out)])
+        del base
+
+        def calls(path: Path) -> dict[str, int]:
+            counts: dict[str, int] = {}
+            for line in path.read_text(encoding="utf-8").splitlines():
+                f = line.split()
+                if len(f) >= 5 and f[0].replace(".", "").isdigit() and f[3].isdigit() and f[-1] != "total":
+                    counts[f[-1]] = int(f[3])
+            return counts
+
+        load, start = calls(out), calls(Path(tmp) / "base.txt")
+        diff = {k: v - start.get(k, 0) for k, v in load.items() if v - start.get(k, 0) > 0}
+        n = int(res["ok"]) + int(res["failed"])
+        return sum(diff.values()) / max(1, n), {k: v / max(1, n) for k, v in diff.items()}
+
+
+def python_numbers(path: Path) -> dict[str, float] | None:
+    """The Python library's SensoRHex numbers from bench/host_cpu.py's JSON, or None without it."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+        return {"share": float(data["sensorhex_core_share"]),
+                "usb_us": float(data["usb_sensorhex"]["us_per_request"]),
+                "rs232_us": float(data["rs232_pty"]["us_per_request"]),
+                "quick": float(bool(data.get("quick", False)))}
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def side_by_side(py: dict[str, float], c_share: float, c_us: float) -> None:
+    """The C library next to the Python one on the SensoRHex load, as ratios (C / Python)."""
+    per_s = PER_MS * 1000
+    py_us = py["share"] * 1e6 / per_s  # CPU per request over the SensoRHex mix (USB and RS232)
+    print("SensoRHex load, C library next to the Python library (bench/host_cpu.py"
+          f"{', its quick run' if py['quick'] else ''}; Python: per-request costs measured on one USB "
+          "bridge's load and on RS232, scaled to the whole load; C: the whole load measured)")
+    print()
+    print("| measure | Python library | C library | C / Python |")
+    print("|---|---:|---:|---:|")
+    print(f"| CPU per request over the SensoRHex mix | {py_us:.1f} us | {c_us:.2f} us | {c_us / py_us:.3f} |")
+    print(f"| share of one core of this machine at 12.3 requests/ms | {py['share'] * 100:.1f} % | "
+          f"{c_share * 100:.2f} % | {c_share / py['share']:.3f} |")
+    print(f"| Python / C (times less CPU in C) | | | {py['share'] / c_share:.0f} x |")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--seconds", type=float, default=5.0, help="load run in real time (default 5)")
+    ap.add_argument("--cg-seconds", type=float, default=2.0, help="load run under callgrind (default 2)")
+    ap.add_argument("--python-json", type=Path, default=OUT / "host_cpu.json",
+                    help="bench/host_cpu.py's numbers for the side-by-side table (default build/bench/host_cpu.json)")
+    args = ap.parse_args(argv)
+    make("bridge-hosted", "host-c-bench")
+    res = run_load(args.seconds, [])
+    requests = int(res["ok"]) + int(res["failed"])
+    share = float(res["cpu_s"]) / float(res["wall_s"])
+    per_s = requests / float(res["wall_s"])
+    us_per_request = float(res["cpu_s"]) * 1e6 / max(1, requests)
+    share_at_rate = us_per_request * PER_MS * 1000 / 1e6  # what the load costs when it runs at its rate
+    rows: dict[str, Any] = {"run": res, "share": share, "us_per_request": us_per_request,
+                            "share_at_12300": share_at_rate}
+    cg: dict[str, Any] = {}
+    if shutil.which("valgrind") and shutil.which("strace"):
+        ir_load, n_load = callgrind_ir(args.cg_seconds)
+        ir_base, _ = callgrind_ir(0)
+        ir_per_request = (ir_load - ir_base) / max(1, n_load)
+        calls_per_request, calls = syscalls_per_request(args.cg_seconds)
+        instr_per_s = (ir_per_request + calls_per_request * KERNEL_INSTR_PER_CALL) * PER_MS * 1000
+        cg = {"ir_load": ir_load, "ir_base": ir_base, "requests": n_load, "ir_per_request": ir_per_request,
+              "syscalls_per_request": calls_per_request, "syscalls": calls, "instr_per_s_at_12300": instr_per_s}
+        for ipc in (1.0, 0.5):
+            cg[f"geode_share_ipc{ipc}"] = instr_per_s / (GEODE_HZ * ipc)
+    rows["callgrind"] = cg
+    print(f"SensoRHex load through the C host library, {args.seconds:.0f} s real time "
+          f"({platform.machine()}, {os.cpu_count()} CPUs; other jobs share this machine)")
+    print()
+    print("| measure | value | goal | ratio to goal |")
+    print("|---|---:|---:|---:|")
+    print(f"| requests per ms (12.3 wanted) | {per_s / 1000:.2f} | {PER_MS} | {per_s / 1000 / PER_MS:.2f} |")
+    print(f"| requests ok / failed / not submitted | {res['ok']} / {res['failed']} / {res['not_submitted']} | all ok | |")
+    print(f"| ticks late by more than 0.5 ms | {res['late_ticks']} of {res['ticks']} | | |")
+    print(f"| CPU of one core over the run (user + system) | {share * 100:.2f} % | | |")
+    print(f"| CPU per request x 12.3 requests/ms: share of one core | {share_at_rate * 100:.2f} % | "
+          f"{GOAL_SHARE * 100:.0f} % | {share_at_rate / GOAL_SHARE:.2f} |")
+    print(f"| of which system (kernel) | {float(res['sys_s']) / float(res['wall_s']) * 100:.2f} % | | |")
+    print(f"| CPU per request | {us_per_request:.2f} us | | |")
+    if per_s / 1000 < 0.95 * PER_MS or int(res["not_submitted"]) > 0:
+        print("| note: the run did not keep the load's rate (other jobs stalled it): the share over the run "
+              "is too low, the share from CPU per request is the one to read | | | |")
+    if cg:
+        print(f"| user instructions per request (callgrind) | {cg['ir_per_request']:.0f} | | |")
+        top = ", ".join(f"{k} {v:.2f}" for k, v in sorted(cg["syscalls"].items(), key=lambda kv: -kv[1])[:4])
+        print(f"| system calls per request (strace) | {cg['syscalls_per_request']:.2f} ({top}) | | |")
+        print(f"| instructions per second at 12.3 requests/ms (user + {KERNEL_INSTR_PER_CALL} per call) | "
+              f"{cg['instr_per_s_at_12300'] / 1e6:.1f} M | | |")
+        for ipc in (1.0, 0.5):
+            s = cg[f"geode_share_ipc{ipc}"]
+            print(f"| projected share of a 500-MHz core at IPC {ipc} | {s * 100:.1f} % | 100 % | {s:.2f} |")
+    else:
+        print("| instructions | valgrind or strace not installed: no projection | | |")
+    py = python_numbers(args.python_json)
+    rows["python"] = py
+    print()
+    if py is None:
+        print(f"Python library: no numbers in {args.python_json} (run `python3 bench/host_cpu.py` first; "
+              "`make bench` does): no side-by-side table")
+    else:
+        side_by_side(py, share_at_rate, us_per_request)
+    OUT.mkdir(parents=True, exist_ok=True)
+    (OUT / "host_cpu_c.json").write_text(json.dumps(rows, indent=1, default=str) + "\n", encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
