@@ -19,6 +19,11 @@ Python (timeit, best of REPEATS runs of ~TARGET seconds each, per round trip):
   pymavlink stream  mav.parse_buffer(frame): the byte-stream parser a receiver uses, then decode()
   pymavlink, pure-Python CRC: the frame row with pymavlink's fastcrc (Rust) CRC switched off, since
                     URB's Python CRC is pure Python
+The URB rows run twice: "(accelerated)" on the codec urb_msgs selects (urb_msgs._accel, the
+generated C codecs, when `make accel` built it) and "(pure Python)" in a child process with
+URB_PURE_PYTHON=1 (the reference codecs; construction pure too). A summary prints the frame round
+trip's ratios to pymavlink and struct side by side for both (issue #38: pymavlink / URB >= 10,
+URB / struct <= 4).
 
 C (bench/c/codec_bench.c, -O2, clock_gettime(CLOCK_MONOTONIC), best of REPEATS): memcpy limit,
 URB payload, URB frame, MAVLink frame (mavlink_msg_power_status_pack + mavlink_msg_to_send_buffer,
@@ -177,7 +182,7 @@ def python_cases(mav_common: Any) -> list[tuple[str, str, int, str, dict[str, An
     from urb_msgs.sensorhex import MotorFeedback
     from urb_msgs.urb_core import Status, UplinkResponse
 
-    mav = mav_common.MAVLink(None, srcSystem=1, srcComponent=1)
+    mav = mav_common.MAVLink(None, srcSystem=1, srcComponent=1) if mav_common is not None else None
     ub = REF_B & 0xFFFF
     g: dict[str, Any] = {
         "S": struct.Struct("<Hhh"),
@@ -246,7 +251,17 @@ def check_python_cases(cases: list[tuple[str, str, int, str, dict[str, Any]]]) -
             raise BenchError(f"Python case {name!r} decoded {values}, expected {want}")
 
 
+URB_ROWS = ("URB payload", "URB frame")
+PURE = " (pure Python)"
+ACCEL = " (accelerated)"
+
+
 def run_python(mav_common: Any, target: float, repeats: int) -> list[Timing]:
+    """Every Python case in this process (the URB rows on the codec urb_msgs selected: the
+    accelerated one when built), then the URB rows once more in a child process that runs the
+    pure-Python codecs (URB_PURE_PYTHON=1: construction, encode and decode all pure)."""
+    from urb_msgs import _codec
+
     cases = python_cases(mav_common)
     check_python_cases(cases)
     # The pymavlink frame round trip once more with its native CRC switched off (URB's Python CRC
@@ -260,12 +275,38 @@ def run_python(mav_common: Any, target: float, repeats: int) -> list[Timing]:
         slow = time_interleaved([(stmt, globs)], target, repeats)[0]
     finally:
         mav_common.x25crc = fast
-    out = [Timing(name, what, wire_b, best * 1e9, worst * 1e9, n, repeats)
+    suffix = ACCEL if _codec.BACKEND == "accelerated" else PURE
+    out = [Timing(name + (suffix if name in URB_ROWS else ""), what, wire_b, best * 1e9, worst * 1e9, n, repeats)
            for (name, what, wire_b, _s, _g), (best, worst, n) in zip(cases, results)]
     out.append(Timing("pymavlink, pure-Python CRC",
                       "pymavlink frame with its fastcrc (Rust) CRC swapped for its Python CRC",
                       wire, slow[0] * 1e9, slow[1] * 1e9, slow[2], repeats))
+    if _codec.BACKEND == "accelerated":
+        out += run_pure_child(target, repeats)
     return out
+
+
+def run_pure_child(target: float, repeats: int) -> list[Timing]:
+    """The URB rows timed by a child process on the pure-Python codecs."""
+    env = {**os.environ, "URB_PURE_PYTHON": "1"}
+    done = run([sys.executable, Path(__file__), "--pure-rows", f"--target={target}", f"--repeats={repeats}"],
+               "the pure-Python URB rows (child process)", timeout=600, env=env)
+    return [Timing(**{**rec, "name": rec["name"] + PURE}) for rec in json.loads(done)]
+
+
+def pure_rows(target: float, repeats: int) -> int:
+    """--pure-rows: time the URB rows in this process, which must run the pure codecs; JSON out."""
+    from urb_msgs import _codec
+
+    if _codec.BACKEND != "pure":
+        raise BenchError(f"--pure-rows needs the pure-Python codecs (URB_PURE_PYTHON=1); this runs {_codec.BACKEND}")
+    cases = [c for c in python_cases(None) if c[0] in URB_ROWS]
+    check_python_cases(cases)
+    results = time_interleaved([(c[3], c[4]) for c in cases], target, repeats)
+    print(json.dumps([{"name": name, "what": what + ", pure-Python codecs (URB_PURE_PYTHON=1)", "wire_bytes": wire,
+                       "best_ns": best * 1e9, "worst_ns": worst * 1e9, "iterations": n, "repeats": repeats}
+                      for (name, what, wire, _s, _g), (best, worst, n) in zip(cases, results)]))
+    return 0
 
 
 # ---- C ------------------------------------------------------------------------------------
@@ -281,11 +322,11 @@ def find_compiler() -> list[str]:
     return cc
 
 
-def run(cmd: Sequence[str | Path], what: str, timeout: float = 120) -> str:
+def run(cmd: Sequence[str | Path], what: str, timeout: float = 120, env: dict[str, str] | None = None) -> str:
     """Run a command; stdout on success, BenchError with the tail of its output otherwise."""
     try:
         done = subprocess.run([str(c) for c in cmd], capture_output=True, text=True, timeout=timeout,
-                              check=False)
+                              check=False, env=env)
     except subprocess.TimeoutExpired:
         raise BenchError(f"{what} took more than {timeout:.0f} s") from None
     except OSError as e:
@@ -343,6 +384,10 @@ def check_vectors(exe: Path, have_urb: bool, mav_common: Any) -> None:
 C_WHAT = {
     "memcpy": ("memcpy limit", "memcpy of a 6-byte struct into a buffer and back (no checks)", 6),
     "urb_payload": ("URB payload", "urb_motor_feedback_encode + _decode", 6),
+    "memcpy4": ("memcpy limit, 4 B", "memcpy of a 4-byte struct into a buffer and back (MotorStatus's limit)", 4),
+    "urb_status": ("URB MotorStatus", "urb_motor_status_encode + _decode: i16, 2-bit enum, three bools, u8", 4),
+    "urb_read_request": ("URB read request", "urb_uplink_read_request_encode + _decode: sub-byte fields, CRC-8",
+                         4),
     "urb_frame": ("URB frame", "urb_uplink_response_encode/_decode (CRC-8) around "
                   "urb_motor_feedback_encode/_decode", 8),
     "mavlink_frame": ("MAVLink frame", "mavlink_msg_power_status_pack + _to_send_buffer, "
@@ -453,6 +498,32 @@ def ratio_table(title: str, rows: list[Timing], limit: Timing, ref: Timing | Non
     return table
 
 
+def codec_summary(console: Console, by: dict[str, Timing]) -> None:
+    """The Python frame round trip against issue #38's goals: at least 10x faster than pymavlink's
+    frame, within 4x of struct; and what the accelerated codecs gain over the pure ones."""
+    struct_t, mav = by["struct limit"], by["pymavlink frame"]
+    console.print("  Python frame round trip, side by side (goal of issue #38: pymavlink / URB >= 10, URB / struct <= 4):",
+                  highlight=False)
+    for suffix in (ACCEL, PURE):
+        frame = by.get("URB frame" + suffix)
+        payload = by.get("URB payload" + suffix)
+        if frame is None or payload is None:
+            continue
+        console.print(f"    URB frame{suffix:<16} {fmt_ns(frame.best_ns):>8} ns   pymavlink / URB {mav.best_ns / frame.best_ns:6.2f}"
+                      f"   URB / struct {frame.best_ns / struct_t.best_ns:6.2f}   (payload: URB / struct "
+                      f"{payload.best_ns / struct_t.best_ns:.2f})", highlight=False, markup=False)
+    a, p = by.get("URB frame" + ACCEL), by.get("URB frame" + PURE)
+    if a is not None and p is not None:
+        pa, pp = by["URB payload" + ACCEL], by["URB payload" + PURE]
+        console.print(f"    accelerated / pure-Python time: frame {a.best_ns / p.best_ns:.2f}, payload "
+                      f"{pa.best_ns / pp.best_ns:.2f}", highlight=False, markup=False)
+    else:
+        from urb_msgs import _codec
+
+        console.print(f"    no accelerated row: urb_msgs runs the pure-Python codecs ({_codec.REASON})",
+                      highlight=False, markup=False)
+
+
 def legend(console: Console, rows: list[Timing]) -> None:
     width = max(len(t.name) for t in rows)
     for t in rows:
@@ -500,6 +571,7 @@ def print_report(console: Console, info: dict[str, str], py: list[Timing], c: li
                               f"{py[0].repeats})", py, by["struct limit"], by["pymavlink frame"],
                               "pymavlink", False))
     legend(console, py)
+    codec_summary(console, by)
     console.print()
     byc = {t.name: t for t in c}
     with_ir = any(t.instructions is not None for t in c)
@@ -507,6 +579,11 @@ def print_report(console: Console, info: dict[str, str], py: list[Timing], c: li
                               f"message (best of {c[0].repeats})", c, byc["memcpy limit"],
                               byc.get("MAVLink frame"), "MAVLink", with_ir))
     legend(console, c)
+    if "URB payload" in byc and "URB MotorStatus" in byc:
+        console.print(f"  sub-byte fields (issue #38 goal: codec / memcpy <= 2): MotorFeedback "
+                      f"{byc['URB payload'].best_ns / byc['memcpy limit'].best_ns:.2f}, MotorStatus "
+                      f"{byc['URB MotorStatus'].best_ns / byc['memcpy limit, 4 B'].best_ns:.2f} (time)",
+                      highlight=False, markup=False)
     if not have_urb_c:
         console.print("[yellow]gen/c has no URB C codecs yet: URB C rows skipped[/yellow]")
     if with_ir:
@@ -545,9 +622,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--repeats", type=int, default=5, help="measurements per case, best kept (default 5)")
     ap.add_argument("--no-callgrind", action="store_true", help="skip the callgrind instruction counts")
     ap.add_argument("--json", type=Path, default=BUILD / "codec_bench.json", help="where to write the numbers")
+    ap.add_argument("--pure-rows", action="store_true",
+                    help="only time the URB Python rows and print them as JSON (the child run with URB_PURE_PYTHON=1)")
     args = ap.parse_args(argv)
     if args.target <= 0 or args.repeats < 1:
         ap.error("--target must be positive and --repeats at least 1")
+    if args.pure_rows:
+        try:
+            return pure_rows(args.target, args.repeats)
+        except BenchError as e:
+            print(f"codec_bench: error: {e}", file=sys.stderr)
+            return 1
 
     wide = None if sys.stdout.isatty() else 112
     console = Console(width=wide)

@@ -2,10 +2,15 @@
  * URB codec benchmark, C side. Built and run by bench/codec_bench.py (`make bench`); see
  * bench/README.md for what each case measures and how to read the ratios.
  *
- * Every case is one encode + decode round trip of a 6-byte, three-16-bit-field message:
+ * Every case is one encode + decode round trip. Most carry a 6-byte, three-16-bit-field message:
  *
  *   memcpy        the limit: memcpy of a 6-byte struct into a buffer and back (no checks)
  *   urb_payload   urb_motor_feedback_encode + urb_motor_feedback_decode (gen/c), 6 bytes
+ *   memcpy4       the limit for MotorStatus: memcpy of a 4-byte struct into a buffer and back
+ *   urb_status    urb_motor_status_encode + urb_motor_status_decode: 4 bytes, an i16, a 2-bit enum,
+ *                 three 1-bit bools, 3 reserved bits and a u8 (the sub-byte fields of issue #38)
+ *   urb_read_request urb_uplink_read_request_encode + _decode: 4 bytes, a fixed bit, a u7 address,
+ *                 a u3 mailbox, a reserved bit, a u4 sequence number, a u8 length, CRC-8
  *   urb_frame     the URB link frame a host reads: MotorFeedback encoded into an UplinkResponse,
  *                 urb_uplink_response_encode (CRC-8), urb_uplink_response_decode (CRC check),
  *                 urb_motor_feedback_decode of its data: 8 bytes on the wire
@@ -93,6 +98,36 @@ __attribute__((noinline)) static uint64_t case_memcpy(uint64_t n) {
     return acc;
 }
 
+/* The MotorStatus limit: a 4-byte struct of the same shape (i16, flags byte, u8). */
+typedef struct {
+    int16_t t;
+    uint8_t flags;
+    uint8_t count;
+} plain4_t;
+static plain4_t inputs4[NINPUTS];
+
+static void fill_inputs4(void) {
+    for (uint32_t k = 0; k < NINPUTS; k++) {
+        inputs4[k].t = (int16_t)(REF_B + (int32_t)k);
+        inputs4[k].flags = (uint8_t)(k % 3u);
+        inputs4[k].count = (uint8_t)k;
+    }
+}
+
+__attribute__((noinline)) static uint64_t case_memcpy4(uint64_t n) {
+    uint64_t acc = 0;
+    uint8_t buf[8];
+    for (uint64_t i = 0; i < n; i++) {
+        memcpy(buf, &inputs4[i % NINPUTS], 4);
+        clobber(buf);
+        plain4_t out;
+        memcpy(&out, buf, 4);
+        clobber(&out);
+        acc += (uint64_t)(int64_t)out.t + (uint64_t)out.flags + (uint64_t)out.count;
+    }
+    return acc;
+}
+
 /* ---- URB -------------------------------------------------------------------------------- */
 
 #if URB_HAVE_C_CODECS
@@ -117,6 +152,57 @@ __attribute__((noinline)) static uint64_t case_urb_payload(uint64_t n) {
         int32_t r = urb_motor_feedback_decode(&out, buf, (size_t)w);
         bad += (w != 6) | (r < 0);
         acc += (uint64_t)out.encoder + (uint64_t)(int64_t)out.current + (uint64_t)(int64_t)out.voltage;
+    }
+    errors += bad;
+    return acc;
+}
+
+static urb_motor_status_t status_inputs[NINPUTS];
+static urb_uplink_read_request_t read_inputs[NINPUTS];
+
+static void fill_status_inputs(void) {
+    for (uint32_t k = 0; k < NINPUTS; k++) {
+        memset(&status_inputs[k], 0, sizeof status_inputs[k]);
+        status_inputs[k].case_temp = inputs4[k].t;
+        status_inputs[k].mode = (uint8_t)(k % 3u); /* DISABLED, VOLTAGE, LOCAL_PD */
+        status_inputs[k].hall = (k & 1u) != 0u;
+        status_inputs[k].overcurrent = (k & 2u) != 0u;
+        status_inputs[k].overtemp = (k & 4u) != 0u;
+        status_inputs[k].missed_commands = inputs4[k].count;
+        memset(&read_inputs[k], 0, sizeof read_inputs[k]);
+        read_inputs[k].address = (uint8_t)(1u + k % 127u);
+        read_inputs[k].mailbox = (uint8_t)(k % 8u);
+        read_inputs[k].seq = (uint8_t)(k % 16u);
+        read_inputs[k].length = (uint8_t)(1u + k % 32u);
+    }
+}
+
+__attribute__((noinline)) static uint64_t case_urb_status(uint64_t n) {
+    uint64_t acc = 0, bad = 0;
+    uint8_t buf[8];
+    for (uint64_t i = 0; i < n; i++) {
+        int32_t w = urb_motor_status_encode(&status_inputs[i % NINPUTS], buf, sizeof buf);
+        clobber(buf);
+        urb_motor_status_t out;
+        int32_t r = urb_motor_status_decode(&out, buf, (size_t)w);
+        bad += (w != 4) | (r < 0);
+        acc += (uint64_t)(int64_t)out.case_temp + (uint64_t)out.mode + (uint64_t)out.hall +
+               (uint64_t)out.overcurrent + (uint64_t)out.overtemp + (uint64_t)out.missed_commands;
+    }
+    errors += bad;
+    return acc;
+}
+
+__attribute__((noinline)) static uint64_t case_urb_read_request(uint64_t n) {
+    uint64_t acc = 0, bad = 0;
+    uint8_t buf[8];
+    for (uint64_t i = 0; i < n; i++) {
+        int32_t w = urb_uplink_read_request_encode(&read_inputs[i % NINPUTS], buf, sizeof buf);
+        clobber(buf);
+        urb_uplink_read_request_t out;
+        int32_t r = urb_uplink_read_request_decode(&out, buf, (size_t)w);
+        bad += (w != 4) | (r < 0);
+        acc += (uint64_t)out.address + (uint64_t)out.mailbox + (uint64_t)out.seq + (uint64_t)out.length;
     }
     errors += bad;
     return acc;
@@ -194,6 +280,11 @@ static const struct {
     {"memcpy", case_memcpy},
 #if URB_HAVE_C_CODECS
     {"urb_payload", case_urb_payload},
+#endif
+    {"memcpy4", case_memcpy4},
+#if URB_HAVE_C_CODECS
+    {"urb_status", case_urb_status},
+    {"urb_read_request", case_urb_read_request},
     {"urb_frame", case_urb_frame},
 #endif
     {"mavlink_frame", case_mavlink_frame},
@@ -226,8 +317,10 @@ static int usage(void) {
 int main(int argc, char **argv) {
     if (argc < 2) return usage();
     fill_inputs();
+    fill_inputs4();
 #if URB_HAVE_C_CODECS
     fill_feedback_inputs();
+    fill_status_inputs();
 #endif
     if (strcmp(argv[1], "cases") == 0) {
         for (size_t c = 0; c < NCASES; c++) printf("%s\n", CASES[c].name);

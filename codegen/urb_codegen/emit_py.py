@@ -588,8 +588,10 @@ def _node_idents(schema: Schema) -> list[str]:
     return [re.sub(r"(?<!^)(?=[A-Z])", "_", n).upper() for n in schema.nodes]
 
 
-def emit_python(schemas: list[Schema], out_dir: Path) -> list[Path]:
-    """Write the runtime, one module per schema and the package index; return the paths written."""
+def emit_python(schemas: list[Schema], out_dir: Path, accelerated: bool = False) -> list[Path]:
+    """Write the runtime, one module per schema and the package index; return the paths written.
+    `accelerated`: the index installs the codec that _codec.py selects (emit_pyext writes it, with
+    the extension's source); without it the package is pure Python and self-contained."""
     out_dir.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
     runtime = _ENV.from_string(_template("py_runtime.py.j2")).render(banner=banner(None))
@@ -610,6 +612,8 @@ def emit_python(schemas: list[Schema], out_dir: Path) -> list[Path]:
                  "NodeInfo", "OutOfRangeError", "TooLongError", "TooShortError"]:
         w(f"{name},", 1)
     w(")")
+    if accelerated:
+        w("from . import _codec")
     for s in everything:
         w(f"from . import {module_name(s)}")
     w()
@@ -624,6 +628,10 @@ def emit_python(schemas: list[Schema], out_dir: Path) -> list[Path]:
     w("}")
     w('"""Every node type of every bundled schema by name."""')
     w()
+    if accelerated:
+        w("# the classes' codec: the accelerated one of _accel when built, else the pure-Python one (_codec.py)")
+        w(f"_codec.install([{', '.join(module_name(s) for s in everything)}])")
+        w()
     w("__all__ = [")
     for name in ["ArgumentError", "ChecksumError", "DecodeError", "EncodeError", "FieldInfo", "MailboxInfo", "Message",
                  "NodeInfo", "OutOfRangeError", "TooLongError", "TooShortError", "MESSAGES", "NODES",

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import filecmp
 import tempfile
+from importlib.machinery import EXTENSION_SUFFIXES
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -31,8 +32,10 @@ def generate(schemas: list[Schema], c_dir: Path = C_DIR, py_dir: Path = PY_DIR) 
     """Write C and Python codecs; return every file written."""
     from .emit_c import emit_c  # the emitters load templates; `schema check` and `show` need neither
     from .emit_py import emit_python
+    from .emit_pyext import emit_pyext
 
-    written = [*emit_c(schemas, c_dir), *emit_python(schemas, py_dir)]
+    written = [*emit_c(schemas, c_dir), *emit_python(schemas, py_dir, accelerated=True)]
+    written += emit_pyext(schemas, py_dir, c_dir)  # after the C it links: its fingerprint covers that C
     _remove_leftovers(written, c_dir, py_dir)
     return written
 
@@ -69,9 +72,12 @@ class Staleness:
 
 
 def _tree(root: Path) -> set[Path]:
+    """The generated files under `root`: every file but byte code and compiled extension modules
+    (`make accel` builds urb_msgs/_accel.<EXT_SUFFIX> next to its generated source)."""
     if not root.exists():
         return set()
-    return {p.relative_to(root) for p in root.rglob("*") if p.is_file() and "__pycache__" not in p.parts}
+    return {p.relative_to(root) for p in root.rglob("*")
+            if p.is_file() and "__pycache__" not in p.parts and not p.name.endswith(tuple(EXTENSION_SUFFIXES))}
 
 
 # lobster-trace: urb.PKT_007

@@ -14,6 +14,7 @@ from ._runtime import (
     TooLongError,
     TooShortError,
 )
+from . import _codec
 from . import urb_core
 from . import urb_can_wire
 from . import urb_rs485_wire
@@ -33,6 +34,9 @@ NODES: dict[str, NodeInfo] = {
     **sensorhex.NODES,
 }
 """Every node type of every bundled schema by name."""
+
+# the classes' codec: the accelerated one of _accel when built, else the pure-Python one (_codec.py)
+_codec.install([urb_core, urb_can_wire, urb_rs485_wire, sensorhex])
 
 __all__ = [
     'ArgumentError',
