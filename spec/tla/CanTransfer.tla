@@ -224,17 +224,21 @@ Spec == Init /\ [][Next]_vars
 (* A reassembly, in progress or the one completed last, never holds frames *)
 (* of two transfers.                                                       *)
 OneTransfer(buf) == \A i, j \in DOMAIN buf : buf[i].x = buf[j].x
+\* lobster-trace: urb.DLK_001
 NoMixedTransfers == \A s \in Senders : OneTransfer(rx[s].buf) /\ OneTransfer(done[s])
 
 (* ...nor one frame twice (the toggle bit's job).                          *)
 NoRepeat(buf) == \A i, j \in DOMAIN buf : i # j => buf[i] # buf[j]
+\* lobster-trace: urb.DLK_001
 NoRepeatedFrame == \A s \in Senders : NoRepeat(rx[s].buf) /\ NoRepeat(done[s])
 
 (* A delivered transfer is exactly one sent transfer, every frame in order *)
 (* (the CRC's job for a multi-frame transfer).                             *)
+\* lobster-trace: urb.DLK_002
 DeliveredIntact == ~bad
 
 (* No transfer is delivered twice (the duplicate filter's job).            *)
+\* lobster-trace: urb.DLK_003
 AtMostOnce == \A s \in Senders : \A x \in Xfers(s) : count[s][x] <= 1
 
 THEOREM Spec => [](TypeOK /\ NoMixedTransfers /\ NoRepeatedFrame /\ DeliveredIntact /\ AtMostOnce)

@@ -183,16 +183,19 @@ Spec == Init /\ [][Next]_vars
 -----------------------------------------------------------------------------
 (* One talker at a time among the bridge and the nodes (the babbler is the *)
 (* fault the others detect).                                               *)
+\* lobster-trace: urb.DLK_004
 OneTalker == Cardinality(drivers \ {BABBLER}) <= 1
 
 (* A reported outcome tells the truth about the node's mailbox: OK only if *)
 (* it stored the request; CHECKSUM, NO_NODE and BUS_STUCK only if it did   *)
 (* not (TIMEOUT says nothing).  Bridge.tla's WriteStatusTruthful.          *)
+\* lobster-trace: urb.DLK_004
 StatusTruthful == \A i \in DOMAIN reported :
     /\ reported[i].result = "OK" => reported[i].executed
     /\ reported[i].result \in {"CHECKSUM", "NO_NODE", "BUS_STUCK"} => ~reported[i].executed
 
 (* Bytes heard while nobody was polled are counted (babbling detected).    *)
+\* lobster-trace: urb.DLK_005
 BabbleCounted == babbledIdle => heard > 0
 
 THEOREM Spec => [](TypeOK /\ OneTalker /\ StatusTruthful /\ BabbleCounted)

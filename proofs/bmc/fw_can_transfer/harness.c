@@ -14,6 +14,7 @@
  * The CRC step runs as its bit-serial definition, or (items marked CRC0: 14 to 32 payload bytes,
  * part 3) as a constant: see crc_bitwise.c and crc_const.c.
  */
+/* lobster-trace: urb.DLK_001, urb.DLK_002 (the requirements this proof verifies) */
 #include "urb_verify.h"
 
 #include "../stubs/fw_budgets.h"

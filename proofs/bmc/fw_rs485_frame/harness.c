@@ -12,6 +12,7 @@
  * Cost: each urb_rs485_rx_byte and urb_rs485_rx_poll within FW_RS485_BYTE_BUDGET: one character at
  * 1 Mb/s (stubs/fw_budgets.h says why not half).
  */
+/* lobster-trace: urb.DLK_006 (the requirements this proof verifies) */
 #include "urb_verify.h"
 
 #include "../stubs/fw_budgets.h"
