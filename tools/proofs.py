@@ -339,8 +339,10 @@ class Proof:
         text = self.config.get("budget_cycles", "").strip()
         if text.isdigit():
             return int(text)
-        m = re.search(r"^#define FW_COST_BUDGET (\w+)", (self.folder / "harness.c").read_text(encoding="utf-8"),
-                      re.MULTILINE)
+        harness = self.folder / "harness.c"
+        if not harness.exists():  # a plan built in a test, not a proof folder
+            return None
+        m = re.search(r"^#define FW_COST_BUDGET (\w+)", harness.read_text(encoding="utf-8"), re.MULTILINE)
         return fw_budget(m.group(1)) if m else None
 
 

@@ -77,8 +77,9 @@ def _register_report(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -
         description="Collect the evidence records of build/evidence/, trace them to the requirements of "
                     "spec/requirements/ and write build/report/index.html and build/report/report.pdf. "
                     "Nothing is rerun: each activity of `make check` writes its record, this reads them.",
-        epilog="Exit status: 0 written (with --gate: and the gate passed), 1 the gate failed (one line per "
-               "problem, naming its requirement), 2 the report could not be made.\n"
+        epilog="Exit status: 0 written (with --gate: and the gate passed), 1 the gate failed (one line per\n"
+               "problem, naming its requirement) or the report could not be made (the message says why),\n"
+               "2 a usage error (an unknown option).\n"
                "Example: make check && urb report   (then open build/report/report.pdf)")
     p.add_argument("--gate", action="store_true", help="exit 1 when the gate fails (make check runs this)")
     p.add_argument("--no-pdf", action="store_true", help="write the HTML only (no Chromium)")

@@ -8,7 +8,8 @@ command line and calls run() when the command runs).
 
 It only reads: the requirements (spec/requirements/), the records (build/evidence/), the source
 markers and the simulation's figures (build/sim/report/). Exit status: 0 done (and, with --gate,
-the gate passed), 1 the gate failed, 2 the report could not be made (the message says why).
+the gate passed), 1 the gate failed or the report could not be made (the message says why), 2 a
+usage error.
 """
 
 from __future__ import annotations
@@ -31,14 +32,14 @@ def run(args: argparse.Namespace) -> int:
         cat = requirements.load()
     except requirements.RequirementsError as exc:
         print(f"urb report: {exc}", file=sys.stderr)
-        return 1 if args.gate else 2
+        return 1
     if args.update_baseline:
         return _update_baseline(cat)
     try:
         recs = records.read_records(args.evidence)
     except records.RecordError as exc:
         print(f"urb report: {exc}", file=sys.stderr)
-        return 1 if args.gate else 2
+        return 1
     state = records.tree_state()
     marks = markers.scan()
     from .junit import cmocka_group_sources
@@ -64,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
         except PdfError as exc:
             print(f"urb report: no PDF: {exc}", file=sys.stderr)
             if not args.gate:
-                return 2
+                return 1
     gate.print_problems(a)
     return 1 if (args.gate and not a.ok) else 0
 

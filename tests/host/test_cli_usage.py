@@ -119,7 +119,7 @@ def test_every_help_documents_its_exit_status() -> None:
         if name != "urb":
             assert re.search(r"\b2\b[^.]*usage error", text.replace("\n", " ")), name
     assert seen == ["urb", "scan", "read", "write", "monitor", "log", "gen", "schema", "schema check",
-                    "schema show", "demo"]
+                    "schema show", "demo", "report"]
     top = dict(_helps())["urb"]
     for status in ("0 ", "1 ", "2 ", "130 ", "141 "):
         assert f"\n  {status}" in top, status

@@ -364,13 +364,15 @@ urb_ns_t urb_core_next_deadline(const urb_core_t *core)
     if (core == NULL) {
         return URB_NEVER;
     }
+    urb_ns_t next;
     if ((core->handover_until_ns != URB_NO_TIME) && (core->queued > 0u) && !core->lost) {
-        return core->handover_until_ns;
-    }
-    if (core->lost || (core->m.count == 0u)) {
+        next = core->handover_until_ns;
+    } else if (core->lost || (core->m.count == 0u)) {
         return URB_NEVER;
+    } else {
+        next = min_ns(silent_since(core) + core->cfg.lost_after_ns, urb_matcher_next_event(&core->m));
     }
-    urb_ns_t next = min_ns(silent_since(core) + core->cfg.lost_after_ns, urb_matcher_next_event(&core->m));
+    /* a partial RS232 frame is dropped after the resync gap, during a hand-over too (rs232_core.py) */
     if ((core->kind == URB_LINK_RS232) && core->partial) {
         next = min_ns(next, core->last_heard_ns + core->cfg.resync_gap_ns);
     }
