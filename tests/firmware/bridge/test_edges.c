@@ -492,5 +492,5 @@ int run_edges_tests(void)
         cmocka_unit_test_teardown(fifo_of_local_requests_in_one_poll, teardown),
         cmocka_unit_test_teardown(idle_waits_for_a_full_uart, teardown),
     };
-    return cmocka_run_group_tests_name("edges", tests, NULL, NULL);
+    return cmocka_run_group_tests_name("bridge_edges", tests, NULL, NULL);
 }
