@@ -198,7 +198,7 @@ def fuzz_kills(binary: Path, target: str, seconds: int, log: Path) -> tuple[bool
     fz = _tool("fuzz")
     found = BUILD / "fuzz-mutants" / "found"
     shutil.rmtree(found, ignore_errors=True)
-    code, stats = fz.run_fuzzer(binary, found, HERE / "corpus" / target, seconds, log)
+    code, stats, _ = fz.run_fuzzer(binary, found, HERE / "corpus" / target, seconds, log)
     text = log.read_text(encoding="utf-8", errors="replace")
     why = next((ln.strip() for ln in text.splitlines() if "fuzz_host_core:" in ln or "ERROR: " in ln), stats)
     return code != 0, why
@@ -249,7 +249,7 @@ def cmd_fuzz(seconds: int, mutant_seconds: int) -> int:
     for target in FUZZ_TARGETS:
         binary = build_fuzz(ROOT, target, BUILD / "fuzz" / target / target)
         start = time.monotonic()
-        code, stats = fz.run_fuzzer(binary, BUILD / "fuzz" / target / "found", HERE / "corpus" / target, seconds,
+        code, stats, numbers = fz.run_fuzzer(binary, BUILD / "fuzz" / target / "found", HERE / "corpus" / target, seconds,
                                     BUILD / "fuzz" / target / "fuzz.log")
         ok = code == 0
         status |= int(not ok)
@@ -259,7 +259,7 @@ def cmd_fuzz(seconds: int, mutant_seconds: int) -> int:
                      "time_s": round(time.monotonic() - start, 1), "detail": stats})
         items.append(Item(f"fuzz:{target}", "fuzz", "pass" if ok else "fail", expected="no failure",
                           measured=stats, source="tests/host_c/fuzz_host_core.c",
-                          rerun=f"python3 tests/host_c/check_host_c.py fuzz --seconds {seconds}"))
+                          rerun=f"python3 tests/host_c/check_host_c.py fuzz --seconds {seconds}", data=numbers))
     write_record("fuzz", items, {"libFuzzer": "clang 14"}, name="fuzz-host_c", seed=1)
     mstatus, mrows = cmd_mutants([], mutant_seconds, fuzz=True)
     rows += mrows
