@@ -45,7 +45,7 @@ def test_every_cited_item_passing_passes_the_gate_and_lobster(
     ("bmc:fw_node_pll_update", "urb.SYN_005"),                  # a proof folder deleted
     ("pytest:tests/host/test_seq_alias.py::test_default_lifetime_covers_the_firmware_worst_case", "urb.HOST_002"),
     ("cmocka:node_i2c/bad_check_nacked", "urb.CRC_004"),        # a cmocka test deleted
-    ("sim:fig16/bounded-by-three-frames", "urb.LAT_003"),       # a simulation criterion dropped
+    ("sim:fig16/bounded-by-the-derived-frames", "urb.LAT_003"),       # a simulation criterion dropped
     ("wp:node_i2c/rx_byte", "urb.MEM_002"),
     ("fuzz-mutant:fuzz_node/node-commit-bad-check", "urb.CRC_004"),
 ])

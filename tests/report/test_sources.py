@@ -64,6 +64,7 @@ def test_a_changed_criterion_needs_a_version_step_a_history_entry_and_a_new_base
     d = tmp_path / "requirements"
     shutil.copytree(REQS, d)
     baseline = tmp_path / "baseline.json"
+    shutil.copy(REQS / "baseline.json", baseline)  # the committed one (LAT_003 is at version 2 there)
     assert history.update(catalogue, baseline) == []
     lat = d / "latency.trlc"
     old = "max <= 2.0 ms; mean linear"
