@@ -372,6 +372,28 @@ def test_c_core_matches_the_python_core(cfg: Config, seed: int, data: st.DataObj
         pair.close()
 
 
+@pytest.mark.parametrize("kind", [RS232, USB])
+def test_timeouts_in_a_row_lose_the_bridge_alike(kind: int) -> None:
+    """A directed trace to the second lost-bridge rule (Hypothesis' 400 examples may or may not draw
+    it): sparse requests, one at a time, never answered; the third timeout comes after more than
+    `lost_after_ns` of silence, and nothing was outstanding all that time (not the silence rule)."""
+    cfg = Config(kind, 4, 10 * NS_PER_MS, lost_after_ns=200 * NS_PER_MS, lost_after_timeouts=3, placeholder_ns=0)
+    pair = Pair(cfg)
+    try:
+        for _ in range(3):
+            assert pair.py.observe()[4] == ""
+            pair.call("submit", pair.next_id, 0x20, 1, True, 6, b"", 0, pair.now)
+            pair.next_id += 1
+            pair.call("frames", pair.now)
+            pair.now += 11 * NS_PER_MS
+            pair.call("poll", pair.now)
+            pair.now += 100 * NS_PER_MS
+            pair.call("poll", pair.now)
+        assert "in a row" in pair.py.observe()[4] and "lost: timeouts in a row" in SEEN
+    finally:
+        pair.close()
+
+
 def test_the_traces_reach_every_outcome() -> None:
     """Witness that the Hypothesis traces above reach what they claim to compare (it runs after
     them: pytest keeps a file's order, with or without xdist's --dist loadfile)."""
