@@ -210,6 +210,7 @@ def record(cache: Path, unit: str, label: str, key: str, repo: str, cmd: list[st
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-")  # threads record at once
     with os.fdopen(fd, "wb") as raw, gzip.GzipFile(fileobj=raw, mode="wb", mtime=0) as fh:
         fh.write(json.dumps(entry, indent=1, sort_keys=True).encode("utf-8"))
+    os.chmod(tmp, 0o644)  # mkstemp's 0600 would differ from the checkout's files
     os.replace(tmp, path)
     return path
 
