@@ -179,6 +179,8 @@ class FramacRun:
     cache_note: str = ""
     #: a spot check's re-run disagreed with the recorded entry: what differs (fails the unit)
     cache_wrong: str = ""
+    #: the run's key in proofs/framac/results (empty when the result cache was not used)
+    key: str = ""
 
 
 def apply_mutant(unit: Unit, mutant: dict[str, Any], work: Path) -> tuple[list[str], list[str]]:
@@ -314,7 +316,8 @@ def _restore(recorded: framac_cache.Recorded, cmd: list[str], log_path: Path, re
     log_path.write_text(" ".join(cmd) + f"\n\nurb-framac-cache: hit {recorded.key} cpu {recorded.cpu_s:.2f} "
                         f"computed on {replayed} ({recorded.path.relative_to(ROOT) if recorded.path.is_relative_to(ROOT) else recorded.path})\n"
                         + recorded.log, encoding="utf-8")
-    return FramacRun(True, seconds, recorded.log, _json_report(True, report), cpu_s=recorded.cpu_s, replayed=replayed)
+    return FramacRun(True, seconds, recorded.log, _json_report(True, report), cpu_s=recorded.cpu_s, replayed=replayed,
+                     key=recorded.key)
 
 
 def run_cached(unit: Unit, label: str, cmd: list[str], log_path: Path, report: Path, cache: str,
@@ -349,9 +352,10 @@ def run_cached(unit: Unit, label: str, cmd: list[str], log_path: Path, report: P
                                f"{recorded.path.relative_to(ROOT) if recorded.path.is_relative_to(ROOT) else recorded.path} "
                                f"recorded {json.dumps(expected)[:300]}: the entry is wrong; delete it, or rerun with "
                                f"{framac_cache.ENV}=refresh")
-        run.cache_note = f"spot-checked {key}"
+        run.cache_note, run.key = f"spot-checked {key}", key
         return run
     run = run_framac(cmd, log_path, report)
+    run.key = key
     if outcome(unit.tool, run, report) is not None:
         outputs = {p.name: p.read_text(encoding="utf-8") for p in (report, red_report(report)) if p.is_file()}
         path = framac_cache.record(RESULTS_DIR, unit.name, label, key, str(ROOT), cmd, run.log, outputs, run.cpu_s,
@@ -842,6 +846,16 @@ def prune_unread(copies: list[Path], cache_dir: Path) -> tuple[int, int]:
     return len(copies) - len(unread), len(unread)
 
 
+def prune_results(runs: list[FramacRun]) -> tuple[int, int]:
+    """Deletes the entries of proofs/framac/results that none of `runs` (a whole run) used: runs of
+    inputs that changed since. (kept, deleted)"""
+    used = {r.key for r in runs if r.key}
+    stale = [e for e in RESULTS_DIR.glob("*/*.json.gz") if e.name.removesuffix(".json.gz") not in used]
+    for entry in stale:
+        entry.unlink()
+    return len(used), len(stale)
+
+
 def run_all(units: list[Unit], args: argparse.Namespace, cache_dir: Path, reviewed: set[str]) -> tuple[list[Row],
                                                                                                    list[FramacRun]]:
     """Run the units and their mutants as the options select; rows in unit order, and the runs."""
@@ -884,6 +898,9 @@ def main(argv: list[str] | None = None) -> int:
                          "offline, as make proofs-framac: no prover runs, a goal not in the cache fails)")
     ap.add_argument("--jobs", type=int, default=2, help="frama-c processes and provers in parallel (default 2)")
     ap.add_argument("--list", action="store_true", help="print the units, run nothing")
+    ap.add_argument("--prune-results", action="store_true",
+                    help="after a whole offline run, delete the entries of proofs/framac/results no run used "
+                         "(runs whose inputs changed since); needs the whole run")
     ap.add_argument("--prune-cache", action="store_true",
                     help="replay every unit and mutant from the cache (offline), then delete the entries no "
                          "goal read: answers to goals that no longer exist. Needs the whole run")
@@ -894,6 +911,10 @@ def main(argv: list[str] | None = None) -> int:
                 raise SetupError("--prune-cache needs the whole run: no --only, --no-mutants, --mutants-only "
                                  "or --record")
             args.cache = "offline"
+        if args.prune_results and (args.only or args.unit or args.mutant or args.no_mutants or args.mutants_only
+                                   or args.cache != "offline" or args.prune_cache):
+            raise SetupError("--prune-results needs the whole offline run: --cache offline, no --only, --unit, "
+                             "--mutant, --no-mutants, --mutants-only or --prune-cache")
         units = discover(args.only, args.unit)
         missing = sorted(set(args.mutant) - {m["name"] for u in units for m in u.mutants})
         if missing:
@@ -921,6 +942,13 @@ def main(argv: list[str] | None = None) -> int:
             evidence = write_evidence(rows, args, runs)
             print_table(rows)
             bad = [r for r in rows if not r.expected]
+            if args.prune_results:
+                if bad:
+                    print("proofs_framac: results not pruned: the run had unexpected results", file=sys.stderr)
+                else:
+                    kept, deleted = prune_results(runs)
+                    print(f"framac results: {kept} entries used and kept, {deleted} unused deleted "
+                          f"({RESULTS_DIR.relative_to(ROOT)})")
             if args.prune_cache:
                 if bad:
                     print("proofs_framac: cache not pruned: the replay had unexpected results", file=sys.stderr)

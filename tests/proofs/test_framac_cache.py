@@ -239,3 +239,20 @@ def test_evidence_items_say_which_runs_were_replayed() -> None:
     items = RUNNER.evidence_items(rows, {})
     assert [i.id for i in items] == ["eva:u", "wp:w/f", "framac-mutant:u/m"]
     assert all(i.data["runs_replayed_from_cache"] == 1 and i.data["computed_on"].startswith("abc123") for i in items)
+
+
+def test_prune_results_deletes_the_entries_no_run_used(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    repo = make_repo(tmp_path)
+    use_repo(repo, monkeypatch)
+    run_eva(repo)
+    (repo / "inc" / "x.h").write_text("#define X 2\n", encoding="utf-8")
+    current = run_eva(repo)
+    assert len(entries(repo)) == 2 and current.key
+    assert RUNNER.prune_results([current, RUNNER.FramacRun(True, 0.0, "")]) == (1, 1)
+    assert [e.name for e in entries(repo)] == [f"{current.key}.json.gz"]
+    assert run_eva(repo).replayed, "the entry of the current inputs stays"
+
+
+def test_prune_results_needs_the_whole_offline_run() -> None:
+    assert RUNNER.main(["--prune-results", "--only", "mailbox"]) == 2
+    assert RUNNER.main(["--prune-results", "--cache", "update"]) == 2
