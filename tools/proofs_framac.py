@@ -10,6 +10,9 @@
     python3 tools/proofs_framac.py --list           # the units and their settings, nothing run
     python3 tools/proofs_framac.py --prune-cache    # the whole offline replay, then delete the
                                                     # cache entries it did not read
+    python3 tools/proofs_framac.py --cache offline --prune-results
+                                                    # the whole run, then delete the recorded runs
+                                                    # (proofs/framac/results) it did not use
 
 A unit is a folder proofs/framac/<unit>/ holding PURPOSE (one line), unit.json (what to run) and
 expected.json (what the run must give). unit.json:
@@ -44,6 +47,11 @@ counted per unit.
 Each mutant of a unit copies one source file, replaces `find` (which must occur exactly once) by
 `replace` and runs the same analysis: WP must leave a goal unproved, Eva must raise an alarm that
 is not in the reviewed list.
+
+Whole runs are replayed when their inputs are byte-identical to a recorded run's (Eva runs, offline
+WP runs and their mutants; tools/framac_cache.py, proofs/framac/results, FRAMAC_RESULT_CACHE=on|off|
+refresh): see proofs/framac/README.md, "Result cache of whole runs". `--prune-results` after a whole
+offline run deletes the entries no run used.
 
 Outputs build/proofs/framac/summary.json ({"part": "framac", "rows": [...]}, one row per function
 or Eva entry point and one per mutant), junit.xml, the Frama-C logs under logs/, and the evidence
