@@ -22,9 +22,10 @@ typedef struct {
     urb_can_slave_t slave; /**< the slave the port's CAN interrupt drives */
 } urb_node_can_t;
 
-/** Attaches *node (initialised by urb_node_init with *cfg, not necessarily started) to the CAN
+/** Attaches *node (initialised by urb_node_init with *cfg) to the CAN
  *  controller *hal at `bitrate_kbps` (the duplicate window follows it), as node cfg->i2c_address.
- *  False (nothing attached) when the address is outside CAN's 1..63 or *hal lacks tx. */
+ *  False (nothing attached) when the address is outside CAN's 1..63 or *hal lacks tx, tx_abort or
+ *  recover. */
 bool urb_node_can_attach(urb_node_can_t *c, urb_node_t *node, const urb_node_config_t *cfg,
                          const urb_can_hal_t *hal, uint32_t bitrate_kbps);
 

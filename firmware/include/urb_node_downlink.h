@@ -12,8 +12,8 @@
  * set_address is still called with it (a CAN port sets its acceptance filter there, or ignores it).
  *
  * Every slave entry point must be called at the priority of urb_node_timer_event() (urb_node_hal.h):
- * the SYNC it passes on shares the heartbeat state with the timer interrupt. Until urb_node_start()
- * the node has no mailboxes on the bus: requests are answered as for a node without them and SYNC
+ * the SYNC it passes on shares the heartbeat state with the timer interrupt. Until urb_node_init()
+ * has put the node on the bus it has no mailboxes there: requests are answered as for a node without them and SYNC
  * is ignored, as the I2C slave NACKs everything then.
  */
 #ifndef URB_NODE_DOWNLINK_H

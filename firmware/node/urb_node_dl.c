@@ -6,7 +6,7 @@
  *
  * What I2C's byte state machine does around the steps is done here the same way: an outbox-0
  * read begun counts in id_reads and a complete one sets id_done (Identification.fault may clear),
- * a SYNC emits the mark and goes to the PLL, and nothing is on the bus before urb_node_start().
+ * a SYNC emits the mark and goes to the PLL, and nothing is on the bus before urb_node_init() is done.
  *
  * Seeded bugs for the three-downlink test (tests/firmware/node_dl/): URB_MUTANT_NODE_DL_FRONT_BUFFER
  * (a write is filled into the buffer the application may hold: the front, not IsrWriteBegin's),

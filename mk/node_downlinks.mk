@@ -1,0 +1,86 @@
+# The node library on each downlink (issue #39 phase 2). Included by the top-level Makefile.
+#   URB_DOWNLINK=i2c|can|rs485   the downlink a node library archive is built for (default i2c):
+#                                make node-lib-downlink URB_DOWNLINK=can -> build/firmware/node_dl/cortex-m0plus/can/liburb_node.a
+#                                i2c links firmware/node/urb_i2c.c (the port calls urb_node_i2c_event); can and
+#                                rs485 link urb_node_dl.c, urb_node_<dl>.c and the downlink's slave in its place
+#                                (the port drives urb_node_<dl>_t.slave; urb_node_downlink.h)
+#   make size-node-downlinks     flash of the node library per downlink on Cortex-M0+ (part of `make size`)
+#   make test-node-downlinks     tests/firmware/node_dl: one host sequence and one node application on I2C, CAN
+#                                and RS485 (gcc and clang, ASan+UBSan), then the seeded bugs of urb_node_dl.c
+# Outputs go to build/firmware/node_dl/.
+
+URB_DOWNLINK ?= i2c
+NDL_BUILD := build/firmware/node_dl
+NDL_DOWNLINKS := i2c can rs485
+NDL_STRICT := -std=c99 -Wall -Wextra -Wconversion -Wsign-conversion -Wpedantic -Werror
+NDL_SAN := -g -O1 -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
+NDL_LIB_COMMON := firmware/node/urb_mailbox.c firmware/node/urb_pll.c firmware/node/urb_node.c firmware/node/urb_observe.c
+NDL_SRC_i2c := firmware/node/urb_i2c.c
+NDL_SRC_can := firmware/node/urb_node_dl.c firmware/node/urb_node_can.c firmware/downlink/can/urb_can_slave.c \
+               firmware/downlink/can/urb_can_transfer.c gen/c/urb_can_wire.c
+NDL_SRC_rs485 := firmware/node/urb_node_dl.c firmware/node/urb_node_rs485.c firmware/downlink/rs485/urb_rs485_slave.c \
+                 firmware/downlink/rs485/urb_rs485_frame.c
+NDL_HDRS := $(wildcard firmware/include/*.h firmware/node/*.h gen/c/*.h tests/firmware/node_dl/*.h tests/firmware/can/*.h)
+NDL_CROSS_CC ?= arm-none-eabi-gcc
+NDL_CROSS_FLAGS := -mcpu=cortex-m0plus -mthumb -Os -ffunction-sections -fdata-sections
+NDL_X := $(NDL_BUILD)/cortex-m0plus
+
+.PHONY: node-lib-downlink size-node-downlinks test-node-downlinks node-dl-tests node-dl-mutants
+
+ifeq ($(filter $(URB_DOWNLINK),$(NDL_DOWNLINKS)),)
+$(error URB_DOWNLINK=$(URB_DOWNLINK) is not a downlink: use one of $(NDL_DOWNLINKS))
+endif
+
+# --- Cortex-M0+ archives, one per downlink ----------------------------------------------------------
+$(NDL_X)/obj/%.o: %.c $(NDL_HDRS)
+	@mkdir -p $(@D)
+	@$(NDL_CROSS_CC) $(NDL_CROSS_FLAGS) $(NDL_STRICT) -Ifirmware/include -Ifirmware/node -Igen/c -c $< -o $@
+
+ndl_objs = $(patsubst %.c,$(NDL_X)/obj/%.o,$(NDL_LIB_COMMON) $(NDL_SRC_$(1)))
+define NDL_LIB_RULE
+$(NDL_X)/$(1)/liburb_node.a: $(call ndl_objs,$(1))
+	@mkdir -p $$(@D)
+	@rm -f $$@ && arm-none-eabi-ar rcs $$@ $$^
+endef
+$(foreach d,$(NDL_DOWNLINKS),$(eval $(call NDL_LIB_RULE,$(d))))
+.PRECIOUS: $(NDL_X)/obj/%.o
+
+node-lib-downlink: $(NDL_X)/$(URB_DOWNLINK)/liburb_node.a
+	@echo "node library for the $(URB_DOWNLINK) downlink: $<"
+
+size-node-downlinks: $(foreach d,$(NDL_DOWNLINKS),$(NDL_X)/$(d)/liburb_node.a)
+	@$(PYTHON) tests/firmware/node_dl/node_dl_size.py --build $(NDL_X) $(foreach d,$(NDL_DOWNLINKS),--archive $(d)=$(NDL_X)/$(d)/liburb_node.a)
+
+SIZE_TARGETS += size-node-downlinks
+
+# --- the three-downlink test --------------------------------------------------------------------------
+NDL_TEST_SRC := tests/firmware/node_dl/test_three_downlinks.c tests/firmware/node_dl/topology.c tests/firmware/can/can_bus.c \
+                $(NDL_LIB_COMMON) $(sort $(NDL_SRC_i2c) $(NDL_SRC_can) $(NDL_SRC_rs485)) \
+                firmware/downlink/can/urb_can_master.c firmware/downlink/rs485/urb_rs485_master.c \
+                firmware/bridge/i2c_master.c gen/c/urb_core.c gen/c/urb_runtime.c gen/c/urb_rs485_wire.c
+NDL_INC := -Ifirmware/include -Ifirmware/node -Igen/c -Itests/firmware/can -Itests/firmware/node_dl
+NDL_MUTANTS := NODE_DL_FRONT_BUFFER NODE_DL_NO_SYNC NODE_DL_NO_ID_DONE
+
+$(NDL_BUILD)/%/test_three_downlinks: $(NDL_TEST_SRC) $(NDL_HDRS)
+	@mkdir -p $(@D)
+	@$* $(NDL_STRICT) -D_DEFAULT_SOURCE $(NDL_SAN) $(NDL_INC) $(NDL_TEST_SRC) -lcmocka -o $@
+
+node-dl-tests: $(NDL_BUILD)/gcc/test_three_downlinks $(NDL_BUILD)/clang/test_three_downlinks
+	@for t in $^; do CMOCKA_MESSAGE_OUTPUT=stdout $$t > $$t.log 2>&1 || { cat $$t.log; exit 1; }; \
+	  echo "$$t: $$(grep -c '^\[       OK \]' $$t.log) passed, 0 failed"; done
+	@mkdir -p $(NDL_BUILD)/junit && rm -f $(NDL_BUILD)/junit/*.xml
+	@CMOCKA_MESSAGE_OUTPUT=xml CMOCKA_XML_FILE=$(NDL_BUILD)/junit/%g.xml $(NDL_BUILD)/clang/test_three_downlinks >/dev/null
+
+# every seeded bug of urb_node_dl.c must make the test fail
+node-dl-mutants:
+	@mkdir -p $(NDL_BUILD)/mutants
+	@for m in $(NDL_MUTANTS); do \
+	  gcc $(NDL_STRICT) -D_DEFAULT_SOURCE -O0 -DURB_MUTANT_$$m $(NDL_INC) $(NDL_TEST_SRC) -lcmocka -o $(NDL_BUILD)/mutants/$$m || exit 1; \
+	  if CMOCKA_MESSAGE_OUTPUT=stdout timeout 60 $(NDL_BUILD)/mutants/$$m > $(NDL_BUILD)/mutants/$$m.log 2>&1; then \
+	    echo "mutant $$m: SURVIVED (the three-downlink test passes with the seeded bug)"; exit 1; fi; \
+	  echo "mutant $$m: caught ($$(grep -m1 'error:' $(NDL_BUILD)/mutants/$$m.log | sed 's/.*--- //'))"; done
+
+test-node-downlinks: node-dl-tests
+	@$(MAKE) --no-print-directory node-dl-mutants size-node-downlinks
+
+CHECK_TARGETS += test-node-downlinks
