@@ -6,7 +6,9 @@
 #                                (the port drives urb_node_<dl>_t.slave; urb_node_downlink.h)
 #   make size-node-downlinks     flash of the node library per downlink on Cortex-M0+ (part of `make size`)
 #   make test-node-downlinks     tests/firmware/node_dl: one host sequence and one node application on I2C, CAN
-#                                and RS485 (gcc and clang, ASan+UBSan), then the seeded bugs of urb_node_dl.c
+#                                and RS485 (test_three_downlinks), the bridge firmware's error flags per failure
+#                                kind on each downlink (test_bridge_flags); gcc and clang under ASan+UBSan; then
+#                                the seeded bugs, each of which must make its program fail
 # Outputs go to build/firmware/node_dl/.
 
 URB_DOWNLINK ?= i2c
@@ -54,31 +56,44 @@ size-node-downlinks: $(foreach d,$(NDL_DOWNLINKS),$(NDL_X)/$(d)/liburb_node.a)
 SIZE_TARGETS += size-node-downlinks
 
 # --- the three-downlink test --------------------------------------------------------------------------
-NDL_TEST_SRC := tests/firmware/node_dl/test_three_downlinks.c tests/firmware/node_dl/topology.c tests/firmware/can/can_bus.c \
+NDL_TEST_SRC := tests/firmware/node_dl/topology.c tests/firmware/can/can_bus.c \
                 $(NDL_LIB_COMMON) $(sort $(NDL_SRC_i2c) $(NDL_SRC_can) $(NDL_SRC_rs485)) \
                 firmware/downlink/can/urb_can_master.c firmware/downlink/rs485/urb_rs485_master.c \
                 firmware/bridge/i2c_master.c gen/c/urb_core.c gen/c/urb_runtime.c gen/c/urb_rs485_wire.c
 NDL_INC := -Ifirmware/include -Ifirmware/node -Igen/c -Itests/firmware/can -Itests/firmware/node_dl
-NDL_MUTANTS := NODE_DL_FRONT_BUFFER NODE_DL_NO_SYNC NODE_DL_NO_ID_DONE
+NDL_BRIDGE_SRC := firmware/bridge/bridge.c firmware/bridge/bridge_uplink.c
+# seeded bugs: PROGRAM:MUTANT (urb_node_dl.c's for the three-downlink test; the downlink masters' and the
+# bridge's for the error flags)
+NDL_MUTANTS := three_downlinks:NODE_DL_FRONT_BUFFER three_downlinks:NODE_DL_NO_SYNC three_downlinks:NODE_DL_NO_ID_DONE \
+               bridge_flags:CAN_BUSOFF_AS_TIMEOUT bridge_flags:CAN_WAIT_EACH_RECOVERY bridge_flags:RS485_SILENCE_AS_TIMEOUT \
+               bridge_flags:RS485_NO_ECHO_CHECK bridge_flags:NO_PROBE
+ndl_prog_src = tests/firmware/node_dl/test_$(1).c $(NDL_TEST_SRC) $(if $(filter bridge_flags,$(1)),$(NDL_BRIDGE_SRC))
 
-$(NDL_BUILD)/%/test_three_downlinks: $(NDL_TEST_SRC) $(NDL_HDRS)
-	@mkdir -p $(@D)
-	@$* $(NDL_STRICT) -D_DEFAULT_SOURCE $(NDL_SAN) $(NDL_INC) $(NDL_TEST_SRC) -lcmocka -o $@
+define NDL_PROG_RULE
+$(NDL_BUILD)/%/test_$(1): $(call ndl_prog_src,$(1)) $(NDL_HDRS)
+	@mkdir -p $$(@D)
+	@$$* $(NDL_STRICT) -D_DEFAULT_SOURCE $(NDL_SAN) $(NDL_INC) -Ifirmware/bridge $(call ndl_prog_src,$(1)) -lcmocka -o $$@
+endef
+$(foreach p,three_downlinks bridge_flags,$(eval $(call NDL_PROG_RULE,$(p))))
+NDL_TEST_BINS := $(foreach cc,gcc clang,$(foreach p,three_downlinks bridge_flags,$(NDL_BUILD)/$(cc)/test_$(p)))
 
-node-dl-tests: $(NDL_BUILD)/gcc/test_three_downlinks $(NDL_BUILD)/clang/test_three_downlinks
+node-dl-tests: $(NDL_TEST_BINS)
 	@for t in $^; do CMOCKA_MESSAGE_OUTPUT=stdout $$t > $$t.log 2>&1 || { cat $$t.log; exit 1; }; \
 	  echo "$$t: $$(grep -c '^\[       OK \]' $$t.log) passed, 0 failed"; done
 	@mkdir -p $(NDL_BUILD)/junit && rm -f $(NDL_BUILD)/junit/*.xml
-	@CMOCKA_MESSAGE_OUTPUT=xml CMOCKA_XML_FILE=$(NDL_BUILD)/junit/%g.xml $(NDL_BUILD)/clang/test_three_downlinks >/dev/null
+	@for p in three_downlinks bridge_flags; do \
+	  CMOCKA_MESSAGE_OUTPUT=xml CMOCKA_XML_FILE=$(NDL_BUILD)/junit/%g.xml $(NDL_BUILD)/clang/test_$$p >/dev/null; done
 
-# every seeded bug of urb_node_dl.c must make the test fail
+# every seeded bug must make its program fail
 node-dl-mutants:
 	@mkdir -p $(NDL_BUILD)/mutants
-	@for m in $(NDL_MUTANTS); do \
-	  gcc $(NDL_STRICT) -D_DEFAULT_SOURCE -O0 -DURB_MUTANT_$$m $(NDL_INC) $(NDL_TEST_SRC) -lcmocka -o $(NDL_BUILD)/mutants/$$m || exit 1; \
+	@for pm in $(NDL_MUTANTS); do p=$${pm%%:*}; m=$${pm#*:}; \
+	  src="tests/firmware/node_dl/test_$$p.c $(NDL_TEST_SRC)"; [ $$p = bridge_flags ] && src="$$src $(NDL_BRIDGE_SRC)"; \
+	  gcc $(NDL_STRICT) -D_DEFAULT_SOURCE -O0 -DURB_MUTANT_$$m $(NDL_INC) -Ifirmware/bridge $$src -lcmocka \
+	      -o $(NDL_BUILD)/mutants/$$m || exit 1; \
 	  if CMOCKA_MESSAGE_OUTPUT=stdout timeout 60 $(NDL_BUILD)/mutants/$$m > $(NDL_BUILD)/mutants/$$m.log 2>&1; then \
-	    echo "mutant $$m: SURVIVED (the three-downlink test passes with the seeded bug)"; exit 1; fi; \
-	  echo "mutant $$m: caught ($$(grep -m1 'error:' $(NDL_BUILD)/mutants/$$m.log | sed 's/.*--- //'))"; done
+	    echo "mutant $$m: SURVIVED (test_$$p passes with the seeded bug)"; exit 1; fi; \
+	  echo "mutant $$m: caught by test_$$p ($$(grep -m1 'error:\|ERROR: ' $(NDL_BUILD)/mutants/$$m.log | sed 's/.*--- //'))"; done
 
 test-node-downlinks: node-dl-tests
 	@$(MAKE) --no-print-directory node-dl-mutants size-node-downlinks

@@ -68,6 +68,20 @@ static void node_set_address(void *ctx, uint8_t address)
     (void)address;
 }
 
+/* The bridge receives byte/frame payload `b`: flipped when it is the one the test named. */
+static uint8_t to_bridge(topo_t *t, uint8_t b)
+{
+    if (t->fault.corrupt_rx == 0u) {
+        return b;
+    }
+    t->fault.corrupt_rx--;
+    if (t->fault.corrupt_rx != 0u) {
+        return b;
+    }
+    t->injected++;
+    return (uint8_t)(b ^ 0x04u);
+}
+
 /* ===== I2C: byte-level bus between the master's HAL and urb_node_i2c_event ===================== */
 
 static void i2c_complete(topo_t *t, uint8_t ev, uint8_t byte, uint32_t us)
@@ -114,7 +128,7 @@ static void i2c_write(void *ctx, uint8_t byte)
             int8_t const prev = t->i2c_target;
             t->i2c_target = -1;
             for (uint8_t i = 0u; i < TOPO_NODES; i++) {
-                if (t->nodes[i].cfg.i2c_address == a) {
+                if ((t->nodes[i].cfg.i2c_address == a) && !t->fault.mute[i]) {
                     t->i2c_target = (int8_t)i;
                 }
             }
@@ -141,7 +155,7 @@ static void i2c_read(void *ctx, bool ack)
             (void)i2c_to_nodes(t, URB_I2C_TX_NACK, 0u);
         }
     }
-    i2c_complete(t, URB_I2C_EV_BYTE, byte, I2C_BYTE_US);
+    i2c_complete(t, URB_I2C_EV_BYTE, to_bridge(t, byte), I2C_BYTE_US);
 }
 
 static void i2c_stop(void *ctx)
@@ -162,8 +176,12 @@ static void i2c_abort(void *ctx)
 
 static uint8_t i2c_lines(void *ctx)
 {
-    (void)ctx;
-    return (uint8_t)(URB_I2C_SCL | URB_I2C_SDA); /* nobody holds a line in this bus */
+    topo_t *t = (topo_t *)ctx;
+    if (t->fault.bus_fault) {
+        t->injected++;
+        return (uint8_t)URB_I2C_SCL; /* a node holds SDA low */
+    }
+    return (uint8_t)(URB_I2C_SCL | URB_I2C_SDA);
 }
 
 static void i2c_drive(void *ctx, uint8_t lines)
@@ -182,11 +200,16 @@ static void i2c_release(void *ctx)
 static void can_m_rx(void *o, const urb_can_frame_t *f, uint32_t t)
 {
     (void)t;
-    urb_can_master_rx((urb_can_master_t *)o, f);
+    topo_t *tp = (topo_t *)o;
+    urb_can_frame_t g = *f;
+    if (g.len > 0u) {
+        g.data[0] = to_bridge(tp, g.data[0]); /* a payload error the controller's CRC missed */
+    }
+    urb_can_master_rx(&tp->can, &g);
 }
 static void can_m_txd(void *o)
 {
-    urb_can_master_tx_done((urb_can_master_t *)o);
+    urb_can_master_tx_done(&((topo_t *)o)->can);
 }
 static void can_m_state(void *o, uint8_t s)
 {
@@ -195,7 +218,10 @@ static void can_m_state(void *o, uint8_t s)
 }
 static void can_s_rx(void *o, const urb_can_frame_t *f, uint32_t t)
 {
-    urb_can_slave_rx(&((topo_node_t *)o)->can.slave, f, t);
+    topo_node_t *n = (topo_node_t *)o;
+    if (!n->topo->fault.mute[n->index]) {
+        urb_can_slave_rx(&n->can.slave, f, t);
+    }
 }
 static void can_s_txd(void *o)
 {
@@ -210,7 +236,9 @@ static void can_s_state(void *o, uint8_t s)
 
 static void rs485_m_start(void *ctx)
 {
-    ((topo_t *)ctx)->rs485_driving = true;
+    topo_t *t = (topo_t *)ctx;
+    t->rs485_driving = true;
+    t->rs485_m_pos = 0u;
 }
 static void rs485_m_abort(void *ctx)
 {
@@ -234,9 +262,11 @@ static void rs485_tick(topo_t *t)
 {
     if (t->rs485_pending && ((int32_t)(t->now - t->rs485_busy_until) >= 0)) {
         t->rs485_pending = false;
-        urb_rs485_master_rx(&t->rs485, t->rs485_byte, t->now);
+        urb_rs485_master_rx(&t->rs485, t->rs485_from_node ? to_bridge(t, t->rs485_byte) : t->rs485_byte, t->now);
         for (uint8_t i = 0u; i < TOPO_NODES; i++) {
-            urb_rs485_slave_rx(&t->nodes[i].rs485.slave, t->rs485_byte, t->now);
+            if (!t->fault.mute[i]) {
+                urb_rs485_slave_rx(&t->nodes[i].rs485.slave, t->rs485_byte, t->now);
+            }
         }
     }
     for (uint8_t i = 0u; i < TOPO_NODES; i++) {
@@ -247,14 +277,29 @@ static void rs485_tick(topo_t *t)
     }
     uint8_t line = 0xFFu;
     bool any = false;
+    bool from_node = false;
     uint8_t b;
     if (t->rs485_driving) {
         if (urb_rs485_master_tx_next(&t->rs485, &b)) {
             line &= b;
             any = true;
+            if (t->rs485_m_pos == 0u) {
+                t->rs485_m_first = b;
+            }
+            t->rs485_m_pos++;
+            if ((t->fault.collide != 0u) && ((t->rs485_m_first & 0x7Fu) != 0u) && (t->rs485_m_pos == t->fault.collide)) {
+                t->fault.collide = 0u;
+                line ^= 0x24u; /* another driver on the line at the same time garbles the character */
+                t->injected++;
+            }
         } else {
             t->rs485_driving = false;
         }
+    }
+    if (t->fault.bus_fault) {
+        line &= 0x5Au; /* the babbler */
+        any = true;
+        t->injected++;
     }
     for (uint8_t i = 0u; i < TOPO_NODES; i++) {
         topo_node_t *n = &t->nodes[i];
@@ -262,6 +307,7 @@ static void rs485_tick(topo_t *t)
             if (urb_rs485_slave_tx_next(&n->rs485.slave, &b)) {
                 line &= b; /* two drivers at once: the dominant zeros win */
                 any = true;
+                from_node = true;
             } else {
                 n->rs485_driving = false;
             }
@@ -270,6 +316,7 @@ static void rs485_tick(topo_t *t)
     if (any) {
         t->rs485_pending = true;
         t->rs485_byte = line;
+        t->rs485_from_node = from_node;
         t->rs485_busy_until = t->now + t->rs485_tm.char_us;
     }
 }
@@ -325,7 +372,7 @@ bool topo_init(topo_t *t, topo_kind_t kind)
         can_bus_init(&t->can_bus, (uint16_t)CAN_KBPS);
         urb_can_master_config_t mc;
         urb_can_master_default_config(&mc);
-        if (!can_bus_attach(&t->can_bus, &t->can_bport, 3u, &t->can, can_m_rx, can_m_txd, can_m_state)) {
+        if (!can_bus_attach(&t->can_bus, &t->can_bport, 3u, t, can_m_rx, can_m_txd, can_m_state)) {
             return false;
         }
         urb_can_master_init(&t->can, &t->can_bport.hal, &mc);
@@ -350,6 +397,16 @@ bool topo_init(topo_t *t, topo_kind_t kind)
 void topo_advance(topo_t *t)
 {
     if (t->kind == TOPO_CAN) {
+        if (t->fault.bus_fault && (t->can_bport.state != URB_CAN_BUS_OFF)) {
+            t->can_bport.tec = 256u; /* the bridge's controller went bus-off (a shorted transceiver) */
+            t->can_bport.state = URB_CAN_BUS_OFF;
+            t->injected++;
+        }
+        if (t->fault.bus_fault) {
+            t->can_bport.recovering = false; /* it cannot recover while the fault lasts */
+        } else if ((t->can_bport.state == URB_CAN_BUS_OFF) && !t->can_bport.recovering) {
+            t->can_bport.hal.recover(t->can_bport.hal.ctx); /* fault gone: 128 x 11 recessive bits from now */
+        }
         t->can_bus.now_us = t->now;
         (void)can_bus_step(&t->can_bus); /* a frame moves the bus clock by its length */
         t->now = ((int32_t)(t->can_bus.now_us - t->now) > 0) ? t->can_bus.now_us : t->now + 1u;

@@ -47,11 +47,24 @@ typedef struct {
     bool rs485_driving;
 } topo_node_t;
 
+/** Faults to inject (topo_t.fault); a test sets them, clears them to end the fault. */
+typedef struct {
+    bool mute[TOPO_NODES];   /**< the node hears nothing (I2C: no address match; CAN, RS485: no reception) */
+    uint8_t corrupt_rx;      /**< the n-th byte (I2C, RS485) or frame (CAN) a node sends the bridge from
+                                  now on has a bit flipped (1: the next); 0: none */
+    bool bus_fault;          /**< I2C: SDA held low; CAN: the bridge's controller is bus-off; RS485: a
+                                  babbler holds the line */
+    uint8_t collide;         /**< RS485: another driver garbles byte n (1-based) of the bridge's next
+                                  frame to a node (SYNC broadcasts are left alone); 0: none */
+} topo_fault_t;
+
 struct topo {
     topo_kind_t kind;
     uint32_t now;
     urb_downlink_t dl;
     topo_node_t nodes[TOPO_NODES];
+    topo_fault_t fault;
+    uint32_t injected;       /* faults that took effect (witness) */
     /* I2C */
     urb_i2c_hal_t i2c_hal;
     urb_i2c_master_t i2c;
@@ -72,6 +85,8 @@ struct topo {
     bool rs485_pending;
     uint8_t rs485_byte;
     uint32_t rs485_busy_until;
+    uint8_t rs485_m_pos, rs485_m_first; /* the bridge's frame being sent: bytes so far, its first */
+    bool rs485_from_node;    /* the character on the line is (partly) a node's */
 };
 
 /** Builds topology `kind` with the two nodes on the bus (urb_node_init done); false on a set-up
