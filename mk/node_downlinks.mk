@@ -99,3 +99,16 @@ test-node-downlinks: node-dl-tests
 	@$(MAKE) --no-print-directory node-dl-mutants size-node-downlinks
 
 CHECK_TARGETS += test-node-downlinks
+
+# --- hosted nodes on the CAN hub (urb-node-hosted; tools/can_hub.py, urb-bridge-hosted --downlink can) ----
+NDL_NODE_HOSTED_SRC := firmware/hal/hosted/node_hosted_main.c firmware/hal/hosted/can_hub_client.c \
+                       firmware/apps/echo/echo_app.c $(NDL_LIB_COMMON) $(NDL_SRC_can) gen/c/urb_core.c gen/c/urb_runtime.c
+NDL_NODE_HOSTED_INC := -Ifirmware/include -Ifirmware/node -Ifirmware/hal/hosted -Ifirmware/apps/echo -Igen/c
+# URB_MUTANT=NAME builds the seeded bug NAME into build/firmware/urb-node-hosted-NAME (tests/host/test_hosted_can.py)
+build/firmware/urb-node-hosted$(if $(URB_MUTANT),-$(URB_MUTANT)): $(NDL_NODE_HOSTED_SRC) $(NDL_HDRS) $(wildcard firmware/apps/echo/*.h firmware/hal/hosted/*.h)
+	@mkdir -p $(@D)
+	gcc $(NDL_STRICT) -D_DEFAULT_SOURCE -D_XOPEN_SOURCE=600 -O2 $(if $(URB_MUTANT),-DURB_MUTANT_$(URB_MUTANT)) \
+	    $(NDL_NODE_HOSTED_INC) $(NDL_NODE_HOSTED_SRC) -o $@
+
+.PHONY: node-hosted
+node-hosted: build/firmware/urb-node-hosted$(if $(URB_MUTANT),-$(URB_MUTANT))
