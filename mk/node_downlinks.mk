@@ -77,12 +77,20 @@ endef
 $(foreach p,three_downlinks bridge_flags,$(eval $(call NDL_PROG_RULE,$(p))))
 NDL_TEST_BINS := $(foreach cc,gcc clang,$(foreach p,three_downlinks bridge_flags,$(NDL_BUILD)/$(cc)/test_$(p)))
 
+# gcc prints cmocka's report (kept in junit/gcc-*.log), clang writes JUnit XML; both go into the
+# evidence record build/evidence/cmocka-node_dl.json (report/urb_report/junit.py)
 node-dl-tests: $(NDL_TEST_BINS)
-	@for t in $^; do CMOCKA_MESSAGE_OUTPUT=stdout $$t > $$t.log 2>&1 || { cat $$t.log; exit 1; }; \
-	  echo "$$t: $$(grep -c '^\[       OK \]' $$t.log) passed, 0 failed"; done
-	@mkdir -p $(NDL_BUILD)/junit && rm -f $(NDL_BUILD)/junit/*.xml
-	@for p in three_downlinks bridge_flags; do \
-	  CMOCKA_MESSAGE_OUTPUT=xml CMOCKA_XML_FILE=$(NDL_BUILD)/junit/%g.xml $(NDL_BUILD)/clang/test_$$p >/dev/null; done
+	@mkdir -p $(NDL_BUILD)/junit && rm -f $(NDL_BUILD)/junit/*.xml $(NDL_BUILD)/junit/*.log
+	@status=0; xmls=; logs=; for p in three_downlinks bridge_flags; do \
+	  CMOCKA_MESSAGE_OUTPUT=stdout $(NDL_BUILD)/gcc/test_$$p > $(NDL_BUILD)/junit/gcc-$$p.log 2>&1 || { status=1; cat $(NDL_BUILD)/junit/gcc-$$p.log; }; \
+	  echo "gcc test_$$p: $$(grep -c '^\[       OK \]' $(NDL_BUILD)/junit/gcc-$$p.log) passed"; \
+	  CMOCKA_MESSAGE_OUTPUT=xml CMOCKA_XML_FILE=$(NDL_BUILD)/junit/clang-%g.xml $(NDL_BUILD)/clang/test_$$p \
+	    > $(NDL_BUILD)/junit/clang-$$p.out 2>&1 || { status=1; cat $(NDL_BUILD)/junit/clang-$$p.out; }; \
+	  logs="$$logs --log gcc:test_$$p=$(NDL_BUILD)/junit/gcc-$$p.log"; done; \
+	for f in $(NDL_BUILD)/junit/clang-*.xml; do g=$$(basename $$f .xml); xmls="$$xmls --xml clang:test_$${g#clang-}=$$f"; done; \
+	$(PYTHON) -m urb_report.junit cmocka --name cmocka-node_dl $$xmls $$logs --rerun "make node-dl-tests" \
+	  --tool "gcc=$$(gcc --version | head -1)" --tool "clang=$$(clang --version | head -1)" || status=1; \
+	[ $$status -eq 0 ] && echo "node_dl tests: passed with gcc and clang (JUnit: $(NDL_BUILD)/junit/)"; exit $$status
 
 # every seeded bug must make its program fail
 node-dl-mutants:
