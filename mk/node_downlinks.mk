@@ -22,7 +22,8 @@ NDL_SRC_can := firmware/node/urb_node_dl.c firmware/node/urb_node_can.c firmware
                firmware/downlink/can/urb_can_transfer.c gen/c/urb_can_wire.c
 NDL_SRC_rs485 := firmware/node/urb_node_dl.c firmware/node/urb_node_rs485.c firmware/downlink/rs485/urb_rs485_slave.c \
                  firmware/downlink/rs485/urb_rs485_frame.c
-NDL_HDRS := $(wildcard firmware/include/*.h firmware/node/*.h gen/c/*.h tests/firmware/node_dl/*.h tests/firmware/can/*.h)
+NDL_HDRS := $(wildcard firmware/include/*.h firmware/node/*.h gen/c/*.h tests/firmware/node_dl/*.h tests/firmware/can/*.h \
+            firmware/apps/echo/*.h)
 NDL_CROSS_CC ?= arm-none-eabi-gcc
 NDL_CROSS_FLAGS := -mcpu=cortex-m0plus -mthumb -Os -ffunction-sections -fdata-sections
 NDL_X := $(NDL_BUILD)/cortex-m0plus
@@ -56,11 +57,11 @@ size-node-downlinks: $(foreach d,$(NDL_DOWNLINKS),$(NDL_X)/$(d)/liburb_node.a)
 SIZE_TARGETS += size-node-downlinks
 
 # --- the three-downlink test --------------------------------------------------------------------------
-NDL_TEST_SRC := tests/firmware/node_dl/topology.c tests/firmware/can/can_bus.c \
+NDL_TEST_SRC := tests/firmware/node_dl/topology.c firmware/apps/echo/echo_app.c tests/firmware/can/can_bus.c \
                 $(NDL_LIB_COMMON) $(sort $(NDL_SRC_i2c) $(NDL_SRC_can) $(NDL_SRC_rs485)) \
                 firmware/downlink/can/urb_can_master.c firmware/downlink/rs485/urb_rs485_master.c \
                 firmware/bridge/i2c_master.c gen/c/urb_core.c gen/c/urb_runtime.c gen/c/urb_rs485_wire.c
-NDL_INC := -Ifirmware/include -Ifirmware/node -Igen/c -Itests/firmware/can -Itests/firmware/node_dl
+NDL_INC := -Ifirmware/include -Ifirmware/node -Igen/c -Itests/firmware/can -Itests/firmware/node_dl -Ifirmware/apps/echo
 NDL_BRIDGE_SRC := firmware/bridge/bridge.c firmware/bridge/bridge_uplink.c
 # seeded bugs: PROGRAM:MUTANT (urb_node_dl.c's for the three-downlink test; the downlink masters' and the
 # bridge's for the error flags)

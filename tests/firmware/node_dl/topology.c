@@ -10,43 +10,11 @@
 #define RS485_BAUD 1000000u
 #define CAN_KBPS 1000u
 
-/* ===== The node application: the same on every downlink ====================================== */
-
+/* The node application, the same on every downlink: firmware/apps/echo (outbox 1 = inbox 1). */
 #define APP_CLASS 0x42u
 #define APP_FINGERPRINT 0x00C0FFEEu
 #define APP_BOX 1u
 #define APP_BOX_SIZE 8u
-
-static void app_bootup(urb_node_t *node, void *user)
-{
-    topo_node_t const *n = (topo_node_t const *)user;
-    (void)urb_node_set_class(node, APP_CLASS);
-    (void)urb_node_set_index(node, n->index);
-    (void)urb_node_set_fingerprint(node, APP_FINGERPRINT);
-    (void)urb_node_setup_inbox(node, APP_BOX, APP_BOX_SIZE);
-    (void)urb_node_setup_outbox(node, APP_BOX, APP_BOX_SIZE);
-}
-
-/* Every update: outbox 1 = inbox 1, each byte xor (index + 1) and plus its position. */
-static void app_update(urb_node_t *node, void *user)
-{
-    topo_node_t *n = (topo_node_t *)user;
-    n->updates++;
-    const uint8_t *in;
-    uint8_t *out;
-    int const rc = urb_node_lock_inbox(node, APP_BOX, &in);
-    if ((rc != URB_NODE_OK) && (rc != URB_NODE_NEW)) {
-        return;
-    }
-    if (urb_node_lock_outbox(node, APP_BOX, &out) == URB_NODE_OK) {
-        for (uint8_t i = 0u; i < APP_BOX_SIZE; i++) {
-            out[i] = (uint8_t)((in[i] ^ (uint8_t)(n->index + 1u)) + i);
-        }
-        (void)urb_node_release_outbox(node, APP_BOX);
-        n->echoes++;
-    }
-    (void)urb_node_release_inbox(node, APP_BOX);
-}
 
 /* ===== Node port: timer and clock ============================================================= */
 
@@ -336,9 +304,12 @@ static bool node_init(topo_t *t, uint8_t i)
     n->hal.now = node_now;
     n->hal.set_compare = node_set_compare;
     n->hal.set_address = node_set_address;
-    n->hooks.bootup = app_bootup;
-    n->hooks.update = app_update;
-    if (urb_node_init(&n->node, &n->hal, &n->hooks, n, &n->cfg, n->storage, (uint16_t)sizeof n->storage) !=
+    n->app.class_id = APP_CLASS;
+    n->app.index = i;
+    n->app.fingerprint = APP_FINGERPRINT;
+    n->app.in_size[APP_BOX] = APP_BOX_SIZE;
+    n->app.out_size[APP_BOX] = APP_BOX_SIZE;
+    if (urb_node_init(&n->node, &n->hal, &echo_app_hooks, &n->app, &n->cfg, n->storage, (uint16_t)sizeof n->storage) !=
         URB_NODE_OK) {
         return false;
     }

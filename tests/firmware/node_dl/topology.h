@@ -1,6 +1,6 @@
 /*
  * Three in-memory topologies of one bridge-side downlink (urb_downlink_t) and two real nodes (the
- * node library and one application, the same on every downlink): I2C (the I2C master and
+ * node library and the echo application, firmware/apps/echo, the same on every downlink): I2C (the I2C master and
  * urb_node_i2c_event on a byte-level bus), CAN (the CAN master and urb_node_can_t on the
  * arbitrating bus of tests/firmware/can/can_bus.c) and RS485 (the RS485 master and urb_node_rs485_t
  * on a half-duplex line). Virtual time in microseconds, one node tick per microsecond; the node
@@ -13,6 +13,7 @@
 #include <stdint.h>
 
 #include "can_bus.h"
+#include "echo_app.h"
 #include "urb_can_master.h"
 #include "urb_downlink.h"
 #include "urb_node.h"
@@ -33,12 +34,11 @@ typedef struct {
     urb_node_t node;
     urb_node_hal_t hal;
     urb_node_config_t cfg;
-    urb_node_hooks_t hooks;
+    echo_app_t app;          /* the node application (firmware/apps/echo) */
     uint8_t storage[64];
     uint32_t compare;
     bool compare_armed;
     uint8_t index;
-    uint32_t updates, echoes;
     /* downlink ports */
     can_port_t can_port;
     urb_node_can_t can;
