@@ -25,15 +25,9 @@ import pytest
 from bridge_proc import REPO, BridgeProc, build_hosted_bridge, hosted_bridge  # noqa: F401 (fixture)
 from urb.api import URBInterface
 from urb.managers import RS232Manager
-from urb_msgs import MailboxInfo, NodeInfo, sensorhex as sx, urb_core as core
+from test_hosted_bridge import ECHO, ECHO_FP  # the generic echo node both topologies run
+from urb_msgs import sensorhex as sx
 
-ECHO_FP = 0x0ECC0042
-ECHO = NodeInfo("EchoNode", "node", 0x42, ECHO_FP, "a generic hosted node: inbox 1 is copied to outbox 1",
-                "tests/host/test_hosted_can.py", "", (
-                    MailboxInfo("outbox", 0, core.Identification, 25, None, ""),
-                    MailboxInfo("inbox", 0, core.Command, 6, None, ""),
-                    MailboxInfo("inbox", 1, sx.MotorFeedback, 6, None, ""),
-                    MailboxInfo("outbox", 1, sx.MotorFeedback, 6, None, "")))
 NODES = [(7, 0x30), (8, 0x31)]
 SPECS = [f"0x42,{i},{a:#x},in1=6,out1=6,fp={ECHO_FP:08x}" for i, a in NODES]
 
