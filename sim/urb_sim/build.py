@@ -50,9 +50,12 @@ INCLUDE_DIRS = ["sim/core", "sim/world", "firmware/include", "firmware/hal/sim",
                 "firmware/apps/sensorhex", "gen/c"]
 #: Files the simulation does not link: programs (`*main.c`, e.g. firmware/bridge/hosted_main.c)
 #: and the single-node adapter of the paper's global-function style (firmware/node/urb_single.c:
-#: one global node, calls app_* functions), which cannot serve many nodes in one process.
+#: one global node, calls app_* functions), which cannot serve many nodes in one process; and the
+#: hosted CAN bridge's socket client and the nodes' CAN/RS485 attachments (firmware/node/urb_node_can.c,
+#: urb_node_rs485.c): the simulated SensoRHex's nodes and bridges sit on I2C, and those files need the
+#: downlink cores of firmware/downlink/, which this library does not link.
 EXCLUDE_SUFFIX = "main.c"
-EXCLUDE_NAMES = {"urb_single.c"}
+EXCLUDE_NAMES = {"urb_single.c", "hosted_can.c", "urb_node_can.c", "urb_node_rs485.c"}
 
 #: Folders the simulation compiles but does not own. By default they come from the working tree, so
 #: the simulation runs the firmware as you edit it. URBSIM_SOURCES=head builds from their COMMITTED
