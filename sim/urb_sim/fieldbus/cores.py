@@ -1,0 +1,248 @@
+"""The phase-1 C framing of the CAN and RS485 downlinks, loaded through ctypes.
+
+The simulation's frames are the firmware's: identifiers from `urb_can_id`, the frames of a transfer
+from the segmenter `urb_can_tx_init`/`urb_can_tx_next` (tail bytes, transfer CRC), the RS485
+frames from the generated encoders and its timing (t1.5, t3.5, the turnaround allowance) from
+`urb_rs485_timing`. They are compiled from the committed sources into build/sim/liburbdl.so, a
+library of its own (the full simulation library, liburbsim.so, does not link the downlink cores
+yet: the node library and the bridge choose their downlink in phase 2 of issue #39).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import shlex
+import subprocess
+from dataclasses import dataclass
+from functools import cache
+from pathlib import Path
+
+from ..build import BUILD, REPO, BuildError, unpreloaded_env
+
+LIBRARY = BUILD / "liburbdl.so"
+SOURCES = ["firmware/downlink/can/urb_can_transfer.c", "firmware/downlink/rs485/urb_rs485_frame.c",
+           "gen/c/urb_runtime.c", "gen/c/urb_core.c", "gen/c/urb_can_wire.c", "gen/c/urb_rs485_wire.c"]
+HEADERS = ["firmware/include/urb_can.h", "firmware/include/urb_rs485.h", "gen/c/urb_can_wire.h",
+           "gen/c/urb_rs485_wire.h", "gen/c/urb_core.h", "gen/c/urb_runtime.h"]
+
+REQUEST, RESPONSE = 0, 1
+SYNC_ID = 0x000
+
+
+def _build() -> Path:
+    inputs = [REPO / p for p in SOURCES + HEADERS] + [Path(__file__)]
+    if LIBRARY.exists() and all(p.stat().st_mtime <= LIBRARY.stat().st_mtime for p in inputs):
+        return LIBRARY
+    LIBRARY.parent.mkdir(parents=True, exist_ok=True)
+    tmp = LIBRARY.with_suffix(f".so.tmp{os.getpid()}")
+    cmd = [os.environ.get("CC", "gcc"), "-std=c99", "-O2", "-fPIC", "-shared", "-Wall", "-Wextra", "-Werror",
+           "-Wl,--no-undefined", f"-I{REPO / 'firmware/include'}", f"-I{REPO / 'gen/c'}",
+           *(str(REPO / s) for s in SOURCES), "-o", str(tmp)]
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=unpreloaded_env(), check=False)
+    if proc.returncode != 0:
+        tmp.unlink(missing_ok=True)
+        raise BuildError("building the downlink cores for the simulation failed:\n  " + shlex.join(cmd) + "\n"
+                         + proc.stdout + proc.stderr + "\nFix the error above in firmware/downlink or gen/c.")
+    tmp.replace(LIBRARY)
+    return LIBRARY
+
+
+class _CanTx(ctypes.Structure):
+    _fields_ = [("payload", ctypes.c_void_p), ("crc", ctypes.c_uint16), ("len", ctypes.c_uint8),
+                ("pos", ctypes.c_uint8), ("total", ctypes.c_uint8), ("tail", ctypes.c_uint8)]
+
+
+class _Timing(ctypes.Structure):
+    _fields_ = [("baud", ctypes.c_uint32), ("char_us", ctypes.c_uint16), ("t15_us", ctypes.c_uint16),
+                ("t35_us", ctypes.c_uint16), ("turnaround_us", ctypes.c_uint16)]
+
+
+class _Select(ctypes.Structure):
+    _fields_ = [("mailbox", ctypes.c_uint8), ("read", ctypes.c_bool)]
+
+
+class _Request(ctypes.Structure):
+    _fields_ = [("address", ctypes.c_uint8), ("select", _Select), ("data", ctypes.c_uint8 * 32),
+                ("data_len", ctypes.c_uint8)]
+
+
+class _Response(ctypes.Structure):
+    _fields_ = [("status", ctypes.c_uint8), ("mailbox", ctypes.c_uint8), ("data", ctypes.c_uint8 * 32),
+                ("data_len", ctypes.c_uint8)]
+
+
+class _Sync(ctypes.Structure):
+    _fields_ = [("counter", ctypes.c_uint8)]
+
+
+@cache
+def lib() -> ctypes.CDLL:
+    """The loaded cores (built when missing or older than a source)."""
+    dll = ctypes.CDLL(str(_build()))
+    dll.urb_can_id.restype = ctypes.c_uint16
+    dll.urb_can_id.argtypes = [ctypes.c_uint8, ctypes.c_uint8, ctypes.c_bool, ctypes.c_uint8]
+    dll.urb_can_tx_init.argtypes = [ctypes.POINTER(_CanTx), ctypes.c_char_p, ctypes.c_uint8, ctypes.c_uint8]
+    dll.urb_can_tx_next.restype = ctypes.c_uint8
+    dll.urb_can_tx_next.argtypes = [ctypes.POINTER(_CanTx), ctypes.c_char_p]
+    for name in ("urb_can_frame_bits_max", "urb_can_frame_bits_min"):
+        getattr(dll, name).restype = ctypes.c_uint16
+        getattr(dll, name).argtypes = [ctypes.c_uint8, ctypes.c_bool]
+    dll.urb_rs485_timing.argtypes = [ctypes.POINTER(_Timing), ctypes.c_uint32]
+    rx = ctypes.c_void_p
+    dll.urb_rs485_rx_init.argtypes = [rx, rx, ctypes.c_uint32]
+    dll.urb_rs485_rx_byte.restype = ctypes.c_uint8
+    dll.urb_rs485_rx_byte.argtypes = [rx, ctypes.c_uint8, ctypes.c_uint32]
+    dll.urb_rs485_rx_poll.restype = ctypes.c_uint8
+    dll.urb_rs485_rx_poll.argtypes = [rx, ctypes.c_uint32]
+    dll.urb_rs485_rx_deadline.restype = ctypes.c_uint32
+    dll.urb_rs485_rx_deadline.argtypes = [rx]
+    dll.urb_rs485_rx_silent.restype = ctypes.c_bool
+    dll.urb_rs485_rx_silent.argtypes = [rx, ctypes.c_uint32]
+    for name, struct in (("urb_rs485_request_encode", _Request), ("urb_rs485_response_encode", _Response),
+                         ("urb_rs485_sync_encode", _Sync), ("urb_can_sync_encode", _Sync)):
+        fn = getattr(dll, name)
+        fn.restype = ctypes.c_int32
+        fn.argtypes = [ctypes.POINTER(struct), ctypes.c_char_p, ctypes.c_size_t]
+    return dll
+
+
+def can_id(address: int, mailbox: int, read: bool, direction: int) -> int:
+    """urb_can_id: bits 0..2 mailbox, 3 read, 4..9 address, 10 the response bit."""
+    return int(lib().urb_can_id(address, mailbox, read, direction))
+
+
+def can_transfer(payload: bytes, tid: int) -> list[bytes]:
+    """The data of each frame of a transfer, as the firmware's segmenter cuts it."""
+    tx = _CanTx()
+    buf = bytes(payload)
+    lib().urb_can_tx_init(ctypes.byref(tx), buf, len(buf), tid)
+    frames = []
+    out = ctypes.create_string_buffer(8)
+    while True:
+        n = lib().urb_can_tx_next(ctypes.byref(tx), out)
+        if n == 0:
+            return frames
+        frames.append(out.raw[:n])
+
+
+def can_sync(counter: int, tid: int) -> bytes:
+    """The SYNC frame's data: CanSync (the counter) and a single-frame tail byte."""
+    buf = ctypes.create_string_buffer(1)
+    n = lib().urb_can_sync_encode(ctypes.byref(_Sync(counter & 0xFF)), buf, 1)
+    if n != 1:
+        raise ValueError(f"urb_can_sync_encode returned {n}")
+    frames = can_transfer(buf.raw, tid)
+    assert len(frames) == 1
+    return frames[0]
+
+
+def frame_bits_max(length: int) -> int:
+    """urb_can_frame_bits_max (11-bit identifier)."""
+    return int(lib().urb_can_frame_bits_max(length, False))
+
+
+def frame_bits_min(length: int) -> int:
+    """urb_can_frame_bits_min (11-bit identifier)."""
+    return int(lib().urb_can_frame_bits_min(length, False))
+
+
+@dataclass(frozen=True)
+class Rs485Timing:
+    """urb_rs485_timing's figures, in microseconds."""
+
+    baud: int
+    char_us: int
+    t15_us: int
+    t35_us: int
+    turnaround_us: int
+
+
+def rs485_timing(baud: int) -> Rs485Timing:
+    t = _Timing()
+    lib().urb_rs485_timing(ctypes.byref(t), baud)
+    return Rs485Timing(t.baud, t.char_us, t.t15_us, t.t35_us, t.turnaround_us)
+
+
+def _encoded(fn: str, msg: ctypes.Structure, capacity: int) -> bytes:
+    buf = ctypes.create_string_buffer(capacity)
+    n = getattr(lib(), fn)(ctypes.byref(msg), buf, capacity)
+    if n < 0:
+        raise ValueError(f"{fn} refused the message ({n})")
+    return buf.raw[:n]
+
+
+def rs485_request(address: int, mailbox: int, read: bool, data: bytes = b"") -> bytes:
+    """An Rs485Request frame (generated encoder): address, MailboxSelect, data, check."""
+    req = _Request(address, _Select(mailbox, read), (ctypes.c_uint8 * 32)(*data), len(data))
+    return _encoded("urb_rs485_request_encode", req, 36)
+
+
+def rs485_response(status: int, mailbox: int, data: bytes = b"") -> bytes:
+    """An Rs485Response frame: status and mailbox, data of a read answered OK, check."""
+    resp = _Response(status, mailbox, (ctypes.c_uint8 * 32)(*data), len(data))
+    return _encoded("urb_rs485_response_encode", resp, 35)
+
+
+def rs485_sync(counter: int) -> bytes:
+    """An Rs485Sync frame (broadcast address 0, counter, check)."""
+    return _encoded("urb_rs485_sync_encode", _Sync(counter & 0xFF), 3)
+
+
+class _Rs485Frame(ctypes.Structure):
+    _fields_ = [("n", ctypes.c_uint8), ("head", ctypes.c_uint8 * 2), ("check_ok", ctypes.c_bool),
+                ("t_first", ctypes.c_uint32), ("t_last", ctypes.c_uint32)]
+
+
+class _Rs485Rx(ctypes.Structure):
+    _fields_ = [("tm", _Timing), ("t_last", ctypes.c_uint32), ("t_first", ctypes.c_uint32),
+                ("crc16", ctypes.c_uint16), ("crc8", ctypes.c_uint8), ("hold", ctypes.c_uint8 * 2),
+                ("head", ctypes.c_uint8 * 2), ("n", ctypes.c_uint8), ("state", ctypes.c_uint8),
+                ("last", _Rs485Frame), ("broken", ctypes.c_uint32), ("too_long", ctypes.c_uint32)]
+
+
+EV_END, EV_START, EV_BYTE, EV_BROKEN = 0x01, 0x02, 0x04, 0x08
+
+
+@dataclass(frozen=True)
+class Rs485Frame:
+    """A frame the C receiver delimited: its length, first two bytes, check verdict and stamps (us)."""
+
+    n: int
+    head: bytes
+    check_ok: bool
+    t_first: int
+    t_last: int
+
+
+class Rs485Receiver:
+    """One end's receiver: the firmware's `urb_rs485_rx_*` (silence rules, frame check) fed with
+    time-stamped bytes. `timing` may differ from `rs485_timing(baud)` (Modbus's fixed silences)."""
+
+    def __init__(self, timing: Rs485Timing, now_us: int) -> None:
+        self._rx = _Rs485Rx()
+        self._tm = _Timing(timing.baud, timing.char_us, timing.t15_us, timing.t35_us, timing.turnaround_us)
+        lib().urb_rs485_rx_init(ctypes.byref(self._rx), ctypes.byref(self._tm), now_us)
+
+    def byte(self, value: int, t_us: int) -> int:
+        """The URB_RS485_EV_* bits of one byte stamped t_us (its stop bit)."""
+        return int(lib().urb_rs485_rx_byte(ctypes.byref(self._rx), value, t_us))
+
+    def poll(self, now_us: int) -> int:
+        return int(lib().urb_rs485_rx_poll(ctypes.byref(self._rx), now_us))
+
+    def deadline(self) -> int:
+        """When a poll ends the frame in progress: last stamp + one character + t3.5."""
+        return int(lib().urb_rs485_rx_deadline(ctypes.byref(self._rx)))
+
+    def silent(self, now_us: int) -> bool:
+        return bool(lib().urb_rs485_rx_silent(ctypes.byref(self._rx), now_us))
+
+    def last(self) -> Rs485Frame:
+        f = self._rx.last
+        return Rs485Frame(f.n, bytes(f.head), bool(f.check_ok), f.t_first, f.t_last)
+
+    @property
+    def broken(self) -> int:
+        """Frames discarded for a silence over t1.5 inside them."""
+        return int(self._rx.broken)
