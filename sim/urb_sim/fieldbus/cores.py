@@ -117,7 +117,7 @@ def can_transfer(payload: bytes, tid: int) -> list[bytes]:
     tx = _CanTx()
     buf = bytes(payload)
     lib().urb_can_tx_init(ctypes.byref(tx), buf, len(buf), tid)
-    frames = []
+    frames: list[bytes] = []
     out = ctypes.create_string_buffer(8)
     while True:
         n = lib().urb_can_tx_next(ctypes.byref(tx), out)

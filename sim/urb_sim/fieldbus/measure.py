@@ -20,6 +20,8 @@ MOTORS = (1, 2, 3)
 SENSORS = ((10, 6), (11, 14), (12, 4))
 COMMAND_BYTES, FEEDBACK_BYTES = 2, 6
 LOOP_RATES_HZ = (1000, 500, 250, 100, 50)
+#: the RS485 receivers take whole-microsecond stamps (uint32_t us): two frame ends round by up to 1 us each
+STAMP_ROUNDING_US = 2.0
 
 
 @dataclass(frozen=True)
@@ -73,9 +75,9 @@ def read_bounds_us(kind: str, rate: int, payload: int) -> tuple[float, float]:
         ch = rs485.CHAR_BITS * 1e6 / rate
         req, ans = len(cores.rs485_request(1, 0, True)), len(cores.rs485_response(0, 0, bytes(payload)))
         # each frame ends for its receiver one character + t3.5 after its last stop bit (stamps in whole us)
-        lo = (req + ans) * ch + 2 * (ch + t.t35_us) + lat_lo - 2
-        gap_hi = 0.5 * (ans - 1)
-        hi = (req + ans) * ch + 2 * (ch + t.t35_us) + lat_hi + 1.0 + gap_hi + 2
+        lo = (req + ans) * ch + 2 * (ch + t.t35_us) + lat_lo + rs485.DRIVER_ENABLE_US[0] - STAMP_ROUNDING_US
+        hi = ((req + ans) * ch + 2 * (ch + t.t35_us) + lat_hi + rs485.DRIVER_ENABLE_US[1]
+              + rs485.GAP_US[1] * (ans - 1) + STAMP_ROUNDING_US)
         return lo, hi
     d = cycle.I2cDownlink(rate)
     dur = d.transact(0.0, cycle.Txn(1, 1, True, bytes(payload)))
@@ -98,9 +100,10 @@ def cycle_bound_us(kind: str, rate: int) -> float:
         t = rs485.timing(rate)
         ch = rs485.CHAR_BITS * 1e6 / rate
         req, ans = len(cores.rs485_request(1, 0, False, bytes(COMMAND_BYTES))), len(cores.rs485_response(0, 0))
-        write_hi = (req + ans) * ch + 2 * (ch + t.t35_us) + ASSUME.node_latency_us[1] + 1.0 + 0.5 * ans + 2
-        sync = len(cores.rs485_sync(0)) * ch + ch + t.t35_us + 1
-        return sync + n * (write_hi + read_hi) + 2 * n * bridge_hi
+        write_hi = ((req + ans) * ch + 2 * (ch + t.t35_us) + ASSUME.node_latency_us[1] + rs485.DRIVER_ENABLE_US[1]
+                    + rs485.GAP_US[1] * (ans - 1) + STAMP_ROUNDING_US)
+        sync_us = len(cores.rs485_sync(0)) * ch + ch + t.t35_us + STAMP_ROUNDING_US
+        return sync_us + n * (write_hi + read_hi) + 2 * n * bridge_hi
     d = cycle.I2cDownlink(rate)
     d.sync(0.0, 0)
     for a in MOTORS:

@@ -25,6 +25,8 @@ from . import cores
 
 CHAR_BITS = 10
 MODBUS_T35_US, MODBUS_T15_US = 1750, 750
+#: a transceiver's driver enable to a valid line, us (min, max); a UART FIFO refilled late, us per character
+DRIVER_ENABLE_US, GAP_US = (0.1, 1.0), (0.0, 0.5)
 #: MailboxSelect's read bit (a read request)
 READ_BIT = 0x80
 STATUS_CHECKSUM = 2
@@ -62,9 +64,9 @@ class Rs485Line:
     #: interrupt latency of a node before it enables its driver, us (min, max), drawn per answer
     node_latency_us: tuple[float, float] = (2.0, 10.0)
     #: driver enable (DE) to a valid line, us (min, max): the transceiver's enable time
-    driver_enable_us: tuple[float, float] = (0.1, 1.0)
+    driver_enable_us: tuple[float, float] = DRIVER_ENABLE_US
     #: extra gap before each character a node sends, us (min, max): its transmit FIFO is refilled late
-    gap_us: tuple[float, float] = (0.0, 0.5)
+    gap_us: tuple[float, float] = GAP_US
     #: a seeded bug for the tests: the node answers as soon as the request's last character is in,
     #: without waiting for t3.5 of silence
     mutant_answer_early: bool = False
