@@ -79,6 +79,12 @@ def _variant(variant: str, out: Path, *, quick: bool, seed: int, progress: Progr
         _can_faults(res, seed, 300 if quick else 1500)
     else:
         _rs485_faults(res, seed, 300 if quick else 1500)
+        rng = random.Random(f"modbus/{seed}")
+        fixed = measure.motor_cycles_us(cycle.Rs485Downlink(rate, rng, measure.MOTORS, modbus_fixed=True), 10, rng)
+        res.notes.append(f"With Modbus RTU's fixed silences (t3.5 = {rs485.MODBUS_T35_US} us, t1.5 = "
+                         f"{rs485.MODBUS_T15_US} us above 19200 Bd) in place of URB's 3.5 and 1.5 characters, one "
+                         f"motor cycle at {rate // 1000} kb/s takes {max(fixed):.0f} us: a loop of "
+                         f"{1e6 / max(fixed):.0f} Hz at most, against {runs['clean'].hz} Hz.")
     _sensors(res, seed, 20 if quick else 100)
     progress(0.85, f"{variant}: side by side")
     res.tables.append(("Downlinks side by side (three motors per bus, 6-byte feedback, the PD loop on motor 1)",

@@ -148,10 +148,12 @@ class Rs485Downlink:
     addresses: tuple[int, ...]
     ber: float = 0.0
     bridge_latency_us: tuple[float, float] = (1.0, 3.0)
+    #: Modbus RTU's fixed silences above 19200 Bd (rs485.timing), for comparison
+    modbus_fixed: bool = False
     statuses: dict[str, int] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        self.line = rs485.Rs485Line(self.baud, self.rng, ber=self.ber)
+        self.line = rs485.Rs485Line(self.baud, self.rng, ber=self.ber, modbus_fixed=self.modbus_fixed)
         self.node_rx = {a: cores.Rs485Receiver(self.line.tm, 0) for a in self.addresses}
 
     def now_us(self) -> float:

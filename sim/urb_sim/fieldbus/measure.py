@@ -275,5 +275,20 @@ def pd_loop(kind: str, rate: int, seconds: float, seed: int, ber: float = 0.0, h
     return run
 
 
+def motor_cycles_us(d: cycle.CanDownlink | cycle.Rs485Downlink | cycle.I2cDownlink, cycles: int,
+                    rng: random.Random) -> list[float]:
+    """Durations of `cycles` motor cycles (SYNC, then per motor its command write and feedback read)
+    run back to back."""
+    out = []
+    for k in range(cycles):
+        begin = d.now_us()
+        d.sync(begin, k & 0xFF)
+        for a in MOTORS:
+            d.transact(begin, cycle.Txn(a, 0, False, bytes(rng.randrange(256) for _ in range(COMMAND_BYTES))))
+            d.transact(begin, cycle.Txn(a, 1, True, bytes(rng.randrange(256) for _ in range(FEEDBACK_BYTES))))
+        out.append(d.now_us() - begin)
+    return out
+
+
 def summary(values: list[float]) -> tuple[float, float]:
     return (statistics.fmean(values), max(values)) if values else (math.nan, math.nan)
