@@ -85,26 +85,6 @@ def stuff(bits: Sequence[int], run: int = 5) -> list[int]:
     return out
 
 
-def destuff(bits: Sequence[int]) -> list[int]:
-    """Inverse of `stuff`: drops every bit after five equal ones; raises ValueError on a stuff error
-    (a sixth equal bit)."""
-    out: list[int] = []
-    last, count, skip = -1, 0, False
-    for i, b in enumerate(bits):
-        if skip:
-            if b == last:
-                raise ValueError(f"stuff error at bit {i}: six equal bits")
-            last, count, skip = b, 1, False
-            continue
-        out.append(b)
-        if b == last:
-            count += 1
-        else:
-            last, count = b, 1
-        skip = count == 5
-    return out
-
-
 @dataclass(frozen=True)
 class Frame:
     """One data frame: identifier, data, and who sent it (`tag` is the caller's, e.g. a transaction)."""

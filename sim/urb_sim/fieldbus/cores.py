@@ -241,8 +241,3 @@ class Rs485Receiver:
     def last(self) -> Rs485Frame:
         f = self._rx.last
         return Rs485Frame(f.n, bytes(f.head), bool(f.check_ok), f.t_first, f.t_last)
-
-    @property
-    def broken(self) -> int:
-        """Frames discarded for a silence over t1.5 inside them."""
-        return int(self._rx.broken)
