@@ -302,3 +302,15 @@ def test_simulated_reads_stay_within_their_derived_bounds() -> None:
     for kind, rate in (("can", 250_000), ("rs485", 115_200)):
         rows, _ = measure.latency(kind, rate, [1, 8, 31], 5, seed=3)
         assert all(r.within for r in rows), [(r.payload, min(r.samples), max(r.samples), r.lo, r.hi) for r in rows]
+
+
+def test_transfers_on_the_bus_pass_the_firmware_s_reassembler() -> None:
+    """Every read of 0..32 bytes goes through the bus and the C reassembler (urb_can_rx_frame) on
+    both ends; a repeated or reordered frame does not reassemble (the check can fail)."""
+    d = cycle.CanDownlink(1_000_000, random.Random(9), (5,))
+    for n in range(33):
+        assert d.transact(n * 3000.0, cycle.Txn(5, 2, True, bytes(range(100, 100 + n)))).status == "OK", n
+    frames = cores.can_transfer(bytes(range(20)), 9)
+    assert cycle.reassembled(frames) == (bytes(range(20)), 9)
+    assert cycle.reassembled([frames[0], frames[0], *frames[1:]]) is None
+    assert cycle.reassembled([frames[1], frames[0], *frames[2:]]) is None

@@ -3,7 +3,7 @@
 The simulation's frames are the firmware's: identifiers from `urb_can_id`, the frames of a transfer
 from the segmenter `urb_can_tx_init`/`urb_can_tx_next` (tail bytes, transfer CRC), the RS485
 frames from the generated encoders and its timing (t1.5, t3.5, the turnaround allowance) from
-`urb_rs485_timing`. They are compiled from the committed sources into build/sim/liburbdl.so, a
+`urb_rs485_timing`, and both ends' receivers (`urb_can_rx_frame`, `urb_rs485_rx_*`). They are compiled from the committed sources into build/sim/liburbdl.so, a
 library of its own (the full simulation library, liburbsim.so, does not link the downlink cores
 yet: the node library and the bridge choose their downlink in phase 2 of issue #39).
 """
@@ -89,6 +89,12 @@ def lib() -> ctypes.CDLL:
         getattr(dll, name).restype = ctypes.c_uint16
         getattr(dll, name).argtypes = [ctypes.c_uint8, ctypes.c_bool]
     dll.urb_rs485_timing.argtypes = [ctypes.POINTER(_Timing), ctypes.c_uint32]
+    dll.urb_can_rx_reset.argtypes = [ctypes.c_void_p]
+    dll.urb_can_rx_frame.restype = ctypes.c_int
+    dll.urb_can_rx_frame.argtypes = [ctypes.c_void_p, ctypes.c_char_p, ctypes.c_uint8, ctypes.c_char_p, ctypes.c_uint8]
+    for name in ("urb_can_rx_len", "urb_can_rx_tid"):
+        getattr(dll, name).restype = ctypes.c_uint8
+        getattr(dll, name).argtypes = [ctypes.c_void_p]
     rx = ctypes.c_void_p
     dll.urb_rs485_rx_init.argtypes = [rx, rx, ctypes.c_uint32]
     dll.urb_rs485_rx_byte.restype = ctypes.c_uint8
@@ -241,3 +247,32 @@ class Rs485Receiver:
     def last(self) -> Rs485Frame:
         f = self._rx.last
         return Rs485Frame(f.n, bytes(f.head), bool(f.check_ok), f.t_first, f.t_last)
+
+
+class _CanRx(ctypes.Structure):
+    _fields_ = [("crc", ctypes.c_uint16), ("count", ctypes.c_uint8), ("tid", ctypes.c_uint8),
+                ("toggle", ctypes.c_uint8), ("active", ctypes.c_uint8), ("single", ctypes.c_uint8)]
+
+
+#: urb_can_rx_result_t
+RX_MORE, RX_DONE, RX_CRC = 0, 1, 2
+
+
+class CanReassembler:
+    """One session's receiver: the firmware's `urb_can_rx_frame` (toggle, transfer id, transfer CRC)."""
+
+    def __init__(self) -> None:
+        self._rx = _CanRx()
+        self._out = ctypes.create_string_buffer(32)
+        lib().urb_can_rx_reset(ctypes.byref(self._rx))
+
+    def frame(self, data: bytes) -> int:
+        """The urb_can_rx_result_t of one received frame."""
+        return int(lib().urb_can_rx_frame(ctypes.byref(self._rx), data, len(data), self._out, 32))
+
+    def payload(self) -> bytes:
+        """The payload of the transfer the last RX_DONE completed."""
+        return self._out.raw[:int(lib().urb_can_rx_len(ctypes.byref(self._rx)))]
+
+    def tid(self) -> int:
+        return int(lib().urb_can_rx_tid(ctypes.byref(self._rx)))

@@ -72,14 +72,16 @@ class CanDownlink:
     def _us(self, bits: int) -> float:
         return self.bus.ns(bits) / 1000.0
 
-    def _run(self, tag: object, count: int, deadline_bits: int) -> tuple[int, int | None]:
-        """Run the bus until `count` frames tagged `tag` went through or until the deadline: (frames
-        through, end of the last one in bits)."""
-        got, end = 0, None
-        while got < count and self.bus.now < deadline_bits:
+    def _run(self, tag: object, count: int, deadline_bits: int) -> tuple[list[bytes], int | None]:
+        """Run the bus until `count` frames tagged `tag` went through or until the deadline: (the data
+        of the frames through, end of the last one in bits)."""
+        got: list[bytes] = []
+        end = None
+        while len(got) < count and self.bus.now < deadline_bits:
             d = self.bus.step(deadline_bits)
             if d is not None and d.ok and d.frame.tag == tag:
-                got, end = got + 1, d.end
+                got.append(d.frame.data)
+                end = d.end
         return got, end
 
     def sync(self, t_us: float, counter: int) -> float | None:
@@ -90,7 +92,7 @@ class CanDownlink:
         if not self.bus.send(frame, int(t_us * 1000)):
             return None
         deadline = self.bus.now + self.bus.bit_at(self.timeout_us * 1000)
-        got, end = self._run(("sync", counter), 1, deadline)
+        got, _ = self._run(("sync", counter), 1, deadline)
         if not got:
             return None
         start = next(d.start for d in reversed(self.bus.log) if d.ok and d.frame.tag == ("sync", counter))
@@ -112,12 +114,12 @@ class CanDownlink:
         for data in frames:
             self.bus.send(can.Frame(req_id, data, "bridge", tag), int(start * 1000))
         got, req_end = self._run(tag, len(frames), deadline)
-        if got < len(frames) or req_end is None:
+        if len(got) < len(frames) or req_end is None:
             self.bridge.queue.clear()
             status = "BUS_STUCK" if self.bridge.state == can.BUS_OFF else "TIMEOUT"
             return self._done(status, start, self._us(deadline))
         node = self.nodes.get(txn.address)
-        if node is None or node.state == can.BUS_OFF:
+        if node is None or node.state == can.BUS_OFF or reassembled(got) != (request, tid):
             self.bus.run_until(deadline)
             return self._done("NO_NODE", start, self._us(deadline))
         answer = txn.payload if txn.read else b""
@@ -128,15 +130,27 @@ class CanDownlink:
         for data in ans_frames:
             self.bus.send(can.Frame(ans_id, data, node.name, ans_tag), int(t_ans * 1000))
         got, ans_end = self._run(ans_tag, len(ans_frames), deadline)
-        if got < len(ans_frames) or ans_end is None:
+        if len(got) < len(ans_frames) or ans_end is None:
             node.queue.clear()
-            return self._done("NO_NODE" if got == 0 else "TIMEOUT", start, self._us(deadline))
+            return self._done("NO_NODE" if not got else "TIMEOUT", start, self._us(deadline))
+        if reassembled(got) != (answer, tid):
+            return self._done("CHECKSUM", start, self._us(ans_end - can.INTERMISSION_BITS))
         # the bridge's receive interrupt: at the end of the answer's end of frame
         return self._done("OK", start, self._us(ans_end - can.INTERMISSION_BITS))
 
     def _done(self, status: str, start: float, end: float) -> Done:
         self.statuses[status] = self.statuses.get(status, 0) + 1
         return Done(status, start, end)
+
+
+def reassembled(frames: list[bytes]) -> tuple[bytes, int] | None:
+    """The payload and transfer id the firmware's reassembler makes of a session's frames, or None
+    when they do not complete one transfer."""
+    rx = cores.CanReassembler()
+    results = [rx.frame(f) for f in frames]
+    if results[-1:] != [cores.RX_DONE] or any(r != cores.RX_MORE for r in results[:-1]):
+        return None
+    return rx.payload(), rx.tid()
 
 
 @dataclass
