@@ -305,12 +305,25 @@ def test_simulated_reads_stay_within_their_derived_bounds() -> None:
 
 
 def test_transfers_on_the_bus_pass_the_firmware_s_reassembler() -> None:
-    """Every read of 0..32 bytes goes through the bus and the C reassembler (urb_can_rx_frame) on
-    both ends; a repeated or reordered frame does not reassemble (the check can fail)."""
+    """Every read of 1..32 bytes goes through the bus, the node's reassembler and the firmware's
+    master (its statuses); an empty answer is the master's BAD_REQUEST (no such outbox); a repeated or
+    reordered frame does not reassemble (the check can fail)."""
     d = cycle.CanDownlink(1_000_000, random.Random(9), (5,))
-    for n in range(33):
+    assert d.transact(0.0, cycle.Txn(5, 2, True, b"")).status == "BAD_REQUEST"
+    for n in range(1, 33):
         assert d.transact(n * 3000.0, cycle.Txn(5, 2, True, bytes(range(100, 100 + n)))).status == "OK", n
     frames = cores.can_transfer(bytes(range(20)), 9)
     assert cycle.reassembled(frames) == (bytes(range(20)), 9)
     assert cycle.reassembled([frames[0], frames[0], *frames[1:]]) is None
     assert cycle.reassembled([frames[1], frames[0], *frames[2:]]) is None
+
+
+def test_a_bridge_that_goes_bus_off_reports_timeout_then_bus_stuck_and_recovers() -> None:
+    """The witness of the master's bus-off path (urb_can_master.c): a bridge whose own frames are
+    disturbed goes bus-off inside a request (TIMEOUT: not all sent); the next request, begun while it
+    is still off, is BUS_STUCK (not executed) after the recovery; then requests succeed again."""
+    d = cycle.CanDownlink(1_000_000, random.Random(0), (1,), tx_fault={0: 0.7})
+    for _ in range(300):
+        d.transact(0.0, cycle.Txn(1, 1, True, bytes(6)))
+    assert {"OK", "TIMEOUT", "BUS_STUCK"} <= set(d.statuses) <= {"OK", "TIMEOUT", "BUS_STUCK"}
+    assert d.master.recoveries() == d.statuses["BUS_STUCK"] and d.bridge.recoveries == d.bridge.bus_off_count > 0

@@ -3,7 +3,9 @@
 The simulation's frames are the firmware's: identifiers from `urb_can_id`, the frames of a transfer
 from the segmenter `urb_can_tx_init`/`urb_can_tx_next` (tail bytes, transfer CRC), the RS485
 frames from the generated encoders and its timing (t1.5, t3.5, the turnaround allowance) from
-`urb_rs485_timing`, and both ends' receivers (`urb_can_rx_frame`, `urb_rs485_rx_*`). They are compiled from the committed sources into build/sim/liburbdl.so, a
+`urb_rs485_timing`, both ends' receivers (`urb_can_rx_frame`, `urb_rs485_rx_*`), and the bridge's CAN
+master itself (`urb_can_master.c` behind the HAL of sim/downlink/sim_can_bridge.c: its statuses,
+timeouts and bus-off handling are the firmware's). They are compiled from the committed sources into build/sim/liburbdl.so, a
 library of its own (the full simulation library, liburbsim.so, does not link the downlink cores
 yet: the node library and the bridge choose their downlink in phase 2 of issue #39).
 """
@@ -21,9 +23,10 @@ from pathlib import Path
 from ..build import BUILD, REPO, BuildError, unpreloaded_env
 
 LIBRARY = BUILD / "liburbdl.so"
-SOURCES = ["firmware/downlink/can/urb_can_transfer.c", "firmware/downlink/rs485/urb_rs485_frame.c",
+SOURCES = ["sim/downlink/sim_can_bridge.c", "firmware/downlink/can/urb_can_master.c",
+           "firmware/downlink/can/urb_can_transfer.c", "firmware/downlink/rs485/urb_rs485_frame.c",
            "gen/c/urb_runtime.c", "gen/c/urb_core.c", "gen/c/urb_can_wire.c", "gen/c/urb_rs485_wire.c"]
-HEADERS = ["firmware/include/urb_can.h", "firmware/include/urb_rs485.h", "gen/c/urb_can_wire.h",
+HEADERS = ["firmware/include/urb_can_master.h", "firmware/include/urb_downlink.h", "firmware/include/urb_can.h", "firmware/include/urb_rs485.h", "gen/c/urb_can_wire.h",
            "gen/c/urb_rs485_wire.h", "gen/c/urb_core.h", "gen/c/urb_runtime.h"]
 
 REQUEST, RESPONSE = 0, 1
@@ -51,6 +54,10 @@ def _build() -> Path:
 class _CanTx(ctypes.Structure):
     _fields_ = [("payload", ctypes.c_void_p), ("crc", ctypes.c_uint16), ("len", ctypes.c_uint8),
                 ("pos", ctypes.c_uint8), ("total", ctypes.c_uint8), ("tail", ctypes.c_uint8)]
+
+
+class _CanFrame(ctypes.Structure):
+    _fields_ = [("id", ctypes.c_uint16), ("len", ctypes.c_uint8), ("data", ctypes.c_uint8 * 8)]
 
 
 class _Timing(ctypes.Structure):
@@ -89,6 +96,25 @@ def lib() -> ctypes.CDLL:
         getattr(dll, name).restype = ctypes.c_uint16
         getattr(dll, name).argtypes = [ctypes.c_uint8, ctypes.c_bool]
     dll.urb_rs485_timing.argtypes = [ctypes.POINTER(_Timing), ctypes.c_uint32]
+    vp = ctypes.c_void_p
+    dll.sim_can_bridge_size.restype = ctypes.c_size_t
+    dll.sim_can_bridge_init.argtypes = [vp, ctypes.c_uint16]
+    dll.sim_can_bridge_begin.restype = ctypes.c_bool
+    dll.sim_can_bridge_begin.argtypes = [vp, ctypes.c_uint8, ctypes.c_uint8, ctypes.c_uint8, ctypes.c_uint8,
+                                         ctypes.c_uint8, ctypes.c_char_p, ctypes.c_uint32]
+    dll.sim_can_bridge_poll.restype = ctypes.c_int8
+    dll.sim_can_bridge_poll.argtypes = [vp, ctypes.c_uint32]
+    dll.sim_can_bridge_take.restype = ctypes.c_bool
+    dll.sim_can_bridge_take.argtypes = [vp, ctypes.POINTER(_CanFrame)]
+    dll.sim_can_bridge_tx_done.argtypes = [vp]
+    dll.sim_can_bridge_rx.argtypes = [vp, ctypes.POINTER(_CanFrame)]
+    dll.sim_can_bridge_set_state.argtypes = [vp, ctypes.c_uint8]
+    dll.sim_can_bridge_data.restype = ctypes.POINTER(ctypes.c_uint8)
+    dll.sim_can_bridge_data.argtypes = [vp]
+    dll.sim_can_bridge_recoveries.restype = ctypes.c_uint32
+    dll.sim_can_bridge_recoveries.argtypes = [vp]
+    dll.sim_can_bridge_aborts.restype = ctypes.c_uint32
+    dll.sim_can_bridge_aborts.argtypes = [vp]
     dll.urb_can_rx_reset.argtypes = [ctypes.c_void_p]
     dll.urb_can_rx_frame.restype = ctypes.c_int
     dll.urb_can_rx_frame.argtypes = [ctypes.c_void_p, ctypes.c_char_p, ctypes.c_uint8, ctypes.c_char_p, ctypes.c_uint8]
@@ -276,3 +302,56 @@ class CanReassembler:
 
     def tid(self) -> int:
         return int(lib().urb_can_rx_tid(ctypes.byref(self._rx)))
+
+
+#: urb_dl_op_t, urb_can_state_t, URB_DOWNLINK_BUSY / _IDLE and urb_status_t's names
+OP_READ, OP_WRITE, OP_SYNC = 0, 1, 2
+CAN_STATE = {"error-active": 0, "error-passive": 1, "bus-off": 2}
+DOWNLINK_BUSY, DOWNLINK_IDLE = -1, -2
+STATUS = {0: "OK", 1: "TIMEOUT", 2: "CHECKSUM", 3: "BUSY", 4: "NO_NODE", 5: "SIZE_MISMATCH", 6: "BAD_REQUEST",
+          7: "BUS_STUCK", 8: "NODE_BUSY"}
+
+
+class CanBridge:
+    """The firmware's CAN master (`urb_can_master.c`) behind a HAL the bus model drives."""
+
+    def __init__(self, bitrate: int) -> None:
+        self._mem = ctypes.create_string_buffer(int(lib().sim_can_bridge_size()))
+        self._p = ctypes.cast(self._mem, ctypes.c_void_p)
+        lib().sim_can_bridge_init(self._p, bitrate // 1000)
+
+    def begin(self, op: int, address: int, mailbox: int, length: int, counter: int, data: bytes | None,
+              now_us: int) -> bool:
+        return bool(lib().sim_can_bridge_begin(self._p, op, address, mailbox, length, counter, data, now_us & 0xFFFFFFFF))
+
+    def poll(self, now_us: int) -> int:
+        """DOWNLINK_BUSY, DOWNLINK_IDLE or the final urb_status_t."""
+        return int(lib().sim_can_bridge_poll(self._p, now_us & 0xFFFFFFFF))
+
+    def take(self) -> tuple[int, bytes] | None:
+        """The oldest frame the master queued: (identifier, data), or None."""
+        f = _CanFrame()
+        if not lib().sim_can_bridge_take(self._p, ctypes.byref(f)):
+            return None
+        return int(f.id), bytes(f.data[:f.len])
+
+    def tx_done(self) -> None:
+        lib().sim_can_bridge_tx_done(self._p)
+
+    def rx(self, can_id: int, data: bytes) -> None:
+        f = _CanFrame(can_id, len(data), (ctypes.c_uint8 * 8)(*data))
+        lib().sim_can_bridge_rx(self._p, ctypes.byref(f))
+
+    def set_state(self, state: str) -> None:
+        lib().sim_can_bridge_set_state(self._p, CAN_STATE[state])
+
+    def data(self, n: int) -> bytes:
+        return bytes(lib().sim_can_bridge_data(self._p)[:n])
+
+    def recoveries(self) -> int:
+        """The master's recover() requests (bus-off seen at a request's begin, or a clear)."""
+        return int(lib().sim_can_bridge_recoveries(self._p))
+
+    def aborts(self) -> int:
+        """The master's tx_abort() requests."""
+        return int(lib().sim_can_bridge_aborts(self._p))

@@ -10,19 +10,13 @@ variation: it is the reference column, not a new I2C model.
 from __future__ import annotations
 
 import random
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from . import can, cores, rs485
 
-#: the firmware's constants (urb_can_master.c): the longest transaction in bit times, the node's allowance
-CAN_LONGEST_BITS, CAN_NODE_LATENCY_US, CAN_MIN_TIMEOUT_US = 740, 500, 2000
-
-
-def can_timeout_us(bitrate: int) -> int:
-    """urb_can_master_timeout_us: twice the longest transaction plus the node's 500 us, at least 2 ms."""
-    kbps = bitrate // 1000
-    bus = (2 * CAN_LONGEST_BITS * 1000 - 1) // kbps + 1
-    return max(CAN_MIN_TIMEOUT_US, bus + CAN_NODE_LATENCY_US)
+#: how often the bridge's main loop polls the master while the bus is idle, us
+POLL_US = 5
 
 
 @dataclass(frozen=True)
@@ -53,7 +47,7 @@ class CanDownlink:
     rng: random.Random
     addresses: tuple[int, ...]
     ber: float = 0.0
-    #: per node address: the probability that a frame it sends is disturbed (a faulty transceiver)
+    #: per node address (0: the bridge): the probability that a frame it sends is disturbed (a faulty transceiver)
     tx_fault: dict[int, float] = field(default_factory=dict)
     node_latency_us: tuple[float, float] = (2.0, 10.0)
     bridge_latency_us: tuple[float, float] = (1.0, 3.0)
@@ -61,10 +55,11 @@ class CanDownlink:
 
     def __post_init__(self) -> None:
         self.bus = can.CanBus(self.bitrate, self.rng, ber=self.ber)
-        self.bridge = self.bus.attach("bridge")
+        self.bridge = self.bus.attach("bridge", self.tx_fault.get(0, 0.0))
         self.nodes = {a: self.bus.attach(f"node{a}", self.tx_fault.get(a, 0.0)) for a in self.addresses}
-        self.tids: dict[tuple[int, int], int] = {}
-        self.timeout_us = can_timeout_us(self.bitrate)
+        self.master = cores.CanBridge(self.bitrate)
+        self.master_aborts = 0
+        self._req_id = 0
 
     def now_us(self) -> float:
         return self.bus.ns(self.bus.now) / 1000.0
@@ -72,71 +67,81 @@ class CanDownlink:
     def _us(self, bits: int) -> float:
         return self.bus.ns(bits) / 1000.0
 
-    def _run(self, tag: object, count: int, deadline_bits: int) -> tuple[list[bytes], int | None]:
-        """Run the bus until `count` frames tagged `tag` went through or until the deadline: (the data
-        of the frames through, end of the last one in bits)."""
-        got: list[bytes] = []
-        end = None
-        while len(got) < count and self.bus.now < deadline_bits:
-            d = self.bus.step(deadline_bits)
-            if d is not None and d.ok and d.frame.tag == tag:
-                got.append(d.frame.data)
-                end = d.end
-        return got, end
+    def _feed(self) -> None:
+        """Frames the master queued go onto the bus now; its abort empties the controller's queue."""
+        if self.master_aborts != self.master.aborts():
+            self.bridge.queue.clear()
+            self.master_aborts = self.master.aborts()
+        while (f := self.master.take()) is not None:
+            self.bus.send(can.Frame(f[0], f[1], "bridge", "bridge"), self.bus.ns(self.bus.now))
+
+    def _master(self, begin: Callable[[int], bool], node: int | None, answer: bytes | None) -> tuple[str, float, int | None]:
+        """Run one transaction of the firmware's master to its end: (status, end in us, the start of
+        its first frame on the bus in bits). `node` answers `answer` once it reassembles the request
+        (None: nobody answers, as for SYNC)."""
+        self.master.set_state(self.bridge.state)
+        if not begin(int(self.now_us())):
+            raise RuntimeError("the CAN master refused a transaction while idle")
+        request: list[bytes] = []
+        first: int | None = None
+        end_us = self.now_us()
+        while True:
+            self._feed()
+            status = self.master.poll(int(self.now_us()))
+            if status >= 0:
+                return cores.STATUS[status], end_us, first
+            d = self.bus.step(self.bus.now + self.bus.bit_at(POLL_US * 1000))
+            self.master.set_state(self.bridge.state)
+            end_us = self.now_us()
+            if d is None or not d.ok:
+                continue
+            if d.frame.sender == "bridge":
+                first = d.start if first is None else first
+                self.master.tx_done()
+                request.append(d.frame.data)
+                end_us = self._us(d.end - can.INTERMISSION_BITS)
+                if node is not None and answer is not None and d.frame.can_id == self._req_id:
+                    self._node_hears(node, request, answer, d.end)
+            elif d.frame.tag == ("ans", node):
+                self.master.rx(d.frame.can_id, d.frame.data)
+                end_us = self._us(d.end - can.INTERMISSION_BITS)
+
+    def _node_hears(self, address: int, request: list[bytes], answer: bytes, end_bits: int) -> None:
+        """The node reassembles the request (the firmware's reassembler) and queues its answer after
+        its latency, with the request's transfer id."""
+        node = self.nodes.get(address)
+        got = reassembled(request)
+        if node is None or node.state == can.BUS_OFF or got is None:
+            return
+        t_ans = self._us(end_bits - can.INTERMISSION_BITS) + self.rng.uniform(*self.node_latency_us)
+        ans_id = self._req_id | (1 << 10)
+        for data in cores.can_transfer(answer, got[1]):
+            self.bus.send(can.Frame(ans_id, data, node.name, ("ans", address)), int(t_ans * 1000))
 
     def sync(self, t_us: float, counter: int) -> float | None:
-        """Send SYNC (identifier 0) at t_us; the instant (us) of its start of frame, which every node
-        time-stamps, or None when it did not go through."""
+        """SYNC (identifier 0) through the master at t_us; the instant (us) of its start of frame, which
+        every node time-stamps, or None when it did not go through."""
         self.bus.run_until(self.bus.bit_at(int(t_us * 1000)))
-        frame = can.Frame(cores.SYNC_ID, cores.can_sync(counter, counter & 31), "bridge", ("sync", counter))
-        if not self.bus.send(frame, int(t_us * 1000)):
-            return None
-        deadline = self.bus.now + self.bus.bit_at(self.timeout_us * 1000)
-        got, _ = self._run(("sync", counter), 1, deadline)
-        if not got:
-            return None
-        start = next(d.start for d in reversed(self.bus.log) if d.ok and d.frame.tag == ("sync", counter))
-        return self._us(start)
+        self._req_id = cores.SYNC_ID
+        status, _, first = self._master(lambda now: self.master.begin(cores.OP_SYNC, 0, 0, 0, counter & 0xFF, None, now),
+                                        None, None)
+        return self._us(first) if status == "OK" and first is not None else None
 
     def transact(self, t_us: float, txn: Txn) -> Done:
         start = max(t_us, self.now_us()) + self.rng.uniform(*self.bridge_latency_us)
         self.bus.run_until(self.bus.bit_at(int(start * 1000)))
-        deadline = self.bus.bit_at(int((start + self.timeout_us) * 1000))
-        if self.bridge.state == can.BUS_OFF:
-            return self._done("BUS_STUCK", start, start)
-        session = txn.mailbox + (8 if txn.read else 0)
-        tid = self.tids.get((txn.address, session), 0)
-        self.tids[(txn.address, session)] = (tid + 1) & 31
-        request = b"" if txn.read else txn.payload
-        req_id = cores.can_id(txn.address, txn.mailbox, txn.read, cores.REQUEST)
-        frames = cores.can_transfer(request, tid)
-        tag = ("req", txn.address, session, tid)
-        for data in frames:
-            self.bus.send(can.Frame(req_id, data, "bridge", tag), int(start * 1000))
-        got, req_end = self._run(tag, len(frames), deadline)
-        if len(got) < len(frames) or req_end is None:
-            self.bridge.queue.clear()
-            status = "BUS_STUCK" if self.bridge.state == can.BUS_OFF else "TIMEOUT"
-            return self._done(status, start, self._us(deadline))
-        node = self.nodes.get(txn.address)
-        if node is None or node.state == can.BUS_OFF or reassembled(got) != (request, tid):
-            self.bus.run_until(deadline)
-            return self._done("NO_NODE", start, self._us(deadline))
-        answer = txn.payload if txn.read else b""
-        ans_id = cores.can_id(txn.address, txn.mailbox, txn.read, cores.RESPONSE)
-        ans_frames = cores.can_transfer(answer, tid)
-        ans_tag = ("ans", txn.address, session, tid)
-        t_ans = self._us(req_end - can.INTERMISSION_BITS) + self.rng.uniform(*self.node_latency_us)
-        for data in ans_frames:
-            self.bus.send(can.Frame(ans_id, data, node.name, ans_tag), int(t_ans * 1000))
-        got, ans_end = self._run(ans_tag, len(ans_frames), deadline)
-        if len(got) < len(ans_frames) or ans_end is None:
-            node.queue.clear()
-            return self._done("NO_NODE" if not got else "TIMEOUT", start, self._us(deadline))
-        if reassembled(got) != (answer, tid):
-            return self._done("CHECKSUM", start, self._us(ans_end - can.INTERMISSION_BITS))
-        # the bridge's receive interrupt: at the end of the answer's end of frame
-        return self._done("OK", start, self._us(ans_end - can.INTERMISSION_BITS))
+        self._req_id = cores.can_id(txn.address, txn.mailbox, txn.read, cores.REQUEST)
+        op = cores.OP_READ if txn.read else cores.OP_WRITE
+        data = None if txn.read else txn.payload
+        begin_us = self.now_us()
+        status, end_us, _ = self._master(
+            lambda now: self.master.begin(op, txn.address, txn.mailbox, len(txn.payload), 0, data, now),
+            txn.address, txn.payload if txn.read else b"")
+        if status == "OK" and txn.read and self.master.data(len(txn.payload)) != txn.payload:
+            raise RuntimeError("the CAN master reported OK with other data than the node sent")
+        for n in self.nodes.values():
+            n.queue.clear()  # an answer still queued after a timeout: the master ignores it (stale)
+        return self._done(status, begin_us, end_us)
 
     def _done(self, status: str, start: float, end: float) -> Done:
         self.statuses[status] = self.statuses.get(status, 0) + 1
