@@ -236,19 +236,18 @@ def silence_errors(line: rs485.Rs485Line) -> list[str]:
     """A read at 1 Mb/s: the node answers only after the request's t3.5 (+ one character, its view),
     within the turnaround allowance; a stall over t1.5 inside the answer breaks it."""
     node = cores.Rs485Receiver(line.tm, 0)
-    req, ans = cores.rs485_request(3, 1, True), cores.rs485_response(0, 1, bytes(6))
     wrong = []
-    o = line.poll(req, ans, node)
+    o = line.poll(3, 1, True, bytes(6), node)
     if o.status != "OK" or o.answer_start_us is None:
         return [f"a clean read: {o.status}"]
     wait = o.answer_start_us - o.request_end_us
     least = line.tm.t35_us + line.char_us
     if not least <= wait <= least + line.tm.turnaround_us:
         wrong.append(f"answer {wait:.1f} us after the request, not within {least:.0f}..{least + line.tm.turnaround_us:.0f}")
-    short = line.poll(req, ans, node, stall_us=line.tm.t15_us - line.char_us - 2).status
+    short = line.poll(3, 1, True, bytes(6), node, stall_us=line.tm.t15_us - line.char_us - 2).status
     if short != "OK":
         wrong.append(f"a gap under t1.5: {short}")
-    long = line.poll(req, ans, node, stall_us=line.tm.t15_us + 2).status
+    long = line.poll(3, 1, True, bytes(6), node, stall_us=line.tm.t15_us + 2).status
     if long != "TIMEOUT":
         wrong.append(f"a gap over t1.5: {long}")
     return wrong
@@ -265,7 +264,8 @@ def test_rs485_check_rejects_an_answer_without_the_t35_silence() -> None:
 def test_rs485_a_node_slower_than_the_allowance_is_no_node() -> None:
     line = rs485.Rs485Line(1_000_000, random.Random(1), node_latency_us=(200.0, 200.0))
     node = cores.Rs485Receiver(line.tm, 0)
-    assert line.poll(cores.rs485_request(3, 1, True), cores.rs485_response(0, 1, bytes(6)), node).status == "NO_NODE"
+    assert line.poll(3, 1, True, bytes(6), node).status == "NO_NODE"
+    assert line.poll(4, 1, True, bytes(6), None).status == "NO_NODE"  # nobody at that address
 
 
 def test_rs485_timing_is_the_firmware_s_and_modbus_fixes_it_above_19200() -> None:
@@ -280,8 +280,7 @@ def test_rs485_errors_give_checksum_or_timeout() -> None:
     node = cores.Rs485Receiver(line.tm, 0)
     for k in range(300):
         read = bool(k & 1)
-        line.poll(cores.rs485_request(2, 1, read, b"" if read else b"\x05\x06"),
-                  cores.rs485_response(0, 1, bytes(6) if read else b""), node)
+        line.poll(2, 1, read, bytes(6) if read else b"\x05\x06", node)
     assert set(line.statuses) <= {"OK", "CHECKSUM", "TIMEOUT"} and line.statuses.get("CHECKSUM", 0) > 0
     assert line.corrupted > 0
 

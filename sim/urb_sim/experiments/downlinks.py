@@ -191,12 +191,9 @@ def _rs485_faults(res: Result, seed: int, polls: int) -> None:
     statuses: dict[str, int] = {}
     for k in range(polls):
         read = k % 2 == 1
-        req = cores.rs485_request(1, 1 if read else 0, read, b"" if read else b"\x01\x02")
-        ans = cores.rs485_response(0, 1 if read else 0, bytes(6) if read else b"")
-        st = line.poll(req, ans, node_rx).status
+        st = line.poll(1, 1 if read else 0, read, bytes(6) if read else b"\x01\x02", node_rx).status
         statuses[st] = statuses.get(st, 0) + 1
-    stalled = line.poll(cores.rs485_request(1, 1, True), cores.rs485_response(0, 1, bytes(6)), node_rx,
-                        stall_us=line.tm.t15_us + 5).status
+    stalled = line.poll(1, 1, True, bytes(6), node_rx, stall_us=line.tm.t15_us + 5).status
     allowed = {"OK", "CHECKSUM", "TIMEOUT"}
     res.check("RS485 errors reported as I2C flags",
               f"with a bit error rate of {3 * NOISY_BER:g}: failed polls CHECKSUM or TIMEOUT only, some of each "

@@ -4,8 +4,8 @@ The simulation's frames are the firmware's: identifiers from `urb_can_id`, the f
 from the segmenter `urb_can_tx_init`/`urb_can_tx_next` (tail bytes, transfer CRC), the RS485
 frames from the generated encoders and its timing (t1.5, t3.5, the turnaround allowance) from
 `urb_rs485_timing`, both ends' receivers (`urb_can_rx_frame`, `urb_rs485_rx_*`), and the bridge's CAN
-master itself (`urb_can_master.c` behind the HAL of sim/downlink/sim_can_bridge.c: its statuses,
-timeouts and bus-off handling are the firmware's). They are compiled from the committed sources into build/sim/liburbdl.so, a
+master and RS485 master themselves (`urb_can_master.c`, `urb_rs485_master.c`, behind the HALs of
+sim/downlink/: their statuses, timeouts, silence rules and bus-off handling are the firmware's). They are compiled from the committed sources into build/sim/liburbdl.so, a
 library of its own (the full simulation library, liburbsim.so, does not link the downlink cores
 yet: the node library and the bridge choose their downlink in phase 2 of issue #39).
 """
@@ -23,10 +23,11 @@ from pathlib import Path
 from ..build import BUILD, REPO, BuildError, unpreloaded_env
 
 LIBRARY = BUILD / "liburbdl.so"
-SOURCES = ["sim/downlink/sim_can_bridge.c", "firmware/downlink/can/urb_can_master.c",
+SOURCES = ["sim/downlink/sim_can_bridge.c", "sim/downlink/sim_rs485_bridge.c", "firmware/downlink/can/urb_can_master.c",
+           "firmware/downlink/rs485/urb_rs485_master.c",
            "firmware/downlink/can/urb_can_transfer.c", "firmware/downlink/rs485/urb_rs485_frame.c",
            "gen/c/urb_runtime.c", "gen/c/urb_core.c", "gen/c/urb_can_wire.c", "gen/c/urb_rs485_wire.c"]
-HEADERS = ["firmware/include/urb_can_master.h", "firmware/include/urb_downlink.h", "firmware/include/urb_can.h", "firmware/include/urb_rs485.h", "gen/c/urb_can_wire.h",
+HEADERS = ["firmware/include/urb_rs485_master.h", "firmware/include/urb_can_master.h", "firmware/include/urb_downlink.h", "firmware/include/urb_can.h", "firmware/include/urb_rs485.h", "gen/c/urb_can_wire.h",
            "gen/c/urb_rs485_wire.h", "gen/c/urb_core.h", "gen/c/urb_runtime.h"]
 
 REQUEST, RESPONSE = 0, 1
@@ -115,6 +116,20 @@ def lib() -> ctypes.CDLL:
     dll.sim_can_bridge_recoveries.argtypes = [vp]
     dll.sim_can_bridge_aborts.restype = ctypes.c_uint32
     dll.sim_can_bridge_aborts.argtypes = [vp]
+    dll.sim_rs485_bridge_size.restype = ctypes.c_size_t
+    dll.sim_rs485_bridge_init.argtypes = [vp, ctypes.c_uint32, ctypes.c_uint32]
+    dll.sim_rs485_bridge_begin.restype = ctypes.c_bool
+    dll.sim_rs485_bridge_begin.argtypes = dll.sim_can_bridge_begin.argtypes
+    dll.sim_rs485_bridge_poll.restype = ctypes.c_int8
+    dll.sim_rs485_bridge_poll.argtypes = [vp, ctypes.c_uint32]
+    dll.sim_rs485_bridge_tx_next.restype = ctypes.c_bool
+    dll.sim_rs485_bridge_tx_next.argtypes = [vp, ctypes.POINTER(ctypes.c_uint8)]
+    dll.sim_rs485_bridge_rx.argtypes = [vp, ctypes.c_uint8, ctypes.c_uint32]
+    dll.sim_rs485_bridge_next_us.restype = ctypes.c_uint32
+    dll.sim_rs485_bridge_next_us.argtypes = [vp, ctypes.c_uint32]
+    dll.sim_rs485_bridge_data.restype = ctypes.POINTER(ctypes.c_uint8)
+    dll.sim_rs485_bridge_data.argtypes = [vp]
+    dll.sim_rs485_bridge_set_silences.argtypes = [vp, ctypes.c_uint16, ctypes.c_uint16]
     dll.urb_can_rx_reset.argtypes = [ctypes.c_void_p]
     dll.urb_can_rx_frame.restype = ctypes.c_int
     dll.urb_can_rx_frame.argtypes = [ctypes.c_void_p, ctypes.c_char_p, ctypes.c_uint8, ctypes.c_char_p, ctypes.c_uint8]
@@ -355,3 +370,41 @@ class CanBridge:
     def aborts(self) -> int:
         """The master's tx_abort() requests."""
         return int(lib().sim_can_bridge_aborts(self._p))
+
+
+class Rs485Bridge:
+    """The firmware's RS485 master (`urb_rs485_master.c`) behind a transceiver HAL the line drives."""
+
+    def __init__(self, baud: int, now_us: int = 0) -> None:
+        self._mem = ctypes.create_string_buffer(int(lib().sim_rs485_bridge_size()))
+        self._p = ctypes.cast(self._mem, ctypes.c_void_p)
+        lib().sim_rs485_bridge_init(self._p, baud, now_us)
+
+    def set_silences(self, t15_us: int, t35_us: int) -> None:
+        lib().sim_rs485_bridge_set_silences(self._p, t15_us, t35_us)
+
+    def begin(self, op: int, address: int, mailbox: int, length: int, counter: int, data: bytes | None,
+              now_us: int) -> bool:
+        return bool(lib().sim_rs485_bridge_begin(self._p, op, address, mailbox, length, counter, data, now_us))
+
+    def poll(self, now_us: int) -> int:
+        """DOWNLINK_BUSY, DOWNLINK_IDLE or the final urb_status_t."""
+        return int(lib().sim_rs485_bridge_poll(self._p, now_us))
+
+    def take_all(self) -> bytes:
+        """Every byte the master hands to its UART now (the request), in order."""
+        out = bytearray()
+        b = ctypes.c_uint8()
+        while lib().sim_rs485_bridge_tx_next(self._p, ctypes.byref(b)):
+            out.append(b.value)
+        return bytes(out)
+
+    def rx(self, byte: int, t_us: int) -> None:
+        lib().sim_rs485_bridge_rx(self._p, byte, t_us)
+
+    def next_us(self, now_us: int) -> int:
+        """The next instant a poll may change the master's state without a byte."""
+        return int(lib().sim_rs485_bridge_next_us(self._p, now_us))
+
+    def data(self, n: int) -> bytes:
+        return bytes(lib().sim_rs485_bridge_data(self._p)[:n])

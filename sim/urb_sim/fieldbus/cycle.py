@@ -179,16 +179,15 @@ class Rs485Downlink:
         return self.line.now_us
 
     def sync(self, t_us: float, counter: int) -> float:
-        """Broadcast SYNC at t_us; the first byte's stop bit, which every node time-stamps."""
+        """SYNC through the master at t_us; the first byte's stop bit, which every node time-stamps."""
         self.line.now_us = max(self.line.now_us, t_us)
-        first, _ = self.line.broadcast(cores.rs485_sync(counter), list(self.node_rx.values()))
-        return first
+        return self.line.broadcast(counter, list(self.node_rx.values()))
 
     def transact(self, t_us: float, txn: Txn) -> Done:
         self.line.now_us = max(t_us, self.line.now_us) + self.rng.uniform(*self.bridge_latency_us)
-        request = cores.rs485_request(txn.address, txn.mailbox, txn.read, b"" if txn.read else txn.payload)
-        answer = cores.rs485_response(0, txn.mailbox, txn.payload if txn.read else b"")
-        o = self.line.poll(request, answer, self.node_rx[txn.address])
+        o = self.line.poll(txn.address, txn.mailbox, txn.read, txn.payload, self.node_rx.get(txn.address))
+        if o.status == "OK" and txn.read and self.line.read_back(len(txn.payload)) != txn.payload:
+            raise RuntimeError("the RS485 master reported OK with other data than the node sent")
         self.statuses[o.status] = self.statuses.get(o.status, 0) + 1
         return Done(o.status, o.start_us, o.done_us)
 

@@ -22,6 +22,8 @@ COMMAND_BYTES, FEEDBACK_BYTES = 2, 6
 LOOP_RATES_HZ = (1000, 500, 250, 100, 50)
 #: the RS485 receivers take whole-microsecond stamps (uint32_t us): two frame ends round by up to 1 us each
 STAMP_ROUNDING_US = 2.0
+#: a receiver starts by waiting for t3.5 of silence (at 115200 Bd 391 us): reads are timed after it
+STARTUP_US = 1000.0
 
 
 @dataclass(frozen=True)
@@ -154,7 +156,7 @@ def latency(kind: str, rate: int, payloads: list[int], reads: int,
         samples = []
         for _ in range(reads):
             data = bytes(rng.randrange(256) for _ in range(p))
-            t = d.now_us() + 200.0
+            t = max(d.now_us() + 200.0, STARTUP_US)
             done = d.transact(t, cycle.Txn(1, 1, True, data))
             if done.status != "OK":
                 raise RuntimeError(f"{kind} read failed without an injected fault: {done.status}")

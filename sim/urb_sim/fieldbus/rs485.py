@@ -19,6 +19,7 @@ discards it. What the line adds (sim/README.md, "Downlinks"):
 from __future__ import annotations
 
 import random
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 from . import cores
@@ -27,11 +28,7 @@ CHAR_BITS = 10
 MODBUS_T35_US, MODBUS_T15_US = 1750, 750
 #: a transceiver's driver enable to a valid line, us (min, max); a UART FIFO refilled late, us per character
 DRIVER_ENABLE_US, GAP_US = (0.1, 1.0), (0.0, 0.5)
-#: MailboxSelect's read bit (a read request)
-READ_BIT = 0x80
 STATUS_CHECKSUM = 2
-#: the statuses a node's answer carries (urb_status_t), as the bridge reports them
-STATUS_NAMES = {0: "OK", 2: "CHECKSUM", 5: "SIZE_MISMATCH", 6: "BAD_REQUEST", 8: "NODE_BUSY"}
 
 
 def timing(baud: int, modbus_fixed: bool = False) -> cores.Rs485Timing:
@@ -71,96 +68,112 @@ class Rs485Line:
     #: without waiting for t3.5 of silence
     mutant_answer_early: bool = False
     now_us: float = 0.0
-    broken: int = 0
     corrupted: int = 0
     statuses: dict[str, int] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self.tm = timing(self.baud, self.modbus_fixed)
         self.char_us = CHAR_BITS * 1e6 / self.baud
-        self.bridge_rx = cores.Rs485Receiver(self.tm, 0)
+        self.master = cores.Rs485Bridge(self.baud, 0)
+        if self.modbus_fixed:
+            self.master.set_silences(self.tm.t15_us, self.tm.t35_us)
 
-    def _corrupt(self, frame: bytes) -> bytes:
+    def _corrupt(self, byte: int) -> int:
         p = 1.0 - (1.0 - self.ber) ** CHAR_BITS if self.ber > 0 else 0.0
-        out = bytearray(frame)
-        for i in range(len(out)):
-            if p > 0 and self.rng.random() < p:
-                out[i] ^= 1 << self.rng.randrange(8)
-                self.corrupted += 1
-        return bytes(out)
+        if p > 0 and self.rng.random() < p:
+            self.corrupted += 1
+            return byte ^ (1 << self.rng.randrange(8))
+        return byte
 
-    def _send(self, frame: bytes, start: float, receivers: list[cores.Rs485Receiver],
-              gaps: tuple[float, float], stall_at: int | None = None, stall_us: float = 0.0) -> float:
-        """Put `frame` on the line from `start`; every receiver gets each byte at its stop bit's end.
-        Returns the instant the last stop bit ends."""
+    def _transaction(self, begin: Callable[[int], bool], node_rx: list[cores.Rs485Receiver],
+                     answer: Callable[[cores.Rs485Frame], bytes] | None, stall_us: float) -> Outcome:
+        """Run one transaction of the firmware's master: its request goes to every receiver in
+        `node_rx` (a disturbed character reaches the nodes corrupted, the bridge's echo clean); the
+        first receiver's node answers `answer(the frame it heard)` when its receiver ends the request,
+        after its latency and driver enable (None: nobody answers)."""
+        start = self.now_us
+        if not begin(int(start)):
+            raise RuntimeError("the RS485 master refused a transaction while idle")
         t = start
-        wire = self._corrupt(frame)
-        for i, byte in enumerate(wire):
-            t += self.rng.uniform(*gaps) if i else 0.0
-            if stall_at is not None and i == stall_at:
-                t += stall_us
-            t += self.char_us
-            for rx in receivers:
-                ev = rx.byte(byte, int(t))
-                if ev & cores.EV_BROKEN and rx is self.bridge_rx:
-                    self.broken += 1
-        return t
+        req_end: float | None = None
+        ans_start: float | None = None
+        pending: list[tuple[float, int]] = []
+        while True:
+            request = self.master.take_all()
+            if request:
+                t_send = t
+                for k, byte in enumerate(request):
+                    stamp = int(t_send + (k + 1) * self.char_us)
+                    self.master.rx(byte, stamp)
+                    wire = self._corrupt(byte)
+                    for rx in node_rx:
+                        rx.byte(wire, stamp)
+                req_end = t = t_send + len(request) * self.char_us
+                if answer is not None and node_rx:
+                    pending, ans_start = self._answer(node_rx[0], len(request), req_end, answer, stall_us)
+            wake = self.master.next_us(int(t))
+            if pending and pending[0][0] <= wake:
+                at, byte = pending.pop(0)
+                t = at
+                self.master.rx(byte, int(at))
+                node_rx[0].byte(byte, int(at))
+                continue
+            t = float(wake)
+            status = self.master.poll(wake)
+            if status >= 0:
+                return self._finish(Outcome(cores.STATUS[status], start, req_end or start, ans_start, t))
+
+    def _answer(self, node: cores.Rs485Receiver, n_request: int, req_end: float,
+                answer: Callable[[cores.Rs485Frame], bytes], stall_us: float) -> tuple[list[tuple[float, int]], float | None]:
+        """The node's answer bytes toward the bridge, (instant, byte) each, and when it begins."""
+        node_end = float(node.deadline())
+        got = node.poll(int(node_end)) & cores.EV_END
+        heard = node.last()
+        if not got or heard.n != n_request:
+            return [], None  # the node did not take a whole request (a broken frame): no answer
+        ready = req_end if self.mutant_answer_early else node_end
+        t = ready + self.rng.uniform(*self.node_latency_us) + self.rng.uniform(*self.driver_enable_us)
+        begin = t
+        out = []
+        for k, byte in enumerate(answer(heard)):
+            t += (self.rng.uniform(*self.gap_us) if k else 0.0) + (stall_us if k == 1 else 0.0) + self.char_us
+            out.append((t, self._corrupt(byte)))
+        return out, begin
 
     def wait_silent(self) -> float:
-        """The first instant the bridge may send: its receiver has seen t3.5 of silence."""
-        t = max(self.now_us, 0.0)
-        while not self.bridge_rx.silent(int(t)):
-            t = max(t + 1.0, float(self.bridge_rx.deadline()))
-        return t
+        """The line's time: the master itself waits for t3.5 of silence before it sends."""
+        return self.now_us
 
-    def broadcast(self, frame: bytes, node_rx: list[cores.Rs485Receiver]) -> tuple[float, float]:
-        """A frame nobody answers (SYNC): (first byte's stop bit, end of the frame's t3.5)."""
-        start = self.wait_silent()
-        first = start + self.char_us
-        end = self._send(frame, start, [self.bridge_rx, *node_rx], (0.0, 0.0))
-        self.now_us = float(self.bridge_rx.deadline())
-        self.bridge_rx.poll(int(self.now_us))
+    def broadcast(self, counter: int, node_rx: list[cores.Rs485Receiver]) -> float:
+        """SYNC through the master; the first byte's stop bit, which every node time-stamps."""
+        o = self._transaction(lambda now: self.master.begin(cores.OP_SYNC, 0, 0, 0, counter & 0xFF, None, now),
+                              node_rx, None, 0.0)
+        first = o.request_end_us - (len(cores.rs485_sync(counter)) - 1) * self.char_us
         for rx in node_rx:
-            rx.poll(int(self.now_us))
-        return first, end
+            rx.poll(int(o.done_us))
+        return first
 
-    def poll(self, request: bytes, answer: bytes | None, node_rx: cores.Rs485Receiver,
+    def poll(self, address: int, mailbox: int, read: bool, payload: bytes, node_rx: cores.Rs485Receiver | None,
              stall_us: float = 0.0) -> Outcome:
-        """The bridge sends `request`; the node (receiver `node_rx`) answers `answer` (None: nobody
-        there). `stall_us` holds the node's answer that long before its second character."""
-        start = self.wait_silent()
-        req_end = self._send(request, start, [self.bridge_rx, node_rx], (0.0, 0.0))
-        node_end = float(node_rx.deadline())
-        got = node_rx.poll(int(node_end)) & cores.EV_END
-        heard = node_rx.last()
-        self.bridge_rx.poll(int(node_end))
-        if answer is None or not got or heard.n != len(request):
-            # the answer's deadline: t3.5 + the turnaround allowance + one character after the request's end
-            done = req_end + self.tm.t35_us + self.tm.turnaround_us + self.char_us
-            return self._finish(Outcome("NO_NODE", start, req_end, None, done))
-        if not heard.check_ok:
-            answer = cores.rs485_response(STATUS_CHECKSUM, answer[0] >> 4 & 7)  # the node refuses it
-        ready = req_end if self.mutant_answer_early else node_end
-        ans_start = ready + self.rng.uniform(*self.node_latency_us) + self.rng.uniform(*self.driver_enable_us)
-        if ans_start - req_end > self.tm.t35_us + self.tm.turnaround_us + self.char_us:
-            done = req_end + self.tm.t35_us + self.tm.turnaround_us + self.char_us
-            return self._finish(Outcome("NO_NODE", start, req_end, None, done))
-        broken_before = self.broken
-        ans_end = self._send(answer, ans_start, [self.bridge_rx, node_rx], self.gap_us,
-                             stall_at=1 if stall_us > 0 else None, stall_us=stall_us)
-        done = float(self.bridge_rx.deadline())
-        ended = self.bridge_rx.poll(int(done)) & cores.EV_END
-        node_rx.poll(int(done))
-        got_back = self.bridge_rx.last()
-        if self.broken > broken_before or not ended:
-            status = "TIMEOUT"
-        elif got_back.n != len(answer):
-            status = "CHECKSUM"  # the request and its answer ran together into one frame
-        elif not got_back.check_ok:
-            status = "CHECKSUM" if request[1] & READ_BIT else "TIMEOUT"
-        else:
-            status = STATUS_NAMES.get(answer[0] & 0x0F, "BAD_REQUEST")
-        return self._finish(Outcome(status, start, req_end, ans_start, max(done, ans_end)))
+        """The master reads `len(payload)` bytes of outbox `mailbox` (the node holds `payload`) or
+        writes `payload` into inbox `mailbox` of node `address`, whose receiver is `node_rx` (None:
+        nobody there). The node answers what its checks give: CHECKSUM for a request that fails its
+        check, else OK (with the data of a read). `stall_us` holds its answer before the second
+        character."""
+        op = cores.OP_READ if read else cores.OP_WRITE
+
+        def answer(heard: cores.Rs485Frame) -> bytes:
+            if not heard.check_ok:
+                return cores.rs485_response(STATUS_CHECKSUM, mailbox)
+            return cores.rs485_response(0, mailbox, payload if read else b"")
+
+        return self._transaction(
+            lambda now: self.master.begin(op, address, mailbox, len(payload), 0, None if read else payload, now),
+            [node_rx] if node_rx is not None else [], answer if node_rx is not None else None, stall_us)
+
+    def read_back(self, n: int) -> bytes:
+        """The data the last read returned."""
+        return self.master.data(n)
 
     def _finish(self, o: Outcome) -> Outcome:
         self.now_us = o.done_us
