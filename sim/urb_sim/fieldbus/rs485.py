@@ -1,9 +1,10 @@
 """A half-duplex RS485 line polled by a bridge, character by character.
 
-Each end's receiver is the firmware's (`cores.Rs485Receiver`: `urb_rs485_rx_*`), fed with the stop
-bit's instant of every character, so the silence rules are the C core's: a frame ends after t3.5
-of silence (seen t3.5 + one character after its last byte), a silence over t1.5 inside a frame
-discards it. What the line adds (sim/README.md, "Downlinks"):
+The bridge is the firmware's master (`cores.Rs485Bridge`: `urb_rs485_master.c`, its echo check,
+silence rules, NO_NODE allowance, timeouts and statuses); the nodes' receivers are the firmware's
+(`cores.Rs485Receiver`: `urb_rs485_rx_*`), fed with the stop bit's instant of every character, so a
+frame ends after t3.5 of silence (seen t3.5 + one character after its last byte) and a silence over
+t1.5 inside a frame discards it. What the line adds (sim/README.md, "Downlinks"):
 
 * characters of 10 bits (8N1) back to back from a UART with a FIFO, or with gaps when a node's
   transmit interrupt is late (`gap_us`, drawn per character; a stalled node, `stall_us`, breaks its
