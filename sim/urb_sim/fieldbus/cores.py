@@ -20,36 +20,43 @@ from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
 
-from ..build import BUILD, REPO, BuildError, unpreloaded_env
+from ..build import BUILD, REPO, SANITIZE_FLAGS, BuildError, unpreloaded_env, variant
 
 LIBRARY = BUILD / "liburbdl.so"
 SOURCES = ["sim/downlink/sim_can_bridge.c", "sim/downlink/sim_rs485_bridge.c", "firmware/downlink/can/urb_can_master.c",
            "firmware/downlink/rs485/urb_rs485_master.c",
            "firmware/downlink/can/urb_can_transfer.c", "firmware/downlink/rs485/urb_rs485_frame.c",
            "gen/c/urb_runtime.c", "gen/c/urb_core.c", "gen/c/urb_can_wire.c", "gen/c/urb_rs485_wire.c"]
-HEADERS = ["firmware/include/urb_rs485_master.h", "firmware/include/urb_can_master.h", "firmware/include/urb_downlink.h", "firmware/include/urb_can.h", "firmware/include/urb_rs485.h", "gen/c/urb_can_wire.h",
-           "gen/c/urb_rs485_wire.h", "gen/c/urb_core.h", "gen/c/urb_runtime.h"]
 
 REQUEST, RESPONSE = 0, 1
 SYNC_ID = 0x000
 
 
+def library_path() -> Path:
+    """build/sim/liburbdl.so, or build/sim/san/liburbdl.so when URBSIM_SANITIZE=1 selects the
+    sanitized simulation (tools/sim_sanitized.py: the masters then run under ASan + UBSan too)."""
+    return (BUILD / "san" / LIBRARY.name) if variant()[0] else LIBRARY
+
+
 def _build() -> Path:
-    inputs = [REPO / p for p in SOURCES + HEADERS] + [Path(__file__)]
-    if LIBRARY.exists() and all(p.stat().st_mtime <= LIBRARY.stat().st_mtime for p in inputs):
-        return LIBRARY
-    LIBRARY.parent.mkdir(parents=True, exist_ok=True)
-    tmp = LIBRARY.with_suffix(f".so.tmp{os.getpid()}")
-    cmd = [os.environ.get("CC", "gcc"), "-std=c99", "-O2", "-fPIC", "-shared", "-Wall", "-Wextra", "-Werror",
+    library = library_path()
+    inputs = ([REPO / p for p in SOURCES] + sorted((REPO / "firmware/include").glob("*.h"))
+              + sorted((REPO / "gen/c").glob("*.h")) + [Path(__file__)])
+    if library.exists() and all(p.stat().st_mtime <= library.stat().st_mtime for p in inputs):
+        return library
+    library.parent.mkdir(parents=True, exist_ok=True)
+    tmp = library.with_suffix(f".so.tmp{os.getpid()}")
+    flags = ["-O1", *SANITIZE_FLAGS] if variant()[0] else ["-O2"]
+    cmd = [os.environ.get("CC", "gcc"), "-std=c99", *flags, "-fPIC", "-shared", "-Wall", "-Wextra", "-Werror",
            "-Wl,--no-undefined", f"-I{REPO / 'firmware/include'}", f"-I{REPO / 'gen/c'}",
            *(str(REPO / s) for s in SOURCES), "-o", str(tmp)]
     proc = subprocess.run(cmd, capture_output=True, text=True, env=unpreloaded_env(), check=False)
     if proc.returncode != 0:
         tmp.unlink(missing_ok=True)
         raise BuildError("building the downlink cores for the simulation failed:\n  " + shlex.join(cmd) + "\n"
-                         + proc.stdout + proc.stderr + "\nFix the error above in firmware/downlink or gen/c.")
-    tmp.replace(LIBRARY)
-    return LIBRARY
+                         + proc.stdout + proc.stderr + "\nFix the error above in firmware/downlink, gen/c or sim/downlink.")
+    tmp.replace(library)
+    return library
 
 
 class _CanTx(ctypes.Structure):
