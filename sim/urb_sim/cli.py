@@ -71,10 +71,11 @@ Downlinks (--downlink; the experiments run when --only is not given):
   all      every experiment above
 CAN and RS485 are bit-timed bus models (to the bit, with stuffing of each frame's actual bits,
 arbitration, error frames, error counters, bus-off and recovery; RS485 to the character, with
-driver turnaround and the t3.5 / t1.5 silences) carrying the frames of the firmware's downlink
-cores (firmware/downlink, loaded through ctypes). Their criteria are derived from the bus
-timing, and their report holds one table with I2C, CAN and RS485 side by side (latency,
-SYNC inter-node difference, motor cycle, control) and the model's assumptions.
+driver turnaround and the t3.5 / t1.5 silences) on which the bridges' CAN and RS485 masters of
+firmware/downlink run (loaded through ctypes; the nodes are modelled until the node library
+can choose these downlinks). Their criteria are derived from the bus timing, and their report
+holds one table with I2C, CAN and RS485 side by side (latency, SYNC inter-node difference,
+motor cycle, control) and the model's assumptions (sim/README.md, "Downlinks").
 
 Output: DIR/index.html (open it first), DIR/summary.json, and one folder per experiment.
 The same seed gives the same numbers, byte for byte. The report's headline names every
