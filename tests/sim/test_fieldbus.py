@@ -303,18 +303,18 @@ def test_simulated_reads_stay_within_their_derived_bounds() -> None:
         assert all(r.within for r in rows), [(r.payload, min(r.samples), max(r.samples), r.lo, r.hi) for r in rows]
 
 
-def test_transfers_on_the_bus_pass_the_firmware_s_reassembler() -> None:
-    """Every read of 1..32 bytes goes through the bus, the node's reassembler and the firmware's
-    master (its statuses); an empty answer is the master's BAD_REQUEST (no such outbox); a repeated or
-    reordered frame does not reassemble (the check can fail)."""
+def test_transfers_between_the_firmware_s_master_and_slave() -> None:
+    """Every read and write of 1..32 bytes goes through the bus between the firmware's master and a
+    node's slave (urb_can_master.c, urb_can_slave.c): the data arrive (the downlink checks it, or
+    raises); an empty outbox is the master's BAD_REQUEST; a SYNC reaches the node's mailboxes."""
     d = cycle.CanDownlink(1_000_000, random.Random(9), (5,))
     assert d.transact(0.0, cycle.Txn(5, 2, True, b"")).status == "BAD_REQUEST"
     for n in range(1, 33):
         assert d.transact(n * 3000.0, cycle.Txn(5, 2, True, bytes(range(100, 100 + n)))).status == "OK", n
-    frames = cores.can_transfer(bytes(range(20)), 9)
-    assert cycle.reassembled(frames) == (bytes(range(20)), 9)
-    assert cycle.reassembled([frames[0], frames[0], *frames[1:]]) is None
-    assert cycle.reassembled([frames[1], frames[0], *frames[2:]]) is None
+        assert d.transact(n * 3000.0 + 1500, cycle.Txn(5, 3, False, bytes(range(n)))).status == "OK", n
+    assert d.slaves[5].inbox(3, 32) == (bytes(range(32)), 32)
+    t = d.sync(200_000.0, 7)
+    assert t is not None and d.slaves[5].syncs() == (1, int(t))
 
 
 def test_a_bridge_that_goes_bus_off_reports_timeout_then_bus_stuck_and_recovers() -> None:

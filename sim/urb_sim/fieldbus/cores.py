@@ -3,9 +3,10 @@
 The simulation's frames are the firmware's: identifiers from `urb_can_id`, the frames of a transfer
 from the segmenter `urb_can_tx_init`/`urb_can_tx_next` (tail bytes, transfer CRC), the RS485
 frames from the generated encoders and its timing (t1.5, t3.5, the turnaround allowance) from
-`urb_rs485_timing`, both ends' receivers (`urb_can_rx_frame`, `urb_rs485_rx_*`), and the bridge's CAN
-master and RS485 master themselves (`urb_can_master.c`, `urb_rs485_master.c`, behind the HALs of
-sim/downlink/: their statuses, timeouts, silence rules and bus-off handling are the firmware's). They are compiled from the committed sources into build/sim/liburbdl.so, a
+`urb_rs485_timing`, the RS485 receivers (`urb_rs485_rx_*`), and the bridge's CAN
+master and RS485 master and the CAN node's slave themselves (`urb_can_master.c`, `urb_rs485_master.c`,
+`urb_can_slave.c`, behind the HALs of sim/downlink/: their statuses, timeouts, silence rules, duplicate
+filter and bus-off handling are the firmware's). They are compiled from the committed sources into build/sim/liburbdl.so, a
 library of its own (the full simulation library, liburbsim.so, does not link the downlink cores
 yet: the node library and the bridge choose their downlink in phase 2 of issue #39).
 """
@@ -23,7 +24,7 @@ from pathlib import Path
 from ..build import BUILD, REPO, SANITIZE_FLAGS, BuildError, unpreloaded_env, variant
 
 LIBRARY = BUILD / "liburbdl.so"
-SOURCES = ["sim/downlink/sim_can_bridge.c", "sim/downlink/sim_rs485_bridge.c", "firmware/downlink/can/urb_can_master.c",
+SOURCES = ["sim/downlink/sim_can_node.c", "firmware/downlink/can/urb_can_slave.c", "sim/downlink/sim_can_bridge.c", "sim/downlink/sim_rs485_bridge.c", "firmware/downlink/can/urb_can_master.c",
            "firmware/downlink/rs485/urb_rs485_master.c",
            "firmware/downlink/can/urb_can_transfer.c", "firmware/downlink/rs485/urb_rs485_frame.c",
            "gen/c/urb_runtime.c", "gen/c/urb_core.c", "gen/c/urb_can_wire.c", "gen/c/urb_rs485_wire.c"]
@@ -137,12 +138,20 @@ def lib() -> ctypes.CDLL:
     dll.sim_rs485_bridge_data.restype = ctypes.POINTER(ctypes.c_uint8)
     dll.sim_rs485_bridge_data.argtypes = [vp]
     dll.sim_rs485_bridge_set_silences.argtypes = [vp, ctypes.c_uint16, ctypes.c_uint16]
-    dll.urb_can_rx_reset.argtypes = [ctypes.c_void_p]
-    dll.urb_can_rx_frame.restype = ctypes.c_int
-    dll.urb_can_rx_frame.argtypes = [ctypes.c_void_p, ctypes.c_char_p, ctypes.c_uint8, ctypes.c_char_p, ctypes.c_uint8]
-    for name in ("urb_can_rx_len", "urb_can_rx_tid"):
-        getattr(dll, name).restype = ctypes.c_uint8
-        getattr(dll, name).argtypes = [ctypes.c_void_p]
+    dll.sim_can_node_size.restype = ctypes.c_size_t
+    dll.sim_can_node_init.restype = ctypes.c_bool
+    dll.sim_can_node_init.argtypes = [vp, ctypes.c_uint8, ctypes.c_uint16]
+    dll.sim_can_node_set_inbox.argtypes = [vp, ctypes.c_uint8, ctypes.c_uint8]
+    dll.sim_can_node_set_outbox.argtypes = [vp, ctypes.c_uint8, ctypes.c_char_p, ctypes.c_uint8]
+    dll.sim_can_node_rx.argtypes = [vp, ctypes.POINTER(_CanFrame), ctypes.c_uint32]
+    dll.sim_can_node_take.restype = ctypes.c_bool
+    dll.sim_can_node_take.argtypes = [vp, ctypes.POINTER(_CanFrame)]
+    dll.sim_can_node_tx_done.argtypes = [vp]
+    dll.sim_can_node_set_state.argtypes = [vp, ctypes.c_uint8]
+    dll.sim_can_node_inbox.restype = ctypes.POINTER(ctypes.c_uint8)
+    dll.sim_can_node_inbox.argtypes = [vp, ctypes.c_uint8, ctypes.POINTER(ctypes.c_uint32)]
+    dll.sim_can_node_syncs.restype = ctypes.c_uint32
+    dll.sim_can_node_syncs.argtypes = [vp, ctypes.POINTER(ctypes.c_uint32)]
     rx = ctypes.c_void_p
     dll.urb_rs485_rx_init.argtypes = [rx, rx, ctypes.c_uint32]
     dll.urb_rs485_rx_byte.restype = ctypes.c_uint8
@@ -297,35 +306,6 @@ class Rs485Receiver:
         return Rs485Frame(f.n, bytes(f.head), bool(f.check_ok), f.t_first, f.t_last)
 
 
-class _CanRx(ctypes.Structure):
-    _fields_ = [("crc", ctypes.c_uint16), ("count", ctypes.c_uint8), ("tid", ctypes.c_uint8),
-                ("toggle", ctypes.c_uint8), ("active", ctypes.c_uint8), ("single", ctypes.c_uint8)]
-
-
-#: urb_can_rx_result_t
-RX_MORE, RX_DONE, RX_CRC = 0, 1, 2
-
-
-class CanReassembler:
-    """One session's receiver: the firmware's `urb_can_rx_frame` (toggle, transfer id, transfer CRC)."""
-
-    def __init__(self) -> None:
-        self._rx = _CanRx()
-        self._out = ctypes.create_string_buffer(32)
-        lib().urb_can_rx_reset(ctypes.byref(self._rx))
-
-    def frame(self, data: bytes) -> int:
-        """The urb_can_rx_result_t of one received frame."""
-        return int(lib().urb_can_rx_frame(ctypes.byref(self._rx), data, len(data), self._out, 32))
-
-    def payload(self) -> bytes:
-        """The payload of the transfer the last RX_DONE completed."""
-        return self._out.raw[:int(lib().urb_can_rx_len(ctypes.byref(self._rx)))]
-
-    def tid(self) -> int:
-        return int(lib().urb_can_rx_tid(ctypes.byref(self._rx)))
-
-
 #: urb_dl_op_t, urb_can_state_t, URB_DOWNLINK_BUSY / _IDLE and urb_status_t's names
 OP_READ, OP_WRITE, OP_SYNC = 0, 1, 2
 CAN_STATE = {"error-active": 0, "error-passive": 1, "bus-off": 2}
@@ -415,3 +395,48 @@ class Rs485Bridge:
 
     def data(self, n: int) -> bytes:
         return bytes(lib().sim_rs485_bridge_data(self._p)[:n])
+
+
+class CanNode:
+    """The firmware's CAN slave (`urb_can_slave.c`) of node `address`, behind a HAL the bus drives,
+    with a mailbox table of fixed sizes in place of the node library (sim/downlink/sim_can_node.c)."""
+
+    def __init__(self, address: int, bitrate: int) -> None:
+        self._mem = ctypes.create_string_buffer(int(lib().sim_can_node_size()))
+        self._p = ctypes.cast(self._mem, ctypes.c_void_p)
+        if not lib().sim_can_node_init(self._p, address, bitrate // 1000):
+            raise ValueError(f"urb_can_slave_init refused node address {address}")
+
+    def set_inbox(self, mailbox: int, size: int) -> None:
+        lib().sim_can_node_set_inbox(self._p, mailbox, size)
+
+    def set_outbox(self, mailbox: int, data: bytes) -> None:
+        lib().sim_can_node_set_outbox(self._p, mailbox, data, len(data))
+
+    def rx(self, can_id: int, data: bytes, t_us: int) -> None:
+        f = _CanFrame(can_id, len(data), (ctypes.c_uint8 * 8)(*data))
+        lib().sim_can_node_rx(self._p, ctypes.byref(f), t_us & 0xFFFFFFFF)
+
+    def take(self) -> tuple[int, bytes] | None:
+        f = _CanFrame()
+        if not lib().sim_can_node_take(self._p, ctypes.byref(f)):
+            return None
+        return int(f.id), bytes(f.data[:f.len])
+
+    def tx_done(self) -> None:
+        lib().sim_can_node_tx_done(self._p)
+
+    def set_state(self, state: str) -> None:
+        lib().sim_can_node_set_state(self._p, CAN_STATE[state])
+
+    def inbox(self, mailbox: int, n: int) -> tuple[bytes, int]:
+        """Inbox `mailbox`'s latest committed `n` bytes and the count of committed writes."""
+        writes = ctypes.c_uint32()
+        p = lib().sim_can_node_inbox(self._p, mailbox, ctypes.byref(writes))
+        return bytes(p[:n]), int(writes.value)
+
+    def syncs(self) -> tuple[int, int]:
+        """SYNCs passed on to the mailboxes and the last one's time stamp (us)."""
+        last = ctypes.c_uint32()
+        n = lib().sim_can_node_syncs(self._p, ctypes.byref(last))
+        return int(n), int(last.value)

@@ -59,7 +59,7 @@ class CanDownlink:
         self.nodes = {a: self.bus.attach(f"node{a}", self.tx_fault.get(a, 0.0)) for a in self.addresses}
         self.master = cores.CanBridge(self.bitrate)
         self.master_aborts = 0
-        self._req_id = 0
+        self.slaves = {a: cores.CanNode(a, self.bitrate) for a in self.addresses}
 
     def now_us(self) -> float:
         return self.bus.ns(self.bus.now) / 1000.0
@@ -75,14 +75,12 @@ class CanDownlink:
         while (f := self.master.take()) is not None:
             self.bus.send(can.Frame(f[0], f[1], "bridge", "bridge"), self.bus.ns(self.bus.now))
 
-    def _master(self, begin: Callable[[int], bool], node: int | None, answer: bytes | None) -> tuple[str, float, int | None]:
-        """Run one transaction of the firmware's master to its end: (status, end in us, the start of
-        its first frame on the bus in bits). `node` answers `answer` once it reassembles the request
-        (None: nobody answers, as for SYNC)."""
-        self.master.set_state(self.bridge.state)
+    def _master(self, begin: Callable[[int], bool]) -> tuple[str, float, int | None]:
+        """Run one transaction of the firmware's master to its end, the nodes' slaves answering:
+        (status, end in us, the start of its first frame on the bus in bits)."""
+        self._states()
         if not begin(int(self.now_us())):
             raise RuntimeError("the CAN master refused a transaction while idle")
-        request: list[bytes] = []
         first: int | None = None
         end_us = self.now_us()
         while True:
@@ -91,71 +89,68 @@ class CanDownlink:
             if status >= 0:
                 return cores.STATUS[status], end_us, first
             d = self.bus.step(self.bus.now + self.bus.bit_at(POLL_US * 1000))
-            self.master.set_state(self.bridge.state)
+            self._states()
             end_us = self.now_us()
             if d is None or not d.ok:
                 continue
+            end_us = self._us(d.end - can.INTERMISSION_BITS)
             if d.frame.sender == "bridge":
                 first = d.start if first is None else first
                 self.master.tx_done()
-                request.append(d.frame.data)
-                end_us = self._us(d.end - can.INTERMISSION_BITS)
-                if node is not None and answer is not None and d.frame.can_id == self._req_id:
-                    self._node_hears(node, request, answer, d.end)
-            elif d.frame.tag == ("ans", node):
+            else:
                 self.master.rx(d.frame.can_id, d.frame.data)
-                end_us = self._us(d.end - can.INTERMISSION_BITS)
+                self.slaves[int(d.frame.sender[4:])].tx_done()
+            self._deliver(d)
 
-    def _node_hears(self, address: int, request: list[bytes], answer: bytes, end_bits: int) -> None:
-        """The node reassembles the request (the firmware's reassembler) and queues its answer after
-        its latency, with the request's transfer id."""
-        node = self.nodes.get(address)
-        got = reassembled(request)
-        if node is None or node.state == can.BUS_OFF or got is None:
-            return
-        t_ans = self._us(end_bits - can.INTERMISSION_BITS) + self.rng.uniform(*self.node_latency_us)
-        ans_id = self._req_id | (1 << 10)
-        for data in cores.can_transfer(answer, got[1]):
-            self.bus.send(can.Frame(ans_id, data, node.name, ("ans", address)), int(t_ans * 1000))
+    def _states(self) -> None:
+        self.master.set_state(self.bridge.state)
+        for a, slave in self.slaves.items():
+            slave.set_state(self.nodes[a].state)
+
+    def _deliver(self, d: can.Delivery) -> None:
+        """Every other node's slave receives the frame (time-stamped at its start of frame) and
+        queues what it answers, after the node's latency."""
+        at = int(self._us(d.start))
+        for a, slave in self.slaves.items():
+            if d.frame.sender == self.nodes[a].name or self.nodes[a].state == can.BUS_OFF:
+                continue
+            slave.rx(d.frame.can_id, d.frame.data, at)
+            t_ans = self._us(d.end - can.INTERMISSION_BITS) + self.rng.uniform(*self.node_latency_us)
+            while (f := slave.take()) is not None:
+                self.bus.send(can.Frame(f[0], f[1], self.nodes[a].name, "answer"), int(t_ans * 1000))
 
     def sync(self, t_us: float, counter: int) -> float | None:
         """SYNC (identifier 0) through the master at t_us; the instant (us) of its start of frame, which
         every node time-stamps, or None when it did not go through."""
         self.bus.run_until(self.bus.bit_at(int(t_us * 1000)))
-        self._req_id = cores.SYNC_ID
-        status, _, first = self._master(lambda now: self.master.begin(cores.OP_SYNC, 0, 0, 0, counter & 0xFF, None, now),
-                                        None, None)
+        status, _, first = self._master(lambda now: self.master.begin(cores.OP_SYNC, 0, 0, 0, counter & 0xFF, None,
+                                                                      now))
         return self._us(first) if status == "OK" and first is not None else None
 
     def transact(self, t_us: float, txn: Txn) -> Done:
         start = max(t_us, self.now_us()) + self.rng.uniform(*self.bridge_latency_us)
         self.bus.run_until(self.bus.bit_at(int(start * 1000)))
-        self._req_id = cores.can_id(txn.address, txn.mailbox, txn.read, cores.REQUEST)
         op = cores.OP_READ if txn.read else cores.OP_WRITE
         data = None if txn.read else txn.payload
+        slave = self.slaves.get(txn.address)
+        if slave is not None:  # the node's mailbox of this size (its application's layout)
+            if txn.read:
+                slave.set_outbox(txn.mailbox, txn.payload)
+            else:
+                slave.set_inbox(txn.mailbox, len(txn.payload))
         begin_us = self.now_us()
         status, end_us, _ = self._master(
-            lambda now: self.master.begin(op, txn.address, txn.mailbox, len(txn.payload), 0, data, now),
-            txn.address, txn.payload if txn.read else b"")
+            lambda now: self.master.begin(op, txn.address, txn.mailbox, len(txn.payload), 0, data, now))
         if status == "OK" and txn.read and self.master.data(len(txn.payload)) != txn.payload:
             raise RuntimeError("the CAN master reported OK with other data than the node sent")
-        for n in self.nodes.values():
-            n.queue.clear()  # an answer still queued after a timeout: the master ignores it (stale)
+        if status == "OK" and not txn.read and slave is not None and \
+                slave.inbox(txn.mailbox, len(txn.payload))[0] != txn.payload:
+            raise RuntimeError("the CAN master reported OK for a write the node did not store")
         return self._done(status, begin_us, end_us)
 
     def _done(self, status: str, start: float, end: float) -> Done:
         self.statuses[status] = self.statuses.get(status, 0) + 1
         return Done(status, start, end)
-
-
-def reassembled(frames: list[bytes]) -> tuple[bytes, int] | None:
-    """The payload and transfer id the firmware's reassembler makes of a session's frames, or None
-    when they do not complete one transfer."""
-    rx = cores.CanReassembler()
-    results = [rx.frame(f) for f in frames]
-    if results[-1:] != [cores.RX_DONE] or any(r != cores.RX_MORE for r in results[:-1]):
-        return None
-    return rx.payload(), rx.tid()
 
 
 @dataclass

@@ -1,0 +1,211 @@
+/* The node side of the CAN downlink, the firmware's urb_can_slave, behind a CAN HAL that the Python
+ * bus model drives through ctypes, with a mailbox table of fixed sizes standing in for the node
+ * library (one inbox buffer per mailbox, committed writes counted; outboxes set by the model).
+ * Compiled into build/sim/liburbdl.so only. Not firmware: a simulation harness (issue #39). */
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+
+#include "urb_can.h"
+#include "urb_can_slave.h"
+#include "urb_dl_slave.h"
+
+#define SIM_NODE_TXQ 8u
+#define SIM_NODE_BOXES 8u
+#define SIM_NODE_BYTES 32u
+
+typedef struct {
+    urb_can_hal_t hal;
+    urb_dl_mailbox_t mb;
+    urb_can_slave_t slave;
+    urb_can_frame_t txq[SIM_NODE_TXQ];
+    uint8_t txq_head, txq_len;
+    uint8_t state;
+    uint8_t in_size[SIM_NODE_BOXES], out_size[SIM_NODE_BOXES];
+    uint8_t wbuf[SIM_NODE_BOXES][SIM_NODE_BYTES];
+    uint8_t inbox[SIM_NODE_BOXES][SIM_NODE_BYTES];
+    uint32_t writes[SIM_NODE_BOXES];
+    uint8_t outbox[SIM_NODE_BOXES][SIM_NODE_BYTES];
+    uint32_t syncs, last_sync_t, faults, aborts;
+} sim_can_node_t;
+
+static bool hal_tx(void *ctx, const urb_can_frame_t *frame)
+{
+    sim_can_node_t *n = (sim_can_node_t *)ctx;
+    if (n->txq_len >= SIM_NODE_TXQ) {
+        return false;
+    }
+    n->txq[(uint8_t)((n->txq_head + n->txq_len) % SIM_NODE_TXQ)] = *frame;
+    n->txq_len++;
+    return true;
+}
+
+static void hal_tx_abort(void *ctx)
+{
+    sim_can_node_t *n = (sim_can_node_t *)ctx;
+    n->txq_len = 0u;
+    n->aborts++;
+}
+
+static uint8_t hal_state(void *ctx)
+{
+    return ((const sim_can_node_t *)ctx)->state;
+}
+
+static void hal_recover(void *ctx)
+{
+    (void)ctx; /* the bus model recovers a bus-off controller after 128 x 11 recessive bits */
+}
+
+static uint8_t mb_inbox_size(void *ctx, uint8_t m)
+{
+    return ((const sim_can_node_t *)ctx)->in_size[m & 7u];
+}
+
+static uint8_t mb_outbox_size(void *ctx, uint8_t m)
+{
+    return ((const sim_can_node_t *)ctx)->out_size[m & 7u];
+}
+
+static uint8_t *mb_write_begin(void *ctx, uint8_t m)
+{
+    return ((sim_can_node_t *)ctx)->wbuf[m & 7u];
+}
+
+static void mb_write_commit(void *ctx, uint8_t m)
+{
+    sim_can_node_t *n = (sim_can_node_t *)ctx;
+    memcpy(n->inbox[m & 7u], n->wbuf[m & 7u], SIM_NODE_BYTES);
+    n->writes[m & 7u]++;
+}
+
+static void mb_write_abort(void *ctx, uint8_t m)
+{
+    (void)ctx;
+    (void)m;
+}
+
+static const uint8_t *mb_read_begin(void *ctx, uint8_t m)
+{
+    return ((const sim_can_node_t *)ctx)->outbox[m & 7u];
+}
+
+static void mb_read_end(void *ctx, uint8_t m, bool complete)
+{
+    (void)ctx;
+    (void)m;
+    (void)complete;
+}
+
+static void mb_sync(void *ctx, uint32_t t, uint8_t counter)
+{
+    sim_can_node_t *n = (sim_can_node_t *)ctx;
+    (void)counter;
+    n->syncs++;
+    n->last_sync_t = t;
+}
+
+static void mb_fault(void *ctx, uint8_t code)
+{
+    (void)code;
+    ((sim_can_node_t *)ctx)->faults++;
+}
+
+/** Bytes to allocate for one node (the caller owns the memory). */
+size_t sim_can_node_size(void)
+{
+    return sizeof(sim_can_node_t);
+}
+
+/** Initialises node `address` on a bus at `kbps`; false when the slave refuses the set-up. */
+bool sim_can_node_init(sim_can_node_t *n, uint8_t address, uint16_t kbps)
+{
+    memset(n, 0, sizeof(*n));
+    n->hal.ctx = n;
+    n->hal.tx = hal_tx;
+    n->hal.tx_abort = hal_tx_abort;
+    n->hal.state = hal_state;
+    n->hal.recover = hal_recover;
+    n->hal.lock = NULL;
+    n->mb.ctx = n;
+    n->mb.inbox_size = mb_inbox_size;
+    n->mb.outbox_size = mb_outbox_size;
+    n->mb.write_begin = mb_write_begin;
+    n->mb.write_commit = mb_write_commit;
+    n->mb.write_abort = mb_write_abort;
+    n->mb.read_begin = mb_read_begin;
+    n->mb.read_end = mb_read_end;
+    n->mb.sync = mb_sync;
+    n->mb.fault = mb_fault;
+    return urb_can_slave_init(&n->slave, &n->hal, &n->mb, address, urb_can_slave_dup_window_us(kbps));
+}
+
+/** Sets up inbox `m` with `size` bytes (0: none). */
+void sim_can_node_set_inbox(sim_can_node_t *n, uint8_t m, uint8_t size)
+{
+    n->in_size[m & 7u] = (size > SIM_NODE_BYTES) ? (uint8_t)SIM_NODE_BYTES : size;
+}
+
+/** Sets up outbox `m` with its contents (`size` bytes; 0: none). */
+void sim_can_node_set_outbox(sim_can_node_t *n, uint8_t m, const uint8_t *data, uint8_t size)
+{
+    size = (size > SIM_NODE_BYTES) ? (uint8_t)SIM_NODE_BYTES : size;
+    n->out_size[m & 7u] = size;
+    if ((data != NULL) && (size > 0u)) {
+        memcpy(n->outbox[m & 7u], data, size);
+    }
+}
+
+/** A frame on the bus, received at tick `t_us` (its start of frame). */
+void sim_can_node_rx(sim_can_node_t *n, const urb_can_frame_t *frame, uint32_t t_us)
+{
+    urb_can_slave_rx(&n->slave, frame, t_us);
+}
+
+/** Takes the oldest frame the slave queued; false when none waits. */
+bool sim_can_node_take(sim_can_node_t *n, urb_can_frame_t *out)
+{
+    if (n->txq_len == 0u) {
+        return false;
+    }
+    *out = n->txq[n->txq_head];
+    n->txq_head = (uint8_t)((n->txq_head + 1u) % SIM_NODE_TXQ);
+    n->txq_len--;
+    return true;
+}
+
+/** A frame the node queued went through. */
+void sim_can_node_tx_done(sim_can_node_t *n)
+{
+    urb_can_slave_tx_done(&n->slave);
+}
+
+/** The controller's state (urb_can_state_t) as the bus model has it; bus-off is reported to the slave. */
+void sim_can_node_set_state(sim_can_node_t *n, uint8_t state)
+{
+    if (state != n->state) {
+        n->state = state;
+        urb_can_slave_state(&n->slave, state);
+    }
+}
+
+/** Inbox `m`'s latest committed contents, and how many writes were committed. */
+const uint8_t *sim_can_node_inbox(const sim_can_node_t *n, uint8_t m, uint32_t *writes)
+{
+    *writes = n->writes[m & 7u];
+    return n->inbox[m & 7u];
+}
+
+/** SYNCs passed on to the mailboxes, and the time stamp of the last. */
+uint32_t sim_can_node_syncs(const sim_can_node_t *n, uint32_t *last_t)
+{
+    *last_t = n->last_sync_t;
+    return n->syncs;
+}
+
+/** tx_abort() calls so far (an answer dropped for bus-off or a newer request). */
+uint32_t sim_can_node_aborts(const sim_can_node_t *n)
+{
+    return n->aborts;
+}
