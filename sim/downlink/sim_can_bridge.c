@@ -10,15 +10,13 @@
 
 #include "urb_can.h"
 #include "urb_can_master.h"
-
-#define SIM_CAN_TXQ 8u /* the master queues at most a transfer's 5 frames */
+#include "sim_downlink.h"
 
 typedef struct {
     urb_can_hal_t hal;
     urb_can_master_t master;
     urb_downlink_t dl;
-    urb_can_frame_t txq[SIM_CAN_TXQ];
-    uint8_t txq_head, txq_len;
+    sim_can_fifo_t txq;
     uint8_t state;           /* urb_can_state_t, set by the model */
     uint32_t recover_calls;  /* recover() requests */
     uint32_t abort_calls;    /* tx_abort() requests */
@@ -27,19 +25,13 @@ typedef struct {
 
 static bool hal_tx(void *ctx, const urb_can_frame_t *frame)
 {
-    sim_can_bridge_t *b = (sim_can_bridge_t *)ctx;
-    if (b->txq_len >= SIM_CAN_TXQ) {
-        return false;
-    }
-    b->txq[(uint8_t)((b->txq_head + b->txq_len) % SIM_CAN_TXQ)] = *frame;
-    b->txq_len++;
-    return true;
+    return sim_can_fifo_push(&((sim_can_bridge_t *)ctx)->txq, frame);
 }
 
 static void hal_tx_abort(void *ctx)
 {
     sim_can_bridge_t *b = (sim_can_bridge_t *)ctx;
-    b->txq_len = 0u;
+    b->txq.len = 0u;
     b->abort_calls++;
 }
 
@@ -82,21 +74,7 @@ void sim_can_bridge_init(sim_can_bridge_t *b, uint16_t kbps)
 bool sim_can_bridge_begin(sim_can_bridge_t *b, uint8_t op, uint8_t address, uint8_t mailbox, uint8_t length,
                           uint8_t counter, const uint8_t *data, uint32_t now_us)
 {
-    if (length > URB_CAN_MAX_PAYLOAD) {
-        length = URB_CAN_MAX_PAYLOAD;
-    }
-    if ((data != NULL) && (length > 0u)) {
-        memcpy(b->data, data, length);
-    }
-    urb_downlink_txn_t t;
-    t.op = op;
-    t.address = address;
-    t.mailbox = mailbox;
-    t.length = length;
-    t.counter = counter;
-    t.reselect = false;
-    t.data = b->data;
-    return b->dl.begin(b->dl.ctx, &t, now_us);
+    return sim_downlink_begin(&b->dl, b->data, op, address, mailbox, length, counter, data, now_us);
 }
 
 /** The master's poll: URB_DOWNLINK_BUSY, _IDLE or the final urb_status_t. */
@@ -108,13 +86,7 @@ int8_t sim_can_bridge_poll(sim_can_bridge_t *b, uint32_t now_us)
 /** Takes the oldest frame the master queued into *out; false when none waits. */
 bool sim_can_bridge_take(sim_can_bridge_t *b, urb_can_frame_t *out)
 {
-    if (b->txq_len == 0u) {
-        return false;
-    }
-    *out = b->txq[b->txq_head];
-    b->txq_head = (uint8_t)((b->txq_head + 1u) % SIM_CAN_TXQ);
-    b->txq_len--;
-    return true;
+    return sim_can_fifo_pop(&b->txq, out);
 }
 
 /** A frame the bridge queued went through (in queue order). */

@@ -10,8 +10,8 @@
 #include "urb_can.h"
 #include "urb_can_slave.h"
 #include "urb_dl_slave.h"
+#include "sim_downlink.h"
 
-#define SIM_NODE_TXQ 8u
 #define SIM_NODE_BOXES 8u
 #define SIM_NODE_BYTES 32u
 
@@ -19,8 +19,7 @@ typedef struct {
     urb_can_hal_t hal;
     urb_dl_mailbox_t mb;
     urb_can_slave_t slave;
-    urb_can_frame_t txq[SIM_NODE_TXQ];
-    uint8_t txq_head, txq_len;
+    sim_can_fifo_t txq;
     uint8_t state;
     uint8_t in_size[SIM_NODE_BOXES], out_size[SIM_NODE_BOXES];
     uint8_t wbuf[SIM_NODE_BOXES][SIM_NODE_BYTES];
@@ -32,19 +31,13 @@ typedef struct {
 
 static bool hal_tx(void *ctx, const urb_can_frame_t *frame)
 {
-    sim_can_node_t *n = (sim_can_node_t *)ctx;
-    if (n->txq_len >= SIM_NODE_TXQ) {
-        return false;
-    }
-    n->txq[(uint8_t)((n->txq_head + n->txq_len) % SIM_NODE_TXQ)] = *frame;
-    n->txq_len++;
-    return true;
+    return sim_can_fifo_push(&((sim_can_node_t *)ctx)->txq, frame);
 }
 
 static void hal_tx_abort(void *ctx)
 {
     sim_can_node_t *n = (sim_can_node_t *)ctx;
-    n->txq_len = 0u;
+    n->txq.len = 0u;
     n->aborts++;
 }
 
@@ -166,13 +159,7 @@ void sim_can_node_rx(sim_can_node_t *n, const urb_can_frame_t *frame, uint32_t t
 /** Takes the oldest frame the slave queued; false when none waits. */
 bool sim_can_node_take(sim_can_node_t *n, urb_can_frame_t *out)
 {
-    if (n->txq_len == 0u) {
-        return false;
-    }
-    *out = n->txq[n->txq_head];
-    n->txq_head = (uint8_t)((n->txq_head + 1u) % SIM_NODE_TXQ);
-    n->txq_len--;
-    return true;
+    return sim_can_fifo_pop(&n->txq, out);
 }
 
 /** A frame the node queued went through. */

@@ -10,6 +10,7 @@
 
 #include "urb_rs485.h"
 #include "urb_rs485_master.h"
+#include "sim_downlink.h"
 
 typedef struct {
     urb_rs485_hal_t hal;
@@ -55,21 +56,7 @@ void sim_rs485_bridge_init(sim_rs485_bridge_t *b, uint32_t baud, uint32_t now_us
 bool sim_rs485_bridge_begin(sim_rs485_bridge_t *b, uint8_t op, uint8_t address, uint8_t mailbox, uint8_t length,
                             uint8_t counter, const uint8_t *data, uint32_t now_us)
 {
-    if (length > 32u) {
-        length = 32u;
-    }
-    if ((data != NULL) && (length > 0u)) {
-        memcpy(b->data, data, length);
-    }
-    urb_downlink_txn_t t;
-    t.op = op;
-    t.address = address;
-    t.mailbox = mailbox;
-    t.length = length;
-    t.counter = counter;
-    t.reselect = false;
-    t.data = b->data;
-    return b->dl.begin(b->dl.ctx, &t, now_us);
+    return sim_downlink_begin(&b->dl, b->data, op, address, mailbox, length, counter, data, now_us);
 }
 
 /** The master's poll: URB_DOWNLINK_BUSY, _IDLE or the final urb_status_t. */

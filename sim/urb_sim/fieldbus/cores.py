@@ -42,7 +42,7 @@ def library_path() -> Path:
 def _build() -> Path:
     library = library_path()
     inputs = ([REPO / p for p in SOURCES] + sorted((REPO / "firmware/include").glob("*.h"))
-              + sorted((REPO / "gen/c").glob("*.h")) + [Path(__file__)])
+              + sorted((REPO / "gen/c").glob("*.h")) + sorted((REPO / "sim/downlink").glob("*.h")) + [Path(__file__)])
     if library.exists() and all(p.stat().st_mtime <= library.stat().st_mtime for p in inputs):
         return library
     library.parent.mkdir(parents=True, exist_ok=True)
