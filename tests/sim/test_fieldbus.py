@@ -216,6 +216,7 @@ def test_bus_off_is_reached_and_recovered_and_reported_as_no_node() -> None:
             seen[a].add(d.transact(k * 1000.0, cycle.Txn(a, 1, True, bytes(6))).status)
     node = d.nodes[2]
     assert node.bus_off_count >= 2 and node.recoveries >= 2
+    assert d.slaves[2].aborts() >= node.bus_off_count  # the firmware's slave dropped its answer each time
     assert seen[1] == seen[3] == {"OK"} and seen[2] <= {"OK", "NO_NODE", "TIMEOUT"} and "NO_NODE" in seen[2]
 
 

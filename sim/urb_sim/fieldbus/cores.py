@@ -152,6 +152,8 @@ def lib() -> ctypes.CDLL:
     dll.sim_can_node_inbox.argtypes = [vp, ctypes.c_uint8, ctypes.POINTER(ctypes.c_uint32)]
     dll.sim_can_node_syncs.restype = ctypes.c_uint32
     dll.sim_can_node_syncs.argtypes = [vp, ctypes.POINTER(ctypes.c_uint32)]
+    dll.sim_can_node_aborts.restype = ctypes.c_uint32
+    dll.sim_can_node_aborts.argtypes = [vp]
     rx = ctypes.c_void_p
     dll.urb_rs485_rx_init.argtypes = [rx, rx, ctypes.c_uint32]
     dll.urb_rs485_rx_byte.restype = ctypes.c_uint8
@@ -434,6 +436,10 @@ class CanNode:
         writes = ctypes.c_uint32()
         p = lib().sim_can_node_inbox(self._p, mailbox, ctypes.byref(writes))
         return bytes(p[:n]), int(writes.value)
+
+    def aborts(self) -> int:
+        """The slave's tx_abort() requests (an answer dropped for bus-off or a newer request)."""
+        return int(lib().sim_can_node_aborts(self._p))
 
     def syncs(self) -> tuple[int, int]:
         """SYNCs passed on to the mailboxes and the last one's time stamp (us)."""

@@ -1,7 +1,7 @@
 """One downlink transaction at a time, as a bridge's master runs them, on CAN, RS485 and I2C.
 
-`CanDownlink` and `Rs485Downlink` run URB's transactions on the bit-timed models with the
-firmware's frames (`cores`); `I2cDownlink` gives the same transactions' durations from the I2C
+`CanDownlink` and `Rs485Downlink` run URB's transactions on the bit-timed models, driven by the
+firmware's masters (and, on CAN, the nodes' slave) through `cores`; `I2cDownlink` gives the same transactions' durations from the I2C
 simulation's measured costs (sim/README.md, Findings: 42 bytes of wire time, START/STOP, clock
 stretching, the bridge's turnaround and bus-free time per cycle of three motors), with no
 variation: it is the reference column, not a new I2C model.
@@ -60,6 +60,7 @@ class CanDownlink:
         self.master = cores.CanBridge(self.bitrate)
         self.master_aborts = 0
         self.slaves = {a: cores.CanNode(a, self.bitrate) for a in self.addresses}
+        self.slave_aborts = {a: 0 for a in self.addresses}
 
     def now_us(self) -> float:
         return self.bus.ns(self.bus.now) / 1000.0
@@ -103,9 +104,18 @@ class CanDownlink:
             self._deliver(d)
 
     def _states(self) -> None:
+        """Each controller's fault-confinement state to its core; a core's abort empties its controller."""
         self.master.set_state(self.bridge.state)
         for a, slave in self.slaves.items():
             slave.set_state(self.nodes[a].state)
+            self._aborted(a)
+
+    def _aborted(self, address: int) -> None:
+        """A slave that aborted its answer since the last look: its controller drops the frames it holds."""
+        n = self.slaves[address].aborts()
+        if n != self.slave_aborts[address]:
+            self.nodes[address].queue.clear()
+            self.slave_aborts[address] = n
 
     def _deliver(self, d: can.Delivery) -> None:
         """Every other node's slave receives the frame (time-stamped at its start of frame) and
@@ -115,6 +125,7 @@ class CanDownlink:
             if d.frame.sender == self.nodes[a].name or self.nodes[a].state == can.BUS_OFF:
                 continue
             slave.rx(d.frame.can_id, d.frame.data, at)
+            self._aborted(a)
             t_ans = self._us(d.end - can.INTERMISSION_BITS) + self.rng.uniform(*self.node_latency_us)
             while (f := slave.take()) is not None:
                 self.bus.send(can.Frame(f[0], f[1], self.nodes[a].name, "answer"), int(t_ans * 1000))
