@@ -40,7 +40,7 @@ The real node library, SensoRHex applications and bridge firmware (compiled for 
 run on simulated microcontrollers and buses: I2C at 400 kb/s, RS232 at 115200 Bd, USB with 1-ms
 frames, crystals with frequency error and drift. The host library runs unchanged on a simulated
 CPU whose threads wake on the 1-kHz OS tick. Each experiment writes CSV files and (all but
-traces) PNG figures, and states PASS or FAIL against its acceptance criterion:
+traces, can and rs485) PNG figures, and states PASS or FAIL against its acceptance criterion:
 
   fig15    round-trip latency of 1000 reads at 1 kHz over RS232 + I2C, payload 1..10 bytes
   fig16    the same over USB + I2C, payload 1..31 bytes
