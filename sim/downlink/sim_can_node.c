@@ -11,9 +11,8 @@
 #include "urb_can_slave.h"
 #include "urb_dl_slave.h"
 #include "sim_downlink.h"
+#include "sim_mailbox.h"
 
-#define SIM_NODE_BOXES 8u
-#define SIM_NODE_BYTES 32u
 
 typedef struct {
     urb_can_hal_t hal;
@@ -21,12 +20,8 @@ typedef struct {
     urb_can_slave_t slave;
     sim_can_fifo_t txq;
     uint8_t state;
-    uint8_t in_size[SIM_NODE_BOXES], out_size[SIM_NODE_BOXES];
-    uint8_t wbuf[SIM_NODE_BOXES][SIM_NODE_BYTES];
-    uint8_t inbox[SIM_NODE_BOXES][SIM_NODE_BYTES];
-    uint32_t writes[SIM_NODE_BOXES];
-    uint8_t outbox[SIM_NODE_BOXES][SIM_NODE_BYTES];
-    uint32_t syncs, last_sync_t, faults, aborts;
+    sim_mailbox_t boxes;
+    uint32_t aborts;
 } sim_can_node_t;
 
 static bool hal_tx(void *ctx, const urb_can_frame_t *frame)
@@ -51,60 +46,6 @@ static void hal_recover(void *ctx)
     (void)ctx; /* the bus model recovers a bus-off controller after 128 x 11 recessive bits */
 }
 
-static uint8_t mb_inbox_size(void *ctx, uint8_t m)
-{
-    return ((const sim_can_node_t *)ctx)->in_size[m & 7u];
-}
-
-static uint8_t mb_outbox_size(void *ctx, uint8_t m)
-{
-    return ((const sim_can_node_t *)ctx)->out_size[m & 7u];
-}
-
-static uint8_t *mb_write_begin(void *ctx, uint8_t m)
-{
-    return ((sim_can_node_t *)ctx)->wbuf[m & 7u];
-}
-
-static void mb_write_commit(void *ctx, uint8_t m)
-{
-    sim_can_node_t *n = (sim_can_node_t *)ctx;
-    memcpy(n->inbox[m & 7u], n->wbuf[m & 7u], SIM_NODE_BYTES);
-    n->writes[m & 7u]++;
-}
-
-static void mb_write_abort(void *ctx, uint8_t m)
-{
-    (void)ctx;
-    (void)m;
-}
-
-static const uint8_t *mb_read_begin(void *ctx, uint8_t m)
-{
-    return ((const sim_can_node_t *)ctx)->outbox[m & 7u];
-}
-
-static void mb_read_end(void *ctx, uint8_t m, bool complete)
-{
-    (void)ctx;
-    (void)m;
-    (void)complete;
-}
-
-static void mb_sync(void *ctx, uint32_t t, uint8_t counter)
-{
-    sim_can_node_t *n = (sim_can_node_t *)ctx;
-    (void)counter;
-    n->syncs++;
-    n->last_sync_t = t;
-}
-
-static void mb_fault(void *ctx, uint8_t code)
-{
-    (void)code;
-    ((sim_can_node_t *)ctx)->faults++;
-}
-
 /** Bytes to allocate for one node (the caller owns the memory). */
 size_t sim_can_node_size(void)
 {
@@ -121,33 +62,20 @@ bool sim_can_node_init(sim_can_node_t *n, uint8_t address, uint16_t kbps)
     n->hal.state = hal_state;
     n->hal.recover = hal_recover;
     n->hal.lock = NULL;
-    n->mb.ctx = n;
-    n->mb.inbox_size = mb_inbox_size;
-    n->mb.outbox_size = mb_outbox_size;
-    n->mb.write_begin = mb_write_begin;
-    n->mb.write_commit = mb_write_commit;
-    n->mb.write_abort = mb_write_abort;
-    n->mb.read_begin = mb_read_begin;
-    n->mb.read_end = mb_read_end;
-    n->mb.sync = mb_sync;
-    n->mb.fault = mb_fault;
+    sim_mailbox_init(&n->boxes, &n->mb);
     return urb_can_slave_init(&n->slave, &n->hal, &n->mb, address, urb_can_slave_dup_window_us(kbps));
 }
 
 /** Sets up inbox `m` with `size` bytes (0: none). */
 void sim_can_node_set_inbox(sim_can_node_t *n, uint8_t m, uint8_t size)
 {
-    n->in_size[m & 7u] = (size > SIM_NODE_BYTES) ? (uint8_t)SIM_NODE_BYTES : size;
+    sim_mailbox_set_inbox(&n->boxes, m, size);
 }
 
 /** Sets up outbox `m` with its contents (`size` bytes; 0: none). */
 void sim_can_node_set_outbox(sim_can_node_t *n, uint8_t m, const uint8_t *data, uint8_t size)
 {
-    size = (size > SIM_NODE_BYTES) ? (uint8_t)SIM_NODE_BYTES : size;
-    n->out_size[m & 7u] = size;
-    if ((data != NULL) && (size > 0u)) {
-        memcpy(n->outbox[m & 7u], data, size);
-    }
+    sim_mailbox_set_outbox(&n->boxes, m, data, size);
 }
 
 /** A frame on the bus, received at tick `t_us` (its start of frame). */
@@ -180,15 +108,15 @@ void sim_can_node_set_state(sim_can_node_t *n, uint8_t state)
 /** Inbox `m`'s latest committed contents, and how many writes were committed. */
 const uint8_t *sim_can_node_inbox(const sim_can_node_t *n, uint8_t m, uint32_t *writes)
 {
-    *writes = n->writes[m & 7u];
-    return n->inbox[m & 7u];
+    *writes = n->boxes.writes[m & 7u];
+    return n->boxes.inbox[m & 7u];
 }
 
 /** SYNCs passed on to the mailboxes, and the time stamp of the last. */
 uint32_t sim_can_node_syncs(const sim_can_node_t *n, uint32_t *last_t)
 {
-    *last_t = n->last_sync_t;
-    return n->syncs;
+    *last_t = n->boxes.last_sync_t;
+    return n->boxes.syncs;
 }
 
 /** tx_abort() calls so far (an answer dropped for bus-off or a newer request). */

@@ -236,7 +236,7 @@ def test_same_seed_same_trace() -> None:
 def silence_errors(line: rs485.Rs485Line) -> list[str]:
     """A read at 1 Mb/s: the node answers only after the request's t3.5 (+ one character, its view),
     within the turnaround allowance; a stall over t1.5 inside the answer breaks it."""
-    node = cores.Rs485Receiver(line.tm, 0)
+    node = line.node(3)
     wrong = []
     o = line.poll(3, 1, True, bytes(6), node)
     if o.status != "OK" or o.answer_start_us is None:
@@ -264,7 +264,7 @@ def test_rs485_check_rejects_an_answer_without_the_t35_silence() -> None:
 
 def test_rs485_a_node_slower_than_the_allowance_is_no_node() -> None:
     line = rs485.Rs485Line(1_000_000, random.Random(1), node_latency_us=(200.0, 200.0))
-    node = cores.Rs485Receiver(line.tm, 0)
+    node = line.node(3)
     assert line.poll(3, 1, True, bytes(6), node).status == "NO_NODE"
     assert line.poll(4, 1, True, bytes(6), None).status == "NO_NODE"  # nobody at that address
 
@@ -278,11 +278,12 @@ def test_rs485_timing_is_the_firmware_s_and_modbus_fixes_it_above_19200() -> Non
 
 def test_rs485_errors_give_checksum_or_timeout() -> None:
     line = rs485.Rs485Line(1_000_000, random.Random(7), ber=1e-3)
-    node = cores.Rs485Receiver(line.tm, 0)
+    node = line.node(2)
     for k in range(300):
         read = bool(k & 1)
         line.poll(2, 1, read, bytes(6) if read else b"\x05\x06", node)
-    assert set(line.statuses) <= {"OK", "CHECKSUM", "TIMEOUT"} and line.statuses.get("CHECKSUM", 0) > 0
+    # a corrupted address reaches no node: nobody answers, NO_NODE (the firmware's slave stays silent)
+    assert set(line.statuses) <= {"OK", "CHECKSUM", "TIMEOUT", "NO_NODE"} and line.statuses.get("CHECKSUM", 0) > 0
     assert line.corrupted > 0
 
 
@@ -327,3 +328,15 @@ def test_a_bridge_that_goes_bus_off_reports_timeout_then_bus_stuck_and_recovers(
         d.transact(0.0, cycle.Txn(1, 1, True, bytes(6)))
     assert {"OK", "TIMEOUT", "BUS_STUCK"} <= set(d.statuses) <= {"OK", "TIMEOUT", "BUS_STUCK"}
     assert d.master.recoveries() == d.statuses["BUS_STUCK"] and d.bridge.recoveries == d.bridge.bus_off_count > 0
+
+
+def test_rs485_transfers_between_the_firmware_s_master_and_slaves() -> None:
+    """Reads and writes of 1..32 bytes between urb_rs485_master.c and urb_rs485_slave.c on the line
+    (the downlink checks the data and the stored write, or raises); a SYNC reaches every node."""
+    d = cycle.Rs485Downlink(1_000_000, random.Random(3), (5, 6))
+    for n in range(1, 33):
+        assert d.transact(0.0, cycle.Txn(5, 2, True, bytes(range(50, 50 + n)))).status == "OK", n
+        assert d.transact(0.0, cycle.Txn(6, 3, False, bytes(range(n)))).status == "OK", n
+    assert d.nodes[6].inbox(3, 32) == (bytes(range(32)), 32)
+    d.sync(d.now_us() + 100.0, 9)
+    assert d.nodes[5].syncs()[0] == d.nodes[6].syncs()[0] == 1

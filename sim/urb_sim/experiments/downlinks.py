@@ -187,17 +187,17 @@ def _rs485_faults(res: Result, seed: int, polls: int) -> None:
     """Character errors and a stalled node on 1-Mb/s RS485."""
     rng = random.Random(f"rs485fault/{seed}")
     line = rs485.Rs485Line(1_000_000, rng, ber=3 * NOISY_BER)
-    node_rx = cores.Rs485Receiver(line.tm, 0)
+    node_rx = line.node(1)
     statuses: dict[str, int] = {}
     for k in range(polls):
         read = k % 2 == 1
         st = line.poll(1, 1 if read else 0, read, bytes(6) if read else b"\x01\x02", node_rx).status
         statuses[st] = statuses.get(st, 0) + 1
     stalled = line.poll(1, 1, True, bytes(6), node_rx, stall_us=line.tm.t15_us + 5).status
-    allowed = {"OK", "CHECKSUM", "TIMEOUT"}
+    allowed = {"OK", "CHECKSUM", "TIMEOUT", "NO_NODE"}
     res.check("RS485 errors reported as I2C flags",
-              f"with a bit error rate of {3 * NOISY_BER:g}: failed polls CHECKSUM or TIMEOUT only, some of each "
-              "kind; an answer stalled for more than t1.5 inside it: TIMEOUT",
+              f"with a bit error rate of {3 * NOISY_BER:g}: failed polls CHECKSUM, TIMEOUT or NO_NODE (a corrupted "
+              "address reaches nobody) only, some CHECKSUM; an answer stalled for more than t1.5 inside it: TIMEOUT",
               f"{statuses}; stalled answer {stalled}",
               set(statuses) <= allowed and statuses.get("CHECKSUM", 0) > 0 and stalled == "TIMEOUT")
 

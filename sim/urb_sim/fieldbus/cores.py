@@ -3,10 +3,10 @@
 The simulation's frames are the firmware's: identifiers from `urb_can_id`, the frames of a transfer
 from the segmenter `urb_can_tx_init`/`urb_can_tx_next` (tail bytes, transfer CRC), the RS485
 frames from the generated encoders and its timing (t1.5, t3.5, the turnaround allowance) from
-`urb_rs485_timing`, the RS485 receivers (`urb_rs485_rx_*`), and the bridge's CAN
-master and RS485 master and the CAN node's slave themselves (`urb_can_master.c`, `urb_rs485_master.c`,
-`urb_can_slave.c`, behind the HALs of sim/downlink/: their statuses, timeouts, silence rules, duplicate
-filter and bus-off handling are the firmware's). They are compiled from the committed sources into build/sim/liburbdl.so, a
+`urb_rs485_timing`, the RS485 slave (`urb_rs485_slave.c`, with its receiver `urb_rs485_rx_*`), and the bridge's CAN
+and RS485 masters and the nodes' CAN and RS485 slaves themselves (`urb_can_master.c`,
+`urb_rs485_master.c`, `urb_can_slave.c`, `urb_rs485_slave.c`, behind the HALs of sim/downlink/: their
+statuses, timeouts, silence rules, duplicate filter and bus-off handling are the firmware's). They are compiled from the committed sources into build/sim/liburbdl.so, a
 library of its own (the full simulation library, liburbsim.so, does not link the downlink cores
 yet: the node library and the bridge choose their downlink in phase 2 of issue #39).
 """
@@ -24,7 +24,8 @@ from pathlib import Path
 from ..build import BUILD, REPO, SANITIZE_FLAGS, BuildError, unpreloaded_env, variant
 
 LIBRARY = BUILD / "liburbdl.so"
-SOURCES = ["sim/downlink/sim_can_node.c", "firmware/downlink/can/urb_can_slave.c", "sim/downlink/sim_can_bridge.c", "sim/downlink/sim_rs485_bridge.c", "firmware/downlink/can/urb_can_master.c",
+SOURCES = ["sim/downlink/sim_mailbox.c", "sim/downlink/sim_rs485_node.c", "firmware/downlink/rs485/urb_rs485_slave.c",
+           "sim/downlink/sim_can_node.c", "firmware/downlink/can/urb_can_slave.c", "sim/downlink/sim_can_bridge.c", "sim/downlink/sim_rs485_bridge.c", "firmware/downlink/can/urb_can_master.c",
            "firmware/downlink/rs485/urb_rs485_master.c",
            "firmware/downlink/can/urb_can_transfer.c", "firmware/downlink/rs485/urb_rs485_frame.c",
            "gen/c/urb_runtime.c", "gen/c/urb_core.c", "gen/c/urb_can_wire.c", "gen/c/urb_rs485_wire.c"]
@@ -154,16 +155,22 @@ def lib() -> ctypes.CDLL:
     dll.sim_can_node_syncs.argtypes = [vp, ctypes.POINTER(ctypes.c_uint32)]
     dll.sim_can_node_aborts.restype = ctypes.c_uint32
     dll.sim_can_node_aborts.argtypes = [vp]
-    rx = ctypes.c_void_p
-    dll.urb_rs485_rx_init.argtypes = [rx, rx, ctypes.c_uint32]
-    dll.urb_rs485_rx_byte.restype = ctypes.c_uint8
-    dll.urb_rs485_rx_byte.argtypes = [rx, ctypes.c_uint8, ctypes.c_uint32]
-    dll.urb_rs485_rx_poll.restype = ctypes.c_uint8
-    dll.urb_rs485_rx_poll.argtypes = [rx, ctypes.c_uint32]
-    dll.urb_rs485_rx_deadline.restype = ctypes.c_uint32
-    dll.urb_rs485_rx_deadline.argtypes = [rx]
-    dll.urb_rs485_rx_silent.restype = ctypes.c_bool
-    dll.urb_rs485_rx_silent.argtypes = [rx, ctypes.c_uint32]
+    dll.sim_rs485_node_size.restype = ctypes.c_size_t
+    dll.sim_rs485_node_init.restype = ctypes.c_bool
+    dll.sim_rs485_node_init.argtypes = [vp, ctypes.c_uint8, ctypes.c_uint32, ctypes.c_uint16, ctypes.c_uint16,
+                                        ctypes.c_uint32]
+    dll.sim_rs485_node_set_inbox.argtypes = [vp, ctypes.c_uint8, ctypes.c_uint8]
+    dll.sim_rs485_node_set_outbox.argtypes = [vp, ctypes.c_uint8, ctypes.c_char_p, ctypes.c_uint8]
+    dll.sim_rs485_node_rx.argtypes = [vp, ctypes.c_uint8, ctypes.c_uint32]
+    dll.sim_rs485_node_wake_us.restype = ctypes.c_uint32
+    dll.sim_rs485_node_wake_us.argtypes = [vp]
+    dll.sim_rs485_node_poll.argtypes = [vp, ctypes.c_uint32]
+    dll.sim_rs485_node_tx_next.restype = ctypes.c_bool
+    dll.sim_rs485_node_tx_next.argtypes = [vp, ctypes.POINTER(ctypes.c_uint8)]
+    dll.sim_rs485_node_inbox.restype = ctypes.POINTER(ctypes.c_uint8)
+    dll.sim_rs485_node_inbox.argtypes = [vp, ctypes.c_uint8, ctypes.POINTER(ctypes.c_uint32)]
+    dll.sim_rs485_node_syncs.restype = ctypes.c_uint32
+    dll.sim_rs485_node_syncs.argtypes = [vp, ctypes.POINTER(ctypes.c_uint32)]
     for name, struct in (("urb_rs485_request_encode", _Request), ("urb_rs485_response_encode", _Response),
                          ("urb_rs485_sync_encode", _Sync), ("urb_can_sync_encode", _Sync)):
         fn = getattr(dll, name)
@@ -252,60 +259,6 @@ def rs485_response(status: int, mailbox: int, data: bytes = b"") -> bytes:
 def rs485_sync(counter: int) -> bytes:
     """An Rs485Sync frame (broadcast address 0, counter, check)."""
     return _encoded("urb_rs485_sync_encode", _Sync(counter & 0xFF), 3)
-
-
-class _Rs485Frame(ctypes.Structure):
-    _fields_ = [("n", ctypes.c_uint8), ("head", ctypes.c_uint8 * 2), ("check_ok", ctypes.c_bool),
-                ("t_first", ctypes.c_uint32), ("t_last", ctypes.c_uint32)]
-
-
-class _Rs485Rx(ctypes.Structure):
-    _fields_ = [("tm", _Timing), ("t_last", ctypes.c_uint32), ("t_first", ctypes.c_uint32),
-                ("crc16", ctypes.c_uint16), ("crc8", ctypes.c_uint8), ("hold", ctypes.c_uint8 * 2),
-                ("head", ctypes.c_uint8 * 2), ("n", ctypes.c_uint8), ("state", ctypes.c_uint8),
-                ("last", _Rs485Frame), ("broken", ctypes.c_uint32), ("too_long", ctypes.c_uint32)]
-
-
-EV_END, EV_START, EV_BYTE, EV_BROKEN = 0x01, 0x02, 0x04, 0x08
-
-
-@dataclass(frozen=True)
-class Rs485Frame:
-    """A frame the C receiver delimited: its length, first two bytes, check verdict and stamps (us)."""
-
-    n: int
-    head: bytes
-    check_ok: bool
-    t_first: int
-    t_last: int
-
-
-class Rs485Receiver:
-    """One end's receiver: the firmware's `urb_rs485_rx_*` (silence rules, frame check) fed with
-    time-stamped bytes. `timing` may differ from `rs485_timing(baud)` (Modbus's fixed silences)."""
-
-    def __init__(self, timing: Rs485Timing, now_us: int) -> None:
-        self._rx = _Rs485Rx()
-        self._tm = _Timing(timing.baud, timing.char_us, timing.t15_us, timing.t35_us, timing.turnaround_us)
-        lib().urb_rs485_rx_init(ctypes.byref(self._rx), ctypes.byref(self._tm), now_us)
-
-    def byte(self, value: int, t_us: int) -> int:
-        """The URB_RS485_EV_* bits of one byte stamped t_us (its stop bit)."""
-        return int(lib().urb_rs485_rx_byte(ctypes.byref(self._rx), value, t_us))
-
-    def poll(self, now_us: int) -> int:
-        return int(lib().urb_rs485_rx_poll(ctypes.byref(self._rx), now_us))
-
-    def deadline(self) -> int:
-        """When a poll ends the frame in progress: last stamp + one character + t3.5."""
-        return int(lib().urb_rs485_rx_deadline(ctypes.byref(self._rx)))
-
-    def silent(self, now_us: int) -> bool:
-        return bool(lib().urb_rs485_rx_silent(ctypes.byref(self._rx), now_us))
-
-    def last(self) -> Rs485Frame:
-        f = self._rx.last
-        return Rs485Frame(f.n, bytes(f.head), bool(f.check_ok), f.t_first, f.t_last)
 
 
 #: urb_dl_op_t, urb_can_state_t, URB_DOWNLINK_BUSY / _IDLE and urb_status_t's names
@@ -445,4 +398,52 @@ class CanNode:
         """SYNCs passed on to the mailboxes and the last one's time stamp (us)."""
         last = ctypes.c_uint32()
         n = lib().sim_can_node_syncs(self._p, ctypes.byref(last))
+        return int(n), int(last.value)
+
+
+class Rs485Node:
+    """The firmware's RS485 slave (`urb_rs485_slave.c`) of node `address`, behind a transceiver HAL
+    the line drives, with the mailbox table of sim/downlink/sim_mailbox.h."""
+
+    def __init__(self, address: int, timing: Rs485Timing, now_us: int) -> None:
+        self._mem = ctypes.create_string_buffer(int(lib().sim_rs485_node_size()))
+        self._p = ctypes.cast(self._mem, ctypes.c_void_p)
+        if not lib().sim_rs485_node_init(self._p, address, timing.baud, timing.t15_us, timing.t35_us, now_us):
+            raise ValueError(f"urb_rs485_slave_init refused node address {address}")
+
+    def set_inbox(self, mailbox: int, size: int) -> None:
+        lib().sim_rs485_node_set_inbox(self._p, mailbox, size)
+
+    def set_outbox(self, mailbox: int, data: bytes) -> None:
+        lib().sim_rs485_node_set_outbox(self._p, mailbox, data, len(data))
+
+    def byte(self, value: int, t_us: int) -> None:
+        """A byte heard on the line, stop bit at t_us."""
+        lib().sim_rs485_node_rx(self._p, value, t_us)
+
+    def wake_us(self) -> int:
+        """When the slave asked to be polled (its receiver's deadline)."""
+        return int(lib().sim_rs485_node_wake_us(self._p))
+
+    def poll(self, now_us: int) -> None:
+        lib().sim_rs485_node_poll(self._p, now_us)
+
+    def take_all(self) -> bytes:
+        """The answer the slave sends now (empty when it does not answer)."""
+        out = bytearray()
+        b = ctypes.c_uint8()
+        while lib().sim_rs485_node_tx_next(self._p, ctypes.byref(b)):
+            out.append(b.value)
+        return bytes(out)
+
+    def inbox(self, mailbox: int, n: int) -> tuple[bytes, int]:
+        """Inbox `mailbox`'s latest committed `n` bytes and the count of committed writes."""
+        writes = ctypes.c_uint32()
+        p = lib().sim_rs485_node_inbox(self._p, mailbox, ctypes.byref(writes))
+        return bytes(p[:n]), int(writes.value)
+
+    def syncs(self) -> tuple[int, int]:
+        """SYNCs passed on to the mailboxes and the last one's time stamp (us)."""
+        last = ctypes.c_uint32()
+        n = lib().sim_rs485_node_syncs(self._p, ctypes.byref(last))
         return int(n), int(last.value)

@@ -179,7 +179,7 @@ class Rs485Downlink:
 
     def __post_init__(self) -> None:
         self.line = rs485.Rs485Line(self.baud, self.rng, ber=self.ber, modbus_fixed=self.modbus_fixed)
-        self.node_rx = {a: cores.Rs485Receiver(self.line.tm, 0) for a in self.addresses}
+        self.nodes = {a: self.line.node(a) for a in self.addresses}
 
     def now_us(self) -> float:
         return self.line.now_us
@@ -187,13 +187,18 @@ class Rs485Downlink:
     def sync(self, t_us: float, counter: int) -> float:
         """SYNC through the master at t_us; the first byte's stop bit, which every node time-stamps."""
         self.line.now_us = max(self.line.now_us, t_us)
-        return self.line.broadcast(counter, list(self.node_rx.values()))
+        return self.line.broadcast(counter, list(self.nodes.values()))
 
     def transact(self, t_us: float, txn: Txn) -> Done:
         self.line.now_us = max(t_us, self.line.now_us) + self.rng.uniform(*self.bridge_latency_us)
-        o = self.line.poll(txn.address, txn.mailbox, txn.read, txn.payload, self.node_rx.get(txn.address))
+        node = self.nodes.get(txn.address)
+        others = [n for a, n in self.nodes.items() if a != txn.address]
+        o = self.line.poll(txn.address, txn.mailbox, txn.read, txn.payload, node, others=others)
         if o.status == "OK" and txn.read and self.line.read_back(len(txn.payload)) != txn.payload:
             raise RuntimeError("the RS485 master reported OK with other data than the node sent")
+        if o.status == "OK" and not txn.read and node is not None and \
+                node.inbox(txn.mailbox, len(txn.payload))[0] != txn.payload:
+            raise RuntimeError("the RS485 master reported OK for a write the node did not store")
         self.statuses[o.status] = self.statuses.get(o.status, 0) + 1
         return Done(o.status, o.start_us, o.done_us)
 

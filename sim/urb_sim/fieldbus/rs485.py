@@ -1,10 +1,10 @@
 """A half-duplex RS485 line polled by a bridge, character by character.
 
-The bridge is the firmware's master (`cores.Rs485Bridge`: `urb_rs485_master.c`, its echo check,
-silence rules, NO_NODE allowance, timeouts and statuses); the nodes' receivers are the firmware's
-(`cores.Rs485Receiver`: `urb_rs485_rx_*`), fed with the stop bit's instant of every character, so a
-frame ends after t3.5 of silence (seen t3.5 + one character after its last byte) and a silence over
-t1.5 inside a frame discards it. What the line adds (sim/README.md, "Downlinks"):
+The bridge is the firmware's master (`cores.Rs485Bridge`: `urb_rs485_master.c`) and every node
+the firmware's slave (`cores.Rs485Node`: `urb_rs485_slave.c`), each with the firmware's receiver
+(`urb_rs485_rx_*`) fed with the stop bit's instant of every character: their echo check, silence
+rules (a frame ends after t3.5 of silence, a silence over t1.5 inside discards it), NO_NODE
+allowance, answers and statuses are the firmware's. What the line adds (sim/README.md, "Downlinks"):
 
 * characters of 10 bits (8N1) back to back from a UART with a FIFO, or with gaps when a node's
   transmit interrupt is late (`gap_us`, drawn per character; a stalled node, `stall_us`, breaks its
@@ -29,7 +29,6 @@ CHAR_BITS = 10
 MODBUS_T35_US, MODBUS_T15_US = 1750, 750
 #: a transceiver's driver enable to a valid line, us (min, max); a UART FIFO refilled late, us per character
 DRIVER_ENABLE_US, GAP_US = (0.1, 1.0), (0.0, 0.5)
-STATUS_CHECKSUM = 2
 
 
 def timing(baud: int, modbus_fixed: bool = False) -> cores.Rs485Timing:
@@ -86,12 +85,16 @@ class Rs485Line:
             return byte ^ (1 << self.rng.randrange(8))
         return byte
 
-    def _transaction(self, begin: Callable[[int], bool], node_rx: list[cores.Rs485Receiver],
-                     answer: Callable[[cores.Rs485Frame], bytes] | None, stall_us: float) -> Outcome:
-        """Run one transaction of the firmware's master: its request goes to every receiver in
-        `node_rx` (a disturbed character reaches the nodes corrupted, the bridge's echo clean); the
-        first receiver's node answers `answer(the frame it heard)` when its receiver ends the request,
-        after its latency and driver enable (None: nobody answers)."""
+    def node(self, address: int) -> cores.Rs485Node:
+        """A node on this line: the firmware's slave with this line's timing, started now."""
+        return cores.Rs485Node(address, self.tm, int(self.now_us))
+
+    def _transaction(self, begin: Callable[[int], bool], nodes: list[cores.Rs485Node],
+                     answering: cores.Rs485Node | None, stall_us: float) -> Outcome:
+        """Run one transaction of the firmware's master: its request goes to every node (a disturbed
+        character reaches the nodes corrupted, the bridge's echo clean); `answering` (None: nobody)
+        answers what its slave decides when its receiver ends the request, after its latency and
+        driver enable; its answer goes to the bridge and every other node."""
         start = self.now_us
         if not begin(int(start)):
             raise RuntimeError("the RS485 master refused a transaction while idle")
@@ -99,6 +102,7 @@ class Rs485Line:
         req_end: float | None = None
         ans_start: float | None = None
         pending: list[tuple[float, int]] = []
+        listeners = [n for n in nodes if n is not answering]
         while True:
             request = self.master.take_all()
             if request:
@@ -107,70 +111,64 @@ class Rs485Line:
                     stamp = int(t_send + (k + 1) * self.char_us)
                     self.master.rx(byte, stamp)
                     wire = self._corrupt(byte)
-                    for rx in node_rx:
-                        rx.byte(wire, stamp)
+                    for n in nodes:
+                        n.byte(wire, stamp)
                 req_end = t = t_send + len(request) * self.char_us
-                if answer is not None and node_rx:
-                    pending, ans_start = self._answer(node_rx[0], len(request), req_end, answer, stall_us)
+                if answering is not None:
+                    pending, ans_start = self._answer(answering, req_end, stall_us)
             wake = self.master.next_us(int(t))
             if pending and pending[0][0] <= wake:
                 at, byte = pending.pop(0)
                 t = at
                 self.master.rx(byte, int(at))
-                node_rx[0].byte(byte, int(at))
+                for n in listeners:
+                    n.byte(byte, int(at))
                 continue
             t = float(wake)
             status = self.master.poll(wake)
             if status >= 0:
+                for n in nodes:
+                    n.poll(int(t))
                 return self._finish(Outcome(cores.STATUS[status], start, req_end or start, ans_start, t))
 
-    def _answer(self, node: cores.Rs485Receiver, n_request: int, req_end: float,
-                answer: Callable[[cores.Rs485Frame], bytes], stall_us: float) -> tuple[list[tuple[float, int]], float | None]:
+    def _answer(self, node: cores.Rs485Node, req_end: float,
+                stall_us: float) -> tuple[list[tuple[float, int]], float | None]:
         """The node's answer bytes toward the bridge, (instant, byte) each, and when it begins."""
-        node_end = float(node.deadline())
-        got = node.poll(int(node_end)) & cores.EV_END
-        heard = node.last()
-        if not got or heard.n != n_request:
-            return [], None  # the node did not take a whole request (a broken frame): no answer
-        ready = req_end if self.mutant_answer_early else node_end
+        wake = node.wake_us()
+        node.poll(wake)
+        answer = node.take_all()
+        if not answer:
+            return [], None  # the slave does not answer (a broken frame, another address)
+        ready = req_end if self.mutant_answer_early else float(wake)
         t = ready + self.rng.uniform(*self.node_latency_us) + self.rng.uniform(*self.driver_enable_us)
         begin = t
         out = []
-        for k, byte in enumerate(answer(heard)):
+        for k, byte in enumerate(answer):
             t += (self.rng.uniform(*self.gap_us) if k else 0.0) + (stall_us if k == 1 else 0.0) + self.char_us
             out.append((t, self._corrupt(byte)))
         return out, begin
 
-    def wait_silent(self) -> float:
-        """The line's time: the master itself waits for t3.5 of silence before it sends."""
-        return self.now_us
-
-    def broadcast(self, counter: int, node_rx: list[cores.Rs485Receiver]) -> float:
+    def broadcast(self, counter: int, nodes: list[cores.Rs485Node]) -> float:
         """SYNC through the master; the first byte's stop bit, which every node time-stamps."""
         o = self._transaction(lambda now: self.master.begin(cores.OP_SYNC, 0, 0, 0, counter & 0xFF, None, now),
-                              node_rx, None, 0.0)
-        first = o.request_end_us - (len(cores.rs485_sync(counter)) - 1) * self.char_us
-        for rx in node_rx:
-            rx.poll(int(o.done_us))
-        return first
+                              nodes, None, 0.0)
+        return o.request_end_us - (len(cores.rs485_sync(counter)) - 1) * self.char_us
 
-    def poll(self, address: int, mailbox: int, read: bool, payload: bytes, node_rx: cores.Rs485Receiver | None,
-             stall_us: float = 0.0) -> Outcome:
+    def poll(self, address: int, mailbox: int, read: bool, payload: bytes, node: cores.Rs485Node | None,
+             stall_us: float = 0.0, others: list[cores.Rs485Node] | None = None) -> Outcome:
         """The master reads `len(payload)` bytes of outbox `mailbox` (the node holds `payload`) or
-        writes `payload` into inbox `mailbox` of node `address`, whose receiver is `node_rx` (None:
-        nobody there). The node answers what its checks give: CHECKSUM for a request that fails its
-        check, else OK (with the data of a read). `stall_us` holds its answer before the second
-        character."""
+        writes `payload` into inbox `mailbox` of node `address`, whose slave is `node` (None: nobody
+        there); `others` hear the line too. `stall_us` holds the answer before its second character."""
+        if node is not None:  # the node's mailbox of this size (its application's layout)
+            if read:
+                node.set_outbox(mailbox, payload)
+            else:
+                node.set_inbox(mailbox, len(payload))
         op = cores.OP_READ if read else cores.OP_WRITE
-
-        def answer(heard: cores.Rs485Frame) -> bytes:
-            if not heard.check_ok:
-                return cores.rs485_response(STATUS_CHECKSUM, mailbox)
-            return cores.rs485_response(0, mailbox, payload if read else b"")
-
+        everyone = ([node] if node is not None else []) + list(others or [])
         return self._transaction(
             lambda now: self.master.begin(op, address, mailbox, len(payload), 0, None if read else payload, now),
-            [node_rx] if node_rx is not None else [], answer if node_rx is not None else None, stall_us)
+            everyone, node, stall_us)
 
     def read_back(self, n: int) -> bytes:
         """The data the last read returned."""
