@@ -71,9 +71,9 @@ Downlinks (--downlink; the experiments run when --only is not given):
   all      every experiment above
 CAN and RS485 are bit-timed bus models (to the bit, with stuffing of each frame's actual bits,
 arbitration, error frames, error counters, bus-off and recovery; RS485 to the character, with
-driver turnaround and the t3.5 / t1.5 silences) on which the bridges' CAN and RS485 masters of
-firmware/downlink run (loaded through ctypes; the nodes are modelled until the node library
-can choose these downlinks). Their criteria are derived from the bus timing, and their report
+driver turnaround and the t3.5 / t1.5 silences) on which the bridges' masters and the nodes'
+slaves of firmware/downlink run (loaded through ctypes; the node library's mailboxes are a
+table until it can choose these downlinks). Their criteria are derived from the bus timing, and their report
 holds one table with I2C, CAN and RS485 side by side (latency, SYNC inter-node difference,
 motor cycle, control) and the model's assumptions (sim/README.md, "Downlinks").
 

@@ -19,9 +19,9 @@ from ..fieldbus import can, cores, cycle, measure, rs485
 from . import Progress, Result, no_progress, write_csv
 
 ASSUMPTIONS = [
-    "bus models in Python, to the bit (CAN) and to the character (RS485); the bridges' masters are the "
-    "firmware's (urb_can_master.c, urb_rs485_master.c through ctypes), and so are the frames and the "
-    "receivers; the nodes are modelled (the node library chooses its downlink only in issue #39 phase 2)",
+    "bus models in Python, to the bit (CAN) and to the character (RS485); the bridges' masters and the nodes' "
+    "slaves are the firmware's (firmware/downlink through ctypes), the node library's mailboxes a table of "
+    "fixed sizes (the node library chooses its downlink only in issue #39 phase 2)",
     f"a node answers {measure.ASSUME.node_latency_us[0]:g}-{measure.ASSUME.node_latency_us[1]:g} us after a "
     f"request ends, the bridge begins the next transaction {measure.ASSUME.bridge_latency_us[0]:g}-"
     f"{measure.ASSUME.bridge_latency_us[1]:g} us after one ends (uniform draws)",
