@@ -273,3 +273,23 @@ def test_a_seeded_bug_in_the_binding_is_caught(tmp_path: Path) -> None:
     pair.call("frames", 0)
     with pytest.raises(AssertionError, match="completions differ"):
         pair.call("link_lost", 1, LONG_REASON)
+
+
+def test_every_public_member_is_the_c_cores() -> None:
+    """NativeRs232Core and NativeUsbCore subclass the reference cores (isinstance, typing) with the
+    C core's type first: every public method and counter of the reference must be overridden, or a
+    call would reach the reference's code without its state. Seeded: a member the C type lacks is
+    reported."""
+    def missing(native_cls: type, ref: type) -> set[str]:
+        public = {n for k in ref.__mro__[:-1] for n in vars(k) if not n.startswith("_")}
+        return {n for n in public if n != "SILENCE" and not any(n in vars(k) for k in native_cls.__mro__
+                                                                 if not issubclass(ref, k))}
+
+    assert missing(native.NativeRs232Core, Rs232Core) == set()
+    assert missing(native.NativeUsbCore, native.UsbCore) == set()
+
+    class Lacking(Rs232Core):
+        def resend_everything(self) -> None:
+            """A public method the C core does not have."""
+
+    assert missing(native.NativeRs232Core, Lacking) == {"resend_everything"}

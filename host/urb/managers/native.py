@@ -17,6 +17,10 @@ The managers build their core with `new_rs232_core()` / `new_usb_core()`, which 
   pure-Python codecs of urb_msgs);
 * `URB_PURE_PYTHON=0`: the C core, or ImportError saying why it cannot be used.
 
+`URB_HOST_CORE` chooses the cores alone (the codecs still follow `URB_PURE_PYTHON`): `python` the
+reference cores, `c` the C core or ImportError; unset or empty, `URB_PURE_PYTHON` decides
+(bench/host_cpu.py measures the library both ways with it).
+
 Settings the C core does not take (a timeout above one hour, say: `urb_core_config_t`'s ranges)
 run on the Python core; the window and batch limits are refused with the reference's ValueError.
 """
@@ -26,7 +30,7 @@ from __future__ import annotations
 import hashlib
 import os
 from pathlib import Path
-from typing import Any, TypeGuard
+from typing import Any
 
 from urb_msgs.urb_core import USB_BATCH_MAX_BYTES, Status
 
@@ -36,6 +40,7 @@ from .rs232_core import MAX_WINDOW, PLACEHOLDER_NS, Rs232Core, check_window
 from .usb_core import UsbCore
 
 ENV = "URB_PURE_PYTHON"
+CORE_ENV = "URB_HOST_CORE"
 RS232_KIND, USB_KIND = 1, 2
 REPO = Path(__file__).resolve().parents[3]
 FINGERPRINT_SOURCES = ("host/urb/managers/_native.c", "host/c/core/*.c", "host/c/core/*.h", "host/c/include/*.h",
@@ -61,8 +66,16 @@ def _selection() -> tuple[Any, str]:
     if setting not in ("", "0", "1"):
         raise ImportError(f"urb: {ENV}={setting!r}: use 1 (Python reference cores and codecs), 0 (the C core and "
                           "codecs, or fail) or leave it unset (the C core when built)")
+    cores = os.environ.get(CORE_ENV, "")
+    if cores not in ("", "python", "c"):
+        raise ImportError(f"urb: {CORE_ENV}={cores!r}: use python (the reference cores), c (the C core, or fail) or "
+                          f"leave it unset ({ENV} decides)")
+    if cores:
+        setting, why_python = ("1" if cores == "python" else "0"), f"{CORE_ENV}={cores}"
+    else:
+        why_python = f"{ENV}=1"
     if setting == "1":
-        return None, f"{ENV}=1"
+        return None, why_python
     try:
         from . import _native
     except ImportError as exc:
@@ -74,7 +87,7 @@ def _selection() -> tuple[Any, str]:
         why = (f"the extension urb.managers._native was built from other sources ({_native.FINGERPRINT}, these are "
                f"{expected}); rebuild it with `make host-c-py`")
     if setting == "0":
-        raise ImportError(f"{ENV}=0 asks for the C protocol core, but {why}")
+        raise ImportError(f"{CORE_ENV}=c or {ENV}=0 asks for the C protocol core, but {why}")
     return None, why
 
 
@@ -92,10 +105,10 @@ def _require_native() -> None:
         raise ImportError(f"the C protocol core is not in use: {REASON}")
 
 
-class NativeRs232Core(_Base):  # type: ignore[misc]
-    """`Rs232Core` on the C core (the same arguments, defaults and behaviour)."""
-
-    SILENCE = Rs232Core.SILENCE
+class NativeRs232Core(_Base, Rs232Core):  # type: ignore[misc]
+    """`Rs232Core` on the C core (the same arguments, defaults and behaviour). A subclass of it
+    for isinstance and typing; every public method and counter is the C core's (the base
+    `_native.Core` comes first), none of the reference's state exists (its `_m` and the like)."""
 
     def __init__(self, *, window: int = 4, timeout_ns: int = 100 * NS_PER_MS, resync_gap_ns: int = 20 * NS_PER_MS,
                  lost_after_ns: int = 500 * NS_PER_MS, lost_after_timeouts: int = 8,
@@ -116,10 +129,9 @@ class NativeRs232Core(_Base):  # type: ignore[misc]
         self._set_window(window)
 
 
-class NativeUsbCore(_Base):  # type: ignore[misc]
-    """`UsbCore` on the C core (the same arguments, defaults and behaviour, `trace` included)."""
-
-    SILENCE = UsbCore.SILENCE
+class NativeUsbCore(_Base, UsbCore):  # type: ignore[misc]
+    """`UsbCore` on the C core (the same arguments, defaults and behaviour, `trace` included); a
+    subclass of it as NativeRs232Core is of Rs232Core."""
 
     def __init__(self, *, max_batch: int = 14, window: int = MAX_WINDOW, batch_bytes: int = USB_BATCH_MAX_BYTES,
                  timeout_ns: int = 50 * NS_PER_MS, lost_after_ns: int = 500 * NS_PER_MS, lost_after_timeouts: int = 8,
@@ -144,10 +156,9 @@ class NativeUsbCore(_Base):  # type: ignore[misc]
 def new_rs232_core(**settings: Any) -> Rs232Core:
     """The RS232 protocol core the managers run (`Rs232Core`'s arguments): on the C core when it
     is selected and takes the settings, else the Python reference."""
-    if _NATIVE is not None:
+    if BACKEND == "c":
         try:
-            core: Rs232Core = NativeRs232Core(**settings)
-            return core
+            return NativeRs232Core(**settings)
         except ValueError as exc:
             if "C core does not take" not in str(exc):
                 raise
@@ -157,16 +168,11 @@ def new_rs232_core(**settings: Any) -> Rs232Core:
 def new_usb_core(**settings: Any) -> UsbCore:
     """The USB protocol core the managers run (`UsbCore`'s arguments): on the C core when it is
     selected and takes the settings, else the Python reference."""
-    if _NATIVE is not None:
+    if BACKEND == "c":
         try:
-            core: UsbCore = NativeUsbCore(**settings)
-            return core
+            return NativeUsbCore(**settings)
         except ValueError as exc:
             if "C core does not take" not in str(exc):
                 raise
     return UsbCore(**settings)
 
-
-def is_usb_core(core: object) -> TypeGuard[UsbCore]:
-    """`core` is a USB protocol core, the reference's or the C one's."""
-    return isinstance(core, UsbCore) or (_NATIVE is not None and isinstance(core, NativeUsbCore))

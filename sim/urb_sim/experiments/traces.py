@@ -37,7 +37,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from urb.api import DUPLICATE, MISMATCH
-from urb.managers.native import is_usb_core
+from urb.managers.usb_core import UsbCore
 
 from ..native import App, Trace
 from ..system import NS_PER_MS, Loop, System
@@ -160,7 +160,7 @@ def record_usb_uplink(seed: int, cycles: int, motor_load: bool = False,
     s.start()  # discovery done, nothing queued or in flight: UsbUplink.tla's Init
     acc = [s.urb.find_node(0x7E, i) for i in range(nodes)]
     core = s.managers[b].core
-    assert is_usb_core(core)
+    assert isinstance(core, UsbCore)
     core.trace = []
     k = [0]
 
