@@ -8,9 +8,10 @@
  * The Python `Transfer` objects stay the requests the API sees. Each submission copies the request
  * into a C transfer (urb_transfer_t, from a free list of this object) that holds a reference to the
  * Python one; when the C core puts it on the wire its sequence number, sending time, deadline and
- * lifetime are written back, and when the core hands it back its outcome is (done, completed_ns,
- * flags, status, response, lost_reason: what rs232_core.finish and ResponseMatcher.lose set) and
- * the C transfer returns to the free list. tests/host_c/test_native_core.py drives this type and the
+ * lifetime are written back, and as soon as the core completes it its outcome is (done,
+ * completed_ns, flags, status, response, lost_reason: what rs232_core.finish and
+ * ResponseMatcher.lose set, at the same moment), the C transfer returns to the free list and the
+ * Python one waits in a list for take_completed. tests/host_c/test_native_core.py drives this type and the
  * reference cores with the same traces and compares everything a caller can observe.
  *
  * Lost reasons: the C core keeps at most URB_REASON_MAX - 1 bytes of a reason; the whole text a
@@ -40,6 +41,7 @@ typedef struct {
     PyObject *flag_of;         /* dict: int -> ErrorFlag member */
     PyObject *full_reason;     /* the caller's whole lost reason (str), or NULL */
     PyObject *trace;           /* None, or a list the USB pipeline's steps are appended to */
+    PyObject *completed;       /* list: transfers completed (their outcome written), not yet taken */
 } native_core_t;
 
 /* Attribute names of Transfer, interned once per process (immutable constants). */
@@ -212,6 +214,30 @@ static PyObject *hand_back(native_core_t *self, urb_transfer_t *t)
     return py;
 }
 
+/* Hands every transfer the C core completed back to its Python object at once (the reference core
+ * marks a transfer done when it completes it, before take_completed), keeping it in `completed`
+ * until take_completed; those answered by a response also go to `answered` when it is not NULL. */
+static int collect(native_core_t *self, PyObject *answered)
+{
+    urb_transfer_t *t;
+    while ((t = urb_core_take_completed(&self->core)) != NULL) {
+        bool const has_status = t->status >= 0;
+        PyObject *py = hand_back(self, t);
+        if (py == NULL) {
+            return -1;
+        }
+        int rc = PyList_Append(self->completed, py);
+        if ((rc == 0) && (answered != NULL) && has_status) {
+            rc = PyList_Append(answered, py);
+        }
+        Py_DECREF(py);
+        if (rc < 0) {
+            return -1;
+        }
+    }
+    return 0;
+}
+
 /* Completes everything the core still owns (BRIDGE_LOST) and drops the references: teardown. */
 static void release_all(native_core_t *self)
 {
@@ -232,6 +258,7 @@ static int core_traverse(native_core_t *self, visitproc visit, void *arg)
     Py_VISIT(self->status_of);
     Py_VISIT(self->flag_of);
     Py_VISIT(self->trace);
+    Py_VISIT(self->completed);
     if (self->ready) {
         for (urb_transfer_t *t = self->core.q_head; t != NULL; t = t->next) {
             Py_VISIT(((native_xfer_t *)t)->py);
@@ -256,6 +283,7 @@ static int core_clear(native_core_t *self)
     Py_CLEAR(self->flag_of);
     Py_CLEAR(self->full_reason);
     Py_CLEAR(self->trace);
+    Py_CLEAR(self->completed);
     return 0;
 }
 
@@ -279,6 +307,11 @@ static PyObject *core_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
     if (self != NULL) {
         self->trace = Py_None;
         Py_INCREF(Py_None);
+        self->completed = PyList_New(0);
+        if (self->completed == NULL) {
+            Py_DECREF(self);
+            return NULL;
+        }
     }
     return (PyObject *)self;
 }
@@ -395,6 +428,9 @@ static PyObject *core_submit(native_core_t *self, PyObject *const *args, Py_ssiz
                      address, mailbox, length, within);
         return NULL;
     }
+    if (collect(self, NULL) < 0) {
+        return NULL;
+    }
     if ((self->trace != Py_None) && !self->core.lost) {
         PyObject *one = PyTuple_Pack(1, py);
         int const trc = (one == NULL) ? -1 : trace_event(self, s_submit, now, one);
@@ -432,6 +468,9 @@ static PyObject *core_receive(native_core_t *self, PyObject *const *args, Py_ssi
         PyErr_SetString(PyExc_TypeError, "receive() is for an RS232 core; a USB core takes receive_batch()");
         return NULL;
     }
+    if (collect(self, NULL) < 0) {
+        return NULL;
+    }
     Py_RETURN_NONE;
 }
 
@@ -443,24 +482,18 @@ static PyObject *core_receive_batch(native_core_t *self, PyObject *const *args, 
         return NULL;
     }
     bool const traced = (self->trace != Py_None) && !self->core.lost && (data.len > 0) && !self->core.flushing;
-    urb_transfer_t *before = self->core.m.done_tail;
     int32_t const rc = urb_core_receive_batch(&self->core, data.buf, (size_t)data.len, now);
     PyBuffer_Release(&data);
     if (rc != URB_HOST_OK) {
         PyErr_SetString(PyExc_TypeError, "receive_batch() is for a USB core; an RS232 core takes receive()");
         return NULL;
     }
+    PyObject *answered = traced ? PyList_New(0) : NULL;
+    if ((traced && (answered == NULL)) || (collect(self, answered) < 0)) {
+        Py_XDECREF(answered);
+        return NULL;
+    }
     if (traced) { /* UsbUplink.tla UsbRead: the requests its IN transfer answered, in order */
-        PyObject *answered = PyList_New(0);
-        if (answered == NULL) {
-            return NULL;
-        }
-        for (urb_transfer_t *t = (before != NULL) ? before->next : self->core.m.done_head; t != NULL; t = t->next) {
-            if ((t->status >= 0) && (PyList_Append(answered, ((native_xfer_t *)t)->py) < 0)) {
-                Py_DECREF(answered);
-                return NULL;
-            }
-        }
         PyObject *items = PyList_AsTuple(answered);
         Py_DECREF(answered);
         int const trc = (items == NULL) ? -1 : trace_event(self, s_read_event, now, items);
@@ -479,6 +512,9 @@ static PyObject *core_poll(native_core_t *self, PyObject *arg)
         return NULL;
     }
     (void)urb_core_poll(&self->core, now);
+    if (collect(self, NULL) < 0) {
+        return NULL;
+    }
     Py_RETURN_NONE;
 }
 
@@ -500,6 +536,10 @@ static PyObject *core_frames_to_send(native_core_t *self, PyObject *arg)
             if (n < 0) {
                 Py_DECREF(out);
                 PyErr_SetString(PyExc_TypeError, "frames_to_send() is for an RS232 core; a USB core takes frame_out()");
+                return NULL;
+            }
+            if (collect(self, NULL) < 0) {
+                Py_DECREF(out);
                 return NULL;
             }
             return out;
@@ -531,6 +571,9 @@ static PyObject *core_frame_out(native_core_t *self, PyObject *arg)
     int32_t const n = urb_core_frame_out(&self->core, now, buf, sizeof buf);
     if (n < 0) {
         PyErr_SetString(PyExc_TypeError, "frame_out() is for a USB core; an RS232 core takes frames_to_send()");
+        return NULL;
+    }
+    if (collect(self, NULL) < 0) {
         return NULL;
     }
     if (n == 0) {
@@ -573,25 +616,19 @@ static PyObject *core_take_completed(native_core_t *self, PyObject *unused)
     if (not_ready(self)) {
         return NULL;
     }
-    PyObject *out = PyList_New(0);
-    if (out == NULL) {
+    PyObject *fresh = PyList_New(0);
+    if (fresh == NULL) {
         return NULL;
     }
-    urb_transfer_t *t;
-    urb_ns_t last_ns = 0;
-    while ((t = urb_core_take_completed(&self->core)) != NULL) {
-        last_ns = t->completed_ns;
-        PyObject *py = hand_back(self, t);
-        if ((py == NULL) || (PyList_Append(out, py) < 0)) {
-            Py_XDECREF(py);
-            Py_DECREF(out);
-            return NULL;
-        }
-        Py_DECREF(py);
-    }
-    if ((self->trace != Py_None) && (PyList_GET_SIZE(out) > 0)) { /* UsbUplink.tla Callback */
+    PyObject *out = self->completed;
+    self->completed = fresh;
+    Py_ssize_t const n = PyList_GET_SIZE(out);
+    if ((self->trace != Py_None) && (n > 0)) { /* UsbUplink.tla Callback: at the last one's completion */
         PyObject *items = PyList_AsTuple(out);
-        int const trc = (items == NULL) ? -1 : trace_event(self, s_callback, last_ns, items);
+        PyObject *when = PyObject_GetAttr(PyList_GET_ITEM(out, n - 1), s_completed_ns);
+        long long const last_ns = (when == NULL) ? -1 : PyLong_AsLongLong(when);
+        Py_XDECREF(when);
+        int const trc = ((items == NULL) || PyErr_Occurred()) ? -1 : trace_event(self, s_callback, last_ns, items);
         Py_XDECREF(items);
         if (trc < 0) {
             Py_DECREF(out);
@@ -642,6 +679,9 @@ static PyObject *core_link_lost(native_core_t *self, PyObject *const *args, Py_s
         return NULL;
     }
     urb_core_link_lost(&self->core, now, reason);
+    if (collect(self, NULL) < 0) {
+        return NULL;
+    }
     Py_RETURN_NONE;
 }
 
@@ -652,6 +692,9 @@ static PyObject *core_reset(native_core_t *self, PyObject *arg)
         return NULL;
     }
     urb_core_reset(&self->core, now);
+    if (collect(self, NULL) < 0) {
+        return NULL;
+    }
     Py_RETURN_NONE;
 }
 
@@ -661,7 +704,11 @@ static PyObject *core_start_drain(native_core_t *self, PyObject *arg)
     if (not_ready(self) || ((now == -1) && PyErr_Occurred())) {
         return NULL;
     }
-    return time_or_none(urb_core_start_drain(&self->core, now));
+    urb_ns_t const until = urb_core_start_drain(&self->core, now);
+    if (collect(self, NULL) < 0) {
+        return NULL;
+    }
+    return time_or_none(until);
 }
 
 static PyObject *core_drained(native_core_t *self, PyObject *unused)

@@ -97,7 +97,13 @@ BACKEND = "c" if _NATIVE is not None else "python"
 
 _STATUS_OF = tuple(Status(v) for v in range(max(int(s) for s in Status) + 1))
 _FLAG_OF = {int(f): f for f in ErrorFlag} | {0: ErrorFlag.NONE}
-_Base: Any = _NATIVE.Core if _NATIVE is not None else object
+
+
+class _NoNativeCore:
+    """The base of the native cores when the extension is not in use (constructing them fails)."""
+
+
+_Base: Any = _NATIVE.Core if _NATIVE is not None else _NoNativeCore
 
 
 def _require_native() -> None:
