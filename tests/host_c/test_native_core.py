@@ -314,3 +314,42 @@ def test_every_public_member_is_the_c_cores() -> None:
             """A public method the C core does not have."""
 
     assert missing(native.NativeRs232Core, Lacking) == {"resend_everything"}
+
+
+def test_the_choice_of_core(monkeypatch: pytest.MonkeyPatch) -> None:
+    """URB_PURE_PYTHON and URB_HOST_CORE choose as host/urb/README.md says; a module built from other
+    sources is refused, saying how to rebuild it."""
+    for var in ("URB_PURE_PYTHON", "URB_HOST_CORE"):
+        monkeypatch.delenv(var, raising=False)
+    module, why = native._selection()
+    assert module is not None and why == "built from these sources"
+    monkeypatch.setenv("URB_PURE_PYTHON", "1")
+    assert native._selection() == (None, "URB_PURE_PYTHON=1")
+    monkeypatch.setenv("URB_HOST_CORE", "c")
+    assert native._selection()[0] is module  # the cores alone, whatever the codecs run
+    monkeypatch.setenv("URB_HOST_CORE", "python")
+    assert native._selection() == (None, "URB_HOST_CORE=python")
+    monkeypatch.setenv("URB_HOST_CORE", "fast")
+    with pytest.raises(ImportError, match="URB_HOST_CORE='fast': use python"):
+        native._selection()
+    monkeypatch.delenv("URB_HOST_CORE")
+    monkeypatch.delenv("URB_PURE_PYTHON")
+    monkeypatch.setattr(native, "source_fingerprint", lambda: "0" * 16)
+    module, why = native._selection()
+    assert module is None and "built from other sources" in why and "make host-c-py" in why
+    monkeypatch.setenv("URB_PURE_PYTHON", "0")
+    with pytest.raises(ImportError, match="asks for the C protocol core, but the extension .* was built from other"):
+        native._selection()
+
+
+def test_the_managers_run_the_c_core_and_fall_back_on_settings_it_refuses() -> None:
+    assert isinstance(native.new_rs232_core(), native.NativeRs232Core)
+    assert isinstance(native.new_usb_core(max_batch=7), native.NativeUsbCore)
+    slow = native.new_rs232_core(lost_after_ns=2 * 3600 * 10**9)  # above the C core's range of 1 h
+    assert type(slow) is Rs232Core
+    with pytest.raises(ValueError, match="C core does not take these settings"):
+        native.NativeRs232Core(lost_after_ns=2 * 3600 * 10**9)
+    with pytest.raises(ValueError, match="window = 16: must be 1..15 so the 4-bit sequence number cannot alias"):
+        native.new_rs232_core(window=16)  # the reference's message
+    with pytest.raises(ValueError, match="max_batch = 0: must be 1..15"):
+        native.new_usb_core(max_batch=0)
