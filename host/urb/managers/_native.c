@@ -279,6 +279,7 @@ static int core_traverse(native_core_t *self, visitproc visit, void *arg)
 static int core_clear(native_core_t *self)
 {
     release_all(self);
+    self->ready = false; /* a cleared object (a reference cycle being collected) refuses every call */
     Py_CLEAR(self->status_of);
     Py_CLEAR(self->flag_of);
     Py_CLEAR(self->full_reason);
