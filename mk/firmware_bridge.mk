@@ -124,10 +124,13 @@ size-bridge: $(FWB_BUILD)/urb-bridge-cm0plus.elf
 SIZE_TARGETS += size-bridge
 
 # --- hosted bridge program -------------------------------------------------------------------------
-$(FWB_BUILD)/urb-bridge-hosted: firmware/bridge/hosted_main.c $(FWB_LIB_SRC) $(FWB_GEN_SRC) $(FWB_HOSTED_SRC) $(FWB_HDRS)
+# --downlink can (hosted_can.c): the CAN master on tools/can_hub.py
+FWB_HOSTED_CAN_SRC := firmware/bridge/hosted_can.c firmware/hal/hosted/can_hub_client.c firmware/downlink/can/urb_can_master.c \
+                      firmware/downlink/can/urb_can_transfer.c gen/c/urb_can_wire.c
+$(FWB_BUILD)/urb-bridge-hosted: firmware/bridge/hosted_main.c $(FWB_LIB_SRC) $(FWB_GEN_SRC) $(FWB_HOSTED_SRC) $(FWB_HOSTED_CAN_SRC) $(FWB_HDRS)
 	@mkdir -p $(@D)
 	gcc $(FWB_STRICT) -D_DEFAULT_SOURCE -D_XOPEN_SOURCE=600 -O2 $(FWB_INC) firmware/bridge/hosted_main.c \
-	  $(FWB_LIB_SRC) $(FWB_GEN_SRC) gen/c/urb_sensorhex.c $(FWB_HOSTED_SRC) -o $@
+	  $(FWB_LIB_SRC) $(FWB_GEN_SRC) gen/c/urb_sensorhex.c $(FWB_HOSTED_SRC) $(FWB_HOSTED_CAN_SRC) -o $@
 
 bridge-hosted: $(FWB_BUILD)/urb-bridge-hosted
 

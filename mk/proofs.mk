@@ -6,6 +6,7 @@
 #                        cover points (on demand)
 #   make proofs-cover    ESBMC fast tier with the cover points (URB_COVER) checked, no mutants (on demand:
 #                        costly, see proofs/README.md, Cover points)
+#   make proofs-fresh    proofs-bmc with every ESBMC run done now (BMC_CACHE=off: no replay, nothing recorded)
 #   make proofs-costs    re-record each BMC proof's worst-case cycles (proofs/bmc/*/COST)
 #   make proofs-summary  merge the parts' results again (fails when a part is missing or unexpected)
 # Each proof part's fragment appends its name to PROOF_PARTS and defines its target (bmc: proofs-bmc,
@@ -16,7 +17,7 @@ PROOF_PARTS += bmc
 # The parts `make proofs` must find results of; a part whose fragment is missing fails the summary.
 PROOF_PARTS_REQUIRED ?= bmc framac fuzz
 
-.PHONY: proofs proofs-bmc proofs-full proofs-cover proofs-costs proofs-summary
+.PHONY: proofs proofs-bmc proofs-fresh proofs-full proofs-cover proofs-costs proofs-summary
 # Every part runs even when an earlier one fails, so the summary shows all of them; the recipe is
 # expanded after every fragment is read, so parts defined in later fragments are included.
 proofs:
@@ -29,8 +30,17 @@ proofs:
 	$(PYTHON) tools/proofs.py summary --parts "$(sort $(PROOF_PARTS_REQUIRED) $(PROOF_PARTS))" || status=1; \
 	exit $$status
 
+# ESBMC runs whose inputs are byte-identical to a recorded run's are replayed from proofs/bmc/cache
+# (proofs/bmc/bmc_cache.py; BMC_CACHE=off runs all, refresh re-records). Each run re-runs for real a
+# sample of BMC_CACHE_VERIFY per mille of the replayed runs (those under 30 s of CPU), drawn from the
+# commit, and fails on any verdict that differs from the recorded one.
+BMC_CACHE_VERIFY ?= 25
+BMC_CACHE_SEED ?= $(shell git rev-parse HEAD 2>/dev/null)
 proofs-bmc:
-	$(PYTHON) tools/proofs.py --tier fast
+	BMC_CACHE_VERIFY=$(BMC_CACHE_VERIFY) BMC_CACHE_SEED=$(BMC_CACHE_SEED) $(PYTHON) tools/proofs.py --tier fast
+
+proofs-fresh:
+	BMC_CACHE=off $(PYTHON) tools/proofs.py --tier fast
 
 proofs-full:
 	$(PYTHON) tools/proofs.py --tier full --covers

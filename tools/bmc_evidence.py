@@ -161,7 +161,9 @@ def proof_items(e: ProofEvidence) -> list[dict[str, Any]]:
                  "result": e.proof_row["result"], "detail": e.proof_row["detail"],
                  "reach": e.reach_row["result"] if e.reach_row else None,
                  "worst_case_witness": e.tight_row["result"] if e.tight_row else None,
-                 **worst, "time_s": e.proof_row["time_s"], "cpu_s": e.proof_row.get("cpu_s"), **e.settings}}]
+                 **worst, "time_s": e.proof_row["time_s"], "cpu_s": e.proof_row.get("cpu_s"),
+                 "runs_replayed_from_cache": sum(int(r.get("replayed", 0)) for r in parts),
+                 "runs": sum(int(r.get("runs", 0)) for r in parts), **e.settings}}]
     for m in e.mutants:
         name = str(m["name"])
         row = e.mutant_rows.get(name)
@@ -175,7 +177,8 @@ def proof_items(e: ProofEvidence) -> list[dict[str, Any]]:
             "measured": f"{row['result']}: {row['detail']}", "source": f"proofs/bmc/{e.folder}/mutants.json",
             "rerun": f"make -C proofs/bmc/{e.folder} mutant MUTANT={name} TIER={e.tier}",
             "data": {"kind": m.get("kind"), "why": m.get("why"), "file": m.get("file"), "function": m.get("function"),
-                     "expect": m["expect"], "result": row["result"], "time_s": row["time_s"], "tier": e.tier}})
+                     "expect": m["expect"], "result": row["result"], "time_s": row["time_s"], "tier": e.tier,
+                     "runs_replayed_from_cache": row.get("replayed", 0), "runs": row.get("runs", 0)}})
     for v in e.covers:
         items.append({
             "id": f"bmc-cover:{e.folder}/{v.name}", "kind": "cover", "verdict": "pass" if v.ok else "fail",

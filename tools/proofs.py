@@ -59,7 +59,7 @@ import xml.etree.ElementTree as ET
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterable
 
 if str(Path(__file__).resolve().parents[1]) not in sys.path:  # tools/ as a namespace package, also when
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this script is run or loaded by path
@@ -263,11 +263,14 @@ class Run:
     claims: dict[str, bool] = field(default_factory=dict)
     #: reach runs: the cover points compiled into the run
     points: list[str] = field(default_factory=list)
+    #: the verdict was replayed from proofs/bmc/cache (bmc_cache.py): "<commit> <date>" it was computed on
+    replayed: str = ""
 
 
 _VIOLATED_RE = re.compile(r"Violated property:\n\s+file .*\n\s+(.*)\n")
 _COST_RE = re.compile(r"^\s+urb_proof_cost_seen = (\d+)", re.MULTILINE)
 _CPU_RE = re.compile(r"^urb-cpu-seconds ([\d.]+) ([\d.]+)$", re.MULTILINE)
+_HIT_RE = re.compile(r"^urb-bmc-cache: hit \S+ cpu ([\d.]+) commit (\S+) date (\S+)$", re.MULTILINE)
 TIME = "/usr/bin/time"
 
 
@@ -284,9 +287,12 @@ def parse_esbmc(text: str, seconds: float) -> Run:
     m = _VIOLATED_RE.search(text)
     costs = _COST_RE.findall(text)
     cpu = _CPU_RE.findall(text)
+    hit = _HIT_RE.search(text)
+    # A replayed run's CPU is the recorded ESBMC run's, not the replay's.
+    cpu_s = float(hit.group(1)) if hit else (float(cpu[-1][0]) + float(cpu[-1][1]) if cpu else 0.0)
     return Run(outcome, seconds, m.group(1).strip() if m else "", cost_seen=int(costs[-1]) if costs else None,
-               cpu_s=float(cpu[-1][0]) + float(cpu[-1][1]) if cpu else 0.0,
-               claims=bmc_evidence.parse_claims(text), points=bmc_evidence.parse_cover_points(text))
+               cpu_s=cpu_s, claims=bmc_evidence.parse_claims(text), points=bmc_evidence.parse_cover_points(text),
+               replayed=f"{hit.group(2)} {hit.group(3)}" if hit else "")
 
 
 def esbmc_path() -> str:
@@ -643,6 +649,14 @@ def write_evidence(evidence: list[bmc_evidence.ProofEvidence], tier: str, out: P
                         config={"tier": tier, **config}, out_dir=out)
 
 
+def _account(row: dict[str, Any], runs: Iterable[Run]) -> None:
+    """The row's ESBMC CPU seconds and how many of its runs were replayed from proofs/bmc/cache."""
+    runs = list(runs)
+    row["cpu_s"] = round(sum(r.cpu_s for r in runs), 2)
+    row["replayed"] = sum(1 for r in runs if r.replayed)
+    row["runs"] = len(runs)
+
+
 def collect(plan: Plan, tier: str) -> list[dict[str, Any]]:
     p = plan.proof
     runs = {item: f.result() for item, f in plan.runs.items()}
@@ -656,7 +670,7 @@ def collect(plan: Plan, tier: str) -> list[dict[str, Any]]:
         result, detail = "proved", p.purpose
     rows = [make_row(p.name, "ESBMC", properties_of(p), bound, result, not bad, sum(r.seconds for r in runs.values()),
                      detail, p.cost, p.budget() if p.cost is not None else None)]
-    rows[-1]["cpu_s"] = round(sum(r.cpu_s for r in runs.values()), 2)
+    _account(rows[-1], runs.values())
     for name, fut in plan.mutants.items():
         tries = fut.result()
         last_item, last = tries[-1]
@@ -676,7 +690,7 @@ def collect(plan: Plan, tier: str) -> list[dict[str, Any]]:
             detail = f"{why}; {last_item or 'run'}: {last.violated or last.outcome} (log {last.log})"
         rows.append(make_row(f"{p.name} [mutant {name}]", "ESBMC", "seeded bug must be reported", bound, result, ok,
                              sum(r.seconds for _, r in tries), detail))
-        rows[-1]["cpu_s"] = round(sum(r.cpu_s for _, r in tries), 2)
+        _account(rows[-1], [r for _, r in tries])
     reach_row: dict[str, Any] | None = None
     covers: list[bmc_evidence.CoverVerdict] = []
     if plan.reach:
@@ -691,7 +705,7 @@ def collect(plan: Plan, tier: str) -> list[dict[str, Any]]:
         rows.append(make_row(f"{p.name} [reach]", "ESBMC", "assumptions satisfiable (assertions off, assert(false) "
                              "at the end must be reported)", bound, result, not vacuous,
                              sum(r.seconds for r in reach.values()), detail))
-        rows[-1]["cpu_s"] = round(sum(r.cpu_s for r in reach.values()), 2)
+        _account(rows[-1], reach.values())
         reach_row = rows[-1]
     if plan.reach and plan.covers:
         reach = {item: f.result() for item, f in plan.reach.items()}
@@ -712,7 +726,7 @@ def collect(plan: Plan, tier: str) -> list[dict[str, Any]]:
         rows.append(make_row(f"{p.name} [worst case]", "ESBMC", "cost reaches COST (witness)",
                              f"unwind {p.unwind('full')} {p.cost_item}".strip(), result, reached, r.seconds,
                              "" if reached else f"{r.violated or r.outcome} (log {r.log}); rerun --update-costs"))
-        rows[-1]["cpu_s"] = round(r.cpu_s, 2)
+        _account(rows[-1], [r])
     plan.evidence = bmc_evidence.ProofEvidence(
         p.name, tier, p.purpose, properties_of(p), bound,
         {k: p.config.get(k, "") for k in ("checks", "extra", "timeout", "unwind", "fast_unwind", "tier_defines")},
@@ -720,6 +734,26 @@ def collect(plan: Plan, tier: str) -> list[dict[str, Any]]:
         {r["function"].split("[mutant ", 1)[1].rstrip("]"): r for r in rows if "[mutant " in r["function"]},
         p.mutants, covers, p.cost, p.budget())
     return rows
+
+
+CACHE_DIR = BMC_DIR / "cache"
+_KEY_RE = re.compile(r"^urb-bmc-cache: (?:hit|recorded|spot-checked) ([0-9a-f]{64})\b", re.MULTILINE)
+
+
+def prune_cache(tier: str, out_root: Path, since: float) -> str:
+    """Deletes the tier's cache entries that no run since `since` used (their logs name the keys they used)."""
+    import gzip
+
+    used = {k for log in log_dir(out_root).glob("*.log") if log.stat().st_mtime >= since
+            for k in _KEY_RE.findall(log.read_text(encoding="utf-8", errors="replace"))}
+    removed = 0
+    for entry in CACHE_DIR.glob("*/*.json.gz"):
+        with gzip.open(entry, "rt", encoding="utf-8") as fh:
+            label = str(json.load(fh).get("label", ""))
+        if label.split(" ", 1)[0] == tier and entry.name.removesuffix(".json.gz") not in used:
+            entry.unlink()
+            removed += 1
+    return f"proofs/bmc/cache: {removed} {tier}-tier entries no run used were deleted, {len(used)} used"
 
 
 def check_fresh() -> dict[str, Any]:
@@ -843,6 +877,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--update-costs", action="store_true", help="record worst-case costs (COST files) and stop")
     ap.add_argument("--list", action="store_true", help="list the proofs and their settings and stop")
     ap.add_argument("--out", type=Path, default=OUT_ROOT, help="results folder (default build/proofs)")
+    ap.add_argument("--prune-cache", action="store_true",
+                    help="after a run of every folder, delete the proofs/bmc/cache entries of the tier that no run "
+                         "of it used (entries of changed inputs)")
     args = ap.parse_args(argv)
     started = time.monotonic()
     try:
@@ -865,13 +902,22 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     wall = time.monotonic() - started
     print_rows(rows)
+    if args.prune_cache and not args.only:
+        print(prune_cache(args.tier, args.out, time.time() - wall))
     bad = [r for r in rows if not r["expected"]]
     n_mut = sum(1 for r in rows if "[mutant " in r["function"])
     cpu = sum(float(r.get("cpu_s", 0.0)) for r in rows)
+    runs = sum(int(r.get("runs", 0)) for r in rows)
+    replayed = sum(int(r.get("replayed", 0)) for r in rows)
+    print(f"\nproofs-bmc cache: {replayed} of {runs} ESBMC runs replayed from proofs/bmc/cache (their inputs are "
+          f"byte-identical to the recorded runs'), {runs - replayed} run now"
+          + (f"; commit the new entries (git add proofs/bmc/cache) to reuse them" if runs - replayed else "")
+          + f"; BMC_CACHE={os.environ.get('BMC_CACHE', 'on')} (off: run every one)")
     print(f"\nproofs-bmc ({args.tier}): {len(proofs)} proofs, {n_mut} mutants, {len(rows)} results, {len(bad)} unexpected; "
           f"{wall:.0f} s wall on {args.jobs} jobs, {cpu:.0f} s CPU (ideal wall on {args.jobs} idle cores "
           f"{cpu / max(1, args.jobs):.0f} s)")
-    run_config = {"jobs": args.jobs, "mutants": not args.no_mutants, "covers": args.covers, "proofs": len(proofs), "cpu_s": round(cpu, 1),
+    run_config = {"esbmc_runs": runs, "replayed_from_cache": replayed, "bmc_cache": os.environ.get("BMC_CACHE", "on"),
+                  "jobs": args.jobs, "mutants": not args.no_mutants, "covers": args.covers, "proofs": len(proofs), "cpu_s": round(cpu, 1),
                   "wall_s": round(wall, 1)}
     if args.only:
         out = args.out / "bmc-only"

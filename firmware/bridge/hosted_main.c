@@ -1,6 +1,7 @@
 /*
  * urb-bridge-hosted: the bridge firmware on a POSIX host, its RS232 uplink on a pseudo-terminal,
- * its downlink an in-process simulated I2C bus with fake nodes (firmware/hal/hosted/).
+ * its downlink an in-process simulated I2C bus with fake nodes (firmware/hal/hosted/), or with
+ * --downlink can the CAN hub of tools/can_hub.py with urb-node-hosted processes (hosted_can.c).
  *
  * For host-library tests over a real serial port API (pyserial): open the printed pty path at any
  * baud rate and talk URB. The first line on stdout is "pty: PATH". Run with --help for options.
@@ -17,6 +18,7 @@
 #include <unistd.h>
 
 #include "bridge_hosted.h"
+#include "hosted_can.h"
 #include "urb_bridge.h"
 #include "urb_core.h"
 #include "urb_sensorhex.h"
@@ -58,6 +60,11 @@ static void usage(FILE *out)
             "  --no-scan         do not scan the downlink at start (the host sends SCAN)\n"
             "  --link PATH       also make PATH a symbolic link to the pty (removed at exit)\n"
             "  --seconds N       exit after N seconds (default: run until SIGINT or SIGTERM)\n"
+            "  --downlink i2c|can  the downlink (default i2c: the in-process fake nodes of --node)\n"
+            "  --can-hub PATH    with --downlink can: the CAN hub at PATH (tools/can_hub.py; python-can's virtual\n"
+            "                    bus by default, --interface socketcan for a real one) with the nodes in other\n"
+            "                    processes (urb-node-hosted --can-hub PATH --node ...); no --node here\n"
+            "  --can-timeout-us N CAN transaction timeout (default 20000: hosted nodes are processes)\n"
             "  --verbose         print bridge counters on stderr at exit\n"
             "  --help            this text\n",
             MAX_NODES);
@@ -241,6 +248,9 @@ int main(int argc, char **argv)
     bool verbose = false;
     const char *specs[MAX_NODES];
     int n_specs = 0;
+    bool downlink_can = false;
+    const char *can_hub = NULL;
+    unsigned long can_timeout_us = 20000;
 
     for (int i = 1; i < argc; i++) {
         const char *o = argv[i];
@@ -274,6 +284,14 @@ int main(int argc, char **argv)
             i++;
         } else if (strcmp(o, "--i2c-khz") == 0 && parse_uint(v, 5000, &khz) == 0 && khz >= 10) {
             i++;
+        } else if (strcmp(o, "--downlink") == 0 && (strcmp(v, "i2c") == 0 || strcmp(v, "can") == 0)) {
+            downlink_can = strcmp(v, "can") == 0;
+            i++;
+        } else if (strcmp(o, "--can-hub") == 0) {
+            can_hub = v;
+            i++;
+        } else if (strcmp(o, "--can-timeout-us") == 0 && parse_uint(v, 10000000, &can_timeout_us) == 0) {
+            i++;
         } else if (strcmp(o, "--link") == 0) {
             link = v;
             i++;
@@ -285,6 +303,15 @@ int main(int argc, char **argv)
         }
     }
 
+    if (downlink_can != (can_hub != NULL)) {
+        fprintf(stderr, "--downlink can and --can-hub PATH go together; see --help\n");
+        return 2;
+    }
+    if (downlink_can && (n_specs > 0)) {
+        fprintf(stderr, "--downlink can takes no --node: the nodes are urb-node-hosted processes on the hub; "
+                        "see --help\n");
+        return 2;
+    }
     mcfg.bitrate_kbps = (uint16_t)khz;
     mcfg.timeout_us = urb_i2c_master_timeout_us((uint32_t)khz); /* a slower bus needs longer */
     if (urb_hosted_rig_init(&rig, &cfg, &mcfg) != URB_OK) {
@@ -335,6 +362,15 @@ int main(int argc, char **argv)
     signal(SIGPIPE, SIG_IGN);
     printf("pty: %s\n", slave_path);
     fflush(stdout);
+    if (downlink_can) {
+        int const rc = urb_hosted_can_run(&cfg, master, can_hub, (uint32_t)can_timeout_us, seconds, &g_stop, verbose);
+        if (link != NULL) {
+            unlink(link);
+        }
+        close(slave);
+        close(master);
+        return rc;
+    }
 
     /* Virtual time: the bridge, its bus and its heartbeat run on a clock that follows the wall
      * clock in steps of at most STEP_US. If the process is descheduled, the clock catches up step

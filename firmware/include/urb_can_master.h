@@ -17,7 +17,8 @@
  * Outcomes that no answer gives: a transfer whose CRC fails -> CHECKSUM; no frame of the answer
  * within the timeout -> NO_NODE (nobody took the address, as an unacknowledged I2C address);
  * an answer begun and not finished, or a request not sent in time -> TIMEOUT; a controller that
- * is bus-off when a request begins -> BUS_STUCK (not executed) after the recovery. A request
+ * is bus-off when a request begins -> BUS_STUCK (not executed) after the recovery; while the
+ * controller stays bus-off after that, at once (the recovery is asked for again every recover_us). A request
  * during which the controller goes bus-off ends TIMEOUT: some of its frames may have arrived.
  *
  * Concurrency: urb_can_master_rx() and urb_can_master_tx_done() are the interrupt side (O(7) each);
@@ -80,6 +81,8 @@ typedef struct {
     bool frame_ready;            /* `frame` holds the next frame, not yet accepted by the HAL */
     bool answered;               /* a frame of the answer was accepted */
     uint32_t t0;                 /* begin() time */
+    uint32_t recover_t0;         /* when the last recovery was asked for */
+    bool recovering;             /* a recovery was asked for and the controller is not yet back */
     urb_can_tx_t tx;
     urb_can_rx_t rx;
     urb_can_frame_t frame;

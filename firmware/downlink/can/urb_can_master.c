@@ -237,6 +237,8 @@ static void start_recovery(urb_can_master_t *m, uint32_t now, uint8_t report)
     m->stats.recoveries++;
     m->clear_result = report;
     m->t0 = now;
+    m->recover_t0 = now;
+    m->recovering = true;
     m->phase = PH_RECOVER;
 }
 
@@ -263,13 +265,33 @@ static bool master_begin(void *ctx, const urb_downlink_txn_t *t, uint32_t now)
         lock(m, false);
         return true;
     }
-    if (h->state(h->ctx) == (uint8_t)URB_CAN_BUS_OFF) {
+    if (h->state(h->ctx) != (uint8_t)URB_CAN_BUS_OFF) {
+        m->recovering = false; /* back on the bus */
+    } else {
 #if defined(URB_MUTANT_CAN_BUSOFF_AS_TIMEOUT)
         m->result = URB_STATUS_TIMEOUT;
         m->phase = PH_DONE;
 #else
         /* as a stuck I2C bus: the request is not executed, the bus is cleared (recovered) first */
         m->stats.bus_off++;
+#if !defined(URB_MUTANT_CAN_WAIT_EACH_RECOVERY)
+        if (m->recovering) {
+            /* a recovery asked for by an earlier transaction has not brought the controller back:
+             * report at once (asking again when the last ask is older than a recovery), as a bus
+             * clear of a still stuck I2C bus does; waiting a recovery out for every transaction
+             * would let the heartbeat's SYNCs (one per period, each longer than the period) starve
+             * the host's requests for as long as the bus is off */
+            if ((uint32_t)(now - m->recover_t0) > m->cfg.recover_us) {
+                m->hal->recover(m->hal->ctx);
+                m->stats.recoveries++;
+                m->recover_t0 = now;
+            }
+            m->result = URB_STATUS_BUS_STUCK;
+            m->phase = PH_DONE;
+            lock(m, false);
+            return true;
+        }
+#endif
         start_recovery(m, now, URB_STATUS_BUS_STUCK);
 #endif
         lock(m, false);
@@ -325,6 +347,7 @@ static int8_t master_poll(void *ctx, uint32_t now)
     }
     if (ph == PH_RECOVER) {
         if (h->state(h->ctx) == (uint8_t)URB_CAN_ERROR_ACTIVE) {
+            m->recovering = false;
             m->phase = PH_IDLE;
             return (int8_t)m->clear_result;
         }
