@@ -15,7 +15,7 @@ PYTEST := tools/run-pytest
 CHECK_TARGETS :=
 
 .DEFAULT_GOAL := help
-.PHONY: help setup gen gen-check accel lint test-py check demo bench clean
+.PHONY: help setup gen gen-check accel host-c-py lint test-py check demo bench clean
 
 help:
 	@echo "make demo       run the main job (installs what is missing first)"
@@ -23,6 +23,7 @@ help:
 	@echo "make gen        regenerate gen/c and gen/python from spec/schema"
 	@echo "make gen-check  fail when the committed generated files are stale"
 	@echo "make accel      build urb_msgs._accel, the Python message classes' C codecs (from gen/c)"
+	@echo "make host-c-py  build urb.managers._native, the Python host library's protocol cores on host/c/core"
 	@echo "make bench      run the benchmarks: codecs next to MAVLink, host library CPU per request, C next to Python"
 	@echo "make report     the certification evidence report: build/report/index.html and report.pdf"
 
@@ -41,6 +42,13 @@ gen-check: setup
 accel: setup
 	$(PYTHON) -m urb_codegen.build_accel
 
+# The Python host library's protocol cores on the C core of host/c (host/urb/managers/native.py):
+# host/urb/managers/_native.c with host/c/core, compiled for .venv's interpreter (a build product,
+# git-ignored; rebuilt when its sources' digest changes). The managers pick it when built;
+# URB_PURE_PYTHON=1 keeps the Python reference cores (and codecs).
+host-c-py: setup
+	$(PYTHON) tools/build_native_core.py
+
 lint: setup
 	$(PYTHON) -m mypy --strict host/urb codegen/urb_codegen gen/python/urb_msgs sim/urb_sim report/urb_report tools proofs/bmc/bmc_cache.py
 
@@ -53,7 +61,7 @@ lint: setup
 PYTEST_WORKERS ?= 2
 PYTEST_SEED ?= 0
 PYTEST_PY_ARGS := -q -n $(PYTEST_WORKERS) --dist loadfile tests --ignore=tests/test_c_codecs.py --hypothesis-seed=$(PYTEST_SEED)
-test-py: setup accel sim-lib bridge-hosted
+test-py: setup accel host-c-py sim-lib bridge-hosted
 	@rm -f build/evidence/pytest.json build/junit/pytest.xml
 	$(PYTEST) $(PYTEST_PY_ARGS) --junitxml=build/junit/pytest.xml -o junit_family=xunit1; status=$$?; \
 	$(PYTHON) -m urb_report.junit pytest build/junit/pytest.xml --name pytest --seed $(PYTEST_SEED) \
@@ -69,9 +77,10 @@ check: setup gen-check lint test-py $(CHECK_TARGETS)
 demo: setup
 	urb sim sensorhex --sensitivity
 
-bench: setup accel bridge-hosted host-c-bench
+bench: setup accel host-c-py bridge-hosted host-c-bench
 	$(PYTHON) bench/codec_bench.py
-	$(PYTHON) bench/host_cpu.py
+	URB_HOST_CORE=python $(PYTHON) bench/host_cpu.py --json build/bench/host_cpu.json
+	URB_HOST_CORE=c $(PYTHON) bench/host_cpu.py --json build/bench/host_cpu_native.json
 	$(PYTHON) bench/host_cpu_c.py
 
 clean:

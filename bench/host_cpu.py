@@ -14,9 +14,16 @@ application's loop and its callbacks), never the bridge's: the bridge runs in an
      transfer boundaries the same way) to the Python bridge model in a child process: one
      SensoRHex USB bridge's load, three MotorFeedback reads and three MotorCommand writes every
      millisecond, for --seconds of wall time.
-  3. The protocol state machines alone (Rs232Core, UsbCore; no threads, no system calls):
-     submit, frame, response, completion. What 1 and 2 cost beyond this is the real-time
-     runtime: threads waking each other, the GIL, the port's system calls.
+  3. The protocol state machines alone (the cores the managers run: Rs232Core and UsbCore, or
+     their C counterparts; no threads, no system calls): submit, frame, response, completion.
+     What 1 and 2 cost beyond this is the real-time runtime: threads waking each other, the GIL,
+     the port's system calls.
+
+Which protocol core the library runs is the library's choice (urb.managers.native): the C core of
+host/c when `make host-c-py` built it, the Python reference with URB_HOST_CORE=python (or
+URB_PURE_PYTHON=1, which also takes the pure-Python codecs). `make bench` runs this file both ways
+(build/bench/host_cpu.json: Python cores; build/bench/host_cpu_native.json: the C core) and
+bench/host_cpu_c.py prints them next to the C library.
 
 Prints microseconds of CPU per request for each, the threads' split (from /proc, counted in
 clock ticks, so rough), and the projection: the SensoRHex load at 1 kHz as a share of one core of
@@ -49,8 +56,8 @@ from bridge_proc import build_hosted_bridge, serve_usb_transfers  # noqa: E402
 from urb.api import NodeRequest, URBInterface  # noqa: E402
 from urb.managers import BridgeModel, CharDeviceTransport, RS232Manager, USBManager, fake_node  # noqa: E402
 from urb.managers.base import NS_PER_MS, Transfer  # noqa: E402
-from urb.managers.rs232_core import Rs232Core  # noqa: E402
-from urb.managers.usb_core import UsbCore  # noqa: E402
+from urb.managers import native  # noqa: E402
+from urb_msgs import _codec  # noqa: E402
 from urb_msgs.sensorhex import MotorCommand, MotorFeedback  # noqa: E402
 from urb_msgs.urb_core import Status, UplinkResponse, UsbBatchHeader  # noqa: E402
 
@@ -173,10 +180,10 @@ def usb_sensorhex(seconds: float) -> dict[str, Any]:
 
 
 def rs232_core_only(requests: int) -> float:
-    """Case 3, RS232: CPU microseconds per request of Rs232Core alone (responses prepared
+    """Case 3, RS232: CPU microseconds per request of the RS232 core alone (responses prepared
     beforehand, so only the host's work is timed)."""
     responses = [UplinkResponse(seq=s, status=Status.OK, data=bytes(6)).encode() for s in range(16)]
-    core = Rs232Core(window=15)
+    core = native.new_rs232_core(window=15)
     now, sent = 0, []
     cpu0 = time.process_time()
     for i in range(requests):
@@ -193,11 +200,11 @@ def rs232_core_only(requests: int) -> float:
 
 
 def usb_core_only(requests: int) -> float:
-    """Case 3, USB: CPU microseconds per request of UsbCore alone, 6 requests per 1-ms frame
+    """Case 3, USB: CPU microseconds per request of the USB core alone, 6 requests per 1-ms frame
     (responses prepared beforehand)."""
     responses = [UplinkResponse(seq=s, status=Status.OK, data=bytes(6)).encode() for s in range(16)]
     headers = [UsbBatchHeader(frame=1, count=n).encode() for n in range(16)]
-    core = UsbCore(max_batch=14)
+    core = native.new_usb_core(max_batch=14)
     header = UsbBatchHeader.MAX_SIZE
     now, done = 0, 0
     cpu0 = time.process_time()
@@ -226,7 +233,7 @@ def main(argv: list[str] | None = None) -> int:
 
     print(f"Host library CPU per request ({'quick' if args.quick else 'full'} run, best of {args.repeats}; CPU time "
           f"of the host process, Python {sys.version.split()[0]}, load average {os.getloadavg()[0]:.1f} on "
-          f"{os.cpu_count()} CPUs):")
+          f"{os.cpu_count()} CPUs; protocol core: {native.BACKEND} ({native.REASON}), codecs: {_codec.BACKEND}):")
     if args.repeats < 1:
         ap.error("--repeats must be 1 or more")
     runs = range(args.repeats)
@@ -239,7 +246,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"  USB, SensoRHex bridge load (6 per ms), seqpacket    : {usb['us_per_request']:6.1f} us "
           f"({usb['completed']} of {usb['requests']} completed, {usb['failed']} failed, "
           f"{usb['core_share'] * 100:.0f} % of one core)")
-    print(f"  protocol state machine alone: Rs232Core {core_rs:.1f} us, UsbCore {core_usb:.1f} us "
+    print(f"  protocol state machine alone ({native.BACKEND} core): RS232 {core_rs:.1f} us, USB {core_usb:.1f} us "
           f"(the rest is the runtime: threads, GIL, system calls)")
     for label, r in (("RS232", rs), ("USB", usb)):
         split = ", ".join(f"{k} {v:.1f}" for k, v in sorted(r["threads_us"].items(), key=lambda kv: -kv[1]) if v >= 0.05)
@@ -250,7 +257,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\nSensoRHex at 1 kHz ({per_s} requests per s): {load:.2f} of one core of this machine "
           f"({'fits' if load < 1 else 'does NOT fit'} one core; the GIL keeps the library on one)")
     results = {"rs232_pty": rs, "usb_sensorhex": usb, "rs232_core_us": core_rs, "usb_core_us": core_usb,
-               "sensorhex_core_share": load, "quick": args.quick, "repeats": args.repeats,
+               "sensorhex_core_share": load, "core": native.BACKEND, "codecs": _codec.BACKEND, "quick": args.quick, "repeats": args.repeats,
                "python": sys.version.split()[0], "machine": platform.processor() or platform.machine(),
                "cpus": os.cpu_count(), "load_average": os.getloadavg()[0]}
     args.json.parent.mkdir(parents=True, exist_ok=True)

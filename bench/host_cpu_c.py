@@ -19,9 +19,10 @@ socket or pty costs in a current Linux kernel (0.5 to 2 us on a 2-4 GHz core). T
 500-MHz Geode-class core is (user instructions + system calls x 4000) per second of the load / (500
 MHz x IPC), at IPC 1 (Geode LX's best case for integer code) and 0.5.
 
-Next to it, the Python library on the same load, from bench/host_cpu.py's numbers
-(build/bench/host_cpu.json; `make bench` runs that first): CPU per request and share of a core, C /
-Python.
+Next to it, the Python library on the same load, from bench/host_cpu.py's numbers (`make bench`
+runs that first, twice): on its Python reference cores (build/bench/host_cpu.json) and on the C core
+through urb.managers._native (build/bench/host_cpu_native.json; issue #38's goal: at most 10 % of
+one core): CPU per request and share of a core, and the ratios.
 
     python3 bench/host_cpu_c.py [--seconds 5] [--cg-seconds 2] [--python-json PATH]
 
@@ -50,6 +51,7 @@ HOST = REPO / "build" / "host_c" / "bench" / "host_cpu_c"
 BRIDGES = REPO / "build" / "host_c" / "bench" / "host_cpu_c_bridges"
 HOSTED = REPO / "build" / "firmware" / "urb-bridge-hosted"
 GOAL_SHARE = 0.02           # issue #38: at most 2 % of one core of this machine
+GOAL_SHARE_PY_ON_C = 0.10   # issue #38: the Python API on the C core, at most 10 %
 GEODE_HZ = 500e6
 KERNEL_INSTR_PER_CALL = 4000
 PER_MS = 12.3
@@ -140,25 +142,43 @@ def python_numbers(path: Path) -> dict[str, float] | None:
         return {"share": float(data["sensorhex_core_share"]),
                 "usb_us": float(data["usb_sensorhex"]["us_per_request"]),
                 "rs232_us": float(data["rs232_pty"]["us_per_request"]),
+                "usb_core_us": float(data["usb_core_us"]), "rs232_core_us": float(data["rs232_core_us"]),
                 "quick": float(bool(data.get("quick", False)))}
     except (OSError, ValueError, KeyError, TypeError):
         return None
 
 
-def side_by_side(py: dict[str, float], c_share: float, c_us: float) -> None:
-    """The C library next to the Python one on the SensoRHex load, as ratios (C / Python)."""
+def side_by_side(py: dict[str, float], on_c: dict[str, float] | None, c_share: float, c_us: float) -> None:
+    """The C library and the Python API on the C core (`on_c`, when measured) next to the Python
+    library on its Python cores on the SensoRHex load, as ratios to it."""
     per_s = PER_MS * 1000
     py_us = py["share"] * 1e6 / per_s  # CPU per request over the SensoRHex mix (USB and RS232)
     print("SensoRHex load, C library next to the Python library (bench/host_cpu.py"
           f"{', its quick run' if py['quick'] else ''}; Python: per-request costs measured on one USB "
           "bridge's load and on RS232, scaled to the whole load; C: the whole load measured)")
     print()
-    print("| measure | Python library | C library | C / Python |")
-    print("|---|---:|---:|---:|")
-    print(f"| CPU per request over the SensoRHex mix | {py_us:.1f} us | {c_us:.2f} us | {c_us / py_us:.3f} |")
+    if on_c is None:
+        print("| measure | Python library | C library | C / Python |")
+        print("|---|---:|---:|---:|")
+        print(f"| CPU per request over the SensoRHex mix | {py_us:.1f} us | {c_us:.2f} us | {c_us / py_us:.3f} |")
+        print(f"| share of one core of this machine at 12.3 requests/ms | {py['share'] * 100:.1f} % | "
+              f"{c_share * 100:.2f} % | {c_share / py['share']:.3f} |")
+        print(f"| Python / C (times less CPU in C) | | | {py['share'] / c_share:.0f} x |")
+        return
+    on_c_us = on_c["share"] * 1e6 / per_s
+    print("| measure | Python library, Python core | Python API on the C core | C library | "
+          "on C core / Python | C / Python |")
+    print("|---|---:|---:|---:|---:|---:|")
+    print(f"| CPU per request over the SensoRHex mix | {py_us:.1f} us | {on_c_us:.1f} us | {c_us:.2f} us | "
+          f"{on_c_us / py_us:.3f} | {c_us / py_us:.3f} |")
     print(f"| share of one core of this machine at 12.3 requests/ms | {py['share'] * 100:.1f} % | "
-          f"{c_share * 100:.2f} % | {c_share / py['share']:.3f} |")
-    print(f"| Python / C (times less CPU in C) | | | {py['share'] / c_share:.0f} x |")
+          f"{on_c['share'] * 100:.1f} % | {c_share * 100:.2f} % | {on_c['share'] / py['share']:.3f} | "
+          f"{c_share / py['share']:.3f} |")
+    print(f"| protocol core alone, us per request, USB / RS232 | {py['usb_core_us']:.1f} / {py['rs232_core_us']:.1f} | "
+          f"{on_c['usb_core_us']:.1f} / {on_c['rs232_core_us']:.1f} | | "
+          f"{on_c['usb_core_us'] / py['usb_core_us']:.3f} / {on_c['rs232_core_us'] / py['rs232_core_us']:.3f} | |")
+    print(f"| Python API on the C core: share of one core / goal ({GOAL_SHARE_PY_ON_C * 100:.0f} %) | | "
+          f"{on_c['share'] / GOAL_SHARE_PY_ON_C:.2f} | | | |")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -167,6 +187,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cg-seconds", type=float, default=2.0, help="load run under callgrind (default 2)")
     ap.add_argument("--python-json", type=Path, default=OUT / "host_cpu.json",
                     help="bench/host_cpu.py's numbers for the side-by-side table (default build/bench/host_cpu.json)")
+    ap.add_argument("--native-json", type=Path, default=OUT / "host_cpu_native.json",
+                    help="bench/host_cpu.py's numbers on the C core (default build/bench/host_cpu_native.json)")
     args = ap.parse_args(argv)
     make("bridge-hosted", "host-c-bench")
     res = run_load(args.seconds, [])
@@ -217,13 +239,15 @@ def main(argv: list[str] | None = None) -> int:
     else:
         print("| instructions | valgrind or strace not installed: no projection | | |")
     py = python_numbers(args.python_json)
+    on_c = python_numbers(args.native_json)
     rows["python"] = py
+    rows["python_on_c_core"] = on_c
     print()
     if py is None:
         print(f"Python library: no numbers in {args.python_json} (run `python3 bench/host_cpu.py` first; "
               "`make bench` does): no side-by-side table")
     else:
-        side_by_side(py, share_at_rate, us_per_request)
+        side_by_side(py, on_c, share_at_rate, us_per_request)
     OUT.mkdir(parents=True, exist_ok=True)
     (OUT / "host_cpu_c.json").write_text(json.dumps(rows, indent=1, default=str) + "\n", encoding="utf-8")
     return 0

@@ -117,6 +117,7 @@ def render(a: Analysis, out_dir: Path, *, state: Mapping[str, Any], date: str, m
         _records_section(a, "simulation", "Simulation acceptance criteria", ("sim",),
                          "Every criterion of every experiment's record: required (expected) against measured value, "
                          "under the hardware profile its id names (sim@<profile>:, the default profile otherwise)."),
+        _downlinks_table(a),
         _review(a),
         _other_records(a),
         _figures(copied),
@@ -208,7 +209,7 @@ says what none of this covers.</p>
 def _contents() -> str:
     entries = [("summary", "Summary"), ("matrix", "Traceability matrix"), ("requirements", "Requirements"),
                ("proofs", "Proof and model-checking results"), ("tests", "Tests"),
-               ("simulation", "Simulation acceptance criteria"),
+               ("simulation", "Simulation acceptance criteria"), ("downlinks", "Downlinks side by side"),
                ("review", "Coverage, MISRA and static analysis"), ("figures", "Simulation figures"),
                ("tools", "Tools"), ("assumptions", "Assumptions and limits"), ("history", "History of requirements"),
                ("problems", "Gate problems"), ("regenerate", "How to regenerate")]
@@ -316,6 +317,27 @@ def _records_section(a: Analysis, ident: str, title: str, activities: Sequence[s
         for r in recs:
             out.append(_record_table(a, r))
     out.append("</section>")
+    return "".join(out)
+
+
+def _downlinks_table(a: Analysis) -> str:
+    """The I2C, CAN and RS485 downlinks side by side, from the first simulation record that carries
+    the table (sim-can.json or sim-rs485.json: urb sim sensorhex --downlink can|rs485|all)."""
+    found = [r for r in a.index.records if r.activity == "sim" and isinstance(r.config.get("side_by_side"), Mapping)]
+    out = ["<section id='downlinks'><h2>Downlinks side by side</h2>"]
+    if not found:
+        out.append("<p class='missing'>No simulation record holds the comparison: <code>urb sim sensorhex "
+                   "--downlink all</code> (or make test-sim-san) writes build/evidence/sim-can.json.</p></section>")
+        return "".join(out)
+    r = found[0]
+    table = r.config["side_by_side"]
+    rows: Sequence[Mapping[str, Any]] = table.get("rows", [])
+    cols = list(rows[0]) if rows else []
+    out.append(f"<p class='small'>{_e(table.get('caption', ''))} (record <code>{_e(r.name)}.json</code>).</p><table><tr>"
+               + "".join(f"<th>{_e(c)}</th>" for c in cols) + "</tr>"
+               + "".join("<tr>" + "".join(f"<td class='small'>{_e(row.get(c, ''))}</td>" for c in cols) + "</tr>"
+                         for row in rows) + "</table>")
+    out.append("<p class='small'>" + "<br>".join(_e(x) for x in table.get("assumptions", [])) + "</p></section>")
     return "".join(out)
 
 

@@ -13,8 +13,11 @@ Sources (machine-readable results, never rerun here):
   "explained": "why a survivor is equivalent" (optional)}]}`.
 
 A mutant without a kind counts as "other" until its source says. A tool whose results are missing
-gets "not run" cells, never zeros. The table's cells are killed/total per kind; a survivor is listed
-with its explanation, and an unexplained one is a problem (the summary fails on it).
+gets "not run" cells, never zeros. The table's cells are killed/total per kind, then the survivors:
+explained ones by their labels (E1, E2, ...) and unexplained ones apart (U1, ...), each label a
+footnote under the table with the survivor's explanation, so a reviewer sees in the table which
+survivors there are and below it why each is acceptable. An unexplained survivor is a problem (the
+summary fails on it).
 """
 
 from __future__ import annotations
@@ -286,7 +289,42 @@ def load(out_root: Path) -> Loaded:
 # =============================================================================== table
 
 
-def _cell(group: Iterable[Seeded]) -> str:
+def _labels(numbers: list[int], prefix: str) -> str:
+    """Footnote labels, consecutive runs as ranges: [1, 2, 3, 5] -> "E1–E3, E5"."""
+    runs: list[list[int]] = []
+    for n in sorted(numbers):
+        if runs and n == runs[-1][-1] + 1:
+            runs[-1].append(n)
+        else:
+            runs.append([n])
+    return ", ".join(f"{prefix}{r[0]}" if len(r) == 1 else f"{prefix}{r[0]}–{prefix}{r[-1]}" for r in runs)
+
+
+@dataclass
+class Footnotes:
+    """The survivors in table order, numbered: explained ones E1, E2, ..., unexplained ones U1, ..."""
+
+    explained: list[Seeded] = field(default_factory=list)
+    unexplained: list[Seeded] = field(default_factory=list)
+
+    def label(self, s: Seeded) -> str:
+        if s.explained:
+            return f"E{next(i for i, x in enumerate(self.explained, 1) if x is s)}"
+        return f"U{next(i for i, x in enumerate(self.unexplained, 1) if x is s)}"
+
+
+def footnotes(found: Loaded, comps: list[str]) -> Footnotes:
+    notes = Footnotes()
+    order = {c: i for i, c in enumerate(comps)}
+    kinds = list(KINDS)
+    survivors = sorted((s for s in found.seeded if not s.killed),
+                       key=lambda s: (order.get(s.component, len(order)), TOOLS.index(s.tool), kinds.index(s.kind)))
+    for s in survivors:
+        (notes.explained if s.explained else notes.unexplained).append(s)
+    return notes
+
+
+def _cell(group: Iterable[Seeded], notes: Footnotes) -> str:
     by_kind: dict[str, list[Seeded]] = {}
     for s in group:
         by_kind.setdefault(s.kind, []).append(s)
@@ -297,9 +335,19 @@ def _cell(group: Iterable[Seeded]) -> str:
         items = by_kind.get(kind, [])
         if items:
             killed = sum(s.killed for s in items)
-            explained = sum(not s.killed and bool(s.explained) for s in items)
-            parts.append(f"{SHORT[kind]} {killed}/{len(items)}" + (f" (+{explained} eq.)" if explained else ""))
+            explained = [int(notes.label(s)[1:]) for s in items if not s.killed and s.explained]
+            unexplained = [int(notes.label(s)[1:]) for s in items if not s.killed and not s.explained]
+            text = f"{SHORT[kind]} {killed}/{len(items)}"
+            if explained:
+                text += f" (+{len(explained)} explained: {_labels(explained, 'E')})"
+            if unexplained:
+                text += f" (**{len(unexplained)} unexplained: {_labels(unexplained, 'U')}**)"
+            parts.append(text)
     return "<br>".join(parts)
+
+
+def _one_line(text: str) -> str:
+    return " ".join(text.split()).replace("|", "\\|")
 
 
 def markdown(found: Loaded) -> list[str]:
@@ -307,11 +355,13 @@ def markdown(found: Loaded) -> list[str]:
     comps = [c.name for c in COMPONENTS if c.mutated]  # always shown; others when a tool seeded bugs there
     comps += [c.name for c in COMPONENTS if not c.mutated and any(s.component == c.name for s in found.seeded)]
     comps += sorted({s.component for s in found.seeded} - {c.name for c in COMPONENTS})
+    notes = footnotes(found, comps)
     md = ["## Mutation score", "",
           "Seeded bugs per component (rows) and tool (columns): killed/total per kind (off-by-one: in a bound; "
           "order: wrong order; publish/free: a missing publish or free; field: wrong field; error: dropped error; "
-          "other); \"eq.\" counts survivors explained as equivalent. Sources: urb_report/mutation.py, "
-          "tests/mutation/README.md.", "",
+          "other), then the survivors of that kind: \"explained\" names the footnotes (E1, ...) under the table "
+          "that say why each is acceptable (equivalent, or outside what the check is about); \"unexplained\" "
+          "ones (U1, ...) fail the summary. Sources: urb_report/mutation.py, tests/mutation/README.md.", "",
           "| component | " + " | ".join(TOOLS) + " |", "|---|" + "---|" * len(TOOLS)]
     for comp in comps:
         cells = []
@@ -319,19 +369,28 @@ def markdown(found: Loaded) -> list[str]:
             if tool in found.missing:
                 cells.append(found.missing[tool].split(" (")[0])  # "not run", "no mutant in its results", ...
             else:
-                cells.append(_cell(s for s in found.seeded if s.tool == tool and s.component == comp))
+                cells.append(_cell((s for s in found.seeded if s.tool == tool and s.component == comp), notes))
         md.append(f"| {comp} | " + " | ".join(cells) + " |")
-    md += ["", "Totals: " + "; ".join(
-        f"{tool} {sum(s.killed for s in found.seeded if s.tool == tool)}/"
-        f"{sum(s.tool == tool for s in found.seeded)}" if tool not in found.missing else f"{tool} {found.missing[tool]}"
-        for tool in TOOLS), ""]
-    survivors = [s for s in found.seeded if not s.killed]
+
+    def total(tool: str) -> str:
+        if tool in found.missing:
+            return f"{tool} {found.missing[tool]}"
+        own = [s for s in found.seeded if s.tool == tool]
+        return (f"{tool} {sum(s.killed for s in own)}/{len(own)} killed, "
+                f"{sum(not s.killed and bool(s.explained) for s in own)} explained, "
+                f"{sum(not s.killed and not s.explained for s in own)} unexplained")
+    md += ["", "Totals: " + "; ".join(total(tool) for tool in TOOLS) + ".", "",
+           f"Unexplained survivors: {len(notes.unexplained)}"
+           + (" (each is a problem: the summary fails)." if notes.unexplained else "."), ""]
     md += ["### Survivors", ""]
-    if not survivors:
+    if not notes.explained and not notes.unexplained:
         md.append("None.")
-    for s in survivors:
-        md.append(f"- {s.tool} `{s.name}` ({s.component}, {KINDS[s.kind]}): "
-                  + (f"equivalent: {s.explained}" if s.explained else "**UNEXPLAINED**"))
+    for s in notes.unexplained:
+        md.append(f"- **{notes.label(s)}** {s.tool} `{s.name}` ({s.component}, {KINDS[s.kind]}): **UNEXPLAINED**"
+                  + (f" ({_one_line(s.detail)})" if s.detail else "") + ": kill it with a new check or explain it")
+    for s in notes.explained:
+        md.append(f"- **{notes.label(s)}** {s.tool} `{s.name}` ({s.component}, {KINDS[s.kind]}): "
+                  f"{_one_line(s.explained)}")
     return md + [""]
 
 

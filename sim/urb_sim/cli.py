@@ -15,7 +15,7 @@ from typing import Any
 
 from .build import REPO, BuildError, check_loadable, ensure_library
 from .experiments import SEED_SPAN, Progress
-from .runner import EXPERIMENTS, available_cpus, run_experiments, select
+from .runner import DOWNLINK_EXPERIMENTS, EXPERIMENTS, available_cpus, run_experiments, select
 
 #: `urb sim` subcommands and their one-line summaries (listed in `urb sim --help`).
 SUBCOMMANDS = {"sensorhex": "run the scenario and the paper's experiments, write the HTML report",
@@ -40,7 +40,7 @@ The real node library, SensoRHex applications and bridge firmware (compiled for 
 run on simulated microcontrollers and buses: I2C at 400 kb/s, RS232 at 115200 Bd, USB with 1-ms
 frames, crystals with frequency error and drift. The host library runs unchanged on a simulated
 CPU whose threads wake on the 1-kHz OS tick. Each experiment writes CSV files and (all but
-traces) PNG figures, and states PASS or FAIL against its acceptance criterion:
+traces, can and rs485) PNG figures, and states PASS or FAIL against its acceptance criterion:
 
   fig15    round-trip latency of 1000 reads at 1 kHz over RS232 + I2C, payload 1..10 bytes
   fig16    the same over USB + I2C, payload 1..31 bytes
@@ -58,6 +58,24 @@ traces) PNG figures, and states PASS or FAIL against its acceptance criterion:
   traces   TLC checks traces logged by the simulation against every module of spec/tla:
            bridge (Bridge.tla), outbox and inbox (MailboxOutbox.tla, MailboxInbox.tla), the
            host's USB frames (UsbUplink.tla) and its discovery (Discovery.tla)
+  can      SensoRHex with the motor nodes on CAN (1 Mb/s; latency also at 500 and 250 kb/s)
+           and the slow sensors on RS485 (115200 Bd): read latency, SYNC time stamps, the PD
+           loop on the motor cycle, a node driven to bus-off and back, the sensors' poll
+  rs485    the same with every node on RS485 (motors at 1 Mb/s, sensors at 115200 Bd),
+           character errors and a stalled answer in place of bus-off
+
+Downlinks (--downlink; the experiments run when --only is not given):
+  i2c      the paper's I2C downlinks: fig15 .. traces (the default, as before)
+  can      motors on CAN, sensors on RS485: the experiment can
+  rs485    every node on RS485: the experiment rs485
+  all      every experiment above
+CAN and RS485 are bit-timed bus models (to the bit, with stuffing of each frame's actual bits,
+arbitration, error frames, error counters, bus-off and recovery; RS485 to the character, with
+driver turnaround and the t3.5 / t1.5 silences) on which the bridges' masters and the nodes'
+slaves of firmware/downlink run (loaded through ctypes; the node library's mailboxes are a
+table until it can choose these downlinks). Their criteria are derived from the bus timing, and their report
+holds one table with I2C, CAN and RS485 side by side (latency, SYNC inter-node difference,
+motor cycle, control) and the model's assumptions (sim/README.md, "Downlinks").
 
 Output: DIR/index.html (open it first), DIR/summary.json, and one folder per experiment.
 The same seed gives the same numbers, byte for byte. The report's headline names every
@@ -213,6 +231,9 @@ def register(sub: Any) -> None:
                         "other profile; none: no comparison)")
     p.add_argument("--sensitivity", action="store_true",
                    help="add the sensitivity study (urb sim sensitivity) to the run and the report")
+    p.add_argument("--downlink", choices=list(DOWNLINK_EXPERIMENTS), default="i2c",
+                   help="which SensoRHex downlinks to simulate when --only is not given: i2c (default), can "
+                        "(motors on CAN, sensors on RS485), rs485 (every node on RS485) or all")
     p.set_defaults(run=run_sensorhex)
     w = simsub.add_parser("sweep", help=SUBCOMMANDS["sweep"], description=SWEEP_HELP,
                           formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -344,7 +365,7 @@ def run_sensorhex(args: argparse.Namespace) -> int:
     from .runner import task_key
 
     try:
-        chosen = select(args.only)
+        chosen = select(args.only) if args.only is not None else list(DOWNLINK_EXPERIMENTS[args.downlink])
         main_profile = _profile_names(args.profile)[0]
         compare = _profile_names(args.compare, exclude=main_profile)
         keys = [task_key(k, main_profile) for k in chosen]

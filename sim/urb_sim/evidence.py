@@ -133,6 +133,10 @@ def mutant_build() -> str | None:
     return build.variant()[1]
 
 
+#: experiments whose record's config carries the table of the three downlinks side by side (its caption's start)
+DOWNLINK_TABLE_OF = {"can": "Downlinks side by side", "rs485": "Downlinks side by side"}
+
+
 def write(results: Sequence[Result], *, seed: int, quick: bool, out: Path, evidence_dir: Path) -> list[Path]:
     """Write build/evidence/sim-<experiment>.json (in `evidence_dir`) for every experiment's result;
     returns the paths, none for a seeded-bug build (see the module's docstring). The sensitivity
@@ -160,6 +164,12 @@ def _write(results: Sequence[Result], *, seed: int, quick: bool, out: Path, evid
                                  else "working tree"),
             "report": str(out / "index.html"), "deviations_from_paper": list(r.deviations),
             "sim_s": round(r.sim_s, 3)}
+        if name in DOWNLINK_TABLE_OF:
+            # the certification report shows it (report/urb_report/html.py, _downlinks_table)
+            caption, rows = next(((c, t) for c, t in r.tables if c.startswith(DOWNLINK_TABLE_OF[name])),
+                                 ("", []))
+            config = {**config, "side_by_side": {"caption": caption, "rows": rows,
+                                                 "assumptions": [n for n in r.notes if n.startswith("Model: ")]}}
         experiment_tools = {k: v for k, v in used.items() if k != "TLC" or name in USES_TLC}
         paths.append(write_record("sim", items(r, seed=seed, quick=quick), experiment_tools, name=f"sim-{r.key}",
                                   config=config, seed=seed, out_dir=evidence_dir))

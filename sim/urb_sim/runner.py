@@ -27,7 +27,10 @@ from .experiments import RAN_TO_COMPLETION, Progress, Result
 #: full run): in parallel runs the longest start first, so that the last one to finish starts early
 #: (longest-processing-time order).
 EXPERIMENTS = {"fig15": 1.9, "fig16": 1.9, "table1": 5.0, "fig18_19": 28.0, "fig20": 3.3, "bandwidth": 7.0,
-               "faults": 1.0, "traces": 60.0}
+               "faults": 1.0, "traces": 60.0, "can": 1.0, "rs485": 1.0}
+#: the experiments of each `--downlink` choice of `urb sim sensorhex` (sim/README.md, "Downlinks")
+DOWNLINK_EXPERIMENTS = {"i2c": [k for k in EXPERIMENTS if k not in ("can", "rs485")], "can": ["can"],
+                        "rs485": ["rs485"], "all": list(EXPERIMENTS)}
 
 
 def available_cpus() -> int:
@@ -75,7 +78,7 @@ def task_key(name: str, profile: str) -> str:
 
 def experiment(key: str) -> Callable[..., Result]:
     """The function that runs experiment `key` (a sensitivity point for `sens:...` keys)."""
-    from .experiments import bandwidth, control, faults, gait, latency, sync, traces
+    from .experiments import bandwidth, control, downlinks, faults, gait, latency, sync, traces
 
     key = split_key(key)[0]
     if key.startswith("sens:"):
@@ -86,7 +89,8 @@ def experiment(key: str) -> Callable[..., Result]:
     table: dict[str, Callable[..., Result]] = {"fig15": latency.fig15, "fig16": latency.fig16, "table1": sync.table1,
                                                "fig18_19": control.figs18_19, "fig20": gait.fig20,
                                                "bandwidth": bandwidth.bandwidth, "faults": faults.faults,
-                                               "traces": traces.traces}
+                                               "traces": traces.traces, "can": downlinks.can_variant,
+                                               "rs485": downlinks.rs485_variant}
     return table[key]
 
 

@@ -208,6 +208,9 @@ ReachGapInScan ==
     \E r \in table : \E a \in Addrs : a < r.addr /\ <<r.bridge, a>> \notin RowSlots
 (* a node missed by the scan (it vanished before its address was read)    *)
 ReachMissedByScan == built /\ \E s \in Slots : pop[s] # NONE /\ s \notin RowSlots
+(* a node that vanished came back and is in the table (found before it   *)
+(* vanished or after it came back): reappearing is part of the churn       *)
+ReachReappearedInTable == built /\ \E s \in RowSlots : s \notin stable /\ present[s]
 
 THEOREM Spec => [](TypeOK /\ NeverMerged /\ DuplicatesReported /\ MismatchReported
                           /\ NoPhantoms /\ VanishedNodesKept /\ StableNodesFound

@@ -50,10 +50,11 @@ VARIABLES
     appGot,    \* bytes the application has read from its locked buffer
     committed, \* ghost: tag of the most recently committed message
     aborted,   \* ghost: tags of aborted (corrupt / cut short) transactions
-    appSnap    \* ghost: `committed` at the application's linearization point
+    appSnap,   \* ghost: `committed` at the application's linearization point
+    callFails  \* ghost: failed attempts so far in the current URB_LockInbox call
 
 vars == <<buf, front, isrIdx, appIdx, isrPc, isrByte, txs, appPc, a, tries,
-          appGot, committed, aborted, appSnap>>
+          appGot, committed, aborted, appSnap, callFails>>
 
 TypeOK ==
     /\ buf \in [Bufs -> [1..MsgLen -> Tags]]
@@ -64,13 +65,14 @@ TypeOK ==
     /\ a \in Bufs /\ tries \in 0..MaxRetry
     /\ appGot \in Seq(Tags) /\ Len(appGot) <= MsgLen
     /\ committed \in Tags /\ aborted \subseteq Tags /\ appSnap \in Tags
+    /\ callFails \in 0..MaxRetry
 
 Init ==
     /\ buf = [i \in Bufs |-> [k \in 1..MsgLen |-> 0]]
     /\ front = 0 /\ isrIdx = NONE /\ appIdx = NONE
     /\ isrPc = "idle" /\ isrByte = 1 /\ txs = 0
     /\ appPc = "idle" /\ a = 0 /\ tries = 0 /\ appGot = <<>>
-    /\ committed = 0 /\ aborted = {} /\ appSnap = 0
+    /\ committed = 0 /\ aborted = {} /\ appSnap = 0 /\ callFails = 0
 
 (***************************************************************************)
 (* ISR, bridge starts writing this inbox: t := 1 - front; if app_idx = t   *)
@@ -85,7 +87,7 @@ IsrWriteBegin ==
          ELSE /\ isrIdx' = 1 - front
               /\ isrPc' = "fill" /\ isrByte' = 1
     /\ UNCHANGED <<buf, front, appIdx, appPc, a, tries, appGot, committed,
-                   aborted, appSnap>>
+                   aborted, appSnap, callFails>>
 
 (***************************************************************************)
 (* ISR, one I2C byte: buf[isr_idx][k] := byte.                             *)
@@ -95,7 +97,7 @@ IsrWriteByte ==
     /\ buf' = [buf EXCEPT ![isrIdx][isrByte] = txs]
     /\ isrByte' = isrByte + 1
     /\ UNCHANGED <<front, isrIdx, appIdx, isrPc, txs, appPc, a, tries, appGot,
-                   committed, aborted, appSnap>>
+                   committed, aborted, appSnap, callFails>>
 
 (***************************************************************************)
 (* ISR, end of a complete transaction with a valid checksum:              *)
@@ -107,7 +109,7 @@ IsrWriteCommit ==
     /\ isrPc' = "idle"
     /\ committed' = txs
     /\ UNCHANGED <<buf, appIdx, isrByte, txs, appPc, a, tries, appGot,
-                   aborted, appSnap>>
+                   aborted, appSnap, callFails>>
 
 (***************************************************************************)
 (* ISR, transaction cut short (timeout, bus error) or checksum mismatch,  *)
@@ -118,7 +120,7 @@ IsrWriteAbort ==
     /\ isrIdx' = NONE /\ isrPc' = "idle"
     /\ aborted' = aborted \cup {txs}
     /\ UNCHANGED <<buf, front, appIdx, isrByte, txs, appPc, a, tries, appGot,
-                   committed, appSnap>>
+                   committed, appSnap, callFails>>
 
 (***************************************************************************)
 (* URB_LockInbox, step 1: a := front (load).                               *)
@@ -128,7 +130,7 @@ AppLockLoadFront ==
     /\ a' = front
     /\ appPc' = "claim"
     /\ UNCHANGED <<buf, front, isrIdx, appIdx, isrPc, isrByte, txs, tries,
-                   appGot, committed, aborted, appSnap>>
+                   appGot, committed, aborted, appSnap, callFails>>
 
 (***************************************************************************)
 (* URB_LockInbox, step 2: app_idx := a (store).  From now on the ISR       *)
@@ -139,7 +141,7 @@ AppLockClaim ==
     /\ appIdx' = a
     /\ appPc' = "checkIsr"
     /\ UNCHANGED <<buf, front, isrIdx, a, isrPc, isrByte, txs, tries, appGot,
-                   committed, aborted, appSnap>>
+                   committed, aborted, appSnap, callFails>>
 
 (* A failed check sends the application to AppLockUnclaim.                  *)
 LockFail == appPc' = "unclaim" /\ UNCHANGED <<appIdx, tries>>
@@ -154,7 +156,7 @@ AppLockCheckIsr ==
          THEN LockFail
          ELSE appPc' = "checkFront" /\ UNCHANGED <<appIdx, tries>>
     /\ UNCHANGED <<buf, front, isrIdx, a, isrPc, isrByte, txs, appGot,
-                   committed, aborted, appSnap>>
+                   committed, aborted, appSnap, callFails>>
 
 (***************************************************************************)
 (* URB_LockInbox, step 4 (added after TLC): load front again; if it is no  *)
@@ -165,9 +167,9 @@ AppLockCheckIsr ==
 AppLockCheckFront ==
     /\ appPc = "checkFront"
     /\ IF front # a
-         THEN LockFail /\ UNCHANGED <<appGot, appSnap>>
+         THEN LockFail /\ UNCHANGED <<appGot, appSnap, callFails>>
          ELSE /\ appPc' = "read" /\ appGot' = <<>> /\ tries' = 0
-              /\ appSnap' = committed
+              /\ appSnap' = committed /\ callFails' = 0
               /\ UNCHANGED appIdx
     /\ UNCHANGED <<buf, front, isrIdx, a, isrPc, isrByte, txs, committed,
                    aborted>>
@@ -175,12 +177,16 @@ AppLockCheckFront ==
 (***************************************************************************)
 (* Failed attempt: app_idx := NONE (store), then retry from step 1, or     *)
 (* give up with URB_BUSY after MaxRetry retries (the app never waits).     *)
+(* The ghost callFails counts the failed attempts of this lock call on its *)
+(* own (a call ends when it succeeds or its MaxRetry + 1st attempt fails), *)
+(* so that LockFailsOnlyOnConflict does not rest on the counter it checks. *)
 (***************************************************************************)
 AppLockUnclaim ==
     /\ appPc = "unclaim"
     /\ appIdx' = NONE
     /\ appPc' = "idle"
     /\ tries' = IF tries < MaxRetry THEN tries + 1 ELSE 0   \* else: URB_BUSY
+    /\ callFails' = IF callFails = MaxRetry THEN 0 ELSE callFails + 1
     /\ UNCHANGED <<buf, front, isrIdx, isrPc, isrByte, txs, a, appGot,
                    committed, aborted, appSnap>>
 
@@ -191,7 +197,7 @@ AppReadByte ==
     /\ appPc = "read" /\ Len(appGot) < MsgLen
     /\ appGot' = Append(appGot, buf[a][Len(appGot) + 1])
     /\ UNCHANGED <<buf, front, isrIdx, appIdx, isrPc, isrByte, txs, appPc, a,
-                   tries, committed, aborted, appSnap>>
+                   tries, committed, aborted, appSnap, callFails>>
 
 (***************************************************************************)
 (* URB_ReleaseInbox: app_idx := NONE (possibly before reading all bytes).  *)
@@ -201,7 +207,7 @@ AppRelease ==
     /\ appIdx' = NONE
     /\ appPc' = "idle" /\ appGot' = <<>>
     /\ UNCHANGED <<buf, front, isrIdx, isrPc, isrByte, txs, a, tries,
-                   committed, aborted, appSnap>>
+                   committed, aborted, appSnap, callFails>>
 
 IsrNext == IsrWriteBegin \/ IsrWriteByte \/ IsrWriteCommit \/ IsrWriteAbort
 AppNext == AppLockLoadFront \/ AppLockClaim \/ AppLockCheckIsr
@@ -257,12 +263,15 @@ NackOnlyWhenClaimed ==
 
 (* A lock attempt fails only when it must: the ISR is really filling the  *)
 (* claimed buffer, or a newer message was committed since front was       *)
-(* loaded; and the lock gives up (URB_BUSY) only after MaxRetry retries.   *)
+(* loaded; and a failed attempt ends the lock call (URB_BUSY: no retry is *)
+(* owed, tries' = 0) exactly when it is the call's MaxRetry + 1st failed   *)
+(* attempt, counted per call by the ghost callFails, not by tries: a      *)
+(* count carried from an earlier call, or a step of 2, gives up early.    *)
 \* lobster-trace: urb.MBX_010
 LockFailsOnlyOnConflict ==
     [][/\ appPc = "checkIsr" /\ appPc' = "unclaim" => isrPc = "fill" /\ isrIdx = a
        /\ appPc = "checkFront" /\ appPc' = "unclaim" => front # a
-       /\ appPc = "unclaim" /\ appPc' = "idle" /\ tries' = 0 => tries = MaxRetry]_vars
+       /\ appPc = "unclaim" /\ appPc' = "idle" => (tries' = 0 <=> callFails = MaxRetry)]_vars
 
 (* Progress: every claim is given back (a lock call returns, a read ends  *)
 (* in a release), so the ISR's NACKs stop.                                  *)
@@ -293,6 +302,8 @@ ReachAbortLeftBytes == \E i \in Bufs : \E k \in 1..MsgLen : buf[i][k] \in aborte
 ReachLockFailsOnIsr == appPc = "checkIsr" /\ isrIdx = a
 ReachLockFailsOnFront == appPc = "checkFront" /\ front # a
 ReachLockGivesUp == appPc = "unclaim" /\ tries = MaxRetry
+(* A lock succeeds after a failed attempt: the next call counts from 0.   *)
+ReachLockSucceedsOnRetry == appPc = "checkFront" /\ front = a /\ callFails > 0
 ReachWholeMessageRead == Len(appGot) = MsgLen
 ReachReadDuringWrite == AppHolds /\ isrPc = "fill"
 ReachQuietLockCall == txs = MaxWrites /\ isrPc = "idle" /\ appPc = "claim" /\ tries = 0

@@ -34,7 +34,7 @@ from hypothesis.stateful import (RuleBasedStateMachine, initialize, invariant, p
 from bridge_ref import BridgeRef, Req, outbox
 from urb.errors import ErrorFlag
 from urb.managers import rs232_core
-from urb.managers.base import NS_PER_MS, Transfer
+from urb.managers.base import NS_PER_MS, NS_PER_S, Transfer
 from urb.managers.loopback import BridgeModel, FakeNode
 from urb.managers.rs232_core import Rs232Core
 from urb_msgs import NODES, DecodeError
@@ -72,8 +72,9 @@ class HostCoreVsBridgeTla(RuleBasedStateMachine):
     def setup(self, queue_len: int, extra: int) -> None:
         window = queue_len + extra
         self.ref = BridgeRef(set(PRESENT), sizes(), set(FAULTS), queue_len, window)
+        # never lost within a trace (at most 60 steps of 12 ms), within the C core's ranges (1 h)
         self.core = Rs232Core(window=window, timeout_ns=10 * NS_PER_MS, resync_gap_ns=NS_PER_MS,
-                              lost_after_ns=10**15, lost_after_timeouts=10**9)
+                              lost_after_ns=3600 * NS_PER_S, lost_after_timeouts=10**9)
         self.now = 0
         self.transfers: list[Transfer] = []
         self.lose: dict[int, bool] = {}
@@ -319,6 +320,7 @@ def _failures(exc: BaseException) -> list[BaseException]:
 def test_the_state_machine_catches_seeded_host_bugs(bug: str, monkeypatch: pytest.MonkeyPatch) -> None:
     if bug == "ignores-link-check":
         monkeypatch.setattr(rs232_core, "UplinkResponse", _IgnoresLinkCheck)
+        monkeypatch.setattr(sys.modules[__name__], "Rs232Core", rs232_core.Rs232Core)  # the bug is the reference's
     else:
         monkeypatch.setattr(sys.modules[__name__], "Rs232Core", _WindowPlusOne)
     with pytest.raises(BaseException) as exc:

@@ -46,11 +46,30 @@ def test_cells_kinds_components_and_missing_tools(tmp_path: Path) -> None:
     assert by[("Frama-C", "mailbox/commit_without_fresh")].kind == "missing-effect"
     assert ("unit tests", "urb_i2c:f:swap:2") not in by, "a mutant that does not compile is not counted"
     md = "\n".join(mutation.markdown(found))
-    assert "| node I2C | not run | - | - | not run | off-by-one 1/1<br>order 0/1 (+1 eq.) |" in md
+    # each survivor is named in its cell by a footnote label, explained (E) and unexplained (U) apart
+    assert "| node I2C | not run | - | - | not run | off-by-one 1/1<br>order 0/1 (+1 explained: E1) |" in md
+    assert ("| node mailbox | not run | error 1/1 | publish/free 0/1 (**1 unexplained: U1**) | not run | - |"
+            in md)
     assert "0/0" not in md
     assert found.problems == ["mutation table: Frama-C mutant mailbox/commit_without_fresh (node mailbox, missing "
                               "publish or free) survived unexplained: SURVIVED"]
-    assert "**UNEXPLAINED**" in md and "equivalent: the two stores are to unrelated locals" in md
+    # ... and the footnote under the table says why it is acceptable, or that it is not
+    assert ("- **E1** unit tests `urb_i2c:f:swap:1` (node I2C, wrong order): the two stores are to unrelated locals"
+            in md)
+    assert "- **U1** Frama-C `mailbox/commit_without_fresh` (node mailbox, missing publish or free): **UNEXPLAINED**" in md
+    assert "Unexplained survivors: 1 (each is a problem: the summary fails)." in md
+    assert "unit tests 1/2 killed, 1 explained, 0 unexplained" in md and "Frama-C 1/2 killed, 0 explained, 1 unexplained" in md
+
+
+def test_footnote_labels_of_many_survivors_are_ranges() -> None:
+    found = mutation.Loaded([mutation.Seeded("TLC", f"M/A/literal#{i}", "node mailbox", "off-by-one", False,
+                                             explained=f"why {i}") for i in range(1, 5)]
+                            + [mutation.Seeded("TLC", "M/B/swap#1", "node mailbox", "order", False)])
+    md = "\n".join(mutation.markdown(found))
+    assert "off-by-one 0/4 (+4 explained: E1–E4)<br>order 0/1 (**1 unexplained: U1**)" in md
+    assert [line.split(" ", 2)[1] for line in md.splitlines() if line.startswith("- **")] == [
+        "**U1**", "**E1**", "**E2**", "**E3**", "**E4**"]
+    assert mutation._labels([1, 2, 3, 5, 7, 8], "E") == "E1–E3, E5, E7–E8"
 
 
 def test_tlc_results_and_a_malformed_file(tmp_path: Path) -> None:

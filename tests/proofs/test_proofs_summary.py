@@ -203,3 +203,28 @@ def test_firmware_budgets_are_read_from_fw_budgets_h() -> None:
     # half an I2C fast-mode byte time (9 bits at 400 kb/s) at 48 MHz
     assert P.fw_budget("FW_I2C_EVENT_BUDGET") == 540
     assert P.fw_budget("NO_SUCH_BUDGET") is None
+
+
+@pytest.mark.parametrize("why", ["", "Equivalent: the initial value is overwritten before any read."])
+def test_an_unexplained_survivor_fails_the_summary(tmp_path: Path, why: str) -> None:
+    """Seeded: a generated TLA+ mutant that survived without an explanation makes the merge (the end
+    of `make proofs`, so of `make check`) fail, and the table counts it apart from the explained
+    ones; the same survivor with an explanation passes, and its footnote gives the reason."""
+    _good(tmp_path)
+    (tmp_path / "mutation").mkdir()
+    (tmp_path / "mutation" / "tlc.json").write_text(json.dumps({"mutants": [
+        {"name": "MailboxInbox/Init/literal#9", "module": "MailboxInbox", "kind": "off-by-one", "killed": False,
+         "explained": why},
+        {"name": "MailboxInbox/Init/literal#1", "module": "MailboxInbox", "kind": "off-by-one", "killed": True,
+         "explained": ""}]}), encoding="utf-8")
+    status, problems = P.merge(["bmc", "framac", "fuzz"], tmp_path)
+    md = (tmp_path / "summary.md").read_text(encoding="utf-8")
+    if why:
+        assert (status, problems) == (0, [])
+        assert "off-by-one 1/2 (+1 explained: E1)" in md and "Unexplained survivors: 0." in md
+        assert f"- **E1** TLC `MailboxInbox/Init/literal#9` (node mailbox, off-by-one in a bound): {why}" in md
+    else:
+        assert status == 1 and any("MailboxInbox/Init/literal#9" in p and "unexplained" in p for p in problems)
+        assert "off-by-one 1/2 (**1 unexplained: U1**)" in md and "Unexplained survivors: 1 " in md
+        assert "- **U1** TLC `MailboxInbox/Init/literal#9`" in md and "**UNEXPLAINED**" in md
+        assert any(c.find("failure") is not None for c in ET.parse(tmp_path / "junit.xml").getroot().iter("testcase"))

@@ -85,3 +85,17 @@ def test_a_missing_chromium_is_a_clear_error(monkeypatch: pytest.MonkeyPatch, tm
     monkeypatch.setattr(shutil, "which", lambda name: None)
     with pytest.raises(pdf.PdfError, match="apt-get install chromium"):
         pdf.print_pdf(tmp_path / "x.html", tmp_path / "x.pdf")
+
+
+def test_the_downlinks_table_comes_from_a_simulation_record_or_says_how_to_get_it() -> None:
+    from types import SimpleNamespace
+
+    table = {"caption": "Downlinks side by side (fixture)", "assumptions": ["Model: idealised parts."],
+             "rows": [{"metric": "6-byte read, mean / max (us)", "I2C 400 kb/s": "201 / 201", "CAN 1 Mb/s": "166 / 172",
+                       "RS485 1 Mb/s": "208 / 212"}]}
+    with_it = SimpleNamespace(activity="sim", name="sim-can", config={"side_by_side": table})
+    other = SimpleNamespace(activity="sim", name="sim-fig15", config={})
+    text = html._downlinks_table(SimpleNamespace(index=SimpleNamespace(records=[other, with_it])))  # type: ignore[arg-type]
+    assert "id='downlinks'" in text and "166 / 172" in text and "Model: idealised parts." in text and "sim-can" in text
+    missing = html._downlinks_table(SimpleNamespace(index=SimpleNamespace(records=[other])))  # type: ignore[arg-type]
+    assert "--downlink all" in missing and "166" not in missing

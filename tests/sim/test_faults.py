@@ -12,7 +12,7 @@ from typing import Any
 import pytest
 
 from urb.errors import ErrorFlag
-from urb.managers import rs232_core
+from urb.managers import native, rs232_core
 from urb.managers.base import Transfer, finish
 from urb.managers.sim import SimManager
 from urb_sim.experiments import faults
@@ -50,6 +50,7 @@ def test_usb_in_loss_reaction_is_the_host_timing_out_the_lost_responses(monkeypa
             self.completed.append(finish(self.inflight.popleft(), now, ErrorFlag.UPLINK_CHECKSUM))
 
     monkeypatch.setattr(rs232_core.ResponseMatcher, "lost_before", wrong_flag)
+    monkeypatch.setattr(native, "BACKEND", "python")  # the seeded bug is in the reference core: run it
     bad = faults.run_scenario(sc, seed=308)
     assert faults._flags_check(bad)[2]  # UPLINK_CHECKSUM is an allowed flag ...
     assert not bad.reaction_ok  # ... but not the designed reaction to a lost response

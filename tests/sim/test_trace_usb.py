@@ -9,6 +9,7 @@ from collections.abc import Iterator
 
 import pytest
 
+from urb.managers import native
 from urb.managers.base import Transfer
 from urb.managers.usb_core import UsbCore
 from urb_sim.experiments.traces import record_usb_uplink
@@ -84,6 +85,7 @@ def _newest_first(monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
             self.trace.append(("submit", now, (t,)))
 
     monkeypatch.setattr(UsbCore, "submit", submit_in_front)
+    monkeypatch.setattr(native, "BACKEND", "python")  # the seeded bug is in the reference core: run it
     yield
 
 

@@ -25,7 +25,8 @@ import serial
 from ..errors import PortError
 from .base import NS_PER_MS, ThreadedManager
 from .handover import PortHandover
-from .rs232_core import PLACEHOLDER_NS, Rs232Core
+from .native import new_rs232_core
+from .rs232_core import PLACEHOLDER_NS
 
 READ_POLL_S = 0.002
 """How often the reader wakes without input to apply timeouts."""
@@ -47,7 +48,7 @@ class RS232Manager(ThreadedManager):
         may still answer it; default 0.3 s, the firmware's worst case at 100 kb/s, see
         `rs232_core.PLACEHOLDER_NS`), unless a response releases it first; keep it below
         `lost_after_s`. Nothing is opened until `start`."""
-        core = Rs232Core(window=window, timeout_ns=int(timeout_s * 1e9), lost_after_ns=int(lost_after_s * 1e9),
+        core = new_rs232_core(window=window, timeout_ns=int(timeout_s * 1e9), lost_after_ns=int(lost_after_s * 1e9),
                          placeholder_ns=int(placeholder_s * 1e9))
         super().__init__(core, name or port)
         self.port = port

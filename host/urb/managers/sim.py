@@ -33,6 +33,7 @@ from .base import (
     finish,
 )
 from .loopback import BridgeModel
+from .native import new_rs232_core, new_usb_core
 from .rs232_core import PLACEHOLDER_NS, Rs232Core
 from .usb_core import UsbCore
 
@@ -209,10 +210,10 @@ class SimManager(BusManager):
         self._rs232_core: Rs232Core | None = None
         self._usb_core: UsbCore | None = None
         if self._frames is not None:
-            self._usb_core = UsbCore(timeout_ns=timeout_ns or 50 * NS_PER_MS, lost_after_ns=lost_after_ns,
+            self._usb_core = new_usb_core(timeout_ns=timeout_ns or 50 * NS_PER_MS, lost_after_ns=lost_after_ns,
                                      placeholder_ns=placeholder_ns)
         else:
-            self._rs232_core = Rs232Core(window=window, timeout_ns=timeout_ns or 100 * NS_PER_MS,
+            self._rs232_core = new_rs232_core(window=window, timeout_ns=timeout_ns or 100 * NS_PER_MS,
                                          lost_after_ns=lost_after_ns, placeholder_ns=placeholder_ns)
         self._pending_cb: deque[Transfer | Callable[[], None]] = deque()
         self._dispatching = False

@@ -25,8 +25,9 @@ from ..errors import PortError
 from .base import ThreadedManager
 from .handover import PortHandover
 from .loopback import BridgeModel
+from .native import new_usb_core
 from .rs232_core import PLACEHOLDER_NS
-from .usb_core import FRAME_NS, UsbCore
+from .usb_core import FRAME_NS
 
 
 class USBManager(ThreadedManager):
@@ -41,7 +42,7 @@ class USBManager(ThreadedManager):
         `timeout_s`: a response not back this long after its batch was written completes
         UPLINK_TIMEOUT. `lost_after_s` and `placeholder_s` (how long a timed-out request keeps
         its sequence number and window slot): as `RS232Manager`'s."""
-        core = UsbCore(max_batch=max_batch, timeout_ns=int(timeout_s * 1e9), lost_after_ns=int(lost_after_s * 1e9),
+        core = new_usb_core(max_batch=max_batch, timeout_ns=int(timeout_s * 1e9), lost_after_ns=int(lost_after_s * 1e9),
                        placeholder_ns=int(placeholder_s * 1e9))
         if isinstance(transport, str):
             label = transport

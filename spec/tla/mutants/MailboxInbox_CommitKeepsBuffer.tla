@@ -12,7 +12,7 @@ MutCommit ==
     /\ isrPc' = "idle"
     /\ committed' = txs
     /\ UNCHANGED <<buf, isrIdx, appIdx, isrByte, txs, appPc, a, tries, appGot,
-                   aborted, appSnap>>
+                   aborted, appSnap, callFails>>
 
 MutNext == IsrWriteBegin \/ IsrWriteByte \/ MutCommit \/ IsrWriteAbort \/ AppNext
 MutSpec == Init /\ [][MutNext]_vars

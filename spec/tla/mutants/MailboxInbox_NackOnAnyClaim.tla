@@ -13,7 +13,7 @@ MutWriteBegin ==
          ELSE /\ isrIdx' = 1 - front
               /\ isrPc' = "fill" /\ isrByte' = 1
     /\ UNCHANGED <<buf, front, appIdx, appPc, a, tries, appGot, committed,
-                   aborted, appSnap>>
+                   aborted, appSnap, callFails>>
 
 MutNext == MutWriteBegin \/ IsrWriteByte \/ IsrWriteCommit \/ IsrWriteAbort \/ AppNext
 MutSpec == Init /\ [][MutNext]_vars

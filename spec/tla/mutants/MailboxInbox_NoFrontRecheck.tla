@@ -11,13 +11,14 @@ MutLoadFront ==
     /\ a' = front /\ appSnap' = committed
     /\ appPc' = "claim"
     /\ UNCHANGED <<buf, front, isrIdx, appIdx, isrPc, isrByte, txs, tries,
-                   appGot, committed, aborted>>
+                   appGot, committed, aborted, callFails>>
 
 MutCheckIsr ==
     /\ appPc = "checkIsr"
     /\ IF isrIdx = a
-         THEN LockFail /\ UNCHANGED appGot
-         ELSE appPc' = "read" /\ appGot' = <<>> /\ tries' = 0 /\ UNCHANGED appIdx
+         THEN LockFail /\ UNCHANGED <<appGot, callFails>>
+         ELSE /\ appPc' = "read" /\ appGot' = <<>> /\ tries' = 0 /\ callFails' = 0
+              /\ UNCHANGED appIdx
     /\ UNCHANGED <<buf, front, isrIdx, a, isrPc, isrByte, txs, committed,
                    aborted, appSnap>>
 

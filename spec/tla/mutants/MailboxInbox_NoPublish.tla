@@ -8,7 +8,7 @@ MutWriteCommit ==
     /\ isrIdx' = NONE /\ isrPc' = "idle"
     /\ committed' = txs
     /\ UNCHANGED <<buf, front, appIdx, isrByte, txs, appPc, a, tries, appGot,
-                   aborted, appSnap>>
+                   aborted, appSnap, callFails>>
 
 MutNext == IsrWriteBegin \/ IsrWriteByte \/ MutWriteCommit \/ IsrWriteAbort
            \/ AppNext

@@ -10,7 +10,7 @@ MutRelease ==
     /\ appPc = "read"
     /\ appPc' = "idle" /\ appGot' = <<>>
     /\ UNCHANGED <<buf, front, isrIdx, appIdx, isrPc, isrByte, txs, a, tries,
-                   committed, aborted, appSnap>>
+                   committed, aborted, appSnap, callFails>>
 
 MutNext == IsrNext \/ AppLockLoadFront \/ AppLockClaim \/ AppLockCheckIsr
            \/ AppLockCheckFront \/ AppLockUnclaim \/ AppReadByte \/ MutRelease

@@ -9,7 +9,7 @@ MutWriteBegin ==
     /\ txs' = txs + 1
     /\ isrIdx' = front /\ isrPc' = "fill" /\ isrByte' = 1
     /\ UNCHANGED <<buf, front, appIdx, appPc, a, tries, appGot, committed,
-                   aborted, appSnap>>
+                   aborted, appSnap, callFails>>
 
 MutNext == MutWriteBegin \/ IsrWriteByte \/ IsrWriteCommit \/ IsrWriteAbort
            \/ AppNext

@@ -12,7 +12,7 @@ MutLoadFront ==
     /\ appPc = "idle"
     /\ appPc' = "claim"
     /\ UNCHANGED <<buf, front, isrIdx, appIdx, isrPc, isrByte, txs, a, tries,
-                   appGot, committed, aborted, appSnap>>
+                   appGot, committed, aborted, appSnap, callFails>>
 
 MutNext == IsrNext \/ MutLoadFront \/ AppLockClaim \/ AppLockCheckIsr
            \/ AppLockCheckFront \/ AppLockUnclaim \/ AppReadByte \/ AppRelease

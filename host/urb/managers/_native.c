@@ -1,0 +1,940 @@
+/*
+ * urb.managers._native: the C protocol core of host/c/core (urb_host_core.h) as a CPython type, so
+ * that the Python library's managers run their protocol work in C (issue #38). Built by
+ * `make host-c-py` (mk/host_c.mk); host/urb/managers/native.py wraps it in NativeRs232Core and
+ * NativeUsbCore, which have the public interface of the reference cores Rs232Core and UsbCore
+ * (rs232_core.py, usb_core.py), and chooses between the two (URB_PURE_PYTHON).
+ *
+ * The Python `Transfer` objects stay the requests the API sees. Each submission copies the request
+ * into a C transfer (urb_transfer_t, from a free list of this object) that holds a reference to the
+ * Python one; when the C core puts it on the wire its sequence number, sending time, deadline and
+ * lifetime are written back, and as soon as the core completes it its outcome is (done,
+ * completed_ns, flags, status, response, lost_reason: what rs232_core.finish and
+ * ResponseMatcher.lose set, at the same moment), the C transfer returns to the free list and the
+ * Python one waits in a list for take_completed. tests/host_c/test_native_core.py drives this type and the
+ * reference cores with the same traces and compares everything a caller can observe.
+ *
+ * Lost reasons: the C core keeps at most URB_REASON_MAX - 1 bytes of a reason; the whole text a
+ * caller gave link_lost (or assigned to lost_reason) is kept here and handed out in its place, so
+ * a long reason (a port path and an OS error) reads as the reference's does.
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <structmember.h>
+
+#include <string.h>
+
+#include "urb_host_core.h"
+
+typedef struct native_xfer {
+    urb_transfer_t t;          /* first: a urb_transfer_t * of ours is a native_xfer_t * */
+    PyObject *py;              /* the Python Transfer (a strong reference while the core owns t) */
+    struct native_xfer *free_next;
+} native_xfer_t;
+
+typedef struct {
+    PyObject_HEAD
+    urb_core_t core;
+    bool ready;                /* _setup succeeded */
+    native_xfer_t *free_list;
+    PyObject *status_of;       /* tuple: Status member by value 0..8 */
+    PyObject *flag_of;         /* dict: int -> ErrorFlag member */
+    PyObject *full_reason;     /* the caller's whole lost reason (str), or NULL */
+    PyObject *trace;           /* None, or a list the USB pipeline's steps are appended to */
+    PyObject *completed;       /* list: transfers completed (their outcome written), not yet taken */
+} native_core_t;
+
+/* Attribute names of Transfer, interned once per process (immutable constants). */
+static PyObject *s_address, *s_mailbox, *s_read, *s_length, *s_data, *s_answer_within_ns, *s_seq, *s_sent_ns,
+    *s_due_ns, *s_expires_ns, *s_garbage, *s_done, *s_completed_ns, *s_flags, *s_status, *s_response,
+    *s_lost_reason;
+static PyObject *s_submit, *s_write, *s_read_event, *s_callback;
+
+/* ----- small helpers ---------------------------------------------------------------------------- */
+
+static int not_ready(const native_core_t *self)
+{
+    if (!self->ready) {
+        PyErr_SetString(PyExc_RuntimeError, "the native core was not set up (construct NativeRs232Core or NativeUsbCore)");
+        return 1;
+    }
+    return 0;
+}
+
+static PyObject *time_or_none(urb_ns_t v)
+{
+    if ((v == URB_NO_TIME) || (v == URB_NEVER)) {
+        Py_RETURN_NONE;
+    }
+    return PyLong_FromLongLong(v);
+}
+
+/* The reason text for the C core's `r`: the caller's whole text when r is its cut. */
+static PyObject *reason_text(native_core_t *self, const char *r)
+{
+    size_t const n = strlen(r);
+    if ((self->full_reason != NULL) && (n == URB_REASON_MAX - 1u)) {
+        Py_ssize_t full_n = 0;
+        const char *full = PyUnicode_AsUTF8AndSize(self->full_reason, &full_n);
+        if (full == NULL) {
+            return NULL;
+        }
+        if (((size_t)full_n > n) && (memcmp(full, r, n) == 0)) {
+            Py_INCREF(self->full_reason);
+            return self->full_reason;
+        }
+    }
+    return PyUnicode_DecodeUTF8(r, (Py_ssize_t)n, "replace");
+}
+
+static int get_int(PyObject *obj, PyObject *name, long long *out)
+{
+    PyObject *v = PyObject_GetAttr(obj, name);
+    if (v == NULL) {
+        return -1;
+    }
+    *out = PyLong_AsLongLong(v);
+    Py_DECREF(v);
+    return ((*out == -1) && PyErr_Occurred()) ? -1 : 0;
+}
+
+static int set_attr_ll(PyObject *obj, PyObject *name, long long v)
+{
+    PyObject *o = PyLong_FromLongLong(v);
+    if (o == NULL) {
+        return -1;
+    }
+    int const rc = PyObject_SetAttr(obj, name, o);
+    Py_DECREF(o);
+    return rc;
+}
+
+static native_xfer_t *xfer_get(native_core_t *self)
+{
+    native_xfer_t *x = self->free_list;
+    if (x != NULL) {
+        self->free_list = x->free_next;
+        return x;
+    }
+    x = PyMem_Malloc(sizeof *x);
+    if (x == NULL) {
+        PyErr_NoMemory();
+    }
+    return x;
+}
+
+static void xfer_put(native_core_t *self, native_xfer_t *x)
+{
+    Py_CLEAR(x->py);
+    x->free_next = self->free_list;
+    self->free_list = x;
+}
+
+/* The slot of the request most recently put in flight. */
+static const urb_slot_t *newest_slot(const urb_core_t *core)
+{
+    unsigned const k = ((unsigned)core->m.head + (unsigned)core->m.count - 1u) % URB_MATCHER_SLOTS;
+    return &core->m.slot[k];
+}
+
+/* What ResponseMatcher-side `_send` sets on the Python transfer just put on the wire. */
+static int mark_sent(const urb_core_t *core, const urb_slot_t *slot, native_xfer_t *x)
+{
+    (void)core;
+    PyObject *py = x->py;
+    if ((set_attr_ll(py, s_seq, x->t.seq) < 0) || (set_attr_ll(py, s_sent_ns, x->t.sent_ns) < 0) ||
+        (set_attr_ll(py, s_due_ns, slot->due_ns) < 0) || (set_attr_ll(py, s_expires_ns, slot->expires_ns) < 0) ||
+        (PyObject_SetAttr(py, s_garbage, Py_False) < 0)) {
+        return -1;
+    }
+    return 0;
+}
+
+static int trace_event(native_core_t *self, PyObject *what, urb_ns_t now, PyObject *items)
+{
+    PyObject *when = PyLong_FromLongLong(now);
+    if (when == NULL) {
+        return -1;
+    }
+    PyObject *ev = PyTuple_Pack(3, what, when, items);
+    Py_DECREF(when);
+    if (ev == NULL) {
+        return -1;
+    }
+    int const rc = PyList_Append(self->trace, ev);
+    Py_DECREF(ev);
+    return rc;
+}
+
+/* Hands one completed transfer back: writes its outcome into the Python transfer, frees the C one,
+ * returns a new reference to the Python transfer. */
+static PyObject *hand_back(native_core_t *self, urb_transfer_t *t)
+{
+    native_xfer_t *x = (native_xfer_t *)t;
+    PyObject *py = x->py;
+    Py_INCREF(py);
+    PyObject *flags_key = PyLong_FromUnsignedLong((unsigned long)t->flags);
+    PyObject *flag = (flags_key == NULL) ? NULL : PyDict_GetItemWithError(self->flag_of, flags_key);
+    Py_XDECREF(flags_key);
+    if ((flag == NULL) && !PyErr_Occurred()) {
+        PyErr_Format(PyExc_ValueError, "the C core completed a request with flags 0x%x, which ErrorFlag does not name",
+                     (unsigned)t->flags);
+    }
+    PyObject *status = Py_None;
+    if ((flag != NULL) && (t->status >= 0)) {
+        status = (t->status < PyTuple_GET_SIZE(self->status_of)) ? PyTuple_GET_ITEM(self->status_of, t->status) : NULL;
+        if (status == NULL) {
+            PyErr_Format(PyExc_ValueError, "the C core completed a request with status %d, which Status does not name",
+                         (int)t->status);
+        }
+    }
+    PyObject *response = NULL;
+    if ((flag != NULL) && (status != NULL)) {
+        if (t->read && (t->status == 0)) {
+            response = PyBytes_FromStringAndSize((const char *)t->response, t->response_len);
+        } else {
+            response = Py_None;
+            Py_INCREF(response);
+        }
+    }
+    int ok = (response != NULL) && (PyObject_SetAttr(py, s_done, Py_True) == 0) &&
+             (set_attr_ll(py, s_completed_ns, t->completed_ns) == 0) && (PyObject_SetAttr(py, s_flags, flag) == 0) &&
+             (PyObject_SetAttr(py, s_status, status) == 0) && (PyObject_SetAttr(py, s_response, response) == 0);
+    Py_XDECREF(response);
+    if (ok && ((t->flags & URB_FLAG_BRIDGE_LOST) != 0u)) {
+        PyObject *reason = reason_text(self, t->lost_reason);
+        ok = (reason != NULL) && (PyObject_SetAttr(py, s_lost_reason, reason) == 0);
+        Py_XDECREF(reason);
+    }
+    xfer_put(self, x);
+    if (!ok) {
+        Py_DECREF(py);
+        return NULL;
+    }
+    return py;
+}
+
+/* Hands every transfer the C core completed back to its Python object at once (the reference core
+ * marks a transfer done when it completes it, before take_completed), keeping it in `completed`
+ * until take_completed; those answered by a response also go to `answered` when it is not NULL. */
+static int collect(native_core_t *self, PyObject *answered)
+{
+    urb_transfer_t *t;
+    while ((t = urb_core_take_completed(&self->core)) != NULL) {
+        bool const has_status = t->status >= 0;
+        PyObject *py = hand_back(self, t);
+        if (py == NULL) {
+            return -1;
+        }
+        int rc = PyList_Append(self->completed, py);
+        if ((rc == 0) && (answered != NULL) && has_status) {
+            rc = PyList_Append(answered, py);
+        }
+        Py_DECREF(py);
+        if (rc < 0) {
+            return -1;
+        }
+    }
+    return 0;
+}
+
+/* Completes everything the core still owns (BRIDGE_LOST) and drops the references: teardown. */
+static void release_all(native_core_t *self)
+{
+    if (!self->ready) {
+        return;
+    }
+    urb_core_link_lost(&self->core, 0, "the core was released");
+    urb_transfer_t *t;
+    while ((t = urb_core_take_completed(&self->core)) != NULL) {
+        xfer_put(self, (native_xfer_t *)t);
+    }
+}
+
+/* ----- the type --------------------------------------------------------------------------------- */
+
+static int core_traverse(native_core_t *self, visitproc visit, void *arg)
+{
+    Py_VISIT(self->status_of);
+    Py_VISIT(self->flag_of);
+    Py_VISIT(self->trace);
+    Py_VISIT(self->completed);
+    if (self->ready) {
+        for (urb_transfer_t *t = self->core.q_head; t != NULL; t = t->next) {
+            Py_VISIT(((native_xfer_t *)t)->py);
+        }
+        for (urb_transfer_t *t = self->core.m.done_head; t != NULL; t = t->next) {
+            Py_VISIT(((native_xfer_t *)t)->py);
+        }
+        for (unsigned i = 0u; i < self->core.m.count; i++) {
+            urb_transfer_t *t = self->core.m.slot[(self->core.m.head + i) % URB_MATCHER_SLOTS].t;
+            if (t != NULL) {
+                Py_VISIT(((native_xfer_t *)t)->py);
+            }
+        }
+    }
+    return 0;
+}
+
+static int core_clear(native_core_t *self)
+{
+    release_all(self);
+    self->ready = false; /* a cleared object (a reference cycle being collected) refuses every call */
+    Py_CLEAR(self->status_of);
+    Py_CLEAR(self->flag_of);
+    Py_CLEAR(self->full_reason);
+    Py_CLEAR(self->trace);
+    Py_CLEAR(self->completed);
+    return 0;
+}
+
+static void core_dealloc(native_core_t *self)
+{
+    PyObject_GC_UnTrack(self);
+    core_clear(self);
+    while (self->free_list != NULL) {
+        native_xfer_t *x = self->free_list;
+        self->free_list = x->free_next;
+        PyMem_Free(x);
+    }
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static PyObject *core_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
+{
+    (void)args;
+    (void)kwds;
+    native_core_t *self = (native_core_t *)type->tp_alloc(type, 0);
+    if (self != NULL) {
+        self->trace = Py_None;
+        Py_INCREF(Py_None);
+        self->completed = PyList_New(0);
+        if (self->completed == NULL) {
+            Py_DECREF(self);
+            return NULL;
+        }
+    }
+    return (PyObject *)self;
+}
+
+/* _setup(kind, window, timeout_ns, lost_after_ns, lost_after_timeouts, placeholder_ns, resync_gap_ns,
+ *        max_batch, batch_bytes, status_members, flag_members) */
+static PyObject *core_setup(native_core_t *self, PyObject *args)
+{
+    int kind = 0, window = 0, max_batch = 0, batch_bytes = 0;
+    long long timeout_ns = 0, lost_after_ns = 0, lost_after_timeouts = 0, placeholder_ns = 0, resync_gap_ns = 0;
+    PyObject *status_of = NULL, *flag_of = NULL;
+    if (!PyArg_ParseTuple(args, "iiLLLLLiiO!O!", &kind, &window, &timeout_ns, &lost_after_ns, &lost_after_timeouts,
+                          &placeholder_ns, &resync_gap_ns, &max_batch, &batch_bytes, &PyTuple_Type, &status_of,
+                          &PyDict_Type, &flag_of)) {
+        return NULL;
+    }
+    if (self->ready) {
+        PyErr_SetString(PyExc_RuntimeError, "the native core is set up already");
+        return NULL;
+    }
+    urb_core_config_t cfg;
+    urb_core_default_config(&cfg, (urb_link_kind_t)kind);
+    int const in_range = (window >= 0) && (window <= 255) && (max_batch >= 0) && (max_batch <= 255) &&
+                         (batch_bytes >= 0) && (batch_bytes <= 65535) && (lost_after_timeouts >= 0) &&
+                         (lost_after_timeouts <= (long long)UINT32_MAX);
+    if (in_range) {
+        cfg.window = (uint8_t)window;
+        cfg.timeout_ns = timeout_ns;
+        cfg.lost_after_ns = lost_after_ns;
+        cfg.lost_after_timeouts = (uint32_t)lost_after_timeouts;
+        cfg.placeholder_ns = placeholder_ns;
+        cfg.resync_gap_ns = resync_gap_ns;
+        cfg.max_batch = (uint8_t)max_batch;
+        cfg.batch_bytes = (uint16_t)batch_bytes;
+    }
+    if (!in_range || (urb_core_init(&self->core, (urb_link_kind_t)kind, &cfg) != URB_HOST_OK)) {
+        PyErr_SetString(PyExc_ValueError, "the C core does not take these settings (see urb_core_config_t in "
+                                          "host/c/include/urb_host_core.h for their ranges)");
+        return NULL;
+    }
+    Py_INCREF(status_of);
+    Py_INCREF(flag_of);
+    self->status_of = status_of;
+    self->flag_of = flag_of;
+    self->ready = true;
+    Py_RETURN_NONE;
+}
+
+static PyObject *core_submit(native_core_t *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (not_ready(self)) {
+        return NULL;
+    }
+    if (nargs != 2) {
+        PyErr_SetString(PyExc_TypeError, "submit(t, now) takes 2 arguments");
+        return NULL;
+    }
+    PyObject *py = args[0];
+    long long const now = PyLong_AsLongLong(args[1]);
+    if ((now == -1) && PyErr_Occurred()) {
+        return NULL;
+    }
+    long long address = 0, mailbox = 0, length = 0, within = 0;
+    if ((get_int(py, s_address, &address) < 0) || (get_int(py, s_mailbox, &mailbox) < 0) ||
+        (get_int(py, s_length, &length) < 0) || (get_int(py, s_answer_within_ns, &within) < 0)) {
+        return NULL;
+    }
+    PyObject *read_obj = PyObject_GetAttr(py, s_read);
+    if (read_obj == NULL) {
+        return NULL;
+    }
+    int const read = PyObject_IsTrue(read_obj);
+    Py_DECREF(read_obj);
+    if (read < 0) {
+        return NULL;
+    }
+    Py_buffer data = {0};
+    PyObject *data_obj = NULL;
+    if (!read) {
+        data_obj = PyObject_GetAttr(py, s_data);
+        if ((data_obj == NULL) || (PyObject_GetBuffer(data_obj, &data, PyBUF_SIMPLE) < 0)) {
+            Py_XDECREF(data_obj);
+            return NULL;
+        }
+        length = data.len;
+    }
+    native_xfer_t *x = xfer_get(self);
+    int32_t rc = URB_HOST_EINVAL;
+    if ((x != NULL) && (address >= 0) && (address <= 255) && (mailbox >= 0) && (mailbox <= 255) && (length >= 0) &&
+        (length <= 255)) {
+        rc = read ? urb_transfer_read(&x->t, (uint8_t)address, (uint8_t)mailbox, (uint8_t)length)
+                  : urb_transfer_write(&x->t, (uint8_t)address, (uint8_t)mailbox, data.buf, (uint8_t)length);
+        if (rc == URB_HOST_OK) {
+            rc = urb_transfer_set_answer_within(&x->t, within);
+        }
+        if (rc == URB_HOST_OK) {
+            x->py = py;
+            Py_INCREF(py);
+            rc = urb_core_submit(&self->core, &x->t, now);
+        }
+    }
+    if (data_obj != NULL) {
+        PyBuffer_Release(&data);
+        Py_DECREF(data_obj);
+    }
+    if (x == NULL) {
+        return NULL;
+    }
+    if (rc != URB_HOST_OK) {
+        xfer_put(self, x);
+        PyErr_Format(PyExc_ValueError,
+                     "cannot submit this request: address %lld (0..127), mailbox %lld (0..7), length %lld (1..32), "
+                     "answer_within_ns %lld (0..3600 s) must be in range",
+                     address, mailbox, length, within);
+        return NULL;
+    }
+    if (collect(self, NULL) < 0) {
+        return NULL;
+    }
+    if ((self->trace != Py_None) && !self->core.lost) {
+        PyObject *one = PyTuple_Pack(1, py);
+        int const trc = (one == NULL) ? -1 : trace_event(self, s_submit, now, one);
+        Py_XDECREF(one);
+        if (trc < 0) {
+            return NULL;
+        }
+    }
+    Py_RETURN_NONE;
+}
+
+static int parse_data_now(PyObject *const *args, Py_ssize_t nargs, Py_buffer *data, long long *now)
+{
+    if (nargs != 2) {
+        PyErr_SetString(PyExc_TypeError, "takes (data, now)");
+        return -1;
+    }
+    *now = PyLong_AsLongLong(args[1]);
+    if ((*now == -1) && PyErr_Occurred()) {
+        return -1;
+    }
+    return PyObject_GetBuffer(args[0], data, PyBUF_SIMPLE);
+}
+
+static PyObject *core_receive(native_core_t *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer data;
+    long long now = 0;
+    if (not_ready(self) || (parse_data_now(args, nargs, &data, &now) < 0)) {
+        return NULL;
+    }
+    int32_t const rc = urb_core_receive(&self->core, data.buf, (size_t)data.len, now);
+    PyBuffer_Release(&data);
+    if (rc != URB_HOST_OK) {
+        PyErr_SetString(PyExc_TypeError, "receive() is for an RS232 core; a USB core takes receive_batch()");
+        return NULL;
+    }
+    if (collect(self, NULL) < 0) {
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+
+static PyObject *core_receive_batch(native_core_t *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer data;
+    long long now = 0;
+    if (not_ready(self) || (parse_data_now(args, nargs, &data, &now) < 0)) {
+        return NULL;
+    }
+    bool const traced = (self->trace != Py_None) && !self->core.lost && (data.len > 0) && !self->core.flushing;
+    int32_t const rc = urb_core_receive_batch(&self->core, data.buf, (size_t)data.len, now);
+    PyBuffer_Release(&data);
+    if (rc != URB_HOST_OK) {
+        PyErr_SetString(PyExc_TypeError, "receive_batch() is for a USB core; an RS232 core takes receive()");
+        return NULL;
+    }
+    PyObject *answered = traced ? PyList_New(0) : NULL;
+    if ((traced && (answered == NULL)) || (collect(self, answered) < 0)) {
+        Py_XDECREF(answered);
+        return NULL;
+    }
+    if (traced) { /* UsbUplink.tla UsbRead: the requests its IN transfer answered, in order */
+        PyObject *items = PyList_AsTuple(answered);
+        Py_DECREF(answered);
+        int const trc = (items == NULL) ? -1 : trace_event(self, s_read_event, now, items);
+        Py_XDECREF(items);
+        if (trc < 0) {
+            return NULL;
+        }
+    }
+    Py_RETURN_NONE;
+}
+
+static PyObject *core_poll(native_core_t *self, PyObject *arg)
+{
+    long long const now = PyLong_AsLongLong(arg);
+    if (not_ready(self) || ((now == -1) && PyErr_Occurred())) {
+        return NULL;
+    }
+    (void)urb_core_poll(&self->core, now);
+    if (collect(self, NULL) < 0) {
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+
+static PyObject *core_frames_to_send(native_core_t *self, PyObject *arg)
+{
+    long long const now = PyLong_AsLongLong(arg);
+    if (not_ready(self) || ((now == -1) && PyErr_Occurred())) {
+        return NULL;
+    }
+    PyObject *out = PyList_New(0);
+    if (out == NULL) {
+        return NULL;
+    }
+    for (;;) {
+        uint8_t frame[URB_REQUEST_MAX];
+        native_xfer_t *head = (native_xfer_t *)self->core.q_head;
+        int32_t const n = urb_core_next_frame(&self->core, now, frame, sizeof frame);
+        if (n <= 0) {
+            if (n < 0) {
+                Py_DECREF(out);
+                PyErr_SetString(PyExc_TypeError, "frames_to_send() is for an RS232 core; a USB core takes frame_out()");
+                return NULL;
+            }
+            if (collect(self, NULL) < 0) {
+                Py_DECREF(out);
+                return NULL;
+            }
+            return out;
+        }
+        PyObject *b = PyBytes_FromStringAndSize((const char *)frame, n);
+        if ((b == NULL) || (PyList_Append(out, b) < 0) || (mark_sent(&self->core, newest_slot(&self->core), head) < 0)) {
+            Py_XDECREF(b);
+            Py_DECREF(out);
+            return NULL;
+        }
+        Py_DECREF(b);
+    }
+}
+
+static PyObject *core_frame_out(native_core_t *self, PyObject *arg)
+{
+    long long const now = PyLong_AsLongLong(arg);
+    if (not_ready(self) || ((now == -1) && PyErr_Occurred())) {
+        return NULL;
+    }
+    /* the requests that may go in this batch: at most max_batch (<= 15) from the queue's head */
+    native_xfer_t *candidates[URB_MAX_WINDOW];
+    unsigned n_candidates = 0u;
+    for (urb_transfer_t *t = self->core.q_head; (t != NULL) && (n_candidates < URB_MAX_WINDOW); t = t->next) {
+        candidates[n_candidates++] = (native_xfer_t *)t;
+    }
+    uint8_t buf[URB_USB_BATCH_MAX];
+    unsigned const before = self->core.m.count;
+    int32_t const n = urb_core_frame_out(&self->core, now, buf, sizeof buf);
+    if (n < 0) {
+        PyErr_SetString(PyExc_TypeError, "frame_out() is for a USB core; an RS232 core takes frames_to_send()");
+        return NULL;
+    }
+    if (collect(self, NULL) < 0) {
+        return NULL;
+    }
+    if (n == 0) {
+        Py_RETURN_NONE;
+    }
+    unsigned sent = 0u;
+    while ((sent < n_candidates) && (candidates[sent]->t.state == URB_XFER_IN_FLIGHT)) {
+        sent++;
+    }
+    /* they are the newest `sent` slots of the ring, in sending order */
+    unsigned const first = self->core.m.count - sent;
+    for (unsigned i = 0u; i < sent; i++) {
+        const urb_slot_t *slot = &self->core.m.slot[(self->core.m.head + first + i) % URB_MATCHER_SLOTS];
+        if (mark_sent(&self->core, slot, candidates[i]) < 0) {
+            return NULL;
+        }
+    }
+    (void)before;
+    if (self->trace != Py_None) { /* UsbUplink.tla UsbWrite */
+        PyObject *batch = PyTuple_New((Py_ssize_t)sent);
+        if (batch == NULL) {
+            return NULL;
+        }
+        for (unsigned i = 0u; i < sent; i++) {
+            Py_INCREF(candidates[i]->py);
+            PyTuple_SET_ITEM(batch, (Py_ssize_t)i, candidates[i]->py);
+        }
+        int const trc = trace_event(self, s_write, now, batch);
+        Py_DECREF(batch);
+        if (trc < 0) {
+            return NULL;
+        }
+    }
+    return PyBytes_FromStringAndSize((const char *)buf, n);
+}
+
+static PyObject *core_take_completed(native_core_t *self, PyObject *unused)
+{
+    (void)unused;
+    if (not_ready(self)) {
+        return NULL;
+    }
+    PyObject *fresh = PyList_New(0);
+    if (fresh == NULL) {
+        return NULL;
+    }
+    PyObject *out = self->completed;
+    self->completed = fresh;
+    Py_ssize_t const n = PyList_GET_SIZE(out);
+    if ((self->trace != Py_None) && (n > 0)) { /* UsbUplink.tla Callback: at the last one's completion */
+        PyObject *items = PyList_AsTuple(out);
+        PyObject *when = PyObject_GetAttr(PyList_GET_ITEM(out, n - 1), s_completed_ns);
+        long long const last_ns = (when == NULL) ? -1 : PyLong_AsLongLong(when);
+        Py_XDECREF(when);
+        int const trc = ((items == NULL) || PyErr_Occurred()) ? -1 : trace_event(self, s_callback, last_ns, items);
+        Py_XDECREF(items);
+        if (trc < 0) {
+            Py_DECREF(out);
+            return NULL;
+        }
+    }
+    return out;
+}
+
+static PyObject *core_next_deadline(native_core_t *self, PyObject *unused)
+{
+    (void)unused;
+    return not_ready(self) ? NULL : time_or_none(urb_core_next_deadline(&self->core));
+}
+
+static int set_full_reason(native_core_t *self, PyObject *reason)
+{
+    if (!PyUnicode_Check(reason)) {
+        PyErr_SetString(PyExc_TypeError, "a lost reason is a str");
+        return -1;
+    }
+    Py_INCREF(reason);
+    Py_XSETREF(self->full_reason, reason);
+    return 0;
+}
+
+static PyObject *core_link_lost(native_core_t *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (not_ready(self)) {
+        return NULL;
+    }
+    if (nargs != 2) {
+        PyErr_SetString(PyExc_TypeError, "link_lost(now, reason) takes 2 arguments");
+        return NULL;
+    }
+    long long const now = PyLong_AsLongLong(args[0]);
+    if ((now == -1) && PyErr_Occurred()) {
+        return NULL;
+    }
+    const char *reason = PyUnicode_Check(args[1]) ? PyUnicode_AsUTF8(args[1]) : NULL;
+    if (reason == NULL) {
+        if (!PyErr_Occurred()) {
+            PyErr_SetString(PyExc_TypeError, "a lost reason is a str");
+        }
+        return NULL;
+    }
+    if (!self->core.lost && (set_full_reason(self, args[1]) < 0)) { /* already lost: nothing changes */
+        return NULL;
+    }
+    urb_core_link_lost(&self->core, now, reason);
+    if (collect(self, NULL) < 0) {
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+
+static PyObject *core_reset(native_core_t *self, PyObject *arg)
+{
+    long long const now = PyLong_AsLongLong(arg);
+    if (not_ready(self) || ((now == -1) && PyErr_Occurred())) {
+        return NULL;
+    }
+    urb_core_reset(&self->core, now);
+    if (collect(self, NULL) < 0) {
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+
+static PyObject *core_start_drain(native_core_t *self, PyObject *arg)
+{
+    long long const now = PyLong_AsLongLong(arg);
+    if (not_ready(self) || ((now == -1) && PyErr_Occurred())) {
+        return NULL;
+    }
+    urb_ns_t const until = urb_core_start_drain(&self->core, now);
+    if (collect(self, NULL) < 0) {
+        return NULL;
+    }
+    return time_or_none(until);
+}
+
+static PyObject *core_drained(native_core_t *self, PyObject *unused)
+{
+    (void)unused;
+    return not_ready(self) ? NULL : PyBool_FromLong(urb_core_drained(&self->core));
+}
+
+static PyObject *core_hand_over(native_core_t *self, PyObject *arg)
+{
+    long long const until = PyLong_AsLongLong(arg);
+    if (not_ready(self) || ((until == -1) && PyErr_Occurred())) {
+        return NULL;
+    }
+    urb_core_hand_over(&self->core, until);
+    Py_RETURN_NONE;
+}
+
+static PyObject *core_busy_until(native_core_t *self, PyObject *unused)
+{
+    (void)unused;
+    return not_ready(self) ? NULL : time_or_none(urb_core_busy_until(&self->core));
+}
+
+static PyObject *core_set_window_raw(native_core_t *self, PyObject *arg)
+{
+    long const w = PyLong_AsLong(arg);
+    if (not_ready(self) || ((w == -1) && PyErr_Occurred())) {
+        return NULL;
+    }
+    if ((w < 1) || (w > (long)URB_MAX_WINDOW) || (urb_core_set_window(&self->core, (uint8_t)w) != URB_HOST_OK)) {
+        PyErr_Format(PyExc_ValueError, "window = %ld: must be 1..%u", w, URB_MAX_WINDOW);
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+
+static PyObject *core_busy(native_core_t *self, PyObject *unused)
+{
+    (void)unused;
+    return not_ready(self) ? NULL : PyBool_FromLong(urb_core_busy(&self->core));
+}
+
+static PyMethodDef core_methods[] = {
+    {"_setup", (PyCFunction)core_setup, METH_VARARGS, "Initialise the C core (NativeRs232Core/NativeUsbCore do)."},
+    {"submit", (PyCFunction)(void (*)(void))core_submit, METH_FASTCALL, "submit(t, now): queue a request."},
+    {"receive", (PyCFunction)(void (*)(void))core_receive, METH_FASTCALL, "receive(data, now): RS232 bytes."},
+    {"receive_batch", (PyCFunction)(void (*)(void))core_receive_batch, METH_FASTCALL,
+     "receive_batch(data, now): one USB IN transfer."},
+    {"poll", (PyCFunction)core_poll, METH_O, "poll(now): timeouts, idle gap, lost-bridge rules."},
+    {"frames_to_send", (PyCFunction)core_frames_to_send, METH_O, "frames_to_send(now) -> list[bytes] (RS232)."},
+    {"frame_out", (PyCFunction)core_frame_out, METH_O, "frame_out(now) -> bytes | None (USB)."},
+    {"take_completed", (PyCFunction)core_take_completed, METH_NOARGS, "Transfers completed since the last call."},
+    {"next_deadline", (PyCFunction)core_next_deadline, METH_NOARGS, "When poll next has something to do."},
+    {"link_lost", (PyCFunction)(void (*)(void))core_link_lost, METH_FASTCALL, "link_lost(now, reason)."},
+    {"reset", (PyCFunction)core_reset, METH_O, "reset(now): forget the lost state."},
+    {"start_drain", (PyCFunction)core_start_drain, METH_O, "start_drain(now) -> int | None."},
+    {"drained", (PyCFunction)core_drained, METH_NOARGS, "Nothing left to wait for after start_drain."},
+    {"hand_over", (PyCFunction)core_hand_over, METH_O, "hand_over(until_ns)."},
+    {"busy_until", (PyCFunction)core_busy_until, METH_NOARGS, "The latest lifetime in flight, or None."},
+    {"_set_window", (PyCFunction)core_set_window_raw, METH_O, "Set the window (1..15)."},
+    {"busy", (PyCFunction)core_busy, METH_NOARGS, "Requests queued or in flight."},
+    {NULL, NULL, 0, NULL},
+};
+
+/* ----- read-only counters and the settable lost reason ------------------------------------------- */
+
+enum { G_STRAY, G_LATE, G_RELEASED, G_IN_FLIGHT, G_PLACEHOLDERS, G_HAS_QUEUED, G_FRAMES, G_TRANSFERS_IN, G_BAD_HEADERS };
+
+static PyObject *core_get_counter(native_core_t *self, void *which)
+{
+    if (not_ready(self)) {
+        return NULL;
+    }
+    const urb_core_t *c = &self->core;
+    switch ((int)(intptr_t)which) {
+    case G_STRAY: return PyLong_FromUnsignedLongLong(c->m.stray_bytes);
+    case G_LATE: return PyLong_FromUnsignedLongLong(c->m.late_responses);
+    case G_RELEASED: return PyLong_FromUnsignedLongLong(c->m.released_placeholders);
+    case G_IN_FLIGHT: return PyLong_FromUnsignedLong(urb_core_in_flight(c));
+    case G_PLACEHOLDERS: return PyLong_FromUnsignedLong(urb_core_placeholders(c));
+    case G_HAS_QUEUED: return PyBool_FromLong(urb_core_has_queued(c));
+    case G_FRAMES: return PyLong_FromUnsignedLongLong(c->frames_written);
+    case G_TRANSFERS_IN: return PyLong_FromUnsignedLongLong(c->transfers_in);
+    default: return PyLong_FromUnsignedLongLong(c->bad_headers);
+    }
+}
+
+static PyObject *core_get_lost_reason(native_core_t *self, void *unused)
+{
+    (void)unused;
+    if (not_ready(self)) {
+        return NULL;
+    }
+    const char *r = urb_core_lost_reason(&self->core);
+    if (r == NULL) {
+        Py_RETURN_NONE;
+    }
+    return reason_text(self, r);
+}
+
+/* What MatchingCore callers do after link_lost on a core lost already: say why it is lost now. */
+static int core_set_lost_reason(native_core_t *self, PyObject *value, void *unused)
+{
+    (void)unused;
+    if (not_ready(self)) {
+        return -1;
+    }
+    if ((value == NULL) || !self->core.lost) {
+        PyErr_SetString(PyExc_ValueError, "only a lost core's reason can be replaced (call link_lost first; reset "
+                                          "makes the core usable again)");
+        return -1;
+    }
+    const char *text = PyUnicode_Check(value) ? PyUnicode_AsUTF8(value) : NULL;
+    if ((text == NULL) || (set_full_reason(self, value) < 0)) {
+        if (!PyErr_Occurred()) {
+            PyErr_SetString(PyExc_TypeError, "a lost reason is a str");
+        }
+        return -1;
+    }
+    size_t n = strlen(text);
+    if (n > URB_REASON_MAX - 1u) {
+        n = URB_REASON_MAX - 1u;
+    }
+    memcpy(self->core.lost_reason, text, n);
+    self->core.lost_reason[n] = '\0';
+    return 0;
+}
+
+static PyObject *core_get_trace(native_core_t *self, void *unused)
+{
+    (void)unused;
+    Py_INCREF(self->trace);
+    return self->trace;
+}
+
+static int core_set_trace(native_core_t *self, PyObject *value, void *unused)
+{
+    (void)unused;
+    if ((value == NULL) || ((value != Py_None) && !PyList_CheckExact(value))) {
+        PyErr_SetString(PyExc_TypeError, "trace is None or a list");
+        return -1;
+    }
+    Py_INCREF(value);
+    Py_XSETREF(self->trace, value);
+    return 0;
+}
+
+#define COUNTER(name, which, doc) {name, (getter)core_get_counter, NULL, doc, (void *)(intptr_t)(which)}
+static PyGetSetDef core_getset[] = {
+    COUNTER("stray_bytes", G_STRAY, "Received bytes that answered no request."),
+    COUNTER("late_responses", G_LATE, "Responses that came after their request had timed out (discarded)."),
+    COUNTER("released_placeholders", G_RELEASED, "Placeholders released without their late response."),
+    COUNTER("in_flight", G_IN_FLIGHT, "Requests in flight, placeholders included."),
+    COUNTER("placeholders", G_PLACEHOLDERS, "Timed-out requests whose sequence numbers stay reserved."),
+    COUNTER("has_queued", G_HAS_QUEUED, "Requests buffered that the window lets go out."),
+    COUNTER("frames_written", G_FRAMES, "USB: OUT transfers built."),
+    COUNTER("transfers_in", G_TRANSFERS_IN, "USB: IN transfers received."),
+    COUNTER("bad_headers", G_BAD_HEADERS, "USB: IN transfers whose header did not decode."),
+    {"lost_reason", (getter)core_get_lost_reason, (setter)core_set_lost_reason, "Why the bridge is lost, or None.",
+     NULL},
+    {"trace", (getter)core_get_trace, (setter)core_set_trace,
+     "None, or a list the USB pipeline's steps are appended to (usb_core.UsbTraceEvent).", NULL},
+    {NULL, NULL, NULL, NULL, NULL},
+};
+
+static PyTypeObject native_core_type = {
+    PyVarObject_HEAD_INIT(NULL, 0).tp_name = "urb.managers._native.Core",
+    .tp_basicsize = sizeof(native_core_t),
+    .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_BASETYPE | Py_TPFLAGS_HAVE_GC,
+    .tp_doc = "The C protocol core of one bridge (host/c/core); use NativeRs232Core or NativeUsbCore.",
+    .tp_new = core_new,
+    .tp_dealloc = (destructor)core_dealloc,
+    .tp_traverse = (traverseproc)core_traverse,
+    .tp_clear = (inquiry)core_clear,
+    .tp_methods = core_methods,
+    .tp_getset = core_getset,
+};
+
+static struct PyModuleDef native_module = {
+    PyModuleDef_HEAD_INIT, .m_name = "urb.managers._native",
+    .m_doc = "The C protocol core of host/c/core for the Python host library (host/urb/managers/native.py).",
+    .m_size = -1,
+};
+
+static int intern_all(void)
+{
+    struct {
+        PyObject **slot;
+        const char *text;
+    } const names[] = {
+        {&s_address, "address"}, {&s_mailbox, "mailbox"}, {&s_read, "read"}, {&s_length, "length"},
+        {&s_data, "data"}, {&s_answer_within_ns, "answer_within_ns"}, {&s_seq, "seq"}, {&s_sent_ns, "sent_ns"},
+        {&s_due_ns, "due_ns"}, {&s_expires_ns, "expires_ns"}, {&s_garbage, "garbage"}, {&s_done, "done"},
+        {&s_completed_ns, "completed_ns"}, {&s_flags, "flags"}, {&s_status, "status"}, {&s_response, "response"},
+        {&s_lost_reason, "lost_reason"}, {&s_submit, "submit"}, {&s_write, "write"}, {&s_read_event, "read"},
+        {&s_callback, "callback"},
+    };
+    for (size_t i = 0u; i < sizeof names / sizeof names[0]; i++) {
+        if (*names[i].slot == NULL) {
+            *names[i].slot = PyUnicode_InternFromString(names[i].text);
+            if (*names[i].slot == NULL) {
+                return -1;
+            }
+        }
+    }
+    return 0;
+}
+
+PyMODINIT_FUNC PyInit__native(void)
+{
+    if ((intern_all() < 0) || (PyType_Ready(&native_core_type) < 0)) {
+        return NULL;
+    }
+    PyObject *m = PyModule_Create(&native_module);
+    if (m == NULL) {
+        return NULL;
+    }
+    Py_INCREF(&native_core_type);
+    if ((PyModule_AddObject(m, "Core", (PyObject *)&native_core_type) < 0) ||
+        (PyModule_AddStringConstant(m, "FINGERPRINT", URB_NATIVE_FINGERPRINT) < 0) ||
+        (PyModule_AddIntConstant(m, "REASON_MAX", (long)URB_REASON_MAX) < 0)) {
+        Py_DECREF(&native_core_type);
+        Py_DECREF(m);
+        return NULL;
+    }
+    return m;
+}
