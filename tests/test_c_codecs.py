@@ -29,7 +29,7 @@ from urb.msgtools import from_plain, random_message, to_plain
 from urb_codegen.generate import load_bundled
 from urb_codegen.model import ArrayType, BytesType, CheckType, CrcTier, EnumDecl, Field, IntType, MessageDecl
 
-from conftest import load_vectors
+from tests.conftest import load_vectors
 
 REPO = Path(__file__).resolve().parents[1]
 GEN = REPO / "gen" / "c"

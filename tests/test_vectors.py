@@ -11,7 +11,7 @@ import urb_msgs
 from urb.msgtools import from_plain, to_plain
 from urb_msgs import ArgumentError, ChecksumError, OutOfRangeError, TooLongError, TooShortError
 
-from conftest import load_vectors
+from tests.conftest import load_vectors
 
 VALID = load_vectors("valid")
 ERRORS = load_vectors("error")
