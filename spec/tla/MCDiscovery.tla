@@ -1,5 +1,5 @@
 ------------------------------ MODULE MCDiscovery ------------------------------
-(* Model values: two bridges, two addresses each.  Class 10 expects       *)
+(* Model values: two bridges, two addresses each.  Class 10 expects        *)
 (* layout "A", class 20 layout "B" (one expected fingerprint per class, so *)
 (* a check against the wrong class is caught).  The classes lie outside    *)
 (* the addresses (1..NAddr, also in MCDiscoveryLarge), so a slot built     *)

@@ -1,8 +1,8 @@
 ------------------- MODULE Discovery_FingerprintOfWrongClass -------------------
 (* MUTANT of Discovery: the fingerprint is compared with the layout        *)
-(* expected for the class of the first node of the system (ClassA), not   *)
+(* expected for the class of the first node of the system (ClassA), not    *)
 (* the node's own class: a ClassA node with ClassB's layout passes, a      *)
-(* correct ClassB node is flagged MISMATCH.  Passed when every class      *)
+(* correct ClassB node is flagged MISMATCH.  Passed when every class       *)
 (* expected the same fingerprint.                                          *)
 (* Expected: MismatchReported.                                             *)
 EXTENDS MCDiscovery
