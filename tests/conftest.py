@@ -14,6 +14,8 @@ VECTORS = Path(__file__).parent / "vectors"
 # The tests that run ESBMC test the checker itself (a seeded harness must fail): they run it for real
 # and never replay or record proofs/bmc/cache (tests/proofs/test_bmc_cache.py tests the cache).
 os.environ["BMC_CACHE"] = "off"
+# Likewise for Frama-C (tools/framac_cache.py; tests/proofs/test_framac_cache.py tests the cache).
+os.environ["FRAMAC_RESULT_CACHE"] = "off"
 
 
 def load_vectors(kind: str) -> list[dict[str, Any]]:

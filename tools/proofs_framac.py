@@ -10,6 +10,9 @@
     python3 tools/proofs_framac.py --list           # the units and their settings, nothing run
     python3 tools/proofs_framac.py --prune-cache    # the whole offline replay, then delete the
                                                     # cache entries it did not read
+    python3 tools/proofs_framac.py --cache offline --prune-results
+                                                    # the whole run, then delete the recorded runs
+                                                    # (proofs/framac/results) it did not use
 
 A unit is a folder proofs/framac/<unit>/ holding PURPOSE (one line), unit.json (what to run) and
 expected.json (what the run must give). unit.json:
@@ -45,6 +48,11 @@ Each mutant of a unit copies one source file, replaces `find` (which must occur 
 `replace` and runs the same analysis: WP must leave a goal unproved, Eva must raise an alarm that
 is not in the reviewed list.
 
+Whole runs are replayed when their inputs are byte-identical to a recorded run's (Eva runs, offline
+WP runs and their mutants; tools/framac_cache.py, proofs/framac/results, FRAMAC_RESULT_CACHE=on|off|
+refresh): see proofs/framac/README.md, "Result cache of whole runs". `--prune-results` after a whole
+offline run deletes the entries no run used.
+
 Outputs build/proofs/framac/summary.json ({"part": "framac", "rows": [...]}, one row per function
 or Eva entry point and one per mutant), junit.xml, the Frama-C logs under logs/, and the evidence
 record build/evidence/framac.json (WP goals per prover, Eva alarms with their reviews, mutants). Exit status:
@@ -62,6 +70,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 import xml.etree.ElementTree as ET
 from concurrent.futures import ThreadPoolExecutor
@@ -70,12 +79,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from urb_report import c_source
-from urb_report.records import Item, Verdict, command_version, write_record
+if str(Path(__file__).resolve().parents[1]) not in sys.path:  # tools/ as a namespace package, also when
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this script is run or loaded by path
+from tools import framac_cache  # noqa: E402
+from urb_report import c_source  # noqa: E402
+from urb_report.records import Item, Verdict, command_version, write_record  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 UNITS_DIR = ROOT / "proofs" / "framac"
 CACHE_DIR = UNITS_DIR / "cache"
+RESULTS_DIR = UNITS_DIR / "results"  # whole recorded runs (tools/framac_cache.py), one folder per unit
 ALARMS_MD = UNITS_DIR / "eva_alarms.md"
 OUT_DIR = ROOT / "build" / "proofs" / "framac"
 PROVERS = "z3,cvc4"
@@ -167,6 +180,15 @@ class FramacRun:
     seconds: float
     log: str
     report: dict[str, Any] = field(default_factory=dict)
+    cpu_s: float = 0.0  # Frama-C's user + system seconds (a replayed run: the recorded run's)
+    #: the run was replayed from proofs/framac/results: "<commit> <date>" it was computed on
+    replayed: str = ""
+    #: what the result cache did: "", "recorded <entry>", "spot-checked", "not used (why)"
+    cache_note: str = ""
+    #: a spot check's re-run disagreed with the recorded entry: what differs (fails the unit)
+    cache_wrong: str = ""
+    #: the run's key in proofs/framac/results (empty when the result cache was not used)
+    key: str = ""
 
 
 def apply_mutant(unit: Unit, mutant: dict[str, Any], work: Path) -> tuple[list[str], list[str]]:
@@ -237,24 +259,117 @@ def red_report(report: Path) -> Path:
 
 
 def run_framac(cmd: list[str], log_path: Path, report: Path) -> FramacRun:
+    """Runs Frama-C for real (killed after RUN_TIMEOUT_S); its CPU time is its own (wait4), not
+    that of the runs other threads make at the same time."""
     log_path.parent.mkdir(parents=True, exist_ok=True)
     report.unlink(missing_ok=True)
     red_report(report).unlink(missing_ok=True)
     start = time.monotonic()
-    try:
-        out = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=RUN_TIMEOUT_S)
-        text = out.stdout + out.stderr
-        ok = out.returncode == 0
-    except subprocess.TimeoutExpired as exc:
-        text = (exc.stdout or b"").decode() if isinstance(exc.stdout, bytes) else (exc.stdout or "")
+    with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
+        proc = subprocess.Popen(cmd, cwd=ROOT, stdout=out, stderr=err)
+        timer = threading.Timer(RUN_TIMEOUT_S, proc.kill)
+        timer.start()
+        _, status, usage = os.wait4(proc.pid, 0)
+        killed = not timer.is_alive()
+        timer.cancel()
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        out.seek(0)
+        err.seek(0)
+        text = out.read().decode(errors="replace") + err.read().decode(errors="replace")
+    ok = proc.returncode == 0 and not killed
+    if killed:
         text += f"\n*** killed after {RUN_TIMEOUT_S} s\n"
-        ok = False
     seconds = time.monotonic() - start
     log_path.write_text(" ".join(cmd) + "\n\n" + text, encoding="utf-8")
-    data: dict[str, Any] = {}
+    return FramacRun(ok, seconds, text, _json_report(ok, report), cpu_s=usage.ru_utime + usage.ru_stime)
+
+
+def _json_report(ok: bool, report: Path) -> dict[str, Any]:
     if ok and report.is_file() and report.suffix == ".json":
-        data = json.loads(report.read_text(encoding="utf-8"))
-    return FramacRun(ok, seconds, text, data)
+        data: dict[str, Any] = json.loads(report.read_text(encoding="utf-8"))
+        return data
+    return {}
+
+
+# =============================================================================== result cache
+
+
+def outcome(tool: str, run: FramacRun, report: Path) -> dict[str, Any] | None:
+    """What the runner judges of a run (tools/framac_cache.py compares and records it), or None
+    when the run gave no verdict: Frama-C failed or was killed, wrote no report, Eva stopped on an
+    error, or a WP goal had no answer (offline: not in proofs/framac/cache). Never recorded."""
+    if not run.ok:
+        return None
+    if tool == "wp":
+        funcs = wp_functions(run) if run.report else {}
+        if not funcs or any(f["unanswered"] for f in funcs.values()):
+            return None
+        return {fn: {k: f[k] for k in ("proved", "total", "unproved", "goals", "by")} for fn, f in funcs.items()}
+    bad = _EVA_BAD_RE.search(run.log)
+    if bad or not report.is_file() or not red_report(report).is_file():
+        return None
+    return {"alarms": eva_alarms(report), "invalid": eva_invalid(report), "red": eva_red(report, run.log),
+            "contracts": contract_statuses(report)}
+
+
+def _restore(recorded: framac_cache.Recorded, cmd: list[str], log_path: Path, report: Path,
+             seconds: float) -> FramacRun:
+    """Writes a recorded run's report files and log where the real run would have, as its FramacRun."""
+    log_path.parent.mkdir(parents=True, exist_ok=True)
+    report.unlink(missing_ok=True)
+    red_report(report).unlink(missing_ok=True)
+    for name, text in recorded.outputs.items():
+        (report.parent / name).write_text(text, encoding="utf-8")
+    replayed = f"{recorded.commit} {recorded.date}"
+    log_path.write_text(" ".join(cmd) + f"\n\nurb-framac-cache: hit {recorded.key} cpu {recorded.cpu_s:.2f} "
+                        f"computed on {replayed} ({recorded.path.relative_to(ROOT) if recorded.path.is_relative_to(ROOT) else recorded.path})\n"
+                        + recorded.log, encoding="utf-8")
+    return FramacRun(True, seconds, recorded.log, _json_report(True, report), cpu_s=recorded.cpu_s, replayed=replayed,
+                     key=recorded.key)
+
+
+def run_cached(unit: Unit, label: str, cmd: list[str], log_path: Path, report: Path, cache: str,
+               cache_dir: Path) -> FramacRun:
+    """run_framac, or the recorded run of the same inputs (tools/framac_cache.py). WP runs use it
+    only offline on the committed answer cache: otherwise provers may add answers during the run."""
+    usable = unit.tool == "eva" or (cache == "offline" and cache_dir == CACHE_DIR)
+    mode = framac_cache.mode()
+    if not usable or mode == "off":
+        return run_framac(cmd, log_path, report)
+    start = time.monotonic()
+    try:
+        key = framac_cache.run_key(cmd, str(ROOT), framac_cache.tool_identity(unit.tool),
+                                   framac_cache.dependencies(cmd, ROOT, framac_cache.share_libc()),
+                                   f"wp answers {framac_cache.folder_digest(CACHE_DIR)}" if unit.tool == "wp" else "")
+    except framac_cache.CacheError as e:
+        run = run_framac(cmd, log_path, report)
+        run.cache_note = f"not used ({e})"
+        return run
+    recorded = framac_cache.load(RESULTS_DIR, unit.name, key, str(ROOT)) if mode == "on" else None
+    if recorded is not None:
+        per_mille, seed, max_cpu = framac_cache.spot_check_settings()
+        if not (framac_cache.spot_checked(key, seed, per_mille) and recorded.cpu_s <= max_cpu):
+            return _restore(recorded, cmd, log_path, report, time.monotonic() - start)
+        with tempfile.TemporaryDirectory(prefix="urb-framac-recorded-") as tmp:
+            was = _restore(recorded, cmd, Path(tmp) / "log", Path(tmp) / report.name, 0.0)
+            expected = outcome(unit.tool, was, Path(tmp) / report.name)
+        run = run_framac(cmd, log_path, report)
+        now = outcome(unit.tool, run, report)
+        if now != expected:
+            run.cache_wrong = (f"SPOT CHECK FAILED: Frama-C run again now gives {json.dumps(now)[:300]}, the entry "
+                               f"{recorded.path.relative_to(ROOT) if recorded.path.is_relative_to(ROOT) else recorded.path} "
+                               f"recorded {json.dumps(expected)[:300]}: the entry is wrong; delete it, or rerun with "
+                               f"{framac_cache.ENV}=refresh")
+        run.cache_note, run.key = f"spot-checked {key}", key
+        return run
+    run = run_framac(cmd, log_path, report)
+    run.key = key
+    if outcome(unit.tool, run, report) is not None:
+        outputs = {p.name: p.read_text(encoding="utf-8") for p in (report, red_report(report)) if p.is_file()}
+        path = framac_cache.record(RESULTS_DIR, unit.name, label, key, str(ROOT), cmd, run.log, outputs, run.cpu_s,
+                                   run.seconds)
+        run.cache_note = f"recorded {path.relative_to(ROOT) if path.is_relative_to(ROOT) else path}"
+    return run
 
 
 # =============================================================================== WP results
@@ -599,7 +714,7 @@ def mutant_data(mutant: dict[str, Any]) -> dict[str, Any]:
 
 
 def run_unit(unit: Unit, mutant: dict[str, Any] | None, jobs: int, cache: str, cache_dir: Path, record: bool,
-             reviewed: set[str]) -> tuple[list[Row], dict[str, Any], float]:
+             reviewed: set[str]) -> tuple[list[Row], dict[str, Any], FramacRun]:
     tag = f"{unit.name}.mutant.{mutant['name']}" if mutant else unit.name
     report = OUT_DIR / "reports" / (tag + (".json" if unit.tool == "wp" else ".csv"))
     report.parent.mkdir(parents=True, exist_ok=True)
@@ -608,14 +723,22 @@ def run_unit(unit: Unit, mutant: dict[str, Any] | None, jobs: int, cache: str, c
         sources, cpp = apply_mutant(unit, mutant, OUT_DIR / "mutants" / unit.name / mutant["name"])
         extra = list(mutant.get("args", []))
     cmd = framac_command(unit, sources, cpp, extra, report, jobs, cache, cache_dir)
-    run = run_framac(cmd, OUT_DIR / "logs" / f"{tag}.log", report)
+    run = run_cached(unit, f"mutant {mutant['name']}" if mutant else "unit", cmd, OUT_DIR / "logs" / f"{tag}.log",
+                     report, cache, cache_dir)
     if unit.tool == "wp":
         rows, recorded = check_wp(unit, run, record and not mutant, cache, mutant["name"] if mutant else "")
     else:
         rows, recorded = check_eva(unit, run, report, record and not mutant, reviewed)
     if mutant:
-        return [mutant_row(unit, mutant, rows)], {}, run.seconds
-    return rows, recorded, run.seconds
+        rows = [mutant_row(unit, mutant, rows)]
+        recorded = {}
+    for r in rows:
+        # Every item says whether its Frama-C run was replayed (proofs/framac/results) and when it was computed.
+        r.data.update({"runs_replayed_from_cache": 1 if run.replayed else 0, "computed_on": run.replayed or "now",
+                       "framac_cpu_s": round(run.cpu_s, 2), "result_cache": run.cache_note or ("hit" if run.replayed else "")})
+        if run.cache_wrong:
+            r.result, r.expected, r.detail = "CACHE WRONG", False, run.cache_wrong
+    return rows, recorded, run
 
 
 def write_outputs(rows: list[Row], wall: float) -> None:
@@ -643,6 +766,9 @@ def write_outputs(rows: list[Row], wall: float) -> None:
     ET.ElementTree(suites).write(OUT_DIR / "junit.xml", encoding="utf-8", xml_declaration=True)
 
 
+CACHE_FIELDS = ("runs_replayed_from_cache", "computed_on", "framac_cpu_s", "result_cache")
+
+
 def evidence_items(rows: list[Row], reviews: dict[str, str]) -> list[Item]:
     """The evidence record's items: `wp:<unit>/<function>` with its goals table (total, proved by
     each prover, unproved, justified), `eva:<unit>` with its alarms and their reviews and the
@@ -660,7 +786,8 @@ def evidence_items(rows: list[Row], reviews: dict[str, str]) -> list[Item]:
                      "unproved": r.data.get("unproved", []), "justified": [], "cache_misses": r.data.get("cache_misses", [])}
             items.append(Item(f"wp:{r.unit}/{r.function}", "wp", verdict, "every goal proved", r.properties,
                               f"proofs/framac/{r.unit}/unit.json", f"python3 tools/proofs_framac.py --unit {r.unit} "
-                              "--no-mutants", {"goals": goals, "result": r.result, "time_s": r.time_s, "detail": r.detail}))
+                              "--no-mutants", {"goals": goals, "result": r.result, "time_s": r.time_s, "detail": r.detail,
+                                               **{k: r.data[k] for k in CACHE_FIELDS if k in r.data}}))
         else:
             alarms = [{"alarm": a, "review": reviews.get(a, ""), "status": "reviewed" if a in reviews and
                        a not in r.data.get("new", []) else "NOT REVIEWED"} for a in r.data.get("alarms", [])]
@@ -668,11 +795,11 @@ def evidence_items(rows: list[Row], reviews: dict[str, str]) -> list[Item]:
                               r.properties, f"proofs/framac/{r.unit}/unit.json",
                               f"python3 tools/proofs_framac.py --unit {r.unit} --no-mutants",
                               {"alarms": alarms, "contracts": r.data.get("contracts", {}), "result": r.result,
-                               "detail": r.detail}))
+                               "detail": r.detail, **{k: r.data[k] for k in CACHE_FIELDS if k in r.data}}))
     return items
 
 
-def write_evidence(rows: list[Row], args: argparse.Namespace) -> Path:
+def write_evidence(rows: list[Row], args: argparse.Namespace, runs: list[FramacRun]) -> Path:
     """build/evidence/framac.json (report/urb_report/records.py)."""
     tools = {"Frama-C": command_version(["frama-c", "-version"]), "why3": command_version(["why3", "--version"]),
              "z3": command_version(["z3", "--version"]), "cvc4": command_version(["cvc4", "--version"]),
@@ -681,6 +808,9 @@ def write_evidence(rows: list[Row], args: argparse.Namespace) -> Path:
                       "-eva-report-red-statuses; each unit's own options in its unit.json"}
     config = {"cache": args.cache, "jobs": args.jobs, "units": sorted({r.unit for r in rows}),
               "mutants": not args.no_mutants, "provers": PROVERS.split(","), "goal_timeout_s": GOAL_TIMEOUT_S,
+              "framac_runs": len(runs), "replayed_from_cache": sum(1 for r in runs if r.replayed),
+              "framac_result_cache": os.environ.get(framac_cache.ENV, "on"),
+              "framac_cpu_s": round(sum(r.cpu_s for r in runs if not r.replayed), 1),
               "hypotheses": "HAL contracts assumed at their call sites, never proved: proofs/framac/README.md, "
                             "\"HAL contracts (WP hypotheses)\"; Eva admits: eva_alarms.md, Hypotheses"}
     return write_record("framac", evidence_items(rows, read_alarm_reviews()), tools, config=config)
@@ -724,8 +854,19 @@ def prune_unread(copies: list[Path], cache_dir: Path) -> tuple[int, int]:
     return len(copies) - len(unread), len(unread)
 
 
-def run_all(units: list[Unit], args: argparse.Namespace, cache_dir: Path, reviewed: set[str]) -> list[Row]:
-    """Run the units and their mutants as the options select; rows in unit order."""
+def prune_results(runs: list[FramacRun]) -> tuple[int, int]:
+    """Deletes the entries of proofs/framac/results that none of `runs` (a whole run) used: runs of
+    inputs that changed since. (kept, deleted)"""
+    used = {r.key for r in runs if r.key}
+    stale = [e for e in RESULTS_DIR.glob("*/*.json.gz") if e.name.removesuffix(".json.gz") not in used]
+    for entry in stale:
+        entry.unlink()
+    return len(used), len(stale)
+
+
+def run_all(units: list[Unit], args: argparse.Namespace, cache_dir: Path, reviewed: set[str]) -> tuple[list[Row],
+                                                                                                   list[FramacRun]]:
+    """Run the units and their mutants as the options select; rows in unit order, and the runs."""
     jobs: list[tuple[Unit, dict[str, Any] | None]] = []
     if not args.mutants_only:
         jobs += [(u, None) for u in units]
@@ -734,16 +875,20 @@ def run_all(units: list[Unit], args: argparse.Namespace, cache_dir: Path, review
     # --jobs frama-c processes at once. Eva is one process per entry point; a WP process runs up
     # to -wp-par provers itself (--jobs; offline, OFFLINE_WP_PAR cache lookups).
     rows: list[Row] = []
+    runs: list[FramacRun] = []
     with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
         futures = [(u, m, pool.submit(run_unit, u, m, 1 if u.tool == "eva" else args.jobs, args.cache, cache_dir,
                                       args.record, reviewed)) for u, m in jobs]
         for u, m, fut in futures:
-            unit_rows, recorded, seconds = fut.result()
+            unit_rows, recorded, run = fut.result()
             rows += unit_rows
-            print(f"  {u.name}{' (mutant ' + m['name'] + ')' if m else ''}: {seconds:.1f} s", flush=True)
+            runs.append(run)
+            how = f"replayed, computed on {run.replayed} in {run.cpu_s:.1f} s CPU" if run.replayed else \
+                f"{run.cpu_s:.1f} s CPU{'; ' + run.cache_note if run.cache_note else ''}"
+            print(f"  {u.name}{' (mutant ' + m['name'] + ')' if m else ''}: {run.seconds:.1f} s ({how})", flush=True)
             if args.record and not m and recorded:
                 (u.folder / "expected.json").write_text(json.dumps(recorded, indent=2) + "\n", encoding="utf-8")
-    return rows
+    return rows, runs
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -761,6 +906,9 @@ def main(argv: list[str] | None = None) -> int:
                          "offline, as make proofs-framac: no prover runs, a goal not in the cache fails)")
     ap.add_argument("--jobs", type=int, default=2, help="frama-c processes and provers in parallel (default 2)")
     ap.add_argument("--list", action="store_true", help="print the units, run nothing")
+    ap.add_argument("--prune-results", action="store_true",
+                    help="after a whole offline run, delete the entries of proofs/framac/results no run used "
+                         "(runs whose inputs changed since); needs the whole run")
     ap.add_argument("--prune-cache", action="store_true",
                     help="replay every unit and mutant from the cache (offline), then delete the entries no "
                          "goal read: answers to goals that no longer exist. Needs the whole run")
@@ -771,6 +919,10 @@ def main(argv: list[str] | None = None) -> int:
                 raise SetupError("--prune-cache needs the whole run: no --only, --no-mutants, --mutants-only "
                                  "or --record")
             args.cache = "offline"
+        if args.prune_results and (args.only or args.unit or args.mutant or args.no_mutants or args.mutants_only
+                                   or args.cache != "offline" or args.prune_cache):
+            raise SetupError("--prune-results needs the whole offline run: --cache offline, no --only, --unit, "
+                             "--mutant, --no-mutants, --mutants-only or --prune-cache")
         units = discover(args.only, args.unit)
         missing = sorted(set(args.mutant) - {m["name"] for u in units for m in u.mutants})
         if missing:
@@ -780,6 +932,11 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"{u.name:24} {u.tool:4} {u.purpose}")
             return 0
         require_tools()
+        try:
+            framac_cache.mode()
+            framac_cache.spot_check_settings()
+        except framac_cache.CacheError as e:
+            raise SetupError(f"{e} (see tools/framac_cache.py)") from None
         reviewed = read_alarm_list()
         # --prune-cache replays from copies outside the work tree: see copy_unread.
         scratch = tempfile.TemporaryDirectory(prefix="urb-framac-cache-") if args.prune_cache else nullcontext(None)
@@ -787,12 +944,19 @@ def main(argv: list[str] | None = None) -> int:
             cache_dir = Path(scratch_dir) if scratch_dir else CACHE_DIR
             copies = copy_unread(CACHE_DIR, cache_dir) if args.prune_cache else []
             start = time.monotonic()
-            rows = run_all(units, args, cache_dir, reviewed)
+            rows, runs = run_all(units, args, cache_dir, reviewed)
             wall = time.monotonic() - start
             write_outputs(rows, wall)
-            evidence = write_evidence(rows, args)
+            evidence = write_evidence(rows, args, runs)
             print_table(rows)
             bad = [r for r in rows if not r.expected]
+            if args.prune_results:
+                if bad:
+                    print("proofs_framac: results not pruned: the run had unexpected results", file=sys.stderr)
+                else:
+                    kept, deleted = prune_results(runs)
+                    print(f"framac results: {kept} entries used and kept, {deleted} unused deleted "
+                          f"({RESULTS_DIR.relative_to(ROOT)})")
             if args.prune_cache:
                 if bad:
                     print("proofs_framac: cache not pruned: the replay had unexpected results", file=sys.stderr)
@@ -808,6 +972,12 @@ def main(argv: list[str] | None = None) -> int:
           f"{sum(r.tool == 'frama-c eva' and ' mutant ' not in r.function for r in rows)} Eva entry points; "
           f"{sum(' mutant ' in r.function for r in rows)} mutants; {len(bad)} unexpected; {wall:.0f} s wall; "
           f"build/proofs/framac/summary.json, junit.xml, {evidence.relative_to(ROOT)}")
+    replayed = sum(1 for r in runs if r.replayed)
+    print(f"framac result cache: {replayed} of {len(runs)} Frama-C runs replayed from "
+          f"{RESULTS_DIR.relative_to(ROOT)} (inputs byte-identical to a recorded run's), {len(runs) - replayed} run now"
+          + ("; commit the new entries (git add proofs/framac/results) to reuse them"
+             if any(r.cache_note.startswith("recorded") for r in runs) else "")
+          + f"; {framac_cache.ENV}={os.environ.get(framac_cache.ENV, 'on')} (off: run every one)")
     missed = [r for r in rows if r.result == "CACHE MISS"]
     if missed:
         command = real_verdict_command([r.unit for r in missed], [r.data["mutant"] for r in missed if "mutant" in r.data],
