@@ -1,8 +1,8 @@
 ------------------- MODULE Discovery_FingerprintOfWrongClass -------------------
 (* MUTANT of Discovery: the fingerprint is compared with the layout        *)
-(* expected for the class of the first node of the system (class 1), not  *)
-(* the node's own class: a class-1 node with class 2's layout passes, a    *)
-(* correct class-2 node is flagged MISMATCH.  Passed when every class      *)
+(* expected for the class of the first node of the system (ClassA), not    *)
+(* the node's own class: a ClassA node with ClassB's layout passes, a      *)
+(* correct ClassB node is flagged MISMATCH.  Passed when every class       *)
 (* expected the same fingerprint.                                          *)
 (* Expected: MismatchReported.                                             *)
 EXTENDS MCDiscovery
@@ -10,7 +10,7 @@ EXTENDS MCDiscovery
 MutFlags(f) ==
     (IF \E g \in AllFound : g # f /\ g.id.class = f.id.class /\ g.id.index = f.id.index
        THEN {"DUPLICATE"} ELSE {})
-    \cup (IF f.id.fp # Expected[1] THEN {"MISMATCH"} ELSE {})
+    \cup (IF f.id.fp # Expected[ClassA] THEN {"MISMATCH"} ELSE {})
 
 MutBuild ==
     /\ ScanDone /\ ~built
