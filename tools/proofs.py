@@ -265,6 +265,8 @@ class Run:
     points: list[str] = field(default_factory=list)
     #: the verdict was replayed from proofs/bmc/cache (bmc_cache.py): "<commit> <date>" it was computed on
     replayed: str = ""
+    #: a recorded run that the cache's spot check ran again for real (and found the same)
+    spot_checked: bool = False
 
 
 _VIOLATED_RE = re.compile(r"Violated property:\n\s+file .*\n\s+(.*)\n")
@@ -292,7 +294,8 @@ def parse_esbmc(text: str, seconds: float) -> Run:
     cpu_s = float(hit.group(1)) if hit else (float(cpu[-1][0]) + float(cpu[-1][1]) if cpu else 0.0)
     return Run(outcome, seconds, m.group(1).strip() if m else "", cost_seen=int(costs[-1]) if costs else None,
                cpu_s=cpu_s, claims=bmc_evidence.parse_claims(text), points=bmc_evidence.parse_cover_points(text),
-               replayed=f"{hit.group(2)} {hit.group(3)}" if hit else "")
+               replayed=f"{hit.group(2)} {hit.group(3)}" if hit else "",
+               spot_checked="urb-bmc-cache: spot-checked " in text)
 
 
 def esbmc_path() -> str:
@@ -654,6 +657,7 @@ def _account(row: dict[str, Any], runs: Iterable[Run]) -> None:
     runs = list(runs)
     row["cpu_s"] = round(sum(r.cpu_s for r in runs), 2)
     row["replayed"] = sum(1 for r in runs if r.replayed)
+    row["spot_checked"] = sum(1 for r in runs if r.spot_checked)
     row["runs"] = len(runs)
 
 
@@ -909,14 +913,17 @@ def main(argv: list[str] | None = None) -> int:
     cpu = sum(float(r.get("cpu_s", 0.0)) for r in rows)
     runs = sum(int(r.get("runs", 0)) for r in rows)
     replayed = sum(int(r.get("replayed", 0)) for r in rows)
+    spot = sum(int(r.get("spot_checked", 0)) for r in rows)
+    new = runs - replayed - spot
     print(f"\nproofs-bmc cache: {replayed} of {runs} ESBMC runs replayed from proofs/bmc/cache (their inputs are "
-          f"byte-identical to the recorded runs'), {runs - replayed} run now"
-          + (f"; commit the new entries (git add proofs/bmc/cache) to reuse them" if runs - replayed else "")
+          f"byte-identical to the recorded runs'), {spot} recorded runs re-run for real as spot checks (each "
+          f"agreed with its record), {new} without a record run now"
+          + ("; commit the new entries (git add proofs/bmc/cache) to reuse them" if new else "")
           + f"; BMC_CACHE={os.environ.get('BMC_CACHE', 'on')} (off: run every one)")
     print(f"\nproofs-bmc ({args.tier}): {len(proofs)} proofs, {n_mut} mutants, {len(rows)} results, {len(bad)} unexpected; "
           f"{wall:.0f} s wall on {args.jobs} jobs, {cpu:.0f} s CPU (ideal wall on {args.jobs} idle cores "
           f"{cpu / max(1, args.jobs):.0f} s)")
-    run_config = {"esbmc_runs": runs, "replayed_from_cache": replayed, "bmc_cache": os.environ.get("BMC_CACHE", "on"),
+    run_config = {"esbmc_runs": runs, "replayed_from_cache": replayed, "spot_checked": spot, "bmc_cache": os.environ.get("BMC_CACHE", "on"),
                   "jobs": args.jobs, "mutants": not args.no_mutants, "covers": args.covers, "proofs": len(proofs), "cpu_s": round(cpu, 1),
                   "wall_s": round(wall, 1)}
     if args.only:
