@@ -33,13 +33,13 @@ import json
 import os
 import shlex
 import subprocess
-import tempfile
 import threading
 from dataclasses import dataclass
 from pathlib import Path
 
+from tools.result_cache import REPO_TOKEN, content_key, git_commit, normalize, spot_checked, write_entry
+
 FORMAT = 1
-REPO_TOKEN = "<repo>"
 MODES = ("on", "off", "refresh")
 ENV = "FRAMAC_RESULT_CACHE"
 MACHDEP_DEFINE = "-D__FC_MACHDEP_X86_32"  # Frama-C defines its machdep's macro (tools/proofs_framac.py MACHDEP)
@@ -143,20 +143,10 @@ def dependencies(cmd: list[str], cwd: Path, framac_libc: Path) -> list[Path]:
     return sorted(files)
 
 
-def normalize(text: str, repo: str) -> str:
-    return text.replace(repo, REPO_TOKEN)
-
-
 def run_key(cmd: list[str], repo: str, identity: str, files: list[Path], extra: str = "") -> str:
     """SHA-256 over the format, the tools, the arguments, `extra` (WP: its answer cache's digest) and
     each file's name and bytes (repository path normalised)."""
-    h = hashlib.sha256()
-    h.update(f"urb-framac-cache {FORMAT}\n{identity}\n{extra}\n".encode())
-    h.update(json.dumps([normalize(a, repo) for a in cmd[1:]]).encode())
-    for f in files:
-        h.update(b"\0file " + normalize(str(f), repo).encode() + b"\n")
-        h.update(f.read_bytes().replace(repo.encode(), REPO_TOKEN.encode()))
-    return h.hexdigest()
+    return content_key(f"urb-framac-cache {FORMAT}\n{identity}\n{extra}\n", cmd, repo, files)
 
 
 @dataclass
@@ -191,12 +181,6 @@ def load(cache: Path, unit: str, key: str, repo: str) -> Recorded | None:
                     float(entry.get("wall_s", 0.0)), str(entry.get("commit", "?")), str(entry.get("date", "?")), path)
 
 
-def git_commit(repo: str) -> str:
-    out = subprocess.run(["git", "-C", repo, "describe", "--always", "--dirty", "--abbrev=12"],
-                         capture_output=True, text=True)
-    return out.stdout.strip() if out.returncode == 0 else "unknown"
-
-
 def record(cache: Path, unit: str, label: str, key: str, repo: str, cmd: list[str], log: str,
            outputs: dict[str, str], cpu_s: float, wall_s: float) -> Path:
     """Writes the entry (gzip'd JSON, same bytes for the same entry: mtime 0, sorted keys)."""
@@ -206,18 +190,8 @@ def record(cache: Path, unit: str, label: str, key: str, repo: str, cmd: list[st
              "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
              "command": shlex.join(["frama-c", *(normalize(a, repo) for a in cmd[1:])]),
              "log": normalize(log, repo), "outputs": {k: normalize(v, repo) for k, v in sorted(outputs.items())}}
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-")  # threads record at once
-    with os.fdopen(fd, "wb") as raw, gzip.GzipFile(fileobj=raw, mode="wb", mtime=0) as fh:
-        fh.write(json.dumps(entry, indent=1, sort_keys=True).encode("utf-8"))
-    os.chmod(tmp, 0o644)  # mkstemp's 0600 would differ from the checkout's files
-    os.replace(tmp, path)
+    write_entry(path, entry)
     return path
-
-
-def spot_checked(key: str, seed: str, per_mille: int) -> bool:
-    """Whether the commit-seeded draw re-runs this key for real (per_mille of the keys)."""
-    return per_mille > 0 and int(hashlib.sha256(f"{seed}:{key}".encode()).hexdigest()[:8], 16) % 1000 < per_mille
 
 
 def spot_check_settings() -> tuple[int, str, float]:

@@ -81,7 +81,7 @@ from typing import Any
 
 if str(Path(__file__).resolve().parents[1]) not in sys.path:  # tools/ as a namespace package, also when
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this script is run or loaded by path
-from tools import framac_cache  # noqa: E402
+from tools import framac_cache, result_cache  # noqa: E402
 from urb_report import c_source  # noqa: E402
 from urb_report.records import Item, Verdict, command_version, write_record  # noqa: E402
 
@@ -348,7 +348,7 @@ def run_cached(unit: Unit, label: str, cmd: list[str], log_path: Path, report: P
     recorded = framac_cache.load(RESULTS_DIR, unit.name, key, str(ROOT)) if mode == "on" else None
     if recorded is not None:
         per_mille, seed, max_cpu = framac_cache.spot_check_settings()
-        if not (framac_cache.spot_checked(key, seed, per_mille) and recorded.cpu_s <= max_cpu):
+        if not (result_cache.spot_checked(key, seed, per_mille) and recorded.cpu_s <= max_cpu):
             return _restore(recorded, cmd, log_path, report, time.monotonic() - start)
         with tempfile.TemporaryDirectory(prefix="urb-framac-recorded-") as tmp:
             was = _restore(recorded, cmd, Path(tmp) / "log", Path(tmp) / report.name, 0.0)

@@ -34,7 +34,6 @@ from __future__ import annotations
 import argparse
 import datetime
 import gzip
-import hashlib
 import json
 import os
 import re
@@ -45,8 +44,11 @@ import sys
 from importlib import metadata
 from pathlib import Path
 
+# make runs this file as a script from a proof folder: the repository root holds tools/
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+from tools.result_cache import REPO_TOKEN, content_key, git_commit, normalize, spot_checked, write_entry  # noqa: E402
+
 FORMAT = 1
-REPO_TOKEN = "<repo>"
 MODES = ("on", "off", "refresh")
 _DROPPED = re.compile(r"^(?:Not )?[Uu]nwinding loop .*\n", re.MULTILINE)
 _VERDICT = re.compile(r"^VERIFICATION (SUCCESSFUL|FAILED)$", re.MULTILINE)
@@ -87,19 +89,9 @@ def dependencies(args: list[str], cc: str = "cc") -> list[Path]:
     return sorted(files)
 
 
-def normalize(text: str, repo: str) -> str:
-    return text.replace(repo, REPO_TOKEN)
-
-
 def run_key(args: list[str], repo: str, identity: str, files: list[Path]) -> str:
     """SHA-256 over the format, the tool, the arguments and each file's name and bytes (repo path normalised)."""
-    h = hashlib.sha256()
-    h.update(f"urb-bmc-cache {FORMAT}\n{identity}\n".encode())
-    h.update(json.dumps([normalize(a, repo) for a in args[1:]]).encode())
-    for f in files:
-        h.update(b"\0file " + normalize(str(f), repo).encode() + b"\n")
-        h.update(f.read_bytes().replace(repo.encode(), REPO_TOKEN.encode()))
-    return h.hexdigest()
+    return content_key(f"urb-bmc-cache {FORMAT}\n{identity}\n", args, repo, files)
 
 
 def verdict_of(output: str) -> tuple[str, str]:
@@ -122,12 +114,6 @@ def load_entry(path: Path) -> dict[str, object] | None:
     return entry if isinstance(entry, dict) and entry.get("format") == FORMAT else None
 
 
-def git_commit(repo: str) -> str:
-    out = subprocess.run(["git", "-C", repo, "describe", "--always", "--dirty", "--abbrev=12"],
-                         capture_output=True, text=True)
-    return out.stdout.strip() if out.returncode == 0 else "unknown"
-
-
 def run_esbmc(args: list[str]) -> tuple[str, int, float]:
     """ESBMC's combined output, exit status and CPU seconds (user + system of the child)."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -135,19 +121,6 @@ def run_esbmc(args: list[str]) -> tuple[str, int, float]:
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     return proc.stdout, proc.returncode, cpu
-
-
-def write_entry(path: Path, entry: dict[str, object]) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(f".tmp{os.getpid()}")
-    # mtime=0: the same entry gives the same bytes, so re-recording an unchanged run changes no file.
-    with open(tmp, "wb") as raw, gzip.GzipFile(fileobj=raw, mode="wb", mtime=0) as fh:
-        fh.write(json.dumps(entry, indent=1, sort_keys=True).encode("utf-8"))
-    os.replace(tmp, path)
-
-
-def spot_checked(key: str, seed: str, per_mille: int) -> bool:
-    return per_mille > 0 and int(hashlib.sha256(f"{seed}:{key}".encode()).hexdigest()[:8], 16) % 1000 < per_mille
 
 
 def main(argv: list[str] | None = None) -> int:
