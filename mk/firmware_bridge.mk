@@ -124,8 +124,8 @@ size-bridge: $(FWB_BUILD)/urb-bridge-cm0plus.elf
 SIZE_TARGETS += size-bridge
 
 # --- hosted bridge program -------------------------------------------------------------------------
-# --downlink can (hosted_can.c): the CAN master on tools/can_hub.py
-FWB_HOSTED_CAN_SRC := firmware/bridge/hosted_can.c firmware/hal/hosted/can_hub_client.c firmware/downlink/can/urb_can_master.c \
+# --downlink can (firmware/hal/hosted/hosted_can.c): the CAN master on tools/can_hub.py
+FWB_HOSTED_CAN_SRC := firmware/hal/hosted/hosted_can.c firmware/hal/hosted/can_hub_client.c firmware/downlink/can/urb_can_master.c \
                       firmware/downlink/can/urb_can_transfer.c gen/c/urb_can_wire.c
 $(FWB_BUILD)/urb-bridge-hosted: firmware/bridge/hosted_main.c $(FWB_LIB_SRC) $(FWB_GEN_SRC) $(FWB_HOSTED_SRC) $(FWB_HOSTED_CAN_SRC) $(FWB_HDRS)
 	@mkdir -p $(@D)

@@ -42,8 +42,7 @@ FIRMWARE = "firmware"
 HOST_LIBRARY = "host/c"
 
 # Every C file under firmware/ is one or the other; the test doubles are matched first.
-TEST_DOUBLES = ("firmware/hal/hosted/", "firmware/hal/sim/", "firmware/bridge/hosted_main.c",
-                "firmware/bridge/hosted_can.c")
+TEST_DOUBLES = ("firmware/hal/hosted/", "firmware/hal/sim/", "firmware/bridge/hosted_main.c")
 PRODUCTION = ("firmware/node/", "firmware/bridge/", "firmware/include/", "firmware/apps/",
               "firmware/hal/cortex-m0plus/", "firmware/downlink/", "host/c/core/", "host/c/port/", "host/c/include/")
 

@@ -1,7 +1,7 @@
 /*
  * urb-bridge-hosted: the bridge firmware on a POSIX host, its RS232 uplink on a pseudo-terminal,
  * its downlink an in-process simulated I2C bus with fake nodes (firmware/hal/hosted/), or with
- * --downlink can the CAN hub of tools/can_hub.py with urb-node-hosted processes (hosted_can.c).
+ * --downlink can the CAN hub of tools/can_hub.py with urb-node-hosted processes (firmware/hal/hosted/hosted_can.c).
  *
  * For host-library tests over a real serial port API (pyserial): open the printed pty path at any
  * baud rate and talk URB. The first line on stdout is "pty: PATH". Run with --help for options.

@@ -51,13 +51,12 @@ SOURCE_DIRS = [
 INCLUDE_DIRS = ["sim/core", "sim/world", "firmware/include", "firmware/hal/sim", "firmware/node", "firmware/bridge",
                 "firmware/apps/sensorhex", "gen/c"]
 #: Files the simulation does not link: programs (`*main.c`, e.g. firmware/bridge/hosted_main.c)
-#: and their parts (firmware/bridge/hosted_can.c: the hosted bridge's CAN hub client), and the
-#: single-node adapter of the paper's global-function style (firmware/node/urb_single.c: one global
-#: node, calls app_* functions), which cannot serve many nodes in one process. The node library's
+#: and the single-node adapter of the paper's global-function style (firmware/node/urb_single.c: one
+#: global node, calls app_* functions), which cannot serve many nodes in one process. The node library's
 #: CAN and RS485 adapters (firmware/node/urb_node_can.c, urb_node_rs485.c) link the downlink cores,
 #: hence firmware/downlink in SOURCE_DIRS.
 EXCLUDE_SUFFIX = "main.c"
-EXCLUDE_NAMES = {"urb_single.c", "hosted_can.c"}
+EXCLUDE_NAMES = {"urb_single.c"}
 
 #: Folders the simulation compiles but does not own. By default they come from the working tree, so
 #: the simulation runs the firmware as you edit it. URBSIM_SOURCES=head builds from their COMMITTED
