@@ -10,7 +10,9 @@
 
 Targets live in tests/fuzz/<target>.c (what each checks: tests/fuzz/README.md), built with clang
 -fsanitize=fuzzer,address,undefined. A run starts from tests/fuzz/corpus/<target>/ (read only) and
-writes what it finds to build/fuzz/<target>/found/. Runs are reproducible: -seed is fixed.
+writes what it finds to build/fuzz/<target>/found/. -seed is fixed, but a run bounded by time is not
+reproducible input for input, so a mutant the fuzzer finds slowly keeps its reproducer in the
+corpus (tests/fuzz/README.md).
 
 Mutants (tests/fuzz/mutants.json) are seeded bugs, either a -D flag the firmware already knows
 (URB_MUTANT_*) or a find/replace on a copy of the sources; the fuzzer must crash on each within
@@ -46,7 +48,7 @@ BUILD = ROOT / "build" / "fuzz"
 OUT = ROOT / "build" / "proofs" / "fuzz"
 CLANG = "clang"
 CFLAGS = ["-std=c99", "-g", "-O1", "-fsanitize=fuzzer,address,undefined", "-fno-sanitize-recover=all"]
-SEED = 1  # libFuzzer's -seed: the same seed and corpus give the same inputs
+SEED = 1  # libFuzzer's -seed: fixes the mutation order, not the inputs a timed run reaches
 LIBFUZZER_FLAGS = [f"-seed={SEED}", "-timeout=10", "-rss_limit_mb=2048", "-print_final_stats=1"]
 MUTANT_KINDS = ("off-by-one", "wrong-order", "missing-publish-or-free", "wrong-field", "dropped-error", "other")
 GEN = ["gen/c/urb_runtime.c", "gen/c/urb_core.c", "gen/c/urb_sensorhex.c", "gen/c/urb_can_wire.c", "gen/c/urb_rs485_wire.c"]
