@@ -20,11 +20,8 @@
 #include <stdint.h>
 #include <string.h>
 
-#include "sensorhex_battery.h"
-#include "sensorhex_imu.h"
-#include "sensorhex_ir.h"
-#include "sensorhex_motor.h"
-#include "sim_apps.h"
+#include "sim_app_bind.h"
+#include "sim_devices.h"
 #include "sim_downlink.h"
 #include "urb_can_slave.h"
 #include "urb_node.h"
@@ -34,26 +31,16 @@
 #include "urb_node_rs485.h"
 #include "urb_rs485_slave.h"
 
-/** The applications (fieldbus/cores.py APPS). */
-enum { SIM_DL_PROBE = 0, SIM_DL_MOTOR = 1, SIM_DL_BATTERY = 2, SIM_DL_IMU = 3, SIM_DL_IR = 4 };
-
 #define SIM_DL_PROBE_CLASS 0xF0u
-#define SIM_DL_STORAGE 512u
+#define SIM_DL_STORAGE 128u /* the largest layout here: a probe with 32 bytes out and in, double-buffered */
 
 typedef struct {
     /* the node library and its application */
     urb_node_t node;
     urb_node_hal_t hal;
     urb_node_config_t cfg;
-    const urb_node_hooks_t *hooks;
-    void *app;
-    union {
-        sim_probe_app_t probe;
-        struct { sensorhex_motor_t app; sensorhex_motor_io_t io; } motor;
-        struct { sensorhex_battery_t app; sensorhex_battery_io_t io; } battery;
-        struct { sensorhex_imu_t app; sensorhex_imu_io_t io; } imu;
-        struct { sensorhex_ir_t app; sensorhex_ir_io_t io; } ir;
-    } apps;
+    sim_app_binding_t bound;
+    sim_app_state_t apps;
     uint8_t storage[SIM_DL_STORAGE];
     /* the port: clock, heartbeat compare, controller */
     uint32_t now;
@@ -153,80 +140,41 @@ static bool imu_read(void *ctx, sensorhex_imu_reading_t *out)
 static uint16_t ir_distance_mm(void *ctx) { (void)ctx; return 800u; }
 static uint8_t ir_strength(void *ctx) { (void)ctx; return 120u; }
 
-/* Binds application `app` (its hooks, state and hardware) and adjusts the node configuration as it
- * requires; false for an unknown application. */
+/* Binds application `app` (SIM_APP_*: its state, hooks and the hardware above) and adjusts the node
+ * configuration as it requires; false for an unknown application or a probe's sizes out of range. */
 static bool bind_app(sim_dl_node_t *n, uint8_t app, uint8_t index, uint8_t out_size, uint8_t in_size)
 {
+    sim_app_state_t *s = &n->apps;
     switch (app) {
-    case SIM_DL_PROBE:
-        n->apps.probe.class_id = SIM_DL_PROBE_CLASS;
-        n->apps.probe.index = index;
-        n->apps.probe.out_size = out_size;
-        n->apps.probe.in_size = in_size;
-        n->hooks = &sim_probe_hooks;
-        n->app = &n->apps.probe;
-        return (out_size >= 1u) && (out_size <= URB_NODE_MAX_SIZE) && (in_size <= URB_NODE_MAX_SIZE);
-    case SIM_DL_MOTOR: {
-        sensorhex_motor_io_t *io = &n->apps.motor.io;
-        io->ctx = n;
-        io->encoder = motor_encoder;
-        io->current_ma = motor_current_ma;
-        io->voltage_mv = motor_voltage_mv;
-        io->case_temp_cdeg = motor_temp_cdeg;
-        io->hall = motor_hall;
-        io->drive_mv = motor_drive_mv;
-        sensorhex_motor_config_t cfg;
-        sensorhex_motor_defaults(&cfg, index);
-        sensorhex_motor_setup(&n->apps.motor.app, io, &cfg);
-        sensorhex_motor_node_config(&n->cfg);
-        n->hooks = &sensorhex_motor_hooks;
-        n->app = &n->apps.motor.app;
-        return true;
-    }
-    case SIM_DL_BATTERY: {
-        sensorhex_battery_io_t *io = &n->apps.battery.io;
-        io->ctx = n;
-        io->present = batt_present;
-        io->voltage_mv = batt_voltage_mv;
-        io->current_ma = batt_current_ma;
-        io->temp_c = batt_temp_c;
-        io->charger = batt_charger;
-        sensorhex_battery_config_t cfg;
-        sensorhex_battery_defaults(&cfg, index);
-        sensorhex_battery_setup(&n->apps.battery.app, io, &cfg);
-        sensorhex_battery_node_config(&n->cfg);
-        n->hooks = &sensorhex_battery_hooks;
-        n->app = &n->apps.battery.app;
-        return true;
-    }
-    case SIM_DL_IMU: {
-        sensorhex_imu_io_t *io = &n->apps.imu.io;
-        io->ctx = n;
-        io->read = imu_read;
-        sensorhex_imu_config_t cfg;
-        sensorhex_imu_defaults(&cfg, index);
-        sensorhex_imu_setup(&n->apps.imu.app, io, &cfg);
-        sensorhex_imu_node_config(&n->cfg);
-        n->hooks = &sensorhex_imu_hooks;
-        n->app = &n->apps.imu.app;
-        return true;
-    }
-    case SIM_DL_IR: {
-        sensorhex_ir_io_t *io = &n->apps.ir.io;
-        io->ctx = n;
-        io->distance_mm = ir_distance_mm;
-        io->strength = ir_strength;
-        sensorhex_ir_config_t cfg;
-        sensorhex_ir_defaults(&cfg, index);
-        sensorhex_ir_setup(&n->apps.ir.app, io, &cfg);
-        sensorhex_ir_node_config(&n->cfg);
-        n->hooks = &sensorhex_ir_hooks;
-        n->app = &n->apps.ir.app;
-        return true;
-    }
+    case SIM_APP_PROBE:
+        s->probe.class_id = SIM_DL_PROBE_CLASS;
+        s->probe.index = index;
+        s->probe.out_size = out_size;
+        s->probe.in_size = in_size;
+        if ((out_size < 1u) || (out_size > URB_NODE_MAX_SIZE) || (in_size > URB_NODE_MAX_SIZE)) {
+            return false;
+        }
+        break;
+    case SIM_APP_MOTOR:
+        s->motor.io = (sensorhex_motor_io_t){.ctx = n, .encoder = motor_encoder, .current_ma = motor_current_ma,
+                                             .voltage_mv = motor_voltage_mv, .case_temp_cdeg = motor_temp_cdeg,
+                                             .hall = motor_hall, .drive_mv = motor_drive_mv};
+        break;
+    case SIM_APP_BATTERY:
+        s->battery.io = (sensorhex_battery_io_t){.ctx = n, .present = batt_present, .voltage_mv = batt_voltage_mv,
+                                                 .current_ma = batt_current_ma, .temp_c = batt_temp_c,
+                                                 .charger = batt_charger};
+        break;
+    case SIM_APP_IMU:
+        s->imu.io = (sensorhex_imu_io_t){.ctx = n, .read = imu_read};
+        break;
+    case SIM_APP_IR:
+        s->ir.io = (sensorhex_ir_io_t){.ctx = n, .distance_mm = ir_distance_mm, .strength = ir_strength};
+        break;
     default:
         return false;
     }
+    return sim_app_bind(s, app, index, &n->cfg, &n->bound);
 }
 
 /* ------------------------------------------------------------------ the observer */
@@ -296,7 +244,7 @@ void sim_dl_node_run(sim_dl_node_t *n, uint32_t now_us)
     main_loop(n);
 }
 
-/** Starts node `address` with application `app` (SIM_DL_*; the probe with `out_size` bytes in
+/** Starts node `address` with application `app` (SIM_APP_*, sim_devices.h; the probe with `out_size` bytes in
  *  outbox 1 and `in_size` in inbox 1) at `now_us`: urb_node_init, which runs its bootup and puts it
  *  on the bus. `heartbeat_us` replaces the nominal heartbeat (the SYNC period) unless 0. Returns
  *  urb_node_init's result, or URB_NODE_ERR_ARG for an unknown application. */
@@ -322,7 +270,7 @@ int sim_dl_node_init(sim_dl_node_t *n, uint8_t app, uint8_t address, uint8_t out
     n->hal.set_address = hal_set_address;
     n->hal.mark = hal_mark;
     n->hal.identify = NULL;
-    return urb_node_init(&n->node, &n->hal, n->hooks, n->app, &n->cfg, n->storage, (uint16_t)sizeof n->storage);
+    return urb_node_init(&n->node, &n->hal, n->bound.hooks, n->bound.app, &n->cfg, n->storage, n->bound.storage_len);
 }
 
 /* ------------------------------------------------------------------ CAN */
@@ -470,7 +418,7 @@ uint8_t sim_dl_node_sync_state(const sim_dl_node_t *n)
 /** The hooks the node library calls (the application's object, for the same-objects check). */
 const void *sim_dl_node_hooks(const sim_dl_node_t *n)
 {
-    return n->hooks;
+    return n->bound.hooks;
 }
 
 /** The motor's encoder count, current and voltage that the next update acquires. */

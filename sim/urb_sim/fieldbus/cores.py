@@ -318,7 +318,7 @@ class Rs485Bridge:
         return bytes(lib().sim_rs485_bridge_data(self._p)[:n])
 
 
-#: the applications a node may run (sim_dl_node.c SIM_DL_*)
+#: the applications a node may run (firmware/hal/sim/sim_devices.h SIM_APP_*)
 APPS = {"probe": 0, "motor": 1, "battery": 2, "imu": 3, "ir": 4}
 #: urb_node_sync_t
 SYNC_STATE = {0: "off", 1: "free", 2: "track", 3: "locked"}
