@@ -135,6 +135,7 @@ class Rs485Hub:
     baud: int = 1_000_000
     driver_enable_us: int = 0
     settle_timeout_s: float = 5.0
+    trace: bool = False
     stats: HubStats = field(default_factory=HubStats)
 
     def __post_init__(self) -> None:
@@ -263,6 +264,9 @@ class Rs485Hub:
             rx = values[0] if len(set(values)) == 1 else garbage(values)
             if rx != ending[0].byte or len(ending) > 1:
                 self.stats.garbled += 1
+            if self.trace:
+                sent = " ".join(f"{c.byte:02x}@{id(c.station) & 0xFFFF:04x}" for c in ending)
+                print(f"{at:>10} us  {sent} -> {rx:02x}", file=sys.stderr)
         for st in list(self.stations):
             if not st.joined:
                 continue
@@ -321,9 +325,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="delay from a station's first DRIVE to its character's start (default 0)")
     ap.add_argument("--settle-timeout-s", type=float, default=5.0,
                     help="wall seconds a station may take to acknowledge before it is disconnected (default 5)")
+    ap.add_argument("--trace", action="store_true", help="print every character (end time, sent@station -> received) on stderr")
     args = ap.parse_args(argv)
     try:
-        hub = Rs485Hub(args.socket, args.baud, args.driver_enable_us, args.settle_timeout_s)
+        hub = Rs485Hub(args.socket, args.baud, args.driver_enable_us, args.settle_timeout_s, args.trace)
     except (OSError, ValueError) as e:
         print(f"rs485_hub: cannot open the line on {args.socket}: {e}", file=sys.stderr)
         return 1

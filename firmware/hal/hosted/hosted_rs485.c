@@ -22,6 +22,8 @@ typedef struct {
     urb_bridge_t bridge;
     uint32_t t0;
     uint32_t char_us; /* one character at the line's rate */
+    uint32_t hb_next; /* line time of the next heartbeat (SYNC) */
+    bool hb_armed;
 } hosted_rs485_t;
 
 static uint32_t wall_us(void)
@@ -46,6 +48,29 @@ static int8_t line_poll(void *ctx, uint32_t now_us)
     return h->master_dl.poll(h->master_dl.ctx, h->client.now);
 }
 
+/* The heartbeat runs in line time too: SYNC every period of the line, however fast the hub can
+ * run it (a wall-clock heartbeat would fill a line that runs slower than real time with SYNCs). */
+static void heartbeat(hosted_rs485_t *h)
+{
+    uint32_t const period = h->hal.hb_period;
+    uint32_t const now = h->client.now;
+    if (period == 0u) {
+        h->hb_armed = false;
+        return;
+    }
+    if (!h->hb_armed) {
+        h->hb_armed = true;
+        h->hb_next = now + period;
+    }
+    if ((int32_t)(now - h->hb_next) >= 0) {
+        h->hb_next += period;
+        if ((int32_t)(now - h->hb_next) > 0) {
+            h->hb_next = now + period; /* no burst of SYNCs after a jump of the line time */
+        }
+        urb_bridge_heartbeat(&h->bridge);
+    }
+}
+
 static void on_rx(void *owner, uint8_t byte, uint32_t t)
 {
     urb_rs485_master_rx(&((hosted_rs485_t *)owner)->master, byte, t);
@@ -56,6 +81,7 @@ static void on_tick(void *owner, uint32_t now)
     hosted_rs485_t *h = (hosted_rs485_t *)owner;
     (void)now;
     h->hal.now = wall_us() - h->t0;
+    heartbeat(h);
     urb_bridge_poll(&h->bridge); /* the outcome, and the next transaction, at this line time */
 }
 
@@ -64,12 +90,16 @@ static bool on_tx_next(void *owner, uint8_t *byte)
     return urb_rs485_master_tx_next(&((hosted_rs485_t *)owner)->master, byte);
 }
 
-/* While a transaction runs the master polls its silences and timeouts every character. */
+/* While a transaction runs the master polls its silences and timeouts every character; else the
+ * next heartbeat. */
 static bool on_timer(void *owner, uint32_t *at)
 {
     hosted_rs485_t *h = (hosted_rs485_t *)owner;
-    *at = h->client.now + h->char_us;
-    return urb_rs485_master_busy(&h->master);
+    *at = h->hb_next;
+    if (urb_rs485_master_busy(&h->master)) {
+        *at = h->client.now + h->char_us;
+    }
+    return urb_rs485_master_busy(&h->master) || h->hb_armed;
 }
 
 static const urb_rs485_hub_owner_t OWNER = {on_rx, on_tick, on_tx_next, on_timer};
@@ -105,13 +135,7 @@ int urb_hosted_rs485_run(const urb_bridge_config_t *cfg, int pty, const char *hu
         if ((seconds != 0u) && (h.hal.now >= seconds * 1000000u)) {
             break;
         }
-        if ((h.hal.hb_period != 0u) && ((int32_t)(h.hal.now - h.hal.hb_next) >= 0)) {
-            h.hal.hb_next += h.hal.hb_period;
-            if ((int32_t)(h.hal.now - h.hal.hb_next) > 0) {
-                h.hal.hb_next = h.hal.now + h.hal.hb_period; /* descheduled: no burst of SYNCs afterwards */
-            }
-            urb_bridge_heartbeat(&h.bridge);
-        }
+        heartbeat(&h);
         if (!urb_rs485_hub_service(&h.client, &h, &OWNER)) {
             fprintf(stderr, "the RS485 hub closed the connection (%s): exiting\n", strerror(errno));
             rc = 1;
@@ -139,13 +163,8 @@ int urb_hosted_rs485_run(const urb_bridge_config_t *cfg, int pty, const char *hu
                 put += (size_t)w;
             }
         }
-        /* sleep until a byte from the host, an event from the line or the next heartbeat */
-        uint32_t wait_us = urb_bridge_idle(&h.bridge) ? 1000u : 100u;
-        if (h.hal.hb_period != 0u) {
-            int32_t const d = (int32_t)(h.hal.hb_next - (wall_us() - h.t0));
-            uint32_t const w = (d > 0) ? (uint32_t)d : 0u;
-            wait_us = (w < wait_us) ? w : wait_us;
-        }
+        /* sleep until a byte from the host or an event from the line (the heartbeat is one) */
+        uint32_t const wait_us = urb_bridge_idle(&h.bridge) ? 1000u : 100u;
         fd_set rd;
         FD_ZERO(&rd);
         FD_SET(pty, &rd);
