@@ -41,6 +41,7 @@ message on stderr, as is one that closes its socket: the line goes on without it
 from __future__ import annotations
 
 import argparse
+import itertools
 import os
 import selectors
 import socket
@@ -75,7 +76,7 @@ def garbage(driven: list[int]) -> int:
     for b in driven:
         anded &= b
         ored |= b
-    for g in [anded, ~ored & 0xFF, *range(256)]:
+    for g in itertools.chain((anded, ~ored & 0xFF), range(256)):
         if g not in driven:
             return g
     raise AssertionError("256 different bytes overlap")  # at most one character per station
@@ -253,6 +254,11 @@ class Rs485Hub:
         times = [c.end for c in self.line] + [s.wake for s in self.stations if s.wake is not None]
         return min(times) if times else None
 
+    def _line_value(self, ending: list[Char]) -> int:
+        """What the stations sample when characters `ending` end together (one unless they collided)."""
+        values = [c.received() for c in ending]
+        return values[0] if len(set(values)) == 1 else garbage(values)
+
     def _step(self, at: int) -> None:
         self.now = at
         ending = [c for c in self.line if c.end == at]
@@ -260,8 +266,7 @@ class Rs485Hub:
         rx: int | None = None
         if ending:
             self.stats.chars += len(ending)
-            values = [c.received() for c in ending]
-            rx = values[0] if len(set(values)) == 1 else garbage(values)
+            rx = self._line_value(ending)
             if rx != ending[0].byte or len(ending) > 1:
                 self.stats.garbled += 1
             if self.trace:

@@ -38,11 +38,12 @@ from urb_msgs import sensorhex as sx
 NODES = [(7, 0x30), (8, 0x31)]
 SPECS = [f"0x42,{i},{a:#x},in1=6,out1=6,fp={ECHO_FP:08x}" for i, a in NODES]
 
-Result = tuple[list[tuple[str, int, int]], list[sx.MotorFeedback]]
+Result = tuple[list[tuple[str, int, int]], list[sx.MotorFeedback | str]]
 
 
 def host_application(link: Path) -> Result:
-    """The host program: discovery, then a write and a read-back on every echo node."""
+    """The host program: discovery, then a write and a read-back on every echo node (what it read,
+    or the error flags of a failed write or read)."""
     urb = URBInterface([ECHO])
     try:
         report = urb.add_bus_manager(RS232Manager(str(link), timeout_s=3.0, lost_after_s=6.0))
@@ -52,13 +53,16 @@ def host_application(link: Path) -> Result:
         for index, _addr in NODES:
             node = urb.find_node("EchoNode", index)
             sent = sx.MotorFeedback(encoder=1000 + index, current=-index, voltage=1200 + index)
-            node.write_message(sent, mbox=1)
-            deadline = time.monotonic() + 2.0
-            got = node.read_message(sx.MotorFeedback)
-            while got != sent and time.monotonic() < deadline:  # the application copies at its next update
-                time.sleep(0.005)
+            try:
+                node.write_message(sent, mbox=1)
+                deadline = time.monotonic() + 2.0
                 got = node.read_message(sx.MotorFeedback)
-            echoed.append(got)
+                while got != sent and time.monotonic() < deadline:  # the application copies at its next update
+                    time.sleep(0.005)
+                    got = node.read_message(sx.MotorFeedback)
+                echoed.append(got)
+            except RequestFailed as e:
+                echoed.append(f"failed: {e.flags.describe()}")
         return rows, echoed
     finally:
         urb.close()
