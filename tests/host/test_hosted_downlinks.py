@@ -18,10 +18,14 @@ node (the line goes on without it), never a hang; the other node still answers.
 
 from __future__ import annotations
 
+import re
+import select
 import signal
+import socket
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -34,6 +38,9 @@ from urb.errors import ErrorFlag, RequestFailed
 from urb.managers import RS232Manager
 from test_hosted_bridge import ECHO, ECHO_FP  # the generic echo node both topologies run
 from urb_msgs import sensorhex as sx
+
+sys.path.insert(0, str(REPO / "tools"))
+import rs485_hub  # noqa: E402
 
 NODES = [(7, 0x30), (8, 0x31)]
 SPECS = [f"0x42,{i},{a:#x},in1=6,out1=6,fp={ECHO_FP:08x}" for i, a in NODES]
@@ -128,8 +135,17 @@ class Rs485System:
         self.sock = sock
         self.procs: list[Proc | BridgeProc] = []
         self.nodes: list[Proc] = []
+        self.bridge: BridgeProc | None = None
+
+    def bridge_counters(self) -> str:
+        """Stops the bridge and returns the counters it prints at exit (--verbose)."""
+        assert self.bridge is not None and self.bridge.proc is not None and self.bridge.proc.stderr is not None
+        self.bridge.proc.terminate()
+        self.bridge.proc.wait(10.0)
+        return self.bridge.proc.stderr.read().decode()
 
     def start(self, node_program: str, *hub_args: str, one_process_per_node: bool = False) -> Path:
+        """Starts the hub (with `hub_args`), the node process(es) and the bridge; the bridge's pty link."""
         self.procs.append(Proc([sys.executable, str(REPO / "tools" / "rs485_hub.py"), "--socket", str(self.sock),
                                 *hub_args], "rs485_hub:"))
         groups = [[s] for s in SPECS] if one_process_per_node else [SPECS]
@@ -140,7 +156,8 @@ class Rs485System:
             self.nodes.append(Proc(argv, "nodes:"))
             self.procs.append(self.nodes[-1])
         bp = BridgeProc([str(REPO / "build" / "firmware" / "urb-bridge-hosted"), "--downlink", "rs485",
-                         "--rs485-hub", str(self.sock)], self.tmp_path / "ttyRS485")
+                         "--rs485-hub", str(self.sock), "--verbose"], self.tmp_path / "ttyRS485")
+        self.bridge = bp
         self.procs.append(bp)
         bp.start()
         return bp.link
@@ -194,7 +211,8 @@ def test_seeded_node_bug_changes_what_the_host_sees_on_rs485(rs485_system: Rs485
 
 
 def no_node_after(link: Path, lose: Callable[[], None]) -> tuple[ErrorFlag, str, sx.MotorFeedback]:
-    """Discovers both nodes, calls `lose` (a node process goes), then reads node 7 (gone) and 8."""
+    """Discovers both nodes, calls `lose` (node 7's process goes, or the line fails it), then reads
+    node 7 (its error flags and message) and node 8."""
     urb = URBInterface([ECHO])
     try:
         report = urb.add_bus_manager(RS232Manager(str(link), timeout_s=3.0, lost_after_s=6.0))
@@ -221,3 +239,73 @@ def test_node_process_that_goes_mid_run_is_no_node(rs485_system: Rs485System, ho
     assert flags == ErrorFlag.NO_NODE, message
     assert "NO_NODE" in message and "EchoNode:7" in message
     assert other == sx.MotorFeedback()  # the other node's outbox, never written: zeros
+
+
+def discovered(link: Path) -> list[tuple[str, int, int]]:
+    urb = URBInterface([ECHO])
+    try:
+        urb.add_bus_manager(RS232Manager(str(link), timeout_s=3.0, lost_after_s=6.0))
+        return [(r.name, r.index, r.address) for r in urb.nodes()]
+    finally:
+        urb.close()
+
+
+@pytest.mark.parametrize("enable_us,found", [(50, EXPECTED[0]), (200, [])], ids=["within", "beyond"])
+def test_turnaround_allowance_is_the_line_time_one(rs485_system: Rs485System, enable_us: int,
+                                                    found: list[tuple[str, int, int]]) -> None:
+    """The nodes' driver-enable delay (the hub's) against the bridge's allowance at 1 Mb/s: an answer
+    must begin within t3.5 + 90 us + one character of the request's end (spec/schema/README.md); the
+    node answers 45 us after it, so 50 us more is in time and 200 us is silence (NO_NODE)."""
+    make("node-hosted", "URB_DOWNLINK=rs485")
+    assert discovered(rs485_system.start("urb-node-hosted-rs485", "--driver-enable-us", str(enable_us))) == found
+
+
+class TalkOver(threading.Thread):
+    """A station of the line (Python, as a faulty transceiver would be) that, once `active`, starts
+    driving 0xFF as soon as it hears a request to node 0x30 begin: over the request's second byte."""
+
+    def __init__(self, sock: Path) -> None:
+        super().__init__(daemon=True)
+        self.s = socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET)
+        self.s.connect(str(sock))
+        self.s.send(rs485_hub.MESSAGE.pack(rs485_hub.HELLO, 0, 0, 1_000_000))
+        self.active = threading.Event()
+        self.done = threading.Event()
+        self.drove = 0
+
+    def run(self) -> None:
+        last = -1_000_000
+        while not self.done.is_set():
+            if not select.select([self.s], [], [], 0.05)[0]:
+                continue
+            raw = self.s.recv(64)
+            if not raw:
+                return
+            flags, byte, seq, t = rs485_hub.MESSAGE.unpack(raw)
+            drive = None
+            if flags & rs485_hub.RX:
+                starts = t - last > 20  # a silence before it: the first byte of a frame
+                last = t
+                if starts and byte == 0x30 and self.active.is_set() and not flags & rs485_hub.SLOT:
+                    drive = 0xFF
+                    self.drove += 1
+            status = rs485_hub.STATUS | (rs485_hub.DRIVE if drive is not None else 0)
+            self.s.send(rs485_hub.MESSAGE.pack(status, drive or 0, seq, 0))
+
+
+def test_a_station_talking_over_the_bridge_is_a_collision_it_sees(rs485_system: Rs485System) -> None:
+    make("node-hosted", "URB_DOWNLINK=rs485")
+    link = rs485_system.start("urb-node-hosted-rs485")
+    talker = TalkOver(rs485_system.sock)
+    talker.start()
+    try:
+        flags, message, other = no_node_after(link, talker.active.set)
+    finally:
+        talker.done.set()
+        talker.join(5.0)
+    assert talker.drove >= 1  # witness: it talked over a request to node 7
+    assert flags == ErrorFlag.BUS_STUCK, message  # the request was cut: not executed (urb_rs485_master.h)
+    assert other == sx.MotorFeedback()  # node 8 is not affected
+    counters = rs485_system.bridge_counters()
+    collisions = int(re.search(r"(\d+) collisions", counters).group(1))  # type: ignore[union-attr]
+    assert collisions >= 1, counters
