@@ -44,6 +44,7 @@ import argparse
 import itertools
 import os
 import selectors
+import signal
 import socket
 import struct
 import sys
@@ -121,6 +122,7 @@ class Station:
 class HubStats:
     """What the line carried."""
 
+    steps: int = 0
     chars: int = 0
     garbled: int = 0
     stations_seen: int = 0
@@ -261,6 +263,7 @@ class Rs485Hub:
 
     def _step(self, at: int) -> None:
         self.now = at
+        self.stats.steps += 1
         ending = [c for c in self.line if c.end == at]
         self.line = [c for c in self.line if c.end != at]
         rx: int | None = None
@@ -338,6 +341,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"rs485_hub: cannot open the line on {args.socket}: {e}", file=sys.stderr)
         return 1
     print(f"rs485_hub: {args.baud} Bd on {args.socket} (pid {os.getpid()})", flush=True)
+    signal.signal(signal.SIGTERM, lambda _sig, _frame: sys.exit(0))
+    t0, cpu0 = time.monotonic(), time.process_time()
     try:
         while True:
             hub.serve_once(0.05)
@@ -345,6 +350,10 @@ def main(argv: list[str] | None = None) -> int:
         pass
     finally:
         hub.close()
+        st = hub.stats
+        print(f"rs485_hub: line time {hub.now} us in {time.monotonic() - t0:.2f} s ({time.process_time() - cpu0:.2f} s CPU): "
+              f"{st.steps} events, {st.chars} characters ({st.garbled} garbled), {st.stations_seen} stations "
+              f"({st.dropped} dropped)", file=sys.stderr)
     return 0
 
 

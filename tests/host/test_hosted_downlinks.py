@@ -53,7 +53,7 @@ def host_application(link: Path) -> Result:
     or the error flags of a failed write or read)."""
     urb = URBInterface([ECHO])
     try:
-        report = urb.add_bus_manager(RS232Manager(str(link), timeout_s=3.0, lost_after_s=6.0))
+        report = urb.add_bus_manager(RS232Manager(str(link), timeout_s=15.0, lost_after_s=30.0))
         assert report.problems == [], report.problems
         rows = [(r.name, r.index, r.address) for r in urb.nodes()]
         echoed = []
@@ -61,12 +61,12 @@ def host_application(link: Path) -> Result:
             node = urb.find_node("EchoNode", index)
             sent = sx.MotorFeedback(encoder=1000 + index, current=-index, voltage=1200 + index)
             try:
-                node.write_message(sent, mbox=1)
+                node.write_message(sent, mbox=1, timeout_s=10.0)  # generous timeouts: no timing is asserted
                 deadline = time.monotonic() + 2.0
-                got = node.read_message(sx.MotorFeedback)
+                got = node.read_message(sx.MotorFeedback, timeout_s=10.0)
                 while got != sent and time.monotonic() < deadline:  # the application copies at its next update
                     time.sleep(0.005)
-                    got = node.read_message(sx.MotorFeedback)
+                    got = node.read_message(sx.MotorFeedback, timeout_s=10.0)
                 echoed.append(got)
             except RequestFailed as e:
                 echoed.append(f"failed: {e.flags.describe()}")
@@ -215,7 +215,7 @@ def no_node_after(link: Path, lose: Callable[[], None]) -> tuple[ErrorFlag, str,
     node 7 (its error flags and message) and node 8."""
     urb = URBInterface([ECHO])
     try:
-        report = urb.add_bus_manager(RS232Manager(str(link), timeout_s=3.0, lost_after_s=6.0))
+        report = urb.add_bus_manager(RS232Manager(str(link), timeout_s=15.0, lost_after_s=30.0))
         assert report.problems == [], report.problems
         assert [(r.index, r.address) for r in urb.nodes()] == NODES  # witness: both were there
         lose()
@@ -244,7 +244,7 @@ def test_node_process_that_goes_mid_run_is_no_node(rs485_system: Rs485System, ho
 def discovered(link: Path) -> list[tuple[str, int, int]]:
     urb = URBInterface([ECHO])
     try:
-        urb.add_bus_manager(RS232Manager(str(link), timeout_s=3.0, lost_after_s=6.0))
+        urb.add_bus_manager(RS232Manager(str(link), timeout_s=15.0, lost_after_s=30.0))
         return [(r.name, r.index, r.address) for r in urb.nodes()]
     finally:
         urb.close()
