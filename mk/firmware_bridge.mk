@@ -125,7 +125,7 @@ SIZE_TARGETS += size-bridge
 
 # --- hosted bridge program -------------------------------------------------------------------------
 # --downlink can (firmware/hal/hosted/hosted_can.c): the CAN master on tools/can_hub.py
-FWB_HOSTED_CAN_SRC := firmware/hal/hosted/hosted_can.c firmware/hal/hosted/can_hub_client.c firmware/downlink/can/urb_can_master.c \
+FWB_HOSTED_CAN_SRC := firmware/hal/hosted/hosted_can.c firmware/hal/hosted/can_hub_client.c firmware/hal/hosted/hub_socket.c firmware/downlink/can/urb_can_master.c \
                       firmware/downlink/can/urb_can_transfer.c gen/c/urb_can_wire.c
 # --downlink rs485 (firmware/hal/hosted/hosted_rs485.c): the RS485 master on tools/rs485_hub.py
 FWB_HOSTED_RS485_SRC := firmware/hal/hosted/hosted_rs485.c firmware/hal/hosted/rs485_hub_client.c \

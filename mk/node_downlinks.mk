@@ -118,7 +118,7 @@ NDL_NODE_HOSTED_DL := $(if $(filter rs485,$(URB_DOWNLINK)),rs485,can)
 NDL_NODE_HOSTED_SRC_can := firmware/hal/hosted/can_hub_client.c $(NDL_SRC_can)
 NDL_NODE_HOSTED_SRC_rs485 := firmware/hal/hosted/rs485_hub_client.c $(NDL_SRC_rs485) gen/c/urb_rs485_wire.c
 NDL_NODE_HOSTED_DEF_rs485 := -DURB_NODE_HOSTED_RS485
-NDL_NODE_HOSTED_SRC := firmware/hal/hosted/node_hosted_main.c firmware/apps/echo/echo_app.c $(NDL_LIB_COMMON) \
+NDL_NODE_HOSTED_SRC := firmware/hal/hosted/node_hosted_main.c firmware/hal/hosted/hub_socket.c firmware/apps/echo/echo_app.c $(NDL_LIB_COMMON) \
                        $(NDL_NODE_HOSTED_SRC_$(NDL_NODE_HOSTED_DL)) gen/c/urb_core.c gen/c/urb_runtime.c
 NDL_NODE_HOSTED_INC := -Ifirmware/include -Ifirmware/node -Ifirmware/hal/hosted -Ifirmware/apps/echo -Igen/c
 NDL_NODE_HOSTED_BIN := build/firmware/urb-node-hosted$(if $(filter rs485,$(NDL_NODE_HOSTED_DL)),-rs485)$(if $(URB_MUTANT),-$(URB_MUTANT))

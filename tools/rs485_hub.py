@@ -148,7 +148,7 @@ class Rs485Hub:
         self.now = 0  # line time, us (not wrapped)
         self.wall0 = time.monotonic()
         if self.socket_path.exists():
-            self.socket_path.unlink()
+            self.socket_path.unlink()  # left by an earlier hub
         self.listener = socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET)
         self.listener.bind(str(self.socket_path))
         self.listener.listen(16)

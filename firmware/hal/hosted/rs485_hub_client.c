@@ -1,11 +1,12 @@
 /* An RS485 transceiver on tools/rs485_hub.py: rs485_hub_client.h. */
 #include "rs485_hub_client.h"
 
+#include "hub_socket.h"
+
 #include <errno.h>
 #include <poll.h>
 #include <string.h>
 #include <sys/socket.h>
-#include <sys/un.h>
 #include <unistd.h>
 
 /* the hub's message flags (tools/rs485_hub.py) */
@@ -55,23 +56,14 @@ bool urb_rs485_hub_connect(urb_rs485_hub_client_t *c, const char *path, uint32_t
 {
     memset(c, 0, sizeof *c);
     c->fd = -1;
-    struct sockaddr_un addr;
-    memset(&addr, 0, sizeof addr);
-    addr.sun_family = AF_UNIX;
-    if (strlen(path) >= sizeof addr.sun_path) {
-        errno = ENAMETOOLONG;
-        return false;
-    }
-    memcpy(addr.sun_path, path, strlen(path) + 1u);
-    int const fd = socket(AF_UNIX, SOCK_SEQPACKET, 0);
+    int const fd = urb_hub_socket_connect(path);
     if (fd < 0) {
         return false;
     }
     uint8_t m[URB_RS485_HUB_MESSAGE];
     put_message(m, UP_HELLO, 0u, 0u, baud);
     int e = 0;
-    if ((connect(fd, (const struct sockaddr *)&addr, sizeof addr) != 0) ||
-        (send(fd, m, sizeof m, MSG_NOSIGNAL) != (ssize_t)sizeof m)) {
+    if (send(fd, m, sizeof m, MSG_NOSIGNAL) != (ssize_t)sizeof m) {
         e = errno;
     } else {
         struct pollfd p = {fd, POLLIN, 0};
