@@ -137,7 +137,7 @@ class Rs485Hub:
     socket_path: Path
     baud: int = 1_000_000
     driver_enable_us: int = 0
-    settle_timeout_s: float = 5.0
+    settle_timeout_s: float = 10.0
     trace: bool = False
     stats: HubStats = field(default_factory=HubStats)
 
@@ -331,8 +331,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--baud", type=int, default=1_000_000, help="line rate, every station's too (default 1000000)")
     ap.add_argument("--driver-enable-us", type=int, default=0,
                     help="delay from a station's first DRIVE to its character's start (default 0)")
-    ap.add_argument("--settle-timeout-s", type=float, default=5.0,
-                    help="wall seconds a station may take to acknowledge before it is disconnected (default 5)")
+    ap.add_argument("--settle-timeout-s", type=float, default=10.0,
+                    help="wall seconds a station may take to acknowledge before it is disconnected (default 10)")
     ap.add_argument("--trace", action="store_true", help="print every character (end time, sent@station -> received) on stderr")
     args = ap.parse_args(argv)
     try:

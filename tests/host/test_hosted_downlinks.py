@@ -53,7 +53,7 @@ def host_application(link: Path) -> Result:
     or the error flags of a failed write or read)."""
     urb = URBInterface([ECHO])
     try:
-        report = urb.add_bus_manager(RS232Manager(str(link), timeout_s=15.0, lost_after_s=30.0))
+        report = urb.add_bus_manager(RS232Manager(str(link), timeout_s=15.0, lost_after_s=30.0), timeout_s=30.0)
         assert report.problems == [], report.problems
         rows = [(r.name, r.index, r.address) for r in urb.nodes()]
         echoed = []
@@ -215,7 +215,7 @@ def no_node_after(link: Path, lose: Callable[[], None]) -> tuple[ErrorFlag, str,
     node 7 (its error flags and message) and node 8."""
     urb = URBInterface([ECHO])
     try:
-        report = urb.add_bus_manager(RS232Manager(str(link), timeout_s=15.0, lost_after_s=30.0))
+        report = urb.add_bus_manager(RS232Manager(str(link), timeout_s=15.0, lost_after_s=30.0), timeout_s=30.0)
         assert report.problems == [], report.problems
         assert [(r.index, r.address) for r in urb.nodes()] == NODES  # witness: both were there
         lose()
@@ -230,7 +230,7 @@ def no_node_after(link: Path, lose: Callable[[], None]) -> tuple[ErrorFlag, str,
 @pytest.mark.parametrize("how", [signal.SIGKILL, signal.SIGSTOP], ids=["killed", "stopped"])
 def test_node_process_that_goes_mid_run_is_no_node(rs485_system: Rs485System, how: signal.Signals) -> None:
     make("node-hosted", "URB_DOWNLINK=rs485")
-    link = rs485_system.start("urb-node-hosted-rs485", "--settle-timeout-s", "0.5", one_process_per_node=True)
+    link = rs485_system.start("urb-node-hosted-rs485", "--settle-timeout-s", "2", one_process_per_node=True)
     lost = rs485_system.nodes[0].p
     try:
         flags, message, other = no_node_after(link, lambda: lost.send_signal(how))
@@ -244,7 +244,7 @@ def test_node_process_that_goes_mid_run_is_no_node(rs485_system: Rs485System, ho
 def discovered(link: Path) -> list[tuple[str, int, int]]:
     urb = URBInterface([ECHO])
     try:
-        urb.add_bus_manager(RS232Manager(str(link), timeout_s=15.0, lost_after_s=30.0))
+        urb.add_bus_manager(RS232Manager(str(link), timeout_s=15.0, lost_after_s=30.0), timeout_s=30.0)
         return [(r.name, r.index, r.address) for r in urb.nodes()]
     finally:
         urb.close()
