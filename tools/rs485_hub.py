@@ -105,6 +105,7 @@ class Station:
     """One connected station."""
 
     sock: socket.socket
+    number: int = 0          # in the order the stations connected, from 1 (for messages)
     joined: bool = False
     seq: int = 0             # last message sent to it
     acked: int = 0           # last message it acknowledged
@@ -177,10 +178,8 @@ class Rs485Hub:
         self.stations.remove(st)
         self.selector.unregister(st.sock)
         st.sock.close()
-        self.stats.dropped += 1
-        if st.char is not None:
-            st.char = None  # its character in flight still ends on the line (the shift register)
-        print(f"rs485_hub: station {id(st) & 0xFFFF:04x} left the line at {self.now} us: {why}", file=sys.stderr)
+        self.stats.dropped += 1  # a character of its in flight still ends on the line (the shift register)
+        print(f"rs485_hub: station {st.number} left the line at {self.now} us: {why}", file=sys.stderr)
 
     def _start_char(self, st: Station, byte: int, start: int) -> None:
         ch = Char(st, byte, start, start + self.char_us)
@@ -243,10 +242,10 @@ class Rs485Hub:
             if key.fileobj is self.listener:
                 c, _addr = self.listener.accept()
                 c.setblocking(False)
-                st = Station(c)
+                self.stats.stations_seen += 1
+                st = Station(c, self.stats.stations_seen)
                 self.stations.append(st)
                 self.selector.register(c, selectors.EVENT_READ, st)
-                self.stats.stations_seen += 1
             else:
                 self._readable(key.data)
 
@@ -273,7 +272,7 @@ class Rs485Hub:
             if rx != ending[0].byte or len(ending) > 1:
                 self.stats.garbled += 1
             if self.trace:
-                sent = " ".join(f"{c.byte:02x}@{id(c.station) & 0xFFFF:04x}" for c in ending)
+                sent = " ".join(f"{c.byte:02x}@{c.station.number}" for c in ending)
                 print(f"{at:>10} us  {sent} -> {rx:02x}", file=sys.stderr)
         for st in list(self.stations):
             if not st.joined:
