@@ -198,7 +198,8 @@ class Rs485Hub:
         flags, byte, seq, value = MESSAGE.unpack(raw)
         if flags & HELLO:
             if value != self.baud:
-                self._drop(st, f"it runs at {value} Bd, the line at {self.baud} Bd: give both the same --baud")
+                self._drop(st, f"it runs at {value} Bd, the line at {self.baud} Bd: give every station the hub's --baud "
+                               "(urb-node-hosted-rs485 --baud, urb-bridge-hosted --rs485-baud)")
                 return
             st.joined = True
             self._send(st, WELCOME)

@@ -109,8 +109,9 @@ int urb_hosted_rs485_run(const urb_bridge_config_t *cfg, int pty, const char *hu
 {
     static hosted_rs485_t h;
     if (!urb_rs485_hub_connect(&h.client, hub, baud)) {
-        fprintf(stderr, "cannot join the RS485 line at %s: %s (start tools/rs485_hub.py --socket %s --baud %u first)\n",
-                hub, strerror(errno), hub, (unsigned)baud);
+        int const e = errno;
+        fprintf(stderr, "cannot join the RS485 line at %s at %u Bd: %s (%s)\n", hub, (unsigned)baud, strerror(e),
+                urb_rs485_hub_advice(e));
         return 1;
     }
     urb_hosted_hal_init(&h.hal);

@@ -140,6 +140,11 @@ static bool port_connect(hosted_node_t *n, const char *hub, uint32_t baud)
     return urb_rs485_hub_connect(&n->port.hub, hub, baud);
 }
 
+static const char *port_advice(int err)
+{
+    return urb_rs485_hub_advice(err);
+}
+
 static bool port_attach(hosted_node_t *n, uint32_t baud)
 {
     return urb_node_rs485_attach(&n->port.rs485, &n->node, &n->cfg, &n->port.hub.hal, baud, n->port.hub.now) &&
@@ -184,6 +189,12 @@ static bool port_connect(hosted_node_t *n, const char *hub, uint32_t baud)
 {
     (void)baud;
     return urb_can_hub_connect(&n->port.hub, hub);
+}
+
+static const char *port_advice(int err)
+{
+    (void)err;
+    return "start tools/can_hub.py --socket PATH first, and give every program that PATH";
 }
 
 static bool port_attach(hosted_node_t *n, uint32_t baud)
@@ -356,8 +367,8 @@ int main(int argc, char **argv)
         n->hal.set_compare = n_set_compare;
         n->hal.set_address = n_set_address;
         if (!port_connect(n, hub, (uint32_t)baud)) {
-            fprintf(stderr, "cannot connect to the " HUB_NAME " at %s: %s (start " HUB_TOOL " --socket %s first)\n", hub,
-                    strerror(errno), hub);
+            int const e = errno;
+            fprintf(stderr, "cannot connect to the " HUB_NAME " at %s: %s (%s)\n", hub, strerror(e), port_advice(e));
             return 1;
         }
         int const rc = urb_node_init(&n->node, &n->hal, &echo_app_hooks, &n->app, &n->cfg, n->storage,

@@ -95,6 +95,17 @@ bool urb_rs485_hub_connect(urb_rs485_hub_client_t *c, const char *path, uint32_t
     return true;
 }
 
+const char *urb_rs485_hub_advice(int err)
+{
+    if (err == ECONNRESET) {
+        return "the hub refused this station; its stderr says why, e.g. another baud rate than the line's";
+    }
+    if (err == ETIMEDOUT) {
+        return "the hub did not welcome this station within 5 s: is it stopped or overloaded?";
+    }
+    return "start tools/rs485_hub.py --socket PATH first, and give every station that PATH";
+}
+
 /* The next character when one is due: tx_start came and nothing of ours is on the line (the
  * first character, or a transmit slot: the last one ended). */
 static bool next_char(urb_rs485_hub_client_t *c, void *owner, const urb_rs485_hub_owner_t *ops, uint8_t *byte)

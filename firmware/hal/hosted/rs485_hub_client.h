@@ -54,6 +54,9 @@ typedef struct {
  *  stderr says why), ETIMEDOUT (no welcome). */
 bool urb_rs485_hub_connect(urb_rs485_hub_client_t *c, const char *path, uint32_t baud);
 
+/** What to do about urb_rs485_hub_connect's failure `err` (its errno), for an error message. */
+const char *urb_rs485_hub_advice(int err);
+
 /** Handles every message the hub has sent (rx, then tick, then the transmit slot, per message)
  *  and acknowledges each with the next character and the earliest wake-up (wake_at's, the
  *  owner's timer's). Returns false when the hub closed the connection (or sent what is not one
