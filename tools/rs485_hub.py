@@ -21,6 +21,8 @@ unless its driver leaves one). The first character after a station starts drivin
 --driver-enable-us after it asked (its driver-enable delay; the turnaround the bridge allows is
 4 characters + 50 us). Two characters that overlap in time (two drivers) reach every station as
 garbage: a byte that differs from each of them, so each driver's echo check sees the collision.
+The hub counts the frames (bursts) a station starts less than t3.5 (3.5 characters) after the
+line's last character ended, or over another's: the firmware's rule is never to (its exit line).
 
 Wire format (SOCK_SEQPACKET, 8-byte messages, little-endian `<BBHI`: flags, byte, sequence, time):
   station -> hub  HELLO (flags 1, time = the station's baud rate): first message; a station at
@@ -68,6 +70,12 @@ MOD = 1 << 32
 def char_us(baud: int) -> int:
     """One 8N1 character in whole microseconds, rounded up (urb_rs485_timing's char_us)."""
     return (CHAR_BITS * 1_000_000 + baud - 1) // baud
+
+
+def t35_us(baud: int) -> int:
+    """The silence that ends a frame: 3.5 characters (35 bit times) in whole microseconds, rounded
+    up (urb_rs485_timing's t35_us)."""
+    return (35 * 1_000_000 + baud - 1) // baud
 
 
 def garbage(driven: list[int]) -> int:
@@ -126,6 +134,8 @@ class HubStats:
     steps: int = 0
     chars: int = 0
     garbled: int = 0
+    frames: int = 0          # bursts of characters a station started
+    early_starts: int = 0    # of those, started less than t3.5 after the line's last character ended
     stations_seen: int = 0
     dropped: int = 0
     bad_messages: int = 0
@@ -146,7 +156,9 @@ class Rs485Hub:
         if not 1200 <= self.baud <= 4_000_000:
             raise ValueError(f"baud {self.baud} is outside 1200..4000000")
         self.char_us = char_us(self.baud)
+        self.t35_us = t35_us(self.baud)
         self.now = 0  # line time, us (not wrapped)
+        self.last_end: int | None = None  # end of the line's last character
         self.wall0 = time.monotonic()
         if self.socket_path.exists():
             self.socket_path.unlink()  # left by an earlier hub
@@ -190,6 +202,13 @@ class Rs485Hub:
         self.line.append(ch)
         st.char = ch
 
+    def _start_frame(self, st: Station, byte: int, start: int) -> None:
+        """A station starts driving: the firmware's rule is a line silent for t3.5 first."""
+        self.stats.frames += 1
+        if self.line or (self.last_end is not None and start - self.last_end < self.t35_us):
+            self.stats.early_starts += 1
+        self._start_char(st, byte, start)
+
     def _message(self, st: Station, raw: bytes) -> None:
         if len(raw) != MESSAGE.size:
             self.stats.bad_messages += 1
@@ -220,7 +239,7 @@ class Rs485Hub:
             if answers_slot:
                 self._start_char(st, byte, self.now)  # back to back with its last character
             elif st.char is None and not st.slot:
-                self._start_char(st, byte, self.now + self.driver_enable_us)
+                self._start_frame(st, byte, self.now + self.driver_enable_us)
             else:
                 self.stats.bad_messages += 1
                 self._drop(st, "it drove a character while its last one was on the line")
@@ -266,6 +285,8 @@ class Rs485Hub:
         self.stats.steps += 1
         ending = [c for c in self.line if c.end == at]
         self.line = [c for c in self.line if c.end != at]
+        if ending:
+            self.last_end = at
         rx: int | None = None
         if ending:
             self.stats.chars += len(ending)
@@ -352,8 +373,9 @@ def main(argv: list[str] | None = None) -> int:
         hub.close()
         st = hub.stats
         print(f"rs485_hub: line time {hub.now} us in {time.monotonic() - t0:.2f} s ({time.process_time() - cpu0:.2f} s CPU): "
-              f"{st.steps} events, {st.chars} characters ({st.garbled} garbled), {st.stations_seen} stations "
-              f"({st.dropped} dropped)", file=sys.stderr)
+              f"{st.steps} events, {st.chars} characters ({st.garbled} garbled), {st.frames} frames "
+              f"({st.early_starts} started within t3.5), {st.stations_seen} stations ({st.dropped} dropped)",
+              file=sys.stderr)
     return 0
 
 

@@ -136,6 +136,18 @@ class Rs485System:
         self.procs: list[Proc | BridgeProc] = []
         self.nodes: list[Proc] = []
         self.bridge: BridgeProc | None = None
+        self.hub: Proc | None = None
+
+    def line_frames(self) -> tuple[int, int]:
+        """Stops the line and returns the frames the stations started and how many of those began
+        less than t3.5 after the line's last character (the hub's exit line)."""
+        assert self.hub is not None and self.hub.p.stderr is not None
+        self.hub.p.terminate()
+        self.hub.p.wait(10.0)
+        err = self.hub.p.stderr.read()
+        found = re.search(r"(\d+) frames \((\d+) started within t3.5\)", err)
+        assert found is not None, err[-2000:]
+        return int(found.group(1)), int(found.group(2))
 
     def bridge_counters(self) -> str:
         """Stops the bridge and returns the counters it prints at exit (--verbose)."""
@@ -147,8 +159,9 @@ class Rs485System:
     def start(self, node_program: str, *hub_args: str, one_process_per_node: bool = False,
               bridge_program: str = "urb-bridge-hosted") -> Path:
         """Starts the hub (with `hub_args`), the node process(es) and the bridge; the bridge's pty link."""
-        self.procs.append(Proc([sys.executable, str(REPO / "tools" / "rs485_hub.py"), "--socket", str(self.sock),
-                                *hub_args], "rs485_hub:"))
+        self.hub = Proc([sys.executable, str(REPO / "tools" / "rs485_hub.py"), "--socket", str(self.sock), *hub_args],
+                        "rs485_hub:")
+        self.procs.append(self.hub)
         groups = [[s] for s in SPECS] if one_process_per_node else [SPECS]
         for specs in groups:
             argv = [str(REPO / "build" / "firmware" / node_program), "--rs485-hub", str(self.sock)]
@@ -195,6 +208,8 @@ def test_same_host_application_on_i2c_can_and_rs485(hosted_bridge: Callable[...,
     assert on_i2c == EXPECTED
     assert on_can == on_i2c
     assert on_rs485 == on_i2c
+    frames, early = rs485_system.line_frames()
+    assert frames > 100 and early == 0  # the bridge and the nodes kept t3.5 before every frame
 
 
 def test_seeded_node_bug_changes_what_the_host_sees_on_can(can_system: Callable[[str], Path]) -> None:
@@ -324,6 +339,7 @@ def test_a_station_talking_over_the_bridge_is_a_collision_it_sees(rs485_system: 
     assert flags == ErrorFlag.BUS_STUCK, message  # the request was cut: not executed (urb_rs485_master.h)
     assert other == sx.MotorFeedback()  # node 8 is not affected
     assert collisions(counters) >= 1, counters
+    assert rs485_system.line_frames()[1] >= 1  # the talker's frames broke the silence rule: the hub counts them
 
 
 def test_seeded_echo_check_bug_hides_the_collision(rs485_system: Rs485System) -> None:

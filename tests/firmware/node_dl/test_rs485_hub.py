@@ -5,10 +5,11 @@ firmware relies on: every station, the driver included, receives each character 
 that time stamp; a driver's characters are back to back (no silence inside a frame); the first
 one starts after the driver-enable delay; a wake-up comes at the time asked and the line time
 never advances while a station has not acknowledged (a slow station cannot break a silence);
-two drivers at once are garbage for everyone; bad stations are told why and dropped. Seeded hub
-bugs (no echo to the driver, a gap between characters, the last driver wins a collision, time
-advancing without acknowledgements) are each shown to fail the check; the witness is the hub's
-counters and the events seen.
+two drivers at once are garbage for everyone; a frame started less than t3.5 after the line's last
+character is counted; bad stations are told why and dropped. Seeded hub bugs (no echo to the
+driver, a gap between characters, the last driver wins a collision, the silence measured from a
+character's start, time advancing without acknowledgements) are each shown to fail the check; the
+witness is the hub's counters and the events seen.
 """
 
 from __future__ import annotations
@@ -54,6 +55,15 @@ class LastDriverWins(Rs485Hub):
 
     def _line_value(self, ending: list[Char]) -> int:
         return ending[-1].byte
+
+
+class SilenceFromCharStart(Rs485Hub):
+    """Seeded bug: the silence before a frame is measured from the last character's start."""
+
+    def _step(self, at: int) -> None:
+        super()._step(at)
+        if self.last_end == at:
+            self.last_end = at - self.char_us
 
 
 class NoWaitForAck(Rs485Hub):
@@ -295,3 +305,36 @@ def test_bad_stations_are_told_and_dropped(sock: Path, capsys: pytest.CaptureFix
         assert good.received() == [(0x42, good.received()[0][1])]  # the line went on without it
     finally:
         hub.close()
+
+
+def silence_check(hub_class: type[Rs485Hub], sock: Path) -> None:
+    """b answers a's frame 30 us after its end (under t3.5 = 35 us at 1 Mb/s), c 35 us after b's."""
+    hub, (a, b, c) = three(hub_class, sock)
+    try:
+        t0 = a.now
+        a.start([0x01, 0x02])  # ends at t0 + 20
+        run(hub, [a, b, c], 60)
+        b.wake = t0 + 50
+        b.status(None)
+        run(hub, [a, b, c], 60)
+        assert b.now == t0 + 50
+        b.start([0x81])  # [t0+50, t0+60): 30 us after a's last character
+        run(hub, [a, b, c], 60)
+        c.wake = t0 + 95
+        c.status(None)
+        run(hub, [a, b, c], 60)
+        c.start([0x02])  # [t0+95, ...): 35 us after b's character
+        run(hub, [a, b, c])
+        assert [t for _v, t in a.received()] == [t0 + 10, t0 + 20, t0 + 60, t0 + 105]  # witness: all went out
+        assert (hub.stats.frames, hub.stats.early_starts) == (3, 1)
+    finally:
+        hub.close()
+
+
+def test_a_frame_started_within_t35_is_counted(sock: Path) -> None:
+    silence_check(Rs485Hub, sock)
+
+
+def test_seeded_silence_bug_is_caught(sock: Path) -> None:
+    with pytest.raises(AssertionError):
+        silence_check(SilenceFromCharStart, sock)
