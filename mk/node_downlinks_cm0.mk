@@ -71,7 +71,7 @@ CM0HAL_TESTS := test_cm0_can test_cm0_rs485
 CM0HAL_SRC_test_cm0_can := tests/firmware/cm0hal/test_cm0_can.c firmware/hal/cortex-m0plus/urb_cm0_fdcan.c
 CM0HAL_SRC_test_cm0_rs485 := tests/firmware/cm0hal/test_cm0_rs485.c tests/firmware/cm0hal/usart_line.c \
                              firmware/hal/cortex-m0plus/urb_cm0_usart485.c
-CM0HAL_INC := -Ifirmware/include -Ifirmware/hal/cortex-m0plus -Igen/c -Itests/firmware/cm0hal
+CM0HAL_INC := -DURB_CM0_USART_TEST_HOOK -Ifirmware/include -Ifirmware/hal/cortex-m0plus -Igen/c -Itests/firmware/cm0hal
 CM0HAL_SAN := -g -O1 -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
 CM0HAL_HDRS := $(wildcard firmware/hal/cortex-m0plus/urb_cm0_*.h tests/firmware/cm0hal/*.h firmware/include/urb_can.h \
                firmware/include/urb_rs485.h gen/c/*.h)

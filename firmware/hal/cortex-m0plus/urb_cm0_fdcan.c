@@ -241,18 +241,15 @@ bool urb_cm0_can_init(urb_cm0_can_t *port, urb_cm0_fdcan_regs_t *regs, urb_cm0_f
     return set_init(regs, false);
 }
 
+/* The fill level and get index are read once: elements that arrive meanwhile raise RF0N again
+ * (cleared before this runs) and are taken by the next interrupt. */
 static void rx_fifo0(urb_cm0_can_t *p)
 {
+    uint32_t const s = p->regs->rxf0s;
+    uint32_t const fill = s & RXF0S_F0FL_MASK;
+    uint32_t get = (s >> RXF0S_F0GI_SHIFT) & RXF0S_F0GI_MASK;
     /* bound: the FIFO's 3 elements */
-    for (uint32_t n = 0u; n < URB_CM0_FDCAN_RX_ELEMENTS; n++) {
-        uint32_t const s = p->regs->rxf0s;
-        if ((s & RXF0S_F0FL_MASK) == 0u) {
-            break;
-        }
-        uint32_t const get = (s >> RXF0S_F0GI_SHIFT) & RXF0S_F0GI_MASK;
-        if (get >= URB_CM0_FDCAN_RX_ELEMENTS) {
-            break;
-        }
+    for (uint32_t n = 0u; (n < fill) && (n < URB_CM0_FDCAN_RX_ELEMENTS) && (get < URB_CM0_FDCAN_RX_ELEMENTS); n++) {
         urb_cm0_fdcan_element_t const *const e = &p->ram->rx_fifo0[get];
         uint32_t const r0 = e->word[0];
         uint32_t const r1 = e->word[1];
@@ -270,26 +267,23 @@ static void rx_fifo0(urb_cm0_can_t *p)
                 uint32_t const w = (i < 4u) ? w2 : w3;
                 f.data[i] = (uint8_t)(w >> (8u * ((uint32_t)i % 4u)));
             }
-            p->regs->rxf0a = get;
+            p->regs->rxf0a = get; /* the element is copied: free it before the owner runs */
             p->owner.on_rx(p->owner.owner, &f, now - (since * p->us_per_bit));
         } else {
             p->regs->rxf0a = get; /* not URB's: the global filter rejects these, dropped if one comes */
         }
+        get = (get + 1u) % URB_CM0_FDCAN_RX_ELEMENTS;
     }
 }
 
+/* As rx_fifo0: the fill level and get index are read once. */
 static void tx_events(urb_cm0_can_t *p)
 {
+    uint32_t const s = p->regs->txefs;
+    uint32_t const fill = s & TXEFS_EFFL_MASK;
+    uint32_t get = (s >> TXEFS_EFGI_SHIFT) & TXEFS_EFGI_MASK;
     /* bound: the event FIFO's 3 elements */
-    for (uint32_t n = 0u; n < URB_CM0_FDCAN_TX_ELEMENTS; n++) {
-        uint32_t const s = p->regs->txefs;
-        if ((s & TXEFS_EFFL_MASK) == 0u) {
-            break;
-        }
-        uint32_t const get = (s >> TXEFS_EFGI_SHIFT) & TXEFS_EFGI_MASK;
-        if (get >= URB_CM0_FDCAN_TX_ELEMENTS) {
-            break;
-        }
+    for (uint32_t n = 0u; (n < fill) && (n < URB_CM0_FDCAN_TX_ELEMENTS) && (get < URB_CM0_FDCAN_TX_ELEMENTS); n++) {
         uint32_t const e1 = p->ram->tx_event[(2u * get) + 1u];
         p->regs->txefa = get;
         if ((uint8_t)(e1 >> E1_MM_SHIFT) == p->epoch) {
@@ -297,6 +291,7 @@ static void tx_events(urb_cm0_can_t *p)
         } else {
             p->stats.stale_events++;
         }
+        get = (get + 1u) % URB_CM0_FDCAN_TX_ELEMENTS;
     }
 }
 

@@ -10,6 +10,16 @@
 #define DE_FIELD_MASK 0x1Fu
 #define ISR_ERRORS (URB_CM0_USART_ISR_PE | URB_CM0_USART_ISR_FE | URB_CM0_USART_ISR_NE | URB_CM0_USART_ISR_ORE)
 
+/* The host tests' USART model (tests/firmware/cm0hal/usart_line.h) cannot see a register value that
+ * is written and overwritten within one call; tx_abort's "USART off" is such a value, so a test
+ * build reports it to the model. Firmware builds define nothing. */
+#if defined(URB_CM0_USART_TEST_HOOK)
+void urb_cm0_usart_test_disabled(urb_cm0_usart_regs_t *regs);
+#define REPORT_DISABLED(regs) urb_cm0_usart_test_disabled(regs)
+#else
+#define REPORT_DISABLED(regs) ((void)(regs))
+#endif
+
 uint32_t urb_cm0_rs485_brr(uint32_t kernel_hz, uint32_t baud)
 {
     if (baud == 0u) {
@@ -30,7 +40,13 @@ static void rs485_tx_start(void *ctx)
 static void rs485_tx_abort(void *ctx)
 {
     urb_cm0_rs485_t *p = (urb_cm0_rs485_t *)ctx;
-    p->regs->cr1 &= ~(URB_CM0_USART_CR1_TXEIE | URB_CM0_USART_CR1_TCIE | URB_CM0_USART_CR1_TE);
+    uint32_t const cr1 = p->regs->cr1 & ~(URB_CM0_USART_CR1_TXEIE | URB_CM0_USART_CR1_TCIE | URB_CM0_USART_CR1_TE);
+    /* UE cleared: the character being sent and the byte waiting in TDR are discarded and DE is
+     * released at once (clearing TE alone would finish the character and send TDR at the next
+     * tx_start); then the receiver is back on, the transmitter off until tx_start */
+    p->regs->cr1 = cr1 & ~URB_CM0_USART_CR1_UE;
+    REPORT_DISABLED(p->regs);
+    p->regs->cr1 = cr1 | URB_CM0_USART_CR1_UE;
     p->sending = false;
 }
 

@@ -16,8 +16,9 @@
  *  - tx_start: transmitter on, transmit-empty interrupt on; the interrupt pulls bytes from the
  *    owner (on_tx_next) until it has none, then waits for transmission complete (the last stop
  *    bit) and reports nothing further: the hardware has released DE by then.
- *  - tx_abort: transmit interrupts off and the transmitter off: the character in the shift
- *    register completes and DE drops DEDT after it (the USART cannot cut a character).
+ *  - tx_abort: the USART is disabled for a moment (UE cleared: the character being sent and a
+ *    byte waiting in TDR are discarded and DE drops at once), then re-enabled with the receiver on
+ *    and the transmitter off until the next tx_start.
  *  - each received byte goes to on_rx with the time of the receive interrupt on the caller's
  *    microsecond clock (its stop bit was sampled at most one interrupt latency earlier);
  *  - wake_at and lock are the caller's (a timer compare and the NVIC), passed through.
