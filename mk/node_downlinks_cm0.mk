@@ -6,8 +6,10 @@
 #                              urb-bridge-cm0plus-{can,rs485}.elf (bridge_port.c with the CAN / RS485 master)
 #   make size-cm0-downlinks    their flash and RAM next to the I2C builds' (part of `make size`)
 #   make test-cm0hal           tests/firmware/cm0hal: the FDCAN and USART ports compiled for the host
-#                              against RAM register blocks (gcc and clang, ASan+UBSan), then the seeded
-#                              bugs of tests/firmware/cm0hal/mutants.json, each of which must fail them
+#                              against RAM register blocks (gcc and clang, ASan+UBSan), and the images
+#   make cm0hal-mutants        the seeded bugs of tests/firmware/cm0hal/mutants.json, each of which must
+#                              fail the tests it names (tests/firmware/cm0hal/test_cm0hal_seeded_bugs.py;
+#                              make test-py runs the same file, so make check runs them once)
 # Outputs go to build/firmware/cm0_dl/.
 
 CM0DL_BUILD := build/firmware/cm0_dl
@@ -100,9 +102,9 @@ cm0hal-tests: $(CM0HAL_BINS)
 
 # every seeded bug of mutants.json must make its test program fail, in the tests it names
 cm0hal-mutants:
-	@$(PYTHON) -m pytest -q -p no:cacheprovider tests/firmware/cm0hal/test_seeded_bugs.py
+	@$(PYTHON) -m pytest -q -p no:cacheprovider tests/firmware/cm0hal/test_cm0hal_seeded_bugs.py
 
 test-cm0hal: cm0hal-tests
-	@$(MAKE) --no-print-directory cm0hal-mutants cross-cm0-downlinks
+	@$(MAKE) --no-print-directory cross-cm0-downlinks
 
 CHECK_TARGETS += test-cm0hal

@@ -77,7 +77,7 @@ coverage: setup coverage-build
 QUALITY_SOURCES := $(sort $(wildcard firmware/node/*.c) $(FWB_LIB_SRC) $(wildcard firmware/apps/sensorhex/*.c) \
                    $(wildcard firmware/apps/sensorhex/targets/*.c) $(wildcard firmware/hal/cortex-m0plus/*.c) \
                    $(wildcard gen/c/*.c))
-QUALITY_INC := -Ifirmware/include -Ifirmware/node -Ifirmware/bridge -Ifirmware/hal/cortex-m0plus \
+QUALITY_INC := -Ifirmware/include -Ifirmware/node -Ifirmware/bridge -Ifirmware/hal/cortex-m0plus -Ifirmware/apps/echo \
                -Ifirmware/apps/sensorhex -Ifirmware/apps/sensorhex/targets -Igen/c
 # The target's configuration (arm-none-eabi-gcc 12 predefines __GNUC__ and __arm__); the motor app
 # stands for SENSORHEX_APP in targets/main_node.c, which every app image compiles the same way.

@@ -83,27 +83,27 @@ void TIM2_IRQHandler(void);
 #if defined(URB_CM0_NODE_RS485)
 void USART1_IRQHandler(void);
 #define RS485_BAUD 1000000u
-static urb_cm0_rs485_t port;
+static urb_cm0_rs485_t dl_port;
 static urb_node_rs485_t downlink;
 #else
 void TIM16_FDCAN_IT0_IRQHandler(void);
 #define CAN_KBPS 1000u
-static urb_cm0_can_t port;
+static urb_cm0_can_t dl_port;
 static urb_node_can_t downlink;
 #endif
 
-static urb_node_t node;
+static urb_node_t dl_node;
 static urb_node_hal_t node_hal;
-static echo_app_t app;
-static uint8_t storage[ECHO_STORAGE];
+static echo_app_t echo_state;
+static uint8_t echo_storage[ECHO_STORAGE];
 
-static uint32_t clock_now(void *ctx)
+static uint32_t dl_clock_now(void *ctx)
 {
     (void)ctx;
     return TIM2_CNT;
 }
 
-static void timer_compare(void *ctx, uint32_t at)
+static void dl_timer_compare(void *ctx, uint32_t at)
 {
     (void)ctx;
     TIM2_CCR1 = at;
@@ -111,20 +111,20 @@ static void timer_compare(void *ctx, uint32_t at)
     TIM2_DIER |= TIM_CC1;
 }
 
-static void no_address(void *ctx, uint8_t address)
+static void dl_no_address(void *ctx, uint8_t address)
 {
     (void)ctx; /* the slave filters on the address it was attached with */
     (void)address;
 }
 
-static void mark(void *ctx, urb_node_mark_t m)
+static void dl_mark(void *ctx, urb_node_mark_t m)
 {
     (void)ctx;
     GPIO_BSRR(GPIOA_BASE) = MARK_PIN(m);
     GPIO_BSRR(GPIOA_BASE) = MARK_PIN(m) << 16;
 }
 
-static void nvic_enable(uint32_t irq)
+static void dl_nvic_enable(uint32_t irq)
 {
     uint32_t const shift = 8u * (irq % 4u);
     NVIC_IPR(irq) = (NVIC_IPR(irq) & ~((uint32_t)0xFFu << shift)) | ((uint32_t)IRQ_PRIORITY << shift);
@@ -132,17 +132,17 @@ static void nvic_enable(uint32_t irq)
 }
 
 #if defined(URB_CM0_NODE_RS485)
-static void rs485_rx(void *owner, uint8_t byte, uint32_t t_us)
+static void slave_rs485_rx(void *owner, uint8_t byte, uint32_t t_us)
 {
     urb_rs485_slave_rx(&((urb_node_rs485_t *)owner)->slave, byte, t_us);
 }
 
-static bool rs485_tx_next(void *owner, uint8_t *byte)
+static bool slave_rs485_tx_next(void *owner, uint8_t *byte)
 {
     return urb_rs485_slave_tx_next(&((urb_node_rs485_t *)owner)->slave, byte);
 }
 
-static void rs485_wake_at(void *owner, uint32_t at_us)
+static void slave_rs485_wake_at(void *owner, uint32_t at_us)
 {
     (void)owner;
     TIM2_CCR2 = at_us; /* a deadline already passed fires at the next wrap: the slave re-arms on each byte */
@@ -156,31 +156,31 @@ static bool downlink_init(void)
     GPIO_MODER(GPIOA_BASE) = (GPIO_MODER(GPIOA_BASE) & ~((uint32_t)0x33Cu << 16)) | ((uint32_t)0x228u << 16);
     GPIO_AFRH(GPIOA_BASE) = (GPIO_AFRH(GPIOA_BASE) & ~(uint32_t)0xF0FF0u) | (uint32_t)0x10110u;
     RCC_APBENR2 |= RCC_APBENR2_USART1;
-    urb_cm0_rs485_owner_t const owner = {&downlink, rs485_rx, rs485_tx_next, clock_now, rs485_wake_at, NULL};
-    return urb_cm0_rs485_init(&port, URB_CM0_USART1, &owner, CORE_HZ, RS485_BAUD);
+    urb_cm0_rs485_owner_t const owner = {&downlink, slave_rs485_rx, slave_rs485_tx_next, dl_clock_now, slave_rs485_wake_at, NULL};
+    return urb_cm0_rs485_init(&dl_port, URB_CM0_USART1, &owner, CORE_HZ, RS485_BAUD);
 }
 
 static bool downlink_attach(const urb_node_config_t *cfg)
 {
-    return urb_node_rs485_attach(&downlink, &node, cfg, &port.hal, RS485_BAUD, TIM2_CNT);
+    return urb_node_rs485_attach(&downlink, &dl_node, cfg, &dl_port.hal, RS485_BAUD, TIM2_CNT);
 }
 
 void USART1_IRQHandler(void)
 {
-    urb_cm0_rs485_irq(&port);
+    urb_cm0_rs485_irq(&dl_port);
 }
 #else
-static void can_rx(void *owner, const urb_can_frame_t *frame, uint32_t t_us)
+static void slave_can_rx(void *owner, const urb_can_frame_t *frame, uint32_t t_us)
 {
     urb_can_slave_rx(&((urb_node_can_t *)owner)->slave, frame, t_us);
 }
 
-static void can_tx_done(void *owner)
+static void slave_can_tx_done(void *owner)
 {
     urb_can_slave_tx_done(&((urb_node_can_t *)owner)->slave);
 }
 
-static void can_state(void *owner, uint8_t state)
+static void slave_can_state(void *owner, uint8_t state)
 {
     urb_can_slave_state(&((urb_node_can_t *)owner)->slave, state);
 }
@@ -191,18 +191,18 @@ static bool downlink_init(void)
     GPIO_MODER(GPIOB_BASE) = (GPIO_MODER(GPIOB_BASE) & ~((uint32_t)0xFu << 16)) | ((uint32_t)0xAu << 16);
     GPIO_AFRH(GPIOB_BASE) = (GPIO_AFRH(GPIOB_BASE) & ~(uint32_t)0xFFu) | (uint32_t)0x33u;
     RCC_APBENR1 |= RCC_APBENR1_FDCAN;
-    urb_cm0_can_owner_t const owner = {&downlink, can_rx, can_tx_done, can_state, clock_now};
-    return urb_cm0_can_init(&port, URB_CM0_FDCAN1, URB_CM0_SRAMCAN1, &owner, CORE_HZ, CAN_KBPS);
+    urb_cm0_can_owner_t const owner = {&downlink, slave_can_rx, slave_can_tx_done, slave_can_state, dl_clock_now};
+    return urb_cm0_can_init(&dl_port, URB_CM0_FDCAN1, URB_CM0_SRAMCAN1, &owner, CORE_HZ, CAN_KBPS);
 }
 
 static bool downlink_attach(const urb_node_config_t *cfg)
 {
-    return urb_node_can_attach(&downlink, &node, cfg, &port.hal, CAN_KBPS);
+    return urb_node_can_attach(&downlink, &dl_node, cfg, &dl_port.hal, CAN_KBPS);
 }
 
 void TIM16_FDCAN_IT0_IRQHandler(void)
 {
-    urb_cm0_can_irq(&port);
+    urb_cm0_can_irq(&dl_port);
 }
 #endif
 
@@ -212,7 +212,7 @@ void TIM2_IRQHandler(void)
     if ((sr & TIM_CC1) != 0u) {
         TIM2_SR = ~TIM_CC1;
         TIM2_DIER &= ~TIM_CC1; /* re-armed by set_compare */
-        urb_node_timer_event(&node);
+        urb_node_timer_event(&dl_node);
     }
 #if defined(URB_CM0_NODE_RS485)
     if ((sr & TIM_CC2) != 0u) {
@@ -223,7 +223,7 @@ void TIM2_IRQHandler(void)
 #endif
 }
 
-static void halt(void)
+static void dl_halt(void)
 {
     for (;;) {
     }
@@ -242,42 +242,42 @@ int main(void)
     TIM2_CR1 = TIM_CR1_CEN;
 
     node_hal.ctx = NULL;
-    node_hal.now = clock_now;
-    node_hal.set_compare = timer_compare;
+    node_hal.now = dl_clock_now;
+    node_hal.set_compare = dl_timer_compare;
     node_hal.sync_capture = NULL;
-    node_hal.set_address = no_address;
-    node_hal.mark = mark;
+    node_hal.set_address = dl_no_address;
+    node_hal.mark = dl_mark;
     node_hal.identify = NULL;
 
     urb_node_config_t cfg;
     urb_node_config_default(&cfg);
     cfg.i2c_address = NODE_ADDRESS;
     cfg.ticks_per_us = 1u;
-    app.class_id = 1u;
-    app.index = 0u;
-    app.fingerprint = 0x00C0FFEEu;
-    app.in_size[1] = ECHO_BYTES;
-    app.out_size[1] = ECHO_BYTES;
+    echo_state.class_id = 1u;
+    echo_state.index = 0u;
+    echo_state.fingerprint = 0x00C0FFEEu;
+    echo_state.in_size[1] = ECHO_BYTES;
+    echo_state.out_size[1] = ECHO_BYTES;
     if (!downlink_init()) {
-        halt();
+        dl_halt();
     }
-    if (urb_node_init(&node, &node_hal, &echo_app_hooks, &app, &cfg, storage, (uint16_t)sizeof storage) !=
+    if (urb_node_init(&dl_node, &node_hal, &echo_app_hooks, &echo_state, &cfg, echo_storage, (uint16_t)sizeof echo_storage) !=
         URB_NODE_OK) {
-        halt();
+        dl_halt();
     }
     if (!downlink_attach(&cfg)) {
-        halt();
+        dl_halt();
     }
-    nvic_enable(IRQ_TIM2);
+    dl_nvic_enable(IRQ_TIM2);
 #if defined(URB_CM0_NODE_RS485)
-    nvic_enable(IRQ_USART1);
+    dl_nvic_enable(IRQ_USART1);
 #else
-    nvic_enable(IRQ_FDCAN_IT0);
+    dl_nvic_enable(IRQ_FDCAN_IT0);
 #endif
     for (;;) {
-        (void)urb_node_poll(&node);
+        (void)urb_node_poll(&dl_node);
         __asm__ __volatile__("cpsid i" ::: "memory");
-        if (!urb_node_has_work(&node)) {
+        if (!urb_node_has_work(&dl_node)) {
             __asm__ __volatile__("wfi" ::: "memory");
         }
         __asm__ __volatile__("cpsie i" ::: "memory");

@@ -114,7 +114,7 @@ uint32_t urb_cm0_can_nbtp(const urb_cm0_can_timing_t *t)
 }
 
 /* Sets or clears CCCR.INIT and waits (bounded) until the controller reports it. */
-static bool set_init(urb_cm0_fdcan_regs_t *regs, bool on)
+static bool fdcan_set_init(urb_cm0_fdcan_regs_t *regs, bool on)
 {
     if (on) {
         regs->cccr |= CCCR_INIT;
@@ -131,7 +131,7 @@ static bool set_init(urb_cm0_fdcan_regs_t *regs, bool on)
     return false;
 }
 
-static uint8_t psr_state(uint32_t psr)
+static uint8_t fdcan_psr_state(uint32_t psr)
 {
     uint8_t state = (uint8_t)URB_CAN_ERROR_ACTIVE;
     if ((psr & PSR_BO) != 0u) {
@@ -146,7 +146,7 @@ static uint8_t psr_state(uint32_t psr)
 
 /* ----- urb_can_hal_t ----- */
 
-static bool can_tx(void *ctx, const urb_can_frame_t *frame)
+static bool fdcan_tx(void *ctx, const urb_can_frame_t *frame)
 {
     urb_cm0_can_t *p = (urb_cm0_can_t *)ctx;
     uint32_t const txfqs = p->regs->txfqs;
@@ -171,7 +171,7 @@ static bool can_tx(void *ctx, const urb_can_frame_t *frame)
     return true;
 }
 
-static void can_tx_abort(void *ctx)
+static void fdcan_tx_abort(void *ctx)
 {
     urb_cm0_can_t *p = (urb_cm0_can_t *)ctx;
     p->regs->txbcr = p->regs->txbrp;
@@ -179,23 +179,23 @@ static void can_tx_abort(void *ctx)
     p->epoch = (uint8_t)(p->epoch + 1u);
 }
 
-static uint8_t can_state(void *ctx)
+static uint8_t fdcan_state(void *ctx)
 {
     urb_cm0_can_t const *p = (urb_cm0_can_t const *)ctx;
-    return psr_state(p->regs->psr);
+    return fdcan_psr_state(p->regs->psr);
 }
 
-static void can_recover(void *ctx)
+static void fdcan_recover(void *ctx)
 {
     urb_cm0_can_t *p = (urb_cm0_can_t *)ctx;
     if ((p->regs->psr & PSR_BO) == 0u) {
-        (void)set_init(p->regs, true); /* a clear without bus-off: re-synchronise to the bus */
+        (void)fdcan_set_init(p->regs, true); /* a clear without bus-off: re-synchronise to the bus */
     }
     /* leaving INIT after bus-off starts the recovery: 128 x 11 recessive bits, then error-active */
     p->regs->cccr &= ~(CCCR_INIT | CCCR_CCE);
 }
 
-static void can_lock(void *ctx, bool locked)
+static void fdcan_lock(void *ctx, bool locked)
 {
     urb_cm0_can_t *p = (urb_cm0_can_t *)ctx;
     p->regs->ile = locked ? 0u : ILE_EINT0;
@@ -217,12 +217,12 @@ bool urb_cm0_can_init(urb_cm0_can_t *port, urb_cm0_fdcan_regs_t *regs, urb_cm0_f
     port->stats.stale_events = 0u;
     port->us_per_bit = (bitrate_kbps != 0u) ? (1000u / bitrate_kbps) : 0u;
     port->hal.ctx = port;
-    port->hal.tx = can_tx;
-    port->hal.tx_abort = can_tx_abort;
-    port->hal.state = can_state;
-    port->hal.recover = can_recover;
-    port->hal.lock = can_lock;
-    if (!set_init(regs, true)) {
+    port->hal.tx = fdcan_tx;
+    port->hal.tx_abort = fdcan_tx_abort;
+    port->hal.state = fdcan_state;
+    port->hal.recover = fdcan_recover;
+    port->hal.lock = fdcan_lock;
+    if (!fdcan_set_init(regs, true)) {
         return false;
     }
     regs->cccr |= CCCR_CCE;
@@ -238,12 +238,12 @@ bool urb_cm0_can_init(urb_cm0_can_t *port, urb_cm0_fdcan_regs_t *regs, urb_cm0_f
     regs->ils = 0u;
     regs->ie = IR_USED;
     regs->ile = ILE_EINT0;
-    return set_init(regs, false);
+    return fdcan_set_init(regs, false);
 }
 
 /* The fill level and get index are read once: elements that arrive meanwhile raise RF0N again
  * (cleared before this runs) and are taken by the next interrupt. */
-static void rx_fifo0(urb_cm0_can_t *p)
+static void fdcan_rx_fifo0(urb_cm0_can_t *p)
 {
     uint32_t const s = p->regs->rxf0s;
     uint32_t const fill = s & RXF0S_F0FL_MASK;
@@ -276,8 +276,8 @@ static void rx_fifo0(urb_cm0_can_t *p)
     }
 }
 
-/* As rx_fifo0: the fill level and get index are read once. */
-static void tx_events(urb_cm0_can_t *p)
+/* As fdcan_rx_fifo0: the fill level and get index are read once. */
+static void fdcan_tx_events(urb_cm0_can_t *p)
 {
     uint32_t const s = p->regs->txefs;
     uint32_t const fill = s & TXEFS_EFFL_MASK;
@@ -306,13 +306,13 @@ void urb_cm0_can_irq(urb_cm0_can_t *port)
         port->stats.events_lost++;
     }
     if ((ir & IR_TEFN) != 0u) {
-        tx_events(port);
+        fdcan_tx_events(port);
     }
     if ((ir & IR_RF0N) != 0u) {
-        rx_fifo0(port);
+        fdcan_rx_fifo0(port);
     }
     if ((ir & (IR_BO | IR_EP)) != 0u) {
-        uint8_t const state = psr_state(port->regs->psr);
+        uint8_t const state = fdcan_psr_state(port->regs->psr);
         if ((state != port->state) && (port->owner.on_state != NULL)) {
             port->owner.on_state(port->owner.owner, state);
         }

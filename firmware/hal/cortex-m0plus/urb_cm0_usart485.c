@@ -7,7 +7,7 @@
 #include <stddef.h>
 
 #define BRR_MIN 16u /* oversampling by 16: BRR >= 16 (RM0444, "USART baud rate generation") */
-#define DE_FIELD_MASK 0x1Fu
+#define DE_FIELD_MASK ((uint32_t)0x1Fu)
 #define ISR_ERRORS (URB_CM0_USART_ISR_PE | URB_CM0_USART_ISR_FE | URB_CM0_USART_ISR_NE | URB_CM0_USART_ISR_ORE)
 
 /* The host tests' USART model (tests/firmware/cm0hal/usart_line.h) cannot see a register value that
@@ -85,8 +85,8 @@ bool urb_cm0_rs485_init(urb_cm0_rs485_t *port, urb_cm0_usart_regs_t *regs, const
     regs->cr2 = 0u; /* one stop bit, no receiver timeout */
     regs->cr3 = URB_CM0_USART_CR3_DEM; /* DEP = 0: DE active high */
     regs->icr = ISR_ERRORS | URB_CM0_USART_ICR_TCCF;
-    regs->cr1 = ((uint32_t)(URB_CM0_RS485_DE_SIXTEENTHS & DE_FIELD_MASK) << URB_CM0_USART_CR1_DEAT_SHIFT) |
-                ((uint32_t)(URB_CM0_RS485_DE_SIXTEENTHS & DE_FIELD_MASK) << URB_CM0_USART_CR1_DEDT_SHIFT) |
+    regs->cr1 = (((uint32_t)URB_CM0_RS485_DE_SIXTEENTHS & DE_FIELD_MASK) << URB_CM0_USART_CR1_DEAT_SHIFT) |
+                (((uint32_t)URB_CM0_RS485_DE_SIXTEENTHS & DE_FIELD_MASK) << URB_CM0_USART_CR1_DEDT_SHIFT) |
                 URB_CM0_USART_CR1_RXNEIE | URB_CM0_USART_CR1_RE | URB_CM0_USART_CR1_TE | URB_CM0_USART_CR1_UE;
     return true;
 }
