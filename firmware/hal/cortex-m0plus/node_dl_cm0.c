@@ -64,7 +64,7 @@
 #define TIM_CR1_CEN ((uint32_t)1u << 0)
 #define TIM_EGR_UG ((uint32_t)1u << 0)
 #define TIM_CC1 ((uint32_t)1u << 1) /* DIER.CC1IE, SR.CC1IF */
-#define TIM_CC2 ((uint32_t)1u << 2) /* DIER.CC2IE, SR.CC2IF */
+#define TIM_CC2 ((uint32_t)1u << 2) /* DIER.CC2IE, SR.CC2IF, EGR.CC2G */
 
 #define IRQ_TIM2 15u
 #define IRQ_FDCAN_IT0 21u /* shared with TIM16 */
@@ -145,9 +145,12 @@ static bool slave_rs485_tx_next(void *owner, uint8_t *byte)
 static void slave_rs485_wake_at(void *owner, uint32_t at_us)
 {
     (void)owner;
-    TIM2_CCR2 = at_us; /* a deadline already passed fires at the next wrap: the slave re-arms on each byte */
+    TIM2_CCR2 = at_us;
     TIM2_SR = ~TIM_CC2;
     TIM2_DIER |= TIM_CC2;
+    if ((int32_t)(at_us - TIM2_CNT) <= 0) {
+        TIM2_EGR = TIM_CC2; /* already passed: a compare match now would come only after the wrap (71 min) */
+    }
 }
 
 static bool downlink_init(void)
