@@ -44,14 +44,14 @@ def test_every_seeded_bug_applies_and_names_its_tests() -> None:
 
 @pytest.mark.parametrize("mutant", MUTANTS, ids=[m["name"] for m in MUTANTS])
 def test_the_port_tests_catch_the_seeded_bug(mutant: dict[str, Any], tmp_path: Path) -> None:
-    for folder in ("firmware/include", "firmware/hal/cortex-m0plus", "gen/c", "tests/firmware/cm0hal"):
+    for folder in ("firmware", "gen/c", "tests/firmware/cm0hal"):
         shutil.copytree(ROOT / folder, tmp_path / folder, ignore=shutil.ignore_patterns("*.py", "__pycache__"))
     target = tmp_path / mutant["file"]
     text = target.read_text(encoding="utf-8")
     target.write_text(text.replace(mutant["find"], mutant["replace"], 1), encoding="utf-8")
     sources = _make_list(f"CM0HAL_SRC_{mutant['program']}")
-    includes = [f"-I{tmp_path / d}" for d in ("firmware/include", "firmware/hal/cortex-m0plus", "gen/c",
-                                               "tests/firmware/cm0hal")]
+    includes = [f"-I{tmp_path / d}" for d in ("firmware/include", "firmware/node", "firmware/hal/cortex-m0plus",
+                                               "firmware/apps/echo", "gen/c", "tests/firmware/cm0hal")]
     binary = tmp_path / mutant["program"]
     build = subprocess.run(["gcc", *STRICT, "-D_DEFAULT_SOURCE", "-DURB_CM0_USART_TEST_HOOK", "-g", "-O0", *includes,
                             *(str(tmp_path / s) for s in sources), "-lcmocka", "-o", str(binary)],
