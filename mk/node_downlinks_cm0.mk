@@ -69,7 +69,7 @@ size-cm0-downlinks: $(CM0DL_IMAGES) $(CM0DL_I2C_IMAGES)
 SIZE_TARGETS += size-cm0-downlinks
 
 # ===== Host tests of the register-level ports ====================================================
-CM0HAL_TESTS := test_cm0_can test_cm0_rs485 test_cm0_can_node
+CM0HAL_TESTS := test_cm0_can test_cm0_rs485 test_cm0_can_node test_cm0_rs485_node
 CM0HAL_SRC_test_cm0_can := tests/firmware/cm0hal/test_cm0_can.c firmware/hal/cortex-m0plus/urb_cm0_fdcan.c
 # the port with the node library's CAN build behind it (the lists of mk/node_downlinks.mk)
 CM0HAL_SRC_test_cm0_can_node := tests/firmware/cm0hal/test_cm0_can_node.c firmware/hal/cortex-m0plus/urb_cm0_fdcan.c \
@@ -77,6 +77,12 @@ CM0HAL_SRC_test_cm0_can_node := tests/firmware/cm0hal/test_cm0_can_node.c firmwa
                                 firmware/node/urb_node.c firmware/node/urb_observe.c firmware/node/urb_node_dl.c \
                                 firmware/node/urb_node_can.c firmware/downlink/can/urb_can_slave.c \
                                 firmware/downlink/can/urb_can_transfer.c gen/c/urb_can_wire.c gen/c/urb_core.c gen/c/urb_runtime.c
+CM0HAL_SRC_test_cm0_rs485_node := tests/firmware/cm0hal/test_cm0_rs485_node.c tests/firmware/cm0hal/usart_line.c \
+                                  firmware/hal/cortex-m0plus/urb_cm0_usart485.c firmware/apps/echo/echo_app.c \
+                                  firmware/node/urb_mailbox.c firmware/node/urb_pll.c firmware/node/urb_node.c \
+                                  firmware/node/urb_observe.c firmware/node/urb_node_dl.c firmware/node/urb_node_rs485.c \
+                                  firmware/downlink/rs485/urb_rs485_slave.c firmware/downlink/rs485/urb_rs485_frame.c \
+                                  gen/c/urb_rs485_wire.c gen/c/urb_core.c gen/c/urb_runtime.c
 CM0HAL_SRC_test_cm0_rs485 := tests/firmware/cm0hal/test_cm0_rs485.c tests/firmware/cm0hal/usart_line.c \
                              firmware/hal/cortex-m0plus/urb_cm0_usart485.c
 CM0HAL_INC := -DURB_CM0_USART_TEST_HOOK -Ifirmware/include -Ifirmware/node -Ifirmware/hal/cortex-m0plus -Ifirmware/apps/echo \
