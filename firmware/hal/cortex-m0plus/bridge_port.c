@@ -192,8 +192,14 @@ static void can_tx_done(void *owner) { urb_can_master_tx_done((urb_can_master_t 
 #define NVIC_ICER (*(volatile uint32_t *)0xE000E180u)
 #define DOWNLINK_IRQ_BIT ((uint32_t)1u << 1) /* the vector table's placeholder IRQ 1 */
 static uint32_t dl_now_us(void *owner) { (void)owner; return hal_now_us(&g_port); }
-static void rs485_rx(void *owner, uint8_t byte, uint32_t t_us) { urb_rs485_master_rx((urb_rs485_master_t *)owner, byte, t_us); }
-static bool rs485_tx_next(void *owner, uint8_t *byte) { return urb_rs485_master_tx_next((urb_rs485_master_t *)owner, byte); }
+static void rs485_rx(void *owner, uint8_t byte, uint32_t t_us)
+{
+    urb_rs485_master_rx((urb_rs485_master_t *)owner, byte, t_us);
+}
+static bool rs485_tx_next(void *owner, uint8_t *byte)
+{
+    return urb_rs485_master_tx_next((urb_rs485_master_t *)owner, byte);
+}
 static void rs485_lock(void *owner, bool locked)
 {
     (void)owner;

@@ -159,7 +159,8 @@ static bool downlink_init(void)
     GPIO_MODER(GPIOA_BASE) = (GPIO_MODER(GPIOA_BASE) & ~((uint32_t)0x33Cu << 16)) | ((uint32_t)0x228u << 16);
     GPIO_AFRH(GPIOA_BASE) = (GPIO_AFRH(GPIOA_BASE) & ~(uint32_t)0xF0FF0u) | (uint32_t)0x10110u;
     RCC_APBENR2 |= RCC_APBENR2_USART1;
-    urb_cm0_rs485_owner_t const owner = {&downlink, slave_rs485_rx, slave_rs485_tx_next, dl_clock_now, slave_rs485_wake_at, NULL};
+    urb_cm0_rs485_owner_t const owner = {&downlink,    slave_rs485_rx,      slave_rs485_tx_next,
+                                         dl_clock_now, slave_rs485_wake_at, NULL};
     return urb_cm0_rs485_init(&dl_port, URB_CM0_USART1, &owner, CORE_HZ, RS485_BAUD);
 }
 
@@ -264,8 +265,8 @@ int main(void)
     if (!downlink_init()) {
         dl_halt();
     }
-    if (urb_node_init(&dl_node, &node_hal, &echo_app_hooks, &echo_state, &cfg, echo_storage, (uint16_t)sizeof echo_storage) !=
-        URB_NODE_OK) {
+    if (urb_node_init(&dl_node, &node_hal, &echo_app_hooks, &echo_state, &cfg, echo_storage,
+                      (uint16_t)sizeof echo_storage) != URB_NODE_OK) {
         dl_halt();
     }
     if (!downlink_attach(&cfg)) {

@@ -3,8 +3,10 @@
  * (11-bit identifiers, 8 data bytes, no bit-rate switch) as the urb_can_hal_t that the CAN downlink's
  * slave (node) and master (bridge) drive (urb_can.h, urb_can_slave.h, urb_can_master.h).
  *
- * Reference: RM0444 rev 5, "STM32G0x1 reference manual", chapter 36 "FD controller area network
- * (FDCAN)": 36.3.3 (message RAM, fixed layout per instance), 36.3.7 (bit timing), 36.4 (registers).
+ * Reference: RM0444, "STM32G0x1 reference manual", chapter "FD controller area network (FDCAN)":
+ * sections "Message RAM" (the fixed layout per instance), "Bit timing" and "FDCAN registers"; the
+ * memory map (chapter "Memory and bus architecture") for the addresses. Sections are named by title,
+ * not number, as the numbering differs between revisions.
  * The register block and the message RAM are reached through the two pointers the caller passes to
  * urb_cm0_can_init(): the glue passes URB_CM0_FDCAN1 and URB_CM0_SRAMCAN1 (the part's addresses),
  * the unit tests (tests/firmware/cm0hal/) a RAM copy of each laid out as the part's, so the same
@@ -37,21 +39,21 @@
 extern "C" {
 #endif
 
-/* ===== The part (RM0444 2.2 memory map, 36.3.3, 36.4) ======================================== */
+/* ===== The part (RM0444 memory map, FDCAN "Message RAM", "FDCAN registers") ================== */
 
-/** FDCAN1 register block (RM0444 2.2.2, table 6: APB 0x4000 6400). */
+/** FDCAN1 register block (RM0444 memory map: APB 0x4000 6400). */
 #define URB_CM0_FDCAN1_BASE 0x40006400u
-/** FDCAN message RAM of FDCAN1 (RM0444 2.2.2: SRAMCAN 0x4000 B400; FDCAN2's follows at +0x350). */
+/** FDCAN message RAM of FDCAN1 (RM0444 memory map: SRAMCAN 0x4000 B400; FDCAN2's follows at +0x350). */
 #define URB_CM0_SRAMCAN1_BASE 0x4000B400u
-/** Bytes of one instance's message RAM (RM0444 36.3.3: 212 words). */
+/** Bytes of one instance's message RAM (RM0444 FDCAN "Message RAM": 212 words). */
 #define URB_CM0_SRAMCAN_BYTES 0x350u
-/** Elements of each FIFO in the fixed message RAM layout (RM0444 36.3.3). */
+/** Elements of each FIFO in the fixed message RAM layout (RM0444 FDCAN "Message RAM"). */
 #define URB_CM0_FDCAN_RX_ELEMENTS 3u
 #define URB_CM0_FDCAN_TX_ELEMENTS 3u
 /** Words of an Rx / Tx buffer element (header 2 + 64 data bytes; classic CAN uses 2 + 2). */
 #define URB_CM0_FDCAN_ELEMENT_WORDS 18u
 
-/** The FDCAN register block at its documented offsets (RM0444 36.4.37, register map table 218). */
+/** The FDCAN register block at its documented offsets (RM0444 "FDCAN register map"). */
 typedef struct {
     volatile uint32_t crel;      /**< 0x000 core release */
     volatile uint32_t endn;      /**< 0x004 endian */
@@ -98,12 +100,13 @@ typedef struct {
 } urb_cm0_fdcan_regs_t;
 
 /** One Rx or Tx buffer element: word 0 identifier and flags, word 1 DLC and marker/time stamp,
- *  words 2.. the data bytes, byte 0 in the least significant byte (RM0444 36.3.4, 36.3.5). */
+ *  words 2.. the data bytes, byte 0 in the least significant byte (RM0444 FDCAN "Rx buffer and FIFO
+ *  element", "Tx buffer element"). */
 typedef struct {
     volatile uint32_t word[URB_CM0_FDCAN_ELEMENT_WORDS];
 } urb_cm0_fdcan_element_t;
 
-/** One instance's message RAM (RM0444 36.3.3, figure 358: the fixed layout). */
+/** One instance's message RAM (RM0444 FDCAN "Message RAM": the fixed layout). */
 typedef struct {
     volatile uint32_t std_filter[28];                              /**< 0x000 11-bit filters */
     volatile uint32_t ext_filter[16];                              /**< 0x070 29-bit filters (2 words each) */
@@ -119,7 +122,7 @@ typedef struct {
 
 /* ===== Bit timing ============================================================================ */
 
-/** Nominal bit timing in time quanta (RM0444 36.3.7: bit = (1 + tseg1 + tseg2) tq, tq = brp /
+/** Nominal bit timing in time quanta (RM0444 FDCAN "Bit timing": bit = (1 + tseg1 + tseg2) tq, tq = brp /
  *  fdcan_ker_ck), before the registers' minus-one encoding. */
 typedef struct {
     uint16_t brp;   /**< prescaler 1..512 */
@@ -135,7 +138,7 @@ typedef struct {
  *  1000 kb/s brp 2, 500 kb/s brp 4, 250 kb/s brp 8, each 24 tq = 1 + 20 + 3. O(18). */
 bool urb_cm0_can_timing(uint32_t kernel_hz, uint32_t bitrate_kbps, urb_cm0_can_timing_t *out);
 
-/** The NBTP register value of *t (RM0444 36.4.8: NSJW[31:25], NBRP[24:16], NTSEG1[15:8],
+/** The NBTP register value of *t (RM0444 FDCAN_NBTP: NSJW[31:25], NBRP[24:16], NTSEG1[15:8],
  *  NTSEG2[6:0], each minus one). O(1). */
 uint32_t urb_cm0_can_nbtp(const urb_cm0_can_timing_t *t);
 
@@ -185,7 +188,7 @@ typedef struct {
 bool urb_cm0_can_init(urb_cm0_can_t *port, urb_cm0_fdcan_regs_t *regs, urb_cm0_fdcan_ram_t *ram,
                       const urb_cm0_can_owner_t *owner, uint32_t kernel_hz, uint32_t bitrate_kbps);
 
-/** Polls of CCCR.INIT granted to the controller for a mode change (RM0444 36.3.2: it follows
+/** Polls of CCCR.INIT granted to the controller for a mode change (RM0444 FDCAN "Operating modes": it follows
  *  within two kernel clocks plus a started frame). */
 #define URB_CM0_CAN_SPIN 100000u
 

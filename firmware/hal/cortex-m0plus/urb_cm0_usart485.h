@@ -3,7 +3,7 @@
  * driver enable, as the urb_rs485_hal_t that the RS485 downlink's slave (node) and master (bridge)
  * drive (urb_rs485.h, urb_rs485_slave.h, urb_rs485_master.h).
  *
- * Reference: RM0444 rev 5, chapter "Universal synchronous/asynchronous receiver transmitter
+ * Reference: RM0444, chapter "Universal synchronous/asynchronous receiver transmitter
  * (USART)": section "RS232 hardware flow control and RS485 driver enable" (DEM, DEP, DEAT, DEDT)
  * and "USART registers" (the offsets of urb_cm0_usart_regs_t). The register block is reached through
  * the pointer passed to urb_cm0_rs485_init(): the glue passes URB_CM0_USART1, the unit tests

@@ -1,7 +1,8 @@
 /*
  * cmocka tests of the STM32G0B1 FDCAN port (firmware/hal/cortex-m0plus/urb_cm0_fdcan.c) on the host:
  * the port is given a RAM register block and a RAM message RAM at the part's layout, the test plays
- * the controller (fills Rx FIFO and Tx event elements, sets the FIFO status and the status bits). Checked: the layouts' offsets, the bit timing for 1 Mb/s,
+ * the controller (fills Rx FIFO and Tx event elements, sets the FIFO status and the status bits).
+ * Checked: the layouts' offsets, the bit timing for 1 Mb/s,
  * 500 and 250 kb/s, the initialisation, a frame queued into the Tx FIFO element (identifier, DLC,
  * bytes, event request), an Rx FIFO element delivered with its start-of-frame time and acknowledged
  * before the owner sees it, frame-sent reports from the Tx event FIFO (none for frames aborted),

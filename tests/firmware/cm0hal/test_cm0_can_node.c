@@ -87,7 +87,8 @@ static void slave_state(void *owner, uint8_t state)
 static void txfqs_update(void)
 {
     uint32_t const put = (bench.tx_get + bench.pending) % 3u;
-    bench.regs.txfqs = (put << 16) | (bench.tx_get << 8) | ((bench.pending == 3u) ? (1u << 21) : 0u) | (3u - bench.pending);
+    uint32_t const full = (bench.pending == 3u) ? (1u << 21) : 0u;
+    bench.regs.txfqs = (put << 16) | (bench.tx_get << 8) | full | (3u - bench.pending);
 }
 
 /* A TXBAR write makes the controller advance its put index: a RAM block cannot, so the slave is given

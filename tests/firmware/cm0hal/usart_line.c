@@ -138,7 +138,8 @@ void usart_line_step(usart_line_t *line)
     }
     line->de = level;
     line->t++;
-    bool const irq = (enabled(r, URB_CM0_USART_CR1_RXNEIE) && ((r->isr & (URB_CM0_USART_ISR_RXNE | URB_CM0_USART_ISR_ORE)) != 0u)) ||
+    uint32_t const rx_flags = URB_CM0_USART_ISR_RXNE | URB_CM0_USART_ISR_ORE;
+    bool const irq = (enabled(r, URB_CM0_USART_CR1_RXNEIE) && ((r->isr & rx_flags) != 0u)) ||
                      (enabled(r, URB_CM0_USART_CR1_TXEIE) && ((r->isr & URB_CM0_USART_ISR_TXE) != 0u)) ||
                      (enabled(r, URB_CM0_USART_CR1_TCIE) && ((r->isr & URB_CM0_USART_ISR_TC) != 0u));
     if (irq && (line->port != NULL)) {
