@@ -7,6 +7,9 @@
 #   make size-cm0-downlinks    their flash and RAM next to the I2C builds' (part of `make size`)
 #   make test-cm0hal           tests/firmware/cm0hal: the FDCAN and USART ports compiled for the host
 #                              against RAM register blocks (gcc and clang, ASan+UBSan), and the images
+#   make cm0hal-qemu           the same four test programs built for ARMv6-M (arm-none-eabi-gcc -Os, a cmocka
+#                              subset over semihosting: tests/firmware/cm0hal/qemu) and run on QEMU's Cortex-M0
+#                              (-M microbit, tests/qemu/run.sh), and one seeded bug that must fail there
 #   make cm0hal-mutants        the seeded bugs of tests/firmware/cm0hal/mutants.json, each of which must
 #                              fail the tests it names (tests/firmware/cm0hal/test_cm0hal_seeded_bugs.py;
 #                              make test-py runs the same file, so make check runs them once)
@@ -33,7 +36,7 @@ CM0DL_BRIDGE_rs485 := firmware/downlink/rs485/urb_rs485_master.c firmware/downli
 CM0DL_BRIDGE_DEF_can := -DURB_BRIDGE_DOWNLINK_CAN
 CM0DL_BRIDGE_DEF_rs485 := -DURB_BRIDGE_DOWNLINK_RS485
 
-.PHONY: cross-cm0-downlinks size-cm0-downlinks test-cm0hal cm0hal-tests cm0hal-mutants
+.PHONY: cross-cm0-downlinks size-cm0-downlinks test-cm0hal cm0hal-tests cm0hal-mutants cm0hal-qemu
 
 # $(1): can or rs485. Node image: the glue, the port, startup, echo, codecs, the library archive
 # for that downlink; bridge image: bridge_port.c with the master, the port, the bridge library.
@@ -117,7 +120,40 @@ cm0hal-tests: $(CM0HAL_BINS)
 cm0hal-mutants:
 	@$(PYTHON) -m pytest -q -p no:cacheprovider tests/firmware/cm0hal/test_cm0hal_seeded_bugs.py
 
+# ===== The same tests on a Cortex-M0 (QEMU) ========================================================
+CM0HAL_QEMU := $(CM0DL_BUILD)/qemu
+CM0HAL_QEMU_FLAGS := -mcpu=cortex-m0plus -mthumb -Os -g -ffunction-sections -fdata-sections
+CM0HAL_QEMU_SUPPORT := tests/firmware/cm0hal/qemu/cmocka_m0.c tests/qemu/startup_microbit.c tests/qemu/semihost.c
+CM0HAL_QEMU_DEPS := $(CM0HAL_QEMU_SUPPORT) tests/firmware/cm0hal/qemu/cmocka.h tests/qemu/semihost.h tests/qemu/microbit.ld \
+                    $(CM0HAL_HDRS)
+# the seeded bug the QEMU run must catch (an entry of mutants.json, applied to a copy of its file)
+CM0HAL_QEMU_MUTANT := tx-id-wrong-field
+cm0hal_qemu_link = @mkdir -p $(@D) && $(CM0DL_CC) $(CM0HAL_QEMU_FLAGS) $(CM0DL_STRICT) -Itests/firmware/cm0hal/qemu -Itests/qemu \
+                   $(CM0HAL_INC) -nostartfiles -Wl,--gc-sections -T tests/qemu/microbit.ld --specs=nano.specs \
+                   --specs=nosys.specs -o $@ $(1) $(CM0HAL_QEMU_SUPPORT) -lgcc
+
+define CM0HAL_QEMU_RULE
+$(CM0HAL_QEMU)/$(1).elf: $(CM0HAL_SRC_$(1)) $(CM0HAL_QEMU_DEPS)
+	$$(call cm0hal_qemu_link,$(CM0HAL_SRC_$(1)))
+endef
+$(foreach t,$(CM0HAL_TESTS),$(eval $(call CM0HAL_QEMU_RULE,$(t))))
+
+$(CM0HAL_QEMU)/mutant/urb_cm0_fdcan.c: firmware/hal/cortex-m0plus/urb_cm0_fdcan.c tests/firmware/cm0hal/mutants.json
+	@mkdir -p $(@D)
+	@$(PYTHON) -c "import json, sys; m = [x for x in json.load(open('tests/firmware/cm0hal/mutants.json')) \
+	  if x['name'] == '$(CM0HAL_QEMU_MUTANT)'][0]; s = open(m['file']).read(); assert s.count(m['find']) == 1; \
+	  open(sys.argv[1], 'w').write(s.replace(m['find'], m['replace']))" $@
+
+$(CM0HAL_QEMU)/test_cm0_can-mutant.elf: $(CM0HAL_SRC_test_cm0_can) $(CM0HAL_QEMU)/mutant/urb_cm0_fdcan.c $(CM0HAL_QEMU_DEPS)
+	$(call cm0hal_qemu_link,tests/firmware/cm0hal/test_cm0_can.c $(CM0HAL_QEMU)/mutant/urb_cm0_fdcan.c)
+
+cm0hal-qemu: $(foreach t,$(CM0HAL_TESTS),$(CM0HAL_QEMU)/$(t).elf) $(CM0HAL_QEMU)/test_cm0_can-mutant.elf
+	@for t in $(CM0HAL_TESTS); do \
+	  QEMU_TIMEOUT=60 tests/qemu/run.sh --expect pass --quiet --name "$$t" $(CM0HAL_QEMU)/$$t.elf || exit 1; done
+	@QEMU_TIMEOUT=60 tests/qemu/run.sh --expect fail --name "test_cm0_can with the seeded bug $(CM0HAL_QEMU_MUTANT)" \
+	  $(CM0HAL_QEMU)/test_cm0_can-mutant.elf || { echo "cm0hal-qemu: the seeded bug was not caught"; exit 1; }
+
 test-cm0hal: cm0hal-tests
-	@$(MAKE) --no-print-directory cross-cm0-downlinks
+	@$(MAKE) --no-print-directory cm0hal-qemu cross-cm0-downlinks
 
 CHECK_TARGETS += test-cm0hal
