@@ -77,7 +77,6 @@
 #define TQ_MAX 25u
 #define TQ_MIN 8u
 #define BRP_MAX 512u
-#define SJW_MAX 4u
 
 bool urb_cm0_can_timing(uint32_t kernel_hz, uint32_t bitrate_kbps, urb_cm0_can_timing_t *out)
 {
@@ -99,7 +98,7 @@ bool urb_cm0_can_timing(uint32_t kernel_hz, uint32_t bitrate_kbps, urb_cm0_can_t
                 out->brp = (uint16_t)brp;
                 out->tseg2 = (uint8_t)tseg2;
                 out->tseg1 = (uint16_t)(tq - 1u - tseg2);
-                out->sjw = (uint8_t)((tseg2 < SJW_MAX) ? tseg2 : SJW_MAX);
+                out->sjw = (uint8_t)tseg2; /* the largest jump phase 2 allows (2 or 3 here) */
                 return true;
             }
         }

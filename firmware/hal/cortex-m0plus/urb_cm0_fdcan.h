@@ -133,8 +133,9 @@ typedef struct {
 
 /** Computes the bit timing for `bitrate_kbps` from the FDCAN kernel clock `kernel_hz`: the largest
  *  number of time quanta per bit from 25 down to 8 that divides the clock exactly (CiA 301's range),
- *  sample point at 87.5 % (CiA 301), SJW min(tseg2, 4). False (nothing written) when no number of
- *  quanta in that range gives the rate exactly or the prescaler would exceed 512. At 48 MHz:
+ *  sample point at 87.5 % (CiA 301), SJW = tseg2 (2 or 3 with at most 25 quanta). False (nothing
+ *  written) when no number of quanta in that range gives the rate exactly or the prescaler would
+ *  exceed 512. At 48 MHz:
  *  1000 kb/s brp 2, 500 kb/s brp 4, 250 kb/s brp 8, each 24 tq = 1 + 20 + 3. O(18). */
 bool urb_cm0_can_timing(uint32_t kernel_hz, uint32_t bitrate_kbps, urb_cm0_can_timing_t *out);
 

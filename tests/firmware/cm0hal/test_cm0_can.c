@@ -171,13 +171,26 @@ static void test_bit_timing(void **state)
             check_nbtp(urb_cm0_can_nbtp(&t), clocks[c], rates[r]);
         }
     }
-    /* no exact timing: refused, and init refuses the rate */
+    /* few quanta: phase 2 stays at its minimum of 2 (8 MHz, 1 Mb/s: 8 tq = 1 + 5 + 2) */
     urb_cm0_can_timing_t t;
+    assert_true(urb_cm0_can_timing(8000000u, 1000u, &t));
+    assert_int_equal(t.brp, 1u);
+    assert_int_equal(t.tseg1, 5u);
+    assert_int_equal(t.tseg2, 2u);
+    assert_int_equal(t.sjw, 2u);
+    /* no exact timing: refused, and init refuses the rate */
     assert_false(urb_cm0_can_timing(KERNEL_HZ, 333u, &t));
     assert_false(urb_cm0_can_timing(4000000u, 1000u, &t));
     assert_false(urb_cm0_can_timing(KERNEL_HZ, 0u, &t));
+    assert_false(urb_cm0_can_timing(KERNEL_HZ, 1000u, NULL));
+    assert_false(urb_cm0_can_timing(0u, 1000u, &t));       /* no clock: prescaler 0 */
+    assert_false(urb_cm0_can_timing(KERNEL_HZ, 1u, &t));   /* 1 kb/s: the prescaler would pass 512 */
     assert_int_equal(setup_at(333u), -1);
     assert_int_equal(bench.regs.cccr & CCCR_INIT, CCCR_INIT); /* left in initialisation mode */
+    /* an exact timing but no whole number of microseconds per bit (the time stamps' unit) */
+    assert_true(urb_cm0_can_timing(KERNEL_HZ, 300u, &t));
+    assert_int_equal(setup_at(300u), -1);
+    assert_int_equal(setup_at(0u), -1);
 }
 
 static void test_init_joins_the_bus(void **state)
@@ -220,6 +233,10 @@ static void test_tx_frame_in_fifo_element(void **state)
     assert_false(bench.port.hal.tx(bench.port.hal.ctx, &f));
     assert_int_equal(bench.regs.txbar, 0u);
     assert_int_equal(bench.ram.tx_buffer[2].word[0], 0u);
+    /* a put index the FIFO does not have (a controller not configured): refused */
+    bench.regs.txfqs = 3u << 16;
+    assert_false(bench.port.hal.tx(bench.port.hal.ctx, &f));
+    assert_int_equal(bench.regs.txbar, 0u);
 }
 
 static void test_rx_element_delivered_and_acknowledged(void **state)
@@ -278,6 +295,55 @@ static void test_not_urb_frames_dropped_but_acknowledged(void **state)
     urb_cm0_can_irq(&bench.port);
     assert_int_equal(bench.n_rx, 0u);
     assert_int_equal(bench.regs.rxf0a, 0u);
+    put_rx(1u, 0x100u << 18, 8u, 0u, 0u, 0u);
+    bench.ram.rx_fifo0[1].word[1] |= 1u << 21; /* an FD frame */
+    bench.regs.rxf0s = 1u | (1u << 8);
+    bench.regs.ir = IR_RF0N;
+    urb_cm0_can_irq(&bench.port);
+    assert_int_equal(bench.n_rx, 0u);
+    assert_int_equal(bench.regs.rxf0a, 1u);
+}
+
+static void events(uint32_t first, uint32_t n, const uint32_t *marker);
+
+static void test_fifo_status_bounds(void **state)
+{
+    (void)state;
+    /* a classic frame with DLC 9..15 carries 8 bytes */
+    put_rx(0u, 0x200u << 18, 15u, 0u, 0x44332211u, 0x88776655u);
+    bench.regs.rxf0s = 1u;
+    bench.regs.ir = IR_RF0N;
+    urb_cm0_can_irq(&bench.port);
+    assert_int_equal(bench.n_rx, 1u);
+    assert_int_equal(bench.rx[0].len, 8u);
+    /* a fill level above the FIFO's 3 elements: at most 3 taken per interrupt */
+    for (uint32_t i = 0u; i < 3u; i++) {
+        put_rx(i, 0x201u << 18, 1u, 0u, i, 0u);
+    }
+    bench.n_rx = 0u;
+    bench.regs.rxf0s = 5u;
+    bench.regs.ir = IR_RF0N;
+    urb_cm0_can_irq(&bench.port);
+    assert_int_equal(bench.n_rx, 3u);
+    /* a get index the FIFO does not have: nothing taken */
+    bench.n_rx = 0u;
+    bench.regs.rxf0s = 1u | (3u << 8);
+    bench.regs.ir = IR_RF0N;
+    urb_cm0_can_irq(&bench.port);
+    assert_int_equal(bench.n_rx, 0u);
+    /* the same bounds on the Tx event FIFO */
+    urb_can_frame_t f = {0x100u, 1u, {9u}};
+    assert_true(bench.port.hal.tx(bench.port.hal.ctx, &f));
+    uint32_t const mm = bench.ram.tx_buffer[0].word[1] >> 24;
+    uint32_t const markers[] = {mm, mm, mm};
+    events(0u, 3u, markers);
+    bench.regs.txefs = 7u; /* fill level 7 */
+    urb_cm0_can_irq(&bench.port);
+    assert_int_equal(bench.tx_done, 3u);
+    bench.regs.txefs = 1u | (3u << 8);
+    bench.regs.ir = IR_TEFN;
+    urb_cm0_can_irq(&bench.port);
+    assert_int_equal(bench.tx_done, 3u);
 }
 
 /* The controller sent `n` frames: their events, with the marker the port gave each, in the FIFO. */
@@ -365,6 +431,32 @@ static void test_bus_off_state(void **state)
     urb_cm0_can_irq(&bench.port);
     assert_int_equal(bench.n_states, 3u);
     assert_int_equal(bench.states[2], URB_CAN_ERROR_ACTIVE);
+    /* a recovery asked for without bus-off (the master's clear): INIT entered and left again */
+    bench.regs.cccr = 0u;
+    bench.port.hal.recover(bench.port.hal.ctx);
+    assert_int_equal(bench.regs.cccr & CCCR_INIT, 0u);
+    /* an owner without on_state: the state is tracked, nothing reported */
+    bench.port.owner.on_state = NULL;
+    bench.regs.psr = PSR_BO;
+    bench.regs.ir = IR_BO;
+    urb_cm0_can_irq(&bench.port);
+    assert_int_equal(bench.n_states, 3u);
+    assert_int_equal(bench.port.hal.state(bench.port.hal.ctx), URB_CAN_BUS_OFF);
+}
+
+static void test_lost_elements_counted(void **state)
+{
+    (void)state;
+    bench.regs.ir = 0x4u; /* RF0L: Rx FIFO 0 was full, a frame was lost */
+    urb_cm0_can_irq(&bench.port);
+    bench.regs.ir = 0x1000u; /* TEFL: a Tx event was lost */
+    urb_cm0_can_irq(&bench.port);
+    urb_cm0_can_stats_t st;
+    urb_cm0_can_stats(&bench.port, &st);
+    assert_int_equal(st.rx_lost, 1u);
+    assert_int_equal(st.events_lost, 1u);
+    assert_int_equal(bench.n_rx, 0u);
+    assert_int_equal(bench.tx_done, 0u);
 }
 
 static void test_lock_masks_the_line(void **state)
@@ -386,9 +478,11 @@ int main(void)
         cmocka_unit_test_setup(test_rx_element_delivered_and_acknowledged, setup),
         cmocka_unit_test_setup(test_rx_time_stamp_is_start_of_frame, setup),
         cmocka_unit_test_setup(test_not_urb_frames_dropped_but_acknowledged, setup),
+        cmocka_unit_test_setup(test_fifo_status_bounds, setup),
         cmocka_unit_test_setup(test_tx_events_report_each_frame_once, setup),
         cmocka_unit_test_setup(test_abort_drops_late_event, setup),
         cmocka_unit_test_setup(test_bus_off_state, setup),
+        cmocka_unit_test_setup(test_lost_elements_counted, setup),
         cmocka_unit_test_setup(test_lock_masks_the_line, setup),
     };
     return cmocka_run_group_tests_name("cm0_can", tests, NULL, NULL);

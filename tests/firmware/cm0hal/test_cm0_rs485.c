@@ -274,6 +274,33 @@ static void test_overrun_counted_and_cleared(void **state)
     assert_true(bench.line.irqs <= 2u); /* the flags were cleared: no interrupt storm */
 }
 
+static void test_interrupt_sources_apart(void **state)
+{
+    (void)state;
+    /* an overrun alone, then a framing error alone: each counted once, in its own counter */
+    bench.line.regs.isr = URB_CM0_USART_ISR_ORE | URB_CM0_USART_ISR_TXE;
+    urb_cm0_rs485_irq(&bench.port);
+    bench.line.regs.isr = URB_CM0_USART_ISR_FE | URB_CM0_USART_ISR_TXE;
+    urb_cm0_rs485_irq(&bench.port);
+    urb_cm0_rs485_stats_t st;
+    urb_cm0_rs485_stats(&bench.port, &st);
+    assert_int_equal(st.overruns, 1u);
+    assert_int_equal(st.line_errors, 1u);
+    /* transmit interrupts enabled but their flags clear (TDR full, the character still going out):
+     * a received byte is taken, nothing is pulled from the owner, sending goes on */
+    static const uint8_t frame[] = {0x55u};
+    bench.tx = frame;
+    bench.tx_len = sizeof frame;
+    bench.port.hal.tx_start(bench.port.hal.ctx);
+    bench.line.regs.cr1 |= URB_CM0_USART_CR1_TCIE;
+    bench.line.regs.isr = URB_CM0_USART_ISR_RXNE;
+    bench.line.regs.rdr = 0x3Cu;
+    urb_cm0_rs485_irq(&bench.port);
+    assert_int_equal(bench.n_rx, 1u);
+    assert_int_equal(bench.tx_pos, 0u);
+    assert_true(urb_cm0_rs485_sending(&bench.port));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -285,6 +312,7 @@ int main(void)
         cmocka_unit_test_setup(test_abort_stops_at_once, setup),
         cmocka_unit_test_setup(test_receive_with_time_stamps, setup),
         cmocka_unit_test_setup(test_overrun_counted_and_cleared, setup),
+        cmocka_unit_test_setup(test_interrupt_sources_apart, setup),
     };
     return cmocka_run_group_tests_name("cm0_rs485", tests, NULL, NULL);
 }
