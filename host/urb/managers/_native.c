@@ -24,25 +24,8 @@
 
 #include <string.h>
 
-#include "urb_host_core.h"
+#include "_native.h"
 
-typedef struct native_xfer {
-    urb_transfer_t t;          /* first: a urb_transfer_t * of ours is a native_xfer_t * */
-    PyObject *py;              /* the Python Transfer (a strong reference while the core owns t) */
-    struct native_xfer *free_next;
-} native_xfer_t;
-
-typedef struct {
-    PyObject_HEAD
-    urb_core_t core;
-    bool ready;                /* _setup succeeded */
-    native_xfer_t *free_list;
-    PyObject *status_of;       /* tuple: Status member by value 0..8 */
-    PyObject *flag_of;         /* dict: int -> ErrorFlag member */
-    PyObject *full_reason;     /* the caller's whole lost reason (str), or NULL */
-    PyObject *trace;           /* None, or a list the USB pipeline's steps are appended to */
-    PyObject *completed;       /* list: transfers completed (their outcome written), not yet taken */
-} native_core_t;
 
 /* Attribute names of Transfer, interned once per process (immutable constants). */
 static PyObject *s_address, *s_mailbox, *s_read, *s_length, *s_data, *s_answer_within_ns, *s_seq, *s_sent_ns,
@@ -59,6 +42,20 @@ static int not_ready(const native_core_t *self)
         return 1;
     }
     return 0;
+}
+
+void native_core_lock(native_core_t *self)
+{
+    if (pthread_mutex_trylock(&self->lock) != 0) {
+        Py_BEGIN_ALLOW_THREADS
+        (void)pthread_mutex_lock(&self->lock);
+        Py_END_ALLOW_THREADS
+    }
+}
+
+void native_core_unlock(native_core_t *self)
+{
+    (void)pthread_mutex_unlock(&self->lock);
 }
 
 static PyObject *time_or_none(urb_ns_t v)
@@ -138,12 +135,12 @@ static const urb_slot_t *newest_slot(const urb_core_t *core)
 }
 
 /* What ResponseMatcher-side `_send` sets on the Python transfer just put on the wire. */
-static int mark_sent(const urb_core_t *core, const urb_slot_t *slot, native_xfer_t *x)
+static int mark_sent(native_xfer_t *x, urb_ns_t due_ns, urb_ns_t expires_ns)
 {
-    (void)core;
     PyObject *py = x->py;
+    x->sent_unmarked = false;
     if ((set_attr_ll(py, s_seq, x->t.seq) < 0) || (set_attr_ll(py, s_sent_ns, x->t.sent_ns) < 0) ||
-        (set_attr_ll(py, s_due_ns, slot->due_ns) < 0) || (set_attr_ll(py, s_expires_ns, slot->expires_ns) < 0) ||
+        (set_attr_ll(py, s_due_ns, due_ns) < 0) || (set_attr_ll(py, s_expires_ns, expires_ns) < 0) ||
         (PyObject_SetAttr(py, s_garbage, Py_False) < 0)) {
         return -1;
     }
@@ -173,6 +170,11 @@ static PyObject *hand_back(native_core_t *self, urb_transfer_t *t)
     native_xfer_t *x = (native_xfer_t *)t;
     PyObject *py = x->py;
     Py_INCREF(py);
+    if (x->sent_unmarked && (mark_sent(x, x->due_ns, x->expires_ns) < 0)) {
+        xfer_put(self, x);
+        Py_DECREF(py);
+        return NULL;
+    }
     PyObject *flags_key = PyLong_FromUnsignedLong((unsigned long)t->flags);
     PyObject *flag = (flags_key == NULL) ? NULL : PyDict_GetItemWithError(self->flag_of, flags_key);
     Py_XDECREF(flags_key);
@@ -278,6 +280,7 @@ static int core_traverse(native_core_t *self, visitproc visit, void *arg)
 
 static int core_clear(native_core_t *self)
 {
+    native_pump_join(self); /* its thread uses the core being released */
     release_all(self);
     self->ready = false; /* a cleared object (a reference cycle being collected) refuses every call */
     Py_CLEAR(self->status_of);
@@ -292,6 +295,8 @@ static void core_dealloc(native_core_t *self)
 {
     PyObject_GC_UnTrack(self);
     core_clear(self);
+    (void)pthread_cond_destroy(&self->ready_cond);
+    (void)pthread_mutex_destroy(&self->lock);
     while (self->free_list != NULL) {
         native_xfer_t *x = self->free_list;
         self->free_list = x->free_next;
@@ -306,6 +311,18 @@ static PyObject *core_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
     (void)kwds;
     native_core_t *self = (native_core_t *)type->tp_alloc(type, 0);
     if (self != NULL) {
+        pthread_condattr_t attr;
+        bool const made = (pthread_condattr_init(&attr) == 0) &&
+                          (pthread_condattr_setclock(&attr, CLOCK_MONOTONIC) == 0) &&
+                          (pthread_cond_init(&self->ready_cond, &attr) == 0);
+        if (!made || (pthread_mutex_init(&self->lock, NULL) != 0)) {
+            PyErr_SetString(PyExc_OSError, "cannot create the native core's mutex and condition");
+            PyObject_GC_UnTrack(self);
+            Py_TYPE(self)->tp_free((PyObject *)self);
+            return NULL;
+        }
+        (void)pthread_condattr_destroy(&attr);
+        self->pump.fd = -1;
         self->trace = Py_None;
         Py_INCREF(Py_None);
         self->completed = PyList_New(0);
@@ -410,6 +427,7 @@ static PyObject *core_submit(native_core_t *self, PyObject *const *args, Py_ssiz
         }
         if (rc == URB_HOST_OK) {
             x->py = py;
+            x->sent_unmarked = false;
             Py_INCREF(py);
             rc = urb_core_submit(&self->core, &x->t, now);
         }
@@ -546,7 +564,8 @@ static PyObject *core_frames_to_send(native_core_t *self, PyObject *arg)
             return out;
         }
         PyObject *b = PyBytes_FromStringAndSize((const char *)frame, n);
-        if ((b == NULL) || (PyList_Append(out, b) < 0) || (mark_sent(&self->core, newest_slot(&self->core), head) < 0)) {
+        const urb_slot_t *slot = newest_slot(&self->core);
+        if ((b == NULL) || (PyList_Append(out, b) < 0) || (mark_sent(head, slot->due_ns, slot->expires_ns) < 0)) {
             Py_XDECREF(b);
             Py_DECREF(out);
             return NULL;
@@ -588,7 +607,7 @@ static PyObject *core_frame_out(native_core_t *self, PyObject *arg)
     unsigned const first = self->core.m.count - sent;
     for (unsigned i = 0u; i < sent; i++) {
         const urb_slot_t *slot = &self->core.m.slot[(self->core.m.head + first + i) % URB_MATCHER_SLOTS];
-        if (mark_sent(&self->core, slot, candidates[i]) < 0) {
+        if (mark_sent(candidates[i], slot->due_ns, slot->expires_ns) < 0) {
             return NULL;
         }
     }
@@ -614,7 +633,7 @@ static PyObject *core_frame_out(native_core_t *self, PyObject *arg)
 static PyObject *core_take_completed(native_core_t *self, PyObject *unused)
 {
     (void)unused;
-    if (not_ready(self)) {
+    if (not_ready(self) || (collect(self, NULL) < 0)) { /* the pump's completions wait in the C core */
         return NULL;
     }
     PyObject *fresh = PyList_New(0);
@@ -645,7 +664,7 @@ static PyObject *core_next_deadline(native_core_t *self, PyObject *unused)
     return not_ready(self) ? NULL : time_or_none(urb_core_next_deadline(&self->core));
 }
 
-static int set_full_reason(native_core_t *self, PyObject *reason)
+int native_set_full_reason(native_core_t *self, PyObject *reason)
 {
     if (!PyUnicode_Check(reason)) {
         PyErr_SetString(PyExc_TypeError, "a lost reason is a str");
@@ -676,7 +695,7 @@ static PyObject *core_link_lost(native_core_t *self, PyObject *const *args, Py_s
         }
         return NULL;
     }
-    if (!self->core.lost && (set_full_reason(self, args[1]) < 0)) { /* already lost: nothing changes */
+    if (!self->core.lost && (native_set_full_reason(self, args[1]) < 0)) { /* already lost: nothing changes */
         return NULL;
     }
     urb_core_link_lost(&self->core, now, reason);
@@ -753,25 +772,91 @@ static PyObject *core_busy(native_core_t *self, PyObject *unused)
     return not_ready(self) ? NULL : PyBool_FromLong(urb_core_busy(&self->core));
 }
 
+/* Every method and accessor runs with the core's lock held (the pump's thread shares the core),
+ * after the whole reason of a loss the pump found was adopted. */
+static int locked_enter(native_core_t *self)
+{
+    native_core_lock(self);
+    if (self->pump.reason_pending && (native_adopt_pump_reason(self) < 0)) {
+        native_core_unlock(self);
+        return -1;
+    }
+    return 0;
+}
+
+#define LOCKED_FAST(fn)                                                                          \
+    static PyObject *fn##_locked(native_core_t *self, PyObject *const *args, Py_ssize_t nargs)  \
+    {                                                                                            \
+        if (locked_enter(self) < 0) {                                                            \
+            return NULL;                                                                         \
+        }                                                                                        \
+        PyObject *const out = fn(self, args, nargs);                                             \
+        native_core_unlock(self);                                                                \
+        return out;                                                                              \
+    }
+#define LOCKED_ONE(fn)                                                                           \
+    static PyObject *fn##_locked(native_core_t *self, PyObject *arg)                             \
+    {                                                                                            \
+        if (locked_enter(self) < 0) {                                                            \
+            return NULL;                                                                         \
+        }                                                                                        \
+        PyObject *const out = fn(self, arg);                                                     \
+        native_core_unlock(self);                                                                \
+        return out;                                                                              \
+    }
+LOCKED_FAST(core_submit)
+LOCKED_FAST(core_receive)
+LOCKED_FAST(core_receive_batch)
+LOCKED_FAST(core_link_lost)
+LOCKED_ONE(core_poll)
+LOCKED_ONE(core_frames_to_send)
+LOCKED_ONE(core_frame_out)
+LOCKED_ONE(core_take_completed)
+LOCKED_ONE(core_next_deadline)
+LOCKED_ONE(core_reset)
+LOCKED_ONE(core_start_drain)
+LOCKED_ONE(core_drained)
+LOCKED_ONE(core_hand_over)
+LOCKED_ONE(core_busy_until)
+LOCKED_ONE(core_set_window_raw)
+LOCKED_ONE(core_busy)
+
+static PyObject *core_setup_locked(native_core_t *self, PyObject *args)
+{
+    if (self->pump.running) {
+        PyErr_SetString(PyExc_RuntimeError, "the native core is set up already");
+        return NULL;
+    }
+    return core_setup(self, args);
+}
+
 static PyMethodDef core_methods[] = {
-    {"_setup", (PyCFunction)core_setup, METH_VARARGS, "Initialise the C core (NativeRs232Core/NativeUsbCore do)."},
-    {"submit", (PyCFunction)(void (*)(void))core_submit, METH_FASTCALL, "submit(t, now): queue a request."},
-    {"receive", (PyCFunction)(void (*)(void))core_receive, METH_FASTCALL, "receive(data, now): RS232 bytes."},
-    {"receive_batch", (PyCFunction)(void (*)(void))core_receive_batch, METH_FASTCALL,
+    {"_setup", (PyCFunction)core_setup_locked, METH_VARARGS, "Initialise the C core (NativeRs232Core/NativeUsbCore do)."},
+    {"submit", (PyCFunction)(void (*)(void))core_submit_locked, METH_FASTCALL, "submit(t, now): queue a request."},
+    {"receive", (PyCFunction)(void (*)(void))core_receive_locked, METH_FASTCALL, "receive(data, now): RS232 bytes."},
+    {"receive_batch", (PyCFunction)(void (*)(void))core_receive_batch_locked, METH_FASTCALL,
      "receive_batch(data, now): one USB IN transfer."},
-    {"poll", (PyCFunction)core_poll, METH_O, "poll(now): timeouts, idle gap, lost-bridge rules."},
-    {"frames_to_send", (PyCFunction)core_frames_to_send, METH_O, "frames_to_send(now) -> list[bytes] (RS232)."},
-    {"frame_out", (PyCFunction)core_frame_out, METH_O, "frame_out(now) -> bytes | None (USB)."},
-    {"take_completed", (PyCFunction)core_take_completed, METH_NOARGS, "Transfers completed since the last call."},
-    {"next_deadline", (PyCFunction)core_next_deadline, METH_NOARGS, "When poll next has something to do."},
-    {"link_lost", (PyCFunction)(void (*)(void))core_link_lost, METH_FASTCALL, "link_lost(now, reason)."},
-    {"reset", (PyCFunction)core_reset, METH_O, "reset(now): forget the lost state."},
-    {"start_drain", (PyCFunction)core_start_drain, METH_O, "start_drain(now) -> int | None."},
-    {"drained", (PyCFunction)core_drained, METH_NOARGS, "Nothing left to wait for after start_drain."},
-    {"hand_over", (PyCFunction)core_hand_over, METH_O, "hand_over(until_ns)."},
-    {"busy_until", (PyCFunction)core_busy_until, METH_NOARGS, "The latest lifetime in flight, or None."},
-    {"_set_window", (PyCFunction)core_set_window_raw, METH_O, "Set the window (1..15)."},
-    {"busy", (PyCFunction)core_busy, METH_NOARGS, "Requests queued or in flight."},
+    {"poll", (PyCFunction)core_poll_locked, METH_O, "poll(now): timeouts, idle gap, lost-bridge rules."},
+    {"frames_to_send", (PyCFunction)core_frames_to_send_locked, METH_O, "frames_to_send(now) -> list[bytes] (RS232)."},
+    {"frame_out", (PyCFunction)core_frame_out_locked, METH_O, "frame_out(now) -> bytes | None (USB)."},
+    {"take_completed", (PyCFunction)core_take_completed_locked, METH_NOARGS, "Transfers completed since the last call."},
+    {"next_deadline", (PyCFunction)core_next_deadline_locked, METH_NOARGS, "When poll next has something to do."},
+    {"link_lost", (PyCFunction)(void (*)(void))core_link_lost_locked, METH_FASTCALL, "link_lost(now, reason)."},
+    {"reset", (PyCFunction)core_reset_locked, METH_O, "reset(now): forget the lost state."},
+    {"start_drain", (PyCFunction)core_start_drain_locked, METH_O, "start_drain(now) -> int | None."},
+    {"drained", (PyCFunction)core_drained_locked, METH_NOARGS, "Nothing left to wait for after start_drain."},
+    {"hand_over", (PyCFunction)core_hand_over_locked, METH_O, "hand_over(until_ns)."},
+    {"busy_until", (PyCFunction)core_busy_until_locked, METH_NOARGS, "The latest lifetime in flight, or None."},
+    {"_set_window", (PyCFunction)core_set_window_raw_locked, METH_O, "Set the window (1..15)."},
+    {"busy", (PyCFunction)core_busy_locked, METH_NOARGS, "Requests queued or in flight."},
+    {"_pump_start", (PyCFunction)native_pump_start, METH_VARARGS,
+     "_pump_start(fd, name, frame_ns, handover_port, handover_dir): run the USB uplink on a C thread."},
+    {"_pump_stop", (PyCFunction)native_pump_stop, METH_NOARGS, "Stop and join the pump's thread."},
+    {"_pump_wait", (PyCFunction)native_pump_wait, METH_O,
+     "_pump_wait(timeout_s) -> bool: wait (GIL released) for completions or a kick; True when there are some."},
+    {"_pump_kick", (PyCFunction)native_pump_kick, METH_NOARGS, "Wake a _pump_wait."},
+    {"_pump_running", (PyCFunction)native_pump_running, METH_NOARGS, "The pump's thread runs its I/O."},
+    {"_has_completed", (PyCFunction)native_has_completed, METH_NOARGS, "Completions wait to be taken."},
     {NULL, NULL, 0, NULL},
 };
 
@@ -824,7 +909,7 @@ static int core_set_lost_reason(native_core_t *self, PyObject *value, void *unus
         return -1;
     }
     const char *text = PyUnicode_Check(value) ? PyUnicode_AsUTF8(value) : NULL;
-    if ((text == NULL) || (set_full_reason(self, value) < 0)) {
+    if ((text == NULL) || (native_set_full_reason(self, value) < 0)) {
         if (!PyErr_Occurred()) {
             PyErr_SetString(PyExc_TypeError, "a lost reason is a str");
         }
@@ -858,7 +943,37 @@ static int core_set_trace(native_core_t *self, PyObject *value, void *unused)
     return 0;
 }
 
-#define COUNTER(name, which, doc) {name, (getter)core_get_counter, NULL, doc, (void *)(intptr_t)(which)}
+static PyObject *core_get_counter_locked(native_core_t *self, void *which)
+{
+    if (locked_enter(self) < 0) {
+        return NULL;
+    }
+    PyObject *const out = core_get_counter(self, which);
+    native_core_unlock(self);
+    return out;
+}
+
+static PyObject *core_get_lost_reason_locked(native_core_t *self, void *unused)
+{
+    if (locked_enter(self) < 0) {
+        return NULL;
+    }
+    PyObject *const out = core_get_lost_reason(self, unused);
+    native_core_unlock(self);
+    return out;
+}
+
+static int core_set_lost_reason_locked(native_core_t *self, PyObject *value, void *unused)
+{
+    if (locked_enter(self) < 0) {
+        return -1;
+    }
+    int const rc = core_set_lost_reason(self, value, unused);
+    native_core_unlock(self);
+    return rc;
+}
+
+#define COUNTER(name, which, doc) {name, (getter)core_get_counter_locked, NULL, doc, (void *)(intptr_t)(which)}
 static PyGetSetDef core_getset[] = {
     COUNTER("stray_bytes", G_STRAY, "Received bytes that answered no request."),
     COUNTER("late_responses", G_LATE, "Responses that came after their request had timed out (discarded)."),
@@ -869,7 +984,7 @@ static PyGetSetDef core_getset[] = {
     COUNTER("frames_written", G_FRAMES, "USB: OUT transfers built."),
     COUNTER("transfers_in", G_TRANSFERS_IN, "USB: IN transfers received."),
     COUNTER("bad_headers", G_BAD_HEADERS, "USB: IN transfers whose header did not decode."),
-    {"lost_reason", (getter)core_get_lost_reason, (setter)core_set_lost_reason, "Why the bridge is lost, or None.",
+    {"lost_reason", (getter)core_get_lost_reason_locked, (setter)core_set_lost_reason_locked, "Why the bridge is lost, or None.",
      NULL},
     {"trace", (getter)core_get_trace, (setter)core_set_trace,
      "None, or a list the USB pipeline's steps are appended to (usb_core.UsbTraceEvent).", NULL},
