@@ -212,6 +212,7 @@ PyObject *native_pump_start(native_core_t *self, PyObject *args)
         errno = rc;
         return PyErr_SetFromErrno(PyExc_OSError);
     }
+    (void)pthread_setname_np(p->thread, "urb-pump"); /* what /proc/<pid>/task/<tid>/comm shows */
     p->running = true;
     Py_RETURN_NONE;
 }

@@ -36,6 +36,10 @@ from .native import new_usb_core
 from .rs232_core import PLACEHOLDER_NS
 from .usb_core import FRAME_NS
 
+USE_PUMP = True
+"""Run the uplink's I/O on the C core's pump when the core and transport allow it (see above);
+bench/host_cpu.py --usb-ab turns it off to compare both runtimes under the same load."""
+
 
 class USBManager(ThreadedManager):
     """A URB bridge on a USB uplink, over any `FrameTransport` (or a device path)."""
@@ -73,7 +77,7 @@ class USBManager(ThreadedManager):
         self._pump_on = False
 
     def _can_pump(self) -> bool:
-        return (isinstance(self.transport, CharDeviceTransport) and hasattr(self._usb, "_pump_start")
+        return (USE_PUMP and isinstance(self.transport, CharDeviceTransport) and hasattr(self._usb, "_pump_start")
                 and self._usb.trace is None)
 
     def start(self) -> None:
