@@ -144,6 +144,12 @@ static void *pump_main(void *arg)
             }
             continue;
         }
+        if (reading) { /* what arrived while this thread was not running answers before the timeouts apply */
+            struct pollfd fds = {p->fd, POLLIN, 0};
+            while (reading && (poll(&fds, 1u, 0) > 0) && ((fds.revents & (POLLIN | POLLHUP | POLLERR)) != 0)) {
+                reading = pump_read(self, in, sizeof in);
+            }
+        }
         urb_ns_t const now = monotonic_ns();
         next_frame += p->frame_ns;
         if (next_frame <= now) { /* overslept: skip to the next boundary, never burst */

@@ -602,24 +602,30 @@ class ThreadedManager(BusManager):
         q = self._dispatch_q
         while True:
             wait(BATCH_WAIT_S)
-            with self._lock:
-                self._collect()
-            ran, stop = 0, False
-            while not stop:
-                try:
-                    item = q.get_nowait()
-                except queue.Empty:
-                    break
+            batch: list[Transfer | Callable[[], None] | None] = []
+            with self._lock:  # what other threads queued first (older), then the core's batch
+                while True:
+                    try:
+                        batch.append(q.get_nowait())
+                    except queue.Empty:
+                        break
+                self._queue_completed(self._core, batch.append)
+                if self._draining and self._core.drained():
+                    self._changed.notify_all()
+            ran = 0
+            for item in batch:
                 if item is None:
-                    stop = True
-                else:
-                    _run_item(item)
-                    ran += 1
+                    if ran:
+                        with self._changed:
+                            self._changed.notify_all()
+                    for later in batch[batch.index(None) + 1:]:  # queued after the stop: close() runs them
+                        q.put(later)
+                    return
+                _run_item(item)
+                ran += 1
             if ran:
                 with self._changed:
                     self._changed.notify_all()
-            if stop:
-                return
 
     def _drain_completions_inline(self) -> None:
         """Run the callbacks of completions queued while no dispatcher runs (during and after
