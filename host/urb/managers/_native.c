@@ -46,6 +46,13 @@ static int not_ready(const native_core_t *self)
 
 void native_core_lock(native_core_t *self)
 {
+    /* The pump holds the lock for a few microseconds at a time: spin that long before giving the
+     * GIL away (another Python thread would take it and keep it up to the switch interval). */
+    for (unsigned spin = 0u; spin < NATIVE_LOCK_SPINS; spin++) {
+        if (pthread_mutex_trylock(&self->lock) == 0) {
+            return;
+        }
+    }
     if (pthread_mutex_trylock(&self->lock) != 0) {
         Py_BEGIN_ALLOW_THREADS
         (void)pthread_mutex_lock(&self->lock);

@@ -32,6 +32,7 @@ typedef struct native_xfer {
 } native_xfer_t;
 
 #define NATIVE_NAME_MAX 256u
+#define NATIVE_LOCK_SPINS 200u /* tries of the core's lock before waiting for it without the GIL */
 #define NATIVE_REASON_TEXT_MAX (NATIVE_NAME_MAX + 128u)
 
 /* The uplink's I/O on a C thread (USB: a transfer descriptor, one write per OUT transfer and one
