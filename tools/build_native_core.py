@@ -62,7 +62,7 @@ def compile_command(srcs: list[Path], out: Path, digest: str) -> list[str]:
         raise RuntimeError(f"no Python.h in {include}: install the interpreter's headers (Debian: python3-dev, "
                            "which `make setup` installs)")
     return [CC, *CFLAGS, f'-DURB_NATIVE_FINGERPRINT="{digest}"', "-I", include,
-            "-I", str(REPO / "host" / "c" / "include"), "-I", str(REPO / "host" / "c" / "core"),
+            "-I", str(OUT_DIR), "-I", str(REPO / "host" / "c" / "include"), "-I", str(REPO / "host" / "c" / "core"),
             "-I", str(REPO / "gen" / "c"), *map(str, srcs), "-o", str(out)]
 
 

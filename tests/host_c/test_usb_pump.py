@@ -207,7 +207,6 @@ def build_pump_mutant(tmp: Path, name: str) -> Any:
     srcs = [mutated if p.name == "_native_pump.c" else p for p in bnc.sources()]
     out = tmp / bnc.module_path().name
     cmd = [a for a in bnc.compile_command(srcs, out, "mutant") if a not in ("-O2", "-flto")]  # quicker to build
-    cmd[cmd.index("-I"):cmd.index("-I")] = ["-I", str(REPO / "host/urb/managers")]  # _native.h
     subprocess.run(cmd, check=True, capture_output=True, text=True)
     spec = importlib.util.spec_from_file_location("_native", out)
     assert spec is not None and spec.loader is not None
