@@ -107,7 +107,9 @@ def test_reconnects_leave_exactly_one_reader_and_a_clean_run() -> None:
     before = set(threading.enumerate())
     # A stolen IN transfer never arrives, so it fails at any timeout; 10 s keeps a machine at load 20
     # (a starved fake bridge thread: 6 of 1,533 reads took over 1 s, 2026-11-29) from failing it.
-    m = USBManager(CharDeviceTransport(fd=os.dup(far.host_sock.fileno())), timeout_s=10.0, name="usb-reconnect")
+    # lost_after_s likewise: the C core's pump (usb.py) keeps time while the starved bridge thread is silent.
+    m = USBManager(CharDeviceTransport(fd=os.dup(far.host_sock.fileno())), timeout_s=10.0, lost_after_s=30.0,
+                   name="usb-reconnect")
     urb = URBInterface()
 
     def ours(prefix: str) -> list[threading.Thread]:
