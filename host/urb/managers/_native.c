@@ -35,7 +35,7 @@ static PyObject *s_submit, *s_write, *s_read_event, *s_callback;
 
 /* ----- small helpers ---------------------------------------------------------------------------- */
 
-static int not_ready(const native_core_t *self)
+int native_not_ready(const native_core_t *self)
 {
     if (!self->ready) {
         PyErr_SetString(PyExc_RuntimeError, "the native core was not set up (construct NativeRs232Core or NativeUsbCore)");
@@ -74,7 +74,7 @@ static PyObject *time_or_none(urb_ns_t v)
 }
 
 /* The reason text for the C core's `r`: the caller's whole text when r is its cut. */
-static PyObject *reason_text(native_core_t *self, const char *r)
+PyObject *native_reason_text(native_core_t *self, const char *r)
 {
     size_t const n = strlen(r);
     if ((self->full_reason != NULL) && (n == URB_REASON_MAX - 1u)) {
@@ -211,7 +211,7 @@ static PyObject *hand_back(native_core_t *self, urb_transfer_t *t)
              (PyObject_SetAttr(py, s_status, status) == 0) && (PyObject_SetAttr(py, s_response, response) == 0);
     Py_XDECREF(response);
     if (ok && ((t->flags & URB_FLAG_BRIDGE_LOST) != 0u)) {
-        PyObject *reason = reason_text(self, t->lost_reason);
+        PyObject *reason = native_reason_text(self, t->lost_reason);
         ok = (reason != NULL) && (PyObject_SetAttr(py, s_lost_reason, reason) == 0);
         Py_XDECREF(reason);
     }
@@ -387,7 +387,7 @@ static PyObject *core_setup(native_core_t *self, PyObject *args)
 
 static PyObject *core_submit(native_core_t *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (not_ready(self)) {
+    if (native_not_ready(self)) {
         return NULL;
     }
     if (nargs != 2) {
@@ -485,7 +485,7 @@ static PyObject *core_receive(native_core_t *self, PyObject *const *args, Py_ssi
 {
     Py_buffer data;
     long long now = 0;
-    if (not_ready(self) || (parse_data_now(args, nargs, &data, &now) < 0)) {
+    if (native_not_ready(self) || (parse_data_now(args, nargs, &data, &now) < 0)) {
         return NULL;
     }
     int32_t const rc = urb_core_receive(&self->core, data.buf, (size_t)data.len, now);
@@ -504,7 +504,7 @@ static PyObject *core_receive_batch(native_core_t *self, PyObject *const *args, 
 {
     Py_buffer data;
     long long now = 0;
-    if (not_ready(self) || (parse_data_now(args, nargs, &data, &now) < 0)) {
+    if (native_not_ready(self) || (parse_data_now(args, nargs, &data, &now) < 0)) {
         return NULL;
     }
     bool const traced = (self->trace != Py_None) && !self->core.lost && (data.len > 0) && !self->core.flushing;
@@ -534,7 +534,7 @@ static PyObject *core_receive_batch(native_core_t *self, PyObject *const *args, 
 static PyObject *core_poll(native_core_t *self, PyObject *arg)
 {
     long long const now = PyLong_AsLongLong(arg);
-    if (not_ready(self) || ((now == -1) && PyErr_Occurred())) {
+    if (native_not_ready(self) || ((now == -1) && PyErr_Occurred())) {
         return NULL;
     }
     (void)urb_core_poll(&self->core, now);
@@ -547,7 +547,7 @@ static PyObject *core_poll(native_core_t *self, PyObject *arg)
 static PyObject *core_frames_to_send(native_core_t *self, PyObject *arg)
 {
     long long const now = PyLong_AsLongLong(arg);
-    if (not_ready(self) || ((now == -1) && PyErr_Occurred())) {
+    if (native_not_ready(self) || ((now == -1) && PyErr_Occurred())) {
         return NULL;
     }
     PyObject *out = PyList_New(0);
@@ -584,7 +584,7 @@ static PyObject *core_frames_to_send(native_core_t *self, PyObject *arg)
 static PyObject *core_frame_out(native_core_t *self, PyObject *arg)
 {
     long long const now = PyLong_AsLongLong(arg);
-    if (not_ready(self) || ((now == -1) && PyErr_Occurred())) {
+    if (native_not_ready(self) || ((now == -1) && PyErr_Occurred())) {
         return NULL;
     }
     /* the requests that may go in this batch: at most max_batch (<= 15) from the queue's head */
@@ -640,7 +640,7 @@ static PyObject *core_frame_out(native_core_t *self, PyObject *arg)
 static PyObject *core_take_completed(native_core_t *self, PyObject *unused)
 {
     (void)unused;
-    if (not_ready(self) || (collect(self, NULL) < 0)) { /* the pump's completions wait in the C core */
+    if (native_not_ready(self) || (collect(self, NULL) < 0)) { /* the pump's completions wait in the C core */
         return NULL;
     }
     PyObject *fresh = PyList_New(0);
@@ -668,7 +668,7 @@ static PyObject *core_take_completed(native_core_t *self, PyObject *unused)
 static PyObject *core_next_deadline(native_core_t *self, PyObject *unused)
 {
     (void)unused;
-    return not_ready(self) ? NULL : time_or_none(urb_core_next_deadline(&self->core));
+    return native_not_ready(self) ? NULL : time_or_none(urb_core_next_deadline(&self->core));
 }
 
 int native_set_full_reason(native_core_t *self, PyObject *reason)
@@ -684,7 +684,7 @@ int native_set_full_reason(native_core_t *self, PyObject *reason)
 
 static PyObject *core_link_lost(native_core_t *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (not_ready(self)) {
+    if (native_not_ready(self)) {
         return NULL;
     }
     if (nargs != 2) {
@@ -715,7 +715,7 @@ static PyObject *core_link_lost(native_core_t *self, PyObject *const *args, Py_s
 static PyObject *core_reset(native_core_t *self, PyObject *arg)
 {
     long long const now = PyLong_AsLongLong(arg);
-    if (not_ready(self) || ((now == -1) && PyErr_Occurred())) {
+    if (native_not_ready(self) || ((now == -1) && PyErr_Occurred())) {
         return NULL;
     }
     urb_core_reset(&self->core, now);
@@ -728,7 +728,7 @@ static PyObject *core_reset(native_core_t *self, PyObject *arg)
 static PyObject *core_start_drain(native_core_t *self, PyObject *arg)
 {
     long long const now = PyLong_AsLongLong(arg);
-    if (not_ready(self) || ((now == -1) && PyErr_Occurred())) {
+    if (native_not_ready(self) || ((now == -1) && PyErr_Occurred())) {
         return NULL;
     }
     urb_ns_t const until = urb_core_start_drain(&self->core, now);
@@ -741,13 +741,13 @@ static PyObject *core_start_drain(native_core_t *self, PyObject *arg)
 static PyObject *core_drained(native_core_t *self, PyObject *unused)
 {
     (void)unused;
-    return not_ready(self) ? NULL : PyBool_FromLong(urb_core_drained(&self->core));
+    return native_not_ready(self) ? NULL : PyBool_FromLong(urb_core_drained(&self->core));
 }
 
 static PyObject *core_hand_over(native_core_t *self, PyObject *arg)
 {
     long long const until = PyLong_AsLongLong(arg);
-    if (not_ready(self) || ((until == -1) && PyErr_Occurred())) {
+    if (native_not_ready(self) || ((until == -1) && PyErr_Occurred())) {
         return NULL;
     }
     urb_core_hand_over(&self->core, until);
@@ -757,13 +757,13 @@ static PyObject *core_hand_over(native_core_t *self, PyObject *arg)
 static PyObject *core_busy_until(native_core_t *self, PyObject *unused)
 {
     (void)unused;
-    return not_ready(self) ? NULL : time_or_none(urb_core_busy_until(&self->core));
+    return native_not_ready(self) ? NULL : time_or_none(urb_core_busy_until(&self->core));
 }
 
 static PyObject *core_set_window_raw(native_core_t *self, PyObject *arg)
 {
     long const w = PyLong_AsLong(arg);
-    if (not_ready(self) || ((w == -1) && PyErr_Occurred())) {
+    if (native_not_ready(self) || ((w == -1) && PyErr_Occurred())) {
         return NULL;
     }
     if ((w < 1) || (w > (long)URB_MAX_WINDOW) || (urb_core_set_window(&self->core, (uint8_t)w) != URB_HOST_OK)) {
@@ -776,12 +776,12 @@ static PyObject *core_set_window_raw(native_core_t *self, PyObject *arg)
 static PyObject *core_busy(native_core_t *self, PyObject *unused)
 {
     (void)unused;
-    return not_ready(self) ? NULL : PyBool_FromLong(urb_core_busy(&self->core));
+    return native_not_ready(self) ? NULL : PyBool_FromLong(urb_core_busy(&self->core));
 }
 
 /* Every method and accessor runs with the core's lock held (the pump's thread shares the core),
  * after the whole reason of a loss the pump found was adopted. */
-static int locked_enter(native_core_t *self)
+int native_locked_enter(native_core_t *self)
 {
     native_core_lock(self);
     if (self->pump.reason_pending && (native_adopt_pump_reason(self) < 0)) {
@@ -794,7 +794,7 @@ static int locked_enter(native_core_t *self)
 #define LOCKED_FAST(fn)                                                                          \
     static PyObject *fn##_locked(native_core_t *self, PyObject *const *args, Py_ssize_t nargs)  \
     {                                                                                            \
-        if (locked_enter(self) < 0) {                                                            \
+        if (native_locked_enter(self) < 0) {                                                            \
             return NULL;                                                                         \
         }                                                                                        \
         PyObject *const out = fn(self, args, nargs);                                             \
@@ -804,7 +804,7 @@ static int locked_enter(native_core_t *self)
 #define LOCKED_ONE(fn)                                                                           \
     static PyObject *fn##_locked(native_core_t *self, PyObject *arg)                             \
     {                                                                                            \
-        if (locked_enter(self) < 0) {                                                            \
+        if (native_locked_enter(self) < 0) {                                                            \
             return NULL;                                                                         \
         }                                                                                        \
         PyObject *const out = fn(self, arg);                                                     \
@@ -867,137 +867,6 @@ static PyMethodDef core_methods[] = {
     {NULL, NULL, 0, NULL},
 };
 
-/* ----- read-only counters and the settable lost reason ------------------------------------------- */
-
-enum { G_STRAY, G_LATE, G_RELEASED, G_IN_FLIGHT, G_PLACEHOLDERS, G_HAS_QUEUED, G_FRAMES, G_TRANSFERS_IN, G_BAD_HEADERS };
-
-static PyObject *core_get_counter(native_core_t *self, void *which)
-{
-    if (not_ready(self)) {
-        return NULL;
-    }
-    const urb_core_t *c = &self->core;
-    switch ((int)(intptr_t)which) {
-    case G_STRAY: return PyLong_FromUnsignedLongLong(c->m.stray_bytes);
-    case G_LATE: return PyLong_FromUnsignedLongLong(c->m.late_responses);
-    case G_RELEASED: return PyLong_FromUnsignedLongLong(c->m.released_placeholders);
-    case G_IN_FLIGHT: return PyLong_FromUnsignedLong(urb_core_in_flight(c));
-    case G_PLACEHOLDERS: return PyLong_FromUnsignedLong(urb_core_placeholders(c));
-    case G_HAS_QUEUED: return PyBool_FromLong(urb_core_has_queued(c));
-    case G_FRAMES: return PyLong_FromUnsignedLongLong(c->frames_written);
-    case G_TRANSFERS_IN: return PyLong_FromUnsignedLongLong(c->transfers_in);
-    default: return PyLong_FromUnsignedLongLong(c->bad_headers);
-    }
-}
-
-static PyObject *core_get_lost_reason(native_core_t *self, void *unused)
-{
-    (void)unused;
-    if (not_ready(self)) {
-        return NULL;
-    }
-    const char *r = urb_core_lost_reason(&self->core);
-    if (r == NULL) {
-        Py_RETURN_NONE;
-    }
-    return reason_text(self, r);
-}
-
-/* What MatchingCore callers do after link_lost on a core lost already: say why it is lost now. */
-static int core_set_lost_reason(native_core_t *self, PyObject *value, void *unused)
-{
-    (void)unused;
-    if (not_ready(self)) {
-        return -1;
-    }
-    if ((value == NULL) || !self->core.lost) {
-        PyErr_SetString(PyExc_ValueError, "only a lost core's reason can be replaced (call link_lost first; reset "
-                                          "makes the core usable again)");
-        return -1;
-    }
-    const char *text = PyUnicode_Check(value) ? PyUnicode_AsUTF8(value) : NULL;
-    if ((text == NULL) || (native_set_full_reason(self, value) < 0)) {
-        if (!PyErr_Occurred()) {
-            PyErr_SetString(PyExc_TypeError, "a lost reason is a str");
-        }
-        return -1;
-    }
-    size_t n = strlen(text);
-    if (n > URB_REASON_MAX - 1u) {
-        n = URB_REASON_MAX - 1u;
-    }
-    memcpy(self->core.lost_reason, text, n);
-    self->core.lost_reason[n] = '\0';
-    return 0;
-}
-
-static PyObject *core_get_trace(native_core_t *self, void *unused)
-{
-    (void)unused;
-    Py_INCREF(self->trace);
-    return self->trace;
-}
-
-static int core_set_trace(native_core_t *self, PyObject *value, void *unused)
-{
-    (void)unused;
-    if ((value == NULL) || ((value != Py_None) && !PyList_CheckExact(value))) {
-        PyErr_SetString(PyExc_TypeError, "trace is None or a list");
-        return -1;
-    }
-    Py_INCREF(value);
-    Py_XSETREF(self->trace, value);
-    return 0;
-}
-
-static PyObject *core_get_counter_locked(native_core_t *self, void *which)
-{
-    if (locked_enter(self) < 0) {
-        return NULL;
-    }
-    PyObject *const out = core_get_counter(self, which);
-    native_core_unlock(self);
-    return out;
-}
-
-static PyObject *core_get_lost_reason_locked(native_core_t *self, void *unused)
-{
-    if (locked_enter(self) < 0) {
-        return NULL;
-    }
-    PyObject *const out = core_get_lost_reason(self, unused);
-    native_core_unlock(self);
-    return out;
-}
-
-static int core_set_lost_reason_locked(native_core_t *self, PyObject *value, void *unused)
-{
-    if (locked_enter(self) < 0) {
-        return -1;
-    }
-    int const rc = core_set_lost_reason(self, value, unused);
-    native_core_unlock(self);
-    return rc;
-}
-
-#define COUNTER(name, which, doc) {name, (getter)core_get_counter_locked, NULL, doc, (void *)(intptr_t)(which)}
-static PyGetSetDef core_getset[] = {
-    COUNTER("stray_bytes", G_STRAY, "Received bytes that answered no request."),
-    COUNTER("late_responses", G_LATE, "Responses that came after their request had timed out (discarded)."),
-    COUNTER("released_placeholders", G_RELEASED, "Placeholders released without their late response."),
-    COUNTER("in_flight", G_IN_FLIGHT, "Requests in flight, placeholders included."),
-    COUNTER("placeholders", G_PLACEHOLDERS, "Timed-out requests whose sequence numbers stay reserved."),
-    COUNTER("has_queued", G_HAS_QUEUED, "Requests buffered that the window lets go out."),
-    COUNTER("frames_written", G_FRAMES, "USB: OUT transfers built."),
-    COUNTER("transfers_in", G_TRANSFERS_IN, "USB: IN transfers received."),
-    COUNTER("bad_headers", G_BAD_HEADERS, "USB: IN transfers whose header did not decode."),
-    {"lost_reason", (getter)core_get_lost_reason_locked, (setter)core_set_lost_reason_locked, "Why the bridge is lost, or None.",
-     NULL},
-    {"trace", (getter)core_get_trace, (setter)core_set_trace,
-     "None, or a list the USB pipeline's steps are appended to (usb_core.UsbTraceEvent).", NULL},
-    {NULL, NULL, NULL, NULL, NULL},
-};
-
 static PyTypeObject native_core_type = {
     PyVarObject_HEAD_INIT(NULL, 0).tp_name = "urb.managers._native.Core",
     .tp_basicsize = sizeof(native_core_t),
@@ -1008,7 +877,7 @@ static PyTypeObject native_core_type = {
     .tp_traverse = (traverseproc)core_traverse,
     .tp_clear = (inquiry)core_clear,
     .tp_methods = core_methods,
-    .tp_getset = core_getset,
+    .tp_getset = native_core_getset,
 };
 
 static struct PyModuleDef native_module = {

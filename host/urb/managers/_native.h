@@ -1,7 +1,7 @@
 /*
- * _native.h: what the two halves of urb.managers._native share: the C core object (_native.c: the
- * protocol core as a CPython type) and its pump (_native_pump.c: the uplink's I/O on a C thread,
- * so that Python only sees completed transfers, in batches).
+ * _native.h: what the parts of urb.managers._native share: the C core object (_native.c: the
+ * protocol core as a CPython type; _native_attrs.c: its attributes) and its pump (_native_pump.c:
+ * the uplink's I/O on a C thread, so that Python only sees completed transfers, in batches).
  *
  * Threads: the core object's methods run with the GIL; the pump's thread never takes it. Both
  * reach `core` only with `lock` held (the methods through core_lock, which waits for the mutex
@@ -69,6 +69,16 @@ typedef struct {
     pthread_cond_t ready_cond; /* signalled when the pump completed transfers or Python kicked */
     native_pump_t pump;
 } native_core_t;
+
+/* 1 with a RuntimeError when the core was not set up (or was cleared), else 0. */
+int native_not_ready(const native_core_t *self);
+/* The text of the C core's lost reason `r`: the caller's whole text when r is its cut (a new reference). */
+PyObject *native_reason_text(native_core_t *self, const char *r);
+/* Takes the core's lock for a method or an attribute and adopts a loss the pump found; 0, or -1 with
+ * a Python error (then the lock is not held). */
+int native_locked_enter(native_core_t *self);
+/* The type's attributes (_native_attrs.c). */
+extern PyGetSetDef native_core_getset[];
 
 /* Takes the core's lock (waiting with the GIL released when another thread holds it). GIL held. */
 void native_core_lock(native_core_t *self);
