@@ -36,8 +36,9 @@ typedef struct native_xfer {
 #define NATIVE_REASON_TEXT_MAX (NATIVE_NAME_MAX + 128u)
 
 /* The uplink's I/O on a C thread (USB: a transfer descriptor, one write per OUT transfer and one
- * read per IN transfer, as CharDeviceTransport). Fields after `lock` are guarded by it, except
- * `stop` (set by Python, read by the thread) and the settings written before the thread starts. */
+ * read per IN transfer, as CharDeviceTransport). The settings are written before the thread starts,
+ * `stop` by Python and read by the thread; the fields marked below are guarded by the core's lock
+ * (native_core_t.lock). */
 typedef struct {
     pthread_t thread;
     bool running;              /* a thread was started and not joined (Python side only) */
