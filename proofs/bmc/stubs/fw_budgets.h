@@ -132,12 +132,6 @@
 #define FW_CAN_SHORTEST_FRAME_BITS 55u
 #define FW_CAN_FRAME_BUDGET (((FW_CPU_HZ / FW_CAN_BIT_RATE) * FW_CAN_SHORTEST_FRAME_BITS) / 2u)
 
-/* CAN master begin() and poll() (the bridge's main loop): begin() plans the request and queues as
- * many of its frames as the controller's transmit slots take, poll() one it refused; each within
- * the time of one shortest frame at 1 Mb/s (55 us = 2640 cycles), so the bus idles at most that
- * long between transactions on the CPU's account. */
-#define FW_CAN_MASTER_CALL_BUDGET ((FW_CPU_HZ / FW_CAN_BIT_RATE) * FW_CAN_SHORTEST_FRAME_BITS)
-
 /* RS485 at 1 Mb/s: one character (8N1) is 10 bit times = 10 us = 480 cycles. A received byte's
  * handling (urb_rs485_rx_byte: both CRC tiers advance, two bytes behind the line) costs up to ~370
  * cycles by the model, so it does NOT fit half a character at 1 Mb/s (it does at 500 kBd, where a
