@@ -32,9 +32,23 @@
  * bus-off begin() with and without a new recovery, a refused queue slot, a stale answer ignored, a
  * second request on the same session.
  *
- * The CRC step is an order-sensitive stand-in (stubs/fw_can_crc_stub.c): the master only carries
- * the reassembler's verdict; fw_can_transfer proves the CRC and the reassembly themselves.
- * Bounds: URB_STEPS events, reads and writes of at most URB_LEN_MAX bytes (a two-frame transfer).
+ * Two parts, each one sweep item per operation (OP=n, urb_dl_op_t; every begin() of a run has it):
+ *   PART=1 the request side: begin() (again, any time), poll(), frames reported sent, the
+ *          controller's state; no frame received (timeouts, NO_NODE, bus-off, clear, SYNC, the
+ *          transfer ids of successive requests, refused transmit slots)
+ *   PART=2 the answer side: an error-active controller took the request and reported it sent, then
+ *          any received frames and polls (the statuses an answer gives, CRC failures, stale ids)
+ * Assumption: a frame of the awaited identifier arrives only after the request was reported sent
+ * (the node answers a request it received whole, whose last frame's end the bus reported to both).
+ * The CRC step is a cheap linear stand-in (stubs/fw_can_crc_stub.c): the master only carries the
+ * reassembler's verdict; fw_can_transfer proves the CRC and the reassembly themselves.
+ * Bounds: URB_STEPS events after the first begin(), reads and writes of at most URB_LEN_MAX bytes
+ * (a two-frame transfer).
+ * Found by writing these properties (fixed in the firmware, kept as the seeded bugs
+ * init-leaves-recovering and write-crc-as-checksum): init did not set `recovering` and
+ * `recover_t0`, so a bus-off at the first request could be reported BUS_STUCK without any recovery
+ * asked for; a write whose answer failed its transfer CRC was reported CHECKSUM ("not stored"),
+ * though the node may have stored it (Bridge.tla WriteStatusTruthful): now TIMEOUT.
  */
 /* lobster-trace: urb.DLK_001, urb.DLK_002, urb.DLK_003 (the requirements this proof verifies) */
 #include "urb_verify.h"
@@ -361,7 +375,7 @@ static void ev_poll(urb_downlink_t *dl)
     open = false;
 }
 
-static void ev_rx(urb_can_master_t *m)
+static void ev_rx(urb_can_master_t *mp)
 {
     urb_can_frame_t f;
     f.id = URB_NONDET_BOOL() ? answer_id : (uint16_t)(URB_NONDET_U16() & 0x7FFu);
@@ -391,7 +405,7 @@ static void ev_rx(urb_can_master_t *m)
         URB_COVER("stale-or-late-answer");
     }
     URB_COST_BEGIN();
-    urb_can_master_rx(m, &f);
+    urb_can_master_rx(mp, &f);
     URB_COST_END(FW_CAN_FRAME_BUDGET);
     URB_ASSERT(data[URB_LEN_MAX] == guard, "rx: no byte past the buffer");
     for (uint8_t i = 0u; i < URB_LEN_MAX; i++) {
@@ -401,7 +415,7 @@ static void ev_rx(urb_can_master_t *m)
     }
 }
 
-static void ev_tx_done(urb_can_master_t *m)
+static void ev_tx_done(urb_can_master_t *mp)
 {
     URB_ASSUME(queued > 0u); /* the controller reports only frames it took */
     queued--;
@@ -409,13 +423,38 @@ static void ev_tx_done(urb_can_master_t *m)
         frames_sent++;
     }
     URB_COST_BEGIN();
-    urb_can_master_tx_done(m);
+    urb_can_master_tx_done(mp);
     URB_COST_END(FW_CAN_FRAME_BUDGET);
+}
+
+/* A caller's struct holds garbage before init: every scalar member arbitrary. (The transfer-id
+ * table starts zero, which is sound because init writes all of it, and lets ESBMC fold init's 1024
+ * constant stores instead of carrying them as array updates into every later read.) */
+static urb_can_master_t m;
+
+static void garbage_before_init(void)
+{
+    m.op = URB_NONDET_U8();
+    m.address = URB_NONDET_U8();
+    m.mailbox = URB_NONDET_U8();
+    m.length = URB_NONDET_U8();
+    m.tid = URB_NONDET_U8();
+    m.expect_id = URB_NONDET_U16();
+    m.frames_total = URB_NONDET_U8();
+    m.frames_sent = URB_NONDET_U8();
+    m.clear_result = URB_NONDET_U8();
+    m.frame_ready = URB_NONDET_BOOL();
+    m.answered = URB_NONDET_BOOL();
+    m.t0 = URB_NONDET_U32();
+    m.recover_t0 = URB_NONDET_U32();
+    m.recovering = URB_NONDET_BOOL();
+    m.phase = URB_NONDET_U8();
+    m.result = URB_NONDET_U8();
 }
 
 void harness(void)
 {
-    urb_can_master_t m; /* a caller's struct: arbitrary contents before init */
+    garbage_before_init();
     urb_can_hal_t hal;
     hal.ctx = NULL;
     hal.tx = hal_tx;
