@@ -50,7 +50,8 @@
  * asked for; a write whose answer failed its transfer CRC was reported CHECKSUM ("not stored"),
  * though the node may have stored it (Bridge.tla WriteStatusTruthful): now TIMEOUT.
  */
-/* lobster-trace: urb.DLK_001, urb.DLK_002, urb.DLK_003 (the requirements this proof verifies) */
+/* Requirements it is to verify (the traceability marker is added when the folder leaves wip/ and
+ * runs: an unrun proof is no evidence): urb.DLK_001, urb.DLK_002, urb.DLK_003. */
 #include "urb_verify.h"
 
 #include "fw_budgets.h"
