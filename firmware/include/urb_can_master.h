@@ -14,7 +14,8 @@
  *      is); any answer = OK. The node's mailboxes are not touched.
  *  SYNC:  one frame on CAN_SYNC_ID (the highest priority) carrying the counter; OK once sent.
  *  Clear:  the controller is re-initialised (bus-off recovery); OK when it is error-active again.
- * Outcomes that no answer gives: a transfer whose CRC fails -> CHECKSUM; no frame of the answer
+ * Outcomes that no answer gives: a transfer whose CRC fails -> CHECKSUM (a write's: TIMEOUT, since
+ * the node may have stored it); no frame of the answer
  * within the timeout -> NO_NODE (nobody took the address, as an unacknowledged I2C address);
  * an answer begun and not finished, or a request not sent in time -> TIMEOUT; a controller that
  * is bus-off when a request begins -> BUS_STUCK (not executed) after the recovery; while the

@@ -88,6 +88,8 @@ void urb_can_master_init(urb_can_master_t *m, const urb_can_hal_t *hal, const ur
     m->frame_ready = false;
     m->answered = false;
     m->t0 = 0u;
+    m->recover_t0 = 0u;
+    m->recovering = false; /* a bus-off at the first request starts a recovery */
     urb_can_tx_init(&m->tx, NULL, 0u, 0u);
     urb_can_rx_reset(&m->rx);
     m->frame.id = 0u;
@@ -203,7 +205,9 @@ void urb_can_master_rx(urb_can_master_t *m, const urb_can_frame_t *frame)
         m->result = answer_status(m);
     } else if (r == URB_CAN_RX_CRC) {
         m->stats.crc_errors++;
-        m->result = URB_STATUS_CHECKSUM;
+        /* a write's answer is one frame (no CRC): a failed multi-frame one is garbled, and the node
+         * may have stored the write, so only TIMEOUT is true (as answer_status; fw_can_master) */
+        m->result = (m->op == URB_DL_WRITE) ? URB_STATUS_TIMEOUT : URB_STATUS_CHECKSUM;
     } else {
         m->stats.repeated++;
         return;

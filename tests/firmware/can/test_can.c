@@ -509,6 +509,19 @@ static void test_master_answer_checks(void **state)
         urb_can_master_rx(&rig.master, &f[k]);
     }
     assert_int_equal(rig.dl.poll(rig.dl.ctx, rig.bus.now_us), URB_STATUS_CHECKSUM);
+    /* the same garbled answer to a write: TIMEOUT, the node may have stored it (found by the
+     * proof proofs/bmc/wip/fw_can_master: it was CHECKSUM, which says "not stored") */
+    urb_downlink_txn_t wr = {URB_DL_WRITE, 10u, 2u, 4u, 0u, false, rig.data};
+    uint8_t const tid4 = urb_can_master_next_tid(&rig.master, 10u, urb_can_session(2u, false));
+    assert_true(rig.dl.begin(rig.dl.ctx, &wr, rig.bus.now_us));
+    urb_can_master_tx_done(&rig.master);
+    uint8_t const nw = segment(junk, 32u, tid4, f);
+    f[2].data[0] ^= 1u;
+    for (uint8_t k = 0u; k < nw; k++) {
+        f[k].id = urb_can_id(10u, 2u, false, URB_CAN_RESPONSE);
+        urb_can_master_rx(&rig.master, &f[k]);
+    }
+    assert_int_equal(rig.dl.poll(rig.dl.ctx, rig.bus.now_us), URB_STATUS_TIMEOUT);
     /* frames with no transaction running change nothing */
     urb_can_master_rx(&rig.master, &f[0]);
     urb_can_master_tx_done(&rig.master);
