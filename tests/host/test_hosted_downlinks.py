@@ -344,6 +344,7 @@ def collisions(counters: str) -> int:
     return int(found.group(1))
 
 
+# lobster-trace: urb.DLK_004
 def test_a_station_talking_over_the_bridge_is_a_collision_it_sees(rs485_system: Rs485System) -> None:
     flags, message, other, counters = talked_over(rs485_system, "urb-bridge-hosted")
     assert flags == ErrorFlag.BUS_STUCK, message  # the request was cut: not executed (urb_rs485_master.h)
@@ -352,6 +353,7 @@ def test_a_station_talking_over_the_bridge_is_a_collision_it_sees(rs485_system: 
     assert rs485_system.line_frames()[1] >= 1  # the talker's frames broke the silence rule: the hub counts them
 
 
+# lobster-trace: urb.DLK_004
 def test_seeded_echo_check_bug_hides_the_collision(rs485_system: Rs485System) -> None:
     """The master built with URB_MUTANT_RS485_NO_ECHO_CHECK does not compare its echo: the same
     talker goes unnoticed by the bridge (the node's check still refuses the garbled request)."""
