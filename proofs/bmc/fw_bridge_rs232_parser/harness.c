@@ -62,22 +62,30 @@
  * bytes, 37 bytes on the wire) at the front of the held bytes, every other byte and the state
  * arbitrary but for its shape (its first byte a write's, its length field 32, its payload zero):
  * HELD=36 with its last byte arriving (the longest candidate completes, after the compaction the
- * arriving byte forces, and is checked: admitted, or hunted through), and HELD=37 (a poll that ran
- * out of checks left it complete) with the first byte of the next frame arriving (the longest
- * frame admitted, the frame behind it started at the front of the buffer). Their poll has the
- * budget urbb_uart_drain gives it (URB_BRIDGE_HUNT_CHECKS): hunting through a failed longest
- * candidate with any budget up to 255 did not finish within minutes; the small items keep any
- * budget. By the induction the
- * longest frame followed by any other is then admitted exactly as the reference says. The payload
- * is zero and the first byte fixed because the parser never reads them beyond bit 0: it measures a
- * candidate by its first and third byte and hands it whole to admission, whose abstract verdict
- * still passes or fails it through the arbitrary key and check bytes. The bounds of the other
- * items (at most 6 bytes) hold no such frame, and a cap one byte too short for the longest frame
- * (seeded bug frame-max-one-short) passed them.
+ * arriving byte forces, and is checked: admitted, or failed with its first byte dropped), and
+ * HELD=37 (a poll that ran out of checks left it complete) with the first byte of the next frame
+ * arriving (the longest frame admitted, the frame behind it started at the front of the buffer).
+ * Their poll has a budget of one check (FW_LONG_CHECKS), the longest candidate's: every path of the
+ * poll then ends within 3 hunt rounds, so the Makefile unwinds the hunt loops (the firmware's and
+ * the reference's) and the parse loop (one byte in the ring) only that far, with the unwinding
+ * assertions on: ESBMC proves that no path runs longer, so the bound cuts nothing. With the main
+ * loop's 4 checks a failed longest candidate is hunted through 3 more candidates in the same poll
+ * and the 39 rounds of both loops had to be unwound in full: no such run finished in 20 minutes.
+ * What a poll does after a check, with any budget left or none, is what the small items prove for
+ * any budget; in the LONG items a failed longest candidate ends the poll with its other 36 bytes
+ * held, exactly as the reference holds them (the held-bytes assertion compares every one).
+ * By the induction the longest frame followed by any other is then admitted exactly as the
+ * reference says. The payload is zero and the first byte fixed because the parser never reads them
+ * beyond bit 0: it measures a candidate by its first and third byte and hands it whole to
+ * admission, whose abstract verdict still passes or fails it through the arbitrary key and check
+ * bytes. The bounds of the other items (at most 6 bytes) hold no such frame, and a cap one byte too
+ * short for the longest frame (seeded bug frame-max-one-short, killed at HELD=36) passed them.
  *
  * Cover points (URB_COVER, checked by the reach run) per part: part 1 a frame admitted, a failed
  * check hunted, a gap drop, an idle flush, a poll stopped by its budget, a byte stamped after the
- * poll's now; in LONG items the longest frame admitted and the longest candidate failing its check;
+ * poll's now; in LONG items the longest frame admitted, the longest candidate failing its check,
+ * (HELD=36) the arriving byte completing the longest candidate and (HELD=37) the longest frame
+ * admitted with the next frame's first byte at the front of the buffer;
  * part 2 a poll that compacts the buffer and one that admits a frame (in LONG items the longest);
  * part 3 a checked read and a checked write of 37 bytes; part 4 a full ring, a gap flag, an
  * overrun flag.
@@ -150,6 +158,9 @@ typedef char fw_byte_fits_its_budget[(FW_POLL_CYCLES + FW_PULL_CYCLES + FW_HUNT_
 #define FW_BYTE_US 87u   /* one character at 115200 Bd (10 bits, rounded up) */
 #define FW_GAP_US 261u   /* rx_gap_us: byte time + the default idle gap (2 byte times) */
 #define FW_MAX_DELTA 5000u
+/* LONG items: the poll's check budget. One check (the longest candidate's) keeps every path of the
+ * poll within a few hunt rounds, which --unwindsetname bounds (the Makefile; unwinding assertions on). */
+#define FW_LONG_CHECKS 1u
 
 URB_PROOF_COST_STORAGE;
 
@@ -162,6 +173,7 @@ static uint8_t got_first[FW_MAX_FRAMES];
 static uint8_t got_last[FW_MAX_FRAMES];
 static uint8_t got_count;
 static uint8_t got_checks;      /* candidates checked */
+static uint8_t got_first_check; /* the length of the first candidate checked */
 static uint8_t got_failed;      /* ... of which failed */
 static uint8_t got_frame_bytes; /* bytes of the frames admitted */
 static uint32_t got_decode;     /* their decoding cycles */
@@ -181,6 +193,9 @@ bool urbb_frame(urb_bridge_t *b, uint8_t uplink, const uint8_t *frame, uint8_t l
     /* urbb_frame's cost: the strict decoder on `len` bytes, as part 3 proves, and the call */
     URB_COST(FW_DECODE_CYCLES(len));
     got_decode += FW_DECODE_CYCLES(len);
+    if (got_checks == 0u) {
+        got_first_check = len;
+    }
     got_checks++;
     /* Read the candidate through the assembler's array, not through `frame`: a pointer at a variable
      * offset into the bridge makes ESBMC resolve every access over the whole struct. */
@@ -315,7 +330,7 @@ static void step(void)
 #endif
     uint32_t const now = late ? (uint32_t)(stamp - ahead) : (uint32_t)(stamp + wait);
 #if defined(URB_LONG)
-    uint8_t const k1 = URB_BRIDGE_HUNT_CHECKS; /* LONG items: the main loop's own budget (see above) */
+    uint8_t const k1 = FW_LONG_CHECKS; /* LONG items: the longest candidate's check is the poll's only one */
 #else
     uint8_t const k1 = URB_NONDET_U8(); /* the poll's budget: any */
 #endif
@@ -383,12 +398,16 @@ static void step(void)
     if ((got_count >= 1u) && (got_len[0] == FW_REQUEST_MAX)) {
         URB_COVER("part1-longest-frame-admitted");
     }
-    if ((got_failed >= 1u) && (got_count == 0u)) {
+    if ((got_failed >= 1u) && (got_count == 0u) && (got_first_check == FW_REQUEST_MAX)) {
         URB_COVER("part1-longest-candidate-fails-its-check");
     }
-#if URB_HELD >= 37 /* a complete longest candidate held */
-    if ((got_count >= 1u) && (got_len[0] == FW_REQUEST_MAX) && (pulled == 1u)) {
-        URB_COVER("part1-longest-frame-admitted-then-the-next-frame-starts");
+#if URB_HELD < 37 /* the arriving byte completes the longest candidate */
+    if ((pulled == 1u) && (got_checks >= 1u) && (got_first_check == FW_REQUEST_MAX)) {
+        URB_COVER("part1-the-arriving-byte-completes-the-longest-candidate");
+    }
+#else /* a complete longest candidate held, the next frame's first byte arriving */
+    if ((got_count >= 1u) && (got_len[0] == FW_REQUEST_MAX) && (pulled == 1u) && (after == 1u) && (p->start == 0u)) {
+        URB_COVER("part1-longest-frame-admitted-then-the-next-frame-starts-at-the-front");
     }
 #endif
 #else
