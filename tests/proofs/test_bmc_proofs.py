@@ -457,13 +457,20 @@ def test_covers_catch_an_assumption_that_makes_a_decoders_success_unreachable(tm
 
 def test_one_seeded_bug_for_the_longest_frame_across_bmc_fuzzing_and_unit_tests() -> None:
     """Issue #37: a cap one byte too small on the longest frame passed every check. The same edit is a
-    seeded bug of the USB uplink proof (its full-size part kills it), of the fuzz oracle and of the
-    bridge's unit tests (tests/firmware/bridge/test_seeded_bugs.py), so none of them can drift."""
+    seeded bug of both uplink proofs (their full-size items kill it, in the fast tier that make check
+    runs), of the fuzz oracle and of the bridge's unit tests (tests/firmware/bridge/test_seeded_bugs.py),
+    so none of them can drift."""
     def edit(entries: list[dict[str, Any]], name: str) -> tuple[str, str, str]:
         m = next(e for e in entries if e["name"] == name)
         return m["file"], m["find"], m["replace"]
 
     want = edit(_mutants(BMC / "fw_bridge_usb_parser"), "frame-max-one-short")
+    assert edit(_mutants(BMC / "fw_bridge_rs232_parser"), "frame-max-one-short") == want
+    proofs = load_module("proofs", ROOT / "tools" / "proofs.py")
+    for folder in ("fw_bridge_usb_parser", "fw_bridge_rs232_parser"):
+        proof = proofs.load(BMC / folder, "fast")
+        bug = next(m for m in proof.mutants if m["name"] == "frame-max-one-short")
+        assert bug in proof.mutants_of("fast") and bug["item"] in proof.items("fast"), folder
     fuzz = json.loads((ROOT / "tests" / "fuzz" / "mutants.json").read_text(encoding="utf-8"))
     assert edit(fuzz, "bridge-frame-max-one-short") == want
     unit = json.loads((ROOT / "tests" / "firmware" / "bridge" / "mutants.json").read_text(encoding="utf-8"))
