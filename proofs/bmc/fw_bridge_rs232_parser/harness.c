@@ -61,10 +61,11 @@
  * The full-size frames. Items with LONG run the step with the longest request (a write of 32
  * bytes, 37 bytes on the wire) at the front of the held bytes, every other byte and the state
  * arbitrary but for its shape (its first byte a write's, its length field 32, its payload zero):
- * HELD=36 with its last byte arriving (the longest candidate completes, after the compaction the
- * arriving byte forces, and is checked: admitted, or failed with its first byte dropped), and
- * HELD=37 (a poll that ran out of checks left it complete) with the first byte of the next frame
- * arriving (the longest frame admitted, the frame behind it started at the front of the buffer).
+ * HELD=36 with its last byte arriving (the longest candidate completes and is checked: admitted,
+ * or failed with its first byte dropped), and HELD=37 (a poll that ran out of checks left it
+ * complete) with the first byte of the next frame arriving (the longest frame admitted, the frame
+ * behind it started at the front of the buffer). The Makefile says where in the buffer the held
+ * bytes start (START0 or its end) and why.
  * Their poll has a budget of one check (FW_LONG_CHECKS), the longest candidate's: every path of the
  * poll then ends within 3 hunt rounds, so the Makefile unwinds the hunt loops (the firmware's and
  * the reference's) and the parse loop (one byte in the ring) only that far, with the unwinding
@@ -75,9 +76,10 @@
  * The check of a LONG item reads a sample of the candidate (fw_sample_is_frame): its header (bytes
  * 0..2) and its last two bytes, the arbitrary key of its length folded with the covered ones. It is
  * still a function of the candidate's bytes, so the reference and the firmware get the same verdict
- * for the same bytes; the 37-byte copy and fold of every check made the solver run out of 4 GB.
- * That the assembler keeps the other bytes (the zero payload) is the held-bytes assertion's, which
- * compares every held byte with the reference's, and the small items' (full fold, compaction).
+ * for the same bytes, at a fraction of the 37-byte copy and fold per check (proofs/README.md,
+ * "Full-size frames", has the measurements). That the assembler keeps the other bytes (the zero
+ * payload) is the held-bytes assertion's, which compares every held byte with the reference's, and
+ * the small items' (full fold, compaction).
  * What a poll does after a check, with any budget left or none, is what the small items prove for
  * any budget; in the LONG items a failed longest candidate ends the poll with its other 36 bytes
  * held, exactly as the reference holds them (the held-bytes assertion compares every one).
