@@ -54,7 +54,10 @@ def test_folder_convention(folder: Path) -> None:
     assert re.search(r"^UNWIND = \d+$", makefile, re.MULTILINE), "sets UNWIND (unwinding assertions stay on)"
     assert "--no-unwinding-assertions" not in makefile and "--partial-loops" not in makefile
     settings = "\n".join(line for line in makefile.splitlines() if not line.lstrip().startswith("#"))
-    assert "--unwind" not in settings, "the bound is UNWIND, so the summary reports the one ESBMC uses"
+    # --unwindsetname lowers the bound of named loops below UNWIND (fw_bridge_rs232_parser's LONG items):
+    # with the unwinding assertions on, ESBMC proves those loops end within it, so it cuts nothing
+    assert "--unwind " not in settings and "--unwindset " not in settings, \
+        "the bound is UNWIND, so the summary reports the one ESBMC uses"
     harness = (folder / "harness.c").read_text(encoding="utf-8")
     assert re.search(r"^void harness\(void\)$", harness, re.MULTILINE)
     assert '#include "urb_verify.h"' in harness
