@@ -662,8 +662,11 @@ static void sync_step_matches_reference_model(void **state)
         uint8_t const gap = (uint8_t)((rnd() % 4u == 0u) ? near(c->max_gap, 0, 12) : pick(1, 2));
         uint8_t const counter = (uint8_t)(p->prev_counter + gap);
         int64_t const window = (p->gear == 0u) ? (int64_t)(p->nominal_q8 / 8u) : (int64_t)p->outlier_ticks * 256;
-        int64_t const err = (rnd() % 2u == 0u) ? (rnd() % 2u == 0u ? 1 : -1) * near(window, 0, window + 512)
-                                               : pick(-window - 512, window + 512);
+        int64_t err = (rnd() % 2u == 0u) ? (rnd() % 2u == 0u ? 1 : -1) * near(window, 0, window + 512)
+                                         : pick(-window - 512, window + 512);
+        if (rnd() % 8u == 0u) {
+            err = pick(-2, 2); /* the rounding of a gain around zero */
+        }
         int64_t delta = ((int64_t)p->period_q8 + err) * (gap == 0u ? 1 : gap) / 256;
         if (rnd() % 16u == 0u) {
             delta = near(0xFFFFFF, 0, 0x1FFFFFF); /* the longest interval measured */
@@ -689,18 +692,26 @@ static void sync_step_matches_reference_model(void **state)
         int64_t const period = probe.p.period_q8 / 256u;
         int64_t const sign = (rnd() % 2u == 0u) ? 1 : -1;
         int64_t phase;
-        switch (rnd() % 4u) {
+        switch (rnd() % 5u) {
         case 0u: phase = sign * near(p->lock_ticks, 0, 3 * (int64_t)p->lock_ticks + 2); break;
         case 1u: phase = sign * near(2 * (int64_t)p->lock_ticks, 0, 3 * (int64_t)p->lock_ticks + 2); break;
         case 2u: phase = sign * near(period, period - 3, period + 3); break;
-        default: phase = pick(-period - 10, period + 10); break;
+        case 3u: phase = pick(-period - 10, period + 10); break;
+        default: /* an error of -1/256 .. 1/256 tick, no lead step: the gain's rounding around zero */
+            phase = pick(-1, 1);
+            p->last_frac = (uint8_t)((rnd() % 2u == 0u) ? 255u : pick(0, 2));
+            p->lead_prev = (uint32_t)lead;
+            break;
         }
         uint32_t const t_d = p->last_beat + (uint32_t)lead - (uint32_t)phase;
         p->prev_sync = t_d - (uint32_t)delta;
         /* the expected error around the outlier limit */
         int64_t const clamped = (phase > period) ? period : ((phase < -period) ? -period : phase);
         int64_t const step_q8 = (lead - (int64_t)p->lead_prev) * 256;
-        int64_t const off = sign * near((int64_t)p->outlier_ticks * 256 + pick(0, 255), 0, 2 * (int64_t)p->outlier_ticks * 256);
+        int64_t off = sign * near((int64_t)p->outlier_ticks * 256 + pick(0, 255), 0, 2 * (int64_t)p->outlier_ticks * 256);
+        if (rnd() % 8u == 0u) {
+            off = pick(-2, 2); /* floor(x / 256) around zero */
+        }
         p->expect_q8 = (int32_t)(clamped * 256 + p->last_frac - step_q8 - off);
         /* now: around the point where the next heartbeat would be less than 1 us ahead */
         ref_t dry = ref_of(&f);
@@ -759,8 +770,10 @@ static void timer_step_matches_reference_model(void **state)
         uint8_t const lost_before = r.lost_sync;
         ref_timer(&r, c, f.port.now, f.node.req_period_us, f.node.req_lead_us, f.node.req_enable, f.node.req_seq);
         requests += (f.node.req_seq != p->req_ack) ? 1u : 0u;
+        uint32_t const beats = f.port.mark_count[URB_NODE_MARK_BEAT];
         urb_node_timer_event(&f.node);
         assert_matches(&f, &r);
+        assert_int_equal(f.port.mark_count[URB_NODE_MARK_BEAT], beats + 1u); /* the logic analyser's probe */
         lost += (r.lost_sync != lost_before) ? 1u : 0u;
         updates += (r.div == 0u) ? 1u : 0u;
     }
