@@ -818,6 +818,19 @@ static void start_applies_the_configuration(void **state)
     }
 }
 
+/* The signed tick distance at and around the wrap: half the counter range either way. */
+static void tick_diff_at_the_wrap(void **state)
+{
+    (void)state;
+    assert_int_equal(urb_tick_diff(5u, 5u), 0);
+    assert_int_equal(urb_tick_diff(0u, 1u), -1);
+    assert_int_equal(urb_tick_diff(1u, 0xFFFFFFFFu), 2);
+    assert_int_equal(urb_tick_diff(0x7FFFFFFFu, 0u), INT32_MAX);
+    assert_int_equal(urb_tick_diff(0x80000000u, 0u), INT32_MIN);
+    assert_int_equal(urb_tick_diff(0u, 0x7FFFFFFFu), -INT32_MAX);
+    assert_int_equal(urb_tick_diff(0u, 0x80000001u), INT32_MAX);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -835,6 +848,7 @@ int main(void)
         cmocka_unit_test(sync_step_matches_reference_model),
         cmocka_unit_test(timer_step_matches_reference_model),
         cmocka_unit_test(start_applies_the_configuration),
+        cmocka_unit_test(tick_diff_at_the_wrap),
     };
     return cmocka_run_group_tests_name("node_pll", tests, NULL, NULL);
 }
