@@ -831,6 +831,44 @@ static void tick_diff_at_the_wrap(void **state)
     assert_int_equal(urb_tick_diff(0u, 0x80000001u), INT32_MAX);
 }
 
+/* Marks the acquisition end `elapsed` ticks after the update's heartbeat, as app_update would. */
+static void mark_after(fixture_t *f, uint32_t elapsed)
+{
+    f->node.flags = (uint8_t)(f->node.flags | URB_F_IN_UPDATE | URB_F_ACQ_VALID);
+    f->node.flags = (uint8_t)(f->node.flags & (uint8_t)~URB_F_ACQ_MARKED);
+    f->node.update_beat = 7000u;
+    f->port.now = 7000u + elapsed;
+    urb_node_mark_acquired(&f->node);
+}
+
+/* t_acq's sample limits: an acquisition ending one tick before the next heartbeat is measured, one
+ * ending on it is not; a sample one tick above the window's maximum raises it. */
+/* lobster-trace: urb.SYN_004 */
+static void acquisition_sample_limits(void **state)
+{
+    fixture_t *f = *state;
+    uint32_t const guard = f->node.cfg->acq_guard_us * f->node.cfg->ticks_per_us;
+    assert_int_equal(f->node.pll.period_q8 >> 8, PERIOD);
+    mark_after(f, PERIOD);
+    assert_int_equal(f->node.acq_ticks, 0u);
+    assert_int_equal(f->node.acq_count, 0u);
+    mark_after(f, PERIOD - 1u);
+    assert_int_equal(f->node.acq_ticks, PERIOD - 1u + guard);
+    assert_int_equal(f->node.acq_win, PERIOD - 1u + guard);
+    assert_int_equal(f->node.acq_count, 1u);
+    f->node.acq_ticks = 100u;
+    f->node.acq_win = 100u;
+    mark_after(f, 101u - guard);
+    assert_int_equal(f->node.acq_ticks, 101u);
+    assert_int_equal(f->node.acq_win, 101u);
+    assert_int_equal(f->node.acq_count, 2u);
+    assert_int_equal(f->port.mark_count[URB_NODE_MARK_ACQ_END], 3u);
+    assert_true((f->node.flags & URB_F_ACQ_MARKED) != 0u);
+    urb_node_mark_acquired(&f->node); /* marked already: nothing more */
+    assert_int_equal(f->node.acq_count, 2u);
+    assert_int_equal(f->port.mark_count[URB_NODE_MARK_ACQ_END], 3u);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -849,6 +887,7 @@ int main(void)
         cmocka_unit_test(timer_step_matches_reference_model),
         cmocka_unit_test(start_applies_the_configuration),
         cmocka_unit_test(tick_diff_at_the_wrap),
+        cmocka_unit_test_setup(acquisition_sample_limits, setup),
     };
     return cmocka_run_group_tests_name("node_pll", tests, NULL, NULL);
 }
