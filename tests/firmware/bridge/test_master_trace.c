@@ -364,6 +364,7 @@ static void master_bus_clears(void **state)
     ev(&r, URB_I2C_EV_ERROR, 1u);
     lines_now = URB_I2C_SCL;
     assert_int_equal(poll(&r, 301u), URB_DOWNLINK_BUSY);
+    assert_string_equal(trace, "S "); /* straight to the clear: the controller is not handed the stuck bus */
     assert_int_equal(urb_i2c_master_bus_clears(&r.m), 2u);
     assert_int_equal(urb_i2c_master_selection(&r.m, ADDR), URB_I2C_NO_SELECTION);
     assert_int_equal(run_clear(&r, 302u, BOTH), (int8_t)URB_STATUS_BUS_STUCK);
