@@ -867,6 +867,40 @@ static void acquisition_sample_limits(void **state)
     urb_node_mark_acquired(&f->node); /* marked already: nothing more */
     assert_int_equal(f->node.acq_count, 2u);
     assert_int_equal(f->port.mark_count[URB_NODE_MARK_ACQ_END], 3u);
+    /* the limit is the period estimate, not the nominal period */
+    f->node.pll.period_q8 = (PERIOD + 10u) << 8;
+    mark_after(f, PERIOD + 5u);
+    assert_int_equal(f->node.acq_ticks, PERIOD + 5u + guard);
+    assert_int_equal(f->node.acq_count, 3u);
+}
+
+static void update_without_mark(fixture_t *f)
+{
+    (void)f; /* an application that does not mark its acquisition end */
+}
+
+/* After app_update the update's flag is cleared: a mark from outside it does nothing. Two updates
+ * due (a missed heartbeat) while the interrupt has counted 255 OVERRUNs not yet delivered: one
+ * OVERRUN is delivered in that poll, and the count is caught up. */
+static void update_flag_and_overrun_delivery(void **state)
+{
+    fixture_t *f = *state;
+    urb_node_t *node = &f->node;
+    f->on_update = update_without_mark;
+    node->update_due = (uint8_t)(node->update_done + 1u);
+    (void)urb_node_poll(node);
+    assert_int_equal(f->updates, 1u);
+    urb_node_mark_acquired(node);
+    assert_int_equal(f->port.mark_count[URB_NODE_MARK_ACQ_END], 0u);
+    assert_int_equal(node->acq_count, 0u);
+    uint8_t const i = URB_NODE_FAULT_OVERRUN - 1u;
+    node->isr_faults[i] = (uint8_t)(node->seen_faults[i] + 255u);
+    node->update_due = (uint8_t)(node->update_done + 2u);
+    unsigned const before = f->faults[URB_NODE_FAULT_OVERRUN];
+    (void)urb_node_poll(node);
+    assert_int_equal(f->updates, 2u);
+    assert_int_equal(f->faults[URB_NODE_FAULT_OVERRUN], before + 1u);
+    assert_int_equal(node->seen_faults[i], node->isr_faults[i]);
 }
 
 int main(void)
@@ -888,6 +922,7 @@ int main(void)
         cmocka_unit_test(start_applies_the_configuration),
         cmocka_unit_test(tick_diff_at_the_wrap),
         cmocka_unit_test_setup(acquisition_sample_limits, setup),
+        cmocka_unit_test_setup(update_flag_and_overrun_delivery, setup),
     };
     return cmocka_run_group_tests_name("node_pll", tests, NULL, NULL);
 }
