@@ -24,7 +24,20 @@ static void put(const char *fmt, unsigned v)
     (void)snprintf(trace + n, sizeof trace - n, fmt, v);
 }
 
-static void t_start(void *ctx) { (void)ctx; put("S ", 0u); }
+/* When set, start() delivers its START event at once, as an interrupt arriving right after the
+ * call returns to begin() in the main loop would. */
+static urb_i2c_master_t *start_at_once;
+
+static void t_start(void *ctx)
+{
+    (void)ctx;
+    put("S ", 0u);
+    if (start_at_once != NULL) {
+        urb_i2c_master_t *m = start_at_once;
+        start_at_once = NULL;
+        urb_i2c_master_event(m, URB_I2C_EV_START, 0u);
+    }
+}
 static void t_write(void *ctx, uint8_t b) { (void)ctx; put("W%02X ", b); }
 static void t_read(void *ctx, bool ack) { (void)ctx; put("R%u ", ack ? 1u : 0u); }
 static void t_stop(void *ctx) { (void)ctx; put("P ", 0u); }
@@ -73,7 +86,7 @@ static int8_t poll(rig_t *r, uint32_t now)
 static void master_write_sequence(void **state)
 {
     (void)state;
-    static uint8_t const lens[] = {4u, 20u, 40u};
+    static uint8_t const lens[] = {4u, 20u, 32u, 33u, 40u};
     for (unsigned i = 0u; i < sizeof lens; i++) {
         uint8_t data[40];
         for (uint8_t k = 0u; k < 40u; k++) {
@@ -136,6 +149,7 @@ static void master_read_sequence(void **state)
     ev(&r, URB_I2C_EV_ACK, 2u);
     ev(&r, URB_I2C_EV_START, 1u);
     ev(&r, URB_I2C_EV_ACK, 1u);
+    assert_true(urb_i2c_master_busy(&r.m)); /* reading */
     answer(&r, 2u, want, 3u, false);
     assert_string_equal(trace, "S W42 W82 S W43 R1 R1 R1 R0 P ");
     assert_int_equal(poll(&r, 1u), (int8_t)URB_STATUS_OK);
@@ -414,6 +428,36 @@ static void master_timeout_follows_the_rate(void **state)
     assert_int_equal(urb_i2c_master_bus_clears(&r.m), 0u);
 }
 
+/* A START event arriving as soon as begin() has called start() finds the transaction started; a
+ * write NACKed at the address (NO_NODE) or the select (BAD_REQUEST) forgets the node's cached
+ * selection (it may have reset), one NACKed at its first data byte (NODE_BUSY) keeps it. */
+static void master_start_at_once_and_write_failures(void **state)
+{
+    (void)state;
+    rig_t r;
+    fresh(&r);
+    uint8_t data[4] = {1u, 2u, 3u, 4u};
+    start_at_once = &r.m;
+    begin(&r, URB_DL_WRITE, 1u, 4u, data, false, 0u);
+    assert_string_equal(trace, "S W42 ");
+    static struct {
+        unsigned acks;
+        uint8_t status;
+        bool kept;
+    } const cases[] = {{0u, URB_STATUS_NO_NODE, false}, {1u, URB_STATUS_BAD_REQUEST, false},
+                       {2u, URB_STATUS_NODE_BUSY, true}};
+    for (unsigned i = 0u; i < sizeof cases / sizeof cases[0]; i++) {
+        fresh(&r);
+        cache_selection(&r);
+        begin(&r, URB_DL_WRITE, 1u, 4u, data, false, 0u);
+        ev(&r, URB_I2C_EV_START, 1u);
+        ev(&r, URB_I2C_EV_ACK, cases[i].acks);
+        ev(&r, URB_I2C_EV_NACK, 1u);
+        assert_int_equal(poll(&r, 1u), (int8_t)cases[i].status);
+        assert_int_equal(urb_i2c_master_selection(&r.m, ADDR), cases[i].kept ? 2u : URB_I2C_NO_SELECTION);
+    }
+}
+
 int run_master_trace_tests(void)
 {
     const struct CMUnitTest tests[] = {
@@ -424,6 +468,7 @@ int run_master_trace_tests(void)
         cmocka_unit_test(master_times_out_exactly),
         cmocka_unit_test(master_bus_clears),
         cmocka_unit_test(master_timeout_follows_the_rate),
+        cmocka_unit_test(master_start_at_once_and_write_failures),
     };
     return cmocka_run_group_tests_name("bridge_master_trace", tests, NULL, NULL);
 }
