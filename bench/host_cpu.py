@@ -56,7 +56,7 @@ from bridge_proc import build_hosted_bridge, serve_usb_transfers  # noqa: E402
 from urb.api import NodeRequest, URBInterface  # noqa: E402
 from urb.managers import BridgeModel, CharDeviceTransport, RS232Manager, USBManager, fake_node  # noqa: E402
 from urb.managers.base import NS_PER_MS, Transfer  # noqa: E402
-from urb.managers import native  # noqa: E402
+from urb.managers import native, usb  # noqa: E402
 from urb_msgs import _codec  # noqa: E402
 from urb_msgs.sensorhex import MotorCommand, MotorFeedback  # noqa: E402
 from urb_msgs.urb_core import Status, UplinkResponse, UsbBatchHeader  # noqa: E402
@@ -70,15 +70,18 @@ MOTORS = [f"MotorDriver:{i}@{16 + i}" for i in range(3)]
 
 def thread_split(requests: int) -> dict[str, float]:
     """CPU microseconds per request of each live thread of this process (user + system), from
-    /proc: counted in clock ticks, so rough for short runs."""
+    /proc: counted in clock ticks, so rough for short runs. Python threads by their name, the
+    others (the C core's pump: urb-pump) by their kernel name."""
     tick = os.sysconf("SC_CLK_TCK")
     out: dict[str, float] = {}
-    for th in threading.enumerate():
+    names = {th.native_id: th.name.split(" ")[0] for th in threading.enumerate()}
+    for task in Path("/proc/self/task").iterdir():
         try:
-            fields = Path(f"/proc/self/task/{th.native_id}/stat").read_text().rsplit(")", 1)[1].split()
+            stat = (task / "stat").read_text()
         except OSError:
             continue
-        name = th.name.split(" ")[0]
+        comm, fields = stat.split("(", 1)[1].rsplit(")", 1)[0], stat.rsplit(")", 1)[1].split()
+        name = names.get(int(task.name)) or comm
         out[name] = out.get(name, 0.0) + (int(fields[11]) + int(fields[12])) * 1e6 / tick / max(1, requests)
     return out
 
@@ -221,6 +224,23 @@ def usb_core_only(requests: int) -> float:
     return (time.process_time() - cpu0) * 1e6 / done
 
 
+def usb_runtimes_ab(seconds: float, repeats: int) -> dict[str, Any]:
+    """Case 2 on the C core with the uplink's I/O on the core's pump (a C thread, completions in
+    batches) and on the Python frame and reader threads (usb.USE_PUMP off), alternately, so that
+    both see the same load from other jobs; the cheapest run of each."""
+    runs: dict[str, list[dict[str, Any]]] = {"pump": [], "threads": []}
+    try:
+        for _ in range(repeats):
+            for label, on in (("pump", True), ("threads", False)):
+                usb.USE_PUMP = on
+                runs[label].append(usb_sensorhex(seconds))
+    finally:
+        usb.USE_PUMP = True
+    best = {k: min(v, key=lambda r: float(r["us_per_request"])) for k, v in runs.items()}
+    return {"pump": best["pump"], "threads": best["threads"],
+            "pump_over_threads": best["pump"]["us_per_request"] / best["threads"]["us_per_request"]}
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="shorter runs (rougher numbers)")
@@ -228,6 +248,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="runs of each case; the cheapest is reported (default 3: other jobs on the machine "
                          "only ever add CPU time)")
     ap.add_argument("--json", type=Path, default=OUT / "host_cpu.json", help="where the numbers go")
+    ap.add_argument("--usb-ab", action="store_true",
+                    help="only case 2 on the C core, the pump and the Python threads alternately (best of --repeats)")
     args = ap.parse_args(argv)
     n, secs = (4000, 1.5) if args.quick else (20000, 5.0)
 
@@ -237,6 +259,22 @@ def main(argv: list[str] | None = None) -> int:
     if args.repeats < 1:
         ap.error("--repeats must be 1 or more")
     runs = range(args.repeats)
+    if args.usb_ab:
+        if native.BACKEND != "c":
+            ap.error(f"--usb-ab compares the runtimes on the C core, which is not in use ({native.REASON})")
+        ab = usb_runtimes_ab(secs, args.repeats)
+        for label in ("pump", "threads"):
+            r = ab[label]
+            split = ", ".join(f"{k} {v:.1f}" for k, v in sorted(r["threads_us"].items(), key=lambda kv: -kv[1])
+                              if v >= 0.05)
+            print(f"  USB on the C core, I/O on the {label:7s}: {r['us_per_request']:6.1f} us per request "
+                  f"({r['completed']} of {r['requests']} completed, {r['failed']} failed); threads: {split}")
+        print(f"  pump / threads: {ab['pump_over_threads']:.3f}")
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(ab | {"load_average": os.getloadavg()[0], "repeats": args.repeats}, indent=2)
+                             + "\n")
+        print(f"written {args.json}")
+        return 0
     core_rs = min(rs232_core_only(n) for _ in runs)
     core_usb = min(usb_core_only(n) for _ in runs)
     rs = min((rs232_pty(n) for _ in runs), key=lambda r: float(r["us_per_request"]))

@@ -125,14 +125,21 @@ SIZE_TARGETS += size-bridge
 
 # --- hosted bridge program -------------------------------------------------------------------------
 # --downlink can (firmware/hal/hosted/hosted_can.c): the CAN master on tools/can_hub.py
-FWB_HOSTED_CAN_SRC := firmware/hal/hosted/hosted_can.c firmware/hal/hosted/can_hub_client.c firmware/downlink/can/urb_can_master.c \
+FWB_HOSTED_CAN_SRC := firmware/hal/hosted/hosted_can.c firmware/hal/hosted/can_hub_client.c firmware/hal/hosted/hub_socket.c firmware/downlink/can/urb_can_master.c \
                       firmware/downlink/can/urb_can_transfer.c gen/c/urb_can_wire.c
-$(FWB_BUILD)/urb-bridge-hosted: firmware/bridge/hosted_main.c $(FWB_LIB_SRC) $(FWB_GEN_SRC) $(FWB_HOSTED_SRC) $(FWB_HOSTED_CAN_SRC) $(FWB_HDRS)
+# --downlink rs485 (firmware/hal/hosted/hosted_rs485.c): the RS485 master on tools/rs485_hub.py
+FWB_HOSTED_RS485_SRC := firmware/hal/hosted/hosted_rs485.c firmware/hal/hosted/rs485_hub_client.c \
+                      firmware/downlink/rs485/urb_rs485_master.c firmware/downlink/rs485/urb_rs485_frame.c gen/c/urb_rs485_wire.c
+# URB_MUTANT=NAME builds the seeded bug NAME in: build/firmware/urb-bridge-hosted-NAME (tests/host/test_hosted_downlinks.py)
+FWB_HOSTED_BIN := $(FWB_BUILD)/urb-bridge-hosted$(if $(URB_MUTANT),-$(URB_MUTANT))
+$(FWB_HOSTED_BIN): firmware/bridge/hosted_main.c $(FWB_LIB_SRC) $(FWB_GEN_SRC) $(FWB_HOSTED_SRC) $(FWB_HOSTED_CAN_SRC) $(FWB_HOSTED_RS485_SRC) $(FWB_HDRS) \
+                   $(wildcard firmware/hal/hosted/*.h firmware/include/urb_can*.h firmware/include/urb_rs485*.h)
 	@mkdir -p $(@D)
-	gcc $(FWB_STRICT) -D_DEFAULT_SOURCE -D_XOPEN_SOURCE=600 -O2 $(FWB_INC) firmware/bridge/hosted_main.c \
-	  $(FWB_LIB_SRC) $(FWB_GEN_SRC) gen/c/urb_sensorhex.c $(FWB_HOSTED_SRC) $(FWB_HOSTED_CAN_SRC) -o $@
+	gcc $(FWB_STRICT) -D_DEFAULT_SOURCE -D_XOPEN_SOURCE=600 -O2 $(if $(URB_MUTANT),-DURB_MUTANT_$(URB_MUTANT)) $(FWB_INC) \
+	  firmware/bridge/hosted_main.c $(FWB_LIB_SRC) $(FWB_GEN_SRC) gen/c/urb_sensorhex.c $(FWB_HOSTED_SRC) $(FWB_HOSTED_CAN_SRC) \
+	  $(FWB_HOSTED_RS485_SRC) -o $@
 
-bridge-hosted: $(FWB_BUILD)/urb-bridge-hosted
+bridge-hosted: $(FWB_HOSTED_BIN)
 
 # --- worst-case instruction counts -----------------------------------------------------------------
 $(FWB_BUILD)/bridge-cost-driver: tests/firmware/bridge/cost_driver.c $(FWB_LIB_SRC) $(FWB_GEN_SRC) $(FWB_HOSTED_SRC) $(FWB_HDRS)

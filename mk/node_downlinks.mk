@@ -109,15 +109,23 @@ test-node-downlinks: node-dl-tests
 
 CHECK_TARGETS += test-node-downlinks
 
-# --- hosted nodes on the CAN hub (urb-node-hosted; tools/can_hub.py, urb-bridge-hosted --downlink can) ----
-NDL_NODE_HOSTED_SRC := firmware/hal/hosted/node_hosted_main.c firmware/hal/hosted/can_hub_client.c \
-                       firmware/apps/echo/echo_app.c $(NDL_LIB_COMMON) $(NDL_SRC_can) gen/c/urb_core.c gen/c/urb_runtime.c
+# --- hosted nodes (urb-node-hosted): on the CAN hub, or on the RS485 line ------------------------------
+#   make node-hosted                      build/firmware/urb-node-hosted: CAN (tools/can_hub.py, urb-bridge-hosted --downlink can)
+#   make node-hosted URB_DOWNLINK=rs485   build/firmware/urb-node-hosted-rs485: RS485 (tools/rs485_hub.py, --downlink rs485)
+#   URB_MUTANT=NAME builds the seeded bug NAME in too: urb-node-hosted[-rs485]-NAME (tests/host/test_hosted_downlinks.py)
+# (URB_DOWNLINK=i2c builds the CAN one: the hosted I2C nodes are the bridge's in-process fakes.)
+NDL_NODE_HOSTED_DL := $(if $(filter rs485,$(URB_DOWNLINK)),rs485,can)
+NDL_NODE_HOSTED_SRC_can := firmware/hal/hosted/can_hub_client.c $(NDL_SRC_can)
+NDL_NODE_HOSTED_SRC_rs485 := firmware/hal/hosted/rs485_hub_client.c $(NDL_SRC_rs485) gen/c/urb_rs485_wire.c
+NDL_NODE_HOSTED_DEF_rs485 := -DURB_NODE_HOSTED_RS485
+NDL_NODE_HOSTED_SRC := firmware/hal/hosted/node_hosted_main.c firmware/hal/hosted/hub_socket.c firmware/apps/echo/echo_app.c $(NDL_LIB_COMMON) \
+                       $(NDL_NODE_HOSTED_SRC_$(NDL_NODE_HOSTED_DL)) gen/c/urb_core.c gen/c/urb_runtime.c
 NDL_NODE_HOSTED_INC := -Ifirmware/include -Ifirmware/node -Ifirmware/hal/hosted -Ifirmware/apps/echo -Igen/c
-# URB_MUTANT=NAME builds the seeded bug NAME into build/firmware/urb-node-hosted-NAME (tests/host/test_hosted_can.py)
-build/firmware/urb-node-hosted$(if $(URB_MUTANT),-$(URB_MUTANT)): $(NDL_NODE_HOSTED_SRC) $(NDL_HDRS) $(wildcard firmware/apps/echo/*.h firmware/hal/hosted/*.h)
+NDL_NODE_HOSTED_BIN := build/firmware/urb-node-hosted$(if $(filter rs485,$(NDL_NODE_HOSTED_DL)),-rs485)$(if $(URB_MUTANT),-$(URB_MUTANT))
+$(NDL_NODE_HOSTED_BIN): $(NDL_NODE_HOSTED_SRC) $(NDL_HDRS) $(wildcard firmware/apps/echo/*.h firmware/hal/hosted/*.h)
 	@mkdir -p $(@D)
-	gcc $(NDL_STRICT) -D_DEFAULT_SOURCE -D_XOPEN_SOURCE=600 -O2 $(if $(URB_MUTANT),-DURB_MUTANT_$(URB_MUTANT)) \
-	    $(NDL_NODE_HOSTED_INC) $(NDL_NODE_HOSTED_SRC) -o $@
+	gcc $(NDL_STRICT) -D_DEFAULT_SOURCE -D_XOPEN_SOURCE=600 -O2 $(NDL_NODE_HOSTED_DEF_$(NDL_NODE_HOSTED_DL)) \
+	    $(if $(URB_MUTANT),-DURB_MUTANT_$(URB_MUTANT)) $(NDL_NODE_HOSTED_INC) $(NDL_NODE_HOSTED_SRC) -o $@
 
 .PHONY: node-hosted
-node-hosted: build/firmware/urb-node-hosted$(if $(URB_MUTANT),-$(URB_MUTANT))
+node-hosted: $(NDL_NODE_HOSTED_BIN)

@@ -1,6 +1,6 @@
 # Structural coverage, MISRA C:2012 and static analysis of the firmware and the generated C
 # (quality/README.md says how to read the results). Included by the top-level Makefile.
-#   make coverage  the node, bridge and codec tests on two instrumented builds: gcc --coverage
+#   make coverage  the node, bridge, codec and Cortex-M0+ CAN/RS485 port tests on two instrumented builds: gcc --coverage
 #                  (statement and branch, gcovr) and clang 19 -fcoverage-mcdc (MC/DC, llvm-cov);
 #                  every uncovered line, branch or MC/DC condition must be justified in
 #                  quality/coverage_justifications.toml. Reports: build/coverage/ (gcc/index.html,
@@ -22,6 +22,9 @@ PYTHON ?= python3
 ifndef FWB_TEST_BINARY
 $(error mk/quality.mk needs mk/firmware_bridge.mk, mk/firmware_node.mk and mk/c.mk read first)
 endif
+ifndef CM0HAL_RULE
+$(error mk/quality.mk needs mk/node_downlinks_cm0.mk read first)
+endif
 
 # ===== Coverage =================================================================================
 
@@ -38,6 +41,9 @@ COV_TEST_WARN := -std=c99 -Wall -Wextra -D_DEFAULT_SOURCE
 
 # The bridge fragment instantiates its test program for gcc and clang; the MC/DC build needs clang-19.
 $(eval $(call FWB_TEST_BINARY,$(COV_CLANG)))
+# The Cortex-M0+ CAN and RS485 ports' host tests (mk/node_downlinks_cm0.mk), likewise.
+COV_CM0HAL_TESTS := test_cm0_can test_cm0_rs485
+$(foreach t,$(COV_CM0HAL_TESTS),$(eval $(call CM0HAL_RULE,$(COV_CLANG),$(t))))
 
 # $(1): build directory name (gcc, clang), $(2): compiler, $(3): instrumentation flags
 cov_build = \
@@ -46,9 +52,12 @@ cov_build = \
 	$(MAKE) --no-print-directory FWB_BUILD=$(COV_BUILD)/$(1)/bridge FWB_STRICT="$(COV_WARN)" \
 	    FWB_TEST_CFLAGS="$(COV_TEST_WARN)" FWB_SAN="$(3)" $(COV_BUILD)/$(1)/bridge/$(2)/bridge-tests && \
 	$(MAKE) --no-print-directory CODEC_BUILD=$(COV_BUILD)/$(1)/c CODEC_WARNINGS="$(COV_WARN)" CODEC_SANITIZE="$(3)" \
-	    $(COV_BUILD)/$(1)/c/codec_driver-$(2) $(COV_BUILD)/$(1)/c/unit_tests-$(2)
+	    $(COV_BUILD)/$(1)/c/codec_driver-$(2) $(COV_BUILD)/$(1)/c/unit_tests-$(2) && \
+	$(MAKE) --no-print-directory CM0DL_BUILD=$(COV_BUILD)/$(1)/cm0hal CM0DL_STRICT="$(COV_WARN)" CM0HAL_SAN="$(3)" \
+	    $(foreach t,$(COV_CM0HAL_TESTS),$(COV_BUILD)/$(1)/cm0hal/$(2)/$(t))
 
-cov_programs = $(foreach t,$(FWN_TESTS),$(COV_BUILD)/$(1)/node/$(2)/$(t)) $(COV_BUILD)/$(1)/bridge/$(2)/bridge-tests
+cov_programs = $(foreach t,$(FWN_TESTS),$(COV_BUILD)/$(1)/node/$(2)/$(t)) $(COV_BUILD)/$(1)/bridge/$(2)/bridge-tests \
+               $(foreach t,$(COV_CM0HAL_TESTS),$(COV_BUILD)/$(1)/cm0hal/$(2)/$(t))
 cov_codecs = $(COV_BUILD)/$(1)/c/codec_driver-$(2) $(COV_BUILD)/$(1)/c/unit_tests-$(2)
 
 .PHONY: coverage coverage-build misra static
@@ -77,7 +86,7 @@ coverage: setup coverage-build
 QUALITY_SOURCES := $(sort $(wildcard firmware/node/*.c) $(FWB_LIB_SRC) $(wildcard firmware/apps/sensorhex/*.c) \
                    $(wildcard firmware/apps/sensorhex/targets/*.c) $(wildcard firmware/hal/cortex-m0plus/*.c) \
                    $(wildcard gen/c/*.c))
-QUALITY_INC := -Ifirmware/include -Ifirmware/node -Ifirmware/bridge -Ifirmware/hal/cortex-m0plus \
+QUALITY_INC := -Ifirmware/include -Ifirmware/node -Ifirmware/bridge -Ifirmware/hal/cortex-m0plus -Ifirmware/apps/echo \
                -Ifirmware/apps/sensorhex -Ifirmware/apps/sensorhex/targets -Igen/c
 # The target's configuration (arm-none-eabi-gcc 12 predefines __GNUC__ and __arm__); the motor app
 # stands for SENSORHEX_APP in targets/main_node.c, which every app image compiles the same way.

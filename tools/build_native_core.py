@@ -3,8 +3,9 @@
     python3 tools/build_native_core.py           # build if the module is missing or its sources changed
     python3 tools/build_native_core.py --force   # rebuild
 
-Compiles the glue host/urb/managers/_native.c with the C protocol core host/c/core/*.c and the
-generated codecs it uses (gen/c, the same sources as build/host_c/liburbhost.a; strict warnings,
+Compiles the glue host/urb/managers/_native.c (and _native_attrs.c), its USB pump _native_pump.c (the uplink's I/O on a C
+thread), the C protocol core host/c/core/*.c, the port hand-over record host/c/port/handover.c and
+the generated codecs it uses (gen/c, the same sources as build/host_c/liburbhost.a; strict warnings,
 -Werror, -O2 -flto so the core inlines into its entry points) into
 host/urb/managers/_native<EXT_SUFFIX> for the interpreter running this. The module carries the
 digest of its sources (`urb.managers.native.source_fingerprint`): the library refuses a module
@@ -26,7 +27,7 @@ REPO = Path(__file__).resolve().parents[1]
 OUT_DIR = REPO / "host" / "urb" / "managers"
 CC = os.environ.get("CC", "gcc")
 CFLAGS = ["-std=c11", "-O2", "-flto", "-fPIC", "-shared", "-fvisibility=hidden", "-Wall", "-Wextra", "-Werror",
-          "-Wno-missing-field-initializers", "-D_DEFAULT_SOURCE"]  # PyVarObject_HEAD_INIT leaves members out
+          "-Wno-missing-field-initializers", "-D_DEFAULT_SOURCE", "-D_GNU_SOURCE", "-pthread"]  # PyVarObject_HEAD_INIT leaves members out
 GEN_SOURCES = ("urb_core.c", "urb_runtime.c", "urb_sensorhex.c")
 
 
@@ -50,8 +51,8 @@ def module_path() -> Path:
 
 
 def sources() -> list[Path]:
-    return [OUT_DIR / "_native.c", *sorted((REPO / "host" / "c" / "core").glob("*.c")),
-            *(REPO / "gen" / "c" / name for name in GEN_SOURCES)]
+    return [OUT_DIR / "_native.c", OUT_DIR / "_native_attrs.c", OUT_DIR / "_native_pump.c", *sorted((REPO / "host" / "c" / "core").glob("*.c")),
+            REPO / "host" / "c" / "port" / "handover.c", *(REPO / "gen" / "c" / name for name in GEN_SOURCES)]
 
 
 def compile_command(srcs: list[Path], out: Path, digest: str) -> list[str]:
@@ -61,7 +62,7 @@ def compile_command(srcs: list[Path], out: Path, digest: str) -> list[str]:
         raise RuntimeError(f"no Python.h in {include}: install the interpreter's headers (Debian: python3-dev, "
                            "which `make setup` installs)")
     return [CC, *CFLAGS, f'-DURB_NATIVE_FINGERPRINT="{digest}"', "-I", include,
-            "-I", str(REPO / "host" / "c" / "include"), "-I", str(REPO / "host" / "c" / "core"),
+            "-I", str(OUT_DIR), "-I", str(REPO / "host" / "c" / "include"), "-I", str(REPO / "host" / "c" / "core"),
             "-I", str(REPO / "gen" / "c"), *map(str, srcs), "-o", str(out)]
 
 

@@ -1,7 +1,9 @@
 /*
  * urb-bridge-hosted: the bridge firmware on a POSIX host, its RS232 uplink on a pseudo-terminal,
  * its downlink an in-process simulated I2C bus with fake nodes (firmware/hal/hosted/), or with
- * --downlink can the CAN hub of tools/can_hub.py with urb-node-hosted processes (firmware/hal/hosted/hosted_can.c).
+ * --downlink can the CAN hub of tools/can_hub.py with urb-node-hosted processes (firmware/hal/hosted/hosted_can.c),
+ * or with --downlink rs485 the RS485 line of tools/rs485_hub.py with urb-node-hosted-rs485 processes
+ * (firmware/hal/hosted/hosted_rs485.c).
  *
  * For host-library tests over a real serial port API (pyserial): open the printed pty path at any
  * baud rate and talk URB. The first line on stdout is "pty: PATH". Run with --help for options.
@@ -19,6 +21,7 @@
 
 #include "bridge_hosted.h"
 #include "hosted_can.h"
+#include "hosted_rs485.h"
 #include "urb_bridge.h"
 #include "urb_core.h"
 #include "urb_sensorhex.h"
@@ -60,11 +63,15 @@ static void usage(FILE *out)
             "  --no-scan         do not scan the downlink at start (the host sends SCAN)\n"
             "  --link PATH       also make PATH a symbolic link to the pty (removed at exit)\n"
             "  --seconds N       exit after N seconds (default: run until SIGINT or SIGTERM)\n"
-            "  --downlink i2c|can  the downlink (default i2c: the in-process fake nodes of --node)\n"
+            "  --downlink i2c|can|rs485  the downlink (default i2c: the in-process fake nodes of --node)\n"
             "  --can-hub PATH    with --downlink can: the CAN hub at PATH (tools/can_hub.py; python-can's virtual\n"
             "                    bus by default, --interface socketcan for a real one) with the nodes in other\n"
             "                    processes (urb-node-hosted --can-hub PATH --node ...); no --node here\n"
             "  --can-timeout-us N CAN transaction timeout (default 20000: hosted nodes are processes)\n"
+            "  --rs485-hub PATH  with --downlink rs485: the RS485 line at PATH (tools/rs485_hub.py, which keeps\n"
+            "                    the line's time: the RS485 master's silences and timeouts are in it) with the\n"
+            "                    nodes in other processes (urb-node-hosted-rs485 --rs485-hub PATH --node ...)\n"
+            "  --rs485-baud N    the line's bit rate, the hub's --baud (default 1000000)\n"
             "  --verbose         print bridge counters on stderr at exit\n"
             "  --help            this text\n",
             MAX_NODES);
@@ -249,6 +256,9 @@ int main(int argc, char **argv)
     const char *specs[MAX_NODES];
     int n_specs = 0;
     bool downlink_can = false;
+    bool downlink_rs485 = false;
+    const char *rs485_hub = NULL;
+    unsigned long rs485_baud = 1000000;
     const char *can_hub = NULL;
     unsigned long can_timeout_us = 20000;
 
@@ -284,8 +294,15 @@ int main(int argc, char **argv)
             i++;
         } else if (strcmp(o, "--i2c-khz") == 0 && parse_uint(v, 5000, &khz) == 0 && khz >= 10) {
             i++;
-        } else if (strcmp(o, "--downlink") == 0 && (strcmp(v, "i2c") == 0 || strcmp(v, "can") == 0)) {
+        } else if (strcmp(o, "--downlink") == 0 &&
+                   (strcmp(v, "i2c") == 0 || strcmp(v, "can") == 0 || strcmp(v, "rs485") == 0)) {
             downlink_can = strcmp(v, "can") == 0;
+            downlink_rs485 = strcmp(v, "rs485") == 0;
+            i++;
+        } else if (strcmp(o, "--rs485-hub") == 0) {
+            rs485_hub = v;
+            i++;
+        } else if (strcmp(o, "--rs485-baud") == 0 && parse_uint(v, 4000000, &rs485_baud) == 0 && rs485_baud >= 1200) {
             i++;
         } else if (strcmp(o, "--can-hub") == 0) {
             can_hub = v;
@@ -307,9 +324,13 @@ int main(int argc, char **argv)
         fprintf(stderr, "--downlink can and --can-hub PATH go together; see --help\n");
         return 2;
     }
-    if (downlink_can && (n_specs > 0)) {
-        fprintf(stderr, "--downlink can takes no --node: the nodes are urb-node-hosted processes on the hub; "
-                        "see --help\n");
+    if (downlink_rs485 != (rs485_hub != NULL)) {
+        fprintf(stderr, "--downlink rs485 and --rs485-hub PATH go together; see --help\n");
+        return 2;
+    }
+    if ((downlink_can || downlink_rs485) && (n_specs > 0)) {
+        fprintf(stderr, "--downlink %s takes no --node: the nodes are urb-node-hosted processes on the hub; "
+                        "see --help\n", downlink_can ? "can" : "rs485");
         return 2;
     }
     mcfg.bitrate_kbps = (uint16_t)khz;
@@ -362,8 +383,10 @@ int main(int argc, char **argv)
     signal(SIGPIPE, SIG_IGN);
     printf("pty: %s\n", slave_path);
     fflush(stdout);
-    if (downlink_can) {
-        int const rc = urb_hosted_can_run(&cfg, master, can_hub, (uint32_t)can_timeout_us, seconds, &g_stop, verbose);
+    if (downlink_can || downlink_rs485) {
+        int const rc = downlink_can
+                           ? urb_hosted_can_run(&cfg, master, can_hub, (uint32_t)can_timeout_us, seconds, &g_stop, verbose)
+                           : urb_hosted_rs485_run(&cfg, master, rs485_hub, (uint32_t)rs485_baud, seconds, &g_stop, verbose);
         if (link != NULL) {
             unlink(link);
         }

@@ -1,5 +1,8 @@
-/* What the simulation HALs of sim/downlink share: a FIFO of CAN frames between a core and the bus
- * model, and the transaction a bridge's downlink begins. Not firmware: a simulation harness. */
+/* What the simulation HALs of sim/downlink share: the CAN and RS485 ports (the HAL a core's
+ * urb_can_hal_t / urb_rs485_hal_t calls, and what the Python bus models read back from it), and the
+ * transaction a bridge's downlink begins. The bridges (sim_can_bridge.c, sim_rs485_bridge.c) and the
+ * nodes (sim_dl_node.c) all set their controller up through sim_port.c. Not firmware: a simulation
+ * harness. */
 #ifndef SIM_DOWNLINK_H
 #define SIM_DOWNLINK_H
 
@@ -9,37 +12,39 @@
 
 #include "urb_can.h"
 #include "urb_downlink.h"
+#include "urb_rs485.h"
 
 #define SIM_CAN_FIFO 8u /* a core queues at most a transfer's 5 frames */
 
-/** Frames a core queued, oldest first, until the bus model takes them. */
+/** A CAN controller as the bus model drives it: frames the core queued, oldest first, until the
+ *  model takes them; the fault-confinement state the model sets; the core's requests counted. */
 typedef struct {
+    urb_can_hal_t hal;
     urb_can_frame_t frames[SIM_CAN_FIFO];
     uint8_t head, len;
-} sim_can_fifo_t;
+    uint8_t state;          /* urb_can_state_t, set by the model */
+    uint32_t aborts;        /* tx_abort() requests (the model then drops what the controller holds) */
+    uint32_t recoveries;    /* recover() requests (the model recovers after 128 x 11 recessive bits) */
+} sim_can_port_t;
 
-/** Appends a frame; false when full (the core retries after its next frame-sent report). */
-static inline bool sim_can_fifo_push(sim_can_fifo_t *q, const urb_can_frame_t *frame)
-{
-    if (q->len >= SIM_CAN_FIFO) {
-        return false;
-    }
-    q->frames[(uint8_t)((q->head + q->len) % SIM_CAN_FIFO)] = *frame;
-    q->len++;
-    return true;
-}
+/** Clears *p and points its HAL at it. */
+void sim_can_port_init(sim_can_port_t *p);
 
-/** Takes the oldest frame into *out; false when empty. */
-static inline bool sim_can_fifo_pop(sim_can_fifo_t *q, urb_can_frame_t *out)
-{
-    if (q->len == 0u) {
-        return false;
-    }
-    *out = q->frames[q->head];
-    q->head = (uint8_t)((q->head + 1u) % SIM_CAN_FIFO);
-    q->len--;
-    return true;
-}
+/** Takes the oldest frame into *out; false when none waits. */
+bool sim_can_port_take(sim_can_port_t *p, urb_can_frame_t *out);
+
+/** An RS485 transceiver and UART as the line model drives them: whether the driver is enabled (the
+ *  UART pulls bytes), the poll the owner asked for, the aborts counted. */
+typedef struct {
+    urb_rs485_hal_t hal;
+    bool sending;
+    uint32_t wake_us;   /* the poll the owner asked for (wake_at), when `wakes` */
+    uint32_t aborts;    /* tx_abort() requests (collisions, timeouts while sending) */
+} sim_rs485_port_t;
+
+/** Clears *p and points its HAL at it; `wakes`: the owner may ask for polls (a node's slave), else
+ *  wake_at is NULL (a bridge's main loop polls often enough). */
+void sim_rs485_port_init(sim_rs485_port_t *p, bool wakes);
 
 /** Begins a transaction on `dl`: a write's `data` (length bytes, at most 32) is copied into `buf`
  *  (32 bytes), where a read's answer lands. */

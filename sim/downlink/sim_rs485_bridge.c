@@ -1,8 +1,8 @@
 /* The bridge side of the RS485 downlink, the firmware's urb_rs485_master, behind a transceiver HAL
  * that the Python line model (sim/urb_sim/fieldbus/rs485.py) drives through ctypes: the model takes
  * the bytes the master hands to its UART, puts them on the line, and reports every byte heard (the
- * echo of its own and the nodes' answers) with its time stamp. Compiled into build/sim/liburbdl.so
- * only. Not firmware: a simulation harness (issue #39). */
+ * echo of its own and the nodes' answers) with its time stamp (sim_port.c). Compiled into
+ * build/sim/liburbsim.so. Not firmware: a simulation harness (issue #39). */
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -13,25 +13,11 @@
 #include "sim_downlink.h"
 
 typedef struct {
-    urb_rs485_hal_t hal;
+    sim_rs485_port_t port;
     urb_rs485_master_t master;
     urb_downlink_t dl;
-    bool sending;          /* the driver is enabled: the UART pulls bytes */
-    uint32_t abort_calls;
     uint8_t data[32];
 } sim_rs485_bridge_t;
-
-static void hal_tx_start(void *ctx)
-{
-    ((sim_rs485_bridge_t *)ctx)->sending = true;
-}
-
-static void hal_tx_abort(void *ctx)
-{
-    sim_rs485_bridge_t *b = (sim_rs485_bridge_t *)ctx;
-    b->sending = false;
-    b->abort_calls++;
-}
 
 /** Bytes to allocate for one bridge (the caller owns the memory). */
 size_t sim_rs485_bridge_size(void)
@@ -43,12 +29,8 @@ size_t sim_rs485_bridge_size(void)
 void sim_rs485_bridge_init(sim_rs485_bridge_t *b, uint32_t baud, uint32_t now_us)
 {
     memset(b, 0, sizeof(*b));
-    b->hal.ctx = b;
-    b->hal.tx_start = hal_tx_start;
-    b->hal.tx_abort = hal_tx_abort;
-    b->hal.wake_at = NULL;
-    b->hal.lock = NULL;
-    urb_rs485_master_init(&b->master, &b->hal, baud, now_us);
+    sim_rs485_port_init(&b->port, false);
+    urb_rs485_master_init(&b->master, &b->port.hal, baud, now_us);
     urb_rs485_master_downlink(&b->master, &b->dl);
 }
 
@@ -69,11 +51,11 @@ int8_t sim_rs485_bridge_poll(sim_rs485_bridge_t *b, uint32_t now_us)
  *  driver is released). */
 bool sim_rs485_bridge_tx_next(sim_rs485_bridge_t *b, uint8_t *byte)
 {
-    if (!b->sending) {
+    if (!b->port.sending) {
         return false;
     }
     if (!urb_rs485_master_tx_next(&b->master, byte)) {
-        b->sending = false;
+        b->port.sending = false;
         return false;
     }
     return true;
@@ -82,7 +64,7 @@ bool sim_rs485_bridge_tx_next(sim_rs485_bridge_t *b, uint8_t *byte)
 /** True while the driver is enabled. */
 bool sim_rs485_bridge_sending(const sim_rs485_bridge_t *b)
 {
-    return b->sending;
+    return b->port.sending;
 }
 
 /** A byte heard on the line (stop bit at `t_us`). */
@@ -119,7 +101,7 @@ const uint8_t *sim_rs485_bridge_data(const sim_rs485_bridge_t *b)
 /** tx_abort() calls so far (collisions, timeouts while sending). */
 uint32_t sim_rs485_bridge_aborts(const sim_rs485_bridge_t *b)
 {
-    return b->abort_calls;
+    return b->port.aborts;
 }
 
 /** Replaces the silences (Modbus RTU's fixed 1750 / 750 us, for comparison) and the timeout that

@@ -3,8 +3,10 @@
 One list of sources for every caller: `make sim-lib` (mk/sim.mk), the pytest fixtures of
 tests/sim/ and `urb sim` all call `ensure_library()`, which recompiles only when a source or
 header is newer than the library. The library holds the C core (sim/core), the simulation HALs
-(firmware/hal/sim), the firmware under test (node library, SensoRHex apps, bridge) and the
-generated codecs (gen/c), compiled for the host.
+(firmware/hal/sim), the firmware under test (node library, SensoRHex apps, bridge), the
+downlink models' CAN and RS485 ports (sim/downlink: their bridges' masters and their nodes, which run
+the same node library and application objects as the I2C world's nodes) and the generated codecs
+(gen/c), compiled for the host.
 
     python3 -m urb_sim.build            # build if stale, print the path
     python3 -m urb_sim.build --force    # rebuild
@@ -15,8 +17,9 @@ it never replaces the normal library:
                         error (build/sim/san/). The process must preload the sanitizer runtimes:
                         LD_PRELOAD="$(python3 -m urb_sim.build --preload)" (tools/sim_sanitized.py
                         does all of this).
-    URBSIM_MUTANT=NAME  compiled with -DURBSIM_MUTANT_NAME: a seeded bug, for showing that a check
-                        catches it (build/sim/mutant-NAME/, or build/sim/san-mutant-NAME/).
+    URBSIM_MUTANT=NAME  compiled with -DURBSIM_MUTANT_NAME and -DURB_MUTANT_NAME: a seeded bug of the
+                        simulation or of the firmware, for showing that a check catches it
+                        (build/sim/mutant-NAME/, or build/sim/san-mutant-NAME/).
 """
 
 from __future__ import annotations
@@ -46,15 +49,16 @@ SOURCE_DIRS = [
     "firmware/apps/sensorhex",
     "firmware/downlink/can",
     "firmware/downlink/rs485",
+    "sim/downlink",
     "gen/c",
 ]
 INCLUDE_DIRS = ["sim/core", "sim/world", "firmware/include", "firmware/hal/sim", "firmware/node", "firmware/bridge",
-                "firmware/apps/sensorhex", "gen/c"]
+                "firmware/apps/sensorhex", "sim/downlink", "gen/c"]
 #: Files the simulation does not link: programs (`*main.c`, e.g. firmware/bridge/hosted_main.c)
 #: and the single-node adapter of the paper's global-function style (firmware/node/urb_single.c: one
 #: global node, calls app_* functions), which cannot serve many nodes in one process. The node library's
 #: CAN and RS485 adapters (firmware/node/urb_node_can.c, urb_node_rs485.c) link the downlink cores,
-#: hence firmware/downlink in SOURCE_DIRS.
+#: hence firmware/downlink in SOURCE_DIRS; sim/downlink's nodes use them.
 EXCLUDE_SUFFIX = "main.c"
 EXCLUDE_NAMES = {"urb_single.c"}
 
@@ -110,7 +114,9 @@ def variant_flags() -> list[str]:
     if sanitize:
         flags += SANITIZE_FLAGS
     if mutant is not None:
-        flags.append(f"-DURBSIM_MUTANT_{mutant}")
+        # the simulation's seeded bugs are URBSIM_MUTANT_*, the firmware's URB_MUTANT_* (e.g. urb_node_dl.c's
+        # NODE_DL_FRONT_BUFFER): no name is both, so one switch selects either
+        flags += [f"-DURBSIM_MUTANT_{mutant}", f"-DURB_MUTANT_{mutant}"]
     return flags
 
 

@@ -354,4 +354,7 @@ def test_usb_manager_flushes_before_its_first_request(tmp_path: Path) -> None:
     header = len(batch(0))
     assert t.sent_ns is not None and t.sent_ns >= now + 20 * MS
     counts = [UsbBatchHeader.decode(o[:header]).count for o in outs]
-    assert counts.index(1) >= 10 and sum(counts) == 1  # about 20 frames of fetching first (threads: some skip)
+    # About 20 frames of fetching come first on a quiet machine; at load 20 the frame thread
+    # oversleeps and sends fewer (3 of 3 runs failed a bound of 10, 2026-11-29). That the request
+    # waits for the record is the assertion on sent_ns above; this one is that fetching happens.
+    assert counts.index(1) >= 1 and sum(counts) == 1

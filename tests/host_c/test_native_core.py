@@ -252,7 +252,7 @@ def test_a_core_configured_differently_is_caught() -> None:
         pair.call("poll", 100 * NS_PER_MS)
 
 
-SEEDED_BUG = ("PyObject *reason = reason_text(self, t->lost_reason);",
+SEEDED_BUG = ("PyObject *reason = native_reason_text(self, t->lost_reason);",
               'PyObject *reason = PyUnicode_DecodeUTF8(t->lost_reason, (Py_ssize_t)strlen(t->lost_reason), "replace");')
 """The binding hands out the C core's cut lost reason instead of the caller's whole text."""
 

@@ -236,7 +236,7 @@ def test_same_seed_same_trace() -> None:
 def silence_errors(line: rs485.Rs485Line) -> list[str]:
     """A read at 1 Mb/s: the node answers only after the request's t3.5 (+ one character, its view),
     within the turnaround allowance; a stall over t1.5 inside the answer breaks it."""
-    node = line.node(3)
+    node = line.node(3, cycle.DEFAULT_APP)
     wrong = []
     o = line.poll(3, 1, True, bytes(6), node)
     if o.status != "OK" or o.answer_start_us is None:
@@ -264,7 +264,7 @@ def test_rs485_check_rejects_an_answer_without_the_t35_silence() -> None:
 
 def test_rs485_a_node_slower_than_the_allowance_is_no_node() -> None:
     line = rs485.Rs485Line(1_000_000, random.Random(1), node_latency_us=(200.0, 200.0))
-    node = line.node(3)
+    node = line.node(3, cycle.DEFAULT_APP)
     assert line.poll(3, 1, True, bytes(6), node).status == "NO_NODE"
     assert line.poll(4, 1, True, bytes(6), None).status == "NO_NODE"  # nobody at that address
 
@@ -278,7 +278,7 @@ def test_rs485_timing_is_the_firmware_s_and_modbus_fixes_it_above_19200() -> Non
 
 def test_rs485_errors_give_checksum_or_timeout() -> None:
     line = rs485.Rs485Line(1_000_000, random.Random(7), ber=1e-3)
-    node = line.node(2)
+    node = line.node(2, cycle.DEFAULT_APP)
     for k in range(300):
         read = bool(k & 1)
         line.poll(2, 1, read, bytes(6) if read else b"\x05\x06", node)
@@ -305,18 +305,41 @@ def test_simulated_reads_stay_within_their_derived_bounds() -> None:
         assert all(r.within for r in rows), [(r.payload, min(r.samples), max(r.samples), r.lo, r.hi) for r in rows]
 
 
-def test_transfers_between_the_firmware_s_master_and_slave() -> None:
+def _probes() -> dict[int, cores.App]:
+    """Node n (1..32) is the probe with n bytes in outbox 1 and in inbox 1."""
+    return {n: cores.App("probe", out_size=n, in_size=n) for n in range(1, 33)}
+
+
+def test_transfers_between_the_firmware_s_master_and_the_node_library() -> None:
     """Every read and write of 1..32 bytes goes through the bus between the firmware's master and a
-    node's slave (urb_can_master.c, urb_can_slave.c): the data arrive (the downlink checks it, or
-    raises); an empty outbox is the master's BAD_REQUEST; a SYNC reaches the node's mailboxes."""
-    d = cycle.CanDownlink(1_000_000, random.Random(9), (5,))
-    assert d.transact(0.0, cycle.Txn(5, 2, True, b"")).status == "BAD_REQUEST"
+    URB node (urb_can_master.c; the node library on urb_can_slave.c, running the probe): each read
+    returns the outbox buffer the node library latched, each write is what the probe's next lock
+    sees; a mailbox the application did not set up is the master's BAD_REQUEST, another length
+    SIZE_MISMATCH; a SYNC reaches the node library with its time stamp."""
+    d = cycle.CanDownlink(1_000_000, random.Random(9), tuple(range(1, 33)), apps=_probes())
+    assert d.transact(0.0, cycle.Txn(5, 2, True, bytes(5))).status == "BAD_REQUEST"
+    assert d.transact(1000.0, cycle.Txn(5, 1, True, bytes(6))).status == "SIZE_MISMATCH"
     for n in range(1, 33):
-        assert d.transact(n * 3000.0, cycle.Txn(5, 2, True, bytes(range(100, 100 + n)))).status == "OK", n
-        assert d.transact(n * 3000.0 + 1500, cycle.Txn(5, 3, False, bytes(range(n)))).status == "OK", n
-    assert d.slaves[5].inbox(3, 32) == (bytes(range(32)), 32)
+        r = d.transact(n * 3000.0, cycle.Txn(n, 1, True, bytes(n)))
+        assert r.status == "OK" and r.data == d.slaves[n].last_read(1, n)[0] and r.data[:1] != b"", n
+        assert d.transact(n * 3000.0 + 1500, cycle.Txn(n, 1, False, bytes(range(n)))).status == "OK", n
+    assert d.mismatches == [] and d.verified == 64
+    assert d.slaves[32].inbox(1, 32) == (bytes(range(32)), 1)
     t = d.sync(200_000.0, 7)
     assert t is not None and d.slaves[5].syncs() == (1, int(t))
+
+
+def test_the_transfer_check_catches_a_node_that_holds_other_data() -> None:
+    """verify() is the check behind "transactions carry the node library's mailboxes": data the
+    node library did not latch, or a write the application would not see, are reported."""
+    d = cycle.CanDownlink(1_000_000, random.Random(9), (4,), apps={4: cores.App("probe", 4, 4)})
+    assert d.transact(0.0, cycle.Txn(4, 1, False, b"\x01\x02\x03\x04")).status == "OK"
+    node = d.slaves[4]
+    assert cycle.verify(b"", cycle.Txn(4, 1, False, b"\x01\x02\x03\x04"), node, "CAN") is None
+    assert "the application sees" in str(cycle.verify(b"", cycle.Txn(4, 1, False, b"\x09\x02\x03\x04"), node, "CAN"))
+    r = d.transact(2000.0, cycle.Txn(4, 1, True, bytes(4)))
+    assert cycle.verify(r.data, cycle.Txn(4, 1, True, bytes(4)), node, "CAN") is None
+    assert "node sent" in str(cycle.verify(bytes(x ^ 1 for x in r.data), cycle.Txn(4, 1, True, bytes(4)), node, "CAN"))
 
 
 def test_a_bridge_that_goes_bus_off_reports_timeout_then_bus_stuck_and_recovers() -> None:
@@ -330,13 +353,14 @@ def test_a_bridge_that_goes_bus_off_reports_timeout_then_bus_stuck_and_recovers(
     assert d.master.recoveries() == d.statuses["BUS_STUCK"] and d.bridge.recoveries == d.bridge.bus_off_count > 0
 
 
-def test_rs485_transfers_between_the_firmware_s_master_and_slaves() -> None:
-    """Reads and writes of 1..32 bytes between urb_rs485_master.c and urb_rs485_slave.c on the line
-    (the downlink checks the data and the stored write, or raises); a SYNC reaches every node."""
-    d = cycle.Rs485Downlink(1_000_000, random.Random(3), (5, 6))
+def test_rs485_transfers_between_the_firmware_s_master_and_the_node_library() -> None:
+    """Reads and writes of 1..32 bytes between urb_rs485_master.c and URB nodes on urb_rs485_slave.c
+    (the probe): the data are the node library's; a SYNC reaches every node library."""
+    d = cycle.Rs485Downlink(1_000_000, random.Random(3), tuple(range(1, 33)), apps=_probes())
     for n in range(1, 33):
-        assert d.transact(0.0, cycle.Txn(5, 2, True, bytes(range(50, 50 + n)))).status == "OK", n
-        assert d.transact(0.0, cycle.Txn(6, 3, False, bytes(range(n)))).status == "OK", n
-    assert d.nodes[6].inbox(3, 32) == (bytes(range(32)), 32)
+        assert d.transact(0.0, cycle.Txn(n, 1, True, bytes(n))).status == "OK", n
+        assert d.transact(0.0, cycle.Txn(n, 1, False, bytes(range(n)))).status == "OK", n
+    assert d.mismatches == [] and d.verified == 64
+    assert d.nodes[32].inbox(1, 32) == (bytes(range(32)), 1)
     d.sync(d.now_us() + 100.0, 9)
     assert d.nodes[5].syncs()[0] == d.nodes[6].syncs()[0] == 1

@@ -10,8 +10,14 @@
  * Interrupt wiring (each handler is O(1) and never waits):
  *   SysTick_Handler   1 ms tick: time base, and urb_bridge_heartbeat() every heartbeat period
  *   UART_IRQHandler   byte received -> urb_bridge_uart_rx(); TX empty -> urb_bridge_uart_tx_pop()
- *   I2C_IRQHandler    operation complete -> urb_i2c_master_event()
+ *   DOWNLINK_IRQHandler  I2C: operation complete -> urb_i2c_master_event() (CAN, RS485: below)
  * USB runs in the main loop (bsp_usb_poll), as USB device stacks usually do.
+ *
+ * The downlink is chosen at build time (mk/cm0_downlinks.mk): I2C by default (the bsp_i2c_*
+ * functions), -DURB_BRIDGE_DOWNLINK_CAN for the CAN master on the STM32G0B1 FDCAN port
+ * (urb_cm0_fdcan.h; DOWNLINK_IRQHandler = urb_cm0_can_irq), -DURB_BRIDGE_DOWNLINK_RS485 for the
+ * RS485 master on its USART port (urb_cm0_usart485.h; DOWNLINK_IRQHandler = urb_cm0_rs485_irq).
+ * Those two ports are register-level for that part; the rest of this file stays the generic skeleton.
  */
 #include <stdbool.h>
 #include <stddef.h>
@@ -20,6 +26,13 @@
 #include "urb_bridge.h"
 #include "urb_bridge_hal.h"
 #include "urb_downlink.h"
+#if defined(URB_BRIDGE_DOWNLINK_CAN)
+#include "urb_can_master.h"
+#include "urb_cm0_fdcan.h"
+#elif defined(URB_BRIDGE_DOWNLINK_RS485)
+#include "urb_cm0_usart485.h"
+#include "urb_rs485_master.h"
+#endif
 
 #ifndef BRIDGE_CPU_HZ
 #define BRIDGE_CPU_HZ 48000000u /* core clock after bsp_clock_init() */
@@ -96,7 +109,17 @@ typedef struct {
 
 static port_t g_port;
 static urb_bridge_t g_bridge;
+#if defined(URB_BRIDGE_DOWNLINK_CAN)
+#define DOWNLINK_CAN_KBPS 1000u
+static urb_cm0_can_t g_can;
+static urb_can_master_t g_master;
+#elif defined(URB_BRIDGE_DOWNLINK_RS485)
+#define DOWNLINK_RS485_BAUD 1000000u
+static urb_cm0_rs485_t g_rs485;
+static urb_rs485_master_t g_master;
+#else
 static urb_i2c_master_t g_master;
+#endif
 static uint8_t g_usb_out_buf[URB_BRIDGE_USB_BUF];
 /* Apart from the OUT buffer: an IN transfer still being sent reads this one (bsp_usb_in_arm) while
  * the next OUT transfer is copied out of the peripheral. */
@@ -156,6 +179,38 @@ static void hal_mark(void *ctx, uint8_t id, bool level)
 
 static const urb_bridge_hal_t g_hal = {&g_port, hal_now_us, hal_heartbeat_period, hal_uart_tx_kick, hal_mark};
 
+#if defined(URB_BRIDGE_DOWNLINK_CAN)
+static uint32_t dl_now_us(void *owner) { (void)owner; return hal_now_us(&g_port); }
+static void can_rx(void *owner, const urb_can_frame_t *frame, uint32_t t_us)
+{
+    (void)t_us; /* the master needs no time stamp */
+    urb_can_master_rx((urb_can_master_t *)owner, frame);
+}
+static void can_tx_done(void *owner) { urb_can_master_tx_done((urb_can_master_t *)owner); }
+#elif defined(URB_BRIDGE_DOWNLINK_RS485)
+#define NVIC_ISER (*(volatile uint32_t *)0xE000E100u)
+#define NVIC_ICER (*(volatile uint32_t *)0xE000E180u)
+#define DOWNLINK_IRQ_BIT ((uint32_t)1u << 1) /* the vector table's placeholder IRQ 1 */
+static uint32_t dl_now_us(void *owner) { (void)owner; return hal_now_us(&g_port); }
+static void rs485_rx(void *owner, uint8_t byte, uint32_t t_us)
+{
+    urb_rs485_master_rx((urb_rs485_master_t *)owner, byte, t_us);
+}
+static bool rs485_tx_next(void *owner, uint8_t *byte)
+{
+    return urb_rs485_master_tx_next((urb_rs485_master_t *)owner, byte);
+}
+static void rs485_lock(void *owner, bool locked)
+{
+    (void)owner;
+    if (locked) {
+        NVIC_ICER = DOWNLINK_IRQ_BIT;
+        __asm__ __volatile__("dsb\n isb" ::: "memory"); /* no USART interrupt after this returns */
+    } else {
+        NVIC_ISER = DOWNLINK_IRQ_BIT;
+    }
+}
+#else
 static void i2c_start(void *ctx) { (void)ctx; bsp_i2c_start(); }
 static void i2c_write(void *ctx, uint8_t byte) { (void)ctx; bsp_i2c_write(byte); }
 static void i2c_read(void *ctx, bool ack) { (void)ctx; bsp_i2c_read(ack); }
@@ -167,12 +222,13 @@ static void i2c_release(void *ctx) { (void)ctx; bsp_i2c_release(); }
 
 static const urb_i2c_hal_t g_i2c_hal = {NULL, i2c_start, i2c_write, i2c_read, i2c_stop,
                                         i2c_abort, i2c_lines, i2c_drive, i2c_release};
+#endif
 
 /* ===== Interrupt handlers ===================================================================== */
 
 void SysTick_Handler(void);
 void UART_IRQHandler(void);
-void I2C_IRQHandler(void);
+void DOWNLINK_IRQHandler(void);
 
 void SysTick_Handler(void)
 {
@@ -201,11 +257,18 @@ void UART_IRQHandler(void)
     }
 }
 
-void I2C_IRQHandler(void)
+/* The downlink's interrupt: the I2C controller, the FDCAN (line 0) or the RS485 USART. */
+void DOWNLINK_IRQHandler(void)
 {
+#if defined(URB_BRIDGE_DOWNLINK_CAN)
+    urb_cm0_can_irq(&g_can);
+#elif defined(URB_BRIDGE_DOWNLINK_RS485)
+    urb_cm0_rs485_irq(&g_rs485);
+#else
     uint8_t byte;
     urb_i2c_event_t const ev = bsp_i2c_event(&byte);
     urb_i2c_master_event(&g_master, ev, byte);
+#endif
 }
 
 /* ===== Main loop ============================================================================== */
@@ -215,18 +278,42 @@ int main(void);
 int main(void)
 {
     urb_bridge_config_t cfg;
-    urb_i2c_master_config_t mcfg;
     urb_downlink_t dl;
     bsp_clock_init();
     SYST_RVR = BRIDGE_CPU_HZ / 1000u - 1u;
     SYST_CVR = 0u;
     SYST_CSR = 7u; /* core clock, interrupt, enable */
     urb_bridge_default_config(&cfg);
-    urb_i2c_master_default_config(&mcfg);
     bsp_uart_init(cfg.baud);
+#if defined(URB_BRIDGE_DOWNLINK_CAN)
+    urb_can_master_config_t mcfg;
+    urb_can_master_default_config(&mcfg);
+    mcfg.bitrate_kbps = DOWNLINK_CAN_KBPS;
+    mcfg.timeout_us = urb_can_master_timeout_us(DOWNLINK_CAN_KBPS);
+    mcfg.recover_us = urb_can_master_recover_us(DOWNLINK_CAN_KBPS);
+    urb_cm0_can_owner_t const owner = {&g_master, can_rx, can_tx_done, NULL, dl_now_us};
+    if (!urb_cm0_can_init(&g_can, URB_CM0_FDCAN1, URB_CM0_SRAMCAN1, &owner, BRIDGE_CPU_HZ, DOWNLINK_CAN_KBPS)) {
+        for (;;) {
+        }
+    }
+    urb_can_master_init(&g_master, &g_can.hal, &mcfg);
+    urb_can_master_downlink(&g_master, &dl);
+#elif defined(URB_BRIDGE_DOWNLINK_RS485)
+    urb_cm0_rs485_owner_t const owner = {&g_master, rs485_rx, rs485_tx_next, dl_now_us, NULL, rs485_lock};
+    if (!urb_cm0_rs485_init(&g_rs485, URB_CM0_USART1, &owner, BRIDGE_CPU_HZ, DOWNLINK_RS485_BAUD)) {
+        for (;;) {
+        }
+    }
+    urb_rs485_master_init(&g_master, &g_rs485.hal, DOWNLINK_RS485_BAUD, hal_now_us(&g_port));
+    urb_rs485_master_downlink(&g_master, &dl);
+    NVIC_ISER = DOWNLINK_IRQ_BIT;
+#else
+    urb_i2c_master_config_t mcfg;
+    urb_i2c_master_default_config(&mcfg);
     bsp_i2c_init(mcfg.bitrate_kbps);
     urb_i2c_master_init(&g_master, &g_i2c_hal, &mcfg);
     urb_i2c_master_downlink(&g_master, &dl);
+#endif
     if (urb_bridge_init(&g_bridge, &cfg, &g_hal, &dl) != URB_OK) {
         for (;;) {
         }
@@ -290,8 +377,8 @@ void Default_Handler(void)
 
 typedef void (*vector_t)(void);
 
-/* 16 system vectors, then the vendor IRQs; the board file places UART/I2C at its IRQ numbers
- * (here 0 and 1 as placeholders). */
+/* 16 system vectors, then the vendor IRQs; the board file places the UART and the downlink at
+ * their IRQ numbers (here 0 and 1 as placeholders). */
 __attribute__((section(".vectors"), used)) static const vector_t g_vectors[16 + 2] = {
     (vector_t)(uintptr_t)__stack_top,
     Reset_Handler,
@@ -303,7 +390,7 @@ __attribute__((section(".vectors"), used)) static const vector_t g_vectors[16 + 
     Default_Handler, /* PendSV */
     SysTick_Handler,
     UART_IRQHandler,
-    I2C_IRQHandler,
+    DOWNLINK_IRQHandler,
 };
 
 /* The compiler may call these for struct copies; no C library is linked. */

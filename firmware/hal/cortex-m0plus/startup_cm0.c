@@ -1,7 +1,8 @@
 /*
  * Minimal Cortex-M0+ startup for the reference images: vector table, .data copy, .bss clear,
  * main. The IRQ handlers are weak aliases of Default_Handler; the application defines the ones
- * it uses (TIM2_IRQHandler, I2C1_IRQHandler). VENDOR: the IRQ list follows the STM32G0 table.
+ * it uses (TIM2_IRQHandler, I2C1_IRQHandler; the CAN and RS485 node images TIM16_FDCAN_IT0_IRQHandler,
+ * USART1_IRQHandler). VENDOR: the IRQ list follows the STM32G0 table.
  */
 #include <stdint.h>
 
@@ -17,6 +18,8 @@ void PendSV_Handler(void) __attribute__((weak, alias("Default_Handler")));
 void SysTick_Handler(void) __attribute__((weak, alias("Default_Handler")));
 void TIM2_IRQHandler(void) __attribute__((weak, alias("Default_Handler")));
 void I2C1_IRQHandler(void) __attribute__((weak, alias("Default_Handler")));
+void TIM16_FDCAN_IT0_IRQHandler(void) __attribute__((weak, alias("Default_Handler")));
+void USART1_IRQHandler(void) __attribute__((weak, alias("Default_Handler")));
 
 typedef void (*handler_t)(void);
 
@@ -34,9 +37,10 @@ __attribute__((section(".isr_vector"), used)) static const vector_table_t vector
         Default_Handler, Default_Handler, Default_Handler, Default_Handler, Default_Handler, Default_Handler,
         Default_Handler, Default_Handler, Default_Handler, Default_Handler, Default_Handler, Default_Handler,
         Default_Handler, Default_Handler, Default_Handler, TIM2_IRQHandler /* 15 */, Default_Handler,
-        Default_Handler, Default_Handler, Default_Handler, Default_Handler, Default_Handler, Default_Handler,
-        I2C1_IRQHandler /* 23 */, Default_Handler, Default_Handler, Default_Handler, Default_Handler,
         Default_Handler, Default_Handler, Default_Handler, Default_Handler,
+        TIM16_FDCAN_IT0_IRQHandler /* 21 */, Default_Handler, I2C1_IRQHandler /* 23 */, Default_Handler,
+        Default_Handler, Default_Handler, USART1_IRQHandler /* 27 */, Default_Handler, Default_Handler,
+        Default_Handler, Default_Handler,
     },
 };
 

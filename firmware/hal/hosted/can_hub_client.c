@@ -1,11 +1,12 @@
 /* A CAN controller on tools/can_hub.py: can_hub_client.h. */
 #include "can_hub_client.h"
 
+#include "hub_socket.h"
+
 #include <errno.h>
 #include <stdio.h>
 #include <string.h>
 #include <sys/socket.h>
-#include <sys/un.h>
 #include <unistd.h>
 
 static bool hub_tx(void *ctx, const urb_can_frame_t *f)
@@ -44,26 +45,10 @@ static void hub_recover(void *ctx)
 bool urb_can_hub_connect(urb_can_hub_client_t *c, const char *path)
 {
     memset(c, 0, sizeof *c);
-    c->fd = -1;
-    struct sockaddr_un addr;
-    memset(&addr, 0, sizeof addr);
-    addr.sun_family = AF_UNIX;
-    if (strlen(path) >= sizeof addr.sun_path) {
-        errno = ENAMETOOLONG;
+    c->fd = urb_hub_socket_connect(path);
+    if (c->fd < 0) {
         return false;
     }
-    memcpy(addr.sun_path, path, strlen(path) + 1u);
-    int const fd = socket(AF_UNIX, SOCK_SEQPACKET, 0);
-    if (fd < 0) {
-        return false;
-    }
-    if (connect(fd, (const struct sockaddr *)&addr, sizeof addr) != 0) {
-        int const e = errno;
-        close(fd);
-        errno = e;
-        return false;
-    }
-    c->fd = fd;
     c->hal.ctx = c;
     c->hal.tx = hub_tx;
     c->hal.tx_abort = hub_tx_abort;

@@ -412,9 +412,11 @@ sim_node_t *sim_node_new(const char *name, urbsim_kernel_t *k, urbsim_trace_t *t
         n->app_state.probe.on_inbox_locked = probe_inbox_locked;
         n->app_state.probe.on_inbox_released = probe_inbox_released;
         n->app_state.probe.hook_ctx = n;
-        n->hooks = &sim_probe_hooks;
-        n->app = &n->app_state.probe;
-        n->storage_len = sim_probe_storage(&n->app_state.probe);
+        sim_app_binding_t b;
+        (void)sim_app_bind(&n->app_state, SIM_APP_PROBE, app->index, &n->ncfg, &b);
+        n->hooks = b.hooks;
+        n->app = b.app;
+        n->storage_len = b.storage_len;
     } else if (!sim_sensorhex_bind(n, app->app, app->index, &app->motor, &app_rng, &n->ncfg)) {
         free(n);
         return NULL;

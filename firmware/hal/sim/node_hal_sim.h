@@ -25,11 +25,7 @@
 #include <stdint.h>
 
 #include "motor.h"
-#include "sensorhex_battery.h"
-#include "sensorhex_imu.h"
-#include "sensorhex_ir.h"
-#include "sensorhex_motor.h"
-#include "sim_apps.h"
+#include "sim_app_bind.h"
 #include "sim_devices.h"
 #include "urb_node.h"
 
@@ -67,13 +63,7 @@ struct sim_node {
     sim_log_t log;
     uint64_t polls, updates, boots;
     int init_result;
-    union {
-        sim_probe_app_t probe;
-        struct { sensorhex_motor_t app; sensorhex_motor_io_t io; } motor;
-        struct { sensorhex_battery_t app; sensorhex_battery_io_t io; } battery;
-        struct { sensorhex_imu_t app; sensorhex_imu_io_t io; } imu;
-        struct { sensorhex_ir_t app; sensorhex_ir_io_t io; } ir;
-    } app_state;
+    sim_app_state_t app_state;   /**< the application and its hardware (sim_app_bind.h) */
     urbsim_motor_t plant;        /**< the motor and leg of a motor driver node */
     bool reading_mb1;            /**< trace observer: a bridge read of outbox 1 is in progress */
     uint64_t faults[URB_NODE_FAULT_CODES + 1u]; /**< app_fault deliveries per code */

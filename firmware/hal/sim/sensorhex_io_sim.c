@@ -120,72 +120,35 @@ static uint8_t ir_strength(void *ctx)
 bool sim_sensorhex_bind(sim_node_t *n, int app, uint8_t index, const urbsim_motor_params_t *motor,
                         const urbsim_rng_t *rng, urb_node_config_t *ncfg)
 {
+    sim_app_state_t *s = &n->app_state;
     switch (app) {
-    case SIM_APP_MOTOR: {
+    case SIM_APP_MOTOR:
         urbsim_motor_init(&n->plant, motor, rng);
-        sensorhex_motor_io_t *io = &n->app_state.motor.io;
-        io->ctx = n;
-        io->encoder = motor_encoder;
-        io->current_ma = motor_current_ma;
-        io->voltage_mv = motor_voltage_mv;
-        io->case_temp_cdeg = motor_temp_cdeg;
-        io->hall = motor_hall;
-        io->drive_mv = motor_drive_mv;
-        sensorhex_motor_config_t cfg;
-        sensorhex_motor_defaults(&cfg, index);
-        sensorhex_motor_setup(&n->app_state.motor.app, io, &cfg);
-        sensorhex_motor_node_config(ncfg);
-        n->hooks = &sensorhex_motor_hooks;
-        n->app = &n->app_state.motor.app;
-        n->storage_len = SENSORHEX_MOTOR_STORAGE;
+        s->motor.io = (sensorhex_motor_io_t){.ctx = n, .encoder = motor_encoder, .current_ma = motor_current_ma,
+                                             .voltage_mv = motor_voltage_mv, .case_temp_cdeg = motor_temp_cdeg,
+                                             .hall = motor_hall, .drive_mv = motor_drive_mv};
         n->has_plant = true;
-        return true;
-    }
-    case SIM_APP_BATTERY: {
-        sensorhex_battery_io_t *io = &n->app_state.battery.io;
-        io->ctx = n;
-        io->present = batt_present;
-        io->voltage_mv = batt_voltage_mv;
-        io->current_ma = batt_current_ma;
-        io->temp_c = batt_temp_c;
-        io->charger = batt_charger;
-        sensorhex_battery_config_t cfg;
-        sensorhex_battery_defaults(&cfg, index);
-        sensorhex_battery_setup(&n->app_state.battery.app, io, &cfg);
-        sensorhex_battery_node_config(ncfg);
-        n->hooks = &sensorhex_battery_hooks;
-        n->app = &n->app_state.battery.app;
-        n->storage_len = SENSORHEX_BATTERY_STORAGE;
-        return true;
-    }
-    case SIM_APP_IMU: {
-        sensorhex_imu_io_t *io = &n->app_state.imu.io;
-        io->ctx = n;
-        io->read = imu_read;
-        sensorhex_imu_config_t cfg;
-        sensorhex_imu_defaults(&cfg, index);
-        sensorhex_imu_setup(&n->app_state.imu.app, io, &cfg);
-        sensorhex_imu_node_config(ncfg);
-        n->hooks = &sensorhex_imu_hooks;
-        n->app = &n->app_state.imu.app;
-        n->storage_len = SENSORHEX_IMU_STORAGE;
-        return true;
-    }
-    case SIM_APP_IR: {
-        sensorhex_ir_io_t *io = &n->app_state.ir.io;
-        io->ctx = n;
-        io->distance_mm = ir_distance_mm;
-        io->strength = ir_strength;
-        sensorhex_ir_config_t cfg;
-        sensorhex_ir_defaults(&cfg, index);
-        sensorhex_ir_setup(&n->app_state.ir.app, io, &cfg);
-        sensorhex_ir_node_config(ncfg);
-        n->hooks = &sensorhex_ir_hooks;
-        n->app = &n->app_state.ir.app;
-        n->storage_len = SENSORHEX_IR_STORAGE;
-        return true;
-    }
+        break;
+    case SIM_APP_BATTERY:
+        s->battery.io = (sensorhex_battery_io_t){.ctx = n, .present = batt_present, .voltage_mv = batt_voltage_mv,
+                                                 .current_ma = batt_current_ma, .temp_c = batt_temp_c,
+                                                 .charger = batt_charger};
+        break;
+    case SIM_APP_IMU:
+        s->imu.io = (sensorhex_imu_io_t){.ctx = n, .read = imu_read};
+        break;
+    case SIM_APP_IR:
+        s->ir.io = (sensorhex_ir_io_t){.ctx = n, .distance_mm = ir_distance_mm, .strength = ir_strength};
+        break;
     default:
         return false;
     }
+    sim_app_binding_t b;
+    if (!sim_app_bind(s, app, index, ncfg, &b)) {
+        return false;
+    }
+    n->hooks = b.hooks;
+    n->app = b.app;
+    n->storage_len = b.storage_len;
+    return true;
 }

@@ -24,25 +24,8 @@
 
 #include <string.h>
 
-#include "urb_host_core.h"
+#include "_native.h"
 
-typedef struct native_xfer {
-    urb_transfer_t t;          /* first: a urb_transfer_t * of ours is a native_xfer_t * */
-    PyObject *py;              /* the Python Transfer (a strong reference while the core owns t) */
-    struct native_xfer *free_next;
-} native_xfer_t;
-
-typedef struct {
-    PyObject_HEAD
-    urb_core_t core;
-    bool ready;                /* _setup succeeded */
-    native_xfer_t *free_list;
-    PyObject *status_of;       /* tuple: Status member by value 0..8 */
-    PyObject *flag_of;         /* dict: int -> ErrorFlag member */
-    PyObject *full_reason;     /* the caller's whole lost reason (str), or NULL */
-    PyObject *trace;           /* None, or a list the USB pipeline's steps are appended to */
-    PyObject *completed;       /* list: transfers completed (their outcome written), not yet taken */
-} native_core_t;
 
 /* Attribute names of Transfer, interned once per process (immutable constants). */
 static PyObject *s_address, *s_mailbox, *s_read, *s_length, *s_data, *s_answer_within_ns, *s_seq, *s_sent_ns,
@@ -52,13 +35,34 @@ static PyObject *s_submit, *s_write, *s_read_event, *s_callback;
 
 /* ----- small helpers ---------------------------------------------------------------------------- */
 
-static int not_ready(const native_core_t *self)
+int native_not_ready(const native_core_t *self)
 {
     if (!self->ready) {
         PyErr_SetString(PyExc_RuntimeError, "the native core was not set up (construct NativeRs232Core or NativeUsbCore)");
         return 1;
     }
     return 0;
+}
+
+void native_core_lock(native_core_t *self)
+{
+    /* The pump holds the lock for a few microseconds at a time: spin that long before giving the
+     * GIL away (another Python thread would take it and keep it up to the switch interval). */
+    for (unsigned spin = 0u; spin < NATIVE_LOCK_SPINS; spin++) {
+        if (pthread_mutex_trylock(&self->lock) == 0) {
+            return;
+        }
+    }
+    if (pthread_mutex_trylock(&self->lock) != 0) {
+        Py_BEGIN_ALLOW_THREADS
+        (void)pthread_mutex_lock(&self->lock);
+        Py_END_ALLOW_THREADS
+    }
+}
+
+void native_core_unlock(native_core_t *self)
+{
+    (void)pthread_mutex_unlock(&self->lock);
 }
 
 static PyObject *time_or_none(urb_ns_t v)
@@ -70,7 +74,7 @@ static PyObject *time_or_none(urb_ns_t v)
 }
 
 /* The reason text for the C core's `r`: the caller's whole text when r is its cut. */
-static PyObject *reason_text(native_core_t *self, const char *r)
+PyObject *native_reason_text(native_core_t *self, const char *r)
 {
     size_t const n = strlen(r);
     if ((self->full_reason != NULL) && (n == URB_REASON_MAX - 1u)) {
@@ -138,12 +142,12 @@ static const urb_slot_t *newest_slot(const urb_core_t *core)
 }
 
 /* What ResponseMatcher-side `_send` sets on the Python transfer just put on the wire. */
-static int mark_sent(const urb_core_t *core, const urb_slot_t *slot, native_xfer_t *x)
+static int mark_sent(native_xfer_t *x, urb_ns_t due_ns, urb_ns_t expires_ns)
 {
-    (void)core;
     PyObject *py = x->py;
+    x->sent_unmarked = false;
     if ((set_attr_ll(py, s_seq, x->t.seq) < 0) || (set_attr_ll(py, s_sent_ns, x->t.sent_ns) < 0) ||
-        (set_attr_ll(py, s_due_ns, slot->due_ns) < 0) || (set_attr_ll(py, s_expires_ns, slot->expires_ns) < 0) ||
+        (set_attr_ll(py, s_due_ns, due_ns) < 0) || (set_attr_ll(py, s_expires_ns, expires_ns) < 0) ||
         (PyObject_SetAttr(py, s_garbage, Py_False) < 0)) {
         return -1;
     }
@@ -173,6 +177,11 @@ static PyObject *hand_back(native_core_t *self, urb_transfer_t *t)
     native_xfer_t *x = (native_xfer_t *)t;
     PyObject *py = x->py;
     Py_INCREF(py);
+    if (x->sent_unmarked && (mark_sent(x, x->due_ns, x->expires_ns) < 0)) {
+        xfer_put(self, x);
+        Py_DECREF(py);
+        return NULL;
+    }
     PyObject *flags_key = PyLong_FromUnsignedLong((unsigned long)t->flags);
     PyObject *flag = (flags_key == NULL) ? NULL : PyDict_GetItemWithError(self->flag_of, flags_key);
     Py_XDECREF(flags_key);
@@ -202,7 +211,7 @@ static PyObject *hand_back(native_core_t *self, urb_transfer_t *t)
              (PyObject_SetAttr(py, s_status, status) == 0) && (PyObject_SetAttr(py, s_response, response) == 0);
     Py_XDECREF(response);
     if (ok && ((t->flags & URB_FLAG_BRIDGE_LOST) != 0u)) {
-        PyObject *reason = reason_text(self, t->lost_reason);
+        PyObject *reason = native_reason_text(self, t->lost_reason);
         ok = (reason != NULL) && (PyObject_SetAttr(py, s_lost_reason, reason) == 0);
         Py_XDECREF(reason);
     }
@@ -278,6 +287,7 @@ static int core_traverse(native_core_t *self, visitproc visit, void *arg)
 
 static int core_clear(native_core_t *self)
 {
+    native_pump_join(self); /* its thread uses the core being released */
     release_all(self);
     self->ready = false; /* a cleared object (a reference cycle being collected) refuses every call */
     Py_CLEAR(self->status_of);
@@ -292,6 +302,8 @@ static void core_dealloc(native_core_t *self)
 {
     PyObject_GC_UnTrack(self);
     core_clear(self);
+    (void)pthread_cond_destroy(&self->ready_cond);
+    (void)pthread_mutex_destroy(&self->lock);
     while (self->free_list != NULL) {
         native_xfer_t *x = self->free_list;
         self->free_list = x->free_next;
@@ -306,6 +318,18 @@ static PyObject *core_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
     (void)kwds;
     native_core_t *self = (native_core_t *)type->tp_alloc(type, 0);
     if (self != NULL) {
+        pthread_condattr_t attr;
+        bool const made = (pthread_condattr_init(&attr) == 0) &&
+                          (pthread_condattr_setclock(&attr, CLOCK_MONOTONIC) == 0) &&
+                          (pthread_cond_init(&self->ready_cond, &attr) == 0);
+        if (!made || (pthread_mutex_init(&self->lock, NULL) != 0)) {
+            PyErr_SetString(PyExc_OSError, "cannot create the native core's mutex and condition");
+            PyObject_GC_UnTrack(self);
+            Py_TYPE(self)->tp_free((PyObject *)self);
+            return NULL;
+        }
+        (void)pthread_condattr_destroy(&attr);
+        self->pump.fd = -1;
         self->trace = Py_None;
         Py_INCREF(Py_None);
         self->completed = PyList_New(0);
@@ -363,7 +387,7 @@ static PyObject *core_setup(native_core_t *self, PyObject *args)
 
 static PyObject *core_submit(native_core_t *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (not_ready(self)) {
+    if (native_not_ready(self)) {
         return NULL;
     }
     if (nargs != 2) {
@@ -410,6 +434,7 @@ static PyObject *core_submit(native_core_t *self, PyObject *const *args, Py_ssiz
         }
         if (rc == URB_HOST_OK) {
             x->py = py;
+            x->sent_unmarked = false;
             Py_INCREF(py);
             rc = urb_core_submit(&self->core, &x->t, now);
         }
@@ -460,7 +485,7 @@ static PyObject *core_receive(native_core_t *self, PyObject *const *args, Py_ssi
 {
     Py_buffer data;
     long long now = 0;
-    if (not_ready(self) || (parse_data_now(args, nargs, &data, &now) < 0)) {
+    if (native_not_ready(self) || (parse_data_now(args, nargs, &data, &now) < 0)) {
         return NULL;
     }
     int32_t const rc = urb_core_receive(&self->core, data.buf, (size_t)data.len, now);
@@ -479,7 +504,7 @@ static PyObject *core_receive_batch(native_core_t *self, PyObject *const *args, 
 {
     Py_buffer data;
     long long now = 0;
-    if (not_ready(self) || (parse_data_now(args, nargs, &data, &now) < 0)) {
+    if (native_not_ready(self) || (parse_data_now(args, nargs, &data, &now) < 0)) {
         return NULL;
     }
     bool const traced = (self->trace != Py_None) && !self->core.lost && (data.len > 0) && !self->core.flushing;
@@ -509,7 +534,7 @@ static PyObject *core_receive_batch(native_core_t *self, PyObject *const *args, 
 static PyObject *core_poll(native_core_t *self, PyObject *arg)
 {
     long long const now = PyLong_AsLongLong(arg);
-    if (not_ready(self) || ((now == -1) && PyErr_Occurred())) {
+    if (native_not_ready(self) || ((now == -1) && PyErr_Occurred())) {
         return NULL;
     }
     (void)urb_core_poll(&self->core, now);
@@ -522,7 +547,7 @@ static PyObject *core_poll(native_core_t *self, PyObject *arg)
 static PyObject *core_frames_to_send(native_core_t *self, PyObject *arg)
 {
     long long const now = PyLong_AsLongLong(arg);
-    if (not_ready(self) || ((now == -1) && PyErr_Occurred())) {
+    if (native_not_ready(self) || ((now == -1) && PyErr_Occurred())) {
         return NULL;
     }
     PyObject *out = PyList_New(0);
@@ -546,7 +571,8 @@ static PyObject *core_frames_to_send(native_core_t *self, PyObject *arg)
             return out;
         }
         PyObject *b = PyBytes_FromStringAndSize((const char *)frame, n);
-        if ((b == NULL) || (PyList_Append(out, b) < 0) || (mark_sent(&self->core, newest_slot(&self->core), head) < 0)) {
+        const urb_slot_t *slot = newest_slot(&self->core);
+        if ((b == NULL) || (PyList_Append(out, b) < 0) || (mark_sent(head, slot->due_ns, slot->expires_ns) < 0)) {
             Py_XDECREF(b);
             Py_DECREF(out);
             return NULL;
@@ -558,7 +584,7 @@ static PyObject *core_frames_to_send(native_core_t *self, PyObject *arg)
 static PyObject *core_frame_out(native_core_t *self, PyObject *arg)
 {
     long long const now = PyLong_AsLongLong(arg);
-    if (not_ready(self) || ((now == -1) && PyErr_Occurred())) {
+    if (native_not_ready(self) || ((now == -1) && PyErr_Occurred())) {
         return NULL;
     }
     /* the requests that may go in this batch: at most max_batch (<= 15) from the queue's head */
@@ -588,7 +614,7 @@ static PyObject *core_frame_out(native_core_t *self, PyObject *arg)
     unsigned const first = self->core.m.count - sent;
     for (unsigned i = 0u; i < sent; i++) {
         const urb_slot_t *slot = &self->core.m.slot[(self->core.m.head + first + i) % URB_MATCHER_SLOTS];
-        if (mark_sent(&self->core, slot, candidates[i]) < 0) {
+        if (mark_sent(candidates[i], slot->due_ns, slot->expires_ns) < 0) {
             return NULL;
         }
     }
@@ -614,7 +640,7 @@ static PyObject *core_frame_out(native_core_t *self, PyObject *arg)
 static PyObject *core_take_completed(native_core_t *self, PyObject *unused)
 {
     (void)unused;
-    if (not_ready(self)) {
+    if (native_not_ready(self) || (collect(self, NULL) < 0)) { /* the pump's completions wait in the C core */
         return NULL;
     }
     PyObject *fresh = PyList_New(0);
@@ -642,10 +668,10 @@ static PyObject *core_take_completed(native_core_t *self, PyObject *unused)
 static PyObject *core_next_deadline(native_core_t *self, PyObject *unused)
 {
     (void)unused;
-    return not_ready(self) ? NULL : time_or_none(urb_core_next_deadline(&self->core));
+    return native_not_ready(self) ? NULL : time_or_none(urb_core_next_deadline(&self->core));
 }
 
-static int set_full_reason(native_core_t *self, PyObject *reason)
+int native_set_full_reason(native_core_t *self, PyObject *reason)
 {
     if (!PyUnicode_Check(reason)) {
         PyErr_SetString(PyExc_TypeError, "a lost reason is a str");
@@ -658,7 +684,7 @@ static int set_full_reason(native_core_t *self, PyObject *reason)
 
 static PyObject *core_link_lost(native_core_t *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (not_ready(self)) {
+    if (native_not_ready(self)) {
         return NULL;
     }
     if (nargs != 2) {
@@ -676,7 +702,7 @@ static PyObject *core_link_lost(native_core_t *self, PyObject *const *args, Py_s
         }
         return NULL;
     }
-    if (!self->core.lost && (set_full_reason(self, args[1]) < 0)) { /* already lost: nothing changes */
+    if (!self->core.lost && (native_set_full_reason(self, args[1]) < 0)) { /* already lost: nothing changes */
         return NULL;
     }
     urb_core_link_lost(&self->core, now, reason);
@@ -689,7 +715,7 @@ static PyObject *core_link_lost(native_core_t *self, PyObject *const *args, Py_s
 static PyObject *core_reset(native_core_t *self, PyObject *arg)
 {
     long long const now = PyLong_AsLongLong(arg);
-    if (not_ready(self) || ((now == -1) && PyErr_Occurred())) {
+    if (native_not_ready(self) || ((now == -1) && PyErr_Occurred())) {
         return NULL;
     }
     urb_core_reset(&self->core, now);
@@ -702,7 +728,7 @@ static PyObject *core_reset(native_core_t *self, PyObject *arg)
 static PyObject *core_start_drain(native_core_t *self, PyObject *arg)
 {
     long long const now = PyLong_AsLongLong(arg);
-    if (not_ready(self) || ((now == -1) && PyErr_Occurred())) {
+    if (native_not_ready(self) || ((now == -1) && PyErr_Occurred())) {
         return NULL;
     }
     urb_ns_t const until = urb_core_start_drain(&self->core, now);
@@ -715,13 +741,13 @@ static PyObject *core_start_drain(native_core_t *self, PyObject *arg)
 static PyObject *core_drained(native_core_t *self, PyObject *unused)
 {
     (void)unused;
-    return not_ready(self) ? NULL : PyBool_FromLong(urb_core_drained(&self->core));
+    return native_not_ready(self) ? NULL : PyBool_FromLong(urb_core_drained(&self->core));
 }
 
 static PyObject *core_hand_over(native_core_t *self, PyObject *arg)
 {
     long long const until = PyLong_AsLongLong(arg);
-    if (not_ready(self) || ((until == -1) && PyErr_Occurred())) {
+    if (native_not_ready(self) || ((until == -1) && PyErr_Occurred())) {
         return NULL;
     }
     urb_core_hand_over(&self->core, until);
@@ -731,13 +757,13 @@ static PyObject *core_hand_over(native_core_t *self, PyObject *arg)
 static PyObject *core_busy_until(native_core_t *self, PyObject *unused)
 {
     (void)unused;
-    return not_ready(self) ? NULL : time_or_none(urb_core_busy_until(&self->core));
+    return native_not_ready(self) ? NULL : time_or_none(urb_core_busy_until(&self->core));
 }
 
 static PyObject *core_set_window_raw(native_core_t *self, PyObject *arg)
 {
     long const w = PyLong_AsLong(arg);
-    if (not_ready(self) || ((w == -1) && PyErr_Occurred())) {
+    if (native_not_ready(self) || ((w == -1) && PyErr_Occurred())) {
         return NULL;
     }
     if ((w < 1) || (w > (long)URB_MAX_WINDOW) || (urb_core_set_window(&self->core, (uint8_t)w) != URB_HOST_OK)) {
@@ -750,130 +776,95 @@ static PyObject *core_set_window_raw(native_core_t *self, PyObject *arg)
 static PyObject *core_busy(native_core_t *self, PyObject *unused)
 {
     (void)unused;
-    return not_ready(self) ? NULL : PyBool_FromLong(urb_core_busy(&self->core));
+    return native_not_ready(self) ? NULL : PyBool_FromLong(urb_core_busy(&self->core));
+}
+
+/* Every method and accessor runs with the core's lock held (the pump's thread shares the core),
+ * after the whole reason of a loss the pump found was adopted. */
+int native_locked_enter(native_core_t *self)
+{
+    native_core_lock(self);
+    if (self->pump.reason_pending && (native_adopt_pump_reason(self) < 0)) {
+        native_core_unlock(self);
+        return -1;
+    }
+    return 0;
+}
+
+#define LOCKED_FAST(fn)                                                                          \
+    static PyObject *fn##_locked(native_core_t *self, PyObject *const *args, Py_ssize_t nargs)  \
+    {                                                                                            \
+        if (native_locked_enter(self) < 0) {                                                            \
+            return NULL;                                                                         \
+        }                                                                                        \
+        PyObject *const out = fn(self, args, nargs);                                             \
+        native_core_unlock(self);                                                                \
+        return out;                                                                              \
+    }
+#define LOCKED_ONE(fn)                                                                           \
+    static PyObject *fn##_locked(native_core_t *self, PyObject *arg)                             \
+    {                                                                                            \
+        if (native_locked_enter(self) < 0) {                                                            \
+            return NULL;                                                                         \
+        }                                                                                        \
+        PyObject *const out = fn(self, arg);                                                     \
+        native_core_unlock(self);                                                                \
+        return out;                                                                              \
+    }
+LOCKED_FAST(core_submit)
+LOCKED_FAST(core_receive)
+LOCKED_FAST(core_receive_batch)
+LOCKED_FAST(core_link_lost)
+LOCKED_ONE(core_poll)
+LOCKED_ONE(core_frames_to_send)
+LOCKED_ONE(core_frame_out)
+LOCKED_ONE(core_take_completed)
+LOCKED_ONE(core_next_deadline)
+LOCKED_ONE(core_reset)
+LOCKED_ONE(core_start_drain)
+LOCKED_ONE(core_drained)
+LOCKED_ONE(core_hand_over)
+LOCKED_ONE(core_busy_until)
+LOCKED_ONE(core_set_window_raw)
+LOCKED_ONE(core_busy)
+
+static PyObject *core_setup_locked(native_core_t *self, PyObject *args)
+{
+    if (self->pump.running) {
+        PyErr_SetString(PyExc_RuntimeError, "the native core is set up already");
+        return NULL;
+    }
+    return core_setup(self, args);
 }
 
 static PyMethodDef core_methods[] = {
-    {"_setup", (PyCFunction)core_setup, METH_VARARGS, "Initialise the C core (NativeRs232Core/NativeUsbCore do)."},
-    {"submit", (PyCFunction)(void (*)(void))core_submit, METH_FASTCALL, "submit(t, now): queue a request."},
-    {"receive", (PyCFunction)(void (*)(void))core_receive, METH_FASTCALL, "receive(data, now): RS232 bytes."},
-    {"receive_batch", (PyCFunction)(void (*)(void))core_receive_batch, METH_FASTCALL,
+    {"_setup", (PyCFunction)core_setup_locked, METH_VARARGS, "Initialise the C core (NativeRs232Core/NativeUsbCore do)."},
+    {"submit", (PyCFunction)(void (*)(void))core_submit_locked, METH_FASTCALL, "submit(t, now): queue a request."},
+    {"receive", (PyCFunction)(void (*)(void))core_receive_locked, METH_FASTCALL, "receive(data, now): RS232 bytes."},
+    {"receive_batch", (PyCFunction)(void (*)(void))core_receive_batch_locked, METH_FASTCALL,
      "receive_batch(data, now): one USB IN transfer."},
-    {"poll", (PyCFunction)core_poll, METH_O, "poll(now): timeouts, idle gap, lost-bridge rules."},
-    {"frames_to_send", (PyCFunction)core_frames_to_send, METH_O, "frames_to_send(now) -> list[bytes] (RS232)."},
-    {"frame_out", (PyCFunction)core_frame_out, METH_O, "frame_out(now) -> bytes | None (USB)."},
-    {"take_completed", (PyCFunction)core_take_completed, METH_NOARGS, "Transfers completed since the last call."},
-    {"next_deadline", (PyCFunction)core_next_deadline, METH_NOARGS, "When poll next has something to do."},
-    {"link_lost", (PyCFunction)(void (*)(void))core_link_lost, METH_FASTCALL, "link_lost(now, reason)."},
-    {"reset", (PyCFunction)core_reset, METH_O, "reset(now): forget the lost state."},
-    {"start_drain", (PyCFunction)core_start_drain, METH_O, "start_drain(now) -> int | None."},
-    {"drained", (PyCFunction)core_drained, METH_NOARGS, "Nothing left to wait for after start_drain."},
-    {"hand_over", (PyCFunction)core_hand_over, METH_O, "hand_over(until_ns)."},
-    {"busy_until", (PyCFunction)core_busy_until, METH_NOARGS, "The latest lifetime in flight, or None."},
-    {"_set_window", (PyCFunction)core_set_window_raw, METH_O, "Set the window (1..15)."},
-    {"busy", (PyCFunction)core_busy, METH_NOARGS, "Requests queued or in flight."},
+    {"poll", (PyCFunction)core_poll_locked, METH_O, "poll(now): timeouts, idle gap, lost-bridge rules."},
+    {"frames_to_send", (PyCFunction)core_frames_to_send_locked, METH_O, "frames_to_send(now) -> list[bytes] (RS232)."},
+    {"frame_out", (PyCFunction)core_frame_out_locked, METH_O, "frame_out(now) -> bytes | None (USB)."},
+    {"take_completed", (PyCFunction)core_take_completed_locked, METH_NOARGS, "Transfers completed since the last call."},
+    {"next_deadline", (PyCFunction)core_next_deadline_locked, METH_NOARGS, "When poll next has something to do."},
+    {"link_lost", (PyCFunction)(void (*)(void))core_link_lost_locked, METH_FASTCALL, "link_lost(now, reason)."},
+    {"reset", (PyCFunction)core_reset_locked, METH_O, "reset(now): forget the lost state."},
+    {"start_drain", (PyCFunction)core_start_drain_locked, METH_O, "start_drain(now) -> int | None."},
+    {"drained", (PyCFunction)core_drained_locked, METH_NOARGS, "Nothing left to wait for after start_drain."},
+    {"hand_over", (PyCFunction)core_hand_over_locked, METH_O, "hand_over(until_ns)."},
+    {"busy_until", (PyCFunction)core_busy_until_locked, METH_NOARGS, "The latest lifetime in flight, or None."},
+    {"_set_window", (PyCFunction)core_set_window_raw_locked, METH_O, "Set the window (1..15)."},
+    {"busy", (PyCFunction)core_busy_locked, METH_NOARGS, "Requests queued or in flight."},
+    {"_pump_start", (PyCFunction)native_pump_start, METH_VARARGS,
+     "_pump_start(fd, name, frame_ns, handover_port, handover_dir): run the USB uplink on a C thread."},
+    {"_pump_stop", (PyCFunction)native_pump_stop, METH_NOARGS, "Stop and join the pump's thread."},
+    {"_pump_wait", (PyCFunction)native_pump_wait, METH_O,
+     "_pump_wait(timeout_s) -> bool: wait (GIL released) for completions or a kick; True when there are some."},
+    {"_pump_kick", (PyCFunction)native_pump_kick, METH_NOARGS, "Wake a _pump_wait."},
+    {"_pump_running", (PyCFunction)native_pump_running, METH_NOARGS, "The pump's thread runs its I/O."},
+    {"_has_completed", (PyCFunction)native_has_completed, METH_NOARGS, "Completions wait to be taken."},
     {NULL, NULL, 0, NULL},
-};
-
-/* ----- read-only counters and the settable lost reason ------------------------------------------- */
-
-enum { G_STRAY, G_LATE, G_RELEASED, G_IN_FLIGHT, G_PLACEHOLDERS, G_HAS_QUEUED, G_FRAMES, G_TRANSFERS_IN, G_BAD_HEADERS };
-
-static PyObject *core_get_counter(native_core_t *self, void *which)
-{
-    if (not_ready(self)) {
-        return NULL;
-    }
-    const urb_core_t *c = &self->core;
-    switch ((int)(intptr_t)which) {
-    case G_STRAY: return PyLong_FromUnsignedLongLong(c->m.stray_bytes);
-    case G_LATE: return PyLong_FromUnsignedLongLong(c->m.late_responses);
-    case G_RELEASED: return PyLong_FromUnsignedLongLong(c->m.released_placeholders);
-    case G_IN_FLIGHT: return PyLong_FromUnsignedLong(urb_core_in_flight(c));
-    case G_PLACEHOLDERS: return PyLong_FromUnsignedLong(urb_core_placeholders(c));
-    case G_HAS_QUEUED: return PyBool_FromLong(urb_core_has_queued(c));
-    case G_FRAMES: return PyLong_FromUnsignedLongLong(c->frames_written);
-    case G_TRANSFERS_IN: return PyLong_FromUnsignedLongLong(c->transfers_in);
-    default: return PyLong_FromUnsignedLongLong(c->bad_headers);
-    }
-}
-
-static PyObject *core_get_lost_reason(native_core_t *self, void *unused)
-{
-    (void)unused;
-    if (not_ready(self)) {
-        return NULL;
-    }
-    const char *r = urb_core_lost_reason(&self->core);
-    if (r == NULL) {
-        Py_RETURN_NONE;
-    }
-    return reason_text(self, r);
-}
-
-/* What MatchingCore callers do after link_lost on a core lost already: say why it is lost now. */
-static int core_set_lost_reason(native_core_t *self, PyObject *value, void *unused)
-{
-    (void)unused;
-    if (not_ready(self)) {
-        return -1;
-    }
-    if ((value == NULL) || !self->core.lost) {
-        PyErr_SetString(PyExc_ValueError, "only a lost core's reason can be replaced (call link_lost first; reset "
-                                          "makes the core usable again)");
-        return -1;
-    }
-    const char *text = PyUnicode_Check(value) ? PyUnicode_AsUTF8(value) : NULL;
-    if ((text == NULL) || (set_full_reason(self, value) < 0)) {
-        if (!PyErr_Occurred()) {
-            PyErr_SetString(PyExc_TypeError, "a lost reason is a str");
-        }
-        return -1;
-    }
-    size_t n = strlen(text);
-    if (n > URB_REASON_MAX - 1u) {
-        n = URB_REASON_MAX - 1u;
-    }
-    memcpy(self->core.lost_reason, text, n);
-    self->core.lost_reason[n] = '\0';
-    return 0;
-}
-
-static PyObject *core_get_trace(native_core_t *self, void *unused)
-{
-    (void)unused;
-    Py_INCREF(self->trace);
-    return self->trace;
-}
-
-static int core_set_trace(native_core_t *self, PyObject *value, void *unused)
-{
-    (void)unused;
-    if ((value == NULL) || ((value != Py_None) && !PyList_CheckExact(value))) {
-        PyErr_SetString(PyExc_TypeError, "trace is None or a list");
-        return -1;
-    }
-    Py_INCREF(value);
-    Py_XSETREF(self->trace, value);
-    return 0;
-}
-
-#define COUNTER(name, which, doc) {name, (getter)core_get_counter, NULL, doc, (void *)(intptr_t)(which)}
-static PyGetSetDef core_getset[] = {
-    COUNTER("stray_bytes", G_STRAY, "Received bytes that answered no request."),
-    COUNTER("late_responses", G_LATE, "Responses that came after their request had timed out (discarded)."),
-    COUNTER("released_placeholders", G_RELEASED, "Placeholders released without their late response."),
-    COUNTER("in_flight", G_IN_FLIGHT, "Requests in flight, placeholders included."),
-    COUNTER("placeholders", G_PLACEHOLDERS, "Timed-out requests whose sequence numbers stay reserved."),
-    COUNTER("has_queued", G_HAS_QUEUED, "Requests buffered that the window lets go out."),
-    COUNTER("frames_written", G_FRAMES, "USB: OUT transfers built."),
-    COUNTER("transfers_in", G_TRANSFERS_IN, "USB: IN transfers received."),
-    COUNTER("bad_headers", G_BAD_HEADERS, "USB: IN transfers whose header did not decode."),
-    {"lost_reason", (getter)core_get_lost_reason, (setter)core_set_lost_reason, "Why the bridge is lost, or None.",
-     NULL},
-    {"trace", (getter)core_get_trace, (setter)core_set_trace,
-     "None, or a list the USB pipeline's steps are appended to (usb_core.UsbTraceEvent).", NULL},
-    {NULL, NULL, NULL, NULL, NULL},
 };
 
 static PyTypeObject native_core_type = {
@@ -886,7 +877,7 @@ static PyTypeObject native_core_type = {
     .tp_traverse = (traverseproc)core_traverse,
     .tp_clear = (inquiry)core_clear,
     .tp_methods = core_methods,
-    .tp_getset = core_getset,
+    .tp_getset = native_core_getset,
 };
 
 static struct PyModuleDef native_module = {

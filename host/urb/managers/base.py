@@ -41,6 +41,10 @@ DISPATCH_BATCH = 16
 """Callbacks the dispatcher runs back to back before it wakes the blocking calls waiting (a USB
 frame answers up to 15 requests)."""
 
+BATCH_WAIT_S = 0.01
+"""The longest the dispatcher of a manager whose I/O runs in C waits between two looks at the core
+(completions wake it at once; this bounds how late a draining close learns it is drained)."""
+
 M = TypeVar("M", bound=Message)
 
 
@@ -284,11 +288,11 @@ class BusManager(ABC):
         return functools.partial(self._notify_lost, reason)
 
     # lobster-trace: urb.HOST_005
-    def _queue_completed(self, core: Core, put: Callable[[Transfer | Callable[[], None]], None]) -> None:
+    def _queue_completed(self, core: Core, put: Callable[[Transfer | Callable[[], None]], None]) -> bool:
         """Count the transfers `core` completed and hand them to `put` (the dispatcher's queue);
         when the core has just found the bridge lost, the lost listeners' notice goes first,
         before the callbacks of the requests that loss failed. The stats take the core's count
-        of late responses and stray bytes."""
+        of late responses and stray bytes. Returns whether anything was handed to `put`."""
         done = core.take_completed()
         self.stats.late_responses = core.late_responses
         self.stats.stray_bytes = core.stray_bytes
@@ -303,6 +307,8 @@ class BusManager(ABC):
             put(t)
         if notice is not None:
             put(notice)
+            return True
+        return bool(done)
 
     def _close_core(self, core: Core, now: int) -> None:
         """The start of `close()`: `core` completes every outstanding request BRIDGE_LOST (reason
@@ -410,10 +416,17 @@ class ThreadedManager(BusManager):
         self._handover: PortHandover | None = None
         """The port's record for the next process (`handover.py`); set by a manager that opens
         a port by its path."""
+        self._has_completed: Callable[[], bool] | None = getattr(core, "_has_completed", None)
+        """The C core's cheap test for completions waiting (a submission that completed nothing
+        then skips `_collect`); None for the Python cores."""
 
     # -- subclass hooks --------------------------------------------------------------------
     def _wake_io(self) -> None:
         """Tell the I/O threads there may be something to send."""
+
+    def _kick_dispatcher(self) -> None:
+        """Wake the dispatcher for an item queued by another thread, when it waits on something
+        other than its queue (`_dispatch_batches`)."""
 
     # -- BusManager --------------------------------------------------------------------------
     def now_ns(self) -> int:
@@ -434,7 +447,8 @@ class ThreadedManager(BusManager):
             t.submitted_ns = now
             self.stats.submitted += 1
             self._core.submit(t, now)
-            self._collect()
+            if self._has_completed is None or self._has_completed():
+                self._collect()
         self._wake_io()
         self._complete_without_dispatcher()
 
@@ -446,6 +460,7 @@ class ThreadedManager(BusManager):
             self.stats.completed += 1
             self.stats.failed += 1
             self._dispatch_q.put(finish(t, now, flags))
+        self._kick_dispatcher()
         self._complete_without_dispatcher()
 
     def wait_until(self, predicate: Callable[[], bool], timeout_s: float) -> bool:
@@ -469,6 +484,7 @@ class ThreadedManager(BusManager):
         self._running = False
         if self._dispatcher is not None:
             self._dispatch_q.put(None)
+            self._kick_dispatcher()
             if threading.current_thread() is not self._dispatcher:
                 self._dispatcher.join(timeout=2.0)
             self._dispatcher = None
@@ -550,7 +566,8 @@ class ThreadedManager(BusManager):
         """Move completed transfers from the core to the dispatcher (lock held), and, when the
         core has just found the bridge lost, the lost listeners' notice: before the callbacks
         of the requests that loss failed."""
-        self._queue_completed(self._core, self._dispatch_q.put)
+        if self._queue_completed(self._core, self._dispatch_q.put) and threading.current_thread() is not self._dispatcher:
+            self._kick_dispatcher()
         if self._draining and self._core.drained():
             self._changed.notify_all()  # what a draining close() waits for
 
@@ -574,6 +591,41 @@ class ThreadedManager(BusManager):
                 self._changed.notify_all()
             if item is None:
                 return
+
+    def _dispatch_batches(self, wait: Callable[[float], bool]) -> None:
+        """The dispatcher of a manager whose uplink I/O runs on a C thread (the native core's pump):
+        `wait(timeout_s)` returns, with the GIL released meanwhile, once the core completed
+        transfers or another thread queued something (`_kick_dispatcher`); then the whole batch is
+        taken from the core at once and its callbacks run, and the blocking waiters are woken once.
+        One wake-up of Python per batch, where the threaded runtime woke a frame thread, a reader
+        and the dispatcher."""
+        q = self._dispatch_q
+        while True:
+            wait(BATCH_WAIT_S)
+            batch: list[Transfer | Callable[[], None] | None] = []
+            with self._lock:  # what other threads queued first (older), then the core's batch
+                while True:
+                    try:
+                        batch.append(q.get_nowait())
+                    except queue.Empty:
+                        break
+                self._queue_completed(self._core, batch.append)
+                if self._draining and self._core.drained():
+                    self._changed.notify_all()
+            ran = 0
+            for item in batch:
+                if item is None:
+                    if ran:
+                        with self._changed:
+                            self._changed.notify_all()
+                    for later in batch[batch.index(None) + 1:]:  # queued after the stop: close() runs them
+                        q.put(later)
+                    return
+                _run_item(item)
+                ran += 1
+            if ran:
+                with self._changed:
+                    self._changed.notify_all()
 
     def _drain_completions_inline(self) -> None:
         """Run the callbacks of completions queued while no dispatcher runs (during and after

@@ -10,6 +10,13 @@ frame, a request's callback runs at most 3 frames after its submission (UsbUplin
 The transport is pluggable (`FrameTransport`): `CharDeviceTransport` for a kernel driver that
 exposes the bridge as a character device (write = bulk-OUT, read = bulk-IN, one transfer per
 call), `LoopbackFrameTransport` for tests, and the simulation's USB model (through SimManager).
+
+On the C core (`native.NativeUsbCore`) over a `CharDeviceTransport`, the frame thread and the
+transport's reader are one C thread instead (the core's pump, `_native_pump.c`: the same 1-ms
+boundaries, one write per batch, one read per IN transfer, the hand-over record covered before
+each write), which never takes the GIL; the dispatcher wakes once per batch of completions
+(`ThreadedManager._dispatch_batches`). A core with `trace` set keeps the Python threads (the trace
+records each step as it happens).
 """
 
 from __future__ import annotations
@@ -28,6 +35,10 @@ from .loopback import BridgeModel
 from .native import new_usb_core
 from .rs232_core import PLACEHOLDER_NS
 from .usb_core import FRAME_NS
+
+USE_PUMP = True
+"""Run the uplink's I/O on the C core's pump when the core and transport allow it (see above);
+bench/host_cpu.py --usb-ab turns it off to compare both runtimes under the same load."""
 
 
 class USBManager(ThreadedManager):
@@ -61,26 +72,58 @@ class USBManager(ThreadedManager):
         self._usb = core
         self._thread: threading.Thread | None = None
         self._io_running = False
+        self._pumped = False
+        """The uplink's I/O runs on the C core's pump (decided at `start`)."""
+        self._pump_on = False
+
+    def _can_pump(self) -> bool:
+        return (USE_PUMP and isinstance(self.transport, CharDeviceTransport) and hasattr(self._usb, "_pump_start")
+                and self._usb.trace is None)
 
     def start(self) -> None:
-        if self._thread is not None:
+        if self._thread is not None or self._pump_on:
             return
-        opener = getattr(self.transport, "open", None)
-        if callable(opener):
-            opener()
-        self.transport.set_batch_receiver(self._on_in)
+        self._pumped = self._can_pump()
+        if isinstance(self.transport, CharDeviceTransport) and self._pumped:
+            self.transport.open_descriptor()
+        else:
+            opener = getattr(self.transport, "open", None)
+            if callable(opener):
+                opener()
+            self.transport.set_batch_receiver(self._on_in)
         self._start_threads(self._start_io)
 
     def _start_io(self) -> None:
         self._io_running = True
+        if self._pumped:
+            assert isinstance(self.transport, CharDeviceTransport) and self.transport.fd is not None
+            record = self._handover
+            port = self.transport.path if record is not None else None
+            self._usb._pump_start(self.transport.fd, self.name, FRAME_NS, port,  # type: ignore[attr-defined]
+                                  str(record.path.parent) if record is not None else None)
+            self._pump_on = True
+            return
         self._thread = threading.Thread(target=self._frame_loop, name=f"urb-usb {self.name}", daemon=True)
         self._thread.start()
 
     def _stop_io(self) -> None:
         self._io_running = False
+        if self._pump_on:
+            self._usb._pump_stop()  # type: ignore[attr-defined]
+            self._pump_on = False
         if self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join(timeout=2.0)
         self._thread = None
+
+    def _dispatch_loop(self) -> None:
+        if self._pumped:
+            self._dispatch_batches(self._usb._pump_wait)  # type: ignore[attr-defined]
+        else:
+            super()._dispatch_loop()
+
+    def _kick_dispatcher(self) -> None:
+        if self._pumped:
+            self._usb._pump_kick()  # type: ignore[attr-defined]
 
     def close(self, *, drain: bool = True) -> None:
         """Drain (`BusManager.close`; `drain=False` skips it), stop the frame thread and the
@@ -99,8 +142,9 @@ class USBManager(ThreadedManager):
         reset the protocol and start new threads. When the transport cannot be reopened, raises
         `PortError` and leaves the manager lost (`lost_reason` says why); call it again later."""
         self._stop_io()
+        reopen = "open_descriptor" if self._pumped else "open"
         try:
-            for name in ("close", "open"):
+            for name in ("close", reopen):
                 fn = getattr(self.transport, name, None)
                 if callable(fn):
                     fn()
@@ -162,6 +206,18 @@ class CharDeviceTransport:
         self._wake: tuple[int, int] | None = None
 
     def open(self) -> None:
+        """Open the device (or take the descriptor given) and start the reader thread."""
+        self.open_descriptor()
+        self._stop = threading.Event()
+        self._wake = os.pipe()
+        label = self.path if self.path is not None else f"fd {self.fd}"
+        self._thread = threading.Thread(target=self._read_loop, args=(self.fd, self._stop, self._wake[0]),
+                                        name=f"urb-usb-in {label}", daemon=True)
+        self._thread.start()
+
+    def open_descriptor(self) -> None:
+        """Open and lock the device (`PortError` saying what to do when it cannot be), without a
+        reader thread: for a manager that reads the descriptor itself (USBManager on the C core)."""
         if self._thread is not None:
             self._stop_reader()  # opened twice: still one reader
         if self.fd is None:
@@ -178,12 +234,6 @@ class CharDeviceTransport:
                 raise PortError(f"{self.path}: the USB bridge is in use by another program (close it, or find "
                                 f"it with `fuser {self.path}`).") from None
             self.fd = fd
-        self._stop = threading.Event()
-        self._wake = os.pipe()
-        label = self.path if self.path is not None else f"fd {self.fd}"
-        self._thread = threading.Thread(target=self._read_loop, args=(self.fd, self._stop, self._wake[0]),
-                                        name=f"urb-usb-in {label}", daemon=True)
-        self._thread.start()
 
     def close(self) -> None:
         self._stop_reader()

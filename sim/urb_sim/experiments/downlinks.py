@@ -1,6 +1,7 @@
 """SensoRHex on the CAN and RS485 downlinks (issue #39): the latency, synchronisation and control
 experiments repeated on bit-timed bus models with the firmware's frames (urb_sim.fieldbus), and the
-three downlinks side by side.
+three downlinks side by side. The nodes on CAN and RS485 run the node library and the SensoRHex
+applications (motor, battery, IMU, IR; the probe for the read latency), the objects the I2C world runs.
 
 `can`: the motor nodes on CAN (1 Mb/s; latency also at 500 and 250 kb/s), the slow sensors (battery,
 IMU, IR) on RS485 at 115200 Bd. `rs485`: every node on RS485, the motors at 1 Mb/s, the sensors at
@@ -19,9 +20,13 @@ from ..fieldbus import can, cores, cycle, measure, rs485
 from . import Progress, Result, no_progress, write_csv
 
 ASSUMPTIONS = [
-    "bus models in Python, to the bit (CAN) and to the character (RS485); the bridges' masters and the nodes' "
-    "slaves are the firmware's (firmware/downlink through ctypes), the node library's mailboxes a table of "
-    "fixed sizes (the node library chooses its downlink only in issue #39 phase 2)",
+    "bus models in Python, to the bit (CAN) and to the character (RS485); the bridges' masters are the "
+    "firmware's (firmware/downlink), every node runs the node library (firmware/node with urb_node_dl.c on its "
+    "downlink's slave) and its SensoRHex application (firmware/apps/sensorhex; the probe of sim_apps.c for the read "
+    "latency), all from build/sim/liburbsim.so through ctypes; a node's clock is ideal, ticks of 1 us, and its "
+    "main loop takes no time",
+    "the motor nodes' encoder is set from the PD loop's plant (fieldbus/plant.py) before each update and the "
+    "plant follows the voltage the motor application drives; the battery, IMU and IR nodes read stationary values",
     f"a node answers {measure.ASSUME.node_latency_us[0]:g}-{measure.ASSUME.node_latency_us[1]:g} us after a "
     f"request ends, the bridge begins the next transaction {measure.ASSUME.bridge_latency_us[0]:g}-"
     f"{measure.ASSUME.bridge_latency_us[1]:g} us after one ends (uniform draws)",
@@ -80,7 +85,8 @@ def _variant(variant: str, out: Path, *, quick: bool, seed: int, progress: Progr
     else:
         _rs485_faults(res, seed, 300 if quick else 1500)
         rng = random.Random(f"modbus/{seed}")
-        fixed = measure.motor_cycles_us(cycle.Rs485Downlink(rate, rng, measure.MOTORS, modbus_fixed=True), 10, rng)
+        fixed = measure.motor_cycles_us(cycle.Rs485Downlink(rate, rng, measure.MOTORS, modbus_fixed=True,
+                                                            apps=measure.motors()), 10, rng)
         res.notes.append(f"With Modbus RTU's fixed silences (t3.5 = {rs485.MODBUS_T35_US} us, t1.5 = "
                          f"{rs485.MODBUS_T15_US} us above 19200 Bd) in place of URB's 3.5 and 1.5 characters, one "
                          f"motor cycle at {rate // 1000} kb/s takes {max(fixed):.0f} us: a loop of "
@@ -125,13 +131,14 @@ def _latency(res: Result, out: Path, variant: str, payloads: list[int], reads: i
 
 
 def _sync(res: Result, kind: str, rate: int, cycles: int, seed: int) -> None:
-    spreads, bound = measure.sync_spread(kind, rate, cycles, seed)
+    spreads, bound, stamped = measure.sync_spread(kind, rate, cycles, seed)
     mean, mx = measure.summary(spreads)
     res.check("SYNC inter-node difference within bound",
               f"every SYNC time-stamped by the three motor nodes within {bound:.0f} ns of each other (cable, "
-              "transceivers, one time quantum, one timer tick)",
-              f"{len(spreads)} SYNCs of {cycles}: average {mean:.0f} ns, max {mx:.0f} ns",
-              len(spreads) == cycles and mx <= bound)
+              "transceivers, one time quantum, one timer tick), and by each node library",
+              f"{len(spreads)} SYNCs of {cycles}: average {mean:.0f} ns, max {mx:.0f} ns; each node library "
+              f"stamped at least {stamped}",
+              len(spreads) == cycles and mx <= bound and stamped == cycles)
 
 
 def _control(res: Result, kind: str, rate: int, seconds: float, seed: int) -> dict[str, measure.LoopRun]:
@@ -154,6 +161,19 @@ def _control(res: Result, kind: str, rate: int, seconds: float, seed: int) -> di
               f"{two} of {len(clean.delays)}; with errors {two_noisy} of {len(noisy.delays)} "
               f"({noisy.bus_errors} frames hit by errors, statuses {noisy.statuses})",
               two == len(clean.delays) > 0 and two_noisy >= 0.99 * len(noisy.delays))
+    states = {a: st for run in (clean, noisy) for a, st in run.sync_states.items()}
+    res.check("motor node heartbeats locked to SYNC",
+              "at the end of the clean and the noisy run, every motor node's heartbeat PLL (urb_pll.c) is locked to "
+              "the bridge's SYNC",
+              f"clean {clean.sync_states}, with errors {noisy.sync_states}",
+              bool(states) and set(clean.sync_states.values()) == set(noisy.sync_states.values()) == {"locked"})
+    wrong = clean.mismatches + noisy.mismatches
+    res.check("transactions carry the node library's mailboxes",
+              "every read the master reports OK returned the outbox buffer the node library latched for it, every "
+              "write reported OK is what the application's next inbox lock sees",
+              f"{clean.verified + noisy.verified} OK transactions checked, {len(wrong)} wrong"
+              + (f": {wrong[0]}" if wrong else ""),
+              not wrong and clean.verified > 0 and noisy.verified > 0)
     res.check("PD tracking as with instant downlink",
               f"tracking RMS of the 0.5-Hz sinusoid at most 1.05 x the same loop's with instant transactions "
               f"({ideal.rms_rad:.4f} rad)",
@@ -166,12 +186,12 @@ def _can_faults(res: Result, seed: int, cycles: int) -> None:
     """A motor node whose transceiver disturbs 60 % of its frames: it must reach bus-off and
     recover (ISO 11898-1), its failures must reach the bridge as I2C's flags, the others go on."""
     d = cycle.CanDownlink(1_000_000, random.Random(f"canfault/{seed}"), measure.MOTORS, tx_fault={2: 0.6},
-                          node_latency_us=measure.ASSUME.node_latency_us)
+                          node_latency_us=measure.ASSUME.node_latency_us, apps=measure.motors())
     other = {"OK": 0}
     faulty: dict[str, int] = {}
     for k in range(cycles):
         for a in measure.MOTORS:
-            st = d.transact(k * 1000.0, cycle.Txn(a, 1, True, bytes(6))).status
+            st = d.transact(k * 1000.0, cycle.Txn(a, measure.FEEDBACK_BOX, True, bytes(measure.FEEDBACK_BYTES))).status
             book = faulty if a == 2 else other
             book[st] = book.get(st, 0) + 1
     node = d.nodes[2]
@@ -187,13 +207,15 @@ def _rs485_faults(res: Result, seed: int, polls: int) -> None:
     """Character errors and a stalled node on 1-Mb/s RS485."""
     rng = random.Random(f"rs485fault/{seed}")
     line = rs485.Rs485Line(1_000_000, rng, ber=3 * NOISY_BER)
-    node_rx = line.node(1)
+    node_rx = line.node(1, cores.App("motor"))
     statuses: dict[str, int] = {}
     for k in range(polls):
         read = k % 2 == 1
-        st = line.poll(1, 1 if read else 0, read, bytes(6) if read else b"\x01\x02", node_rx).status
+        box = measure.FEEDBACK_BOX if read else measure.COMMAND_BOX
+        st = line.poll(1, box, read, bytes(measure.FEEDBACK_BYTES) if read else measure.motor_command(0.5), node_rx).status
         statuses[st] = statuses.get(st, 0) + 1
-    stalled = line.poll(1, 1, True, bytes(6), node_rx, stall_us=line.tm.t15_us + 5).status
+    stalled = line.poll(1, measure.FEEDBACK_BOX, True, bytes(measure.FEEDBACK_BYTES), node_rx,
+                        stall_us=line.tm.t15_us + 5).status
     allowed = {"OK", "CHECKSUM", "TIMEOUT", "NO_NODE"}
     res.check("RS485 errors reported as I2C flags",
               f"with a bit error rate of {3 * NOISY_BER:g}: failed polls CHECKSUM, TIMEOUT or NO_NODE (a corrupted "
@@ -203,23 +225,25 @@ def _rs485_faults(res: Result, seed: int, polls: int) -> None:
 
 
 def _sensors(res: Result, seed: int, rounds: int) -> None:
-    """The battery, IMU and IR nodes read in turn at 115200 Bd, each at 100 Hz."""
+    """The battery, IMU and IR nodes (their SensoRHex applications) read in turn at 115200 Bd, each at 100 Hz."""
     rng = random.Random(f"sensors/{seed}")
-    d = cycle.Rs485Downlink(SENSOR_BAUD, rng, tuple(a for a, _ in measure.SENSORS))
+    d = cycle.Rs485Downlink(SENSOR_BAUD, rng, tuple(a for a, _, _ in measure.SENSORS),
+                            apps={a: cores.App(app) for a, app, _ in measure.SENSORS})
     worst: list[float] = []
     bound = sum(measure.read_bounds_us("rs485", SENSOR_BAUD, n)[1] + measure.ASSUME.bridge_latency_us[1]
-                for _, n in measure.SENSORS)
+                for _, _, n in measure.SENSORS)
     for k in range(rounds):
         t0 = (k + 1) * 10_000.0  # after the line's start-up silence
         begin = max(t0, d.now_us())
-        for a, n in measure.SENSORS:
-            d.transact(t0, cycle.Txn(a, 1, True, bytes(rng.randrange(256) for _ in range(n))))
+        for a, _, n in measure.SENSORS:
+            d.transact(t0, cycle.Txn(a, 1, True, bytes(n)))
         worst.append(d.now_us() - begin)
+    sizes = ", ".join(f"{app} ({n} B)" for _, app, n in measure.SENSORS)
     res.check("sensor poll fits 100 Hz",
-              f"battery (6 B), IMU (14 B) and IR (4 B) read in turn within the derived {bound:.0f} us, "
-              "under the 10-ms period",
-              f"{rounds} rounds, max {max(worst):.0f} us, statuses {d.statuses}",
-              max(worst) <= bound <= 10_000 and set(d.statuses) == {"OK"})
+              f"{sizes} read in turn within the derived {bound:.0f} us, under the 10-ms period; each read the "
+              "outbox its application published",
+              f"{rounds} rounds, max {max(worst):.0f} us, statuses {d.statuses}, {len(d.mismatches)} reads wrong",
+              max(worst) <= bound <= 10_000 and set(d.statuses) == {"OK"} and not d.mismatches)
 
 
 def side_by_side(seed: int, seconds: float, runs: dict[str, measure.LoopRun]) -> list[dict[str, object]]:
@@ -235,7 +259,7 @@ def side_by_side(seed: int, seconds: float, runs: dict[str, measure.LoopRun]) ->
                "sensor-to-actuator delay (ms)": "%.1f" % (max(loop.delays) * 1000 / loop.hz),
                "PD tracking RMS (rad)": "%.4f" % loop.rms_rad}
         if kind != "i2c":
-            spreads, bound = measure.sync_spread(kind, rate, 200, seed)
+            spreads, _, _ = measure.sync_spread(kind, rate, 200, seed)
             col["SYNC inter-node difference, avg / max (ns)"] = "%.0f / %.0f" % measure.summary(spreads)
         else:
             col["SYNC inter-node difference, avg / max (ns)"] = "see table1 (real firmware)"

@@ -1,64 +1,31 @@
-"""The phase-1 C framing of the CAN and RS485 downlinks, loaded through ctypes.
+"""The firmware's CAN and RS485 downlink code and URB nodes on those downlinks, loaded through ctypes.
 
 The simulation's frames are the firmware's: identifiers from `urb_can_id`, the frames of a transfer
 from the segmenter `urb_can_tx_init`/`urb_can_tx_next` (tail bytes, transfer CRC), the RS485
 frames from the generated encoders and its timing (t1.5, t3.5, the turnaround allowance) from
-`urb_rs485_timing`, the RS485 slave (`urb_rs485_slave.c`, with its receiver `urb_rs485_rx_*`), and the bridge's CAN
-and RS485 masters and the nodes' CAN and RS485 slaves themselves (`urb_can_master.c`,
-`urb_rs485_master.c`, `urb_can_slave.c`, `urb_rs485_slave.c`, behind the HALs of sim/downlink/: their
-statuses, timeouts, silence rules, duplicate filter and bus-off handling are the firmware's). They are compiled from the committed sources into build/sim/liburbdl.so, a
-library of its own (the full simulation library, liburbsim.so, does not link the downlink cores
-yet: the node library and the bridge choose their downlink in phase 2 of issue #39).
+`urb_rs485_timing`. The bridge's CAN and RS485 masters (`urb_can_master.c`, `urb_rs485_master.c`)
+run behind the HALs of sim/downlink/ (sim_can_bridge.c, sim_rs485_bridge.c), and every node is a
+real URB node (sim/downlink/sim_dl_node.c): the node library (firmware/node, its downlink adapter
+urb_node_dl.c with urb_node_can.c or urb_node_rs485.c, and the slaves `urb_can_slave.c`,
+`urb_rs485_slave.c`) running a SensoRHex application (firmware/apps/sensorhex) or the simulation's
+probe (firmware/hal/sim/sim_apps.c). Statuses, timeouts, silence rules, duplicate filter, bus-off
+handling, mailbox sizes and contents, SYNC hand-over and the heartbeat PLL are the firmware's.
+
+Everything comes from the simulation library, build/sim/liburbsim.so (urb_sim.build), so these nodes
+run the very objects the I2C world's nodes run; URBSIM_SANITIZE=1 and URBSIM_MUTANT=NAME select its
+sanitized or seeded-bug build as for every other experiment.
 """
 
 from __future__ import annotations
 
 import ctypes
-import os
-import shlex
-import subprocess
 from dataclasses import dataclass
 from functools import cache
-from pathlib import Path
 
-from ..build import BUILD, REPO, SANITIZE_FLAGS, BuildError, unpreloaded_env, variant
-
-LIBRARY = BUILD / "liburbdl.so"
-SOURCES = ["sim/downlink/sim_mailbox.c", "sim/downlink/sim_rs485_node.c", "firmware/downlink/rs485/urb_rs485_slave.c",
-           "sim/downlink/sim_can_node.c", "firmware/downlink/can/urb_can_slave.c", "sim/downlink/sim_can_bridge.c", "sim/downlink/sim_rs485_bridge.c", "firmware/downlink/can/urb_can_master.c",
-           "firmware/downlink/rs485/urb_rs485_master.c",
-           "firmware/downlink/can/urb_can_transfer.c", "firmware/downlink/rs485/urb_rs485_frame.c",
-           "gen/c/urb_runtime.c", "gen/c/urb_core.c", "gen/c/urb_can_wire.c", "gen/c/urb_rs485_wire.c"]
+from ..build import check_loadable, ensure_library
 
 REQUEST, RESPONSE = 0, 1
 SYNC_ID = 0x000
-
-
-def library_path() -> Path:
-    """build/sim/liburbdl.so, or build/sim/san/liburbdl.so when URBSIM_SANITIZE=1 selects the
-    sanitized simulation (tools/sim_sanitized.py: the masters then run under ASan + UBSan too)."""
-    return (BUILD / "san" / LIBRARY.name) if variant()[0] else LIBRARY
-
-
-def _build() -> Path:
-    library = library_path()
-    inputs = ([REPO / p for p in SOURCES] + sorted((REPO / "firmware/include").glob("*.h"))
-              + sorted((REPO / "gen/c").glob("*.h")) + sorted((REPO / "sim/downlink").glob("*.h")) + [Path(__file__)])
-    if library.exists() and all(p.stat().st_mtime <= library.stat().st_mtime for p in inputs):
-        return library
-    library.parent.mkdir(parents=True, exist_ok=True)
-    tmp = library.with_suffix(f".so.tmp{os.getpid()}")
-    flags = ["-O1", *SANITIZE_FLAGS] if variant()[0] else ["-O2"]
-    cmd = [os.environ.get("CC", "gcc"), "-std=c99", *flags, "-fPIC", "-shared", "-Wall", "-Wextra", "-Werror",
-           "-Wl,--no-undefined", f"-I{REPO / 'firmware/include'}", f"-I{REPO / 'gen/c'}",
-           *(str(REPO / s) for s in SOURCES), "-o", str(tmp)]
-    proc = subprocess.run(cmd, capture_output=True, text=True, env=unpreloaded_env(), check=False)
-    if proc.returncode != 0:
-        tmp.unlink(missing_ok=True)
-        raise BuildError("building the downlink cores for the simulation failed:\n  " + shlex.join(cmd) + "\n"
-                         + proc.stdout + proc.stderr + "\nFix the error above in firmware/downlink, gen/c or sim/downlink.")
-    tmp.replace(library)
-    return library
 
 
 class _CanTx(ctypes.Structure):
@@ -95,8 +62,9 @@ class _Sync(ctypes.Structure):
 
 @cache
 def lib() -> ctypes.CDLL:
-    """The loaded cores (built when missing or older than a source)."""
-    dll = ctypes.CDLL(str(_build()))
+    """The loaded simulation library (built when missing or older than a source)."""
+    check_loadable()
+    dll = ctypes.CDLL(str(ensure_library()))
     dll.urb_can_id.restype = ctypes.c_uint16
     dll.urb_can_id.argtypes = [ctypes.c_uint8, ctypes.c_uint8, ctypes.c_bool, ctypes.c_uint8]
     dll.urb_can_tx_init.argtypes = [ctypes.POINTER(_CanTx), ctypes.c_char_p, ctypes.c_uint8, ctypes.c_uint8]
@@ -139,38 +107,36 @@ def lib() -> ctypes.CDLL:
     dll.sim_rs485_bridge_data.restype = ctypes.POINTER(ctypes.c_uint8)
     dll.sim_rs485_bridge_data.argtypes = [vp]
     dll.sim_rs485_bridge_set_silences.argtypes = [vp, ctypes.c_uint16, ctypes.c_uint16]
-    dll.sim_can_node_size.restype = ctypes.c_size_t
-    dll.sim_can_node_init.restype = ctypes.c_bool
-    dll.sim_can_node_init.argtypes = [vp, ctypes.c_uint8, ctypes.c_uint16]
-    dll.sim_can_node_set_inbox.argtypes = [vp, ctypes.c_uint8, ctypes.c_uint8]
-    dll.sim_can_node_set_outbox.argtypes = [vp, ctypes.c_uint8, ctypes.c_char_p, ctypes.c_uint8]
-    dll.sim_can_node_rx.argtypes = [vp, ctypes.POINTER(_CanFrame), ctypes.c_uint32]
-    dll.sim_can_node_take.restype = ctypes.c_bool
-    dll.sim_can_node_take.argtypes = [vp, ctypes.POINTER(_CanFrame)]
-    dll.sim_can_node_tx_done.argtypes = [vp]
-    dll.sim_can_node_set_state.argtypes = [vp, ctypes.c_uint8]
-    dll.sim_can_node_inbox.restype = ctypes.POINTER(ctypes.c_uint8)
-    dll.sim_can_node_inbox.argtypes = [vp, ctypes.c_uint8, ctypes.POINTER(ctypes.c_uint32)]
-    dll.sim_can_node_syncs.restype = ctypes.c_uint32
-    dll.sim_can_node_syncs.argtypes = [vp, ctypes.POINTER(ctypes.c_uint32)]
-    dll.sim_can_node_aborts.restype = ctypes.c_uint32
-    dll.sim_can_node_aborts.argtypes = [vp]
-    dll.sim_rs485_node_size.restype = ctypes.c_size_t
-    dll.sim_rs485_node_init.restype = ctypes.c_bool
-    dll.sim_rs485_node_init.argtypes = [vp, ctypes.c_uint8, ctypes.c_uint32, ctypes.c_uint16, ctypes.c_uint16,
-                                        ctypes.c_uint32]
-    dll.sim_rs485_node_set_inbox.argtypes = [vp, ctypes.c_uint8, ctypes.c_uint8]
-    dll.sim_rs485_node_set_outbox.argtypes = [vp, ctypes.c_uint8, ctypes.c_char_p, ctypes.c_uint8]
-    dll.sim_rs485_node_rx.argtypes = [vp, ctypes.c_uint8, ctypes.c_uint32]
-    dll.sim_rs485_node_wake_us.restype = ctypes.c_uint32
-    dll.sim_rs485_node_wake_us.argtypes = [vp]
-    dll.sim_rs485_node_poll.argtypes = [vp, ctypes.c_uint32]
-    dll.sim_rs485_node_tx_next.restype = ctypes.c_bool
-    dll.sim_rs485_node_tx_next.argtypes = [vp, ctypes.POINTER(ctypes.c_uint8)]
-    dll.sim_rs485_node_inbox.restype = ctypes.POINTER(ctypes.c_uint8)
-    dll.sim_rs485_node_inbox.argtypes = [vp, ctypes.c_uint8, ctypes.POINTER(ctypes.c_uint32)]
-    dll.sim_rs485_node_syncs.restype = ctypes.c_uint32
-    dll.sim_rs485_node_syncs.argtypes = [vp, ctypes.POINTER(ctypes.c_uint32)]
+    u8, u16, u32 = ctypes.c_uint8, ctypes.c_uint16, ctypes.c_uint32
+    p_u32 = ctypes.POINTER(ctypes.c_uint32)
+    node_sigs: dict[str, tuple[object, list[object]]] = {
+        "sim_dl_node_size": (ctypes.c_size_t, []),
+        "sim_dl_node_init": (ctypes.c_int, [vp, u8, u8, u8, u8, u16, u32]),
+        "sim_dl_node_run": (None, [vp, u32]),
+        "sim_dl_node_attach_can": (ctypes.c_bool, [vp, u16]),
+        "sim_dl_node_can_rx": (None, [vp, ctypes.POINTER(_CanFrame), u32]),
+        "sim_dl_node_can_take": (ctypes.c_bool, [vp, ctypes.POINTER(_CanFrame)]),
+        "sim_dl_node_can_tx_done": (None, [vp]),
+        "sim_dl_node_can_set_state": (None, [vp, u8]),
+        "sim_dl_node_can_aborts": (u32, [vp]),
+        "sim_dl_node_attach_rs485": (ctypes.c_bool, [vp, u32, u16, u16, u32]),
+        "sim_dl_node_rs485_rx": (None, [vp, u8, u32]),
+        "sim_dl_node_rs485_wake_us": (u32, [vp]),
+        "sim_dl_node_rs485_poll": (None, [vp, u32]),
+        "sim_dl_node_rs485_tx_next": (ctypes.c_bool, [vp, ctypes.POINTER(ctypes.c_uint8)]),
+        "sim_dl_node_last_read": (ctypes.POINTER(ctypes.c_uint8), [vp, u8, p_u32]),
+        "sim_dl_node_last_commit": (ctypes.POINTER(ctypes.c_uint8), [vp, u8, p_u32]),
+        "sim_dl_node_syncs": (u32, [vp, p_u32]),
+        "sim_dl_node_beats": (u32, [vp]),
+        "sim_dl_node_sync_state": (u8, [vp]),
+        "sim_dl_node_hooks": (vp, [vp]),
+        "sim_dl_node_motor_sample": (None, [vp, u16, ctypes.c_int16, ctypes.c_int16]),
+        "sim_dl_node_motor_drive": (u32, [vp, ctypes.POINTER(ctypes.c_int16), ctypes.POINTER(ctypes.c_bool), p_u32]),
+    }
+    for name, (restype, argtypes) in node_sigs.items():
+        fn = getattr(dll, name)
+        fn.restype = restype
+        fn.argtypes = argtypes
     for name, struct in (("urb_rs485_request_encode", _Request), ("urb_rs485_response_encode", _Response),
                          ("urb_rs485_sync_encode", _Sync), ("urb_can_sync_encode", _Sync)):
         fn = getattr(dll, name)
@@ -352,98 +318,139 @@ class Rs485Bridge:
         return bytes(lib().sim_rs485_bridge_data(self._p)[:n])
 
 
-class CanNode:
-    """The firmware's CAN slave (`urb_can_slave.c`) of node `address`, behind a HAL the bus drives,
-    with a mailbox table of fixed sizes in place of the node library (sim/downlink/sim_can_node.c)."""
+#: the applications a node may run (firmware/hal/sim/sim_devices.h SIM_APP_*)
+APPS = {"probe": 0, "motor": 1, "battery": 2, "imu": 3, "ir": 4}
+#: urb_node_sync_t
+SYNC_STATE = {0: "off", 1: "free", 2: "track", 3: "locked"}
 
-    def __init__(self, address: int, bitrate: int) -> None:
-        self._mem = ctypes.create_string_buffer(int(lib().sim_can_node_size()))
+
+@dataclass(frozen=True)
+class App:
+    """What a node runs: a SensoRHex application (motor, battery, imu, ir) or the simulation's probe
+    with `out_size` bytes in outbox 1 and `in_size` in inbox 1 (0: none); `heartbeat_us` replaces the
+    node's nominal heartbeat (the SYNC period) unless 0."""
+
+    name: str
+    out_size: int = 0
+    in_size: int = 0
+    heartbeat_us: int = 0
+
+    def __post_init__(self) -> None:
+        if self.name not in APPS:
+            raise ValueError(f"no node application {self.name!r}: use one of {', '.join(APPS)}")
+
+
+class DlNode:
+    """A URB node (sim/downlink/sim_dl_node.c): the node library and its application, started at
+    `now_us`. Subclasses put it on a bus."""
+
+    def __init__(self, address: int, app: App, now_us: int) -> None:
+        self.address, self.app = address, app
+        self._mem = ctypes.create_string_buffer(int(lib().sim_dl_node_size()))
         self._p = ctypes.cast(self._mem, ctypes.c_void_p)
-        if not lib().sim_can_node_init(self._p, address, bitrate // 1000):
-            raise ValueError(f"urb_can_slave_init refused node address {address}")
+        rc = lib().sim_dl_node_init(self._p, APPS[app.name], address, app.out_size, app.in_size, app.heartbeat_us,
+                                    now_us & 0xFFFFFFFF)
+        if rc != 0:
+            raise ValueError(f"urb_node_init refused node {address} running {app} ({rc}): check the sizes "
+                             "(a probe's outbox 1..32 bytes, its inbox 0..32)")
 
-    def set_inbox(self, mailbox: int, size: int) -> None:
-        lib().sim_can_node_set_inbox(self._p, mailbox, size)
+    def run(self, now_us: int) -> None:
+        """Runs the node (heartbeats, main loop) up to now_us."""
+        lib().sim_dl_node_run(self._p, now_us & 0xFFFFFFFF)
 
-    def set_outbox(self, mailbox: int, data: bytes) -> None:
-        lib().sim_can_node_set_outbox(self._p, mailbox, data, len(data))
+    def last_read(self, mailbox: int, n: int) -> tuple[bytes, int]:
+        """The first `n` bytes of the outbox buffer the last read of `mailbox` latched, and the reads so far."""
+        count = ctypes.c_uint32()
+        p = lib().sim_dl_node_last_read(self._p, mailbox, ctypes.byref(count))
+        return bytes(p[:n]), int(count.value)
+
+    def inbox(self, mailbox: int, n: int) -> tuple[bytes, int]:
+        """Inbox `mailbox`'s first `n` bytes as the application's next lock sees them after the last
+        committed write, and the committed writes so far."""
+        count = ctypes.c_uint32()
+        p = lib().sim_dl_node_last_commit(self._p, mailbox, ctypes.byref(count))
+        return bytes(p[:n]), int(count.value)
+
+    def syncs(self) -> tuple[int, int]:
+        """SYNCs the node library time-stamped and the last one's stamp (us)."""
+        last = ctypes.c_uint32()
+        n = lib().sim_dl_node_syncs(self._p, ctypes.byref(last))
+        return int(n), int(last.value)
+
+    def beats(self) -> int:
+        return int(lib().sim_dl_node_beats(self._p))
+
+    def sync_state(self) -> str:
+        """The heartbeat PLL's state: off, free, track or locked."""
+        return SYNC_STATE[int(lib().sim_dl_node_sync_state(self._p))]
+
+    def hooks(self) -> int:
+        """The address of the urb_node_hooks_t the node library calls (the application's object)."""
+        return int(lib().sim_dl_node_hooks(self._p) or 0)
+
+    def motor_sample(self, encoder: int, current_ma: int = 0, voltage_mv: int = 0) -> None:
+        """The motor's encoder, current and voltage that the next update acquires."""
+        lib().sim_dl_node_motor_sample(self._p, encoder & 0xFFFF, current_ma, voltage_mv)
+
+    def motor_drive(self) -> tuple[int, int, bool, int]:
+        """(drives so far, the last one's mV, whether its update took a new command, when in us)."""
+        mv, fresh, t = ctypes.c_int16(), ctypes.c_bool(), ctypes.c_uint32()
+        n = lib().sim_dl_node_motor_drive(self._p, ctypes.byref(mv), ctypes.byref(fresh), ctypes.byref(t))
+        return int(n), int(mv.value), bool(fresh.value), int(t.value)
+
+
+class CanNode(DlNode):
+    """A node on a CAN bus at `bitrate` (urb_node_can_attach), behind a controller the bus drives."""
+
+    def __init__(self, address: int, bitrate: int, app: App, now_us: int = 0) -> None:
+        super().__init__(address, app, now_us)
+        if not lib().sim_dl_node_attach_can(self._p, bitrate // 1000):
+            raise ValueError(f"urb_can_slave_init refused node address {address} (CAN addresses are 1..63)")
 
     def rx(self, can_id: int, data: bytes, t_us: int) -> None:
         f = _CanFrame(can_id, len(data), (ctypes.c_uint8 * 8)(*data))
-        lib().sim_can_node_rx(self._p, ctypes.byref(f), t_us & 0xFFFFFFFF)
+        lib().sim_dl_node_can_rx(self._p, ctypes.byref(f), t_us & 0xFFFFFFFF)
 
     def take(self) -> tuple[int, bytes] | None:
         f = _CanFrame()
-        if not lib().sim_can_node_take(self._p, ctypes.byref(f)):
+        if not lib().sim_dl_node_can_take(self._p, ctypes.byref(f)):
             return None
         return int(f.id), bytes(f.data[:f.len])
 
     def tx_done(self) -> None:
-        lib().sim_can_node_tx_done(self._p)
+        lib().sim_dl_node_can_tx_done(self._p)
 
     def set_state(self, state: str) -> None:
-        lib().sim_can_node_set_state(self._p, CAN_STATE[state])
-
-    def inbox(self, mailbox: int, n: int) -> tuple[bytes, int]:
-        """Inbox `mailbox`'s latest committed `n` bytes and the count of committed writes."""
-        writes = ctypes.c_uint32()
-        p = lib().sim_can_node_inbox(self._p, mailbox, ctypes.byref(writes))
-        return bytes(p[:n]), int(writes.value)
+        lib().sim_dl_node_can_set_state(self._p, CAN_STATE[state])
 
     def aborts(self) -> int:
         """The slave's tx_abort() requests (an answer dropped for bus-off or a newer request)."""
-        return int(lib().sim_can_node_aborts(self._p))
-
-    def syncs(self) -> tuple[int, int]:
-        """SYNCs passed on to the mailboxes and the last one's time stamp (us)."""
-        last = ctypes.c_uint32()
-        n = lib().sim_can_node_syncs(self._p, ctypes.byref(last))
-        return int(n), int(last.value)
+        return int(lib().sim_dl_node_can_aborts(self._p))
 
 
-class Rs485Node:
-    """The firmware's RS485 slave (`urb_rs485_slave.c`) of node `address`, behind a transceiver HAL
-    the line drives, with the mailbox table of sim/downlink/sim_mailbox.h."""
+class Rs485Node(DlNode):
+    """A node on an RS485 line (urb_node_rs485_attach) with `timing`, behind a transceiver the line drives."""
 
-    def __init__(self, address: int, timing: Rs485Timing, now_us: int) -> None:
-        self._mem = ctypes.create_string_buffer(int(lib().sim_rs485_node_size()))
-        self._p = ctypes.cast(self._mem, ctypes.c_void_p)
-        if not lib().sim_rs485_node_init(self._p, address, timing.baud, timing.t15_us, timing.t35_us, now_us):
-            raise ValueError(f"urb_rs485_slave_init refused node address {address}")
-
-    def set_inbox(self, mailbox: int, size: int) -> None:
-        lib().sim_rs485_node_set_inbox(self._p, mailbox, size)
-
-    def set_outbox(self, mailbox: int, data: bytes) -> None:
-        lib().sim_rs485_node_set_outbox(self._p, mailbox, data, len(data))
+    def __init__(self, address: int, timing: Rs485Timing, now_us: int, app: App) -> None:
+        super().__init__(address, app, now_us)
+        if not lib().sim_dl_node_attach_rs485(self._p, timing.baud, timing.t15_us, timing.t35_us, now_us):
+            raise ValueError(f"urb_rs485_slave_init refused node address {address} (RS485 addresses are 1..127)")
 
     def byte(self, value: int, t_us: int) -> None:
         """A byte heard on the line, stop bit at t_us."""
-        lib().sim_rs485_node_rx(self._p, value, t_us)
+        lib().sim_dl_node_rs485_rx(self._p, value, t_us)
 
     def wake_us(self) -> int:
         """When the slave asked to be polled (its receiver's deadline)."""
-        return int(lib().sim_rs485_node_wake_us(self._p))
+        return int(lib().sim_dl_node_rs485_wake_us(self._p))
 
     def poll(self, now_us: int) -> None:
-        lib().sim_rs485_node_poll(self._p, now_us)
+        lib().sim_dl_node_rs485_poll(self._p, now_us)
 
     def take_all(self) -> bytes:
         """The answer the slave sends now (empty when it does not answer)."""
         out = bytearray()
         b = ctypes.c_uint8()
-        while lib().sim_rs485_node_tx_next(self._p, ctypes.byref(b)):
+        while lib().sim_dl_node_rs485_tx_next(self._p, ctypes.byref(b)):
             out.append(b.value)
         return bytes(out)
-
-    def inbox(self, mailbox: int, n: int) -> tuple[bytes, int]:
-        """Inbox `mailbox`'s latest committed `n` bytes and the count of committed writes."""
-        writes = ctypes.c_uint32()
-        p = lib().sim_rs485_node_inbox(self._p, mailbox, ctypes.byref(writes))
-        return bytes(p[:n]), int(writes.value)
-
-    def syncs(self) -> tuple[int, int]:
-        """SYNCs passed on to the mailboxes and the last one's time stamp (us)."""
-        last = ctypes.c_uint32()
-        n = lib().sim_rs485_node_syncs(self._p, ctypes.byref(last))
-        return int(n), int(last.value)

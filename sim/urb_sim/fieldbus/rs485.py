@@ -1,7 +1,8 @@
 """A half-duplex RS485 line polled by a bridge, character by character.
 
-The bridge is the firmware's master (`cores.Rs485Bridge`: `urb_rs485_master.c`) and every node
-the firmware's slave (`cores.Rs485Node`: `urb_rs485_slave.c`), each with the firmware's receiver
+The bridge is the firmware's master (`cores.Rs485Bridge`: `urb_rs485_master.c`) and every node a
+URB node (`cores.Rs485Node`: the node library on `urb_rs485_slave.c` and its application), each with
+the firmware's receiver
 (`urb_rs485_rx_*`) fed with the stop bit's instant of every character: their echo check, silence
 rules (a frame ends after t3.5 of silence, a silence over t1.5 inside discards it), NO_NODE
 allowance, answers and statuses are the firmware's. What the line adds (sim/README.md, "Downlinks"):
@@ -85,9 +86,9 @@ class Rs485Line:
             return byte ^ (1 << self.rng.randrange(8))
         return byte
 
-    def node(self, address: int) -> cores.Rs485Node:
-        """A node on this line: the firmware's slave with this line's timing, started now."""
-        return cores.Rs485Node(address, self.tm, int(self.now_us))
+    def node(self, address: int, app: cores.App) -> cores.Rs485Node:
+        """A node on this line running `app`, with this line's timing, started now."""
+        return cores.Rs485Node(address, self.tm, int(self.now_us), app)
 
     def _transaction(self, begin: Callable[[int], bool], nodes: list[cores.Rs485Node],
                      answering: cores.Rs485Node | None, stall_us: float) -> Outcome:
@@ -156,14 +157,9 @@ class Rs485Line:
 
     def poll(self, address: int, mailbox: int, read: bool, payload: bytes, node: cores.Rs485Node | None,
              stall_us: float = 0.0, others: list[cores.Rs485Node] | None = None) -> Outcome:
-        """The master reads `len(payload)` bytes of outbox `mailbox` (the node holds `payload`) or
-        writes `payload` into inbox `mailbox` of node `address`, whose slave is `node` (None: nobody
-        there); `others` hear the line too. `stall_us` holds the answer before its second character."""
-        if node is not None:  # the node's mailbox of this size (its application's layout)
-            if read:
-                node.set_outbox(mailbox, payload)
-            else:
-                node.set_inbox(mailbox, len(payload))
+        """The master reads `len(payload)` bytes of outbox `mailbox` (what the node holds) or writes
+        `payload` into inbox `mailbox` of node `address`, which is `node` (None: nobody there);
+        `others` hear the line too. `stall_us` holds the answer before its second character."""
         op = cores.OP_READ if read else cores.OP_WRITE
         everyone = ([node] if node is not None else []) + list(others or [])
         return self._transaction(

@@ -1,0 +1,104 @@
+/*
+ * _native.h: what the parts of urb.managers._native share: the C core object (_native.c: the
+ * protocol core as a CPython type; _native_attrs.c: its attributes) and its pump (_native_pump.c:
+ * the uplink's I/O on a C thread, so that Python only sees completed transfers, in batches).
+ *
+ * Threads: the core object's methods run with the GIL; the pump's thread never takes it. Both
+ * reach `core` only with `lock` held (the methods through core_lock, which waits for the mutex
+ * with the GIL released, so that a Python thread waiting for it never blocks the others). The
+ * pump leaves completed transfers in the core's completion list and signals `ready`; the Python
+ * side hands them back to their Python objects in one go (`_pump_wait`, then `take_completed`).
+ */
+#ifndef URB_NATIVE_H
+#define URB_NATIVE_H
+
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+
+#include <pthread.h>
+#include <stdbool.h>
+
+#include "urb_host_core.h"
+#include "urb_port.h"
+
+typedef struct native_xfer {
+    urb_transfer_t t;          /* first: a urb_transfer_t * of ours is a native_xfer_t * */
+    PyObject *py;              /* the Python Transfer (a strong reference while the core owns t) */
+    struct native_xfer *free_next;
+    bool sent_unmarked;        /* sent by the pump: seq, sent_ns, due_ns and expires_ns are written to
+                                  the Python transfer when it is handed back (the pump has no GIL) */
+    urb_ns_t due_ns;           /* its slot's deadline and lifetime when the pump sent it */
+    urb_ns_t expires_ns;
+} native_xfer_t;
+
+#define NATIVE_NAME_MAX 256u
+#define NATIVE_LOCK_SPINS 200u /* tries of the core's lock before waiting for it without the GIL */
+#define NATIVE_REASON_TEXT_MAX (NATIVE_NAME_MAX + 128u)
+
+/* The uplink's I/O on a C thread (USB: a transfer descriptor, one write per OUT transfer and one
+ * read per IN transfer, as CharDeviceTransport). The settings are written before the thread starts,
+ * `stop` by Python and read by the thread; the fields marked below are guarded by the core's lock
+ * (native_core_t.lock). */
+typedef struct {
+    pthread_t thread;
+    bool running;              /* a thread was started and not joined (Python side only) */
+    volatile bool stop;
+    int fd;
+    urb_ns_t frame_ns;
+    char name[NATIVE_NAME_MAX];    /* the manager's name, for the lost reason of an I/O error */
+    bool has_handover;
+    urb_handover_t handover;   /* the port's hand-over record, covered before every write */
+    bool handover_warned;
+    /* guarded by the core's lock */
+    bool kicked;               /* Python queued something for its dispatcher: wake it */
+    bool io_ended;             /* the thread stopped on a write error (the core is lost) */
+    bool reason_pending;       /* reason_text holds the whole reason of that loss for Python */
+    char reason_text[NATIVE_REASON_TEXT_MAX];
+} native_pump_t;
+
+typedef struct {
+    PyObject_HEAD
+    urb_core_t core;
+    bool ready;                /* _setup succeeded */
+    native_xfer_t *free_list;
+    PyObject *status_of;       /* tuple: Status member by value 0..8 */
+    PyObject *flag_of;         /* dict: int -> ErrorFlag member */
+    PyObject *full_reason;     /* the caller's whole lost reason (str), or NULL */
+    PyObject *trace;           /* None, or a list the USB pipeline's steps are appended to */
+    PyObject *completed;       /* list: transfers completed (their outcome written), not yet taken */
+    pthread_mutex_t lock;      /* guards core and the pump's shared fields */
+    pthread_cond_t ready_cond; /* signalled when the pump completed transfers or Python kicked */
+    native_pump_t pump;
+} native_core_t;
+
+/* 1 with a RuntimeError when the core was not set up (or was cleared), else 0. */
+int native_not_ready(const native_core_t *self);
+/* The text of the C core's lost reason `r`: the caller's whole text when r is its cut (a new reference). */
+PyObject *native_reason_text(native_core_t *self, const char *r);
+/* Takes the core's lock for a method or an attribute and adopts a loss the pump found; 0, or -1 with
+ * a Python error (then the lock is not held). */
+int native_locked_enter(native_core_t *self);
+/* The type's attributes (_native_attrs.c). */
+extern PyGetSetDef native_core_getset[];
+
+/* Takes the core's lock (waiting with the GIL released when another thread holds it). GIL held. */
+void native_core_lock(native_core_t *self);
+/* Releases it. */
+void native_core_unlock(native_core_t *self);
+/* The whole reason of a loss the pump found, given to the core object as a caller's reason would
+ * be (lock and GIL held). Returns 0, or -1 with a Python error. */
+int native_adopt_pump_reason(native_core_t *self);
+/* Sets the caller's whole lost reason (a str): see reason_text in _native.c. */
+int native_set_full_reason(native_core_t *self, PyObject *reason);
+
+/* The pump's methods (_native_pump.c), in the core type's method table. */
+PyObject *native_pump_start(native_core_t *self, PyObject *args);
+PyObject *native_pump_stop(native_core_t *self, PyObject *unused);
+PyObject *native_pump_wait(native_core_t *self, PyObject *arg);
+PyObject *native_pump_kick(native_core_t *self, PyObject *unused);
+PyObject *native_pump_running(native_core_t *self, PyObject *unused);
+PyObject *native_has_completed(native_core_t *self, PyObject *unused);
+/* Stops and joins the pump's thread if one runs (GIL held; the thread never needs it). */
+void native_pump_join(native_core_t *self);
+
+#endif /* URB_NATIVE_H */

@@ -1,0 +1,306 @@
+/*
+ * The pump of urb.managers._native: a USB uplink's I/O on a C thread (issue #38), in place of the
+ * Python frame thread and transfer reader of USBManager over a CharDeviceTransport (usb.py).
+ *
+ * The thread does what those two did, with the same rules and the same clock
+ * (CLOCK_MONOTONIC, time.monotonic_ns): at every 1-ms boundary (absolute, an overslept boundary
+ * skipped, never a burst) the core's timeouts are applied (urb_core_poll) and ONE batch is taken
+ * (urb_core_frame_out) and written with one write(); every IN transfer read from the descriptor is
+ * given to the core as it arrives (urb_core_receive_batch). Before a write the port's hand-over
+ * record is made to cover the requests in flight (handover.py's PortHandover.cover, in C). A
+ * failed write declares the bridge lost ("<name>: [Errno N] <text>", the text Python gives the
+ * OSError) and ends the thread; the end of the IN stream or a failed read ends the reading only,
+ * as CharDeviceTransport's reader does.
+ *
+ * It never takes the GIL: completed transfers stay in the C core's completion list, and the
+ * dispatcher's wait (_pump_wait) returns once per batch; the Python objects get their outcome
+ * when the dispatcher takes them (take_completed, one GIL hold for the whole batch). What it sent
+ * (sequence number, sending time, deadline, lifetime) is written to each Python transfer then too.
+ */
+#include "_native.h"
+
+#include <errno.h>
+#include <poll.h>
+#include <stdio.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+static urb_ns_t monotonic_ns(void)
+{
+    struct timespec ts;
+    (void)clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ((urb_ns_t)ts.tv_sec * URB_NS_PER_S) + (urb_ns_t)ts.tv_nsec;
+}
+
+/* The dispatcher has something to take (lock held). */
+static bool has_work(const native_core_t *self)
+{
+    return (self->core.m.done_head != NULL) || self->pump.kicked;
+}
+
+/* After a step of the core (lock held): wake the dispatcher when the step completed transfers, or
+ * when a draining close has nothing left to wait for (what BusManager._drain waits for). */
+static void wake_dispatcher(native_core_t *self)
+{
+    if (self->core.closing && urb_core_drained(&self->core)) {
+        self->pump.kicked = true;
+    }
+    if (has_work(self)) {
+        (void)pthread_cond_signal(&self->ready_cond);
+    }
+}
+
+/* One 1-ms boundary: timeouts, one batch written. Returns false when the write failed (the bridge
+ * is then lost and the thread ends). */
+static bool pump_frame(native_core_t *self, uint8_t *buf, size_t cap)
+{
+    native_pump_t *p = &self->pump;
+    urb_ns_t const now = monotonic_ns();
+    (void)pthread_mutex_lock(&self->lock);
+    (void)urb_core_poll(&self->core, now);
+    native_xfer_t *candidates[URB_MAX_WINDOW];
+    unsigned n_candidates = 0u;
+    for (urb_transfer_t *t = self->core.q_head; (t != NULL) && (n_candidates < URB_MAX_WINDOW); t = t->next) {
+        candidates[n_candidates++] = (native_xfer_t *)t;
+    }
+    int32_t const n = urb_core_frame_out(&self->core, now, buf, cap);
+    unsigned sent = 0u;
+    while ((n > 0) && (sent < n_candidates) && (candidates[sent]->t.state == URB_XFER_IN_FLIGHT)) {
+        sent++;
+    }
+    unsigned const first = self->core.m.count - sent; /* the newest `sent` slots, in sending order */
+    for (unsigned i = 0u; i < sent; i++) {
+        const urb_slot_t *slot = &self->core.m.slot[(self->core.m.head + first + i) % URB_MATCHER_SLOTS];
+        candidates[i]->sent_unmarked = true;
+        candidates[i]->due_ns = slot->due_ns;
+        candidates[i]->expires_ns = slot->expires_ns;
+    }
+    urb_ns_t const until = urb_core_busy_until(&self->core);
+    wake_dispatcher(self);
+    (void)pthread_mutex_unlock(&self->lock);
+    if (n <= 0) {
+        return true;
+    }
+    if (p->has_handover && (until != URB_NEVER) && (until != URB_NO_TIME)) {
+        (void)urb_handover_cover(&p->handover, until, now);
+        if (p->handover.warned && !p->handover_warned) {
+            p->handover_warned = true;
+            (void)fprintf(stderr, "%s\n", p->handover.error);
+        }
+    }
+    ssize_t wrote;
+    do {
+        wrote = write(p->fd, buf, (size_t)n);
+    } while ((wrote < 0) && (errno == EINTR));
+    if (wrote >= 0) {
+        return true;
+    }
+    int const code = errno;
+    (void)pthread_mutex_lock(&self->lock);
+    (void)snprintf(p->reason_text, sizeof p->reason_text, "%s: [Errno %d] %s", p->name, code, strerror(code));
+    urb_core_link_lost(&self->core, monotonic_ns(), p->reason_text);
+    p->reason_pending = true;
+    p->io_ended = true;
+    p->kicked = true;
+    wake_dispatcher(self);
+    (void)pthread_mutex_unlock(&self->lock);
+    return false;
+}
+
+/* One IN transfer, if the descriptor has one. Returns false when the IN stream ended. */
+static bool pump_read(native_core_t *self, uint8_t *buf, size_t cap)
+{
+    ssize_t const got = read(self->pump.fd, buf, cap);
+    if (got < 0) {
+        return (errno == EINTR) || (errno == EAGAIN) || (errno == EWOULDBLOCK);
+    }
+    if (got == 0) {
+        return false;
+    }
+    (void)pthread_mutex_lock(&self->lock);
+    (void)urb_core_receive_batch(&self->core, buf, (size_t)got, monotonic_ns());
+    wake_dispatcher(self);
+    (void)pthread_mutex_unlock(&self->lock);
+    return true;
+}
+
+static void *pump_main(void *arg)
+{
+    native_core_t *self = arg;
+    native_pump_t *p = &self->pump;
+    uint8_t in[4096];
+    uint8_t out[URB_USB_BATCH_MAX];
+    bool reading = true;
+    urb_ns_t next_frame = ((monotonic_ns() / p->frame_ns) + 1) * p->frame_ns;
+    while (!p->stop) {
+        urb_ns_t const wait = next_frame - monotonic_ns();
+        if (wait > 0) {
+            struct pollfd fds = {p->fd, POLLIN, 0};
+            struct timespec const ts = {(time_t)(wait / URB_NS_PER_S), (long)(wait % URB_NS_PER_S)};
+            int const ready = ppoll(&fds, reading ? 1u : 0u, &ts, NULL);
+            if ((ready > 0) && ((fds.revents & (POLLIN | POLLHUP | POLLERR)) != 0)) {
+                reading = pump_read(self, in, sizeof in);
+            }
+            continue;
+        }
+        if (reading) { /* what arrived while this thread was not running answers before the timeouts apply */
+            struct pollfd fds = {p->fd, POLLIN, 0};
+            while (reading && (poll(&fds, 1u, 0) > 0) && ((fds.revents & (POLLIN | POLLHUP | POLLERR)) != 0)) {
+                reading = pump_read(self, in, sizeof in);
+            }
+        }
+        urb_ns_t const now = monotonic_ns();
+        next_frame += p->frame_ns;
+        if (next_frame <= now) { /* overslept: skip to the next boundary, never burst */
+            next_frame = ((now / p->frame_ns) + 1) * p->frame_ns;
+        }
+        if (!pump_frame(self, out, sizeof out)) {
+            break;
+        }
+    }
+    return NULL;
+}
+
+int native_adopt_pump_reason(native_core_t *self)
+{
+    PyObject *text = PyUnicode_DecodeUTF8(self->pump.reason_text, (Py_ssize_t)strlen(self->pump.reason_text),
+                                          "replace");
+    if (text == NULL) {
+        return -1;
+    }
+    self->pump.reason_pending = false;
+    int const rc = native_set_full_reason(self, text);
+    Py_DECREF(text);
+    return rc;
+}
+
+PyObject *native_pump_start(native_core_t *self, PyObject *args)
+{
+    int fd = -1;
+    const char *name = NULL;
+    long long frame_ns = 0;
+    const char *port = NULL;
+    const char *directory = NULL;
+    if (!PyArg_ParseTuple(args, "isLzz", &fd, &name, &frame_ns, &port, &directory)) {
+        return NULL;
+    }
+    if (!self->ready || (self->core.kind != URB_LINK_USB)) {
+        PyErr_SetString(PyExc_RuntimeError, "the pump drives a USB core (NativeUsbCore)");
+        return NULL;
+    }
+    if (self->pump.running) {
+        PyErr_SetString(PyExc_RuntimeError, "the pump runs already (stop it first)");
+        return NULL;
+    }
+    if ((fd < 0) || (frame_ns <= 0)) {
+        PyErr_SetString(PyExc_ValueError, "the pump needs an open descriptor and a frame period above 0");
+        return NULL;
+    }
+    native_pump_t *p = &self->pump;
+    urb_handover_t *handover = &p->handover;
+    if ((port != NULL) && (urb_handover_init(handover, port, directory) != URB_HOST_OK)) {
+        PyErr_Format(PyExc_ValueError, "%s: the port's hand-over record path is too long", port);
+        return NULL;
+    }
+    native_core_lock(self);
+    p->fd = fd;
+    p->frame_ns = frame_ns;
+    (void)snprintf(p->name, sizeof p->name, "%s", name);
+    p->has_handover = port != NULL;
+    p->handover_warned = false;
+    p->stop = false;
+    p->kicked = false;
+    p->io_ended = false;
+    native_core_unlock(self);
+    int const rc = pthread_create(&p->thread, NULL, pump_main, self);
+    if (rc != 0) {
+        errno = rc;
+        return PyErr_SetFromErrno(PyExc_OSError);
+    }
+    (void)pthread_setname_np(p->thread, "urb-pump"); /* what /proc/<pid>/task/<tid>/comm shows */
+    p->running = true;
+    Py_RETURN_NONE;
+}
+
+void native_pump_join(native_core_t *self)
+{
+    if (self->pump.running) {
+        self->pump.stop = true;
+        (void)pthread_join(self->pump.thread, NULL);
+        self->pump.running = false;
+    }
+}
+
+PyObject *native_pump_stop(native_core_t *self, PyObject *unused)
+{
+    (void)unused;
+    if (self->pump.running) {
+        self->pump.stop = true;
+        Py_BEGIN_ALLOW_THREADS
+        (void)pthread_join(self->pump.thread, NULL);
+        Py_END_ALLOW_THREADS
+        self->pump.running = false;
+    }
+    Py_RETURN_NONE;
+}
+
+PyObject *native_pump_wait(native_core_t *self, PyObject *arg)
+{
+    double const timeout_s = PyFloat_AsDouble(arg);
+    if ((timeout_s == -1.0) && PyErr_Occurred()) {
+        return NULL;
+    }
+    if (PyList_GET_SIZE(self->completed) > 0) {
+        Py_RETURN_TRUE;
+    }
+    bool work = false;
+    Py_BEGIN_ALLOW_THREADS
+    struct timespec deadline;
+    (void)clock_gettime(CLOCK_MONOTONIC, &deadline);
+    urb_ns_t const ns = (urb_ns_t)deadline.tv_nsec + ((timeout_s > 0.0) ? (urb_ns_t)(timeout_s * 1e9) : 0);
+    deadline.tv_sec += (time_t)(ns / URB_NS_PER_S);
+    deadline.tv_nsec = (long)(ns % URB_NS_PER_S);
+    (void)pthread_mutex_lock(&self->lock);
+    while (!has_work(self)) {
+        if (pthread_cond_timedwait(&self->ready_cond, &self->lock, &deadline) == ETIMEDOUT) {
+            break;
+        }
+    }
+    work = has_work(self);
+    self->pump.kicked = false;
+    (void)pthread_mutex_unlock(&self->lock);
+    Py_END_ALLOW_THREADS
+    return PyBool_FromLong(work);
+}
+
+PyObject *native_pump_kick(native_core_t *self, PyObject *unused)
+{
+    (void)unused;
+    native_core_lock(self);
+    self->pump.kicked = true;
+    (void)pthread_cond_signal(&self->ready_cond);
+    native_core_unlock(self);
+    Py_RETURN_NONE;
+}
+
+PyObject *native_pump_running(native_core_t *self, PyObject *unused)
+{
+    (void)unused;
+    native_core_lock(self);
+    bool const on = self->pump.running && !self->pump.io_ended;
+    native_core_unlock(self);
+    return PyBool_FromLong(on);
+}
+
+PyObject *native_has_completed(native_core_t *self, PyObject *unused)
+{
+    (void)unused;
+    if (PyList_GET_SIZE(self->completed) > 0) {
+        Py_RETURN_TRUE;
+    }
+    native_core_lock(self);
+    bool const some = self->core.m.done_head != NULL;
+    native_core_unlock(self);
+    return PyBool_FromLong(some);
+}
