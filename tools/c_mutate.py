@@ -480,10 +480,13 @@ class Builder:
         if shutil.which("gcc") is None:
             raise SetupError("gcc missing: run tools/setup.sh")
 
-    def control(self, jobs: int) -> dict[str, float]:
-        """Builds every suite's objects and runs its programs unmutated; seconds per program."""
+    def control(self, jobs: int, suites: set[str] | None = None) -> dict[str, float]:
+        """Builds the objects of the suites named (every suite by default) and runs their programs
+        unmutated; seconds per program."""
         times: dict[str, float] = {}
         for suite in SUITES.values():
+            if suites is not None and suite.name not in suites:
+                continue
             with ThreadPoolExecutor(max_workers=jobs) as pool:
                 errors = list(pool.map(lambda s: _compile(ROOT / s, _obj(self.work / suite.name, s), suite),
                                        suite.sources()))
@@ -653,12 +656,18 @@ def write_results(results: list[dict[str, object]], chosen: str, seconds: float,
     ET.ElementTree(suites).write(OUT / "junit.xml", encoding="utf-8", xml_declaration=True)
 
 
+def control_suites(mutants: list[Mutant]) -> set[str]:
+    """The suites a run builds unmutated: those of the chosen mutants' files (a run restricted to one
+    component skips the other suite's control build, minutes on a loaded machine)."""
+    return {suite_of(m.file).name for m in mutants}
+
+
 def run(mutants: list[Mutant], jobs: int, chosen: str, esbmc: bool = False) -> int:
     equivalents = load_equivalents()
     stale = stale_explanations(generate(), equivalents)
     builder = Builder(WORK)
     start = time.monotonic()
-    builder.control(jobs)
+    builder.control(jobs, control_suites(mutants))
     print(f"c_mutate: control builds pass ({time.monotonic() - start:.0f} s); {len(mutants)} mutants, {jobs} jobs",
           flush=True)
 

@@ -135,7 +135,10 @@ class _FakeBuilder:
     def __init__(self, work: Path) -> None:
         self.work = work
 
-    def control(self, jobs: int) -> dict[str, float]:
+    controlled: set[str] | None = None
+
+    def control(self, jobs: int, suites: set[str] | None = None) -> dict[str, float]:
+        _FakeBuilder.controlled = suites
         return {}
 
     def check(self, mutant: Any) -> dict[str, str]:
@@ -193,3 +196,13 @@ def test_a_mutant_as_a_bmc_proof_entry_makes_the_same_change(tmp_path: Path) -> 
         copy.write_text(text, encoding="utf-8")
         prepare._rewrite(tmp_path, entry, m.id, "-")
         assert copy.read_text(encoding="utf-8") == m.apply(text), m.id
+
+
+def test_a_run_builds_only_the_suites_of_its_mutants(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    tool = _tool()
+    pll = [m for m in ALL if m.component == "PLL"]
+    master = [m for m in ALL if m.component == "downlink master"]
+    assert tool.control_suites(pll) == {"node"} and tool.control_suites(master) == {"bridge"}
+    assert tool.control_suites(pll[:1] + master[:1]) == {"node", "bridge"}
+    _run_with(monkeypatch, tmp_path, master[:3], {}, [])
+    assert _FakeBuilder.controlled == {"bridge"}

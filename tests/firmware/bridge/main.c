@@ -15,5 +15,6 @@ int main(void)
     failed += run_discovery_tests();
     failed += run_edges_tests();
     failed += run_mutation_kill_tests();
+    failed += run_master_trace_tests();
     return failed > 255 ? 255 : failed;
 }

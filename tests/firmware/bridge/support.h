@@ -69,5 +69,6 @@ int run_sync_tests(void);
 int run_discovery_tests(void);
 int run_edges_tests(void);
 int run_mutation_kill_tests(void);
+int run_master_trace_tests(void);
 
 #endif
