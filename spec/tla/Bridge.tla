@@ -544,6 +544,18 @@ EveryRequestAnswered ==
 \* lobster-trace: urb.FLT_005
 EveryRequestReleased == []<>(hostFrom > Len(sent))
 
+(* Safety of the host's releases: a request leaves the host's in-flight   *)
+(* list only once it has completed: as a placeholder (it timed out or its *)
+(* uplink was lost: its callback ran) or by a response matched to it or to *)
+(* a later request (lost_before completes the ones it passes).  Without it *)
+(* a host that frees a live request whose response was lost passes every  *)
+(* other property: the request never completes, and EveryRequestReleased  *)
+(* holds all the same (issue #37's mutation run: HostExpire without its   *)
+(* premise hostFrom \in timedOut).  The mutant Bridge_ExpireLiveRequest.  *)
+\* lobster-trace: urb.HOST_001
+HostReleasesOnlyCompleted ==
+    [][\A i \in hostFrom..(hostFrom' - 1) : i \in timedOut \/ i <= lastMatch'.req]_vars
+
 -----------------------------------------------------------------------------
 (***************************************************************************)
 (* Reachability witnesses: situations a model must reach, so that no       *)
