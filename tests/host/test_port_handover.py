@@ -66,6 +66,16 @@ def test_record_is_written_ahead_and_read_back_by_the_next_process(tmp_path: Pat
     assert until is not None and abs(until - (now + 300 * MS + AHEAD_NS)) < 50 * MS
 
 
+def test_a_reader_that_read_its_clock_earlier_still_gets_the_instant_written(tmp_path: Path) -> None:
+    """The record's instant does not move earlier by the time since the reader read its clock (a
+    new process's start reads the clock, reopens its core, then the record: once 0.9 ms early)."""
+    mine = PortHandover("/dev/ttyS0", tmp_path)
+    now = time.monotonic_ns()
+    mine.settle(now + 300 * MS, now)
+    until = PortHandover("/dev/ttyS0", tmp_path).predecessor_until(now - 50 * MS)
+    assert until is not None and until >= now + 300 * MS - 1 * MS
+
+
 def test_settle_writes_the_exact_end_or_removes_the_record(tmp_path: Path) -> None:
     mine = PortHandover("/dev/ttyS0", tmp_path)
     now = time.monotonic_ns()

@@ -72,7 +72,7 @@ class PortHandover:
         except (OSError, UnicodeDecodeError):
             text = ""
         try:
-            until = self._to_monotonic(int(text), now_ns)
+            until = self._to_monotonic(int(text))
         except ValueError:
             from .rs232_core import PLACEHOLDER_NS  # here: rs232_core imports base, which imports this
 
@@ -120,8 +120,12 @@ class PortHandover:
                   f"writable directory.", file=sys.stderr)
 
     @staticmethod
-    def _to_monotonic(wall_ns: int, now_ns: int) -> int:
-        return now_ns + (wall_ns - time.time_ns())
+    def _to_monotonic(wall_ns: int) -> int:
+        # Both clocks are read now, the wall clock first: converting with the caller's `now_ns`
+        # made the instant early by however long ago the caller read it (the file read, a
+        # preempted thread: 0.9 ms in a clean make check), and the next process sent that early.
+        wall_now = time.time_ns()
+        return time.monotonic_ns() + (wall_ns - wall_now)
 
 
 __all__ = ["AHEAD_NS", "MAX_WAIT_NS", "PortHandover", "record_name", "state_dir"]
