@@ -1,0 +1,64 @@
+"""The CAN master proof view (proofs/bmc/stubs/can_master_view.py) applies to the current
+urb_can_master.h and urb_can_master.c, leaves no use of a member it moved, and refuses sources it
+no longer matches, so fw_can_master never runs on a view that silently went stale."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+VIEW = ROOT / "proofs/bmc/stubs/can_master_view.py"
+HEADER = Path("include/urb_can_master.h")
+SOURCE = Path("downlink/can/urb_can_master.c")
+
+
+def copy_firmware(tmp_path: Path) -> Path:
+    root = tmp_path / "firmware"
+    for rel in (HEADER, SOURCE):
+        (root / rel).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(ROOT / "firmware" / rel, root / rel)
+    return root
+
+
+def run_view(root: Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, str(VIEW), str(root)], capture_output=True, text=True, check=False)
+
+
+def test_view_applies_once_and_moves_every_use(tmp_path: Path) -> None:
+    root = copy_firmware(tmp_path)
+    assert run_view(root).returncode == 0
+    header = (root / HEADER).read_text(encoding="utf-8")
+    source = (root / SOURCE).read_text(encoding="utf-8")
+    assert "next_tid[URB_CAN_LAST_ADDRESS + 1u][16]" not in header
+    assert "extern uint8_t urb_view_next_tid[1][16];" in header
+    for member in ("m->next_tid", "m->refusal", "m->sync_payload"):
+        assert member not in source, f"{member} left in the viewed source"
+    assert "urb_view_next_tid[URB_VIEW_TID_ROW(m->address)][s]" in source
+    assert "a == urb_view_tid_address; a++" in source
+    assert run_view(root).returncode == 0
+    assert (root / HEADER).read_text(encoding="utf-8") == header, "a second run changes nothing"
+    assert (root / SOURCE).read_text(encoding="utf-8") == source, "a second run changes nothing"
+
+
+@pytest.mark.parametrize(("rel", "edit"), [
+    (SOURCE, ("m->next_tid[m->address][s] =", "m->next_tid[m->mailbox][s] =")),
+    (SOURCE, ("for (uint8_t a = 0u; a <= URB_CAN_LAST_ADDRESS; a++) {", "for (uint8_t a = 0u; a < 64u; a++) {")),
+    (HEADER, ("    uint8_t refusal[1];\n", "    uint8_t refusal[2];\n")),
+])
+def test_view_refuses_sources_it_no_longer_matches(rel: Path, edit: tuple[str, str], tmp_path: Path) -> None:
+    root = copy_firmware(tmp_path)
+    text = (root / rel).read_text(encoding="utf-8")
+    assert text.count(edit[0]) == 1
+    (root / rel).write_text(text.replace(*edit), encoding="utf-8")
+    result = run_view(root)
+    assert result.returncode != 0 and "update the view" in result.stderr
+
+
+def test_usage_error_without_a_folder() -> None:
+    result = subprocess.run([sys.executable, str(VIEW)], capture_output=True, text=True, check=False)
+    assert result.returncode == 2 and "usage: can_master_view.py" in result.stderr
