@@ -4,6 +4,7 @@ no longer matches, so fw_can_master never runs on a view that silently went stal
 
 from __future__ import annotations
 
+import re
 import shutil
 import subprocess
 import sys
@@ -36,8 +37,9 @@ def test_view_applies_once_and_moves_every_use(tmp_path: Path) -> None:
     source = (root / SOURCE).read_text(encoding="utf-8")
     assert "next_tid[URB_CAN_LAST_ADDRESS + 1u][16]" not in header
     assert "extern uint8_t urb_view_next_tid[1][16];" in header
-    for member in ("m->next_tid", "m->refusal", "m->sync_payload"):
-        assert member not in source, f"{member} left in the viewed source"
+    for member in ("m->next_tid", "m->refusal", "m->sync_payload", "m->frame"):
+        assert not re.search(re.escape(member) + r"(?!\w)", source), f"{member} left in the viewed source"
+    assert "m->frames_sent" in source, "members that only start with a moved one's name stay"
     assert "urb_view_next_tid[URB_VIEW_TID_ROW(m->address)][s]" in source
     assert "a == urb_view_tid_address; a++" in source
     assert run_view(root).returncode == 0
@@ -49,6 +51,7 @@ def test_view_applies_once_and_moves_every_use(tmp_path: Path) -> None:
     (SOURCE, ("m->next_tid[m->address][s] =", "m->next_tid[m->mailbox][s] =")),
     (SOURCE, ("for (uint8_t a = 0u; a <= URB_CAN_LAST_ADDRESS; a++) {", "for (uint8_t a = 0u; a < 64u; a++) {")),
     (HEADER, ("    uint8_t refusal[1];\n", "    uint8_t refusal[2];\n")),
+    (HEADER, ("    urb_can_frame_t frame;\n", "    urb_can_frame_t next_frame;\n")),
 ])
 def test_view_refuses_sources_it_no_longer_matches(rel: Path, edit: tuple[str, str], tmp_path: Path) -> None:
     root = copy_firmware(tmp_path)

@@ -51,8 +51,8 @@
  * asked for; a write whose answer failed its transfer CRC was reported CHECKSUM ("not stored"),
  * though the node may have stored it (Bridge.tla WriteStatusTruthful): now TIMEOUT.
  */
-/* Requirements it is to verify (the traceability marker is added when the folder leaves wip/ and
- * runs: an unrun proof is no evidence): urb.DLK_001, urb.DLK_002, urb.DLK_003. */
+/* lobster-trace: urb.DLK_001, urb.DLK_002 (the requirements this proof verifies: the fast tier's
+ * answer side, a read's answer taken only whole, with the request's transfer id and a good CRC) */
 #include "urb_verify.h"
 
 #include "fw_can_budgets.h"
@@ -432,6 +432,7 @@ uint8_t urb_view_tid_address;
 uint8_t urb_view_next_tid[1][16];
 uint8_t urb_view_refusal[1];
 uint8_t urb_view_sync_payload[1];
+urb_can_frame_t urb_view_frame;
 
 static void garbage_before_init(void)
 {
