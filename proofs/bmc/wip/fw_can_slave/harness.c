@@ -388,6 +388,9 @@ static void ev_state(urb_can_slave_t *s)
 }
 
 static urb_can_slave_t slave;
+/* the slave's frame and refusal byte in the proof view (stubs/can_slave_view.py) */
+urb_can_frame_t urb_view_slave_frame;
+uint8_t urb_view_slave_answer[1];
 
 void harness(void)
 {

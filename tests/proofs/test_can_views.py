@@ -1,6 +1,6 @@
-"""The CAN master proof view (proofs/bmc/stubs/can_master_view.py) applies to the current
-urb_can_master.h and urb_can_master.c, leaves no use of a member it moved, and refuses sources it
-no longer matches, so fw_can_master never runs on a view that silently went stale."""
+"""The CAN proof views (proofs/bmc/stubs/can_master_view.py, can_slave_view.py) apply to the current
+master and slave sources, leave no use of a member they moved, and refuse sources they no longer
+match, so fw_can_master and fw_can_slave never run on a view that silently went stale."""
 
 from __future__ import annotations
 
@@ -65,3 +65,42 @@ def test_view_refuses_sources_it_no_longer_matches(rel: Path, edit: tuple[str, s
 def test_usage_error_without_a_folder() -> None:
     result = subprocess.run([sys.executable, str(VIEW)], capture_output=True, text=True, check=False)
     assert result.returncode == 2 and "usage: can_master_view.py" in result.stderr
+
+
+SLAVE_VIEW = ROOT / "proofs/bmc/stubs/can_slave_view.py"
+SLAVE_HEADER = Path("include/urb_can_slave.h")
+SLAVE_SOURCE = Path("downlink/can/urb_can_slave.c")
+
+
+def copy_slave(tmp_path: Path) -> Path:
+    root = tmp_path / "firmware"
+    for rel in (SLAVE_HEADER, SLAVE_SOURCE):
+        (root / rel).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(ROOT / "firmware" / rel, root / rel)
+    return root
+
+
+def run_slave_view(root: Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, str(SLAVE_VIEW), str(root)], capture_output=True, text=True, check=False)
+
+
+def test_slave_view_applies_once_and_moves_every_use(tmp_path: Path) -> None:
+    root = copy_slave(tmp_path)
+    assert run_slave_view(root).returncode == 0
+    header = (root / SLAVE_HEADER).read_text(encoding="utf-8")
+    source = (root / SLAVE_SOURCE).read_text(encoding="utf-8")
+    assert "extern urb_can_frame_t urb_view_slave_frame;" in header and "    urb_can_frame_t frame;" not in header
+    for member in ("s->frame", "s->answer"):
+        assert not re.search(re.escape(member) + r"(?!\w)", source), f"{member} left in the viewed source"
+    assert "s->frames_sent" in source
+    assert run_slave_view(root).returncode == 0
+    assert (root / SLAVE_SOURCE).read_text(encoding="utf-8") == source, "a second run changes nothing"
+
+
+def test_slave_view_refuses_a_header_it_no_longer_matches(tmp_path: Path) -> None:
+    root = copy_slave(tmp_path)
+    text = (root / SLAVE_HEADER).read_text(encoding="utf-8")
+    (root / SLAVE_HEADER).write_text(text.replace("    urb_can_frame_t frame;\n", "    urb_can_frame_t out;\n"),
+                                     encoding="utf-8")
+    result = run_slave_view(root)
+    assert result.returncode != 0 and "update the view" in result.stderr
