@@ -2,7 +2,8 @@
  * Proof: the CAN downlink slave (firmware/downlink/can/urb_can_slave.c) against the contract in
  * urb_can_slave.h and urb_can_master.h, over every sequence of URB_STEPS events after
  * urb_can_slave_init: a received frame (a request to this node on the run's session, or any other
- * identifier: another node's request, an answer, SYNC; any length 0..8, any bytes, any later time),
+ * identifier: another node's request, an answer, SYNC; any length 0..8, any bytes, any later time;
+ * not a request to this node on another of its sessions),
  * a queued frame reported sent, the controller going bus-off or not, and a controller that refuses
  * any queued frame.
  *
@@ -281,6 +282,9 @@ static void ev_rx(urb_can_slave_t *s)
     bool const mine = URB_NONDET_BOOL();
     f.id = mine ? urb_can_id(own, (uint8_t)(sess & 7u), (sess & 8u) != 0u, URB_CAN_REQUEST)
                 : (uint16_t)(URB_NONDET_U16() & 0x7FFu);
+    /* requests to this node on its other sessions are left out: the same code with another session
+     * number, except that one drops the request in progress, which the run's session shows too */
+    URB_ASSUME(mine || ((f.id >> 10) != URB_CAN_REQUEST) || (((f.id >> 4) & 0x3Fu) != own) || ((f.id & 15u) == sess));
     f.len = URB_NONDET_U8();
     URB_ASSUME(f.len <= URB_CAN_MTU);
     URB_NONDET_BYTES(f.data, sizeof f.data);
