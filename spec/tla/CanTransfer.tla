@@ -242,4 +242,15 @@ DeliveredIntact == ~bad
 AtMostOnce == \A s \in Senders : \A x \in Xfers(s) : count[s][x] <= 1
 
 THEOREM Spec => [](TypeOK /\ NoMixedTransfers /\ NoRepeatedFrame /\ DeliveredIntact /\ AtMostOnce)
+
+-----------------------------------------------------------------------------
+(* Reachability witnesses (manifest.json "witnesses", tools/tla_witness.py):*)
+(* the situations the invariants are about, each of which a model must     *)
+(* reach in its own run.                                                   *)
+ReachMultiFrameDone == \E s \in Senders : \E x \in Xfers(s) : Lens[s][x] > 1 /\ count[s][x] > 0
+ReachToggleRejected == ev = "toggle"       \* a repeated frame refused by its toggle bit
+ReachDuplicateDropped == ev = "dup"        \* a repeated single-frame transfer ignored
+ReachCrcRejected == ev = "crc"             \* a transfer missing a frame refused by the CRC
+ReachInterleaved == \E s, t \in Senders : s # t /\ rx[s].active /\ rx[t].active
+ReachBusOffRecovered == recovered          \* a sender bus-off and back on the bus
 =============================================================================
