@@ -241,7 +241,16 @@ DeliveredIntact == ~bad
 \* lobster-trace: urb.DLK_003
 AtMostOnce == \A s \in Senders : \A x \in Xfers(s) : count[s][x] <= 1
 
-THEOREM Spec => [](TypeOK /\ NoMixedTransfers /\ NoRepeatedFrame /\ DeliveredIntact /\ AtMostOnce)
+(* Without a fault every transfer is delivered, once: the receiver's      *)
+(* checks refuse nothing the bus carried whole (the checks above hold for *)
+(* a receiver that refuses everything).                                    *)
+NoFault == faults = [loss |-> 0, dup |-> 0, err |-> 0]
+AllSent == \A s \in Senders : sent[s] = Len(Lens[s]) /\ q[s] = <<>>
+\* lobster-trace: urb.DLK_001
+CleanRunDelivered == NoFault /\ AllSent => \A s \in Senders : \A x \in Xfers(s) : count[s][x] = 1
+
+THEOREM Spec => [](TypeOK /\ NoMixedTransfers /\ NoRepeatedFrame /\ DeliveredIntact /\ AtMostOnce
+                   /\ CleanRunDelivered)
 
 -----------------------------------------------------------------------------
 (* Reachability witnesses (manifest.json "witnesses", tools/tla_witness.py):*)
@@ -253,4 +262,5 @@ ReachDuplicateDropped == ev = "dup"        \* a repeated single-frame transfer i
 ReachCrcRejected == ev = "crc"             \* a transfer missing a frame refused by the CRC
 ReachInterleaved == \E s, t \in Senders : s # t /\ rx[s].active /\ rx[t].active
 ReachBusOffRecovered == recovered          \* a sender bus-off and back on the bus
+ReachCleanRunDone == NoFault /\ AllSent     \* every transfer sent without a fault
 =============================================================================

@@ -50,6 +50,7 @@ VARIABLES
     got,        \* what the polled node received: "none", "intact", "corrupt", or "short"
                 \* (the frame cut by a collision, whose bytes pass its check)
     stored,     \* ghost: what the polled node stored (Stores)
+    storesOf,   \* ghost: storesOf[i], how many times the node polled i-th stored a frame of that poll
     garbled,    \* the answer heard was overlapped by the babbler
     from,       \* who sent the answer the bridge hears
     result,     \* the bridge's outcome of the poll in progress
@@ -58,7 +59,7 @@ VARIABLES
     heard,      \* the bridge's babble counter (capped at 1)
     reported    \* ghost: outcomes reported, as [result, stored] records
 
-vars == <<k, phase, drivers, cut, due, got, stored, garbled, from, result, babbleLeft,
+vars == <<k, phase, drivers, cut, due, got, stored, storesOf, garbled, from, result, babbleLeft,
           babbledIdle, heard, reported>>
 
 Target == Polls[k]
@@ -68,7 +69,7 @@ TypeOK ==
     /\ phase \in {"idle", "send", "wait", "answer", "drain", "done"}
     /\ drivers \subseteq Talkers /\ cut \in BOOLEAN
     /\ due \in Nodes \cup {NOBODY} /\ got \in {"none", "intact", "corrupt", "short"}
-    /\ stored \in Stores /\ garbled \in BOOLEAN /\ from \in Talkers \cup {NOBODY}
+    /\ stored \in Stores /\ storesOf \in [1..Len(Polls) -> Nat] /\ garbled \in BOOLEAN /\ from \in Talkers \cup {NOBODY}
     /\ result \in Results /\ babbleLeft \in 0..MaxBabble
     /\ babbledIdle \in BOOLEAN /\ heard \in 0..1
     /\ reported \in Seq([result : Results, stored : Stores])
@@ -76,6 +77,7 @@ TypeOK ==
 Init ==
     /\ k = 1 /\ phase = "idle" /\ drivers = {} /\ cut = FALSE /\ due = NOBODY
     /\ got = "none" /\ stored = "nothing" /\ garbled = FALSE /\ from = NOBODY
+    /\ storesOf = [i \in 1..Len(Polls) |-> 0]
     /\ result = "none" /\ babbleLeft = MaxBabble /\ babbledIdle = FALSE /\ heard = 0
     /\ reported = <<>>
 
@@ -87,7 +89,7 @@ Poll ==
     /\ phase' = "send" /\ drivers' = {BRIDGE}
     /\ cut' = FALSE /\ got' = "none" /\ stored' = "nothing" /\ garbled' = FALSE
     /\ from' = NOBODY /\ result' = "none" /\ due' = NOBODY
-    /\ UNCHANGED <<k, babbleLeft, babbledIdle, heard, reported>>
+    /\ UNCHANGED <<k, storesOf, babbleLeft, babbledIdle, heard, reported>>
 
 (* urb_rs485_master_rx, Collide: an echo byte before the last differs. The *)
 (* bridge stops driving and waits for silence.  The bytes the line carried *)
@@ -103,7 +105,7 @@ CollideMidWith(checkCut) ==
           /\ cut' = ~(checkCut /\ passes)
           /\ got' = IF passes /\ Target \in Nodes THEN "short" ELSE "none"
           /\ due' = IF passes /\ Target \in Nodes THEN Target ELSE NOBODY
-    /\ UNCHANGED <<k, stored, garbled, from, result, babbleLeft, babbledIdle, heard, reported>>
+    /\ UNCHANGED <<k, stored, storesOf, garbled, from, result, babbleLeft, babbledIdle, heard, reported>>
 
 CollideMid == CollideMidWith(TRUE)
 
@@ -119,7 +121,7 @@ SendEndWith(stuck) ==
     /\ phase' = IF stuck /\ BABBLER \in drivers THEN "drain" ELSE "wait"
     /\ cut' = (stuck /\ BABBLER \in drivers)
     /\ drivers' = drivers \ {BRIDGE}
-    /\ UNCHANGED <<k, stored, garbled, from, result, babbleLeft, babbledIdle, heard, reported>>
+    /\ UNCHANGED <<k, stored, storesOf, garbled, from, result, babbleLeft, babbledIdle, heard, reported>>
 
 SendEnd == SendEndWith(FALSE)
 
@@ -131,6 +133,7 @@ Answer(n) ==
     /\ stored' = CASE got = "intact" -> "request"
                     [] got = "short" -> "shorter"
                     [] OTHER -> "nothing"
+    /\ storesOf' = IF got \in {"intact", "short"} THEN [storesOf EXCEPT ![k] = @ + 1] ELSE storesOf
     /\ drivers' = {n} /\ due' = NOBODY /\ from' = n
     /\ phase' = IF phase = "wait" THEN "answer" ELSE phase
     /\ UNCHANGED <<k, cut, got, garbled, result, babbleLeft, babbledIdle, heard, reported>>
@@ -144,13 +147,13 @@ AnswerEnd(n) ==
                          ELSE IF got = "intact" THEN "OK" ELSE "CHECKSUM"
             /\ phase' = "done"
        ELSE UNCHANGED <<result, phase>>
-    /\ UNCHANGED <<k, cut, due, got, stored, garbled, from, babbleLeft, babbledIdle, heard, reported>>
+    /\ UNCHANGED <<k, cut, due, got, stored, storesOf, garbled, from, babbleLeft, babbledIdle, heard, reported>>
 
 (* Silence: no answer began within t3.5 + the turnaround: NO_NODE.        *)
 SilenceWith(early) ==
     /\ phase = "wait" /\ drivers = {} /\ (early \/ due = NOBODY)
     /\ result' = "NO_NODE" /\ phase' = "done"
-    /\ UNCHANGED <<k, drivers, cut, due, got, stored, garbled, from, babbleLeft, babbledIdle, heard, reported>>
+    /\ UNCHANGED <<k, drivers, cut, due, got, stored, storesOf, garbled, from, babbleLeft, babbledIdle, heard, reported>>
 
 Silence == SilenceWith(FALSE)
 
@@ -163,14 +166,14 @@ Drain ==
     /\ phase = "drain" /\ drivers = {} /\ due = NOBODY
     /\ result' = IF cut THEN "BUS_STUCK" ELSE "TIMEOUT"
     /\ phase' = "done"
-    /\ UNCHANGED <<k, drivers, cut, due, got, stored, garbled, from, babbleLeft, babbledIdle, heard, reported>>
+    /\ UNCHANGED <<k, drivers, cut, due, got, stored, storesOf, garbled, from, babbleLeft, babbledIdle, heard, reported>>
 
 (* poll() returns the outcome; the next poll may follow.                   *)
 Report ==
     /\ phase = "done"
     /\ reported' = Append(reported, [result |-> result, stored |-> stored])
     /\ k' = k + 1 /\ phase' = "idle"
-    /\ UNCHANGED <<drivers, cut, due, got, stored, garbled, from, result, babbleLeft, babbledIdle, heard>>
+    /\ UNCHANGED <<drivers, cut, due, got, stored, storesOf, garbled, from, result, babbleLeft, babbledIdle, heard>>
 
 (***************************************************************************)
 (* The babbler starts talking: while nobody is polled the bridge counts it;*)
@@ -179,19 +182,19 @@ Report ==
 (* check); during an answer it garbles it; in the bridge's wait it is     *)
 (* heard as an answer that will not check.                                 *)
 (***************************************************************************)
-BabbleStartWith(count) ==
+BabbleStartWith(counted) ==   \* counted: the phases in which the bridge counts babble
     /\ babbleLeft > 0 /\ BABBLER \notin drivers
     /\ drivers' = drivers \cup {BABBLER} /\ babbleLeft' = babbleLeft - 1
     /\ babbledIdle' = (babbledIdle \/ phase \in {"idle", "done"})
-    /\ heard' = IF count /\ phase \in {"idle", "done"} THEN 1 ELSE heard
+    /\ heard' = IF phase \in counted THEN 1 ELSE heard
     /\ due' = IF drivers = {} /\ phase \in {"wait", "drain"} THEN NOBODY ELSE due
     /\ garbled' = (garbled \/ phase = "answer" \/ (phase = "wait" /\ drivers = {}))
     /\ IF phase = "wait" /\ drivers = {}
        THEN phase' = "answer" /\ from' = BABBLER
        ELSE UNCHANGED <<phase, from>>
-    /\ UNCHANGED <<k, cut, got, stored, result, reported>>
+    /\ UNCHANGED <<k, cut, got, stored, storesOf, result, reported>>
 
-BabbleStart == BabbleStartWith(TRUE)
+BabbleStart == BabbleStartWith({"idle", "done"})
 
 BabbleStop ==
     /\ BABBLER \in drivers
@@ -199,7 +202,7 @@ BabbleStop ==
     /\ IF phase = "answer" /\ from = BABBLER
        THEN result' = "TIMEOUT" /\ phase' = "done"
        ELSE UNCHANGED <<result, phase>>
-    /\ UNCHANGED <<k, cut, due, got, stored, garbled, from, babbleLeft, babbledIdle, heard, reported>>
+    /\ UNCHANGED <<k, cut, due, got, stored, storesOf, garbled, from, babbleLeft, babbledIdle, heard, reported>>
 
 Terminated == k > Len(Polls) /\ drivers = {} /\ UNCHANGED vars
 
@@ -218,6 +221,11 @@ Spec == Init /\ [][Next]_vars
 \* lobster-trace: urb.DLK_004
 OneTalker == Cardinality(drivers \ {BABBLER}) <= 1
 
+(* ...and the node that talks is the one polled (its address filter): no  *)
+(* node answers a poll of another address, present or absent.             *)
+\* lobster-trace: urb.DLK_004
+OnlyPolledNodeTalks == \A n \in Nodes : n \in drivers => k <= Len(Polls) /\ n = Target
+
 (* A reported outcome tells the truth about the node's mailbox: OK only if *)
 (* it stored the request; CHECKSUM, NO_NODE and BUS_STUCK only if it       *)
 (* stored nothing, neither the request nor the shorter write of a cut     *)
@@ -227,11 +235,23 @@ StatusTruthful == \A i \in DOMAIN reported :
     /\ reported[i].result = "OK" => reported[i].stored = "request"
     /\ reported[i].result \in {"CHECKSUM", "NO_NODE", "BUS_STUCK"} => reported[i].stored = "nothing"
 
+(* A poll's request is stored at most once: the bridge never sends it    *)
+(* again, not even when its outcome is unknown (URB has no retransmission:*)
+(* the node may have stored the first).                                    *)
+\* lobster-trace: urb.DLK_004
+StoredAtMostOnce == \A i \in DOMAIN storesOf : storesOf[i] <= 1
+
 (* Bytes heard while nobody was polled are counted (babbling detected).    *)
 \* lobster-trace: urb.DLK_005
 BabbleCounted == babbledIdle => heard > 0
 
-THEOREM Spec => [](TypeOK /\ OneTalker /\ StatusTruthful /\ BabbleCounted)
+(* ...and only those: a collision or a garbled answer during a poll is    *)
+(* not counted as babbling (the count blames a babbler).                  *)
+\* lobster-trace: urb.DLK_005
+NoFalseBabble == heard > 0 => babbledIdle
+
+THEOREM Spec => [](TypeOK /\ OneTalker /\ OnlyPolledNodeTalks /\ StatusTruthful /\ StoredAtMostOnce
+                   /\ BabbleCounted /\ NoFalseBabble)
 
 -----------------------------------------------------------------------------
 (* Reachability witnesses (manifest.json "witnesses", tools/tla_witness.py):*)
