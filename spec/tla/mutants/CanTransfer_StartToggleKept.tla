@@ -1,6 +1,6 @@
 -------------------- MODULE CanTransfer_StartToggleKept --------------------
 (* MUTANT of CanTransfer: after a start frame the receiver expects the start's own toggle bit again instead of the flipped one: every multi-frame transfer's second frame is refused as a repeat, so no multi-frame transfer is ever delivered (every check on mixing, repeats, integrity and duplicates still holds: a receiver that refuses everything is safe). *)
-(* Expected: CleanRunDelivered *)
+(* Expected: DeliveredUnlessCut *)
 EXTENDS MCCanTransfer
 
 MutReceive(s, f) ==
