@@ -267,6 +267,8 @@ ReachCrcRejected == ev = "crc"             \* a transfer missing a frame refused
 ReachInterleaved == \E s, t \in Senders : s # t /\ rx[s].active /\ rx[t].active
 ReachBusOffRecovered == recovered          \* a sender bus-off and back on the bus
 ReachCleanRunDone == NoLossNoRepeat /\ faults.err = 0 /\ AllSent   \* all sent without a fault
-\* a bus-off cut a transfer, and every transfer sent: one is undelivered, the rest are
-ReachCutRunDone == NoLossNoRepeat /\ AllSent /\ Cardinality(Undelivered) = 1
+\* a bus-off cut a transfer, its sender recovered, and every transfer sent: one is
+\* undelivered, the rest are
+ReachCutRunDone == NoLossNoRepeat /\ AllSent /\ (\A s \in Senders : ~busOff[s])
+                   /\ Cardinality(Undelivered) = 1
 =============================================================================
