@@ -229,9 +229,11 @@ OnlyPolledNodeTalks == \A n \in Nodes : n \in drivers => k <= Len(Polls) /\ n = 
 (* A reported outcome tells the truth about the node's mailbox: OK only if *)
 (* it stored the request; CHECKSUM, NO_NODE and BUS_STUCK only if it       *)
 (* stored nothing, neither the request nor the shorter write of a cut     *)
-(* frame (TIMEOUT says nothing).  Bridge.tla's WriteStatusTruthful.        *)
+(* frame (TIMEOUT says nothing); and every poll reports an outcome.        *)
+(* Bridge.tla's WriteStatusTruthful.                                       *)
 \* lobster-trace: urb.DLK_004
 StatusTruthful == \A i \in DOMAIN reported :
+    /\ reported[i].result # "none"
     /\ reported[i].result = "OK" => reported[i].stored = "request"
     /\ reported[i].result \in {"CHECKSUM", "NO_NODE", "BUS_STUCK"} => reported[i].stored = "nothing"
 
