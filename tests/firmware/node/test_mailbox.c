@@ -380,7 +380,6 @@ static void mailbox_7_is_usable_and_8_is_not(void **state)
 /* Setup carves 2 x size bytes of the caller's storage block and zero-fills exactly those
  * (urb_node.h: "zero-filled"; the block itself need not be zeroed), never a byte past storage_len;
  * a box that needs one byte more than is left is refused. */
-/* lobster-trace: urb.PKT_003 */
 static void setup_zero_fills_exactly_its_bytes(void **state)
 {
     (void)state;
@@ -415,7 +414,6 @@ static void setup_zero_fills_exactly_its_bytes(void **state)
 
 /* Inbox 0 and outbox 0 share mb0 without overlapping: a command landing in either inbox-0 buffer
  * leaves the identification the bridge reads from either outbox-0 buffer intact. */
-/* lobster-trace: urb.MBX_011 */
 static void command_write_leaves_the_identification_intact(void **state)
 {
     urb_node_t *node = &((fixture_t *)*state)->node;

@@ -577,7 +577,6 @@ static void reset_measures_t_acq_like_a_fresh_start(void **state)
  * commands that change what Identification describes or ask for it (IDENTIFY; RESET: the fault
  * flag and t_acq restart; SYNC_CONFIG: the synchronisation it reports is reconfigured) also
  * republish outbox 0 in that same poll (IDENT); NOP and SIGNAL leave outbox 0 alone. */
-/* lobster-trace: urb.MBX_011 */
 static void command_poll_reports(void **state)
 {
     fixture_t *f = *state;
