@@ -337,18 +337,20 @@ static void ev_rx(urb_can_slave_t *s)
             }
         }
     }
-    uint8_t before[URB_LEN_MAX + 1u];
-    for (uint8_t i = 0u; i <= URB_LEN_MAX; i++) {
+    uint8_t before[URB_LEN_MAX];
+    for (uint8_t i = 0u; i < URB_LEN_MAX; i++) {
         before[i] = ibuf[i];
     }
+    uint8_t const guard = ibuf[URB_LEN_MAX];
     URB_COST_BEGIN();
     urb_can_slave_rx(s, &f, now);
     URB_COST_END(FW_CAN_FRAME_BUDGET);
-    for (uint8_t i = 0u; i <= URB_LEN_MAX; i++) {
+    for (uint8_t i = 0u; i < URB_LEN_MAX; i++) {
         if (i >= box_size) {
             URB_ASSERT(ibuf[i] == before[i], "rx: no byte past the inbox size");
         }
     }
+    URB_ASSERT(ibuf[URB_LEN_MAX] == guard, "rx: no byte past the inbox size");
     URB_ASSERT(sync_seen == sync_expected, "sync: every well-formed SYNC frame passed on, nothing else");
     if (done_now || crc_now) {
         URB_ASSERT(!write_open, "a completed write request leaves no write open");
