@@ -25,6 +25,9 @@ endif
 ifndef CM0HAL_RULE
 $(error mk/quality.mk needs mk/node_downlinks_cm0.mk read first)
 endif
+ifndef FWD_TEST_RULE
+$(error mk/quality.mk needs mk/downlinks.mk read first)
+endif
 
 # ===== Coverage =================================================================================
 
@@ -79,11 +82,13 @@ coverage: setup coverage-build
 
 # ===== MISRA C:2012 and static analysis =========================================================
 
-# What ships: the node and bridge libraries, the SensoRHex apps and their target mains and board
-# stubs, the Cortex-M0+ port and startup code, and the generated codecs. Not the hosted and
-# simulation HALs or the hosted bridge's main (test doubles that run on a PC with its C library and
-# are never linked into a firmware image), nor gen/c/test (test support that uses stdio).
-QUALITY_SOURCES := $(sort $(wildcard firmware/node/*.c) $(FWB_LIB_SRC) $(wildcard firmware/apps/sensorhex/*.c) \
+# What ships: the node and bridge libraries, the CAN and RS485 downlink cores (FWD_CAN_SRC,
+# FWD_RS485_SRC of mk/downlinks.mk), the SensoRHex apps and their target mains and board stubs, the
+# Cortex-M0+ port and startup code, and the generated codecs. Not the hosted and simulation HALs or
+# the hosted bridge's main (test doubles that run on a PC with its C library and are never linked
+# into a firmware image), nor gen/c/test (test support that uses stdio).
+QUALITY_SOURCES := $(sort $(wildcard firmware/node/*.c) $(FWB_LIB_SRC) $(FWD_CAN_SRC) $(FWD_RS485_SRC) \
+                   $(wildcard firmware/apps/sensorhex/*.c) \
                    $(wildcard firmware/apps/sensorhex/targets/*.c) $(wildcard firmware/hal/cortex-m0plus/*.c) \
                    $(wildcard gen/c/*.c))
 QUALITY_INC := -Ifirmware/include -Ifirmware/node -Ifirmware/bridge -Ifirmware/hal/cortex-m0plus -Ifirmware/apps/echo \
