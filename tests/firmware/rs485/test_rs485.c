@@ -708,10 +708,14 @@ static void test_master_edges(void **state)
     assert_int_equal(st.babble, 1u);
     assert_int_equal(L.dl.poll(L.dl.ctx, mt), URB_STATUS_OK);
     assert_memory_equal(L.data, r.data, 6u);
-    /* a transceiver that never echoes: the request times out and the line is let go */
+    /* a transceiver that never echoes: every byte pulled, none more; the request times out and
+     * the line is let go */
     master_begin_at(URB_DL_READ, 20u, 1u, 6u);
     assert_true(L.bridge.driving);
-    assert_true(urb_rs485_master_tx_next(&L.master, &b));
+    for (uint8_t i = 0u; i < 3u; i++) {
+        assert_true(urb_rs485_master_tx_next(&L.master, &b));
+    }
+    assert_false(urb_rs485_master_tx_next(&L.master, &b));
     assert_int_equal(L.dl.poll(L.dl.ctx, mt + L.master.timeout_us + 1u), URB_STATUS_TIMEOUT);
     assert_false(L.bridge.driving);
     mt += L.master.timeout_us + 1u;
