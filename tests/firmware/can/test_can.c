@@ -978,6 +978,31 @@ static void test_slave_init_each_entry_point(void **state)
     assert_true(urb_can_slave_init(&s, &rig.nport[0].hal, &ops, 5u, 0u));
 }
 
+/* The generated CAN codecs' refusals the bus tests never provoke: members out of range on encode,
+ * the identifier rule (address 0 only in SYNC's all-zero identifier) on decode. */
+static void test_codec_refusals(void **state)
+{
+    (void)state;
+    uint8_t buf[2];
+    urb_can_id_t id = {8u, false, 10u, false};
+    assert_int_equal(urb_can_id_encode(&id, buf, sizeof buf), URB_ERR_RANGE); /* mailbox 8 */
+    id.mailbox = 1u;
+    id.address = 64u;
+    assert_int_equal(urb_can_id_encode(&id, buf, sizeof buf), URB_ERR_RANGE);
+    urb_can_id_t out;
+    uint8_t const sync_id[2] = {0u, 0u};
+    assert_int_equal(urb_can_id_decode(&out, sync_id, 2u), 2);
+    uint8_t const zero_read[2] = {0x08u, 0u};     /* address 0, mailbox 0, read */
+    assert_int_equal(urb_can_id_decode(&out, zero_read, 2u), URB_ERR_RANGE);
+    uint8_t const zero_response[2] = {0u, 0x04u}; /* address 0, mailbox 0, response */
+    assert_int_equal(urb_can_id_decode(&out, zero_response, 2u), URB_ERR_RANGE);
+    urb_can_tail_t tail = {32u, true, true, true};
+    uint8_t one[1];
+    assert_int_equal(urb_can_tail_encode(&tail, one, sizeof one), URB_ERR_RANGE);
+    urb_can_write_refusal_t refusal = {9u}; /* not a status */
+    assert_int_equal(urb_can_write_refusal_encode(&refusal, one, sizeof one), URB_ERR_RANGE);
+}
+
 /* `vectors` mode: every transfer of lengths 0..32 with a few transfer ids, one line per frame
  * ("len tid: hex" frames), for the pycyphal comparison in test_can_pycyphal.py. */
 static int print_vectors(void)
@@ -1037,6 +1062,7 @@ int main(int argc, char **argv)
         cmocka_unit_test_setup(test_deep_transmit_queues, rig_setup),
         cmocka_unit_test_setup(test_slave_request_edges, rig_setup),
         cmocka_unit_test_setup(test_slave_init_each_entry_point, rig_setup),
+        cmocka_unit_test(test_codec_refusals),
     };
     return cmocka_run_group_tests_name("can", tests, NULL, NULL);
 }

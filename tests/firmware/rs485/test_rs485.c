@@ -837,6 +837,46 @@ static void test_slave_init_each_entry_point(void **state)
     assert_true(urb_rs485_slave_init(&s, &L.node[0].hal, &ops, 5u, &L.tm, 0u));
 }
 
+/* The generated RS485 codecs' refusals the line tests never provoke: members out of range and the
+ * schema's rules (a read carries no data; only a successful read answer does) on encode. */
+static void test_codec_refusals(void **state)
+{
+    (void)state;
+    uint8_t buf[URB_RS485_MAX_FRAME];
+    urb_rs485_request_t q;
+    memset(&q, 0, sizeof q);
+    q.address = 0u;
+    assert_int_equal(urb_rs485_request_encode(&q, buf, sizeof buf), URB_ERR_RANGE);
+    q.address = 128u;
+    assert_int_equal(urb_rs485_request_encode(&q, buf, sizeof buf), URB_ERR_RANGE);
+    q.address = 5u;
+    q.select.mailbox = 8u;
+    assert_int_equal(urb_rs485_request_encode(&q, buf, sizeof buf), URB_ERR_RANGE);
+    q.select.mailbox = 1u;
+    q.data_len = 33u;
+    assert_int_equal(urb_rs485_request_encode(&q, buf, sizeof buf), URB_ERR_RANGE);
+    q.data_len = 1u;
+    q.select.read = true; /* a read with data */
+    assert_int_equal(urb_rs485_request_encode(&q, buf, sizeof buf), URB_ERR_RANGE);
+    q.data_len = 0u;
+    assert_int_equal(urb_rs485_request_encode(&q, buf, sizeof buf), 3);
+    urb_rs485_response_t r;
+    memset(&r, 0, sizeof r);
+    r.status = 9u; /* not a status */
+    assert_int_equal(urb_rs485_response_encode(&r, buf, sizeof buf), URB_ERR_RANGE);
+    r.status = URB_STATUS_OK;
+    r.mailbox = 8u;
+    assert_int_equal(urb_rs485_response_encode(&r, buf, sizeof buf), URB_ERR_RANGE);
+    r.mailbox = 1u;
+    r.data_len = 33u;
+    assert_int_equal(urb_rs485_response_encode(&r, buf, sizeof buf), URB_ERR_RANGE);
+    r.status = URB_STATUS_CHECKSUM; /* a refusal with data */
+    r.data_len = 1u;
+    assert_int_equal(urb_rs485_response_encode(&r, buf, sizeof buf), URB_ERR_RANGE);
+    r.data_len = 0u;
+    assert_int_equal(urb_rs485_response_encode(&r, buf, sizeof buf), 2);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -855,6 +895,7 @@ int main(void)
         cmocka_unit_test_setup(test_master_edges, line_setup),
         cmocka_unit_test_setup(test_slave_edges, line_setup),
         cmocka_unit_test_setup(test_slave_init_each_entry_point, line_setup),
+        cmocka_unit_test(test_codec_refusals),
     };
     return cmocka_run_group_tests_name("rs485", tests, NULL, NULL);
 }
