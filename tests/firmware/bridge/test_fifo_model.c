@@ -1,0 +1,789 @@
+/*
+ * The request FIFO of firmware/bridge/bridge.c against a reference model, for the mutation score
+ * (tests/mutation/README.md, component "bridge FIFO"). The bridge runs on a scripted downlink (the
+ * test decides when each transaction ends and with which outcome, or refuses to begin one) and on
+ * HAL stubs; requests enter through urbb_frame, as both uplink parsers hand them over. Random
+ * request sequences (admitted, refused BUSY only when every data slot is taken, admission errors,
+ * requests past the host's window, frames failing their check, local requests to address 0) meet
+ * random downlink outcomes, uplinks that have no room, and downlink transactions lost. After every
+ * poll the model predicts the downlink transaction begun (kind, address, mailbox, length, payload),
+ * the requests still outstanding, the bridge's idleness and its counters; every response that
+ * leaves is compared byte for byte (seq, status, data) in request order on its own uplink.
+ *
+ * The model is written from the contracts (Bridge.tla, urb_bridge.h, the comments of bridge.c), in
+ * plain arrays: a list of outstanding requests in arrival order, each with its final status or
+ * "pending"; the data slots are the entries that hold one.
+ */
+#include <string.h>
+
+#include "bridge_internal.h"
+#include "support.h"
+#include "urb_runtime.h"
+
+#define FIRST 8u  /* the scripted downlink's address range: 7 and 16 are reserved */
+#define LAST 15u
+#define PENDING 0xFFu
+#define OUT_MAX 256u
+
+/* ===== A node layout per downlink address ====================================================== */
+
+/* Node `a`'s mailbox sizes: inbox 0 and outbox 0 as on every node, then sizes that differ from
+ * node to node (an SIZE_MISMATCH on one is a match on another). */
+static void node_sizes(uint8_t a, uint8_t in[8], uint8_t out[8])
+{
+    memset(in, 0, 8u);
+    memset(out, 0, 8u);
+    in[0] = URB_COMMAND_SIZE;
+    out[0] = URB_IDENTIFICATION_SIZE;
+    in[1] = 4u;
+    out[1] = 4u;
+    in[2] = (uint8_t)(13u + (a & 1u));
+    out[2] = 32u;
+    in[3] = 1u;
+    out[3] = (uint8_t)(a - 7u);
+}
+
+static void node_identification(uint8_t a, uint8_t *buf)
+{
+    urb_identification_t id;
+    memset(&id, 0, sizeof id);
+    id.class_id = 0x42u;
+    id.index = a;
+    node_sizes(a, id.inbox_sizes, id.outbox_sizes);
+    assert_int_equal(urb_identification_encode(&id, buf, URB_IDENTIFICATION_SIZE), (int32_t)URB_IDENTIFICATION_SIZE);
+}
+
+/* Present at the start (the initial scan finds them); the others answer the scan NO_NODE. */
+static bool present_at_start(uint8_t a)
+{
+    return (a == 8u) || (a == 10u) || (a == 11u) || (a == 15u);
+}
+
+/* ===== The scripted bridge ====================================================================== */
+
+typedef struct {
+    urb_bridge_t b;
+    urb_bridge_hal_t hal;
+    urb_downlink_t dl;
+    uint32_t now;
+    /* downlink */
+    bool refuse;              /* begin() refuses every transaction */
+    bool busy, done, lose;    /* a transaction runs; its outcome is set; it was lost (poll says IDLE) */
+    uint8_t outcome;
+    urb_downlink_txn_t txn;   /* the last transaction begun */
+    unsigned begins, attempts;
+    /* UART */
+    bool tx_stall;            /* the kick leaves the bytes in the bridge's ring */
+    uint8_t tx[8192];
+    size_t tx_len;
+} rig_t;
+
+static uint32_t hal_now(void *ctx)
+{
+    return ((rig_t *)ctx)->now;
+}
+
+static void hal_period(void *ctx, uint32_t period_us)
+{
+    (void)ctx;
+    (void)period_us;
+}
+
+static void drain_uart(rig_t *r)
+{
+    uint8_t byte;
+    while (urb_bridge_uart_tx_pop(&r->b, &byte)) {
+        assert_true(r->tx_len < sizeof r->tx);
+        r->tx[r->tx_len++] = byte;
+    }
+}
+
+static void hal_kick(void *ctx)
+{
+    rig_t *r = ctx;
+    if (!r->tx_stall) {
+        drain_uart(r);
+    }
+}
+
+static bool dl_begin(void *ctx, const urb_downlink_txn_t *t, uint32_t now_us)
+{
+    rig_t *r = ctx;
+    (void)now_us;
+    r->attempts++;
+    if (r->refuse || r->busy) {
+        return false;
+    }
+    r->txn = *t;
+    r->busy = true;
+    r->done = false;
+    r->lose = false;
+    r->begins++;
+    return true;
+}
+
+static int8_t dl_poll(void *ctx, uint32_t now_us)
+{
+    rig_t *r = ctx;
+    (void)now_us;
+    if (!r->busy) {
+        return URB_DOWNLINK_IDLE;
+    }
+    if (r->lose) {
+        r->busy = false;
+        return URB_DOWNLINK_IDLE;
+    }
+    if (!r->done) {
+        return URB_DOWNLINK_BUSY;
+    }
+    r->busy = false;
+    return (int8_t)r->outcome;
+}
+
+/* Ends the running transaction with `status`; a read gets `data` (its length), or scribbles when
+ * it failed (the bridge must not send them). */
+static void dl_finish(rig_t *r, uint8_t status, const uint8_t *data)
+{
+    assert_true(r->busy && !r->done);
+    if ((r->txn.op == URB_DL_READ) && (r->txn.data != NULL)) {
+        for (uint8_t i = 0u; i < r->txn.length; i++) {
+            r->txn.data[i] = (status == URB_STATUS_OK) ? data[i] : (uint8_t)(0xA0u + i);
+        }
+    }
+    r->outcome = status;
+    r->done = true;
+}
+
+static void rig_init(rig_t *r, uint8_t depth)
+{
+    memset(r, 0, sizeof *r);
+    r->hal.ctx = r;
+    r->hal.now_us = hal_now;
+    r->hal.heartbeat_period = hal_period;
+    r->hal.uart_tx_kick = hal_kick;
+    r->hal.mark = NULL;
+    r->dl.ctx = r;
+    r->dl.kind = 0u;
+    r->dl.bitrate_kbps = 400u;
+    r->dl.first_address = FIRST;
+    r->dl.last_address = LAST;
+    r->dl.begin = dl_begin;
+    r->dl.poll = dl_poll;
+    urb_bridge_config_t cfg;
+    urb_bridge_default_config(&cfg);
+    cfg.fifo_depth = depth;
+    cfg.heartbeat_us = 0u;
+    cfg.scan_at_start = true;
+    assert_int_equal(urb_bridge_init(&r->b, &cfg, &r->hal, &r->dl), URB_OK);
+    /* the initial scan: every address once, identification reads answered by the layout above */
+    for (unsigned polls = 0u; r->b.scanning || r->busy; polls++) {
+        assert_true(polls < 100u);
+        urb_bridge_poll(&r->b);
+        if (r->busy && !r->done) {
+            assert_int_equal(r->txn.op, URB_DL_READ);
+            uint8_t id[URB_IDENTIFICATION_SIZE];
+            node_identification(r->txn.address, id);
+            dl_finish(r, present_at_start(r->txn.address) ? URB_STATUS_OK : URB_STATUS_NO_NODE, id);
+        }
+    }
+    assert_int_equal(urb_bridge_stats(&r->b)->scans, 1u);
+    assert_int_equal(r->begins, LAST - FIRST + 1u);
+}
+
+/* ===== The model ================================================================================ */
+
+typedef struct {
+    uint8_t seq, uplink, status; /* status: final, or PENDING */
+    bool slot;                   /* holds a data slot (admitted OK) */
+    uint8_t address, mailbox, length;
+    bool read;
+    uint8_t data[32];            /* a write's payload; an OK read's data */
+} m_entry_t;
+
+typedef struct {
+    uint8_t seq, status, len;
+    uint8_t data[32];
+} m_response_t;
+
+typedef struct {
+    uint8_t depth;
+    m_entry_t q[URB_BRIDGE_RING_MAX];
+    unsigned n;
+    bool known[128], present[128];
+    bool probing, size_checked;
+    uint8_t activity; /* URBB_ACT_NONE, _REQUEST, _PROBE, _LEARN */
+    uint32_t frames, busy, window_overflow, responses;
+    unsigned probes, learns, lost, held[2]; /* witnesses: transactions, and responses held for room */
+    m_response_t out[2][OUT_MAX]; /* per uplink: responses sent and not yet read, n_out modulo OUT_MAX */
+    unsigned n_out[2], n_seen[2];
+} model_t;
+
+static uint32_t rng_state;
+
+static uint32_t rnd(uint32_t n)
+{
+    rng_state ^= rng_state << 13;
+    rng_state ^= rng_state >> 17;
+    rng_state ^= rng_state << 5;
+    return rng_state % n;
+}
+
+static void model_init(model_t *m, uint8_t depth)
+{
+    memset(m, 0, sizeof *m);
+    m->depth = depth;
+    for (uint8_t a = FIRST; a <= LAST; a++) {
+        m->known[a] = present_at_start(a);
+        m->present[a] = present_at_start(a);
+    }
+}
+
+static unsigned slots_taken(const model_t *m)
+{
+    unsigned k = 0u;
+    for (unsigned i = 0u; i < m->n; i++) {
+        k += m->q[i].slot ? 1u : 0u;
+    }
+    return k;
+}
+
+static m_entry_t *first_pending(model_t *m)
+{
+    for (unsigned i = 0u; i < m->n; i++) {
+        if (m->q[i].status == PENDING) {
+            return &m->q[i];
+        }
+    }
+    return NULL;
+}
+
+/* -1 when the bridge does not know the size of (a, box, read). */
+static int known_size(const model_t *m, uint8_t a, uint8_t box, bool read)
+{
+    uint8_t in[8], out[8];
+    if (a == 0u) {
+        return read ? urb_node_bridge_outbox_sizes[box] : urb_node_bridge_inbox_sizes[box];
+    }
+    if (!m->known[a]) {
+        return -1;
+    }
+    node_sizes(a, in, out);
+    return read ? out[box] : in[box];
+}
+
+/* A request as a frame: well-formed, or one that passes its check but breaks a schema rule (a
+ * read of 0 bytes: answered BAD_REQUEST), or one that fails its check (not admitted at all). */
+typedef enum { FRAME_OK, FRAME_RANGE, FRAME_BAD_CHECK } frame_kind_t;
+
+static uint8_t encode(uint8_t *f, const m_entry_t *e, frame_kind_t kind)
+{
+    size_t n;
+    if (e->read || (kind == FRAME_RANGE)) {
+        urb_uplink_read_request_t q = {e->address, e->mailbox, e->seq, (kind == FRAME_RANGE) ? 1u : e->length};
+        n = (size_t)urb_uplink_read_request_encode(&q, f, 4u);
+        assert_int_equal(n, 4u);
+        if (kind == FRAME_RANGE) {
+            f[2] = 0u;
+            f[3] = (uint8_t)urb_link_check(NULL, 0u, f, 3u);
+        }
+    } else {
+        urb_uplink_write_request_t q;
+        memset(&q, 0, sizeof q);
+        q.address = e->address;
+        q.mailbox = e->mailbox;
+        q.seq = e->seq;
+        q.length = e->length;
+        memcpy(q.data, e->data, e->length);
+        int32_t const k = urb_uplink_write_request_encode(&q, f, URB_BRIDGE_FRAME_MAX);
+        assert_true(k > 0);
+        n = (size_t)k;
+    }
+    if (kind == FRAME_BAD_CHECK) {
+        f[n - 1u] ^= 0x5Au;
+    }
+    return (uint8_t)n;
+}
+
+/* Bridge.tla SubmitAndAdmit, through urbb_frame. */
+static void submit(rig_t *r, model_t *m, m_entry_t e, frame_kind_t kind)
+{
+    uint8_t f[URB_BRIDGE_FRAME_MAX];
+    uint8_t const n = encode(f, &e, kind);
+    bool const taken = urbb_frame(&r->b, e.uplink, f, n);
+    assert_int_equal(taken, kind != FRAME_BAD_CHECK);
+    if (kind == FRAME_BAD_CHECK) {
+        return;
+    }
+    m->frames++;
+    if (m->n >= URB_BRIDGE_RING_MAX) {
+        m->window_overflow++;
+        return;
+    }
+    e.slot = false;
+    e.status = PENDING;
+    if (kind == FRAME_RANGE) {
+        e.status = URB_STATUS_BAD_REQUEST;
+    } else if ((e.address != 0u) && ((e.address < FIRST) || (e.address > LAST))) {
+        e.status = URB_STATUS_BAD_REQUEST;
+    } else {
+        int const size = known_size(m, e.address, e.mailbox, e.read);
+        if ((size >= 0) && (size != e.length)) {
+            e.status = URB_STATUS_SIZE_MISMATCH;
+        } else if (slots_taken(m) >= m->depth) {
+            e.status = URB_STATUS_BUSY;
+            m->busy++;
+        } else {
+            e.slot = true;
+        }
+    }
+    m->q[m->n++] = e;
+}
+
+static void m_complete(model_t *m, uint8_t status)
+{
+    m_entry_t *p = first_pending(m);
+    assert_non_null(p);
+    if ((status == URB_STATUS_OK) && p->read && (p->address != 0u) && (p->mailbox == 0u) &&
+        (p->length == URB_IDENTIFICATION_SIZE)) {
+        m->known[p->address] = true; /* the host read an identification: the bridge learns it */
+    }
+    p->status = status;
+    m->size_checked = false;
+}
+
+static void m_served(model_t *m, uint8_t status)
+{
+    m_entry_t const *p = first_pending(m);
+    uint8_t const a = p->address;
+    if (status == URB_STATUS_NO_NODE) {
+        if (m->present[a]) {
+            m->probing = true;
+            return;
+        }
+        m_complete(m, URB_STATUS_NO_NODE);
+        return;
+    }
+    if ((status != URB_STATUS_TIMEOUT) && (status != URB_STATUS_BUS_STUCK)) {
+        m->present[a] = true;
+    }
+    if (((status == URB_STATUS_BAD_REQUEST) || (status == URB_STATUS_SIZE_MISMATCH)) &&
+        ((known_size(m, a, p->mailbox, p->read) >= 0) || m->size_checked)) {
+        status = URB_STATUS_CHECKSUM;
+    }
+    m_complete(m, status);
+}
+
+static void m_probed(model_t *m, uint8_t status)
+{
+    m->probing = false;
+    if (status == URB_STATUS_OK) {
+        status = URB_STATUS_TIMEOUT;
+    } else if (status == URB_STATUS_NO_NODE) {
+        m->present[first_pending(m)->address] = false;
+    }
+    m_complete(m, status);
+}
+
+static void m_identified(model_t *m, uint8_t status)
+{
+    m_entry_t const *p = first_pending(m);
+    uint8_t in[8], out[8];
+    if ((status == URB_STATUS_TIMEOUT) || (status == URB_STATUS_BUS_STUCK)) {
+        m_complete(m, status);
+        return;
+    }
+    if (status == URB_STATUS_NO_NODE) {
+        m->present[p->address] = false;
+        m_complete(m, URB_STATUS_NO_NODE);
+        return;
+    }
+    m->present[p->address] = true;
+    if (status != URB_STATUS_OK) {
+        m_complete(m, URB_STATUS_CHECKSUM);
+        return;
+    }
+    m->known[p->address] = true;
+    node_sizes(p->address, in, out);
+    if ((p->read ? out[p->mailbox] : in[p->mailbox]) != p->length) {
+        m_complete(m, URB_STATUS_SIZE_MISMATCH);
+        return;
+    }
+    m->size_checked = true;
+}
+
+/* What a local request (address 0) answers, with its data. */
+static void m_local(model_t *m, const rig_t *r, m_entry_t *p)
+{
+    if (p->read && (p->mailbox == URB_NODE_BRIDGE_OUTBOX_BRIDGE_INFO)) {
+        urb_bridge_info_t info = {0u, 400u, m->depth, 0u, URB_BRIDGE_FW_MAJOR, URB_BRIDGE_FW_MINOR, URB_BRIDGE_FW_PATCH};
+        assert_int_equal(urb_bridge_info_encode(&info, p->data, sizeof p->data), (int32_t)URB_BRIDGE_INFO_SIZE);
+    } else if (p->read) {
+        urb_bridge_scan_t scan;
+        for (unsigned a = 0u; a < 128u; a++) {
+            scan.present[a] = m->present[a];
+        }
+        assert_int_equal(urb_bridge_scan_encode(&scan, p->data, sizeof p->data), (int32_t)URB_BRIDGE_SCAN_SIZE);
+    } else {
+        (void)r;
+    }
+    /* a command: NOP answers OK, an unknown opcode BAD_REQUEST (the only commands sent here) */
+    m_complete(m, (!p->read && (p->data[0] != URB_BRIDGE_OPCODE_NOP)) ? URB_STATUS_BAD_REQUEST : URB_STATUS_OK);
+}
+
+/* Bridge.tla Serve, first half (start_next): the transaction the bridge must begin, checked
+ * against the one the scripted downlink saw; local requests complete on the way. */
+static void m_start_next(model_t *m, rig_t *r, unsigned begins_before)
+{
+    if (m->probing) {
+        if (!r->refuse) {
+            assert_int_equal(r->begins, begins_before + 1u);
+            assert_int_equal(r->txn.op, URB_DL_PROBE);
+            assert_int_equal(r->txn.address, first_pending(m)->address);
+            m->activity = URBB_ACT_PROBE;
+            m->probes++;
+        }
+        return;
+    }
+    for (unsigned i = 0u; i < URB_BRIDGE_FIFO_MAX; i++) {
+        m_entry_t *p = first_pending(m);
+        if (p == NULL) {
+            break;
+        }
+        if (p->address == 0u) {
+            m_local(m, r, p);
+            continue;
+        }
+        bool const fixed_size = (p->mailbox == 0u) &&
+                                (p->length == (p->read ? URB_IDENTIFICATION_SIZE : URB_COMMAND_SIZE));
+        bool const learn = !m->size_checked && !fixed_size && (known_size(m, p->address, p->mailbox, p->read) < 0);
+        if (r->refuse) {
+            break;
+        }
+        assert_int_equal(r->begins, begins_before + 1u);
+        assert_int_equal(r->txn.address, p->address);
+        if (learn) {
+            assert_int_equal(r->txn.op, URB_DL_READ);
+            assert_int_equal(r->txn.mailbox, 0u);
+            assert_int_equal(r->txn.length, URB_IDENTIFICATION_SIZE);
+            assert_true(r->txn.reselect);
+            m->activity = URBB_ACT_LEARN;
+            m->learns++;
+        } else {
+            assert_int_equal(r->txn.op, p->read ? URB_DL_READ : URB_DL_WRITE);
+            assert_int_equal(r->txn.mailbox, p->mailbox);
+            assert_int_equal(r->txn.length, p->length);
+            assert_false(r->txn.reselect);
+            if (!p->read) {
+                assert_memory_equal(r->txn.data, p->data, p->length);
+            }
+            m->activity = URBB_ACT_REQUEST;
+        }
+        return;
+    }
+    assert_int_equal(r->begins, begins_before);
+}
+
+static uint8_t response_len(const m_entry_t *e)
+{
+    if ((e->status == URB_STATUS_OK) && e->slot && e->read) {
+        return (uint8_t)(1u + e->length + urb_link_check_size(1u + (size_t)e->length));
+    }
+    return 2u;
+}
+
+/* Bridge.tla Emit: the final responses at the head leave while their uplink has room (its room
+ * read from the uplink's state before the poll: bridge_uplink.c is not what this group tests). */
+static void m_emit(model_t *m, unsigned usb_room_bytes, unsigned usb_room_count, unsigned uart_room, bool uart_drains)
+{
+    while ((m->n > 0u) && (m->q[0].status != PENDING)) {
+        m_entry_t const *e = &m->q[0];
+        uint8_t const len = response_len(e);
+        if (e->uplink == URBB_UPLINK_USB) {
+            if ((len > usb_room_bytes) || (usb_room_count == 0u)) {
+                m->held[URBB_UPLINK_USB]++;
+                return;
+            }
+            usb_room_bytes -= len;
+            usb_room_count--;
+        } else {
+            if (len > uart_room) {
+                m->held[URBB_UPLINK_RS232]++;
+                return;
+            }
+            uart_room -= uart_drains ? 0u : len; /* the kick took the bytes at once */
+        }
+        assert_true(m->n_out[e->uplink] - m->n_seen[e->uplink] < OUT_MAX);
+        m_response_t *o = &m->out[e->uplink][m->n_out[e->uplink]++ % OUT_MAX];
+        o->seq = e->seq;
+        o->status = e->status;
+        o->len = (len > 2u) ? e->length : 0u;
+        memcpy(o->data, e->data, o->len);
+        m->responses++;
+        memmove(&m->q[0], &m->q[1], (m->n - 1u) * sizeof m->q[0]);
+        m->n--;
+    }
+}
+
+/* One poll of the bridge and of the model, then every observable compared. */
+static void poll_both(rig_t *r, model_t *m)
+{
+    uint8_t const c = r->b.usb_cur;
+    unsigned const usb_room_bytes = URB_BRIDGE_USB_BUF - r->b.usb_len[c];
+    unsigned const usb_room_count = 128u - r->b.usb_count[c];
+    unsigned const uart_room = URB_BRIDGE_TX_RING - (uint8_t)(r->b.tx_head - r->b.tx_tail);
+    /* what the downlink will report */
+    bool const reports = r->busy && (r->done || r->lose);
+    uint8_t const status = r->lose ? URB_STATUS_TIMEOUT : r->outcome;
+    unsigned const begins_before = r->begins;
+    urb_bridge_poll(&r->b);
+    if (reports) {
+        uint8_t const act = m->activity;
+        m->activity = URBB_ACT_NONE;
+        if (act == URBB_ACT_REQUEST) {
+            m_served(m, status);
+        } else if (act == URBB_ACT_PROBE) {
+            m_probed(m, status);
+        } else {
+            assert_int_equal(act, URBB_ACT_LEARN);
+            m_identified(m, status);
+        }
+    }
+    if (m->activity == URBB_ACT_NONE) {
+        m_start_next(m, r, begins_before);
+    } else {
+        assert_int_equal(r->begins, begins_before);
+    }
+    m_emit(m, usb_room_bytes, usb_room_count, uart_room, !r->tx_stall);
+
+    urb_bridge_stats_t const *s = urb_bridge_stats(&r->b);
+    assert_int_equal(urb_bridge_outstanding(&r->b), m->n);
+    assert_int_equal(s->frames, m->frames);
+    assert_int_equal(s->busy, m->busy);
+    assert_int_equal(s->window_overflow, m->window_overflow);
+    assert_int_equal(s->responses, m->responses);
+    bool const head_final = (m->n > 0u) && (m->q[0].status != PENDING);
+    bool const idle = (m->activity == URBB_ACT_NONE) && (first_pending(m) == NULL) && !head_final;
+    assert_int_equal(urb_bridge_idle(&r->b), idle);
+    assert_int_equal(r->busy, m->activity != URBB_ACT_NONE);
+}
+
+/* Compares the responses in bytes[0 .. len) with the next ones the model sent on `uplink`. */
+static size_t check_responses(model_t *m, uint8_t uplink, const uint8_t *bytes, size_t len)
+{
+    size_t pos = 0u;
+    size_t k = 0u;
+    for (; pos < len; k++) {
+        assert_true(m->n_seen[uplink] < m->n_out[uplink]);
+        m_response_t const *o = &m->out[uplink][m->n_seen[uplink]++ % OUT_MAX];
+        size_t const n = (o->len > 0u) ? 1u + o->len + urb_link_check_size(1u + (size_t)o->len) : 2u;
+        assert_true(pos + n <= len);
+        urb_uplink_response_t got;
+        assert_int_equal(urb_uplink_response_decode(&got, bytes + pos, n), (int32_t)n);
+        assert_int_equal(got.seq, o->seq);
+        assert_int_equal(got.status, o->status);
+        assert_int_equal(got.data_len, o->len);
+        assert_memory_equal(got.data, o->data, o->len);
+        pos += n;
+    }
+    assert_int_equal(pos, len);
+    return k;
+}
+
+static void read_uart(rig_t *r, model_t *m)
+{
+    drain_uart(r);
+    (void)check_responses(m, URBB_UPLINK_RS232, r->tx, r->tx_len);
+    r->tx_len = 0u;
+}
+
+static void read_usb(rig_t *r, model_t *m)
+{
+    uint8_t in[URB_BRIDGE_USB_BUF];
+    size_t const got = urb_bridge_usb_in(&r->b, in, sizeof in);
+    if (got == 0u) {
+        return;
+    }
+    urb_usb_batch_header_t h;
+    assert_int_equal(urb_usb_batch_header_decode(&h, in, 4u), 4);
+    assert_int_equal(check_responses(m, URBB_UPLINK_USB, in + 4, got - 4u), h.count);
+}
+
+/* ===== Random sequences ========================================================================= */
+
+static const uint8_t ADDRESSES[] = {0u, 0u, 7u, FIRST, 9u, 10u, 11u, 12u, LAST, 16u, 0x77u};
+
+static m_entry_t random_request(void)
+{
+    m_entry_t e;
+    memset(&e, 0, sizeof e);
+    e.seq = (uint8_t)rnd(16u);
+    e.uplink = (uint8_t)rnd(2u);
+    e.address = ADDRESSES[rnd(sizeof ADDRESSES)];
+    e.read = rnd(2u) == 0u;
+    if (e.address == 0u) {
+        e.mailbox = (uint8_t)rnd(e.read ? 2u : 1u); /* BridgeInfo, BridgeScan, BridgeCommand */
+        e.length = e.read ? ((e.mailbox == 0u) ? URB_BRIDGE_INFO_SIZE : URB_BRIDGE_SCAN_SIZE) : URB_BRIDGE_COMMAND_SIZE;
+        if (!e.read) {
+            urb_bridge_command_t cmd = {(rnd(4u) == 0u) ? 9u : URB_BRIDGE_OPCODE_NOP, (uint16_t)rnd(65536u)};
+            /* an unknown opcode does not encode: its bytes are written by hand */
+            e.data[0] = cmd.opcode;
+            e.data[1] = (uint8_t)cmd.value;
+            e.data[2] = (uint8_t)(cmd.value >> 8);
+        }
+    } else {
+        uint8_t in[8], out[8];
+        node_sizes((e.address >= FIRST) && (e.address <= LAST) ? e.address : FIRST, in, out);
+        e.mailbox = (uint8_t)rnd(4u);
+        e.length = e.read ? out[e.mailbox] : in[e.mailbox];
+        if ((e.length == 0u) || (rnd(6u) == 0u)) {
+            e.length = (uint8_t)(1u + rnd(32u));
+        }
+        for (uint8_t i = 0u; i < e.length; i++) {
+            e.data[i] = (uint8_t)rnd(256u);
+        }
+    }
+    if ((e.address == 0u) && (rnd(8u) == 0u)) {
+        e.length = (uint8_t)(1u + rnd(32u)); /* most likely a SIZE_MISMATCH of the bridge's own mailbox */
+    }
+    return e;
+}
+
+static const uint8_t OUTCOMES[] = {URB_STATUS_OK,           URB_STATUS_OK,       URB_STATUS_OK,      URB_STATUS_NO_NODE,
+                                   URB_STATUS_NODE_BUSY,    URB_STATUS_CHECKSUM, URB_STATUS_TIMEOUT, URB_STATUS_BUS_STUCK,
+                                   URB_STATUS_BAD_REQUEST, URB_STATUS_SIZE_MISMATCH};
+
+/* The downlink ends its transaction: a node's data for an OK read (its identification for outbox 0,
+ * random bytes for the others, which the model expects in the response). */
+static void finish_random(rig_t *r, model_t *m)
+{
+    uint8_t const status = OUTCOMES[rnd(sizeof OUTCOMES)];
+    uint8_t data[32];
+    if ((r->txn.op == URB_DL_READ) && (r->txn.mailbox == 0u) && (r->txn.length == URB_IDENTIFICATION_SIZE)) {
+        node_identification(r->txn.address, data);
+    } else {
+        for (uint8_t i = 0u; i < 32u; i++) {
+            data[i] = (uint8_t)rnd(256u);
+        }
+    }
+    if ((m->activity == URBB_ACT_REQUEST) && (status == URB_STATUS_OK) && (r->txn.op == URB_DL_READ)) {
+        m_entry_t *p = first_pending(m);
+        memcpy(p->data, data, p->length);
+    }
+    dl_finish(r, status, data);
+}
+
+/* What the random runs reached, summed over the runs of a test. */
+static struct {
+    unsigned busy, window_overflow, probes, learns, lost, held[2], local_bursts, wraps;
+} witness;
+
+static void random_run(uint32_t seed, uint8_t depth, unsigned steps)
+{
+    rng_state = seed;
+    static rig_t r;
+    static model_t m;
+    rig_init(&r, depth);
+    model_init(&m, depth);
+    assert_int_equal(r.b.present[1], 0x8Du); /* 8, 10, 11, 15: the scan's map is the model's */
+    unsigned local_burst = 0u;
+    bool usb_host_away = false;
+    for (unsigned step = 0u; step < steps; step++) {
+        uint32_t const x = rnd(1000u);
+        if (x < 100u) {
+            unsigned const burst = (rnd(8u) == 0u) ? 1u + rnd(40u) : 1u;
+            for (unsigned k = 0u; k < burst; k++) {
+                uint32_t const y = rnd(40u);
+                submit(&r, &m, random_request(), (y == 0u) ? FRAME_BAD_CHECK : ((y == 1u) ? FRAME_RANGE : FRAME_OK));
+            }
+        } else if ((x < 120u) && (slots_taken(&m) == 0u) && (m.n + depth <= URB_BRIDGE_RING_MAX)) {
+            /* a full FIFO of local requests: each poll serves at most one per data slot */
+            for (unsigned k = 0u; k < depth; k++) {
+                m_entry_t e;
+                memset(&e, 0, sizeof e);
+                e.seq = (uint8_t)k;
+                e.uplink = URBB_UPLINK_USB;
+                e.read = true;
+                e.length = URB_BRIDGE_INFO_SIZE;
+                submit(&r, &m, e, FRAME_OK);
+            }
+            local_burst++;
+        } else if (x < 400u) {
+            if (r.busy && !r.done && !r.lose) {
+                if (rnd(30u) == 0u) {
+                    r.lose = true;
+                    m.lost++;
+                } else {
+                    finish_random(&r, &m);
+                }
+            }
+        } else if (x < 480u) {
+            r.refuse = !r.refuse && (rnd(3u) == 0u);
+        } else if (x < 492u) {
+            r.tx_stall = !r.tx_stall;
+            if (!r.tx_stall) {
+                read_uart(&r, &m);
+            }
+        } else if (x < 505u) {
+            urb_bridge_usb_sof(&r.b);
+        } else if (x < 507u) {
+            usb_host_away = !usb_host_away; /* the host stops reading for a while: the batch fills */
+        } else if ((x < 540u) && !usb_host_away) {
+            read_usb(&r, &m);
+        } else {
+            poll_both(&r, &m);
+            if (!r.tx_stall) {
+                read_uart(&r, &m);
+            }
+        }
+    }
+    /* drain: everything admitted is answered, nothing more */
+    r.refuse = false;
+    r.tx_stall = false;
+    for (unsigned k = 0u; (k < 2000u) && ((m.n > 0u) || r.busy); k++) {
+        if (r.busy && !r.done && !r.lose) {
+            finish_random(&r, &m);
+        }
+        poll_both(&r, &m);
+        read_uart(&r, &m);
+        urb_bridge_usb_sof(&r.b);
+        read_usb(&r, &m);
+    }
+    read_uart(&r, &m);
+    urb_bridge_usb_sof(&r.b);
+    read_usb(&r, &m);
+    assert_int_equal(m.n, 0u);
+    assert_int_equal(m.n_seen[0], m.n_out[0]);
+    assert_int_equal(m.n_seen[1], m.n_out[1]);
+    print_message("depth %u: busy %u overflow %u probes %u learns %u lost %u held %u %u bursts %u responses %u\n", depth, m.busy, m.window_overflow, m.probes, m.learns, m.lost, m.held[0], m.held[1], local_burst, m.responses);
+    witness.busy += m.busy;
+    witness.window_overflow += m.window_overflow;
+    witness.probes += m.probes;
+    witness.learns += m.learns;
+    witness.lost += m.lost;
+    witness.held[0] += m.held[0];
+    witness.held[1] += m.held[1];
+    witness.local_bursts += local_burst;
+    witness.wraps += m.responses / URB_BRIDGE_RING_MAX;
+}
+
+/* Witnesses that the random runs reach what they compare: a data-slot FIFO and a response ring
+ * that wrap many times, BUSY, window overflows, probes and identifications, both uplinks. */
+static void model_random_depths(void **state)
+{
+    (void)state;
+    random_run(0x1234567u, 1u, 6000u);
+    random_run(0x89ABCDEu, 3u, 6000u);
+    random_run(0x2468ACEu, URB_BRIDGE_FIFO_MAX, 8000u);
+    /* witnesses: every path compared was taken; the ring and the slot FIFO wrapped many times */
+    assert_true((witness.busy > 0u) && (witness.window_overflow > 0u) && (witness.probes > 0u));
+    assert_true((witness.learns > 0u) && (witness.lost > 0u) && (witness.local_bursts > 0u));
+    assert_true((witness.held[0] > 0u) && (witness.held[1] > 0u) && (witness.wraps > 50u));
+}
+
+int run_fifo_model_tests(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(model_random_depths),
+    };
+    return cmocka_run_group_tests_name("bridge_fifo_model", tests, NULL, NULL);
+}
