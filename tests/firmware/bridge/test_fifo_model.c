@@ -66,6 +66,7 @@ typedef struct {
     urb_bridge_hal_t hal;
     urb_downlink_t dl;
     uint32_t now;
+    uint32_t period;          /* the heartbeat period last set through the HAL */
     /* downlink */
     bool refuse;              /* begin() refuses every transaction */
     bool busy, done, lose;    /* a transaction runs; its outcome is set; it was lost (poll says IDLE) */
@@ -85,8 +86,7 @@ static uint32_t hal_now(void *ctx)
 
 static void hal_period(void *ctx, uint32_t period_us)
 {
-    (void)ctx;
-    (void)period_us;
+    ((rig_t *)ctx)->period = period_us;
 }
 
 static void drain_uart(rig_t *r)
@@ -154,7 +154,7 @@ static void dl_finish(rig_t *r, uint8_t status, const uint8_t *data)
     r->done = true;
 }
 
-static void rig_init(rig_t *r, uint8_t depth)
+static void rig_init(rig_t *r, uint8_t depth, uint16_t heartbeat_us)
 {
     memset(r, 0, sizeof *r);
     r->hal.ctx = r;
@@ -172,7 +172,7 @@ static void rig_init(rig_t *r, uint8_t depth)
     urb_bridge_config_t cfg;
     urb_bridge_default_config(&cfg);
     cfg.fifo_depth = depth;
-    cfg.heartbeat_us = 0u;
+    cfg.heartbeat_us = heartbeat_us;
     cfg.scan_at_start = true;
     assert_int_equal(urb_bridge_init(&r->b, &cfg, &r->hal, &r->dl), URB_OK);
     /* the initial scan: every address once, identification reads answered by the layout above */
@@ -212,7 +212,10 @@ typedef struct {
     bool known[128], present[128];
     bool probing, size_checked;
     uint8_t activity; /* URBB_ACT_NONE, _REQUEST, _PROBE, _LEARN */
-    uint32_t frames, busy, window_overflow, responses;
+    uint32_t frames, busy, window_overflow, responses, syncs, syncs_missed;
+    uint8_t hb_ticks, hb_done;
+    uint16_t heartbeat_us;
+    unsigned clears, set_heartbeats; /* witnesses */
     unsigned probes, learns, lost, held[2]; /* witnesses: transactions, and responses held for room */
     m_response_t out[2][OUT_MAX]; /* per uplink: responses sent and not yet read, n_out modulo OUT_MAX */
     unsigned n_out[2], n_seen[2];
@@ -355,6 +358,10 @@ static void m_served(model_t *m, uint8_t status)
 {
     m_entry_t const *p = first_pending(m);
     uint8_t const a = p->address;
+    if (a == 0u) {
+        m_complete(m, status); /* BUS_CLEAR: the downlink's outcome, as it is */
+        return;
+    }
     if (status == URB_STATUS_NO_NODE) {
         if (m->present[a]) {
             m->probing = true;
@@ -411,29 +418,69 @@ static void m_identified(model_t *m, uint8_t status)
     m->size_checked = true;
 }
 
-/* What a local request (address 0) answers, with its data. */
-static void m_local(model_t *m, const rig_t *r, m_entry_t *p)
+/* A local request (address 0): true when it completed at once (its data, for a read, in p->data);
+ * false when it went to the downlink (BUS_CLEAR) or waits for it. */
+static bool m_local(model_t *m, rig_t *r, m_entry_t *p, unsigned begins_before)
 {
     if (p->read && (p->mailbox == URB_NODE_BRIDGE_OUTBOX_BRIDGE_INFO)) {
-        urb_bridge_info_t info = {0u, 400u, m->depth, 0u, URB_BRIDGE_FW_MAJOR, URB_BRIDGE_FW_MINOR, URB_BRIDGE_FW_PATCH};
+        urb_bridge_info_t info = {0u, 400u, m->depth, m->heartbeat_us, URB_BRIDGE_FW_MAJOR, URB_BRIDGE_FW_MINOR,
+                                  URB_BRIDGE_FW_PATCH};
         assert_int_equal(urb_bridge_info_encode(&info, p->data, sizeof p->data), (int32_t)URB_BRIDGE_INFO_SIZE);
-    } else if (p->read) {
+        m_complete(m, URB_STATUS_OK);
+        return true;
+    }
+    if (p->read) {
         urb_bridge_scan_t scan;
         for (unsigned a = 0u; a < 128u; a++) {
             scan.present[a] = m->present[a];
         }
         assert_int_equal(urb_bridge_scan_encode(&scan, p->data, sizeof p->data), (int32_t)URB_BRIDGE_SCAN_SIZE);
-    } else {
-        (void)r;
+        m_complete(m, URB_STATUS_OK);
+        return true;
     }
-    /* a command: NOP answers OK, an unknown opcode BAD_REQUEST (the only commands sent here) */
-    m_complete(m, (!p->read && (p->data[0] != URB_BRIDGE_OPCODE_NOP)) ? URB_STATUS_BAD_REQUEST : URB_STATUS_OK);
+    uint8_t const opcode = p->data[0];
+    if (opcode == URB_BRIDGE_OPCODE_SET_HEARTBEAT) {
+        m->heartbeat_us = (uint16_t)(p->data[1] | (p->data[2] << 8));
+        m->hb_done = m->hb_ticks; /* ticks of the old period do not trigger a SYNC */
+        m->set_heartbeats++;
+        m_complete(m, URB_STATUS_OK);
+        return true;
+    }
+    if (opcode == URB_BRIDGE_OPCODE_BUS_CLEAR) {
+        if (!r->refuse) {
+            assert_int_equal(r->begins, begins_before + 1u);
+            assert_int_equal(r->txn.op, URB_DL_CLEAR);
+            m->activity = URBB_ACT_REQUEST;
+            m->clears++;
+        }
+        return false;
+    }
+    m_complete(m, (opcode == URB_BRIDGE_OPCODE_NOP) ? URB_STATUS_OK : URB_STATUS_BAD_REQUEST);
+    return true;
 }
 
 /* Bridge.tla Serve, first half (start_next): the transaction the bridge must begin, checked
  * against the one the scripted downlink saw; local requests complete on the way. */
 static void m_start_next(model_t *m, rig_t *r, unsigned begins_before)
 {
+    if ((m->hb_ticks != m->hb_done) && (m->heartbeat_us == 0u)) {
+        m->hb_done = m->hb_ticks; /* SYNC off: the tick is dropped */
+    }
+    if (m->hb_ticks != m->hb_done) {
+        /* the SYNC goes first; while the downlink refuses it nothing else starts */
+        if (!r->refuse) {
+            assert_int_equal(r->begins, begins_before + 1u);
+            assert_int_equal(r->txn.op, URB_DL_SYNC);
+            assert_int_equal(r->txn.counter, m->hb_ticks);
+            m->syncs_missed += (uint8_t)(m->hb_ticks - m->hb_done - 1u);
+            m->hb_done = m->hb_ticks;
+            m->syncs++;
+            m->activity = URBB_ACT_SYNC;
+        } else {
+            assert_int_equal(r->begins, begins_before);
+        }
+        return;
+    }
     if (m->probing) {
         if (!r->refuse) {
             assert_int_equal(r->begins, begins_before + 1u);
@@ -450,7 +497,9 @@ static void m_start_next(model_t *m, rig_t *r, unsigned begins_before)
             break;
         }
         if (p->address == 0u) {
-            m_local(m, r, p);
+            if (!m_local(m, r, p, begins_before)) {
+                return;
+            }
             continue;
         }
         bool const fixed_size = (p->mailbox == 0u) &&
@@ -543,9 +592,10 @@ static void poll_both(rig_t *r, model_t *m)
             m_served(m, status);
         } else if (act == URBB_ACT_PROBE) {
             m_probed(m, status);
-        } else {
-            assert_int_equal(act, URBB_ACT_LEARN);
+        } else if (act == URBB_ACT_LEARN) {
             m_identified(m, status);
+        } else {
+            assert_int_equal(act, URBB_ACT_SYNC); /* its outcome changes nothing */
         }
     }
     if (m->activity == URBB_ACT_NONE) {
@@ -561,8 +611,12 @@ static void poll_both(rig_t *r, model_t *m)
     assert_int_equal(s->busy, m->busy);
     assert_int_equal(s->window_overflow, m->window_overflow);
     assert_int_equal(s->responses, m->responses);
+    assert_int_equal(s->syncs, m->syncs);
+    assert_int_equal(s->syncs_missed, m->syncs_missed);
+    assert_int_equal(r->period, m->heartbeat_us);
     bool const head_final = (m->n > 0u) && (m->q[0].status != PENDING);
-    bool const idle = (m->activity == URBB_ACT_NONE) && (first_pending(m) == NULL) && !head_final;
+    bool const idle = (m->activity == URBB_ACT_NONE) && (first_pending(m) == NULL) && !head_final &&
+                      (m->hb_ticks == m->hb_done);
     assert_int_equal(urb_bridge_idle(&r->b), idle);
     assert_int_equal(r->busy, m->activity != URBB_ACT_NONE);
 }
@@ -624,11 +678,14 @@ static m_entry_t random_request(void)
         e.mailbox = (uint8_t)rnd(e.read ? 2u : 1u); /* BridgeInfo, BridgeScan, BridgeCommand */
         e.length = e.read ? ((e.mailbox == 0u) ? URB_BRIDGE_INFO_SIZE : URB_BRIDGE_SCAN_SIZE) : URB_BRIDGE_COMMAND_SIZE;
         if (!e.read) {
-            urb_bridge_command_t cmd = {(rnd(4u) == 0u) ? 9u : URB_BRIDGE_OPCODE_NOP, (uint16_t)rnd(65536u)};
-            /* an unknown opcode does not encode: its bytes are written by hand */
-            e.data[0] = cmd.opcode;
-            e.data[1] = (uint8_t)cmd.value;
-            e.data[2] = (uint8_t)(cmd.value >> 8);
+            static const uint8_t OPCODES[] = {URB_BRIDGE_OPCODE_NOP, URB_BRIDGE_OPCODE_SET_HEARTBEAT,
+                                              URB_BRIDGE_OPCODE_BUS_CLEAR, URB_BRIDGE_OPCODE_BUS_CLEAR, 9u};
+            urb_bridge_command_t cmd = {OPCODES[rnd(sizeof OPCODES)], (rnd(2u) == 0u) ? 0u : (uint16_t)(500u + rnd(1000u))};
+            if (cmd.opcode == 9u) { /* an unknown opcode (BAD_REQUEST) does not encode: written by hand */
+                e.data[0] = cmd.opcode;
+            } else {
+                assert_int_equal(urb_bridge_command_encode(&cmd, e.data, 3u), 3);
+            }
         }
     } else {
         uint8_t in[8], out[8];
@@ -674,16 +731,18 @@ static void finish_random(rig_t *r, model_t *m)
 
 /* What the random runs reached, summed over the runs of a test. */
 static struct {
-    unsigned busy, window_overflow, probes, learns, lost, held[2], local_bursts, wraps;
+    unsigned busy, window_overflow, probes, learns, lost, held[2], local_bursts, wraps, syncs, syncs_missed, clears,
+        set_heartbeats;
 } witness;
 
-static void random_run(uint32_t seed, uint8_t depth, unsigned steps)
+static void random_run(uint32_t seed, uint8_t depth, uint16_t heartbeat_us, unsigned steps)
 {
     rng_state = seed;
     static rig_t r;
     static model_t m;
-    rig_init(&r, depth);
+    rig_init(&r, depth, heartbeat_us);
     model_init(&m, depth);
+    m.heartbeat_us = heartbeat_us;
     assert_int_equal(r.b.present[1], 0x8Du); /* 8, 10, 11, 15: the scan's map is the model's */
     unsigned local_burst = 0u;
     bool usb_host_away = false;
@@ -716,6 +775,9 @@ static void random_run(uint32_t seed, uint8_t depth, unsigned steps)
                     finish_random(&r, &m);
                 }
             }
+        } else if (x < 440u) {
+            urb_bridge_heartbeat(&r.b); /* the heartbeat interrupt */
+            m.hb_ticks++;
         } else if (x < 480u) {
             r.refuse = !r.refuse && (rnd(3u) == 0u);
         } else if (x < 492u) {
@@ -754,7 +816,6 @@ static void random_run(uint32_t seed, uint8_t depth, unsigned steps)
     assert_int_equal(m.n, 0u);
     assert_int_equal(m.n_seen[0], m.n_out[0]);
     assert_int_equal(m.n_seen[1], m.n_out[1]);
-    print_message("depth %u: busy %u overflow %u probes %u learns %u lost %u held %u %u bursts %u responses %u\n", depth, m.busy, m.window_overflow, m.probes, m.learns, m.lost, m.held[0], m.held[1], local_burst, m.responses);
     witness.busy += m.busy;
     witness.window_overflow += m.window_overflow;
     witness.probes += m.probes;
@@ -764,6 +825,10 @@ static void random_run(uint32_t seed, uint8_t depth, unsigned steps)
     witness.held[1] += m.held[1];
     witness.local_bursts += local_burst;
     witness.wraps += m.responses / URB_BRIDGE_RING_MAX;
+    witness.syncs += m.syncs;
+    witness.syncs_missed += m.syncs_missed;
+    witness.clears += m.clears;
+    witness.set_heartbeats += m.set_heartbeats;
 }
 
 /* Witnesses that the random runs reach what they compare: a data-slot FIFO and a response ring
@@ -771,19 +836,115 @@ static void random_run(uint32_t seed, uint8_t depth, unsigned steps)
 static void model_random_depths(void **state)
 {
     (void)state;
-    random_run(0x1234567u, 1u, 6000u);
-    random_run(0x89ABCDEu, 3u, 6000u);
-    random_run(0x2468ACEu, URB_BRIDGE_FIFO_MAX, 8000u);
+    random_run(0x1234567u, 1u, 1000u, 6000u);
+    random_run(0x89ABCDEu, 3u, 0u, 6000u);
+    random_run(0x2468ACEu, URB_BRIDGE_FIFO_MAX, 1000u, 8000u);
     /* witnesses: every path compared was taken; the ring and the slot FIFO wrapped many times */
     assert_true((witness.busy > 0u) && (witness.window_overflow > 0u) && (witness.probes > 0u));
     assert_true((witness.learns > 0u) && (witness.lost > 0u) && (witness.local_bursts > 0u));
     assert_true((witness.held[0] > 0u) && (witness.held[1] > 0u) && (witness.wraps > 50u));
+    assert_true((witness.syncs > 0u) && (witness.syncs_missed > 0u) && (witness.clears > 0u) &&
+                (witness.set_heartbeats > 0u));
+}
+
+/* Sends one request through urbb_frame and polls once. */
+static void request(rig_t *r, uint8_t uplink, uint8_t address, uint8_t mailbox, uint8_t seq, uint8_t length)
+{
+    m_entry_t e;
+    memset(&e, 0, sizeof e);
+    e.uplink = uplink;
+    e.address = address;
+    e.mailbox = mailbox;
+    e.seq = seq;
+    e.length = length;
+    e.read = true;
+    uint8_t f[URB_BRIDGE_FRAME_MAX];
+    uint8_t const n = encode(f, &e, FRAME_OK);
+    assert_true(urbb_frame(&r->b, uplink, f, n));
+    urb_bridge_poll(&r->b);
+}
+
+/* urb_bridge_idle (a port sleeps on it): false while a received byte waits in the ring, while the
+ * assembler holds part of a frame (its idle gap must still be timed), while a heartbeat tick waits
+ * for its SYNC, and while a final response waits for room on its uplink, even the only one. */
+static void idle_only_when_nothing_waits(void **state)
+{
+    (void)state;
+    static rig_t r;
+    rig_init(&r, URB_BRIDGE_FIFO_MAX, 1000u);
+    assert_true(urb_bridge_idle(&r.b));
+    /* a byte received, not yet polled; then held as the start of a frame */
+    r.now = 1000u;
+    urb_bridge_uart_rx(&r.b, 0x41u, r.now);
+    assert_false(urb_bridge_idle(&r.b));
+    r.now += 10u;
+    urb_bridge_poll(&r.b);
+    assert_int_equal(r.b.rs232.len, 1u);
+    assert_false(urb_bridge_idle(&r.b));
+    r.now += 10000u; /* the idle gap drops it */
+    urb_bridge_poll(&r.b);
+    assert_int_equal(urb_bridge_stats(&r.b)->gap_drops, 1u);
+    assert_true(urb_bridge_idle(&r.b));
+    /* a heartbeat tick: its SYNC is due */
+    urb_bridge_heartbeat(&r.b);
+    assert_false(urb_bridge_idle(&r.b));
+    urb_bridge_poll(&r.b);
+    assert_int_equal(r.txn.op, URB_DL_SYNC);
+    dl_finish(&r, URB_STATUS_OK, NULL);
+    urb_bridge_poll(&r.b);
+    assert_true(urb_bridge_idle(&r.b));
+    /* the UART stalls: ten BridgeInfo responses of 12 bytes fill 120 of its 128 bytes, the
+     * eleventh waits, alone in the ring, final */
+    r.tx_stall = true;
+    for (uint8_t i = 0u; i < 10u; i++) {
+        request(&r, URBB_UPLINK_RS232, 0u, URB_NODE_BRIDGE_OUTBOX_BRIDGE_INFO, i, URB_BRIDGE_INFO_SIZE);
+    }
+    assert_int_equal(urb_bridge_outstanding(&r.b), 0u);
+    assert_true(urb_bridge_idle(&r.b));
+    request(&r, URBB_UPLINK_RS232, 0u, URB_NODE_BRIDGE_OUTBOX_BRIDGE_INFO, 10u, URB_BRIDGE_INFO_SIZE);
+    assert_int_equal(urb_bridge_outstanding(&r.b), 1u);
+    assert_false(urb_bridge_idle(&r.b));
+    r.tx_stall = false;
+    drain_uart(&r);
+    urb_bridge_poll(&r.b);
+    assert_int_equal(urb_bridge_outstanding(&r.b), 0u);
+    assert_true(urb_bridge_idle(&r.b));
+    assert_int_equal(r.tx_len, 11u * 12u);
+    assert_int_equal(urb_bridge_stats(&r.b)->responses, 11u);
+}
+
+/* A downlink that breaks its contract and reports a status outside urb_status_t: the response
+ * cannot be encoded; the bridge drops it rather than wedging the ring (emit_entry), and the next
+ * request is answered as usual. */
+static void unencodable_response_is_dropped(void **state)
+{
+    (void)state;
+    static rig_t r;
+    rig_init(&r, 4u, 0u);
+    request(&r, URBB_UPLINK_RS232, 8u, 1u, 3u, 4u);
+    assert_int_equal(r.txn.op, URB_DL_READ);
+    uint8_t data[4] = {1u, 2u, 3u, 4u};
+    dl_finish(&r, 100u, data); /* 9 .. 127: a status poll() can return, no urb_status_t */
+    urb_bridge_poll(&r.b);
+    assert_int_equal(urb_bridge_outstanding(&r.b), 0u);
+    assert_int_equal(urb_bridge_stats(&r.b)->responses, 0u);
+    assert_int_equal(r.tx_len, 0u);
+    request(&r, URBB_UPLINK_RS232, 8u, 1u, 4u, 4u);
+    dl_finish(&r, URB_STATUS_OK, data);
+    urb_bridge_poll(&r.b);
+    stream_t s = {r.tx, r.tx_len, 0u};
+    uint8_t got[4];
+    expect_response(&s, 4u, URB_STATUS_OK, 4u, got);
+    expect_end(&s);
+    assert_memory_equal(got, data, 4u);
 }
 
 int run_fifo_model_tests(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(model_random_depths),
+        cmocka_unit_test(idle_only_when_nothing_waits),
+        cmocka_unit_test(unencodable_response_is_dropped),
     };
     return cmocka_run_group_tests_name("bridge_fifo_model", tests, NULL, NULL);
 }
