@@ -1,194 +1,29 @@
 /*
  * The request FIFO of firmware/bridge/bridge.c against a reference model, for the mutation score
- * (tests/mutation/README.md, component "bridge FIFO"). The bridge runs on a scripted downlink (the
- * test decides when each transaction ends and with which outcome, or refuses to begin one) and on
- * HAL stubs; requests enter through urbb_frame, as both uplink parsers hand them over. Random
- * request sequences (admitted, refused BUSY only when every data slot is taken, admission errors,
- * requests past the host's window, frames failing their check, local requests to address 0) meet
- * random downlink outcomes, uplinks that have no room, and downlink transactions lost. After every
- * poll the model predicts the downlink transaction begun (kind, address, mailbox, length, payload),
- * the requests still outstanding, the bridge's idleness and its counters; every response that
- * leaves is compared byte for byte (seq, status, data) in request order on its own uplink.
+ * (tests/mutation/README.md, component "bridge FIFO"). The bridge runs on a scripted downlink
+ * (scripted_rig.h: the test ends each transaction with an outcome it draws, refuses begins, loses
+ * transactions); requests enter through urbb_frame, as both uplink parsers hand them over. Random
+ * request sequences (admitted, BUSY only when every data slot is taken, admission errors, requests
+ * past the host's window, frames failing their check or a schema rule, BridgeInfo and BridgeScan
+ * reads, NOP, SET_HEARTBEAT, BUS_CLEAR and unknown commands) meet random downlink outcomes
+ * (probes, identifications), heartbeat ticks, uplinks without room and lost transactions. After
+ * every poll the model predicts the downlink transaction begun (kind, address, mailbox, length,
+ * payload, SYNC counter), the requests still outstanding, the bridge's idleness, its heartbeat
+ * period and its counters; every response that leaves is compared (seq, status, data) in request
+ * order on its own uplink.
  *
- * The model is written from the contracts (Bridge.tla, urb_bridge.h, the comments of bridge.c), in
- * plain arrays: a list of outstanding requests in arrival order, each with its final status or
- * "pending"; the data slots are the entries that hold one.
+ * The model is written from the contracts (Bridge.tla, urb_bridge.h, urb_downlink.h, the comments
+ * of bridge.c), in plain arrays: a list of outstanding requests in arrival order, each with its
+ * final status or "pending"; the data slots are the entries that hold one.
  */
 #include <string.h>
 
 #include "bridge_internal.h"
-#include "support.h"
+#include "scripted_rig.h"
 #include "urb_runtime.h"
 
-#define FIRST 8u  /* the scripted downlink's address range: 7 and 16 are reserved */
-#define LAST 15u
 #define PENDING 0xFFu
 #define OUT_MAX 256u
-
-/* ===== A node layout per downlink address ====================================================== */
-
-/* Node `a`'s mailbox sizes: inbox 0 and outbox 0 as on every node, then sizes that differ from
- * node to node (an SIZE_MISMATCH on one is a match on another). */
-static void node_sizes(uint8_t a, uint8_t in[8], uint8_t out[8])
-{
-    memset(in, 0, 8u);
-    memset(out, 0, 8u);
-    in[0] = URB_COMMAND_SIZE;
-    out[0] = URB_IDENTIFICATION_SIZE;
-    in[1] = 4u;
-    out[1] = 4u;
-    in[2] = (uint8_t)(13u + (a & 1u));
-    out[2] = 32u;
-    in[3] = 1u;
-    out[3] = (uint8_t)(a - 7u);
-}
-
-static void node_identification(uint8_t a, uint8_t *buf)
-{
-    urb_identification_t id;
-    memset(&id, 0, sizeof id);
-    id.class_id = 0x42u;
-    id.index = a;
-    node_sizes(a, id.inbox_sizes, id.outbox_sizes);
-    assert_int_equal(urb_identification_encode(&id, buf, URB_IDENTIFICATION_SIZE), (int32_t)URB_IDENTIFICATION_SIZE);
-}
-
-/* Present at the start (the initial scan finds them); the others answer the scan NO_NODE. */
-static bool present_at_start(uint8_t a)
-{
-    return (a == 8u) || (a == 10u) || (a == 11u) || (a == 15u);
-}
-
-/* ===== The scripted bridge ====================================================================== */
-
-typedef struct {
-    urb_bridge_t b;
-    urb_bridge_hal_t hal;
-    urb_downlink_t dl;
-    uint32_t now;
-    uint32_t period;          /* the heartbeat period last set through the HAL */
-    /* downlink */
-    bool refuse;              /* begin() refuses every transaction */
-    bool busy, done, lose;    /* a transaction runs; its outcome is set; it was lost (poll says IDLE) */
-    uint8_t outcome;
-    urb_downlink_txn_t txn;   /* the last transaction begun */
-    unsigned begins, attempts;
-    /* UART */
-    bool tx_stall;            /* the kick leaves the bytes in the bridge's ring */
-    uint8_t tx[8192];
-    size_t tx_len;
-} rig_t;
-
-static uint32_t hal_now(void *ctx)
-{
-    return ((rig_t *)ctx)->now;
-}
-
-static void hal_period(void *ctx, uint32_t period_us)
-{
-    ((rig_t *)ctx)->period = period_us;
-}
-
-static void drain_uart(rig_t *r)
-{
-    uint8_t byte;
-    while (urb_bridge_uart_tx_pop(&r->b, &byte)) {
-        assert_true(r->tx_len < sizeof r->tx);
-        r->tx[r->tx_len++] = byte;
-    }
-}
-
-static void hal_kick(void *ctx)
-{
-    rig_t *r = ctx;
-    if (!r->tx_stall) {
-        drain_uart(r);
-    }
-}
-
-static bool dl_begin(void *ctx, const urb_downlink_txn_t *t, uint32_t now_us)
-{
-    rig_t *r = ctx;
-    (void)now_us;
-    r->attempts++;
-    if (r->refuse || r->busy) {
-        return false;
-    }
-    r->txn = *t;
-    r->busy = true;
-    r->done = false;
-    r->lose = false;
-    r->begins++;
-    return true;
-}
-
-static int8_t dl_poll(void *ctx, uint32_t now_us)
-{
-    rig_t *r = ctx;
-    (void)now_us;
-    if (!r->busy) {
-        return URB_DOWNLINK_IDLE;
-    }
-    if (r->lose) {
-        r->busy = false;
-        return URB_DOWNLINK_IDLE;
-    }
-    if (!r->done) {
-        return URB_DOWNLINK_BUSY;
-    }
-    r->busy = false;
-    return (int8_t)r->outcome;
-}
-
-/* Ends the running transaction with `status`; a read gets `data` (its length), or scribbles when
- * it failed (the bridge must not send them). */
-static void dl_finish(rig_t *r, uint8_t status, const uint8_t *data)
-{
-    assert_true(r->busy && !r->done);
-    if ((r->txn.op == URB_DL_READ) && (r->txn.data != NULL)) {
-        for (uint8_t i = 0u; i < r->txn.length; i++) {
-            r->txn.data[i] = (status == URB_STATUS_OK) ? data[i] : (uint8_t)(0xA0u + i);
-        }
-    }
-    r->outcome = status;
-    r->done = true;
-}
-
-static void rig_init(rig_t *r, uint8_t depth, uint16_t heartbeat_us)
-{
-    memset(r, 0, sizeof *r);
-    r->hal.ctx = r;
-    r->hal.now_us = hal_now;
-    r->hal.heartbeat_period = hal_period;
-    r->hal.uart_tx_kick = hal_kick;
-    r->hal.mark = NULL;
-    r->dl.ctx = r;
-    r->dl.kind = 0u;
-    r->dl.bitrate_kbps = 400u;
-    r->dl.first_address = FIRST;
-    r->dl.last_address = LAST;
-    r->dl.begin = dl_begin;
-    r->dl.poll = dl_poll;
-    urb_bridge_config_t cfg;
-    urb_bridge_default_config(&cfg);
-    cfg.fifo_depth = depth;
-    cfg.heartbeat_us = heartbeat_us;
-    cfg.scan_at_start = true;
-    assert_int_equal(urb_bridge_init(&r->b, &cfg, &r->hal, &r->dl), URB_OK);
-    /* the initial scan: every address once, identification reads answered by the layout above */
-    for (unsigned polls = 0u; r->b.scanning || r->busy; polls++) {
-        assert_true(polls < 100u);
-        urb_bridge_poll(&r->b);
-        if (r->busy && !r->done) {
-            assert_int_equal(r->txn.op, URB_DL_READ);
-            uint8_t id[URB_IDENTIFICATION_SIZE];
-            node_identification(r->txn.address, id);
-            dl_finish(r, present_at_start(r->txn.address) ? URB_STATUS_OK : URB_STATUS_NO_NODE, id);
-        }
-    }
-    assert_int_equal(urb_bridge_stats(&r->b)->scans, 1u);
-    assert_int_equal(r->begins, LAST - FIRST + 1u);
-}
 
 /* ===== The model ================================================================================ */
 
@@ -235,9 +70,9 @@ static void model_init(model_t *m, uint8_t depth)
 {
     memset(m, 0, sizeof *m);
     m->depth = depth;
-    for (uint8_t a = FIRST; a <= LAST; a++) {
-        m->known[a] = present_at_start(a);
-        m->present[a] = present_at_start(a);
+    for (uint8_t a = SRIG_FIRST; a <= SRIG_LAST; a++) {
+        m->known[a] = srig_present_at_start(a);
+        m->present[a] = srig_present_at_start(a);
     }
 }
 
@@ -270,7 +105,7 @@ static int known_size(const model_t *m, uint8_t a, uint8_t box, bool read)
     if (!m->known[a]) {
         return -1;
     }
-    node_sizes(a, in, out);
+    srig_node_sizes(a, in, out);
     return read ? out[box] : in[box];
 }
 
@@ -308,7 +143,7 @@ static uint8_t encode(uint8_t *f, const m_entry_t *e, frame_kind_t kind)
 }
 
 /* Bridge.tla SubmitAndAdmit, through urbb_frame. */
-static void submit(rig_t *r, model_t *m, m_entry_t e, frame_kind_t kind)
+static void submit(srig_t *r, model_t *m, m_entry_t e, frame_kind_t kind)
 {
     uint8_t f[URB_BRIDGE_FRAME_MAX];
     uint8_t const n = encode(f, &e, kind);
@@ -326,7 +161,7 @@ static void submit(rig_t *r, model_t *m, m_entry_t e, frame_kind_t kind)
     e.status = PENDING;
     if (kind == FRAME_RANGE) {
         e.status = URB_STATUS_BAD_REQUEST;
-    } else if ((e.address != 0u) && ((e.address < FIRST) || (e.address > LAST))) {
+    } else if ((e.address != 0u) && ((e.address < SRIG_FIRST) || (e.address > SRIG_LAST))) {
         e.status = URB_STATUS_BAD_REQUEST;
     } else {
         int const size = known_size(m, e.address, e.mailbox, e.read);
@@ -410,7 +245,7 @@ static void m_identified(model_t *m, uint8_t status)
         return;
     }
     m->known[p->address] = true;
-    node_sizes(p->address, in, out);
+    srig_node_sizes(p->address, in, out);
     if ((p->read ? out[p->mailbox] : in[p->mailbox]) != p->length) {
         m_complete(m, URB_STATUS_SIZE_MISMATCH);
         return;
@@ -420,7 +255,7 @@ static void m_identified(model_t *m, uint8_t status)
 
 /* A local request (address 0): true when it completed at once (its data, for a read, in p->data);
  * false when it went to the downlink (BUS_CLEAR) or waits for it. */
-static bool m_local(model_t *m, rig_t *r, m_entry_t *p, unsigned begins_before)
+static bool m_local(model_t *m, srig_t *r, m_entry_t *p, unsigned begins_before)
 {
     if (p->read && (p->mailbox == URB_NODE_BRIDGE_OUTBOX_BRIDGE_INFO)) {
         urb_bridge_info_t info = {0u, 400u, m->depth, m->heartbeat_us, URB_BRIDGE_FW_MAJOR, URB_BRIDGE_FW_MINOR,
@@ -461,7 +296,7 @@ static bool m_local(model_t *m, rig_t *r, m_entry_t *p, unsigned begins_before)
 
 /* Bridge.tla Serve, first half (start_next): the transaction the bridge must begin, checked
  * against the one the scripted downlink saw; local requests complete on the way. */
-static void m_start_next(model_t *m, rig_t *r, unsigned begins_before)
+static void m_start_next(model_t *m, srig_t *r, unsigned begins_before)
 {
     if ((m->hb_ticks != m->hb_done) && (m->heartbeat_us == 0u)) {
         m->hb_done = m->hb_ticks; /* SYNC off: the tick is dropped */
@@ -574,7 +409,7 @@ static void m_emit(model_t *m, unsigned usb_room_bytes, unsigned usb_room_count,
 }
 
 /* One poll of the bridge and of the model, then every observable compared. */
-static void poll_both(rig_t *r, model_t *m)
+static void poll_both(srig_t *r, model_t *m)
 {
     uint8_t const c = r->b.usb_cur;
     unsigned const usb_room_bytes = URB_BRIDGE_USB_BUF - r->b.usb_len[c];
@@ -643,14 +478,14 @@ static size_t check_responses(model_t *m, uint8_t uplink, const uint8_t *bytes, 
     return k;
 }
 
-static void read_uart(rig_t *r, model_t *m)
+static void read_uart(srig_t *r, model_t *m)
 {
-    drain_uart(r);
+    srig_drain_uart(r);
     (void)check_responses(m, URBB_UPLINK_RS232, r->tx, r->tx_len);
     r->tx_len = 0u;
 }
 
-static void read_usb(rig_t *r, model_t *m)
+static void read_usb(srig_t *r, model_t *m)
 {
     uint8_t in[URB_BRIDGE_USB_BUF];
     size_t const got = urb_bridge_usb_in(&r->b, in, sizeof in);
@@ -664,7 +499,7 @@ static void read_usb(rig_t *r, model_t *m)
 
 /* ===== Random sequences ========================================================================= */
 
-static const uint8_t ADDRESSES[] = {0u, 0u, 7u, FIRST, 9u, 10u, 11u, 12u, LAST, 16u, 0x77u};
+static const uint8_t ADDRESSES[] = {0u, 0u, 7u, SRIG_FIRST, 9u, 10u, 11u, 12u, SRIG_LAST, 16u, 0x77u};
 
 static m_entry_t random_request(void)
 {
@@ -689,7 +524,7 @@ static m_entry_t random_request(void)
         }
     } else {
         uint8_t in[8], out[8];
-        node_sizes((e.address >= FIRST) && (e.address <= LAST) ? e.address : FIRST, in, out);
+        srig_node_sizes((e.address >= SRIG_FIRST) && (e.address <= SRIG_LAST) ? e.address : SRIG_FIRST, in, out);
         e.mailbox = (uint8_t)rnd(4u);
         e.length = e.read ? out[e.mailbox] : in[e.mailbox];
         if ((e.length == 0u) || (rnd(6u) == 0u)) {
@@ -711,12 +546,12 @@ static const uint8_t OUTCOMES[] = {URB_STATUS_OK,           URB_STATUS_OK,      
 
 /* The downlink ends its transaction: a node's data for an OK read (its identification for outbox 0,
  * random bytes for the others, which the model expects in the response). */
-static void finish_random(rig_t *r, model_t *m)
+static void finish_random(srig_t *r, model_t *m)
 {
     uint8_t const status = OUTCOMES[rnd(sizeof OUTCOMES)];
     uint8_t data[32];
     if ((r->txn.op == URB_DL_READ) && (r->txn.mailbox == 0u) && (r->txn.length == URB_IDENTIFICATION_SIZE)) {
-        node_identification(r->txn.address, data);
+        srig_node_identification(r->txn.address, data);
     } else {
         for (uint8_t i = 0u; i < 32u; i++) {
             data[i] = (uint8_t)rnd(256u);
@@ -726,7 +561,7 @@ static void finish_random(rig_t *r, model_t *m)
         m_entry_t *p = first_pending(m);
         memcpy(p->data, data, p->length);
     }
-    dl_finish(r, status, data);
+    srig_finish(r, status, data);
 }
 
 /* What the random runs reached, summed over the runs of a test. */
@@ -738,9 +573,9 @@ static struct {
 static void random_run(uint32_t seed, uint8_t depth, uint16_t heartbeat_us, unsigned steps)
 {
     rng_state = seed;
-    static rig_t r;
+    static srig_t r;
     static model_t m;
-    rig_init(&r, depth, heartbeat_us);
+    srig_init(&r, depth, heartbeat_us);
     model_init(&m, depth);
     m.heartbeat_us = heartbeat_us;
     assert_int_equal(r.b.present[1], 0x8Du); /* 8, 10, 11, 15: the scan's map is the model's */
@@ -848,7 +683,7 @@ static void model_random_depths(void **state)
 }
 
 /* Sends one request through urbb_frame and polls once. */
-static void request(rig_t *r, uint8_t uplink, uint8_t address, uint8_t mailbox, uint8_t seq, uint8_t length)
+static void request(srig_t *r, uint8_t uplink, uint8_t address, uint8_t mailbox, uint8_t seq, uint8_t length)
 {
     m_entry_t e;
     memset(&e, 0, sizeof e);
@@ -870,8 +705,8 @@ static void request(rig_t *r, uint8_t uplink, uint8_t address, uint8_t mailbox, 
 static void idle_only_when_nothing_waits(void **state)
 {
     (void)state;
-    static rig_t r;
-    rig_init(&r, URB_BRIDGE_FIFO_MAX, 1000u);
+    static srig_t r;
+    srig_init(&r, URB_BRIDGE_FIFO_MAX, 1000u);
     assert_true(urb_bridge_idle(&r.b));
     /* a byte received, not yet polled; then held as the start of a frame */
     r.now = 1000u;
@@ -890,7 +725,7 @@ static void idle_only_when_nothing_waits(void **state)
     assert_false(urb_bridge_idle(&r.b));
     urb_bridge_poll(&r.b);
     assert_int_equal(r.txn.op, URB_DL_SYNC);
-    dl_finish(&r, URB_STATUS_OK, NULL);
+    srig_finish(&r, URB_STATUS_OK, NULL);
     urb_bridge_poll(&r.b);
     assert_true(urb_bridge_idle(&r.b));
     /* the UART stalls: ten BridgeInfo responses of 12 bytes fill 120 of its 128 bytes, the
@@ -905,7 +740,7 @@ static void idle_only_when_nothing_waits(void **state)
     assert_int_equal(urb_bridge_outstanding(&r.b), 1u);
     assert_false(urb_bridge_idle(&r.b));
     r.tx_stall = false;
-    drain_uart(&r);
+    srig_drain_uart(&r);
     urb_bridge_poll(&r.b);
     assert_int_equal(urb_bridge_outstanding(&r.b), 0u);
     assert_true(urb_bridge_idle(&r.b));
@@ -919,18 +754,18 @@ static void idle_only_when_nothing_waits(void **state)
 static void unencodable_response_is_dropped(void **state)
 {
     (void)state;
-    static rig_t r;
-    rig_init(&r, 4u, 0u);
+    static srig_t r;
+    srig_init(&r, 4u, 0u);
     request(&r, URBB_UPLINK_RS232, 8u, 1u, 3u, 4u);
     assert_int_equal(r.txn.op, URB_DL_READ);
     uint8_t data[4] = {1u, 2u, 3u, 4u};
-    dl_finish(&r, 100u, data); /* 9 .. 127: a status poll() can return, no urb_status_t */
+    srig_finish(&r, 100u, data); /* 9 .. 127: a status poll() can return, no urb_status_t */
     urb_bridge_poll(&r.b);
     assert_int_equal(urb_bridge_outstanding(&r.b), 0u);
     assert_int_equal(urb_bridge_stats(&r.b)->responses, 0u);
     assert_int_equal(r.tx_len, 0u);
     request(&r, URBB_UPLINK_RS232, 8u, 1u, 4u, 4u);
-    dl_finish(&r, URB_STATUS_OK, data);
+    srig_finish(&r, URB_STATUS_OK, data);
     urb_bridge_poll(&r.b);
     stream_t s = {r.tx, r.tx_len, 0u};
     uint8_t got[4];
