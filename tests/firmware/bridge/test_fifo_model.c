@@ -52,6 +52,7 @@ typedef struct {
     uint16_t heartbeat_us;
     unsigned clears, set_heartbeats; /* witnesses */
     unsigned probes, learns, lost, held[2]; /* witnesses: transactions, and responses held for room */
+    unsigned absent_no_node;               /* witness: NO_NODE of a node held absent, answered at once */
     m_response_t out[2][OUT_MAX]; /* per uplink: responses sent and not yet read, n_out modulo OUT_MAX */
     unsigned n_out[2], n_seen[2];
 } model_t;
@@ -202,6 +203,7 @@ static void m_served(model_t *m, uint8_t status)
             m->probing = true;
             return;
         }
+        m->absent_no_node++;
         m_complete(m, URB_STATUS_NO_NODE);
         return;
     }
@@ -544,11 +546,17 @@ static const uint8_t OUTCOMES[] = {URB_STATUS_OK,           URB_STATUS_OK,      
                                    URB_STATUS_NODE_BUSY,    URB_STATUS_CHECKSUM, URB_STATUS_TIMEOUT, URB_STATUS_BUS_STUCK,
                                    URB_STATUS_BAD_REQUEST, URB_STATUS_SIZE_MISMATCH};
 
-/* The downlink ends its transaction: a node's data for an OK read (its identification for outbox 0,
- * random bytes for the others, which the model expects in the response). */
+/* Which addresses have a node on the bus now (nodes come and go: hot plug). */
+static bool plugged[128];
+
+/* The downlink ends its transaction: a node that is not plugged in mostly does not acknowledge
+ * (NO_NODE); otherwise any outcome. A node's data for an OK read: its identification for outbox 0,
+ * random bytes for the others, which the model expects in the response. */
 static void finish_random(srig_t *r, model_t *m)
 {
-    uint8_t const status = OUTCOMES[rnd(sizeof OUTCOMES)];
+    bool const addressed = (r->txn.op != URB_DL_SYNC) && (r->txn.op != URB_DL_CLEAR);
+    uint8_t const status = (addressed && !plugged[r->txn.address] && (rnd(5u) != 0u)) ? URB_STATUS_NO_NODE
+                                                                                       : OUTCOMES[rnd(sizeof OUTCOMES)];
     uint8_t data[32];
     if ((r->txn.op == URB_DL_READ) && (r->txn.mailbox == 0u) && (r->txn.length == URB_IDENTIFICATION_SIZE)) {
         srig_node_identification(r->txn.address, data);
@@ -567,7 +575,7 @@ static void finish_random(srig_t *r, model_t *m)
 /* What the random runs reached, summed over the runs of a test. */
 static struct {
     unsigned busy, window_overflow, probes, learns, lost, held[2], local_bursts, wraps, syncs, syncs_missed, clears,
-        set_heartbeats;
+        set_heartbeats, absent_no_node;
 } witness;
 
 static void random_run(uint32_t seed, uint8_t depth, uint16_t heartbeat_us, unsigned steps)
@@ -581,6 +589,9 @@ static void random_run(uint32_t seed, uint8_t depth, uint16_t heartbeat_us, unsi
     assert_int_equal(r.b.present[1], 0x8Du); /* 8, 10, 11, 15: the scan's map is the model's */
     unsigned local_burst = 0u;
     bool usb_host_away = false;
+    for (uint8_t a = SRIG_FIRST; a <= SRIG_LAST; a++) {
+        plugged[a] = srig_present_at_start(a);
+    }
     for (unsigned step = 0u; step < steps; step++) {
         uint32_t const x = rnd(1000u);
         if (x < 100u) {
@@ -624,6 +635,9 @@ static void random_run(uint32_t seed, uint8_t depth, uint16_t heartbeat_us, unsi
             urb_bridge_usb_sof(&r.b);
         } else if (x < 507u) {
             usb_host_away = !usb_host_away; /* the host stops reading for a while: the batch fills */
+        } else if (x < 512u) {
+            uint8_t const a = (uint8_t)(SRIG_FIRST + rnd(SRIG_LAST - SRIG_FIRST + 1u));
+            plugged[a] = !plugged[a];
         } else if ((x < 540u) && !usb_host_away) {
             read_usb(&r, &m);
         } else {
@@ -664,6 +678,7 @@ static void random_run(uint32_t seed, uint8_t depth, uint16_t heartbeat_us, unsi
     witness.syncs_missed += m.syncs_missed;
     witness.clears += m.clears;
     witness.set_heartbeats += m.set_heartbeats;
+    witness.absent_no_node += m.absent_no_node;
 }
 
 /* Witnesses that the random runs reach what they compare: a data-slot FIFO and a response ring
@@ -679,7 +694,7 @@ static void model_random_depths(void **state)
     assert_true((witness.learns > 0u) && (witness.lost > 0u) && (witness.local_bursts > 0u));
     assert_true((witness.held[0] > 0u) && (witness.held[1] > 0u) && (witness.wraps > 50u));
     assert_true((witness.syncs > 0u) && (witness.syncs_missed > 0u) && (witness.clears > 0u) &&
-                (witness.set_heartbeats > 0u));
+                (witness.set_heartbeats > 0u) && (witness.absent_no_node > 0u));
 }
 
 /* Sends one request through urbb_frame and polls once. */
