@@ -148,8 +148,9 @@ def test_make_check_runs_all_proofs_through_one_target() -> None:
     mk = (ROOT / "mk" / "proofs.mk").read_text(encoding="utf-8")
     assert re.search(r"^CHECK_TARGETS \+= proofs$", mk, re.MULTILINE)
     assert re.search(r"^PROOF_PARTS \+= bmc$", mk, re.MULTILINE)
-    assert re.search(r"^proofs-bmc:\n\tBMC_CACHE_VERIFY=\S+ BMC_CACHE_SEED=\S+ \$\(PYTHON\) tools/proofs.py --tier fast$", mk,
-                     re.MULTILINE), "make check's BMC run, with the result cache's spot checks (proofs/bmc/bmc_cache.py)"
+    assert re.search(r"^proofs-bmc:\n\tBMC_CACHE_VERIFY=\S+ BMC_CACHE_SEED=\S+ \$\(PYTHON\) tools/proofs.py --tier fast "
+                     r"--covers --covers-deferred proofs/bmc/covers_deferred.json$", mk, re.MULTILINE), \
+        "make check's BMC run, with the cover points and the result cache's spot checks (proofs/bmc/bmc_cache.py)"
     assert not (ROOT / "mk" / "proofs_firmware.mk").exists(), "make proofs covers fw_* (tools/proofs.py)"
 
 
