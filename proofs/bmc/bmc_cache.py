@@ -13,7 +13,8 @@ speed can change it (a run that timed out or ran out of memory is never recorded
 
 Modes (environment variable BMC_CACHE):
   on       (default) a recorded key replays its output and exit status; a new key runs ESBMC and,
-           when ESBMC gave a verdict (VERIFICATION SUCCESSFUL or FAILED), records it under
+           when ESBMC gave a verdict (VERIFICATION SUCCESSFUL or FAILED) and did not run out of time or
+           memory (a --multi-property run prints FAILED for what it refuted before), records it under
            proofs/bmc/cache/<proof>/<key>.json.gz (commit the new files to reuse them)
   off      always run ESBMC; record nothing (what `make proofs-fresh` does)
   refresh  always run ESBMC and record the verdict, replacing any recorded one
@@ -53,6 +54,9 @@ MODES = ("on", "off", "refresh")
 _DROPPED = re.compile(r"^(?:Not )?[Uu]nwinding loop .*\n", re.MULTILINE)
 _VERDICT = re.compile(r"^VERIFICATION (SUCCESSFUL|FAILED)$", re.MULTILINE)
 _VIOLATED = re.compile(r"Violated property:\n\s+file .*\n\s+(.*)\n")
+# ESBMC ran out of time or memory: a --multi-property run (reach and cover runs) then still prints
+# VERIFICATION FAILED for the properties refuted before, but the others have no verdict
+_UNFINISHED = re.compile(r"^ERROR: Timed out|Memory limit|Out of memory|memory exhausted", re.MULTILINE)
 
 
 class CacheError(Exception):
@@ -175,7 +179,7 @@ def main(argv: list[str] | None = None) -> int:
         return int(entry["status"])  # type: ignore[call-overload,no-any-return]
     output, status, cpu = run_esbmc(args)
     sys.stdout.write(output)
-    if verdict_of(output)[0]:
+    if verdict_of(output)[0] and not _UNFINISHED.search(output):
         write_entry(path, {
             "format": FORMAT, "key": key, "proof": ns.proof, "label": ns.label, "status": status,
             "cpu_s": round(cpu, 2), "commit": git_commit(repo),
