@@ -54,6 +54,8 @@ MODES = ("on", "off", "refresh")
 _DROPPED = re.compile(r"^(?:Not )?[Uu]nwinding loop .*\n", re.MULTILINE)
 _VERDICT = re.compile(r"^VERIFICATION (SUCCESSFUL|FAILED)$", re.MULTILINE)
 _VIOLATED = re.compile(r"Violated property:\n\s+file .*\n\s+(.*)\n")
+# a --multi-property results table row of a refuted property: "  FAILED  [harness.assertion.2]  line 254  cover: x"
+_REFUTED = re.compile(r"^\s+FAILED\s+\[[^\]]*\]\s+line\s+\d+\s+(.*?)\s*$", re.MULTILINE)
 # ESBMC ran out of time or memory: a --multi-property run (reach and cover runs) then still prints
 # VERIFICATION FAILED for the properties refuted before, but the others have no verdict
 _UNFINISHED = re.compile(r"^ERROR: Timed out|Memory limit|Out of memory|memory exhausted", re.MULTILINE)
@@ -98,11 +100,14 @@ def run_key(args: list[str], repo: str, identity: str, files: list[Path]) -> str
     return content_key(f"urb-bmc-cache {FORMAT}\n{identity}\n", args, repo, files)
 
 
-def verdict_of(output: str) -> tuple[str, str]:
-    """ESBMC's verdict ("SUCCESSFUL", "FAILED" or "" without one) and the first violated property."""
+def verdict_of(output: str) -> tuple[str, str, tuple[str, ...]]:
+    """ESBMC's verdict ("SUCCESSFUL", "FAILED" or "" without one), the first violated property and,
+    for a --multi-property run (reach and cover runs), every property its results table says FAILED:
+    a cover point's verdict is part of what a spot check compares."""
     verdicts = _VERDICT.findall(output)
     violated = _VIOLATED.search(output)
-    return (verdicts[-1] if verdicts else "", violated.group(1).strip() if violated else "")
+    return (verdicts[-1] if verdicts else "", violated.group(1).strip() if violated else "",
+            tuple(sorted(set(_REFUTED.findall(output)))))
 
 
 def entry_path(cache: Path, proof: str, key: str) -> Path:

@@ -168,6 +168,26 @@ def test_the_spot_check_catches_a_wrong_recorded_verdict(
     assert status == 1 and "spot-checked" in out
 
 
+def test_the_spot_check_compares_each_cover_point_of_a_multi_property_run(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
+    """A cover run's record that says a point was reached when ESBMC now finds it unreachable has the
+    same overall verdict (FAILED on the reach assertion); its spot check still fails on the point."""
+    monkeypatch.setenv("BMC_CACHE", "on")
+    table = ('printf "Violated property:\\n  file r.c line 1 column 1 function urb_reach\\n  reach: end\\n\\n'
+             '  FAILED  [urb_reach.assertion.1]  line 1  reach: end\\n'
+             '  PASSED  [harness.assertion.2]  line 9  cover: a-point\\nVERIFICATION FAILED\\n"; exit 1')
+    repo = make_repo(tmp_path, tail=table)
+    assert run(tmp_path, repo, capsys)[0] == 1
+    [entry_file] = (tmp_path / "cache" / "p").glob("*.json.gz")
+    with gzip.open(entry_file, "rt", encoding="utf-8") as fh:
+        entry = json.load(fh)
+    assert cache.verdict_of(entry["output"]) == ("FAILED", "reach: end", ("reach: end",))
+    cache.write_entry(entry_file, dict(entry, output=entry["output"].replace("  PASSED  [harness", "  FAILED  [harness")))
+    monkeypatch.setenv("BMC_CACHE_VERIFY", "1000")
+    status, out = run(tmp_path, repo, capsys)
+    assert status == 3 and "SPOT CHECK FAILED" in out and "cover: a-point" in out
+
+
 def test_spot_check_sample_follows_the_seed() -> None:
     keys = [f"{i:064x}" for i in range(2000)]
     picked = [k for k in keys if cache.spot_checked(k, "abc", 20)]
