@@ -1,11 +1,12 @@
 # Proofs (proofs/README.md). Included by the top-level Makefile.
 #   make proofs          every proof part, fast tier, then the merged summary (in make check):
 #                        build/proofs/summary.md (table, worst-case cycles vs budgets), build/proofs/junit.xml
-#   make proofs-bmc      ESBMC: every proofs/bmc/*/ folder (codecs urb_*, firmware fw_*) and its mutants
+#   make proofs-bmc      ESBMC: every proofs/bmc/*/ folder (codecs urb_*, firmware fw_*), its mutants and
+#                        its cover points (replayed from proofs/bmc/cache; deferred folders: covers_deferred.json)
 #   make proofs-full     ESBMC complete tier: every sweep item, each COST's worst-case witness and the
 #                        cover points (on demand)
-#   make proofs-cover    ESBMC fast tier with the cover points (URB_COVER) checked, no mutants (on demand:
-#                        costly, see proofs/README.md, Cover points)
+#   make proofs-cover    ESBMC fast tier with every folder's cover points (URB_COVER) checked, the deferred
+#                        ones too, no mutants (records the cover runs; see proofs/README.md, Cover points)
 #   make proofs-fresh    proofs-bmc with every ESBMC run done now (BMC_CACHE=off: no replay, nothing recorded)
 #   make proofs-costs    re-record each BMC proof's worst-case cycles (proofs/bmc/*/COST)
 #   make proofs-summary  merge the parts' results again (fails when a part is missing or unexpected)
@@ -36,8 +37,12 @@ proofs:
 # commit, and fails on any verdict that differs from the recorded one.
 BMC_CACHE_VERIFY ?= 25
 BMC_CACHE_SEED ?= $(shell git rev-parse HEAD 2>/dev/null)
+# make check judges every folder's cover points (--covers): their reach runs are recorded in the cache
+# like the proofs', so they replay; a folder whose cover runs are not recorded is listed with its reason
+# in proofs/bmc/covers_deferred.json (plain vacuity check, a [cover] row "deferred"), and
+# tests/proofs/test_bmc_covers_in_check.py fails on a folder that is neither.
 proofs-bmc:
-	BMC_CACHE_VERIFY=$(BMC_CACHE_VERIFY) BMC_CACHE_SEED=$(BMC_CACHE_SEED) $(PYTHON) tools/proofs.py --tier fast
+	BMC_CACHE_VERIFY=$(BMC_CACHE_VERIFY) BMC_CACHE_SEED=$(BMC_CACHE_SEED) $(PYTHON) tools/proofs.py --tier fast --covers --covers-deferred proofs/bmc/covers_deferred.json
 
 proofs-fresh:
 	BMC_CACHE=off $(PYTHON) tools/proofs.py --tier fast

@@ -17,8 +17,11 @@ and bmc-cover:<folder>/<name>, written with report/urb_report/records.py.
 
 from __future__ import annotations
 
+import gzip
+import json
 import re
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, Iterable, Mapping
 
 REACH_CLAIM = "reach: the harness runs to its end on some input"
@@ -28,6 +31,49 @@ COVER_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")
 _CLAIM_RE = re.compile(r"^\s+(FAILED|PASSED|UNKNOWN)\s+\[[^\]]*\]\s+line\s+\d+\s+(.*?)\s*$", re.MULTILINE)
 _POINT_RE = re.compile(r"^urb-cover-point: (.*?)\s*$", re.MULTILINE)
 MUTANT_KINDS = ("off-by-one", "wrong-order", "missing-publish-or-free", "wrong-field", "dropped-error", "other")
+# The folders whose cover points make check (make proofs-bmc: tools/proofs.py --covers --covers-deferred)
+# does not judge, each with its reason; every other folder's cover runs must be recorded in the cache.
+DEFERRED_FILE = "proofs/bmc/covers_deferred.json"
+
+
+def load_deferred(path: Path) -> dict[str, str]:
+    """The deferral file: folder -> why its cover points are not judged in make check (with the measured
+    cost of recording them). Raises ValueError naming what is wrong: a folder needs a written reason."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as e:
+        raise ValueError(f"{path}: cannot read the cover deferrals ({e}); it is a JSON object "
+                         'folder -> {"reason": ..., "cover_cpu_s": ...}') from None
+    if not isinstance(data, dict):
+        raise ValueError(f"{path}: a JSON object folder -> {{\"reason\": ...}} is expected")
+    out: dict[str, str] = {}
+    for folder, entry in data.items():
+        reason = entry.get("reason") if isinstance(entry, dict) else None
+        if not isinstance(reason, str) or len(reason.strip()) < 20:
+            raise ValueError(f"{path}: {folder}: give a written \"reason\" (why its cover runs are not recorded, "
+                             "what recording them costs), or record them and remove the entry")
+        cost = entry.get("cover_cpu_s")
+        out[folder] = reason.strip() + (f" (recording them: about {cost} s of CPU)" if cost is not None else "")
+    return out
+
+
+def variant_of(item: str) -> str:
+    """A sweep item as Makefile.common names its run ("PART=1,LEN=3" -> "PART1-LEN3")."""
+    return item.replace("=", "").replace(",", "-")
+
+
+def recorded_cover_runs(cache: Path, folder: str, tier: str = "fast") -> set[str]:
+    """The sweep items (as variant_of names them; "" without a sweep) of `folder` whose reach run with
+    its cover points compiled in (no -DURB_COVER_OFF) is recorded in the result cache."""
+    found: set[str] = set()
+    for entry in (cache / folder).glob("*.json.gz"):
+        with gzip.open(entry, "rt", encoding="utf-8") as fh:
+            data = json.load(fh)
+        command, label = str(data.get("command", "")), str(data.get("label", ""))
+        m = re.fullmatch(rf"{re.escape(tier)} reach(?:-(\S+))? reach", label)
+        if m and "-DURB_VERIFY_REACH" in command.split() and "-DURB_COVER_OFF" not in command.split():
+            found.add(m.group(1) or "")
+    return found
 
 
 def parse_claims(text: str) -> dict[str, bool]:

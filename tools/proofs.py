@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
 """Run the bounded-model-checking proofs (proofs/bmc/*/) and merge every proof part's results.
 
-    python3 tools/proofs.py                    # BMC fast tier (make proofs-bmc, part of make check)
+    python3 tools/proofs.py                    # BMC fast tier, no cover points
+    python3 tools/proofs.py --covers --covers-deferred proofs/bmc/covers_deferred.json
+                                               # make proofs-bmc (make check): with the cover points
     python3 tools/proofs.py --tier full        # every sweep item, plus each COST's witness (make proofs-full)
     python3 tools/proofs.py --only crc8        # folders whose name contains "crc8" (repeatable)
     python3 tools/proofs.py --no-mutants       # the proofs only
@@ -23,9 +25,11 @@ Mutant runs leave out the recorded-COST assertion (Makefile.common). A seeded bu
 needs a bound only the full tier has, and only that tier runs it. In the full tier, a folder with a
 COST file also runs its worst-case witness (`make tight`), which must fail, showing the recorded worst
 case is reached. The vacuity check (`make reach`) of every item gives each proof a [reach] row. With
---covers (make proofs-cover, make proofs-full; too costly for make check) the same runs check the
+--covers (make proofs-bmc, so make check; make proofs-cover, make proofs-full) the same runs check the
 harness's cover points (URB_COVER; tools/bmc_evidence.py): a [cover] row fails naming each point that
-no item of its part reaches, and each part needs at least one point.
+no item of its part reaches, and each part needs at least one point. Cover runs go through the result
+cache like every run, so make check replays them; --covers-deferred FILE names folders (each with its
+reason) whose points that run does not judge: plain vacuity check and a [cover] row "deferred".
 Every mutant names its "kind" of bug (off-by-one, wrong-order, missing-publish-or-free, wrong-field,
 dropped-error, other) for the mutation table.
 
@@ -591,16 +595,23 @@ class Plan:
     reach: dict[str, Future[Run]] = field(default_factory=dict)
     #: the reach runs checked the cover points (tools/proofs.py --covers): collect() gives a [cover] row
     covers: bool = True
+    #: --covers with the folder in the deferral file (--covers-deferred): why its points are not judged
+    #: in this run; its reach runs are the plain vacuity check and its [cover] row says so
+    covers_deferred: str = ""
     #: filled by collect(): what the evidence record says of this proof
     evidence: bmc_evidence.ProofEvidence | None = None
 
 
 def bmc(proofs: list[Proof], tier: str, jobs: int, mutants: bool, out_root: Path,
-        evidence: list[bmc_evidence.ProofEvidence] | None = None, covers: bool = False) -> list[dict[str, Any]]:
+        evidence: list[bmc_evidence.ProofEvidence] | None = None, covers: bool = False,
+        deferred: dict[str, str] | None = None) -> list[dict[str, Any]]:
     """Runs the proofs (and their mutants and witnesses) on `jobs` workers; one row per run group.
-    With `covers` the reach runs check the cover points too (a [cover] row per proof). What each
-    proof showed is appended to `evidence` (for the evidence record)."""
-    plans = [Plan(p, covers=covers) for p in proofs]
+    With `covers` the reach runs check the cover points too (a [cover] row per proof), except for the
+    folders in `deferred` (folder -> reason: plain vacuity check, a [cover] row "deferred" naming the
+    reason). What each proof showed is appended to `evidence` (for the evidence record)."""
+    deferred = deferred or {}
+    plans = [Plan(p, covers=covers and p.name not in deferred,
+                  covers_deferred=deferred.get(p.name, "") if covers else "") for p in proofs]
     with ThreadPoolExecutor(max_workers=jobs) as pool:
         for plan in plans:  # the proofs first, so a broken proof shows early; then mutants and witnesses
             for item in plan.proof.items(tier):
@@ -608,11 +619,11 @@ def bmc(proofs: list[Proof], tier: str, jobs: int, mutants: bool, out_root: Path
         for plan in plans:  # vacuity and cover points: the items of one part in turn (run_reach_part)
             parts: dict[str, list[str]] = {}  # without covers every item is its own job, as before them
             for item in plan.proof.items(tier):
-                parts.setdefault(bmc_evidence.part_of(item) if covers else item, []).append(item)
+                parts.setdefault(bmc_evidence.part_of(item) if plan.covers else item, []).append(item)
             for items in parts.values():
                 futures: dict[str, Future[Run]] = {item: Future() for item in items}
                 plan.reach.update(futures)
-                pool.submit(run_reach_part, plan.proof, tier, out_root, futures, covers)
+                pool.submit(run_reach_part, plan.proof, tier, out_root, futures, plan.covers)
         for plan in plans:
             if mutants:
                 for m in plan.proof.mutants_of(tier):
@@ -723,6 +734,12 @@ def collect(plan: Plan, tier: str) -> list[dict[str, Any]]:
                              "reached" if not problems else ("NOT REACHED" if covers else "NO COVER"), not problems, 0.0,
                              f"{reached} of {len(covers)} cover points reached in their parts"
                              + ("; " + "; ".join(problems) if problems else "")))
+    elif plan.reach and plan.covers_deferred:
+        rows.append(make_row(f"{p.name} [cover]", "ESBMC", "cover points not judged in this run (deferred)", bound,
+                             "deferred", True, 0.0,
+                             f"not judged here, only the plain vacuity check: {plan.covers_deferred} (listed in "
+                             f"{bmc_evidence.DEFERRED_FILE}; judge them with python3 tools/proofs.py --covers "
+                             f"--no-mutants --only {p.name})"))
     if plan.tight is not None:
         r = plan.tight.result()
         reached = r.outcome == "fail" and r.violated.startswith("tight:")
@@ -878,6 +895,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--covers", action="store_true",
                     help="check every cover point (URB_COVER) in the reach runs: a [cover] row per proof (costly: "
                          "make proofs-cover, make proofs-full)")
+    ap.add_argument("--covers-deferred", type=Path, default=None, metavar="FILE",
+                    help="with --covers: the folders listed in FILE (JSON: folder -> {\"reason\", ...}) run the plain "
+                         "vacuity check and get a [cover] row 'deferred' with the reason (make check: "
+                         f"{bmc_evidence.DEFERRED_FILE})")
     ap.add_argument("--update-costs", action="store_true", help="record worst-case costs (COST files) and stop")
     ap.add_argument("--list", action="store_true", help="list the proofs and their settings and stop")
     ap.add_argument("--out", type=Path, default=OUT_ROOT, help="results folder (default build/proofs)")
@@ -886,7 +907,13 @@ def main(argv: list[str] | None = None) -> int:
                          "of it used (entries of changed inputs)")
     args = ap.parse_args(argv)
     started = time.monotonic()
+    deferred: dict[str, str] = {}
     try:
+        if args.covers_deferred is not None:
+            try:
+                deferred = bmc_evidence.load_deferred(args.covers_deferred)
+            except ValueError as e:
+                raise SetupError(str(e)) from None
         proofs = discover(args.only, args.tier)
         if not proofs:
             raise SetupError(f"no proof folder under proofs/bmc matches {args.only}")
@@ -900,7 +927,7 @@ def main(argv: list[str] | None = None) -> int:
             return update_costs(proofs, args.jobs, args.tier, args.out)
         rows = [check_fresh()] if not args.only else []
         evidence: list[bmc_evidence.ProofEvidence] = []
-        rows += bmc(proofs, args.tier, args.jobs, not args.no_mutants, args.out, evidence, args.covers)
+        rows += bmc(proofs, args.tier, args.jobs, not args.no_mutants, args.out, evidence, args.covers, deferred)
     except SetupError as e:
         print(f"proofs: {e}", file=sys.stderr)
         return 2
@@ -924,7 +951,8 @@ def main(argv: list[str] | None = None) -> int:
           f"{wall:.0f} s wall on {args.jobs} jobs, {cpu:.0f} s CPU (ideal wall on {args.jobs} idle cores "
           f"{cpu / max(1, args.jobs):.0f} s)")
     run_config = {"esbmc_runs": runs, "replayed_from_cache": replayed, "spot_checked": spot, "bmc_cache": os.environ.get("BMC_CACHE", "on"),
-                  "jobs": args.jobs, "mutants": not args.no_mutants, "covers": args.covers, "proofs": len(proofs), "cpu_s": round(cpu, 1),
+                  "jobs": args.jobs, "mutants": not args.no_mutants, "covers": args.covers,
+                  "covers_deferred": sorted(deferred), "proofs": len(proofs), "cpu_s": round(cpu, 1),
                   "wall_s": round(wall, 1)}
     if args.only:
         out = args.out / "bmc-only"

@@ -13,7 +13,8 @@ speed can change it (a run that timed out or ran out of memory is never recorded
 
 Modes (environment variable BMC_CACHE):
   on       (default) a recorded key replays its output and exit status; a new key runs ESBMC and,
-           when ESBMC gave a verdict (VERIFICATION SUCCESSFUL or FAILED), records it under
+           when ESBMC gave a verdict (VERIFICATION SUCCESSFUL or FAILED) and did not run out of time or
+           memory (a --multi-property run prints FAILED for what it refuted before), records it under
            proofs/bmc/cache/<proof>/<key>.json.gz (commit the new files to reuse them)
   off      always run ESBMC; record nothing (what `make proofs-fresh` does)
   refresh  always run ESBMC and record the verdict, replacing any recorded one
@@ -53,6 +54,11 @@ MODES = ("on", "off", "refresh")
 _DROPPED = re.compile(r"^(?:Not )?[Uu]nwinding loop .*\n", re.MULTILINE)
 _VERDICT = re.compile(r"^VERIFICATION (SUCCESSFUL|FAILED)$", re.MULTILINE)
 _VIOLATED = re.compile(r"Violated property:\n\s+file .*\n\s+(.*)\n")
+# a --multi-property results table row of a refuted property: "  FAILED  [harness.assertion.2]  line 254  cover: x"
+_REFUTED = re.compile(r"^\s+FAILED\s+\[[^\]]*\]\s+line\s+\d+\s+(.*?)\s*$", re.MULTILINE)
+# ESBMC ran out of time or memory: a --multi-property run (reach and cover runs) then still prints
+# VERIFICATION FAILED for the properties refuted before, but the others have no verdict
+_UNFINISHED = re.compile(r"^ERROR: Timed out|Memory limit|Out of memory|memory exhausted", re.MULTILINE)
 
 
 class CacheError(Exception):
@@ -94,11 +100,14 @@ def run_key(args: list[str], repo: str, identity: str, files: list[Path]) -> str
     return content_key(f"urb-bmc-cache {FORMAT}\n{identity}\n", args, repo, files)
 
 
-def verdict_of(output: str) -> tuple[str, str]:
-    """ESBMC's verdict ("SUCCESSFUL", "FAILED" or "" without one) and the first violated property."""
+def verdict_of(output: str) -> tuple[str, str, tuple[str, ...]]:
+    """ESBMC's verdict ("SUCCESSFUL", "FAILED" or "" without one), the first violated property and,
+    for a --multi-property run (reach and cover runs), every property its results table says FAILED:
+    a cover point's verdict is part of what a spot check compares."""
     verdicts = _VERDICT.findall(output)
     violated = _VIOLATED.search(output)
-    return (verdicts[-1] if verdicts else "", violated.group(1).strip() if violated else "")
+    return (verdicts[-1] if verdicts else "", violated.group(1).strip() if violated else "",
+            tuple(sorted(set(_REFUTED.findall(output)))))
 
 
 def entry_path(cache: Path, proof: str, key: str) -> Path:
@@ -175,7 +184,7 @@ def main(argv: list[str] | None = None) -> int:
         return int(entry["status"])  # type: ignore[call-overload,no-any-return]
     output, status, cpu = run_esbmc(args)
     sys.stdout.write(output)
-    if verdict_of(output)[0]:
+    if verdict_of(output)[0] and not _UNFINISHED.search(output):
         write_entry(path, {
             "format": FORMAT, "key": key, "proof": ns.proof, "label": ns.label, "status": status,
             "cpu_s": round(cpu, 2), "commit": git_commit(repo),

@@ -116,6 +116,19 @@ def test_a_run_without_a_verdict_is_never_recorded(
     assert esbmc_runs(tmp_path) == 2 and not (tmp_path / "cache").exists()
 
 
+def test_a_multi_property_run_cut_by_its_timeout_is_never_recorded(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
+    """A cover run (--multi-property) that runs out of time prints VERIFICATION FAILED for the points it
+    refuted before (seen 2026-11-29: fw_bridge_rs232_parser at load 15, recorded, then replayed as
+    VACUOUS): no verdict for the rest, so never recorded."""
+    monkeypatch.setenv("BMC_CACHE", "on")
+    repo = make_repo(tmp_path, tail='printf "  cover: a-point\\nERROR: Timed out\\nVERIFICATION FAILED\\n"; exit 1')
+    for _ in range(2):
+        status, out = run(tmp_path, repo, capsys)
+        assert status == 1 and "VERIFICATION FAILED" in out and "recorded" not in out
+    assert esbmc_runs(tmp_path) == 2 and not (tmp_path / "cache").exists()
+
+
 def test_off_and_refresh(tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
     repo = make_repo(tmp_path)
     monkeypatch.setenv("BMC_CACHE", "off")
@@ -153,6 +166,26 @@ def test_the_spot_check_catches_a_wrong_recorded_verdict(
     cache.write_entry(entry_file, dict(entry, status=1, output=failed))
     status, out = run(tmp_path, repo, capsys)
     assert status == 1 and "spot-checked" in out
+
+
+def test_the_spot_check_compares_each_cover_point_of_a_multi_property_run(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
+    """A cover run's record that says a point was reached when ESBMC now finds it unreachable has the
+    same overall verdict (FAILED on the reach assertion); its spot check still fails on the point."""
+    monkeypatch.setenv("BMC_CACHE", "on")
+    table = ('printf "Violated property:\\n  file r.c line 1 column 1 function urb_reach\\n  reach: end\\n\\n'
+             '  FAILED  [urb_reach.assertion.1]  line 1  reach: end\\n'
+             '  PASSED  [harness.assertion.2]  line 9  cover: a-point\\nVERIFICATION FAILED\\n"; exit 1')
+    repo = make_repo(tmp_path, tail=table)
+    assert run(tmp_path, repo, capsys)[0] == 1
+    [entry_file] = (tmp_path / "cache" / "p").glob("*.json.gz")
+    with gzip.open(entry_file, "rt", encoding="utf-8") as fh:
+        entry = json.load(fh)
+    assert cache.verdict_of(entry["output"]) == ("FAILED", "reach: end", ("reach: end",))
+    cache.write_entry(entry_file, dict(entry, output=entry["output"].replace("  PASSED  [harness", "  FAILED  [harness")))
+    monkeypatch.setenv("BMC_CACHE_VERIFY", "1000")
+    status, out = run(tmp_path, repo, capsys)
+    assert status == 3 and "SPOT CHECK FAILED" in out and "cover: a-point" in out
 
 
 def test_spot_check_sample_follows_the_seed() -> None:

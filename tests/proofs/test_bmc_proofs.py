@@ -148,8 +148,9 @@ def test_make_check_runs_all_proofs_through_one_target() -> None:
     mk = (ROOT / "mk" / "proofs.mk").read_text(encoding="utf-8")
     assert re.search(r"^CHECK_TARGETS \+= proofs$", mk, re.MULTILINE)
     assert re.search(r"^PROOF_PARTS \+= bmc$", mk, re.MULTILINE)
-    assert re.search(r"^proofs-bmc:\n\tBMC_CACHE_VERIFY=\S+ BMC_CACHE_SEED=\S+ \$\(PYTHON\) tools/proofs.py --tier fast$", mk,
-                     re.MULTILINE), "make check's BMC run, with the result cache's spot checks (proofs/bmc/bmc_cache.py)"
+    assert re.search(r"^proofs-bmc:\n\tBMC_CACHE_VERIFY=\S+ BMC_CACHE_SEED=\S+ \$\(PYTHON\) tools/proofs.py --tier fast "
+                     r"--covers --covers-deferred proofs/bmc/covers_deferred.json$", mk, re.MULTILINE), \
+        "make check's BMC run, with the cover points and the result cache's spot checks (proofs/bmc/bmc_cache.py)"
     assert not (ROOT / "mk" / "proofs_firmware.mk").exists(), "make proofs covers fw_* (tools/proofs.py)"
 
 
@@ -365,8 +366,10 @@ def test_the_evidence_record_names_every_proof_mutant_and_cover(tmp_path: Path) 
 
 
 def test_without_covers_the_runner_gives_no_cover_row_and_runs_the_plain_vacuity_check(monkeypatch: Any) -> None:
-    """make check's run (no --covers): each item's reach run has COVERS=0 (points compiled out), and no
-    [cover] row or bmc-cover item is claimed; --covers (make proofs-cover, proofs-full) adds them."""
+    """A run without --covers (tools/proofs.py's default; a folder deferred in make check's run is the
+    same, tests/proofs/test_bmc_covers_in_check.py): each item's reach run has COVERS=0 (points compiled
+    out), and no [cover] row or bmc-cover item is claimed; --covers (make proofs-bmc, proofs-cover,
+    proofs-full) adds them."""
     from concurrent.futures import Future
 
     proofs = load_module("proofs", ROOT / "tools" / "proofs.py")
