@@ -1,6 +1,7 @@
 # Structural coverage, MISRA C:2012 and static analysis of the firmware and the generated C
 # (quality/README.md says how to read the results). Included by the top-level Makefile.
-#   make coverage  the node, bridge, codec and Cortex-M0+ CAN/RS485 port tests on two instrumented builds: gcc --coverage
+#   make coverage  the node, bridge, codec, CAN/RS485 downlink and Cortex-M0+ CAN/RS485 port tests on two instrumented
+#                  builds: gcc --coverage
 #                  (statement and branch, gcovr) and clang 19 -fcoverage-mcdc (MC/DC, llvm-cov);
 #                  every uncovered line, branch or MC/DC condition must be justified in
 #                  quality/coverage_justifications.toml. Reports: build/coverage/ (gcc/index.html,
@@ -14,7 +15,7 @@
 # matches anything), so the files stay exact.
 #
 # The coverage builds reuse the test programs' own rules and source lists (mk/firmware_node.mk,
-# mk/firmware_bridge.mk, mk/c.mk) through sub-makes that override their build directory, compiler
+# mk/firmware_bridge.mk, mk/c.mk, mk/downlinks.mk, mk/node_downlinks_cm0.mk) through sub-makes that override their build directory, compiler
 # and flags: the instrumented programs are the tested programs. This file therefore sorts after
 # those fragments (`include $(wildcard mk/*.mk)` reads them in name order) and uses their variables.
 PYTHON ?= python3
@@ -24,6 +25,9 @@ $(error mk/quality.mk needs mk/firmware_bridge.mk, mk/firmware_node.mk and mk/c.
 endif
 ifndef CM0HAL_RULE
 $(error mk/quality.mk needs mk/node_downlinks_cm0.mk read first)
+endif
+ifndef FWD_TEST_RULE
+$(error mk/quality.mk needs mk/downlinks.mk read first)
 endif
 
 # ===== Coverage =================================================================================
@@ -44,6 +48,10 @@ $(eval $(call FWB_TEST_BINARY,$(COV_CLANG)))
 # The Cortex-M0+ CAN and RS485 ports' host tests (mk/node_downlinks_cm0.mk), likewise.
 COV_CM0HAL_TESTS := test_cm0_can test_cm0_rs485
 $(foreach t,$(COV_CM0HAL_TESTS),$(eval $(call CM0HAL_RULE,$(COV_CLANG),$(t))))
+# The CAN and RS485 downlink cores' cmocka programs (mk/downlinks.mk), likewise.
+COV_DL_TESTS := test_can test_rs485
+$(eval $(call FWD_TEST_RULE,$(COV_CLANG),can,$(FWD_CAN_SRC),$(FWD_CAN_TEST)))
+$(eval $(call FWD_TEST_RULE,$(COV_CLANG),rs485,$(FWD_RS485_SRC),$(FWD_RS485_TEST)))
 
 # $(1): build directory name (gcc, clang), $(2): compiler, $(3): instrumentation flags
 cov_build = \
@@ -54,10 +62,13 @@ cov_build = \
 	$(MAKE) --no-print-directory CODEC_BUILD=$(COV_BUILD)/$(1)/c CODEC_WARNINGS="$(COV_WARN)" CODEC_SANITIZE="$(3)" \
 	    $(COV_BUILD)/$(1)/c/codec_driver-$(2) $(COV_BUILD)/$(1)/c/unit_tests-$(2) && \
 	$(MAKE) --no-print-directory CM0DL_BUILD=$(COV_BUILD)/$(1)/cm0hal CM0DL_STRICT="$(COV_WARN)" CM0HAL_SAN="$(3)" \
-	    $(foreach t,$(COV_CM0HAL_TESTS),$(COV_BUILD)/$(1)/cm0hal/$(2)/$(t))
+	    $(foreach t,$(COV_CM0HAL_TESTS),$(COV_BUILD)/$(1)/cm0hal/$(2)/$(t)) && \
+	$(MAKE) --no-print-directory FWD_BUILD=$(COV_BUILD)/$(1)/downlinks FWD_STRICT="$(COV_WARN)" \
+	    FWD_TEST_CFLAGS="$(COV_TEST_WARN)" FWD_SAN="$(3)" $(foreach t,$(COV_DL_TESTS),$(COV_BUILD)/$(1)/downlinks/$(2)/$(t))
 
 cov_programs = $(foreach t,$(FWN_TESTS),$(COV_BUILD)/$(1)/node/$(2)/$(t)) $(COV_BUILD)/$(1)/bridge/$(2)/bridge-tests \
-               $(foreach t,$(COV_CM0HAL_TESTS),$(COV_BUILD)/$(1)/cm0hal/$(2)/$(t))
+               $(foreach t,$(COV_CM0HAL_TESTS),$(COV_BUILD)/$(1)/cm0hal/$(2)/$(t)) \
+               $(foreach t,$(COV_DL_TESTS),$(COV_BUILD)/$(1)/downlinks/$(2)/$(t))
 cov_codecs = $(COV_BUILD)/$(1)/c/codec_driver-$(2) $(COV_BUILD)/$(1)/c/unit_tests-$(2)
 
 .PHONY: coverage coverage-build misra static
@@ -79,11 +90,13 @@ coverage: setup coverage-build
 
 # ===== MISRA C:2012 and static analysis =========================================================
 
-# What ships: the node and bridge libraries, the SensoRHex apps and their target mains and board
-# stubs, the Cortex-M0+ port and startup code, and the generated codecs. Not the hosted and
-# simulation HALs or the hosted bridge's main (test doubles that run on a PC with its C library and
-# are never linked into a firmware image), nor gen/c/test (test support that uses stdio).
-QUALITY_SOURCES := $(sort $(wildcard firmware/node/*.c) $(FWB_LIB_SRC) $(wildcard firmware/apps/sensorhex/*.c) \
+# What ships: the node and bridge libraries, the CAN and RS485 downlink cores (FWD_CAN_SRC,
+# FWD_RS485_SRC of mk/downlinks.mk), the SensoRHex apps and their target mains and board stubs, the
+# Cortex-M0+ port and startup code, and the generated codecs. Not the hosted and simulation HALs or
+# the hosted bridge's main (test doubles that run on a PC with its C library and are never linked
+# into a firmware image), nor gen/c/test (test support that uses stdio).
+QUALITY_SOURCES := $(sort $(wildcard firmware/node/*.c) $(FWB_LIB_SRC) $(FWD_CAN_SRC) $(FWD_RS485_SRC) \
+                   $(wildcard firmware/apps/sensorhex/*.c) \
                    $(wildcard firmware/apps/sensorhex/targets/*.c) $(wildcard firmware/hal/cortex-m0plus/*.c) \
                    $(wildcard gen/c/*.c))
 QUALITY_INC := -Ifirmware/include -Ifirmware/node -Ifirmware/bridge -Ifirmware/hal/cortex-m0plus -Ifirmware/apps/echo \

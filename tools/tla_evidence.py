@@ -101,17 +101,6 @@ def items(runs: list[RunOutcome], entries: list[Entry]) -> list[Item]:
             for name in cfg_checks(cfg):
                 if name not in run.unchecked:  # distributed TLC does not check liveness
                     checked_by.setdefault(f"{e.spec}.{name}", []).append((e.name, run.ok))
-        elif e.kind == "mutant" and e.raw.get("kind") == "reach":
-            # a witness stated as its own must-fail run (the downlink models): the model it extends
-            # must reach the situation, i.e. TLC must refute "never <situation>"
-            extended = re.findall(r"^EXTENDS\s+(\w+)", (ROOT / SPEC_REL / e.module).read_text(encoding="utf-8"),
-                                  re.MULTILINE)
-            situation = str(e.covers or e.name).split(".reach:")[-1]
-            out.append(Item(
-                id=f"tlc-reach:{extended[0] if extended else e.name}/{situation}", kind="witness",
-                verdict=_verdict(run.ok, run), expected=f"reached (TLC refutes {e.expect_violation})",
-                measured="reached" if run.ok else measured, source=f"{SPEC_REL}/{e.module}", rerun=_rerun(e.name),
-                data={"run": e.name, "runtime_s": round(run.runtime_s, 1)}))
         elif e.kind == "mutant":
             if e.expect_violation == ASSUME_MARK and e.covers:
                 # an operator an MC module checks with an ASSUME: every model run of that module checks it

@@ -313,7 +313,8 @@ def _inline_parts(masked: str, d: Definition, op: str) -> list[tuple[int, int]]:
         bounds = [0, *cuts, len(text)]
         for k in range(len(bounds) - 1):
             if k == 0:
-                spans.append((base, base + cuts[0] + 2))
+                if "==" not in text[:cuts[0]]:  # not the head of a LET definition `d == a /\ b`
+                    spans.append((base, base + cuts[0] + 2))
             else:
                 spans.append((base + bounds[k], base + bounds[k + 1]))
     return spans
@@ -556,24 +557,18 @@ def _droppable(conjunct: str) -> bool:
 
 
 def _is_except_path(masked: str, prev: str) -> bool:
-    """True when the text before an `=` ends with an EXCEPT path `![k]` or `!.f`."""
-    if re.search(r"!\.\w+$", prev):
-        return True
-    if not prev.endswith("]"):
-        return False
-    depth, i = 0, len(prev) - 1
-    while i >= 0:
-        if prev[i] == "]":
-            depth += 1
-        elif prev[i] == "[":
-            depth -= 1
-            if depth == 0:
-                j = i - 1
-                while j >= 0 and prev[j] == "]":
-                    j = _open_of(prev, j) - 1
-                return j >= 0 and prev[j] == "!"
-        i -= 1
-    return False
+    """True when the text before an `=` ends with an EXCEPT path: `!` then components `[k]` and
+    `.f` in any order (`![k]`, `!.f`, `![s].buf`)."""
+    j, parts = len(prev) - 1, 0
+    while j >= 0:
+        field = re.search(r"\.\w+$", prev[:j + 1])
+        if field:
+            j, parts = field.start() - 1, parts + 1
+        elif prev[j] == "]":
+            j, parts = _open_of(prev, j) - 1, parts + 1
+        else:
+            break
+    return parts > 0 and j >= 0 and prev[j] == "!"
 
 
 def _open_of(s: str, close: int) -> int:

@@ -314,12 +314,11 @@ TABLE_KINDS = {"bound": "off-by-one", "order": "order", "publish": "missing-effe
 def table_rows(results: dict[str, dict[str, Any]], explained: dict[str, Any],
                hand_written: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """The rows the mutation table reads (`{"name", "module", "kind", "killed", "explained"}`): the
-    manifest's must-fail mutants of this `make modelcheck` (build/tla/results.json; not the
-    reachability runs, `<Spec>.reach:<Situation>`, which seed no bug) and the recorded generated
-    mutants (those that do not parse are no seeded bug and are left out)."""
+    manifest's must-fail mutants of this `make modelcheck` (build/tla/results.json) and the recorded
+    generated mutants (those that do not parse are no seeded bug and are left out)."""
     rows = [{"name": str(h["name"]), "module": str(h.get("covers") or h["name"]).split(".")[0].split("_")[0],
              "kind": "hand-written", "killed": bool(h.get("ok")), "explained": "", "source": "manifest"}
-            for h in hand_written if h.get("kind") == "mutant" and ".reach:" not in str(h.get("covers") or "")]
+            for h in hand_written if h.get("kind") == "mutant"]
     for k, r in sorted(results.items()):
         if r["status"] == "invalid":
             continue

@@ -241,5 +241,34 @@ DeliveredIntact == ~bad
 \* lobster-trace: urb.DLK_003
 AtMostOnce == \A s \in Senders : \A x \in Xfers(s) : count[s][x] <= 1
 
-THEOREM Spec => [](TypeOK /\ NoMixedTransfers /\ NoRepeatedFrame /\ DeliveredIntact /\ AtMostOnce)
+(* Without a lost or repeated frame every transfer is delivered, except  *)
+(* those a bus-off cut (it drops the sender's queue: at most one transfer *)
+(* per bus-off, and a bus-off takes BusOffAt error frames): the receiver's *)
+(* checks refuse nothing the bus carried whole, and a transfer cut short  *)
+(* does not block the next (the checks above hold for a receiver that     *)
+(* refuses everything).                                                    *)
+NoLossNoRepeat == faults.loss = 0 /\ faults.dup = 0
+AllSent == \A s \in Senders : sent[s] = Len(Lens[s]) /\ q[s] = <<>>
+Undelivered == UNION {{<<s, x>> : x \in {y \in Xfers(s) : count[s][y] = 0}} : s \in Senders}
+\* lobster-trace: urb.DLK_001
+DeliveredUnlessCut == NoLossNoRepeat /\ AllSent => Cardinality(Undelivered) <= faults.err \div BusOffAt
+
+THEOREM Spec => [](TypeOK /\ NoMixedTransfers /\ NoRepeatedFrame /\ DeliveredIntact /\ AtMostOnce
+                   /\ DeliveredUnlessCut)
+
+-----------------------------------------------------------------------------
+(* Reachability witnesses (manifest.json "witnesses", tools/tla_witness.py):*)
+(* the situations the invariants are about, each of which a model must     *)
+(* reach in its own run.                                                   *)
+ReachMultiFrameDone == \E s \in Senders : \E x \in Xfers(s) : Lens[s][x] > 1 /\ count[s][x] > 0
+ReachToggleRejected == ev = "toggle"       \* a repeated frame refused by its toggle bit
+ReachDuplicateDropped == ev = "dup"        \* a repeated single-frame transfer ignored
+ReachCrcRejected == ev = "crc"             \* a transfer missing a frame refused by the CRC
+ReachInterleaved == \E s, t \in Senders : s # t /\ rx[s].active /\ rx[t].active
+ReachBusOffRecovered == recovered          \* a sender bus-off and back on the bus
+ReachCleanRunDone == NoLossNoRepeat /\ faults.err = 0 /\ AllSent   \* all sent without a fault
+\* a bus-off cut a transfer, its sender recovered, and every transfer sent: one is
+\* undelivered, the rest are
+ReachCutRunDone == NoLossNoRepeat /\ AllSent /\ (\A s \in Senders : ~busOff[s])
+                   /\ Cardinality(Undelivered) = 1
 =============================================================================

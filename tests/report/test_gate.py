@@ -5,7 +5,6 @@ marker of a test, makes it fail with a message naming that requirement."""
 from __future__ import annotations
 
 import json
-import re
 from pathlib import Path
 from typing import Any
 
@@ -182,14 +181,6 @@ def test_every_requirement_of_the_old_tla_table_is_migrated(catalogue: requireme
     cited = {e for r in catalogue.requirements for e in r.verified_by}
     manifest = json.loads((ROOT / "spec" / "tla" / "manifest.json").read_text())
     for m in manifest["mutants"]:
-        if m.get("kind") == "reach":
-            # a witness stated as a must-fail run (the downlink models): its evidence is the situation reached
-            module = (ROOT / "spec" / "tla" / m["module"]).read_text()
-            model = re.search(r"^EXTENDS\s+(\w+)", module, re.MULTILINE)
-            assert model, m["module"]
-            situation = m["covers"].split(".reach:")[-1]
-            assert f"tlc-reach:{model.group(1)}/{situation}" in cited, m["name"]
-            continue
         assert f"tlc-mutant:{m['name']}" in cited, m["name"]
         if m["covers"] not in ("Bridge.DistinctIds", "Bridge.IdsInOrder"):   # MCBridge's ASSUME FormsAgree
             assert f"tla:{m['covers']}" in cited, m["covers"]
@@ -197,7 +188,7 @@ def test_every_requirement_of_the_old_tla_table_is_migrated(catalogue: requireme
     assert "spec/requirements" in readme.split("## Requirements", 1)[1][:600]
     table = readme.split("<!-- requirements:begin", 1)[1].split("<!-- requirements:end -->", 1)[0]
     rows = [ln.split("|")[1:-1] for ln in table.splitlines() if ln.startswith("| ") and "`" in ln]
-    assert len(rows) == len({m["covers"] for m in manifest["mutants"] if m.get("kind") != "reach"})
+    assert len(rows) == len({m["covers"] for m in manifest["mutants"]})
     by_tag = catalogue.by_tag()
     for _, _, mutants, reqs in rows:
         for tag in reqs.replace("`", "").split(","):

@@ -267,6 +267,8 @@ void urb_can_slave_rx(urb_can_slave_t *s, const urb_can_frame_t *f, uint32_t t)
         }
     } else if (s->session != session) {
         return; /* a frame of a request whose start was not taken */
+    } else {
+        /* a continuation frame of the request in progress */
     }
     urb_can_rx_result_t const r = urb_can_rx_frame(&s->rx, f->data, f->len, s->wbuf, (s->wbuf != NULL) ? s->wsize : 0u);
     if ((r == URB_CAN_RX_DONE) || (r == URB_CAN_RX_CRC)) {

@@ -30,7 +30,7 @@ uint8_t urb_can_session(uint8_t mailbox, bool read)
 
 uint16_t urb_can_frame_bits_max(uint8_t len, bool extended)
 {
-    unsigned const s = (len > URB_CAN_MTU) ? URB_CAN_MTU : len;
+    unsigned const s = (len > URB_CAN_MTU) ? (unsigned)URB_CAN_MTU : (unsigned)len;
     unsigned const g = extended ? 54u : 34u; /* bits exposed to stuffing before the data field, less the data */
     /* g + 8s + 13 (CRC delimiter, ACK, EOF, IFS) + stuff bits: one per 4 bits after the first */
     return (uint16_t)(g + 8u * s + 13u + (g + 8u * s - 1u) / 4u);
@@ -38,27 +38,23 @@ uint16_t urb_can_frame_bits_max(uint8_t len, bool extended)
 
 uint16_t urb_can_frame_bits_min(uint8_t len, bool extended)
 {
-    unsigned const s = (len > URB_CAN_MTU) ? URB_CAN_MTU : len;
+    unsigned const s = (len > URB_CAN_MTU) ? (unsigned)URB_CAN_MTU : (unsigned)len;
     return (uint16_t)((extended ? 67u : 47u) + 8u * s);
 }
 
 uint8_t urb_can_frames(uint8_t len)
 {
-    if (len > URB_CAN_MAX_PAYLOAD) {
-        len = URB_CAN_MAX_PAYLOAD;
-    }
     if (len <= URB_CAN_CHUNK) {
         return 1u;
     }
-    return (uint8_t)((len + CRC_BYTES + URB_CAN_CHUNK - 1u) / URB_CAN_CHUNK);
+    unsigned const n = (len > URB_CAN_MAX_PAYLOAD) ? URB_CAN_MAX_PAYLOAD : (unsigned)len;
+    return (uint8_t)((n + CRC_BYTES + URB_CAN_CHUNK - 1u) / URB_CAN_CHUNK);
 }
 
 uint16_t urb_can_transfer_bits_max(uint8_t len)
 {
-    if (len > URB_CAN_MAX_PAYLOAD) {
-        len = URB_CAN_MAX_PAYLOAD;
-    }
-    unsigned left = (len <= URB_CAN_CHUNK) ? len : (unsigned)len + CRC_BYTES;
+    unsigned const n = (len > URB_CAN_MAX_PAYLOAD) ? URB_CAN_MAX_PAYLOAD : (unsigned)len;
+    unsigned left = (n <= URB_CAN_CHUNK) ? n : n + CRC_BYTES;
     unsigned bits = 0u;
     /* loop bound: URB_CAN_MAX_FRAMES frames */
     do {
@@ -84,14 +80,12 @@ uint16_t urb_can_crc(uint16_t crc, const uint8_t *data, uint8_t len)
 
 void urb_can_tx_init(urb_can_tx_t *tx, const uint8_t *payload, uint8_t len, uint8_t tid)
 {
-    if (len > URB_CAN_MAX_PAYLOAD) {
-        len = URB_CAN_MAX_PAYLOAD;
-    }
+    uint8_t const n = (len > URB_CAN_MAX_PAYLOAD) ? (uint8_t)URB_CAN_MAX_PAYLOAD : len;
     tx->payload = payload;
     tx->crc = CRC_INIT;
-    tx->len = len;
+    tx->len = n;
     tx->pos = 0u;
-    tx->total = (len <= URB_CAN_CHUNK) ? len : (uint8_t)(len + CRC_BYTES);
+    tx->total = (n <= URB_CAN_CHUNK) ? n : (uint8_t)(n + CRC_BYTES);
     /* CanTransfer.tla: SendStart, the first frame carries start and toggle 1 */
 #if defined(URB_MUTANT_CAN_START_TOGGLE_0)
     tx->tail = (uint8_t)(URB_CAN_TAIL_START | (tid & TID_BITS));
@@ -180,10 +174,8 @@ urb_can_rx_result_t urb_can_rx_frame(urb_can_rx_t *rx, const uint8_t *data, uint
     if (len == 0u) {
         return URB_CAN_RX_EMPTY;
     }
-    if (len > URB_CAN_MTU) {
-        len = URB_CAN_MTU;
-    }
-    uint8_t const tail = data[len - 1u];
+    uint8_t const size = (len > URB_CAN_MTU) ? (uint8_t)URB_CAN_MTU : len;
+    uint8_t const tail = data[size - 1u];
     uint8_t const tid = (uint8_t)(tail & TID_BITS);
     uint8_t const toggle = ((tail & URB_CAN_TAIL_TOGGLE) != 0u) ? 1u : 0u;
     bool const start = (tail & URB_CAN_TAIL_START) != 0u;
@@ -212,7 +204,7 @@ urb_can_rx_result_t urb_can_rx_frame(urb_can_rx_t *rx, const uint8_t *data, uint
         }
 #endif
     }
-    uint8_t const n = (uint8_t)(len - 1u);
+    uint8_t const n = (uint8_t)(size - 1u);
     /* loop bound: URB_CAN_CHUNK payload bytes per frame */
     for (uint8_t i = 0u; i < n; i++) {
         uint8_t const k = rx->count;

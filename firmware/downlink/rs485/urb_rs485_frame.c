@@ -20,13 +20,11 @@ static uint16_t chars_us(uint32_t baud, uint32_t tenths)
 
 void urb_rs485_timing(urb_rs485_timing_t *t, uint32_t baud)
 {
-    if (baud == 0u) {
-        baud = 115200u;
-    }
-    t->baud = baud;
-    t->char_us = chars_us(baud, 10u);
-    t->t15_us = chars_us(baud, 15u);
-    t->t35_us = chars_us(baud, 35u);
+    uint32_t const rate = (baud == 0u) ? 115200u : baud;
+    t->baud = rate;
+    t->char_us = chars_us(rate, 10u);
+    t->t15_us = chars_us(rate, 15u);
+    t->t35_us = chars_us(rate, 35u);
     t->turnaround_us = (uint16_t)(4u * t->char_us + 50u);
 }
 

@@ -44,7 +44,7 @@ uint32_t urb_rs485_master_timeout_us(uint32_t baud)
     urb_rs485_timing_t t;
     urb_rs485_timing(&t, baud);
     /* a 36-byte request, a 35-byte answer, two t3.5 silences and the turnaround, doubled */
-    uint32_t const once = (uint32_t)(URB_RS485_MAX_FRAME + URB_RS485_MAX_FRAME - 1u) * t.char_us +
+    uint32_t const once = (2u * (uint32_t)URB_RS485_MAX_FRAME - 1u) * t.char_us +
                           2u * (uint32_t)t.t35_us + t.turnaround_us;
     uint32_t const two = 2u * once;
     return (two > 2000u) ? two : 2000u;
@@ -175,7 +175,7 @@ static bool cut_frame_passes_check(const urb_rs485_master_t *m, uint8_t n, uint8
     if ((n < 3u) || (cl == 0u)) {
         return false;
     }
-    uint32_t const c = urb_link_check(m->buf, (size_t)(n - cl), NULL, 0u);
+    uint32_t const c = urb_link_check(m->buf, (size_t)n - (size_t)cl, NULL, 0u);
     if (cl == 1u) {
         return (uint8_t)c == last;
     }
@@ -335,6 +335,8 @@ static int8_t master_poll(void *ctx, uint32_t now)
             m->stats.busy_line++;
             m->phase = PH_IDLE;
             out = (int8_t)URB_STATUS_BUS_STUCK; /* a babbler holds the line: not executed */
+        } else {
+            /* the line is busy, and not for long yet: keep waiting */
         }
     } else if (ph == PH_WAIT) {
         uint32_t const limit = (uint32_t)tm->t35_us + tm->turnaround_us + tm->char_us;

@@ -6,6 +6,6 @@ EXTENDS MCRs485Poll
 OtherAnswer(m) ==
     /\ phase \in {"wait", "answer"} /\ m # Target /\ m \notin drivers /\ got # "none"
     /\ drivers' = drivers \cup {m}
-    /\ UNCHANGED <<k, phase, cut, due, got, executed, garbled, from, result, babbleLeft, babbledIdle, heard, reported>>
+    /\ UNCHANGED <<k, phase, cut, due, got, stored, storesOf, garbled, from, result, babbleLeft, babbledIdle, heard, reported>>
 MutSpec == Init /\ [][Next \/ \E m \in Nodes : OtherAnswer(m)]_vars
 =============================================================================

@@ -3,5 +3,5 @@
 (* Expected: StatusTruthful *)
 EXTENDS MCRs485Poll
 
-MutSpec == Init /\ [][NextWith(SendEndWith(TRUE), Silence, BabbleStart)]_vars
+MutSpec == Init /\ [][NextWith(CollideMid, SendEndWith(TRUE), Silence, BabbleStart)]_vars
 =============================================================================

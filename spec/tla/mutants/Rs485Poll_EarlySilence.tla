@@ -3,5 +3,5 @@
 (* Expected: StatusTruthful *)
 EXTENDS MCRs485Poll
 
-MutSpec == Init /\ [][NextWith(SendEnd, SilenceWith(TRUE), BabbleStart)]_vars
+MutSpec == Init /\ [][NextWith(CollideMid, SendEnd, SilenceWith(TRUE), BabbleStart)]_vars
 =============================================================================

@@ -3,5 +3,5 @@
 (* Expected: BabbleCounted *)
 EXTENDS MCRs485Poll
 
-MutSpec == Init /\ [][NextWith(SendEnd, Silence, BabbleStartWith(FALSE))]_vars
+MutSpec == Init /\ [][NextWith(CollideMid, SendEnd, Silence, BabbleStartWith({}))]_vars
 =============================================================================

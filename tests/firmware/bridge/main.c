@@ -16,5 +16,7 @@ int main(void)
     failed += run_edges_tests();
     failed += run_mutation_kill_tests();
     failed += run_master_trace_tests();
+    failed += run_uplink_model_tests();
+    failed += run_usb_model_tests();
     return failed > 255 ? 255 : failed;
 }

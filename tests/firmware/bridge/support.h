@@ -70,5 +70,7 @@ int run_discovery_tests(void);
 int run_edges_tests(void);
 int run_mutation_kill_tests(void);
 int run_master_trace_tests(void);
+int run_uplink_model_tests(void);
+int run_usb_model_tests(void);
 
 #endif

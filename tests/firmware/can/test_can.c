@@ -697,6 +697,312 @@ static void test_slave_init_refuses(void **state)
     assert_true(urb_can_slave_init(&s, &rig.nport[0].hal, &rig.fm[0].ops, 63u, 0u));
 }
 
+/* ===== Paths the end-to-end tests above do not take (make coverage lists them) ================= */
+
+static void test_timing_edges(void **state)
+{
+    (void)state;
+    for (uint8_t s = 0u; s <= 8u; s++) {
+        assert_int_equal(urb_can_frame_bits_min(s, true), 67u + 8u * s);
+    }
+    assert_int_equal(urb_can_frame_bits_min(200u, true), 67u + 64u); /* taken as 8 bytes */
+    /* past 2816 kb/s the bus part of a recovery is below the 1 ms floor */
+    assert_int_equal(urb_can_master_recover_us(2816u), 1000u);
+    assert_int_equal(urb_can_master_recover_us(4000u), 1000u);
+    /* rate 0 stands for the slowest rate, 125 kb/s: the longest window */
+    assert_int_equal(urb_can_slave_dup_window_us(0u), 8640u);
+    assert_int_equal(urb_can_slave_dup_window_us(125u), 8640u);
+}
+
+static void test_reassembly_counts(void **state)
+{
+    (void)state;
+    urb_can_rx_t rx;
+    uint8_t out[4];
+    /* a multi-frame transfer with fewer bytes than its CRC so far: the count as it is */
+    urb_can_rx_reset(&rx);
+    uint8_t first[2] = {0xAAu, (uint8_t)(URB_CAN_TAIL_START | URB_CAN_TAIL_TOGGLE | 2u)};
+    assert_int_equal(urb_can_rx_frame(&rx, first, 2u, out, 4u), URB_CAN_RX_MORE);
+    assert_int_equal(urb_can_rx_len(&rx), 1u);
+    /* a transfer longer than 255 bytes: the count saturates, nothing is stored past the room */
+    uint8_t mid[8] = {1u, 2u, 3u, 4u, 5u, 6u, 7u, 0u};
+    uint8_t toggle = 0u;
+    for (int k = 0; k < 40; k++) {
+        mid[7] = (uint8_t)((toggle != 0u ? URB_CAN_TAIL_TOGGLE : 0u) | 2u);
+        assert_int_equal(urb_can_rx_frame(&rx, mid, 8u, out, 4u), URB_CAN_RX_MORE);
+        toggle ^= 1u;
+    }
+    assert_int_equal(urb_can_rx_len(&rx), 253u); /* 255 counted, less the CRC's 2 */
+    assert_int_equal(out[0], 0xAAu);
+    assert_int_equal(out[3], 3u);
+}
+
+/* The optional lock of the HAL: every main-loop step masks and unmasks once; the hook can also
+ * play the interrupt that was pending when the main loop masked it. */
+typedef struct {
+    uint32_t locks, unlocks;
+    bool depth;
+    bool finish_sync; /* on the next lock, the controller reports the SYNC frame sent */
+} lock_log_t;
+
+static lock_log_t lock_log;
+
+static void hal_lock(void *ctx, bool locked)
+{
+    (void)ctx;
+    if (locked) {
+        assert_false(lock_log.depth); /* never nested */
+        lock_log.locks++;
+        if (lock_log.finish_sync) {
+            lock_log.finish_sync = false;
+            urb_can_master_tx_done(&rig.master);
+        }
+    } else {
+        assert_true(lock_log.depth);
+        lock_log.unlocks++;
+    }
+    lock_log.depth = locked;
+}
+
+static void test_master_lock_and_busy(void **state)
+{
+    (void)state;
+    memset(&lock_log, 0, sizeof lock_log);
+    rig.bport.hal.lock = hal_lock;
+    assert_false(urb_can_master_busy(&rig.master));
+    urb_downlink_txn_t t = {URB_DL_READ, 10u, 1u, 6u, 0u, false, rig.data};
+    assert_true(rig.dl.begin(rig.dl.ctx, &t, rig.bus.now_us));
+    assert_true(urb_can_master_busy(&rig.master)); /* sending */
+    /* a frame while the request is still being sent: checked like any other (a foreign one) */
+    urb_can_frame_t early = {urb_can_id(11u, 1u, true, URB_CAN_RESPONSE), 1u, {0xE0u}};
+    urb_can_master_rx(&rig.master, &early);
+    urb_can_master_tx_done(&rig.master);
+    assert_true(urb_can_master_busy(&rig.master)); /* waiting for the answer */
+    /* answers of the right identifier and no bytes, or more than a CAN frame holds: foreign */
+    urb_can_frame_t empty = {urb_can_id(10u, 1u, true, URB_CAN_RESPONSE), 0u, {0u}};
+    urb_can_master_rx(&rig.master, &empty);
+    urb_can_frame_t huge = {urb_can_id(10u, 1u, true, URB_CAN_RESPONSE), 9u, {0u}};
+    urb_can_master_rx(&rig.master, &huge);
+    urb_can_master_stats_t st;
+    urb_can_master_stats(&rig.master, &st);
+    assert_int_equal(st.foreign, 3u);
+    assert_int_equal(rig.dl.poll(rig.dl.ctx, rig.bus.now_us + rig.master.cfg.timeout_us + 1u), URB_STATUS_NO_NODE);
+    assert_false(urb_can_master_busy(&rig.master));
+    /* a whole transaction on the bus with the lock in place */
+    assert_int_equal(run(URB_DL_READ, 10u, 1u, 6u), URB_STATUS_OK);
+    /* SYNC's frame reported sent by the interrupt the main loop's lock held back: the poll
+     * after the lock sees the outcome at once */
+    urb_downlink_txn_t sync = {URB_DL_SYNC, 0u, 0u, 0u, 9u, false, NULL};
+    assert_true(rig.dl.begin(rig.dl.ctx, &sync, rig.bus.now_us));
+    lock_log.finish_sync = true;
+    assert_int_equal(rig.dl.poll(rig.dl.ctx, rig.bus.now_us), URB_STATUS_OK);
+    assert_false(lock_log.finish_sync);
+    assert_int_equal(lock_log.locks, lock_log.unlocks);
+    assert_true(lock_log.locks >= 6u);
+    /* bus-off: the recovery state counts as busy */
+    rig.bport.state = URB_CAN_BUS_OFF;
+    assert_true(rig.dl.begin(rig.dl.ctx, &t, rig.bus.now_us));
+    assert_true(urb_can_master_busy(&rig.master));
+    rig.bport.hal.lock = NULL;
+}
+
+/* Bus-off that the recovery does not end: the next requests are refused at once (BUS_STUCK), and
+ * the recovery is asked for again only when the last ask is older than a recovery. */
+static void test_bus_off_persists(void **state)
+{
+    (void)state;
+    rig.bport.tec = 256u;
+    rig.bport.state = URB_CAN_BUS_OFF;
+    urb_downlink_txn_t t = {URB_DL_WRITE, 10u, 1u, 2u, 0u, false, rig.data};
+    uint32_t const r = rig.master.cfg.recover_us;
+    assert_true(rig.dl.begin(rig.dl.ctx, &t, 0u)); /* first: a recovery is started */
+    assert_int_equal(rig.bport.recovers, 1u);
+    assert_int_equal(rig.dl.poll(rig.dl.ctx, r + 1u), URB_STATUS_BUS_STUCK); /* never came back */
+    assert_true(rig.dl.begin(rig.dl.ctx, &t, r + 2u)); /* the ask is older than a recovery: asked again */
+    assert_int_equal(rig.dl.poll(rig.dl.ctx, r + 2u), URB_STATUS_BUS_STUCK); /* at once */
+    assert_int_equal(rig.bport.recovers, 2u);
+    assert_true(rig.dl.begin(rig.dl.ctx, &t, 2u * r + 2u)); /* exactly a recovery after the ask: not again */
+    assert_int_equal(rig.dl.poll(rig.dl.ctx, 2u * r + 2u), URB_STATUS_BUS_STUCK);
+    assert_int_equal(rig.bport.recovers, 2u);
+    urb_can_master_stats_t st;
+    urb_can_master_stats(&rig.master, &st);
+    assert_int_equal(st.bus_off, 3u);
+    assert_int_equal(st.recoveries, 2u);
+    assert_int_equal(rig.fm[0].commits[1], 0u);
+    /* the controller back: the next request runs */
+    rig.bport.tec = 0u;
+    rig.bport.state = URB_CAN_ERROR_ACTIVE;
+    rig.bport.recovering = false;
+    rig.bus.now_us = 4u * r;
+    assert_int_equal(run(URB_DL_WRITE, 10u, 1u, 2u), URB_STATUS_OK);
+}
+
+/* Controllers with room for a whole transfer: both ends queue all 5 frames at once. */
+static void test_deep_transmit_queues(void **state)
+{
+    (void)state;
+    rig.bport.slots = CAN_BUS_QUEUE;
+    rig.nport[0].slots = CAN_BUS_QUEUE;
+    for (uint8_t i = 0u; i < 32u; i++) {
+        rig.data[i] = (uint8_t)(0xC3u ^ i);
+    }
+    urb_downlink_txn_t t = {URB_DL_WRITE, 10u, 2u, 32u, 0u, false, rig.data};
+    assert_true(rig.dl.begin(rig.dl.ctx, &t, rig.bus.now_us));
+    assert_int_equal(rig.bport.queued, 5u); /* all five frames queued by begin */
+    int8_t r = URB_DOWNLINK_BUSY;
+    for (int i = 0; (i < 10000) && (r == URB_DOWNLINK_BUSY); i++) {
+        if (!can_bus_step(&rig.bus)) {
+            rig.bus.now_us += 10u;
+        }
+        r = rig.dl.poll(rig.dl.ctx, rig.bus.now_us);
+    }
+    assert_int_equal(r, URB_STATUS_OK);
+    assert_memory_equal(rig.fm[0].inbox[2], rig.data, 32u);
+    memset(rig.data, 0, sizeof rig.data);
+    assert_int_equal(run(URB_DL_READ, 10u, 2u, 32u), URB_STATUS_OK);
+    assert_memory_equal(rig.data, rig.fm[0].outbox[2], 32u);
+}
+
+/* Requests that end in a way the bus tests do not produce: a read request whose transfer CRC
+ * fails, writes of zero bytes in a multi-frame transfer, a failed CRC without a buffer, frames
+ * longer than CAN's, a frame-sent report with nothing being sent, and no fault hook. */
+static void slave_send(const uint8_t *payload, uint8_t len, uint8_t tid, uint16_t id, uint8_t corrupt_frame, uint32_t t)
+{
+    urb_can_frame_t f[8];
+    uint8_t const n = segment(payload, len, tid, f);
+    if (corrupt_frame < n) {
+        f[corrupt_frame].data[0] ^= 0x01u;
+    }
+    for (uint8_t k = 0u; k < n; k++) {
+        f[k].id = id;
+        urb_can_slave_rx(&rig.slave[0], &f[k], t);
+    }
+}
+
+static void test_slave_request_edges(void **state)
+{
+    (void)state;
+    uint8_t payload[8] = {1u, 2u, 3u, 4u, 5u, 6u, 7u, 8u};
+    /* a read request with data whose CRC fails: an empty answer, the outbox not latched */
+    slave_send(payload, 8u, 1u, urb_can_id(10u, 2u, true, URB_CAN_REQUEST), 1u, 100u);
+    assert_int_equal(rig.nport[0].queued, 1u);
+    assert_int_equal(rig.nport[0].queue[0].len, 1u);
+    assert_false(rig.fm[0].latched[2]);
+    assert_int_equal(rig.fm[0].faults[URB_DL_FAULT_CHECKSUM], 0u);
+    /* a write to a missing inbox whose CRC fails: CHECKSUM, no buffer to abort */
+    slave_send(payload, 8u, 2u, urb_can_id(10u, 4u, false, URB_CAN_REQUEST), 1u, 200u);
+    assert_int_equal(rig.nport[0].queue[0].data[0], URB_STATUS_CHECKSUM);
+    assert_int_equal(rig.fm[0].aborts[4], 0u);
+    assert_int_equal(rig.fm[0].faults[URB_DL_FAULT_CHECKSUM], 1u);
+    /* a two-frame transfer of no payload (its CRC alone): a write of 0 bytes to a 2-byte inbox is
+     * a size mismatch, to a missing inbox a bad request; neither is a probe */
+    uint8_t const crc_hi = (uint8_t)(urb_can_crc(0xFFFFu, NULL, 0u) >> 8);
+    uint8_t const crc_lo = (uint8_t)urb_can_crc(0xFFFFu, NULL, 0u);
+    for (uint8_t box = 1u; box <= 4u; box = (uint8_t)(box + 3u)) {
+        uint8_t const tid = (uint8_t)(3u + box);
+        urb_can_frame_t a = {urb_can_id(10u, box, false, URB_CAN_REQUEST), 2u,
+                             {crc_hi, (uint8_t)(URB_CAN_TAIL_START | URB_CAN_TAIL_TOGGLE | tid)}};
+        urb_can_frame_t b = {a.id, 2u, {crc_lo, (uint8_t)(URB_CAN_TAIL_END | tid)}};
+        urb_can_slave_rx(&rig.slave[0], &a, 300u + box);
+        urb_can_slave_rx(&rig.slave[0], &b, 300u + box);
+        assert_int_equal(rig.nport[0].queue[0].data[0], (box == 1u) ? URB_STATUS_SIZE_MISMATCH : URB_STATUS_BAD_REQUEST);
+    }
+    assert_int_equal(rig.fm[0].aborts[1], 1u);
+    assert_int_equal(fake_mailbox_commits(&rig.fm[0]), 0u);
+    /* a frame longer than CAN's 8 bytes is not a frame */
+    urb_can_frame_t huge = {urb_can_id(10u, 0u, true, URB_CAN_REQUEST), 9u, {0u, 0u, 0u, 0u, 0u, 0u, 0u, 0xE0u}};
+    urb_can_slave_stats_t before, after;
+    urb_can_slave_stats(&rig.slave[0], &before);
+    urb_can_slave_rx(&rig.slave[0], &huge, 400u);
+    urb_can_slave_stats(&rig.slave[0], &after);
+    assert_int_equal(after.requests, before.requests);
+    /* a frame-sent report when nothing is being sent changes nothing */
+    rig.nport[0].queued = 0u;
+    urb_can_slave_tx_done(&rig.slave[0]); /* the answer's only frame */
+    assert_false(urb_can_slave_sending(&rig.slave[0]));
+    urb_can_slave_tx_done(&rig.slave[0]);
+    assert_false(urb_can_slave_sending(&rig.slave[0]));
+    /* no fault hook: faults are not reported, the answer still comes */
+    urb_dl_mailbox_t ops = rig.fm[0].ops;
+    ops.fault = NULL;
+    urb_can_slave_t s;
+    assert_true(urb_can_slave_init(&s, &rig.nport[0].hal, &ops, 10u, 1000u));
+    urb_can_frame_t f[8];
+    uint8_t const n = segment(payload, 8u, 7u, f);
+    f[1].data[0] ^= 0x01u;
+    for (uint8_t k = 0u; k < n; k++) {
+        f[k].id = urb_can_id(10u, 3u, false, URB_CAN_REQUEST);
+        urb_can_slave_rx(&s, &f[k], 500u);
+    }
+    urb_can_slave_stats_t ss;
+    urb_can_slave_stats(&s, &ss);
+    assert_int_equal(ss.crc_errors, 1u);
+    assert_int_equal(rig.fm[0].faults[URB_DL_FAULT_CHECKSUM], 1u); /* unchanged */
+    assert_int_equal(rig.fm[0].rule_violations, 0u);
+}
+
+/* Every required entry point is checked: a NULL one is refused, each on its own. */
+static void test_slave_init_each_entry_point(void **state)
+{
+    (void)state;
+    urb_can_slave_t s;
+    assert_false(urb_can_slave_init(NULL, &rig.nport[0].hal, &rig.fm[0].ops, 5u, 0u));
+    assert_false(urb_can_slave_init(&s, &rig.nport[0].hal, NULL, 5u, 0u));
+    for (int k = 0; k < 3; k++) {
+        urb_can_hal_t hal = rig.nport[0].hal;
+        if (k == 0) {
+            hal.tx = NULL;
+        } else if (k == 1) {
+            hal.tx_abort = NULL;
+        } else {
+            hal.recover = NULL;
+        }
+        assert_false(urb_can_slave_init(&s, &hal, &rig.fm[0].ops, 5u, 0u));
+    }
+    for (int k = 0; k < 8; k++) {
+        urb_dl_mailbox_t ops = rig.fm[0].ops;
+        switch (k) {
+        case 0: ops.inbox_size = NULL; break;
+        case 1: ops.outbox_size = NULL; break;
+        case 2: ops.write_begin = NULL; break;
+        case 3: ops.write_commit = NULL; break;
+        case 4: ops.write_abort = NULL; break;
+        case 5: ops.read_begin = NULL; break;
+        case 6: ops.read_end = NULL; break;
+        default: ops.sync = NULL; break;
+        }
+        assert_false(urb_can_slave_init(&s, &rig.nport[0].hal, &ops, 5u, 0u));
+    }
+    urb_dl_mailbox_t ops = rig.fm[0].ops;
+    ops.fault = NULL; /* optional */
+    assert_true(urb_can_slave_init(&s, &rig.nport[0].hal, &ops, 5u, 0u));
+}
+
+/* The generated CAN codecs' refusals the bus tests never provoke: members out of range on encode,
+ * the identifier rule (address 0 only in SYNC's all-zero identifier) on decode. */
+static void test_codec_refusals(void **state)
+{
+    (void)state;
+    uint8_t buf[2];
+    urb_can_id_t id = {8u, false, 10u, false};
+    assert_int_equal(urb_can_id_encode(&id, buf, sizeof buf), URB_ERR_RANGE); /* mailbox 8 */
+    id.mailbox = 1u;
+    id.address = 64u;
+    assert_int_equal(urb_can_id_encode(&id, buf, sizeof buf), URB_ERR_RANGE);
+    urb_can_id_t out;
+    uint8_t const sync_id[2] = {0u, 0u};
+    assert_int_equal(urb_can_id_decode(&out, sync_id, 2u), 2);
+    uint8_t const zero_read[2] = {0x08u, 0u};     /* address 0, mailbox 0, read */
+    assert_int_equal(urb_can_id_decode(&out, zero_read, 2u), URB_ERR_RANGE);
+    uint8_t const zero_response[2] = {0u, 0x04u}; /* address 0, mailbox 0, response */
+    assert_int_equal(urb_can_id_decode(&out, zero_response, 2u), URB_ERR_RANGE);
+    urb_can_tail_t tail = {32u, true, true, true};
+    uint8_t one[1];
+    assert_int_equal(urb_can_tail_encode(&tail, one, sizeof one), URB_ERR_RANGE);
+    urb_can_write_refusal_t refusal = {9u}; /* not a status */
+    assert_int_equal(urb_can_write_refusal_encode(&refusal, one, sizeof one), URB_ERR_RANGE);
+}
+
 /* `vectors` mode: every transfer of lengths 0..32 with a few transfer ids, one line per frame
  * ("len tid: hex" frames), for the pycyphal comparison in test_can_pycyphal.py. */
 static int print_vectors(void)
@@ -749,6 +1055,14 @@ int main(int argc, char **argv)
         cmocka_unit_test_setup(test_bus_off, rig_setup),
         cmocka_unit_test_setup(test_node_bus_off, rig_setup),
         cmocka_unit_test_setup(test_slave_init_refuses, rig_setup),
+        cmocka_unit_test(test_timing_edges),
+        cmocka_unit_test(test_reassembly_counts),
+        cmocka_unit_test_setup(test_master_lock_and_busy, rig_setup),
+        cmocka_unit_test_setup(test_bus_off_persists, rig_setup),
+        cmocka_unit_test_setup(test_deep_transmit_queues, rig_setup),
+        cmocka_unit_test_setup(test_slave_request_edges, rig_setup),
+        cmocka_unit_test_setup(test_slave_init_each_entry_point, rig_setup),
+        cmocka_unit_test(test_codec_refusals),
     };
     return cmocka_run_group_tests_name("can", tests, NULL, NULL);
 }

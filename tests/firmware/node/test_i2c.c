@@ -619,6 +619,136 @@ static void write_cut_after_a_wrong_check_byte_is_aborted(void **state)
     assert_int_equal(bufs.isr, URB_NODE_NO_BUFFER);
 }
 
+/* Events a node must not act on while a write is in progress: TX_BYTE outside a read (answered
+ * 0xFF, SDA released) and every value beyond URB_I2C_STUCK (not a slave event: NACK), sent after
+ * each byte of a CRC-16 write; the write keeps its phase and count and commits intact. */
+static void foreign_events_leave_a_write_intact(void **state)
+{
+    urb_node_t *node = N(state);
+    uint8_t data[20];
+    for (uint8_t i = 0u; i < 20u; i++) {
+        data[i] = (uint8_t)(0x31u * i + 7u);
+    }
+    uint8_t frame[40];
+    size_t const n = fx_frame(frame, 2u, data, 20u, 0u);
+    assert_int_equal(urb_node_i2c_event(node, URB_I2C_ADDR_WRITE, 0u), URB_I2C_ACK);
+    for (size_t k = 0u; k <= n; k++) {
+        urb_node_downlink_t before;
+        urb_node_downlink_t after;
+        urb_node_downlink(node, &before);
+        assert_int_equal(urb_node_i2c_event(node, URB_I2C_TX_BYTE, 0u), 0xFFu);
+        for (unsigned ev = (unsigned)URB_I2C_STUCK + 1u; ev <= (unsigned)URB_I2C_EV_ERROR; ev++) {
+            assert_int_equal(urb_node_i2c_event(node, (urb_i2c_event_t)ev, 0x5Au), URB_I2C_NACK);
+        }
+        urb_node_downlink(node, &after);
+        assert_int_equal(after.phase, before.phase);
+        assert_int_equal(after.mailbox, before.mailbox);
+        assert_int_equal(after.count, before.count);
+        if (k < n) {
+            assert_int_equal(urb_node_i2c_event(node, URB_I2C_RX_BYTE, frame[k]), URB_I2C_ACK);
+        }
+    }
+    (void)urb_node_i2c_event(node, URB_I2C_STOP, 0u);
+    uint8_t got[20];
+    assert_int_equal(take_inbox(node, 2u, got), URB_NODE_NEW);
+    assert_memory_equal(got, data, 20u);
+    /* after the write, outside any transaction: still 0xFF */
+    assert_int_equal(urb_node_i2c_event(node, URB_I2C_TX_BYTE, 0u), 0xFFu);
+    /* a write cut after its first check byte leaves the byte count inside the check: 0xFF too */
+    assert_int_equal(fx_write_raw(node, frame, n - 1u, true), FX_ALL_ACKED);
+    assert_int_equal(urb_node_i2c_event(node, URB_I2C_TX_BYTE, 0u), 0xFFu);
+    assert_int_equal(urb_node_i2c_event(node, URB_I2C_TX_BYTE, 0u), 0xFFu);
+}
+
+/* A write that fails (a wrong check on a CRC-8 or CRC-16 inbox) or that a bus error or a stuck bus
+ * ends after its good check leaves no write open: the interrupt gave its buffer up
+ * (MailboxInbox.tla IsrWriteAbort), as the trace observers' view shows. */
+static void failed_writes_leave_no_write_open(void **state)
+{
+    urb_node_t *node = N(state);
+    uint8_t data[20] = {0x11u, 0x22u};
+    uint8_t frame[40];
+    urb_node_buffers_t bufs;
+    for (uint8_t m = 1u; m <= 2u; m++) {
+        uint8_t const size = urb_node_inbox_size(node, m);
+        size_t const n = fx_frame(frame, m, data, size, 0x04u);
+        assert_int_equal(fx_write_raw(node, frame, n, false), (int)n - 1); /* the last check byte NACKed */
+        assert_true(urb_node_inbox_buffers(node, m, &bufs));
+        assert_int_equal(bufs.isr, URB_NODE_NO_BUFFER);
+        (void)urb_node_i2c_event(node, URB_I2C_STOP, 0u);
+        static const urb_i2c_event_t ends[] = {URB_I2C_BUS_ERROR, URB_I2C_STUCK};
+        for (size_t e = 0u; e < 2u; e++) {
+            (void)fx_frame(frame, m, data, size, 0u);
+            assert_int_equal(fx_write_raw(node, frame, n, false), FX_ALL_ACKED);
+            urb_node_downlink_t dl;
+            urb_node_downlink(node, &dl);
+            assert_int_equal(dl.phase, URB_NODE_DL_WRITE_DONE);
+            (void)urb_node_i2c_event(node, ends[e], 0u);
+            assert_true(urb_node_inbox_buffers(node, m, &bufs));
+            assert_int_equal(bufs.isr, URB_NODE_NO_BUFFER);
+            (void)urb_node_i2c_event(node, URB_I2C_STOP, 0u);
+        }
+        uint8_t got[20];
+        assert_int_equal(take_inbox(node, m, got), URB_NODE_OK); /* nothing committed */
+    }
+}
+
+/* Identification.fault clears only after a COMPLETE identification read (25 data + 2 check bytes)
+ * that began after the fault was published: a read one check byte short keeps it. */
+static void identification_read_one_byte_short_keeps_the_fault(void **state)
+{
+    urb_node_t *node = N(state);
+    uint8_t raw[27];
+    (void)urb_node_i2c_event(node, URB_I2C_STUCK, 0u);
+    assert_true((urb_node_poll(node) & URB_NODE_POLL_IDENT) != 0u); /* fault published */
+    for (size_t len = 3u; len <= 26u; len += 23u) {
+        fx_read(node, raw, len);
+        assert_int_equal(urb_node_poll(node) & URB_NODE_POLL_IDENT, 0u); /* still set */
+    }
+    fx_read(node, raw, 27u);
+    urb_identification_t id;
+    assert_int_equal(urb_identification_decode(&id, raw, 25u), 25);
+    assert_true(id.fault);
+    assert_true((urb_node_poll(node) & URB_NODE_POLL_IDENT) != 0u); /* cleared and republished */
+    fx_read(node, raw, 27u);
+    assert_int_equal(urb_identification_decode(&id, raw, 25u), 25);
+    assert_false(id.fault);
+}
+
+/* The master's NACK of a read byte ends the read at once, before its STOP: the outbox is no longer
+ * latched (the application publishes twice), further clocks read 0xFF, and a complete
+ * identification read counts at the NACK. */
+static void master_nack_ends_the_read_at_once(void **state)
+{
+    urb_node_t *node = N(state);
+    fixture_t *fx = F(state);
+    publish(node, 1u, 0xA1u);
+    assert_true(fx_select(node, 1u));
+    assert_int_equal(urb_node_i2c_event(node, URB_I2C_ADDR_READ, 0u), URB_I2C_ACK);
+    assert_int_equal(urb_node_i2c_event(node, URB_I2C_TX_BYTE, 0u), 0xA1u);
+    assert_int_equal(urb_node_i2c_event(node, URB_I2C_TX_BYTE, 0u), 0xA1u);
+    assert_int_equal(urb_node_i2c_event(node, URB_I2C_TX_NACK, 0u), URB_I2C_ACK);
+    urb_node_downlink_t dl;
+    urb_node_downlink(node, &dl);
+    assert_int_equal(dl.phase, URB_NODE_DL_IDLE);
+    assert_int_equal(urb_node_i2c_event(node, URB_I2C_TX_BYTE, 0u), 0xFFu);
+    publish(node, 1u, 0xB2u);
+    publish(node, 1u, 0xC3u); /* BUSY here if the read still held buffer "A1" */
+    (void)urb_node_i2c_event(node, URB_I2C_STOP, 0u);
+    /* outbox 0: a fault, then a complete identification read ended by the NACK alone */
+    (void)urb_node_i2c_event(node, URB_I2C_STUCK, 0u);
+    assert_true((urb_node_poll(node) & URB_NODE_POLL_IDENT) != 0u);
+    assert_true(fx_select(node, 0u));
+    (void)urb_node_i2c_event(node, URB_I2C_ADDR_READ, 0u);
+    for (unsigned i = 0u; i < 27u; i++) {
+        (void)urb_node_i2c_event(node, URB_I2C_TX_BYTE, 0u);
+    }
+    (void)urb_node_i2c_event(node, URB_I2C_TX_NACK, 0u);
+    assert_true((urb_node_poll(node) & URB_NODE_POLL_IDENT) != 0u); /* the fault flag cleared */
+    assert_int_equal(fx->faults[URB_NODE_FAULT_STUCK_BUS], 1u);
+    (void)urb_node_i2c_event(node, URB_I2C_STOP, 0u);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -644,6 +774,10 @@ int main(void)
         cmocka_unit_test_setup(observation_views, setup),
         cmocka_unit_test_setup(write_at_the_crc8_tier_boundary, setup),
         cmocka_unit_test_setup(write_cut_after_a_wrong_check_byte_is_aborted, setup),
+        cmocka_unit_test_setup(foreign_events_leave_a_write_intact, setup),
+        cmocka_unit_test_setup(failed_writes_leave_no_write_open, setup),
+        cmocka_unit_test_setup(identification_read_one_byte_short_keeps_the_fault, setup),
+        cmocka_unit_test_setup(master_nack_ends_the_read_at_once, setup),
     };
     return cmocka_run_group_tests_name("node_i2c", tests, NULL, NULL);
 }

@@ -377,6 +377,65 @@ static void mailbox_7_is_usable_and_8_is_not(void **state)
     assert_int_equal(urb_node_release_inbox(node, 7u), URB_NODE_OK);
 }
 
+/* Setup carves 2 x size bytes of the caller's storage block and zero-fills exactly those
+ * (urb_node.h: "zero-filled"; the block itself need not be zeroed), never a byte past storage_len;
+ * a box that needs one byte more than is left is refused. */
+static void setup_zero_fills_exactly_its_bytes(void **state)
+{
+    (void)state;
+    fixture_t f;
+    fx_defaults(&f);
+    urb_node_t *node = &f.node;
+    for (uint16_t len = 21u; len <= 22u; len++) {
+        memset(node, 0, sizeof *node);
+        memset(f.storage, 0xEE, sizeof f.storage); /* whatever the caller's block held */
+        node->storage = f.storage;
+        node->storage_len = len;
+        urb_mailbox_reset(node);
+        assert_int_equal(urb_node_setup_inbox(node, 1u, 5u), URB_NODE_OK); /* bytes 0 .. 9 */
+        /* 12 bytes for outbox 1: one more than the 11 left of 21, exactly the 12 left of 22 */
+        int const expect = (len == 21u) ? URB_NODE_ERR_NOMEM : URB_NODE_OK;
+        assert_int_equal(urb_node_setup_outbox(node, 1u, 6u), expect);
+        uint16_t const carved = (len == 21u) ? 10u : 22u;
+        assert_int_equal(node->storage_used, carved);
+        for (uint16_t k = 0u; k < sizeof f.storage; k++) {
+            assert_int_equal(f.storage[k], (k < carved) ? 0u : 0xEEu);
+        }
+        /* the application reads zeros from both buffers before the first commit */
+        node->started = 1u;
+        const uint8_t *in = NULL;
+        assert_int_equal(urb_lock_inbox_any(node, 1u, &in), URB_NODE_OK);
+        for (uint8_t k = 0u; k < 5u; k++) {
+            assert_int_equal(in[k], 0u);
+        }
+        assert_int_equal(urb_release_inbox_any(node, 1u), URB_NODE_OK);
+    }
+}
+
+/* Inbox 0 and outbox 0 share mb0 without overlapping: a command landing in either inbox-0 buffer
+ * leaves the identification the bridge reads from either outbox-0 buffer intact. */
+static void command_write_leaves_the_identification_intact(void **state)
+{
+    urb_node_t *node = &((fixture_t *)*state)->node;
+    for (unsigned round = 0u; round < 2u; round++) {
+        assert_int_equal(fx_command(node, URB_COMMAND_CODE_IDENTIFY, 0u, 0u, 0u), FX_ALL_ACKED);
+        assert_true((urb_node_poll(node) & URB_NODE_POLL_IDENT) != 0u); /* republished: the other buffer */
+        uint8_t before[27];
+        uint8_t after[27];
+        fx_read(node, before, sizeof before);
+        /* a command the application has not taken yet, with no byte in common with the identification */
+        assert_int_equal(fx_command(node, URB_COMMAND_CODE_SIGNAL, 0xA5u, 0x5A5Au, 0xC3C3u), FX_ALL_ACKED);
+        fx_read(node, after, sizeof after);
+        assert_memory_equal(after, before, sizeof before);
+        urb_identification_t id;
+        assert_int_equal(urb_identification_decode(&id, after, 25u), 25);
+        assert_int_equal(id.class_id, 0x42u);
+        assert_int_equal(id.fingerprint, 0xDEADBEEFu);
+        assert_true((urb_node_poll(node) & URB_NODE_POLL_COMMAND) != 0u); /* takes the command */
+        assert_int_equal(((fixture_t *)*state)->last_signal, 0xA5u);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -394,6 +453,8 @@ int main(void)
         cmocka_unit_test_setup(commit_without_a_write_publishes_nothing, setup),
         cmocka_unit_test_setup(mailbox_7_is_usable_and_8_is_not, setup),
         cmocka_unit_test_setup(byte_without_a_write_stores_nothing, setup),
+        cmocka_unit_test(setup_zero_fills_exactly_its_bytes),
+        cmocka_unit_test_setup(command_write_leaves_the_identification_intact, setup),
     };
     return cmocka_run_group_tests_name("node_mailbox", tests, NULL, NULL);
 }

@@ -535,6 +535,76 @@ static void command_read_before_its_inbox_is_released(void **state)
     assert_int_equal(f->last_signal, 3u);
 }
 
+/* RESET restarts the t_acq measurement (firmware/node/README.md, "RESET still restarts the
+ * measurement"): after it, the same samples give the node the same t_acq, sample by sample, as a
+ * node that has just started, whatever the window held before; and the identification still names
+ * the node (class, index, fingerprint). */
+static void reset_measures_t_acq_like_a_fresh_start(void **state)
+{
+    fixture_t *f = *state;
+    static fixture_t fresh;
+    fx_defaults(&fresh);
+    assert_int_equal(fx_start(&fresh), URB_NODE_OK);
+    f->cfg.acq_guard_us = 0u;
+    f->cfg.acq_window = 4u;
+    fresh.cfg.acq_guard_us = 0u;
+    fresh.cfg.acq_window = 4u;
+    /* before the reset: a long acquisition, three samples into a window */
+    for (unsigned i = 0u; i < 3u; i++) {
+        one_update(f, 2000u);
+    }
+    assert_int_equal(f->node.acq_ticks, 2000u);
+    assert_int_equal(fx_command(&f->node, URB_COMMAND_CODE_RESET, 0u, 0u, 0u), FX_ALL_ACKED);
+    assert_true((urb_node_poll(&f->node) & URB_NODE_POLL_COMMAND) != 0u);
+    /* one inflated sample, then short ones: two windows complete */
+    static const uint32_t samples[] = {96u, 288u, 96u, 96u, 96u, 96u, 96u, 96u, 96u, 96u};
+    for (size_t i = 0u; i < sizeof samples / sizeof samples[0]; i++) {
+        one_update(f, samples[i]);
+        one_update(&fresh, samples[i]);
+        assert_int_equal(f->node.acq_ticks, fresh.node.acq_ticks);
+        urb_identification_t const got = read_id(&f->node);
+        urb_identification_t const want = read_id(&fresh.node);
+        assert_int_equal(got.acq_time, want.acq_time);
+        assert_int_equal(got.class_id, want.class_id);
+        assert_int_equal(got.index, want.index);
+        assert_int_equal(got.fingerprint, want.fingerprint);
+    }
+    assert_int_equal(fresh.node.acq_ticks, 96u); /* the inflated sample is forgotten after two windows */
+    assert_int_equal(f->resets, 1u);
+}
+
+/* What the poll that runs each command reports (URB_NODE_POLL_*): COMMAND for every command; the
+ * commands that change what Identification describes or ask for it (IDENTIFY; RESET: the fault
+ * flag and t_acq restart; SYNC_CONFIG: the synchronisation it reports is reconfigured) also
+ * republish outbox 0 in that same poll (IDENT); NOP and SIGNAL leave outbox 0 alone. */
+static void command_poll_reports(void **state)
+{
+    fixture_t *f = *state;
+    urb_node_t *node = &f->node;
+    static const struct {
+        uint8_t opcode;
+        uint8_t done;
+    } cases[] = {
+        {URB_COMMAND_CODE_NOP, URB_NODE_POLL_COMMAND},
+        {URB_COMMAND_CODE_SIGNAL, URB_NODE_POLL_COMMAND},
+        {URB_COMMAND_CODE_IDENTIFY, URB_NODE_POLL_COMMAND | URB_NODE_POLL_IDENT},
+        {URB_COMMAND_CODE_RESET, URB_NODE_POLL_COMMAND | URB_NODE_POLL_IDENT},
+        {URB_COMMAND_CODE_SIGNAL, URB_NODE_POLL_COMMAND},
+        {URB_COMMAND_CODE_SYNC_CONFIG, URB_NODE_POLL_COMMAND | URB_NODE_POLL_IDENT},
+    };
+    assert_int_equal(urb_node_poll(node), 0u);
+    for (size_t i = 0u; i < sizeof cases / sizeof cases[0]; i++) {
+        /* SYNC_CONFIG: enabled, period and lead kept (0): nothing it reports changes */
+        assert_int_equal(fx_command(node, cases[i].opcode, 1u, 0u, 0u), FX_ALL_ACKED);
+        assert_int_equal(urb_node_poll(node), cases[i].done);
+        assert_int_equal(urb_node_poll(node), 0u);
+        assert_false(urb_node_has_work(node));
+    }
+    assert_int_equal(f->signals, 2u);
+    assert_int_equal(f->resets, 1u);
+    assert_int_equal(f->port.identify_calls, 1u);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -559,6 +629,8 @@ int main(void)
         cmocka_unit_test_setup(acquisition_window_keeps_a_max_one_tick_larger, setup),
         cmocka_unit_test_setup(update_due_during_the_reset_hook_runs, setup),
         cmocka_unit_test_setup(command_read_before_its_inbox_is_released, setup),
+        cmocka_unit_test_setup(reset_measures_t_acq_like_a_fresh_start, setup),
+        cmocka_unit_test_setup(command_poll_reports, setup),
     };
     return cmocka_run_group_tests_name("node_main_loop", tests, NULL, NULL);
 }

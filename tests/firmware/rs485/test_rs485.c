@@ -567,6 +567,418 @@ static void test_slave_init_refuses(void **state)
     assert_true(urb_rs485_slave_init(&s, &L.node[0].hal, &L.fm[0].ops, 127u, &L.tm, 0u));
 }
 
+/* ===== Paths the end-to-end tests above do not take (make coverage lists them) ================= */
+
+/* The link check appended to the `covered` bytes in buf (CRC-8 low tier, CRC-16 little-endian):
+ * the frame's length. */
+static uint8_t seal(uint8_t *buf, uint8_t covered)
+{
+    uint32_t const c = urb_link_check(buf, covered, NULL, 0u);
+    size_t const size = urb_link_check_size(covered);
+    buf[covered] = (uint8_t)(c & 0xFFu);
+    if (size == 2u) {
+        buf[covered + 1u] = (uint8_t)(c >> 8);
+    }
+    return (uint8_t)(covered + size);
+}
+
+/* The bridge alone, driven byte by byte at 1 Mbaud (a character 10 us, t1.5 15 us, t3.5 35 us). */
+static uint32_t mt;
+
+static void master_begin_at(uint8_t op, uint8_t address, uint8_t mailbox, uint8_t length)
+{
+    urb_downlink_txn_t t = {op, address, mailbox, length, 0x37u, false, L.data};
+    mt += 1000u; /* after a silence */
+    assert_true(L.dl.begin(L.dl.ctx, &t, mt));
+    assert_int_equal(L.master.phase, 2u); /* sending */
+}
+
+/* Pulls the request and hands each byte back as its echo (`count` of them); returns the bytes. */
+static uint8_t master_echo(uint8_t *sent, uint8_t count)
+{
+    uint8_t n = 0u;
+    while ((n < count) && urb_rs485_master_tx_next(&L.master, &sent[n])) {
+        mt += 10u;
+        urb_rs485_master_rx(&L.master, sent[n], mt);
+        n++;
+    }
+    return n;
+}
+
+/* The whole request echoed and ended by silence: the node's turn. */
+static void master_request_out(void)
+{
+    uint8_t sent[URB_RS485_MAX_FRAME];
+    (void)master_echo(sent, URB_RS485_MAX_FRAME);
+    mt += 50u;
+    assert_int_equal(L.dl.poll(L.dl.ctx, mt), URB_DOWNLINK_BUSY);
+    assert_int_equal(L.master.phase, 4u); /* waiting for the answer */
+}
+
+/* An answer frame on the line, then the silence that ends it; returns the poll's outcome. */
+static int master_answer(const uint8_t *a, uint8_t n)
+{
+    for (uint8_t i = 0u; i < n; i++) {
+        mt += 10u;
+        urb_rs485_master_rx(&L.master, a[i], mt);
+    }
+    mt += 50u;
+    return L.dl.poll(L.dl.ctx, mt);
+}
+
+static int answered(uint8_t op, uint8_t status, uint8_t mailbox, uint8_t data_len)
+{
+    master_begin_at(op, 20u, mailbox, (op == URB_DL_WRITE) ? 2u : data_len);
+    master_request_out();
+    urb_rs485_response_t r;
+    memset(&r, 0, sizeof r);
+    r.status = status;
+    r.mailbox = mailbox;
+    r.data_len = data_len;
+    uint8_t a[URB_RS485_MAX_FRAME];
+    int32_t const n = urb_rs485_response_encode(&r, a, sizeof a);
+    assert_true(n > 0);
+    return master_answer(a, (uint8_t)n);
+}
+
+static void test_master_answers(void **state)
+{
+    (void)state;
+    mt = 0u;
+    /* the refusals a node sends come through; a status no node sends is garbled */
+    static const uint8_t refusals[4] = {URB_STATUS_NODE_BUSY, URB_STATUS_CHECKSUM, URB_STATUS_SIZE_MISMATCH,
+                                        URB_STATUS_BAD_REQUEST};
+    for (uint8_t i = 0u; i < 4u; i++) {
+        assert_int_equal(answered(URB_DL_WRITE, refusals[i], 1u, 0u), refusals[i]);
+    }
+    urb_rs485_master_stats_t st;
+    urb_rs485_master_stats(&L.master, &st);
+    assert_int_equal(st.bad, 0u);
+    assert_int_equal(answered(URB_DL_WRITE, URB_STATUS_BUSY, 1u, 0u), URB_STATUS_TIMEOUT);
+    /* OK with data to a write: not an answer a node sends; the write may be stored: TIMEOUT */
+    assert_int_equal(answered(URB_DL_WRITE, URB_STATUS_OK, 1u, 3u), URB_STATUS_TIMEOUT);
+    urb_rs485_master_stats(&L.master, &st);
+    assert_int_equal(st.bad, 2u);
+    /* a frame whose check passes and that is no response (its response bit clear): garbled */
+    master_begin_at(URB_DL_READ, 20u, 1u, 6u);
+    master_request_out();
+    uint8_t a[4] = {(uint8_t)(0x10u | URB_STATUS_OK), 0u, 0u, 0u};
+    assert_int_equal(master_answer(a, seal(a, 1u)), URB_STATUS_CHECKSUM);
+    urb_rs485_master_stats(&L.master, &st);
+    assert_int_equal(st.bad, 3u);
+    /* an answer longer than any frame: a babbler, garbled */
+    master_begin_at(URB_DL_READ, 20u, 1u, 6u);
+    master_request_out();
+    uint8_t junk[40];
+    memset(junk, 0x81, sizeof junk);
+    assert_int_equal(master_answer(junk, 40u), URB_STATUS_CHECKSUM);
+    urb_rs485_master_stats(&L.master, &st);
+    assert_int_equal(st.bad, 4u);
+    assert_int_equal(st.broken, 0u);
+}
+
+/* A collision cuts the request after its n-th byte: the cut frame reaches no node unless what the
+ * line carried is a frame whose check passes (then the node's check decides: TIMEOUT). With
+ * CRC-16 (17 bytes and more) both check bytes must match; a 16-byte cut has no check at all. */
+static int cut_at(uint8_t n, int lo_ok, int hi_ok)
+{
+    urb_rs485_request_t q;
+    memset(&q, 0, sizeof q);
+    q.address = 20u;
+    q.select.mailbox = 2u;
+    q.data_len = 32u;
+    for (uint8_t i = 0u; i < 32u; i++) {
+        q.data[i] = (uint8_t)(i * 11u + 3u);
+        L.data[i] = q.data[i];
+    }
+    uint8_t frame[URB_RS485_MAX_FRAME + 2u];
+    assert_true(urb_rs485_request_encode(&q, frame, sizeof frame) > 0);
+    uint8_t last = (uint8_t)~frame[n - 1u]; /* a byte other than the one sent */
+    if (n >= 17u) {
+        /* data[k] is frame byte k + 2: the cut frame's check bytes are frame[n - 2] and `last` */
+        uint32_t const c = urb_link_check(frame, (size_t)n - 2u, NULL, 0u);
+        L.data[n - 4u] = (uint8_t)(lo_ok ? (c & 0xFFu) : ((c & 0xFFu) ^ 1u));
+        if (hi_ok) {
+            last = (uint8_t)(c >> 8);
+            if (last == frame[n - 1u]) {
+                L.data[n - 3u] = (uint8_t)~last; /* the sent byte differs from the line's */
+            }
+        }
+    }
+    master_begin_at(URB_DL_WRITE, 20u, 2u, 32u);
+    uint8_t sent[URB_RS485_MAX_FRAME];
+    assert_int_equal(master_echo(sent, (uint8_t)(n - 1u)), n - 1u);
+    uint8_t b;
+    assert_true(urb_rs485_master_tx_next(&L.master, &b));
+    assert_true(b != last);
+    mt += 10u;
+    urb_rs485_master_rx(&L.master, last, mt); /* the collision */
+    assert_false(L.bridge.driving);
+    mt += 50u;
+    return L.dl.poll(L.dl.ctx, mt);
+}
+
+static void test_master_collisions(void **state)
+{
+    (void)state;
+    mt = 0u;
+    L.bridge.driving = true;
+    assert_int_equal(cut_at(16u, 0, 0), URB_STATUS_BUS_STUCK); /* no check: no frame */
+    L.bridge.driving = true;
+    assert_int_equal(cut_at(20u, 0, 1), URB_STATUS_BUS_STUCK); /* first check byte wrong */
+    L.bridge.driving = true;
+    assert_int_equal(cut_at(20u, 1, 0), URB_STATUS_BUS_STUCK); /* second check byte wrong */
+    L.bridge.driving = true;
+    /* both right: a 20-byte frame a node would take; the bridge sees its frame end short */
+    assert_int_equal(cut_at(20u, 1, 1), URB_STATUS_TIMEOUT);
+    urb_rs485_master_stats_t st;
+    urb_rs485_master_stats(&L.master, &st);
+    assert_int_equal(st.collisions, 5u); /* the last cut counts twice: its byte and its short frame */
+    /* the echo right but broken by a silence over t1.5 inside the frame: a collision too */
+    master_begin_at(URB_DL_READ, 20u, 1u, 6u);
+    uint8_t b0, b1;
+    assert_true(urb_rs485_master_tx_next(&L.master, &b0));
+    mt += 10u;
+    urb_rs485_master_rx(&L.master, b0, mt);
+    assert_true(urb_rs485_master_tx_next(&L.master, &b1));
+    mt += 10u + 16u;
+    urb_rs485_master_rx(&L.master, b1, mt);
+    /* the receiver discards a broken frame without an end event, so the drain ends by the timeout */
+    mt += 50u;
+    assert_int_equal(L.dl.poll(L.dl.ctx, mt), URB_DOWNLINK_BUSY);
+    assert_int_equal(L.dl.poll(L.dl.ctx, mt + L.master.timeout_us), URB_STATUS_BUS_STUCK);
+    urb_rs485_master_stats(&L.master, &st);
+    assert_int_equal(st.collisions, 6u);
+}
+
+typedef struct {
+    uint32_t locks, unlocks;
+    bool held;
+} rs_lock_t;
+
+static rs_lock_t rs_lock;
+
+static void rs_hal_lock(void *ctx, bool locked)
+{
+    (void)ctx;
+    assert_true(rs_lock.held != locked); /* never nested */
+    if (locked) {
+        rs_lock.locks++;
+    } else {
+        rs_lock.unlocks++;
+    }
+    rs_lock.held = locked;
+}
+
+static void test_master_edges(void **state)
+{
+    (void)state;
+    mt = 0u;
+    /* the HAL's optional lock: taken and released around every main-loop step */
+    memset(&rs_lock, 0, sizeof rs_lock);
+    L.bridge.hal.lock = rs_hal_lock;
+    assert_false(urb_rs485_master_busy(&L.master));
+    assert_int_equal(run(URB_DL_READ, 20u, 1u, 6u), URB_STATUS_OK);
+    assert_true(rs_lock.locks > 2u);
+    assert_int_equal(rs_lock.locks, rs_lock.unlocks);
+    L.bridge.hal.lock = NULL;
+    mt = L.now;
+    /* a request to address 0 goes to address 1 (0 is the broadcast); nothing more to pull at the end */
+    master_begin_at(URB_DL_READ, 0u, 1u, 6u);
+    assert_true(urb_rs485_master_busy(&L.master));
+    uint8_t sent[URB_RS485_MAX_FRAME];
+    uint8_t const n = master_echo(sent, URB_RS485_MAX_FRAME);
+    assert_int_equal(sent[0], 1u);
+    assert_int_equal(n, 3u);
+    uint8_t b;
+    assert_false(urb_rs485_master_tx_next(&L.master, &b));
+    /* node 1 answers, and a byte right after the answer's end reaches the bridge before its poll */
+    mt += 50u;
+    assert_int_equal(L.dl.poll(L.dl.ctx, mt), URB_DOWNLINK_BUSY);
+    urb_rs485_response_t r = {URB_STATUS_OK, 1u, {1u, 2u, 3u, 4u, 5u, 6u}, 6u};
+    uint8_t a[URB_RS485_MAX_FRAME];
+    int32_t const an = urb_rs485_response_encode(&r, a, sizeof a);
+    for (int32_t i = 0; i < an; i++) {
+        mt += 10u;
+        urb_rs485_master_rx(&L.master, a[i], mt);
+    }
+    mt += 50u;
+    urb_rs485_master_rx(&L.master, 0x55u, mt); /* ends the answer: outcome ready, heard as babble */
+    assert_false(urb_rs485_master_busy(&L.master));
+    urb_rs485_master_stats_t st;
+    urb_rs485_master_stats(&L.master, &st);
+    assert_int_equal(st.babble, 1u);
+    assert_int_equal(L.dl.poll(L.dl.ctx, mt), URB_STATUS_OK);
+    assert_memory_equal(L.data, r.data, 6u);
+    /* a transceiver that never echoes: every byte pulled, none more; the request times out and
+     * the line is let go */
+    master_begin_at(URB_DL_READ, 20u, 1u, 6u);
+    assert_true(L.bridge.driving);
+    for (uint8_t i = 0u; i < 3u; i++) {
+        assert_true(urb_rs485_master_tx_next(&L.master, &b));
+    }
+    assert_false(urb_rs485_master_tx_next(&L.master, &b));
+    assert_int_equal(L.dl.poll(L.dl.ctx, mt + L.master.timeout_us + 1u), URB_STATUS_TIMEOUT);
+    assert_false(L.bridge.driving);
+    mt += L.master.timeout_us + 1u;
+    /* a SYNC cut at its last byte and a line that stays busy past the timeout: TIMEOUT (the cut
+     * frame was whole up to its check: not BUS_STUCK) */
+    master_begin_at(URB_DL_SYNC, 0u, 0u, 0u);
+    assert_int_equal(master_echo(sent, 2u), 2u);
+    assert_true(urb_rs485_master_tx_next(&L.master, &b));
+    mt += 10u;
+    urb_rs485_master_rx(&L.master, (uint8_t)~b, mt);
+    uint32_t const begun = mt - 30u;
+    while ((uint32_t)(mt - begun) <= L.master.timeout_us) {
+        mt += 10u;
+        urb_rs485_master_rx(&L.master, 0x5Au, mt);
+    }
+    assert_int_equal(L.dl.poll(L.dl.ctx, mt), URB_STATUS_TIMEOUT);
+}
+
+/* The node alone, fed byte by byte at 1 Mbaud. */
+static void node_frame(urb_rs485_slave_t *s, const uint8_t *b, uint8_t n, uint32_t *t)
+{
+    *t += 100u;
+    for (uint8_t i = 0u; i < n; i++) {
+        *t += 10u;
+        urb_rs485_slave_rx(s, b[i], *t);
+    }
+}
+
+/* The answer the node started: its status (pulled from the slave, decoded). */
+static uint8_t node_answer_status(urb_rs485_slave_t *s)
+{
+    uint8_t a[URB_RS485_MAX_FRAME];
+    uint8_t n = 0u;
+    while ((n < sizeof a) && urb_rs485_slave_tx_next(s, &a[n])) {
+        n++;
+    }
+    urb_rs485_response_t r;
+    assert_true(urb_rs485_response_decode(&r, a, n) > 0);
+    return r.status;
+}
+
+static void test_slave_edges(void **state)
+{
+    (void)state;
+    urb_rs485_slave_t *s = &L.slave[0];
+    uint32_t t = 1000u;
+    /* reserved select bits: BAD_REQUEST */
+    uint8_t req[8] = {20u, 0x08u | 1u, 0u, 0u, 0u, 0u, 0u, 0u};
+    node_frame(s, req, seal(req, 2u), &t);
+    assert_false(urb_rs485_slave_sending(s));
+    urb_rs485_slave_poll(s, t + 50u);
+    assert_true(urb_rs485_slave_sending(s));
+    assert_int_equal(node_answer_status(s), URB_STATUS_BAD_REQUEST);
+    assert_false(urb_rs485_slave_sending(s));
+    /* a read with data: BAD_REQUEST, the outbox not latched */
+    uint8_t rd[8] = {20u, 0x80u | 1u, 7u, 0u, 0u, 0u, 0u, 0u};
+    node_frame(s, rd, seal(rd, 3u), &t);
+    urb_rs485_slave_poll(s, t + 50u);
+    assert_int_equal(node_answer_status(s), URB_STATUS_BAD_REQUEST);
+    assert_int_equal(L.fm[0].reads_begun[1], 0u);
+    /* a write whose frame the port ends late (by the next frame's first byte, no poll between):
+     * dropped unanswered, the write aborted */
+    uint8_t wr[8] = {20u, 1u, 0xAAu, 0xBBu, 0u, 0u, 0u, 0u};
+    node_frame(s, wr, seal(wr, 4u), &t);
+    assert_true(L.fm[0].writing[1]);
+    t += 100u;
+    urb_rs485_slave_rx(s, 99u, t); /* another node's frame begins */
+    assert_false(urb_rs485_slave_sending(s));
+    assert_false(L.fm[0].writing[1]);
+    assert_int_equal(L.fm[0].commits[1], 0u);
+    assert_int_equal(L.fm[0].aborts[1], 1u);
+    urb_rs485_slave_stats_t ss;
+    urb_rs485_slave_stats(s, &ss);
+    assert_int_equal(ss.answered, 2u);
+    /* no fault hook: a bad check is answered and counted, no fault reported */
+    urb_dl_mailbox_t ops = L.fm[0].ops;
+    ops.fault = NULL;
+    urb_rs485_slave_t quiet;
+    assert_true(urb_rs485_slave_init(&quiet, &L.node[0].hal, &ops, 20u, &L.tm, t));
+    uint8_t bad[8] = {20u, 1u, 1u, 2u, 0u, 0u, 0u, 0u};
+    uint8_t const bn = seal(bad, 4u);
+    bad[bn - 1u] ^= 1u;
+    node_frame(&quiet, bad, bn, &t);
+    urb_rs485_slave_poll(&quiet, t + 50u);
+    assert_int_equal(node_answer_status(&quiet), URB_STATUS_CHECKSUM);
+    urb_rs485_slave_stats(&quiet, &ss);
+    assert_int_equal(ss.bad_check, 1u);
+    assert_int_equal(L.fm[0].faults[URB_DL_FAULT_CHECKSUM], 0u);
+    assert_int_equal(L.fm[0].rule_violations, 0u);
+}
+
+static void test_slave_init_each_entry_point(void **state)
+{
+    (void)state;
+    urb_rs485_slave_t s;
+    assert_false(urb_rs485_slave_init(NULL, &L.node[0].hal, &L.fm[0].ops, 5u, &L.tm, 0u));
+    assert_false(urb_rs485_slave_init(&s, NULL, &L.fm[0].ops, 5u, &L.tm, 0u));
+    assert_false(urb_rs485_slave_init(&s, &L.node[0].hal, NULL, 5u, &L.tm, 0u));
+    assert_false(urb_rs485_slave_init(&s, &L.node[0].hal, &L.fm[0].ops, 5u, NULL, 0u));
+    urb_rs485_hal_t h = L.node[0].hal;
+    h.tx_start = NULL;
+    assert_false(urb_rs485_slave_init(&s, &h, &L.fm[0].ops, 5u, &L.tm, 0u));
+    for (int k = 0; k < 8; k++) {
+        urb_dl_mailbox_t ops = L.fm[0].ops;
+        switch (k) {
+        case 0: ops.inbox_size = NULL; break;
+        case 1: ops.outbox_size = NULL; break;
+        case 2: ops.write_begin = NULL; break;
+        case 3: ops.write_commit = NULL; break;
+        case 4: ops.write_abort = NULL; break;
+        case 5: ops.read_begin = NULL; break;
+        case 6: ops.read_end = NULL; break;
+        default: ops.sync = NULL; break;
+        }
+        assert_false(urb_rs485_slave_init(&s, &L.node[0].hal, &ops, 5u, &L.tm, 0u));
+    }
+    urb_dl_mailbox_t ops = L.fm[0].ops;
+    ops.fault = NULL; /* optional */
+    assert_true(urb_rs485_slave_init(&s, &L.node[0].hal, &ops, 5u, &L.tm, 0u));
+}
+
+/* The generated RS485 codecs' refusals the line tests never provoke: members out of range and the
+ * schema's rules (a read carries no data; only a successful read answer does) on encode. */
+static void test_codec_refusals(void **state)
+{
+    (void)state;
+    uint8_t buf[URB_RS485_MAX_FRAME];
+    urb_rs485_request_t q;
+    memset(&q, 0, sizeof q);
+    q.address = 0u;
+    assert_int_equal(urb_rs485_request_encode(&q, buf, sizeof buf), URB_ERR_RANGE);
+    q.address = 128u;
+    assert_int_equal(urb_rs485_request_encode(&q, buf, sizeof buf), URB_ERR_RANGE);
+    q.address = 5u;
+    q.select.mailbox = 8u;
+    assert_int_equal(urb_rs485_request_encode(&q, buf, sizeof buf), URB_ERR_RANGE);
+    q.select.mailbox = 1u;
+    q.data_len = 33u;
+    assert_int_equal(urb_rs485_request_encode(&q, buf, sizeof buf), URB_ERR_RANGE);
+    q.data_len = 1u;
+    q.select.read = true; /* a read with data */
+    assert_int_equal(urb_rs485_request_encode(&q, buf, sizeof buf), URB_ERR_RANGE);
+    q.data_len = 0u;
+    assert_int_equal(urb_rs485_request_encode(&q, buf, sizeof buf), 3);
+    urb_rs485_response_t r;
+    memset(&r, 0, sizeof r);
+    r.status = 9u; /* not a status */
+    assert_int_equal(urb_rs485_response_encode(&r, buf, sizeof buf), URB_ERR_RANGE);
+    r.status = URB_STATUS_OK;
+    r.mailbox = 8u;
+    assert_int_equal(urb_rs485_response_encode(&r, buf, sizeof buf), URB_ERR_RANGE);
+    r.mailbox = 1u;
+    r.data_len = 33u;
+    assert_int_equal(urb_rs485_response_encode(&r, buf, sizeof buf), URB_ERR_RANGE);
+    r.status = URB_STATUS_CHECKSUM; /* a refusal with data */
+    r.data_len = 1u;
+    assert_int_equal(urb_rs485_response_encode(&r, buf, sizeof buf), URB_ERR_RANGE);
+    r.data_len = 0u;
+    assert_int_equal(urb_rs485_response_encode(&r, buf, sizeof buf), 2);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -581,6 +993,12 @@ int main(void)
         cmocka_unit_test_setup(test_stalled_answer, line_setup),
         cmocka_unit_test_setup(test_slave_init_refuses, line_setup),
         cmocka_unit_test(test_slave_read_latch_released_when_answer_cut),
+        cmocka_unit_test_setup(test_master_answers, line_setup),
+        cmocka_unit_test_setup(test_master_collisions, line_setup),
+        cmocka_unit_test_setup(test_master_edges, line_setup),
+        cmocka_unit_test_setup(test_slave_edges, line_setup),
+        cmocka_unit_test_setup(test_slave_init_each_entry_point, line_setup),
+        cmocka_unit_test(test_codec_refusals),
     };
     return cmocka_run_group_tests_name("rs485", tests, NULL, NULL);
 }
