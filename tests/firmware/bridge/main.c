@@ -18,5 +18,6 @@ int main(void)
     failed += run_master_trace_tests();
     failed += run_uplink_model_tests();
     failed += run_usb_model_tests();
+    failed += run_fifo_model_tests();
     return failed > 255 ? 255 : failed;
 }

@@ -72,5 +72,6 @@ int run_mutation_kill_tests(void);
 int run_master_trace_tests(void);
 int run_uplink_model_tests(void);
 int run_usb_model_tests(void);
+int run_fifo_model_tests(void);
 
 #endif

@@ -27,7 +27,7 @@
  *    reported sent that was not queued; no byte of `data` past `length` written;
  *  - no out-of-bounds access, overflow or undefined shift (ESBMC's checks); each interrupt entry
  *    (rx, tx_done) within FW_CAN_FRAME_BUDGET, begin() and poll() within
- *    FW_CAN_MASTER_CALL_BUDGET (fw_budgets.h).
+ *    FW_CAN_MASTER_CALL_BUDGET (fw_can_budgets.h).
  * Cover points: every operation begun, every status of the contract reported, a begin() refused, a
  * bus-off begin() with and without a new recovery, a refused queue slot, a stale answer ignored, a
  * second request on the same session.
@@ -37,7 +37,8 @@
  *          controller's state; no frame received (timeouts, NO_NODE, bus-off, clear, SYNC, the
  *          transfer ids of successive requests, refused transmit slots)
  *   PART=2 the answer side: an error-active controller took the request and reported it sent, then
- *          any received frames and polls (the statuses an answer gives, CRC failures, stale ids)
+ *          any received frames and polls, then a poll (the statuses an answer gives, CRC failures,
+ *          stale ids)
  * Assumption: a frame of the awaited identifier arrives only after the request was reported sent
  * (the node answers a request it received whole, whose last frame's end the bus reported to both).
  * The CRC step is a cheap linear stand-in (stubs/fw_can_crc_stub.c): the master only carries the
@@ -50,24 +51,17 @@
  * asked for; a write whose answer failed its transfer CRC was reported CHECKSUM ("not stored"),
  * though the node may have stored it (Bridge.tla WriteStatusTruthful): now TIMEOUT.
  */
-/* Requirements it is to verify (the traceability marker is added when the folder leaves wip/ and
- * runs: an unrun proof is no evidence): urb.DLK_001, urb.DLK_002, urb.DLK_003. */
+/* lobster-trace: urb.DLK_001, urb.DLK_002 (the requirements this proof verifies: the fast tier's
+ * answer side, a read's answer taken only whole, with the request's transfer id and a good CRC) */
 #include "urb_verify.h"
 
-#include "fw_budgets.h"
+#include "fw_can_budgets.h"
 #include "urb_can_master.h"
 #include "urb_can_wire.h"
 #include "urb_core.h"
 
 URB_PROOF_COST_STORAGE;
 
-/* CAN master begin() and poll() (the bridge's main loop): begin() plans the request and queues as
- * many of its frames as the controller's transmit slots take, poll() one it refused; each within
- * the time of one shortest frame at 1 Mb/s (55 us = 2640 cycles), so the bus idles at most that
- * long between transactions on the CPU's account. Defined here, not in fw_budgets.h, while the
- * proof is in wip/: every firmware proof reads fw_budgets.h, so editing it re-runs all of them
- * instead of replaying their cache entries; it moves there with the folder. */
-#define FW_CAN_MASTER_CALL_BUDGET ((FW_CPU_HZ / FW_CAN_BIT_RATE) * FW_CAN_SHORTEST_FRAME_BITS)
 
 #ifndef URB_STEPS
 #define URB_STEPS 4
@@ -432,6 +426,13 @@ static void ev_tx_done(urb_can_master_t *mp)
  * table starts zero, which is sound because init writes all of it, and lets ESBMC fold init's 1024
  * constant stores instead of carrying them as array updates into every later read.) */
 static urb_can_master_t m;
+/* the master's arrays in the proof view (stubs/can_master_view.py): the one row of its transfer-id
+ * table, of the node at urb_view_tid_address */
+uint8_t urb_view_tid_address;
+uint8_t urb_view_next_tid[1][16];
+uint8_t urb_view_refusal[1];
+uint8_t urb_view_sync_payload[1];
+urb_can_frame_t urb_view_frame;
 
 static void garbage_before_init(void)
 {
@@ -456,6 +457,9 @@ static void garbage_before_init(void)
 void harness(void)
 {
     garbage_before_init();
+    uint8_t const address = URB_NONDET_U8();
+    URB_ASSUME((address >= URB_CAN_FIRST_ADDRESS) && (address <= URB_CAN_LAST_ADDRESS));
+    urb_view_tid_address = address;
     urb_can_hal_t hal;
     hal.ctx = NULL;
     hal.tx = hal_tx;
@@ -468,8 +472,6 @@ void harness(void)
     urb_can_master_init(&m, &hal, &cfg);
     urb_downlink_t dl;
     urb_can_master_downlink(&m, &dl);
-    uint8_t const address = URB_NONDET_U8();
-    URB_ASSUME((address >= URB_CAN_FIRST_ADDRESS) && (address <= URB_CAN_LAST_ADDRESS));
     ctrl_state = URB_NONDET_U8();
     URB_ASSUME(ctrl_state <= (uint8_t)URB_CAN_BUS_OFF);
     now = URB_NONDET_U32();
@@ -507,5 +509,6 @@ void harness(void)
             ev_poll(&dl);
         }
     }
+    ev_poll(&dl); /* what the frames gave (STEPS answer frames then a poll: a two-frame answer's status) */
 #endif
 }
