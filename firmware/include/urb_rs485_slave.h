@@ -13,7 +13,9 @@
  *    data position, when the frame cannot be a probe any more); the end of the frame commits or
  *    aborts. Nothing is kept of a frame but its header, its CRCs and two bytes.
  *  - The answer starts at the end of the request (the t3.5 silence): the port enables the driver
- *    and pulls its bytes; the outbox is latched from the answer's start to its last byte.
+ *    and pulls its bytes; the outbox is latched from the answer's start to its last byte. An
+ *    answer not all sent when a frame ends (t3.5 of silence: the UART stalled, the driver lost the
+ *    line) is dropped and its outbox released as not complete (read_end(.., false)).
  *  - A frame to address 0 with a good check, three bytes long, is SYNC: its counter is passed on
  *    with the time stamp of its first byte.
  *  - Broadcasts and frames to other nodes get no answer; nor does a frame without a select byte.

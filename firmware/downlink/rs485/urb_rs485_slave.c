@@ -3,7 +3,8 @@
  *
  * Seeded bugs for the mutant checks: URB_MUTANT_RS485_COMMIT_BAD_CHECK (a write whose check failed
  * is committed), URB_MUTANT_RS485_ANSWER_OTHERS (the node answers frames addressed to another
- * node), URB_MUTANT_RS485_PROBE_WRITES (a probe begins a write: the mailbox is touched).
+ * node), URB_MUTANT_RS485_PROBE_WRITES (a probe begins a write: the mailbox is touched),
+ * URB_MUTANT_RS485_KEEP_CUT_READ (a cut answer's read stays latched: read_begin twice, the old code).
  */
 #include "urb_rs485_slave.h"
 
@@ -147,6 +148,24 @@ static void request(urb_rs485_slave_t *s, const urb_rs485_frame_t *f)
     answer(s, URB_STATUS_OK, m, NULL, 0u);
 }
 
+/* A frame ended, so the line was silent for t3.5: an answer not all sent by now was cut (the UART
+ * stalled, the driver lost the line) and the bridge has given up on it. Drop it, ending its read as
+ * not complete, before anything else is begun: a second read_begin, or a later answer's end, must
+ * not find the outbox still latched (urb_dl_slave.h: a read is begun and ended exactly once). */
+static void drop_answer(urb_rs485_slave_t *s)
+{
+#if !defined(URB_MUTANT_RS485_KEEP_CUT_READ)
+    if (s->reading != URB_RS485_SLAVE_NONE) {
+        s->mb->read_end(s->mb->ctx, s->reading, false); /* MailboxOutbox.tla IsrReadEnd */
+        s->reading = URB_RS485_SLAVE_NONE;
+    }
+    s->tx_total = 0u;
+    s->tx_pos = 0u;
+#else
+    (void)s;
+#endif
+}
+
 /* A frame ended. `in_time`: at its t3.5 silence (a poll); false when the next frame's first byte
  * ended it (the port missed the deadline): answering now would talk over that frame, so the
  * request is dropped unanswered (the bridge sees silence). */
@@ -155,6 +174,7 @@ static void frame_end(urb_rs485_slave_t *s, bool in_time)
     const urb_rs485_frame_t *f = &s->rx.last;
     bool const mine = s->mine != 0u;
     s->mine = 0u;
+    drop_answer(s);
     if (mine && in_time) {
         request(s, f);
         return;

@@ -453,6 +453,108 @@ static void test_stalled_answer(void **state)
     assert_false(L.fm[0].latched[2]);
 }
 
+/* ===== The slave alone: a read's latch when its answer does not finish ======================= */
+
+typedef struct {
+    urb_rs485_hal_t hal;
+    uint32_t tx_starts;
+} lone_port_t;
+
+static void lone_tx_start(void *ctx)
+{
+    ((lone_port_t *)ctx)->tx_starts++;
+}
+
+/* Encodes a request to node 20 and feeds it to *s byte by byte from time t (one character each),
+ * then polls at its t3.5 end; returns that time. */
+static uint32_t lone_request(urb_rs485_slave_t *s, bool read, uint8_t mailbox, uint8_t data_len, uint32_t t)
+{
+    urb_rs485_request_t q;
+    memset(&q, 0, sizeof q);
+    q.address = 20u;
+    q.select.mailbox = mailbox;
+    q.select.read = read;
+    q.data_len = data_len;
+    uint8_t buf[URB_RS485_MAX_FRAME];
+    int32_t const n = urb_rs485_request_encode(&q, buf, sizeof buf);
+    assert_true(n >= 3);
+    for (int32_t i = 0; i < n; i++) {
+        t += s->rx.tm.char_us;
+        urb_rs485_slave_rx(s, buf[i], t);
+    }
+    t += s->rx.tm.char_us + s->rx.tm.t35_us;
+    urb_rs485_slave_poll(s, t);
+    return t;
+}
+
+/* The port takes `count` bytes of the answer and the node hears their echo; then it stops (the
+ * UART stalled, or the driver lost the line): the answer is cut. Returns the last echo's time. */
+static uint32_t lone_send(urb_rs485_slave_t *s, uint8_t count, uint32_t t)
+{
+    for (uint8_t i = 0u; i < count; i++) {
+        uint8_t b;
+        assert_true(urb_rs485_slave_tx_next(s, &b));
+        t += s->rx.tm.char_us;
+        urb_rs485_slave_rx(s, b, t);
+    }
+    return t;
+}
+
+/* A read's answer cut after its header, then (the bridge timed out and moved on) another request
+ * to the node: the first read must end (cut) before anything else is begun: read_begin and
+ * read_end pair up per outbox (urb_dl_slave.h: a read is begun and ended exactly once), for a
+ * second read of the same outbox, of another outbox, and a write after the cut read. */
+static void test_slave_read_latch_released_when_answer_cut(void **state)
+{
+    (void)state;
+    static const uint8_t in0[8] = {6u, 2u, 32u, 1u, 0u, 0u, 0u, 0u};
+    static const uint8_t out0[8] = {25u, 6u, 32u, 0u, 1u, 0u, 0u, 0u};
+    lone_port_t port;
+    memset(&port, 0, sizeof port);
+    port.hal.ctx = &port;
+    port.hal.tx_start = lone_tx_start;
+    port.hal.wake_at = hal_wake;
+    fake_mailbox_t fm;
+    fake_mailbox_init(&fm, in0, out0);
+    urb_rs485_timing_t tm;
+    urb_rs485_timing(&tm, 1000000u);
+    urb_rs485_slave_t s;
+    assert_true(urb_rs485_slave_init(&s, &port.hal, &fm.ops, 20u, &tm, 0u));
+    uint32_t t = 100u;
+    /* a read of outbox 2 answered, its answer cut after 2 bytes; the bridge then reads it again */
+    t = lone_request(&s, true, 2u, 0u, t);
+    assert_int_equal(fm.reads_begun[2], 1u);
+    t = lone_send(&s, 2u, t) + 3000u;
+    t = lone_request(&s, true, 2u, 0u, t);
+    assert_int_equal(fm.rule_violations, 0u); /* not begun while latched */
+    assert_int_equal(fm.reads_begun[2], 2u);
+    assert_int_equal(fm.reads_cut[2], 1u); /* the cut answer ended, not complete */
+    (void)lone_send(&s, 1u + 32u + 2u, t);
+    assert_false(urb_rs485_slave_sending(&s));
+    assert_int_equal(fm.reads_complete[2], 1u);
+    assert_false(fm.latched[2]);
+    /* cut again, then a read of another outbox: outbox 2 must not stay latched */
+    t = lone_request(&s, true, 2u, 0u, t + 3000u);
+    t = lone_send(&s, 1u, t) + 3000u;
+    t = lone_request(&s, true, 0u, 0u, t);
+    t = lone_send(&s, 1u + 25u + 2u, t);
+    assert_false(fm.latched[2]);
+    assert_false(fm.latched[0]);
+    assert_int_equal(fm.reads_cut[2], 2u);
+    assert_int_equal(fm.reads_complete[0], 1u);
+    /* cut once more, then a write: its answer's end must not report the old read complete */
+    t = lone_request(&s, true, 2u, 0u, t + 3000u);
+    t = lone_send(&s, 1u, t) + 3000u;
+    t = lone_request(&s, false, 1u, 2u, t);
+    (void)lone_send(&s, 2u, t); /* the write's answer: header and CRC-8 */
+    assert_int_equal(fm.commits[1], 1u);
+    assert_false(fm.latched[2]);
+    assert_int_equal(fm.reads_complete[2], 1u);
+    assert_int_equal(fm.reads_cut[2], 3u);
+    assert_int_equal(fm.rule_violations, 0u);
+    assert_int_equal(port.tx_starts, 6u); /* every request answered */
+}
+
 static void test_slave_init_refuses(void **state)
 {
     (void)state;
@@ -890,6 +992,7 @@ int main(void)
         cmocka_unit_test_setup(test_collision_and_babble, line_setup),
         cmocka_unit_test_setup(test_stalled_answer, line_setup),
         cmocka_unit_test_setup(test_slave_init_refuses, line_setup),
+        cmocka_unit_test(test_slave_read_latch_released_when_answer_cut),
         cmocka_unit_test_setup(test_master_answers, line_setup),
         cmocka_unit_test_setup(test_master_collisions, line_setup),
         cmocka_unit_test_setup(test_master_edges, line_setup),
