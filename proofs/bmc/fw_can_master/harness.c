@@ -76,6 +76,41 @@ URB_PROOF_COST_STORAGE;
 #define URB_LEN_MAX 8u
 #endif
 
+/* Cover points are judged over the items of their part (tools/proofs.py --covers), and the items
+ * fix the operation at compile time: a point of one operation, or of the request side alone, is
+ * compiled only into the items that can reach it, so the fast tier's one item (PART=2,OP=0, the
+ * read's answer side) lists only the points a read's answer reaches. */
+#if URB_OP == 0
+#define COVER_READ(name) URB_COVER(name)
+#else
+#define COVER_READ(name) ((void)0)
+#endif
+#if URB_OP == 1
+#define COVER_WRITE(name) URB_COVER(name)
+#else
+#define COVER_WRITE(name) ((void)0)
+#endif
+#if URB_OP == 2
+#define COVER_SYNC(name) URB_COVER(name)
+#else
+#define COVER_SYNC(name) ((void)0)
+#endif
+#if URB_OP == 3
+#define COVER_CLEAR(name) URB_COVER(name)
+#else
+#define COVER_CLEAR(name) ((void)0)
+#endif
+#if URB_OP == 4
+#define COVER_PROBE(name) URB_COVER(name)
+#else
+#define COVER_PROBE(name) ((void)0)
+#endif
+#if URB_PART == 1
+#define COVER_REQUEST_SIDE(name) URB_COVER(name)
+#else
+#define COVER_REQUEST_SIDE(name) ((void)0)
+#endif
+
 #define CAN_SLOTS 3u /* transmit slots of the controller (bxCAN, FDCAN in classic mode) */
 
 /* ----- ghost state: the controller and the contract's bookkeeping ----- */
@@ -136,7 +171,7 @@ static bool hal_tx(void *ctx, const urb_can_frame_t *f)
         URB_ASSERT((f->len == 2u) && (f->data[0] == counter), "tx: SYNC carries its counter");
     }
     if (!tx_always && ((queued >= CAN_SLOTS) || URB_NONDET_BOOL())) {
-        URB_COVER("tx-refused");
+        COVER_REQUEST_SIDE("tx-refused");
         return false;
     }
     URB_COST(FW_HAL_CALL_CYCLES);
@@ -188,13 +223,13 @@ static bool write_refusal(uint8_t st)
 static void judge(uint8_t st)
 {
     if (st == URB_STATUS_BUS_STUCK) {
-        URB_COVER("status-bus-stuck");
+        COVER_REQUEST_SIDE("status-bus-stuck");
         URB_ASSERT(busoff_txn || (op == (uint8_t)URB_DL_CLEAR), "BUS_STUCK: only after bus-off or a clear");
         return;
     }
     URB_ASSERT(!busoff_txn, "bus-off begin: BUS_STUCK, not executed");
     if (op == (uint8_t)URB_DL_CLEAR) {
-        URB_COVER("status-clear-ok");
+        COVER_CLEAR("status-clear-ok");
         URB_ASSERT(st == URB_STATUS_OK, "clear: OK or BUS_STUCK");
         return;
     }
@@ -206,7 +241,7 @@ static void judge(uint8_t st)
         return;
     }
     if (op == (uint8_t)URB_DL_SYNC) {
-        URB_COVER("status-sync-ok");
+        COVER_SYNC("status-sync-ok");
         URB_ASSERT((st == URB_STATUS_OK) && (frames_sent == req_frames), "SYNC: OK once sent");
         return;
     }
@@ -221,13 +256,13 @@ static void judge(uint8_t st)
     }
     URB_ASSERT(ref_done, "a node's status only from its complete answer");
     if (op == (uint8_t)URB_DL_PROBE) {
-        URB_COVER("status-probe-ok");
+        COVER_PROBE("status-probe-ok");
         URB_ASSERT(st == URB_STATUS_OK, "probe: any answer is OK");
         return;
     }
     if (op == (uint8_t)URB_DL_READ) {
         if (st == URB_STATUS_OK) {
-            URB_COVER("status-read-ok");
+            COVER_READ("status-read-ok");
             URB_ASSERT(ref_len == length, "read OK: the answer has length bytes");
             for (uint8_t i = 0u; i < URB_LEN_MAX; i++) {
                 if (i < length) {
@@ -235,21 +270,21 @@ static void judge(uint8_t st)
                 }
             }
         } else if (st == URB_STATUS_SIZE_MISMATCH) {
-            URB_COVER("status-read-size");
+            COVER_READ("status-read-size");
             URB_ASSERT((ref_len != length) && (ref_len != 0u), "read SIZE_MISMATCH: an answer of another length");
         } else {
-            URB_COVER("status-read-bad-request");
+            COVER_READ("status-read-bad-request");
             URB_ASSERT((st == URB_STATUS_BAD_REQUEST) && (ref_len == 0u), "read: BAD_REQUEST on an empty answer");
         }
         return;
     }
     /* write */
     if (st == URB_STATUS_OK) {
-        URB_COVER("status-write-ok");
+        COVER_WRITE("status-write-ok");
         URB_ASSERT(ref_len == 0u, "write OK: only on an empty answer (stored)");
         return;
     }
-    URB_COVER("status-write-refused");
+    COVER_WRITE("status-write-refused");
     URB_ASSERT(write_refusal(st) && (ref_len == 1u) && ((ref_out[0] & 0x0Fu) == st),
                "write failed: only the node's refusal naming it (nothing stored)");
 }
@@ -307,7 +342,7 @@ static void ev_begin(urb_downlink_t *dl, uint8_t address)
             req_frames = urb_can_frames((t.op == (uint8_t)URB_DL_WRITE) ? t.length : 0u);
             if (!recovery_txn) {
                 if (next_tid[s] != 0u) {
-                    URB_COVER("second-request-on-session");
+                    COVER_REQUEST_SIDE("second-request-on-session");
                 }
                 next_tid[s] = (uint8_t)((next_tid[s] + 1u) & URB_CAN_TAIL_TID);
             }
@@ -321,7 +356,7 @@ static void ev_begin(urb_downlink_t *dl, uint8_t address)
     URB_ASSERT(!locked, "begin: the interrupt unmasked on return");
     URB_ASSERT(ok == !was_open, "begin: refused exactly while a transaction runs");
     if (!ok) {
-        URB_COVER("begin-refused");
+        COVER_REQUEST_SIDE("begin-refused");
         return;
     }
     if (busoff_txn) {
@@ -329,21 +364,21 @@ static void ev_begin(urb_downlink_t *dl, uint8_t address)
                        (was_recover_asked && ((uint32_t)(now - was_recover_at) <= urb_can_master_recover_us(1000u))),
                    "bus-off begin: the recovery asked for (unless asked within recover_us)");
         if (recovers_in_call == 0u) {
-            URB_COVER("busoff-begin-no-new-recovery");
+            COVER_REQUEST_SIDE("busoff-begin-no-new-recovery");
         } else {
-            URB_COVER("busoff-begin-recovers");
+            COVER_REQUEST_SIDE("busoff-begin-recovers");
         }
     }
     if (t.op == (uint8_t)URB_DL_READ) {
-        URB_COVER("begin-read");
+        COVER_READ("begin-read");
     } else if (t.op == (uint8_t)URB_DL_WRITE) {
-        URB_COVER("begin-write");
+        COVER_WRITE("begin-write");
     } else if (t.op == (uint8_t)URB_DL_SYNC) {
-        URB_COVER("begin-sync");
+        COVER_SYNC("begin-sync");
     } else if (t.op == (uint8_t)URB_DL_CLEAR) {
-        URB_COVER("begin-clear");
+        COVER_CLEAR("begin-clear");
     } else {
-        URB_COVER("begin-probe");
+        COVER_PROBE("begin-probe");
     }
 }
 
