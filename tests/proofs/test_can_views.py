@@ -18,16 +18,17 @@ HEADER = Path("include/urb_can_master.h")
 SOURCE = Path("downlink/can/urb_can_master.c")
 
 
-def copy_firmware(tmp_path: Path) -> Path:
+def copy_firmware(tmp_path: Path, rels: tuple[Path, ...] = (HEADER, SOURCE)) -> Path:
+    """A copy of the given firmware files (paths under firmware/) in tmp_path/firmware."""
     root = tmp_path / "firmware"
-    for rel in (HEADER, SOURCE):
+    for rel in rels:
         (root / rel).parent.mkdir(parents=True, exist_ok=True)
         shutil.copy(ROOT / "firmware" / rel, root / rel)
     return root
 
 
-def run_view(root: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, str(VIEW), str(root)], capture_output=True, text=True, check=False)
+def run_view(root: Path, view: Path = VIEW) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, str(view), str(root)], capture_output=True, text=True, check=False)
 
 
 def test_view_applies_once_and_moves_every_use(tmp_path: Path) -> None:
@@ -72,35 +73,23 @@ SLAVE_HEADER = Path("include/urb_can_slave.h")
 SLAVE_SOURCE = Path("downlink/can/urb_can_slave.c")
 
 
-def copy_slave(tmp_path: Path) -> Path:
-    root = tmp_path / "firmware"
-    for rel in (SLAVE_HEADER, SLAVE_SOURCE):
-        (root / rel).parent.mkdir(parents=True, exist_ok=True)
-        shutil.copy(ROOT / "firmware" / rel, root / rel)
-    return root
-
-
-def run_slave_view(root: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, str(SLAVE_VIEW), str(root)], capture_output=True, text=True, check=False)
-
-
 def test_slave_view_applies_once_and_moves_every_use(tmp_path: Path) -> None:
-    root = copy_slave(tmp_path)
-    assert run_slave_view(root).returncode == 0
+    root = copy_firmware(tmp_path, (SLAVE_HEADER, SLAVE_SOURCE))
+    assert run_view(root, SLAVE_VIEW).returncode == 0
     header = (root / SLAVE_HEADER).read_text(encoding="utf-8")
     source = (root / SLAVE_SOURCE).read_text(encoding="utf-8")
     assert "extern urb_can_frame_t urb_view_slave_frame;" in header and "    urb_can_frame_t frame;" not in header
     for member in ("s->frame", "s->answer"):
         assert not re.search(re.escape(member) + r"(?!\w)", source), f"{member} left in the viewed source"
     assert "s->frames_sent" in source
-    assert run_slave_view(root).returncode == 0
+    assert run_view(root, SLAVE_VIEW).returncode == 0
     assert (root / SLAVE_SOURCE).read_text(encoding="utf-8") == source, "a second run changes nothing"
 
 
 def test_slave_view_refuses_a_header_it_no_longer_matches(tmp_path: Path) -> None:
-    root = copy_slave(tmp_path)
+    root = copy_firmware(tmp_path, (SLAVE_HEADER, SLAVE_SOURCE))
     text = (root / SLAVE_HEADER).read_text(encoding="utf-8")
     (root / SLAVE_HEADER).write_text(text.replace("    urb_can_frame_t frame;\n", "    urb_can_frame_t out;\n"),
                                      encoding="utf-8")
-    result = run_slave_view(root)
+    result = run_view(root, SLAVE_VIEW)
     assert result.returncode != 0 and "update the view" in result.stderr

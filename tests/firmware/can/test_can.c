@@ -959,18 +959,8 @@ static void test_slave_init_each_entry_point(void **state)
         }
         assert_false(urb_can_slave_init(&s, &hal, &rig.fm[0].ops, 5u, 0u));
     }
-    for (int k = 0; k < 8; k++) {
-        urb_dl_mailbox_t ops = rig.fm[0].ops;
-        switch (k) {
-        case 0: ops.inbox_size = NULL; break;
-        case 1: ops.outbox_size = NULL; break;
-        case 2: ops.write_begin = NULL; break;
-        case 3: ops.write_commit = NULL; break;
-        case 4: ops.write_abort = NULL; break;
-        case 5: ops.read_begin = NULL; break;
-        case 6: ops.read_end = NULL; break;
-        default: ops.sync = NULL; break;
-        }
+    for (int k = 0; k < FAKE_MAILBOX_OPS; k++) {
+        urb_dl_mailbox_t ops = fake_mailbox_ops_without(&rig.fm[0], k);
         assert_false(urb_can_slave_init(&s, &rig.nport[0].hal, &ops, 5u, 0u));
     }
     urb_dl_mailbox_t ops = rig.fm[0].ops;

@@ -132,3 +132,19 @@ uint32_t fake_mailbox_commits(const fake_mailbox_t *fm)
     }
     return n;
 }
+
+urb_dl_mailbox_t fake_mailbox_ops_without(const fake_mailbox_t *fm, int k)
+{
+    urb_dl_mailbox_t ops = fm->ops;
+    switch (k) {
+    case 0: ops.inbox_size = NULL; break;
+    case 1: ops.outbox_size = NULL; break;
+    case 2: ops.write_begin = NULL; break;
+    case 3: ops.write_commit = NULL; break;
+    case 4: ops.write_abort = NULL; break;
+    case 5: ops.read_begin = NULL; break;
+    case 6: ops.read_end = NULL; break;
+    default: ops.sync = NULL; break;
+    }
+    return ops;
+}

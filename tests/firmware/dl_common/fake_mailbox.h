@@ -39,4 +39,11 @@ void fake_mailbox_init(fake_mailbox_t *fm, const uint8_t in_size[8], const uint8
 /** Total of commits over all inboxes. */
 uint32_t fake_mailbox_commits(const fake_mailbox_t *fm);
 
+/** Number of operations in urb_dl_mailbox_t (fake_mailbox_ops_without's k ranges over 0..this - 1). */
+#define FAKE_MAILBOX_OPS 8
+
+/** A copy of fm's operations with the k-th one (in the struct's order) NULL: the slaves' init must
+ * refuse every such table. */
+urb_dl_mailbox_t fake_mailbox_ops_without(const fake_mailbox_t *fm, int k);
+
 #endif /* FAKE_MAILBOX_H */

@@ -920,18 +920,8 @@ static void test_slave_init_each_entry_point(void **state)
     urb_rs485_hal_t h = L.node[0].hal;
     h.tx_start = NULL;
     assert_false(urb_rs485_slave_init(&s, &h, &L.fm[0].ops, 5u, &L.tm, 0u));
-    for (int k = 0; k < 8; k++) {
-        urb_dl_mailbox_t ops = L.fm[0].ops;
-        switch (k) {
-        case 0: ops.inbox_size = NULL; break;
-        case 1: ops.outbox_size = NULL; break;
-        case 2: ops.write_begin = NULL; break;
-        case 3: ops.write_commit = NULL; break;
-        case 4: ops.write_abort = NULL; break;
-        case 5: ops.read_begin = NULL; break;
-        case 6: ops.read_end = NULL; break;
-        default: ops.sync = NULL; break;
-        }
+    for (int k = 0; k < FAKE_MAILBOX_OPS; k++) {
+        urb_dl_mailbox_t ops = fake_mailbox_ops_without(&L.fm[0], k);
         assert_false(urb_rs485_slave_init(&s, &L.node[0].hal, &ops, 5u, &L.tm, 0u));
     }
     urb_dl_mailbox_t ops = L.fm[0].ops;
