@@ -34,6 +34,8 @@ import re
 import sys
 from pathlib import Path
 
+import member_view
+
 # the members removed from the struct (each line exactly once)
 MEMBERS = ("    uint8_t next_tid[URB_CAN_LAST_ADDRESS + 1u][16];", "    uint8_t sync_payload[1];",
            "    uint8_t refusal[1];", "    urb_can_frame_t frame;")
@@ -61,12 +63,7 @@ def stale(what: str) -> SystemExit:
 
 
 def view_header(text: str) -> str:
-    for member in (*MEMBERS, INCLUDE.rstrip("\n")):
-        if text.count(member + "\n") != 1:
-            raise stale(f"{member.strip()!r} not found once in urb_can_master.h")
-    for member in MEMBERS:
-        text = text.replace(member + "\n", "")
-    return text.replace(INCLUDE, INCLUDE + "\n" + DECLARATIONS)
+    return member_view.remove_members(text, MEMBERS, INCLUDE, DECLARATIONS, "urb_can_master.h", stale)
 
 
 def view_source(text: str) -> str:
@@ -76,11 +73,7 @@ def view_source(text: str) -> str:
     unknown = sorted(set(indexes) - KNOWN_INDEXES)
     if unknown or not indexes:
         raise stale(f"next_tid indexed by {unknown or 'nothing'} in urb_can_master.c")
-    for member, moved in MOVED:
-        pattern = re.compile(re.escape(member) + r"(?!\w)")  # m->frame, not m->frames_sent
-        if not pattern.search(text):
-            raise stale(f"{member} not used in urb_can_master.c")
-        text = pattern.sub(moved, text)
+    text = member_view.rename_members(text, MOVED, "urb_can_master.c", stale)
     text = text.replace(INIT_LOOP, INIT_LOOP_VIEW)
     return INDEX_RE.sub(lambda m: f"urb_view_next_tid[{MARKER}({m.group(1)})][", text)
 
@@ -92,11 +85,8 @@ def main(argv: list[str]) -> int:
     root = Path(argv[1])
     header = root / "include" / "urb_can_master.h"
     source = root / "downlink" / "can" / "urb_can_master.c"
-    # prepare copies afresh, so a second run on a viewed copy is a no-op
-    for path, view in ((header, view_header), (source, view_source)):
-        text = path.read_text(encoding="utf-8")
-        if MARKER not in text and "urb_view_tid_address" not in text:
-            path.write_text(view(text), encoding="utf-8")
+    member_view.rewrite_once(((header, view_header), (source, view_source)),
+                             lambda text: MARKER in text or "urb_view_tid_address" in text)
     return 0
 
 

@@ -14,9 +14,10 @@ a removed member left over fails to compile.
 
 from __future__ import annotations
 
-import re
 import sys
 from pathlib import Path
+
+import member_view
 
 MEMBERS = ("    urb_can_frame_t frame;", "    uint8_t answer[1];     /* a write's refusal byte */")
 INCLUDE = '#include "urb_dl_slave.h"\n'
@@ -33,21 +34,11 @@ def stale(what: str) -> SystemExit:
 
 
 def view_header(text: str) -> str:
-    for line in (*MEMBERS, INCLUDE.rstrip("\n")):
-        if text.count(line + "\n") != 1:
-            raise stale(f"{line.strip()!r} not found once in urb_can_slave.h")
-    for member in MEMBERS:
-        text = text.replace(member + "\n", "")
-    return text.replace(INCLUDE, INCLUDE + "\n" + DECLARATIONS)
+    return member_view.remove_members(text, MEMBERS, INCLUDE, DECLARATIONS, "urb_can_slave.h", stale)
 
 
 def view_source(text: str) -> str:
-    for member, moved in MOVED:
-        pattern = re.compile(re.escape(member) + r"(?!\w)")  # s->frame, not s->frames_sent
-        if not pattern.search(text):
-            raise stale(f"{member} not used in urb_can_slave.c")
-        text = pattern.sub(moved, text)
-    return text
+    return member_view.rename_members(text, MOVED, "urb_can_slave.c", stale)
 
 
 def main(argv: list[str]) -> int:
@@ -55,11 +46,9 @@ def main(argv: list[str]) -> int:
         print("usage: can_slave_view.py PREPARED/firmware", file=sys.stderr)
         return 2
     root = Path(argv[1])
-    for path, view in ((root / "include" / "urb_can_slave.h", view_header),
-                       (root / "downlink" / "can" / "urb_can_slave.c", view_source)):
-        text = path.read_text(encoding="utf-8")
-        if "urb_view_slave_" not in text:  # prepare copies afresh: a second run is a no-op
-            path.write_text(view(text), encoding="utf-8")
+    member_view.rewrite_once(((root / "include" / "urb_can_slave.h", view_header),
+                              (root / "downlink" / "can" / "urb_can_slave.c", view_source)),
+                             lambda text: "urb_view_slave_" in text)
     return 0
 
 
