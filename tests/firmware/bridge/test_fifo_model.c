@@ -20,6 +20,7 @@
 
 #include "bridge_internal.h"
 #include "scripted_rig.h"
+#include "support.h"
 #include "urb_runtime.h"
 
 #define PENDING 0xFFu
@@ -118,24 +119,13 @@ static uint8_t encode(uint8_t *f, const m_entry_t *e, frame_kind_t kind)
 {
     size_t n;
     if (e->read || (kind == FRAME_RANGE)) {
-        urb_uplink_read_request_t q = {e->address, e->mailbox, e->seq, (kind == FRAME_RANGE) ? 1u : e->length};
-        n = (size_t)urb_uplink_read_request_encode(&q, f, 4u);
-        assert_int_equal(n, 4u);
+        n = enc_read(f, e->address, e->mailbox, e->seq, (kind == FRAME_RANGE) ? 1u : e->length);
         if (kind == FRAME_RANGE) {
             f[2] = 0u;
             f[3] = (uint8_t)urb_link_check(NULL, 0u, f, 3u);
         }
     } else {
-        urb_uplink_write_request_t q;
-        memset(&q, 0, sizeof q);
-        q.address = e->address;
-        q.mailbox = e->mailbox;
-        q.seq = e->seq;
-        q.length = e->length;
-        memcpy(q.data, e->data, e->length);
-        int32_t const k = urb_uplink_write_request_encode(&q, f, URB_BRIDGE_FRAME_MAX);
-        assert_true(k > 0);
-        n = (size_t)k;
+        n = enc_write(f, e->address, e->mailbox, e->seq, e->length, e->data);
     }
     if (kind == FRAME_BAD_CHECK) {
         f[n - 1u] ^= 0x5Au;
