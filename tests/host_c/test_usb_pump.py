@@ -188,8 +188,9 @@ def test_the_pump_covers_the_handover_record(tmp_path: Path) -> None:
 
 
 PUMP_MUTANTS = {
-    "pump-forgets-sent": ("        candidates[i]->sent_unmarked = true;\n", "\n"),
-    "pump-reason-text": ('"%s: [Errno %d] %s", p->name, code, strerror(code)', '"%s: %s", p->name, strerror(code)'),
+    "pump-forgets-sent": ("    x->sent_unmarked = true;\n", "\n"),
+    "pump-reason-text": ('native_pump_lost(self, "[Errno %d] %s", code, strerror(code))',
+                         'native_pump_lost(self, "%s", strerror(code))'),
 }
 """Seeded bugs of _native_pump.c: what it sent never reaches the Python transfer; a failed write's
 reason worded otherwise than the Python runtime words it."""
