@@ -23,10 +23,8 @@ thread alive, every 4-bit sequence number handed back).
 from __future__ import annotations
 
 import errno
-import importlib.util
 import os
 import socket
-import subprocess
 import sys
 import threading
 import time
@@ -41,13 +39,13 @@ REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "tests" / "host"))
 
 from bridge_proc import BridgeProc, fake_bridge  # noqa: E402,F401 (fixture)
+from native_support import build_native_mutant, reads_carry_every_seq, sensorhex_cycle  # noqa: E402
 from urb.api import NodeRequest, URBInterface  # noqa: E402
 from urb.errors import ErrorFlag  # noqa: E402
 from urb.managers import RS232Manager, native, rs232  # noqa: E402
 from urb.managers.base import CLOSED_REASON, Transfer  # noqa: E402
 from urb.managers.handover import PortHandover  # noqa: E402
 from urb.managers.rs232_core import Rs232Core  # noqa: E402
-from urb_msgs import sensorhex as sx  # noqa: E402
 
 NODES = ["MotorDriver:0@16", "MotorDriver:1@17", "MotorDriver:2@18", "Imu:0@48"]
 Observed = tuple[Any, ...]
@@ -97,21 +95,13 @@ def traffic_script(bp: BridgeProc, core: MakeCore | None = None) -> dict[str, An
     try:
         pumped = m._pumped
         motors = [urb.find_node("MotorDriver", i) for i in range(3)]
-        imu = urb.find_node("Imu", 0)
         observed: list[Observed] = []
 
         def run(reqs: list[NodeRequest], wait_s: float = 10.0) -> None:
             observed.extend(observe(r, r.wait(wait_s)) for r in reqs)
 
         for cycle in range(20):  # the SensoRHex motor load, an IMU read and host refusals
-            reqs = []
-            for k, node in enumerate(motors):
-                reqs.append(node.submit_request(node.new_request().read_message(sx.MotorFeedback)))
-                reqs.append(node.submit_request(node.new_request().write_message(sx.MotorCommand(voltage=cycle + k))))
-            if cycle % 5 == 0:
-                reqs.append(imu.submit_request(imu.new_request().read_message(sx.ImuSample)))
-                reqs.append(imu.submit_request(imu.new_request().read(1, size=3)))  # HOST_SIZE_MISMATCH
-            run(reqs)
+            run(sensorhex_cycle(urb, cycle, imu_every=5))
         for status in ("TIMEOUT", "CHECKSUM", "BUS_STUCK"):  # bridge-reported errors
             bp.cmd(f"fault 16 {status}")
             run([motors[0].submit_request(motors[0].new_request().read(1))])
@@ -246,11 +236,7 @@ def test_the_scripts_reach_the_rs232_pump(fake_bridge: MakeBridge) -> None:
         assert [n for n in ours if n.startswith("urb-")] == [f"urb-dispatch {bp.link}"]
         comms = {(task / "comm").read_text().strip() for task in Path("/proc/self/task").iterdir()}
         assert "urb-pump" in comms
-        motor = urb.find_node("MotorDriver", 0)
-        reqs = [motor.submit_request(motor.new_request().read_message(sx.MotorFeedback)) for _ in range(30)]
-        assert all(r.wait(10) and r.ok for r in reqs)
-        seqs = [r._transfer.seq for r in reqs if r._transfer is not None]
-        assert len(seqs) == 30 and set(seqs) == set(range(16))  # 30 in a row: every 4-bit number
+        reads_carry_every_seq(urb)
     finally:
         urb.close()
     assert not m._rs._pump_running()  # type: ignore[attr-defined]
@@ -344,25 +330,8 @@ only when a later response passes it); the loss of the port worded otherwise tha
 
 def build_pump_mutant(tmp: Path, name: str) -> Any:
     """The extension compiled with the seeded bug `name` in _native_pump_rs232.c, loaded as its own module."""
-    sys.path.insert(0, str(REPO / "tools"))
-    try:
-        import build_native_core as bnc
-    finally:
-        sys.path.pop(0)
     old, new, _ = PUMP_MUTANTS[name]
-    source = (REPO / "host/urb/managers/_native_pump_rs232.c").read_text()
-    assert source.count(old) == 1, f"the seeded bug {name} no longer applies: update PUMP_MUTANTS"
-    mutated = tmp / "_native_pump_rs232.c"
-    mutated.write_text(source.replace(old, new))
-    srcs = [mutated if p.name == "_native_pump_rs232.c" else p for p in bnc.sources()]
-    out = tmp / bnc.module_path().name
-    cmd = [a for a in bnc.compile_command(srcs, out, "mutant") if a not in ("-O2", "-flto")]
-    subprocess.run(cmd, check=True, capture_output=True, text=True)
-    spec = importlib.util.spec_from_file_location("_native", out)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return build_native_mutant(tmp, "_native_pump_rs232.c", old, new)
 
 
 def mutant_core(module: Any) -> MakeCore:
