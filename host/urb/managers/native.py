@@ -9,8 +9,9 @@ batches, timeouts, placeholders, hand-over) runs in host/c/core through the exte
 objects carry what the reference sets on them. tests/host_c/test_native_core.py drives both with
 the same traces and compares everything a caller observes.
 
-`NativeUsbCore` also carries the pump (`_pump_start`, `_pump_wait`, ...: `_native_pump.c`), which
-`USBManager` uses to run a `CharDeviceTransport`'s I/O on a C thread (usb.py; host/urb/README.md).
+Both carry a pump (`_pump_start`, `_pump_wait`, ...: `_native_pump.c`, `_native_pump_rs232.c`), which
+`USBManager` uses to run a `CharDeviceTransport`'s I/O on a C thread (usb.py) and `RS232Manager` its
+serial port's (rs232.py; host/urb/README.md).
 
 The managers build their core with `new_rs232_core()` / `new_usb_core()`, which choose:
 
