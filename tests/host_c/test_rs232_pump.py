@@ -10,8 +10,8 @@ The scripts: traffic with bridge-reported errors, a node unplugged, host refusal
 bytes (the hunt resynchronises), line noise while idle, a request lost on the line (its timeout); a
 bridge process killed with requests in flight (read error or end of input); close while requests are
 pending (every request ends in exactly one callback). The port's hand-over record is covered by the
-pump and honoured by the next manager on the port; a failed write and the end of input are worded as
-the Python threads word them (`rs232.describe_io_error` of pyserial's exceptions).
+pump and honoured by the next manager on the port; a failed write, a failed read and the end of input
+are worded as the Python threads word them (`rs232.describe_io_error` of pyserial's exceptions).
 
 Seeded bugs (`test_a_seeded_bug_in_the_rs232_pump_is_caught`): the extension compiled with an RS232
 pump that never writes what it sent back to the Python transfers, one that never applies the core's
@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import errno
 import os
+import select
 import socket
 import sys
 import threading
@@ -273,10 +274,10 @@ def test_the_rs232_pump_covers_and_honours_the_handover_record(fake_bridge: Make
         urb2.close()
 
 
-def test_a_failed_write_and_the_end_of_input_are_worded_as_the_threads_word_them() -> None:
-    """The pump on a socket pair: the far end stops reading (the write fails, EPIPE), then closes (the
-    read sees the end of input). The reasons are what `rs232.describe_io_error` makes of the exceptions
-    pyserial raises for them."""
+def test_a_failed_write_a_failed_read_and_the_end_of_input_are_worded_as_the_threads_word_them() -> None:
+    """The pump on a socket pair: the far end stops reading (the write fails, EPIPE); closes with a
+    request frame unread (the read fails, ECONNRESET); closes (the read sees the end of input). The
+    reasons are what `rs232.describe_io_error` makes of the exceptions pyserial and os.read raise."""
     def reason_of(make: Callable[[], BaseException]) -> str:
         try:
             raise make()
@@ -291,6 +292,7 @@ def test_a_failed_write_and_the_end_of_input_are_worded_as_the_threads_word_them
 
     expected = {
         "write": reason_of(write_failed),
+        "read": reason_of(lambda: ConnectionResetError(errno.ECONNRESET, os.strerror(errno.ECONNRESET))),
         "eof": reason_of(lambda: serial.SerialException("device reports readiness to read but returned no data "
                                                         "(device disconnected or multiple access on port?)")),
     }
@@ -301,9 +303,12 @@ def test_a_failed_write_and_the_end_of_input_are_worded_as_the_threads_word_them
         try:
             if case == "write":
                 far.shutdown(socket.SHUT_RD)
+            if case != "eof":
                 core.submit(Transfer(address=16, mailbox=1, read=True, length=6), time.monotonic_ns())
                 core._pump_notify()  # type: ignore[attr-defined]
-            else:
+            if case == "read":
+                assert select.select([far], [], [], 10)[0]  # the frame arrived, left unread
+            if case != "write":
                 far.close()
             deadline = time.monotonic() + 10
             while core._pump_running() and time.monotonic() < deadline:  # type: ignore[attr-defined]
@@ -314,6 +319,7 @@ def test_a_failed_write_and_the_end_of_input_are_worded_as_the_threads_word_them
             host.close()
             far.close()
     assert expected["write"] == f"far: write failed: [Errno {errno.EPIPE}] {os.strerror(errno.EPIPE)}"
+    assert expected["read"] == f"far: [Errno {errno.ECONNRESET}] {os.strerror(errno.ECONNRESET)}"
 
 
 PUMP_MUTANTS = {
