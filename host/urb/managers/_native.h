@@ -119,7 +119,7 @@ void native_pump_note_sent(native_core_t *self, native_xfer_t *x, unsigned k);
 void native_pump_cover(native_pump_t *p, urb_ns_t until, urb_ns_t now);
 /* The thread's uplink failed: the core is lost with the reason "<name>: <format...>" (printf-style),
  * which Python adopts whole; the dispatcher wakes. Takes the lock. */
-void native_pump_lost(native_core_t *self, const char *format, ...);
+void native_pump_lost(native_core_t *self, const char *format, ...) __attribute__((format(printf, 2, 3)));
 /* The RS232 pump's thread (_native_pump_rs232.c), started by native_pump_start on an RS232 core. */
 void *native_rs232_pump_main(void *arg);
 
