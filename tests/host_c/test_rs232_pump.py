@@ -49,6 +49,9 @@ from urb.managers.handover import PortHandover  # noqa: E402
 from urb.managers.rs232_core import Rs232Core  # noqa: E402
 
 NODES = ["MotorDriver:0@16", "MotorDriver:1@17", "MotorDriver:2@18", "Imu:0@48"]
+TIMEOUT_S, LOST_AFTER_S = 2.0, 5.0
+"""The managers' timeouts: long enough that a loaded machine starving the fake bridge process does not
+time out a request in one run and not in the other (only the request dropped on the line times out)."""
 Observed = tuple[Any, ...]
 MakeBridge = Callable[..., BridgeProc]
 MakeCore = Callable[[], Rs232Core]
@@ -83,7 +86,7 @@ def open_manager(bp: BridgeProc, core: MakeCore | None, **opts: Any) -> tuple[UR
     """A manager on the bridge's port (its core replaced by `core()`, a seeded bug's, when given), with
     discovery done."""
     urb = URBInterface()
-    m = RS232Manager(str(bp.link), **({"timeout_s": 1.0, "lost_after_s": 5.0} | opts))
+    m = RS232Manager(str(bp.link), **({"timeout_s": TIMEOUT_S, "lost_after_s": LOST_AFTER_S} | opts))
     if core is not None:
         m._core = m._rs = core()
         m._has_completed = getattr(m._core, "_has_completed", None)
@@ -116,7 +119,7 @@ def traffic_script(bp: BridgeProc, core: MakeCore | None = None) -> dict[str, An
         time.sleep(0.05)
         run([motors[1].submit_request(motors[1].new_request().read(1))])
         bp.cmd("drop 1")  # a request lost on the line: its timeout, the pump's poll
-        run([motors[2].submit_request(motors[2].new_request().read(1))], wait_s=5.0)
+        run([motors[2].submit_request(motors[2].new_request().read(1))], wait_s=4 * TIMEOUT_S)
         run([motors[2].submit_request(motors[2].new_request().read(1)) for _ in range(3)])
         stats = (m.stats.submitted, m.stats.completed, m.stats.failed, m.stats.stray_bytes, m.stats.late_responses)
         return {"requests": observed, "stats": stats, "pumped": pumped, "reason": m.lost_reason}
@@ -346,7 +349,8 @@ def mutant_core(module: Any) -> MakeCore:
 
     def make() -> Rs232Core:
         core = MutantRs232Core.__new__(MutantRs232Core)
-        native.NativeRs232Core.__init__(core, timeout_ns=10**9, lost_after_ns=5 * 10**9)  # type: ignore[arg-type]
+        native.NativeRs232Core.__init__(core, timeout_ns=int(TIMEOUT_S * 1e9),  # type: ignore[arg-type]
+                                        lost_after_ns=int(LOST_AFTER_S * 1e9))
         return core
 
     return make

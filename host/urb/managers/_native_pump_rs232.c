@@ -162,8 +162,8 @@ void *native_rs232_pump_main(void *arg)
             (void)read(p->wake_fd, &count, sizeof count);
         }
         ssize_t got = 0;
-        if ((ready > 0) && ((fds[0].revents & (POLLIN | POLLHUP | POLLERR)) != 0)) {
-            got = read_port(self, in, sizeof in);
+        if ((ready > 0) && ((fds[0].revents & (POLLIN | POLLHUP | POLLERR | POLLNVAL)) != 0)) {
+            got = read_port(self, in, sizeof in); /* a closed descriptor (POLLNVAL) fails the read: lost */
             if (got < 0) {
                 break;
             }
