@@ -200,6 +200,7 @@ def run_both(make: MakeBridge, use_pump: Callable[[bool], None], script: str,
     return on_pump, on_threads
 
 
+# lobster-trace: urb.HOST_002, urb.FLT_006
 def test_the_rs232_pump_matches_the_threads(fake_bridge: MakeBridge, use_pump: Callable[[bool], None]) -> None:
     on_pump, on_threads = run_both(fake_bridge, use_pump, "traffic")
     assert on_pump["requests"] == on_threads["requests"], "the requests' outcomes differ"
@@ -212,6 +213,7 @@ def test_the_rs232_pump_matches_the_threads(fake_bridge: MakeBridge, use_pump: C
     assert all(o[-1] for o in on_pump["requests"])
 
 
+# lobster-trace: urb.FLT_004, urb.HOST_001
 def test_a_killed_bridge_is_lost_alike(fake_bridge: MakeBridge, use_pump: Callable[[bool], None]) -> None:
     on_pump, on_threads = run_both(fake_bridge, use_pump, "killed")
     assert on_pump["lost"] == on_threads["lost"] and on_pump["reason"] == on_threads["reason"]
@@ -221,6 +223,7 @@ def test_a_killed_bridge_is_lost_alike(fake_bridge: MakeBridge, use_pump: Callab
     assert on_pump["lost"] == [(ErrorFlag.BRIDGE_LOST, unplugged)] * 8
 
 
+# lobster-trace: urb.HOST_001
 def test_close_with_requests_pending_ends_each_once(fake_bridge: MakeBridge, use_pump: Callable[[bool], None]) -> None:
     on_pump, on_threads = run_both(fake_bridge, use_pump, "closed")
     assert on_pump["calls"] == on_threads["calls"]
@@ -246,6 +249,7 @@ def test_the_scripts_reach_the_rs232_pump(fake_bridge: MakeBridge) -> None:
     assert not m._rs._pump_running()  # type: ignore[attr-defined]
 
 
+# lobster-trace: urb.HOST_006
 def test_the_rs232_pump_covers_and_honours_the_handover_record(fake_bridge: MakeBridge) -> None:
     """The pump makes the port's record cover the requests in flight before it writes them (on the
     pump, the Python threads' `_note_sending` does not run); a manager that ends without a draining
