@@ -271,14 +271,17 @@ static void pump_signal_stop(native_pump_t *p)
     }
 }
 
-/* After the join: the wake descriptor is closed. */
-static void pump_joined(native_pump_t *p)
+/* After the join (GIL held): the wake descriptor is closed under the core's lock, so that a
+ * _pump_notify never writes to it once closed (its number may be reused). */
+static void pump_joined(native_core_t *self)
 {
-    if (p->wake_fd >= 0) {
-        (void)close(p->wake_fd);
-        p->wake_fd = -1;
+    native_core_lock(self);
+    if (self->pump.wake_fd >= 0) {
+        (void)close(self->pump.wake_fd);
+        self->pump.wake_fd = -1;
     }
-    p->running = false;
+    native_core_unlock(self);
+    self->pump.running = false;
 }
 
 void native_pump_join(native_core_t *self)
@@ -286,7 +289,7 @@ void native_pump_join(native_core_t *self)
     if (self->pump.running) {
         pump_signal_stop(&self->pump);
         (void)pthread_join(self->pump.thread, NULL);
-        pump_joined(&self->pump);
+        pump_joined(self);
     }
 }
 
@@ -298,7 +301,7 @@ PyObject *native_pump_stop(native_core_t *self, PyObject *unused)
         Py_BEGIN_ALLOW_THREADS
         (void)pthread_join(self->pump.thread, NULL);
         Py_END_ALLOW_THREADS
-        pump_joined(&self->pump);
+        pump_joined(self);
     }
     Py_RETURN_NONE;
 }
@@ -307,17 +310,13 @@ PyObject *native_pump_notify(native_core_t *self, PyObject *unused)
 {
     (void)unused;
     native_pump_t *p = &self->pump;
-    if (!p->running || (p->wake_fd < 0)) {
-        Py_RETURN_NONE;
-    }
     native_core_lock(self);
-    bool const first = !p->notified; /* one write until the thread has taken it: a burst is one wake-up */
-    p->notified = true;
-    native_core_unlock(self);
-    if (first) {
+    if ((p->wake_fd >= 0) && !p->notified) { /* one write until the thread has taken it: a burst is one wake-up */
+        p->notified = true;
         uint64_t const one = 1u;
         (void)write(p->wake_fd, &one, sizeof one);
     }
+    native_core_unlock(self);
     Py_RETURN_NONE;
 }
 
