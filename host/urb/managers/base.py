@@ -18,13 +18,16 @@ import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Protocol, TypeVar, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar, runtime_checkable
 
 from urb_msgs import Message
 from urb_msgs.urb_core import Status
 
 from ..errors import ErrorFlag, PortError
 from .handover import PortHandover
+
+if TYPE_CHECKING:
+    from ._native import CycleState
 
 NS_PER_MS = 1_000_000
 NS_PER_S = 1_000_000_000
@@ -126,6 +129,16 @@ class Transfer:
         """Bytes of the request frame."""
         covered = 3 + (0 if self.read else self.length)
         return covered + (1 if covered <= 14 else 2)
+
+
+def cycle_state_of(core: object, specs: tuple[tuple[int, int, bool, int], ...]) -> CycleState | None:
+    """A `CycleState` of `core`'s extension module when `core` is the C core and not traced (its
+    trace records Python transfers), else None."""
+    make = getattr(core, "_new_cycle_state", None)
+    if make is None or getattr(core, "trace", None) is not None:
+        return None
+    state: CycleState = make(specs)
+    return state
 
 
 def finish(t: Transfer, now: int, flags: ErrorFlag, status: Status | None = None, data: bytes | None = None) -> Transfer:
@@ -298,6 +311,15 @@ class BusManager(ABC):
         self.stats.stray_bytes = core.stray_bytes
         notice = self._loss_notice(core.lost_reason)
         for t in done:
+            if t.__class__ is not Transfer:  # the C core's CycleState: every item of a cycle completed
+                state: CycleState = t
+                if notice is not None and state.lost:
+                    put(notice)
+                    notice = None
+                self.stats.completed += state.size
+                self.stats.failed += state.failed
+                put(state.on_done)
+                continue
             if notice is not None and t.flags & ErrorFlag.BRIDGE_LOST:
                 put(notice)
                 notice = None
@@ -383,6 +405,19 @@ class BusManager(ABC):
     def set_window(self, window: int) -> None:
         """Bound the requests outstanding on the bridge (learnt from BridgeInfo.fifo_depth)."""
 
+    def new_cycle_state(self, specs: tuple[tuple[int, int, bool, int], ...]) -> CycleState | None:
+        """The C core's record of a cycle's requests on this bridge (`urb.cycle.Cycle`; `specs`:
+        (address, mailbox, read, length) per item), or None when this manager's core takes single
+        transfers only (the Python cores; a traced C core): the cycle then submits its items one by
+        one, with the same outcomes."""
+        return None
+
+    def submit_cycle(self, state: CycleState, refusals: tuple[int, ...] | None) -> None:
+        """Submit every item of `state` (from `new_cycle_state`) at once, thread-safe; those with a
+        non-zero flag in `refusals` complete with it at once, unsent. `state.on_done` runs once, on
+        the dispatcher, when the last item completed (inside this call after `close()`)."""
+        raise NotImplementedError(f"{type(self).__name__} gives no cycle states; submit the items one by one")
+
     def __enter__(self) -> BusManager:
         self.start()
         return self
@@ -447,6 +482,19 @@ class ThreadedManager(BusManager):
             t.submitted_ns = now
             self.stats.submitted += 1
             self._core.submit(t, now)
+            if self._has_completed is None or self._has_completed():
+                self._collect()
+        self._wake_io()
+        self._complete_without_dispatcher()
+
+    def new_cycle_state(self, specs: tuple[tuple[int, int, bool, int], ...]) -> CycleState | None:
+        return cycle_state_of(self._core, specs)
+
+    def submit_cycle(self, state: CycleState, refusals: tuple[int, ...] | None) -> None:
+        now = self.now_ns()
+        with self._lock:
+            self.stats.submitted += state.size
+            self._core._cycle_submit(state, now, refusals)  # type: ignore[attr-defined]
             if self._has_completed is None or self._has_completed():
                 self._collect()
         self._wake_io()
