@@ -41,7 +41,7 @@ from urb_msgs.urb_core import Status
 
 from .api import MISMATCH, NodeAccessor
 from .errors import ErrorFlag, RequestFailed, URBError, hint
-from .managers.base import BusManager, Transfer, decode_message, encode_message
+from .managers.base import NS_PER_S, BusManager, Transfer, decode_message, encode_message
 from .managers.native import _FLAG_OF, _STATUS_OF
 
 if TYPE_CHECKING:
@@ -49,6 +49,9 @@ if TYPE_CHECKING:
 
 M = TypeVar("M", bound=Message)
 CycleCallback = Callable[["Cycle"], object]
+
+POLL_SLICE_S = 0.0005
+"""How often `wait` looks at a polled cycle (whose completion wakes no thread)."""
 
 IN_FLIGHT = ("the cycle is still in flight ({pending}): a cycle is submitted again once its callback has "
              "started (from inside it) or returned; wait() for it, or use a second Cycle for overlapping ticks")
@@ -232,8 +235,15 @@ class Cycle:
 
     def set_callback(self, fn: CycleCallback | None) -> Cycle:
         """`fn(cycle)` runs once per submission, after its last item completed, on the dispatcher
-        of the manager that completed it (a cycle over several bridges: the last one's)."""
+        of the manager that completed it (a cycle over several bridges: the last one's). Without
+        a callback the cycle is polled: its owner learns of the completion with `poll`, `wait` or
+        the next `submit`, on its own thread, and no dispatcher wakes for it. Changed only while
+        the cycle is not in flight (else `CycleBusy`)."""
+        if self._busy:
+            raise CycleBusy(IN_FLIGHT.format(pending="its mode changes between submissions"))
         self._callback = fn
+        for g in self._groups:
+            g.set_mode(fn is not None)
         return self
 
     @staticmethod
@@ -267,6 +277,8 @@ class Cycle:
         """Submit every item (thread-safe against the dispatchers). Raises `CycleBusy` while the
         previous submission has not completed (unless called from its own callback), ValueError
         when a write item has no data yet; either way nothing is submitted."""
+        if self._busy and self._callback is None:
+            self.poll()
         if self._busy and self._callback_thread != threading.get_ident():
             pending = sum(g.pending() for g in self._groups)
             what = f"{pending} of {len(self._items)} items pending" if pending else "its callback is running"
@@ -305,11 +317,33 @@ class Cycle:
 
     def _group_done(self) -> None:
         """A group's last item completed (on its manager's dispatcher)."""
+        if self._callback is None:
+            return  # polled: `poll` finishes it, on its owner's thread
         if len(self._groups) > 1:
             with self._lock:
                 self._groups_left -= 1
                 if self._groups_left:
                     return
+        self._finish()
+
+    def poll(self) -> bool:
+        """A polled cycle (no callback): True once its last submission completed (counted and
+        finished on this thread, at the first look that finds it so), False while items are
+        pending; never blocks. A cycle with a callback: whether its callback returned (`done`)."""
+        if not self._busy:
+            return self._submissions > 0
+        if self._callback is not None:
+            return self.done
+        for g in self._groups:
+            if g.pending():
+                g.manager.collect_completions()
+                if g.pending():
+                    return False
+        self._finish()
+        return True
+
+    def _finish(self) -> None:
+        """Every item of the last submission completed: the nodes' counters, then the callback."""
         generation = self._submissions
         self.callback_ns = self._groups[0].manager.now_ns()
         for g in self._groups:
@@ -365,6 +399,8 @@ class Cycle:
         (RuntimeError inside a callback, as every blocking call of the API)."""
         if not self._submissions:
             raise RuntimeError("the cycle was never submitted")
+        if self._callback is None:
+            return self._wait_polled(timeout_s)
         generation = self._submissions
         managers: list[BusManager] = []
         for g in self._groups:
@@ -373,6 +409,17 @@ class Cycle:
         for m in managers:
             if not m.wait_until(lambda: self._completions >= generation, timeout_s):
                 return False
+        return True
+
+    def _wait_polled(self, timeout_s: float) -> bool:
+        """`wait` of a polled cycle: a look every POLL_SLICE_S (its completion wakes nobody)."""
+        m = self._groups[0].manager
+        end = m.now_ns() + int(timeout_s * NS_PER_S)
+        while not self.poll():
+            left = end - m.now_ns()
+            if left <= 0:
+                return False
+            m.wait_until(self.poll, min(left / NS_PER_S, POLL_SLICE_S))
         return True
 
     def _busy_items(self) -> int:
@@ -423,6 +470,9 @@ class _Group:
                 out.append(static)
         return tuple(out)
 
+    def set_mode(self, callback: bool) -> None:
+        """With a callback the group's completion runs on the dispatcher; without, it is polled."""
+
     def note_nodes(self) -> None:
         """The nodes' completion counters (`NodeAccessor.completed`, `.failed`)."""
         failed = self.failed()
@@ -453,7 +503,10 @@ class _NativeGroup(_Group):
     def __init__(self, cycle: Cycle, manager: BusManager, items: list[CycleItem], state: CycleState) -> None:
         super().__init__(cycle, manager, items)
         self.state = state
-        state.on_done = cycle._group_done
+        self.set_mode(cycle._callback is not None)
+
+    def set_mode(self, callback: bool) -> None:
+        self.state.on_done = self.cycle._group_done if callback else None
 
     def submit(self) -> None:
         self.manager.submit_cycle(self.state, self.refusals())

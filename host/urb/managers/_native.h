@@ -116,6 +116,9 @@ PyObject *native_new_cycle_state(native_core_t *self, PyObject *specs);
 /* Writes the outcome of the completed cycle item `x` into its CycleState (the caller then returns x
  * to the free list). 1 when it was the state's last pending item, 0 if not, -1 with a Python error. */
 int native_cycle_item_done(native_core_t *core, native_xfer_t *x);
+/* `x` is an item of a polled cycle (no on_done: its owner collects it, the dispatcher need not wake).
+ * Reads no Python object: the pump's thread calls it, with the core's lock held. */
+bool native_cycle_item_polled(const native_xfer_t *x);
 
 /* Stops and joins the pump's thread if one runs (GIL held; the thread never needs it). */
 void native_pump_join(native_core_t *self);

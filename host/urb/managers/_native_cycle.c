@@ -10,7 +10,8 @@
  * to a Python Transfer; when the core completes one, collect() (in _native.c) calls
  * native_cycle_item_done, which writes its outcome into the state, and when the last item of the
  * tick completed the state itself goes to the core's completion list, once: the manager then
- * queues the state's `on_done` for its dispatcher. No Python object is built per item on this path;
+ * queues the state's `on_done` for its dispatcher. A state without on_done is polled: its owner
+ * collects the completions (Cycle.poll) and the pump does not wake the dispatcher for its items. No Python object is built per item on this path;
  * the accessors (flags(i), data(i), ...) build the one asked for, when asked.
  *
  * Every item of a submission ends in exactly one outcome: the core's (response, timeout, loss), or
@@ -48,6 +49,8 @@ struct native_cycle {
     Py_ssize_t pending;   /* items of the current submission not completed yet */
     Py_ssize_t failed;    /* items of the last submission completed with a flag */
     bool lost;            /* one of them completed BRIDGE_LOST */
+    bool polled;          /* on_done is None: the owner collects the completion (Cycle.poll), so the
+                             pump does not wake the dispatcher for its items */
     PyObject *on_done;    /* what the manager queues for its dispatcher when the last item completed */
     cycle_item_t *items;
 };
@@ -118,6 +121,7 @@ static PyObject *cycle_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
     }
     self->on_done = Py_None;
     Py_INCREF(Py_None);
+    self->polled = true;
     return (PyObject *)self;
 }
 
@@ -179,6 +183,11 @@ int native_cycle_item_done(native_core_t *core, native_xfer_t *x)
     }
     item_complete(state, it, (uint16_t)t->flags);
     return state->pending == 0 ? 1 : 0;
+}
+
+bool native_cycle_item_polled(const native_xfer_t *x)
+{
+    return (x->cycle_item >= 0) && ((const native_cycle_t *)x->py)->polled;
 }
 
 /* _cycle_submit(state, now, refusals): every item of `state` to the core, except those refused
@@ -431,8 +440,13 @@ static int cycle_set_on_done(native_cycle_t *self, PyObject *value, void *closur
         PyErr_SetString(PyExc_TypeError, "on_done is a callable or None");
         return -1;
     }
+    if (self->pending > 0) { /* the pump reads `polled` of the items in flight */
+        PyErr_SetString(PyExc_RuntimeError, "on_done changes only while the cycle is not in flight");
+        return -1;
+    }
     Py_INCREF(value);
     Py_XSETREF(self->on_done, value);
+    self->polled = value == Py_None;
     return 0;
 }
 
@@ -455,7 +469,8 @@ static PyGetSetDef cycle_getset[] = {
     {"failed", (getter)cycle_get_failed, NULL, "Items of the last submission that completed with a flag.", NULL},
     {"lost", (getter)cycle_get_lost, NULL, "One of them completed BRIDGE_LOST.", NULL},
     {"on_done", (getter)cycle_get_on_done, (setter)cycle_set_on_done,
-     "What the manager runs on its dispatcher once every item of a submission completed.", NULL},
+     "What the manager runs on its dispatcher once every item of a submission completed; None: nothing "
+     "(a polled cycle, whose owner collects it).", NULL},
     {NULL, NULL, NULL, NULL, NULL},
 };
 

@@ -310,16 +310,21 @@ class BusManager(ABC):
         self.stats.late_responses = core.late_responses
         self.stats.stray_bytes = core.stray_bytes
         notice = self._loss_notice(core.lost_reason)
+        put_any = False
         for t in done:
             if t.__class__ is not Transfer:  # the C core's CycleState: every item of a cycle completed
                 state: CycleState = t
                 if notice is not None and state.lost:
                     put(notice)
                     notice = None
+                    put_any = True
                 self.stats.completed += state.size
                 self.stats.failed += state.failed
-                put(state.on_done)
+                if state.on_done is not None:  # else a polled cycle: its owner looks (Cycle.poll)
+                    put(state.on_done)
+                    put_any = True
                 continue
+            put_any = True
             if notice is not None and t.flags & ErrorFlag.BRIDGE_LOST:
                 put(notice)
                 notice = None
@@ -330,7 +335,7 @@ class BusManager(ABC):
         if notice is not None:
             put(notice)
             return True
-        return bool(done)
+        return put_any
 
     def _close_core(self, core: Core, now: int) -> None:
         """The start of `close()`: `core` completes every outstanding request BRIDGE_LOST (reason
@@ -412,6 +417,10 @@ class BusManager(ABC):
         one, with the same outcomes."""
         return None
 
+    def collect_completions(self) -> None:
+        """Take what the core completed now, on the calling thread (the completions of polled cycles,
+        which wake no dispatcher: `urb.cycle.Cycle.poll`); thread-safe."""
+
     def submit_cycle(self, state: CycleState, refusals: tuple[int, ...] | None) -> None:
         """Submit every item of `state` (from `new_cycle_state`) at once, thread-safe; those with a
         non-zero flag in `refusals` complete with it at once, unsent. `state.on_done` runs once, on
@@ -489,6 +498,12 @@ class ThreadedManager(BusManager):
 
     def new_cycle_state(self, specs: tuple[tuple[int, int, bool, int], ...]) -> CycleState | None:
         return cycle_state_of(self._core, specs)
+
+    def collect_completions(self) -> None:
+        with self._lock:
+            if self._has_completed is None or self._has_completed():
+                self._collect()
+        self._complete_without_dispatcher()
 
     def submit_cycle(self, state: CycleState, refusals: tuple[int, ...] | None) -> None:
         now = self.now_ns()
