@@ -33,6 +33,7 @@ host/urb/README.md ("Control cycles") is the manual.
 from __future__ import annotations
 
 import threading
+from abc import ABC, abstractmethod
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, TypeVar
 
@@ -434,7 +435,7 @@ class Cycle:
 # The items of one bridge: submitted to the C core at once, or one by one to a Python core
 # ----------------------------------------------------------------------------------------------
 
-class _Group:
+class _Group(ABC):
     """The items of a cycle on one manager."""
 
     def __init__(self, cycle: Cycle, manager: BusManager, items: list[CycleItem]) -> None:
@@ -482,19 +483,54 @@ class _Group:
                 node.completed += n
                 node.failed += bad
 
-    # the outcome of slot i (subclasses)
-    def submit(self) -> None: raise NotImplementedError
-    def set_data(self, i: int, payload: bytes) -> None: raise NotImplementedError
-    def pending(self) -> int: raise NotImplementedError
-    def failed(self) -> int: raise NotImplementedError
-    def completed(self, i: int) -> bool: raise NotImplementedError
-    def flags(self, i: int) -> ErrorFlag: raise NotImplementedError
-    def status(self, i: int) -> Status | None: raise NotImplementedError
-    def data(self, i: int) -> bytes | None: raise NotImplementedError
-    def seq(self, i: int) -> int: raise NotImplementedError
-    def sent_ns(self, i: int) -> int | None: raise NotImplementedError
-    def completed_ns(self, i: int) -> int | None: raise NotImplementedError
-    def lost_reason(self, i: int) -> str | None: raise NotImplementedError
+    # the outcome of slot i, kept by the subclasses
+    @abstractmethod
+    def submit(self) -> None:
+        """Submit every item of the group (the refusals decided now)."""
+
+    @abstractmethod
+    def set_data(self, i: int, payload: bytes) -> None:
+        """The payload of write slot `i` from the next submission on."""
+
+    @abstractmethod
+    def pending(self) -> int:
+        """Items of the current submission not completed yet."""
+
+    @abstractmethod
+    def failed(self) -> int:
+        """Items of the last submission that failed."""
+
+    @abstractmethod
+    def completed(self, i: int) -> bool:
+        """Slot `i` of the last submission completed."""
+
+    @abstractmethod
+    def flags(self, i: int) -> ErrorFlag:
+        """Slot `i`'s flags (NONE while pending)."""
+
+    @abstractmethod
+    def status(self, i: int) -> Status | None:
+        """Slot `i`'s bridge status, when the bridge answered."""
+
+    @abstractmethod
+    def data(self, i: int) -> bytes | None:
+        """Slot `i`'s data, for a successful read."""
+
+    @abstractmethod
+    def seq(self, i: int) -> int:
+        """Slot `i`'s sequence number (-1: never sent)."""
+
+    @abstractmethod
+    def sent_ns(self, i: int) -> int | None:
+        """When slot `i` was sent."""
+
+    @abstractmethod
+    def completed_ns(self, i: int) -> int | None:
+        """When slot `i` completed."""
+
+    @abstractmethod
+    def lost_reason(self, i: int) -> str | None:
+        """Why the bridge was lost, for a BRIDGE_LOST slot."""
 
 
 class _NativeGroup(_Group):

@@ -18,7 +18,7 @@ import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Protocol, TypeVar, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar, cast, runtime_checkable
 
 from urb_msgs import Message
 from urb_msgs.urb_core import Status
@@ -313,7 +313,7 @@ class BusManager(ABC):
         put_any = False
         for t in done:
             if t.__class__ is not Transfer:  # the C core's CycleState: every item of a cycle completed
-                state: CycleState = t
+                state = cast("CycleState", t)  # take_completed's list holds them among the transfers
                 if notice is not None and state.lost:
                     put(notice)
                     notice = None
