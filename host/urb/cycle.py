@@ -92,7 +92,7 @@ class CycleItem:
         May be called while the cycle is in flight (the submission in flight keeps its payload)."""
         if self.is_read:
             raise ValueError(f"{self._where()}: a read takes no data")
-        payload = encode_message(data) if isinstance(data, Message) else bytes(data)
+        payload = data if data.__class__ is bytes else encode_message(data) if isinstance(data, Message) else bytes(data)
         if len(payload) != self.size:
             raise ValueError(f"{self._where()}: {len(payload)} data bytes, this item writes {self.size} "
                              f"(its previous data stay)")
@@ -476,9 +476,13 @@ class _Group(ABC):
 
     def note_nodes(self) -> None:
         """The nodes' completion counters (`NodeAccessor.completed`, `.failed`)."""
-        failed = self.failed()
+        if not self.failed():
+            for node, n in self._per_node:
+                with node._stats_lock:
+                    node.completed += n
+            return
         for node, n in self._per_node:
-            bad = sum(1 for s, i in enumerate(self.items) if i.node is node and self.flags(s)) if failed else 0
+            bad = sum(1 for s, i in enumerate(self.items) if i.node is node and self.flags(s))
             with node._stats_lock:
                 node.completed += n
                 node.failed += bad
