@@ -222,7 +222,7 @@ PyObject *native_cycle_submit(native_core_t *self, PyObject *const *args, Py_ssi
                      state->n);
         return NULL;
     }
-    uint16_t refused[state->n > 0 ? state->n : 1];
+    uint16_t refused[NATIVE_CYCLE_MAX];
     for (Py_ssize_t i = 0; i < state->n; i++) {
         cycle_item_t const *it = &state->items[i];
         long const r = (refusals == Py_None) ? 0L : PyLong_AsLong(PyTuple_GET_ITEM(refusals, i));
@@ -240,7 +240,7 @@ PyObject *native_cycle_submit(native_core_t *self, PyObject *const *args, Py_ssi
         refused[i] = (uint16_t)r;
     }
     /* every C transfer first: a submission either sends all its items or none */
-    native_xfer_t *xs[state->n > 0 ? state->n : 1];
+    native_xfer_t *xs[NATIVE_CYCLE_MAX];
     for (Py_ssize_t i = 0; i < state->n; i++) {
         xs[i] = (refused[i] != 0u) ? NULL : native_xfer_get(self);
         if ((refused[i] == 0u) && (xs[i] == NULL)) {
