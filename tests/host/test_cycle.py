@@ -314,9 +314,9 @@ def realtime(core: str, polled: bool) -> dict[str, Any]:
     serving = threading.Thread(target=serve_usb_transfers, args=(dev_sock, model), daemon=True)
     serving.start()
     urb = URBInterface()
+    fd = os.dup(host_sock.fileno())  # the transport's: given by descriptor, it is the caller's to close
     try:
-        m = USBManager(CharDeviceTransport(fd=os.dup(host_sock.fileno())), timeout_s=10.0, lost_after_s=30.0,
-                       name="usb-cycle")
+        m = USBManager(CharDeviceTransport(fd=fd), timeout_s=10.0, lost_after_s=30.0, name="usb-cycle")
         if core == "python":
             m._core = m._usb = usb_core.UsbCore(timeout_ns=10 * 10**9, lost_after_ns=30 * 10**9)
             m._has_completed = None
@@ -344,9 +344,10 @@ def realtime(core: str, polled: bool) -> dict[str, Any]:
                 "stats": (m.stats.submitted, m.stats.completed, m.stats.failed)}
     finally:
         urb.close()
-        host_sock.close()
-        dev_sock.close()
+        os.close(fd)
+        host_sock.close()  # the bridge's end sees the end of the stream and its thread returns
         serving.join(2.0)
+        dev_sock.close()
 
 
 @pytest.mark.parametrize("polled", [True, False], ids=["polled", "callback"])
