@@ -316,6 +316,7 @@ class Cycle:
         self._groups = groups
         return groups
 
+    # lobster-trace: urb.HOST_001
     def _group_done(self) -> None:
         """A group's last item completed (on its manager's dispatcher)."""
         if self._callback is None:

@@ -160,6 +160,7 @@ def run_script(kind: str, api: str, core: str, module: Any = None) -> dict[str, 
     return {"ticks": ticks, "stats": stats, "nodes": nodes, "groups": groups, "callbacks": callbacks}
 
 
+# lobster-trace: urb.HOST_001
 @pytest.mark.parametrize("kind", ["rs232", "usb"])
 def test_cycles_give_the_per_request_outcomes_on_both_cores(kind: str) -> None:
     on_python = run_script(kind, "cycle", "python")
