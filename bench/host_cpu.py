@@ -35,8 +35,8 @@ this machine (two bridges as in 2, plus 300 RS232 requests per second at the cos
 above 1 means this machine could not run the paper's robot from this library at 1 kHz.
 Nothing is asserted: the numbers go to build/bench/host_cpu.json.
 
-    python3 bench/host_cpu.py                  # ~45 s
-    python3 bench/host_cpu.py --quick          # ~15 s
+    python3 bench/host_cpu.py                  # ~75 s
+    python3 bench/host_cpu.py --quick          # ~20 s
 """
 
 from __future__ import annotations
