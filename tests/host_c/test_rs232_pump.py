@@ -7,9 +7,10 @@ address, mailbox, direction, flags, bridge status, data, sequence number (the pu
 Python transfer when it hands the batch back), that it was sent before it completed and whether it
 completed within its wait; then the manager's counters (stray bytes, late responses) and lost reason.
 The scripts: traffic with bridge-reported errors, a node unplugged, host refusals, corrupted response
-bytes (the hunt resynchronises), line noise while idle, a request lost on the line (its timeout); a
-bridge process killed with requests in flight (read error or end of input); close while requests are
-pending (every request ends in exactly one callback). The port's hand-over record is covered by the
+bytes (the hunt resynchronises), line noise while idle, a request lost on the line (its timeout), a
+`urb.cycle.Cycle` of motor reads and writes (its items go to the C core at once, polled and with a
+callback); a bridge process killed with requests in flight (read error or end of input); close while
+requests are pending (every request ends in exactly one callback). The port's hand-over record is covered by the
 pump and honoured by the next manager on the port; a failed write, a failed read and the end of input
 are worded as the Python threads word them (`rs232.describe_io_error` of pyserial's exceptions).
 
@@ -41,7 +42,9 @@ sys.path.insert(0, str(REPO / "tests" / "host"))
 
 from bridge_proc import BridgeProc, fake_bridge  # noqa: E402,F401 (fixture)
 from native_support import build_native_mutant, reads_carry_every_seq, sensorhex_cycle  # noqa: E402
+from urb_msgs import sensorhex as sx  # noqa: E402
 from urb.api import NodeRequest, URBInterface  # noqa: E402
+from urb.cycle import Cycle  # noqa: E402
 from urb.errors import ErrorFlag  # noqa: E402
 from urb.managers import RS232Manager, native, rs232  # noqa: E402
 from urb.managers.base import CLOSED_REASON, Transfer  # noqa: E402
@@ -121,8 +124,20 @@ def traffic_script(bp: BridgeProc, core: MakeCore | None = None) -> dict[str, An
         bp.cmd("drop 1")  # a request lost on the line: its timeout, the pump's poll
         run([motors[2].submit_request(motors[2].new_request().read(1))], wait_s=4 * TIMEOUT_S)
         run([motors[2].submit_request(motors[2].new_request().read(1)) for _ in range(3)])
+        cycle = Cycle()  # urb.cycle: the items go to the C core at once, as a CycleState
+        feedback = [cycle.read(node, sx.MotorFeedback) for node in motors]
+        command = [cycle.write(node, sx.MotorCommand) for node in motors]
+        ticks: list[Cycle] = []
+        cycles: list[Observed] = []
+        for tick in range(6):
+            for k, item in enumerate(command):
+                item.set(sx.MotorCommand(voltage=tick * 10 + k))
+            cycle.set_callback(ticks.append if tick % 2 else None)  # with a callback, and polled
+            assert cycle.submit().wait(10)
+            cycles.extend((i.flags, i.status, i.data, i.seq) for i in (*feedback, *command))
+        cycles.append(("cycle callbacks", len(ticks)))
         stats = (m.stats.submitted, m.stats.completed, m.stats.failed, m.stats.stray_bytes, m.stats.late_responses)
-        return {"requests": observed, "stats": stats, "pumped": pumped, "reason": m.lost_reason}
+        return {"requests": observed, "cycles": cycles, "stats": stats, "pumped": pumped, "reason": m.lost_reason}
     finally:
         urb.close()
 
@@ -204,7 +219,9 @@ def run_both(make: MakeBridge, use_pump: Callable[[bool], None], script: str,
 def test_the_rs232_pump_matches_the_threads(fake_bridge: MakeBridge, use_pump: Callable[[bool], None]) -> None:
     on_pump, on_threads = run_both(fake_bridge, use_pump, "traffic")
     assert on_pump["requests"] == on_threads["requests"], "the requests' outcomes differ"
+    assert on_pump["cycles"] == on_threads["cycles"], "the cycle items' outcomes differ"
     assert on_pump["stats"] == on_threads["stats"], "the manager's counters differ"
+    assert on_pump["cycles"][-1] == ("cycle callbacks", 3) and {o[0] for o in on_pump["cycles"][:-1]} == {ErrorFlag.NONE}
     assert on_pump["reason"] is None and on_threads["reason"] is None
     flags = {o[4] for o in on_pump["requests"]}
     assert flags == {ErrorFlag.NONE, ErrorFlag.HOST_SIZE_MISMATCH, ErrorFlag.TIMEOUT, ErrorFlag.CHECKSUM,
@@ -367,6 +384,7 @@ def test_a_seeded_bug_in_the_rs232_pump_is_caught(fake_bridge: MakeBridge, use_p
     script = PUMP_MUTANTS[name][2]
     on_mutant, on_threads = run_both(fake_bridge, use_pump, script, mutant=make)
     if script == "traffic":
-        assert (on_mutant["requests"], on_mutant["stats"]) != (on_threads["requests"], on_threads["stats"])
+        assert (on_mutant["requests"], on_mutant["cycles"], on_mutant["stats"]) != (
+            on_threads["requests"], on_threads["cycles"], on_threads["stats"])
     else:
         assert (on_mutant["lost"], on_mutant["reason"]) != (on_threads["lost"], on_threads["reason"])
