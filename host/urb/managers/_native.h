@@ -48,7 +48,8 @@ typedef struct {
     bool running;              /* a thread was started and not joined (Python side only) */
     volatile bool stop;
     int fd;
-    int wake_fd;               /* RS232: an eventfd that wakes the thread (a submission, the stop); -1 on USB */
+    int wake_fd;               /* RS232: an eventfd that wakes the thread (a submission, the stop), open from
+                                  the first start until the core is released; -1 before and on USB */
     urb_ns_t frame_ns;         /* USB: the frame period (0 on RS232: frames go when the window lets them) */
     char name[NATIVE_NAME_MAX];    /* the manager's name, for the lost reason of an I/O error */
     bool has_handover;

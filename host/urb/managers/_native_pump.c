@@ -240,13 +240,17 @@ PyObject *native_pump_start(native_core_t *self, PyObject *args)
         PyErr_Format(PyExc_ValueError, "%s: the port's hand-over record path is too long", port);
         return NULL;
     }
-    int const wake = usb ? -1 : eventfd(0u, EFD_NONBLOCK | EFD_CLOEXEC);
-    if (!usb && (wake < 0)) {
-        return PyErr_SetFromErrno(PyExc_OSError);
+    if (!usb && (p->wake_fd < 0)) { /* kept until the core is released: a _pump_notify may still write to it */
+        p->wake_fd = eventfd(0u, EFD_NONBLOCK | EFD_CLOEXEC);
+        if (p->wake_fd < 0) {
+            return PyErr_SetFromErrno(PyExc_OSError);
+        }
+    } else if (!usb) {
+        uint64_t stale;
+        (void)read(p->wake_fd, &stale, sizeof stale); /* what the last run left */
     }
     native_core_lock(self);
     p->fd = fd;
-    p->wake_fd = wake;
     p->notified = false;
     p->frame_ns = frame_ns;
     (void)snprintf(p->name, sizeof p->name, "%s", name);
@@ -258,9 +262,6 @@ PyObject *native_pump_start(native_core_t *self, PyObject *args)
     native_core_unlock(self);
     int const rc = pthread_create(&p->thread, NULL, usb ? pump_main : native_rs232_pump_main, self);
     if (rc != 0) {
-        if (wake >= 0) {
-            (void)close(wake);
-        }
         errno = rc;
         return PyErr_SetFromErrno(PyExc_OSError);
     }
@@ -280,25 +281,16 @@ static void pump_signal_stop(native_pump_t *p)
     }
 }
 
-/* After the join (GIL held): the wake descriptor is closed under the core's lock, so that a
- * _pump_notify never writes to it once closed (its number may be reused). */
-static void pump_joined(native_core_t *self)
-{
-    native_core_lock(self);
-    if (self->pump.wake_fd >= 0) {
-        (void)close(self->pump.wake_fd);
-        self->pump.wake_fd = -1;
-    }
-    native_core_unlock(self);
-    self->pump.running = false;
-}
-
 void native_pump_join(native_core_t *self)
 {
     if (self->pump.running) {
         pump_signal_stop(&self->pump);
         (void)pthread_join(self->pump.thread, NULL);
-        pump_joined(self);
+        self->pump.running = false;
+    }
+    if (self->pump.wake_fd >= 0) { /* the core is being released: no method can notify any more */
+        (void)close(self->pump.wake_fd);
+        self->pump.wake_fd = -1;
     }
 }
 
@@ -310,7 +302,7 @@ PyObject *native_pump_stop(native_core_t *self, PyObject *unused)
         Py_BEGIN_ALLOW_THREADS
         (void)pthread_join(self->pump.thread, NULL);
         Py_END_ALLOW_THREADS
-        pump_joined(self);
+        self->pump.running = false;
     }
     Py_RETURN_NONE;
 }
@@ -319,13 +311,17 @@ PyObject *native_pump_notify(native_core_t *self, PyObject *unused)
 {
     (void)unused;
     native_pump_t *p = &self->pump;
+    if (!p->running || (p->wake_fd < 0)) {
+        Py_RETURN_NONE;
+    }
     native_core_lock(self);
-    if ((p->wake_fd >= 0) && !p->notified) { /* one write until the thread has taken it: a burst is one wake-up */
-        p->notified = true;
+    bool const first = !p->notified; /* one write until the thread has taken it: a burst is one wake-up */
+    p->notified = true;
+    native_core_unlock(self);
+    if (first) { /* after the unlock: the woken thread takes the lock at once */
         uint64_t const one = 1u;
         (void)write(p->wake_fd, &one, sizeof one);
     }
-    native_core_unlock(self);
     Py_RETURN_NONE;
 }
 
