@@ -118,7 +118,11 @@ struct urb_loop {
     int epfd;
     int wakefd;
     int timerfd;
-    urb_ns_t armed_ns;              /**< The timerfd's deadline (0: disarmed) */
+    urb_ns_t armed_ns;              /**< The timerfd's expiry (0: disarmed or fired) */
+    urb_ns_t waiting_until;         /**< A thread waits in urb_loop_run_once until then (0: none) */
+    bool self_waits;                /**< Every wait is urb_loop_run_once's own (its thread, or the
+                                         application's calls with a timeout): no timerfd needed */
+    bool ms_waits;                  /**< No epoll_pwait2 (Linux < 5.11): waits count in ms */
     uint32_t manager_count;
     urb_manager_t managers[URB_LOOP_MAX_MANAGERS];
     urb_system_t system;
