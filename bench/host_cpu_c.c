@@ -9,6 +9,8 @@
  * calls urb_loop_run_once(0), as a program with descriptors of its own would (two waits per wake-up).
  *
  *     host_cpu_c USB_FD0 USB_FD1 RS232_PORT SECONDS [slow] [poll]
+ *     host_cpu_c floor SECONDS PERIOD_NS     the loop with no bridge, woken every PERIOD_NS: the
+ *                                            cost of the wake-ups alone
  *
  * Prints one JSON object: the measured window's wall and CPU time (getrusage of this process: the
  * library, its system calls and the loop; the bridges run in other processes), requests per kind and
@@ -125,8 +127,39 @@ static int fail(const char *what, const char *err)
     return 1;
 }
 
+/* The floor: the library's loop with no bridge, woken every `period` by its own timeout and doing
+ * nothing else, for `seconds`; prints its CPU per wake-up. What any program waking that often pays
+ * on this machine (the kernel's sleep and wake-up, the timer), whatever it does when awake. */
+static int floor_run(double seconds, urb_ns_t period)
+{
+    if ((urb_loop_init(&loop, NULL) != URB_HOST_OK) || (period <= 0)) {
+        return fail("floor", "cannot create the loop");
+    }
+    uint64_t const wakes = (uint64_t)(seconds * 1e9 / (double)period + 0.5);
+    urb_ns_t next = (urb_now_ns() / period + 1) * period;
+    urb_ns_t const start = next;
+    double const cpu0 = cpu_seconds();
+    long const sleeps0 = sleeps();
+    for (uint64_t i = 0u; i < wakes;) {
+        urb_ns_t const now = urb_now_ns();
+        (void)urb_loop_run_once(&loop, (next > now) ? next - now : 0);
+        if (urb_now_ns() >= next) {
+            i++;
+            next += period;
+        }
+    }
+    double const cpu = cpu_seconds() - cpu0;
+    (void)printf("{\"wakes\": %llu, \"wall_s\": %.6f, \"cpu_s\": %.6f, \"sleeps\": %ld}\n", (unsigned long long)wakes,
+                 (double)(urb_now_ns() - start) * 1e-9, cpu, sleeps() - sleeps0);
+    urb_loop_destroy(&loop);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
+    if ((argc == 4) && (strcmp(argv[1], "floor") == 0)) {
+        return floor_run(atof(argv[2]), (urb_ns_t)atoll(argv[3]));
+    }
     bool slow = false;
     bool poll_fd = false;
     for (int i = 5; i < argc; i++) {
