@@ -14,7 +14,8 @@
  *
  * Prints one JSON object: the measured window's wall and CPU time (getrusage of this process: the
  * library, its system calls and the loop; the bridges run in other processes), requests per kind and
- * outcome, late ticks. SECONDS 0 stops after discovery (callgrind runs subtract that start-up). `slow`
+ * outcome, late ticks, wake-ups, the mean and largest latency (submission to callback) of the
+ * requests that succeeded. SECONDS 0 stops after discovery (callgrind runs subtract that start-up). `slow`
  * (for runs under valgrind, ~50 times slower) multiplies the timeouts, lifetimes and silences by 40.
  */
 #define _GNU_SOURCE /* ppoll: a timeout in ns */
@@ -44,6 +45,9 @@ static axis_t sensors[SENSORS];
 static uint64_t done_ok;
 static uint64_t done_failed;
 static uint64_t not_submitted;
+static urb_ns_t latency_sum[2]; /* of the requests that succeeded: [0] USB, [1] RS232 */
+static uint64_t latency_count[2];
+static urb_ns_t latency_max[2];
 
 static void on_done(urb_transfer_t *t, void *user)
 {
@@ -51,6 +55,12 @@ static void on_done(urb_transfer_t *t, void *user)
     *busy = false;
     if (urb_transfer_ok(t)) {
         done_ok++;
+        urb_ns_t const latency = urb_transfer_latency_ns(t); /* submission to callback */
+        uintptr_t const at = (uintptr_t)busy;
+        size_t const rs232 = ((at >= (uintptr_t)&sensors[0]) && (at < (uintptr_t)&sensors[SENSORS])) ? 1u : 0u;
+        latency_sum[rs232] += latency;
+        latency_count[rs232]++;
+        latency_max[rs232] = (latency > latency_max[rs232]) ? latency : latency_max[rs232];
     } else {
         done_failed++;
     }
@@ -269,10 +279,15 @@ int main(int argc, char **argv)
     long const slept = sleeps() - sleeps0;
     double const wall = (double)(urb_now_ns() - start) * 1e-9;
     (void)printf("{\"ticks\": %llu, \"submitted\": %llu, \"ok\": %llu, \"failed\": %llu, \"not_submitted\": %llu, "
-                 "\"late_ticks\": %llu, \"wall_s\": %.6f, \"cpu_s\": %.6f, \"sys_s\": %.6f, \"sleeps\": %ld}\n",
+                 "\"late_ticks\": %llu, \"wall_s\": %.6f, \"cpu_s\": %.6f, \"sys_s\": %.6f, \"sleeps\": %ld, "
+                 "\"usb_latency_mean_us\": %.1f, \"usb_latency_max_us\": %.1f, \"rs232_latency_mean_us\": %.1f, "
+                 "\"rs232_latency_max_us\": %.1f}\n",
                  (unsigned long long)ticks, (unsigned long long)submitted, (unsigned long long)done_ok,
                  (unsigned long long)done_failed, (unsigned long long)not_submitted, (unsigned long long)late, wall, cpu,
-                 sys, slept);
+                 sys, slept, (double)latency_sum[0] / 1e3 / (double)((latency_count[0] > 0u) ? latency_count[0] : 1u),
+                 (double)latency_max[0] / 1e3,
+                 (double)latency_sum[1] / 1e3 / (double)((latency_count[1] > 0u) ? latency_count[1] : 1u),
+                 (double)latency_max[1] / 1e3);
     for (int b = 0; b < 2; b++) {
         (void)urb_loop_close_manager(&loop, usb[b], true);
     }

@@ -249,6 +249,9 @@ def main(argv: list[str] | None = None) -> int:
           f"{GOAL_SHARE * 100:.0f} % | {share_at_rate / GOAL_SHARE:.2f} |")
     print(f"| of which system (kernel) | {float(res['sys_s']) / float(res['wall_s']) * 100:.2f} % | | |")
     print(f"| CPU per request | {us_per_request:.2f} us | | |")
+    print(f"| latency, submission to callback, mean / largest: USB | {float(res['usb_latency_mean_us']) / 1e3:.2f} / "
+          f"{float(res['usb_latency_max_us']) / 1e3:.1f} ms (the bridge model's queue: it varies with the machine's load) | | |")
+    print(f"| ... RS232 | {float(res['rs232_latency_mean_us']) / 1e3:.2f} / {float(res['rs232_latency_max_us']) / 1e3:.1f} ms | | |")
     print(f"| wake-ups per ms (the tick, the IN transfers, the RS232 responses) | {wakes_per_ms:.2f} | | |")
     print(f"| floor: the loop with no bridge woken {wakes_per_ms:.2f} times per ms, share of one core | "
           f"{floor_share * 100:.2f} % ({float(floor['cpu_s']) * 1e6 / max(1, int(floor['wakes'])):.1f} us per wake-up) | | |")
