@@ -132,7 +132,9 @@ struct urb_loop {
     int wakefd;
     int timerfd;
     urb_ns_t armed_ns;              /**< The timerfd's expiry (0: disarmed or fired) */
-    urb_ns_t waiting_until;         /**< A thread waits in urb_loop_run_once until then (0: none) */
+    urb_ns_t waiting_until;         /**< Threads wait in urb_loop_run_once until then at the
+                                         latest (0: none) */
+    uint32_t waiters;               /**< ... how many (a blocking call's wait may join the application's) */
     bool self_waits;                /**< Every wait is urb_loop_run_once's own (its thread, or the
                                          application's calls with a timeout): no timerfd needed */
     bool ms_waits;                  /**< No epoll_pwait2 (Linux < 5.11): waits count in ms */

@@ -484,7 +484,9 @@ static int32_t run_once(urb_loop_t *loop, urb_ns_t timeout_ns)
     if (loop->ms_waits && (deadline > now)) {
         arm_timer(loop, deadline); /* epoll_wait's ms would overshoot it */
     }
-    loop->waiting_until = (wait < 0) ? URB_NEVER : now + wait;
+    urb_ns_t const until = (wait < 0) ? URB_NEVER : now + wait;
+    loop->waiting_until = (until > loop->waiting_until) ? until : loop->waiting_until; /* the latest waiter's */
+    loop->waiters++;
     unlock(loop);
 
     struct epoll_event ev[EVENTS];
@@ -494,7 +496,10 @@ static int32_t run_once(urb_loop_t *loop, urb_ns_t timeout_ns)
     }
 
     lock(loop);
-    loop->waiting_until = 0;
+    loop->waiters--;
+    if (loop->waiters == 0u) {
+        loop->waiting_until = 0;
+    }
     now = urb_now_ns();
     for (int i = 0; i < n; i++) {
         uint64_t const tag = ev[i].data.u64;
