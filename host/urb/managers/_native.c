@@ -353,6 +353,7 @@ static PyObject *core_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
         }
         (void)pthread_condattr_destroy(&attr);
         self->pump.fd = -1;
+        self->pump.wake_fd = -1;
         self->trace = Py_None;
         Py_INCREF(Py_None);
         self->completed = PyList_New(0);
@@ -882,7 +883,8 @@ static PyMethodDef core_methods[] = {
     {"_set_window", (PyCFunction)core_set_window_raw_locked, METH_O, "Set the window (1..15)."},
     {"busy", (PyCFunction)core_busy_locked, METH_NOARGS, "Requests queued or in flight."},
     {"_pump_start", (PyCFunction)native_pump_start, METH_VARARGS,
-     "_pump_start(fd, name, frame_ns, handover_port, handover_dir): run the USB uplink on a C thread."},
+     "_pump_start(fd, name, frame_ns, handover_port, handover_dir): run the uplink on a C thread (frame_ns 0 on RS232)."},
+    {"_pump_notify", (PyCFunction)native_pump_notify, METH_NOARGS, "RS232: wake the pump (requests were queued)."},
     {"_pump_stop", (PyCFunction)native_pump_stop, METH_NOARGS, "Stop and join the pump's thread."},
     {"_pump_wait", (PyCFunction)native_pump_wait, METH_O,
      "_pump_wait(timeout_s) -> bool: wait (GIL released) for completions or a kick; True when there are some."},
