@@ -59,7 +59,7 @@ test-sim: sim-lib $(SIM_BUILD)/test_core $(foreach m,$(SIM_MUTANTS),$(SIM_BUILD)
 test-sim-san: setup
 	$(PYTHON) tools/sim_sanitized.py
 
-sim-report: setup
+sim-report: setup accel host-c-py
 	urb sim sensorhex
 
 sim-bench: setup
