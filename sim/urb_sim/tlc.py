@@ -97,12 +97,13 @@ def class_archive(java: str, jar: Path, directory: Path = CDS_DIR) -> Iterator[l
     except OSError:
         yield []
         return
+    # a JVM older than 13 (TLC needs 11) knows neither option: it ignores them instead of refusing to start
     if archive.is_file():
-        yield [f"-XX:SharedArchiveFile={archive}"]
+        yield ["-XX:+IgnoreUnrecognizedVMOptions", f"-XX:SharedArchiveFile={archive}"]
         return
     partial = directory / f"{archive.stem}.{os.getpid()}.{next(_partial)}.partial"
     try:
-        yield [f"-XX:ArchiveClassesAtExit={partial}"]
+        yield ["-XX:+IgnoreUnrecognizedVMOptions", f"-XX:ArchiveClassesAtExit={partial}"]
         if partial.is_file():
             os.replace(partial, archive)
     finally:
