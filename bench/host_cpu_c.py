@@ -143,7 +143,8 @@ def python_numbers(path: Path) -> dict[str, float] | None:
                 "usb_us": float(data["usb_sensorhex"]["us_per_request"]),
                 "rs232_us": float(data["rs232_pty"]["us_per_request"]),
                 "usb_core_us": float(data["usb_core_us"]), "rs232_core_us": float(data["rs232_core_us"]),
-                "quick": float(bool(data.get("quick", False)))}
+                "quick": float(bool(data.get("quick", False))),
+                "cycle_share": float(data.get("sensorhex_cycle_share", 0.0))}
     except (OSError, ValueError, KeyError, TypeError):
         return None
 
@@ -179,6 +180,11 @@ def side_by_side(py: dict[str, float], on_c: dict[str, float] | None, c_share: f
           f"{on_c['usb_core_us'] / py['usb_core_us']:.3f} / {on_c['rs232_core_us'] / py['rs232_core_us']:.3f} | |")
     print(f"| Python API on the C core: share of one core / goal ({GOAL_SHARE_PY_ON_C * 100:.0f} %) | | "
           f"{on_c['share'] / GOAL_SHARE_PY_ON_C:.2f} | | | |")
+    if py["cycle_share"] and on_c["cycle_share"]:  # the USB motors through urb.cycle.Cycle (polled)
+        print(f"| share of one core, USB motors through the cycle API (polled) | {py['cycle_share'] * 100:.1f} % | "
+              f"{on_c['cycle_share'] * 100:.1f} % | | {on_c['cycle_share'] / py['cycle_share']:.3f} | |")
+        print(f"| cycle API on the C core: share of one core / goal ({GOAL_SHARE_PY_ON_C * 100:.0f} %) | | "
+              f"{on_c['cycle_share'] / GOAL_SHARE_PY_ON_C:.2f} | | | |")
 
 
 def main(argv: list[str] | None = None) -> int:

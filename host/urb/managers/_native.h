@@ -23,7 +23,9 @@
 
 typedef struct native_xfer {
     urb_transfer_t t;          /* first: a urb_transfer_t * of ours is a native_xfer_t * */
-    PyObject *py;              /* the Python Transfer (a strong reference while the core owns t) */
+    PyObject *py;              /* the Python Transfer, or the CycleState of a cycle item (a strong
+                                  reference while the core owns t) */
+    int32_t cycle_item;        /* -1: py is a Transfer; else the index of the item in the CycleState */
     struct native_xfer *free_next;
     bool sent_unmarked;        /* sent by the pump: seq, sent_ns, due_ns and expires_ns are written to
                                   the Python transfer when it is handed back (the pump has no GIL) */
@@ -98,6 +100,26 @@ PyObject *native_pump_wait(native_core_t *self, PyObject *arg);
 PyObject *native_pump_kick(native_core_t *self, PyObject *unused);
 PyObject *native_pump_running(native_core_t *self, PyObject *unused);
 PyObject *native_has_completed(native_core_t *self, PyObject *unused);
+/* A C transfer from the core object's free list (uninitialised; NULL with MemoryError), and back
+ * (dropping its reference `py`). */
+native_xfer_t *native_xfer_get(native_core_t *self);
+void native_xfer_put(native_core_t *self, native_xfer_t *x);
+
+/* The cycle state (_native_cycle.c): a fixed set of requests submitted at once, one completion. */
+#define NATIVE_CYCLE_MAX 1024
+typedef struct native_cycle native_cycle_t;
+extern PyTypeObject native_cycle_type;
+/* _cycle_submit(state, now, refusals), in the core type's method table (called with the lock held). */
+PyObject *native_cycle_submit(native_core_t *self, PyObject *const *args, Py_ssize_t nargs);
+/* _new_cycle_state(specs): a CycleState of this module's type. */
+PyObject *native_new_cycle_state(native_core_t *self, PyObject *specs);
+/* Writes the outcome of the completed cycle item `x` into its CycleState (the caller then returns x
+ * to the free list). 1 when it was the state's last pending item, 0 if not, -1 with a Python error. */
+int native_cycle_item_done(native_core_t *core, native_xfer_t *x);
+/* `x` is an item of a polled cycle (no on_done: its owner collects it, the dispatcher need not wake).
+ * Reads no Python object: the pump's thread calls it, with the core's lock held. */
+bool native_cycle_item_polled(const native_xfer_t *x);
+
 /* Stops and joins the pump's thread if one runs (GIL held; the thread never needs it). */
 void native_pump_join(native_core_t *self);
 

@@ -33,10 +33,19 @@ static urb_ns_t monotonic_ns(void)
     return ((urb_ns_t)ts.tv_sec * URB_NS_PER_S) + (urb_ns_t)ts.tv_nsec;
 }
 
-/* The dispatcher has something to take (lock held). */
+/* The dispatcher has something to take (lock held): a kick, or a completion other than an item of
+ * a polled cycle (whose owner takes it: _native_cycle.c). */
 static bool has_work(const native_core_t *self)
 {
-    return (self->core.m.done_head != NULL) || self->pump.kicked;
+    if (self->pump.kicked) {
+        return true;
+    }
+    for (const urb_transfer_t *t = self->core.m.done_head; t != NULL; t = t->next) {
+        if (!native_cycle_item_polled((const native_xfer_t *)t)) {
+            return true;
+        }
+    }
+    return false;
 }
 
 /* After a step of the core (lock held): wake the dispatcher when the step completed transfers, or

@@ -17,6 +17,7 @@ import heapq
 import itertools
 from collections import deque
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 from ..errors import ErrorFlag
 from .base import (
@@ -30,12 +31,16 @@ from .base import (
     FrameTransport,
     ManagerStats,
     Transfer,
+    cycle_state_of,
     finish,
 )
 from .loopback import BridgeModel
 from .native import new_rs232_core, new_usb_core
 from .rs232_core import PLACEHOLDER_NS, Rs232Core
 from .usb_core import UsbCore
+
+if TYPE_CHECKING:
+    from ._native import CycleState
 
 
 class VirtualClock:
@@ -276,6 +281,14 @@ class SimManager(BusManager):
         t.submitted_ns = now
         self.stats.submitted += 1
         self.core.submit(t, now)
+        self._after_step()
+
+    def new_cycle_state(self, specs: tuple[tuple[int, int, bool, int], ...]) -> CycleState | None:
+        return cycle_state_of(self.core, specs)
+
+    def submit_cycle(self, state: CycleState, refusals: tuple[int, ...] | None) -> None:
+        self.stats.submitted += state.size
+        self.core._cycle_submit(state, self.clock.now_ns(), refusals)  # type: ignore[union-attr]
         self._after_step()
 
     def reject(self, t: Transfer, flags: ErrorFlag) -> None:
