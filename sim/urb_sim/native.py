@@ -342,6 +342,8 @@ class World:
         items = [(bridge, ctypes.string_at(self._buf, n))]
         while self._taken_more.value:
             n = self._lib.urbsim_host_take_more(self._w, *self._taken_args)
+            if n < 0:
+                raise RuntimeError("urbsim_host_take_more found none of the items it counted (a bug in world.c)")
             items.append((self._taken_bridge.value, ctypes.string_at(self._buf, n)))
         return items
 
