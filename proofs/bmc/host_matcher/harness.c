@@ -34,7 +34,7 @@
  * (only their order matters to the matcher). urb_matcher_feed (matching, hunting, framing) is not
  * proved here: host/c/README.md says what was measured.
  */
-/* lobster-trace: urb.HOST_001, urb.HOST_002 (the requirements this proof verifies) */
+/* lobster-trace: urb.HOST_001 (the requirements this proof verifies: exactly once; the matching by number, HOST_002, needs urb_matcher_feed, not proved here) */
 #include "urb_verify.h"
 
 #include "urb_host_core.h"
