@@ -165,7 +165,7 @@ static void frame_end(urb_rs485_master_t *m)
              * carried a shorter frame, which a node may have taken if its check passes */
             m->hal->tx_abort(m->hal->ctx);
             m->stats.collisions++;
-            m->cut = !f->check_ok || (f->n < 3u);
+            m->cut = !f->check_ok;
             m->phase = PH_DRAIN;
         }
         return;
@@ -174,8 +174,7 @@ static void frame_end(urb_rs485_master_t *m)
         /* Rs485Poll.tla: Drain, the line is silent after a collision. The frame that ended holds
          * our bytes up to the collision and whatever joined them (the other talker going on): if
          * its check passes, a node may have taken it, and only TIMEOUT is true. */
-        bool const taken = f->check_ok && (f->n >= 3u);
-        finish(m, (m->cut && !taken) ? URB_STATUS_BUS_STUCK : URB_STATUS_TIMEOUT);
+        finish(m, (m->cut && !f->check_ok) ? URB_STATUS_BUS_STUCK : URB_STATUS_TIMEOUT);
     }
 }
 

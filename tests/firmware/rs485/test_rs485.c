@@ -823,6 +823,20 @@ static void test_master_request_split_by_stall(void **state)
     assert_int_equal(split_by_stall(true), URB_STATUS_TIMEOUT);
     L.bridge.driving = true;
     assert_int_equal(split_by_stall(false), URB_STATUS_BUS_STUCK);
+    /* a babbler's frame still open when the request starts ends at the first echo: it is not the
+     * request's, which goes on whole (then the node's silence: NO_NODE) */
+    L.bridge.driving = true;
+    mt += 1000u;
+    urb_rs485_master_rx(&L.master, 0x42u, mt);
+    L.data[0] = 0x55u;
+    master_begin_at(URB_DL_WRITE, 20u, 2u, 2u);
+    uint8_t sent[URB_RS485_MAX_FRAME];
+    assert_int_equal(master_echo(sent, URB_RS485_MAX_FRAME), 5u);
+    assert_true(L.bridge.driving);
+    mt += 50u;
+    assert_int_equal(L.dl.poll(L.dl.ctx, mt), URB_DOWNLINK_BUSY);
+    mt += 200u;
+    assert_int_equal(L.dl.poll(L.dl.ctx, mt), URB_STATUS_NO_NODE);
 }
 
 typedef struct {
