@@ -818,6 +818,7 @@ static int split_by_stall(bool short_passes)
 static void test_master_request_split_by_stall(void **state)
 {
     (void)state;
+    uint8_t b;
     mt = 0u;
     L.bridge.driving = true;
     assert_int_equal(split_by_stall(true), URB_STATUS_TIMEOUT);
@@ -837,6 +838,17 @@ static void test_master_request_split_by_stall(void **state)
     assert_int_equal(L.dl.poll(L.dl.ctx, mt), URB_DOWNLINK_BUSY);
     mt += 200u;
     assert_int_equal(L.dl.poll(L.dl.ctx, mt), URB_STATUS_NO_NODE);
+    /* a SYNC whose last echo comes after a silence over t1.5: a collision on its last byte (not a
+     * cut), its frame broken without an end event: the drain ends at t3.5 of silence, TIMEOUT */
+    L.bridge.driving = true;
+    master_begin_at(URB_DL_SYNC, 0u, 0u, 0u);
+    assert_int_equal(master_echo(sent, 2u), 2u);
+    assert_true(urb_rs485_master_tx_next(&L.master, &b));
+    mt += 26u;
+    urb_rs485_master_rx(&L.master, b, mt);
+    assert_false(L.bridge.driving);
+    assert_int_equal(L.dl.poll(L.dl.ctx, mt + 44u), URB_DOWNLINK_BUSY);
+    assert_int_equal(L.dl.poll(L.dl.ctx, mt + 45u), URB_STATUS_TIMEOUT);
 }
 
 typedef struct {
