@@ -2,14 +2,20 @@
  * The SensoRHex load through the native host library (host/c), for bench/host_cpu_c.py: two USB
  * bridges with three motor drivers each, every motor read (MotorFeedback) and commanded
  * (MotorCommand) every millisecond, and three sensors (BatteryManager, Imu, IrDistance) read at
- * 100 Hz over RS232: 12.3 requests per millisecond. The loop is embedded (ppoll on the library's
- * descriptor, the 1-ms tick and the library's deadline), as a robot's control thread would run it.
+ * 100 Hz over RS232: 12.3 requests per millisecond. The loop is embedded in the program's one thread,
+ * as a robot's control thread would run it: urb_loop_run_once waits until input, the library's
+ * deadline or the program's next 1-ms tick (one wait per wake-up); with `poll`, the program instead
+ * ppolls the library's descriptor until the earlier of its tick and urb_loop_next_deadline, then
+ * calls urb_loop_run_once(0), as a program with descriptors of its own would (two waits per wake-up).
  *
- *     host_cpu_c USB_FD0 USB_FD1 RS232_PORT SECONDS [SLOW]
+ *     host_cpu_c USB_FD0 USB_FD1 RS232_PORT SECONDS [slow] [poll]
+ *     host_cpu_c floor SECONDS PERIOD_NS     the loop with no bridge, woken every PERIOD_NS: the
+ *                                            cost of the wake-ups alone
  *
  * Prints one JSON object: the measured window's wall and CPU time (getrusage of this process: the
  * library, its system calls and the loop; the bridges run in other processes), requests per kind and
- * outcome, late ticks. SECONDS 0 stops after discovery (callgrind runs subtract that start-up). SLOW
+ * outcome, late ticks, wake-ups, the mean and largest latency (submission to callback) of the
+ * requests that succeeded. SECONDS 0 stops after discovery (callgrind runs subtract that start-up). `slow`
  * (for runs under valgrind, ~50 times slower) multiplies the timeouts, lifetimes and silences by 40.
  */
 #define _GNU_SOURCE /* ppoll: a timeout in ns */
@@ -39,6 +45,9 @@ static axis_t sensors[SENSORS];
 static uint64_t done_ok;
 static uint64_t done_failed;
 static uint64_t not_submitted;
+static urb_ns_t latency_sum[2]; /* of the requests that succeeded: [0] USB, [1] RS232 */
+static uint64_t latency_count[2];
+static urb_ns_t latency_max[2];
 
 static void on_done(urb_transfer_t *t, void *user)
 {
@@ -46,6 +55,12 @@ static void on_done(urb_transfer_t *t, void *user)
     *busy = false;
     if (urb_transfer_ok(t)) {
         done_ok++;
+        urb_ns_t const latency = urb_transfer_latency_ns(t); /* submission to callback */
+        uintptr_t const at = (uintptr_t)busy;
+        size_t const rs232 = ((at >= (uintptr_t)&sensors[0]) && (at < (uintptr_t)&sensors[SENSORS])) ? 1u : 0u;
+        latency_sum[rs232] += latency;
+        latency_count[rs232]++;
+        latency_max[rs232] = (latency > latency_max[rs232]) ? latency : latency_max[rs232];
     } else {
         done_failed++;
     }
@@ -101,6 +116,14 @@ static double cpu_seconds(void)
            (double)ru.ru_stime.tv_usec * 1e-6;
 }
 
+/* Voluntary context switches: how often the program slept and was woken (the wake-ups of the load). */
+static long sleeps(void)
+{
+    struct rusage ru;
+    (void)getrusage(RUSAGE_SELF, &ru);
+    return ru.ru_nvcsw;
+}
+
 static double sys_seconds(void)
 {
     struct rusage ru;
@@ -114,17 +137,54 @@ static int fail(const char *what, const char *err)
     return 1;
 }
 
+/* The floor: the library's loop with no bridge, woken every `period` by its own timeout and doing
+ * nothing else, for `seconds`; prints its CPU per wake-up. What any program waking that often pays
+ * on this machine (the kernel's sleep and wake-up, the timer), whatever it does when awake. */
+static int floor_run(double seconds, urb_ns_t period)
+{
+    if ((urb_loop_init(&loop, NULL) != URB_HOST_OK) || (period <= 0)) {
+        return fail("floor", "cannot create the loop");
+    }
+    uint64_t const wakes = (uint64_t)(seconds * 1e9 / (double)period + 0.5);
+    urb_ns_t next = (urb_now_ns() / period + 1) * period;
+    urb_ns_t const start = next;
+    double const cpu0 = cpu_seconds();
+    long const sleeps0 = sleeps();
+    for (uint64_t i = 0u; i < wakes;) {
+        urb_ns_t const now = urb_now_ns();
+        (void)urb_loop_run_once(&loop, (next > now) ? next - now : 0);
+        if (urb_now_ns() >= next) {
+            i++;
+            next += period;
+        }
+    }
+    double const cpu = cpu_seconds() - cpu0;
+    (void)printf("{\"wakes\": %llu, \"wall_s\": %.6f, \"cpu_s\": %.6f, \"sleeps\": %ld}\n", (unsigned long long)wakes,
+                 (double)(urb_now_ns() - start) * 1e-9, cpu, sleeps() - sleeps0);
+    urb_loop_destroy(&loop);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
-    if ((argc != 5) && (argc != 6)) {
-        (void)fprintf(stderr, "usage: host_cpu_c USB_FD0 USB_FD1 RS232_PORT SECONDS [SLOW]\n");
+    if ((argc == 4) && (strcmp(argv[1], "floor") == 0)) {
+        return floor_run(atof(argv[2]), (urb_ns_t)atoll(argv[3]));
+    }
+    bool slow = false;
+    bool poll_fd = false;
+    for (int i = 5; i < argc; i++) {
+        slow = slow || (strcmp(argv[i], "slow") == 0);
+        poll_fd = poll_fd || (strcmp(argv[i], "poll") == 0);
+    }
+    if ((argc < 5) || (argc > 7) || ((size_t)(argc - 5) != (size_t)slow + (size_t)poll_fd)) {
+        (void)fprintf(stderr, "usage: host_cpu_c USB_FD0 USB_FD1 RS232_PORT SECONDS [slow] [poll]\n");
         return 2;
     }
     urb_core_config_t usb_cfg;
     urb_core_config_t rs_cfg;
     urb_core_default_config(&usb_cfg, URB_LINK_USB);
     urb_core_default_config(&rs_cfg, URB_LINK_RS232);
-    if (argc == 6) {
+    if (slow) {
         urb_core_config_t *const cfgs[2] = {&usb_cfg, &rs_cfg};
         for (size_t i = 0u; i < 2u; i++) {
             cfgs[i]->timeout_ns *= 40;
@@ -172,16 +232,22 @@ int main(int argc, char **argv)
     urb_ns_t const start = next;
     double const cpu0 = cpu_seconds();
     double const sys0 = sys_seconds();
+    long const sleeps0 = sleeps();
     struct pollfd p = {urb_loop_fd(&loop), POLLIN, 0};
     for (uint64_t tick = 0u; tick < ticks;) {
         urb_ns_t const now = urb_now_ns();
-        urb_ns_t deadline = urb_loop_next_deadline(&loop);
-        deadline = (next < deadline) ? next : deadline;
-        if (deadline > now) {
-            struct timespec ts = {(time_t)((deadline - now) / URB_NS_PER_S), (long)((deadline - now) % URB_NS_PER_S)};
-            (void)ppoll(&p, 1, &ts, NULL);
+        if (poll_fd) { /* an application waiting on descriptors of its own too */
+            urb_ns_t deadline = urb_loop_next_deadline(&loop);
+            deadline = (next < deadline) ? next : deadline;
+            if (deadline > now) {
+                struct timespec ts = {(time_t)((deadline - now) / URB_NS_PER_S),
+                                      (long)((deadline - now) % URB_NS_PER_S)};
+                (void)ppoll(&p, 1, &ts, NULL);
+            }
+            (void)urb_loop_run_once(&loop, 0);
+        } else { /* the loop's descriptor is all it waits on: the loop's wait, until our tick at the latest */
+            (void)urb_loop_run_once(&loop, (next > now) ? next - now : 0);
         }
-        (void)urb_loop_run_once(&loop, 0);
         urb_ns_t const t = urb_now_ns();
         if (t < next) {
             continue;
@@ -210,12 +276,18 @@ int main(int argc, char **argv)
     }
     double const cpu = cpu_seconds() - cpu0;
     double const sys = sys_seconds() - sys0;
+    long const slept = sleeps() - sleeps0;
     double const wall = (double)(urb_now_ns() - start) * 1e-9;
     (void)printf("{\"ticks\": %llu, \"submitted\": %llu, \"ok\": %llu, \"failed\": %llu, \"not_submitted\": %llu, "
-                 "\"late_ticks\": %llu, \"wall_s\": %.6f, \"cpu_s\": %.6f, \"sys_s\": %.6f}\n",
+                 "\"late_ticks\": %llu, \"wall_s\": %.6f, \"cpu_s\": %.6f, \"sys_s\": %.6f, \"sleeps\": %ld, "
+                 "\"usb_latency_mean_us\": %.1f, \"usb_latency_max_us\": %.1f, \"rs232_latency_mean_us\": %.1f, "
+                 "\"rs232_latency_max_us\": %.1f}\n",
                  (unsigned long long)ticks, (unsigned long long)submitted, (unsigned long long)done_ok,
                  (unsigned long long)done_failed, (unsigned long long)not_submitted, (unsigned long long)late, wall, cpu,
-                 sys);
+                 sys, slept, (double)latency_sum[0] / 1e3 / (double)((latency_count[0] > 0u) ? latency_count[0] : 1u),
+                 (double)latency_max[0] / 1e3,
+                 (double)latency_sum[1] / 1e3 / (double)((latency_count[1] > 0u) ? latency_count[1] : 1u),
+                 (double)latency_max[1] / 1e3);
     for (int b = 0; b < 2; b++) {
         (void)urb_loop_close_manager(&loop, usb[b], true);
     }

@@ -10,6 +10,10 @@ read = one bulk-IN, as a kernel driver's character device), the RS232 one the ho
 a pty. What is measured is the host process's CPU time (getrusage: the library, its system calls and
 the control loop), per request completed, and that times 12.3 requests per ms as a share of one core
 (the share over the run's wall time too: lower when other jobs stall the run below the load's rate).
+The program waits in urb_loop_run_once (one wait per wake-up); a second run has it ppoll the loop's
+descriptor and call urb_loop_run_once(0), as a program with descriptors of its own would. The
+wake-ups per ms (voluntary context switches) are counted, and the floor is measured: the same
+program's loop with no bridge, woken as often by its own timeout and doing nothing else.
 
 Then the same program under valgrind's callgrind, for --cg-seconds of load and for none, gives the
 user-space instructions per request (the difference, so start-up cancels), and under strace -c the
@@ -63,8 +67,21 @@ def make(*targets: str) -> None:
         sys.exit(f"host_cpu_c: cannot build {' '.join(targets)}:\n{proc.stdout[-2000:]}{proc.stderr[-3000:]}")
 
 
-def run_load(seconds: float, prefix: list[str], slow: bool = False) -> dict[str, Any]:
-    """One run of the load: bridges up, the host program (maybe under `prefix`), its JSON."""
+def run_floor(seconds: float, wakes_per_ms: float) -> dict[str, Any]:
+    """The host program's loop with no bridge, woken `wakes_per_ms` times per ms by its own timeout
+    and doing nothing else: what the wake-ups alone cost on this machine."""
+    period_ns = int(1e6 / max(wakes_per_ms, 0.1))
+    proc = subprocess.run([str(HOST), "floor", str(seconds), str(period_ns)], capture_output=True, text=True,
+                          timeout=seconds * 20 + 60)
+    if proc.returncode != 0:
+        sys.exit(f"host_cpu_c: the floor run failed (exit {proc.returncode}):\n{proc.stderr[-3000:]}")
+    result: dict[str, Any] = json.loads(proc.stdout.strip().splitlines()[-1])
+    return result
+
+
+def run_load(seconds: float, prefix: list[str], slow: bool = False, poll: bool = False) -> dict[str, Any]:
+    """One run of the load: bridges up, the host program (maybe under `prefix`), its JSON. `poll`: the
+    program ppolls the loop's descriptor and calls urb_loop_run_once(0) instead of waiting in it."""
     with tempfile.TemporaryDirectory() as tmp:
         link = Path(tmp) / "pty"
         rs232 = subprocess.Popen([str(HOSTED), "--node", "battery,0,0x30", "--node", "imu,0,0x31", "--node", "ir,0,0x32",
@@ -83,7 +100,8 @@ def run_load(seconds: float, prefix: list[str], slow: bool = False) -> dict[str,
             rs232.stdout.readline()
             bridges.stdout.readline()  # "ready"
             env = dict(os.environ, URB_STATE_DIR=tmp)
-            proc = subprocess.run([*prefix, str(HOST), *map(str, host_fds), str(link), str(seconds)] + (["slow"] if slow else []),
+            proc = subprocess.run([*prefix, str(HOST), *map(str, host_fds), str(link), str(seconds)] + (["slow"] if slow else [])
+                                  + (["poll"] if poll else []),
                                   pass_fds=host_fds,
                                   capture_output=True, text=True, env=env, timeout=seconds * 200 + 120)
         finally:
@@ -143,7 +161,8 @@ def python_numbers(path: Path) -> dict[str, float] | None:
                 "usb_us": float(data["usb_sensorhex"]["us_per_request"]),
                 "rs232_us": float(data["rs232_pty"]["us_per_request"]),
                 "usb_core_us": float(data["usb_core_us"]), "rs232_core_us": float(data["rs232_core_us"]),
-                "quick": float(bool(data.get("quick", False)))}
+                "quick": float(bool(data.get("quick", False))),
+                "cycle_share": float(data.get("sensorhex_cycle_share", 0.0))}
     except (OSError, ValueError, KeyError, TypeError):
         return None
 
@@ -179,6 +198,11 @@ def side_by_side(py: dict[str, float], on_c: dict[str, float] | None, c_share: f
           f"{on_c['usb_core_us'] / py['usb_core_us']:.3f} / {on_c['rs232_core_us'] / py['rs232_core_us']:.3f} | |")
     print(f"| Python API on the C core: share of one core / goal ({GOAL_SHARE_PY_ON_C * 100:.0f} %) | | "
           f"{on_c['share'] / GOAL_SHARE_PY_ON_C:.2f} | | | |")
+    if py["cycle_share"] and on_c["cycle_share"]:  # the USB motors through urb.cycle.Cycle (polled)
+        print(f"| share of one core, USB motors through the cycle API (polled) | {py['cycle_share'] * 100:.1f} % | "
+              f"{on_c['cycle_share'] * 100:.1f} % | | {on_c['cycle_share'] / py['cycle_share']:.3f} | |")
+        print(f"| cycle API on the C core: share of one core / goal ({GOAL_SHARE_PY_ON_C * 100:.0f} %) | | "
+              f"{on_c['cycle_share'] / GOAL_SHARE_PY_ON_C:.2f} | | | |")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -197,8 +221,15 @@ def main(argv: list[str] | None = None) -> int:
     per_s = requests / float(res["wall_s"])
     us_per_request = float(res["cpu_s"]) * 1e6 / max(1, requests)
     share_at_rate = us_per_request * PER_MS * 1000 / 1e6  # what the load costs when it runs at its rate
+    wakes_per_ms = float(res["sleeps"]) / max(1.0, float(res["wall_s"]) * 1000)
+    floor = run_floor(min(args.seconds, 2.0), wakes_per_ms)
+    floor_share = float(floor["cpu_s"]) / float(floor["wall_s"])
+    polled = run_load(args.seconds, [], poll=True)
+    polled_us = float(polled["cpu_s"]) * 1e6 / max(1, int(polled["ok"]) + int(polled["failed"]))
     rows: dict[str, Any] = {"run": res, "share": share, "us_per_request": us_per_request,
-                            "share_at_12300": share_at_rate}
+                            "share_at_12300": share_at_rate, "wakes_per_ms": wakes_per_ms, "floor": floor,
+                            "floor_share": floor_share, "poll_run": polled, "poll_us_per_request": polled_us,
+                            "poll_share_at_12300": polled_us * PER_MS * 1000 / 1e6}
     cg: dict[str, Any] = {}
     if shutil.which("valgrind") and shutil.which("strace"):
         ir_load, n_load = callgrind_ir(args.cg_seconds)
@@ -224,6 +255,15 @@ def main(argv: list[str] | None = None) -> int:
           f"{GOAL_SHARE * 100:.0f} % | {share_at_rate / GOAL_SHARE:.2f} |")
     print(f"| of which system (kernel) | {float(res['sys_s']) / float(res['wall_s']) * 100:.2f} % | | |")
     print(f"| CPU per request | {us_per_request:.2f} us | | |")
+    print(f"| latency, submission to callback, mean / largest: USB | {float(res['usb_latency_mean_us']) / 1e3:.2f} / "
+          f"{float(res['usb_latency_max_us']) / 1e3:.1f} ms (the bridge model's queue: it varies with the machine's load) | | |")
+    print(f"| ... RS232 | {float(res['rs232_latency_mean_us']) / 1e3:.2f} / {float(res['rs232_latency_max_us']) / 1e3:.1f} ms | | |")
+    print(f"| wake-ups per ms (the tick, the IN transfers, the RS232 responses) | {wakes_per_ms:.2f} | | |")
+    print(f"| floor: the loop with no bridge woken {wakes_per_ms:.2f} times per ms, share of one core | "
+          f"{floor_share * 100:.2f} % ({float(floor['cpu_s']) * 1e6 / max(1, int(floor['wakes'])):.1f} us per wake-up) | | |")
+    print(f"| the load above that floor, share of one core | {(share_at_rate - floor_share) * 100:.2f} % | | |")
+    print(f"| the same load, the program ppolling urb_loop_fd() + run_once(0): share of one core | "
+          f"{rows['poll_share_at_12300'] * 100:.2f} % ({polled_us:.2f} us per request) | | |")
     if per_s / 1000 < 0.95 * PER_MS or int(res["not_submitted"]) > 0:
         print("| note: the run did not keep the load's rate (other jobs stalled it): the share over the run "
               "is too low, the share from CPU per request is the one to read | | | |")

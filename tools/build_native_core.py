@@ -3,8 +3,9 @@
     python3 tools/build_native_core.py           # build if the module is missing or its sources changed
     python3 tools/build_native_core.py --force   # rebuild
 
-Compiles the glue host/urb/managers/_native.c (and _native_attrs.c), its USB pump _native_pump.c (the uplink's I/O on a C
-thread), the C protocol core host/c/core/*.c, the port hand-over record host/c/port/handover.c and
+Compiles the glue host/urb/managers/_native.c (and _native_attrs.c), its cycle state _native_cycle.c
+(urb.cycle's requests submitted at once), its pumps _native_pump.c and _native_pump_rs232.c (the
+uplink's I/O on a C thread), the C protocol core host/c/core/*.c, the port hand-over record host/c/port/handover.c and
 the generated codecs it uses (gen/c, the same sources as build/host_c/liburbhost.a; strict warnings,
 -Werror, -O2 -flto so the core inlines into its entry points) into
 host/urb/managers/_native<EXT_SUFFIX> for the interpreter running this. The module carries the
@@ -51,7 +52,9 @@ def module_path() -> Path:
 
 
 def sources() -> list[Path]:
-    return [OUT_DIR / "_native.c", OUT_DIR / "_native_attrs.c", OUT_DIR / "_native_pump.c", *sorted((REPO / "host" / "c" / "core").glob("*.c")),
+    return [OUT_DIR / "_native.c", OUT_DIR / "_native_attrs.c", OUT_DIR / "_native_pump.c", OUT_DIR / "_native_pump_rs232.c",
+            OUT_DIR / "_native_cycle.c",
+            *sorted((REPO / "host" / "c" / "core").glob("*.c")),
             REPO / "host" / "c" / "port" / "handover.c", *(REPO / "gen" / "c" / name for name in GEN_SOURCES)]
 
 

@@ -27,3 +27,8 @@ def test_quick_run_completes_every_request(tmp_path: Path) -> None:
     assert 0 < r["rs232_core_us"] < rs["us_per_request"]
     assert 0 < r["usb_core_us"] < usb["us_per_request"]
     assert r["sensorhex_core_share"] > 0
+    for case in ("usb_cycle_polled", "usb_cycle_callback"):  # the cycle API's rows
+        cyc = r[case]
+        assert cyc["failed"] == 0 and cyc["completed"] == cyc["requests"] >= 6 * 500
+        assert cyc["cycles_in_c"] == (r["core"] == "c")
+    assert 0 < r["sensorhex_cycle_share"] < 1

@@ -109,8 +109,8 @@ FUZZ_FLAGS = ["clang", "-std=c99", "-g", "-O1", "-fsanitize=fuzzer,address,undef
 
 def unmutated_objects(flags: list[str], files: list[str], out: Path, objects: dict[Path, Path]) -> list[Path]:
     """`files` compiled from the unmutated tree into `out`, each once per run (`objects` remembers
-    them): a mutant then recompiles only its own file, and the 17 mutants cost one build plus 17
-    small ones instead of 17 builds of the whole program."""
+    them): a mutant then recompiles only its own file, and the 23 mutants cost one build plus 23
+    small ones instead of 23 builds of the whole program."""
     paths = []
     for f in files:
         obj = out / (f.replace("/", "_").removesuffix(".c") + ".o")

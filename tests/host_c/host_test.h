@@ -86,5 +86,6 @@ int run_core_tests(void);
 int run_usb_tests(void);
 int run_discovery_tests(void);
 int run_port_tests(void);
+int run_loop_wait_tests(void);
 
 #endif /* HOST_TEST_H */

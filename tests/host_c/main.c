@@ -8,5 +8,6 @@ int main(void)
     failed += run_usb_tests();
     failed += run_discovery_tests();
     failed += run_port_tests();
+    failed += run_loop_wait_tests();
     return failed;
 }

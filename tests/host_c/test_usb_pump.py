@@ -18,10 +18,8 @@ witness that the pump ran (no Python I/O thread, completions handed back in batc
 
 from __future__ import annotations
 
-import importlib.util
 import os
 import socket
-import subprocess
 import sys
 import threading
 import time
@@ -35,6 +33,7 @@ REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "tests" / "host"))
 
 from bridge_proc import serve_usb_transfers  # noqa: E402
+from native_support import build_native_mutant, reads_carry_every_seq, sensorhex_cycle  # noqa: E402
 from urb.api import NodeRequest, URBInterface  # noqa: E402
 from urb.errors import ErrorFlag  # noqa: E402
 from urb.managers import BridgeModel, CharDeviceTransport, USBManager, fake_node, native, usb  # noqa: E402
@@ -95,15 +94,9 @@ def run_script(pump: bool, core: UsbCore | None = None, unplug: bool = False) ->
         urb.add_bus_manager(m)
         pumped = m._pumped
         motors = [urb.find_node("MotorDriver", i) for i in range(3)]
-        imu = urb.find_node("Imu", 0)
         reqs: list[NodeRequest] = []
         for cycle in range(40):  # 40 ms of the SensoRHex motor load, plus an IMU read and refusals
-            for k, node in enumerate(motors):
-                reqs.append(node.submit_request(node.new_request().read_message(sx.MotorFeedback)))
-                reqs.append(node.submit_request(node.new_request().write_message(sx.MotorCommand(voltage=cycle + k))))
-            if cycle % 10 == 0:
-                reqs.append(imu.submit_request(imu.new_request().read_message(sx.ImuSample)))
-                reqs.append(imu.submit_request(imu.new_request().read(1, size=3)))  # HOST_SIZE_MISMATCH
+            reqs += sensorhex_cycle(urb, cycle, imu_every=10)
             time.sleep(0.001)
         assert all(r.wait(30) for r in reqs)
         lost: list[Observed] = []
@@ -152,11 +145,7 @@ def test_the_scripts_reach_the_pump() -> None:
         assert m._pumped and m._usb._pump_running()  # type: ignore[attr-defined]
         ours = [t.name for t in threading.enumerate() if t not in before]
         assert [n for n in ours if n.startswith("urb-")] == ["urb-dispatch usb-witness"]
-        motor = urb.find_node("MotorDriver", 0)
-        reqs = [motor.submit_request(motor.new_request().read_message(sx.MotorFeedback)) for _ in range(30)]
-        assert all(r.wait(30) and r.ok for r in reqs)
-        seqs = [r._transfer.seq for r in reqs if r._transfer is not None]
-        assert len(seqs) == 30 and set(seqs) == set(range(16))  # 30 in a row: every 4-bit number
+        reads_carry_every_seq(urb)
     finally:
         urb.close()
         far.close()
@@ -188,8 +177,9 @@ def test_the_pump_covers_the_handover_record(tmp_path: Path) -> None:
 
 
 PUMP_MUTANTS = {
-    "pump-forgets-sent": ("        candidates[i]->sent_unmarked = true;\n", "\n"),
-    "pump-reason-text": ('"%s: [Errno %d] %s", p->name, code, strerror(code)', '"%s: %s", p->name, strerror(code)'),
+    "pump-forgets-sent": ("    x->sent_unmarked = true;\n", "\n"),
+    "pump-reason-text": ('native_pump_lost(self, "[Errno %d] %s", code, strerror(code))',
+                         'native_pump_lost(self, "%s", strerror(code))'),
 }
 """Seeded bugs of _native_pump.c: what it sent never reaches the Python transfer; a failed write's
 reason worded otherwise than the Python runtime words it."""
@@ -197,25 +187,7 @@ reason worded otherwise than the Python runtime words it."""
 
 def build_pump_mutant(tmp: Path, name: str) -> Any:
     """The extension compiled with the seeded bug `name` in _native_pump.c, loaded as its own module."""
-    sys.path.insert(0, str(REPO / "tools"))
-    try:
-        import build_native_core as bnc
-    finally:
-        sys.path.pop(0)
-    old, new = PUMP_MUTANTS[name]
-    source = (REPO / "host/urb/managers/_native_pump.c").read_text()
-    assert source.count(old) == 1, f"the seeded bug {name} no longer applies: update PUMP_MUTANTS"
-    mutated = tmp / "_native_pump.c"
-    mutated.write_text(source.replace(old, new))
-    srcs = [mutated if p.name == "_native_pump.c" else p for p in bnc.sources()]
-    out = tmp / bnc.module_path().name
-    cmd = [a for a in bnc.compile_command(srcs, out, "mutant") if a not in ("-O2", "-flto")]  # quicker to build
-    subprocess.run(cmd, check=True, capture_output=True, text=True)
-    spec = importlib.util.spec_from_file_location("_native", out)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return build_native_mutant(tmp, "_native_pump.c", *PUMP_MUTANTS[name])
 
 
 def mutant_core(module: Any) -> Callable[[], UsbCore]:

@@ -1,8 +1,9 @@
 // pd_control: the paper's PD position control of a motor at 1 kHz (Figs. 18-19), written only
 // against urb.hpp. Every millisecond it reads MotorFeedback; the callback unwraps the encoder,
 // computes u = Kp e + Kd de/dt against a 0.5-Hz sinusoid and writes MotorCommand. The loop is
-// embedded in the program's own: one ppoll() on the interface's descriptor with the earlier of the
-// next control tick and the library's next deadline, then runOnce(0).
+// embedded in the program's own: runOnce waits until input, the library's next deadline or the next
+// control tick (one wait per wake-up; a program with descriptors of its own would poll them with
+// fd() and call runOnce(0), urb_loop.h).
 //
 //     build/host_c/pd_control PORT [--seconds S] [--hz F] [--kp V/rad] [--kd Vs/rad] [--timeout-ms MS]
 //     (against the hosted bridge: build/firmware/urb-bridge-hosted --node motor,0,0x20 --link /tmp/urbX)
@@ -13,7 +14,6 @@
 // (default: the library's, 100 ms on RS232), stretches the lost-bridge silence to 5 times it and the
 // gap that ends a partial response to a fifth of it (at least their defaults, 500 and 20 ms): a
 // machine whose scheduler stalls the bridge longer than that sees UPLINK_TIMEOUT, correctly.
-#include <poll.h>
 #include <signal.h>
 #include <time.h>
 
@@ -174,15 +174,9 @@ int main(int argc, char **argv)
     axis.t0 = next;
     uint64_t done = 0, late = 0;
     int64_t worstLate = 0;
-    struct pollfd p = {intf->fd(), POLLIN, 0};
     while ((done < cycles) && !stopRequested) {
         int64_t const now = urb_now_ns();
-        int64_t const until = std::min(next, intf->nextDeadline());
-        if (until > now) {
-            struct timespec ts = {static_cast<time_t>((until - now) / 1000000000), static_cast<long>((until - now) % 1000000000)};
-            (void)ppoll(&p, 1, &ts, nullptr);
-        }
-        intf->runOnce(0);
+        intf->runOnce((next > now) ? next - now : 0);
         int64_t const t = urb_now_ns();
         if (t >= next) {
             int64_t const lateness = t - next;

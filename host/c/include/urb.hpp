@@ -458,7 +458,8 @@ public:
     /** The loop's descriptor to poll, and when to call runOnce without input (urb_loop.h). */
     int fd() const noexcept { return ok() ? urb_loop_fd(loop_.get()) : -1; }
     int64_t nextDeadline() noexcept { return ok() ? urb_loop_next_deadline(loop_.get()) : URB_NEVER; }
-    /** Does what is due (at most timeoutNs of waiting); the number of callbacks run, or < 0. */
+    /** Does what is due after waiting at most timeoutNs for input or the next deadline (0: after
+     *  polling fd(), which it then arms; urb_loop_run_once); the number of callbacks run, or < 0. */
     int32_t runOnce(int64_t timeoutNs) noexcept { return ok() ? urb_loop_run_once(loop_.get(), timeoutNs) : URB_HOST_EINVAL; }
     /** Runs the loop on a thread of its own (callbacks run there). */
     int32_t startThread() noexcept { return ok() ? urb_loop_start_thread(loop_.get()) : URB_HOST_EINVAL; }

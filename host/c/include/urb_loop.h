@@ -17,16 +17,29 @@
  *     urb_node_t motor;
  *     if (urb_loop_find_node(loop, URB_NODE_MOTOR_DRIVER_CLASS, 0, &motor, err, sizeof err) != URB_HOST_OK) fail(err);
  *     ...
+ *     for (;;) {                                     // a control loop at 1 kHz, nothing else to wait on
+ *         urb_ns_t now = urb_now_ns();
+ *         urb_loop_run_once(loop, next_tick > now ? next_tick - now : 0);  // input, deadlines, callbacks
+ *         if (urb_now_ns() >= next_tick) { control(); next_tick += URB_NS_PER_MS; }
+ *     }
+ * urb_loop_run_once(loop, timeout) waits itself (epoll_pwait2, the timeout in ns) until input, the
+ * loop's next deadline or the timeout: one system call per wake-up. A program with descriptors of
+ * its own polls the loop's descriptor with them instead, and then calls urb_loop_run_once with 0:
  *     struct pollfd p = {urb_loop_fd(loop), POLLIN, 0};
  *     for (;;) {                                     // your loop: add your own descriptors
  *         urb_ns_t wait = urb_loop_next_deadline(loop) - urb_now_ns();
  *         poll(&p, 1, wait <= 0 ? 0 : (int)((wait + 999999) / 1000000));
  *         urb_loop_run_once(loop, 0);               // never blocks with a 0 timeout
  *     }
- * The loop's descriptor is an epoll set holding the ports, a wake-up eventfd and a timerfd armed
- * at the next deadline by every urb_loop_run_once, so polling urb_loop_fd() alone (with no
- * timeout) is enough: it becomes readable when a byte arrives, when another thread submits, and
- * when a deadline is due.
+ * The loop's descriptor is an epoll set holding the ports, a wake-up eventfd and a timerfd. Each
+ * urb_loop_run_once(loop, 0) arms the timerfd at the next deadline before it returns, and a
+ * submission from any thread brings it forward when it needs an earlier wake-up, so polling
+ * urb_loop_fd() alone (with no timeout) is enough: it becomes readable when a byte arrives, when
+ * a deadline is due (a timeout, a USB frame), and when another thread's submission needs the loop.
+ * After urb_loop_run_once with a timeout, the loop counts on being called again and leaves the
+ * timerfd alone (a program that switches to polling calls urb_loop_run_once(loop, 0) first). On
+ * Linux before 5.11 (no epoll_pwait2) the timeouts count in ms, rounded up; the timerfd still wakes
+ * the loop at its own deadlines.
  *
  * Or on a thread of its own: urb_loop_start_thread(loop); callbacks then run on that thread, and
  * any thread may submit.
@@ -118,7 +131,13 @@ struct urb_loop {
     int epfd;
     int wakefd;
     int timerfd;
-    urb_ns_t armed_ns;              /**< The timerfd's deadline (0: disarmed) */
+    urb_ns_t armed_ns;              /**< The timerfd's expiry (0: disarmed or fired) */
+    urb_ns_t waiting_until;         /**< Threads wait in urb_loop_run_once until then at the
+                                         latest (0: none) */
+    uint32_t waiters;               /**< ... how many (a blocking call's wait may join the application's) */
+    bool self_waits;                /**< Every wait is urb_loop_run_once's own (its thread, or the
+                                         application's calls with a timeout): no timerfd needed */
+    bool ms_waits;                  /**< No epoll_pwait2 (Linux < 5.11): waits count in ms */
     uint32_t manager_count;
     urb_manager_t managers[URB_LOOP_MAX_MANAGERS];
     urb_system_t system;
@@ -223,7 +242,7 @@ uint8_t urb_node_mailbox_size(const urb_node_t *node, bool outbox, uint8_t mailb
 /** The node's system-table row (NULL for the bridge or an invalid node). */
 const urb_node_row_t *urb_node_row(const urb_node_t *node);
 
-/** The loop's descriptor: poll it for POLLIN, then call urb_loop_run_once. -1 for NULL. */
+/** The loop's descriptor: poll it for POLLIN, then call urb_loop_run_once(loop, 0). -1 for NULL. */
 int urb_loop_fd(const urb_loop_t *loop);
 
 /** When urb_loop_run_once next has something to do without input (a timeout, a USB frame, a
@@ -234,8 +253,11 @@ urb_ns_t urb_loop_next_deadline(urb_loop_t *loop);
  * Waits up to timeout_ns (0: not at all; negative: until something happens) for input or the next
  * deadline, then does everything due: reads the ports, feeds the cores, applies timeouts and the
  * lost-bridge rules, writes frames (a USB batch at each 1-ms boundary), and runs the callbacks
- * (the lost listener first). Returns the number of callbacks run, URB_HOST_EINVAL for NULL,
- * URB_HOST_ESTATE when the loop's thread runs (only it may call this) or inside a callback.
+ * (the lost listener first). A USB port is read once per readiness (one IN transfer) and an RS232
+ * port until a read returns less than asked; what is still queued is read at the next call. With
+ * timeout_ns 0 it also arms the loop's timer for a program polling urb_loop_fd() (see above).
+ * Returns the number of callbacks run, URB_HOST_EINVAL for NULL, URB_HOST_ESTATE when the loop's
+ * thread runs (only it may call this) or inside a callback.
  */
 int32_t urb_loop_run_once(urb_loop_t *loop, urb_ns_t timeout_ns);
 

@@ -3,6 +3,7 @@
  * api.py URBInterface): ports in an epoll set, the cores fed with the monotonic clock, callbacks
  * dispatched outside the lock. Embedding and threading rules: urb_loop.h.
  */
+#define _GNU_SOURCE /* epoll_pwait2: a timeout in ns (Linux 5.11, glibc 2.35) */
 #include "urb_loop.h"
 
 #include <errno.h>
@@ -78,7 +79,8 @@ int32_t urb_loop_init(urb_loop_t *loop, const urb_schema_t *schema)
     loop->timerfd = timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
     if ((loop->epfd < 0) || (loop->wakefd < 0) || (loop->timerfd < 0) ||
         (watch(loop, loop->wakefd, EPOLLIN, TAG_WAKE, EPOLL_CTL_ADD) != URB_HOST_OK) ||
-        (watch(loop, loop->timerfd, EPOLLIN, TAG_TIMER, EPOLL_CTL_ADD) != URB_HOST_OK)) {
+        /* edge-triggered: each expiry is reported once, so the timerfd is never read */
+        (watch(loop, loop->timerfd, EPOLLIN | EPOLLET, TAG_TIMER, EPOLL_CTL_ADD) != URB_HOST_OK)) {
         int const fds[3] = {loop->epfd, loop->wakefd, loop->timerfd};
         for (size_t i = 0u; i < 3u; i++) {
             if (fds[i] >= 0) {
@@ -291,28 +293,24 @@ static void flush_out(urb_manager_t *m, urb_ns_t now)
     }
 }
 
-/* RS232: every frame the window lets go, the record written first, each frame one write(). */
+/* RS232: every frame the window lets go, the record written first, all of them in one write() (the
+ * frames lie back to back in `frames`: the wire carries the same bytes as one write per frame). */
 static void pump_rs232(urb_manager_t *m, urb_ns_t now)
 {
     uint8_t frames[URB_MAX_WINDOW * URB_REQUEST_MAX];
-    size_t sizes[URB_MAX_WINDOW];
     size_t count = 0u;
     size_t used = 0u;
     int32_t n;
     while ((count < URB_MAX_WINDOW) &&
            ((n = urb_core_next_frame(&m->core, now, frames + used, sizeof frames - used)) > 0)) {
-        sizes[count++] = (size_t)n;
+        count++;
         used += (size_t)n;
     }
     if (count == 0u) {
         return;
     }
     note_sending(m, now); /* a process killed right after the write must leave a record covering it */
-    size_t off = 0u;
-    for (size_t i = 0u; (i < count) && !m->core.lost; i++) {
-        write_bytes(m, frames + off, sizes[i], now);
-        off += sizes[i];
-    }
+    write_bytes(m, frames, used, now);
 }
 
 /* USB: one OUT transfer at each 1-ms boundary while the core has something to send or fetch. */
@@ -356,16 +354,23 @@ static void pump(urb_manager_t *m, urb_ns_t now)
     }
 }
 
+/* Reads what the readiness event announced, without the read that would end in EAGAIN: the ports
+ * are level-triggered in the epoll set, so whatever is still queued reports the port ready again at
+ * the next wait. USB: one read (one IN transfer, of any length); RS232: until a read returns fewer
+ * bytes than asked (the tty had no more at that instant). */
 static void read_port(urb_manager_t *m, urb_ns_t now)
 {
     uint8_t buf[READ_CHUNK];
     while (m->open) { /* a core lost to silence still counts what comes as stray */
         ssize_t const got = read(m->fd, buf, sizeof buf);
         if (got > 0) {
-            if (m->kind == URB_LINK_RS232) {
-                (void)urb_core_receive(&m->core, buf, (size_t)got, now);
-            } else {
+            if (m->kind != URB_LINK_RS232) {
                 (void)urb_core_receive_batch(&m->core, buf, (size_t)got, now); /* one read = one IN transfer */
+                return;
+            }
+            (void)urb_core_receive(&m->core, buf, (size_t)got, now);
+            if ((size_t)got < sizeof buf) {
+                return;
             }
             continue;
         }
@@ -411,6 +416,9 @@ urb_ns_t urb_loop_next_deadline(urb_loop_t *loop)
     return next;
 }
 
+/* Arms the timerfd, one-shot, at `deadline` (URB_NEVER: disarmed), unless it is armed there already.
+ * It is edge-triggered in the epoll set: an expiry is reported once and the timerfd is never read.
+ * Lock held. */
 static void arm_timer(urb_loop_t *loop, urb_ns_t deadline)
 {
     urb_ns_t const want = (deadline == URB_NEVER) ? 0 : ((deadline < 1) ? 1 : deadline);
@@ -426,6 +434,41 @@ static void arm_timer(urb_loop_t *loop, urb_ns_t deadline)
     }
 }
 
+/* After a submission moved the loop's deadline: whoever waits for the loop must wake by the new
+ * deadline. A thread waiting inside urb_loop_run_once, or an application polling urb_loop_fd(), is
+ * woken by the timer, brought forward only when it would fire later (no eventfd write and read, no
+ * early wake-up); an application that runs urb_loop_run_once with a timeout itself and is not
+ * waiting in it now computes its next wait afresh. Lock held. */
+static void cover_deadline(urb_loop_t *loop, urb_ns_t now)
+{
+    if (loop->self_waits && (loop->waiting_until == 0)) {
+        return;
+    }
+    urb_ns_t const deadline = next_deadline_locked(loop, now);
+    urb_ns_t const armed = (loop->armed_ns == 0) ? URB_NEVER : loop->armed_ns;
+    urb_ns_t const waking = (loop->self_waits && (loop->waiting_until < armed)) ? loop->waiting_until : armed;
+    if (deadline < waking) {
+        arm_timer(loop, deadline);
+    }
+}
+
+/* Waits for the epoll set's events up to `wait` ns (negative: no limit): epoll_pwait2's timeout
+ * counts in ns; before Linux 5.11 epoll_wait's counts in ms, rounded up (the timerfd in the set still
+ * wakes it at the loop's own deadline). */
+static int wait_events(urb_loop_t *loop, struct epoll_event *ev, urb_ns_t wait)
+{
+    if (!loop->ms_waits) {
+        struct timespec ts = {(time_t)(wait / URB_NS_PER_S), (long)(wait % URB_NS_PER_S)};
+        int const n = epoll_pwait2(loop->epfd, ev, EVENTS, (wait < 0) ? NULL : &ts, NULL);
+        if ((n >= 0) || (errno != ENOSYS)) {
+            return n;
+        }
+        loop->ms_waits = true;
+    }
+    int const ms = (wait < 0) ? -1 : (int)((wait + URB_NS_PER_MS - 1) / URB_NS_PER_MS);
+    return epoll_wait(loop->epfd, ev, EVENTS, ms);
+}
+
 /* ----- one step ---------------------------------------------------------------------------------- */
 
 static int32_t run_once(urb_loop_t *loop, urb_ns_t timeout_ns)
@@ -438,27 +481,35 @@ static int32_t run_once(urb_loop_t *loop, urb_ns_t timeout_ns)
         urb_ns_t const left = (deadline > now) ? deadline - now : 0;
         wait = ((wait < 0) || (left < wait)) ? left : wait;
     }
-    arm_timer(loop, deadline);
+    if (loop->ms_waits && (deadline > now)) {
+        arm_timer(loop, deadline); /* epoll_wait's ms would overshoot it */
+    }
+    urb_ns_t const until = (wait < 0) ? URB_NEVER : now + wait;
+    loop->waiting_until = (until > loop->waiting_until) ? until : loop->waiting_until; /* the latest waiter's */
+    loop->waiters++;
     unlock(loop);
 
-    /* epoll counts in ms: round up, the timerfd in the set wakes it at the exact deadline */
-    int const ms = (wait < 0) ? -1 : (int)((wait + URB_NS_PER_MS - 1) / URB_NS_PER_MS);
     struct epoll_event ev[EVENTS];
-    int n = epoll_wait(loop->epfd, ev, EVENTS, ms);
+    int n = wait_events(loop, ev, wait);
     if (n < 0) {
         n = 0; /* EINTR: a signal; do what is due */
     }
 
     lock(loop);
+    loop->waiters--;
+    if (loop->waiters == 0u) {
+        loop->waiting_until = 0;
+    }
     now = urb_now_ns();
     for (int i = 0; i < n; i++) {
         uint64_t const tag = ev[i].data.u64;
-        uint64_t drain;
         if (tag == TAG_WAKE) {
+            uint64_t drain;
             (void)!read(loop->wakefd, &drain, sizeof drain);
         } else if (tag == TAG_TIMER) {
-            (void)!read(loop->timerfd, &drain, sizeof drain);
-            loop->armed_ns = 0;
+            if (loop->armed_ns <= now) {
+                loop->armed_ns = 0; /* it fired */
+            }
         } else if (tag < loop->manager_count) {
             urb_manager_t *m = &loop->managers[tag];
             if ((ev[i].events & EPOLLOUT) != 0u) {
@@ -495,6 +546,9 @@ static int32_t run_once(urb_loop_t *loop, urb_ns_t timeout_ns)
 
     lock(loop);
     loop->in_dispatch = false;
+    if (!loop->self_waits) { /* an application polls urb_loop_fd() until the next deadline */
+        arm_timer(loop, next_deadline_locked(loop, urb_now_ns()));
+    }
     (void)pthread_cond_broadcast(&loop->changed);
     unlock(loop);
     return (int32_t)ran;
@@ -508,6 +562,9 @@ int32_t urb_loop_run_once(urb_loop_t *loop, urb_ns_t timeout_ns)
     if (in_callback(loop) || (loop->thread_running && !pthread_equal(pthread_self(), loop->thread))) {
         return URB_HOST_ESTATE;
     }
+    lock(loop);
+    loop->self_waits = (timeout_ns != 0); /* 0: the application polls urb_loop_fd() (urb_loop.h) */
+    unlock(loop);
     return run_once(loop, timeout_ns);
 }
 
@@ -529,6 +586,9 @@ int32_t urb_loop_start_thread(urb_loop_t *loop)
         return URB_HOST_ESTATE;
     }
     loop->stop = false;
+    lock(loop);
+    loop->self_waits = true; /* only its thread waits for the loop */
+    unlock(loop);
     if (pthread_create(&loop->thread, NULL, thread_main, loop) != 0) {
         return URB_HOST_EIO;
     }
@@ -549,6 +609,10 @@ int32_t urb_loop_stop_thread(urb_loop_t *loop)
         wake(loop);
         (void)pthread_join(loop->thread, NULL);
         loop->thread_running = false;
+        lock(loop);
+        loop->self_waits = false; /* the application may poll urb_loop_fd() again */
+        arm_timer(loop, next_deadline_locked(loop, urb_now_ns()));
+        unlock(loop);
     }
     return URB_HOST_OK;
 }
@@ -687,12 +751,9 @@ static void dispatch_inline(urb_loop_t *loop, urb_manager_t *m)
     lock(loop);
 }
 
-int32_t urb_loop_submit(urb_loop_t *loop, urb_manager_t *m, urb_transfer_t *t)
+/* urb_loop_submit with the lock held (on entry and on return). */
+static int32_t submit_locked(urb_loop_t *loop, urb_manager_t *m, urb_transfer_t *t)
 {
-    if ((loop == NULL) || (m == NULL) || (m->loop != loop)) {
-        return URB_HOST_EINVAL;
-    }
-    lock(loop);
     urb_ns_t const now = urb_now_ns();
     bool const was_busy = urb_core_busy(&m->core);
     int32_t const rc = urb_core_submit(&m->core, t, now);
@@ -702,12 +763,24 @@ int32_t urb_loop_submit(urb_loop_t *loop, urb_manager_t *m, urb_transfer_t *t)
             dispatch_inline(loop, m);
         } else {
             pump(m, now); /* RS232: written from this thread when the window allows */
-            if (!was_busy || m->core.lost) {
-                m->wake_pending = true; /* the loop's deadline changed */
+            if (m->core.lost) {
+                m->wake_pending = true; /* completed at once: the loop must dispatch it */
                 wake(loop);
+            } else if (!was_busy) {
+                cover_deadline(loop, now); /* a timeout, or USB's first frame boundary */
             }
         }
     }
+    return rc;
+}
+
+int32_t urb_loop_submit(urb_loop_t *loop, urb_manager_t *m, urb_transfer_t *t)
+{
+    if ((loop == NULL) || (m == NULL) || (m->loop != loop)) {
+        return URB_HOST_EINVAL;
+    }
+    lock(loop);
+    int32_t const rc = submit_locked(loop, m, t);
     unlock(loop);
     return rc;
 }
@@ -897,8 +970,9 @@ int32_t urb_node_submit(const urb_node_t *node, urb_transfer_t *t)
         t->address = loop->system.rows[node->row].address;
     }
     if (refused == URB_FLAG_NONE) {
+        int32_t const rc = submit_locked(loop, m, t);
         unlock(loop);
-        return urb_loop_submit(loop, m, t);
+        return rc;
     }
     if ((t->length < 1u) || (t->length > URB_HOST_MAILBOX_MAX)) {
         unlock(loop);

@@ -134,6 +134,16 @@ static void xfer_put(native_core_t *self, native_xfer_t *x)
     self->free_list = x;
 }
 
+native_xfer_t *native_xfer_get(native_core_t *self)
+{
+    return xfer_get(self);
+}
+
+void native_xfer_put(native_core_t *self, native_xfer_t *x)
+{
+    xfer_put(self, x);
+}
+
 /* The slot of the request most recently put in flight. */
 static const urb_slot_t *newest_slot(const urb_core_t *core)
 {
@@ -146,6 +156,9 @@ static int mark_sent(native_xfer_t *x, urb_ns_t due_ns, urb_ns_t expires_ns)
 {
     PyObject *py = x->py;
     x->sent_unmarked = false;
+    if (x->cycle_item >= 0) { /* its CycleState takes seq and sent_ns when it completes */
+        return 0;
+    }
     if ((set_attr_ll(py, s_seq, x->t.seq) < 0) || (set_attr_ll(py, s_sent_ns, x->t.sent_ns) < 0) ||
         (set_attr_ll(py, s_due_ns, due_ns) < 0) || (set_attr_ll(py, s_expires_ns, expires_ns) < 0) ||
         (PyObject_SetAttr(py, s_garbage, Py_False) < 0)) {
@@ -230,6 +243,16 @@ static int collect(native_core_t *self, PyObject *answered)
 {
     urb_transfer_t *t;
     while ((t = urb_core_take_completed(&self->core)) != NULL) {
+        native_xfer_t *x = (native_xfer_t *)t;
+        if (x->cycle_item >= 0) { /* its state completes once, with its last item */
+            int const last = native_cycle_item_done(self, x);
+            int const rc = (last == 1) ? PyList_Append(self->completed, x->py) : last;
+            xfer_put(self, x);
+            if (rc < 0) {
+                return -1;
+            }
+            continue;
+        }
         bool const has_status = t->status >= 0;
         PyObject *py = hand_back(self, t);
         if (py == NULL) {
@@ -330,6 +353,7 @@ static PyObject *core_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
         }
         (void)pthread_condattr_destroy(&attr);
         self->pump.fd = -1;
+        self->pump.wake_fd = -1;
         self->trace = Py_None;
         Py_INCREF(Py_None);
         self->completed = PyList_New(0);
@@ -434,6 +458,7 @@ static PyObject *core_submit(native_core_t *self, PyObject *const *args, Py_ssiz
         }
         if (rc == URB_HOST_OK) {
             x->py = py;
+            x->cycle_item = -1;
             x->sent_unmarked = false;
             Py_INCREF(py);
             rc = urb_core_submit(&self->core, &x->t, now);
@@ -815,6 +840,7 @@ LOCKED_FAST(core_submit)
 LOCKED_FAST(core_receive)
 LOCKED_FAST(core_receive_batch)
 LOCKED_FAST(core_link_lost)
+LOCKED_FAST(native_cycle_submit)
 LOCKED_ONE(core_poll)
 LOCKED_ONE(core_frames_to_send)
 LOCKED_ONE(core_frame_out)
@@ -857,13 +883,17 @@ static PyMethodDef core_methods[] = {
     {"_set_window", (PyCFunction)core_set_window_raw_locked, METH_O, "Set the window (1..15)."},
     {"busy", (PyCFunction)core_busy_locked, METH_NOARGS, "Requests queued or in flight."},
     {"_pump_start", (PyCFunction)native_pump_start, METH_VARARGS,
-     "_pump_start(fd, name, frame_ns, handover_port, handover_dir): run the USB uplink on a C thread."},
+     "_pump_start(fd, name, frame_ns, handover_port, handover_dir): run the uplink on a C thread (frame_ns 0 on RS232)."},
+    {"_pump_notify", (PyCFunction)native_pump_notify, METH_NOARGS, "RS232: wake the pump (requests were queued)."},
     {"_pump_stop", (PyCFunction)native_pump_stop, METH_NOARGS, "Stop and join the pump's thread."},
     {"_pump_wait", (PyCFunction)native_pump_wait, METH_O,
      "_pump_wait(timeout_s) -> bool: wait (GIL released) for completions or a kick; True when there are some."},
     {"_pump_kick", (PyCFunction)native_pump_kick, METH_NOARGS, "Wake a _pump_wait."},
     {"_pump_running", (PyCFunction)native_pump_running, METH_NOARGS, "The pump's thread runs its I/O."},
     {"_has_completed", (PyCFunction)native_has_completed, METH_NOARGS, "Completions wait to be taken."},
+    {"_cycle_submit", (PyCFunction)(void (*)(void))native_cycle_submit_locked, METH_FASTCALL,
+     "_cycle_submit(state, now, refusals): every item of a CycleState at once (_native_cycle.c)."},
+    {"_new_cycle_state", (PyCFunction)native_new_cycle_state, METH_O, "_new_cycle_state(specs) -> CycleState."},
     {NULL, NULL, 0, NULL},
 };
 
@@ -912,7 +942,7 @@ static int intern_all(void)
 
 PyMODINIT_FUNC PyInit__native(void)
 {
-    if ((intern_all() < 0) || (PyType_Ready(&native_core_type) < 0)) {
+    if ((intern_all() < 0) || (PyType_Ready(&native_core_type) < 0) || (PyType_Ready(&native_cycle_type) < 0)) {
         return NULL;
     }
     PyObject *m = PyModule_Create(&native_module);
@@ -920,7 +950,9 @@ PyMODINIT_FUNC PyInit__native(void)
         return NULL;
     }
     Py_INCREF(&native_core_type);
-    if ((PyModule_AddObject(m, "Core", (PyObject *)&native_core_type) < 0) ||
+    Py_INCREF(&native_cycle_type);
+    if ((PyModule_AddObject(m, "CycleState", (PyObject *)&native_cycle_type) < 0) ||
+        (PyModule_AddObject(m, "Core", (PyObject *)&native_core_type) < 0) ||
         (PyModule_AddStringConstant(m, "FINGERPRINT", URB_NATIVE_FINGERPRINT) < 0) ||
         (PyModule_AddIntConstant(m, "REASON_MAX", (long)URB_REASON_MAX) < 0)) {
         Py_DECREF(&native_core_type);

@@ -18,13 +18,16 @@ import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Protocol, TypeVar, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar, cast, runtime_checkable
 
 from urb_msgs import Message
 from urb_msgs.urb_core import Status
 
 from ..errors import ErrorFlag, PortError
 from .handover import PortHandover
+
+if TYPE_CHECKING:
+    from ._native import CycleState
 
 NS_PER_MS = 1_000_000
 NS_PER_S = 1_000_000_000
@@ -126,6 +129,16 @@ class Transfer:
         """Bytes of the request frame."""
         covered = 3 + (0 if self.read else self.length)
         return covered + (1 if covered <= 14 else 2)
+
+
+def cycle_state_of(core: object, specs: tuple[tuple[int, int, bool, int], ...]) -> CycleState | None:
+    """A `CycleState` of `core`'s extension module when `core` is the C core and not traced (its
+    trace records Python transfers), else None."""
+    make = getattr(core, "_new_cycle_state", None)
+    if make is None or getattr(core, "trace", None) is not None:
+        return None
+    state: CycleState = make(specs)
+    return state
 
 
 def finish(t: Transfer, now: int, flags: ErrorFlag, status: Status | None = None, data: bytes | None = None) -> Transfer:
@@ -297,7 +310,21 @@ class BusManager(ABC):
         self.stats.late_responses = core.late_responses
         self.stats.stray_bytes = core.stray_bytes
         notice = self._loss_notice(core.lost_reason)
+        put_any = False
         for t in done:
+            if t.__class__ is not Transfer:  # the C core's CycleState: every item of a cycle completed
+                state = cast("CycleState", t)  # take_completed's list holds them among the transfers
+                if notice is not None and state.lost:
+                    put(notice)
+                    notice = None
+                    put_any = True
+                self.stats.completed += state.size
+                self.stats.failed += state.failed
+                if state.on_done is not None:  # else a polled cycle: its owner looks (Cycle.poll)
+                    put(state.on_done)
+                    put_any = True
+                continue
+            put_any = True
             if notice is not None and t.flags & ErrorFlag.BRIDGE_LOST:
                 put(notice)
                 notice = None
@@ -308,7 +335,7 @@ class BusManager(ABC):
         if notice is not None:
             put(notice)
             return True
-        return bool(done)
+        return put_any
 
     def _close_core(self, core: Core, now: int) -> None:
         """The start of `close()`: `core` completes every outstanding request BRIDGE_LOST (reason
@@ -383,6 +410,23 @@ class BusManager(ABC):
     def set_window(self, window: int) -> None:
         """Bound the requests outstanding on the bridge (learnt from BridgeInfo.fifo_depth)."""
 
+    def new_cycle_state(self, specs: tuple[tuple[int, int, bool, int], ...]) -> CycleState | None:
+        """The C core's record of a cycle's requests on this bridge (`urb.cycle.Cycle`; `specs`:
+        (address, mailbox, read, length) per item), or None when this manager's core takes single
+        transfers only (the Python cores; a traced C core): the cycle then submits its items one by
+        one, with the same outcomes."""
+        return None
+
+    def collect_completions(self) -> None:
+        """Take what the core completed now, on the calling thread (the completions of polled cycles,
+        which wake no dispatcher: `urb.cycle.Cycle.poll`); thread-safe."""
+
+    def submit_cycle(self, state: CycleState, refusals: tuple[int, ...] | None) -> None:
+        """Submit every item of `state` (from `new_cycle_state`) at once, thread-safe; those with a
+        non-zero flag in `refusals` complete with it at once, unsent. `state.on_done` runs once, on
+        the dispatcher, when the last item completed (inside this call after `close()`)."""
+        raise NotImplementedError(f"{type(self).__name__} gives no cycle states; submit the items one by one")
+
     def __enter__(self) -> BusManager:
         self.start()
         return self
@@ -416,6 +460,9 @@ class ThreadedManager(BusManager):
         self._handover: PortHandover | None = None
         """The port's record for the next process (`handover.py`); set by a manager that opens
         a port by its path."""
+        self._pumped = False
+        """The uplink's I/O runs on the C core's pump (decided by the manager's `start`): the
+        dispatcher then waits on the core (`_dispatch_batches`), not on its queue."""
         self._has_completed: Callable[[], bool] | None = getattr(core, "_has_completed", None)
         """The C core's cheap test for completions waiting (a submission that completed nothing
         then skips `_collect`); None for the Python cores."""
@@ -426,7 +473,9 @@ class ThreadedManager(BusManager):
 
     def _kick_dispatcher(self) -> None:
         """Wake the dispatcher for an item queued by another thread, when it waits on something
-        other than its queue (`_dispatch_batches`)."""
+        other than its queue (the pump's core, `_dispatch_batches`)."""
+        if self._pumped:
+            self._core._pump_kick()  # type: ignore[attr-defined]
 
     # -- BusManager --------------------------------------------------------------------------
     def now_ns(self) -> int:
@@ -447,6 +496,25 @@ class ThreadedManager(BusManager):
             t.submitted_ns = now
             self.stats.submitted += 1
             self._core.submit(t, now)
+            if self._has_completed is None or self._has_completed():
+                self._collect()
+        self._wake_io()
+        self._complete_without_dispatcher()
+
+    def new_cycle_state(self, specs: tuple[tuple[int, int, bool, int], ...]) -> CycleState | None:
+        return cycle_state_of(self._core, specs)
+
+    def collect_completions(self) -> None:
+        with self._lock:
+            if self._has_completed is None or self._has_completed():
+                self._collect()
+        self._complete_without_dispatcher()
+
+    def submit_cycle(self, state: CycleState, refusals: tuple[int, ...] | None) -> None:
+        now = self.now_ns()
+        with self._lock:
+            self.stats.submitted += state.size
+            self._core._cycle_submit(state, now, refusals)  # type: ignore[attr-defined]
             if self._has_completed is None or self._has_completed():
                 self._collect()
         self._wake_io()
@@ -572,6 +640,9 @@ class ThreadedManager(BusManager):
             self._changed.notify_all()  # what a draining close() waits for
 
     def _dispatch_loop(self) -> None:
+        if self._pumped:
+            self._dispatch_batches(self._core._pump_wait)  # type: ignore[attr-defined]
+            return
         q = self._dispatch_q
         while True:
             item = q.get()
