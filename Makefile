@@ -74,7 +74,7 @@ check: setup gen-check lint test-py $(CHECK_TARGETS)
 	@$(MAKE) --no-print-directory report-gate
 	@echo "make check: all checks passed"
 
-demo: setup
+demo: setup accel host-c-py
 	urb sim sensorhex --sensitivity
 
 bench: setup accel host-c-py bridge-hosted host-c-bench

@@ -37,6 +37,8 @@ Nothing is asserted: the numbers go to build/bench/host_cpu.json.
 
     python3 bench/host_cpu.py                  # ~75 s
     python3 bench/host_cpu.py --quick          # ~20 s
+    python3 bench/host_cpu.py --rs232-ab       # case 1 on the C core: pump and Python threads alternately
+    python3 bench/host_cpu.py --usb-ab         # case 2 likewise
 """
 
 from __future__ import annotations
@@ -50,6 +52,7 @@ import subprocess
 import sys
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -61,7 +64,7 @@ from urb.api import NodeRequest, URBInterface  # noqa: E402
 from urb.cycle import Cycle, CycleItem  # noqa: E402
 from urb.managers import BridgeModel, CharDeviceTransport, RS232Manager, USBManager, fake_node  # noqa: E402
 from urb.managers.base import NS_PER_MS, Transfer  # noqa: E402
-from urb.managers import native, usb  # noqa: E402
+from urb.managers import native, rs232, usb  # noqa: E402
 from urb_msgs import _codec  # noqa: E402
 from urb_msgs.sensorhex import MotorCommand, MotorFeedback  # noqa: E402
 from urb_msgs.urb_core import Status, UplinkResponse, UsbBatchHeader  # noqa: E402
@@ -307,18 +310,18 @@ def usb_core_only(requests: int) -> float:
     return (time.process_time() - cpu0) * 1e6 / done
 
 
-def usb_runtimes_ab(seconds: float, repeats: int) -> dict[str, Any]:
-    """Case 2 on the C core with the uplink's I/O on the core's pump (a C thread, completions in
-    batches) and on the Python frame and reader threads (usb.USE_PUMP off), alternately, so that
-    both see the same load from other jobs; the cheapest run of each."""
+def runtimes_ab(manager: Any, case: Callable[[], dict[str, Any]], repeats: int) -> dict[str, Any]:
+    """A case on the C core with the uplink's I/O on the core's pump (a C thread, completions in
+    batches) and on the Python threads (`manager.USE_PUMP` off: the rs232 or usb module),
+    alternately, so that both see the same load from other jobs; the cheapest run of each."""
     runs: dict[str, list[dict[str, Any]]] = {"pump": [], "threads": []}
     try:
         for _ in range(repeats):
             for label, on in (("pump", True), ("threads", False)):
-                usb.USE_PUMP = on
-                runs[label].append(usb_sensorhex(seconds))
+                manager.USE_PUMP = on
+                runs[label].append(case())
     finally:
-        usb.USE_PUMP = True
+        manager.USE_PUMP = True
     best = {k: min(v, key=lambda r: float(r["us_per_request"])) for k, v in runs.items()}
     return {"pump": best["pump"], "threads": best["threads"],
             "pump_over_threads": best["pump"]["us_per_request"] / best["threads"]["us_per_request"]}
@@ -333,6 +336,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", type=Path, default=OUT / "host_cpu.json", help="where the numbers go")
     ap.add_argument("--usb-ab", action="store_true",
                     help="only case 2 on the C core, the pump and the Python threads alternately (best of --repeats)")
+    ap.add_argument("--rs232-ab", action="store_true",
+                    help="only case 1 on the C core, the pump and the Python threads alternately (best of --repeats)")
     args = ap.parse_args(argv)
     n, secs = (4000, 1.5) if args.quick else (20000, 5.0)
 
@@ -342,16 +347,19 @@ def main(argv: list[str] | None = None) -> int:
     if args.repeats < 1:
         ap.error("--repeats must be 1 or more")
     runs = range(args.repeats)
-    if args.usb_ab:
+    if args.usb_ab or args.rs232_ab:
         if native.BACKEND != "c":
-            ap.error(f"--usb-ab compares the runtimes on the C core, which is not in use ({native.REASON})")
-        ab = usb_runtimes_ab(secs, args.repeats)
+            ap.error(f"--usb-ab and --rs232-ab compare the runtimes on the C core, which is not in use ({native.REASON})")
+        uplink = "USB" if args.usb_ab else "RS232"
+        ab = (runtimes_ab(usb, lambda: usb_sensorhex(secs), args.repeats) if args.usb_ab
+              else runtimes_ab(rs232, lambda: rs232_pty(n), args.repeats))
         for label in ("pump", "threads"):
             r = ab[label]
             split = ", ".join(f"{k} {v:.1f}" for k, v in sorted(r["threads_us"].items(), key=lambda kv: -kv[1])
                               if v >= 0.05)
-            print(f"  USB on the C core, I/O on the {label:7s}: {r['us_per_request']:6.1f} us per request "
-                  f"({r['completed']} of {r['requests']} completed, {r['failed']} failed); threads: {split}")
+            print(f"  {uplink} on the C core, I/O on the {label:7s}: {r['us_per_request']:6.1f} us per request "
+                  f"({r.get('completed', r['requests'])} of {r['requests']} completed, {r['failed']} failed); "
+                  f"threads: {split}")
         print(f"  pump / threads: {ab['pump_over_threads']:.3f}")
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps(ab | {"load_average": os.getloadavg()[0], "repeats": args.repeats}, indent=2)

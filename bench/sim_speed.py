@@ -14,10 +14,17 @@
        b. host traffic from the real host library (SimManager, Python) on the simulated CPU.
   2. Scaling: wall time per simulated second with 1, 3, 9, 30 and 60 probe nodes (up to 20 per
      USB bridge, each read at 100 Hz by the native host), SYNC and heartbeats at 1 kHz.
+  3. (`--sensorhex`, issue 38) `urb sim sensorhex` end to end: each of its experiments (the default
+     set: the I2C experiments, and table1, fig15, fig16 under the other profiles) run one after the
+     other in this process, with its simulated seconds (the experiment's own `Result.sim_s`) per
+     wall second and per CPU second (this process's and its children's: TLC for traces), and the
+     total; then the command itself as `urb sim sensorhex --jobs N` in a child process (wall and CPU
+     time, plots, report and evidence included). Goal: at least 20x real time end to end.
 
     python3 bench/sim_speed.py                # prints the tables, writes build/sim/bench/sim_speed.json
     python3 bench/sim_speed.py --quick        # shorter runs
     python3 bench/sim_speed.py --fingerprint  # only the behaviour fingerprint (see below)
+    python3 bench/sim_speed.py --sensorhex [--quick] [--jobs N]   # only `urb sim sensorhex` end to end (3.)
 
 Goal (issue 6): at least 100x real time for 1a, at both motor rates. Ratios are simulated seconds per CPU second of this
 process (for 1a the best of three runs: one run on a shared machine can be a third slower); the host-library run also says how its CPU time splits between the C world (urbsim_run)
@@ -32,7 +39,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import resource
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -42,6 +53,7 @@ sys.path.insert(0, str(REPO / "sim"))
 from urb_sim.native import USB, RS232, App, Trace, World  # noqa: E402
 
 GOAL = 100.0  #: x real time for scenario 1a (issue 6)
+SENSORHEX_GOAL = 20.0  #: x real time for `urb sim sensorhex` end to end (issue 38)
 RUNS = 3      #: scenario 1a is run this many times at each rate; the fastest counts
 
 
@@ -187,12 +199,81 @@ def scaling(n_nodes: int, seconds: float, seed: int = 1) -> dict[str, float]:
     return out
 
 
+def cpu_with_children() -> float:
+    """CPU seconds of this process and of the children it waited for (TLC's JVMs, worker processes)."""
+    own, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+def sensorhex_keys() -> list[str]:
+    """The tasks `urb sim sensorhex` runs by default: the I2C experiments under the default profile,
+    and those a profile changes under every other profile (sim/urb_sim/cli.py run_sensorhex)."""
+    from urb_sim import profiles
+    from urb_sim.runner import DOWNLINK_EXPERIMENTS, task_key
+
+    chosen = list(DOWNLINK_EXPERIMENTS["i2c"])
+    keys = [task_key(k, profiles.DEFAULT) for k in chosen]
+    keys += [task_key(k, p) for p in profiles.names() if p != profiles.DEFAULT
+             for k in chosen if k in profiles.PROFILE_EXPERIMENTS]
+    return keys
+
+
+def sensorhex_e2e(quick: bool, seed: int, jobs: int) -> dict[str, object]:
+    """`urb sim sensorhex` end to end: each task in this process (simulated s per wall s and per CPU
+    s, TLC's JVMs included), then the command itself with `jobs` workers in a child process."""
+    from urb.managers.native import BACKEND
+    from urb_sim.runner import run_one
+
+    rows: list[dict[str, object]] = []
+    print(f"\n`urb sim sensorhex{' --quick' if quick else ''}` task by task in this process (seed {seed}; host "
+          f"library's protocol core: {BACKEND}; load average {os.getloadavg()[0]:.1f}):")
+    print(f"  {'task':<14} {'verdict':<7} {'sim s':>7} {'wall s':>7} {'CPU s':>7} {'x wall':>7} {'x CPU':>7}")
+    with tempfile.TemporaryDirectory(prefix="urb-sim-speed-") as tmp:
+        for key in sensorhex_keys():
+            c0, w0 = cpu_with_children(), time.perf_counter()
+            res = run_one(key, Path(tmp), quick=quick, seed=seed, progress=lambda f, m: None)
+            cpu, wall = cpu_with_children() - c0, time.perf_counter() - w0
+            rows.append({"task": key, "verdict": res.verdict, "sim_s": res.sim_s, "wall_s": wall, "cpu_s": cpu})
+            print(f"  {key:<14} {res.verdict:<7} {res.sim_s:>7.2f} {wall:>7.2f} {cpu:>7.2f} {res.sim_s / wall:>7.1f} "
+                  f"{res.sim_s / cpu:>7.1f}", flush=True)
+    sim = sum(float(str(r["sim_s"])) for r in rows)
+    wall = sum(float(str(r["wall_s"])) for r in rows)
+    cpu = sum(float(str(r["cpu_s"])) for r in rows)
+    print(f"  {'all tasks':<14} {'':<7} {sim:>7.2f} {wall:>7.2f} {cpu:>7.2f} {sim / wall:>7.1f} {sim / cpu:>7.1f}")
+    with tempfile.TemporaryDirectory(prefix="urb-sim-speed-") as tmp:
+        cmd = [sys.executable, "-m", "urb.cli", "sim", "sensorhex", "--seed", str(seed), "--jobs", str(jobs),
+               "--no-progress", "--out", f"{tmp}/report", "--evidence", f"{tmp}/evidence", *(["--quick"] if quick else [])]
+        kids0, w0 = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
+        proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+        kids1, whole_wall = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter() - w0
+    whole_cpu = kids1.ru_utime + kids1.ru_stime - kids0.ru_utime - kids0.ru_stime
+    verdict = "PASS" if proc.returncode == 0 else f"exit status {proc.returncode}"
+    speed = sim / whole_wall
+    print(f"  the command, --jobs {jobs}: {verdict}, {sim:.1f} s simulated in {whole_wall:.1f} s wall "
+          f"({speed:.1f} x real time = {speed / SENSORHEX_GOAL:.2f} x the {SENSORHEX_GOAL:.0f} x goal, "
+          f"{'met' if speed >= SENSORHEX_GOAL else 'NOT met'}), {whole_cpu:.1f} s CPU ({sim / whole_cpu:.1f} x per CPU s)")
+    if proc.returncode != 0:
+        print(proc.stdout[-2000:] + proc.stderr[-2000:])
+    return {"quick": quick, "seed": seed, "core": BACKEND, "tasks": rows, "sim_s": sim, "tasks_wall_s": wall,
+            "tasks_cpu_s": cpu, "command": {"jobs": jobs, "returncode": proc.returncode, "wall_s": whole_wall,
+                                           "cpu_s": whole_cpu, "speed": speed}}
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="shorter runs")
     ap.add_argument("--fingerprint", action="store_true", help="print the behaviour fingerprint only")
+    ap.add_argument("--sensorhex", action="store_true", help="only `urb sim sensorhex` end to end (issue 38)")
+    ap.add_argument("--jobs", type=int, default=2, help="--sensorhex: workers of the whole command's run")
+    ap.add_argument("--seed", type=int, default=1, help="--sensorhex: the experiments' base seed")
     ap.add_argument("--out", type=Path, default=REPO / "build" / "sim" / "bench" / "sim_speed.json")
     args = ap.parse_args(argv)
+    if args.sensorhex:
+        out = args.out.with_name("sim_speed_sensorhex.json")
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(json.dumps(sensorhex_e2e(args.quick, args.seed, args.jobs), indent=1))
+        print(f"\nwritten {out}")
+        return 0
     fp = fingerprint()
     print(f"fingerprint (scenario 1a, seed 1, 0.4 s, all trace categories): trace hash {fp['trace_hash']:016x}, "
           f"{fp['trace_lines']} lines, {fp['events']} events")

@@ -11,6 +11,8 @@
 #   make sim-report   the full run: `urb sim sensorhex` (HTML summary in build/sim/report/, evidence
 #                     records in build/evidence/)
 #   make sim-bench    simulated seconds per wall-clock second, and scaling with the node count
+#   make sim-bench-sensorhex  `urb sim sensorhex` end to end (issue #38): simulated seconds per wall and per
+#                     CPU second of each experiment, TLC included, and of the whole command (opt-in, minutes)
 #   make sim-critical-check  the PRIMASK critical sections measured from the Cortex-M0+ images equal the
 #                     committed sim/profiles/critical_sections.json that the hardware profiles use
 #                     (python3 -m urb_sim.critical --write refreshes it; in make check)
@@ -27,7 +29,7 @@ SIM_CORE := sim/core
 SIM_SAN_FLAGS := -std=c99 -g -O1 -Wall -Wextra -Werror -Wpedantic -Wconversion \
 	-fsanitize=address,undefined -fno-sanitize-recover=all
 
-.PHONY: sim-lib test-sim test-sim-san sim-report sim-bench sim-critical-check sim-sensitivity sim-sweep-dask
+.PHONY: sim-lib test-sim test-sim-san sim-report sim-bench sim-bench-sensorhex sim-critical-check sim-sensitivity sim-sweep-dask
 sim-lib:
 	$(PYTHON) -m urb_sim.build
 
@@ -57,11 +59,14 @@ test-sim: sim-lib $(SIM_BUILD)/test_core $(foreach m,$(SIM_MUTANTS),$(SIM_BUILD)
 test-sim-san: setup
 	$(PYTHON) tools/sim_sanitized.py
 
-sim-report: setup
+sim-report: setup accel host-c-py
 	urb sim sensorhex
 
 sim-bench: setup
 	$(PYTHON) bench/sim_speed.py
+
+sim-bench-sensorhex: setup sim-lib host-c-py accel
+	$(PYTHON) bench/sim_speed.py --sensorhex
 
 sim-critical-check: setup cross-firmware-node build/firmware/urb-bridge-cm0plus.elf
 	$(PYTHON) -m urb_sim.critical --check

@@ -61,8 +61,9 @@ class SimHost:
         virtual time `limit_v` and perform it. False when `limit_v` was reached with nothing to do."""
         t_py = self._events[0][0] if self._events else NEVER
         target = min(t_py, limit_v)
-        if self.world.run(target):
-            self._deliver()
+        items = self.world.run_take(target)
+        if items is not None:
+            self._deliver(items)
             return True
         if t_py <= target:
             now = self.world.now
@@ -81,10 +82,10 @@ class SimHost:
     def advance(self, duration_ns: int) -> None:
         self.advance_to(self.world.now + duration_ns)
 
-    def _deliver(self) -> None:
+    def _deliver(self, items: list[tuple[int, bytes]]) -> None:
+        """A read thread's wake-up: the items the world handed over, each to its bridge's receiver."""
         self.wakeups += 1
-        while (item := self.world.host_take()) is not None:
-            bridge, data = item
+        for bridge, data in items:
             receiver = self._receivers.get(bridge)
             if receiver is not None:
                 receiver(data)

@@ -95,6 +95,8 @@ def lib() -> Any:
             "urbsim_host_timer": (c_uint64, [W, c_int64]),
             "urbsim_host_send": (c_int, [W, c_int, POINTER(c_uint8), c_uint32]),
             "urbsim_host_take": (c_int, [W, POINTER(c_int), POINTER(c_uint8), c_uint32]),
+            "urbsim_host_take_more": (c_int, [W, POINTER(c_int), POINTER(c_uint32), POINTER(c_uint8), c_uint32]),
+            "urbsim_run_take": (c_int, [W, c_uint64, POINTER(c_int), POINTER(c_uint32), POINTER(c_uint8), c_uint32]),
             "urbsim_node_marks": (c_uint32, [W, c_int, POINTER(c_uint64), POINTER(c_uint32), c_uint32]),
             "urbsim_bridge_marks": (c_uint32, [W, c_int, POINTER(c_uint64), POINTER(c_uint32), c_uint32]),
             "urbsim_node_status": (c_int, [W, c_int, POINTER(c_int64)]),
@@ -166,6 +168,11 @@ class World:
             raise MemoryError("urbsim_new failed")
         self.seed = seed
         self._buf = (c_uint8 * 1024)()
+        # run_take's and take_more's out-arguments, made once: they run at every host wake-up
+        self._taken_bridge = c_int(0)
+        self._taken_more = c_uint32(0)
+        self._taken_args = (ctypes.byref(self._taken_bridge), ctypes.byref(self._taken_more), self._buf,
+                            len(self._buf))
         # Virtual time and the host clock only move in run() (and start()); the host library asks
         # for the clock ~60 times per simulated ms, so both are read once per instant, not per call.
         self._now: int | None = None
@@ -315,7 +322,30 @@ class World:
         n = int(self._lib.urbsim_host_take(self._w, ctypes.byref(b), self._buf, len(self._buf)))
         if n < 0:
             return None
-        return b.value, bytes(self._buf[:n])
+        return b.value, ctypes.string_at(self._buf, n)
+
+    def run_take(self, limit_ns: int) -> list[tuple[int, bytes]] | None:
+        """`run(limit_ns)` and, on a host wake-up, every item `host_take` would hand out then, in the
+        same order: None when `limit_ns` was reached (no wake-up), else the items (empty when the
+        wake-up found none ready). One call into the library per item instead of one per item plus
+        two (the run and the take that finds nothing left)."""
+        self._running("run")
+        self._now = self._local = None
+        n = self._lib.urbsim_run_take(self._w, limit_ns, *self._taken_args)
+        if n < 0:
+            if n == -1:  # URBSIM_RUN_LIMIT
+                return None
+            raise RuntimeError("urbsim_run_take refused the call (a bug: the checks above passed)")
+        bridge = self._taken_bridge.value
+        if bridge < 0:
+            return []
+        items = [(bridge, ctypes.string_at(self._buf, n))]
+        while self._taken_more.value:
+            n = self._lib.urbsim_host_take_more(self._w, *self._taken_args)
+            if n < 0:
+                raise RuntimeError("urbsim_host_take_more found none of the items it counted (a bug in world.c)")
+            items.append((self._taken_bridge.value, ctypes.string_at(self._buf, n)))
+        return items
 
     # -- measurements -----------------------------------------------------------------------
     def node_marks(self, node: int) -> list[tuple[int, int, int]]:

@@ -29,7 +29,7 @@ from urb.managers.base import NS_PER_MS, Transfer
 from urb.managers.usb_core import UsbTraceEvent
 
 from .build import REPO, unpreloaded_env
-from .tlc import JVM_QUICK, TlcSetupError, find_jar, find_java, state_counts
+from .tlc import JVM_QUICK, TlcSetupError, class_archive, find_jar, find_java, state_counts
 
 SPEC = REPO / "spec" / "tla"
 TRACE_SPEC = REPO / "sim" / "tla"
@@ -215,11 +215,12 @@ def _tlc(spec: str, data: str) -> tuple[str, float]:
             shutil.copy2(f, tmp / f.name)
         (tmp / f"{spec}Data.tla").write_text(data)
         # Each run explores a few thousand states at most: a quick JVM (as for modelcheck's mutants).
-        cmd = [java, *JVM_QUICK, f"-Djava.io.tmpdir={tmp}", "-cp", str(jar), "tlc2.TLC", "-deadlock",
-               "-workers", "1", "-config", f"{spec}.cfg", "-metadir", str(tmp / "meta"), f"{spec}.tla"]
-        t0 = time.monotonic()
-        proc = subprocess.run(cmd, cwd=tmp, capture_output=True, text=True, check=False, env=unpreloaded_env())
-        dt = time.monotonic() - t0
+        with class_archive(java, jar) as cds:
+            cmd = [java, *JVM_QUICK, *cds, f"-Djava.io.tmpdir={tmp}", "-cp", str(jar), "tlc2.TLC", "-deadlock",
+                   "-workers", "1", "-config", f"{spec}.cfg", "-metadir", str(tmp / "meta"), f"{spec}.tla"]
+            t0 = time.monotonic()
+            proc = subprocess.run(cmd, cwd=tmp, capture_output=True, text=True, check=False, env=unpreloaded_env())
+            dt = time.monotonic() - t0
     log = proc.stdout + proc.stderr
     if proc.returncode == 0 and "No error has been found" in log:
         return log, dt

@@ -68,6 +68,16 @@ uint64_t urbsim_host_timer(urbsim_world_t *w, int64_t local_ns);
 int urbsim_host_send(urbsim_world_t *w, int bridge, const uint8_t *data, uint32_t n);
 /** Take the next delivered item: returns its length (>= 0) with its bridge in *bridge, or -1. */
 int urbsim_host_take(urbsim_world_t *w, int *bridge, uint8_t *buf, uint32_t cap);
+/** urbsim_host_take, and the items still ready after this one in *more (so that the caller knows
+ *  without another call whether to take again). */
+int urbsim_host_take_more(urbsim_world_t *w, int *bridge, uint32_t *more, uint8_t *buf, uint32_t cap);
+#define URBSIM_RUN_LIMIT (-1) /**< urbsim_run_take: `limit` reached, no host wake-up */
+#define URBSIM_RUN_ERROR (-2) /**< urbsim_run_take: no world, not started, or a NULL argument */
+/** urbsim_run and, on a host wake-up, urbsim_host_take_more in one call (one crossing from Python
+ *  per wake-up instead of three): returns the first ready item's length (>= 0), its bridge in
+ *  *bridge (-1: woken with nothing ready) and the items still ready in *more; URBSIM_RUN_LIMIT when
+ *  `limit` was reached; URBSIM_RUN_ERROR on a bad call. */
+int urbsim_run_take(urbsim_world_t *w, uint64_t limit, int *bridge, uint32_t *more, uint8_t *buf, uint32_t cap);
 
 /* ---- measurements ---- */
 /** Drain a device's mark log (node marks: 0 beat, 1 acq_end, 2 sync, 3 read, 4 boot; bridge marks

@@ -599,34 +599,67 @@ int urbsim_host_send(urbsim_world_t *w, int bridge, const uint8_t *data, uint32_
     return (int)n;
 }
 
-int urbsim_host_take(urbsim_world_t *w, int *bridge, uint8_t *buf, uint32_t cap)
+/* The first ready item into buf (its bridge in *bridge), removed keeping the order of the others;
+ * *more counts the ready items behind it. -1 when none is ready. */
+static int host_take_ready(urbsim_world_t *w, int *bridge, uint32_t *more, uint8_t *buf, uint32_t cap)
 {
-    if (!w) {
+    *more = 0u;
+    uint32_t i = 0;
+    while (i < w->item_len && !w->items[(w->item_head + i) % INBOX_ITEMS].ready) {
+        i++;
+    }
+    if (i == w->item_len) {
         return -1;
     }
-    for (uint32_t i = 0; i < w->item_len; i++) {
-        uint32_t slot = (w->item_head + i) % INBOX_ITEMS;
-        host_item_t *it = &w->items[slot];
-        if (!it->ready) {
-            continue;
-        }
-        uint32_t n = it->len < cap ? it->len : cap;
-        memcpy(buf, it->data, n);
-        *bridge = it->bridge;
-        /* remove slot i, keeping the order of the others */
-        for (uint32_t j = i; j + 1u < w->item_len; j++) {
-            uint32_t a = (w->item_head + j) % INBOX_ITEMS, b = (w->item_head + j + 1u) % INBOX_ITEMS;
-            w->items[a] = w->items[b];
-            for (int q = 0; q < w->n_bridges; q++) {
-                if (w->port[q].open_item == (int)b) {
-                    w->port[q].open_item = (int)a;
-                }
+    host_item_t *it = &w->items[(w->item_head + i) % INBOX_ITEMS];
+    uint32_t n = it->len < cap ? it->len : cap;
+    memcpy(buf, it->data, n);
+    *bridge = it->bridge;
+    /* remove slot i, keeping the order of the others */
+    for (uint32_t j = i; j + 1u < w->item_len; j++) {
+        uint32_t a = (w->item_head + j) % INBOX_ITEMS, b = (w->item_head + j + 1u) % INBOX_ITEMS;
+        w->items[a] = w->items[b];
+        for (int q = 0; q < w->n_bridges; q++) {
+            if (w->port[q].open_item == (int)b) {
+                w->port[q].open_item = (int)a;
             }
         }
-        w->item_len--;
-        return (int)n;
     }
-    return -1;
+    w->item_len--;
+    for (uint32_t j = i; j < w->item_len; j++) {
+        *more += w->items[(w->item_head + j) % INBOX_ITEMS].ready ? 1u : 0u;
+    }
+    return (int)n;
+}
+
+int urbsim_host_take(urbsim_world_t *w, int *bridge, uint8_t *buf, uint32_t cap)
+{
+    uint32_t more;
+    return w ? host_take_ready(w, bridge, &more, buf, cap) : -1;
+}
+
+int urbsim_host_take_more(urbsim_world_t *w, int *bridge, uint32_t *more, uint8_t *buf, uint32_t cap)
+{
+    if (!w || !bridge || !more) {
+        return -1;
+    }
+    return host_take_ready(w, bridge, more, buf, cap);
+}
+
+int urbsim_run_take(urbsim_world_t *w, uint64_t limit, int *bridge, uint32_t *more, uint8_t *buf, uint32_t cap)
+{
+    if (!w || !w->started || !bridge || !more) {
+        return URBSIM_RUN_ERROR;
+    }
+    if (!urbsim_kernel_run_until(&w->k, limit)) {
+        return URBSIM_RUN_LIMIT;
+    }
+    int n = host_take_ready(w, bridge, more, buf, cap);
+    if (n < 0) {
+        *bridge = -1; /* woken with nothing ready (every wake-up has an item: defensive) */
+        return 0;
+    }
+    return n;
 }
 
 /* ---------------------------------------------------------------- measurements */

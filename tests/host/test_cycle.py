@@ -15,10 +15,8 @@ kind each test asserts.
 
 from __future__ import annotations
 
-import importlib.util
 import os
 import socket
-import subprocess
 import sys
 import threading
 from pathlib import Path
@@ -379,25 +377,12 @@ the lost reason not the manager's."""
 
 def build_cycle_mutant(tmp: Path, name: str) -> Any:
     """The extension compiled with the seeded bug `name` in _native_cycle.c, loaded as its own module."""
-    sys.path.insert(0, str(REPO / "tools"))
+    sys.path.insert(0, str(REPO / "tests" / "host_c"))
     try:
-        import build_native_core as bnc
+        from native_support import build_native_mutant
     finally:
         sys.path.pop(0)
-    old, new = CYCLE_MUTANTS[name]
-    source = (REPO / "host/urb/managers/_native_cycle.c").read_text()
-    assert source.count(old) == 1, f"the seeded bug {name} no longer applies: update CYCLE_MUTANTS"
-    mutated = tmp / "_native_cycle.c"
-    mutated.write_text(source.replace(old, new))
-    srcs = [mutated if p.name == "_native_cycle.c" else p for p in bnc.sources()]
-    out = tmp / bnc.module_path().name
-    cmd = [a for a in bnc.compile_command(srcs, out, "mutant") if a not in ("-O2", "-flto")]
-    subprocess.run(cmd, check=True, capture_output=True, text=True)
-    spec = importlib.util.spec_from_file_location("_native", out)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return build_native_mutant(tmp, "_native_cycle.c", *CYCLE_MUTANTS[name])
 
 
 @pytest.mark.parametrize("name", sorted(CYCLE_MUTANTS))

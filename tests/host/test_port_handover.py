@@ -23,7 +23,7 @@ import pytest
 from bridge_proc import BridgeProc, fake_bridge  # noqa: F401 (fixture)
 
 from urb.managers import LoopbackFrameTransport, RS232Manager, Rs232Core, SimManager, UsbCore, VirtualClock
-from urb.managers import handover as handover_mod
+from urb.managers import handover as handover_mod, rs232
 from urb.managers.base import NS_PER_MS, Transfer
 from urb.managers.handover import AHEAD_NS, MAX_WAIT_NS, PortHandover
 from urb.managers.loopback import BridgeModel, fake_node
@@ -311,9 +311,12 @@ def test_a_usb_device_path_has_one_user_at_a_time(tmp_path: Path) -> None:
     second.close()
 
 
-def test_the_record_covers_a_request_before_it_goes_out(fake_bridge: Callable[..., BridgeProc]) -> None:
+def test_the_record_covers_a_request_before_it_goes_out(fake_bridge: Callable[..., BridgeProc],
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
     """A process killed between writing a frame and noting it would leave no record: the record is
-    written first."""
+    written first. On the Python writer thread, whose writes this test sees (the C core's pump
+    writes from C: tests/host_c/test_rs232_pump.py covers its record)."""
+    monkeypatch.setattr(rs232, "USE_PUMP", False)
     bp = fake_bridge([f"MotorDriver:1@{FAST}"])
     m = RS232Manager(str(bp.link), timeout_s=0.5)
     m.start()

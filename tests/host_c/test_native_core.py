@@ -20,9 +20,7 @@ the C core's cut lost reason instead of the caller's whole text) and shows the c
 
 from __future__ import annotations
 
-import importlib.util
 import random
-import subprocess
 import sys
 from collections import Counter
 from pathlib import Path
@@ -30,6 +28,7 @@ from typing import Any
 
 import pytest
 import test_differential as diff
+from native_support import build_native_mutant
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -258,23 +257,8 @@ SEEDED_BUG = ("PyObject *reason = native_reason_text(self, t->lost_reason);",
 
 
 def build_mutant(tmp: Path) -> Any:
-    """The extension compiled from _native.c with SEEDED_BUG, loaded as its own module."""
-    sys.path.insert(0, str(REPO / "tools"))
-    try:
-        import build_native_core as bnc
-    finally:
-        sys.path.pop(0)
-    source = (REPO / "host/urb/managers/_native.c").read_text()
-    assert source.count(SEEDED_BUG[0]) == 1, "the seeded bug no longer applies: update SEEDED_BUG"
-    (tmp / "_native.c").write_text(source.replace(*SEEDED_BUG))
-    out = tmp / bnc.module_path().name
-    cmd = bnc.compile_command([tmp / "_native.c", *bnc.sources()[1:]], out, "mutant")
-    subprocess.run(cmd, check=True, capture_output=True, text=True)
-    spec = importlib.util.spec_from_file_location("_native", out)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    """The extension compiled from _native_xfer.c with SEEDED_BUG, loaded as its own module."""
+    return build_native_mutant(tmp, "_native_xfer.c", *SEEDED_BUG, optimise=True)
 
 
 def test_a_seeded_bug_in_the_binding_is_caught(tmp_path: Path) -> None:

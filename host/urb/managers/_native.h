@@ -1,7 +1,9 @@
 /*
  * _native.h: what the parts of urb.managers._native share: the C core object (_native.c: the
- * protocol core as a CPython type; _native_attrs.c: its attributes) and its pump (_native_pump.c:
- * the uplink's I/O on a C thread, so that Python only sees completed transfers, in batches).
+ * protocol core as a CPython type; _native_attrs.c: its attributes; _native_xfer.c: its C transfers
+ * and their hand-back to the Python ones) and its pump (_native_pump.c: the uplink's I/O on a C
+ * thread, so that Python only sees completed transfers, in batches; the RS232 pump's loop is
+ * _native_pump_rs232.c).
  *
  * Threads: the core object's methods run with the GIL; the pump's thread never takes it. Both
  * reach `core` only with `lock` held (the methods through core_lock, which waits for the mutex
@@ -38,7 +40,8 @@ typedef struct native_xfer {
 #define NATIVE_REASON_TEXT_MAX (NATIVE_NAME_MAX + 128u)
 
 /* The uplink's I/O on a C thread (USB: a transfer descriptor, one write per OUT transfer and one
- * read per IN transfer, as CharDeviceTransport). The settings are written before the thread starts,
+ * read per IN transfer, as CharDeviceTransport; RS232: a serial port's descriptor, one write per
+ * request frame, as RS232Manager's writer). The settings are written before the thread starts,
  * `stop` by Python and read by the thread; the fields marked below are guarded by the core's lock
  * (native_core_t.lock). */
 typedef struct {
@@ -46,13 +49,16 @@ typedef struct {
     bool running;              /* a thread was started and not joined (Python side only) */
     volatile bool stop;
     int fd;
-    urb_ns_t frame_ns;
+    int wake_fd;               /* RS232: an eventfd that wakes the thread (a submission, the stop), open from
+                                  the first start until the core is released; -1 before and on USB */
+    urb_ns_t frame_ns;         /* USB: the frame period (0 on RS232: frames go when the window lets them) */
     char name[NATIVE_NAME_MAX];    /* the manager's name, for the lost reason of an I/O error */
     bool has_handover;
     urb_handover_t handover;   /* the port's hand-over record, covered before every write */
     bool handover_warned;
     /* guarded by the core's lock */
     bool kicked;               /* Python queued something for its dispatcher: wake it */
+    bool notified;             /* RS232: wake_fd was written and the thread has not taken it yet */
     bool io_ended;             /* the thread stopped on a write error (the core is lost) */
     bool reason_pending;       /* reason_text holds the whole reason of that loss for Python */
     char reason_text[NATIVE_REASON_TEXT_MAX];
@@ -99,11 +105,34 @@ PyObject *native_pump_stop(native_core_t *self, PyObject *unused);
 PyObject *native_pump_wait(native_core_t *self, PyObject *arg);
 PyObject *native_pump_kick(native_core_t *self, PyObject *unused);
 PyObject *native_pump_running(native_core_t *self, PyObject *unused);
+PyObject *native_pump_notify(native_core_t *self, PyObject *unused);
 PyObject *native_has_completed(native_core_t *self, PyObject *unused);
+/* Interned attribute names: each part interns the ones it uses at module import. */
+typedef struct {
+    PyObject **slot;
+    const char *text;
+} native_name_t;
+/* Interns every name of `names` whose slot is still NULL; 0, or -1 with a Python error. */
+int native_intern_names(const native_name_t *names, size_t count);
+
+/* The C transfers and their hand-back to the Python transfers (_native_xfer.c). */
+/* Interns the attribute names the hand-back writes; 0, or -1 with a Python error. */
+int native_xfer_intern(void);
 /* A C transfer from the core object's free list (uninitialised; NULL with MemoryError), and back
  * (dropping its reference `py`). */
 native_xfer_t *native_xfer_get(native_core_t *self);
 void native_xfer_put(native_core_t *self, native_xfer_t *x);
+/* Writes what ResponseMatcher-side `_send` sets (seq, sent_ns, due_ns, expires_ns, garbage) on the
+ * Python transfer of x, just put on the wire; 0, or -1 with a Python error. */
+int native_mark_sent(native_xfer_t *x, urb_ns_t due_ns, urb_ns_t expires_ns);
+/* Appends (what, now, items) to the core object's trace list; 0, or -1 with a Python error. */
+int native_trace_event(native_core_t *self, PyObject *what, urb_ns_t now, PyObject *items);
+/* Hands every transfer the C core completed back to its Python object, keeping it in `completed`
+ * until take_completed; those answered by a response also go to `answered` unless it is NULL.
+ * 0, or -1 with a Python error. */
+int native_collect(native_core_t *self, PyObject *answered);
+/* Completes everything the core still owns (BRIDGE_LOST) and drops the references: teardown. */
+void native_release_all(native_core_t *self);
 
 /* The cycle state (_native_cycle.c): a fixed set of requests submitted at once, one completion. */
 #define NATIVE_CYCLE_MAX 1024
@@ -122,5 +151,22 @@ bool native_cycle_item_polled(const native_xfer_t *x);
 
 /* Stops and joins the pump's thread if one runs (GIL held; the thread never needs it). */
 void native_pump_join(native_core_t *self);
+
+/* What both pumps' threads use (_native_pump.c; no GIL). CLOCK_MONOTONIC (time.monotonic_ns). */
+urb_ns_t native_monotonic_ns(void);
+/* After a step of the core (lock held): wakes the dispatcher when the step completed transfers, or
+ * when a draining close has nothing left to wait for (what BusManager._drain waits for). */
+void native_pump_wake_dispatcher(native_core_t *self);
+/* The thread put x in flight in ring slot head + k (lock held): what it sent (seq, sending time, the
+ * slot's deadline and lifetime) is written to the Python transfer when it is handed back. */
+void native_pump_note_sent(native_core_t *self, native_xfer_t *x, unsigned k);
+/* Before a write: the port's hand-over record covers `until` (the latest lifetime in flight; no
+ * effect without a record or for URB_NEVER/URB_NO_TIME); a failure to write it is said once. */
+void native_pump_cover(native_pump_t *p, urb_ns_t until, urb_ns_t now);
+/* The thread's uplink failed: the core is lost with the reason "<name>: <format...>" (printf-style),
+ * which Python adopts whole; the dispatcher wakes. Takes the lock. */
+void native_pump_lost(native_core_t *self, const char *format, ...) __attribute__((format(printf, 2, 3)));
+/* The RS232 pump's thread (_native_pump_rs232.c), started by native_pump_start on an RS232 core. */
+void *native_rs232_pump_main(void *arg);
 
 #endif /* URB_NATIVE_H */

@@ -1,6 +1,11 @@
 /*
- * The pump of urb.managers._native: a USB uplink's I/O on a C thread (issue #38), in place of the
- * Python frame thread and transfer reader of USBManager over a CharDeviceTransport (usb.py).
+ * The pump of urb.managers._native: an uplink's I/O on a C thread (issue #38). This file has what
+ * both uplinks' pumps share (starting and stopping the thread, the dispatcher's wait, a loss found
+ * by the thread, the hand-over record, what was sent written back to the Python transfers) and the
+ * USB pump; the RS232 pump's loop is _native_pump_rs232.c.
+ *
+ * The USB pump replaces the Python frame thread and transfer reader of USBManager over a
+ * CharDeviceTransport (usb.py).
  *
  * The thread does what those two did, with the same rules and the same clock
  * (CLOCK_MONOTONIC, time.monotonic_ns): at every 1-ms boundary (absolute, an overslept boundary
@@ -10,7 +15,8 @@
  * record is made to cover the requests in flight (handover.py's PortHandover.cover, in C). A
  * failed write declares the bridge lost ("<name>: [Errno N] <text>", the text Python gives the
  * OSError) and ends the thread; the end of the IN stream or a failed read ends the reading only,
- * as CharDeviceTransport's reader does.
+ * as CharDeviceTransport's reader does. A descriptor closed under the thread (POLLNVAL) is lost at
+ * once, with the text of the write that would fail next (EBADF), and ends the thread.
  *
  * It never takes the GIL: completed transfers stay in the C core's completion list, and the
  * dispatcher's wait (_pump_wait) returns once per batch; the Python objects get their outcome
@@ -21,12 +27,14 @@
 
 #include <errno.h>
 #include <poll.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/eventfd.h>
 #include <time.h>
 #include <unistd.h>
 
-static urb_ns_t monotonic_ns(void)
+urb_ns_t native_monotonic_ns(void)
 {
     struct timespec ts;
     (void)clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -48,9 +56,7 @@ static bool has_work(const native_core_t *self)
     return false;
 }
 
-/* After a step of the core (lock held): wake the dispatcher when the step completed transfers, or
- * when a draining close has nothing left to wait for (what BusManager._drain waits for). */
-static void wake_dispatcher(native_core_t *self)
+void native_pump_wake_dispatcher(native_core_t *self)
 {
     if (self->core.closing && urb_core_drained(&self->core)) {
         self->pump.kicked = true;
@@ -60,12 +66,50 @@ static void wake_dispatcher(native_core_t *self)
     }
 }
 
+void native_pump_note_sent(native_core_t *self, native_xfer_t *x, unsigned k)
+{
+    const urb_slot_t *slot = &self->core.m.slot[(self->core.m.head + k) % URB_MATCHER_SLOTS];
+    x->sent_unmarked = true;
+    x->due_ns = slot->due_ns;
+    x->expires_ns = slot->expires_ns;
+}
+
+void native_pump_cover(native_pump_t *p, urb_ns_t until, urb_ns_t now)
+{
+    if (p->has_handover && (until != URB_NEVER) && (until != URB_NO_TIME)) {
+        (void)urb_handover_cover(&p->handover, until, now);
+        if (p->handover.warned && !p->handover_warned) {
+            p->handover_warned = true;
+            (void)fprintf(stderr, "%s\n", p->handover.error);
+        }
+    }
+}
+
+void native_pump_lost(native_core_t *self, const char *format, ...)
+{
+    native_pump_t *p = &self->pump;
+    (void)pthread_mutex_lock(&self->lock);
+    int const used = snprintf(p->reason_text, sizeof p->reason_text, "%s: ", p->name);
+    if ((used > 0) && ((size_t)used < sizeof p->reason_text)) {
+        va_list args;
+        va_start(args, format);
+        (void)vsnprintf(p->reason_text + used, sizeof p->reason_text - (size_t)used, format, args);
+        va_end(args);
+    }
+    urb_core_link_lost(&self->core, native_monotonic_ns(), p->reason_text);
+    p->reason_pending = true;
+    p->io_ended = true;
+    p->kicked = true;
+    native_pump_wake_dispatcher(self);
+    (void)pthread_mutex_unlock(&self->lock);
+}
+
 /* One 1-ms boundary: timeouts, one batch written. Returns false when the write failed (the bridge
  * is then lost and the thread ends). */
 static bool pump_frame(native_core_t *self, uint8_t *buf, size_t cap)
 {
     native_pump_t *p = &self->pump;
-    urb_ns_t const now = monotonic_ns();
+    urb_ns_t const now = native_monotonic_ns();
     (void)pthread_mutex_lock(&self->lock);
     (void)urb_core_poll(&self->core, now);
     native_xfer_t *candidates[URB_MAX_WINDOW];
@@ -80,24 +124,15 @@ static bool pump_frame(native_core_t *self, uint8_t *buf, size_t cap)
     }
     unsigned const first = self->core.m.count - sent; /* the newest `sent` slots, in sending order */
     for (unsigned i = 0u; i < sent; i++) {
-        const urb_slot_t *slot = &self->core.m.slot[(self->core.m.head + first + i) % URB_MATCHER_SLOTS];
-        candidates[i]->sent_unmarked = true;
-        candidates[i]->due_ns = slot->due_ns;
-        candidates[i]->expires_ns = slot->expires_ns;
+        native_pump_note_sent(self, candidates[i], first + i);
     }
     urb_ns_t const until = urb_core_busy_until(&self->core);
-    wake_dispatcher(self);
+    native_pump_wake_dispatcher(self);
     (void)pthread_mutex_unlock(&self->lock);
     if (n <= 0) {
         return true;
     }
-    if (p->has_handover && (until != URB_NEVER) && (until != URB_NO_TIME)) {
-        (void)urb_handover_cover(&p->handover, until, now);
-        if (p->handover.warned && !p->handover_warned) {
-            p->handover_warned = true;
-            (void)fprintf(stderr, "%s\n", p->handover.error);
-        }
-    }
+    native_pump_cover(p, until, now);
     ssize_t wrote;
     do {
         wrote = write(p->fd, buf, (size_t)n);
@@ -106,14 +141,7 @@ static bool pump_frame(native_core_t *self, uint8_t *buf, size_t cap)
         return true;
     }
     int const code = errno;
-    (void)pthread_mutex_lock(&self->lock);
-    (void)snprintf(p->reason_text, sizeof p->reason_text, "%s: [Errno %d] %s", p->name, code, strerror(code));
-    urb_core_link_lost(&self->core, monotonic_ns(), p->reason_text);
-    p->reason_pending = true;
-    p->io_ended = true;
-    p->kicked = true;
-    wake_dispatcher(self);
-    (void)pthread_mutex_unlock(&self->lock);
+    native_pump_lost(self, "[Errno %d] %s", code, strerror(code));
     return false;
 }
 
@@ -128,9 +156,21 @@ static bool pump_read(native_core_t *self, uint8_t *buf, size_t cap)
         return false;
     }
     (void)pthread_mutex_lock(&self->lock);
-    (void)urb_core_receive_batch(&self->core, buf, (size_t)got, monotonic_ns());
-    wake_dispatcher(self);
+    (void)urb_core_receive_batch(&self->core, buf, (size_t)got, native_monotonic_ns());
+    native_pump_wake_dispatcher(self);
     (void)pthread_mutex_unlock(&self->lock);
+    return true;
+}
+
+/* Whether `revents` says the descriptor was closed under the thread (POLLNVAL, which ppoll would
+ * report at once from then on); if so the bridge is lost, worded as the Python writer thread words
+ * its next write's failure, and the thread is to end. */
+static bool pump_descriptor_closed(native_core_t *self, short revents)
+{
+    if ((revents & POLLNVAL) == 0) {
+        return false;
+    }
+    native_pump_lost(self, "[Errno %d] %s", EBADF, strerror(EBADF));
     return true;
 }
 
@@ -141,13 +181,16 @@ static void *pump_main(void *arg)
     uint8_t in[4096];
     uint8_t out[URB_USB_BATCH_MAX];
     bool reading = true;
-    urb_ns_t next_frame = ((monotonic_ns() / p->frame_ns) + 1) * p->frame_ns;
+    urb_ns_t next_frame = ((native_monotonic_ns() / p->frame_ns) + 1) * p->frame_ns;
     while (!p->stop) {
-        urb_ns_t const wait = next_frame - monotonic_ns();
+        urb_ns_t const wait = next_frame - native_monotonic_ns();
         if (wait > 0) {
             struct pollfd fds = {p->fd, POLLIN, 0};
             struct timespec const ts = {(time_t)(wait / URB_NS_PER_S), (long)(wait % URB_NS_PER_S)};
             int const ready = ppoll(&fds, reading ? 1u : 0u, &ts, NULL);
+            if ((ready > 0) && pump_descriptor_closed(self, fds.revents)) {
+                break;
+            }
             if ((ready > 0) && ((fds.revents & (POLLIN | POLLHUP | POLLERR)) != 0)) {
                 reading = pump_read(self, in, sizeof in);
             }
@@ -158,8 +201,11 @@ static void *pump_main(void *arg)
             while (reading && (poll(&fds, 1u, 0) > 0) && ((fds.revents & (POLLIN | POLLHUP | POLLERR)) != 0)) {
                 reading = pump_read(self, in, sizeof in);
             }
+            if (pump_descriptor_closed(self, fds.revents)) {
+                break;
+            }
         }
-        urb_ns_t const now = monotonic_ns();
+        urb_ns_t const now = native_monotonic_ns();
         next_frame += p->frame_ns;
         if (next_frame <= now) { /* overslept: skip to the next boundary, never burst */
             next_frame = ((now / p->frame_ns) + 1) * p->frame_ns;
@@ -194,16 +240,17 @@ PyObject *native_pump_start(native_core_t *self, PyObject *args)
     if (!PyArg_ParseTuple(args, "isLzz", &fd, &name, &frame_ns, &port, &directory)) {
         return NULL;
     }
-    if (!self->ready || (self->core.kind != URB_LINK_USB)) {
-        PyErr_SetString(PyExc_RuntimeError, "the pump drives a USB core (NativeUsbCore)");
+    if (!self->ready) {
+        PyErr_SetString(PyExc_RuntimeError, "the pump drives a core that is set up (NativeUsbCore, NativeRs232Core)");
         return NULL;
     }
     if (self->pump.running) {
         PyErr_SetString(PyExc_RuntimeError, "the pump runs already (stop it first)");
         return NULL;
     }
-    if ((fd < 0) || (frame_ns <= 0)) {
-        PyErr_SetString(PyExc_ValueError, "the pump needs an open descriptor and a frame period above 0");
+    bool const usb = self->core.kind == URB_LINK_USB;
+    if ((fd < 0) || (usb ? (frame_ns <= 0) : (frame_ns != 0))) {
+        PyErr_SetString(PyExc_ValueError, "the pump needs an open descriptor, and a frame period above 0 on USB (0 on RS232)");
         return NULL;
     }
     native_pump_t *p = &self->pump;
@@ -212,8 +259,18 @@ PyObject *native_pump_start(native_core_t *self, PyObject *args)
         PyErr_Format(PyExc_ValueError, "%s: the port's hand-over record path is too long", port);
         return NULL;
     }
+    if (!usb && (p->wake_fd < 0)) { /* kept until the core is released: a _pump_notify may still write to it */
+        p->wake_fd = eventfd(0u, EFD_NONBLOCK | EFD_CLOEXEC);
+        if (p->wake_fd < 0) {
+            return PyErr_SetFromErrno(PyExc_OSError);
+        }
+    } else if (!usb) {
+        uint64_t stale;
+        (void)read(p->wake_fd, &stale, sizeof stale); /* what the last run left */
+    }
     native_core_lock(self);
     p->fd = fd;
+    p->notified = false;
     p->frame_ns = frame_ns;
     (void)snprintf(p->name, sizeof p->name, "%s", name);
     p->has_handover = port != NULL;
@@ -222,7 +279,7 @@ PyObject *native_pump_start(native_core_t *self, PyObject *args)
     p->kicked = false;
     p->io_ended = false;
     native_core_unlock(self);
-    int const rc = pthread_create(&p->thread, NULL, pump_main, self);
+    int const rc = pthread_create(&p->thread, NULL, usb ? pump_main : native_rs232_pump_main, self);
     if (rc != 0) {
         errno = rc;
         return PyErr_SetFromErrno(PyExc_OSError);
@@ -232,12 +289,27 @@ PyObject *native_pump_start(native_core_t *self, PyObject *args)
     Py_RETURN_NONE;
 }
 
+/* Tells the thread to stop and wakes it (an RS232 pump may wait on its descriptors without a
+ * deadline). */
+static void pump_signal_stop(native_pump_t *p)
+{
+    p->stop = true;
+    if (p->wake_fd >= 0) {
+        uint64_t const one = 1u;
+        (void)write(p->wake_fd, &one, sizeof one);
+    }
+}
+
 void native_pump_join(native_core_t *self)
 {
     if (self->pump.running) {
-        self->pump.stop = true;
+        pump_signal_stop(&self->pump);
         (void)pthread_join(self->pump.thread, NULL);
         self->pump.running = false;
+    }
+    if (self->pump.wake_fd >= 0) { /* the core is being released: no method can notify any more */
+        (void)close(self->pump.wake_fd);
+        self->pump.wake_fd = -1;
     }
 }
 
@@ -245,11 +317,29 @@ PyObject *native_pump_stop(native_core_t *self, PyObject *unused)
 {
     (void)unused;
     if (self->pump.running) {
-        self->pump.stop = true;
+        pump_signal_stop(&self->pump);
         Py_BEGIN_ALLOW_THREADS
         (void)pthread_join(self->pump.thread, NULL);
         Py_END_ALLOW_THREADS
         self->pump.running = false;
+    }
+    Py_RETURN_NONE;
+}
+
+PyObject *native_pump_notify(native_core_t *self, PyObject *unused)
+{
+    (void)unused;
+    native_pump_t *p = &self->pump;
+    if (!p->running || (p->wake_fd < 0)) {
+        Py_RETURN_NONE;
+    }
+    native_core_lock(self);
+    bool const first = !p->notified; /* one write until the thread has taken it: a burst is one wake-up */
+    p->notified = true;
+    native_core_unlock(self);
+    if (first) { /* after the unlock: the woken thread takes the lock at once */
+        uint64_t const one = 1u;
+        (void)write(p->wake_fd, &one, sizeof one);
     }
     Py_RETURN_NONE;
 }

@@ -460,6 +460,9 @@ class ThreadedManager(BusManager):
         self._handover: PortHandover | None = None
         """The port's record for the next process (`handover.py`); set by a manager that opens
         a port by its path."""
+        self._pumped = False
+        """The uplink's I/O runs on the C core's pump (decided by the manager's `start`): the
+        dispatcher then waits on the core (`_dispatch_batches`), not on its queue."""
         self._has_completed: Callable[[], bool] | None = getattr(core, "_has_completed", None)
         """The C core's cheap test for completions waiting (a submission that completed nothing
         then skips `_collect`); None for the Python cores."""
@@ -470,7 +473,9 @@ class ThreadedManager(BusManager):
 
     def _kick_dispatcher(self) -> None:
         """Wake the dispatcher for an item queued by another thread, when it waits on something
-        other than its queue (`_dispatch_batches`)."""
+        other than its queue (the pump's core, `_dispatch_batches`)."""
+        if self._pumped:
+            self._core._pump_kick()  # type: ignore[attr-defined]
 
     # -- BusManager --------------------------------------------------------------------------
     def now_ns(self) -> int:
@@ -635,6 +640,9 @@ class ThreadedManager(BusManager):
             self._changed.notify_all()  # what a draining close() waits for
 
     def _dispatch_loop(self) -> None:
+        if self._pumped:
+            self._dispatch_batches(self._core._pump_wait)  # type: ignore[attr-defined]
+            return
         q = self._dispatch_q
         while True:
             item = q.get()

@@ -9,8 +9,9 @@ batches, timeouts, placeholders, hand-over) runs in host/c/core through the exte
 objects carry what the reference sets on them. tests/host_c/test_native_core.py drives both with
 the same traces and compares everything a caller observes.
 
-`NativeUsbCore` also carries the pump (`_pump_start`, `_pump_wait`, ...: `_native_pump.c`), which
-`USBManager` uses to run a `CharDeviceTransport`'s I/O on a C thread (usb.py; host/urb/README.md).
+Both carry a pump (`_pump_start`, `_pump_wait`, ...: `_native_pump.c`, `_native_pump_rs232.c`), which
+`USBManager` uses to run a `CharDeviceTransport`'s I/O on a C thread (usb.py) and `RS232Manager` its
+serial port's (rs232.py; host/urb/README.md).
 
 The managers build their core with `new_rs232_core()` / `new_usb_core()`, which choose:
 
@@ -46,7 +47,8 @@ ENV = "URB_PURE_PYTHON"
 CORE_ENV = "URB_HOST_CORE"
 RS232_KIND, USB_KIND = 1, 2
 REPO = Path(__file__).resolve().parents[3]
-FINGERPRINT_SOURCES = ("host/urb/managers/_native.c", "host/urb/managers/_native_attrs.c", "host/urb/managers/_native_pump.c",
+FINGERPRINT_SOURCES = ("host/urb/managers/_native.c", "host/urb/managers/_native_attrs.c", "host/urb/managers/_native_xfer.c",
+                       "host/urb/managers/_native_pump.c", "host/urb/managers/_native_pump_rs232.c",
                        "host/urb/managers/_native_cycle.c",
                        "host/urb/managers/_native.h",
                        "host/c/core/*.c", "host/c/core/*.h", "host/c/include/*.h", "host/c/port/handover.c",

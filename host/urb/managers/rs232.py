@@ -9,6 +9,12 @@ Three threads, as in the paper's separate read and write paths:
   delays other callbacks but never the wire.
 
 The protocol itself is `Rs232Core` (sans-IO); this module only moves bytes and time.
+
+On the C core (`native.NativeRs232Core`) the reader and the writer are one C thread instead (the
+core's pump, `_native_pump_rs232.c`: the same reads, one write() per frame, the hand-over record
+covered before the writes, the same lost reasons), which never takes the GIL and sleeps until the
+port has bytes, the core's next deadline or a submission; the dispatcher wakes once per batch of
+completions (`ThreadedManager._dispatch_batches`).
 """
 
 from __future__ import annotations
@@ -30,6 +36,10 @@ from .rs232_core import PLACEHOLDER_NS
 
 READ_POLL_S = 0.002
 """How often the reader wakes without input to apply timeouts."""
+
+USE_PUMP = True
+"""Run the port's I/O on the C core's pump when the core has one (see above); bench/host_cpu.py
+--rs232-ab and the pump's tests turn it off to compare both runtimes."""
 
 
 class RS232Manager(ThreadedManager):
@@ -58,6 +68,7 @@ class RS232Manager(ThreadedManager):
         self._reader: threading.Thread | None = None
         self._writer: threading.Thread | None = None
         self._io_running = False
+        self._pump_on = False
         self._wake = threading.Event()
         self._handover = PortHandover(port)
 
@@ -67,10 +78,19 @@ class RS232Manager(ThreadedManager):
         if self._serial is not None:
             return
         self._serial = open_serial(self.port, self.baud)
+        self._pumped = USE_PUMP and hasattr(self._rs, "_pump_start")
         self._start_threads(self._start_io)
 
     def _start_io(self) -> None:
         self._io_running = True
+        if self._pumped:
+            assert self._serial is not None
+            record = self._handover
+            self._rs._pump_start(self._serial.fileno(), self.port, 0,  # type: ignore[attr-defined]
+                                 self.port if record is not None else None,
+                                 str(record.path.parent) if record is not None else None)
+            self._pump_on = True
+            return
         self._reader = threading.Thread(target=self._read_loop, name=f"urb-read {self.port}", daemon=True)
         self._writer = threading.Thread(target=self._write_loop, name=f"urb-write {self.port}", daemon=True)
         self._reader.start()
@@ -78,6 +98,9 @@ class RS232Manager(ThreadedManager):
 
     def _stop_io(self) -> None:
         self._io_running = False
+        if self._pump_on:
+            self._rs._pump_stop()  # type: ignore[attr-defined]
+            self._pump_on = False
         self._wake.set()
         for th in (self._reader, self._writer):
             if th is not None and th is not threading.current_thread():
@@ -114,7 +137,10 @@ class RS232Manager(ThreadedManager):
 
     # -- threads --------------------------------------------------------------------------------
     def _wake_io(self) -> None:
-        self._wake.set()
+        if self._pump_on:
+            self._rs._pump_notify()  # type: ignore[attr-defined]
+        else:
+            self._wake.set()
 
     def _lost(self, exc: BaseException) -> None:
         with self._lock:

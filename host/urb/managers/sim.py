@@ -221,6 +221,7 @@ class SimManager(BusManager):
             self._rs232_core = new_rs232_core(window=window, timeout_ns=timeout_ns or 100 * NS_PER_MS,
                                          lost_after_ns=lost_after_ns, placeholder_ns=placeholder_ns)
         self._pending_cb: deque[Transfer | Callable[[], None]] = deque()
+        self._put_completed = self._pending_cb.append  # bound once: _after_step runs at every step
         self._dispatching = False
         self._ticking = False
         self._timer_at: set[int] = set()
@@ -359,16 +360,22 @@ class SimManager(BusManager):
     def _after_step(self) -> None:
         """Send what may be sent, arm timers, run callbacks (never nested)."""
         now = self.clock.now_ns()
-        if self._rs232_core is not None:
+        rs232 = self._rs232_core
+        if rs232 is not None:
             assert self._bytes is not None
-            for frame in self._rs232_core.frames_to_send(now):
+            for frame in rs232.frames_to_send(now):
                 self._bytes.send(frame)
-        elif self._usb_core is not None and self._usb_core.busy() and not self._ticking:
-            self._ticking = True
-            nxt = (now // NS_PER_MS + 1) * NS_PER_MS  # the next 1-ms frame boundary
-            self.clock.call_at(nxt, self._frame_tick)
-        self._arm(self.core.next_deadline())
-        self._queue_completed(self.core, self._pending_cb.append)
+            core: Rs232Core | UsbCore = rs232
+        else:
+            usb = self._usb_core
+            assert usb is not None
+            if not self._ticking and usb.busy():
+                self._ticking = True
+                nxt = (now // NS_PER_MS + 1) * NS_PER_MS  # the next 1-ms frame boundary
+                self.clock.call_at(nxt, self._frame_tick)
+            core = usb
+        self._arm(core.next_deadline())
+        self._queue_completed(core, self._put_completed)
         if self._dispatching:
             return
         self._dispatching = True

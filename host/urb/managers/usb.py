@@ -72,8 +72,6 @@ class USBManager(ThreadedManager):
         self._usb = core
         self._thread: threading.Thread | None = None
         self._io_running = False
-        self._pumped = False
-        """The uplink's I/O runs on the C core's pump (decided at `start`)."""
         self._pump_on = False
 
     def _can_pump(self) -> bool:
@@ -114,16 +112,6 @@ class USBManager(ThreadedManager):
         if self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join(timeout=2.0)
         self._thread = None
-
-    def _dispatch_loop(self) -> None:
-        if self._pumped:
-            self._dispatch_batches(self._usb._pump_wait)  # type: ignore[attr-defined]
-        else:
-            super()._dispatch_loop()
-
-    def _kick_dispatcher(self) -> None:
-        if self._pumped:
-            self._usb._pump_kick()  # type: ignore[attr-defined]
 
     def close(self, *, drain: bool = True) -> None:
         """Drain (`BusManager.close`; `drain=False` skips it), stop the frame thread and the
