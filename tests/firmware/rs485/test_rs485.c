@@ -851,6 +851,52 @@ static void test_master_request_split_by_stall(void **state)
     assert_int_equal(L.dl.poll(L.dl.ctx, mt + 45u), URB_STATUS_TIMEOUT);
 }
 
+/* After a collision the other talker never stops: its bytes come with gaps over t1.5 (each breaks
+ * the frame, which the receiver drops without an end event) and under t3.5 (the line never
+ * quiet), so the drain ends only at the transaction's timeout. A request cut before a frame a node
+ * could take reached nobody: BUS_STUCK; a collision on the last byte (the whole request was on the
+ * line) may have reached a node: TIMEOUT. */
+static int drain_never_quiet(bool cut)
+{
+    uint8_t sent[URB_RS485_MAX_FRAME];
+    uint8_t b;
+    uint32_t t_begin;
+    if (cut) {
+        L.data[0] = 0x55u;
+        L.data[1] = 0x66u;
+        master_begin_at(URB_DL_WRITE, 20u, 2u, 2u);
+        t_begin = mt;
+        assert_int_equal(master_echo(sent, 1u), 1u);
+    } else {
+        master_begin_at(URB_DL_SYNC, 0u, 0u, 0u);
+        t_begin = mt;
+        assert_int_equal(master_echo(sent, 2u), 2u);
+    }
+    assert_true(urb_rs485_master_tx_next(&L.master, &b));
+    mt += 10u;
+    urb_rs485_master_rx(&L.master, (uint8_t)(b ^ 0x0Fu), mt); /* the collision */
+    assert_false(L.bridge.driving);
+    uint32_t const end = mt + L.master.timeout_us + 100u;
+    int out = URB_DOWNLINK_BUSY;
+    while ((out == URB_DOWNLINK_BUSY) && (mt < end)) {
+        mt += 25u;
+        urb_rs485_master_rx(&L.master, 0x5Au, mt); /* the other talker goes on */
+        out = L.dl.poll(L.dl.ctx, mt);
+    }
+    assert_true(mt - t_begin > L.master.timeout_us); /* it ended at the timeout, not before */
+    return out;
+}
+
+static void test_master_drain_never_quiet(void **state)
+{
+    (void)state;
+    mt = 0u;
+    L.bridge.driving = true;
+    assert_int_equal(drain_never_quiet(true), URB_STATUS_BUS_STUCK);
+    L.bridge.driving = true;
+    assert_int_equal(drain_never_quiet(false), URB_STATUS_TIMEOUT);
+}
+
 typedef struct {
     uint32_t locks, unlocks;
     bool held;
@@ -1087,6 +1133,7 @@ int main(void)
         cmocka_unit_test_setup(test_master_collisions, line_setup),
         cmocka_unit_test_setup(test_master_cut_then_joined, line_setup),
         cmocka_unit_test_setup(test_master_request_split_by_stall, line_setup),
+        cmocka_unit_test_setup(test_master_drain_never_quiet, line_setup),
         cmocka_unit_test_setup(test_master_edges, line_setup),
         cmocka_unit_test_setup(test_slave_edges, line_setup),
         cmocka_unit_test_setup(test_slave_init_each_entry_point, line_setup),
