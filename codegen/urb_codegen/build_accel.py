@@ -9,37 +9,25 @@ the extension module of the interpreter running this (its EXT_SUFFIX and include
 sysconfig; Debian's python3-dev provides the headers, tools/setup.sh installs it). -flto lets the
 compiler inline the codecs into their Python entry points. The module is a build product: git and
 `urb gen --check` ignore it, and urb_msgs._codec refuses one built from other generated sources.
+The flags, the atomic compile step and the command line are urb_codegen.ext_build's (shared with
+`make host-c-py`).
 """
 
 from __future__ import annotations
 
-import argparse
-import os
-import shlex
-import subprocess
 import sys
-import sysconfig
-import tempfile
 from pathlib import Path
+
+from urb_codegen.ext_build import CFLAGS, BuildError, compile_module, compiler, main as builder_main, python_include
+from urb_codegen.ext_build import module_path as ext_module_path
 
 REPO = Path(__file__).resolve().parents[2]
 C_DIR = REPO / "gen" / "c"
 PY_DIR = REPO / "gen" / "python" / "urb_msgs"
 SOURCE = PY_DIR / "_accel.c"
-CC = os.environ.get("CC", "gcc")
-CFLAGS = ["-std=c11", "-O2", "-flto", "-fPIC", "-shared", "-fvisibility=hidden", "-Wall", "-Wextra", "-Werror",
-          "-Wno-missing-field-initializers"]  # PyVarObject_HEAD_INIT and PyModuleDef_HEAD_INIT leave members out
-
-
-class BuildError(RuntimeError):
-    """The compiler failed, or the interpreter has no headers; the message says what to do."""
-
 
 def module_path() -> Path:
-    suffix = sysconfig.get_config_var("EXT_SUFFIX")
-    if not isinstance(suffix, str):
-        raise BuildError("this interpreter reports no EXT_SUFFIX for extension modules")
-    return PY_DIR / ("_accel" + suffix)
+    return ext_module_path(PY_DIR, "_accel")
 
 
 def sources() -> list[Path]:
@@ -62,31 +50,13 @@ def build(force: bool = False) -> Path:
         return out
     if not SOURCE.exists():
         raise BuildError(f"{SOURCE.relative_to(REPO)} is missing: run `urb gen`")
-    include = sysconfig.get_paths()["include"]
-    if not (Path(include) / "Python.h").exists():
-        raise BuildError(f"no Python.h in {include}: install the interpreter's headers (Debian: python3-dev, "
-                         "which `make setup` installs)")
-    with tempfile.TemporaryDirectory(prefix="urb-accel-", dir=PY_DIR) as tmp:
-        partial = Path(tmp) / out.name
-        cmd = [CC, *CFLAGS, "-I", include, "-I", str(C_DIR), *map(str, sources()), "-o", str(partial)]
-        done = subprocess.run(cmd, capture_output=True, text=True, check=False)
-        if done.returncode != 0:
-            raise BuildError(f"building urb_msgs._accel failed:\n{shlex.join(cmd)}\n{done.stdout}{done.stderr}")
-        partial.replace(out)  # atomic: a process importing meanwhile sees the old or the new module
-    return out
+    include = python_include()
+    return compile_module(out, "urb_msgs._accel", lambda partial: [
+        compiler(), *CFLAGS, "-I", include, "-I", str(C_DIR), *map(str, sources()), "-o", str(partial)])
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0] if __doc__ else None)
-    ap.add_argument("--force", action="store_true", help="rebuild even when up to date")
-    args = ap.parse_args(argv)
-    try:
-        out = build(args.force)
-    except BuildError as exc:
-        print(f"build_accel: {exc}", file=sys.stderr)
-        return 1
-    print(out.relative_to(REPO))
-    return 0
+    return builder_main("build_accel", __doc__, build, REPO, argv)
 
 
 if __name__ == "__main__":

@@ -15,9 +15,11 @@
  * that differs from the byte sent is a collision: the bridge stops driving at once; when the
  * collision hit a byte before the last, the frame was cut and no node can take it: BUS_STUCK (not
  * executed) once the line is silent again, except when what the line carried is itself a
- * well-formed shorter frame (its check passes: about one cut in 256 on a CRC-8 frame), which a
- * node may have taken: TIMEOUT; a collision on the last byte leaves it to the node's
- * check (the answer, or its absence, decides). No answer started within t3.5 + the turnaround +
+ * well-formed shorter frame (its check passes: about one cut in 256 on a CRC-8 frame), alone or
+ * with the bytes the other talker added to it, which a node may have taken: TIMEOUT; the same
+ * when the UART stalls for t3.5 inside the request (the line carried a shorter frame: the bridge
+ * stops); a collision on the last byte leaves it to the node's check (the answer, or its
+ * absence, decides). No answer started within t3.5 + the turnaround +
  * one character of the request's end -> NO_NODE (silence). An answer broken by a silence over
  * t1.5 -> TIMEOUT; one that fails its check, is too long or is not a well-formed Rs485Response
  * for this mailbox -> CHECKSUM. A line never silent for t3.5 before sending (a babbler) ->

@@ -257,8 +257,8 @@ SEEDED_BUG = ("PyObject *reason = native_reason_text(self, t->lost_reason);",
 
 
 def build_mutant(tmp: Path) -> Any:
-    """The extension compiled from _native.c with SEEDED_BUG, loaded as its own module."""
-    return build_native_mutant(tmp, "_native.c", *SEEDED_BUG, optimise=True)
+    """The extension compiled from _native_xfer.c with SEEDED_BUG, loaded as its own module."""
+    return build_native_mutant(tmp, "_native_xfer.c", *SEEDED_BUG, optimise=True)
 
 
 def test_a_seeded_bug_in_the_binding_is_caught(tmp_path: Path) -> None:

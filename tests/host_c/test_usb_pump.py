@@ -7,17 +7,19 @@ everything a caller observes that does not depend on the wall clock must be equa
 the address, mailbox, direction, flags, bridge status, data, sequence number (the pump writes it
 to the Python transfer when it hands the batch back), and that it was sent before it completed;
 then the manager's counters. A bridge unplugged mid-run must be found lost on both with the same
-reason (the failed write's errno text). The pump's hand-over record is checked against the Python
-library's reader of it.
+reason (the failed write's errno text), and so must a descriptor closed under the manager (the pump
+at once, by POLLNVAL; the threads at their next write). The pump's hand-over record is checked
+against the Python library's reader of it.
 
 Seeded bugs: the extension compiled with a pump that never writes what it sent back to the Python
-transfers, and with one that words a failed write's reason differently, must each fail the
-comparison (`test_a_seeded_bug_in_the_pump_is_caught`); `test_the_scripts_reach_the_pump` is the
+transfers, with one that words a failed write's reason differently, and with one that ignores a
+closed descriptor, must each fail the comparison (`test_a_seeded_bug_in_the_pump_is_caught`); `test_the_scripts_reach_the_pump` is the
 witness that the pump ran (no Python I/O thread, completions handed back in batches).
 """
 
 from __future__ import annotations
 
+import errno
 import os
 import socket
 import sys
@@ -176,13 +178,70 @@ def test_the_pump_covers_the_handover_record(tmp_path: Path) -> None:
         far.close()
 
 
+CLOSED_FD = 900
+"""The number the closed-descriptor script gives the manager's descriptor: far above those the test
+process holds, so that nothing opened meanwhile takes the closed number over."""
+
+
+def closed_script(pump: bool, core: UsbCore | None = None) -> dict[str, Any]:
+    """The manager's descriptor is closed under it while it is idle (POLLNVAL for a poller), then a
+    read is submitted. Returns whether the pump's thread ended by itself before that read (None on
+    the Python threads, which find the loss at their next write), the read's flags and lost reason,
+    and the manager's lost reason."""
+    far = Bridge()
+    usb.USE_PUMP = pump
+    urb = URBInterface()
+    try:
+        fd = os.dup2(far.host_sock.fileno(), CLOSED_FD)
+        m = USBManager(CharDeviceTransport(fd=fd), timeout_s=10.0, lost_after_s=30.0, name="usb-closed")
+        if core is not None:
+            m._core = m._usb = core
+            m._has_completed = getattr(core, "_has_completed", None)
+        urb.add_bus_manager(m)
+        motor = urb.find_node("MotorDriver", 0)
+        first = motor.submit_request(motor.new_request().read_message(sx.MotorFeedback))
+        assert first.wait(30) and first.ok  # witness: the descriptor carried traffic before it was closed
+        os.close(fd)
+        ended_alone = None
+        if pump:
+            deadline = time.monotonic() + 5
+            while m._usb._pump_running() and time.monotonic() < deadline:  # type: ignore[attr-defined]
+                time.sleep(0.005)
+            ended_alone = not m._usb._pump_running()  # type: ignore[attr-defined]
+        after = motor.submit_request(motor.new_request().read_message(sx.MotorFeedback))
+        assert after.wait(30)
+        t = after._transfer
+        return {"ended_alone": ended_alone, "flags": after.flags, "lost": t.lost_reason if t else None,
+                "reason": m.lost_reason}
+    finally:
+        usb.USE_PUMP = True
+        urb.close()
+        far.close()
+
+
+def closed_lost(ended_alone: bool | None) -> dict[str, Any]:
+    """What closed_script must return: the read and the manager lost with the reason the Python
+    writer thread gives when its write fails on the closed descriptor (EBADF)."""
+    reason = f"usb-closed: [Errno {errno.EBADF}] {os.strerror(errno.EBADF)}"
+    return {"ended_alone": ended_alone, "flags": ErrorFlag.BRIDGE_LOST, "lost": reason, "reason": reason}
+
+
+def test_a_closed_descriptor_is_lost_alike() -> None:
+    """A descriptor closed under the pump (POLLNVAL) ends its thread at once, the bridge lost with
+    the reason the Python threads give at their next write."""
+    assert closed_script(False) == closed_lost(None)
+    assert closed_script(True) == closed_lost(True)
+
+
 PUMP_MUTANTS = {
     "pump-forgets-sent": ("    x->sent_unmarked = true;\n", "\n"),
     "pump-reason-text": ('native_pump_lost(self, "[Errno %d] %s", code, strerror(code))',
                          'native_pump_lost(self, "%s", strerror(code))'),
+    "pump-ignores-closed": ("    if ((revents & POLLNVAL) == 0) {\n", "    if ((revents & 0) == 0) {\n"),
 }
 """Seeded bugs of _native_pump.c: what it sent never reaches the Python transfer; a failed write's
-reason worded otherwise than the Python runtime words it."""
+reason worded otherwise than the Python runtime words it; a closed descriptor ignored (the thread
+spins on POLLNVAL until a write fails)."""
 
 
 def build_pump_mutant(tmp: Path, name: str) -> Any:
@@ -205,6 +264,9 @@ def mutant_core(module: Any) -> Callable[[], UsbCore]:
 @pytest.mark.parametrize("name", sorted(PUMP_MUTANTS))
 def test_a_seeded_bug_in_the_pump_is_caught(tmp_path: Path, name: str) -> None:
     make = mutant_core(build_pump_mutant(tmp_path, name))
+    if name == "pump-ignores-closed":
+        assert closed_script(True, core=make()) != closed_lost(True)
+        return
     unplug = name == "pump-reason-text"
     on_threads = run_script(False, unplug=unplug)
     on_mutant = run_script(True, core=make(), unplug=unplug)

@@ -1,4 +1,4 @@
-"""Firmware proofs (proofs/bmc/fw_*/): their mutants and views stay applicable.
+"""Firmware and host-library proofs (proofs/bmc/fw_*/, host_*/): their mutants and views stay applicable.
 
 Checks, without running ESBMC, that the seeded mutants and proof views of every firmware proof
 still apply to the current sources (they never go stale silently) and that make check runs the
@@ -22,7 +22,8 @@ from repo_tools import load_module
 
 ROOT = Path(__file__).resolve().parents[2]
 BMC = ROOT / "proofs" / "bmc"
-FOLDERS = sorted(p for p in BMC.glob("fw_*") if p.is_dir())
+# the host library's proofs (host_*) seed their bugs the same way
+FOLDERS = sorted(p for p in [*BMC.glob("fw_*"), *BMC.glob("host_*")] if p.is_dir())
 
 
 def _prepare() -> ModuleType:

@@ -294,3 +294,38 @@ def test_missing_java_is_a_clear_setup_error(monkeypatch: pytest.MonkeyPatch) ->
         mc.find_java()
     monkeypatch.setenv("PATH", "")
     assert mc.main(["--only", "MCMailboxOutbox"]) == 2
+
+
+def test_tlc_runs_map_their_classes_from_the_class_archive(manifest: Any, monkeypatch: pytest.MonkeyPatch,
+                                                          tmp_path: Path) -> None:
+    """Witness that modelcheck's JVMs get urb_sim.tlc.class_archive's options (the archive's own
+    behaviour, a damaged one costing only speed, is tests/sim/test_tlc_cds.py's): the first run
+    asks the JVM to write the archive, a later one to map it."""
+    import subprocess
+
+    try:
+        java, jar = mc.find_java(), mc.find_jar()
+    except mc.SetupError as exc:
+        pytest.fail(f"TLC is part of the environment (tools/setup.sh): {exc}")
+    from urb_sim import tlc
+
+    archive_dir = tmp_path / "cds"
+    real_archive = tlc.class_archive
+    monkeypatch.setattr(mc, "class_archive", lambda j, p: real_archive(j, p, archive_dir))
+    commands: list[list[str]] = []
+
+    def fake_run(cmd: list[str], **_kw: Any) -> subprocess.CompletedProcess[str]:
+        commands.append(cmd)
+        written = [a.split("=", 1)[1] for a in cmd if a.startswith("-XX:ArchiveClassesAtExit=")]
+        for path in written:  # what the JVM does at exit
+            Path(path).write_bytes(b"archive")
+        return subprocess.CompletedProcess(cmd, 0, "Model checking completed. No error has been found.\n", "")
+
+    monkeypatch.setattr(mc.subprocess, "run", fake_run)
+    entry = next(e for e in manifest[1] if e.name == "MCMailboxOutbox")
+    mc.run_tlc(entry, java, jar, 1)
+    mc.run_tlc(entry, java, jar, 1)
+    options = [[a for a in cmd if a.startswith("-XX:") and "Archive" in a] for cmd in commands]
+    assert [len(o) for o in options] == [1, 1], f"no class archive options in {commands}"
+    assert [o[0].split("=", 1)[0] for o in options] == ["-XX:ArchiveClassesAtExit", "-XX:SharedArchiveFile"]
+    assert options[1][0] == f"-XX:SharedArchiveFile={next(archive_dir.glob('*.jsa'))}"

@@ -159,9 +159,22 @@ static void frame_end(urb_rs485_master_t *m)
         finish(m, judge(m, f));
         return;
     }
+    if (ph == PH_SEND) {
+        if (m->echo != 0u) {
+            /* our frame ended before all its bytes were out (the UART stalled for t3.5): the line
+             * carried a shorter frame, which a node may have taken if its check passes */
+            m->hal->tx_abort(m->hal->ctx);
+            m->stats.collisions++;
+            m->cut = !f->check_ok;
+            m->phase = PH_DRAIN;
+        }
+        return;
+    }
     if (ph == PH_DRAIN) {
-        /* Rs485Poll.tla: Drain, the line is silent after a collision */
-        finish(m, m->cut ? URB_STATUS_BUS_STUCK : URB_STATUS_TIMEOUT);
+        /* Rs485Poll.tla: Drain, the line is silent after a collision. The frame that ended holds
+         * our bytes up to the collision and whatever joined them (the other talker going on): if
+         * its check passes, a node may have taken it, and only TIMEOUT is true. */
+        finish(m, (m->cut && !f->check_ok) ? URB_STATUS_BUS_STUCK : URB_STATUS_TIMEOUT);
     }
 }
 
@@ -312,6 +325,11 @@ static int8_t master_poll(void *ctx, uint32_t now)
     lock(m, true);
     if ((urb_rs485_rx_poll(&m->rx, now) & URB_RS485_EV_END) != 0u) {
         frame_end(m);
+    }
+    if ((m->phase == PH_DRAIN) && urb_rs485_rx_silent(&m->rx, now)) {
+        /* silent after a collision whose frame broke (a silence over t1.5 inside: the receiver
+         * drops it without an end event) or ended already: no node took it, Rs485Poll.tla Drain */
+        finish(m, m->cut ? URB_STATUS_BUS_STUCK : URB_STATUS_TIMEOUT);
     }
     uint8_t const ph = m->phase;
     BARRIER();

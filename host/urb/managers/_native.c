@@ -5,14 +5,10 @@
  * NativeUsbCore, which have the public interface of the reference cores Rs232Core and UsbCore
  * (rs232_core.py, usb_core.py), and chooses between the two (URB_PURE_PYTHON).
  *
- * The Python `Transfer` objects stay the requests the API sees. Each submission copies the request
- * into a C transfer (urb_transfer_t, from a free list of this object) that holds a reference to the
- * Python one; when the C core puts it on the wire its sequence number, sending time, deadline and
- * lifetime are written back, and as soon as the core completes it its outcome is (done,
- * completed_ns, flags, status, response, lost_reason: what rs232_core.finish and
- * ResponseMatcher.lose set, at the same moment), the C transfer returns to the free list and the
- * Python one waits in a list for take_completed. tests/host_c/test_native_core.py drives this type and the
- * reference cores with the same traces and compares everything a caller can observe.
+ * The Python `Transfer` objects stay the requests the API sees: each submission copies one into a C
+ * transfer that the core completes, and its outcome is written back at once (_native_xfer.c).
+ * tests/host_c/test_native_core.py drives this type and the reference cores with the same traces and
+ * compares everything a caller can observe.
  *
  * Lost reasons: the C core keeps at most URB_REASON_MAX - 1 bytes of a reason; the whole text a
  * caller gave link_lost (or assigned to lost_reason) is kept here and handed out in its place, so
@@ -27,10 +23,9 @@
 #include "_native.h"
 
 
-/* Attribute names of Transfer, interned once per process (immutable constants). */
-static PyObject *s_address, *s_mailbox, *s_read, *s_length, *s_data, *s_answer_within_ns, *s_seq, *s_sent_ns,
-    *s_due_ns, *s_expires_ns, *s_garbage, *s_done, *s_completed_ns, *s_flags, *s_status, *s_response,
-    *s_lost_reason;
+/* Attribute names of Transfer that submit reads, and the trace's event names, interned once per
+ * process (immutable constants; the hand-back's are _native_xfer.c's). */
+static PyObject *s_address, *s_mailbox, *s_read, *s_length, *s_data, *s_answer_within_ns, *s_completed_ns;
 static PyObject *s_submit, *s_write, *s_read_event, *s_callback;
 
 /* ----- small helpers ---------------------------------------------------------------------------- */
@@ -102,185 +97,11 @@ static int get_int(PyObject *obj, PyObject *name, long long *out)
     return ((*out == -1) && PyErr_Occurred()) ? -1 : 0;
 }
 
-static int set_attr_ll(PyObject *obj, PyObject *name, long long v)
-{
-    PyObject *o = PyLong_FromLongLong(v);
-    if (o == NULL) {
-        return -1;
-    }
-    int const rc = PyObject_SetAttr(obj, name, o);
-    Py_DECREF(o);
-    return rc;
-}
-
-static native_xfer_t *xfer_get(native_core_t *self)
-{
-    native_xfer_t *x = self->free_list;
-    if (x != NULL) {
-        self->free_list = x->free_next;
-        return x;
-    }
-    x = PyMem_Malloc(sizeof *x);
-    if (x == NULL) {
-        PyErr_NoMemory();
-    }
-    return x;
-}
-
-static void xfer_put(native_core_t *self, native_xfer_t *x)
-{
-    Py_CLEAR(x->py);
-    x->free_next = self->free_list;
-    self->free_list = x;
-}
-
-native_xfer_t *native_xfer_get(native_core_t *self)
-{
-    return xfer_get(self);
-}
-
-void native_xfer_put(native_core_t *self, native_xfer_t *x)
-{
-    xfer_put(self, x);
-}
-
 /* The slot of the request most recently put in flight. */
 static const urb_slot_t *newest_slot(const urb_core_t *core)
 {
     unsigned const k = ((unsigned)core->m.head + (unsigned)core->m.count - 1u) % URB_MATCHER_SLOTS;
     return &core->m.slot[k];
-}
-
-/* What ResponseMatcher-side `_send` sets on the Python transfer just put on the wire. */
-static int mark_sent(native_xfer_t *x, urb_ns_t due_ns, urb_ns_t expires_ns)
-{
-    PyObject *py = x->py;
-    x->sent_unmarked = false;
-    if (x->cycle_item >= 0) { /* its CycleState takes seq and sent_ns when it completes */
-        return 0;
-    }
-    if ((set_attr_ll(py, s_seq, x->t.seq) < 0) || (set_attr_ll(py, s_sent_ns, x->t.sent_ns) < 0) ||
-        (set_attr_ll(py, s_due_ns, due_ns) < 0) || (set_attr_ll(py, s_expires_ns, expires_ns) < 0) ||
-        (PyObject_SetAttr(py, s_garbage, Py_False) < 0)) {
-        return -1;
-    }
-    return 0;
-}
-
-static int trace_event(native_core_t *self, PyObject *what, urb_ns_t now, PyObject *items)
-{
-    PyObject *when = PyLong_FromLongLong(now);
-    if (when == NULL) {
-        return -1;
-    }
-    PyObject *ev = PyTuple_Pack(3, what, when, items);
-    Py_DECREF(when);
-    if (ev == NULL) {
-        return -1;
-    }
-    int const rc = PyList_Append(self->trace, ev);
-    Py_DECREF(ev);
-    return rc;
-}
-
-/* Hands one completed transfer back: writes its outcome into the Python transfer, frees the C one,
- * returns a new reference to the Python transfer. */
-static PyObject *hand_back(native_core_t *self, urb_transfer_t *t)
-{
-    native_xfer_t *x = (native_xfer_t *)t;
-    PyObject *py = x->py;
-    Py_INCREF(py);
-    if (x->sent_unmarked && (mark_sent(x, x->due_ns, x->expires_ns) < 0)) {
-        xfer_put(self, x);
-        Py_DECREF(py);
-        return NULL;
-    }
-    PyObject *flags_key = PyLong_FromUnsignedLong((unsigned long)t->flags);
-    PyObject *flag = (flags_key == NULL) ? NULL : PyDict_GetItemWithError(self->flag_of, flags_key);
-    Py_XDECREF(flags_key);
-    if ((flag == NULL) && !PyErr_Occurred()) {
-        PyErr_Format(PyExc_ValueError, "the C core completed a request with flags 0x%x, which ErrorFlag does not name",
-                     (unsigned)t->flags);
-    }
-    PyObject *status = Py_None;
-    if ((flag != NULL) && (t->status >= 0)) {
-        status = (t->status < PyTuple_GET_SIZE(self->status_of)) ? PyTuple_GET_ITEM(self->status_of, t->status) : NULL;
-        if (status == NULL) {
-            PyErr_Format(PyExc_ValueError, "the C core completed a request with status %d, which Status does not name",
-                         (int)t->status);
-        }
-    }
-    PyObject *response = NULL;
-    if ((flag != NULL) && (status != NULL)) {
-        if (t->read && (t->status == 0)) {
-            response = PyBytes_FromStringAndSize((const char *)t->response, t->response_len);
-        } else {
-            response = Py_None;
-            Py_INCREF(response);
-        }
-    }
-    int ok = (response != NULL) && (PyObject_SetAttr(py, s_done, Py_True) == 0) &&
-             (set_attr_ll(py, s_completed_ns, t->completed_ns) == 0) && (PyObject_SetAttr(py, s_flags, flag) == 0) &&
-             (PyObject_SetAttr(py, s_status, status) == 0) && (PyObject_SetAttr(py, s_response, response) == 0);
-    Py_XDECREF(response);
-    if (ok && ((t->flags & URB_FLAG_BRIDGE_LOST) != 0u)) {
-        PyObject *reason = native_reason_text(self, t->lost_reason);
-        ok = (reason != NULL) && (PyObject_SetAttr(py, s_lost_reason, reason) == 0);
-        Py_XDECREF(reason);
-    }
-    xfer_put(self, x);
-    if (!ok) {
-        Py_DECREF(py);
-        return NULL;
-    }
-    return py;
-}
-
-/* Hands every transfer the C core completed back to its Python object at once (the reference core
- * marks a transfer done when it completes it, before take_completed), keeping it in `completed`
- * until take_completed; those answered by a response also go to `answered` when it is not NULL. */
-static int collect(native_core_t *self, PyObject *answered)
-{
-    urb_transfer_t *t;
-    while ((t = urb_core_take_completed(&self->core)) != NULL) {
-        native_xfer_t *x = (native_xfer_t *)t;
-        if (x->cycle_item >= 0) { /* its state completes once, with its last item */
-            int const last = native_cycle_item_done(self, x);
-            int const rc = (last == 1) ? PyList_Append(self->completed, x->py) : last;
-            xfer_put(self, x);
-            if (rc < 0) {
-                return -1;
-            }
-            continue;
-        }
-        bool const has_status = t->status >= 0;
-        PyObject *py = hand_back(self, t);
-        if (py == NULL) {
-            return -1;
-        }
-        int rc = PyList_Append(self->completed, py);
-        if ((rc == 0) && (answered != NULL) && has_status) {
-            rc = PyList_Append(answered, py);
-        }
-        Py_DECREF(py);
-        if (rc < 0) {
-            return -1;
-        }
-    }
-    return 0;
-}
-
-/* Completes everything the core still owns (BRIDGE_LOST) and drops the references: teardown. */
-static void release_all(native_core_t *self)
-{
-    if (!self->ready) {
-        return;
-    }
-    urb_core_link_lost(&self->core, 0, "the core was released");
-    urb_transfer_t *t;
-    while ((t = urb_core_take_completed(&self->core)) != NULL) {
-        xfer_put(self, (native_xfer_t *)t);
-    }
 }
 
 /* ----- the type --------------------------------------------------------------------------------- */
@@ -311,7 +132,7 @@ static int core_traverse(native_core_t *self, visitproc visit, void *arg)
 static int core_clear(native_core_t *self)
 {
     native_pump_join(self); /* its thread uses the core being released */
-    release_all(self);
+    native_release_all(self);
     self->ready = false; /* a cleared object (a reference cycle being collected) refuses every call */
     Py_CLEAR(self->status_of);
     Py_CLEAR(self->flag_of);
@@ -447,7 +268,7 @@ static PyObject *core_submit(native_core_t *self, PyObject *const *args, Py_ssiz
         }
         length = data.len;
     }
-    native_xfer_t *x = xfer_get(self);
+    native_xfer_t *x = native_xfer_get(self);
     int32_t rc = URB_HOST_EINVAL;
     if ((x != NULL) && (address >= 0) && (address <= 255) && (mailbox >= 0) && (mailbox <= 255) && (length >= 0) &&
         (length <= 255)) {
@@ -472,19 +293,19 @@ static PyObject *core_submit(native_core_t *self, PyObject *const *args, Py_ssiz
         return NULL;
     }
     if (rc != URB_HOST_OK) {
-        xfer_put(self, x);
+        native_xfer_put(self, x);
         PyErr_Format(PyExc_ValueError,
                      "cannot submit this request: address %lld (0..127), mailbox %lld (0..7), length %lld (1..32), "
                      "answer_within_ns %lld (0..3600 s) must be in range",
                      address, mailbox, length, within);
         return NULL;
     }
-    if (collect(self, NULL) < 0) {
+    if (native_collect(self, NULL) < 0) {
         return NULL;
     }
     if ((self->trace != Py_None) && !self->core.lost) {
         PyObject *one = PyTuple_Pack(1, py);
-        int const trc = (one == NULL) ? -1 : trace_event(self, s_submit, now, one);
+        int const trc = (one == NULL) ? -1 : native_trace_event(self, s_submit, now, one);
         Py_XDECREF(one);
         if (trc < 0) {
             return NULL;
@@ -519,7 +340,7 @@ static PyObject *core_receive(native_core_t *self, PyObject *const *args, Py_ssi
         PyErr_SetString(PyExc_TypeError, "receive() is for an RS232 core; a USB core takes receive_batch()");
         return NULL;
     }
-    if (collect(self, NULL) < 0) {
+    if (native_collect(self, NULL) < 0) {
         return NULL;
     }
     Py_RETURN_NONE;
@@ -540,14 +361,14 @@ static PyObject *core_receive_batch(native_core_t *self, PyObject *const *args, 
         return NULL;
     }
     PyObject *answered = traced ? PyList_New(0) : NULL;
-    if ((traced && (answered == NULL)) || (collect(self, answered) < 0)) {
+    if ((traced && (answered == NULL)) || (native_collect(self, answered) < 0)) {
         Py_XDECREF(answered);
         return NULL;
     }
     if (traced) { /* UsbUplink.tla UsbRead: the requests its IN transfer answered, in order */
         PyObject *items = PyList_AsTuple(answered);
         Py_DECREF(answered);
-        int const trc = (items == NULL) ? -1 : trace_event(self, s_read_event, now, items);
+        int const trc = (items == NULL) ? -1 : native_trace_event(self, s_read_event, now, items);
         Py_XDECREF(items);
         if (trc < 0) {
             return NULL;
@@ -563,7 +384,7 @@ static PyObject *core_poll(native_core_t *self, PyObject *arg)
         return NULL;
     }
     (void)urb_core_poll(&self->core, now);
-    if (collect(self, NULL) < 0) {
+    if (native_collect(self, NULL) < 0) {
         return NULL;
     }
     Py_RETURN_NONE;
@@ -589,7 +410,7 @@ static PyObject *core_frames_to_send(native_core_t *self, PyObject *arg)
                 PyErr_SetString(PyExc_TypeError, "frames_to_send() is for an RS232 core; a USB core takes frame_out()");
                 return NULL;
             }
-            if (collect(self, NULL) < 0) {
+            if (native_collect(self, NULL) < 0) {
                 Py_DECREF(out);
                 return NULL;
             }
@@ -597,7 +418,7 @@ static PyObject *core_frames_to_send(native_core_t *self, PyObject *arg)
         }
         PyObject *b = PyBytes_FromStringAndSize((const char *)frame, n);
         const urb_slot_t *slot = newest_slot(&self->core);
-        if ((b == NULL) || (PyList_Append(out, b) < 0) || (mark_sent(head, slot->due_ns, slot->expires_ns) < 0)) {
+        if ((b == NULL) || (PyList_Append(out, b) < 0) || (native_mark_sent(head, slot->due_ns, slot->expires_ns) < 0)) {
             Py_XDECREF(b);
             Py_DECREF(out);
             return NULL;
@@ -625,7 +446,7 @@ static PyObject *core_frame_out(native_core_t *self, PyObject *arg)
         PyErr_SetString(PyExc_TypeError, "frame_out() is for a USB core; an RS232 core takes frames_to_send()");
         return NULL;
     }
-    if (collect(self, NULL) < 0) {
+    if (native_collect(self, NULL) < 0) {
         return NULL;
     }
     if (n == 0) {
@@ -639,7 +460,7 @@ static PyObject *core_frame_out(native_core_t *self, PyObject *arg)
     unsigned const first = self->core.m.count - sent;
     for (unsigned i = 0u; i < sent; i++) {
         const urb_slot_t *slot = &self->core.m.slot[(self->core.m.head + first + i) % URB_MATCHER_SLOTS];
-        if (mark_sent(candidates[i], slot->due_ns, slot->expires_ns) < 0) {
+        if (native_mark_sent(candidates[i], slot->due_ns, slot->expires_ns) < 0) {
             return NULL;
         }
     }
@@ -653,7 +474,7 @@ static PyObject *core_frame_out(native_core_t *self, PyObject *arg)
             Py_INCREF(candidates[i]->py);
             PyTuple_SET_ITEM(batch, (Py_ssize_t)i, candidates[i]->py);
         }
-        int const trc = trace_event(self, s_write, now, batch);
+        int const trc = native_trace_event(self, s_write, now, batch);
         Py_DECREF(batch);
         if (trc < 0) {
             return NULL;
@@ -665,7 +486,7 @@ static PyObject *core_frame_out(native_core_t *self, PyObject *arg)
 static PyObject *core_take_completed(native_core_t *self, PyObject *unused)
 {
     (void)unused;
-    if (native_not_ready(self) || (collect(self, NULL) < 0)) { /* the pump's completions wait in the C core */
+    if (native_not_ready(self) || (native_collect(self, NULL) < 0)) { /* the pump's completions wait in the C core */
         return NULL;
     }
     PyObject *fresh = PyList_New(0);
@@ -680,7 +501,7 @@ static PyObject *core_take_completed(native_core_t *self, PyObject *unused)
         PyObject *when = PyObject_GetAttr(PyList_GET_ITEM(out, n - 1), s_completed_ns);
         long long const last_ns = (when == NULL) ? -1 : PyLong_AsLongLong(when);
         Py_XDECREF(when);
-        int const trc = ((items == NULL) || PyErr_Occurred()) ? -1 : trace_event(self, s_callback, last_ns, items);
+        int const trc = ((items == NULL) || PyErr_Occurred()) ? -1 : native_trace_event(self, s_callback, last_ns, items);
         Py_XDECREF(items);
         if (trc < 0) {
             Py_DECREF(out);
@@ -731,7 +552,7 @@ static PyObject *core_link_lost(native_core_t *self, PyObject *const *args, Py_s
         return NULL;
     }
     urb_core_link_lost(&self->core, now, reason);
-    if (collect(self, NULL) < 0) {
+    if (native_collect(self, NULL) < 0) {
         return NULL;
     }
     Py_RETURN_NONE;
@@ -744,7 +565,7 @@ static PyObject *core_reset(native_core_t *self, PyObject *arg)
         return NULL;
     }
     urb_core_reset(&self->core, now);
-    if (collect(self, NULL) < 0) {
+    if (native_collect(self, NULL) < 0) {
         return NULL;
     }
     Py_RETURN_NONE;
@@ -757,7 +578,7 @@ static PyObject *core_start_drain(native_core_t *self, PyObject *arg)
         return NULL;
     }
     urb_ns_t const until = urb_core_start_drain(&self->core, now);
-    if (collect(self, NULL) < 0) {
+    if (native_collect(self, NULL) < 0) {
         return NULL;
     }
     return time_or_none(until);
@@ -916,20 +737,9 @@ static struct PyModuleDef native_module = {
     .m_size = -1,
 };
 
-static int intern_all(void)
+int native_intern_names(const native_name_t *names, size_t count)
 {
-    struct {
-        PyObject **slot;
-        const char *text;
-    } const names[] = {
-        {&s_address, "address"}, {&s_mailbox, "mailbox"}, {&s_read, "read"}, {&s_length, "length"},
-        {&s_data, "data"}, {&s_answer_within_ns, "answer_within_ns"}, {&s_seq, "seq"}, {&s_sent_ns, "sent_ns"},
-        {&s_due_ns, "due_ns"}, {&s_expires_ns, "expires_ns"}, {&s_garbage, "garbage"}, {&s_done, "done"},
-        {&s_completed_ns, "completed_ns"}, {&s_flags, "flags"}, {&s_status, "status"}, {&s_response, "response"},
-        {&s_lost_reason, "lost_reason"}, {&s_submit, "submit"}, {&s_write, "write"}, {&s_read_event, "read"},
-        {&s_callback, "callback"},
-    };
-    for (size_t i = 0u; i < sizeof names / sizeof names[0]; i++) {
+    for (size_t i = 0u; i < count; i++) {
         if (*names[i].slot == NULL) {
             *names[i].slot = PyUnicode_InternFromString(names[i].text);
             if (*names[i].slot == NULL) {
@@ -940,9 +750,19 @@ static int intern_all(void)
     return 0;
 }
 
+static int intern_all(void)
+{
+    native_name_t const names[] = {
+        {&s_address, "address"}, {&s_mailbox, "mailbox"}, {&s_read, "read"}, {&s_length, "length"},
+        {&s_data, "data"}, {&s_answer_within_ns, "answer_within_ns"}, {&s_completed_ns, "completed_ns"},
+        {&s_submit, "submit"}, {&s_write, "write"}, {&s_read_event, "read"}, {&s_callback, "callback"},
+    };
+    return native_intern_names(names, sizeof names / sizeof names[0]);
+}
+
 PyMODINIT_FUNC PyInit__native(void)
 {
-    if ((intern_all() < 0) || (PyType_Ready(&native_core_type) < 0) || (PyType_Ready(&native_cycle_type) < 0)) {
+    if ((intern_all() < 0) || (native_xfer_intern() < 0) || (PyType_Ready(&native_core_type) < 0) || (PyType_Ready(&native_cycle_type) < 0)) {
         return NULL;
     }
     PyObject *m = PyModule_Create(&native_module);

@@ -1,8 +1,9 @@
 /*
  * _native.h: what the parts of urb.managers._native share: the C core object (_native.c: the
- * protocol core as a CPython type; _native_attrs.c: its attributes) and its pump (_native_pump.c:
- * the uplink's I/O on a C thread, so that Python only sees completed transfers, in batches; the
- * RS232 pump's loop is _native_pump_rs232.c).
+ * protocol core as a CPython type; _native_attrs.c: its attributes; _native_xfer.c: its C transfers
+ * and their hand-back to the Python ones) and its pump (_native_pump.c: the uplink's I/O on a C
+ * thread, so that Python only sees completed transfers, in batches; the RS232 pump's loop is
+ * _native_pump_rs232.c).
  *
  * Threads: the core object's methods run with the GIL; the pump's thread never takes it. Both
  * reach `core` only with `lock` held (the methods through core_lock, which waits for the mutex
@@ -106,10 +107,32 @@ PyObject *native_pump_kick(native_core_t *self, PyObject *unused);
 PyObject *native_pump_running(native_core_t *self, PyObject *unused);
 PyObject *native_pump_notify(native_core_t *self, PyObject *unused);
 PyObject *native_has_completed(native_core_t *self, PyObject *unused);
+/* Interned attribute names: each part interns the ones it uses at module import. */
+typedef struct {
+    PyObject **slot;
+    const char *text;
+} native_name_t;
+/* Interns every name of `names` whose slot is still NULL; 0, or -1 with a Python error. */
+int native_intern_names(const native_name_t *names, size_t count);
+
+/* The C transfers and their hand-back to the Python transfers (_native_xfer.c). */
+/* Interns the attribute names the hand-back writes; 0, or -1 with a Python error. */
+int native_xfer_intern(void);
 /* A C transfer from the core object's free list (uninitialised; NULL with MemoryError), and back
  * (dropping its reference `py`). */
 native_xfer_t *native_xfer_get(native_core_t *self);
 void native_xfer_put(native_core_t *self, native_xfer_t *x);
+/* Writes what ResponseMatcher-side `_send` sets (seq, sent_ns, due_ns, expires_ns, garbage) on the
+ * Python transfer of x, just put on the wire; 0, or -1 with a Python error. */
+int native_mark_sent(native_xfer_t *x, urb_ns_t due_ns, urb_ns_t expires_ns);
+/* Appends (what, now, items) to the core object's trace list; 0, or -1 with a Python error. */
+int native_trace_event(native_core_t *self, PyObject *what, urb_ns_t now, PyObject *items);
+/* Hands every transfer the C core completed back to its Python object, keeping it in `completed`
+ * until take_completed; those answered by a response also go to `answered` unless it is NULL.
+ * 0, or -1 with a Python error. */
+int native_collect(native_core_t *self, PyObject *answered);
+/* Completes everything the core still owns (BRIDGE_LOST) and drops the references: teardown. */
+void native_release_all(native_core_t *self);
 
 /* The cycle state (_native_cycle.c): a fixed set of requests submitted at once, one completion. */
 #define NATIVE_CYCLE_MAX 1024

@@ -7,7 +7,7 @@
  * payload) and its last outcome (flags, bridge status, response, sequence number, sending and
  * completion times, lost reason). Core._cycle_submit(state, now, refusals) hands every item to the
  * C core at once, as C transfers that point back to the state (native_xfer_t.cycle_item) instead of
- * to a Python Transfer; when the core completes one, collect() (in _native.c) calls
+ * to a Python Transfer; when the core completes one, native_collect() (in _native_xfer.c) calls
  * native_cycle_item_done, which writes its outcome into the state, and when the last item of the
  * tick completed the state itself goes to the core's completion list, once: the manager then
  * queues the state's `on_done` for its dispatcher. A state without on_done is polled: its owner

@@ -15,7 +15,8 @@
  * record is made to cover the requests in flight (handover.py's PortHandover.cover, in C). A
  * failed write declares the bridge lost ("<name>: [Errno N] <text>", the text Python gives the
  * OSError) and ends the thread; the end of the IN stream or a failed read ends the reading only,
- * as CharDeviceTransport's reader does.
+ * as CharDeviceTransport's reader does. A descriptor closed under the thread (POLLNVAL) is lost at
+ * once, with the text of the write that would fail next (EBADF), and ends the thread.
  *
  * It never takes the GIL: completed transfers stay in the C core's completion list, and the
  * dispatcher's wait (_pump_wait) returns once per batch; the Python objects get their outcome
@@ -161,6 +162,18 @@ static bool pump_read(native_core_t *self, uint8_t *buf, size_t cap)
     return true;
 }
 
+/* Whether `revents` says the descriptor was closed under the thread (POLLNVAL, which ppoll would
+ * report at once from then on); if so the bridge is lost, worded as the Python writer thread words
+ * its next write's failure, and the thread is to end. */
+static bool pump_descriptor_closed(native_core_t *self, short revents)
+{
+    if ((revents & POLLNVAL) == 0) {
+        return false;
+    }
+    native_pump_lost(self, "[Errno %d] %s", EBADF, strerror(EBADF));
+    return true;
+}
+
 static void *pump_main(void *arg)
 {
     native_core_t *self = arg;
@@ -175,6 +188,9 @@ static void *pump_main(void *arg)
             struct pollfd fds = {p->fd, POLLIN, 0};
             struct timespec const ts = {(time_t)(wait / URB_NS_PER_S), (long)(wait % URB_NS_PER_S)};
             int const ready = ppoll(&fds, reading ? 1u : 0u, &ts, NULL);
+            if ((ready > 0) && pump_descriptor_closed(self, fds.revents)) {
+                break;
+            }
             if ((ready > 0) && ((fds.revents & (POLLIN | POLLHUP | POLLERR)) != 0)) {
                 reading = pump_read(self, in, sizeof in);
             }
@@ -184,6 +200,9 @@ static void *pump_main(void *arg)
             struct pollfd fds = {p->fd, POLLIN, 0};
             while (reading && (poll(&fds, 1u, 0) > 0) && ((fds.revents & (POLLIN | POLLHUP | POLLERR)) != 0)) {
                 reading = pump_read(self, in, sizeof in);
+            }
+            if (pump_descriptor_closed(self, fds.revents)) {
+                break;
             }
         }
         urb_ns_t const now = native_monotonic_ns();

@@ -47,8 +47,9 @@ ENV = "URB_PURE_PYTHON"
 CORE_ENV = "URB_HOST_CORE"
 RS232_KIND, USB_KIND = 1, 2
 REPO = Path(__file__).resolve().parents[3]
-FINGERPRINT_SOURCES = ("host/urb/managers/_native.c", "host/urb/managers/_native_attrs.c", "host/urb/managers/_native_pump.c",
-                       "host/urb/managers/_native_pump_rs232.c", "host/urb/managers/_native_cycle.c",
+FINGERPRINT_SOURCES = ("host/urb/managers/_native.c", "host/urb/managers/_native_attrs.c", "host/urb/managers/_native_xfer.c",
+                       "host/urb/managers/_native_pump.c", "host/urb/managers/_native_pump_rs232.c",
+                       "host/urb/managers/_native_cycle.c",
                        "host/urb/managers/_native.h",
                        "host/c/core/*.c", "host/c/core/*.h", "host/c/include/*.h", "host/c/port/handover.c",
                        "gen/c/urb_core.[ch]", "gen/c/urb_runtime.[ch]", "gen/c/urb_sensorhex.[ch]")

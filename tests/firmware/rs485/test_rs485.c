@@ -743,12 +743,158 @@ static void test_master_collisions(void **state)
     assert_true(urb_rs485_master_tx_next(&L.master, &b1));
     mt += 10u + 16u;
     urb_rs485_master_rx(&L.master, b1, mt);
-    /* the receiver discards a broken frame without an end event, so the drain ends by the timeout */
-    mt += 50u;
+    /* the receiver discards a broken frame without an end event: the drain ends at t3.5 of
+     * silence all the same, not at the transaction's timeout (issue #39) */
+    mt += 44u;
     assert_int_equal(L.dl.poll(L.dl.ctx, mt), URB_DOWNLINK_BUSY);
-    assert_int_equal(L.dl.poll(L.dl.ctx, mt + L.master.timeout_us), URB_STATUS_BUS_STUCK);
+    mt += 1u;
+    assert_int_equal(L.dl.poll(L.dl.ctx, mt), URB_STATUS_BUS_STUCK);
     urb_rs485_master_stats(&L.master, &st);
     assert_int_equal(st.collisions, 6u);
+}
+
+/* A collision cuts a write, and the other talker goes on: the frame the line carried is the cut
+ * request and the bytes that joined it. When that frame's check passes, a node may have taken it
+ * (here a 1-byte write of the collided byte): TIMEOUT, never BUS_STUCK (found by fw_rs485_master,
+ * 2026-11-29: the bridge judged the cut frame alone). When it fails, BUS_STUCK as before. */
+static int cut_then_joined(bool joined_passes)
+{
+    L.data[0] = 0x55u;
+    L.data[1] = 0x66u;
+    master_begin_at(URB_DL_WRITE, 20u, 2u, 2u);
+    uint8_t sent[URB_RS485_MAX_FRAME];
+    assert_int_equal(master_echo(sent, 2u), 2u);
+    uint8_t b;
+    assert_true(urb_rs485_master_tx_next(&L.master, &b));
+    uint8_t line[4] = {sent[0], sent[1], 0u, 0u};
+    uint8_t const cut_check = (uint8_t)urb_link_check(line, 2u, NULL, 0u);
+    line[2] = (uint8_t)(b ^ 0x0Fu); /* the collision: neither the byte sent ... */
+    if (line[2] == cut_check) {
+        line[2] ^= 0x30u; /* ... nor the check that would make the cut frame pass */
+    }
+    mt += 10u;
+    urb_rs485_master_rx(&L.master, line[2], mt);
+    assert_false(L.bridge.driving);
+    uint8_t const joined_check = (uint8_t)urb_link_check(line, 3u, NULL, 0u);
+    line[3] = joined_passes ? joined_check : (uint8_t)(joined_check ^ 1u);
+    mt += 10u;
+    urb_rs485_master_rx(&L.master, line[3], mt); /* the other talker's next byte */
+    mt += 50u;
+    return L.dl.poll(L.dl.ctx, mt);
+}
+
+static void test_master_cut_then_joined(void **state)
+{
+    (void)state;
+    mt = 0u;
+    L.bridge.driving = true;
+    assert_int_equal(cut_then_joined(true), URB_STATUS_TIMEOUT);
+    L.bridge.driving = true;
+    assert_int_equal(cut_then_joined(false), URB_STATUS_BUS_STUCK);
+}
+
+/* The UART stalls for t3.5 inside the request: the line carried a shorter frame that ended. When
+ * its check passes (a write's data byte equal to the check of the bytes before it) a node may have
+ * taken it: the bridge stops and reports TIMEOUT (found by fw_rs485_master, 2026-11-29); when it
+ * fails, the frame reached nobody: BUS_STUCK. */
+static int split_by_stall(bool short_passes)
+{
+    uint8_t head[2] = {20u, 2u};
+    uint8_t const c = (uint8_t)urb_link_check(head, 2u, NULL, 0u);
+    L.data[0] = short_passes ? c : (uint8_t)(c ^ 1u); /* [20, 2, data0]: its check passes or not */
+    L.data[1] = 0x66u;
+    master_begin_at(URB_DL_WRITE, 20u, 2u, 2u);
+    uint8_t sent[URB_RS485_MAX_FRAME];
+    assert_int_equal(master_echo(sent, 3u), 3u);
+    uint8_t b;
+    assert_true(urb_rs485_master_tx_next(&L.master, &b));
+    mt += 60u; /* the stall: the 3-byte frame ended */
+    urb_rs485_master_rx(&L.master, b, mt);
+    assert_false(L.bridge.driving);
+    mt += 50u;
+    return L.dl.poll(L.dl.ctx, mt);
+}
+
+static void test_master_request_split_by_stall(void **state)
+{
+    (void)state;
+    uint8_t b;
+    mt = 0u;
+    L.bridge.driving = true;
+    assert_int_equal(split_by_stall(true), URB_STATUS_TIMEOUT);
+    L.bridge.driving = true;
+    assert_int_equal(split_by_stall(false), URB_STATUS_BUS_STUCK);
+    /* a babbler's frame still open when the request starts ends at the first echo: it is not the
+     * request's, which goes on whole (then the node's silence: NO_NODE) */
+    L.bridge.driving = true;
+    mt += 1000u;
+    urb_rs485_master_rx(&L.master, 0x42u, mt);
+    L.data[0] = 0x55u;
+    master_begin_at(URB_DL_WRITE, 20u, 2u, 2u);
+    uint8_t sent[URB_RS485_MAX_FRAME];
+    assert_int_equal(master_echo(sent, URB_RS485_MAX_FRAME), 5u);
+    assert_true(L.bridge.driving);
+    mt += 50u;
+    assert_int_equal(L.dl.poll(L.dl.ctx, mt), URB_DOWNLINK_BUSY);
+    mt += 200u;
+    assert_int_equal(L.dl.poll(L.dl.ctx, mt), URB_STATUS_NO_NODE);
+    /* a SYNC whose last echo comes after a silence over t1.5: a collision on its last byte (not a
+     * cut), its frame broken without an end event: the drain ends at t3.5 of silence, TIMEOUT */
+    L.bridge.driving = true;
+    master_begin_at(URB_DL_SYNC, 0u, 0u, 0u);
+    assert_int_equal(master_echo(sent, 2u), 2u);
+    assert_true(urb_rs485_master_tx_next(&L.master, &b));
+    mt += 26u;
+    urb_rs485_master_rx(&L.master, b, mt);
+    assert_false(L.bridge.driving);
+    assert_int_equal(L.dl.poll(L.dl.ctx, mt + 44u), URB_DOWNLINK_BUSY);
+    assert_int_equal(L.dl.poll(L.dl.ctx, mt + 45u), URB_STATUS_TIMEOUT);
+}
+
+/* After a collision the other talker never stops: its bytes come with gaps over t1.5 (each breaks
+ * the frame, which the receiver drops without an end event) and under t3.5 (the line never
+ * quiet), so the drain ends only at the transaction's timeout. A request cut before a frame a node
+ * could take reached nobody: BUS_STUCK; a collision on the last byte (the whole request was on the
+ * line) may have reached a node: TIMEOUT. */
+static int drain_never_quiet(bool cut)
+{
+    uint8_t sent[URB_RS485_MAX_FRAME];
+    uint8_t b;
+    uint32_t t_begin;
+    if (cut) {
+        L.data[0] = 0x55u;
+        L.data[1] = 0x66u;
+        master_begin_at(URB_DL_WRITE, 20u, 2u, 2u);
+        t_begin = mt;
+        assert_int_equal(master_echo(sent, 1u), 1u);
+    } else {
+        master_begin_at(URB_DL_SYNC, 0u, 0u, 0u);
+        t_begin = mt;
+        assert_int_equal(master_echo(sent, 2u), 2u);
+    }
+    assert_true(urb_rs485_master_tx_next(&L.master, &b));
+    mt += 10u;
+    urb_rs485_master_rx(&L.master, (uint8_t)(b ^ 0x0Fu), mt); /* the collision */
+    assert_false(L.bridge.driving);
+    uint32_t const end = mt + L.master.timeout_us + 100u;
+    int out = URB_DOWNLINK_BUSY;
+    while ((out == URB_DOWNLINK_BUSY) && (mt < end)) {
+        mt += 25u;
+        urb_rs485_master_rx(&L.master, 0x5Au, mt); /* the other talker goes on */
+        out = L.dl.poll(L.dl.ctx, mt);
+    }
+    assert_true(mt - t_begin > L.master.timeout_us); /* it ended at the timeout, not before */
+    return out;
+}
+
+static void test_master_drain_never_quiet(void **state)
+{
+    (void)state;
+    mt = 0u;
+    L.bridge.driving = true;
+    assert_int_equal(drain_never_quiet(true), URB_STATUS_BUS_STUCK);
+    L.bridge.driving = true;
+    assert_int_equal(drain_never_quiet(false), URB_STATUS_TIMEOUT);
 }
 
 typedef struct {
@@ -985,6 +1131,9 @@ int main(void)
         cmocka_unit_test(test_slave_read_latch_released_when_answer_cut),
         cmocka_unit_test_setup(test_master_answers, line_setup),
         cmocka_unit_test_setup(test_master_collisions, line_setup),
+        cmocka_unit_test_setup(test_master_cut_then_joined, line_setup),
+        cmocka_unit_test_setup(test_master_request_split_by_stall, line_setup),
+        cmocka_unit_test_setup(test_master_drain_never_quiet, line_setup),
         cmocka_unit_test_setup(test_master_edges, line_setup),
         cmocka_unit_test_setup(test_slave_edges, line_setup),
         cmocka_unit_test_setup(test_slave_init_each_entry_point, line_setup),
