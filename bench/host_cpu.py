@@ -44,6 +44,7 @@ Nothing is asserted: the numbers go to build/bench/host_cpu.json.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import platform
@@ -52,7 +53,7 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -60,7 +61,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "tests" / "host"))
 
 from bridge_proc import build_hosted_bridge, serve_usb_transfers  # noqa: E402
-from urb.api import NodeRequest, URBInterface  # noqa: E402
+from urb.api import NodeAccessor, NodeRequest, URBInterface  # noqa: E402
 from urb.cycle import Cycle, CycleItem  # noqa: E402
 from urb.managers import BridgeModel, CharDeviceTransport, RS232Manager, USBManager, fake_node  # noqa: E402
 from urb.managers.base import NS_PER_MS, Transfer  # noqa: E402
@@ -141,8 +142,10 @@ def _bridge_child(sock: socket.socket) -> None:
     os._exit(0)
 
 
-def usb_sensorhex(seconds: float) -> dict[str, Any]:
-    """Case 2: one SensoRHex USB bridge's motor load in real time."""
+@contextlib.contextmanager
+def usb_motor_bridge() -> Iterator[tuple[URBInterface, list[NodeAccessor]]]:
+    """One SensoRHex USB bridge with its three motors in a child process, and the host's
+    interface to it; on exit the interface closes and the child sees the end of its socket."""
     host_sock, dev_sock = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
     pid = os.fork()
     if pid == 0:
@@ -153,9 +156,30 @@ def usb_sensorhex(seconds: float) -> dict[str, Any]:
     host_sock.close()
     urb = URBInterface()
     try:
-        m = USBManager(CharDeviceTransport(fd=fd), timeout_s=1.0, name="usb")
-        urb.add_bus_manager(m)
-        motors = [urb.find_node("MotorDriver", i) for i in range(3)]
+        urb.add_bus_manager(USBManager(CharDeviceTransport(fd=fd), timeout_s=1.0, name="usb"))
+        yield urb, [urb.find_node("MotorDriver", i) for i in range(3)]
+    finally:
+        urb.close()
+        os.close(fd)
+        os.waitpid(pid, 0)
+
+
+def every_ms(seconds: float) -> Iterator[None]:
+    """Yields once per millisecond of real time for `seconds`, sleeping to each tick (a tick
+    already past is not waited for: the loop catches up)."""
+    tick = time.monotonic_ns()
+    end = tick + int(seconds * 1e9)
+    while tick < end:
+        tick += NS_PER_MS
+        delay = tick - time.monotonic_ns()
+        if delay > 0:
+            time.sleep(delay / 1e9)
+        yield
+
+
+def usb_sensorhex(seconds: float) -> dict[str, Any]:
+    """Case 2: one SensoRHex USB bridge's motor load in real time."""
+    with usb_motor_bridge() as (urb, motors):
         count, failed = [0], [0]
 
         def done(r: NodeRequest) -> None:
@@ -165,13 +189,7 @@ def usb_sensorhex(seconds: float) -> dict[str, Any]:
         before = thread_split(1)
         sent = 0
         cpu0, wall0 = time.process_time(), time.perf_counter()
-        tick = time.monotonic_ns()
-        end = tick + int(seconds * 1e9)
-        while tick < end:
-            tick += NS_PER_MS
-            delay = tick - time.monotonic_ns()
-            if delay > 0:
-                time.sleep(delay / 1e9)
+        for _ in every_ms(seconds):
             for node in motors:
                 node.submit_request(node.new_request().read_message(MotorFeedback).set_callback(done))
                 node.submit_request(node.new_request().write_message(MotorCommand(voltage=1)).set_callback(done))
@@ -181,10 +199,6 @@ def usb_sensorhex(seconds: float) -> dict[str, Any]:
             time.sleep(0.001)
         cpu, wall = time.process_time() - cpu0, time.perf_counter() - wall0
         after = thread_split(1)
-    finally:
-        urb.close()
-        os.close(fd)  # the child sees the end of the socket and exits
-        os.waitpid(pid, 0)
     split = {k: (after.get(k, 0.0) - before.get(k, 0.0)) / max(1, count[0]) for k in after}
     return {"requests": sent, "completed": count[0], "failed": failed[0], "cpu_s": cpu, "wall_s": wall,
             "us_per_request": cpu * 1e6 / max(1, count[0]), "core_share": cpu / wall, "threads_us": split}
@@ -203,19 +217,7 @@ def usb_sensorhex_cycle(seconds: float, polled: bool = True) -> dict[str, Any]:
     outcome when it comes round again (`Cycle.poll`, no dispatcher wake-up); else one callback
     per cycle on the dispatcher. A cycle still in flight when it comes round is an overrun: that
     tick submits nothing (counted)."""
-    host_sock, dev_sock = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
-    pid = os.fork()
-    if pid == 0:
-        host_sock.close()
-        _bridge_child(dev_sock)
-    dev_sock.close()
-    fd = os.dup(host_sock.fileno())
-    host_sock.close()
-    urb = URBInterface()
-    try:
-        m = USBManager(CharDeviceTransport(fd=fd), timeout_s=1.0, name="usb")
-        urb.add_bus_manager(m)
-        motors = [urb.find_node("MotorDriver", i) for i in range(3)]
+    with usb_motor_bridge() as (urb, motors):
         count, failed, overruns = [0], [0], [0]
 
         def done(c: Cycle) -> None:
@@ -231,13 +233,7 @@ def usb_sensorhex_cycle(seconds: float, polled: bool = True) -> dict[str, Any]:
         before = thread_split(1)
         sent = ticks = 0
         cpu0, wall0 = time.process_time(), time.perf_counter()
-        tick = time.monotonic_ns()
-        end = tick + int(seconds * 1e9)
-        while tick < end:
-            tick += NS_PER_MS
-            delay = tick - time.monotonic_ns()
-            if delay > 0:
-                time.sleep(delay / 1e9)
+        for _ in every_ms(seconds):
             cycle, commands = ring[ticks % CYCLE_RING]
             ticks += 1
             if polled and cycle.in_flight and cycle.poll():
@@ -258,10 +254,6 @@ def usb_sensorhex_cycle(seconds: float, polled: bool = True) -> dict[str, Any]:
         cpu, wall = time.process_time() - cpu0, time.perf_counter() - wall0
         after = thread_split(1)
         native_cycles = all(type(g).__name__ == "_NativeGroup" for c, _ in ring for g in c._groups)
-    finally:
-        urb.close()
-        os.close(fd)
-        os.waitpid(pid, 0)
     split = {k: (after.get(k, 0.0) - before.get(k, 0.0)) / max(1, count[0]) for k in after}
     return {"requests": sent, "completed": count[0], "failed": failed[0], "overruns": overruns[0], "cpu_s": cpu,
             "wall_s": wall, "us_per_request": cpu * 1e6 / max(1, count[0]), "core_share": cpu / wall,
