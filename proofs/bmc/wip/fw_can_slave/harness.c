@@ -85,7 +85,7 @@ URB_PROOF_COST_STORAGE;
 #define COVER_ANY_FRAME(name) ((void)0)
 #endif
 /* The budget of urb_can_slave_rx: a whole shortest frame at 1 Mb/s (2640 cycles), not half of one
- * as tx_done and state. ASSUMPTION (the port's, stated in firmware/downlink/README.md and urb.DLK_006):
+ * as tx_done and state. ASSUMPTION (the port's, stated in firmware/downlink/README.md and urb.DLK_008):
  * the controller holds received frames in a receive FIFO of at least 2 frames, so a frame arrives
  * while the previous one is handled without being lost, and one shortest frame time per received
  * frame keeps up with a bus full of back-to-back shortest frames; the FIFO's other elements absorb the
