@@ -25,7 +25,8 @@ def _outbox(writes: int) -> list[dict[str, int | str]]:
     """Releases of writes 1..n, each read whole (6 bytes) by the bridge after it."""
     out: list[dict[str, int | str]] = []
     for w in range(1, writes + 1):
-        out += [{"ev": "release"}, {"ev": "begin"}] + [{"ev": "byte", "tag": w}] * 6 + [{"ev": "end"}]
+        byte: dict[str, int | str] = {"ev": "byte", "tag": w}
+        out += [{"ev": "release"}, {"ev": "begin"}, *[byte] * 6, {"ev": "end"}]
     return out
 
 
