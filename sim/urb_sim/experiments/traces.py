@@ -360,8 +360,8 @@ def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progres
     cycles = 40 if quick else 150
     t0 = time.perf_counter()
     # Every trace is recorded first, each with what its verdict must be (`judge`); then TLC checks
-    # them, all the traces of one specification in one run (urb_sim.tracebatch), and the checks
-    # follow in the order the traces were recorded.
+    # them all in one run (urb_sim.tracebatch), and the checks follow in the order the traces were
+    # recorded.
     pending: list[tuple[str, TraceJob, Callable[[TraceResult], object]]] = []
 
     def check(uplink: str, job: TraceJob, judge: Callable[[TraceResult], object]) -> None:
@@ -523,7 +523,7 @@ def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progres
               mutant(f"discovery mutant rejected: {name}", "TLC finds no behaviour of Discovery.tla matching it",
                      first_change(disc.events, dmut.events)))
 
-    progress(3.5 / 10, f"traces: TLC checks {len(pending)} traces, one run per specification")
+    progress(3.5 / 10, f"traces: TLC checks {len(pending)} traces in one run")
     rows: list[list[object]] = []
     tlc_s: list[float] = []  # wall time of each row's TLC run, for the report's table only
     tlc_wall = 0.0
@@ -546,10 +546,9 @@ def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progres
                                                     "tlc_states"], rows))
     res.table = [{"uplink": r[0], "trace": r[1], "events": r[2], "accepted": bool(r[3]), "matched": r[4],
                   "TLC states": r[5], "TLC run wall s": round(w, 1)} for r, w in zip(rows, tlc_s)]
-    runs = {job.spec for _, job, _ in pending}
-    res.notes.append(f"{len(rows)} traces checked in {len(runs)} TLC runs (all the traces of one specification in "
-                     f"one run: urb_sim/tracebatch.py), {tlc_wall:.1f} s of TLC wall time; a row's \"TLC run wall s\" "
-                     "is its run's. Wall times differ from run to run: they are in this table only, not in traces.csv "
-                     "nor in the checks' measured values, which a seed reproduces byte for byte (a sweep's hash "
-                     "covers the checks).")
+    specs = len({job.spec for _, job, _ in pending})
+    res.notes.append(f"{len(rows)} traces of {specs} specifications checked in one TLC run (urb_sim/tracebatch.py), "
+                     f"{tlc_wall:.1f} s of TLC wall time (a row's \"TLC run wall s\"). Wall times differ from run to "
+                     "run: they are in this table only, not in traces.csv nor in the checks' measured values, which a "
+                     "seed reproduces byte for byte (a sweep's hash covers the checks).")
     return res
