@@ -360,8 +360,9 @@ class World:
         out: list[tuple[int, int, int]] = []
         while True:
             n = int(fn(self._w, idx, self._marks_t, self._marks_v, 8192))
-            out.extend((int(self._marks_t[i]), int(self._marks_v[i]) >> 24, int(self._marks_v[i]) & 0xFFFFFF)
-                       for i in range(n))
+            # slices convert a whole block to ints in C: a third of the time of indexing per mark
+            values = self._marks_v[:n]
+            out.extend(zip(self._marks_t[:n], [v >> 24 for v in values], [v & 0xFFFFFF for v in values]))
             if n < 8192:
                 return out
 
