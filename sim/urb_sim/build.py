@@ -51,9 +51,11 @@ SOURCE_DIRS = [
     "firmware/downlink/rs485",
     "sim/downlink",
     "gen/c",
+    "host/c/core",
 ]
 INCLUDE_DIRS = ["sim/core", "sim/world", "firmware/include", "firmware/hal/sim", "firmware/node", "firmware/bridge",
-                "firmware/apps/sensorhex", "sim/downlink", "gen/c"]
+                "firmware/apps/sensorhex", "sim/downlink", "gen/c",
+                "host/c/include", "host/c/core"]
 #: Files the simulation does not link: programs (`*main.c`, e.g. firmware/bridge/hosted_main.c)
 #: and the single-node adapter of the paper's global-function style (firmware/node/urb_single.c: one
 #: global node, calls app_* functions), which cannot serve many nodes in one process. The node library's

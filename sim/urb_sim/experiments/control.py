@@ -20,6 +20,7 @@ from pathlib import Path
 from urb.api import NodeAccessor, NodeRequest
 from urb_msgs.sensorhex import MotorCommand, MotorConfig, MotorFeedback, MotorMode
 
+from ..chost import CHost, Request, as_requests, record_python_requests
 from ..native import App, Mark
 from ..system import NS_PER_MS, Loop, System
 from . import Progress, Result, no_progress, pyplot, write_csv
@@ -35,6 +36,7 @@ PAPER_LAG_MS = {"rs232": 2.0, "usb": 3.0}
 #: spans 2.1-3.1 ms, Fig. 16): 5.0 ms at seed 19.
 NODE_PERIOD_MS = 1.0
 PHASE_PERIODS = {"rs232": 1, "usb": 2}  #: update periods the phases can add to the paper's delay
+HOSTS = ("python", "c")  #: the host libraries a PD run can use (pd_tracking's `host`)
 
 
 @dataclass
@@ -207,10 +209,36 @@ def fit_lag(samples: list[tuple[int, float, float]], amp: float, omega: float) -
     return best[0] * 1e3, math.sqrt(max(0.0, best[1]) / len(samples))
 
 
+def _control_c(sysm: System, axis: Axis, bridge: int, motor: int, address: int, amp: float, omega: float,
+               seconds: float, truth: list[tuple[int, float, float]], marks: list[tuple[int, int, int]]) -> CHost:
+    """_control's loop on the C host library (urb_sim.chost): the same instants, requests, gains and
+    reference, the world run from C; the truth, commands and failures read back afterwards."""
+    t0 = (sysm.host.now_ns() // NS_PER_MS + 1) * NS_PER_MS
+    sysm.world.node_marks(motor)  # discard the start-up marks
+    chost = CHost(sysm)
+    k = chost.axis(bridge, motor, address, kp=axis.pd.kp, kd=axis.pd.kd, limit=axis.pd.limit, amp=amp, omega=omega)
+    chost.loop(NS_PER_MS, int(seconds * 1000), t0)
+    end = sysm.world.now + int((seconds + 0.05) * 1e9)
+    while sysm.world.now < end:
+        chost.advance_to(min(end, sysm.world.now + 500 * NS_PER_MS))
+        marks.extend(sysm.world.node_marks(motor))
+    truth.extend(chost.samples(k))
+    axis.commands = chost.commands(k)
+    axis.fails = int(chost.stat(f"fails:{k}"))
+    return chost
+
+
 def pd_tracking(uplink: str, seed: int, seconds: float, kp: float, kd: float, amp: float = 4 * math.pi,
-                freq: float = 0.5, gravity: bool = False) -> tuple[Axis, list[tuple[int, float, float]], float, float, System]:
+                freq: float = 0.5, gravity: bool = False, host: str = "python",
+                record: list[Request] | None = None) -> tuple[Axis, list[tuple[int, float, float]], float, float, System]:
     """One PD run. Without `gravity` the leg swings in a horizontal plane (a test stand), so the
-    tracking error is the loop's lag, not a droop a PD controller cannot remove."""
+    tracking error is the loop's lag, not a droop a PD controller cannot remove.
+
+    `host`: "python" runs the loop on the Python host library (the reference), "c" on the C host
+    library in the simulation (urb_sim.chost), both after the same start-up and discovery through
+    the Python library. `record`, when given, receives every request of the loop with its outcome."""
+    if host not in HOSTS:
+        raise ValueError(f"host {host!r}: use one of {', '.join(HOSTS)}")
     s = System(seed=seed, params={} if gravity else {"motor.leg_gravity": 0.0})
     b = s.bridge(uplink)
     n = s.node(b, App.MOTOR, 0x20, 0)
@@ -225,7 +253,16 @@ def pd_tracking(uplink: str, seed: int, seconds: float, kp: float, kd: float, am
 
     truth: list[list[tuple[int, float, float]]] = [[]]
     marks: list[list[tuple[int, int, int]]] = [[]]
-    _control(s, [axis], [ref], seconds, [0], truth, [n], marks)
+    if host == "c":
+        chost = _control_c(s, axis, b, n, 0x20, amp, omega, seconds, truth[0], marks[0])
+        if record is not None:
+            record.extend(chost.requests())
+        chost.close()
+    else:
+        log = record_python_requests(s) if record is not None else None
+        _control(s, [axis], [ref], seconds, [0], truth, [n], marks)
+        if record is not None and log is not None:
+            record.extend(as_requests(log))
     steady = [x for x in truth[0] if x[0] >= 1e9]  # after the first second (start-up transient)
     lag, rms = fit_lag(steady, amp, omega)
     measured = loop_delays(marks[0], axis.commands)
