@@ -93,8 +93,9 @@ def _enable(axis: Axis) -> None:
 
 def _control(sysm: System, axes: list[Axis], reference: list[object], seconds: float, t0: list[int],
              truth: list[list[tuple[int, float, float]]], motors: list[int],
-             marks: list[list[tuple[int, int, int]]]) -> None:
-    """Run the 1-kHz loop: read every axis, command in the callback; sample the true state."""
+             marks: list[list[tuple[int, int, int]]], period_ns: int = NS_PER_MS) -> None:
+    """Run the 1-kHz loop (or one of `period_ns`): read every axis, command in the callback; sample
+    the true state."""
     host = sysm.host
 
     def feedback(axis: Axis, ref: object) -> object:
@@ -126,7 +127,7 @@ def _control(sysm: System, axes: list[Axis], reference: list[object], seconds: f
     t0[0] = (host.now_ns() // NS_PER_MS + 1) * NS_PER_MS
     for m in motors:
         sysm.world.node_marks(m)  # discard the start-up marks
-    Loop(host, NS_PER_MS, tick, count=int(seconds * 1000))
+    Loop(host, period_ns, tick, count=int(seconds * 1000) * NS_PER_MS // period_ns)
     end = sysm.world.now + int((seconds + 0.05) * 1e9)
     while sysm.world.now < end:
         host.advance_to(min(end, sysm.world.now + 500 * NS_PER_MS))
@@ -213,22 +214,28 @@ def fit_lag(samples: list[tuple[int, float, float]], amp: float, omega: float) -
     return best[0] * 1e3, math.sqrt(max(0.0, best[1]) / len(samples))
 
 
-def _control_c(sysm: System, axis: Axis, bridge: int, motor: int, address: int, amp: float, omega: float,
-               seconds: float, truth: list[tuple[int, float, float]], marks: list[tuple[int, int, int]]) -> CHost:
+def _control_c(sysm: System, axes: list[Axis], places: list[tuple[int, int, int]], sines: list[tuple[float, float]],
+               seconds: float, truth: list[list[tuple[int, float, float]]], marks: list[list[tuple[int, int, int]]],
+               period_ns: int = NS_PER_MS) -> CHost:
     """_control's loop on the C host library (urb_sim.chost): the same instants, requests, gains and
-    reference, the world run from C; the truth, commands and failures read back afterwards."""
+    references (axis k: at places[k] = (bridge, motor node, address), amp sin(omega t) for sines[k] =
+    (amp, omega)), the world run from C; the truth, commands and failures read back afterwards."""
     t0 = (sysm.host.now_ns() // NS_PER_MS + 1) * NS_PER_MS
-    sysm.world.node_marks(motor)  # discard the start-up marks
+    for _, motor, _ in places:
+        sysm.world.node_marks(motor)  # discard the start-up marks
     chost = CHost(sysm)
-    k = chost.axis(bridge, motor, address, kp=axis.pd.kp, kd=axis.pd.kd, limit=axis.pd.limit, amp=amp, omega=omega)
-    chost.loop(NS_PER_MS, int(seconds * 1000), t0)
+    ks = [chost.axis(bridge, motor, address, kp=a.pd.kp, kd=a.pd.kd, limit=a.pd.limit, amp=amp, omega=omega)
+          for a, (bridge, motor, address), (amp, omega) in zip(axes, places, sines)]
+    chost.loop(period_ns, int(seconds * 1000) * NS_PER_MS // period_ns, t0)
     end = sysm.world.now + int((seconds + 0.05) * 1e9)
     while sysm.world.now < end:
         chost.advance_to(min(end, sysm.world.now + 500 * NS_PER_MS))
-        marks.extend(sysm.world.node_marks(motor))
-    truth.extend(chost.samples(k))
-    axis.commands = chost.commands(k)
-    axis.fails = int(chost.stat(f"fails:{k}"))
+        for (_, motor, _), m in zip(places, marks):
+            m.extend(sysm.world.node_marks(motor))
+    for a, k, tr in zip(axes, ks, truth):
+        tr.extend(chost.samples(k))
+        a.commands = chost.commands(k)
+        a.fails = int(chost.stat(f"fails:{k}"))
     return chost
 
 
@@ -261,7 +268,7 @@ def pd_tracking(uplink: str, seed: int, seconds: float, kp: float, kd: float, am
     truth: list[list[tuple[int, float, float]]] = [[]]
     marks: list[list[tuple[int, int, int]]] = [[]]
     if host == "c":
-        chost = _control_c(s, axis, b, n, 0x20, amp, omega, seconds, truth[0], marks[0])
+        chost = _control_c(s, [axis], [(b, n, 0x20)], [(amp, omega)], seconds, truth, marks)
         if record is not None:
             record.extend(chost.requests())
         chost.close()
