@@ -88,3 +88,15 @@ def test_a_wrong_gain_in_the_c_application_is_caught() -> None:
 if __name__ == "__main__":
     result = compare("rs232", 18, SECONDS, 12.0, 0.05)
     print(json.dumps([result.agrees, result.differences]))
+
+
+def test_fig18_19_on_the_c_host(tmp_path: Path) -> None:
+    """`urb sim sensorhex --host c --only fig18_19`: the grid on the C host, every criterion met, and
+    each uplink's kept gain agreeing with the Python host library's run."""
+    from urb_sim.experiments import control
+
+    res = control.figs18_19(tmp_path, quick=True, host="c")
+    assert res.passed, [(c.name, c.measured) for c in res.checks if not c.passed]
+    agree = [c for c in res.checks if c.name.endswith("host libraries agree")]
+    assert len(agree) == 2 and all(c.passed and "requests" in c.measured for c in agree)
+    assert "(on the C host library)" in res.title
