@@ -107,11 +107,25 @@ class CHost:
             raise ValueError(f"{what}: refused by the C host (rc {rc})")
         return rc
 
-    def axis(self, bridge: int, node: int, address: int, *, kp: float, kd: float, amp: float, omega: float,
-             limit: float = 12.0) -> int:
-        """A PD axis (control.py's Axis and Pd) with reference amp sin(omega t); returns its index."""
-        return self._check(self._lib.urbsim_chost_axis(self._h, bridge, node, address, kp, kd, limit, amp, omega),
+    def axis(self, bridge: int, node: int, address: int, *, kp: float, kd: float, amp: float = 0.0,
+             omega: float = 0.0, limit: float = 12.0, leg: int | None = None) -> int:
+        """A PD axis (control.py's Axis and Pd): reference amp sin(omega t), the true angle sampled
+        every period (`samples`); or, with `leg`, gait.py's reference for that leg, a row logged at
+        every feedback (`log`). Returns its index."""
+        return self._check(self._lib.urbsim_chost_axis(self._h, bridge, node, address, kp, kd, limit, amp, omega,
+                                                       -1 if leg is None else leg),
                            f"axis at {address:#x} on bridge {bridge}")
+
+    def log(self, axis: int) -> list[tuple[float, float, float, float, float, float]]:
+        """A gait axis's rows: (t s, reference, true shaft, measured V, measured I, true current)."""
+        out: list[tuple[float, float, float, float, float, float]] = []
+        rows = (c_double * (6 * CHUNK))()
+        while True:
+            n = self._check(self._lib.urbsim_chost_log(self._h, axis, len(out), rows, CHUNK), "log")
+            out.extend((rows[6 * i], rows[6 * i + 1], rows[6 * i + 2], rows[6 * i + 3], rows[6 * i + 4],
+                        rows[6 * i + 5]) for i in range(n))
+            if n < CHUNK:
+                return out
 
     def read(self, bridge: int, address: int, mailbox: int, length: int, every: int) -> int:
         """A plain read every `every` loop periods; returns its index."""

@@ -17,7 +17,8 @@
 #define CH_MAX_BRIDGES 8
 #define CH_MAX_AXES 16
 #define CH_MAX_READS 16
-#define CH_POOL 512          /* transfers: reads and writes in flight or queued, all bridges */
+#define CH_BLOCK 256         /* transfers allocated at a time (a loop that outruns its link queues without end) */
+#define CH_MAX_BLOCKS 4096
 #define CH_TIMERS 64         /* armed timers per bridge (SimManager._timer_at) */
 #define CH_ITEM_BYTES 1024   /* as World._buf: the largest item a take hands over */
 #define CH_ITEMS 256
@@ -53,7 +54,7 @@ typedef struct {
 } ch_bridge_t;
 
 typedef struct {
-    int bridge, node;
+    int bridge, node, leg; /* leg >= 0: the gait's reference for that leg, logged per feedback */
     uint8_t address;
     double kp, kd, limit, amp, omega;
     bool has_prev, has_raw;
@@ -68,7 +69,12 @@ typedef struct {
     uint32_t n_s, cap_s;
     int32_t *mv;
     uint32_t n_mv, cap_mv;
+    /* gait axes: one row per successful feedback (gait.py run_gait's legs and truth_current) */
+    double *log;   /* CH_LOG_COLS per row */
+    uint32_t n_log, cap_log;
 } ch_axis_t;
+
+#define CH_LOG_COLS 6u /* t s, reference, true shaft, measured V, measured I, true current */
 
 typedef struct {
     int bridge;
@@ -88,7 +94,8 @@ struct urbsim_chost {
     int n_axes;
     ch_read_t read[CH_MAX_READS];
     int n_reads;
-    xfer_t pool[CH_POOL];
+    xfer_t *blocks[CH_MAX_BLOCKS]; /* the transfers: the cores hold pointers to them, so they never move */
+    uint32_t n_blocks;
     xfer_t *free_list;
     ev_t *heap;
     uint32_t n_ev, cap_ev;
@@ -184,11 +191,22 @@ static ev_t ev_pop(urbsim_chost_t *h)
 
 /* ---------------------------------------------------------------- transfers and records */
 
+static void xfer_put(urbsim_chost_t *h, xfer_t *x);
+
 static xfer_t *xfer_get(urbsim_chost_t *h)
 {
+    if (!h->free_list && h->n_blocks < CH_MAX_BLOCKS) {
+        xfer_t *block = calloc(CH_BLOCK, sizeof *block);
+        if (block) {
+            h->blocks[h->n_blocks++] = block;
+            for (int i = CH_BLOCK - 1; i >= 0; i--) {
+                xfer_put(h, &block[i]);
+            }
+        }
+    }
     xfer_t *x = h->free_list;
     if (!x) {
-        h->errors++; /* more requests queued than the pool holds: the loop outruns the link */
+        h->errors++; /* out of memory, or a million requests queued */
         return NULL;
     }
     h->free_list = x->next;
@@ -277,24 +295,13 @@ static double unwrap(ch_axis_t *a, uint16_t raw)
     return (double)a->pos / (2000.0 / (2.0 * PI));
 }
 
-/* The feedback callback of control.py's _control. */
-static void feedback_done(urbsim_chost_t *h, xfer_t *x)
+/* Submit the MotorCommand for drive u (V), as int(round(u * 1000)) mV; false when it failed. */
+static bool command(urbsim_chost_t *h, ch_axis_t *a, double u)
 {
-    ch_axis_t *a = &h->axis[x->axis];
-    urb_motor_feedback_t fb;
-    if (x->t.flags != URB_FLAG_NONE ||
-        urb_motor_feedback_decode(&fb, x->t.response, x->t.response_len) != (int32_t)URB_MOTOR_FEEDBACK_SIZE) {
-        a->fails++;
-        return;
-    }
-    int64_t t = urbsim_host_local(h->w);
-    double pos = unwrap(a, fb.encoder);
-    double r = a->amp * sin(a->omega * (double)(t - h->t0) * 1e-9);
-    double u = pd(a, r - pos, x->t.submitted_ns ? x->t.submitted_ns : t);
     double mv = rint(u * 1000.0); /* Python's round(): halves to even, the default rounding mode */
     if (!grow((void **)&a->mv, &a->cap_mv, a->n_mv + 1u, sizeof *a->mv)) {
         h->errors++;
-        return;
+        return false;
     }
     urb_motor_command_t cmd = {(int16_t)mv};
     uint8_t data[URB_MOTOR_COMMAND_SIZE];
@@ -305,11 +312,93 @@ static void feedback_done(urbsim_chost_t *h, xfer_t *x)
         if (w) {
             xfer_put(h, w);
         }
-        return;
+        return false;
     }
     w->axis = -1;
     submit(h, w, a->bridge);
     a->mv[a->n_mv++] = (int32_t)mv;
+    return true;
+}
+
+/* gait.py's Buehler clock, gait clock and leg reference, operation for operation. */
+#define GEAR 33.0
+#define PERIOD_S 0.8
+#define STANCE_SWEEP 1.0
+#define DUTY 0.5
+
+static double buehler(double phase_s)
+{
+    double k = floor(phase_s / PERIOD_S);
+    double t = phase_s - k * PERIOD_S;
+    double a;
+    if (t < DUTY * PERIOD_S) {
+        a = -STANCE_SWEEP / 2 + STANCE_SWEEP * t / (DUTY * PERIOD_S);
+    } else {
+        a = STANCE_SWEEP / 2 + (2 * PI - STANCE_SWEEP) * (t - DUTY * PERIOD_S) / ((1 - DUTY) * PERIOD_S);
+    }
+    return a + 2 * PI * k + STANCE_SWEEP / 2;
+}
+
+static double gait_clock(double t_s)
+{
+    if (t_s < PERIOD_S) {
+        return t_s;
+    }
+    double back = 2 * PERIOD_S - t_s;
+    return back > 0.0 ? back : 0.0;
+}
+
+static double leg_reference(int leg, double t_s)
+{
+    double offset = (leg == 0 || leg == 2 || leg == 4) ? 0.0 : PERIOD_S / 2;
+    return GEAR * (buehler(gait_clock(t_s) + offset) - buehler(offset));
+}
+
+/* The feedback callback of gait.py's run_gait. */
+static void gait_feedback(urbsim_chost_t *h, ch_axis_t *a, const urb_motor_feedback_t *fb, int64_t submitted)
+{
+    int64_t now = urbsim_host_local(h->w);
+    int64_t t = now - h->t0;
+    double pos = unwrap(a, fb->encoder);
+    double ts = (double)t * 1e-9;
+    double ref = leg_reference(a->leg, ts > 0.0 ? ts : 0.0);
+    double u = pd(a, ref - pos, submitted ? submitted : now);
+    if (!command(h, a, u)) {
+        return;
+    }
+    double plant[6];
+    if (urbsim_node_plant(h->w, a->node, plant) != 0 ||
+        !grow((void **)&a->log, &a->cap_log, (a->n_log + 1u) * CH_LOG_COLS, sizeof *a->log)) {
+        h->errors++;
+        return;
+    }
+    double *row = &a->log[a->n_log++ * CH_LOG_COLS];
+    row[0] = (double)t * 1e-9;
+    row[1] = ref;
+    row[2] = plant[0];
+    row[3] = fb->voltage / 1000.0;
+    row[4] = fb->current / 1000.0;
+    row[5] = plant[2];
+}
+
+/* The feedback callback of control.py's _control (or gait.py's run_gait for a gait axis). */
+static void feedback_done(urbsim_chost_t *h, xfer_t *x)
+{
+    ch_axis_t *a = &h->axis[x->axis];
+    urb_motor_feedback_t fb;
+    if (x->t.flags != URB_FLAG_NONE ||
+        urb_motor_feedback_decode(&fb, x->t.response, x->t.response_len) != (int32_t)URB_MOTOR_FEEDBACK_SIZE) {
+        a->fails++;
+        return;
+    }
+    if (a->leg >= 0) {
+        gait_feedback(h, a, &fb, x->t.submitted_ns);
+        return;
+    }
+    int64_t t = urbsim_host_local(h->w);
+    double pos = unwrap(a, fb.encoder);
+    double r = a->amp * sin(a->omega * (double)(t - h->t0) * 1e-9);
+    (void)command(h, a, pd(a, r - pos, x->t.submitted_ns ? x->t.submitted_ns : t));
 }
 
 /* One period of the application's thread (control.py's tick, then the plain reads due). */
@@ -318,6 +407,9 @@ static void loop_tick(urbsim_chost_t *h)
     int64_t t = urbsim_host_local(h->w) - h->t0;
     for (int i = 0; i < h->n_axes; i++) {
         ch_axis_t *a = &h->axis[i];
+        if (a->leg >= 0) {
+            continue; /* a gait axis logs at its feedback, not at the tick */
+        }
         double plant[6];
         if (urbsim_node_plant(h->w, a->node, plant) != 0) {
             h->errors++;
@@ -336,7 +428,7 @@ static void loop_tick(urbsim_chost_t *h)
     }
     for (int i = 0; i < h->n_reads; i++) {
         ch_read_t *r = &h->read[i];
-        if ((h->loop_runs - 1u) % r->every != 0u) {
+        if (h->loop_runs % r->every != 0u) {
             continue;
         }
         xfer_t *x = xfer_get(h);
@@ -567,9 +659,6 @@ urbsim_chost_t *urbsim_chost_new(urbsim_world_t *w)
         return NULL;
     }
     h->w = w;
-    for (int i = CH_POOL - 1; i >= 0; i--) {
-        xfer_put(h, &h->pool[i]);
-    }
     return h;
 }
 
@@ -583,6 +672,10 @@ void urbsim_chost_free(urbsim_chost_t *h)
         free(h->axis[i].spos);
         free(h->axis[i].sref);
         free(h->axis[i].mv);
+        free(h->axis[i].log);
+    }
+    for (uint32_t i = 0; i < h->n_blocks; i++) {
+        free(h->blocks[i]);
     }
     free(h->heap);
     free(h->rec);
@@ -622,9 +715,9 @@ int urbsim_chost_arm(urbsim_chost_t *h, int bridge, int64_t deadline_ns)
 }
 
 int urbsim_chost_axis(urbsim_chost_t *h, int bridge, int node, int address, double kp, double kd, double limit,
-                      double amp, double omega)
+                      double amp, double omega, int leg)
 {
-    if (!h || h->n_axes == CH_MAX_AXES || bridge < 0 || bridge >= CH_MAX_BRIDGES || !h->b[bridge].on || address < 1 ||
+    if (!h || h->n_axes == CH_MAX_AXES || leg > 5 || bridge < 0 || bridge >= CH_MAX_BRIDGES || !h->b[bridge].on || address < 1 ||
         address > 127 || !(limit > 0.0)) {
         return -1;
     }
@@ -634,8 +727,8 @@ int urbsim_chost_axis(urbsim_chost_t *h, int bridge, int node, int address, doub
     }
     ch_axis_t *a = &h->axis[h->n_axes];
     memset(a, 0, sizeof *a);
-    *a = (ch_axis_t){.bridge = bridge, .node = node, .address = (uint8_t)address, .kp = kp, .kd = kd, .limit = limit,
-                     .amp = amp, .omega = omega};
+    *a = (ch_axis_t){.bridge = bridge, .node = node, .leg = leg < 0 ? -1 : leg, .address = (uint8_t)address, .kp = kp,
+                     .kd = kd, .limit = limit, .amp = amp, .omega = omega};
     return h->n_axes++;
 }
 
@@ -696,6 +789,19 @@ int urbsim_chost_commands(urbsim_chost_t *h, int axis, uint32_t from, int32_t *m
     uint32_t n = 0;
     for (; n < cap && from + n < a->n_mv; n++) {
         mv[n] = a->mv[from + n];
+    }
+    return (int)n;
+}
+
+int urbsim_chost_log(urbsim_chost_t *h, int axis, uint32_t from, double *rows, uint32_t cap)
+{
+    if (!h || axis < 0 || axis >= h->n_axes || !rows) {
+        return -1;
+    }
+    const ch_axis_t *a = &h->axis[axis];
+    uint32_t n = 0;
+    for (; n < cap && from + n < a->n_log; n++) {
+        memcpy(&rows[n * CH_LOG_COLS], &a->log[(from + n) * CH_LOG_COLS], CH_LOG_COLS * sizeof *rows);
     }
     return (int)n;
 }

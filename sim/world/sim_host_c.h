@@ -40,11 +40,13 @@ int urbsim_chost_bridge(urbsim_chost_t *h, int bridge, int usb, int window, int 
 /** A timer the taken-over manager had armed at host time `deadline_ns` (SimManager._timer_at). 0, or -1. */
 int urbsim_chost_arm(urbsim_chost_t *h, int bridge, int64_t deadline_ns);
 /** A PD axis: the motor driver at `address` on `bridge`, its plant node `node`, gains kp (V/rad),
- *  kd (V s/rad), output limit (V), reference amp sin(omega t). Returns its index, or -1. */
+ *  kd (V s/rad), output limit (V); reference amp sin(omega t) with the true angle sampled every
+ *  period (control.py) when leg < 0, else gait.py's leg_reference for `leg` (0..5) with a row logged
+ *  per feedback (urbsim_chost_log). Returns its index, or -1. */
 int urbsim_chost_axis(urbsim_chost_t *h, int bridge, int node, int address, double kp, double kd, double limit,
-                      double amp, double omega);
-/** A plain read of `length` bytes of outbox `mailbox` at `address` on `bridge`, every `every` loop
- *  periods. Returns its index, or -1. */
+                      double amp, double omega, int leg);
+/** A plain read of `length` bytes of outbox `mailbox` at `address` on `bridge`, at every `every`-th
+ *  loop period (the every-th, the 2 every-th, ...; after the axes' reads). Returns its index, or -1. */
 int urbsim_chost_read(urbsim_chost_t *h, int bridge, int address, int mailbox, int length, int every);
 /** Start the application's thread: `count` periods of `period_ns` (host clock), the first at the
  *  next multiple of period_ns; `t0_ns` is the reference's time zero (host clock). 0, or -1. */
@@ -58,6 +60,9 @@ int urbsim_chost_advance_to(urbsim_chost_t *h, uint64_t t_v);
 int urbsim_chost_samples(urbsim_chost_t *h, int axis, uint32_t from, int64_t *t, double *pos, double *ref, uint32_t cap);
 /** Copy the commands (mV, in the order computed) [from, from + cap) of `axis`. */
 int urbsim_chost_commands(urbsim_chost_t *h, int axis, uint32_t from, int32_t *mv, uint32_t cap);
+/** Copy rows [from, from + cap) of gait axis `axis`'s log, 6 doubles each: t (s since t0), reference,
+ *  true shaft angle, measured voltage (V), measured current (A), true current (A). */
+int urbsim_chost_log(urbsim_chost_t *h, int axis, uint32_t from, double *rows, uint32_t cap);
 /** Copy the request records [from, from + cap) in submission order: what (bridge << 24 | address
  *  << 16 | mailbox << 8 | read), submitted_ns, completed_ns (URB_NO_TIME: never
  *  dispatched), flags. */

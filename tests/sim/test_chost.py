@@ -100,3 +100,25 @@ def test_fig18_19_on_the_c_host(tmp_path: Path) -> None:
     agree = [c for c in res.checks if c.name.endswith("host libraries agree")]
     assert len(agree) == 2 and all(c.passed and "requests" in c.measured for c in agree)
     assert "(on the C host library)" in res.title
+
+
+def test_fig20_on_the_c_host(tmp_path: Path) -> None:
+    """The SensoRHex topology on the C host: six legs on two USB bridges, the three slow nodes read
+    every 10 ms over RS232; the chosen gains' run agrees with the Python host library's."""
+    from urb_sim.experiments import gait
+
+    res = gait.fig20(tmp_path, quick=True, host="c")
+    assert res.passed, [(c.name, c.measured) for c in res.checks if not c.passed]
+    [agree] = [c for c in res.checks if c.name == "host libraries agree"]
+    assert agree.passed and agree.measured.endswith("equal")
+
+
+def test_the_gait_at_1_khz_agrees_while_its_queues_grow() -> None:
+    """At 1 kHz the USB downlinks cannot keep up and the requests queue for milliseconds (Fig. 20's
+    finding): the C host must still make the Python host's run, latency for latency."""
+    from urb_sim.experiments import gait
+
+    py, c = (gait.run_gait(20, 1000, 0.6, 8.0, 0.05, host=h) for h in ("python", "c"))
+    assert gait.gait_differences(py, c) == []
+    assert max(c.latency_ms) > 3.0 and len(c.slow_latency_ms) == 3 * 60  # the queues grew; the sensors were read
+    assert gait.gait_differences(py, gait.run_gait(20, 1000, 0.6, 8.5, 0.05, host="c")) != []
