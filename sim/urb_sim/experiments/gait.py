@@ -230,7 +230,8 @@ def _run_gait_c(hx: Sensorhex, rate_hz: int, seconds: float, t0: int) -> GaitRun
     legs = [[row[:5] for row in log] for log in logs]
     truth_i = [[(row[0], row[5]) for row in log] for log in logs]
     motor_at = {(b, address) for b, _, address in places}
-    lat, slow_lat = [], []
+    lat: list[float] = []
+    slow_lat: list[float] = []
     for r in chost.requests():
         if not r.read or r.done_ns is None or r.flags:
             continue
