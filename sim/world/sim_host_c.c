@@ -688,6 +688,9 @@ int urbsim_chost_bridge(urbsim_chost_t *h, int bridge, int usb, int window, int 
         frame < 1 || frame > 65535) {
         return -1;
     }
+    if (isnan(urbsim_stat(h->w, "bridge.ppm", bridge))) {
+        return -1; /* the world has no such bridge */
+    }
     ch_bridge_t *br = &h->b[bridge];
     urb_link_kind_t kind = usb ? URB_LINK_USB : URB_LINK_RS232;
     urb_core_config_t cfg;

@@ -35,7 +35,8 @@ urbsim_chost_t *urbsim_chost_new(urbsim_world_t *w);
 void urbsim_chost_free(urbsim_chost_t *h);
 /** Drive `bridge` (usb: its uplink is USB) with a core of `window` requests in flight whose next
  *  request carries sequence number `next_seq` (0..15) and, on USB, whose next OUT transfer carries
- *  frame counter `frame` (1..65535): the position of the Python core it takes over. 0, or -1. */
+ *  frame counter `frame` (1..65535): the position of the Python core it takes over. 0, or -1 (also
+ *  for a bridge the world does not have, or one already driven). */
 int urbsim_chost_bridge(urbsim_chost_t *h, int bridge, int usb, int window, int next_seq, int frame);
 /** A timer the taken-over manager had armed at host time `deadline_ns` (SimManager._timer_at). 0, or -1. */
 int urbsim_chost_arm(urbsim_chost_t *h, int bridge, int64_t deadline_ns);

@@ -162,6 +162,7 @@ static void c_host(uint64_t seed)
     expect(urbsim_chost_bridge(h, usb, 1, 15, 1, 1), 0, "urbsim_chost_bridge (usb)");
     expect(urbsim_chost_bridge(h, rs, 0, 4, 1, 1), 0, "urbsim_chost_bridge (rs232)");
     expect(urbsim_chost_bridge(h, rs, 0, 4, 1, 1), -1, "urbsim_chost_bridge (twice)");
+    expect(urbsim_chost_bridge(h, 5, 0, 4, 1, 1), -1, "urbsim_chost_bridge (no such bridge)");
     for (int i = 0; i < 6; i++) {
         expect_ok(urbsim_chost_axis(h, usb, motors[i], 0x20 + i, 5.0, 0.02, 12.0, 1.0, 3.0, i % 2 ? i : -1),
                   "urbsim_chost_axis");
