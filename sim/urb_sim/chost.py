@@ -53,11 +53,16 @@ class Request:
 def position(mgr: SimManager) -> tuple[int, int, int]:
     """(window, next sequence number, next USB frame counter) of `mgr`'s core: the reference core
     keeps them, the C core through the extension counts them (every request it was given went on
-    the wire at a quiet instant after a clean discovery, so the count of submissions is the count
-    of sequence numbers used)."""
+    the wire when none failed, so the count of submissions is the count of sequence numbers used;
+    HandOverError otherwise)."""
     core: Any = mgr.core
     seq = getattr(core, "_next_seq", None)
     if seq is None:
+        if mgr.stats.failed:
+            raise HandOverError(f"{mgr.name}: {mgr.stats.failed} request(s) failed before the hand-over, so the C "
+                                "core's count of sequence numbers used is unknown (a refused one never went out); "
+                                "hand over before any request fails, or run on the Python reference cores "
+                                "(URB_HOST_CORE=python)")
         seq = (1 + mgr.stats.submitted) % 16
     frame = getattr(core, "_frame", None)
     if frame is None:

@@ -122,3 +122,18 @@ def test_the_gait_at_1_khz_agrees_while_its_queues_grow() -> None:
     assert gait.gait_differences(py, c) == []
     assert max(c.latency_ms) > 3.0 and len(c.slow_latency_ms) == 3 * 60  # the queues grew; the sensors were read
     assert gait.gait_differences(py, gait.run_gait(20, 1000, 0.6, 8.5, 0.05, host="c")) != []
+
+
+def test_the_sequence_position_of_the_c_core_extension() -> None:
+    """The extension's core does not expose its next sequence number: it is the count of
+    submissions, which holds only while none failed (a refused request never went out)."""
+    from types import SimpleNamespace
+
+    from urb_sim.chost import position
+
+    core = SimpleNamespace(window=4, frames_written=3)  # no _next_seq, no _frame: the extension's shape
+    clean = SimpleNamespace(core=core, name="rs232-0", stats=SimpleNamespace(submitted=20, failed=0))
+    assert position(clean) == (4, 5, 4)  # type: ignore[arg-type]
+    refused = SimpleNamespace(core=core, name="rs232-0", stats=SimpleNamespace(submitted=20, failed=1))
+    with pytest.raises(HandOverError, match="1 request\\(s\\) failed before the hand-over"):
+        position(refused)  # type: ignore[arg-type]
