@@ -18,6 +18,7 @@ commands, true shaft angles and trace.
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable
 from ctypes import c_double, c_int32, c_int64, c_uint32
 from dataclasses import dataclass
@@ -70,6 +71,21 @@ def position(mgr: SimManager) -> tuple[int, int, int]:
     return int(core.window), int(seq), int(frame)
 
 
+def pending_of(system: System, fn: Callable[[], None]) -> tuple[int, bool, int]:
+    """(bridge, is a USB frame tick, timer deadline) of a pending SimHost event, which must be one
+    of its managers': a frame tick (the bound `_frame_tick`) or a timer (`_arm`'s closure over the
+    deadline); HandOverError for anything else (an application's Loop)."""
+    for b, mgr in system.managers.items():
+        if fn == mgr._frame_tick:
+            return b, True, 0
+    closure = inspect.getclosurevars(fn).nonlocals if inspect.isfunction(fn) else {}
+    for b, mgr in system.managers.items():
+        if closure.get("self") is mgr and isinstance(closure.get("deadline"), int):
+            return b, False, int(closure["deadline"])
+    raise HandOverError(f"the Python host has an application event pending ({fn!r}): stop it before handing the "
+                        "bridges to the C host")
+
+
 class CHost:
     """The C host driving every bridge of a started `System` (see the module's docstring)."""
 
@@ -77,14 +93,11 @@ class CHost:
         self.system = system
         self._lib = lib()
         world = system.world
-        pending = sum(len(m._timer_at) for m in system.managers.values())
         for b, mgr in system.managers.items():
-            if mgr.core.busy() or mgr._ticking or mgr._pending_cb:
+            if mgr.core.busy() or mgr._pending_cb:
                 raise HandOverError(f"{mgr.name}: requests are still queued or in flight; hand over at a quiet "
                                     "instant (advance the host until every request completed)")
-        if len(system.host._events) != pending:
-            raise HandOverError(f"the Python host has {len(system.host._events) - pending} application event(s) "
-                                "pending (a Loop?): stop them before handing the bridges to the C host")
+        pending = [(t_v, pending_of(system, fn)) for t_v, _, fn in sorted(system.host._events, key=lambda e: e[:2])]
         self._h = self._lib.urbsim_chost_new(world.handle())
         if not self._h:
             raise MemoryError("urbsim_chost_new failed")
@@ -93,8 +106,8 @@ class CHost:
             window, seq, frame = position(mgr)
             if self._lib.urbsim_chost_bridge(self._h, b, int(uplink == "usb"), window, seq, frame) != 0:
                 raise ValueError(f"bridge {b}: the C core refused window {window}, sequence {seq}, frame {frame}")
-            for deadline in sorted(mgr._timer_at, reverse=True):  # armed in this order: each below the last
-                self._check(self._lib.urbsim_chost_arm(self._h, b, deadline), f"arm bridge {b}")
+        for t_v, (b, frame, deadline) in pending:  # in the Python host's order: same-instant events keep it
+            self._check(self._lib.urbsim_chost_pending(self._h, b, int(frame), deadline, t_v), f"pending event of {b}")
         system.host._events.clear()  # they are the C host's now
         self._axes = 0
 

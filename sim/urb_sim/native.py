@@ -116,7 +116,7 @@ def lib() -> Any:
             "urbsim_chost_new": (c_void_p, [W]),
             "urbsim_chost_free": (None, [c_void_p]),
             "urbsim_chost_bridge": (c_int, [c_void_p, c_int, c_int, c_int, c_int, c_int]),
-            "urbsim_chost_arm": (c_int, [c_void_p, c_int, c_int64]),
+            "urbsim_chost_pending": (c_int, [c_void_p, c_int, c_int, c_int64, c_uint64]),
             "urbsim_chost_axis": (c_int, [c_void_p, c_int, c_int, c_int, c_double, c_double, c_double, c_double,
                                           c_double, c_int]),
             "urbsim_chost_log": (c_int, [c_void_p, c_int, c_uint32, POINTER(c_double), c_uint32]),

@@ -145,13 +145,8 @@ static bool ev_less(const ev_t *a, const ev_t *b)
     return a->when < b->when || (a->when == b->when && a->seq < b->seq);
 }
 
-static void call_at(urbsim_chost_t *h, int64_t when_local, uint8_t kind, int bridge, int64_t arg)
+static void ev_push(urbsim_chost_t *h, ev_t e)
 {
-    if (!grow((void **)&h->heap, &h->cap_ev, h->n_ev + 1u, sizeof(ev_t))) {
-        h->errors++;
-        return;
-    }
-    ev_t e = {urbsim_host_timer(h->w, when_local), h->seq++, arg, bridge, kind};
     uint32_t i = h->n_ev++;
     while (i > 0u) {
         uint32_t parent = (i - 1u) / 2u;
@@ -162,6 +157,16 @@ static void call_at(urbsim_chost_t *h, int64_t when_local, uint8_t kind, int bri
         i = parent;
     }
     h->heap[i] = e;
+}
+
+/* SimHost.call_at: run at the OS tick that wakes a thread sleeping until host time when_local. */
+static void call_at(urbsim_chost_t *h, int64_t when_local, uint8_t kind, int bridge, int64_t arg)
+{
+    if (!grow((void **)&h->heap, &h->cap_ev, h->n_ev + 1u, sizeof(ev_t))) {
+        h->errors++;
+        return;
+    }
+    ev_push(h, (ev_t){urbsim_host_timer(h->w, when_local), h->seq++, arg, bridge, kind});
 }
 
 static ev_t ev_pop(urbsim_chost_t *h)
@@ -707,14 +712,28 @@ int urbsim_chost_bridge(urbsim_chost_t *h, int bridge, int usb, int window, int 
     return 0;
 }
 
-int urbsim_chost_arm(urbsim_chost_t *h, int bridge, int64_t deadline_ns)
+int urbsim_chost_pending(urbsim_chost_t *h, int bridge, int frame, int64_t deadline_ns, uint64_t t_v)
 {
-    if (!h || bridge < 0 || bridge >= CH_MAX_BRIDGES || !h->b[bridge].on) {
+    if (!h || bridge < 0 || bridge >= CH_MAX_BRIDGES || !h->b[bridge].on || t_v < urbsim_now(h->w)) {
         return -1;
     }
-    uint64_t errors = h->errors;
-    arm(h, bridge, deadline_ns);
-    return h->errors == errors ? 0 : -1;
+    ch_bridge_t *br = &h->b[bridge];
+    if (frame) {
+        if (br->ticking || !br->usb) {
+            return -1;
+        }
+        br->ticking = true;
+    } else {
+        if (br->n_timers == CH_TIMERS) {
+            return -1;
+        }
+        br->timer_at[br->n_timers++] = deadline_ns;
+    }
+    if (!grow((void **)&h->heap, &h->cap_ev, h->n_ev + 1u, sizeof(ev_t))) {
+        return -1;
+    }
+    ev_push(h, (ev_t){t_v, h->seq++, deadline_ns, bridge, (uint8_t)(frame ? EV_FRAME : EV_TIMER)});
+    return 0;
 }
 
 int urbsim_chost_axis(urbsim_chost_t *h, int bridge, int node, int address, double kp, double kd, double limit,

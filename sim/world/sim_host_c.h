@@ -38,8 +38,11 @@ void urbsim_chost_free(urbsim_chost_t *h);
  *  frame counter `frame` (1..65535): the position of the Python core it takes over. 0, or -1 (also
  *  for a bridge the world does not have, or one already driven). */
 int urbsim_chost_bridge(urbsim_chost_t *h, int bridge, int usb, int window, int next_seq, int frame);
-/** A timer the taken-over manager had armed at host time `deadline_ns` (SimManager._timer_at). 0, or -1. */
-int urbsim_chost_arm(urbsim_chost_t *h, int bridge, int64_t deadline_ns);
+/** An event the taken-over host had pending for `bridge` at virtual time `t_v` (>= now): a USB frame
+ *  tick (frame != 0: SimManager._frame_tick while _ticking) or the timer armed for host time
+ *  `deadline_ns` (SimManager._timer_at). Give them in the Python host's order (its heap sorted):
+ *  events at one instant run in the order given. 0, or -1. */
+int urbsim_chost_pending(urbsim_chost_t *h, int bridge, int frame, int64_t deadline_ns, uint64_t t_v);
 /** A PD axis: the motor driver at `address` on `bridge`, its plant node `node`, gains kp (V/rad),
  *  kd (V s/rad), output limit (V); reference amp sin(omega t) with the true angle sampled every
  *  period (control.py) when leg < 0, else gait.py's leg_reference for `leg` (0..5) with a row logged

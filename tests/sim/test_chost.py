@@ -137,3 +137,15 @@ def test_the_sequence_position_of_the_c_core_extension() -> None:
     refused = SimpleNamespace(core=core, name="rs232-0", stats=SimpleNamespace(submitted=20, failed=1))
     with pytest.raises(HandOverError, match="1 request\\(s\\) failed before the hand-over"):
         position(refused)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("figure", ["fig15", "fig16"])
+def test_latency_figures_on_the_c_host(figure: str, tmp_path: Path) -> None:
+    """Figs. 15-16's periodic reads on the C host (right after discovery: over USB the hand-over
+    carries the manager's pending frame tick), agreeing with the Python host read for read."""
+    from urb_sim.experiments import latency
+
+    res = getattr(latency, figure)(tmp_path, quick=True, host="c")
+    assert res.passed, [(c.name, c.measured) for c in res.checks if not c.passed]
+    [agree] = [c for c in res.checks if c.name == "host libraries agree"]
+    assert agree.passed and agree.measured == "250 reads: equal"
