@@ -150,6 +150,17 @@ class CHost:
         return self._check(self._lib.urbsim_chost_read(self._h, bridge, address, mailbox, length, every),
                            f"read of {address:#x}/{mailbox} on bridge {bridge}")
 
+    def write(self, bridge: int, address: int, mailbox: int, data: bytes, every: int) -> int:
+        """A plain write of `data` every `every` loop periods; returns its index (plain requests go
+        out in the order they were added)."""
+        return self._check(self._lib.urbsim_chost_write(self._h, bridge, address, mailbox, data, len(data), every),
+                           f"write of {address:#x}/{mailbox} on bridge {bridge}")
+
+    def submit_write(self, bridge: int, address: int, mailbox: int, data: bytes) -> None:
+        """Submit one write now (the application's set-up, e.g. a MotorConfig)."""
+        self._check(self._lib.urbsim_chost_submit(self._h, bridge, address, mailbox, data, len(data)),
+                    f"write to {address:#x}/{mailbox} on bridge {bridge}")
+
     def loop(self, period_ns: int, count: int, t0_ns: int) -> None:
         """Start the application's thread (control.py's Loop with its tick)."""
         self._check(self._lib.urbsim_chost_loop(self._h, period_ns, count, t0_ns), "loop")

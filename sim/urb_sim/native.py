@@ -121,6 +121,8 @@ def lib() -> Any:
                                           c_double, c_int]),
             "urbsim_chost_log": (c_int, [c_void_p, c_int, c_uint32, POINTER(c_double), c_uint32]),
             "urbsim_chost_read": (c_int, [c_void_p, c_int, c_int, c_int, c_int, c_int]),
+            "urbsim_chost_write": (c_int, [c_void_p, c_int, c_int, c_int, c_char_p, c_int, c_int]),
+            "urbsim_chost_submit": (c_int, [c_void_p, c_int, c_int, c_int, c_char_p, c_int]),
             "urbsim_chost_loop": (c_int, [c_void_p, c_int64, c_uint32, c_int64]),
             "urbsim_chost_advance_to": (c_int, [c_void_p, c_uint64]),
             "urbsim_chost_samples": (c_int, [c_void_p, c_int, c_uint32, POINTER(c_int64), POINTER(c_double),

@@ -16,7 +16,7 @@
 
 #define CH_MAX_BRIDGES 8
 #define CH_MAX_AXES 16
-#define CH_MAX_READS 16
+#define CH_MAX_READS 32
 #define CH_BLOCK 256         /* transfers allocated at a time (a loop that outruns its link queues without end) */
 #define CH_MAX_BLOCKS 4096
 #define CH_TIMERS 64         /* armed timers per bridge (SimManager._timer_at) */
@@ -79,6 +79,8 @@ typedef struct {
 typedef struct {
     int bridge;
     uint8_t address, mailbox, length;
+    bool read;
+    uint8_t data[URB_HOST_MAILBOX_MAX]; /* a write's payload */
     uint32_t every;
 } ch_read_t;
 
@@ -440,7 +442,11 @@ static void loop_tick(urbsim_chost_t *h)
         if (!x) {
             return;
         }
-        urb_transfer_read(&x->t, r->address, r->mailbox, r->length);
+        if (r->read) {
+            urb_transfer_read(&x->t, r->address, r->mailbox, r->length);
+        } else {
+            urb_transfer_write(&x->t, r->address, r->mailbox, r->data, r->length);
+        }
         x->axis = -1;
         submit(h, x, r->bridge);
     }
@@ -756,12 +762,45 @@ int urbsim_chost_axis(urbsim_chost_t *h, int bridge, int node, int address, doub
 
 int urbsim_chost_read(urbsim_chost_t *h, int bridge, int address, int mailbox, int length, int every)
 {
+    return urbsim_chost_write(h, bridge, address, mailbox, NULL, length, every);
+}
+
+int urbsim_chost_write(urbsim_chost_t *h, int bridge, int address, int mailbox, const uint8_t *data, int length,
+                       int every)
+{
     if (!h || h->n_reads == CH_MAX_READS || bridge < 0 || bridge >= CH_MAX_BRIDGES || !h->b[bridge].on || address < 1 ||
         address > 127 || mailbox < 0 || mailbox > 7 || length < 1 || length > 32 || every < 1) {
         return -1;
     }
-    h->read[h->n_reads] = (ch_read_t){bridge, (uint8_t)address, (uint8_t)mailbox, (uint8_t)length, (uint32_t)every};
+    ch_read_t *r = &h->read[h->n_reads];
+    *r = (ch_read_t){.bridge = bridge, .address = (uint8_t)address, .mailbox = (uint8_t)mailbox,
+                     .length = (uint8_t)length, .read = data == NULL, .every = (uint32_t)every};
+    if (data) {
+        memcpy(r->data, data, (size_t)length);
+    }
     return h->n_reads++;
+}
+
+int urbsim_chost_submit(urbsim_chost_t *h, int bridge, int address, int mailbox, const uint8_t *data, int length)
+{
+    if (!h || bridge < 0 || bridge >= CH_MAX_BRIDGES || !h->b[bridge].on || address < 1 || address > 127 || mailbox < 0 ||
+        mailbox > 7 || length < 1 || length > 32) {
+        return -1;
+    }
+    xfer_t *x = xfer_get(h);
+    if (!x) {
+        return -1;
+    }
+    int32_t rc = data ? urb_transfer_write(&x->t, (uint8_t)address, (uint8_t)mailbox, data, (uint8_t)length)
+                      : urb_transfer_read(&x->t, (uint8_t)address, (uint8_t)mailbox, (uint8_t)length);
+    if (rc != URB_HOST_OK) {
+        xfer_put(h, x);
+        return -1;
+    }
+    x->axis = -1;
+    uint64_t errors = h->errors;
+    submit(h, x, bridge);
+    return h->errors == errors ? 0 : -1;
 }
 
 int urbsim_chost_loop(urbsim_chost_t *h, int64_t period_ns, uint32_t count, int64_t t0_ns)

@@ -52,6 +52,14 @@ int urbsim_chost_axis(urbsim_chost_t *h, int bridge, int node, int address, doub
 /** A plain read of `length` bytes of outbox `mailbox` at `address` on `bridge`, at every `every`-th
  *  loop period (the every-th, the 2 every-th, ...; after the axes' reads). Returns its index, or -1. */
 int urbsim_chost_read(urbsim_chost_t *h, int bridge, int address, int mailbox, int length, int every);
+/** A plain write of data[0 .. length - 1] to inbox `mailbox` at `address` on `bridge`, at every
+ *  `every`-th period; data NULL makes it urbsim_chost_read. Plain requests go out in the order they
+ *  were added. Returns its index, or -1. */
+int urbsim_chost_write(urbsim_chost_t *h, int bridge, int address, int mailbox, const uint8_t *data, int length,
+                       int every);
+/** Submit one request now, outside the loop (a write of data[0 .. length - 1], or a read of `length`
+ *  bytes when data is NULL), as the application's set-up does. 0, or -1. */
+int urbsim_chost_submit(urbsim_chost_t *h, int bridge, int address, int mailbox, const uint8_t *data, int length);
 /** Start the application's thread: `count` periods of `period_ns` (host clock), the first at the
  *  next multiple of period_ns; `t0_ns` is the reference's time zero (host clock). 0, or -1. */
 int urbsim_chost_loop(urbsim_chost_t *h, int64_t period_ns, uint32_t count, int64_t t0_ns);

@@ -149,3 +149,18 @@ def test_latency_figures_on_the_c_host(figure: str, tmp_path: Path) -> None:
     assert res.passed, [(c.name, c.measured) for c in res.checks if not c.passed]
     [agree] = [c for c in res.checks if c.name == "host libraries agree"]
     assert agree.passed and agree.measured == "250 reads: equal"
+
+
+def test_bandwidth_on_the_c_host(tmp_path: Path) -> None:
+    """The uplinks' and the motor workloads' limits on the C host (the motors' configuration written
+    by the C host right after discovery), the overloaded 3-motor 1-kHz load agreeing with the Python
+    host library's."""
+    from urb_sim.experiments import bandwidth
+
+    res = bandwidth.bandwidth(tmp_path, quick=True, host="c")
+    assert res.passed, [(c.name, c.measured) for c in res.checks if not c.passed]
+    [agree] = [c for c in res.checks if c.name == "host libraries agree"]
+    assert agree.passed and agree.measured.endswith("equal")
+    py, c = (bandwidth.probe_load("usb", 31, 4, 150, 600, host=h) for h in ("python", "c"))
+    assert [(r.ok, r.latency_ns) for r in py[0]] == [(r.ok, r.latency_ns) for r in c[0]] and py[1] == c[1]
+    assert sum(not r.ok for r in c[0]) > 0  # a load past the limit: its failures agree too

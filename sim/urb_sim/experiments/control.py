@@ -40,7 +40,15 @@ PAPER_LAG_MS = {"rs232": 2.0, "usb": 3.0}
 NODE_PERIOD_MS = 1.0
 PHASE_PERIODS = {"rs232": 1, "usb": 2}  #: update periods the phases can add to the paper's delay
 HOSTS = ("python", "c")  #: the host libraries a PD run can use (pd_tracking's `host`)
-HOST_ENV = "URB_SIM_HOST"  #: figs18_19's host when not given (`urb sim sensorhex --host`)
+HOST_ENV = "URB_SIM_HOST"  #: the experiments' host when not given (`urb sim sensorhex --host`)
+
+
+def resolve_host(host: str | None) -> str:
+    """The host library an experiment's loops run on: `host`, else $URB_SIM_HOST, else python."""
+    host = host or os.environ.get(HOST_ENV) or "python"
+    if host not in HOSTS:
+        raise ValueError(f"{HOST_ENV}={host!r}: use one of {', '.join(HOSTS)}")
+    return host
 
 
 @dataclass
@@ -86,9 +94,12 @@ class Axis:
         return self.pos / COUNTS_PER_RAD
 
 
+#: What every experiment's motor driver is configured with before its loop.
+ENABLE = MotorConfig(mode=MotorMode.VOLTAGE, voltage_limit=12000)
+
+
 def _enable(axis: Axis) -> None:
-    axis.node.submit_request(axis.node.new_request().write_message(
-        MotorConfig(mode=MotorMode.VOLTAGE, voltage_limit=12000)))
+    axis.node.submit_request(axis.node.new_request().write_message(ENABLE))
 
 
 def _control(sysm: System, axes: list[Axis], reference: list[object], seconds: float, t0: list[int],
@@ -310,9 +321,7 @@ def figs18_19(out: Path, *, quick: bool = False, seed: int = 18, progress: Progr
               host: str | None = None) -> Result:
     """`host`: the host library the loops run on (HOSTS; None: $URB_SIM_HOST, else "python"); the
     kept gain's run is repeated on the other one and the two must agree (urb_sim.hostcompare)."""
-    host = host or os.environ.get(HOST_ENV) or "python"
-    if host not in HOSTS:
-        raise ValueError(f"{HOST_ENV}={host!r}: use one of {', '.join(HOSTS)}")
+    host = resolve_host(host)
     other = "python" if host == "c" else "c"
     res = Result("fig18_19", "Figs. 18-19: PD position control of a hip motor at 1 kHz, RS232 and USB"
                  + (" (on the C host library)" if host == "c" else ""),

@@ -34,7 +34,6 @@ and reports what 1 kHz does next to it.
 from __future__ import annotations
 
 import math
-import os
 import statistics
 import time
 from collections.abc import Sequence
@@ -49,7 +48,7 @@ from ..native import App
 from ..system import NS_PER_MS, Loop, System
 from . import Progress, Result, no_progress, pyplot, write_csv
 from .bandwidth import breakdown_note, i2c_breakdown
-from .control import HOST_ENV, HOSTS, Axis, Pd, _enable
+from .control import Axis, Pd, _enable, resolve_host
 
 GEAR = 33.0
 PERIOD_S = 0.8          # one step (the swing then needs ~60 % of the motor's no-load speed)
@@ -349,9 +348,7 @@ def fig20(out: Path, *, quick: bool = False, seed: int = 20, progress: Progress 
           host: str | None = None) -> Result:
     """`host`: the host library the loops run on (control.HOSTS; None: $URB_SIM_HOST, else
     "python"); the chosen gains' 500-Hz run is repeated on the other one and the two must agree."""
-    host = host or os.environ.get(HOST_ENV) or "python"
-    if host not in HOSTS:
-        raise ValueError(f"{HOST_ENV}={host!r}: use one of {', '.join(HOSTS)}")
+    host = resolve_host(host)
     res = Result("fig20", "Fig. 20 and Fig. 14: tripod gait on all six legs, SensoRHex topology"
                  + (" (on the C host library)" if host == "c" else ""),
                  "six hip units under 1-kHz PD control through USB; transient currents when slowing the leg and "

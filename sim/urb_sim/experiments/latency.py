@@ -9,7 +9,6 @@ paper's "from URB request submission to callback invocation".
 from __future__ import annotations
 
 import math
-import os
 import statistics
 import time
 from collections import defaultdict
@@ -24,7 +23,7 @@ from ..chost import CHost
 from ..native import App
 from ..system import NS_PER_MS, Loop, System
 from . import Progress, Result, no_progress, profile_targets, pyplot, usb_bound, write_csv
-from .control import HOST_ENV, HOSTS
+from .control import resolve_host
 
 #: Character time at 115200 Bd, 8N1 (10 bits), ns.
 CHAR_NS = 10 * 1_000_000_000 / 115200
@@ -88,14 +87,6 @@ def _sweep(uplink: str, payloads: list[int], reads: int, seed: int, progress: Pr
         samples.extend(measure(uplink, p, reads, seed, host=host))  # one rig (seed) for every payload, as in the paper
     progress(1.0, f"{label}: done")
     return samples, time.perf_counter() - t0
-
-
-def _host(host: str | None) -> str:
-    """The host library an experiment's loops run on: `host`, else $URB_SIM_HOST, else python."""
-    host = host or os.environ.get(HOST_ENV) or "python"
-    if host not in HOSTS:
-        raise ValueError(f"{HOST_ENV}={host!r}: use one of {', '.join(HOSTS)}")
-    return host
 
 
 def _check_hosts_agree(res: Result, uplink: str, payload: int, reads: int, seed: int, host: str,
@@ -181,7 +172,7 @@ def fig15(out: Path, *, quick: bool = False, seed: int = 15, progress: Progress 
           host: str | None = None) -> Result:
     """Fig. 15: RS232 (115200 Bd) + I2C (400 kb/s), payload 1..10 bytes, 1000 reads at 1 kHz; on
     `host` (control.HOSTS; None: $URB_SIM_HOST, else python), the largest payload also on the other."""
-    host = _host(host)
+    host = resolve_host(host)
     res = Result("fig15", "Fig. 15: RS232 round-trip latency vs payload" + (" (on the C host library)" if host == "c" else ""),
                  "linear growth with payload, maximum 2 ms (half of it OS scheduling)")
     payloads = [1, 3, 5, 7, 9, 10] if quick else list(range(1, 11))
@@ -236,7 +227,7 @@ def fig15(out: Path, *, quick: bool = False, seed: int = 15, progress: Progress 
 def fig16(out: Path, *, quick: bool = False, seed: int = 16, progress: Progress = no_progress,
           host: str | None = None) -> Result:
     """Fig. 16: USB + I2C (400 kb/s), payload 1..31 bytes, 1000 reads at 1 kHz; on `host` (as fig15's)."""
-    host = _host(host)
+    host = resolve_host(host)
     res = Result("fig16", "Fig. 16: USB round-trip latency vs payload" + (" (on the C host library)" if host == "c" else ""),
                  "constant 3 ms whatever the payload (1 ms OS scheduling + 2 ms USB)")
     payloads = [1, 8, 16, 24, 31] if quick else list(range(1, 32))
