@@ -181,7 +181,10 @@ def _snapshot() -> tuple[Path, str] | None:
         archive = subprocess.run(["git", "archive", "--format=tar", "HEAD", "--", *present], cwd=REPO,
                                  capture_output=True, check=True).stdout
         with tarfile.open(fileobj=io.BytesIO(archive)) as tar:
-            tar.extractall(dest, filter="data")
+            if hasattr(tarfile, "data_filter"):  # Python >= 3.11.4; Debian 12's 3.11.2 has no filters
+                tar.extractall(dest, filter="data")
+            else:  # our own `git archive` of HEAD: regular files and folders under the listed paths
+                tar.extractall(dest)
         (dest / ".complete").write_text(repr(trees))
     return dest, key
 
