@@ -128,31 +128,13 @@ def sensorhex_native(seconds: float, seed: int = 1, motor_period_ms: int = 1) ->
 
 
 def sensorhex_python(seconds: float, seed: int = 1) -> dict[str, float]:
-    from urb_msgs.sensorhex import MotorCommand, MotorFeedback
+    from urb_sim.sensorhex_load import sensorhex_tick, wire_sensorhex
     from urb_sim.system import NS_PER_MS, Loop, System
 
     s = System(seed=seed)
-    u0, u1, rs = s.bridge("usb"), s.bridge("usb"), s.bridge("rs232")
-    for b, first in ((u0, 0), (u1, 3)):
-        for i in range(3):
-            s.node(b, App.MOTOR, 0x20 + i, first + i)
-    for a, app in ((0x30, App.BATTERY), (0x31, App.IMU), (0x32, App.IR)):
-        s.node(rs, app, a, 0)
+    wire_sensorhex(s)
     s.start()
-    motors = [s.urb.find_node("MotorDriver", i) for i in range(6)]
-    slow = [s.urb.find_node(n, 0) for n in ("BatteryManager", "Imu", "IrDistance")]
-    k = [0]
-
-    def tick() -> None:
-        k[0] += 1
-        for m in motors:
-            m.submit_request(m.new_request().read_message(MotorFeedback))
-            m.submit_request(m.new_request().write_message(MotorCommand(voltage=0)))
-        if k[0] % 10 == 0:
-            for n in slow:
-                n.submit_request(n.new_request().read(1))
-
-    Loop(s.host, NS_PER_MS, tick, count=int(seconds * 1000))
+    Loop(s.host, NS_PER_MS, sensorhex_tick(s), count=int(seconds * 1000))
     # Time spent inside the C world, measured around every urbsim_run call of this world.
     world, in_c, runs = s.world, [0.0], [0]
     run_c = world.run
