@@ -73,6 +73,7 @@ def comparison_in_a_new_process(mutant: str) -> tuple[bool, list[str]]:
     return bool(agrees), list(differences)
 
 
+# lobster-trace: urb.HOST_001
 def test_a_dropped_completion_is_caught() -> None:
     agrees, differences = comparison_in_a_new_process("CHOST_DROP_COMPLETION")
     assert not agrees
@@ -83,11 +84,6 @@ def test_a_wrong_gain_in_the_c_application_is_caught() -> None:
     agrees, differences = comparison_in_a_new_process("CHOST_WRONG_GAIN")
     assert not agrees
     assert any(d.startswith("command") for d in differences)
-
-
-if __name__ == "__main__":
-    result = compare("rs232", 18, SECONDS, 12.0, 0.05)
-    print(json.dumps([result.agrees, result.differences]))
 
 
 def test_fig18_19_on_the_c_host(tmp_path: Path) -> None:
@@ -113,6 +109,7 @@ def test_fig20_on_the_c_host(tmp_path: Path) -> None:
     assert agree.passed and agree.measured.endswith("equal")
 
 
+# lobster-trace: urb.HOST_001
 def test_the_gait_at_1_khz_agrees_while_its_queues_grow() -> None:
     """At 1 kHz the USB downlinks cannot keep up and the requests queue for milliseconds (Fig. 20's
     finding): the C host must still make the Python host's run, latency for latency."""
@@ -164,3 +161,8 @@ def test_bandwidth_on_the_c_host(tmp_path: Path) -> None:
     py, c = (bandwidth.probe_load("usb", 31, 4, 150, 600, host=h) for h in ("python", "c"))
     assert [(r.ok, r.latency_ns) for r in py[0]] == [(r.ok, r.latency_ns) for r in c[0]] and py[1] == c[1]
     assert sum(not r.ok for r in c[0]) > 0  # a load past the limit: its failures agree too
+
+
+if __name__ == "__main__":
+    result = compare("rs232", 18, SECONDS, 12.0, 0.05)
+    print(json.dumps([result.agrees, result.differences]))
