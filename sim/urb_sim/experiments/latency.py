@@ -23,7 +23,7 @@ from ..chost import CHost
 from ..native import App
 from ..system import NS_PER_MS, Loop, System
 from . import Progress, Result, no_progress, profile_targets, pyplot, usb_bound, write_csv
-from .control import resolve_host
+from .control import other_host, resolve_host
 
 #: Character time at 115200 Bd, 8N1 (10 bits), ns.
 CHAR_NS = 10 * 1_000_000_000 / 115200
@@ -94,7 +94,7 @@ def _check_hosts_agree(res: Result, uplink: str, payload: int, reads: int, seed:
     """The largest payload's run repeated on the other host library: every sample must be equal
     (urb_sim.hostcompare says why nothing may differ)."""
     mine = [x for x in samples if x.payload == payload]
-    theirs = measure(uplink, payload, reads, seed, host="python" if host == "c" else "c")
+    theirs = measure(uplink, payload, reads, seed, host=other_host(host))
     diff = next((f"read {i}: {a} and {b}" for i, (a, b) in enumerate(zip(mine, theirs)) if a != b), None)
     if diff is None and len(mine) != len(theirs):
         diff = f"{len(mine)} and {len(theirs)} reads"
