@@ -20,6 +20,7 @@ from urb.errors import ErrorFlag
 
 from .. import profiles
 from ..chost import CHost
+from ..hostcompare import first_difference
 from ..native import App
 from ..system import NS_PER_MS, Loop, System
 from . import Progress, Result, no_progress, profile_targets, pyplot, usb_bound, write_csv
@@ -95,9 +96,8 @@ def _check_hosts_agree(res: Result, uplink: str, payload: int, reads: int, seed:
     (urb_sim.hostcompare says why nothing may differ)."""
     mine = [x for x in samples if x.payload == payload]
     theirs = measure(uplink, payload, reads, seed, host=other_host(host))
-    diff = next((f"read {i}: {a} and {b}" for i, (a, b) in enumerate(zip(mine, theirs)) if a != b), None)
-    if diff is None and len(mine) != len(theirs):
-        diff = f"{len(mine)} and {len(theirs)} reads"
+    python, c = (mine, theirs) if host == "python" else (theirs, mine)
+    diff = first_difference(list(python), list(c), "read")
     res.check("host libraries agree", f"the {payload}-byte run on the Python and on the C host library: every read's "
               "latency, outcome and flags equal", f"{len(mine)} reads: " + ("equal" if diff is None else diff),
               diff is None)
