@@ -131,8 +131,9 @@ void chost_submit(urbsim_chost_t *h, xfer_t *x, int b)
     urb_transfer_t *t = &x->t;
     x->bridge = b;
     x->rec = h->n_rec++;
-    h->rec[x->rec] = (ch_rec_t){(uint32_t)b << 24 | (uint32_t)t->address << 16 | (uint32_t)t->mailbox << 8 | (t->read ? 1u : 0u),
-                                0u, urbsim_host_local(h->w), URB_NO_TIME};
+    h->rec[x->rec] = (ch_rec_t){
+        .what = (uint32_t)b << 24 | (uint32_t)t->address << 16 | (uint32_t)t->mailbox << 8 | (t->read ? 1u : 0u),
+        .submitted = urbsim_host_local(h->w), .done = URB_NO_TIME, .status = -1};
     t->user = x;
     if (urb_core_submit(&h->b[b].core, t, h->rec[x->rec].submitted) != URB_HOST_OK) {
         h->errors++;
@@ -145,6 +146,11 @@ void chost_submit(urbsim_chost_t *h, xfer_t *x, int b)
 /* A completion handed back by the core, dispatched: record it once, run its application part. */
 static void dispatch(urbsim_chost_t *h, xfer_t *x)
 {
+    if (!chost_grow((void **)&h->cb, &h->cap_cb, h->n_cb + 1u, sizeof *h->cb)) {
+        h->errors++;
+        return;
+    }
+    h->cb[h->n_cb++] = (ch_callback_t){x->rec, urbsim_now(h->w)};
     ch_rec_t *r = &h->rec[x->rec];
     if (r->done != URB_NO_TIME) {
         h->duplicates++;
@@ -152,6 +158,12 @@ static void dispatch(urbsim_chost_t *h, xfer_t *x)
     }
     r->done = x->t.completed_ns;
     r->flags = x->t.flags;
+#ifdef URBSIM_MUTANT_CHOST_LOSE_UPLINK_TIMEOUT
+    r->flags &= ~URB_FLAG_UPLINK_TIMEOUT; /* seeded bug: a lost response is reported as a bare failure */
+#endif
+    r->status = x->t.status;
+    r->len = x->t.response_len <= sizeof r->data ? x->t.response_len : 0u;
+    memcpy(r->data, x->t.response, r->len);
     h->completed++;
     if (x->axis >= 0) {
         chost_pd_done(h, x);
@@ -377,6 +389,7 @@ void urbsim_chost_free(urbsim_chost_t *h)
     }
     free(h->heap);
     free(h->rec);
+    free(h->cb);
     free(h);
 }
 
@@ -442,6 +455,15 @@ int urbsim_chost_loop(urbsim_chost_t *h, int64_t period_ns, uint32_t count, int6
     return 0;
 }
 
+int urbsim_chost_stop(urbsim_chost_t *h)
+{
+    if (!h || h->period == 0) {
+        return -1;
+    }
+    h->left = 0u;
+    return 0;
+}
+
 int urbsim_chost_advance_to(urbsim_chost_t *h, uint64_t t_v)
 {
     if (!h) {
@@ -469,6 +491,34 @@ int urbsim_chost_requests(urbsim_chost_t *h, uint32_t from, uint32_t *what, int6
     return (int)n;
 }
 
+int urbsim_chost_callbacks(urbsim_chost_t *h, uint32_t from, uint32_t *rec, uint64_t *t_v, uint32_t cap)
+{
+    if (!h || !rec || !t_v) {
+        return -1;
+    }
+    uint32_t n = 0;
+    for (; n < cap && from + n < h->n_cb; n++) {
+        rec[n] = h->cb[from + n].rec;
+        t_v[n] = h->cb[from + n].t_v;
+    }
+    return (int)n;
+}
+
+int urbsim_chost_responses(urbsim_chost_t *h, uint32_t from, int8_t *status, uint8_t *len, uint8_t *data, uint32_t cap)
+{
+    if (!h || !status || !len || !data) {
+        return -1;
+    }
+    uint32_t n = 0;
+    for (; n < cap && from + n < h->n_rec; n++) {
+        const ch_rec_t *r = &h->rec[from + n];
+        status[n] = r->status;
+        len[n] = r->len;
+        memcpy(&data[n * URB_HOST_MAILBOX_MAX], r->data, URB_HOST_MAILBOX_MAX);
+    }
+    return (int)n;
+}
+
 double urbsim_chost_stat(urbsim_chost_t *h, const char *name)
 {
     if (!h || !name) {
@@ -489,6 +539,10 @@ double urbsim_chost_stat(urbsim_chost_t *h, const char *name)
             memcpy(&v, (const char *)h + counters[i].offset, sizeof v);
             return (double)v;
         }
+    }
+    if (strncmp(name, "stray_bytes:", 12) == 0) {
+        int b = atoi(name + 12);
+        return b >= 0 && b < CH_MAX_BRIDGES && h->b[b].on ? (double)h->b[b].core.m.stray_bytes : NAN;
     }
     if (strncmp(name, "fails:", 6) == 0) {
         int axis = atoi(name + 6);

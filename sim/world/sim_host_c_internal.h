@@ -79,13 +79,21 @@ typedef struct {
     uint8_t address, mailbox, length;
     bool read;
     uint8_t data[URB_HOST_MAILBOX_MAX]; /* a write's payload */
-    uint32_t every;
+    uint32_t every, first; /* due at periods first, first + every, ... */
 } ch_read_t;
 
 typedef struct {
     uint32_t what, flags;
     int64_t submitted, done;
+    int8_t status;   /* the bridge's status byte, -1: no response reached the host */
+    uint8_t len;     /* an OK read's data: data[0 .. len - 1] */
+    uint8_t data[URB_HOST_MAILBOX_MAX];
 } ch_rec_t;
+
+typedef struct {
+    uint32_t rec; /* the request record the callback was for */
+    uint64_t t_v; /* the virtual instant it ran at */
+} ch_callback_t;
 
 struct urbsim_chost {
     urbsim_world_t *w;
@@ -107,6 +115,8 @@ struct urbsim_chost {
     /* records */
     ch_rec_t *rec;
     uint32_t n_rec, cap_rec;
+    ch_callback_t *cb; /* every dispatch, in order: the application's callbacks */
+    uint32_t n_cb, cap_cb;
     /* counters */
     uint64_t submitted, completed, duplicates, errors, wakeups, timer_runs, plain_fails;
 #ifdef URBSIM_MUTANT_CHOST_DROP_COMPLETION

@@ -12,9 +12,14 @@
 /* The plain requests due this period, in the order they were added. */
 void chost_plain_tick(urbsim_chost_t *h)
 {
-    for (int i = 0; i < h->n_reads; i++) {
+    for (int k = 0; k < h->n_reads; k++) {
+#ifdef URBSIM_MUTANT_CHOST_PLAIN_REVERSED
+        int i = h->n_reads - 1 - k; /* seeded bug: a period's plain requests go out last added first */
+#else
+        int i = k;
+#endif
         ch_read_t *r = &h->read[i];
-        if (h->loop_runs % r->every != 0u) {
+        if (h->loop_runs < r->first || (h->loop_runs - r->first) % r->every != 0u) {
             continue;
         }
         xfer_t *x = chost_xfer_get(h);
@@ -45,11 +50,21 @@ int urbsim_chost_write(urbsim_chost_t *h, int bridge, int address, int mailbox, 
     }
     ch_read_t *r = &h->read[h->n_reads];
     *r = (ch_read_t){.bridge = bridge, .address = (uint8_t)address, .mailbox = (uint8_t)mailbox,
-                     .length = (uint8_t)length, .read = data == NULL, .every = (uint32_t)every};
+                     .length = (uint8_t)length, .read = data == NULL, .every = (uint32_t)every,
+                     .first = (uint32_t)every};
     if (data) {
         memcpy(r->data, data, (size_t)length);
     }
     return h->n_reads++;
+}
+
+int urbsim_chost_first(urbsim_chost_t *h, int plain, int first)
+{
+    if (!h || plain < 0 || plain >= h->n_reads || first < 1) {
+        return -1;
+    }
+    h->read[plain].first = (uint32_t)first;
+    return 0;
 }
 
 int urbsim_chost_submit(urbsim_chost_t *h, int bridge, int address, int mailbox, const uint8_t *data, int length)
