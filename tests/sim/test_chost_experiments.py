@@ -15,6 +15,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+from urb_sim.chost import Request
 from urb_sim.experiments import faults, sync, traces
 
 T1_MS = 300  #: Table I run length of the mutant comparison: the reads start after 40 ms of settling
@@ -59,7 +60,7 @@ def test_table1_agreement_rejects_reversed_plain_requests() -> None:
     assert "read 0: Python Request(bridge=0, address=16" in measured and "C Request(bridge=0, address=17" in measured
 
 
-def test_faults_agreement_rejects_a_lost_uplink_timeout_flag(tmp_path: Path) -> None:
+def test_faults_agreement_rejects_a_lost_uplink_timeout_flag() -> None:
     passed, measured = agreement_in_a_new_process("CHOST_LOSE_UPLINK_TIMEOUT", "faults")
     assert not passed
     assert "failures: Python Counter({'UPLINK_TIMEOUT': " in measured and "C Counter()" in measured
@@ -82,7 +83,7 @@ def _mutant_agreement(experiment: str, out: Path) -> tuple[str, str, str, bool]:
         traces.record_outbox(405, traces.outbox_cycles(cycles), out, host="c")
         return traces.host_agreement("c", 400, cycles, out)
     if experiment == "table1":
-        record: list[faults.Request] = []
+        record: list[Request] = []
         kept = sync.one_run(100, True, T1_MS, host="c", record=record)
         return sync.agreement(kept, record, T1_MS, "c")
     i, sc = next((i, sc) for i, sc in enumerate(faults.scenarios()) if sc.key == "bridge_reset")
