@@ -11,9 +11,10 @@
  * while the core is busy, callbacks never nested. So a run handed over from the Python host library
  * (urbsim_chost_bridge with its sequence position) is the run the Python library would have made.
  *
- * The applications on top (sim_host_pd.c, sim_host_plain.c): the SensoRHex PD loop of sim/urb_sim/experiments/control.py (_control):
- * each period the thread samples every axis's true shaft angle, then submits a MotorFeedback read
- * per axis; the read's completion unwraps the encoder, computes u = Kp e + Kd de/dt (clamped,
+ * The applications on top: plain periodic and one-off requests (sim_host_plain.c), and the
+ * SensoRHex PD loop of sim/urb_sim/experiments/control.py (_control; sim_host_pd.c): each
+ * period the thread samples every axis's true shaft angle, then submits a MotorFeedback read per
+ * axis; the read's completion unwraps the encoder, computes u = Kp e + Kd de/dt (clamped,
  * de/dt over the reads' submission instants) against A sin(omega t) and submits the MotorCommand
  * write. Periodic plain reads (the 100-Hz sensors) can run beside it. Every request completes
  * exactly once through the core; the driver records each one's outcome.
