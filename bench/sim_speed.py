@@ -21,7 +21,7 @@
      total; then the command itself as `urb sim sensorhex --jobs N` in a child process (wall and CPU
      time, plots, report and evidence included). Goal: at least 20x real time end to end.
      `--host c` runs the loops of fig15, fig16, table1, fig18_19, fig20, bandwidth and faults and the
-     traces' bridge and outbox recordings on the C host library in the simulation (`urb sim sensorhex
+     traces' bridge and mailbox recordings on the C host library in the simulation (`urb sim sensorhex
      --host c`; each still repeats runs on the Python host, which must agree).
 
     python3 bench/sim_speed.py                # prints the tables, writes build/sim/bench/sim_speed.json

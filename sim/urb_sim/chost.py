@@ -169,6 +169,10 @@ class CHost:
         from 1; by default it starts at period `every`)."""
         self._check(self._lib.urbsim_chost_first(self._h, plain, first), f"first period {first} of request {plain}")
 
+    def counter(self, plain: int) -> None:
+        """Plain write `plain` carries the loop period's number (1, 2, ...) modulo 256 in every byte."""
+        self._check(self._lib.urbsim_chost_counter(self._h, plain), f"counter of write {plain}")
+
     def stop(self) -> None:
         """Stop the application's thread (control.py's Loop.stop): no period runs after this."""
         self._check(self._lib.urbsim_chost_stop(self._h), "stop")

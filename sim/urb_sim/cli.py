@@ -237,7 +237,7 @@ def register(sub: Any) -> None:
                         "(motors on CAN, sensors on RS485), rs485 (every node on RS485) or all")
     p.add_argument("--host", choices=["python", "c"], default="python",
                    help="the host library the loops of fig15, fig16, table1, fig18_19, fig20, bandwidth and faults, "
-                        "and traces' bridge and outbox traces, run on: python (default, the reference) or c (host/c's "
+                        "and traces' bridge and mailbox traces, run on: python (default, the reference) or c (host/c's "
                         "core in the simulation, no Python in the loop: sim/world/sim_host_c.c); either way runs of "
                         "each are repeated on the other and must agree; start-up and discovery, the other traces and "
                         "the downlink experiments run on python")

@@ -133,6 +133,7 @@ def lib() -> Any:
             "urbsim_chost_stat": (c_double, [c_void_p, c_char_p]),
             "urbsim_chost_first": (c_int, [c_void_p, c_int, c_int]),
             "urbsim_chost_stop": (c_int, [c_void_p]),
+            "urbsim_chost_counter": (c_int, [c_void_p, c_int]),
             "urbsim_chost_callbacks": (c_int, [c_void_p, c_uint32, POINTER(c_uint32), POINTER(c_uint64), c_uint32]),
             "urbsim_chost_responses": (c_int, [c_void_p, c_uint32, POINTER(c_int8), POINTER(c_uint8),
                                                POINTER(c_uint8), c_uint32]),

@@ -61,6 +61,9 @@ int urbsim_chost_write(urbsim_chost_t *h, int bridge, int address, int mailbox, 
 /** Plain request `plain` (an index urbsim_chost_read or _write returned) goes out at periods
  *  first, first + every, ... instead of every, 2 every, ... (first >= 1; periods count from 1). 0, or -1. */
 int urbsim_chost_first(urbsim_chost_t *h, int plain, int first);
+/** Plain write `plain` carries the period number (1, 2, ...) modulo 256 in every byte instead of its
+ *  data (the writes of the traces experiment's inbox trace). 0, or -1 (also for a read). */
+int urbsim_chost_counter(urbsim_chost_t *h, int plain);
 /** Submit one request now, outside the loop (a write of data[0 .. length - 1], or a read of `length`
  *  bytes when data is NULL), as the application's set-up does. 0, or -1. */
 int urbsim_chost_submit(urbsim_chost_t *h, int bridge, int address, int mailbox, const uint8_t *data, int length);

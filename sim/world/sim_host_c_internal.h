@@ -77,7 +77,7 @@ typedef struct {
 typedef struct {
     int bridge;
     uint8_t address, mailbox, length;
-    bool read;
+    bool read, counter; /* counter: a write's every byte is the period number's low byte */
     uint8_t data[URB_HOST_MAILBOX_MAX]; /* a write's payload */
     uint32_t every, first; /* due at periods first, first + every, ... */
 } ch_read_t;

@@ -29,6 +29,9 @@ void chost_plain_tick(urbsim_chost_t *h)
         if (r->read) {
             urb_transfer_read(&x->t, r->address, r->mailbox, r->length);
         } else {
+            if (r->counter) {
+                memset(r->data, (int)(h->loop_runs & 0xFFu), r->length);
+            }
             urb_transfer_write(&x->t, r->address, r->mailbox, r->data, r->length);
         }
         x->axis = -1;
@@ -64,6 +67,15 @@ int urbsim_chost_first(urbsim_chost_t *h, int plain, int first)
         return -1;
     }
     h->read[plain].first = (uint32_t)first;
+    return 0;
+}
+
+int urbsim_chost_counter(urbsim_chost_t *h, int plain)
+{
+    if (!h || plain < 0 || plain >= h->n_reads || h->read[plain].read) {
+        return -1;
+    }
+    h->read[plain].counter = true;
     return 0;
 }
 

@@ -1,4 +1,4 @@
-"""Table I, the fault scenarios and the bridge and outbox traces on the C host library (sim/world/sim_host_plain.c, urb_sim.chost),
+"""Table I, the fault scenarios and the bridge and mailbox traces on the C host library (sim/world/sim_host_plain.c, urb_sim.chost),
 each agreeing with the Python host library's run of the same seed (`urb sim sensorhex --host c`).
 
 Each has its own seeded bug of the C host, built into its own library (URBSIM_MUTANT), which the
@@ -68,10 +68,10 @@ def test_faults_agreement_rejects_a_lost_uplink_timeout_flag() -> None:
 
 def test_traces_agreement_rejects_reversed_plain_requests() -> None:
     """The bridge traces recorded on the C host differ where a period's reads and write go out in
-    another order (the outbox trace, one read a period, is the same)."""
+    another order (the mailbox traces, one request a period, are the same)."""
     passed, measured = agreement_in_a_new_process("CHOST_PLAIN_REVERSED", "traces")
     assert not passed
-    assert measured == "4 traces: differ: trace_rs232.ndjson, trace_usb.ndjson, trace_usb_ber.ndjson"
+    assert measured == "5 traces: differ: trace_rs232.ndjson, trace_usb.ndjson, trace_usb_ber.ndjson"
 
 
 def _mutant_agreement(experiment: str, out: Path) -> tuple[str, str, str, bool]:
@@ -81,6 +81,7 @@ def _mutant_agreement(experiment: str, out: Path) -> tuple[str, str, str, bool]:
         for uplink, seed, ber in (("rs232", 400, 0.0), ("usb", 401, 0.0), ("usb", 409, traces.BER)):
             traces.record(uplink, seed, cycles, out, ber=ber, host="c")
         traces.record_outbox(405, traces.outbox_cycles(cycles), out, host="c")
+        traces.record_inbox(406, traces.INBOX_WRITES, out, host="c")
         return traces.host_agreement("c", 400, cycles, out)
     if experiment == "table1":
         record: list[Request] = []

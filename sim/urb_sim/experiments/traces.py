@@ -28,14 +28,13 @@ one row is not. Every mutated trace must be rejected where its mutation is: TLC 
 before the first mutated one.
 
 Which traces depend on the host library: all of them, through the requests it makes the bridge
-serve. The bridge traces and the outbox trace are the world's (the firmware's events), so with
-`host="c"` (`urb sim sensorhex --host c`) they are recorded on the C host library (urb_sim.chost)
-and recorded again on the Python one, and must be the same byte for byte (criterion "host
-libraries agree"; the same traces, so the same TLC verdicts). The others stay on the Python host
-library: the inbox trace's writes carry a counter the C host's plain writes do not, the USB uplink
-traces are the Python library's own view (UsbCore.trace, which the C core does not log), and the
-discovery trace is the Python library's discovery (every experiment discovers through it before a
-hand-over to the C host).
+serve. The bridge traces and the mailbox (outbox, inbox) traces are the world's (the firmware's
+events), so with `host="c"` (`urb sim sensorhex --host c`) they are recorded on the C host library
+(urb_sim.chost) and recorded again on the Python one, and must be the same byte for byte (criterion
+"host libraries agree"; the same traces, so the same TLC verdicts). The others stay on the Python
+host library: the USB uplink traces are the Python library's own view (UsbCore.trace, which the C
+core does not log), and the discovery trace is the Python library's discovery (every experiment
+discovers through it before a hand-over to the C host).
 """
 
 from __future__ import annotations
@@ -160,25 +159,37 @@ INBOX_WRITES = 200  #: writes (one per millisecond) in the inbox trace
 INBOX_BER = 2e-3  # about one write in ten fails its check: the trace holds aborted writes
 
 
-def record_inbox(seed: int, cycles: int, out: Path) -> list[dict[str, int | str]]:
-    """Log inbox 1 of a probe node from power-on while the host writes it every millisecond over
-    USB, the downlink flipping bits at INBOX_BER so that some writes abort."""
+INBOX_TRACE = "trace_inbox.ndjson"
+
+
+def record_inbox(seed: int, cycles: int, out: Path, host: str = "python",
+                 name: str = INBOX_TRACE) -> list[dict[str, int | str]]:
+    """Log inbox 1 of a probe node from power-on while the host (the Python or the C host library)
+    writes it every millisecond over USB, write k filled with k's low byte, the downlink flipping
+    bits at INBOX_BER so that some writes abort; into out/`name`."""
     s = System(seed=seed, probe_out=6, probe_in=INBOX_SIZE)
     b = s.bridge("usb")
     s.node(b, App.PROBE, 0x10, 0)
-    path = out / "trace_inbox.ndjson"
+    path = out / name
     s.world.trace(path, Trace.MAILBOX | Trace.FAULT)  # from power-on: MailboxInbox.tla's Init
     s.start()
-    node = s.urb.find_node(0x7E, 0)
-    k = [0]
-
-    def tick() -> None:
-        k[0] += 1
-        node.submit_request(node.new_request().write(1, bytes([k[0] & 0xFF]) * INBOX_SIZE))
-
     s.world.i2c_ber(b, INBOX_BER)
-    Loop(s.host, NS_PER_MS, tick, count=cycles)
-    s.host.advance((cycles + 20) * NS_PER_MS)
+    if host == "c":
+        chost = CHost(s)
+        chost.counter(chost.write(b, 0x10, 1, bytes(INBOX_SIZE), 1))
+        chost.loop(NS_PER_MS, cycles, 0)
+        chost.advance_to(s.world.now + (cycles + 20) * NS_PER_MS)
+        chost.close()
+    else:
+        node = s.urb.find_node(0x7E, 0)
+        k = [0]
+
+        def tick() -> None:
+            k[0] += 1
+            node.submit_request(node.new_request().write(1, bytes([k[0] & 0xFF]) * INBOX_SIZE))
+
+        Loop(s.host, NS_PER_MS, tick, count=cycles)
+        s.host.advance((cycles + 20) * NS_PER_MS)
     s.world.flush_trace()
     events = inbox_trace(path, f"usb{b}/n16")
     s.close()
@@ -399,14 +410,15 @@ def check_mutant(res: Result, name: str, required: str, r: TraceResult, mutated:
 
 
 def host_agreement(host: str, seed: int, cycles: int, out: Path) -> tuple[str, str, str, bool]:
-    """The check that the traces recorded on `host` (the bridge traces and the outbox trace) are the
-    ones the other host library makes, byte for byte: (name, required, measured, passed)."""
+    """The check that the traces recorded on `host` (the bridge and mailbox traces) are the ones the
+    other host library makes, byte for byte: (name, required, measured, passed)."""
     other = other_host(host)
     recordings: list[tuple[str, Callable[[str, str], object]]] = [
         (bridge_trace_name("rs232"), lambda h, n: record("rs232", seed, cycles, out, host=h, name=n)),
         (bridge_trace_name("usb"), lambda h, n: record("usb", seed + 1, cycles, out, host=h, name=n)),
         (bridge_trace_name("usb", BER), lambda h, n: record("usb", seed + 9, cycles, out, ber=BER, host=h, name=n)),
         (OUTBOX_TRACE, lambda h, n: record_outbox(seed + 5, outbox_cycles(cycles), out, host=h, name=n)),
+        (INBOX_TRACE, lambda h, n: record_inbox(seed + 6, INBOX_WRITES, out, host=h, name=n)),
     ]
     differ = []
     for kept, again in recordings:
@@ -415,7 +427,7 @@ def host_agreement(host: str, seed: int, cycles: int, out: Path) -> tuple[str, s
         if (out / kept).read_bytes() != (out / name).read_bytes():
             differ.append(kept)
         (out / name).unlink()
-    return ("host libraries agree", "the bridge traces and the outbox trace recorded on the Python and on the C host "
+    return ("host libraries agree", "the bridge, outbox and inbox traces recorded on the Python and on the C host "
             "library: the same, byte for byte (so TLC's verdicts are the same)",
             f"{len(recordings)} traces: " + ("equal" if not differ else "differ: " + ", ".join(differ)), not differ)
 
@@ -427,13 +439,13 @@ def outbox_cycles(cycles: int) -> int:
 
 def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progress = no_progress,
            host: str | None = None) -> Result:
-    """`host`: the host library the bridge and outbox traces are recorded on (control.HOSTS; None:
+    """`host`: the host library the bridge and mailbox traces are recorded on (control.HOSTS; None:
     $URB_SIM_HOST, else python); they are recorded again on the other one and must be the same. The
-    inbox, USB uplink and discovery traces are the Python host library's (module docstring)."""
+    USB uplink and discovery traces are the Python host library's (module docstring)."""
     host = resolve_host(host)
     res = Result("traces",
                  "Trace validation: bridge, mailbox, USB uplink and discovery traces against spec/tla (TLC)"
-                 + (" (bridge and outbox traces on the C host library)" if host == "c" else ""),
+                 + (" (bridge and mailbox traces on the C host library)" if host == "c" else ""),
                  "the implementation follows the TLA+ specification action by action (trace validation as in "
                  "the etcd-raft and CCF projects)")
     out.mkdir(parents=True, exist_ok=True)
@@ -497,7 +509,7 @@ def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progres
     progress(1.5 / 10, "traces: recording the inbox trace")
     # quick or not, 200 writes: in 60, about one seed in twenty has no aborted write followed by
     # a lock of the other buffer, which the "aborted write visible" mutant needs
-    ibox = record_inbox(seed + 6, INBOX_WRITES, out)
+    ibox = record_inbox(seed + 6, INBOX_WRITES, out, host=host)
     aborts = sum(1 for e in ibox if e["ev"] == "abort")
     check("usb", inbox_job(ibox, INBOX_SIZE, name=f"inbox 1 of a node under I2C bit errors {INBOX_BER:g} "
                                                   "(MailboxInbox.tla)"),
@@ -603,7 +615,7 @@ def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progres
               mutant(f"discovery mutant rejected: {name}", "TLC finds no behaviour of Discovery.tla matching it",
                      first_change(disc.events, dmut.events)))
 
-    progress(3.2 / 10, f"traces: the bridge and outbox traces again, on the {other_host(host)} host library")
+    progress(3.2 / 10, f"traces: the bridge and mailbox traces again, on the {other_host(host)} host library")
     res.check(*host_agreement(host, seed, cycles, out))
     progress(3.5 / 10, f"traces: TLC checks {len(pending)} traces in one run")
     rows: list[list[object]] = []
