@@ -20,8 +20,9 @@
      wall second and per CPU second (this process's and its children's: TLC for traces), and the
      total; then the command itself as `urb sim sensorhex --jobs N` in a child process (wall and CPU
      time, plots, report and evidence included). Goal: at least 20x real time end to end.
-     `--host c` runs the loops of fig15, fig16, fig18_19, fig20 and bandwidth on the C host library
-     in the simulation (`urb sim sensorhex --host c`; each still repeats one run on the Python host).
+     `--host c` runs the loops of fig15, fig16, table1, fig18_19, fig20, bandwidth and faults and the
+     traces' bridge and mailbox recordings on the C host library in the simulation (`urb sim sensorhex
+     --host c`; each still repeats runs on the Python host, which must agree).
 
     python3 bench/sim_speed.py                # prints the tables, writes build/sim/bench/sim_speed.json
     python3 bench/sim_speed.py --quick        # shorter runs

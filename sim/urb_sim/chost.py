@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import inspect
 from collections.abc import Callable
-from ctypes import c_double, c_int32, c_int64, c_uint32
+from ctypes import c_double, c_int8, c_int32, c_int64, c_uint8, c_uint32, c_uint64
 from dataclasses import dataclass
 from typing import Any
 
@@ -32,6 +32,7 @@ from .system import System
 
 NO_TIME = -(1 << 63)
 CHUNK = 4096
+MAILBOX_MAX = 32  #: URB_HOST_MAILBOX_MAX: the bytes a request's data can hold
 
 
 class HandOverError(RuntimeError):
@@ -49,6 +50,8 @@ class Request:
     submitted_ns: int
     done_ns: int | None  #: None: never completed
     flags: int
+    status: int | None = None  #: the bridge's status byte, when a response reached the host
+    data: bytes | None = None  #: an OK read's data
 
 
 def position(mgr: SimManager) -> tuple[int, int, int]:
@@ -161,6 +164,30 @@ class CHost:
         self._check(self._lib.urbsim_chost_submit(self._h, bridge, address, mailbox, data, len(data)),
                     f"write to {address:#x}/{mailbox} on bridge {bridge}")
 
+    def first(self, plain: int, first: int) -> None:
+        """Plain request `plain` goes out at loop periods first, first + every, ... (periods count
+        from 1; by default it starts at period `every`)."""
+        self._check(self._lib.urbsim_chost_first(self._h, plain, first), f"first period {first} of request {plain}")
+
+    def counter(self, plain: int) -> None:
+        """Plain write `plain` carries the loop period's number (1, 2, ...) modulo 256 in every byte."""
+        self._check(self._lib.urbsim_chost_counter(self._h, plain), f"counter of write {plain}")
+
+    def stop(self) -> None:
+        """Stop the application's thread (control.py's Loop.stop): no period runs after this."""
+        self._check(self._lib.urbsim_chost_stop(self._h), "stop")
+
+    def callbacks(self) -> list[tuple[int, int]]:
+        """(request number in submission order, virtual instant ns) of every callback, in the order
+        they ran (a request completed twice is there twice)."""
+        out: list[tuple[int, int]] = []
+        rec, t_v = (c_uint32 * CHUNK)(), (c_uint64 * CHUNK)()
+        while True:
+            n = self._check(self._lib.urbsim_chost_callbacks(self._h, len(out), rec, t_v, CHUNK), "callbacks")
+            out.extend(zip(rec[:n], t_v[:n]))
+            if n < CHUNK:
+                return out
+
     def loop(self, period_ns: int, count: int, t0_ns: int) -> None:
         """Start the application's thread (control.py's Loop with its tick)."""
         self._check(self._lib.urbsim_chost_loop(self._h, period_ns, count, t0_ns), "loop")
@@ -195,15 +222,21 @@ class CHost:
                 return out
 
     def requests(self) -> list[Request]:
+        """Every request since the hand-over, in submission order, with its outcome."""
         out: list[Request] = []
         what, sub, done, flags = (c_uint32 * CHUNK)(), (c_int64 * CHUNK)(), (c_int64 * CHUNK)(), (c_uint32 * CHUNK)()
+        status, length, data = (c_int8 * CHUNK)(), (c_uint8 * CHUNK)(), (c_uint8 * (MAILBOX_MAX * CHUNK))()
         while True:
             n = self._check(self._lib.urbsim_chost_requests(self._h, len(out), what, sub, done, flags, CHUNK),
                             "requests")
+            self._check(self._lib.urbsim_chost_responses(self._h, len(out), status, length, data, CHUNK), "responses")
             for i in range(n):
                 w = what[i]
-                out.append(Request(w >> 24, (w >> 16) & 0xFF, (w >> 8) & 0xFF, bool(w & 1), sub[i],
-                                   None if done[i] == NO_TIME else done[i], flags[i]))
+                read, ok = bool(w & 1), done[i] != NO_TIME and flags[i] == 0
+                got = bytes(data[i * MAILBOX_MAX:i * MAILBOX_MAX + length[i]]) if read and ok else None
+                out.append(Request(w >> 24, (w >> 16) & 0xFF, (w >> 8) & 0xFF, read, sub[i],
+                                   None if done[i] == NO_TIME else done[i], flags[i],
+                                   None if status[i] < 0 else status[i], got))
             if n < CHUNK:
                 return out
 
@@ -221,5 +254,8 @@ def record_python_requests(system: System) -> list[tuple[int, Transfer]]:
 
 
 def as_requests(log: list[tuple[int, Transfer]]) -> list[Request]:
-    return [Request(b, t.address, t.mailbox, t.read, t.submitted_ns, t.completed_ns if t.done else None, int(t.flags))
+    """The Python run's record as the C host's (`CHost.requests`)."""
+    return [Request(b, t.address, t.mailbox, t.read, t.submitted_ns, t.completed_ns if t.done else None, int(t.flags),
+                    None if t.status is None else int(t.status),
+                    t.response if t.read and t.done and not t.flags else None)
             for b, t in log]

@@ -236,10 +236,11 @@ def register(sub: Any) -> None:
                    help="which SensoRHex downlinks to simulate when --only is not given: i2c (default), can "
                         "(motors on CAN, sensors on RS485), rs485 (every node on RS485) or all")
     p.add_argument("--host", choices=["python", "c"], default="python",
-                   help="the host library the loops of fig15, fig16, fig18_19, fig20 and bandwidth run on: python "
-                        "(default, the reference) or c (host/c's core in the simulation, no Python in the loop: "
-                        "sim/world/sim_host_c.c); either way one run of each is repeated on the other and must agree; "
-                        "the other experiments run on python")
+                   help="the host library the loops of fig15, fig16, table1, fig18_19, fig20, bandwidth and faults, "
+                        "and traces' bridge and mailbox traces, run on: python (default, the reference) or c (host/c's "
+                        "core in the simulation, no Python in the loop: sim/world/sim_host_c.c); either way runs of "
+                        "each are repeated on the other and must agree; start-up and discovery, the other traces and "
+                        "the downlink experiments run on python")
     p.set_defaults(run=run_sensorhex)
     w = simsub.add_parser("sweep", help=SUBCOMMANDS["sweep"], description=SWEEP_HELP,
                           formatter_class=argparse.RawDescriptionHelpFormatter)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import ctypes
 import math
-from ctypes import POINTER, c_char_p, c_double, c_int, c_int32, c_int64, c_uint8, c_uint32, c_uint64, c_void_p
+from ctypes import POINTER, c_char_p, c_double, c_int, c_int32, c_int64, c_int8, c_uint8, c_uint32, c_uint64, c_void_p
 from dataclasses import dataclass
 from enum import IntEnum
 from pathlib import Path
@@ -131,6 +131,12 @@ def lib() -> Any:
             "urbsim_chost_requests": (c_int, [c_void_p, c_uint32, POINTER(c_uint32), POINTER(c_int64),
                                               POINTER(c_int64), POINTER(c_uint32), c_uint32]),
             "urbsim_chost_stat": (c_double, [c_void_p, c_char_p]),
+            "urbsim_chost_first": (c_int, [c_void_p, c_int, c_int]),
+            "urbsim_chost_stop": (c_int, [c_void_p]),
+            "urbsim_chost_counter": (c_int, [c_void_p, c_int]),
+            "urbsim_chost_callbacks": (c_int, [c_void_p, c_uint32, POINTER(c_uint32), POINTER(c_uint64), c_uint32]),
+            "urbsim_chost_responses": (c_int, [c_void_p, c_uint32, POINTER(c_int8), POINTER(c_uint8),
+                                               POINTER(c_uint8), c_uint32]),
         }
         for name, (res, args) in sigs.items():
             fn = getattr(dll, name)

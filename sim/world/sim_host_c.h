@@ -11,9 +11,10 @@
  * while the core is busy, callbacks never nested. So a run handed over from the Python host library
  * (urbsim_chost_bridge with its sequence position) is the run the Python library would have made.
  *
- * The application on top: the SensoRHex PD loop of sim/urb_sim/experiments/control.py (_control):
- * each period the thread samples every axis's true shaft angle, then submits a MotorFeedback read
- * per axis; the read's completion unwraps the encoder, computes u = Kp e + Kd de/dt (clamped,
+ * The applications on top: plain periodic and one-off requests (sim_host_plain.c), and the
+ * SensoRHex PD loop of sim/urb_sim/experiments/control.py (_control; sim_host_pd.c): each
+ * period the thread samples every axis's true shaft angle, then submits a MotorFeedback read per
+ * axis; the read's completion unwraps the encoder, computes u = Kp e + Kd de/dt (clamped,
  * de/dt over the reads' submission instants) against A sin(omega t) and submits the MotorCommand
  * write. Periodic plain reads (the 100-Hz sensors) can run beside it. Every request completes
  * exactly once through the core; the driver records each one's outcome.
@@ -57,12 +58,21 @@ int urbsim_chost_read(urbsim_chost_t *h, int bridge, int address, int mailbox, i
  *  were added. Returns its index, or -1. */
 int urbsim_chost_write(urbsim_chost_t *h, int bridge, int address, int mailbox, const uint8_t *data, int length,
                        int every);
+/** Plain request `plain` (an index urbsim_chost_read or _write returned) goes out at periods
+ *  first, first + every, ... instead of every, 2 every, ... (first >= 1; periods count from 1). 0, or -1. */
+int urbsim_chost_first(urbsim_chost_t *h, int plain, int first);
+/** Plain write `plain` carries the period number (1, 2, ...) modulo 256 in every byte instead of its
+ *  data (the writes of the traces experiment's inbox trace). 0, or -1 (also for a read). */
+int urbsim_chost_counter(urbsim_chost_t *h, int plain);
 /** Submit one request now, outside the loop (a write of data[0 .. length - 1], or a read of `length`
  *  bytes when data is NULL), as the application's set-up does. 0, or -1. */
 int urbsim_chost_submit(urbsim_chost_t *h, int bridge, int address, int mailbox, const uint8_t *data, int length);
 /** Start the application's thread: `count` periods of `period_ns` (host clock), the first at the
  *  next multiple of period_ns; `t0_ns` is the reference's time zero (host clock). 0, or -1. */
 int urbsim_chost_loop(urbsim_chost_t *h, int64_t period_ns, uint32_t count, int64_t t0_ns);
+/** Stop the application's thread: no period runs after this one (control.py's Loop.stop). 0, or -1
+ *  when no loop was started. */
+int urbsim_chost_stop(urbsim_chost_t *h);
 /** Run the world and the host up to virtual time `t_v`. 0; -1 on a bad call or when the driver
  *  failed (out of memory, a pool exhausted, a core refusing a valid request: urbsim_chost_stat
  *  "errors" > 0). */
@@ -80,8 +90,17 @@ int urbsim_chost_log(urbsim_chost_t *h, int axis, uint32_t from, double *rows, u
  *  dispatched), flags. */
 int urbsim_chost_requests(urbsim_chost_t *h, uint32_t from, uint32_t *what, int64_t *submitted, int64_t *done,
                           uint32_t *flags, uint32_t cap);
+/** Copy the application's callbacks [from, from + cap) in the order they ran: the request record
+ *  each was for and the virtual instant (ns) it ran at; a second completion of one request is listed
+ *  too (counted in "duplicates"). Returns how many were copied (-1 bad call). */
+int urbsim_chost_callbacks(urbsim_chost_t *h, uint32_t from, uint32_t *rec, uint64_t *t_v, uint32_t cap);
+/** Copy what requests [from, from + cap) (submission order) got back: the bridge's status byte (-1:
+ *  no response reached the host), and an OK read's data, len[i] bytes at data[i * 32] (32 bytes a
+ *  request: URB_HOST_MAILBOX_MAX). */
+int urbsim_chost_responses(urbsim_chost_t *h, uint32_t from, int8_t *status, uint8_t *len, uint8_t *data, uint32_t cap);
 /** A counter: "submitted", "completed", "duplicates" (completions of a request already complete),
- *  "errors", "wakeups", "timer_runs", "loop_runs", "fails:<axis>", "plain_fails"; NaN when unknown. */
+ *  "errors", "wakeups", "timer_runs", "loop_runs", "fails:<axis>", "plain_fails", "stray_bytes:<bridge>"
+ *  (bytes its core's parser discarded: they answered no request); NaN when unknown. */
 double urbsim_chost_stat(urbsim_chost_t *h, const char *name);
 
 #endif /* URBSIM_SIM_HOST_C_H */

@@ -30,6 +30,14 @@ then) and cleared at 300 ms (or is a one-off event then). The checks:
               I2C peripheral times out (SMBus-style SCL low timeout, node.scl_timeout_ms) and the
               node library reports STUCK_BUS to the application exactly once per node.
 
+  host libraries agree   the application runs on the Python host library or, with `host="c"`
+              (`urb sim sensorhex --host c`), on the C host library (urb_sim.chost: the same
+              requests as plain periodic ones, handed over after discovery); every scenario is
+              run again on the other one (about 0.1 CPU s a run) and must agree bit for bit:
+              every request's instants, flags, bridge status and data, the callbacks' order and
+              instants, the counts, the firmware's reaction (the host's stray bytes included) and
+              the fault trace's hash (`differences`).
+
 `faults()` writes faults.csv, faults.png and, per scenario, the fault trace
 trace_<scenario>.ndjson (category "fault", from the end of discovery; see TRACE_NOTE).
 """
@@ -46,14 +54,19 @@ from pathlib import Path
 from urb.api import NodeRequest
 from urb.errors import ErrorFlag
 
+from ..chost import CHost, Request, as_requests, record_python_requests
+from ..hostcompare import first_difference
 from ..native import App, Trace
 from ..system import NS_PER_MS, Loop, System
 from . import Progress, Result, no_progress, pyplot, write_csv
+from .control import other_host, resolve_host
 
 F = ErrorFlag
 T_ON = 100 * NS_PER_MS
 T_OFF = 300 * NS_PER_MS
 T_END = 600 * NS_PER_MS
+WRITE = b"\x12\x34"  #: what the loop writes to node 1's inbox
+LOOP_FOREVER = 0xFFFFFFFF  #: the C host's loop count: it runs until stopped
 
 TRAFFIC_NOTE = ("traffic: over USB 3 reads (one per node) and 1 write per ms; over RS232 1 read per ms (the nodes "
                 "in turn) and 1 write every 5 ms")
@@ -89,13 +102,20 @@ class Outcome:
     reaction_ok: bool = False
     timeline: list[tuple[float, bool]] = field(default_factory=list)
     """(simulated ms since the loop started, ok) per callback, in callback order."""
+    requests: list[Request] = field(default_factory=list)
+    """Every request of the loop in submission order with its outcome (the host libraries' agreement)."""
+    trace_hash: int = 0
+    """The world's running trace hash at the end: every event of the fault trace."""
+    host_stray: Callable[[], int] = field(default=lambda: 0, repr=False, compare=False)
+    """The host library's count of stray bytes (its parser's discards) now."""
 
 
 Reaction = Callable[[System, int, list[int], Outcome], tuple[str, bool]]
 Action = Callable[[System, int, list[int]], None]
 
-#: Counters taken at the loop's start (bridge firmware; "host.stray_bytes": the host library's parser).
-_BASE = ("bridge.responses", "bridge.hunt_discards", "bridge.gap_drops", "host.stray_bytes")
+HOST_STRAY = "host.stray_bytes"  #: the host library's parser's discards (Outcome.host_stray)
+#: Counters taken at the loop's start (bridge firmware; HOST_STRAY: the host library's parser).
+_BASE = ("bridge.responses", "bridge.hunt_discards", "bridge.gap_drops", HOST_STRAY)
 
 
 @dataclass
@@ -111,14 +131,12 @@ class Scenario:
 
 
 def _stat(s: System, name: str, b: int) -> int:
-    if name == "host.stray_bytes":
-        return s.managers[b].core.stray_bytes
     return int(s.world.stat(name, b))
 
 
 def _since(s: System, o: Outcome, name: str, b: int) -> int:
     """Counter `name` (one of _BASE) since the loop started."""
-    return _stat(s, name, b) - o.base[name]
+    return (o.host_stray() if name == HOST_STRAY else _stat(s, name, b)) - o.base[name]
 
 
 def _uart(ber: float = 0.0, loss: float = 0.0) -> Action:
@@ -335,40 +353,39 @@ def crc8_residual_bound(detected: int, p_false: float = 1e-6) -> int:
     return k
 
 
-def run_scenario(sc: Scenario, seed: int, trace: Path | None = None, params: dict[str, float] | None = None) -> Outcome:
-    """Run one scenario; with `trace`, log its injections and the firmware's reactions there (trace
-    category "fault") from discovery on; `params` override simulation parameters."""
-    s = System(seed=seed, probe_out=6, probe_in=2, params=params or {})
-    b = s.bridge(sc.uplink)
-    nodes = [s.node(b, App.PROBE, 0x10 + i, i) for i in range(3)]
-    s.start()
-    if trace is not None:
-        s.world.trace(trace, Trace.FAULT)
+def _callback(o: Outcome, allowed: ErrorFlag, called: set[int], n: int, ms: float, flags: ErrorFlag, answered: bool,
+              read: bool, data: bytes | None) -> None:
+    """What the application's callback of request number `n` counts (the same for either host
+    library): a callback at `ms` since the loop started; its outcome once per request."""
+    o.called_back.append(n)
+    if n in called:
+        return  # its outcome is counted once; accounting() reports the repeat
+    called.add(n)
+    o.timeline.append((ms, not flags))
+    if answered:
+        o.answered += 1
+    if not flags:
+        if read and not _pattern_ok(data):
+            o.corrupt_ok += 1
+    else:
+        name = flags.describe()
+        o.failures[name] += 1
+        o.flagged.update(name.split("|"))
+        if not (flags & allowed) or flags & ~allowed:
+            o.wrong_flags[name] += 1
+
+
+def _python_loop(s: System, sc: Scenario, out: Outcome, t0: int) -> Loop:
+    """The application on the Python host library: TRAFFIC_NOTE's requests every millisecond, each
+    with a callback."""
     acc = [s.urb.find_node(0x7E, i) for i in range(3)]
-    out = Outcome(sc.key, sc.what, sc.expect_failures)
     number: dict[int, int] = {}  # id(request) -> its submission number
     alive: list[NodeRequest] = []  # keeps the requests, hence their ids, alive and unique
     called: set[int] = set()
-    t0 = s.world.now  # the time origin of the fault schedule and of the timeline
 
     def cb(req: NodeRequest) -> None:
-        n = number.get(id(req), -1)
-        out.called_back.append(n)
-        if n in called:
-            return  # its outcome is counted once; accounting() reports the repeat
-        called.add(n)
-        out.timeline.append(((s.world.now - t0) / 1e6, req.ok))
-        if req.status is not None:
-            out.answered += 1
-        if req.ok:
-            if req.is_read and not _pattern_ok(req.data):
-                out.corrupt_ok += 1
-        else:
-            name = req.flags.describe()
-            out.failures[name] += 1
-            out.flagged.update(name.split("|"))
-            if not (req.flags & sc.allowed) or req.flags & ~sc.allowed:
-                out.wrong_flags[name] += 1
+        _callback(out, sc.allowed, called, number.get(id(req), -1), (s.world.now - t0) / 1e6, req.flags,
+                  req.status is not None, req.is_read, req.data)
 
     ticks = [0]
 
@@ -376,36 +393,113 @@ def run_scenario(sc: Scenario, seed: int, trace: Path | None = None, params: dic
         k = ticks[0]
         ticks[0] += 1
         if sc.uplink == "usb":
-            reqs = [a.new_request().read(1, 6) for a in acc] + [acc[1].new_request().write(1, b"\x12\x34")]
+            reqs = [a.new_request().read(1, 6) for a in acc] + [acc[1].new_request().write(1, WRITE)]
         else:
             reqs = [acc[k % 3].new_request().read(1, 6)]
             if k % 5 == 0:
-                reqs.append(acc[1].new_request().write(1, b"\x12\x34"))
+                reqs.append(acc[1].new_request().write(1, WRITE))
         for r in reqs:
             alive.append(r)
             number[id(r)] = out.submitted
             out.submitted += 1
             r.node.submit_request(r.set_callback(cb))
 
-    out.base = {name: _stat(s, name, b) for name in _BASE}
-    loop = Loop(s.host, NS_PER_MS, tick)
-    s.host.advance_to(t0 + T_ON)
+    return Loop(s.host, NS_PER_MS, tick)
+
+
+def _c_loop(chost: CHost, uplink: str, b: int) -> None:
+    """The application of _python_loop on the C host library: its requests as plain periodic ones
+    (period k of _python_loop's tick is the C loop's period k + 1)."""
+    if uplink == "usb":
+        for i in range(3):
+            chost.read(b, 0x10 + i, 1, 6, 1)
+        chost.write(b, 0x11, 1, WRITE, 1)
+    else:
+        for i in range(3):
+            chost.first(chost.read(b, 0x10 + i, 1, 6, 3), 1 + i)
+        chost.first(chost.write(b, 0x11, 1, WRITE, 5), 1)
+    chost.loop(NS_PER_MS, LOOP_FOREVER, 0)
+
+
+def _c_callbacks(out: Outcome, allowed: ErrorFlag, callbacks: list[tuple[int, int]], t0: int) -> None:
+    """The C host's callbacks, in the order they ran, counted as _python_loop's callback counts them."""
+    called: set[int] = set()
+    for n, t_v in callbacks:
+        r = out.requests[n]
+        _callback(out, allowed, called, n, (t_v - t0) / 1e6, ErrorFlag(r.flags), r.status is not None, r.read, r.data)
+
+
+def run_scenario(sc: Scenario, seed: int, trace: Path | None = None, params: dict[str, float] | None = None,
+                 host: str = "python") -> Outcome:
+    """Run one scenario; with `trace`, log its injections and the firmware's reactions there (trace
+    category "fault") from discovery on; `params` override simulation parameters. `host`: the host
+    library the application runs on (control.HOSTS), after discovery on the Python one."""
+    s = System(seed=seed, probe_out=6, probe_in=2, params=params or {})
+    b = s.bridge(sc.uplink)
+    nodes = [s.node(b, App.PROBE, 0x10 + i, i) for i in range(3)]
+    s.start()
+    if trace is not None:
+        s.world.trace(trace, Trace.FAULT)
+    out = Outcome(sc.key, sc.what, sc.expect_failures)
+    t0 = s.world.now  # the time origin of the fault schedule and of the timeline
+    core = s.managers[b].core
+    out.host_stray = lambda: int(core.stray_bytes)
+    out.base = {name: out.host_stray() if name == HOST_STRAY else _stat(s, name, b) for name in _BASE}
+    chost: CHost | None = None
+    if host == "c":
+        chost = CHost(s)
+        c, base_stray = chost, out.base[HOST_STRAY]  # the C core counts from the hand-over, at the loop's start
+        out.host_stray = lambda: base_stray + int(c.stat(f"stray_bytes:{b}"))
+        _c_loop(chost, sc.uplink, b)
+        advance_to, stop = chost.advance_to, chost.stop
+    else:
+        log = record_python_requests(s)
+        loop = _python_loop(s, sc, out, t0)
+        advance_to, stop = s.host.advance_to, loop.stop
+    advance_to(t0 + T_ON)
     sc.inject(s, b, nodes)
-    s.host.advance_to(t0 + T_OFF)
+    advance_to(t0 + T_OFF)
     sc.clear(s, b, nodes)
-    s.host.advance_to(t0 + T_END)
-    loop.stop()
-    s.host.advance(400 * NS_PER_MS)  # every outstanding request completes or times out
+    advance_to(t0 + T_END)
+    stop()
+    advance_to(s.world.now + 400 * NS_PER_MS)  # every outstanding request completes or times out
+    if chost is not None:
+        out.requests = chost.requests()
+        out.submitted = len(out.requests)
+        _c_callbacks(out, sc.allowed, chost.callbacks(), t0)
+    else:
+        out.requests = as_requests(log)
     tail = [ok for _, ok in out.timeline[-100:]]
     out.recovered = len(tail) == 100 and all(tail)
     out.reaction, out.reaction_ok = sc.reaction(s, b, nodes, out)
     s.world.flush_trace()
+    out.trace_hash = s.world.trace_hash
+    if chost is not None:
+        chost.close()
     s.close()
     return out
 
 
-def faults(out: Path, *, quick: bool = False, seed: int = 300, progress: Progress = no_progress) -> Result:
-    res = Result("faults", "Fault injection: nothing is lost silently",
+def differences(a: Outcome, b: Outcome) -> list[str]:
+    """How two runs of one scenario (on the Python host library first) differ: every request's
+    outcome, the callbacks, the counts, the firmware's reaction and the fault trace; [] when equal."""
+    diffs = [d for d in (first_difference(list(a.requests), list(b.requests), "request"),
+                         first_difference(list(a.called_back), list(b.called_back), "callback"),
+                         first_difference(list(a.timeline), list(b.timeline), "callback instant")) if d]
+    for name in ("submitted", "failures", "wrong_flags", "answered", "base", "corrupt_ok", "recovered", "reaction",
+                 "reaction_ok", "trace_hash"):
+        if getattr(a, name) != getattr(b, name):
+            diffs.append(f"{name}: Python {getattr(a, name)}, C {getattr(b, name)}")
+    return diffs
+
+
+def faults(out: Path, *, quick: bool = False, seed: int = 300, progress: Progress = no_progress,
+           host: str | None = None) -> Result:
+    """`host`: the host library the scenarios' applications run on (control.HOSTS; None:
+    $URB_SIM_HOST, else python); every scenario is repeated on the other one and must agree."""
+    host = resolve_host(host)
+    res = Result("faults", "Fault injection: nothing is lost silently" + (" (on the C host library)" if host == "c"
+                                                                         else ""),
                  "no automatic retransmission; a failed request reaches its callback with the error flag that "
                  "names its cause (Sec. IV-C, V-D)")
     scs = scenarios()
@@ -414,8 +508,11 @@ def faults(out: Path, *, quick: bool = False, seed: int = 300, progress: Progres
     t0 = time.perf_counter()
     outcomes: list[Outcome] = []
     for i, sc in enumerate(scs):
-        progress(i / len(scs), f"faults: {sc.key}")
-        outcomes.append(run_scenario(sc, seed + i, trace=traces[i]))
+        progress(i / (2 * len(scs)), f"faults: {sc.key}")
+        outcomes.append(run_scenario(sc, seed + i, trace=traces[i], host=host))
+    for j, sc in enumerate(scs):  # a run costs about 0.1 CPU s on either host: every scenario is repeated
+        progress((len(scs) + j) / (2 * len(scs)), f"faults: {sc.key} on the {other_host(host)} host library")
+        res.check(*agreement(sc, outcomes[j], seed + j, host, out))
     progress(1.0, "faults: done")
     res.wall_s = time.perf_counter() - t0
     res.sim_s = len(scs) * 1.1
@@ -453,6 +550,21 @@ def faults(out: Path, *, quick: bool = False, seed: int = 300, progress: Progres
     res.notes.append(f"Fault injected {T_ON // NS_PER_MS} ms after the request loop starts (after discovery) and "
                      f"cleared at {T_OFF // NS_PER_MS} ms; {TRAFFIC_NOTE}. {TRACE_NOTE}")
     return res
+
+
+def agreement(sc: Scenario, kept: Outcome, seed: int, host: str, out: Path) -> tuple[str, str, str, bool]:
+    """The check that scenario `sc`'s run at `seed` (`kept`, on `host`) is the run the other host
+    library makes: (name, required, measured, passed)."""
+    other = other_host(host)
+    trace = out / f"trace_{sc.key}.{other}.ndjson"
+    again = run_scenario(sc, seed, trace=trace, host=other)
+    trace.unlink()
+    py, c = (kept, again) if host == "python" else (again, kept)
+    diffs = differences(py, c)
+    return (f"{sc.key}: host libraries agree", "the scenario on the Python and on the C host library: the same "
+            "requests (instants, flags, bridge status, data), callbacks in the same order at the same instants, "
+            "the same counts, firmware reaction and fault trace",
+            f"{c.submitted} requests: " + ("equal" if not diffs else "; ".join(diffs)), not diffs)
 
 
 def _flags_check(o: Outcome) -> tuple[str, str, bool]:

@@ -27,6 +27,11 @@ period; the oldest single read). The paper's Table I gives "Average" and "Max" o
 and does not say whether its Max is the largest per-experiment figure or the largest single
 cycle its oscilloscope saw, so both must be within it (DEFINITIONS, shown next to ours).
 
+The reads run on the Python host library or, with `host="c"` (`urb sim sensorhex --host c`), on
+the C host library (urb_sim.chost, handed over after discovery); the first synchronised run is
+repeated on the other one and must agree bit for bit: every read (instants, flags, bridge status,
+data), every mark-derived series and figure (criterion "host libraries agree").
+
 One procedure, as booted: nothing happens after discovery but the 1-kHz reads. Each node's phase
 lead is its measured acquisition time t_acq, a windowed maximum (firmware/node/README.md), so an
 acquisition that a bus interrupt preempted during the bridge's start-up scan is forgotten within 32
@@ -43,12 +48,16 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..chost import CHost, Request, as_requests, record_python_requests
+from ..hostcompare import first_difference
 from ..native import App, Mark
 from ..system import NS_PER_MS, Loop, System
 from . import Progress, Result, no_progress, profile_targets, pyplot, write_csv
+from .control import other_host, resolve_host
 
 PAPER = {"convergence_ms": (78.4, 88.4), "internode_us": (0.19, 0.56), "jitter_us": (0.92, 1.33)}
 THRESHOLD_NS = 2000
+LOOP_FOREVER = 0xFFFFFFFF  #: the C host's loop count: it runs as long as the run
 
 #: What every column of Table I means: the paper's words (Sec. VI-C and Table I's caption: "for 20
 #: experiments measuring key transitions with an oscilloscope", "Average" and "Max") next to the
@@ -131,7 +140,10 @@ def read_once(seed: int, periods: int, deltas: list[float], a_periods: list[int]
     return abs(deltas[k]), float(max(window) - min(window))
 
 
-def one_run(seed: int, synced: bool, duration_ms: int, steady_ms: int = 300) -> Run:
+def one_run(seed: int, synced: bool, duration_ms: int, steady_ms: int = 300, host: str = "python",
+            record: list[Request] | None = None) -> Run:
+    """One run of Table I's rig. `host`: the host library the 1-kHz reads run on (control.HOSTS),
+    after discovery on the Python one; `record` receives every read with its outcome."""
     s = System(seed=seed, probe_out=6, params={"node.sync": 1.0 if synced else 0.0, "bridge.heartbeat_sof": 1.0})
     b = s.bridge("usb")
     na = s.node(b, App.PROBE, 0x10, 0)
@@ -151,18 +163,35 @@ def one_run(seed: int, synced: bool, duration_ms: int, steady_ms: int = 300) -> 
     nodes = [s.urb.find_node(0x7E, 0), s.urb.find_node(0x7E, 1)]
     run = Run(seed, synced)
 
-    def on_done(req: object) -> None:
-        if not getattr(req, "ok", False):
-            run.failed_reads += 1
+    if host == "c":
+        chost = CHost(s)
+        for address in (0x10, 0x11):  # the accessors' nodes, in the order the tick reads them
+            chost.read(b, address, 1, 6, 1)
+        chost.loop(NS_PER_MS, LOOP_FOREVER, 0)
+        while s.world.now < duration_ms * NS_PER_MS:
+            chost.advance_to(s.world.now + 200 * NS_PER_MS)
+            drain()
+        requests = chost.requests()
+        run.failed_reads = sum(r.done_ns is not None and r.flags != 0 for r in requests)  # as on_done counts
+        chost.close()
+    else:
+        log = record_python_requests(s)
 
-    def tick() -> None:
-        for acc in nodes:
-            acc.submit_request(acc.new_request().read(1, 6).set_callback(on_done))
+        def on_done(req: object) -> None:
+            if not getattr(req, "ok", False):
+                run.failed_reads += 1
 
-    Loop(s.host, NS_PER_MS, tick)
-    while s.world.now < duration_ms * NS_PER_MS:
-        s.host.advance(200 * NS_PER_MS)
-        drain()
+        def tick() -> None:
+            for acc in nodes:
+                acc.submit_request(acc.new_request().read(1, 6).set_callback(on_done))
+
+        Loop(s.host, NS_PER_MS, tick)
+        while s.world.now < duration_ms * NS_PER_MS:
+            s.host.advance(200 * NS_PER_MS)
+            drain()
+        requests = as_requests(log)
+    if record is not None:
+        record.extend(requests)
     s.close()
 
     # the SYNC on the bus (channel 0) and each node's ACQ_END pin (channels 1, 2), as the scope sees them
@@ -241,8 +270,13 @@ def one_run(seed: int, synced: bool, duration_ms: int, steady_ms: int = 300) -> 
     return run
 
 
-def table1(out: Path, *, quick: bool = False, seed: int = 100, progress: Progress = no_progress) -> Result:
-    res = Result("table1", "Table I: synchronisation of two nodes on one downlink (and Fig. 11 baseline)",
+def table1(out: Path, *, quick: bool = False, seed: int = 100, progress: Progress = no_progress,
+           host: str | None = None) -> Result:
+    """`host`: the host library the reads run on (control.HOSTS; None: $URB_SIM_HOST, else python);
+    the first synchronised run is repeated on the other one and the two must agree."""
+    host = resolve_host(host)
+    res = Result("table1", "Table I: synchronisation of two nodes on one downlink (and Fig. 11 baseline)"
+                 + (" (on the C host library)" if host == "c" else ""),
                  "convergence 78.4 / 88.4 ms, inter-node difference 0.19 / 0.56 us, jitter 0.92 / 1.33 us "
                  "(average / max of 20 runs)")
     runs_n = 5 if quick else 20
@@ -252,11 +286,14 @@ def table1(out: Path, *, quick: bool = False, seed: int = 100, progress: Progres
     free: list[Run] = []
     plan = [("synchronised", synced, True), ("unsynchronised", free, False)]
     done = 0
+    kept: list[Request] = []
     for label, bucket, on in plan:
         for i in range(runs_n):
-            progress(done / (len(plan) * runs_n), f"Table I: {label} run {i + 1}/{runs_n}")
-            bucket.append(one_run(seed + i, on, duration))
+            progress(done / (len(plan) * runs_n + 1), f"Table I: {label} run {i + 1}/{runs_n}")
+            bucket.append(one_run(seed + i, on, duration, host=host, record=None if done else kept))
             done += 1
+    progress(done / (len(plan) * runs_n + 1), f"Table I: synchronised run 1 on the {other_host(host)} host library")
+    res.check(*agreement(synced[0], kept, duration, host))
     progress(1.0, "Table I: done")
     res.wall_s = time.perf_counter() - t0
     res.sim_s = len(plan) * runs_n * duration / 1000
@@ -326,6 +363,30 @@ def table1(out: Path, *, quick: bool = False, seed: int = 100, progress: Progres
     res.notes.append(f"Steady-state thresholds: {THRESHOLD_NS / 1e3:.0f} us; jitter = {jitter}; each run's figures "
                      "and worst cycles are in table1_sync_runs.csv.")
     return res
+
+
+def run_differences(py: tuple[Run, list[Request]], c: tuple[Run, list[Request]]) -> list[str]:
+    """How one run on the Python and on the C host library (each with its record of reads) differ:
+    every read (instants, flags, data) and every figure and mark-derived series; [] when equal."""
+    diffs = [d for d in (first_difference(list(py[1]), list(c[1]), "read"),
+                         first_difference(list(py[0].series), list(c[0].series), "inter-node sample"),
+                         first_difference(list(py[0].ages), list(c[0].ages), "data age")) if d]
+    figures = [f for f in vars(py[0]) if f not in ("series", "ages")]
+    diffs += [f"{f}: Python {getattr(py[0], f)!r}, C {getattr(c[0], f)!r}" for f in figures
+              if repr(getattr(py[0], f)) != repr(getattr(c[0], f))]  # repr: a NaN figure equals a NaN
+    return diffs
+
+
+def agreement(kept: Run, record: list[Request], duration_ms: int, host: str) -> tuple[str, str, str, bool]:
+    """The check that the kept run (on `host`, with its record) is the run the other host library
+    makes: (name, required, measured, passed)."""
+    again: list[Request] = []
+    other = (one_run(kept.seed, kept.synced, duration_ms, host=other_host(host), record=again), again)
+    py, c = ((kept, record), other) if host == "python" else (other, (kept, record))
+    diffs = run_differences(py, c)
+    return ("host libraries agree", "the first synchronised run on the Python and on the C host library: the same "
+            "reads (instants, flags, bridge status, data), the same marks, hence the same figures",
+            f"{len(c[1])} reads: " + ("equal" if not diffs else "; ".join(diffs)), not diffs)
 
 
 def _capture_periods() -> float:

@@ -26,6 +26,15 @@ node powered off after it and read again) is a behaviour of Discovery.tla, while
 a scan naming another identity, a duplicate flagged on one row only or two duplicates merged into
 one row is not. Every mutated trace must be rejected where its mutation is: TLC matches every event
 before the first mutated one.
+
+Which traces depend on the host library: all of them, through the requests it makes the bridge
+serve. The bridge traces and the mailbox (outbox, inbox) traces are the world's (the firmware's
+events), so with `host="c"` (`urb sim sensorhex --host c`) they are recorded on the C host library
+(urb_sim.chost) and recorded again on the Python one, and must be the same byte for byte (criterion
+"host libraries agree"; the same traces, so the same TLC verdicts). The others stay on the Python
+host library: the USB uplink traces are the Python library's own view (UsbCore.trace, which the C
+core does not log), and the discovery trace is the Python library's discovery (every experiment
+discovers through it before a hand-over to the C host).
 """
 
 from __future__ import annotations
@@ -39,6 +48,7 @@ from pathlib import Path
 from urb.api import DUPLICATE, MISMATCH
 from urb.managers.usb_core import UsbCore
 
+from ..chost import CHost
 from ..native import App, Trace
 from ..system import NS_PER_MS, Loop, System
 from ..probe import PROBE_CLASS, probe_fingerprint
@@ -47,6 +57,7 @@ from ..tracecheck import (DISCOVERY_ADDRESSES, STATUS, USB_MAX_LATENCY, Discover
                           check_jobs, discovery_job, inbox_job, inbox_trace, outbox_job, outbox_trace, usb_job,
                           usb_trace)
 from . import Progress, Result, no_progress, write_csv
+from .control import other_host, resolve_host
 
 PRESENT = {0x10: {1: 6}, 0x11: {1: 6}}
 
@@ -54,18 +65,41 @@ FAULTS = ["TIMEOUT", "CHECKSUM", "BUS_STUCK", "NODE_BUSY", "NO_NODE"]  #: Bridge
 BER = 3e-3  #: I2C bit error rate of the fault trace: about one request in four fails
 
 
-def record(uplink: str, seed: int, cycles: int, out: Path, ber: float = 0.0) -> list[Event]:
-    """Log a bridge trace: two probe nodes, reads of both and a write every third cycle at 1 kHz."""
+def bridge_trace_name(uplink: str, ber: float = 0.0) -> str:
+    return f"trace_{uplink}{'_ber' if ber else ''}.ndjson"
+
+
+def record(uplink: str, seed: int, cycles: int, out: Path, ber: float = 0.0, host: str = "python",
+           name: str | None = None) -> list[Event]:
+    """Log a bridge trace: two probe nodes, reads of both and a write every third cycle at 1 kHz,
+    on the Python or the C host library (`host`, control.HOSTS), into out/`name` (default
+    bridge_trace_name)."""
     s = System(seed=seed, probe_out=6, probe_in=6)
     b = s.bridge(uplink)
     for i in range(2):
         s.node(b, App.PROBE, 0x10 + i, i)
     s.start()  # discovery done, nothing outstanding: the trace starts from Bridge.tla's Init
     acc = [s.urb.find_node(0x7E, i) for i in range(2)]
-    path = out / f"trace_{uplink}{'_ber' if ber else ''}.ndjson"
+    path = out / (name or bridge_trace_name(uplink, ber))
     s.world.trace(path, Trace.BRIDGE | Trace.FAULT)
     if ber:
         s.world.i2c_ber(b, ber)
+    if host == "c":
+        chost = CHost(s)  # tick k of the loop below is the C loop's period k
+        if uplink == "usb":
+            chost.read(b, 0x10, 1, 6, 1)
+            chost.read(b, 0x11, 1, 6, 1)
+        else:
+            chost.first(chost.read(b, 0x11, 1, 6, 2), 1)
+            chost.read(b, 0x10, 1, 6, 2)
+        chost.write(b, 0x10, 1, b"abcdef", 3)
+        chost.loop(NS_PER_MS, cycles, 0)
+        chost.advance_to(s.world.now + (cycles + 300) * NS_PER_MS)
+        chost.close()
+        s.world.flush_trace()
+        events = bridge_trace(path, f"{uplink}{b}")
+        s.close()
+        return events
     k = [0]
 
     def tick() -> None:
@@ -87,21 +121,33 @@ def record(uplink: str, seed: int, cycles: int, out: Path, ber: float = 0.0) -> 
     return events
 
 
-def record_outbox(seed: int, cycles: int, out: Path) -> list[dict[str, int | str]]:
-    """Log outbox 1 of a probe node from power-on while the host reads it at 1 kHz over USB."""
+OUTBOX_TRACE = "trace_outbox.ndjson"
+
+
+def record_outbox(seed: int, cycles: int, out: Path, host: str = "python",
+                  name: str = OUTBOX_TRACE) -> list[dict[str, int | str]]:
+    """Log outbox 1 of a probe node from power-on while the host (the Python or the C host library)
+    reads it at 1 kHz over USB, into out/`name`."""
     s = System(seed=seed, probe_out=6, params={"probe.fill_counter": 1.0})
     b = s.bridge("usb")
     s.node(b, App.PROBE, 0x10, 0)
-    path = out / "trace_outbox.ndjson"
+    path = out / name
     s.world.trace(path, Trace.MAILBOX)  # from power-on: the trace starts in MailboxOutbox.tla's Init
     s.start()
-    node = s.urb.find_node(0x7E, 0)
+    if host == "c":
+        chost = CHost(s)
+        chost.read(b, 0x10, 1, 6, 1)
+        chost.loop(NS_PER_MS, cycles, 0)
+        chost.advance_to(s.world.now + (cycles + 20) * NS_PER_MS)
+        chost.close()
+    else:
+        node = s.urb.find_node(0x7E, 0)
 
-    def tick() -> None:
-        node.submit_request(node.new_request().read(1, 6))
+        def tick() -> None:
+            node.submit_request(node.new_request().read(1, 6))
 
-    Loop(s.host, NS_PER_MS, tick, count=cycles)
-    s.host.advance((cycles + 20) * NS_PER_MS)
+        Loop(s.host, NS_PER_MS, tick, count=cycles)
+        s.host.advance((cycles + 20) * NS_PER_MS)
     s.world.flush_trace()
     events = outbox_trace(path, f"usb{b}/n16")
     s.close()
@@ -113,25 +159,37 @@ INBOX_WRITES = 200  #: writes (one per millisecond) in the inbox trace
 INBOX_BER = 2e-3  # about one write in ten fails its check: the trace holds aborted writes
 
 
-def record_inbox(seed: int, cycles: int, out: Path) -> list[dict[str, int | str]]:
-    """Log inbox 1 of a probe node from power-on while the host writes it every millisecond over
-    USB, the downlink flipping bits at INBOX_BER so that some writes abort."""
+INBOX_TRACE = "trace_inbox.ndjson"
+
+
+def record_inbox(seed: int, cycles: int, out: Path, host: str = "python",
+                 name: str = INBOX_TRACE) -> list[dict[str, int | str]]:
+    """Log inbox 1 of a probe node from power-on while the host (the Python or the C host library)
+    writes it every millisecond over USB, write k filled with k's low byte, the downlink flipping
+    bits at INBOX_BER so that some writes abort; into out/`name`."""
     s = System(seed=seed, probe_out=6, probe_in=INBOX_SIZE)
     b = s.bridge("usb")
     s.node(b, App.PROBE, 0x10, 0)
-    path = out / "trace_inbox.ndjson"
+    path = out / name
     s.world.trace(path, Trace.MAILBOX | Trace.FAULT)  # from power-on: MailboxInbox.tla's Init
     s.start()
-    node = s.urb.find_node(0x7E, 0)
-    k = [0]
-
-    def tick() -> None:
-        k[0] += 1
-        node.submit_request(node.new_request().write(1, bytes([k[0] & 0xFF]) * INBOX_SIZE))
-
     s.world.i2c_ber(b, INBOX_BER)
-    Loop(s.host, NS_PER_MS, tick, count=cycles)
-    s.host.advance((cycles + 20) * NS_PER_MS)
+    if host == "c":
+        chost = CHost(s)
+        chost.counter(chost.write(b, 0x10, 1, bytes(INBOX_SIZE), 1))
+        chost.loop(NS_PER_MS, cycles, 0)
+        chost.advance_to(s.world.now + (cycles + 20) * NS_PER_MS)
+        chost.close()
+    else:
+        node = s.urb.find_node(0x7E, 0)
+        k = [0]
+
+        def tick() -> None:
+            k[0] += 1
+            node.submit_request(node.new_request().write(1, bytes([k[0] & 0xFF]) * INBOX_SIZE))
+
+        Loop(s.host, NS_PER_MS, tick, count=cycles)
+        s.host.advance((cycles + 20) * NS_PER_MS)
     s.world.flush_trace()
     events = inbox_trace(path, f"usb{b}/n16")
     s.close()
@@ -351,9 +409,43 @@ def check_mutant(res: Result, name: str, required: str, r: TraceResult, mutated:
               not r.accepted and r.matched_prefix >= mutated)
 
 
-def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progress = no_progress) -> Result:
+def host_agreement(host: str, seed: int, cycles: int, out: Path) -> tuple[str, str, str, bool]:
+    """The check that the traces recorded on `host` (the bridge and mailbox traces) are the ones the
+    other host library makes, byte for byte: (name, required, measured, passed)."""
+    other = other_host(host)
+    recordings: list[tuple[str, Callable[[str, str], object]]] = [
+        (bridge_trace_name("rs232"), lambda h, n: record("rs232", seed, cycles, out, host=h, name=n)),
+        (bridge_trace_name("usb"), lambda h, n: record("usb", seed + 1, cycles, out, host=h, name=n)),
+        (bridge_trace_name("usb", BER), lambda h, n: record("usb", seed + 9, cycles, out, ber=BER, host=h, name=n)),
+        (OUTBOX_TRACE, lambda h, n: record_outbox(seed + 5, outbox_cycles(cycles), out, host=h, name=n)),
+        (INBOX_TRACE, lambda h, n: record_inbox(seed + 6, INBOX_WRITES, out, host=h, name=n)),
+    ]
+    differ = []
+    for kept, again in recordings:
+        name = kept.replace(".ndjson", f".{other}.ndjson")
+        again(other, name)
+        if (out / kept).read_bytes() != (out / name).read_bytes():
+            differ.append(kept)
+        (out / name).unlink()
+    return ("host libraries agree", "the bridge, outbox and inbox traces recorded on the Python and on the C host "
+            "library: the same, byte for byte (so TLC's verdicts are the same)",
+            f"{len(recordings)} traces: " + ("equal" if not differ else "differ: " + ", ".join(differ)), not differ)
+
+
+def outbox_cycles(cycles: int) -> int:
+    """The outbox trace's reads: 60 quick (cycles 40), else 200."""
+    return 60 if cycles < 100 else 200
+
+
+def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progress = no_progress,
+           host: str | None = None) -> Result:
+    """`host`: the host library the bridge and mailbox traces are recorded on (control.HOSTS; None:
+    $URB_SIM_HOST, else python); they are recorded again on the other one and must be the same. The
+    USB uplink and discovery traces are the Python host library's (module docstring)."""
+    host = resolve_host(host)
     res = Result("traces",
-                 "Trace validation: bridge, mailbox, USB uplink and discovery traces against spec/tla (TLC)",
+                 "Trace validation: bridge, mailbox, USB uplink and discovery traces against spec/tla (TLC)"
+                 + (" (bridge and mailbox traces on the C host library)" if host == "c" else ""),
                  "the implementation follows the TLA+ specification action by action (trace validation as in "
                  "the etcd-raft and CCF projects)")
     out.mkdir(parents=True, exist_ok=True)
@@ -382,7 +474,7 @@ def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progres
 
     for i, uplink in enumerate(["rs232", "usb"]):
         progress(i / 10, f"traces: recording the {uplink} bridge trace")
-        ev = record(uplink, seed + i, cycles, out)
+        ev = record(uplink, seed + i, cycles, out, host=host)
         check(uplink, bridge_job(ev, PRESENT, name="fault-free"),
               accepted(f"{uplink} trace accepted", "TLC finds a behaviour of Bridge.tla matching every logged event "
                        "(every Bridge.tla invariant holds on its states)",
@@ -402,7 +494,7 @@ def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progres
               mutant(f"mutant rejected: {name}", "TLC finds no behaviour matching the mutated trace",
                      first_change(base, bridge_mutant)))
     progress(1 / 10, "traces: recording the outbox trace")
-    obox = record_outbox(seed + 5, 60 if quick else 200, out)
+    obox = record_outbox(seed + 5, outbox_cycles(cycles), out, host=host)
     check("usb", outbox_job(obox, 6, name="outbox 1 of a node (MailboxOutbox.tla)"),
           accepted("outbox trace accepted", "TLC finds a behaviour of MailboxOutbox.tla matching every logged "
                    "release and read byte (its invariants hold on the way)",
@@ -417,7 +509,7 @@ def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progres
     progress(1.5 / 10, "traces: recording the inbox trace")
     # quick or not, 200 writes: in 60, about one seed in twenty has no aborted write followed by
     # a lock of the other buffer, which the "aborted write visible" mutant needs
-    ibox = record_inbox(seed + 6, INBOX_WRITES, out)
+    ibox = record_inbox(seed + 6, INBOX_WRITES, out, host=host)
     aborts = sum(1 for e in ibox if e["ev"] == "abort")
     check("usb", inbox_job(ibox, INBOX_SIZE, name=f"inbox 1 of a node under I2C bit errors {INBOX_BER:g} "
                                                   "(MailboxInbox.tla)"),
@@ -431,7 +523,7 @@ def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progres
               mutant(f"inbox mutant rejected: {name}", "TLC finds no behaviour of MailboxInbox.tla matching it",
                      first_change(ibox, seeded)))
     progress(2 / 10, "traces: recording the trace under I2C bit errors")
-    ev = record("usb", seed + 9, cycles, out, ber=BER)
+    ev = record("usb", seed + 9, cycles, out, ber=BER, host=host)
     statuses = sorted({STATUS.get(e.status, "?") for e in ev if e.ev == "resp"})
     ber_events = len(ev)
     check("usb", bridge_job(ev, PRESENT, faults=FAULTS, name=f"I2C bit errors {BER:g}"),
@@ -523,6 +615,8 @@ def traces(out: Path, *, quick: bool = False, seed: int = 400, progress: Progres
               mutant(f"discovery mutant rejected: {name}", "TLC finds no behaviour of Discovery.tla matching it",
                      first_change(disc.events, dmut.events)))
 
+    progress(3.2 / 10, f"traces: the bridge and mailbox traces again, on the {other_host(host)} host library")
+    res.check(*host_agreement(host, seed, cycles, out))
     progress(3.5 / 10, f"traces: TLC checks {len(pending)} traces in one run")
     rows: list[list[object]] = []
     tlc_s: list[float] = []  # wall time of each row's TLC run, for the report's table only
