@@ -220,14 +220,14 @@ def pack(items: list[Item], buf: str, assigns: str, names: set[str] | None = Non
     return out
 
 
-def _local(member: str, names: set[str]) -> str:
+def _local(member: str, names: set[str], prefix: str = "v_") -> str:
     """A local's name for a member's value: `msg->packs[i0].voltage` -> `v_packs_voltage`,
     `msg->sizes[4u * i0 + 1u]` -> `v_sizes_1`, unique within the function."""
     path = member.removeprefix("msg->")
     path = re.sub(r"\[(?:\d+u \* i\d+ \+ )?(\d+)u\]", r"_\1", path)  # a constant or group index
     path = re.sub(r"\[\d+u \* i\d+\]", "_0", path)  # element 0 of a group
     path = re.sub(r"\[i\d+\]", "", path)  # the loop's element
-    name = "v_" + path.replace(".", "_")
+    name = prefix + path.replace(".", "_")
     unique, n = name, 2
     while unique in names:
         unique, n = f"{name}_{n}", n + 1
@@ -272,13 +272,14 @@ def _fits_width(leaf: Leaf) -> bool:
 # --- unpacking -----------------------------------------------------------------------------------
 
 
-def unpack(items: list[Item], buf: str, error: str) -> list[str]:
+def unpack(items: list[Item], buf: str, error: str, names: set[str] | None = None) -> list[str]:
     """Statements reading every member from `buf` and checking fixed values, padding, enums and
     ranges (`return error;` on the first failure).
 
     A byte that several statements read (a byte of bools, a field and the reserved bits beside it)
     is read once, into a local, first: a store to a member may alias the buffer, so a compiler
     would read the byte again after each store."""
+    names = set() if names is None else names
     pads: dict[int, tuple[At, int, list[str]]] = {}  # byte -> (offset, mask of pad bits, labels)
     uses: dict[int, int] = {}  # byte -> statements reading it
     for item in items:
@@ -308,7 +309,7 @@ def unpack(items: list[Item], buf: str, error: str) -> list[str]:
     checked: set[int] = set()
     for item in sorted(items, key=lambda it: it.at.const):
         if isinstance(item, Loop):
-            out += _unpack_loop(item, buf, error)
+            out += _unpack_loop(item, buf, error, names)
         elif isinstance(item, Pad):
             for b in _bytes_of(item):
                 if b not in checked:
@@ -317,11 +318,11 @@ def unpack(items: list[Item], buf: str, error: str) -> list[str]:
                     test = f"{reads[b]} != 0u" if mask == 0xFF else f"({reads[b]} & 0x{mask:X}u) != 0u"
                     out.append(f"if ({test}) {{ return {error}; }}  /* {', '.join(dict.fromkeys(labels))} */")
         else:
-            out += _unpack_leaf(item, reads, error)
+            out += _unpack_leaf(item, reads, error, names)
     return out
 
 
-def _unpack_loop(loop: Loop, buf: str, error: str) -> list[str]:
+def _unpack_loop(loop: Loop, buf: str, error: str, names: set[str]) -> list[str]:
     t = loop.field.type
     assert isinstance(t, ArrayType)
     # A decoder's loop writes this array only, so what was decoded before it stays known, and the
@@ -331,7 +332,7 @@ def _unpack_loop(loop: Loop, buf: str, error: str) -> list[str]:
     invariants = [f"    loop invariant \\forall integer {bound}; 0 <= {bound} < {done} ==> {fact};"
                   for _, fact in _facts(loop.field, loop.element, f"{loop.member}[{bound}]", loop.depth + 1, True)]
     written = f"{loop.var}, {loop.member}[0 .. {t.count - 1}]"
-    body = unpack(list(loop.items), buf, error)
+    body = unpack(list(loop.items), buf, error, names)
     return _loop_lines(loop, body, written, invariants)
 
 
@@ -360,7 +361,7 @@ def _raw(at: At, width: int, reads: dict[int, str]) -> str:
     return f"({' | '.join(chunks)})" if len(chunks) > 1 else chunks[0]
 
 
-def _unpack_leaf(leaf: Leaf, reads: dict[int, str], error: str) -> list[str]:
+def _unpack_leaf(leaf: Leaf, reads: dict[int, str], error: str, names: set[str]) -> list[str]:
     t, m, w = leaf.itype, leaf.member, leaf.width
     mask = (1 << w) - 1
     raw = _raw(leaf.at, w, reads)
@@ -376,9 +377,15 @@ def _unpack_leaf(leaf: Leaf, reads: dict[int, str], error: str) -> list[str]:
         return [f"{m} = (({reads[byte]} & 0x{1 << (leaf.at.const - 8 * byte):X}u) != 0u);"]
     checks = _limits(leaf, with_width=False)
     if t.signed:
-        sign = 1 << (w - 1)
-        value = f"({_ctype(t)})((int64_t)({raw} & 0x{sign - 1:X}u) - (int64_t)({raw} & 0x{sign:X}u))"
-    elif ends_in_byte or _masked(leaf, checks):
+        # raw - 2^w when the sign bit (2^(w-1)) is set, in 64 bits where no step overflows; the raw
+        # bits sit in a local because MISRA C (rule 10.8) forbids casting a composite expression to
+        # a signed type, and `(int64_t)raw / 2^(w-1)` is the sign bit without one (compilers turn
+        # the whole into one sign-extending load)
+        local = _local(m, names, "r_")
+        return [f"uint32_t const {local} = {f'({raw} & 0x{mask:X}u)' if ends_in_byte else raw};",
+                f"{m} = ({_ctype(t)})((int64_t){local} - (((int64_t){local} / {1 << (w - 1)}) * {1 << w}));",
+                *_reject(checks, error)]
+    if ends_in_byte or _masked(leaf, checks):
         value = f"({_ctype(t)})({raw} & 0x{mask:X}u)"
     else:
         value = f"({_ctype(t)}){raw}"

@@ -143,7 +143,8 @@ class CMessage:
     pack: list[str]
     unpack: list[str]
     implicit_validate: list[str]
-    implicit_pack: list[str]
+    implicit_pack: list[str]  # encode's
+    implicit_pack_decode: list[str]  # decode's (its locals named apart from the decoder's others)
     implicit_unpack: list[str]  # test support: prefix bytes -> implicit members
     payload: CPayload | None
     checksum: str | None  # C stem of the checksum functions
@@ -377,14 +378,20 @@ def _message_view(m: MessageDecl, names: _Names) -> CMessage:
     buf_fixed = f"buf[0 .. {m.fixed_size - 1}]" if m.fixed_size else ""
     fixed_items = layout(wire, m.fixed_bits, "msg->", At(0), 0)
     implicit_items = layout(implicit, m.implicit_bits, "msg->", At(0), 0)
+    # the locals each function declares, so that no two get one name: encode packs the fixed part and
+    # the implicit prefix, decode packs the prefix and unpacks the fixed part
+    encode_names: set[str] = set()
+    decode_names: set[str] = set()
+    implicit_assigns = f"prefix[0 .. {m.implicit_size - 1}]"
     return CMessage(
         decl=m, fn=fn, type=fn + "_t", macro=macro, members=members, notes=notes,
         validate=[*c_fields.validate(implicit, "msg->", "URB_ERR_RANGE"),
                   *c_fields.validate(wire, "msg->", "URB_ERR_RANGE")],
-        pack=c_fields.pack(fixed_items, "buf", buf_fixed),
-        unpack=c_fields.unpack(fixed_items, "buf", "URB_ERR_RANGE"),
+        pack=c_fields.pack(fixed_items, "buf", buf_fixed, encode_names),
+        unpack=c_fields.unpack(fixed_items, "buf", "URB_ERR_RANGE", decode_names),
         implicit_validate=c_fields.validate(implicit, "msg->", "URB_ERR_ARGUMENT"),
-        implicit_pack=c_fields.pack(implicit_items, "prefix", f"prefix[0 .. {m.implicit_size - 1}]"),
+        implicit_pack=c_fields.pack(implicit_items, "prefix", implicit_assigns, encode_names),
+        implicit_pack_decode=c_fields.pack(implicit_items, "prefix", implicit_assigns, decode_names),
         implicit_unpack=c_fields.unpack(implicit_items, "prefix", "URB_ERR_RANGE"),
         payload=payload,
         checksum=None if checksum is None else "urb_" + checksum.name,

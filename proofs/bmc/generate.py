@@ -1104,8 +1104,8 @@ def decode_mutants(info: MsgInfo, source: str, file: str) -> list[dict[str, obje
     for line in body.splitlines():
         stmt = line.strip()
         # the first read of a member's byte: in the member's statement, or in the local that holds a
-        # byte several statements read
-        if not re.match(r"(msg->[\w.\[\]]+|uint32_t const b\d+) = ", stmt):
+        # byte several statements read (b<n>) or a signed member's raw bits (r_<member>)
+        if not re.match(r"(msg->[\w.\[\]]+|uint32_t const (?:b\d+|r_\w+)) = ", stmt):
             continue
         m = re.search(r"buf\[(\d+)u\]", stmt)
         if m:
