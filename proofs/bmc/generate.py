@@ -1144,7 +1144,7 @@ def decode_mutants(info: MsgInfo, source: str, file: str) -> list[dict[str, obje
         # a width mask 2^w - 1 (w >= 2) of an unsigned member or an enum
         m = next((m for m in re.finditer(r"& 0x([0-9A-F]+)u\)", stmt)
                   if int(m.group(1), 16) >= 3 and int(m.group(1), 16) & (int(m.group(1), 16) + 1) == 0), None)
-        if m and "(int64_t)" not in stmt:
+        if m:
             mask = int(m.group(1), 16)
             new = stmt[:m.start(1)] + f"{mask >> 1:X}" + stmt[m.end(1):]
             out.append(_mut("field-mask", file, fn, stmt, new,
@@ -1731,7 +1731,8 @@ GENERATED_MUTANT_KINDS = {
     "one-nibble": "other", "table-entry": "other", "skip-last": "off-by-one", "overrun": "off-by-one",
     "index": "wrong-order", "xorout": "other", "tier-boundary": "off-by-one", "covered": "other", "no-prefix": "other",
     "payload-off-by-one": "off-by-one", "tier-test": "other", "no-rule-check": "dropped-error",
-    "no-caller-rule-check": "dropped-error",
+    "no-caller-rule-check": "dropped-error", "piece-shift": "off-by-one", "bool-bit": "wrong-field",
+    "field-mask": "off-by-one",
 }
 
 

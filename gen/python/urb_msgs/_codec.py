@@ -27,7 +27,7 @@ from typing import Any
 
 from ._runtime import Message
 
-FINGERPRINT = "99393918688b0a31"
+FINGERPRINT = "6025d0b7c1280fe0"
 """The generated sources the extension must be built from (its own FINGERPRINT)."""
 MODULES = ("urb_core", "urb_can_wire", "urb_rs485_wire", "sensorhex", )
 """The schema modules whose classes it serves."""
