@@ -11,7 +11,7 @@ the bytes of that integer directly, with constant shifts and masks:
 * Unpacking reads a field from the bytes it spans, each shifted into place, with one constant mask
   where a neighbour's bits follow the field in its last byte, or where WP needs a constant mask to
   bound the member (`_masked`). Signed members are sign-extended as
-  `(raw > 2^(w-1) - 1) ? (raw - 2^w) : raw` in signed arithmetic that no value can overflow
+  `(raw > 2^(w-1) - 1) ? (raw - 2^w) : raw` in 64-bit arithmetic that no value can overflow
   (compilers reduce it to one sign-extending load). Reserved bits and gaps are checked per byte,
   all bits of a byte at once.
 * An array is a loop over groups of g elements, g = 8 / gcd(element width, 8): the fewest elements
@@ -378,16 +378,15 @@ def _unpack_leaf(leaf: Leaf, reads: dict[int, str], error: str, names: set[str])
     checks = _limits(leaf, with_width=False)
     if t.signed:
         # raw - 2^w when raw is above the largest positive value 2^(w-1) - 1: a comparison and one
-        # subtraction, linear arithmetic that WP's provers settle at once (they fail on goals with
-        # bit operators), without a bit operator on a signed value (MISRA C rule 10.1). The raw bits
-        # sit in a local because MISRA C (rule 10.8) forbids casting a composite expression to a
-        # signed type; the signed arithmetic is 32-bit below w = 32 (fast on Cortex-M0) and 64-bit
-        # at w = 32, where raw may exceed INT32_MAX. gcc -O2 makes the whole one sign-extending load.
+        # subtraction, without a bit operator on a signed value (MISRA C rule 10.1). In 64 bits no
+        # uint32_t raw can make the subtraction overflow, so WP's overflow goal needs no bound on
+        # raw (which would take reasoning about the | and << that assemble it: z3 and cvc4 fail
+        # there). The raw bits sit in a local because MISRA C (rule 10.8) forbids casting a
+        # composite expression to a signed type. gcc -O2 makes the whole one sign-extending load.
         local = _local(m, names, "r_")
-        wide = "int32_t" if w < 32 else "int64_t"
         return [f"uint32_t const {local} = {f'({raw} & 0x{mask:X}u)' if ends_in_byte else raw};",
                 f"{m} = ({_ctype(t)})(({local} > 0x{(1 << (w - 1)) - 1:X}u) ? "
-                f"(({wide}){local} - {1 << w}) : ({wide}){local});",
+                f"((int64_t){local} - {1 << w}) : (int64_t){local});",
                 *_reject(checks, error)]
     if ends_in_byte or _masked(leaf, checks):
         value = f"({_ctype(t)})({raw} & 0x{mask:X}u)"

@@ -48,9 +48,9 @@ int32_t urb_motor_feedback_decode(urb_motor_feedback_t *msg, const uint8_t *buf,
     }
     msg->encoder = (uint16_t)((uint32_t)buf[0u] | ((uint32_t)buf[1u] << 8u));
     uint32_t const r_current = ((uint32_t)buf[2u] | ((uint32_t)buf[3u] << 8u));
-    msg->current = (int16_t)((r_current > 0x7FFFu) ? ((int32_t)r_current - 65536) : (int32_t)r_current);
+    msg->current = (int16_t)((r_current > 0x7FFFu) ? ((int64_t)r_current - 65536) : (int64_t)r_current);
     uint32_t const r_voltage = ((uint32_t)buf[4u] | ((uint32_t)buf[5u] << 8u));
-    msg->voltage = (int16_t)((r_voltage > 0x7FFFu) ? ((int32_t)r_voltage - 65536) : (int32_t)r_voltage);
+    msg->voltage = (int16_t)((r_voltage > 0x7FFFu) ? ((int64_t)r_voltage - 65536) : (int64_t)r_voltage);
     return (int32_t)length;
 }
 
@@ -84,7 +84,7 @@ int32_t urb_motor_command_decode(urb_motor_command_t *msg, const uint8_t *buf, s
         return URB_ERR_LONG;
     }
     uint32_t const r_voltage = ((uint32_t)buf[0u] | ((uint32_t)buf[1u] << 8u));
-    msg->voltage = (int16_t)((r_voltage > 0x7FFFu) ? ((int32_t)r_voltage - 65536) : (int32_t)r_voltage);
+    msg->voltage = (int16_t)((r_voltage > 0x7FFFu) ? ((int64_t)r_voltage - 65536) : (int64_t)r_voltage);
     return (int32_t)length;
 }
 
@@ -123,7 +123,7 @@ int32_t urb_motor_status_decode(urb_motor_status_t *msg, const uint8_t *buf, siz
     }
     uint32_t const b2 = (uint32_t)buf[2u];
     uint32_t const r_case_temp = ((uint32_t)buf[0u] | ((uint32_t)buf[1u] << 8u));
-    msg->case_temp = (int16_t)((r_case_temp > 0x7FFFu) ? ((int32_t)r_case_temp - 65536) : (int32_t)r_case_temp);
+    msg->case_temp = (int16_t)((r_case_temp > 0x7FFFu) ? ((int64_t)r_case_temp - 65536) : (int64_t)r_case_temp);
     msg->mode = (uint8_t)(b2 & 0x3u);
     if (!urb_motor_mode_is_valid(msg->mode)) { return URB_ERR_RANGE; }
     msg->hall = ((b2 & 0x4u) != 0u);
@@ -228,12 +228,12 @@ int32_t urb_battery_pack_decode(urb_battery_pack_t *msg, const uint8_t *buf, siz
     uint32_t const b4 = (uint32_t)buf[4u];
     msg->voltage = (uint16_t)((uint32_t)buf[0u] | ((uint32_t)buf[1u] << 8u));
     uint32_t const r_current = ((uint32_t)buf[2u] | ((uint32_t)buf[3u] << 8u));
-    msg->current = (int16_t)((r_current > 0x7FFFu) ? ((int32_t)r_current - 65536) : (int32_t)r_current);
+    msg->current = (int16_t)((r_current > 0x7FFFu) ? ((int64_t)r_current - 65536) : (int64_t)r_current);
     msg->charge = (uint8_t)(b4 & 0x7Fu);
     if (msg->charge > 100u) { return URB_ERR_RANGE; }
     msg->present = ((b4 & 0x80u) != 0u);
     uint32_t const r_temp = (uint32_t)buf[5u];
-    msg->temp = (int8_t)((r_temp > 0x7Fu) ? ((int32_t)r_temp - 256) : (int32_t)r_temp);
+    msg->temp = (int8_t)((r_temp > 0x7Fu) ? ((int64_t)r_temp - 256) : (int64_t)r_temp);
     return (int32_t)length;
 }
 
@@ -293,12 +293,12 @@ int32_t urb_battery_status_decode(urb_battery_status_t *msg, const uint8_t *buf,
         uint32_t const b4 = (uint32_t)buf[6u * i0 + 4u];
         msg->packs[i0].voltage = (uint16_t)((uint32_t)buf[6u * i0] | ((uint32_t)buf[6u * i0 + 1u] << 8u));
         uint32_t const r_packs_current = ((uint32_t)buf[6u * i0 + 2u] | ((uint32_t)buf[6u * i0 + 3u] << 8u));
-        msg->packs[i0].current = (int16_t)((r_packs_current > 0x7FFFu) ? ((int32_t)r_packs_current - 65536) : (int32_t)r_packs_current);
+        msg->packs[i0].current = (int16_t)((r_packs_current > 0x7FFFu) ? ((int64_t)r_packs_current - 65536) : (int64_t)r_packs_current);
         msg->packs[i0].charge = (uint8_t)(b4 & 0x7Fu);
         if (msg->packs[i0].charge > 100u) { return URB_ERR_RANGE; }
         msg->packs[i0].present = ((b4 & 0x80u) != 0u);
         uint32_t const r_packs_temp = (uint32_t)buf[6u * i0 + 5u];
-        msg->packs[i0].temp = (int8_t)((r_packs_temp > 0x7Fu) ? ((int32_t)r_packs_temp - 256) : (int32_t)r_packs_temp);
+        msg->packs[i0].temp = (int8_t)((r_packs_temp > 0x7Fu) ? ((int64_t)r_packs_temp - 256) : (int64_t)r_packs_temp);
     }
     msg->low = ((b18 & 0x1u) != 0u);
     msg->charging = ((b18 & 0x2u) != 0u);
@@ -355,17 +355,17 @@ int32_t urb_imu_sample_decode(urb_imu_sample_t *msg, const uint8_t *buf, size_t 
         loop variant 3 - i0; */
     for (size_t i0 = 0u; i0 < 3u; i0++) {
         uint32_t const r_accel = ((uint32_t)buf[2u * i0] | ((uint32_t)buf[2u * i0 + 1u] << 8u));
-        msg->accel[i0] = (int16_t)((r_accel > 0x7FFFu) ? ((int32_t)r_accel - 65536) : (int32_t)r_accel);
+        msg->accel[i0] = (int16_t)((r_accel > 0x7FFFu) ? ((int64_t)r_accel - 65536) : (int64_t)r_accel);
     }
     /*@ loop invariant 0 <= i0 <= 3;
         loop assigns i0, msg->gyro[0 .. 2];
         loop variant 3 - i0; */
     for (size_t i0 = 0u; i0 < 3u; i0++) {
         uint32_t const r_gyro = ((uint32_t)buf[2u * i0 + 6u] | ((uint32_t)buf[2u * i0 + 7u] << 8u));
-        msg->gyro[i0] = (int16_t)((r_gyro > 0x7FFFu) ? ((int32_t)r_gyro - 65536) : (int32_t)r_gyro);
+        msg->gyro[i0] = (int16_t)((r_gyro > 0x7FFFu) ? ((int64_t)r_gyro - 65536) : (int64_t)r_gyro);
     }
     uint32_t const r_temp = (uint32_t)buf[12u];
-    msg->temp = (int8_t)((r_temp > 0x7Fu) ? ((int32_t)r_temp - 256) : (int32_t)r_temp);
+    msg->temp = (int8_t)((r_temp > 0x7Fu) ? ((int64_t)r_temp - 256) : (int64_t)r_temp);
     msg->sample = (uint8_t)(uint32_t)buf[13u];
     return (int32_t)length;
 }
