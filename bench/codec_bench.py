@@ -73,7 +73,8 @@ C_SOURCE = ROOT / "bench" / "c" / "codec_bench.c"
 PAYLOAD_SIZES = (2, 6, 10, 31)
 C_FLAGS = ("-O2", "-std=c11", "-Wall", "-Wextra", "-Wno-address-of-packed-member")
 # The two C builds: (label, executable name, flags added to C_FLAGS for compiling and linking).
-C_BUILDS = (("separate TUs", "codec_bench", ()), ("LTO", "codec_bench_lto", ("-flto",)))
+C_BUILDS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
+    ("separate TUs", "codec_bench", ()), ("LTO", "codec_bench_lto", ("-flto",)))
 
 # Reference values (input 0 of the C benchmark's input table): the same three 16-bit numbers in
 # both protocols; POWER_STATUS has only unsigned fields, so -1500 travels as 64036.
@@ -579,7 +580,7 @@ limits (struct / memcpy) do no range checks and no CRC, so no codec reaches 1. T
 comparison is frame against frame: URB's 8-byte UplinkResponse (1 header byte, CRC-8) against
 MAVLink v2's 18-byte frame (10-byte header, CRC-16 with CRC_EXTRA). URB decodes a frame whose length
 the host already knows (the pending request says it); MAVLink C has only a byte-wise stream parser.
-URB C codecs are separate translation units (called), MAVLink's are static inline (inlined).
+URB C codecs: "separate TUs" calls them, "LTO" (-flto) may inline them; MAVLink's are static inline.
 Wire efficiency assumes MAVLink v2 unsigned unless marked signed (+13 bytes) and no trimming of
 trailing zero payload bytes (v2 trims them, so a real frame can be shorter). The URB read response
 also needs its 4-byte read request on the other direction of the link; an I2C read re-sends the
@@ -611,9 +612,13 @@ def print_report(console: Console, info: dict[str, str], py: list[Timing],
     for label, _extra, rows in c:
         byc = {t.name: t for t in rows}
         if "URB payload" in byc and "URB MotorStatus" in byc:
-            console.print(f"  sub-byte fields (issue #38 goal: codec / memcpy <= 2), {label}: MotorFeedback/memcpy "
-                          f"{byc['URB payload'].best_ns / byc['memcpy limit'].best_ns:.2f}, MotorStatus/memcpy4 "
-                          f"{byc['URB MotorStatus'].best_ns / byc['memcpy limit, 4 B'].best_ns:.2f} (time)",
+            pairs = ((byc["URB payload"], byc["memcpy limit"]), (byc["URB MotorStatus"], byc["memcpy limit, 4 B"]))
+            ratios = f"MotorFeedback/memcpy {pairs[0][0].best_ns / pairs[0][1].best_ns:.2f}, MotorStatus/memcpy4 " \
+                     f"{pairs[1][0].best_ns / pairs[1][1].best_ns:.2f} (time)"
+            if all(a.instructions and b.instructions for a, b in pairs):
+                ratios += ", " + ", ".join(f"{(a.instructions or 0) / (b.instructions or 1):.2f}"
+                                           for a, b in pairs) + " (instructions)"
+            console.print(f"  sub-byte fields (issue #38 goal: codec / memcpy <= 2), {label}: {ratios}",
                           highlight=False, markup=False)
     if not have_urb_c:
         console.print("[yellow]gen/c has no URB C codecs yet: URB C rows skipped[/yellow]")
@@ -674,7 +679,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         BUILD.mkdir(parents=True, exist_ok=True)
         info = machine_info(cc, mav_common)
         mavlink_dir = generate_mavlink(mav_pkg)
-        exes = []
+        exes: list[tuple[str, tuple[str, ...], Path]] = []
         for label, name, extra in C_BUILDS:
             exe, have_urb_c = build_c(cc, mavlink_dir, name, extra)
             check_vectors(exe, have_urb_c, mav_common)
