@@ -20,11 +20,13 @@
      wall second and per CPU second (this process's and its children's: TLC for traces), and the
      total; then the command itself as `urb sim sensorhex --jobs N` in a child process (wall and CPU
      time, plots, report and evidence included). Goal: at least 20x real time end to end.
+     `--host c` runs the loops of fig15, fig16, fig18_19, fig20 and bandwidth on the C host library
+     in the simulation (`urb sim sensorhex --host c`; each still repeats one run on the Python host).
 
     python3 bench/sim_speed.py                # prints the tables, writes build/sim/bench/sim_speed.json
     python3 bench/sim_speed.py --quick        # shorter runs
     python3 bench/sim_speed.py --fingerprint  # only the behaviour fingerprint (see below)
-    python3 bench/sim_speed.py --sensorhex [--quick] [--jobs N]   # only `urb sim sensorhex` end to end (3.)
+    python3 bench/sim_speed.py --sensorhex [--quick] [--jobs N] [--host c]   # only `urb sim sensorhex` end to end (3.)
 
 Goal (issue 6): at least 100x real time for 1a, at both motor rates. Ratios are simulated seconds per CPU second of this
 process (for 1a the best of three runs: one run on a shared machine can be a third slower); the host-library run also says how its CPU time splits between the C world (urbsim_run)
@@ -128,31 +130,13 @@ def sensorhex_native(seconds: float, seed: int = 1, motor_period_ms: int = 1) ->
 
 
 def sensorhex_python(seconds: float, seed: int = 1) -> dict[str, float]:
-    from urb_msgs.sensorhex import MotorCommand, MotorFeedback
+    from urb_sim.sensorhex_load import sensorhex_tick, wire_sensorhex
     from urb_sim.system import NS_PER_MS, Loop, System
 
     s = System(seed=seed)
-    u0, u1, rs = s.bridge("usb"), s.bridge("usb"), s.bridge("rs232")
-    for b, first in ((u0, 0), (u1, 3)):
-        for i in range(3):
-            s.node(b, App.MOTOR, 0x20 + i, first + i)
-    for a, app in ((0x30, App.BATTERY), (0x31, App.IMU), (0x32, App.IR)):
-        s.node(rs, app, a, 0)
+    wire_sensorhex(s)
     s.start()
-    motors = [s.urb.find_node("MotorDriver", i) for i in range(6)]
-    slow = [s.urb.find_node(n, 0) for n in ("BatteryManager", "Imu", "IrDistance")]
-    k = [0]
-
-    def tick() -> None:
-        k[0] += 1
-        for m in motors:
-            m.submit_request(m.new_request().read_message(MotorFeedback))
-            m.submit_request(m.new_request().write_message(MotorCommand(voltage=0)))
-        if k[0] % 10 == 0:
-            for n in slow:
-                n.submit_request(n.new_request().read(1))
-
-    Loop(s.host, NS_PER_MS, tick, count=int(seconds * 1000))
+    Loop(s.host, NS_PER_MS, sensorhex_tick(s), count=int(seconds * 1000))
     # Time spent inside the C world, measured around every urbsim_run call of this world.
     world, in_c, runs = s.world, [0.0], [0]
     run_c = world.run
@@ -218,15 +202,17 @@ def sensorhex_keys() -> list[str]:
     return keys
 
 
-def sensorhex_e2e(quick: bool, seed: int, jobs: int) -> dict[str, object]:
-    """`urb sim sensorhex` end to end: each task in this process (simulated s per wall s and per CPU
-    s, TLC's JVMs included), then the command itself with `jobs` workers in a child process."""
+def sensorhex_e2e(quick: bool, seed: int, jobs: int, host: str = "python") -> dict[str, object]:
+    """`urb sim sensorhex --host HOST` end to end: each task in this process (simulated s per wall s
+    and per CPU s, TLC's JVMs included), then the command itself with `jobs` workers in a child process."""
     from urb.managers.native import BACKEND
+    from urb_sim.experiments.control import HOST_ENV
     from urb_sim.runner import run_one
 
+    os.environ[HOST_ENV] = host  # as the command sets it for its workers
     rows: list[dict[str, object]] = []
-    print(f"\n`urb sim sensorhex{' --quick' if quick else ''}` task by task in this process (seed {seed}; host "
-          f"library's protocol core: {BACKEND}; load average {os.getloadavg()[0]:.1f}):")
+    print(f"\n`urb sim sensorhex --host {host}{' --quick' if quick else ''}` task by task in this process (seed "
+          f"{seed}; the Python host library's protocol core: {BACKEND}; load average {os.getloadavg()[0]:.1f}):")
     print(f"  {'task':<14} {'verdict':<7} {'sim s':>7} {'wall s':>7} {'CPU s':>7} {'x wall':>7} {'x CPU':>7}")
     with tempfile.TemporaryDirectory(prefix="urb-sim-speed-") as tmp:
         for key in sensorhex_keys():
@@ -242,7 +228,7 @@ def sensorhex_e2e(quick: bool, seed: int, jobs: int) -> dict[str, object]:
     print(f"  {'all tasks':<14} {'':<7} {sim:>7.2f} {wall:>7.2f} {cpu:>7.2f} {sim / wall:>7.1f} {sim / cpu:>7.1f}")
     with tempfile.TemporaryDirectory(prefix="urb-sim-speed-") as tmp:
         cmd = [sys.executable, "-m", "urb.cli", "sim", "sensorhex", "--seed", str(seed), "--jobs", str(jobs),
-               "--no-progress", "--out", f"{tmp}/report", "--evidence", f"{tmp}/evidence", *(["--quick"] if quick else [])]
+               "--host", host, "--no-progress", "--out", f"{tmp}/report", "--evidence", f"{tmp}/evidence", *(["--quick"] if quick else [])]
         kids0, w0 = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
         proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
         kids1, whole_wall = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter() - w0
@@ -254,7 +240,7 @@ def sensorhex_e2e(quick: bool, seed: int, jobs: int) -> dict[str, object]:
           f"{'met' if speed >= SENSORHEX_GOAL else 'NOT met'}), {whole_cpu:.1f} s CPU ({sim / whole_cpu:.1f} x per CPU s)")
     if proc.returncode != 0:
         print(proc.stdout[-2000:] + proc.stderr[-2000:])
-    return {"quick": quick, "seed": seed, "core": BACKEND, "tasks": rows, "sim_s": sim, "tasks_wall_s": wall,
+    return {"quick": quick, "seed": seed, "core": BACKEND, "host": host, "tasks": rows, "sim_s": sim, "tasks_wall_s": wall,
             "tasks_cpu_s": cpu, "command": {"jobs": jobs, "returncode": proc.returncode, "wall_s": whole_wall,
                                            "cpu_s": whole_cpu, "speed": speed}}
 
@@ -266,12 +252,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--sensorhex", action="store_true", help="only `urb sim sensorhex` end to end (issue 38)")
     ap.add_argument("--jobs", type=int, default=2, help="--sensorhex: workers of the whole command's run")
     ap.add_argument("--seed", type=int, default=1, help="--sensorhex: the experiments' base seed")
+    ap.add_argument("--host", choices=["python", "c"], default="python",
+                    help="--sensorhex: the host library of the experiments' loops (urb sim sensorhex --host)")
     ap.add_argument("--out", type=Path, default=REPO / "build" / "sim" / "bench" / "sim_speed.json")
     args = ap.parse_args(argv)
     if args.sensorhex:
-        out = args.out.with_name("sim_speed_sensorhex.json")
+        out = args.out.with_name(f"sim_speed_sensorhex{'' if args.host == 'python' else '_' + args.host}.json")
         out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(json.dumps(sensorhex_e2e(args.quick, args.seed, args.jobs), indent=1))
+        out.write_text(json.dumps(sensorhex_e2e(args.quick, args.seed, args.jobs, args.host), indent=1))
         print(f"\nwritten {out}")
         return 0
     fp = fingerprint()

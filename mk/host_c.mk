@@ -62,7 +62,7 @@ define HOSTC_TEST_BINARY
 $(HOSTC_BUILD)/$(1)/host-tests: $(HOSTC_TEST_DEPS)
 	@mkdir -p $$(@D)
 	$(1) $(HOSTC_CFLAGS) $(HOSTC_SAN) $(HOSTC_INC) $(HOSTC_FW_INC) $(HOSTC_MUTANT_FLAGS) $(HOSTC_LIB_SRC) $(HOSTC_FW_SRC) \
-	  $(HOSTC_TEST_SRC) -lcmocka -lutil -lpthread -o $$@
+	  $(HOSTC_TEST_SRC) -Wl,--wrap=epoll_pwait2 -lcmocka -lutil -lpthread -o $$@
 endef
 $(eval $(call HOSTC_TEST_BINARY,gcc))
 $(eval $(call HOSTC_TEST_BINARY,clang))

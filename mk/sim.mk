@@ -12,7 +12,8 @@
 #                     records in build/evidence/)
 #   make sim-bench    simulated seconds per wall-clock second, and scaling with the node count
 #   make sim-bench-sensorhex  `urb sim sensorhex` end to end (issue #38): simulated seconds per wall and per
-#                     CPU second of each experiment, TLC included, and of the whole command (opt-in, minutes)
+#                     CPU second of each experiment, TLC included, and of the whole command (opt-in, minutes;
+#                     SIM_BENCH_HOST=c: the experiments' loops on the C host library, urb sim sensorhex --host c)
 #   make sim-critical-check  the PRIMASK critical sections measured from the Cortex-M0+ images equal the
 #                     committed sim/profiles/critical_sections.json that the hardware profiles use
 #                     (python3 -m urb_sim.critical --write refreshes it; in make check)
@@ -65,8 +66,9 @@ sim-report: setup accel host-c-py
 sim-bench: setup
 	$(PYTHON) bench/sim_speed.py
 
+SIM_BENCH_HOST ?= python
 sim-bench-sensorhex: setup sim-lib host-c-py accel
-	$(PYTHON) bench/sim_speed.py --sensorhex
+	$(PYTHON) bench/sim_speed.py --sensorhex --host $(SIM_BENCH_HOST)
 
 sim-critical-check: setup cross-firmware-node build/firmware/urb-bridge-cm0plus.elf
 	$(PYTHON) -m urb_sim.critical --check

@@ -2,8 +2,8 @@
 (***************************************************************************)
 (* Trace validation of the bridge firmware against Bridge.tla, in the style *)
 (* of the etcd-raft and CCF projects: a trace logged by the simulation      *)
-(* (sim/urb_sim/tracecheck.py turns its "bridge" events into the module    *)
-(* TraceBridgeData) must be a behaviour of the specification.               *)
+(* (sim/urb_sim/tracecheck.py turns its "bridge" events into the constant *)
+(* Trace) must be a behaviour of the specification.                       *)
 (*                                                                         *)
 (* Logged events, in order:                                                 *)
 (*   [ev |-> "req", req |-> r]            a request frame reached the       *)
@@ -11,9 +11,9 @@
 (*   [ev |-> "resp", seq, status]         a response left the bridge: Emit *)
 (* The downlink transaction (Serve) is not logged: it happens between the  *)
 (* logged events, with the outcome the next "resp" event names.  The trace *)
-(* is accepted when a state matches every event: MatchedSoFar prints each  *)
-(* new longest matched prefix, <<"matched", Len(Trace)>> last, and TLC then *)
-(* stops for want of steps.  Every invariant of Bridge.tla is checked on    *)
+(* is accepted when a state matches every event (urb_sim/tracebatch.py     *)
+(* checks many traces in one run, and prints every state's l - 1), and TLC *)
+(* then stops for want of steps.  Every invariant of Bridge.tla is checked on *)
 (* the way, and a rejected trace says in the same run how far it matched.  *)
 (*                                                                         *)
 (* Two choices keep a run linear in the trace (1,051 states for 700 events *)
@@ -26,7 +26,9 @@
 (* each state holding the trace's sequences, which took longer than the    *)
 (* search.                                                                 *)
 (***************************************************************************)
-EXTENDS Bridge, TraceBridgeData, TLC
+EXTENDS Bridge
+
+CONSTANT Trace     \* the logged events (from sim/urb_sim/tracecheck.py)
 
 VARIABLE l          \* index of the next logged event to match
 
@@ -66,10 +68,4 @@ TraceNext == MatchReq \/ MatchResp \/ Hidden
 
 TraceSpec == TraceInit /\ [][TraceNext]_tvars
 
-(* Not a property (always TRUE): TLC register 1 holds the longest prefix  *)
-(* matched in any state seen so far, and each new one is printed as       *)
-(* <<"matched", n>> (tracecheck.py reads the last).                        *)
-ASSUME TLCSet(1, 0)
-MatchedSoFar ==
-    IF l - 1 > TLCGet(1) THEN TLCSet(1, l - 1) /\ PrintT(<<"matched", l - 1>>) ELSE TRUE
 =============================================================================

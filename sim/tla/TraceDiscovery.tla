@@ -5,7 +5,7 @@
 (* The wiring (which node sits at which bridge and address, with the       *)
 (* identity it reports) is the simulated system's, so Init's choice of pop *)
 (* is fixed to it.  The host library's discovery is logged (turned into    *)
-(* the module TraceDiscoveryData by sim/urb_sim/tracecheck.py) as:        *)
+(* the constant Trace by sim/urb_sim/tracecheck.py) as:                   *)
 (*   [ev |-> "scan", bridge, addr, found]  the bridge's scan and the host's *)
 (*                                     identification read of one address, *)
 (*                                     every address 1..NAddr of every      *)
@@ -22,11 +22,15 @@
 (* Not logged: nodes vanishing and reappearing (NodeVanish, NodeAppear).   *)
 (* TLC places them wherever the trace allows, on the slots whose power the *)
 (* scenario switched (TChurnSlots) and at most as often as it did          *)
-(* (MaxChurn).  Accepted when a state matches every event: MatchedSoFar   *)
-(* prints each new longest matched prefix, <<"matched", Len(Trace)>> last. *)
+(* (MaxChurn).  Accepted when a state matches every event (l - 1 =        *)
+(* Len(Trace); urb_sim/tracebatch.py prints every state's l - 1).         *)
 (* Every invariant of Discovery.tla is checked on the way.                 *)
 (***************************************************************************)
-EXTENDS Discovery, TraceDiscoveryData, TLC
+EXTENDS Discovery, Sequences
+
+CONSTANTS Trace,        \* the logged events (from sim/urb_sim/tracecheck.py)
+          TWired,       \* the system's wiring: slot -> identity
+          TChurnSlots   \* the slots whose power the scenario switched
 
 VARIABLE l   \* index of the next logged event to match
 
@@ -64,10 +68,4 @@ Hidden ==
 
 TraceNext == MatchScan \/ MatchTable \/ MatchRequest \/ Hidden
 
-(* Not a property (always TRUE): TLC register 1 holds the longest prefix  *)
-(* matched in any state seen so far, and each new one is printed as       *)
-(* <<"matched", n>> (tracecheck.py reads the last).                        *)
-ASSUME TLCSet(1, 0)
-MatchedSoFar ==
-    IF l - 1 > TLCGet(1) THEN TLCSet(1, l - 1) /\ PrintT(<<"matched", l - 1>>) ELSE TRUE
 =============================================================================

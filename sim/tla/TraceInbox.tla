@@ -22,11 +22,13 @@
 (* AppLockClaim, AppLockCheckIsr, a failed AppLockCheckFront and the        *)
 (* retries' AppLockUnclaim) are not logged: TLC places them wherever the    *)
 (* trace allows, while events remain. Accepted when a state matches every *)
-(* event: MatchedSoFar prints each new longest matched prefix, the whole    *)
-(* trace's length last. Every invariant of MailboxInbox.tla is checked on   *)
+(* event (urb_sim/tracebatch.py prints every state's l - 1, the number of  *)
+(* events it matched). Every invariant of MailboxInbox.tla is checked on    *)
 (* the way; a rejected trace says how far it matched.                      *)
 (***************************************************************************)
-EXTENDS MailboxInbox, TraceInboxData, TLC
+EXTENDS MailboxInbox
+
+CONSTANT Trace     \* the logged events (from sim/urb_sim/tracecheck.py)
 
 VARIABLE l
 
@@ -95,10 +97,4 @@ TraceNext ==
     \/ MatchWriteBegin \/ MatchWriteNack \/ MatchWriteByte \/ MatchCommit \/ MatchAbort
     \/ MatchLock \/ MatchBusy \/ MatchReadByte \/ MatchRelease \/ Hidden
 
-(* Not a property (always TRUE): TLC register 1 holds the longest prefix  *)
-(* matched in any state seen so far, and each new one is printed as       *)
-(* <<"matched", n>> (tracecheck.py reads the last).                        *)
-ASSUME TLCSet(1, 0)
-MatchedSoFar ==
-    IF l - 1 > TLCGet(1) THEN TLCSet(1, l - 1) /\ PrintT(<<"matched", l - 1>>) ELSE TRUE
 =============================================================================

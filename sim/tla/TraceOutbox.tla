@@ -13,12 +13,14 @@
 (*   [ev |-> "end"]              STOP: IsrReadEnd                           *)
 (* The application's lock and byte stores (AppLockPick, AppLockCheck,       *)
 (* AppWriteByte) are not logged: TLC places them wherever the trace allows. *)
-(* Accepted when a state matches every event: MatchedSoFar prints each new *)
-(* longest matched prefix, the whole trace's length last (hidden steps end *)
+(* Accepted when a state matches every event (urb_sim/tracebatch.py prints *)
+(* every state's l - 1, the number of events it matched; hidden steps end  *)
 (* with the trace, so TLC then stops). Every invariant of MailboxOutbox.tla *)
 (* is checked along the way; a rejected trace says how far it matched.     *)
 (***************************************************************************)
-EXTENDS MailboxOutbox, TraceOutboxData, TLC
+EXTENDS MailboxOutbox
+
+CONSTANT Trace     \* the logged events (from sim/urb_sim/tracecheck.py)
 
 VARIABLE l
 
@@ -51,10 +53,4 @@ Hidden == l <= Len(Trace) /\ (AppLockPick \/ AppLockCheck \/ AppWriteByte) /\ UN
 
 TraceNext == MatchRelease \/ MatchBegin \/ MatchByte \/ MatchEnd \/ Hidden
 
-(* Not a property (always TRUE): TLC register 1 holds the longest prefix  *)
-(* matched in any state seen so far, and each new one is printed as       *)
-(* <<"matched", n>> (tracecheck.py reads the last).                        *)
-ASSUME TLCSet(1, 0)
-MatchedSoFar ==
-    IF l - 1 > TLCGet(1) THEN TLCSet(1, l - 1) /\ PrintT(<<"matched", l - 1>>) ELSE TRUE
 =============================================================================

@@ -3,7 +3,7 @@
 (* Trace validation of the pipelined USB uplink against UsbUplink.tla.     *)
 (*                                                                         *)
 (* The host library logs, for one USB bridge (UsbCore.trace, turned into  *)
-(* the module TraceUsbUplinkData by sim/urb_sim/tracecheck.py), each event *)
+(* the constant Trace by sim/urb_sim/tracecheck.py), each event           *)
 (* with the 1-ms frame f of the host's clock it happened in:              *)
 (*   [ev |-> "submit", f, id]        the application submitted request id  *)
 (*                                   (ids count submissions from 1): Submit *)
@@ -22,11 +22,13 @@
 (* in every frame, every batch's responses must come back in the next     *)
 (* frame and their callbacks run before it ends (Tick's premises), and a  *)
 (* callback's latency is counted in real frames.  Accepted when a state   *)
-(* matches every event: MatchedSoFar prints each new longest matched      *)
-(* prefix, <<"matched", Len(Trace)>> last.  Every invariant of            *)
+(* matches every event (urb_sim/tracebatch.py prints every state's l - 1, *)
+(* the number of events it matched).  Every invariant of                   *)
 (* UsbUplink.tla is checked on the way (LatencyBound: three frames).      *)
 (***************************************************************************)
-EXTENDS UsbUplink, TraceUsbUplinkData, TLC
+EXTENDS UsbUplink
+
+CONSTANT Trace     \* the logged events (from sim/urb_sim/tracecheck.py)
 
 VARIABLES l,      \* index of the next logged event to match
           frame   \* the frame the specification is in (host frames, from 0)
@@ -86,10 +88,4 @@ HiddenTick == Later /\ Tick /\ frame' = frame + 1 /\ UNCHANGED l
 TraceNext == MatchSubmit \/ MatchWrite \/ MatchRead \/ MatchCallback
              \/ HiddenProcess \/ HiddenIdleWrite \/ HiddenIdleRead \/ HiddenTick
 
-(* Not a property (always TRUE): TLC register 1 holds the longest prefix  *)
-(* matched in any state seen so far, and each new one is printed as       *)
-(* <<"matched", n>> (tracecheck.py reads the last).                        *)
-ASSUME TLCSet(1, 0)
-MatchedSoFar ==
-    IF l - 1 > TLCGet(1) THEN TLCSet(1, l - 1) /\ PrintT(<<"matched", l - 1>>) ELSE TRUE
 =============================================================================

@@ -5,8 +5,9 @@ tests/sim/ and `urb sim` all call `ensure_library()`, which recompiles only when
 header is newer than the library. The library holds the C core (sim/core), the simulation HALs
 (firmware/hal/sim), the firmware under test (node library, SensoRHex apps, bridge), the
 downlink models' CAN and RS485 ports (sim/downlink: their bridges' masters and their nodes, which run
-the same node library and application objects as the I2C world's nodes) and the generated codecs
-(gen/c), compiled for the host.
+the same node library and application objects as the I2C world's nodes), the generated codecs
+(gen/c) and the C host library's sans-IO core (host/c/core, driven by sim/world/sim_host_c.c),
+compiled for the host.
 
     python3 -m urb_sim.build            # build if stale, print the path
     python3 -m urb_sim.build --force    # rebuild
@@ -51,9 +52,11 @@ SOURCE_DIRS = [
     "firmware/downlink/rs485",
     "sim/downlink",
     "gen/c",
+    "host/c/core",
 ]
 INCLUDE_DIRS = ["sim/core", "sim/world", "firmware/include", "firmware/hal/sim", "firmware/node", "firmware/bridge",
-                "firmware/apps/sensorhex", "sim/downlink", "gen/c"]
+                "firmware/apps/sensorhex", "sim/downlink", "gen/c",
+                "host/c/include", "host/c/core"]
 #: Files the simulation does not link: programs (`*main.c`, e.g. firmware/bridge/hosted_main.c)
 #: and the single-node adapter of the paper's global-function style (firmware/node/urb_single.c: one
 #: global node, calls app_* functions), which cannot serve many nodes in one process. The node library's
@@ -67,7 +70,7 @@ EXCLUDE_NAMES = {"urb_single.c"}
 #: versions instead (exported to build/sim/snapshot/): useful when several people share one working
 #: tree and a file half-way through an edit must not break a long simulation run.
 FOREIGN_DIRS = ["firmware/include", "firmware/node", "firmware/bridge", "firmware/apps/sensorhex",
-                "firmware/downlink/can", "firmware/downlink/rs485", "gen/c"]
+                "firmware/downlink/can", "firmware/downlink/rs485", "gen/c", "host/c/core", "host/c/include"]
 
 CC = os.environ.get("CC", "gcc")
 #: -flto lets the compiler inline the core's small functions (event scheduling, clock conversions)
@@ -178,7 +181,10 @@ def _snapshot() -> tuple[Path, str] | None:
         archive = subprocess.run(["git", "archive", "--format=tar", "HEAD", "--", *present], cwd=REPO,
                                  capture_output=True, check=True).stdout
         with tarfile.open(fileobj=io.BytesIO(archive)) as tar:
-            tar.extractall(dest, filter="data")
+            if hasattr(tarfile, "data_filter"):  # Python >= 3.11.4; Debian 12's 3.11.2 has no filters
+                tar.extractall(dest, filter="data")
+            else:  # our own `git archive` of HEAD: regular files and folders under the listed paths
+                tar.extractall(dest)
         (dest / ".complete").write_text(repr(trees))
     return dest, key
 

@@ -6,6 +6,7 @@ Registered by host/urb/cli.py; everything else lives in the urb_sim package.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import tempfile
 import textwrap
@@ -234,6 +235,11 @@ def register(sub: Any) -> None:
     p.add_argument("--downlink", choices=list(DOWNLINK_EXPERIMENTS), default="i2c",
                    help="which SensoRHex downlinks to simulate when --only is not given: i2c (default), can "
                         "(motors on CAN, sensors on RS485), rs485 (every node on RS485) or all")
+    p.add_argument("--host", choices=["python", "c"], default="python",
+                   help="the host library the loops of fig15, fig16, fig18_19, fig20 and bandwidth run on: python "
+                        "(default, the reference) or c (host/c's core in the simulation, no Python in the loop: "
+                        "sim/world/sim_host_c.c); either way one run of each is repeated on the other and must agree; "
+                        "the other experiments run on python")
     p.set_defaults(run=run_sensorhex)
     w = simsub.add_parser("sweep", help=SUBCOMMANDS["sweep"], description=SWEEP_HELP,
                           formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -391,6 +397,7 @@ def run_sensorhex(args: argparse.Namespace) -> int:
     from .report import headline, write_report
 
     out: Path = args.out
+    os.environ["URB_SIM_HOST"] = args.host  # control.HOST_ENV, read in the worker processes too
     t0 = time.perf_counter()
     with _progress(not args.no_progress) as progress:
         results = run_experiments(keys, out, quick=args.quick, seed=args.seed, jobs=args.jobs, progress=progress)

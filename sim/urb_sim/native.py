@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import ctypes
 import math
-from ctypes import POINTER, c_char_p, c_double, c_int, c_int64, c_uint8, c_uint32, c_uint64, c_void_p
+from ctypes import POINTER, c_char_p, c_double, c_int, c_int32, c_int64, c_uint8, c_uint32, c_uint64, c_void_p
 from dataclasses import dataclass
 from enum import IntEnum
 from pathlib import Path
@@ -112,6 +112,25 @@ def lib() -> Any:
             "urbsim_node_power": (c_int, [W, c_int, c_int]),
             "urbsim_bridge_power": (c_int, [W, c_int, c_int]),
             "urbsim_fault_babble": (c_int, [W, c_int, c_int, c_double]),
+            # the C host library on the simulated CPU (sim/world/sim_host_c.h; urb_sim.chost)
+            "urbsim_chost_new": (c_void_p, [W]),
+            "urbsim_chost_free": (None, [c_void_p]),
+            "urbsim_chost_bridge": (c_int, [c_void_p, c_int, c_int, c_int, c_int, c_int]),
+            "urbsim_chost_pending": (c_int, [c_void_p, c_int, c_int, c_int64, c_uint64]),
+            "urbsim_chost_axis": (c_int, [c_void_p, c_int, c_int, c_int, c_double, c_double, c_double, c_double,
+                                          c_double, c_int]),
+            "urbsim_chost_log": (c_int, [c_void_p, c_int, c_uint32, POINTER(c_double), c_uint32]),
+            "urbsim_chost_read": (c_int, [c_void_p, c_int, c_int, c_int, c_int, c_int]),
+            "urbsim_chost_write": (c_int, [c_void_p, c_int, c_int, c_int, c_char_p, c_int, c_int]),
+            "urbsim_chost_submit": (c_int, [c_void_p, c_int, c_int, c_int, c_char_p, c_int]),
+            "urbsim_chost_loop": (c_int, [c_void_p, c_int64, c_uint32, c_int64]),
+            "urbsim_chost_advance_to": (c_int, [c_void_p, c_uint64]),
+            "urbsim_chost_samples": (c_int, [c_void_p, c_int, c_uint32, POINTER(c_int64), POINTER(c_double),
+                                             POINTER(c_double), c_uint32]),
+            "urbsim_chost_commands": (c_int, [c_void_p, c_int, c_uint32, POINTER(c_int32), c_uint32]),
+            "urbsim_chost_requests": (c_int, [c_void_p, c_uint32, POINTER(c_uint32), POINTER(c_int64),
+                                              POINTER(c_int64), POINTER(c_uint32), c_uint32]),
+            "urbsim_chost_stat": (c_double, [c_void_p, c_char_p]),
         }
         for name, (res, args) in sigs.items():
             fn = getattr(dll, name)
@@ -324,6 +343,17 @@ class World:
             return None
         return b.value, ctypes.string_at(self._buf, n)
 
+    def moved(self) -> None:
+        """Virtual time moved outside this object (the C host ran the world, urb_sim.chost): forget
+        the instant's cached clocks."""
+        self._running("run")
+        self._now = self._local = None
+
+    def handle(self) -> Any:
+        """The C world, for another binding of the same library (urb_sim.chost)."""
+        self._running("hand over")
+        return self._w
+
     def run_take(self, limit_ns: int) -> list[tuple[int, bytes]] | None:
         """`run(limit_ns)` and, on a host wake-up, every item `host_take` would hand out then, in the
         same order: None when `limit_ns` was reached (no wake-up), else the items (empty when the
@@ -360,8 +390,9 @@ class World:
         out: list[tuple[int, int, int]] = []
         while True:
             n = int(fn(self._w, idx, self._marks_t, self._marks_v, 8192))
-            out.extend((int(self._marks_t[i]), int(self._marks_v[i]) >> 24, int(self._marks_v[i]) & 0xFFFFFF)
-                       for i in range(n))
+            # slices convert a whole block to ints in C: a third of the time of indexing per mark
+            values = self._marks_v[:n]
+            out.extend(zip(self._marks_t[:n], [v >> 24 for v in values], [v & 0xFFFFFF for v in values]))
             if n < 8192:
                 return out
 

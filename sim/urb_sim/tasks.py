@@ -63,7 +63,7 @@ def result_of(rec: Mapping[str, Any]) -> Result:
 
 def digest(rec: Mapping[str, Any]) -> str:
     """SHA-256 of a record without its wall times (its wall_s, and every table column whose name says
-    "wall", as traces' "TLC wall s"): what the same task gives anywhere, byte for byte."""
+    "wall", as traces' "TLC run wall s"): what the same task gives anywhere, byte for byte."""
     kept: dict[str, Any] = {k: v for k, v in rec.items() if k != "wall_s"}
     kept["table"] = [{k: v for k, v in row.items() if "wall" not in k} for row in rec.get("table", [])]
     return hashlib.sha256(json.dumps(kept, sort_keys=True, separators=(",", ":")).encode()).hexdigest()

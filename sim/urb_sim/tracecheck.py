@@ -4,9 +4,18 @@ spec/tla/Discovery.tla.
 
 The simulation logs what a protocol analyser on a bridge's uplink would see (trace category
 "bridge", sim/README.md): request frames reaching the firmware ("req") and response frames leaving
-it ("resp"). `bridge_trace()` extracts one bridge's events from an NDJSON trace; `check_bridge()`
-writes them as a TLA+ module (TraceBridgeData), runs TLC on sim/tla/TraceBridge.tla and reports
-whether the trace is a behaviour of the specification, and if not, the longest prefix that is.
+it ("resp"). `bridge_trace()` extracts one bridge's events from an NDJSON trace; `bridge_job()`
+turns them into the constants of sim/tla/TraceBridge.tla, and `check_jobs()` has TLC check them and
+reports whether the trace is a behaviour of the specification, and if not, the longest prefix that
+is (`check_bridge()` does both for one trace).
+
+`check_jobs()` checks all the traces of one specification in one TLC run: a generated module
+instantiates sim/tla/<spec>.tla once per trace, with that trace's constants, and its initial state
+picks the trace (variable t), so that the traces' state spaces are disjoint and explored side by
+side. Each new state prints its trace and how many events it has matched (invariant Visited): a
+trace's verdict, matched prefix and state count are read from its own lines, the same as a run of
+its own gives (TLC checks invariants once per new state, and tests/sim/test_trace_batch.py compares
+both on the traces of `urb sim sensorhex`).
 
 The trace's sequence numbers are renumbered from the first logged request (Bridge.tla numbers
 requests from 1); the host must have numbered them consecutively, which the check therefore
@@ -16,11 +25,6 @@ also verifies.
 from __future__ import annotations
 
 import json
-import re
-import shutil
-import subprocess
-import tempfile
-import time
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,20 +32,12 @@ from pathlib import Path
 from urb.managers.base import NS_PER_MS, Transfer
 from urb.managers.usb_core import UsbTraceEvent
 
-from .build import REPO, unpreloaded_env
-from .tlc import JVM_QUICK, TlcSetupError, class_archive, find_jar, find_java, state_counts
+from .tracebatch import TraceCheckError, TraceJob, TraceResult, check_jobs, find_tlc
 
-SPEC = REPO / "spec" / "tla"
-TRACE_SPEC = REPO / "sim" / "tla"
+__all__ = ["TraceCheckError", "TraceJob", "TraceResult", "check_jobs", "find_tlc"]
 
 STATUS = {0: "OK", 1: "TIMEOUT", 2: "CHECKSUM", 3: "BUSY", 4: "NO_NODE", 5: "SIZE_MISMATCH", 6: "BAD_REQUEST",
           7: "BUS_STUCK", 8: "NODE_BUSY"}
-
-
-class TraceCheckError(RuntimeError):
-    """TLC could not be run (no Java, no tla2tools.jar; the message says what to install) or did not
-    finish its check (killed, out of memory, an error in a specification): then the trace is neither
-    accepted nor rejected."""
 
 
 @dataclass
@@ -53,16 +49,6 @@ class Event:
     length: int = 0
     seq: int = 0
     status: int = 0
-
-
-@dataclass
-class TraceResult:
-    accepted: bool
-    events: int
-    matched_prefix: int
-    states: int | None
-    seconds: float
-    message: str
 
 
 def bridge_trace(path: Path, device: str) -> list[Event]:
@@ -82,8 +68,13 @@ def bridge_trace(path: Path, device: str) -> list[Event]:
     return out
 
 
-def _tla_module(events: list[Event], present: dict[int, dict[int, int]], faults: Iterable[str], queue_len: int,
-                host_window: int) -> str:
+def _tla_trace(items: Iterable[str]) -> str:
+    return "<<" + ",\n    ".join(items) + ">>"
+
+
+def bridge_job(events: list[Event], present: dict[int, dict[int, int]], *, faults: Iterable[str] = (),
+               queue_len: int = 15, host_window: int = 15, name: str = "") -> TraceJob:
+    """A bridge trace as sim/tla/TraceBridge.tla checks it against Bridge.tla (check_bridge)."""
     reqs = [e for e in events if e.ev == "req"]
     first = reqs[0].seq if reqs else 0
 
@@ -96,55 +87,27 @@ def _tla_module(events: list[Event], present: dict[int, dict[int, int]], faults:
             items.append(f'[ev |-> "req", req |-> {rec(e)}]')
         else:
             items.append(f'[ev |-> "resp", seq |-> {(e.seq - first + 1) % 16}, status |-> "{STATUS.get(e.status, "?")}"]')
-    requests = "{" + ", ".join(sorted({rec(e) for e in reqs})) + "}"
-    fault_set = "{" + ", ".join(f'"{f}"' for f in sorted(faults)) + "}"
-    return "\n".join([
-        "---- MODULE TraceBridgeData ----",
-        "EXTENDS Naturals, Sequences, TLC",
-        f"TPresent == {{{', '.join(str(a) for a in sorted(present))}}}",
-        f"TSize == {_size_fn(present)}",
-        f"TRequests == {requests}",
-        f"TFaults == {fault_set}",
-        f"TQueueLen == {queue_len}",
-        f"THostWindow == {host_window}",
-        f"TMaxReq == {len(reqs)}",
-        "Trace == <<" + ",\n    ".join(items) + ">>",
-        "====",
-        "",
-    ])
+    return TraceJob("TraceBridge", {
+        "Present": f"{{{', '.join(str(a) for a in sorted(present))}}}",
+        "Size": _size_fn(present),
+        "Requests": "{" + ", ".join(sorted({rec(e) for e in reqs})) + "}",
+        "Faults": "{" + ", ".join(f'"{f}"' for f in sorted(faults)) + "}",
+        "QueueLen": str(queue_len),
+        "HostWindow": str(host_window),
+        "MaxReq": str(len(reqs)),
+        "SeqMod": "16",
+        "UplinkLoss": "FALSE",
+        "Trace": _tla_trace(items),
+    }, events, name)
 
 
 def _fn(m: dict[int, int]) -> str:
-    return "[b \\in 0..7 |-> CASE " + " [] ".join(f"b = {k} -> {v}" for k, v in sorted(m.items())) + " [] OTHER -> 0]"
+    return "[tBox \\in 0..7 |-> CASE " + " [] ".join(f"tBox = {k} -> {v}" for k, v in sorted(m.items())) + " [] OTHER -> 0]"
 
 
 def _size_fn(present: dict[int, dict[int, int]]) -> str:
-    return "[a \\in {" + ", ".join(str(a) for a in sorted(present)) + "} |-> CASE " + " [] ".join(
-        f"a = {a} -> {_fn(present[a])}" for a in sorted(present)) + "]"
-
-
-def find_tlc() -> tuple[str, Path]:
-    """java and tla2tools.jar, found as tools/modelcheck.py finds them (urb_sim.tlc)."""
-    try:
-        return find_java(), find_jar()
-    except TlcSetupError as exc:
-        raise TraceCheckError(str(exc)) from exc
-
-
-def _check(spec: str, data: str, events: Sequence[object]) -> TraceResult:
-    """One TLC run of sim/tla/<spec>.tla on a trace. A full match violates no invariant (TLC would
-    print the whole trace as its counterexample): TLC explores every state the trace allows and
-    prints each new longest matched prefix (MatchedSoFar); the trace is accepted when the last one
-    is the whole trace, and a rejected one says how far it matched."""
-    log, dt = _tlc(spec, data)
-    matched = max((int(m) for m in re.findall(r'<<"matched", (\d+)>>', log)), default=0)
-    counts = state_counts(log)
-    states = counts[1] if counts is not None else None
-    if matched == len(events):
-        return TraceResult(True, len(events), matched, states, dt, "every event matched")
-    return TraceResult(False, len(events), matched, states, dt,
-                       f"TLC found no behaviour matching the whole trace; the trace matches up to event {matched} "
-                       f"of {len(events)} (next: {events[matched]})")
+    return "[tAddr \\in {" + ", ".join(str(a) for a in sorted(present)) + "} |-> CASE " + " [] ".join(
+        f"tAddr = {a} -> {_fn(present[a])}" for a in sorted(present)) + "]"
 
 
 def check_bridge(events: list[Event], present: dict[int, dict[int, int]], *, faults: Iterable[str] = (),
@@ -154,7 +117,7 @@ def check_bridge(events: list[Event], present: dict[int, dict[int, int]], *, fau
 
     `present`: node address -> {mailbox: size} as learnt at discovery (one size per mailbox for
     both directions, as Bridge.tla's Size)."""
-    return _check("TraceBridge", _tla_module(events, present, list(faults), queue_len, host_window), events)
+    return check_jobs([bridge_job(events, present, faults=faults, queue_len=queue_len, host_window=host_window)])[0]
 
 
 # --------------------------------------------------------------------------- outbox traces
@@ -187,7 +150,8 @@ def outbox_trace(path: Path, device: str) -> list[dict[str, int | str]]:
     return out
 
 
-def _outbox_module(events: list[dict[str, int | str]], size: int) -> str:
+def outbox_job(events: list[dict[str, int | str]], size: int, name: str = "") -> TraceJob:
+    """An outbox trace as sim/tla/TraceOutbox.tla checks it against MailboxOutbox.tla (check_outbox)."""
     items = []
     for e in events:
         if e["ev"] == "byte":
@@ -195,47 +159,14 @@ def _outbox_module(events: list[dict[str, int | str]], size: int) -> str:
         else:
             items.append(f'[ev |-> "{e["ev"]}"]')
     writes = max(1, sum(1 for e in events if e["ev"] == "release"))
-    return "\n".join(["---- MODULE TraceOutboxData ----", "EXTENDS Naturals, Sequences",
-                      f"TMsgLen == {size}", f"TMaxWrites == {writes}",
-                      "Trace == <<" + ",\n    ".join(items) + ">>", "====", ""])
-
-
-def _tlc(spec: str, data: str) -> tuple[str, float]:
-    """Run TLC on sim/tla/<spec>.tla with the generated <spec>Data module until it has explored
-    every state: (TLC's output, seconds). Anything else (TLC killed, out of memory, an error in a
-    specification, an invariant of the specification violated on the way) raises TraceCheckError:
-    the trace is then neither accepted nor rejected, and a crashed check can never count as a
-    rejected mutant."""
-    java, jar = find_tlc()
-    with tempfile.TemporaryDirectory(prefix="urb-trace-") as tmp_s:
-        tmp = Path(tmp_s)
-        for f in SPEC.glob("*.tla"):
-            shutil.copy2(f, tmp / f.name)
-        for f in TRACE_SPEC.glob(f"{spec}.*"):
-            shutil.copy2(f, tmp / f.name)
-        (tmp / f"{spec}Data.tla").write_text(data)
-        # Each run explores a few thousand states at most: a quick JVM (as for modelcheck's mutants).
-        with class_archive(java, jar) as cds:
-            cmd = [java, *JVM_QUICK, *cds, f"-Djava.io.tmpdir={tmp}", "-cp", str(jar), "tlc2.TLC", "-deadlock",
-                   "-workers", "1", "-config", f"{spec}.cfg", "-metadir", str(tmp / "meta"), f"{spec}.tla"]
-            t0 = time.monotonic()
-            proc = subprocess.run(cmd, cwd=tmp, capture_output=True, text=True, check=False, env=unpreloaded_env())
-            dt = time.monotonic() - t0
-    log = proc.stdout + proc.stderr
-    if proc.returncode == 0 and "No error has been found" in log:
-        return log, dt
-    how = f"killed by signal {-proc.returncode}" if proc.returncode < 0 else f"exit status {proc.returncode}"
-    errors = [ln for ln in log.splitlines() if ln.startswith("Error") or "is violated" in ln]
-    raise TraceCheckError(f"TLC did not finish checking the trace against sim/tla/{spec}.tla ({how}): "
-                          + (errors[0] if errors else log[-500:].strip() or "no output")
-                          + ". The trace is neither accepted nor rejected; run the check again, and if it fails "
-                          "the same way, fix the specification or give TLC more memory.")
+    return TraceJob("TraceOutbox", {"MsgLen": str(size), "MaxWrites": str(writes), "Trace": _tla_trace(items)},
+                    events, name)
 
 
 def check_outbox(events: list[dict[str, int | str]], size: int) -> TraceResult:
     """Check an outbox trace against MailboxOutbox.tla in one TLC run (a rejected trace comes with
     the longest prefix a behaviour matched)."""
-    return _check("TraceOutbox", _outbox_module(events, size), events)
+    return check_jobs([outbox_job(events, size)])[0]
 
 
 # --------------------------------------------------------------------------- inbox traces
@@ -286,23 +217,24 @@ def inbox_trace(path: Path, device: str) -> list[dict[str, int | str]]:
     return out
 
 
-def _inbox_module(events: list[dict[str, int | str]], size: int) -> str:
+def inbox_job(events: list[dict[str, int | str]], size: int, name: str = "") -> TraceJob:
+    """An inbox trace (inbox_trace) of a `size`-byte inbox as sim/tla/TraceInbox.tla checks it against
+    MailboxInbox.tla (check_inbox)."""
+    if size < 2:
+        raise ValueError(f"inbox of {size} byte(s): MailboxInbox.tla needs MsgLen >= 2 (a torn read must be "
+                         "observable); trace an inbox of 2 bytes or more")
     items = []
     for e in events:
         fields = [f'ev |-> "{e["ev"]}"'] + [f"{k} |-> {v}" for k, v in e.items() if k != "ev"]
         items.append("[" + ", ".join(fields) + "]")
     writes = max(1, sum(1 for e in events if e["ev"] in ("wbegin", "wnack")))
-    return "\n".join(["---- MODULE TraceInboxData ----", "EXTENDS Naturals, Sequences",
-                      f"TMsgLen == {size}", f"TMaxWrites == {writes}", f"TMaxRetry == {INBOX_MAX_RETRY}",
-                      "Trace == <<" + ",\n    ".join(items) + ">>", "====", ""])
+    return TraceJob("TraceInbox", {"MsgLen": str(size), "MaxWrites": str(writes), "MaxRetry": str(INBOX_MAX_RETRY),
+                                   "Trace": _tla_trace(items)}, events, name)
 
 
 def check_inbox(events: list[dict[str, int | str]], size: int) -> TraceResult:
     """Check an inbox trace (inbox_trace) of a `size`-byte inbox against MailboxInbox.tla."""
-    if size < 2:
-        raise ValueError(f"inbox of {size} byte(s): MailboxInbox.tla needs MsgLen >= 2 (a torn read must be "
-                         "observable); trace an inbox of 2 bytes or more")
-    return _check("TraceInbox", _inbox_module(events, size), events)
+    return check_jobs([inbox_job(events, size)])[0]
 
 
 # --------------------------------------------------------------------------- USB uplink traces
@@ -367,26 +299,26 @@ def usb_trace(log: Sequence[UsbTraceEvent], frame_ns: int = NS_PER_MS) -> list[U
     return out
 
 
-def _usb_module(events: list[UsbEvent], max_batch: int, window: int) -> str:
-    items = [e.tla() for e in events]
+def usb_job(events: list[UsbEvent], max_batch: int, window: int = 15, name: str = "") -> TraceJob:
+    """A USB uplink trace (usb_trace) as sim/tla/TraceUsbUplink.tla checks it against UsbUplink.tla
+    (check_usb)."""
     submits = max(1, sum(1 for e in events if e.ev == "submit"))
     # the most submissions between two writes (UsbUplink.tla's budget, reset by UsbWrite)
     burst = run = 0
     for e in events:
         run = 0 if e.ev == "write" else run + (e.ev == "submit")
         burst = max(burst, run)
-    return "\n".join(["---- MODULE TraceUsbUplinkData ----", "EXTENDS Naturals, Sequences",
-                      f"TMaxBatch == {max_batch}", f"TMaxSubmit == {max(1, burst)}", f"TMaxReq == {submits}",
-                      f"TWindow == {window}",
-                      f"TMaxLatency == {USB_MAX_LATENCY}",
-                      "Trace == <<" + ",\n    ".join(items) + ">>", "====", ""])
+    return TraceJob("TraceUsbUplink", {
+        "MaxBatch": str(max_batch), "MaxSubmit": str(max(1, burst)), "MaxReq": str(submits), "Window": str(window),
+        "MaxLatency": str(USB_MAX_LATENCY), "SeqMod": "16", "Trace": _tla_trace(e.tla() for e in events),
+    }, events, name)
 
 
 def check_usb(events: list[UsbEvent], max_batch: int, window: int = 15) -> TraceResult:
     """Check a USB uplink trace (usb_trace) of a host writing at most `max_batch` requests per bulk-OUT
     transfer with at most `window` in flight (UsbCore.window) against UsbUplink.tla (a rejected trace
     comes with the longest prefix a behaviour matched)."""
-    return _check("TraceUsbUplink", _usb_module(events, max_batch, window), events)
+    return check_jobs([usb_job(events, max_batch, window)])[0]
 
 
 # --------------------------------------------------------------------------- discovery traces
@@ -460,20 +392,25 @@ class DiscoveryTrace:
     events: list[DiscoveryEvent] = field(default_factory=list)
 
 
-def _discovery_module(t: DiscoveryTrace) -> str:
+def discovery_job(t: DiscoveryTrace, name: str = "") -> TraceJob:
+    """A discovery trace as sim/tla/TraceDiscovery.tla checks it against Discovery.tla
+    (check_discovery)."""
     wired = " @@ ".join(f"<<{b}, {a}>> :> {i.tla()}" for (b, a), i in sorted(t.wired.items()))
-    idents = "{" + ", ".join(sorted({i.tla() for i in t.wired.values()})) + "}"
-    expected = "[c \\in {" + ", ".join(str(c) for c in sorted(t.expected)) + "} |-> CASE " + " [] ".join(
-        f'c = {c} -> "{fp:08x}"' for c, fp in sorted(t.expected.items())) + "]"
-    churn = "{" + ", ".join(f"<<{b}, {a}>>" for b, a in sorted(t.churn_slots)) + "}"
-    return "\n".join(["---- MODULE TraceDiscoveryData ----", "EXTENDS Naturals, Sequences, TLC",
-                      f"TBridges == {{{', '.join(str(b) for b in t.bridges)}}}",
-                      f"TNAddr == {DISCOVERY_ADDRESSES}", f"TIdents == {idents}", f"TExpected == {expected}",
-                      f"TMaxChurn == {t.churn}", f"TChurnSlots == {churn}", f"TWired == {wired}",
-                      "Trace == <<" + ",\n    ".join(e.tla() for e in t.events) + ">>", "====", ""])
+    expected = "[tClass \\in {" + ", ".join(str(c) for c in sorted(t.expected)) + "} |-> CASE " + " [] ".join(
+        f'tClass = {c} -> "{fp:08x}"' for c, fp in sorted(t.expected.items())) + "]"
+    return TraceJob("TraceDiscovery", {
+        "Bridges": f"{{{', '.join(str(b) for b in t.bridges)}}}",
+        "NAddr": str(DISCOVERY_ADDRESSES),
+        "Idents": "{" + ", ".join(sorted({i.tla() for i in t.wired.values()})) + "}",
+        "Expected": expected,
+        "MaxChurn": str(t.churn),
+        "TChurnSlots": "{" + ", ".join(f"<<{b}, {a}>>" for b, a in sorted(t.churn_slots)) + "}",
+        "TWired": wired,
+        "Trace": _tla_trace(e.tla() for e in t.events),
+    }, t.events, name)
 
 
 def check_discovery(t: DiscoveryTrace) -> TraceResult:
     """Check a discovery trace against Discovery.tla in one TLC run (a rejected trace comes with the
     longest prefix a behaviour matched)."""
-    return _check("TraceDiscovery", _discovery_module(t), t.events)
+    return check_jobs([discovery_job(t)])[0]

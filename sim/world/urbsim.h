@@ -109,7 +109,9 @@ int urbsim_bridge_power(urbsim_world_t *w, int bridge, int on);
  *  transaction). Returns 0. */
 int urbsim_fault_babble(urbsim_world_t *w, int bridge, int address, double rate);
 
-/* ---- native host (speed: benchmarks and sweeps without Python in the loop) ---- */
+/* ---- native host (speed: benchmarks and sweeps without Python in the loop) ----
+ * A traffic model. The C host library itself (host/c/core) drives a world through this API in
+ * sim_host_c.h (urbsim_chost_*: the experiments' PD loops and readers, no Python in the loop). */
 /** Drive `bridge` from the native host model (native_host.c) instead of Python: every
  *  `period_ticks` OS ticks it sends its periodic requests. Before urbsim_start. 0, or -1. */
 int urbsim_native_host(urbsim_world_t *w, int bridge, int period_ticks);

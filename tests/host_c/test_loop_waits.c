@@ -5,13 +5,37 @@
  * already waiting in urb_loop_run_once is woken by a submission that needs an earlier deadline; a
  * USB port is read once per readiness event, and what is still queued is read at the next wait.
  * The USB ports here are SOCK_SEQPACKET pairs with no bridge behind them: nothing answers.
+ * On a kernel without epoll_pwait2 (before 5.11) the loop falls back to epoll_wait, whose timeout
+ * counts in ms: the test binary is linked with -Wl,--wrap=epoll_pwait2, so a test can make the call
+ * fail with ENOSYS as such a kernel does.
  */
 #include "host_test.h"
 
+#include <errno.h>
 #include <poll.h>
 #include <string.h>
+#include <sys/epoll.h>
 #include <sys/socket.h>
 #include <unistd.h>
+
+int __real_epoll_pwait2(int epfd, struct epoll_event *events, int maxevents, const struct timespec *timeout,
+                        const sigset_t *sigmask);
+int __wrap_epoll_pwait2(int epfd, struct epoll_event *events, int maxevents, const struct timespec *timeout,
+                        const sigset_t *sigmask);
+
+static bool old_kernel;        /* epoll_pwait2 fails with ENOSYS, as before Linux 5.11 */
+static unsigned pwait2_calls;  /* how often the loop called it */
+
+int __wrap_epoll_pwait2(int epfd, struct epoll_event *events, int maxevents, const struct timespec *timeout,
+                        const sigset_t *sigmask)
+{
+    pwait2_calls++;
+    if (old_kernel) {
+        errno = ENOSYS;
+        return -1;
+    }
+    return __real_epoll_pwait2(epfd, events, maxevents, timeout, sigmask);
+}
 
 static urb_loop_t loop;
 static pool_t pool;
@@ -27,6 +51,7 @@ static int open_pair(void **state)
 static int close_pair(void **state)
 {
     (void)state;
+    old_kernel = false;
     urb_loop_destroy(&loop);
     (void)close(sv[0]);
     (void)close(sv[1]);
@@ -155,6 +180,34 @@ static void test_usb_reads_one_transfer_per_readiness_and_keeps_the_rest(void **
     assert_int_equal(m->core.transfers_in, 2u);
 }
 
+/* Before Linux 5.11: the first wait finds epoll_pwait2 missing and every later one uses epoll_wait, whose
+ * ms are rounded up (a wait shorter than 1 ms rounded down would be no wait: a busy loop); the loop's
+ * deadlines still end the requests, each once. */
+static void test_without_epoll_pwait2_waits_count_in_whole_ms(void **state)
+{
+    (void)state;
+    urb_manager_t *m = usb_manager();
+    old_kernel = true;
+    pwait2_calls = 0u;
+    for (size_t i = 0u; i < 3u; i++) {
+        urb_ns_t const start = urb_now_ns();
+        assert_int_equal(urb_loop_run_once(&loop, 300 * 1000), 0);
+        assert_true(urb_now_ns() - start >= 300 * 1000); /* never earlier: rounded up to 1 ms */
+    }
+    assert_true(loop.ms_waits);
+    assert_int_equal(pwait2_calls, 1u); /* asked once; the answer is kept */
+    submit_one(m, 0u);
+    urb_ns_t const end = urb_now_ns() + 2 * URB_NS_PER_S;
+    while ((pool.count == 0u) && (urb_now_ns() < end)) {
+        assert_true(urb_loop_run_once(&loop, 5 * MS) >= 0);
+    }
+    pool_all_once(&pool, 1u);
+    assert_int_equal(pool.t[0].flags, URB_FLAG_UPLINK_TIMEOUT); /* its deadline fired without epoll_pwait2 */
+    uint8_t out[URB_USB_BATCH_MAX];
+    assert_true(read(sv[1], out, sizeof out) > 0); /* and its frame went out at the tick */
+    assert_int_equal(pwait2_calls, 1u);
+}
+
 int run_loop_wait_tests(void)
 {
     const struct CMUnitTest tests[] = {
@@ -163,6 +216,7 @@ int run_loop_wait_tests(void)
         cmocka_unit_test_setup_teardown(test_a_submission_wakes_a_thread_waiting_in_the_loop, open_pair, close_pair),
         cmocka_unit_test_setup_teardown(test_usb_reads_one_transfer_per_readiness_and_keeps_the_rest, open_pair,
                                         close_pair),
+        cmocka_unit_test_setup_teardown(test_without_epoll_pwait2_waits_count_in_whole_ms, open_pair, close_pair),
     };
     return cmocka_run_group_tests_name("host_c_loop_waits", tests, NULL, NULL);
 }

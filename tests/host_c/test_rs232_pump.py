@@ -11,12 +11,14 @@ bytes (the hunt resynchronises), line noise while idle, a request lost on the li
 `urb.cycle.Cycle` of motor reads and writes (its items go to the C core at once, polled and with a
 callback); a bridge process killed with requests in flight (read error or end of input); close while
 requests are pending (every request ends in exactly one callback). The port's hand-over record is covered by the
-pump and honoured by the next manager on the port; a failed write, a failed read and the end of input
-are worded as the Python threads word them (`rs232.describe_io_error` of pyserial's exceptions).
+pump and honoured by the next manager on the port; a failed write, a failed read, the end of input and
+a port that takes nothing for pyserial's 1-s write timeout are worded as the Python threads word them
+(`rs232.describe_io_error` of pyserial's exceptions).
 
 Seeded bugs (`test_a_seeded_bug_in_the_rs232_pump_is_caught`): the extension compiled with an RS232
 pump that never writes what it sent back to the Python transfers, one that never applies the core's
-timeouts, and one that words the loss of the port differently, must each fail a comparison;
+timeouts, one that words the loss of the port differently, and one that waits a minute on a port that
+takes nothing, must each fail a comparison;
 `test_the_scripts_reach_the_rs232_pump` is the witness that the pump ran (no Python I/O thread, the C
 thread alive, every 4-bit sequence number handed back).
 """
@@ -346,12 +348,56 @@ def test_a_failed_write_a_failed_read_and_the_end_of_input_are_worded_as_the_thr
     assert expected["read"] == f"far: [Errno {errno.ECONNRESET}] {os.strerror(errno.ECONNRESET)}"
 
 
+def stalled_port_reason(make_core: Callable[[], Any], wait_s: float) -> str | None:
+    """The pump on a socket pair whose far end never reads, with the port's buffer already full: the
+    frame of a submitted request cannot go out. What the bridge was declared lost with after `wait_s`
+    (None: still running)."""
+    host, far = socket.socketpair(socket.AF_UNIX, socket.SOCK_STREAM)
+    host.setblocking(False)
+    try:
+        while True:
+            host.send(b"\0" * 4096)
+    except BlockingIOError:
+        pass
+    core = make_core()
+    core._pump_start(host.fileno(), "far", 0, None, None)
+    try:
+        core.submit(Transfer(address=16, mailbox=1, read=True, length=6), time.monotonic_ns())
+        core._pump_notify()
+        deadline = time.monotonic() + wait_s
+        while core._pump_running() and time.monotonic() < deadline:
+            time.sleep(0.005)
+        return None if core._pump_running() else str(core.lost_reason)
+    finally:
+        far.close()  # a pump still waiting to write sees the end of the pair and stops
+        core._pump_stop()
+        host.close()
+
+
+STALL_WAIT_S = 6.0
+"""How long a test waits for the pump to give up on a port that takes nothing: its write timeout (1 s,
+pyserial's write_timeout that rs232.open_serial sets), with room for a loaded machine."""
+
+
+def test_a_port_that_takes_nothing_for_the_write_timeout_loses_the_bridge_as_the_threads_do() -> None:
+    """pyserial's Serial.write gives up on a port that takes no byte for its write_timeout with
+    SerialTimeoutException('Write timeout'); the pump gives up after the same time with the same words."""
+    expected = f"far: {rs232.describe_io_error(serial.SerialTimeoutException('Write timeout'))}"
+    start = time.monotonic()
+    reason = stalled_port_reason(lambda: native.new_rs232_core(timeout_ns=10**10, lost_after_ns=3 * 10**10),
+                                 STALL_WAIT_S)
+    assert reason == expected
+    assert time.monotonic() - start >= 1.0  # not before the write timeout
+
+
 PUMP_MUTANTS = {
     "rs232-forgets-sent": ("        native_pump_note_sent(self, head, self->core.m.count - 1u); /* the newest slot */\n",
                            "        (void)head;\n", "traffic"),
     "rs232-no-timeouts": ("    (void)urb_core_poll(&self->core, now);\n", "\n", "traffic"),
     "rs232-unplugged-text": ('#define UNPLUGGED_TEXT "I/O error: the device was unplugged, or the bridge process ended"',
                              '#define UNPLUGGED_TEXT "I/O error"', "killed"),
+    "rs232-write-waits-forever": ("#define WRITE_TIMEOUT_NS (1000LL * 1000LL * 1000LL)",
+                                  "#define WRITE_TIMEOUT_NS (60LL * 1000LL * 1000LL * 1000LL)", "stalled"),
 }
 """Seeded bugs of _native_pump_rs232.c, and the script that must catch each: what it sent never
 reaches the Python transfer; the core's timeouts never applied (a request lost on the line completes
@@ -382,6 +428,9 @@ def test_a_seeded_bug_in_the_rs232_pump_is_caught(fake_bridge: MakeBridge, use_p
                                                   tmp_path: Path, name: str) -> None:
     make = mutant_core(build_pump_mutant(tmp_path, name))
     script = PUMP_MUTANTS[name][2]
+    if script == "stalled":
+        assert stalled_port_reason(make, STALL_WAIT_S) is None  # still waiting where the threads gave up
+        return
     on_mutant, on_threads = run_both(fake_bridge, use_pump, script, mutant=make)
     if script == "traffic":
         assert (on_mutant["requests"], on_mutant["cycles"], on_mutant["stats"]) != (

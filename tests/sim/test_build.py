@@ -62,3 +62,24 @@ def test_a_sanitized_library_is_refused_without_its_runtimes(monkeypatch: pytest
     monkeypatch.setenv("LD_PRELOAD", build.sanitizer_preload())
     build.check_loadable()
     assert "libasan" in build.sanitizer_preload() and "libubsan" in build.sanitizer_preload()
+
+
+def test_the_committed_sources_are_exported_as_committed(monkeypatch: pytest.MonkeyPatch) -> None:
+    """URBSIM_SOURCES=head builds the foreign folders from HEAD's versions: the snapshot holds each
+    committed file's bytes (on Debian 12's Python 3.11.2 too, whose tarfile has no extraction filters)."""
+    import subprocess
+
+    monkeypatch.setenv("URBSIM_SOURCES", "head")
+    snap = build._snapshot()
+    assert snap is not None
+    folder, key = snap
+    assert (folder / ".complete").exists() and key in str(folder)
+    listed = subprocess.run(["git", "ls-files", "--", *build.FOREIGN_DIRS], cwd=build.REPO, capture_output=True,
+                            text=True, check=True).stdout.split()
+    assert listed  # the witness: there are committed files to compare
+    for path in listed:
+        committed = subprocess.run(["git", "show", f"HEAD:{path}"], cwd=build.REPO, capture_output=True,
+                                   check=True).stdout
+        assert (folder / path).read_bytes() == committed, path
+    monkeypatch.delenv("URBSIM_SOURCES")
+    assert build._snapshot() is None  # the working tree, by default

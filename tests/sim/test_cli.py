@@ -84,7 +84,8 @@ def test_sim_report(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert record.config["quick"] is True and record.config["build"] == "optimised"
     checks = summary["experiments"][0]["checks"]
     assert [i.id for i in record.items] == ["sim:fig16/every-request-answered",
-                                            "sim:fig16/bounded-by-the-derived-frames", "sim:fig16/constant"]
+                                            "sim:fig16/bounded-by-the-derived-frames", "sim:fig16/constant",
+                                            "sim:fig16/host-libraries-agree"]
     for item, check in zip(record.items, checks):
         assert (item.kind, item.verdict, item.expected, item.measured) == ("criterion", "pass", check["required"],
                                                                           check["measured"])
@@ -224,6 +225,7 @@ def test_each_profile_has_its_evidence_ids_and_report_section(tmp_path: Path) ->
     assert default.config["profile"] == "cortex-m0plus" and paper.config["profile"] == "paper"
     assert [i.id for i in paper.items] == ["sim@paper:fig16/every-request-answered",
                                            "sim@paper:fig16/bounded-by-the-derived-frames", "sim@paper:fig16/constant",
+                                           "sim@paper:fig16/host-libraries-agree",
                                            "sim@paper:fig16/paper-profile-reproduces-the-paper-s-fig16_ms-average"]
     assert paper.items[-1].verdict == "pass" and paper.items[-1].expected.startswith("3 +- 0.1 ms")
     assert all(i.data["profile"] == "paper" for i in paper.items)

@@ -136,7 +136,7 @@ def test_trace_validation_with_tlc(tmp_path: Path) -> None:
             "USB uplink mutant rejected: callbacks swapped", "USB uplink premise measured at the motor load",
             "discovery trace accepted", "discovery mutant rejected: phantom identity",
             "discovery mutant rejected: duplicate not flagged", "discovery mutant rejected: duplicates merged"} <= names
-    # one row per USB frame phase, each its own TLC run: accepted exactly where every callback came
+    # one row per USB frame phase (all traces in one TLC run): accepted exactly where every callback came
     # within UsbUplink.tla's 3 frames; no wall time in the CSV (same seed, same bytes)
     phases = [r for r in res.table if "after the OS tick" in r["trace"]]
     assert len(phases) == len(traces.USB_PHASES_US[::2])

@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import pytest
 
-from urb_msgs.sensorhex import MotorCommand, MotorFeedback
 from urb_sim.host import SimHost
-from urb_sim.native import App, World
+from urb_sim.native import World
+from urb_sim.sensorhex_load import sensorhex_tick, wire_sensorhex
 from urb_sim.system import NS_PER_MS, Loop, System
 
 Delivery = tuple[int, int, int, bytes]  # (wake-up number, virtual ns, bridge, bytes)
@@ -55,12 +55,7 @@ def sensorhex_deliveries(host_kind: type[SimHost], params: dict[str, float],
     that received none."""
     s = System(seed=7, params=params)
     s.host = host_kind(s.world)
-    u0, u1, rs = s.bridge("usb"), s.bridge("usb"), s.bridge("rs232")
-    for b, first in ((u0, 0), (u1, 3)):
-        for i in range(3):
-            s.node(b, App.MOTOR, 0x20 + i, first + i)
-    for a, app in ((0x30, App.BATTERY), (0x31, App.IMU), (0x32, App.IR)):
-        s.node(rs, app, a, 0)
+    wire_sensorhex(s)
     got: list[Delivery] = []
     per_wake: dict[int, int] = {}
     deliver = s.host._deliver
@@ -73,20 +68,7 @@ def sensorhex_deliveries(host_kind: type[SimHost], params: dict[str, float],
 
     s.host._deliver = recording  # type: ignore[method-assign]
     s.start()
-    motors = [s.urb.find_node("MotorDriver", i) for i in range(6)]
-    slow = [s.urb.find_node(n, 0) for n in ("BatteryManager", "Imu", "IrDistance")]
-    k = [0]
-
-    def tick() -> None:
-        k[0] += 1
-        for m in motors:
-            m.submit_request(m.new_request().read_message(MotorFeedback))
-            m.submit_request(m.new_request().write_message(MotorCommand(voltage=0)))
-        if k[0] % 10 == 0:
-            for n in slow:
-                n.submit_request(n.new_request().read(1))
-
-    Loop(s.host, NS_PER_MS, tick, count=ms)
+    Loop(s.host, NS_PER_MS, sensorhex_tick(s), count=ms)
     s.host.advance((ms + 20) * NS_PER_MS)
     s.close()
     return got, sum(1 for n in per_wake.values() if n > 1), sum(1 for n in per_wake.values() if n == 0)

@@ -11,6 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+#include "sim_host_c.h"
 #include "urbsim.h"
 
 #define MS 1000000ull
@@ -132,6 +133,49 @@ static void crowded(uint64_t seed)
     urbsim_free(NULL);
 }
 
+/* The C host library driving a world (sim/world/sim_host_c.h): its transfer blocks, event heap,
+ * records and logs grown by a loop that outruns its links (six motors at 1 kHz), freed with
+ * requests still in flight; a host refused for a world not started. */
+static void c_host(uint64_t seed)
+{
+    urbsim_world_t *w = urbsim_new(seed);
+    if (!w) {
+        expect_ok(-1, "urbsim_new");
+        return;
+    }
+    expect(urbsim_chost_new(w) == NULL, 1, "urbsim_chost_new (world not started)");
+    int usb = urbsim_add_bridge(w, URBSIM_UPLINK_USB), rs = urbsim_add_bridge(w, URBSIM_UPLINK_RS232);
+    int motors[6];
+    for (int i = 0; i < 6; i++) {
+        motors[i] = urbsim_add_node(w, usb, URBSIM_APP_MOTOR, 0x20 + i, i);
+        expect_ok(motors[i], "urbsim_add_node (motor)");
+    }
+    expect_ok(urbsim_add_node(w, rs, URBSIM_APP_IMU, 0x31, 0), "urbsim_add_node (imu)");
+    expect(urbsim_start(w), 0, "urbsim_start");
+    run_until(w, 80 * MS);
+    urbsim_chost_t *h = urbsim_chost_new(w);
+    if (!h) {
+        expect_ok(-1, "urbsim_chost_new");
+        urbsim_free(w);
+        return;
+    }
+    expect(urbsim_chost_bridge(h, usb, 1, 15, 1, 1), 0, "urbsim_chost_bridge (usb)");
+    expect(urbsim_chost_bridge(h, rs, 0, 4, 1, 1), 0, "urbsim_chost_bridge (rs232)");
+    expect(urbsim_chost_bridge(h, rs, 0, 4, 1, 1), -1, "urbsim_chost_bridge (twice)");
+    expect(urbsim_chost_bridge(h, 5, 0, 4, 1, 1), -1, "urbsim_chost_bridge (no such bridge)");
+    for (int i = 0; i < 6; i++) {
+        expect_ok(urbsim_chost_axis(h, usb, motors[i], 0x20 + i, 5.0, 0.02, 12.0, 1.0, 3.0, i % 2 ? i : -1),
+                  "urbsim_chost_axis");
+    }
+    expect_ok(urbsim_chost_read(h, rs, 0x31, 1, 12, 10), "urbsim_chost_read");
+    expect(urbsim_chost_loop(h, (int64_t)MS, 300u, 0), 0, "urbsim_chost_loop");
+    expect(urbsim_chost_advance_to(h, urbsim_now(w) + 250 * MS), 0, "urbsim_chost_advance_to");
+    expect(urbsim_chost_stat(h, "submitted") > 1000.0, 1, "urbsim_chost_stat (submitted)");
+    urbsim_chost_free(h);
+    urbsim_chost_free(urbsim_chost_new(w)); /* one that never drove anything */
+    urbsim_free(w);
+}
+
 int main(int argc, char **argv)
 {
     if (argc != 2) {
@@ -141,6 +185,7 @@ int main(int argc, char **argv)
     for (uint64_t seed = 1; seed <= 2; seed++) {
         sensorhex(seed, argv[1]);
         crowded(seed);
+        c_host(seed);
     }
     if (failures) {
         fprintf(stderr, "world_leaks: %d call(s) did not answer as expected\n", failures);

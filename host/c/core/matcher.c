@@ -137,9 +137,63 @@ static size_t response_size(bool read, uint8_t length, uint8_t status)
     return covered + ((covered <= 14u) ? 1u : 2u);
 }
 
-/* Matches every complete response held in rx; true when a partial candidate is left waiting.
- * It does the host's part of Bridge.tla HostMatch (the oldest request in flight whose number the
- * response echoes; the ones before it complete as lost), a step of the bridge's Emit. */
+uint32_t urbh_find(const urb_matcher_t *m, uint8_t seq)
+{
+    uint32_t k = 0u;
+    while ((k < m->count) && (m->slot[urbh_at(m, k)].seq != seq)) {
+        k++;
+    }
+    return k;
+}
+
+/* The framing: what the held bytes start with. It reads the matcher and changes nothing. */
+urbh_frame_t urbh_frame_at_head(const urb_matcher_t *m, urbh_candidate_t *c)
+{
+    if (m->rx_len == 0u) {
+        return URBH_FRAME_NOTHING;
+    }
+    uint8_t const head = m->rx[m->rx_start];
+    uint8_t const status = (uint8_t)(head >> 4);
+    c->k = urbh_find(m, (uint8_t)(head & 0x0Fu));
+    if ((c->k == m->count) || (status > STATUS_MAX)) {
+        return URBH_FRAME_STRAY;
+    }
+    uint32_t const x = urbh_at(m, c->k);
+    c->n = response_size(m->slot[x].read, m->slot[x].length, status);
+    if (m->rx_len < c->n) {
+        return URBH_FRAME_WAIT;
+    }
+    /* the candidate is copied by index: a pointer at a variable offset into the matcher made the
+     * bounded model checker (ESBMC) run out of memory; <= 35 bytes per check */
+    uint8_t frame[URB_RESPONSE_MAX];
+    for (size_t i = 0u; i < c->n; i++) {
+        frame[i] = m->rx[m->rx_start + i];
+    }
+    if (urb_uplink_response_decode(&c->resp, frame, c->n) < 0) {
+        return URBH_FRAME_STRAY;
+    }
+    return URBH_FRAME_WHOLE;
+}
+
+/* The matching: the host's part of Bridge.tla HostMatch (the oldest request in flight whose number
+ * the response echoes; the ones before it complete as lost), a step of the bridge's Emit. */
+void urbh_deliver(urb_matcher_t *m, const urbh_candidate_t *c, urb_ns_t now)
+{
+    uint32_t const x = urbh_at(m, c->k);
+    urb_transfer_t *const matched = m->slot[x].t;
+    bool const data = m->slot[x].read && (c->resp.status == 0u);
+    drop(m, c->n);
+    lost_before(m, c->k, now);
+    pop_head(m);
+    if (matched == NULL) { /* the late response to a placeholder: its number is free now */
+        m->late_responses++;
+        return;
+    }
+    urbh_complete(m, matched, now, urb_flags_from_status(c->resp.status), (int8_t)c->resp.status,
+                  data ? c->resp.data : NULL, data ? c->resp.data_len : 0u);
+}
+
+/* Matches every complete response held in rx; true when a partial candidate is left waiting. */
 static bool parse(urb_matcher_t *m, urb_ns_t now)
 {
     while (m->rx_len > 0u) {
@@ -147,45 +201,16 @@ static bool parse(urb_matcher_t *m, urb_ns_t now)
             urb_matcher_discard(m, m->rx_len); /* nothing is pending: these bytes answer nothing */
             return false;
         }
-        uint8_t const head = m->rx[m->rx_start];
-        uint8_t const seq = (uint8_t)(head & 0x0Fu);
-        uint8_t const status = (uint8_t)(head >> 4);
-        uint32_t k = 0u;
-        while ((k < m->count) && (m->slot[urbh_at(m, k)].seq != seq)) {
-            k++;
-        }
-        if ((k == m->count) || (status > STATUS_MAX)) {
-            urb_matcher_discard(m, 1u);
-            continue;
-        }
-        uint32_t const x = urbh_at(m, k);
-        urb_transfer_t *const matched = m->slot[x].t;
-        bool const read = m->slot[x].read;
-        size_t const n = response_size(read, m->slot[x].length, status);
-        if (m->rx_len < n) {
+        urbh_candidate_t c;
+        urbh_frame_t const f = urbh_frame_at_head(m, &c);
+        if (f == URBH_FRAME_WAIT) {
             return true;
         }
-        /* the candidate is copied by index: a pointer at a variable offset into the matcher made the
-         * bounded model checker (ESBMC) run out of memory; <= 35 bytes per check */
-        uint8_t frame[URB_RESPONSE_MAX];
-        for (size_t i = 0u; i < n; i++) {
-            frame[i] = m->rx[m->rx_start + i];
-        }
-        urb_uplink_response_t resp;
-        if (urb_uplink_response_decode(&resp, frame, n) < 0) {
+        if (f == URBH_FRAME_STRAY) {
             urb_matcher_discard(m, 1u);
-            continue;
+        } else {
+            urbh_deliver(m, &c, now);
         }
-        drop(m, n);
-        lost_before(m, k, now);
-        pop_head(m);
-        if (matched == NULL) { /* the late response to a placeholder: its number is free now */
-            m->late_responses++;
-            continue;
-        }
-        bool const data = read && (resp.status == 0u);
-        urbh_complete(m, matched, now, urb_flags_from_status(resp.status), (int8_t)resp.status,
-                      data ? resp.data : NULL, data ? resp.data_len : 0u);
     }
     return false;
 }

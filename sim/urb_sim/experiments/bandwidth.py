@@ -21,23 +21,51 @@ from __future__ import annotations
 import json
 import statistics
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Protocol
 
-from urb.api import NodeRequest
-from urb_msgs.sensorhex import MotorCommand, MotorFeedback
+from urb.managers.base import encode_message
+from urb_msgs.sensorhex import MotorCommand, MotorConfig, MotorFeedback
 
 from .. import profiles
+from ..chost import CHost
 from ..native import App, Trace
 from ..system import NS_PER_MS, Loop, System
 from . import Progress, Result, no_progress, pyplot, write_csv
-from .control import _enable
+from .control import ENABLE, _enable, resolve_host
 from .usb_bound import three_frames_ms
 
 USB_FRAME_MS = 1.0
 
 
-def _judge(reqs: list[NodeRequest], base_max: float | None, frame_ms: float = 0.0) -> tuple[bool, float, float]:
+class Answered(Protocol):
+    """What _judge needs of a request: a NodeRequest, or an Answer of the C host's records."""
+
+    @property
+    def ok(self) -> bool: ...
+
+    @property
+    def latency_ns(self) -> int | None: ...
+
+
+@dataclass(frozen=True)
+class Answer:
+    """A request of the C host (urb_sim.chost.Request) as _judge sees it."""
+
+    ok: bool
+    latency_ns: int | None
+
+
+def _answers(chost: CHost, read_only: bool) -> list[Answer]:
+    """The C host's requests in submission order (its reads only when `read_only`), as NodeRequests'
+    ok and latency (submission to completion: to the callback, which runs at the same instant)."""
+    return [Answer(r.done_ns is not None and r.flags == 0, None if r.done_ns is None else r.done_ns - r.submitted_ns)
+            for r in chost.requests() if r.read or not read_only]
+
+
+def _judge(reqs: Sequence[Answered], base_max: float | None, frame_ms: float = 0.0) -> tuple[bool, float, float]:
     """(sustained, mean ms, max ms) of a run's requests. `frame_ms`: how far apart two requests'
     latencies may be without a backlog (USB: a frame, where the frames start right at the write
     thread's wake-up and each request makes its frame or waits for the next by the jitter)."""
@@ -51,13 +79,28 @@ def _judge(reqs: list[NodeRequest], base_max: float | None, frame_ms: float = 0.
     return (not grows) and within, statistics.mean(lat), max(lat)
 
 
-def probe_load(uplink: str, payload: int, per_tick: int, ms: int, seed: int) -> tuple[list[NodeRequest], float]:
+def probe_load(uplink: str, payload: int, per_tick: int, ms: int, seed: int,
+               host: str = "python") -> tuple[list[Answered], float]:
+    """`per_tick` reads of the probe per 1-ms tick for `ms` ticks, on the Python or the C host library:
+    the requests in submission order and the downlink's busy share."""
     s = System(seed=seed, probe_out=payload)
     b = s.bridge(uplink)
     s.node(b, App.PROBE, 0x10, 0)
     s.start()
+    if host == "c":
+        busy0, t0 = s.world.stat("i2c.busy_ns", b), s.world.now
+        chost = CHost(s)
+        for _ in range(per_tick):
+            chost.read(b, 0x10, 1, payload, 1)
+        chost.loop(NS_PER_MS, ms, 0)
+        chost.advance_to(s.world.now + (ms + 300) * NS_PER_MS)
+        busy = (s.world.stat("i2c.busy_ns", b) - busy0) / max(1, s.world.now - t0 - 300 * NS_PER_MS)
+        answers: list[Answered] = list(_answers(chost, read_only=True))
+        chost.close()
+        s.close()
+        return answers, busy
     node = s.urb.find_node(0x7E, 0)
-    reqs: list[NodeRequest] = []
+    reqs: list[Answered] = []
 
     def tick() -> None:
         for _ in range(per_tick):
@@ -73,10 +116,10 @@ def probe_load(uplink: str, payload: int, per_tick: int, ms: int, seed: int) -> 
     return reqs, busy
 
 
-def max_reads_per_ms(uplink: str, payload: int, ms: int, seed: int) -> tuple[int, float, float]:
+def max_reads_per_ms(uplink: str, payload: int, ms: int, seed: int, host: str = "python") -> tuple[int, float, float]:
     """(largest sustained reads per ms, its mean latency, the unloaded max latency)."""
     frame = USB_FRAME_MS if uplink == "usb" else 0.0
-    base, _ = probe_load(uplink, payload, 1, ms, seed)
+    base, _ = probe_load(uplink, payload, 1, ms, seed, host)
     ok1, _, base_max = _judge(base, None, frame)
     if not ok1:
         return 0, float("nan"), base_max
@@ -84,7 +127,7 @@ def max_reads_per_ms(uplink: str, payload: int, ms: int, seed: int) -> tuple[int
     best_mean = _judge(base, base_max, frame)[1]
     while lo < hi:
         mid = (lo + hi + 1) // 2
-        reqs, _ = probe_load(uplink, payload, mid, ms, seed)
+        reqs, _ = probe_load(uplink, payload, mid, ms, seed, host)
         good, mean, _ = _judge(reqs, base_max, frame)
         if good:
             lo, best_mean = mid, mean
@@ -93,9 +136,10 @@ def max_reads_per_ms(uplink: str, payload: int, ms: int, seed: int) -> tuple[int
     return lo, best_mean, base_max
 
 
-def motor_load(motors: int, rate_hz: int, ms: int, seed: int) -> tuple[bool, float, float, float]:
+def motor_load(motors: int, rate_hz: int, ms: int, seed: int, host: str = "python") -> tuple[bool, float, float, float]:
     """(sustained, mean ms, max ms, I2C time per loop cycle in us, SYNC broadcasts included) for
-    `motors` motor nodes on one USB bridge, each read and commanded once per period."""
+    `motors` motor nodes on one USB bridge, each read and commanded once per period, on the Python
+    or the C host library."""
     s = System(seed=seed)
     b = s.bridge("usb")
     for i in range(motors):
@@ -104,9 +148,13 @@ def motor_load(motors: int, rate_hz: int, ms: int, seed: int) -> tuple[bool, flo
     accs = [s.urb.find_node("MotorDriver", i) for i in range(motors)]
     from .control import Axis, Pd
 
-    for a in accs:
-        _enable(Axis(a, Pd(0.0, 0.0)))
-    reads: list[NodeRequest] = []
+    chost = CHost(s) if host == "c" else None
+    for i, a in enumerate(accs):
+        if chost is None:
+            _enable(Axis(a, Pd(0.0, 0.0)))
+        else:
+            chost.submit_write(b, 0x20 + i, a.mailbox_of(MotorConfig, "inbox"), encode_message(ENABLE))
+    reads: list[Answered] = []
 
     def tick() -> None:
         for a in accs:
@@ -119,8 +167,17 @@ def motor_load(motors: int, rate_hz: int, ms: int, seed: int) -> tuple[bool, flo
     cycles = ms * rate_hz // 1000
     busy0 = s.world.stat("i2c.busy_ns", b)
     syncs0 = s.world.stat("bridge.syncs", b)
-    Loop(s.host, period, tick, count=cycles)
-    s.host.advance((ms + 300) * NS_PER_MS)
+    if chost is None:
+        Loop(s.host, period, tick, count=cycles)
+        s.host.advance((ms + 300) * NS_PER_MS)
+    else:
+        for i, a in enumerate(accs):
+            chost.read(b, 0x20 + i, a.mailbox_of(MotorFeedback, "outbox"), 6, 1)
+            chost.write(b, 0x20 + i, a.mailbox_of(MotorCommand, "inbox"), encode_message(MotorCommand(voltage=0)), 1)
+        chost.loop(period, cycles, 0)
+        chost.advance_to(s.world.now + (ms + 300) * NS_PER_MS)
+        reads = list(_answers(chost, read_only=True))  # the enables are writes: not among them
+        chost.close()
     # I2C time the loop's cycles needed, with one SYNC per millisecond of loop time (SYNCs sent
     # while a backlog drains after the loop are not the loop's)
     busy = s.world.stat("i2c.busy_ns", b) - busy0
@@ -264,8 +321,13 @@ def breakdown_note(bd: Breakdown) -> str:
         f"implies a leaner downlink framing than URB's checked one.")
 
 
-def bandwidth(out: Path, *, quick: bool = False, seed: int = 600, progress: Progress = no_progress) -> Result:
-    res = Result("bandwidth", "Bandwidth limits: the highest loop rate and payload each uplink sustains",
+def bandwidth(out: Path, *, quick: bool = False, seed: int = 600, progress: Progress = no_progress,
+              host: str | None = None) -> Result:
+    """`host`: the host library the loads run on (control.HOSTS; None: $URB_SIM_HOST, else python);
+    the overloaded 3-motor 1-kHz load is repeated on the other one and the two must agree."""
+    host = resolve_host(host)
+    res = Result("bandwidth", "Bandwidth limits: the highest loop rate and payload each uplink sustains"
+                 + (" (on the C host library)" if host == "c" else ""),
                  "RS232: up to 10-byte payloads at 1 kHz; USB: 31-byte payloads at 1 kHz, the I2C downlink and "
                  "the bridge becoming the bottleneck; six motors at 1 kHz through two USB bridges")
     out.mkdir(parents=True, exist_ok=True)
@@ -281,7 +343,7 @@ def bandwidth(out: Path, *, quick: bool = False, seed: int = 600, progress: Prog
         for p in ps:
             progress(step / n_steps, f"bandwidth: {uplink}, {p}-byte reads")
             step += 1
-            k, mean, base = max_reads_per_ms(uplink, p, ms, seed)
+            k, mean, base = max_reads_per_ms(uplink, p, ms, seed, host)
             caps[(uplink, p)] = k
             rows.append([uplink, p, k, k * 1000, round(mean, 3), round(base, 3)])
             res.table.append({"uplink": uplink, "payload B": p, "reads per ms sustained": k,
@@ -296,16 +358,23 @@ def bandwidth(out: Path, *, quick: bool = False, seed: int = 600, progress: Prog
         for rate in (1000, 500):
             progress(step / n_steps, f"bandwidth: {m} motor(s) per USB bridge at {rate} Hz")
             step += 1
-            good, mean, mx, busy = motor_load(m, rate, ms, seed)
+            good, mean, mx, busy = motor_load(m, rate, ms, seed, host)
             motor_ok[(m, rate)] = good
             mrows.append((m, rate, good, round(mean, 3), round(mx, 3), round(busy, 1)))
+            if (m, rate) == (3, 1000):  # the overloaded load, its queues growing: the reference run
+                other = motor_load(m, rate, ms, seed, "python" if host == "c" else "c")
+                agree = other == (good, mean, mx, busy)
+                res.check("host libraries agree", "the 3-motor 1-kHz load (overloaded) on the Python and on the C "
+                          "host library: the same verdict, mean and max read latency and I2C time per cycle",
+                          f"{mean:.6f} / {mx:.6f} ms, {busy:.3f} us per cycle: " + ("equal" if agree else
+                                                                                  f"the other host: {other}"), agree)
     res.files.append(write_csv(out / "bandwidth_motors.csv", ["motors_per_bridge", "loop_hz", "sustained",
                                                                 "read_latency_mean_ms", "read_latency_max_ms",
                                                                 "i2c_us_per_cycle"],
                                ((m, r, int(g), a, x, u) for m, r, g, a, x, u in mrows)))
     progress(1.0, "bandwidth: done")
     res.wall_s = time.perf_counter() - t0
-    res.sim_s = (sum(len(v) for v in payloads.values()) * 4 + 6) * (ms + 360) / 1000
+    res.sim_s = (sum(len(v) for v in payloads.values()) * 4 + 7) * (ms + 360) / 1000
     usb_limit = three_frames_ms(profiles.model_values()) + 1.0
     res.tables.append((
         "SensoRHex motor workload on one USB bridge: each motor read (MotorFeedback) and commanded (MotorCommand) "

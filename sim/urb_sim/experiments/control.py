@@ -12,6 +12,7 @@ clock, the paper's "lag".
 from __future__ import annotations
 
 import math
+import os
 import statistics
 import time
 from dataclasses import dataclass, field
@@ -20,6 +21,9 @@ from pathlib import Path
 from urb.api import NodeAccessor, NodeRequest
 from urb_msgs.sensorhex import MotorCommand, MotorConfig, MotorFeedback, MotorMode
 
+from ..chost import CHost, Request, as_requests, record_python_requests
+from ..hostcompare import HostRun, compare_runs, host_run
+from ..hostcompare import run as run_on
 from ..native import App, Mark
 from ..system import NS_PER_MS, Loop, System
 from . import Progress, Result, no_progress, pyplot, write_csv
@@ -35,6 +39,16 @@ PAPER_LAG_MS = {"rs232": 2.0, "usb": 3.0}
 #: spans 2.1-3.1 ms, Fig. 16): 5.0 ms at seed 19.
 NODE_PERIOD_MS = 1.0
 PHASE_PERIODS = {"rs232": 1, "usb": 2}  #: update periods the phases can add to the paper's delay
+HOSTS = ("python", "c")  #: the host libraries a PD run can use (pd_tracking's `host`)
+HOST_ENV = "URB_SIM_HOST"  #: the experiments' host when not given (`urb sim sensorhex --host`)
+
+
+def resolve_host(host: str | None) -> str:
+    """The host library an experiment's loops run on: `host`, else $URB_SIM_HOST, else python."""
+    host = host or os.environ.get(HOST_ENV) or "python"
+    if host not in HOSTS:
+        raise ValueError(f"{HOST_ENV}={host!r}: use one of {', '.join(HOSTS)}")
+    return host
 
 
 @dataclass
@@ -80,15 +94,19 @@ class Axis:
         return self.pos / COUNTS_PER_RAD
 
 
+#: What every experiment's motor driver is configured with before its loop.
+ENABLE = MotorConfig(mode=MotorMode.VOLTAGE, voltage_limit=12000)
+
+
 def _enable(axis: Axis) -> None:
-    axis.node.submit_request(axis.node.new_request().write_message(
-        MotorConfig(mode=MotorMode.VOLTAGE, voltage_limit=12000)))
+    axis.node.submit_request(axis.node.new_request().write_message(ENABLE))
 
 
 def _control(sysm: System, axes: list[Axis], reference: list[object], seconds: float, t0: list[int],
              truth: list[list[tuple[int, float, float]]], motors: list[int],
-             marks: list[list[tuple[int, int, int]]]) -> None:
-    """Run the 1-kHz loop: read every axis, command in the callback; sample the true state."""
+             marks: list[list[tuple[int, int, int]]], period_ns: int = NS_PER_MS) -> None:
+    """Run the 1-kHz loop (or one of `period_ns`): read every axis, command in the callback; sample
+    the true state."""
     host = sysm.host
 
     def feedback(axis: Axis, ref: object) -> object:
@@ -120,7 +138,7 @@ def _control(sysm: System, axes: list[Axis], reference: list[object], seconds: f
     t0[0] = (host.now_ns() // NS_PER_MS + 1) * NS_PER_MS
     for m in motors:
         sysm.world.node_marks(m)  # discard the start-up marks
-    Loop(host, NS_PER_MS, tick, count=int(seconds * 1000))
+    Loop(host, period_ns, tick, count=int(seconds * 1000) * NS_PER_MS // period_ns)
     end = sysm.world.now + int((seconds + 0.05) * 1e9)
     while sysm.world.now < end:
         host.advance_to(min(end, sysm.world.now + 500 * NS_PER_MS))
@@ -207,13 +225,48 @@ def fit_lag(samples: list[tuple[int, float, float]], amp: float, omega: float) -
     return best[0] * 1e3, math.sqrt(max(0.0, best[1]) / len(samples))
 
 
+def _control_c(sysm: System, axes: list[Axis], places: list[tuple[int, int, int]], sines: list[tuple[float, float]],
+               seconds: float, truth: list[list[tuple[int, float, float]]], marks: list[list[tuple[int, int, int]]],
+               period_ns: int = NS_PER_MS) -> CHost:
+    """_control's loop on the C host library (urb_sim.chost): the same instants, requests, gains and
+    references (axis k: at places[k] = (bridge, motor node, address), amp sin(omega t) for sines[k] =
+    (amp, omega)), the world run from C; the truth, commands and failures read back afterwards."""
+    t0 = (sysm.host.now_ns() // NS_PER_MS + 1) * NS_PER_MS
+    for _, motor, _ in places:
+        sysm.world.node_marks(motor)  # discard the start-up marks
+    chost = CHost(sysm)
+    ks = [chost.axis(bridge, motor, address, kp=a.pd.kp, kd=a.pd.kd, limit=a.pd.limit, amp=amp, omega=omega)
+          for a, (bridge, motor, address), (amp, omega) in zip(axes, places, sines)]
+    chost.loop(period_ns, int(seconds * 1000) * NS_PER_MS // period_ns, t0)
+    end = sysm.world.now + int((seconds + 0.05) * 1e9)
+    while sysm.world.now < end:
+        chost.advance_to(min(end, sysm.world.now + 500 * NS_PER_MS))
+        for (_, motor, _), m in zip(places, marks):
+            m.extend(sysm.world.node_marks(motor))
+    for a, k, tr in zip(axes, ks, truth):
+        tr.extend(chost.samples(k))
+        a.commands = chost.commands(k)
+        a.fails = int(chost.stat(f"fails:{k}"))
+    return chost
+
+
 def pd_tracking(uplink: str, seed: int, seconds: float, kp: float, kd: float, amp: float = 4 * math.pi,
-                freq: float = 0.5, gravity: bool = False) -> tuple[Axis, list[tuple[int, float, float]], float, float, System]:
+                freq: float = 0.5, gravity: bool = False, host: str = "python",
+                record: list[Request] | None = None, trace: bool = False) -> tuple[Axis, list[tuple[int, float, float]], float, float, System]:
     """One PD run. Without `gravity` the leg swings in a horizontal plane (a test stand), so the
-    tracking error is the loop's lag, not a droop a PD controller cannot remove."""
+    tracking error is the loop's lag, not a droop a PD controller cannot remove.
+
+    `host`: "python" runs the loop on the Python host library (the reference), "c" on the C host
+    library in the simulation (urb_sim.chost), both after the same start-up and discovery through
+    the Python library. `record`, when given, receives every request of the loop with its outcome;
+    `trace`: keep the world's trace hash (System.world.trace_hash)."""
+    if host not in HOSTS:
+        raise ValueError(f"host {host!r}: use one of {', '.join(HOSTS)}")
     s = System(seed=seed, params={} if gravity else {"motor.leg_gravity": 0.0})
     b = s.bridge(uplink)
     n = s.node(b, App.MOTOR, 0x20, 0)
+    if trace:
+        s.world.trace(None)
     s.start()
     axis = Axis(s.urb.find_node("MotorDriver", 0), Pd(kp, kd))
     _enable(axis)
@@ -225,7 +278,16 @@ def pd_tracking(uplink: str, seed: int, seconds: float, kp: float, kd: float, am
 
     truth: list[list[tuple[int, float, float]]] = [[]]
     marks: list[list[tuple[int, int, int]]] = [[]]
-    _control(s, [axis], [ref], seconds, [0], truth, [n], marks)
+    if host == "c":
+        chost = _control_c(s, [axis], [(b, n, 0x20)], [(amp, omega)], seconds, truth, marks)
+        if record is not None:
+            record.extend(chost.requests())
+        chost.close()
+    else:
+        log = record_python_requests(s) if record is not None else None
+        _control(s, [axis], [ref], seconds, [0], truth, [n], marks)
+        if record is not None and log is not None:
+            record.extend(as_requests(log))
     steady = [x for x in truth[0] if x[0] >= 1e9]  # after the first second (start-up transient)
     lag, rms = fit_lag(steady, amp, omega)
     measured = loop_delays(marks[0], axis.commands)
@@ -233,26 +295,36 @@ def pd_tracking(uplink: str, seed: int, seconds: float, kp: float, kd: float, am
     return axis, truth[0], lag, rms, s
 
 
-def tune(uplink: str, seed: int, candidates: list[float], seconds: float,
-         kd: float = 0.05) -> tuple[float, float, tuple[Axis, list[tuple[int, float, float]], float, float]]:
+def tune(uplink: str, seed: int, candidates: list[float], seconds: float, kd: float = 0.05,
+         host: str = "python") -> tuple[float, float, tuple[Axis, list[tuple[int, float, float]], float, float], HostRun]:
     """The gain an engineer would keep: each candidate Kp (V/rad) runs the whole experiment and the
     run with the smallest raw tracking error (lag included, after the first second) is kept, so a
-    gain that drifts into instability late in the run is not chosen."""
-    best: tuple[float, float, tuple[Axis, list[tuple[int, float, float]], float, float]] | None = None
+    gain that drifts into instability late in the run is not chosen. The kept run comes back also as
+    a HostRun (its requests, commands, truth and trace), for the reference comparison."""
+    best: tuple[float, float, tuple[Axis, list[tuple[int, float, float]], float, float], HostRun] | None = None
     best_err = float("inf")
     for kp in candidates:
-        axis, truth, lag, rms, s = pd_tracking(uplink, seed, seconds, kp, kd)
+        record: list[Request] = []
+        t0 = time.process_time()
+        axis, truth, lag, rms, s = pd_tracking(uplink, seed, seconds, kp, kd, host=host, record=record)
+        kept = host_run(host, record, axis.commands, truth, lag, rms, axis.fails, s, time.process_time() - t0, False)
         s.close()
         st = [x for x in truth if x[0] >= 1e9]
         raw = math.sqrt(sum((p - r) ** 2 for _, p, r in st) / max(1, len(st)))
         if axis.fails == 0 and raw < best_err:
-            best, best_err = (kp, kd, (axis, truth, lag, rms)), raw
+            best, best_err = (kp, kd, (axis, truth, lag, rms), kept), raw
     assert best is not None, f"no stable PD gain among {candidates} over {uplink}"
     return best
 
 
-def figs18_19(out: Path, *, quick: bool = False, seed: int = 18, progress: Progress = no_progress) -> Result:
-    res = Result("fig18_19", "Figs. 18-19: PD position control of a hip motor at 1 kHz, RS232 and USB",
+def figs18_19(out: Path, *, quick: bool = False, seed: int = 18, progress: Progress = no_progress,
+              host: str | None = None) -> Result:
+    """`host`: the host library the loops run on (HOSTS; None: $URB_SIM_HOST, else "python"); the
+    kept gain's run is repeated on the other one and the two must agree (urb_sim.hostcompare)."""
+    host = resolve_host(host)
+    other = "python" if host == "c" else "c"
+    res = Result("fig18_19", "Figs. 18-19: PD position control of a hip motor at 1 kHz, RS232 and USB"
+                 + (" (on the C host library)" if host == "c" else ""),
                  "accurate tracking of a 0.5-Hz sinusoid with a 2-ms lag over RS232 and a 3-ms lag over USB, "
                  "\"consistent with our previous measurements of 2 ms latency\"")
     seconds = 3.0 if quick else 6.0
@@ -263,7 +335,13 @@ def figs18_19(out: Path, *, quick: bool = False, seed: int = 18, progress: Progr
     runs = {}
     for i, up in enumerate(["rs232", "usb"]):
         progress(i / 2, f"Fig. {18 + i}: PD control over {up}, gains {grid}")
-        kp, kd, (axis, truth, lag, rms) = tune(up, seed, grid, seconds)
+        kp, kd, (axis, truth, lag, rms), kept = tune(up, seed, grid, seconds, host=host)
+        agreement = compare_runs(kept, run_on(other, up, seed, seconds, kp, kd, trace=False))
+        res.check(f"{up}: host libraries agree",
+                  "the kept gain's run on the Python and on the C host library: the same requests (instants, "
+                  "outcomes, count per flag, each completed once), commands and true shaft angles",
+                  f"{len(kept.requests)} requests, {len(kept.commands)} commands, {len(kept.truth)} samples: "
+                  + ("equal" if agreement.agrees else "; ".join(agreement.differences[:3])), agreement.agrees)
         d = statistics.mean(axis.delays) if axis.delays else float("nan")
         med = statistics.median(axis.delays) if axis.delays else float("nan")
         delays[up] = med
@@ -303,7 +381,12 @@ def figs18_19(out: Path, *, quick: bool = False, seed: int = 18, progress: Progr
               f"USB {periods['usb']} periods ({delays['usb']:.3f} ms) vs RS232 {periods['rs232']} "
               f"({delays['rs232']:.3f} ms)", periods["usb"] >= periods["rs232"])
     res.wall_s = time.perf_counter() - t0
-    res.sim_s = 2 * len(grid) * (seconds + 0.2)
+    res.sim_s = 2 * (len(grid) + 1) * (seconds + 0.2)  # the grid and the other host's run, per uplink
+    res.notes.append(
+        f"The loops ran on the {'C' if host == 'c' else 'Python'} host library; each uplink's kept gain was run again on "
+        f"the {'Python' if host == 'c' else 'C'} one (sim/urb_sim/hostcompare.py) and must agree with it request for request, "
+        "command for command and in the world's trace: the simulated host CPU charges no time to host code in either, "
+        "so nothing may differ (tests/sim/test_chost.py also requires the same world trace).")
     res.files.append(_plot_pd(out / "fig18_19_pd.png", runs))
     res.notes.append(
         "The paper's 2-ms and 3-ms \"lags\" are the loops' transport delays: from the node sampling the encoder to "

@@ -43,11 +43,12 @@ from pathlib import Path
 from urb.api import NodeAccessor, NodeRequest
 from urb_msgs.sensorhex import MotorCommand, MotorFeedback
 
+from ..chost import CHost
 from ..native import App
 from ..system import NS_PER_MS, Loop, System
 from . import Progress, Result, no_progress, pyplot, write_csv
 from .bandwidth import breakdown_note, i2c_breakdown
-from .control import Axis, Pd, _enable
+from .control import Axis, Pd, _enable, resolve_host
 
 GEAR = 33.0
 PERIOD_S = 0.8          # one step (the swing then needs ~60 % of the motor's no-load speed)
@@ -202,11 +203,64 @@ class GaitRun:
     sim_s: float
 
 
-def run_gait(seed: int, rate_hz: int, seconds: float, kp: float = 12.0, kd: float = 0.05) -> GaitRun:
+def _run_gait_c(hx: Sensorhex, rate_hz: int, seconds: float, t0: int) -> GaitRun:
+    """run_gait's loop on the C host library (urb_sim.chost): the same instants, requests, gains and
+    references; the legs' rows, latencies and failures read back afterwards."""
+    s = hx.system
+    period = NS_PER_MS * 1000 // rate_hz
+    w0 = time.perf_counter()
+    busy0 = [s.world.stat("i2c.busy_ns", b) for b in range(3)]
+    s.host.advance_to(t0 - 1)
+    start_v = s.world.now
+    chost = CHost(s)
+    places = [(k // 3, m, 0x20 + k % 3) for k, m in enumerate(hx.motors)]  # build(): bridges 0, 1; 0x20..0x22
+    ks = [chost.axis(b, m, address, kp=a.pd.kp, kd=a.pd.kd, limit=a.pd.limit, leg=k)
+          for k, ((b, m, address), a) in enumerate(zip(places, hx.axes))]
+    for n in hx.slow:
+        box = n.info.mailbox("outbox", 1)
+        assert box is not None
+        chost.read(2, n.address, 1, box.size, rate_hz // 100)
+    chost.loop(period, int(seconds * rate_hz), t0)
+    chost.advance_to(s.world.now + int((seconds + 0.1) * 1e9))
+    sim = (s.world.now - start_v) / 1e9
+    busy = [(s.world.stat("i2c.busy_ns", b) - busy0[b]) / (s.world.now - start_v) for b in range(3)]
+    wall = time.perf_counter() - w0
+    logs = [chost.log(k) for k in ks]
+    legs = [[row[:5] for row in log] for log in logs]
+    truth_i = [[(row[0], row[5]) for row in log] for log in logs]
+    motor_at = {(b, address) for b, _, address in places}
+    lat: list[float] = []
+    slow_lat: list[float] = []
+    for r in chost.requests():
+        if not r.read or r.done_ns is None or r.flags:
+            continue
+        (lat if (r.bridge, r.address) in motor_at else slow_lat).append((r.done_ns - r.submitted_ns) / 1e6)
+    fails = sum(int(chost.stat(f"fails:{k}")) for k in ks)
+    slow_fails = int(chost.stat("plain_fails"))
+    chost.close()
+    rms = _rms(legs)
+    s.close()
+    return GaitRun(rate_hz, legs, truth_i, lat, fails, slow_lat, slow_fails, rms, busy, wall, sim)
+
+
+def _rms(legs: list[list[tuple[float, float, float, float, float]]]) -> list[float]:
+    rms = []
+    for k in range(6):
+        errs = [(ref - true) / GEAR for t, ref, true, _, _ in legs[k] if t > 0.05]
+        rms.append(math.degrees(math.sqrt(sum(e * e for e in errs) / len(errs))) if errs else float("nan"))
+    return rms
+
+
+def run_gait(seed: int, rate_hz: int, seconds: float, kp: float = 12.0, kd: float = 0.05,
+             host: str = "python") -> GaitRun:
+    """One gait run on the Python host library (the reference) or, with host "c", on the C host
+    library after the same start-up and discovery (urb_sim.chost)."""
     hx = build(seed, kp=kp, kd=kd)
     s = hx.system
     period = NS_PER_MS * 1000 // rate_hz
     t0 = [(s.host.now_ns() // period + 1) * period]
+    if host == "c":
+        return _run_gait_c(hx, rate_hz, seconds, t0[0])
     legs: list[list[tuple[float, float, float, float, float]]] = [[] for _ in range(6)]
     truth_i: list[list[tuple[float, float]]] = [[] for _ in range(6)]
     lat: list[float] = []
@@ -257,10 +311,7 @@ def run_gait(seed: int, rate_hz: int, seconds: float, kp: float = 12.0, kd: floa
     sim = (s.world.now - start_v) / 1e9
     busy = [(s.world.stat("i2c.busy_ns", b) - busy0[b]) / (s.world.now - start_v) for b in range(3)]
     wall = time.perf_counter() - w0
-    rms = []
-    for k in range(6):
-        errs = [(ref - true) / GEAR for t, ref, true, _, _ in legs[k] if t > 0.05]
-        rms.append(math.degrees(math.sqrt(sum(e * e for e in errs) / len(errs))) if errs else float("nan"))
+    rms = _rms(legs)
     s.close()
     return GaitRun(rate_hz, legs, truth_i, lat, fails[0], hx.slow_lat, hx.slow_fail, rms, busy, wall, sim)
 
@@ -273,8 +324,33 @@ def choose_gains(tried: Sequence[tuple[float, float, GaitRun, float]]) -> tuple[
     return min(calm or tried, key=lambda x: max(x[2].rms_deg))
 
 
-def fig20(out: Path, *, quick: bool = False, seed: int = 20, progress: Progress = no_progress) -> Result:
-    res = Result("fig20", "Fig. 20 and Fig. 14: tripod gait on all six legs, SensoRHex topology",
+def gait_differences(a: GaitRun, b: GaitRun) -> list[str]:
+    """What differs between two runs of the same gait on the two host libraries (nothing may: see
+    urb_sim.hostcompare): every leg's rows, the true currents, the latencies (as multisets: the
+    two USB bridges' callbacks interleave by instant), the failures and the downlinks' busy time."""
+    out = []
+    for k in range(6):
+        if a.legs[k] != b.legs[k]:
+            i = next((i for i, (x, y) in enumerate(zip(a.legs[k], b.legs[k])) if x != y), min(len(a.legs[k]), len(b.legs[k])))
+            out.append(f"leg {k} row {i} differs ({len(a.legs[k])} and {len(b.legs[k])} rows)")
+    if a.truth_current != b.truth_current:
+        out.append("true currents differ")
+    if sorted(a.latency_ms) != sorted(b.latency_ms) or sorted(a.slow_latency_ms) != sorted(b.slow_latency_ms):
+        out.append("latencies differ")
+    if (a.fails, a.slow_fails) != (b.fails, b.slow_fails):
+        out.append(f"failures differ: {a.fails}+{a.slow_fails} and {b.fails}+{b.slow_fails}")
+    if a.busy != b.busy:
+        out.append("downlink busy time differs")
+    return out
+
+
+def fig20(out: Path, *, quick: bool = False, seed: int = 20, progress: Progress = no_progress,
+          host: str | None = None) -> Result:
+    """`host`: the host library the loops run on (control.HOSTS; None: $URB_SIM_HOST, else
+    "python"); the chosen gains' 500-Hz run is repeated on the other one and the two must agree."""
+    host = resolve_host(host)
+    res = Result("fig20", "Fig. 20 and Fig. 14: tripod gait on all six legs, SensoRHex topology"
+                 + (" (on the C host library)" if host == "c" else ""),
                  "six hip units under 1-kHz PD control through USB; transient currents when slowing the leg and "
                  "at the direction change; PWM ripple on the voltage measurement")
     out.mkdir(parents=True, exist_ok=True)
@@ -286,15 +362,21 @@ def fig20(out: Path, *, quick: bool = False, seed: int = 20, progress: Progress 
     grid = [(5.0, 0.02), (8.0, 0.02), (8.0, 0.05)]
     for i, (kp, kd) in enumerate(grid):
         progress(i / (len(grid) + 1), f"Fig. 20: tripod gait at 500 Hz, Kp {kp:g} Kd {kd:g}")
-        r = run_gait(seed, 500, seconds, kp, kd)
+        r = run_gait(seed, 500, seconds, kp, kd, host=host)
         tried.append((kp, kd, r, stance_current(r)))
     kp, kd, run, chosen_stance = choose_gains(tried)
     gains = (kp, kd)
+    other = run_gait(seed, 500, seconds, kp, kd, host="python" if host == "c" else "c")
+    differences = gait_differences(run, other)
+    res.check("host libraries agree", "the chosen gains' 500-Hz run on the Python and on the C host library: the same "
+              "rows of every leg (reference, true and measured), true currents, latencies, failures and bus load",
+              f"{sum(len(x) for x in run.legs)} rows, {len(run.latency_ms) + len(run.slow_latency_ms)} latencies: "
+              + ("equal" if not differences else "; ".join(differences[:3])), not differences)
     progress(len(grid) / (len(grid) + 1), "Fig. 20: the same at 1 kHz")
-    fast = run_gait(seed, 1000, 0.4 if quick else seconds, *gains)
+    fast = run_gait(seed, 1000, 0.4 if quick else seconds, *gains, host=host)
     progress(1.0, "Fig. 20: done")
     res.wall_s = time.perf_counter() - t0
-    res.sim_s = sum(x[2].sim_s for x in tried) + fast.sim_s
+    res.sim_s = sum(x[2].sim_s for x in tried) + other.sim_s + fast.sim_s
     rows = [(k, t, ref, true, v, i) for k in range(6) for t, ref, true, v, i in run.legs[k]]
     res.files.append(write_csv(out / "fig20_gait.csv", ["leg", "t_s", "reference_shaft_rad", "true_shaft_rad",
                                                          "measured_voltage_v", "measured_current_a"], rows))

@@ -16,11 +16,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from urb.api import NodeRequest
+from urb.errors import ErrorFlag
 
 from .. import profiles
+from ..chost import CHost
 from ..native import App
 from ..system import NS_PER_MS, Loop, System
 from . import Progress, Result, no_progress, profile_targets, pyplot, usb_bound, write_csv
+from .control import resolve_host
 
 #: Character time at 115200 Bd, 8N1 (10 bits), ns.
 CHAR_NS = 10 * 1_000_000_000 / 115200
@@ -41,13 +44,26 @@ class Sample:
     flags: str
 
 
-def measure(uplink: str, payload: int, reads: int, seed: int, params: dict[str, float] | None = None) -> list[Sample]:
+def measure(uplink: str, payload: int, reads: int, seed: int, params: dict[str, float] | None = None,
+            host: str = "python") -> list[Sample]:
     """`reads` periodic 1-kHz reads of a `payload`-byte outbox through `uplink` (model parameters
-    `params` changed from their defaults)."""
+    `params` changed from their defaults), on the Python host library (the reference) or, with host
+    "c", on the C host library after the same start-up and discovery (urb_sim.chost)."""
     s = System(seed=seed, probe_out=payload, params=dict(params or {}))
     b = s.bridge(uplink)
     s.node(b, App.PROBE, 0x10, 0)
     s.start()
+    if host == "c":
+        chost = CHost(s)
+        chost.read(b, 0x10, 1, payload, 1)
+        chost.loop(NS_PER_MS, reads, 0)
+        chost.advance_to(s.world.now + (reads + 200) * NS_PER_MS)
+        # in completion order, as the callbacks append them: one bridge completes in request order
+        completed = sorted((r for r in chost.requests() if r.done_ns is not None), key=lambda r: r.done_ns or 0)
+        chost.close()
+        s.close()
+        return [Sample(payload, i, r.done_ns - r.submitted_ns if r.done_ns is not None else None, r.flags == 0,
+                       ErrorFlag(r.flags).describe() if r.flags else "") for i, r in enumerate(completed)]
     node = s.urb.find_node(0x7E, 0)
     done: list[NodeRequest] = []
 
@@ -63,14 +79,28 @@ def measure(uplink: str, payload: int, reads: int, seed: int, params: dict[str, 
 
 
 def _sweep(uplink: str, payloads: list[int], reads: int, seed: int, progress: Progress,
-           label: str) -> tuple[list[Sample], float]:
+           label: str, host: str = "python") -> tuple[list[Sample], float]:
     samples: list[Sample] = []
     t0 = time.perf_counter()
     for i, p in enumerate(payloads):
         progress(i / len(payloads), f"{label}: payload {p} bytes")
-        samples.extend(measure(uplink, p, reads, seed))  # one rig (seed) for every payload, as in the paper
+        samples.extend(measure(uplink, p, reads, seed, host=host))  # one rig (seed) for every payload, as in the paper
     progress(1.0, f"{label}: done")
     return samples, time.perf_counter() - t0
+
+
+def _check_hosts_agree(res: Result, uplink: str, payload: int, reads: int, seed: int, host: str,
+                       samples: list[Sample]) -> None:
+    """The largest payload's run repeated on the other host library: every sample must be equal
+    (urb_sim.hostcompare says why nothing may differ)."""
+    mine = [x for x in samples if x.payload == payload]
+    theirs = measure(uplink, payload, reads, seed, host="python" if host == "c" else "c")
+    diff = next((f"read {i}: {a} and {b}" for i, (a, b) in enumerate(zip(mine, theirs)) if a != b), None)
+    if diff is None and len(mine) != len(theirs):
+        diff = f"{len(mine)} and {len(theirs)} reads"
+    res.check("host libraries agree", f"the {payload}-byte run on the Python and on the C host library: every read's "
+              "latency, outcome and flags equal", f"{len(mine)} reads: " + ("equal" if diff is None else diff),
+              diff is None)
 
 
 def _answered_ms(samples: list[Sample], payload: int) -> list[float]:
@@ -138,14 +168,17 @@ def _plot(path: Path, title: str, stats: dict[int, tuple[float, float, float, in
     return path
 
 
-def fig15(out: Path, *, quick: bool = False, seed: int = 15, progress: Progress = no_progress) -> Result:
-    """Fig. 15: RS232 (115200 Bd) + I2C (400 kb/s), payload 1..10 bytes, 1000 reads at 1 kHz."""
-    res = Result("fig15", "Fig. 15: RS232 round-trip latency vs payload",
+def fig15(out: Path, *, quick: bool = False, seed: int = 15, progress: Progress = no_progress,
+          host: str | None = None) -> Result:
+    """Fig. 15: RS232 (115200 Bd) + I2C (400 kb/s), payload 1..10 bytes, 1000 reads at 1 kHz; on
+    `host` (control.HOSTS; None: $URB_SIM_HOST, else python), the largest payload also on the other."""
+    host = resolve_host(host)
+    res = Result("fig15", "Fig. 15: RS232 round-trip latency vs payload" + (" (on the C host library)" if host == "c" else ""),
                  "linear growth with payload, maximum 2 ms (half of it OS scheduling)")
     payloads = [1, 3, 5, 7, 9, 10] if quick else list(range(1, 11))
     reads = 250 if quick else 1000
-    samples, wall = _sweep("rs232", payloads, reads, seed, progress, "Fig. 15")
-    res.wall_s, res.sim_s = wall, len(payloads) * (reads + 260) / 1000
+    samples, wall = _sweep("rs232", payloads, reads, seed, progress, "Fig. 15", host)
+    res.wall_s, res.sim_s = wall, (len(payloads) + 1) * (reads + 260) / 1000
     out.mkdir(parents=True, exist_ok=True)
     res.files.append(write_csv(out / "fig15_rs232_latency.csv", ["payload_bytes", "request", "latency_ns", "ok", "error"],
                                ((s.payload, s.index, s.latency_ns, int(s.ok), s.flags) for s in samples)))
@@ -187,17 +220,20 @@ def fig15(out: Path, *, quick: bool = False, seed: int = 15, progress: Progress 
             f"more than the 1-ms period, so a 1-kHz loop builds a backlog (mean {st[p][0]:.2f} ms, "
             f"max {st[p][2]:.2f} ms over {reads} reads). The paper's 12-byte budget is 4 % over 1 ms; "
             f"at 115200 Bd the largest payload a 1-kHz loop sustains is {fits[-1]} bytes.")
+    _check_hosts_agree(res, "rs232", payloads[-1], reads, seed, host, samples)
     return res
 
 
-def fig16(out: Path, *, quick: bool = False, seed: int = 16, progress: Progress = no_progress) -> Result:
-    """Fig. 16: USB + I2C (400 kb/s), payload 1..31 bytes, 1000 reads at 1 kHz."""
-    res = Result("fig16", "Fig. 16: USB round-trip latency vs payload",
+def fig16(out: Path, *, quick: bool = False, seed: int = 16, progress: Progress = no_progress,
+          host: str | None = None) -> Result:
+    """Fig. 16: USB + I2C (400 kb/s), payload 1..31 bytes, 1000 reads at 1 kHz; on `host` (as fig15's)."""
+    host = resolve_host(host)
+    res = Result("fig16", "Fig. 16: USB round-trip latency vs payload" + (" (on the C host library)" if host == "c" else ""),
                  "constant 3 ms whatever the payload (1 ms OS scheduling + 2 ms USB)")
     payloads = [1, 8, 16, 24, 31] if quick else list(range(1, 32))
     reads = 250 if quick else 1000
-    samples, wall = _sweep("usb", payloads, reads, seed, progress, "Fig. 16")
-    res.wall_s, res.sim_s = wall, len(payloads) * (reads + 260) / 1000
+    samples, wall = _sweep("usb", payloads, reads, seed, progress, "Fig. 16", host)
+    res.wall_s, res.sim_s = wall, (len(payloads) + 1) * (reads + 260) / 1000
     out.mkdir(parents=True, exist_ok=True)
     res.files.append(write_csv(out / "fig16_usb_latency.csv", ["payload_bytes", "request", "latency_ns", "ok", "error"],
                                ((s.payload, s.index, s.latency_ns, int(s.ok), s.flags) for s in samples)))
@@ -230,6 +266,7 @@ def fig16(out: Path, *, quick: bool = False, seed: int = 16, progress: Progress 
     res.check("constant", "per-payload maxima within 0.1 ms of each other, and the per-payload medians of each "
               "frame class too (the round trips the same whole number of frames sooner than the slowest), "
               "each run's first read left out", f"spread {spread * 1e3:.0f} us", spread <= 0.1)
+    _check_hosts_agree(res, "usb", payloads[-1], reads, seed, host, samples)
     answered = [x for p in payloads for x in _answered_ms(samples, p)]
     worst = max(st[p][2] for p in payloads)
     profile_targets(res, {"fig16_ms": (statistics.mean(answered) if answered else math.nan, worst)})

@@ -103,6 +103,7 @@ static void put_rx(uint32_t idx, uint32_t r0, uint32_t dlc, uint32_t rxts, uint3
     bench.ram.rx_fifo0[idx].word[3] = w3;
 }
 
+/* lobster-trace: urb.DLK_008 */
 static void test_layouts(void **state)
 {
     (void)state;
@@ -239,6 +240,7 @@ static void test_tx_frame_in_fifo_element(void **state)
     assert_int_equal(bench.regs.txbar, 0u);
 }
 
+/* lobster-trace: urb.DLK_008 */
 static void test_rx_element_delivered_and_acknowledged(void **state)
 {
     (void)state;
@@ -444,6 +446,7 @@ static void test_bus_off_state(void **state)
     assert_int_equal(bench.port.hal.state(bench.port.hal.ctx), URB_CAN_BUS_OFF);
 }
 
+/* lobster-trace: urb.DLK_008 */
 static void test_lost_elements_counted(void **state)
 {
     (void)state;
