@@ -34,7 +34,7 @@ from ..chost import CHost
 from ..native import App, Trace
 from ..system import NS_PER_MS, Loop, System
 from . import Progress, Result, no_progress, pyplot, write_csv
-from .control import ENABLE, _enable, resolve_host
+from .control import ENABLE, _enable, other_host, resolve_host
 from .usb_bound import three_frames_ms
 
 USB_FRAME_MS = 1.0
@@ -362,7 +362,7 @@ def bandwidth(out: Path, *, quick: bool = False, seed: int = 600, progress: Prog
             motor_ok[(m, rate)] = good
             mrows.append((m, rate, good, round(mean, 3), round(mx, 3), round(busy, 1)))
             if (m, rate) == (3, 1000):  # the overloaded load, its queues growing: the reference run
-                other = motor_load(m, rate, ms, seed, "python" if host == "c" else "c")
+                other = motor_load(m, rate, ms, seed, other_host(host))
                 agree = other == (good, mean, mx, busy)
                 res.check("host libraries agree", "the 3-motor 1-kHz load (overloaded) on the Python and on the C "
                           "host library: the same verdict, mean and max read latency and I2C time per cycle",

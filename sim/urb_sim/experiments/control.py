@@ -51,6 +51,11 @@ def resolve_host(host: str | None) -> str:
     return host
 
 
+def other_host(host: str) -> str:
+    """The host library an experiment's reference run uses: the one of HOSTS it does not run on."""
+    return HOSTS[1 - HOSTS.index(host)]
+
+
 @dataclass
 class Pd:
     """A PD controller on motor shaft angle (rad) producing armature volts."""
@@ -322,7 +327,7 @@ def figs18_19(out: Path, *, quick: bool = False, seed: int = 18, progress: Progr
     """`host`: the host library the loops run on (HOSTS; None: $URB_SIM_HOST, else "python"); the
     kept gain's run is repeated on the other one and the two must agree (urb_sim.hostcompare)."""
     host = resolve_host(host)
-    other = "python" if host == "c" else "c"
+    other = other_host(host)
     res = Result("fig18_19", "Figs. 18-19: PD position control of a hip motor at 1 kHz, RS232 and USB"
                  + (" (on the C host library)" if host == "c" else ""),
                  "accurate tracking of a 0.5-Hz sinusoid with a 2-ms lag over RS232 and a 3-ms lag over USB, "

@@ -48,7 +48,7 @@ from ..native import App
 from ..system import NS_PER_MS, Loop, System
 from . import Progress, Result, no_progress, pyplot, write_csv
 from .bandwidth import breakdown_note, i2c_breakdown
-from .control import Axis, Pd, _enable, resolve_host
+from .control import Axis, Pd, _enable, other_host, resolve_host
 
 GEAR = 33.0
 PERIOD_S = 0.8          # one step (the swing then needs ~60 % of the motor's no-load speed)
@@ -366,7 +366,7 @@ def fig20(out: Path, *, quick: bool = False, seed: int = 20, progress: Progress 
         tried.append((kp, kd, r, stance_current(r)))
     kp, kd, run, chosen_stance = choose_gains(tried)
     gains = (kp, kd)
-    other = run_gait(seed, 500, seconds, kp, kd, host="python" if host == "c" else "c")
+    other = run_gait(seed, 500, seconds, kp, kd, host=other_host(host))
     differences = gait_differences(run, other)
     res.check("host libraries agree", "the chosen gains' 500-Hz run on the Python and on the C host library: the same "
               "rows of every leg (reference, true and measured), true currents, latencies, failures and bus load",

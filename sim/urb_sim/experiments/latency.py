@@ -20,10 +20,11 @@ from urb.errors import ErrorFlag
 
 from .. import profiles
 from ..chost import CHost
+from ..hostcompare import first_difference
 from ..native import App
 from ..system import NS_PER_MS, Loop, System
 from . import Progress, Result, no_progress, profile_targets, pyplot, usb_bound, write_csv
-from .control import resolve_host
+from .control import other_host, resolve_host
 
 #: Character time at 115200 Bd, 8N1 (10 bits), ns.
 CHAR_NS = 10 * 1_000_000_000 / 115200
@@ -94,10 +95,9 @@ def _check_hosts_agree(res: Result, uplink: str, payload: int, reads: int, seed:
     """The largest payload's run repeated on the other host library: every sample must be equal
     (urb_sim.hostcompare says why nothing may differ)."""
     mine = [x for x in samples if x.payload == payload]
-    theirs = measure(uplink, payload, reads, seed, host="python" if host == "c" else "c")
-    diff = next((f"read {i}: {a} and {b}" for i, (a, b) in enumerate(zip(mine, theirs)) if a != b), None)
-    if diff is None and len(mine) != len(theirs):
-        diff = f"{len(mine)} and {len(theirs)} reads"
+    theirs = measure(uplink, payload, reads, seed, host=other_host(host))
+    python, c = (mine, theirs) if host == "python" else (theirs, mine)
+    diff = first_difference(list(python), list(c), "read")
     res.check("host libraries agree", f"the {payload}-byte run on the Python and on the C host library: every read's "
               "latency, outcome and flags equal", f"{len(mine)} reads: " + ("equal" if diff is None else diff),
               diff is None)
