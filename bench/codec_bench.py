@@ -27,7 +27,10 @@ URB / struct <= 4).
 
 C (bench/c/codec_bench.c, -O2, clock_gettime(CLOCK_MONOTONIC), best of REPEATS): memcpy limit,
 URB payload, URB frame, MAVLink frame (mavlink_msg_power_status_pack + mavlink_msg_to_send_buffer,
-mavlink_parse_char over every byte + mavlink_msg_power_status_decode). The MAVLink C headers are
+mavlink_parse_char over every byte + mavlink_msg_power_status_decode). Built twice, and every C
+row measured for both builds: "separate TUs" compiles gen/c/*.c as their own translation units, so
+each codec is a call; "LTO" adds -flto to compile and link, as a firmware image that links the
+generated codecs into its own code can (the codecs are then inlined where the optimizer chooses). The MAVLink C headers are
 generated into build/bench/mavlink by pymavlink's mavgen on every run (not committed). With
 valgrind present, callgrind counts instructions per round trip (repeatable, unlike time).
 
@@ -69,6 +72,9 @@ GEN_C = ROOT / "gen" / "c"
 C_SOURCE = ROOT / "bench" / "c" / "codec_bench.c"
 PAYLOAD_SIZES = (2, 6, 10, 31)
 C_FLAGS = ("-O2", "-std=c11", "-Wall", "-Wextra", "-Wno-address-of-packed-member")
+# The two C builds: (label, executable name, flags added to C_FLAGS for compiling and linking).
+C_BUILDS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
+    ("separate TUs", "codec_bench", ()), ("LTO", "codec_bench_lto", ("-flto",)))
 
 # Reference values (input 0 of the C benchmark's input table): the same three 16-bit numbers in
 # both protocols; POWER_STATUS has only unsigned fields, so -1500 travels as 64036.
@@ -133,7 +139,8 @@ def machine_info(cc: list[str], mavlink_common: Any) -> dict[str, str]:
         "cpu": f"{cpu_model()} ({os.cpu_count()} logical CPUs)",
         "python": f"{platform.python_implementation()} {platform.python_version()}",
         "cc": f"{shlex.join(cc)}: {first_line([*cc, '--version'])}",
-        "c_flags": " ".join(C_FLAGS),
+        "c_flags": " ".join(C_FLAGS) + "; " + ", ".join(
+            f"{label}: {' '.join(extra) or 'no more'}" for label, _exe, extra in C_BUILDS),
         "valgrind": first_line(["valgrind", "--version"]) if shutil.which("valgrind") else "not found",
         "pymavlink": f"{pymavlink_version()} (CRC: {'fastcrc, native' if fast_crc else 'pure Python'})",
     }
@@ -351,14 +358,15 @@ def generate_mavlink(mavlink_pkg: Any) -> Path:
     return out
 
 
-def build_c(cc: list[str], mavlink_dir: Path) -> tuple[Path, bool]:
-    """Compile the C benchmark with every gen/c/*.c; False when the URB C codecs are not there."""
+def build_c(cc: list[str], mavlink_dir: Path, name: str, extra: Sequence[str]) -> tuple[Path, bool]:
+    """Compile the C benchmark with every gen/c/*.c into build/bench/<name>, with `extra` flags added
+    for compiling and linking; False when the URB C codecs are not there."""
     have_urb = (GEN_C / "urb_sensorhex.h").exists() and (GEN_C / "urb_core.h").exists()
     sources = sorted(GEN_C.glob("*.c")) if have_urb else []
-    exe = BUILD / "codec_bench"
-    cmd: list[str | Path] = [*cc, *C_FLAGS, f"-DURB_HAVE_C_CODECS={int(have_urb)}",
+    exe = BUILD / name
+    cmd: list[str | Path] = [*cc, *C_FLAGS, *extra, f"-DURB_HAVE_C_CODECS={int(have_urb)}",
                              "-I", GEN_C, "-I", mavlink_dir, C_SOURCE, *sources, "-o", exe]
-    run(cmd, "compiling bench/c/codec_bench.c")
+    run(cmd, f"compiling bench/c/codec_bench.c ({' '.join(extra) or 'separate translation units'})")
     return exe, have_urb
 
 
@@ -403,6 +411,25 @@ def run_c(exe: Path, target: float, repeats: int) -> list[Timing]:
         t = Timing(name, what, wire, float(rec["best_ns"]), float(rec["worst_ns"]), int(rec["iterations"]),
                    int(rec["repeats"]))
         out.append(t)
+    return out
+
+
+def run_c_alternating(exes: list[tuple[str, tuple[str, ...], Path]], target: float,
+                      repeats: int) -> list[tuple[str, tuple[str, ...], list[Timing]]]:
+    """Every build measured `repeats` times, the builds taking turns (A, B, A, B, ...) so that a change
+    of the machine's load hits both alike; per case the best and worst of the turns."""
+    turns: list[list[list[Timing]]] = [[] for _ in exes]
+    for _ in range(repeats):
+        for i, (_label, _extra, exe) in enumerate(exes):
+            turns[i].append(run_c(exe, target, 1))
+    out = []
+    for (label, extra, _exe), runs in zip(exes, turns):
+        rows = []
+        for same_case in zip(*runs):
+            first = same_case[0]
+            rows.append(Timing(first.name, first.what, first.wire_bytes, min(t.best_ns for t in same_case),
+                               max(t.worst_ns for t in same_case), first.iterations, len(same_case)))
+        out.append((label, extra, rows))
     return out
 
 
@@ -553,14 +580,15 @@ limits (struct / memcpy) do no range checks and no CRC, so no codec reaches 1. T
 comparison is frame against frame: URB's 8-byte UplinkResponse (1 header byte, CRC-8) against
 MAVLink v2's 18-byte frame (10-byte header, CRC-16 with CRC_EXTRA). URB decodes a frame whose length
 the host already knows (the pending request says it); MAVLink C has only a byte-wise stream parser.
-URB C codecs are separate translation units (called), MAVLink's are static inline (inlined).
+URB C codecs: "separate TUs" calls them, "LTO" (-flto) may inline them; MAVLink's are static inline.
 Wire efficiency assumes MAVLink v2 unsigned unless marked signed (+13 bytes) and no trimming of
 trailing zero payload bytes (v2 trims them, so a real frame can be shorter). The URB read response
 also needs its 4-byte read request on the other direction of the link; an I2C read re-sends the
 select byte (+1) only when the selected outbox changes. I2C ACK, start and stop bits not counted."""
 
 
-def print_report(console: Console, info: dict[str, str], py: list[Timing], c: list[Timing],
+def print_report(console: Console, info: dict[str, str], py: list[Timing],
+                 c: list[tuple[str, tuple[str, ...], list[Timing]]],
                  have_urb_c: bool, wire: list[dict[str, int]], elapsed: float) -> None:
     console.print("[bold]URB codec benchmark[/bold]  (bench/codec_bench.py: numbers and ratios, no pass/fail)")
     for key in ("date", "uname", "cpu", "python", "cc", "c_flags", "valgrind", "pymavlink"):
@@ -573,17 +601,25 @@ def print_report(console: Console, info: dict[str, str], py: list[Timing], c: li
     legend(console, py)
     codec_summary(console, by)
     console.print()
-    byc = {t.name: t for t in c}
-    with_ir = any(t.instructions is not None for t in c)
-    console.print(ratio_table(f"C ({' '.join(C_FLAGS[:1])}): one encode + decode round trip of a 6-byte "
-                              f"message (best of {c[0].repeats})", c, byc["memcpy limit"],
-                              byc.get("MAVLink frame"), "MAVLink", with_ir))
-    legend(console, c)
-    if "URB payload" in byc and "URB MotorStatus" in byc:
-        console.print(f"  sub-byte fields (issue #38 goal: codec / memcpy <= 2): MotorFeedback "
-                      f"{byc['URB payload'].best_ns / byc['memcpy limit'].best_ns:.2f}, MotorStatus "
-                      f"{byc['URB MotorStatus'].best_ns / byc['memcpy limit, 4 B'].best_ns:.2f} (time)",
-                      highlight=False, markup=False)
+    with_ir = False
+    for label, extra, rows in c:
+        byc = {t.name: t for t in rows}
+        with_ir = with_ir or any(t.instructions is not None for t in rows)
+        console.print(ratio_table(f"C ({' '.join((*C_FLAGS[:1], *extra))}, {label}): one encode + decode round "
+                                  f"trip of a 6-byte message (best of {rows[0].repeats})", rows,
+                                  byc["memcpy limit"], byc.get("MAVLink frame"), "MAVLink", with_ir))
+    legend(console, c[0][2])
+    for label, _extra, rows in c:
+        byc = {t.name: t for t in rows}
+        if "URB payload" in byc and "URB MotorStatus" in byc:
+            pairs = ((byc["URB payload"], byc["memcpy limit"]), (byc["URB MotorStatus"], byc["memcpy limit, 4 B"]))
+            ratios = f"MotorFeedback/memcpy {pairs[0][0].best_ns / pairs[0][1].best_ns:.2f}, MotorStatus/memcpy4 " \
+                     f"{pairs[1][0].best_ns / pairs[1][1].best_ns:.2f} (time)"
+            if all(a.instructions and b.instructions for a, b in pairs):
+                ratios += ", " + ", ".join(f"{(a.instructions or 0) / (b.instructions or 1):.2f}"
+                                           for a, b in pairs) + " (instructions)"
+            console.print(f"  sub-byte fields (issue #38 goal: codec / memcpy <= 2), {label}: {ratios}",
+                          highlight=False, markup=False)
     if not have_urb_c:
         console.print("[yellow]gen/c has no URB C codecs yet: URB C rows skipped[/yellow]")
     if with_ir:
@@ -643,12 +679,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         BUILD.mkdir(parents=True, exist_ok=True)
         info = machine_info(cc, mav_common)
         mavlink_dir = generate_mavlink(mav_pkg)
-        exe, have_urb_c = build_c(cc, mavlink_dir)
-        check_vectors(exe, have_urb_c, mav_common)
+        exes: list[tuple[str, tuple[str, ...], Path]] = []
+        for label, name, extra in C_BUILDS:
+            exe, have_urb_c = build_c(cc, mavlink_dir, name, extra)
+            check_vectors(exe, have_urb_c, mav_common)
+            exes.append((label, extra, exe))
         py = run_python(mav_common, args.target, args.repeats)
-        c = run_c(exe, args.target, args.repeats)
+        c = run_c_alternating(exes, args.target, args.repeats)
         if not args.no_callgrind and shutil.which("valgrind"):
-            run_callgrind(exe, c)
+            for (_label, _extra, exe), (_l, _e, rows) in zip(exes, c):
+                run_callgrind(exe, rows)
         wire = wire_efficiency()
     except BenchError as e:
         print(f"codec_bench: error: {e}", file=sys.stderr)
@@ -661,7 +701,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "target_seconds": args.target,
         "repeats": args.repeats,
         "python": [timing_json(t) for t in py],
-        "c": [timing_json(t) for t in c],
+        "c": {label: [timing_json(t) for t in rows] for label, _extra, rows in c},
         "urb_c_codecs": have_urb_c,
         "wire_efficiency": [{**r, **{f"{k}_efficiency": round(r["payload"] / v, 4) for k, v in r.items()
                                      if k != "payload"}} for r in wire],

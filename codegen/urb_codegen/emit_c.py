@@ -1,14 +1,14 @@
 """C emitter: plain structs and byte-wise codecs for every message, node tables, CRCs.
 
-The model (model.py) already holds every bit offset; this module only turns each field into C
-statements (range check, pack, unpack) and hands them to the Jinja2 templates `templates/c_*.j2`,
-which own the shape of every file. Design choices the generated code relies on:
+The model (model.py) already holds every bit offset; `c_fields` turns each field into C statements
+(member checks, pack, unpack: constant shifts and masks on single bytes, no bit loop) and this module
+hands them to the Jinja2 templates `templates/c_*.j2`, which own the shape of every file. Design
+choices the generated code relies on:
 
-* Byte-aligned 8/16/32-bit fields are single byte loads and stores; every other field goes through
-  `urb_get_bits`/`urb_put_bits` (byte-wise, LSB-first). Either way there are no packed structs, no
-  buffer casts and no unaligned access (Cortex-M0 safe).
-* Nested messages and arrays are flattened into the enclosing codec: an array becomes a loop whose
-  bit offset grows by the element width. Only `encode`/`decode` are public per message.
+* Every byte of a fixed part is written once by an encoder and read with constant shifts by a
+  decoder; there are no packed structs, no buffer casts and no unaligned access (Cortex-M0 safe).
+* Nested messages and arrays are flattened into the enclosing codec: an array becomes a loop over
+  groups of elements that fill whole bytes (c_fields). Only `encode`/`decode` are public per message.
 * Encoders validate the whole struct before writing, so on any error the output buffer is untouched.
 * Decoders classify errors in the wire order: ARGUMENT (the caller's members, including the rules
   over implicit members only), SHORT, LONG, CHECKSUM, then RANGE (fields, then the frame's rules).
@@ -16,13 +16,15 @@ which own the shape of every file. Design choices the generated code relies on:
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from jinja2 import Environment, FileSystemLoader, StrictUndefined
 
-from .emit_rules import acsl_condition, c_violation
+from . import c_fields
+from .c_fields import At, acsl_runs, decode_facts, layout
+from .c_names import _c_name, _comment, _ctype, _literal, _member, enum_c, file_stem, msg_c, snake
+from .emit_rules import c_violation
 from .errors import Location, SchemaError
 from .model import (
     MAILBOXES,
@@ -40,15 +42,11 @@ from .model import (
     Schema,
 )
 
+__all__ = ["RUNTIME_VERSION", "TEST_SUPPORT_DIR", "emit_c", "enum_c", "file_stem", "msg_c", "snake", "_ctype",
+           "_member"]
+
 RUNTIME_VERSION = 1
 TEST_SUPPORT_DIR = "test"  # test-only sources (stdio), kept out of the product folder's *.c
-
-# C99 keywords and the names <stdbool.h>/<stdint.h> take; a field named like one gets a trailing "_".
-_C_RESERVED = frozenset(
-    "auto break case char const continue default do double else enum extern float for goto if inline int long "
-    "register restrict return short signed sizeof static struct switch typedef union unsigned void volatile "
-    "while _Bool _Complex _Imaginary bool true false NULL".split()
-)
 
 _ERROR_CODES = [
     ("OK", 0, "Success"),
@@ -61,344 +59,10 @@ _ERROR_CODES = [
 ]
 
 
-def snake(name: str) -> str:
-    """`UplinkReadRequest` -> `uplink_read_request`; `USBHeader` -> `usb_header`."""
-    return re.sub(r"(?<=[a-z0-9])(?=[A-Z])|(?<=[A-Z])(?=[A-Z][a-z])", "_", name).lower()
-
-
-def _member(f: Field) -> str:
-    return _c_name(f.name)
-
-
-def _c_name(name: str) -> str:
-    """The C struct member of a field named `name`: a C keyword gets a trailing `_`."""
-    return name + "_" if name in _C_RESERVED else name
-
-
 def _rule(title: str, char: str = "=") -> str:
     """A section banner comment padded to the width of the generated code (96 columns)."""
     head = f"/* {char * 5} {title} "
     return head + char * max(3, 93 - len(head)) + " */"
-
-
-def _comment(text: str) -> str:
-    """Text safe inside a C block comment."""
-    return text.replace("*/", "* /").replace("/*", "/ *")
-
-
-def _ctype(t: IntType) -> str:
-    if t.is_bool:
-        return "bool"
-    size = 8 if t.bits <= 8 else 16 if t.bits <= 16 else 32
-    return f"{'int' if t.signed else 'uint'}{size}_t"
-
-
-def _ctype_limits(t: IntType) -> tuple[int, int]:
-    size = 8 if t.bits <= 8 else 16 if t.bits <= 16 else 32
-    return (-(1 << (size - 1)), (1 << (size - 1)) - 1) if t.signed else (0, (1 << size) - 1)
-
-
-def _literal(value: int, signed: bool) -> str:
-    if not signed:
-        return f"{value}u"
-    return f"({value + 1} - 1)" if value == -(1 << 31) else str(value)
-
-
-def msg_c(m: MessageDecl) -> str:
-    """C name stem of a message: `urb_uplink_read_request`."""
-    return "urb_" + snake(m.name)
-
-
-def enum_c(e: EnumDecl) -> str:
-    return "urb_" + snake(e.name)
-
-
-def file_stem(s: Schema) -> str:
-    return s.name if s.name.startswith("urb_") else "urb_" + s.name
-
-
-# --- field statements ----------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class _At:
-    """A bit offset in C: a constant plus loop terms such as `48u * i0`."""
-
-    const: int
-    terms: tuple[str, ...] = ()
-
-    def plus(self, n: int) -> _At:
-        return _At(self.const + n, self.terms)
-
-    def index(self, stride: int, var: str) -> _At:
-        return _At(self.const, (*self.terms, f"{stride}u * {var}"))
-
-    def c(self) -> str:
-        parts = [*self.terms, f"{self.const}u"] if self.const or not self.terms else list(self.terms)
-        return " + ".join(parts)
-
-    def byte(self, plus: int = 0) -> str | None:
-        """The C byte index of this offset (plus `plus` bytes) when it is byte-aligned, else None."""
-        terms = []
-        for term in self.terms:
-            stride, var = term.split("u * ")
-            if int(stride) % 8:
-                return None
-            terms.append(f"{int(stride) // 8}u * {var}")
-        if self.const % 8:
-            return None
-        const = self.const // 8 + plus
-        return " + ".join([*terms, f"{const}u"] if const or not terms else terms)
-
-
-@dataclass(frozen=True)
-class _Leaf:
-    """One scalar on the wire: its field, C lvalue (None for fixed fields) and position."""
-
-    field: Field
-    itype: IntType
-    enum: EnumDecl | None
-    member: str | None
-    at: _At
-    width: int
-
-
-@dataclass(frozen=True)
-class _Op:
-    """What to do at each leaf: `validate` (member checks), `pack` or `unpack`."""
-
-    kind: str
-    buf: str = "buf"
-    error: str = "URB_ERR_RANGE"
-    assigns: str = ""  # ACSL locations an array loop writes besides its index
-
-
-def _statements(fields: list[Field], width: int, prefix: str, at: _At, depth: int, op: _Op) -> list[str]:
-    """C statements applying `op` to every field of `fields`, which span `width` bits (structs and
-    arrays are flattened). Bits no field claims (left by `@` positions) are treated as padding."""
-    out: list[str] = []
-    cursor = 0
-    for f in sorted((f for f in fields if not isinstance(f.type, (BytesType, CheckType))), key=lambda f: f.bit_offset):
-        if f.bit_offset > cursor:
-            out += _padding(at.plus(cursor), f.bit_offset - cursor, op)
-        cursor = max(cursor, f.bit_offset + f.bit_width)
-        pos = at.plus(f.bit_offset)
-        if f.is_padding:
-            out += _padding(pos, f.bit_width, op)
-        else:
-            member = None if f.fixed is not None else prefix + _member(f)
-            out += _typed(f, f.type, member, pos, f.bit_width, depth, op)
-    if width > cursor:
-        out += _padding(at.plus(cursor), width - cursor, op)
-    return out
-
-
-def _typed(f: Field, t: object, member: str | None, at: _At, width: int, depth: int, op: _Op) -> list[str]:
-    if isinstance(t, IntType):
-        return _scalar(_Leaf(f, t, None, member, at, width), op)
-    if isinstance(t, EnumDecl):
-        return _scalar(_Leaf(f, t.base, t, member, at, width), op)
-    if isinstance(t, MessageDecl):
-        return _statements(t.fields, t.fixed_bits, f"{member}.", at, depth, op)
-    assert isinstance(t, ArrayType), t
-    stride = width // t.count
-    var = f"i{depth}"
-    body = _typed(f, t.element, f"{member}[{var}]", at.index(stride, var), stride, depth + 1, op)
-    if not body:
-        return []
-    invariants: list[str] = []
-    if op.kind == "unpack":
-        # A decoder's loop writes this array only, so what was decoded before it stays known, and
-        # the elements decoded so far keep the bounds the decoder's contract states.
-        assigns = f"{var}, {member}[0 .. {t.count - 1}]"
-        bound = f"j{depth}"
-        invariants = [f"    loop invariant \\forall integer {bound}; 0 <= {bound} < {var} ==> {fact};"
-                      for _, fact in _facts(f, t.element, f"{member}[{bound}]", depth + 1, True)]
-    else:
-        assigns = ", ".join(x for x in (var, op.assigns) if x)
-    return [
-        f"/*@ loop invariant 0 <= {var} <= {t.count};",
-        *invariants,
-        f"    loop assigns {assigns};",
-        f"    loop variant {t.count} - {var}; */",
-        f"for (size_t {var} = 0u; {var} < {t.count}u; {var}++) {{",
-        *("    " + line for line in body),
-        "}",
-    ]
-
-
-def _padding(at: _At, width: int, op: _Op) -> list[str]:
-    """Padding is zero: encoders clear the buffer first, decoders check it in 32-bit chunks."""
-    if op.kind != "unpack":
-        return []
-    return [
-        f"if (urb_get_bits({op.buf}, {at.plus(done).c()}, {min(32, width - done)}u) != 0u) {{ return {op.error}; }}"
-        for done in range(0, width, 32)
-    ]
-
-
-def _limits(leaf: _Leaf, with_width: bool) -> list[str]:
-    """Conditions that make a member invalid, leaving out those its C type already rules out."""
-    t = leaf.itype
-    if t.is_bool or leaf.member is None:
-        return []
-    if leaf.enum is not None:  # members fit the base type, so membership covers the width too
-        return [f"!{enum_c(leaf.enum)}_is_valid({leaf.member})"]
-    lo, hi = (t.min, t.max) if with_width else _ctype_limits(t)
-    if leaf.field.range is not None:
-        lo, hi = max(lo, leaf.field.range[0]), min(hi, leaf.field.range[1])
-    cmin, cmax = _ctype_limits(t)
-    conds = []
-    if lo > cmin:
-        conds.append(f"{leaf.member} < {_literal(lo, t.signed)}")
-    if hi < cmax:
-        conds.append(f"{leaf.member} > {_literal(hi, t.signed)}")
-    return conds
-
-
-def _scalar(leaf: _Leaf, op: _Op) -> list[str]:
-    t, m, w, at = leaf.itype, leaf.member, leaf.width, leaf.at.c()
-    mask = (1 << w) - 1
-    if op.kind == "validate":
-        return _reject(_limits(leaf, with_width=True), op.error)
-    if op.kind == "pack":
-        if leaf.field.fixed is not None:
-            value = f"{leaf.field.fixed & mask}u"
-        elif t.is_bool:
-            value = f"({m} ? 1u : 0u)"
-        else:
-            value = f"(uint32_t){m}"
-        if _whole_bytes(leaf):  # aligned u8/u16/u32: plain byte stores, no bit loop
-            return [f"{op.buf}[{leaf.at.byte(k)}] = (uint8_t)({value} >> {8 * k}u);" if k else
-                    f"{op.buf}[{leaf.at.byte(k)}] = (uint8_t){value};" for k in range(w // 8)]
-        return [f"urb_put_bits({op.buf}, {at}, {w}u, {value});"]
-    if _whole_bytes(leaf):
-        raw = " | ".join(f"((uint32_t){op.buf}[{leaf.at.byte(k)}] << {8 * k}u)" if k else f"(uint32_t){op.buf}[{leaf.at.byte(k)}]"
-                         for k in range(w // 8))
-        raw = f"({raw})" if w > 8 else raw
-    else:
-        raw = f"urb_get_bits({op.buf}, {at}, {w}u)"
-    if m is None:
-        name = leaf.field.fixed_name or str(leaf.field.fixed)
-        fixed = leaf.field.fixed
-        assert fixed is not None
-        return [f"if ({raw} != {fixed & mask}u) {{ return {op.error}; }}  /* fixed: {_comment(name)} */"]
-    checks = _limits(leaf, with_width=False)
-    if t.is_bool:
-        value = f"({raw} != 0u)"
-    elif t.signed:
-        value = f"({_ctype(t)})urb_sign_extend({raw}, {w}u)"
-    elif _masked(leaf, checks):
-        value = f"({_ctype(t)})({raw} & 0x{mask:X}u)"
-    else:
-        value = f"({_ctype(t)}){raw}"
-    return [f"{m} = {value};", *_reject(checks, op.error)]
-
-
-def _masked(leaf: _Leaf, checks: list[str]) -> bool:
-    """An unsigned member narrower than its C type and without an upper range check is masked to its
-    width when decoded: the mask changes no value (urb_get_bits returns `width` bits), but WP's
-    provers cannot bound a variable-width bit extraction, while a constant mask bounds the member at
-    once, so the decoder's contract can state the width (`ensures decoded_<member>`)."""
-    t = leaf.itype
-    if t.signed or t.is_bool or leaf.enum is not None or leaf.width >= _ctype_limits(t)[1].bit_length():
-        return False
-    return not any(" > " in c for c in checks)
-
-
-def _whole_bytes(leaf: _Leaf) -> bool:
-    """True for an 8/16/32-bit field on a byte boundary, which byte stores handle directly."""
-    return leaf.width in (8, 16, 32) and leaf.at.byte() is not None
-
-
-def _reject(conds: list[str], error: str) -> list[str]:
-    """`if (a || b) { return error; }`, or nothing without conditions."""
-    if not conds:
-        return []
-    test = " || ".join(f"({c})" for c in conds) if len(conds) > 1 else conds[0]
-    return [f"if ({test}) {{ return {error}; }}"]
-
-
-# --- decoded-member facts for the ACSL contracts ---------------------------------------------------
-
-
-def _acsl_runs(values: list[int], term: str) -> str:
-    """`term` is one of `values`, as ACSL over runs of consecutive values: `term <= 8`, `(term == 0 || 2 <= term <= 5)`."""
-    runs: list[list[int]] = []
-    for v in sorted(values):
-        if runs and runs[-1][1] == v - 1:
-            runs[-1][1] = v
-        else:
-            runs.append([v, v])
-    parts = [f"{term} == {lo}" if lo == hi else f"{term} <= {hi}" if lo == 0 else f"{lo} <= {term} <= {hi}"
-             for lo, hi in runs]
-    return parts[0] if len(parts) == 1 else "(" + " || ".join(parts) + ")"
-
-
-def _leaf_fact(f: Field, t: IntType, enum: EnumDecl | None, term: str, in_array: bool) -> str | None:
-    """What a successful decode guarantees of one scalar member beyond its C type, or None.
-
-    Unsigned members: the width and the range (the decoder masks or checks them). Enums: membership
-    (the decoder calls <enum>_is_valid, whose contract says the same). Signed members: only a range,
-    which the decoder checks; the width of a signed member narrower than its C type is not stated,
-    since urb_sign_extend has no result bound (no such member in the schemas today). Array elements:
-    only bounds the decoder checks (enum, range); a width bound that comes from the mask alone is not
-    stated, because z3 and cvc4 time out on the loop invariant that carries it (Identification's
-    u6[8] sizes: the mask's `land` bound inside the quantified invariant)."""
-    if t.is_bool:
-        return None
-    if enum is not None:
-        return _acsl_runs([m.value for m in enum.members], term)
-    cmin, cmax = _ctype_limits(t)
-    lo, hi = (t.min, t.max) if not t.signed and not in_array else (cmin, cmax)
-    if f.range is not None:
-        lo, hi = max(lo, f.range[0]), min(hi, f.range[1])
-    if lo <= cmin and hi >= cmax:
-        return None
-    if lo <= cmin:
-        return f"{term} <= {hi}"
-    if hi >= cmax:
-        return f"{lo} <= {term}"
-    return f"{lo} <= {term} <= {hi}"
-
-
-def _facts(f: Field, t: object, term: str, depth: int, in_array: bool = False) -> list[tuple[str, str]]:
-    """(label suffix, ACSL predicate) for every constrained scalar inside a member of type `t`."""
-    if isinstance(t, (IntType, EnumDecl)):
-        fact = _leaf_fact(f, t if isinstance(t, IntType) else t.base, t if isinstance(t, EnumDecl) else None, term,
-                          in_array)
-        return [] if fact is None else [("", fact)]
-    if isinstance(t, MessageDecl):
-        out = []
-        for g in t.fields:
-            if g.is_padding or g.fixed is not None or isinstance(g.type, (BytesType, CheckType)):
-                continue
-            out += [(f"_{g.name}{label}", fact)
-                    for label, fact in _facts(g, g.type, f"{term}.{_member(g)}", depth, in_array)]
-        return out
-    if isinstance(t, ArrayType):
-        var = f"j{depth}"
-        return [(label, f"\\forall integer {var}; 0 <= {var} < {t.count} ==> {fact}")
-                for label, fact in _facts(f, t.element, f"{term}[{var}]", depth + 1, True)]
-    return []
-
-
-def _decode_facts(m: MessageDecl) -> list[tuple[str, str]]:
-    """(label, predicate) of every member a successful decode bounds: `decoded_address`, ..."""
-    out = []
-    for f in m.fields:
-        if f.is_padding or f.fixed is not None or isinstance(f.type, CheckType):
-            continue
-        name = _member(f)
-        if isinstance(f.type, BytesType):
-            if f.type.count_field is None:  # the decoder sets <field>_len to the payload length
-                out.append((f"decoded_{name}_len", f"msg->{name}_len <= {f.type.max_len}"))
-            continue
-        out += [(f"decoded_{f.name}{label}", fact) for label, fact in _facts(f, f.type, f"msg->{name}", 0)]
-    # the rules hold too: the caller's were checked before the frame (decode never changes those
-    # members), the frame's after every field
-    out += [(f"rule_{i}", acsl_condition(r, _c_name)) for i, r in enumerate(m.rules, 1)]
-    return out
 
 
 def _rule_checks(m: MessageDecl, rules: list[Rule], error: str) -> list[str]:
@@ -463,8 +127,7 @@ class CPayload:
     max_len: int
     len_member: str  # member holding the length: the count field or `<field>_len`
     counted: bool
-    count_at: int  # bit offset of the count field (counted only)
-    count_width: int
+    count_bits: str  # C expression of the count field's value (counted only)
     needs_len_check: bool  # the length member's own bounds do not already keep it <= max_len
 
 
@@ -480,7 +143,8 @@ class CMessage:
     pack: list[str]
     unpack: list[str]
     implicit_validate: list[str]
-    implicit_pack: list[str]
+    implicit_pack: list[str]  # encode's
+    implicit_pack_decode: list[str]  # decode's (its locals named apart from the decoder's others)
     implicit_unpack: list[str]  # test support: prefix bytes -> implicit members
     payload: CPayload | None
     checksum: str | None  # C stem of the checksum functions
@@ -625,7 +289,7 @@ def _enum_view(e: EnumDecl, names: _Names) -> CEnum:
     names.add(enum_c(e) + "_is_valid", f"enum {e.name}", e.loc)
     return CEnum(e, names.add(enum_c(e) + "_t", f"enum {e.name}", e.loc), macro,
                  "int32_t" if e.base.signed else "uint32_t", " || ".join(parts),
-                 _acsl_runs([m.value for m in e.members], "value"))
+                 acsl_runs([m.value for m in e.members], "value"))
 
 
 def _field_doc(f: Field) -> str:
@@ -702,8 +366,7 @@ def _message_view(m: MessageDecl, names: _Names) -> CMessage:
             _member(bf), bf.type.max_len,
             _member(counter) if counter else _member(bf) + "_len",
             counter is not None,
-            counter.bit_offset if counter else 0,
-            counter.bit_width if counter else 0,
+            c_fields.bits(At(counter.bit_offset), counter.bit_width, "buf") if counter else "",
             bound > bf.type.max_len,
         )
     implicit = m.implicit_fields
@@ -713,21 +376,27 @@ def _message_view(m: MessageDecl, names: _Names) -> CMessage:
     wire = [f for f in m.fields if not f.implicit]
     checksum = m.checksum
     buf_fixed = f"buf[0 .. {m.fixed_size - 1}]" if m.fixed_size else ""
+    fixed_items = layout(wire, m.fixed_bits, "msg->", At(0), 0)
+    implicit_items = layout(implicit, m.implicit_bits, "msg->", At(0), 0)
+    # the locals each function declares, so that no two get one name: encode packs the fixed part and
+    # the implicit prefix, decode packs the prefix and unpacks the fixed part
+    encode_names: set[str] = set()
+    decode_names: set[str] = set()
+    implicit_assigns = f"prefix[0 .. {m.implicit_size - 1}]"
     return CMessage(
         decl=m, fn=fn, type=fn + "_t", macro=macro, members=members, notes=notes,
-        validate=[*_statements(implicit, m.implicit_bits, "msg->", _At(0), 0, _Op("validate")),
-                  *_statements(wire, m.fixed_bits, "msg->", _At(0), 0, _Op("validate"))],
-        pack=_statements(wire, m.fixed_bits, "msg->", _At(0), 0, _Op("pack", assigns=buf_fixed)),
-        unpack=_statements(wire, m.fixed_bits, "msg->", _At(0), 0, _Op("unpack", assigns="*msg")),
-        implicit_validate=_statements(implicit, 0, "msg->", _At(0), 0, _Op("validate", error="URB_ERR_ARGUMENT")),
-        implicit_pack=_statements(implicit, m.implicit_bits, "msg->", _At(0), 0,
-                                  _Op("pack", buf="prefix", assigns=f"prefix[0 .. {m.implicit_size - 1}]")),
-        implicit_unpack=_statements(implicit, m.implicit_bits, "msg->", _At(0), 0,
-                                    _Op("unpack", buf="prefix", assigns="*msg")),
+        validate=[*c_fields.validate(implicit, "msg->", "URB_ERR_RANGE"),
+                  *c_fields.validate(wire, "msg->", "URB_ERR_RANGE")],
+        pack=c_fields.pack(fixed_items, "buf", buf_fixed, encode_names),
+        unpack=c_fields.unpack(fixed_items, "buf", "URB_ERR_RANGE", decode_names),
+        implicit_validate=c_fields.validate(implicit, "msg->", "URB_ERR_ARGUMENT"),
+        implicit_pack=c_fields.pack(implicit_items, "prefix", implicit_assigns, encode_names),
+        implicit_pack_decode=c_fields.pack(implicit_items, "prefix", implicit_assigns, decode_names),
+        implicit_unpack=c_fields.unpack(implicit_items, "prefix", "URB_ERR_RANGE"),
         payload=payload,
         checksum=None if checksum is None else "urb_" + checksum.name,
         print_body=_print_statements(m.fields, "msg->", 0),
-        decode_facts=_decode_facts(m),
+        decode_facts=decode_facts(m),
         rule_checks=_rule_checks(m, m.rules, "URB_ERR_RANGE"),
         caller_rule_checks=_rule_checks(m, m.caller_rules, "URB_ERR_ARGUMENT"),
         frame_rule_checks=_rule_checks(m, m.frame_rules, "URB_ERR_RANGE"),

@@ -21,17 +21,10 @@ int32_t urb_can_id_encode(const urb_can_id_t *msg, uint8_t *buf, size_t capacity
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 2;
-        loop assigns k, buf[0 .. 1];
-        loop variant 2 - k; */
-    for (size_t k = 0u; k < 2u; k++) {
-        buf[k] = 0u;
-    }
-    urb_put_bits(buf, 0u, 3u, (uint32_t)msg->mailbox);
-    urb_put_bits(buf, 3u, 1u, (msg->read ? 1u : 0u));
-    urb_put_bits(buf, 4u, 6u, (uint32_t)msg->address);
-    urb_put_bits(buf, 10u, 1u, (msg->response ? 1u : 0u));
+    /* Every byte of the fixed part once, reserved bits zero. */
+    uint32_t const v_address = (uint32_t)msg->address;
+    buf[0u] = (uint8_t)((uint32_t)msg->mailbox | (msg->read ? 0x8u : 0u) | (v_address << 4u));
+    buf[1u] = (uint8_t)((v_address >> 4u) | (msg->response ? 0x4u : 0u));
     return (int32_t)size;
 }
 
@@ -46,11 +39,13 @@ int32_t urb_can_id_decode(urb_can_id_t *msg, const uint8_t *buf, size_t length)
     if (length > URB_CAN_ID_MAX_SIZE) {
         return URB_ERR_LONG;
     }
-    msg->mailbox = (uint8_t)(urb_get_bits(buf, 0u, 3u) & 0x7u);
-    msg->read = (urb_get_bits(buf, 3u, 1u) != 0u);
-    msg->address = (uint8_t)(urb_get_bits(buf, 4u, 6u) & 0x3Fu);
-    msg->response = (urb_get_bits(buf, 10u, 1u) != 0u);
-    if (urb_get_bits(buf, 11u, 5u) != 0u) { return URB_ERR_RANGE; }
+    uint32_t const b0 = (uint32_t)buf[0u];
+    uint32_t const b1 = (uint32_t)buf[1u];
+    msg->mailbox = (uint8_t)(b0 & 0x7u);
+    msg->read = ((b0 & 0x8u) != 0u);
+    msg->address = (uint8_t)(((b0 >> 4u) | (b1 << 4u)) & 0x3Fu);
+    msg->response = ((b1 & 0x4u) != 0u);
+    if ((b1 & 0xF8u) != 0u) { return URB_ERR_RANGE; }  /* padding at bit 11 */
     if (!((msg->address != 0u) || ((msg->mailbox == 0u) && (!msg->read) && (!msg->response)))) { return URB_ERR_RANGE; }  /* require address != 0 or mailbox == 0 and not read and not response */
     return (int32_t)length;
 }
@@ -68,17 +63,8 @@ int32_t urb_can_tail_encode(const urb_can_tail_t *msg, uint8_t *buf, size_t capa
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 1;
-        loop assigns k, buf[0 .. 0];
-        loop variant 1 - k; */
-    for (size_t k = 0u; k < 1u; k++) {
-        buf[k] = 0u;
-    }
-    urb_put_bits(buf, 0u, 5u, (uint32_t)msg->transfer_id);
-    urb_put_bits(buf, 5u, 1u, (msg->toggle ? 1u : 0u));
-    urb_put_bits(buf, 6u, 1u, (msg->end ? 1u : 0u));
-    urb_put_bits(buf, 7u, 1u, (msg->start ? 1u : 0u));
+    /* Every byte of the fixed part once, reserved bits zero. */
+    buf[0u] = (uint8_t)((uint32_t)msg->transfer_id | (msg->toggle ? 0x20u : 0u) | (msg->end ? 0x40u : 0u) | (msg->start ? 0x80u : 0u));
     return (int32_t)size;
 }
 
@@ -93,10 +79,11 @@ int32_t urb_can_tail_decode(urb_can_tail_t *msg, const uint8_t *buf, size_t leng
     if (length > URB_CAN_TAIL_MAX_SIZE) {
         return URB_ERR_LONG;
     }
-    msg->transfer_id = (uint8_t)(urb_get_bits(buf, 0u, 5u) & 0x1Fu);
-    msg->toggle = (urb_get_bits(buf, 5u, 1u) != 0u);
-    msg->end = (urb_get_bits(buf, 6u, 1u) != 0u);
-    msg->start = (urb_get_bits(buf, 7u, 1u) != 0u);
+    uint32_t const b0 = (uint32_t)buf[0u];
+    msg->transfer_id = (uint8_t)(b0 & 0x1Fu);
+    msg->toggle = ((b0 & 0x20u) != 0u);
+    msg->end = ((b0 & 0x40u) != 0u);
+    msg->start = ((b0 & 0x80u) != 0u);
     return (int32_t)length;
 }
 
@@ -113,14 +100,8 @@ int32_t urb_can_write_refusal_encode(const urb_can_write_refusal_t *msg, uint8_t
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 1;
-        loop assigns k, buf[0 .. 0];
-        loop variant 1 - k; */
-    for (size_t k = 0u; k < 1u; k++) {
-        buf[k] = 0u;
-    }
-    urb_put_bits(buf, 0u, 4u, (uint32_t)msg->status);
+    /* Every byte of the fixed part once, reserved bits zero. */
+    buf[0u] = (uint8_t)(uint32_t)msg->status;
     return (int32_t)size;
 }
 
@@ -135,9 +116,10 @@ int32_t urb_can_write_refusal_decode(urb_can_write_refusal_t *msg, const uint8_t
     if (length > URB_CAN_WRITE_REFUSAL_MAX_SIZE) {
         return URB_ERR_LONG;
     }
-    msg->status = (uint8_t)urb_get_bits(buf, 0u, 4u);
+    uint32_t const b0 = (uint32_t)buf[0u];
+    msg->status = (uint8_t)(b0 & 0xFu);
     if (!urb_status_is_valid(msg->status)) { return URB_ERR_RANGE; }
-    if (urb_get_bits(buf, 4u, 4u) != 0u) { return URB_ERR_RANGE; }
+    if ((b0 & 0xF0u) != 0u) { return URB_ERR_RANGE; }  /* padding at bit 4 */
     return (int32_t)length;
 }
 
@@ -152,13 +134,7 @@ int32_t urb_can_sync_encode(const urb_can_sync_t *msg, uint8_t *buf, size_t capa
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 1;
-        loop assigns k, buf[0 .. 0];
-        loop variant 1 - k; */
-    for (size_t k = 0u; k < 1u; k++) {
-        buf[k] = 0u;
-    }
+    /* Every byte of the fixed part once, reserved bits zero. */
     buf[0u] = (uint8_t)(uint32_t)msg->counter;
     return (int32_t)size;
 }

@@ -42,17 +42,9 @@ int32_t urb_uplink_read_request_encode(const urb_uplink_read_request_t *msg, uin
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 3;
-        loop assigns k, buf[0 .. 2];
-        loop variant 3 - k; */
-    for (size_t k = 0u; k < 3u; k++) {
-        buf[k] = 0u;
-    }
-    urb_put_bits(buf, 0u, 1u, 1u);
-    urb_put_bits(buf, 1u, 7u, (uint32_t)msg->address);
-    urb_put_bits(buf, 8u, 3u, (uint32_t)msg->mailbox);
-    urb_put_bits(buf, 12u, 4u, (uint32_t)msg->seq);
+    /* Every byte of the fixed part once, reserved bits zero. */
+    buf[0u] = (uint8_t)(((uint32_t)msg->address << 1u) | 0x1u);
+    buf[1u] = (uint8_t)((uint32_t)msg->mailbox | ((uint32_t)msg->seq << 4u));
     buf[2u] = (uint8_t)(uint32_t)msg->length;
     urb_put_le(buf, 3u, 1u, urb_link_check(NULL, 0u, buf, 3u));
     return (int32_t)size;
@@ -72,11 +64,13 @@ int32_t urb_uplink_read_request_decode(urb_uplink_read_request_t *msg, const uin
     if (urb_get_le(buf, 3u, 1u) != urb_link_check(NULL, 0u, buf, 3u)) {
         return URB_ERR_CHECKSUM;
     }
-    if (urb_get_bits(buf, 0u, 1u) != 1u) { return URB_ERR_RANGE; }  /* fixed: 1 */
-    msg->address = (uint8_t)(urb_get_bits(buf, 1u, 7u) & 0x7Fu);
-    msg->mailbox = (uint8_t)(urb_get_bits(buf, 8u, 3u) & 0x7u);
-    if (urb_get_bits(buf, 11u, 1u) != 0u) { return URB_ERR_RANGE; }
-    msg->seq = (uint8_t)(urb_get_bits(buf, 12u, 4u) & 0xFu);
+    uint32_t const b0 = (uint32_t)buf[0u];
+    uint32_t const b1 = (uint32_t)buf[1u];
+    if ((b0 & 0x1u) != 1u) { return URB_ERR_RANGE; }  /* fixed: 1 */
+    msg->address = (uint8_t)((b0 >> 1u) & 0x7Fu);
+    msg->mailbox = (uint8_t)(b1 & 0x7u);
+    if ((b1 & 0x8u) != 0u) { return URB_ERR_RANGE; }  /* padding at bit 11 */
+    msg->seq = (uint8_t)((b1 >> 4u) & 0xFu);
     msg->length = (uint8_t)(uint32_t)buf[2u];
     if ((msg->length < 1u) || (msg->length > 32u)) { return URB_ERR_RANGE; }
     return (int32_t)length;
@@ -100,17 +94,9 @@ int32_t urb_uplink_write_request_encode(const urb_uplink_write_request_t *msg, u
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 3;
-        loop assigns k, buf[0 .. 2];
-        loop variant 3 - k; */
-    for (size_t k = 0u; k < 3u; k++) {
-        buf[k] = 0u;
-    }
-    urb_put_bits(buf, 0u, 1u, 0u);
-    urb_put_bits(buf, 1u, 7u, (uint32_t)msg->address);
-    urb_put_bits(buf, 8u, 3u, (uint32_t)msg->mailbox);
-    urb_put_bits(buf, 12u, 4u, (uint32_t)msg->seq);
+    /* Every byte of the fixed part once, reserved bits zero. */
+    buf[0u] = (uint8_t)((uint32_t)msg->address << 1u);
+    buf[1u] = (uint8_t)((uint32_t)msg->mailbox | ((uint32_t)msg->seq << 4u));
     buf[2u] = (uint8_t)(uint32_t)msg->length;
     /*@ loop invariant 0 <= k <= payload_len;
         loop assigns k, buf[3 .. 3u + payload_len - 1];
@@ -134,7 +120,7 @@ int32_t urb_uplink_write_request_decode(urb_uplink_write_request_t *msg, const u
         return URB_ERR_LONG;
     }
     /* The length field fixes the frame length. */
-    size_t const payload_len = (size_t)urb_get_bits(buf, 16u, 8u);
+    size_t const payload_len = (size_t)(uint32_t)buf[2u];
     if (payload_len > 32u) {
         return URB_ERR_SHORT; /* a frame of at most 37 bytes is shorter than this count needs */
     }
@@ -148,11 +134,13 @@ int32_t urb_uplink_write_request_decode(urb_uplink_write_request_t *msg, const u
     if (urb_get_le(buf, 3u + payload_len, check_size) != urb_link_check(NULL, 0u, buf, 3u + payload_len)) {
         return URB_ERR_CHECKSUM;
     }
-    if (urb_get_bits(buf, 0u, 1u) != 0u) { return URB_ERR_RANGE; }  /* fixed: 0 */
-    msg->address = (uint8_t)(urb_get_bits(buf, 1u, 7u) & 0x7Fu);
-    msg->mailbox = (uint8_t)(urb_get_bits(buf, 8u, 3u) & 0x7u);
-    if (urb_get_bits(buf, 11u, 1u) != 0u) { return URB_ERR_RANGE; }
-    msg->seq = (uint8_t)(urb_get_bits(buf, 12u, 4u) & 0xFu);
+    uint32_t const b0 = (uint32_t)buf[0u];
+    uint32_t const b1 = (uint32_t)buf[1u];
+    if ((b0 & 0x1u) != 0u) { return URB_ERR_RANGE; }  /* fixed: 0 */
+    msg->address = (uint8_t)((b0 >> 1u) & 0x7Fu);
+    msg->mailbox = (uint8_t)(b1 & 0x7u);
+    if ((b1 & 0x8u) != 0u) { return URB_ERR_RANGE; }  /* padding at bit 11 */
+    msg->seq = (uint8_t)((b1 >> 4u) & 0xFu);
     msg->length = (uint8_t)(uint32_t)buf[2u];
     if ((msg->length < 1u) || (msg->length > 32u)) { return URB_ERR_RANGE; }
     /*@ loop invariant 0 <= k <= payload_len;
@@ -182,15 +170,8 @@ int32_t urb_uplink_response_encode(const urb_uplink_response_t *msg, uint8_t *bu
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 1;
-        loop assigns k, buf[0 .. 0];
-        loop variant 1 - k; */
-    for (size_t k = 0u; k < 1u; k++) {
-        buf[k] = 0u;
-    }
-    urb_put_bits(buf, 0u, 4u, (uint32_t)msg->seq);
-    urb_put_bits(buf, 4u, 4u, (uint32_t)msg->status);
+    /* Every byte of the fixed part once, reserved bits zero. */
+    buf[0u] = (uint8_t)((uint32_t)msg->seq | ((uint32_t)msg->status << 4u));
     /*@ loop invariant 0 <= k <= payload_len;
         loop assigns k, buf[1 .. 1u + payload_len - 1];
         loop variant payload_len - k; */
@@ -231,8 +212,9 @@ int32_t urb_uplink_response_decode(urb_uplink_response_t *msg, const uint8_t *bu
     if (urb_get_le(buf, 1u + payload_len, check_size) != urb_link_check(NULL, 0u, buf, 1u + payload_len)) {
         return URB_ERR_CHECKSUM;
     }
-    msg->seq = (uint8_t)(urb_get_bits(buf, 0u, 4u) & 0xFu);
-    msg->status = (uint8_t)urb_get_bits(buf, 4u, 4u);
+    uint32_t const b0 = (uint32_t)buf[0u];
+    msg->seq = (uint8_t)(b0 & 0xFu);
+    msg->status = (uint8_t)(b0 >> 4u);
     if (!urb_status_is_valid(msg->status)) { return URB_ERR_RANGE; }
     /*@ loop invariant 0 <= k <= payload_len;
         loop assigns k, msg->data[0 .. 31];
@@ -258,15 +240,10 @@ int32_t urb_usb_batch_header_encode(const urb_usb_batch_header_t *msg, uint8_t *
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 3;
-        loop assigns k, buf[0 .. 2];
-        loop variant 3 - k; */
-    for (size_t k = 0u; k < 3u; k++) {
-        buf[k] = 0u;
-    }
-    buf[0u] = (uint8_t)(uint32_t)msg->frame;
-    buf[1u] = (uint8_t)((uint32_t)msg->frame >> 8u);
+    /* Every byte of the fixed part once, reserved bits zero. */
+    uint32_t const v_frame = (uint32_t)msg->frame;
+    buf[0u] = (uint8_t)v_frame;
+    buf[1u] = (uint8_t)(v_frame >> 8u);
     buf[2u] = (uint8_t)(uint32_t)msg->count;
     urb_put_le(buf, 3u, 1u, urb_link_check(NULL, 0u, buf, 3u));
     return (int32_t)size;
@@ -305,15 +282,8 @@ int32_t urb_mailbox_select_encode(const urb_mailbox_select_t *msg, uint8_t *buf,
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 1;
-        loop assigns k, buf[0 .. 0];
-        loop variant 1 - k; */
-    for (size_t k = 0u; k < 1u; k++) {
-        buf[k] = 0u;
-    }
-    urb_put_bits(buf, 0u, 3u, (uint32_t)msg->mailbox);
-    urb_put_bits(buf, 7u, 1u, (msg->read ? 1u : 0u));
+    /* Every byte of the fixed part once, reserved bits zero. */
+    buf[0u] = (uint8_t)((uint32_t)msg->mailbox | (msg->read ? 0x80u : 0u));
     return (int32_t)size;
 }
 
@@ -328,9 +298,10 @@ int32_t urb_mailbox_select_decode(urb_mailbox_select_t *msg, const uint8_t *buf,
     if (length > URB_MAILBOX_SELECT_MAX_SIZE) {
         return URB_ERR_LONG;
     }
-    msg->mailbox = (uint8_t)(urb_get_bits(buf, 0u, 3u) & 0x7u);
-    if (urb_get_bits(buf, 3u, 4u) != 0u) { return URB_ERR_RANGE; }
-    msg->read = (urb_get_bits(buf, 7u, 1u) != 0u);
+    uint32_t const b0 = (uint32_t)buf[0u];
+    msg->mailbox = (uint8_t)(b0 & 0x7u);
+    if ((b0 & 0x78u) != 0u) { return URB_ERR_RANGE; }  /* padding at bit 3 */
+    msg->read = ((b0 & 0x80u) != 0u);
     return (int32_t)length;
 }
 
@@ -351,15 +322,8 @@ int32_t urb_downlink_write_encode(const urb_downlink_write_t *msg, uint8_t *buf,
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 1;
-        loop assigns k, buf[0 .. 0];
-        loop variant 1 - k; */
-    for (size_t k = 0u; k < 1u; k++) {
-        buf[k] = 0u;
-    }
-    urb_put_bits(buf, 0u, 3u, (uint32_t)msg->select.mailbox);
-    urb_put_bits(buf, 7u, 1u, (msg->select.read ? 1u : 0u));
+    /* Every byte of the fixed part once, reserved bits zero. */
+    buf[0u] = (uint8_t)((uint32_t)msg->select.mailbox | (msg->select.read ? 0x80u : 0u));
     /*@ loop invariant 0 <= k <= payload_len;
         loop assigns k, buf[1 .. 1u + payload_len - 1];
         loop variant payload_len - k; */
@@ -400,9 +364,10 @@ int32_t urb_downlink_write_decode(urb_downlink_write_t *msg, const uint8_t *buf,
     if (urb_get_le(buf, 1u + payload_len, check_size) != urb_link_check(NULL, 0u, buf, 1u + payload_len)) {
         return URB_ERR_CHECKSUM;
     }
-    msg->select.mailbox = (uint8_t)(urb_get_bits(buf, 0u, 3u) & 0x7u);
-    if (urb_get_bits(buf, 3u, 4u) != 0u) { return URB_ERR_RANGE; }
-    msg->select.read = (urb_get_bits(buf, 7u, 1u) != 0u);
+    uint32_t const b0 = (uint32_t)buf[0u];
+    msg->select.mailbox = (uint8_t)(b0 & 0x7u);
+    if ((b0 & 0x78u) != 0u) { return URB_ERR_RANGE; }  /* padding at bit 3 */
+    msg->select.read = ((b0 & 0x80u) != 0u);
     /*@ loop invariant 0 <= k <= payload_len;
         loop assigns k, msg->data[0 .. 31];
         loop variant payload_len - k; */
@@ -428,15 +393,8 @@ int32_t urb_downlink_read_select_encode(const urb_downlink_read_select_t *msg, u
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 1;
-        loop assigns k, buf[0 .. 0];
-        loop variant 1 - k; */
-    for (size_t k = 0u; k < 1u; k++) {
-        buf[k] = 0u;
-    }
-    urb_put_bits(buf, 0u, 3u, (uint32_t)msg->select.mailbox);
-    urb_put_bits(buf, 7u, 1u, (msg->select.read ? 1u : 0u));
+    /* Every byte of the fixed part once, reserved bits zero. */
+    buf[0u] = (uint8_t)((uint32_t)msg->select.mailbox | (msg->select.read ? 0x80u : 0u));
     return (int32_t)size;
 }
 
@@ -451,9 +409,10 @@ int32_t urb_downlink_read_select_decode(urb_downlink_read_select_t *msg, const u
     if (length > URB_DOWNLINK_READ_SELECT_MAX_SIZE) {
         return URB_ERR_LONG;
     }
-    msg->select.mailbox = (uint8_t)(urb_get_bits(buf, 0u, 3u) & 0x7u);
-    if (urb_get_bits(buf, 3u, 4u) != 0u) { return URB_ERR_RANGE; }
-    msg->select.read = (urb_get_bits(buf, 7u, 1u) != 0u);
+    uint32_t const b0 = (uint32_t)buf[0u];
+    msg->select.mailbox = (uint8_t)(b0 & 0x7u);
+    if ((b0 & 0x78u) != 0u) { return URB_ERR_RANGE; }  /* padding at bit 3 */
+    msg->select.read = ((b0 & 0x80u) != 0u);
     if (!msg->select.read) { return URB_ERR_RANGE; }  /* require select.read */
     return (int32_t)length;
 }
@@ -483,8 +442,7 @@ int32_t urb_downlink_read_response_encode(const urb_downlink_read_response_t *ms
     }
     /* The implicit prefix is not sent, but the check covers it. */
     uint8_t prefix[1] = {0u};
-    urb_put_bits(prefix, 0u, 3u, (uint32_t)msg->select.mailbox);
-    urb_put_bits(prefix, 7u, 1u, (msg->select.read ? 1u : 0u));
+    prefix[0u] = (uint8_t)((uint32_t)msg->select.mailbox | (msg->select.read ? 0x80u : 0u));
     urb_put_le(buf, payload_len, check_size, urb_link_check(prefix, 1u, buf, payload_len));
     return (int32_t)size;
 }
@@ -498,8 +456,7 @@ int32_t urb_downlink_read_response_decode(urb_downlink_read_response_t *msg, con
     if (msg->select.mailbox > 7u) { return URB_ERR_ARGUMENT; }
     if (!msg->select.read) { return URB_ERR_ARGUMENT; }  /* require select.read */
     uint8_t prefix[1] = {0u};
-    urb_put_bits(prefix, 0u, 3u, (uint32_t)msg->select.mailbox);
-    urb_put_bits(prefix, 7u, 1u, (msg->select.read ? 1u : 0u));
+    prefix[0u] = (uint8_t)((uint32_t)msg->select.mailbox | (msg->select.read ? 0x80u : 0u));
     if (length < URB_DOWNLINK_READ_RESPONSE_MIN_SIZE) {
         return URB_ERR_SHORT;
     }
@@ -546,14 +503,8 @@ int32_t urb_sync_broadcast_encode(const urb_sync_broadcast_t *msg, uint8_t *buf,
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 2;
-        loop assigns k, buf[0 .. 1];
-        loop variant 2 - k; */
-    for (size_t k = 0u; k < 2u; k++) {
-        buf[k] = 0u;
-    }
-    buf[0u] = (uint8_t)165u;
+    /* Every byte of the fixed part once, reserved bits zero. */
+    buf[0u] = 0xA5u;
     buf[1u] = (uint8_t)(uint32_t)msg->counter;
     return (int32_t)size;
 }
@@ -599,39 +550,42 @@ int32_t urb_identification_encode(const urb_identification_t *msg, uint8_t *buf,
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 25;
-        loop assigns k, buf[0 .. 24];
-        loop variant 25 - k; */
-    for (size_t k = 0u; k < 25u; k++) {
-        buf[k] = 0u;
-    }
+    /* Every byte of the fixed part once, reserved bits zero. */
+    uint32_t const v_fingerprint = (uint32_t)msg->fingerprint;
+    uint32_t const v_acq_time = (uint32_t)msg->acq_time;
     buf[0u] = (uint8_t)(uint32_t)msg->class_id;
-    urb_put_bits(buf, 8u, 6u, (uint32_t)msg->index);
-    buf[2u] = (uint8_t)1u;
-    buf[3u] = (uint8_t)(uint32_t)msg->fingerprint;
-    buf[4u] = (uint8_t)((uint32_t)msg->fingerprint >> 8u);
-    buf[5u] = (uint8_t)((uint32_t)msg->fingerprint >> 16u);
-    buf[6u] = (uint8_t)((uint32_t)msg->fingerprint >> 24u);
+    buf[1u] = (uint8_t)(uint32_t)msg->index;
+    buf[2u] = 0x1u;
+    buf[3u] = (uint8_t)v_fingerprint;
+    buf[4u] = (uint8_t)(v_fingerprint >> 8u);
+    buf[5u] = (uint8_t)(v_fingerprint >> 16u);
+    buf[6u] = (uint8_t)(v_fingerprint >> 24u);
     buf[7u] = (uint8_t)(uint32_t)msg->fw_major;
     buf[8u] = (uint8_t)(uint32_t)msg->fw_minor;
     buf[9u] = (uint8_t)(uint32_t)msg->fw_patch;
-    /*@ loop invariant 0 <= i0 <= 8;
+    /*@ loop invariant 0 <= i0 <= 2;
         loop assigns i0, buf[0 .. 24];
-        loop variant 8 - i0; */
-    for (size_t i0 = 0u; i0 < 8u; i0++) {
-        urb_put_bits(buf, 6u * i0 + 80u, 6u, (uint32_t)msg->inbox_sizes[i0]);
+        loop variant 2 - i0; */
+    for (size_t i0 = 0u; i0 < 2u; i0++) {
+        uint32_t const v_inbox_sizes_1 = (uint32_t)msg->inbox_sizes[4u * i0 + 1u];
+        uint32_t const v_inbox_sizes_2 = (uint32_t)msg->inbox_sizes[4u * i0 + 2u];
+        buf[3u * i0 + 10u] = (uint8_t)((uint32_t)msg->inbox_sizes[4u * i0] | (v_inbox_sizes_1 << 6u));
+        buf[3u * i0 + 11u] = (uint8_t)((v_inbox_sizes_1 >> 2u) | (v_inbox_sizes_2 << 4u));
+        buf[3u * i0 + 12u] = (uint8_t)((v_inbox_sizes_2 >> 4u) | ((uint32_t)msg->inbox_sizes[4u * i0 + 3u] << 2u));
     }
-    /*@ loop invariant 0 <= i0 <= 8;
+    /*@ loop invariant 0 <= i0 <= 2;
         loop assigns i0, buf[0 .. 24];
-        loop variant 8 - i0; */
-    for (size_t i0 = 0u; i0 < 8u; i0++) {
-        urb_put_bits(buf, 6u * i0 + 128u, 6u, (uint32_t)msg->outbox_sizes[i0]);
+        loop variant 2 - i0; */
+    for (size_t i0 = 0u; i0 < 2u; i0++) {
+        uint32_t const v_outbox_sizes_1 = (uint32_t)msg->outbox_sizes[4u * i0 + 1u];
+        uint32_t const v_outbox_sizes_2 = (uint32_t)msg->outbox_sizes[4u * i0 + 2u];
+        buf[3u * i0 + 16u] = (uint8_t)((uint32_t)msg->outbox_sizes[4u * i0] | (v_outbox_sizes_1 << 6u));
+        buf[3u * i0 + 17u] = (uint8_t)((v_outbox_sizes_1 >> 2u) | (v_outbox_sizes_2 << 4u));
+        buf[3u * i0 + 18u] = (uint8_t)((v_outbox_sizes_2 >> 4u) | ((uint32_t)msg->outbox_sizes[4u * i0 + 3u] << 2u));
     }
-    urb_put_bits(buf, 176u, 1u, (msg->synced ? 1u : 0u));
-    urb_put_bits(buf, 177u, 1u, (msg->fault ? 1u : 0u));
-    buf[23u] = (uint8_t)(uint32_t)msg->acq_time;
-    buf[24u] = (uint8_t)((uint32_t)msg->acq_time >> 8u);
+    buf[22u] = (uint8_t)((msg->synced ? 0x1u : 0u) | (msg->fault ? 0x2u : 0u));
+    buf[23u] = (uint8_t)v_acq_time;
+    buf[24u] = (uint8_t)(v_acq_time >> 8u);
     return (int32_t)size;
 }
 
@@ -646,29 +600,43 @@ int32_t urb_identification_decode(urb_identification_t *msg, const uint8_t *buf,
     if (length > URB_IDENTIFICATION_MAX_SIZE) {
         return URB_ERR_LONG;
     }
+    uint32_t const b1 = (uint32_t)buf[1u];
+    uint32_t const b22 = (uint32_t)buf[22u];
     msg->class_id = (uint8_t)(uint32_t)buf[0u];
-    msg->index = (uint8_t)(urb_get_bits(buf, 8u, 6u) & 0x3Fu);
-    if (urb_get_bits(buf, 14u, 2u) != 0u) { return URB_ERR_RANGE; }
+    msg->index = (uint8_t)(b1 & 0x3Fu);
+    if ((b1 & 0xC0u) != 0u) { return URB_ERR_RANGE; }  /* padding at bit 14 */
     if ((uint32_t)buf[2u] != 1u) { return URB_ERR_RANGE; }  /* fixed: PROTOCOL_VERSION */
     msg->fingerprint = (uint32_t)((uint32_t)buf[3u] | ((uint32_t)buf[4u] << 8u) | ((uint32_t)buf[5u] << 16u) | ((uint32_t)buf[6u] << 24u));
     msg->fw_major = (uint8_t)(uint32_t)buf[7u];
     msg->fw_minor = (uint8_t)(uint32_t)buf[8u];
     msg->fw_patch = (uint8_t)(uint32_t)buf[9u];
-    /*@ loop invariant 0 <= i0 <= 8;
+    /*@ loop invariant 0 <= i0 <= 2;
         loop assigns i0, msg->inbox_sizes[0 .. 7];
-        loop variant 8 - i0; */
-    for (size_t i0 = 0u; i0 < 8u; i0++) {
-        msg->inbox_sizes[i0] = (uint8_t)(urb_get_bits(buf, 6u * i0 + 80u, 6u) & 0x3Fu);
+        loop variant 2 - i0; */
+    for (size_t i0 = 0u; i0 < 2u; i0++) {
+        uint32_t const b10 = (uint32_t)buf[3u * i0 + 10u];
+        uint32_t const b11 = (uint32_t)buf[3u * i0 + 11u];
+        uint32_t const b12 = (uint32_t)buf[3u * i0 + 12u];
+        msg->inbox_sizes[4u * i0] = (uint8_t)(b10 & 0x3Fu);
+        msg->inbox_sizes[4u * i0 + 1u] = (uint8_t)(((b10 >> 6u) | (b11 << 2u)) & 0x3Fu);
+        msg->inbox_sizes[4u * i0 + 2u] = (uint8_t)(((b11 >> 4u) | (b12 << 4u)) & 0x3Fu);
+        msg->inbox_sizes[4u * i0 + 3u] = (uint8_t)((b12 >> 2u) & 0x3Fu);
     }
-    /*@ loop invariant 0 <= i0 <= 8;
+    /*@ loop invariant 0 <= i0 <= 2;
         loop assigns i0, msg->outbox_sizes[0 .. 7];
-        loop variant 8 - i0; */
-    for (size_t i0 = 0u; i0 < 8u; i0++) {
-        msg->outbox_sizes[i0] = (uint8_t)(urb_get_bits(buf, 6u * i0 + 128u, 6u) & 0x3Fu);
+        loop variant 2 - i0; */
+    for (size_t i0 = 0u; i0 < 2u; i0++) {
+        uint32_t const b16 = (uint32_t)buf[3u * i0 + 16u];
+        uint32_t const b17 = (uint32_t)buf[3u * i0 + 17u];
+        uint32_t const b18 = (uint32_t)buf[3u * i0 + 18u];
+        msg->outbox_sizes[4u * i0] = (uint8_t)(b16 & 0x3Fu);
+        msg->outbox_sizes[4u * i0 + 1u] = (uint8_t)(((b16 >> 6u) | (b17 << 2u)) & 0x3Fu);
+        msg->outbox_sizes[4u * i0 + 2u] = (uint8_t)(((b17 >> 4u) | (b18 << 4u)) & 0x3Fu);
+        msg->outbox_sizes[4u * i0 + 3u] = (uint8_t)((b18 >> 2u) & 0x3Fu);
     }
-    msg->synced = (urb_get_bits(buf, 176u, 1u) != 0u);
-    msg->fault = (urb_get_bits(buf, 177u, 1u) != 0u);
-    if (urb_get_bits(buf, 178u, 6u) != 0u) { return URB_ERR_RANGE; }
+    msg->synced = ((b22 & 0x1u) != 0u);
+    msg->fault = ((b22 & 0x2u) != 0u);
+    if ((b22 & 0xFCu) != 0u) { return URB_ERR_RANGE; }  /* padding at bit 178 */
     msg->acq_time = (uint16_t)((uint32_t)buf[23u] | ((uint32_t)buf[24u] << 8u));
     return (int32_t)length;
 }
@@ -686,19 +654,15 @@ int32_t urb_command_encode(const urb_command_t *msg, uint8_t *buf, size_t capaci
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 6;
-        loop assigns k, buf[0 .. 5];
-        loop variant 6 - k; */
-    for (size_t k = 0u; k < 6u; k++) {
-        buf[k] = 0u;
-    }
+    /* Every byte of the fixed part once, reserved bits zero. */
+    uint32_t const v_period_us = (uint32_t)msg->period_us;
+    uint32_t const v_lead_us = (uint32_t)msg->lead_us;
     buf[0u] = (uint8_t)(uint32_t)msg->opcode;
     buf[1u] = (uint8_t)(uint32_t)msg->arg;
-    buf[2u] = (uint8_t)(uint32_t)msg->period_us;
-    buf[3u] = (uint8_t)((uint32_t)msg->period_us >> 8u);
-    buf[4u] = (uint8_t)(uint32_t)msg->lead_us;
-    buf[5u] = (uint8_t)((uint32_t)msg->lead_us >> 8u);
+    buf[2u] = (uint8_t)v_period_us;
+    buf[3u] = (uint8_t)(v_period_us >> 8u);
+    buf[4u] = (uint8_t)v_lead_us;
+    buf[5u] = (uint8_t)(v_lead_us >> 8u);
     return (int32_t)size;
 }
 
@@ -734,20 +698,16 @@ int32_t urb_bridge_info_encode(const urb_bridge_info_t *msg, uint8_t *buf, size_
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 10;
-        loop assigns k, buf[0 .. 9];
-        loop variant 10 - k; */
-    for (size_t k = 0u; k < 10u; k++) {
-        buf[k] = 0u;
-    }
+    /* Every byte of the fixed part once, reserved bits zero. */
+    uint32_t const v_bitrate_kbps = (uint32_t)msg->bitrate_kbps;
+    uint32_t const v_heartbeat_us = (uint32_t)msg->heartbeat_us;
     buf[0u] = (uint8_t)(uint32_t)msg->downlink;
-    buf[1u] = (uint8_t)1u;
-    buf[2u] = (uint8_t)(uint32_t)msg->bitrate_kbps;
-    buf[3u] = (uint8_t)((uint32_t)msg->bitrate_kbps >> 8u);
+    buf[1u] = 0x1u;
+    buf[2u] = (uint8_t)v_bitrate_kbps;
+    buf[3u] = (uint8_t)(v_bitrate_kbps >> 8u);
     buf[4u] = (uint8_t)(uint32_t)msg->fifo_depth;
-    buf[5u] = (uint8_t)(uint32_t)msg->heartbeat_us;
-    buf[6u] = (uint8_t)((uint32_t)msg->heartbeat_us >> 8u);
+    buf[5u] = (uint8_t)v_heartbeat_us;
+    buf[6u] = (uint8_t)(v_heartbeat_us >> 8u);
     buf[7u] = (uint8_t)(uint32_t)msg->fw_major;
     buf[8u] = (uint8_t)(uint32_t)msg->fw_minor;
     buf[9u] = (uint8_t)(uint32_t)msg->fw_patch;
@@ -788,18 +748,12 @@ int32_t urb_bridge_scan_encode(const urb_bridge_scan_t *msg, uint8_t *buf, size_
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 16;
-        loop assigns k, buf[0 .. 15];
-        loop variant 16 - k; */
-    for (size_t k = 0u; k < 16u; k++) {
-        buf[k] = 0u;
-    }
-    /*@ loop invariant 0 <= i0 <= 128;
+    /* Every byte of the fixed part once, reserved bits zero. */
+    /*@ loop invariant 0 <= i0 <= 16;
         loop assigns i0, buf[0 .. 15];
-        loop variant 128 - i0; */
-    for (size_t i0 = 0u; i0 < 128u; i0++) {
-        urb_put_bits(buf, 1u * i0, 1u, (msg->present[i0] ? 1u : 0u));
+        loop variant 16 - i0; */
+    for (size_t i0 = 0u; i0 < 16u; i0++) {
+        buf[i0] = (uint8_t)((msg->present[8u * i0] ? 0x1u : 0u) | (msg->present[8u * i0 + 1u] ? 0x2u : 0u) | (msg->present[8u * i0 + 2u] ? 0x4u : 0u) | (msg->present[8u * i0 + 3u] ? 0x8u : 0u) | (msg->present[8u * i0 + 4u] ? 0x10u : 0u) | (msg->present[8u * i0 + 5u] ? 0x20u : 0u) | (msg->present[8u * i0 + 6u] ? 0x40u : 0u) | (msg->present[8u * i0 + 7u] ? 0x80u : 0u));
     }
     return (int32_t)size;
 }
@@ -815,11 +769,19 @@ int32_t urb_bridge_scan_decode(urb_bridge_scan_t *msg, const uint8_t *buf, size_
     if (length > URB_BRIDGE_SCAN_MAX_SIZE) {
         return URB_ERR_LONG;
     }
-    /*@ loop invariant 0 <= i0 <= 128;
+    /*@ loop invariant 0 <= i0 <= 16;
         loop assigns i0, msg->present[0 .. 127];
-        loop variant 128 - i0; */
-    for (size_t i0 = 0u; i0 < 128u; i0++) {
-        msg->present[i0] = (urb_get_bits(buf, 1u * i0, 1u) != 0u);
+        loop variant 16 - i0; */
+    for (size_t i0 = 0u; i0 < 16u; i0++) {
+        uint32_t const b0 = (uint32_t)buf[i0];
+        msg->present[8u * i0] = ((b0 & 0x1u) != 0u);
+        msg->present[8u * i0 + 1u] = ((b0 & 0x2u) != 0u);
+        msg->present[8u * i0 + 2u] = ((b0 & 0x4u) != 0u);
+        msg->present[8u * i0 + 3u] = ((b0 & 0x8u) != 0u);
+        msg->present[8u * i0 + 4u] = ((b0 & 0x10u) != 0u);
+        msg->present[8u * i0 + 5u] = ((b0 & 0x20u) != 0u);
+        msg->present[8u * i0 + 6u] = ((b0 & 0x40u) != 0u);
+        msg->present[8u * i0 + 7u] = ((b0 & 0x80u) != 0u);
     }
     return (int32_t)length;
 }
@@ -837,16 +799,11 @@ int32_t urb_bridge_command_encode(const urb_bridge_command_t *msg, uint8_t *buf,
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 3;
-        loop assigns k, buf[0 .. 2];
-        loop variant 3 - k; */
-    for (size_t k = 0u; k < 3u; k++) {
-        buf[k] = 0u;
-    }
+    /* Every byte of the fixed part once, reserved bits zero. */
+    uint32_t const v_value = (uint32_t)msg->value;
     buf[0u] = (uint8_t)(uint32_t)msg->opcode;
-    buf[1u] = (uint8_t)(uint32_t)msg->value;
-    buf[2u] = (uint8_t)((uint32_t)msg->value >> 8u);
+    buf[1u] = (uint8_t)v_value;
+    buf[2u] = (uint8_t)(v_value >> 8u);
     return (int32_t)size;
 }
 

@@ -24,17 +24,9 @@ int32_t urb_rs485_request_encode(const urb_rs485_request_t *msg, uint8_t *buf, s
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 2;
-        loop assigns k, buf[0 .. 1];
-        loop variant 2 - k; */
-    for (size_t k = 0u; k < 2u; k++) {
-        buf[k] = 0u;
-    }
-    urb_put_bits(buf, 0u, 7u, (uint32_t)msg->address);
-    urb_put_bits(buf, 7u, 1u, 0u);
-    urb_put_bits(buf, 8u, 3u, (uint32_t)msg->select.mailbox);
-    urb_put_bits(buf, 15u, 1u, (msg->select.read ? 1u : 0u));
+    /* Every byte of the fixed part once, reserved bits zero. */
+    buf[0u] = (uint8_t)(uint32_t)msg->address;
+    buf[1u] = (uint8_t)((uint32_t)msg->select.mailbox | (msg->select.read ? 0x80u : 0u));
     /*@ loop invariant 0 <= k <= payload_len;
         loop assigns k, buf[2 .. 2u + payload_len - 1];
         loop variant payload_len - k; */
@@ -75,12 +67,14 @@ int32_t urb_rs485_request_decode(urb_rs485_request_t *msg, const uint8_t *buf, s
     if (urb_get_le(buf, 2u + payload_len, check_size) != urb_link_check(NULL, 0u, buf, 2u + payload_len)) {
         return URB_ERR_CHECKSUM;
     }
-    msg->address = (uint8_t)urb_get_bits(buf, 0u, 7u);
+    uint32_t const b0 = (uint32_t)buf[0u];
+    uint32_t const b1 = (uint32_t)buf[1u];
+    msg->address = (uint8_t)(b0 & 0x7Fu);
     if ((msg->address < 1u) || (msg->address > 127u)) { return URB_ERR_RANGE; }
-    if (urb_get_bits(buf, 7u, 1u) != 0u) { return URB_ERR_RANGE; }  /* fixed: 0 */
-    msg->select.mailbox = (uint8_t)(urb_get_bits(buf, 8u, 3u) & 0x7u);
-    if (urb_get_bits(buf, 11u, 4u) != 0u) { return URB_ERR_RANGE; }
-    msg->select.read = (urb_get_bits(buf, 15u, 1u) != 0u);
+    if ((b0 >> 7u) != 0u) { return URB_ERR_RANGE; }  /* fixed: 0 */
+    msg->select.mailbox = (uint8_t)(b1 & 0x7u);
+    if ((b1 & 0x78u) != 0u) { return URB_ERR_RANGE; }  /* padding at bit 3 */
+    msg->select.read = ((b1 & 0x80u) != 0u);
     /*@ loop invariant 0 <= k <= payload_len;
         loop assigns k, msg->data[0 .. 31];
         loop variant payload_len - k; */
@@ -103,15 +97,8 @@ int32_t urb_rs485_sync_encode(const urb_rs485_sync_t *msg, uint8_t *buf, size_t 
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 2;
-        loop assigns k, buf[0 .. 1];
-        loop variant 2 - k; */
-    for (size_t k = 0u; k < 2u; k++) {
-        buf[k] = 0u;
-    }
-    urb_put_bits(buf, 0u, 7u, 0u);
-    urb_put_bits(buf, 7u, 1u, 0u);
+    /* Every byte of the fixed part once, reserved bits zero. */
+    buf[0u] = 0u;
     buf[1u] = (uint8_t)(uint32_t)msg->counter;
     urb_put_le(buf, 2u, 1u, urb_link_check(NULL, 0u, buf, 2u));
     return (int32_t)size;
@@ -131,8 +118,9 @@ int32_t urb_rs485_sync_decode(urb_rs485_sync_t *msg, const uint8_t *buf, size_t 
     if (urb_get_le(buf, 2u, 1u) != urb_link_check(NULL, 0u, buf, 2u)) {
         return URB_ERR_CHECKSUM;
     }
-    if (urb_get_bits(buf, 0u, 7u) != 0u) { return URB_ERR_RANGE; }  /* fixed: RS485_BROADCAST */
-    if (urb_get_bits(buf, 7u, 1u) != 0u) { return URB_ERR_RANGE; }  /* fixed: 0 */
+    uint32_t const b0 = (uint32_t)buf[0u];
+    if ((b0 & 0x7Fu) != 0u) { return URB_ERR_RANGE; }  /* fixed: RS485_BROADCAST */
+    if ((b0 >> 7u) != 0u) { return URB_ERR_RANGE; }  /* fixed: 0 */
     msg->counter = (uint8_t)(uint32_t)buf[1u];
     return (int32_t)length;
 }
@@ -155,16 +143,8 @@ int32_t urb_rs485_response_encode(const urb_rs485_response_t *msg, uint8_t *buf,
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 1;
-        loop assigns k, buf[0 .. 0];
-        loop variant 1 - k; */
-    for (size_t k = 0u; k < 1u; k++) {
-        buf[k] = 0u;
-    }
-    urb_put_bits(buf, 0u, 4u, (uint32_t)msg->status);
-    urb_put_bits(buf, 4u, 3u, (uint32_t)msg->mailbox);
-    urb_put_bits(buf, 7u, 1u, 1u);
+    /* Every byte of the fixed part once, reserved bits zero. */
+    buf[0u] = (uint8_t)((uint32_t)msg->status | ((uint32_t)msg->mailbox << 4u) | 0x80u);
     /*@ loop invariant 0 <= k <= payload_len;
         loop assigns k, buf[1 .. 1u + payload_len - 1];
         loop variant payload_len - k; */
@@ -205,10 +185,11 @@ int32_t urb_rs485_response_decode(urb_rs485_response_t *msg, const uint8_t *buf,
     if (urb_get_le(buf, 1u + payload_len, check_size) != urb_link_check(NULL, 0u, buf, 1u + payload_len)) {
         return URB_ERR_CHECKSUM;
     }
-    msg->status = (uint8_t)urb_get_bits(buf, 0u, 4u);
+    uint32_t const b0 = (uint32_t)buf[0u];
+    msg->status = (uint8_t)(b0 & 0xFu);
     if (!urb_status_is_valid(msg->status)) { return URB_ERR_RANGE; }
-    msg->mailbox = (uint8_t)(urb_get_bits(buf, 4u, 3u) & 0x7u);
-    if (urb_get_bits(buf, 7u, 1u) != 1u) { return URB_ERR_RANGE; }  /* fixed: 1 */
+    msg->mailbox = (uint8_t)((b0 >> 4u) & 0x7u);
+    if ((b0 >> 7u) != 1u) { return URB_ERR_RANGE; }  /* fixed: 1 */
     /*@ loop invariant 0 <= k <= payload_len;
         loop assigns k, msg->data[0 .. 31];
         loop variant payload_len - k; */

@@ -22,19 +22,16 @@ int32_t urb_motor_feedback_encode(const urb_motor_feedback_t *msg, uint8_t *buf,
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 6;
-        loop assigns k, buf[0 .. 5];
-        loop variant 6 - k; */
-    for (size_t k = 0u; k < 6u; k++) {
-        buf[k] = 0u;
-    }
-    buf[0u] = (uint8_t)(uint32_t)msg->encoder;
-    buf[1u] = (uint8_t)((uint32_t)msg->encoder >> 8u);
-    buf[2u] = (uint8_t)(uint32_t)msg->current;
-    buf[3u] = (uint8_t)((uint32_t)msg->current >> 8u);
-    buf[4u] = (uint8_t)(uint32_t)msg->voltage;
-    buf[5u] = (uint8_t)((uint32_t)msg->voltage >> 8u);
+    /* Every byte of the fixed part once, reserved bits zero. */
+    uint32_t const v_encoder = (uint32_t)msg->encoder;
+    uint32_t const v_current = (uint32_t)msg->current;
+    uint32_t const v_voltage = (uint32_t)msg->voltage;
+    buf[0u] = (uint8_t)v_encoder;
+    buf[1u] = (uint8_t)(v_encoder >> 8u);
+    buf[2u] = (uint8_t)v_current;
+    buf[3u] = (uint8_t)(v_current >> 8u);
+    buf[4u] = (uint8_t)v_voltage;
+    buf[5u] = (uint8_t)(v_voltage >> 8u);
     return (int32_t)size;
 }
 
@@ -50,8 +47,10 @@ int32_t urb_motor_feedback_decode(urb_motor_feedback_t *msg, const uint8_t *buf,
         return URB_ERR_LONG;
     }
     msg->encoder = (uint16_t)((uint32_t)buf[0u] | ((uint32_t)buf[1u] << 8u));
-    msg->current = (int16_t)urb_sign_extend(((uint32_t)buf[2u] | ((uint32_t)buf[3u] << 8u)), 16u);
-    msg->voltage = (int16_t)urb_sign_extend(((uint32_t)buf[4u] | ((uint32_t)buf[5u] << 8u)), 16u);
+    uint32_t const r_current = ((uint32_t)buf[2u] | ((uint32_t)buf[3u] << 8u));
+    msg->current = (int16_t)((r_current > 0x7FFFu) ? ((int64_t)r_current - 65536) : (int64_t)r_current);
+    uint32_t const r_voltage = ((uint32_t)buf[4u] | ((uint32_t)buf[5u] << 8u));
+    msg->voltage = (int16_t)((r_voltage > 0x7FFFu) ? ((int64_t)r_voltage - 65536) : (int64_t)r_voltage);
     return (int32_t)length;
 }
 
@@ -66,15 +65,10 @@ int32_t urb_motor_command_encode(const urb_motor_command_t *msg, uint8_t *buf, s
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 2;
-        loop assigns k, buf[0 .. 1];
-        loop variant 2 - k; */
-    for (size_t k = 0u; k < 2u; k++) {
-        buf[k] = 0u;
-    }
-    buf[0u] = (uint8_t)(uint32_t)msg->voltage;
-    buf[1u] = (uint8_t)((uint32_t)msg->voltage >> 8u);
+    /* Every byte of the fixed part once, reserved bits zero. */
+    uint32_t const v_voltage = (uint32_t)msg->voltage;
+    buf[0u] = (uint8_t)v_voltage;
+    buf[1u] = (uint8_t)(v_voltage >> 8u);
     return (int32_t)size;
 }
 
@@ -89,7 +83,8 @@ int32_t urb_motor_command_decode(urb_motor_command_t *msg, const uint8_t *buf, s
     if (length > URB_MOTOR_COMMAND_MAX_SIZE) {
         return URB_ERR_LONG;
     }
-    msg->voltage = (int16_t)urb_sign_extend(((uint32_t)buf[0u] | ((uint32_t)buf[1u] << 8u)), 16u);
+    uint32_t const r_voltage = ((uint32_t)buf[0u] | ((uint32_t)buf[1u] << 8u));
+    msg->voltage = (int16_t)((r_voltage > 0x7FFFu) ? ((int64_t)r_voltage - 65536) : (int64_t)r_voltage);
     return (int32_t)length;
 }
 
@@ -106,19 +101,11 @@ int32_t urb_motor_status_encode(const urb_motor_status_t *msg, uint8_t *buf, siz
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 4;
-        loop assigns k, buf[0 .. 3];
-        loop variant 4 - k; */
-    for (size_t k = 0u; k < 4u; k++) {
-        buf[k] = 0u;
-    }
-    buf[0u] = (uint8_t)(uint32_t)msg->case_temp;
-    buf[1u] = (uint8_t)((uint32_t)msg->case_temp >> 8u);
-    urb_put_bits(buf, 16u, 2u, (uint32_t)msg->mode);
-    urb_put_bits(buf, 18u, 1u, (msg->hall ? 1u : 0u));
-    urb_put_bits(buf, 19u, 1u, (msg->overcurrent ? 1u : 0u));
-    urb_put_bits(buf, 20u, 1u, (msg->overtemp ? 1u : 0u));
+    /* Every byte of the fixed part once, reserved bits zero. */
+    uint32_t const v_case_temp = (uint32_t)msg->case_temp;
+    buf[0u] = (uint8_t)v_case_temp;
+    buf[1u] = (uint8_t)(v_case_temp >> 8u);
+    buf[2u] = (uint8_t)((uint32_t)msg->mode | (msg->hall ? 0x4u : 0u) | (msg->overcurrent ? 0x8u : 0u) | (msg->overtemp ? 0x10u : 0u));
     buf[3u] = (uint8_t)(uint32_t)msg->missed_commands;
     return (int32_t)size;
 }
@@ -134,13 +121,15 @@ int32_t urb_motor_status_decode(urb_motor_status_t *msg, const uint8_t *buf, siz
     if (length > URB_MOTOR_STATUS_MAX_SIZE) {
         return URB_ERR_LONG;
     }
-    msg->case_temp = (int16_t)urb_sign_extend(((uint32_t)buf[0u] | ((uint32_t)buf[1u] << 8u)), 16u);
-    msg->mode = (uint8_t)urb_get_bits(buf, 16u, 2u);
+    uint32_t const b2 = (uint32_t)buf[2u];
+    uint32_t const r_case_temp = ((uint32_t)buf[0u] | ((uint32_t)buf[1u] << 8u));
+    msg->case_temp = (int16_t)((r_case_temp > 0x7FFFu) ? ((int64_t)r_case_temp - 65536) : (int64_t)r_case_temp);
+    msg->mode = (uint8_t)(b2 & 0x3u);
     if (!urb_motor_mode_is_valid(msg->mode)) { return URB_ERR_RANGE; }
-    msg->hall = (urb_get_bits(buf, 18u, 1u) != 0u);
-    msg->overcurrent = (urb_get_bits(buf, 19u, 1u) != 0u);
-    msg->overtemp = (urb_get_bits(buf, 20u, 1u) != 0u);
-    if (urb_get_bits(buf, 21u, 3u) != 0u) { return URB_ERR_RANGE; }
+    msg->hall = ((b2 & 0x4u) != 0u);
+    msg->overcurrent = ((b2 & 0x8u) != 0u);
+    msg->overtemp = ((b2 & 0x10u) != 0u);
+    if ((b2 & 0xE0u) != 0u) { return URB_ERR_RANGE; }  /* padding at bit 21 */
     msg->missed_commands = (uint8_t)(uint32_t)buf[3u];
     return (int32_t)length;
 }
@@ -158,24 +147,22 @@ int32_t urb_motor_config_encode(const urb_motor_config_t *msg, uint8_t *buf, siz
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 11;
-        loop assigns k, buf[0 .. 10];
-        loop variant 11 - k; */
-    for (size_t k = 0u; k < 11u; k++) {
-        buf[k] = 0u;
-    }
-    urb_put_bits(buf, 0u, 2u, (uint32_t)msg->mode);
-    buf[1u] = (uint8_t)(uint32_t)msg->kp;
-    buf[2u] = (uint8_t)((uint32_t)msg->kp >> 8u);
-    buf[3u] = (uint8_t)(uint32_t)msg->kd;
-    buf[4u] = (uint8_t)((uint32_t)msg->kd >> 8u);
-    buf[5u] = (uint8_t)(uint32_t)msg->target;
-    buf[6u] = (uint8_t)((uint32_t)msg->target >> 8u);
-    buf[7u] = (uint8_t)((uint32_t)msg->target >> 16u);
-    buf[8u] = (uint8_t)((uint32_t)msg->target >> 24u);
-    buf[9u] = (uint8_t)(uint32_t)msg->voltage_limit;
-    buf[10u] = (uint8_t)((uint32_t)msg->voltage_limit >> 8u);
+    /* Every byte of the fixed part once, reserved bits zero. */
+    uint32_t const v_kp = (uint32_t)msg->kp;
+    uint32_t const v_kd = (uint32_t)msg->kd;
+    uint32_t const v_target = (uint32_t)msg->target;
+    uint32_t const v_voltage_limit = (uint32_t)msg->voltage_limit;
+    buf[0u] = (uint8_t)(uint32_t)msg->mode;
+    buf[1u] = (uint8_t)v_kp;
+    buf[2u] = (uint8_t)(v_kp >> 8u);
+    buf[3u] = (uint8_t)v_kd;
+    buf[4u] = (uint8_t)(v_kd >> 8u);
+    buf[5u] = (uint8_t)v_target;
+    buf[6u] = (uint8_t)(v_target >> 8u);
+    buf[7u] = (uint8_t)(v_target >> 16u);
+    buf[8u] = (uint8_t)(v_target >> 24u);
+    buf[9u] = (uint8_t)v_voltage_limit;
+    buf[10u] = (uint8_t)(v_voltage_limit >> 8u);
     return (int32_t)size;
 }
 
@@ -190,12 +177,14 @@ int32_t urb_motor_config_decode(urb_motor_config_t *msg, const uint8_t *buf, siz
     if (length > URB_MOTOR_CONFIG_MAX_SIZE) {
         return URB_ERR_LONG;
     }
-    msg->mode = (uint8_t)urb_get_bits(buf, 0u, 2u);
+    uint32_t const b0 = (uint32_t)buf[0u];
+    msg->mode = (uint8_t)(b0 & 0x3u);
     if (!urb_motor_mode_is_valid(msg->mode)) { return URB_ERR_RANGE; }
-    if (urb_get_bits(buf, 2u, 6u) != 0u) { return URB_ERR_RANGE; }
+    if ((b0 & 0xFCu) != 0u) { return URB_ERR_RANGE; }  /* padding at bit 2 */
     msg->kp = (uint16_t)((uint32_t)buf[1u] | ((uint32_t)buf[2u] << 8u));
     msg->kd = (uint16_t)((uint32_t)buf[3u] | ((uint32_t)buf[4u] << 8u));
-    msg->target = (int32_t)urb_sign_extend(((uint32_t)buf[5u] | ((uint32_t)buf[6u] << 8u) | ((uint32_t)buf[7u] << 16u) | ((uint32_t)buf[8u] << 24u)), 32u);
+    uint32_t const r_target = ((uint32_t)buf[5u] | ((uint32_t)buf[6u] << 8u) | ((uint32_t)buf[7u] << 16u) | ((uint32_t)buf[8u] << 24u));
+    msg->target = (int32_t)((r_target > 0x7FFFFFFFu) ? ((int64_t)r_target - 4294967296) : (int64_t)r_target);
     msg->voltage_limit = (uint16_t)((uint32_t)buf[9u] | ((uint32_t)buf[10u] << 8u));
     return (int32_t)length;
 }
@@ -213,19 +202,14 @@ int32_t urb_battery_pack_encode(const urb_battery_pack_t *msg, uint8_t *buf, siz
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 6;
-        loop assigns k, buf[0 .. 5];
-        loop variant 6 - k; */
-    for (size_t k = 0u; k < 6u; k++) {
-        buf[k] = 0u;
-    }
-    buf[0u] = (uint8_t)(uint32_t)msg->voltage;
-    buf[1u] = (uint8_t)((uint32_t)msg->voltage >> 8u);
-    buf[2u] = (uint8_t)(uint32_t)msg->current;
-    buf[3u] = (uint8_t)((uint32_t)msg->current >> 8u);
-    urb_put_bits(buf, 32u, 7u, (uint32_t)msg->charge);
-    urb_put_bits(buf, 39u, 1u, (msg->present ? 1u : 0u));
+    /* Every byte of the fixed part once, reserved bits zero. */
+    uint32_t const v_voltage = (uint32_t)msg->voltage;
+    uint32_t const v_current = (uint32_t)msg->current;
+    buf[0u] = (uint8_t)v_voltage;
+    buf[1u] = (uint8_t)(v_voltage >> 8u);
+    buf[2u] = (uint8_t)v_current;
+    buf[3u] = (uint8_t)(v_current >> 8u);
+    buf[4u] = (uint8_t)((uint32_t)msg->charge | (msg->present ? 0x80u : 0u));
     buf[5u] = (uint8_t)(uint32_t)msg->temp;
     return (int32_t)size;
 }
@@ -241,12 +225,15 @@ int32_t urb_battery_pack_decode(urb_battery_pack_t *msg, const uint8_t *buf, siz
     if (length > URB_BATTERY_PACK_MAX_SIZE) {
         return URB_ERR_LONG;
     }
+    uint32_t const b4 = (uint32_t)buf[4u];
     msg->voltage = (uint16_t)((uint32_t)buf[0u] | ((uint32_t)buf[1u] << 8u));
-    msg->current = (int16_t)urb_sign_extend(((uint32_t)buf[2u] | ((uint32_t)buf[3u] << 8u)), 16u);
-    msg->charge = (uint8_t)urb_get_bits(buf, 32u, 7u);
+    uint32_t const r_current = ((uint32_t)buf[2u] | ((uint32_t)buf[3u] << 8u));
+    msg->current = (int16_t)((r_current > 0x7FFFu) ? ((int64_t)r_current - 65536) : (int64_t)r_current);
+    msg->charge = (uint8_t)(b4 & 0x7Fu);
     if (msg->charge > 100u) { return URB_ERR_RANGE; }
-    msg->present = (urb_get_bits(buf, 39u, 1u) != 0u);
-    msg->temp = (int8_t)urb_sign_extend((uint32_t)buf[5u], 8u);
+    msg->present = ((b4 & 0x80u) != 0u);
+    uint32_t const r_temp = (uint32_t)buf[5u];
+    msg->temp = (int8_t)((r_temp > 0x7Fu) ? ((int64_t)r_temp - 256) : (int64_t)r_temp);
     return (int32_t)length;
 }
 
@@ -268,27 +255,21 @@ int32_t urb_battery_status_encode(const urb_battery_status_t *msg, uint8_t *buf,
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 19;
-        loop assigns k, buf[0 .. 18];
-        loop variant 19 - k; */
-    for (size_t k = 0u; k < 19u; k++) {
-        buf[k] = 0u;
-    }
+    /* Every byte of the fixed part once, reserved bits zero. */
     /*@ loop invariant 0 <= i0 <= 3;
         loop assigns i0, buf[0 .. 18];
         loop variant 3 - i0; */
     for (size_t i0 = 0u; i0 < 3u; i0++) {
-        buf[6u * i0] = (uint8_t)(uint32_t)msg->packs[i0].voltage;
-        buf[6u * i0 + 1u] = (uint8_t)((uint32_t)msg->packs[i0].voltage >> 8u);
-        buf[6u * i0 + 2u] = (uint8_t)(uint32_t)msg->packs[i0].current;
-        buf[6u * i0 + 3u] = (uint8_t)((uint32_t)msg->packs[i0].current >> 8u);
-        urb_put_bits(buf, 48u * i0 + 32u, 7u, (uint32_t)msg->packs[i0].charge);
-        urb_put_bits(buf, 48u * i0 + 39u, 1u, (msg->packs[i0].present ? 1u : 0u));
+        uint32_t const v_packs_voltage = (uint32_t)msg->packs[i0].voltage;
+        uint32_t const v_packs_current = (uint32_t)msg->packs[i0].current;
+        buf[6u * i0] = (uint8_t)v_packs_voltage;
+        buf[6u * i0 + 1u] = (uint8_t)(v_packs_voltage >> 8u);
+        buf[6u * i0 + 2u] = (uint8_t)v_packs_current;
+        buf[6u * i0 + 3u] = (uint8_t)(v_packs_current >> 8u);
+        buf[6u * i0 + 4u] = (uint8_t)((uint32_t)msg->packs[i0].charge | (msg->packs[i0].present ? 0x80u : 0u));
         buf[6u * i0 + 5u] = (uint8_t)(uint32_t)msg->packs[i0].temp;
     }
-    urb_put_bits(buf, 144u, 1u, (msg->low ? 1u : 0u));
-    urb_put_bits(buf, 145u, 1u, (msg->charging ? 1u : 0u));
+    buf[18u] = (uint8_t)((msg->low ? 0x1u : 0u) | (msg->charging ? 0x2u : 0u));
     return (int32_t)size;
 }
 
@@ -303,21 +284,25 @@ int32_t urb_battery_status_decode(urb_battery_status_t *msg, const uint8_t *buf,
     if (length > URB_BATTERY_STATUS_MAX_SIZE) {
         return URB_ERR_LONG;
     }
+    uint32_t const b18 = (uint32_t)buf[18u];
     /*@ loop invariant 0 <= i0 <= 3;
         loop invariant \forall integer j0; 0 <= j0 < i0 ==> msg->packs[j0].charge <= 100;
         loop assigns i0, msg->packs[0 .. 2];
         loop variant 3 - i0; */
     for (size_t i0 = 0u; i0 < 3u; i0++) {
+        uint32_t const b4 = (uint32_t)buf[6u * i0 + 4u];
         msg->packs[i0].voltage = (uint16_t)((uint32_t)buf[6u * i0] | ((uint32_t)buf[6u * i0 + 1u] << 8u));
-        msg->packs[i0].current = (int16_t)urb_sign_extend(((uint32_t)buf[6u * i0 + 2u] | ((uint32_t)buf[6u * i0 + 3u] << 8u)), 16u);
-        msg->packs[i0].charge = (uint8_t)urb_get_bits(buf, 48u * i0 + 32u, 7u);
+        uint32_t const r_packs_current = ((uint32_t)buf[6u * i0 + 2u] | ((uint32_t)buf[6u * i0 + 3u] << 8u));
+        msg->packs[i0].current = (int16_t)((r_packs_current > 0x7FFFu) ? ((int64_t)r_packs_current - 65536) : (int64_t)r_packs_current);
+        msg->packs[i0].charge = (uint8_t)(b4 & 0x7Fu);
         if (msg->packs[i0].charge > 100u) { return URB_ERR_RANGE; }
-        msg->packs[i0].present = (urb_get_bits(buf, 48u * i0 + 39u, 1u) != 0u);
-        msg->packs[i0].temp = (int8_t)urb_sign_extend((uint32_t)buf[6u * i0 + 5u], 8u);
+        msg->packs[i0].present = ((b4 & 0x80u) != 0u);
+        uint32_t const r_packs_temp = (uint32_t)buf[6u * i0 + 5u];
+        msg->packs[i0].temp = (int8_t)((r_packs_temp > 0x7Fu) ? ((int64_t)r_packs_temp - 256) : (int64_t)r_packs_temp);
     }
-    msg->low = (urb_get_bits(buf, 144u, 1u) != 0u);
-    msg->charging = (urb_get_bits(buf, 145u, 1u) != 0u);
-    if (urb_get_bits(buf, 146u, 6u) != 0u) { return URB_ERR_RANGE; }
+    msg->low = ((b18 & 0x1u) != 0u);
+    msg->charging = ((b18 & 0x2u) != 0u);
+    if ((b18 & 0xFCu) != 0u) { return URB_ERR_RANGE; }  /* padding at bit 146 */
     return (int32_t)length;
 }
 
@@ -332,26 +317,22 @@ int32_t urb_imu_sample_encode(const urb_imu_sample_t *msg, uint8_t *buf, size_t 
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 14;
-        loop assigns k, buf[0 .. 13];
-        loop variant 14 - k; */
-    for (size_t k = 0u; k < 14u; k++) {
-        buf[k] = 0u;
+    /* Every byte of the fixed part once, reserved bits zero. */
+    /*@ loop invariant 0 <= i0 <= 3;
+        loop assigns i0, buf[0 .. 13];
+        loop variant 3 - i0; */
+    for (size_t i0 = 0u; i0 < 3u; i0++) {
+        uint32_t const v_accel = (uint32_t)msg->accel[i0];
+        buf[2u * i0] = (uint8_t)v_accel;
+        buf[2u * i0 + 1u] = (uint8_t)(v_accel >> 8u);
     }
     /*@ loop invariant 0 <= i0 <= 3;
         loop assigns i0, buf[0 .. 13];
         loop variant 3 - i0; */
     for (size_t i0 = 0u; i0 < 3u; i0++) {
-        buf[2u * i0] = (uint8_t)(uint32_t)msg->accel[i0];
-        buf[2u * i0 + 1u] = (uint8_t)((uint32_t)msg->accel[i0] >> 8u);
-    }
-    /*@ loop invariant 0 <= i0 <= 3;
-        loop assigns i0, buf[0 .. 13];
-        loop variant 3 - i0; */
-    for (size_t i0 = 0u; i0 < 3u; i0++) {
-        buf[2u * i0 + 6u] = (uint8_t)(uint32_t)msg->gyro[i0];
-        buf[2u * i0 + 7u] = (uint8_t)((uint32_t)msg->gyro[i0] >> 8u);
+        uint32_t const v_gyro = (uint32_t)msg->gyro[i0];
+        buf[2u * i0 + 6u] = (uint8_t)v_gyro;
+        buf[2u * i0 + 7u] = (uint8_t)(v_gyro >> 8u);
     }
     buf[12u] = (uint8_t)(uint32_t)msg->temp;
     buf[13u] = (uint8_t)(uint32_t)msg->sample;
@@ -373,15 +354,18 @@ int32_t urb_imu_sample_decode(urb_imu_sample_t *msg, const uint8_t *buf, size_t 
         loop assigns i0, msg->accel[0 .. 2];
         loop variant 3 - i0; */
     for (size_t i0 = 0u; i0 < 3u; i0++) {
-        msg->accel[i0] = (int16_t)urb_sign_extend(((uint32_t)buf[2u * i0] | ((uint32_t)buf[2u * i0 + 1u] << 8u)), 16u);
+        uint32_t const r_accel = ((uint32_t)buf[2u * i0] | ((uint32_t)buf[2u * i0 + 1u] << 8u));
+        msg->accel[i0] = (int16_t)((r_accel > 0x7FFFu) ? ((int64_t)r_accel - 65536) : (int64_t)r_accel);
     }
     /*@ loop invariant 0 <= i0 <= 3;
         loop assigns i0, msg->gyro[0 .. 2];
         loop variant 3 - i0; */
     for (size_t i0 = 0u; i0 < 3u; i0++) {
-        msg->gyro[i0] = (int16_t)urb_sign_extend(((uint32_t)buf[2u * i0 + 6u] | ((uint32_t)buf[2u * i0 + 7u] << 8u)), 16u);
+        uint32_t const r_gyro = ((uint32_t)buf[2u * i0 + 6u] | ((uint32_t)buf[2u * i0 + 7u] << 8u));
+        msg->gyro[i0] = (int16_t)((r_gyro > 0x7FFFu) ? ((int64_t)r_gyro - 65536) : (int64_t)r_gyro);
     }
-    msg->temp = (int8_t)urb_sign_extend((uint32_t)buf[12u], 8u);
+    uint32_t const r_temp = (uint32_t)buf[12u];
+    msg->temp = (int8_t)((r_temp > 0x7Fu) ? ((int64_t)r_temp - 256) : (int64_t)r_temp);
     msg->sample = (uint8_t)(uint32_t)buf[13u];
     return (int32_t)length;
 }
@@ -397,17 +381,12 @@ int32_t urb_ir_range_encode(const urb_ir_range_t *msg, uint8_t *buf, size_t capa
     if (capacity < size) {
         return URB_ERR_CAPACITY;
     }
-    /* Clear the fixed part first, so padding is zero. */
-    /*@ loop invariant 0 <= k <= 4;
-        loop assigns k, buf[0 .. 3];
-        loop variant 4 - k; */
-    for (size_t k = 0u; k < 4u; k++) {
-        buf[k] = 0u;
-    }
-    buf[0u] = (uint8_t)(uint32_t)msg->distance;
-    buf[1u] = (uint8_t)((uint32_t)msg->distance >> 8u);
+    /* Every byte of the fixed part once, reserved bits zero. */
+    uint32_t const v_distance = (uint32_t)msg->distance;
+    buf[0u] = (uint8_t)v_distance;
+    buf[1u] = (uint8_t)(v_distance >> 8u);
     buf[2u] = (uint8_t)(uint32_t)msg->strength;
-    urb_put_bits(buf, 24u, 1u, (msg->valid ? 1u : 0u));
+    buf[3u] = (uint8_t)(msg->valid ? 0x1u : 0u);
     return (int32_t)size;
 }
 
@@ -422,10 +401,11 @@ int32_t urb_ir_range_decode(urb_ir_range_t *msg, const uint8_t *buf, size_t leng
     if (length > URB_IR_RANGE_MAX_SIZE) {
         return URB_ERR_LONG;
     }
+    uint32_t const b3 = (uint32_t)buf[3u];
     msg->distance = (uint16_t)((uint32_t)buf[0u] | ((uint32_t)buf[1u] << 8u));
     msg->strength = (uint8_t)(uint32_t)buf[2u];
-    msg->valid = (urb_get_bits(buf, 24u, 1u) != 0u);
-    if (urb_get_bits(buf, 25u, 7u) != 0u) { return URB_ERR_RANGE; }
+    msg->valid = ((b3 & 0x1u) != 0u);
+    if ((b3 & 0xFEu) != 0u) { return URB_ERR_RANGE; }  /* padding at bit 25 */
     return (int32_t)length;
 }
 

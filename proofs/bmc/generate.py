@@ -975,17 +975,39 @@ def encode_mutants(info: MsgInfo, source: str, file: str) -> list[dict[str, obje
     out += _rule_mutants(body, file, fn, "URB_ERR_RANGE", "a message that breaks a rule (require) is encoded",
                          "a member the schema forbids gives URB_ERR_RANGE")
     for line in body.splitlines():
-        m = re.search(r"urb_put_bits\(buf, (\d+)u, \d+u, .*msg->", line) or re.search(r"buf\[(\d+)u\] = .*msg->", line)
+        stmt = line.strip()
+        m = re.match(r"buf\[(\d+)u\] = .*(?:msg->|v_)", stmt)  # a byte holding a member (not a constant)
         if m:
             off = int(m.group(1))
-            stmt = line.strip()
-            unit = "bit" if stmt.startswith("urb_put_bits") else "byte"
-            new = stmt[:m.start(1) - (len(line) - len(line.lstrip()))] + str(off + 1) + \
-                stmt[m.end(1) - (len(line) - len(line.lstrip())):]
-            past = _past_frame(info, stmt, off + 1, unit)
-            why = f"wrong shift: a field is written at {unit} {off + 1} instead of {off}"
+            new = stmt[:m.start(1)] + str(off + 1) + stmt[m.end(1):]
+            past = off + 1 >= info.decl.min_size
+            why = f"wrong index: a field is written at byte {off + 1} instead of {off}"
             out.append(_mut("field-offset", file, fn, stmt, new, why + (", past the end of the frame" if past else ""),
                             ["nothing written past the frame", "no byte outside the frame changes"] if past
+                            else "wire: every byte as the schema lays it out"))
+            break
+    for line in body.splitlines():
+        stmt = line.strip()
+        m = re.match(r"buf\[[^]]+\] = .*<< ([1-7])u\)", stmt)  # a field's piece shifted within its byte
+        if m:
+            s = int(m.group(1))
+            new = stmt[:m.start(1)] + str(s - 1) + stmt[m.end(1):]
+            out.append(_mut("piece-shift", file, fn, stmt, new,
+                            f"wrong shift: a field's bits are placed at bit {s - 1} of their byte instead of {s}",
+                            "wire: every byte as the schema lays it out"))
+            break
+    for line in body.splitlines():
+        stmt = line.strip()
+        m = re.search(r"\(msg->([\w.]+)[^?]*\? 0x([0-9A-F]+)u : 0u\)", stmt)  # a bool's bit
+        if m and not _in_rules(info.decl, m.group(1)):
+            bit = int(m.group(2), 16)
+            other = bit >> 1 if bit > 1 else 2
+            new = stmt[:m.start(2)] + f"{other:X}" + stmt[m.end(2):]
+            prefix = stmt.startswith("prefix[")  # the implicit prefix: only the check sees it
+            out.append(_mut("bool-bit", file, fn, stmt, new,
+                            f"wrong bit: a bool is written to bit value 0x{other:X} of its byte instead of 0x{bit:X}"
+                            + (" in the implicit prefix the check covers" if prefix else ""),
+                            "wire: the check covers the implicit prefix first" if prefix
                             else "wire: every byte as the schema lays it out"))
             break
     bf = info.payload
@@ -1003,6 +1025,14 @@ def encode_mutants(info: MsgInfo, source: str, file: str) -> list[dict[str, obje
     return out
 
 
+def _in_rules(d: MessageDecl, path: str) -> bool:
+    """Whether a rule names the member at `path` (`select.read`): a seeded bug in that member alone
+    may then change no valid message (DownlinkWrite's rule fixes select.read to false), so none is
+    seeded there."""
+    path = re.sub(r"\[[^]]*\]", "", path)
+    return any(re.search(r"(?<![\w.])" + re.escape(path) + r"(?![\w])", r.text) for r in d.rules)
+
+
 def _rule_mutants(body: str, file: str, fn: str, error: str, why: str, expect: str) -> list[dict[str, object]]:
     """Seeded bug: the first check of a rule (`require`) that returns `error` is dropped."""
     find = f"{{ return {error}; }}  /* require "
@@ -1012,18 +1042,7 @@ def _rule_mutants(body: str, file: str, fn: str, error: str, why: str, expect: s
     return [_mut(name, file, fn, find, "{ }  /* require ", why, expect)]
 
 
-def _past_frame(info: MsgInfo, stmt: str, at: int, unit: str) -> bool:
-    """Whether a field moved to `at` (a bit or byte offset) ends past the shortest frame of the message,
-    so the moved access leaves the frame (every frame, for a message of one size)."""
-    if unit == "bit":
-        m = re.search(r"urb_(?:get|put)_bits\(buf, \d+u, (\d+)u", stmt)
-        last_byte = (at + (int(m.group(1)) if m else 1) - 1) // 8
-    else:
-        last_byte = at
-    return last_byte >= info.decl.min_size
-
-
-def _range_check_kind(body: str) -> tuple[str, str]:
+def _range_check_kind(body: str) -> tuple[str, str | list[str]]:
     """The why and the expected property of dropping the first `{ return URB_ERR_RANGE; }` of a decoder:
     a padding check, a fixed-value check, or a member's range or enum check."""
     line = next(ln.strip() for ln in body.splitlines() if "{ return URB_ERR_RANGE; }" in ln)
@@ -1032,9 +1051,11 @@ def _range_check_kind(body: str) -> tuple[str, str]:
     if (m := re.search(r"/\* fixed: (\w+) \*/", line)):  # before padding: a fixed 0 reads like it
         return (f"missing check: a frame whose fixed value ({m.group(1)}) is wrong is accepted",
                 f"= {m.group(1)} at its bit offset")
-    if (m := re.search(r"urb_get_bits\(buf, (\d+)u, \d+u\) != 0u\)", line)):
-        return (f"missing check: a frame whose padding at bit {m.group(1)} is not zero is accepted",
-                f"padding at bit {m.group(1)} is zero")
+    if (m := re.search(r"/\* ((?:padding at bit \d+|undeclared bits)(?:, (?:padding at bit \d+|undeclared bits))*) \*/",
+                       line)):  # the bits of one byte that must be zero: a reserved field or a gap
+        labels = m.group(1).split(", ")
+        return (f"missing check: a frame whose reserved bits ({m.group(1)}) are not zero is accepted",
+                [f"{label} is zero" if label.startswith("padding") else label for label in labels])
     return ("missing check: a member value the schema forbids (range or enum) is accepted",
             "every decoded member is one the schema allows")
 
@@ -1082,19 +1103,53 @@ def decode_mutants(info: MsgInfo, source: str, file: str) -> list[dict[str, obje
                          "invalid implicit members give URB_ERR_ARGUMENT")
     for line in body.splitlines():
         stmt = line.strip()
-        if not re.match(r"msg->[\w.\[\]]+ = ", stmt):
+        # the first read of a member's byte: in the member's statement, or in the local that holds a
+        # byte several statements read (b<n>) or a signed member's raw bits (r_<member>)
+        if not re.match(r"(msg->[\w.\[\]]+|uint32_t const (?:b\d+|r_\w+)) = ", stmt):
             continue
-        m = re.search(r"urb_get_bits\(buf, (\d+)u, \d+u\)", stmt) or re.search(r"buf\[(\d+)u\]", stmt)
+        m = re.search(r"buf\[(\d+)u\]", stmt)
         if m:
             off = int(m.group(1))
-            unit = "bit" if "urb_get_bits" in m.group(0) else "byte"
             new = stmt[:m.start(1)] + str(off + 1) + stmt[m.end(1):]
-            past = _past_frame(info, stmt, off + 1, unit)
-            why = f"wrong shift: a field is read at {unit} {off + 1} instead of {off}"
+            past = off + 1 >= info.decl.min_size
+            why = f"wrong index: a field is read at byte {off + 1} instead of {off}"
             # inside the frame: part 1 sees the decoded value away from its bits, part 2 a message
             # that does not come back
             out.append(_mut("field-offset", file, fn, stmt, new, why + (", past the end of the frame" if past else ""),
                             OUT_OF_BOUNDS if past else ["at its bit offset", ROUND_TRIP]))
+            break
+    for line in body.splitlines():
+        stmt = line.strip()
+        m = re.match(r"msg->[\w.\[\]]+ = .*>> ([1-7])u\)", stmt)  # a field read from inside its byte
+        if m:
+            s = int(m.group(1))
+            new = stmt[:m.start(1)] + str(s - 1) + stmt[m.end(1):]
+            out.append(_mut("piece-shift", file, fn, stmt, new,
+                            f"wrong shift: a field is read from bit {s - 1} of its byte instead of {s}",
+                            ["at its bit offset", ROUND_TRIP]))
+            break
+    m = next((m for m in re.finditer(r"msg->([\w.\[\]]+) = \(\((b\d+|\(uint32_t\)buf\[[^]]+\]) & 0x([0-9A-F]+)u\) != 0u\);",
+                                     body) if not _in_rules(info.decl, m.group(1))), None)  # a bool no rule fixes
+    if m:
+        bit = int(m.group(3), 16)
+        other = bit >> 1 if bit > 1 else 2
+        new = m.group(0).replace(f"& 0x{m.group(3)}u)", f"& 0x{other:X}u)")
+        out.append(_mut("bool-bit", file, fn, m.group(0), new,
+                        f"wrong bit: a bool is read from bit value 0x{other:X} of its byte instead of 0x{bit:X}",
+                        ["at its bit offset", ROUND_TRIP]))
+    for line in body.splitlines():
+        stmt = line.strip()
+        if not stmt.startswith("msg->"):
+            continue
+        # a width mask 2^w - 1 (w >= 2) of an unsigned member or an enum
+        m = next((m for m in re.finditer(r"& 0x([0-9A-F]+)u\)", stmt)
+                  if int(m.group(1), 16) >= 3 and int(m.group(1), 16) & (int(m.group(1), 16) + 1) == 0), None)
+        if m:
+            mask = int(m.group(1), 16)
+            new = stmt[:m.start(1)] + f"{mask >> 1:X}" + stmt[m.end(1):]
+            out.append(_mut("field-mask", file, fn, stmt, new,
+                            "wrong mask: a field is read one bit too narrow (its top bit dropped)",
+                            ["at its bit offset", ROUND_TRIP]))
             break
     bf = info.payload
     if bf is not None:
@@ -1676,7 +1731,8 @@ GENERATED_MUTANT_KINDS = {
     "one-nibble": "other", "table-entry": "other", "skip-last": "off-by-one", "overrun": "off-by-one",
     "index": "wrong-order", "xorout": "other", "tier-boundary": "off-by-one", "covered": "other", "no-prefix": "other",
     "payload-off-by-one": "off-by-one", "tier-test": "other", "no-rule-check": "dropped-error",
-    "no-caller-rule-check": "dropped-error",
+    "no-caller-rule-check": "dropped-error", "piece-shift": "off-by-one", "bool-bit": "wrong-field",
+    "field-mask": "off-by-one",
 }
 
 

@@ -211,9 +211,10 @@ static int32_t decode_urb_downlink_read_response(void *msg, const uint8_t *buf, 
 static int32_t set_implicit_urb_downlink_read_response(void *out, const uint8_t *prefix)
 {
     urb_downlink_read_response_t *msg = out;
-    msg->select.mailbox = (uint8_t)(urb_get_bits(prefix, 0u, 3u) & 0x7u);
-    if (urb_get_bits(prefix, 3u, 4u) != 0u) { return URB_ERR_RANGE; }
-    msg->select.read = (urb_get_bits(prefix, 7u, 1u) != 0u);
+    uint32_t const p0 = (uint32_t)prefix[0u];
+    msg->select.mailbox = (uint8_t)(p0 & 0x7u);
+    if ((p0 & 0x78u) != 0u) { return URB_ERR_RANGE; }  /* padding at bit 3 */
+    msg->select.read = ((p0 & 0x80u) != 0u);
     return URB_OK;
 }
 

@@ -41,7 +41,7 @@
 #include "urb_sensorhex.h"
 
 
-#define URB_ACCEL_FINGERPRINT "99393918688b0a31"
+#define URB_ACCEL_FINGERPRINT "3f8a3faa5a76b53a"
 #define URB_MAX_FIELDS 11 /* the most fields of one message */
 
 /* ===== What the module knows of each class ================================================= */

@@ -27,7 +27,7 @@ from typing import Any
 
 from ._runtime import Message
 
-FINGERPRINT = "99393918688b0a31"
+FINGERPRINT = "3f8a3faa5a76b53a"
 """The generated sources the extension must be built from (its own FINGERPRINT)."""
 MODULES = ("urb_core", "urb_can_wire", "urb_rs485_wire", "sensorhex", )
 """The schema modules whose classes it serves."""
