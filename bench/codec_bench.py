@@ -394,6 +394,10 @@ C_WHAT = {
     "urb_payload": ("URB payload", "urb_motor_feedback_encode + _decode", 6),
     "memcpy4": ("memcpy limit, 4 B", "memcpy of a 4-byte struct into a buffer and back (MotorStatus's limit)", 4),
     "urb_status": ("URB MotorStatus", "urb_motor_status_encode + _decode: i16, 2-bit enum, three bools, u8", 4),
+    "hand_status_bare": ("hand MotorStatus, bare", "MotorStatus packed and unpacked by hand, inlined, "
+                         "no checks: the floor of its wire layout", 4),
+    "hand_status_checked": ("hand MotorStatus, checked", "the bare row plus the generated codec's checks "
+                            "(enum member, reserved bits, length)", 4),
     "urb_read_request": ("URB read request", "urb_uplink_read_request_encode + _decode: sub-byte fields, CRC-8",
                          4),
     "urb_frame": ("URB frame", "urb_uplink_response_encode/_decode (CRC-8) around "
@@ -587,6 +591,22 @@ also needs its 4-byte read request on the other direction of the link; an I2C re
 select byte (+1) only when the selected outbox changes. I2C ACK, start and stop bits not counted."""
 
 
+def status_floor_line(byc: dict[str, Timing]) -> str:
+    """How far the 4-byte memcpy limit is from what MotorStatus's wire layout allows at all: the
+    hand-written bare and checked codecs over memcpy4, and the generated codec over the checked one."""
+    names = ("hand MotorStatus, bare", "hand MotorStatus, checked", "URB MotorStatus", "memcpy limit, 4 B")
+    if not all(n in byc for n in names):
+        return ""
+    bare, checked, urb, limit = (byc[n] for n in names)
+    parts = [f"bare/memcpy4 {bare.best_ns / limit.best_ns:.2f}, checked/memcpy4 {checked.best_ns / limit.best_ns:.2f}, "
+             f"generated/checked {urb.best_ns / checked.best_ns:.2f} (time)"]
+    if all(t.instructions for t in (bare, checked, urb, limit)):
+        parts.append(f"{(bare.instructions or 0) / (limit.instructions or 1):.2f}, "
+                     f"{(checked.instructions or 0) / (limit.instructions or 1):.2f}, "
+                     f"{(urb.instructions or 0) / (checked.instructions or 1):.2f} (instructions)")
+    return ", ".join(parts)
+
+
 def print_report(console: Console, info: dict[str, str], py: list[Timing],
                  c: list[tuple[str, tuple[str, ...], list[Timing]]],
                  have_urb_c: bool, wire: list[dict[str, int]], elapsed: float) -> None:
@@ -620,6 +640,9 @@ def print_report(console: Console, info: dict[str, str], py: list[Timing],
                                            for a, b in pairs) + " (instructions)"
             console.print(f"  sub-byte fields (issue #38 goal: codec / memcpy <= 2), {label}: {ratios}",
                           highlight=False, markup=False)
+        floor_line = status_floor_line(byc)
+        if floor_line:
+            console.print(f"  MotorStatus floor, {label}: {floor_line}", highlight=False, markup=False)
     if not have_urb_c:
         console.print("[yellow]gen/c has no URB C codecs yet: URB C rows skipped[/yellow]")
     if with_ir:

@@ -9,6 +9,8 @@
  *   memcpy4       the limit for MotorStatus: memcpy of a 4-byte struct into a buffer and back
  *   urb_status    urb_motor_status_encode + urb_motor_status_decode: 4 bytes, an i16, a 2-bit enum,
  *                 three 1-bit bools, 3 reserved bits and a u8 (the sub-byte fields of issue #38)
+ *   hand_status_bare, hand_status_checked  MotorStatus by hand in this file, inlined: the floor of
+ *                 this wire layout without checks, and with the generated codec's checks
  *   urb_read_request urb_uplink_read_request_encode + _decode: 4 bytes, a fixed bit, a u7 address,
  *                 a u3 mailbox, a reserved bit, a u4 sequence number, a u8 length, CRC-8
  *   urb_frame     the URB link frame a host reads: MotorFeedback encoded into an UplinkResponse,
@@ -193,6 +195,67 @@ __attribute__((noinline)) static uint64_t case_urb_status(uint64_t n) {
     return acc;
 }
 
+/* Hand-written MotorStatus codecs in this translation unit (the compiler sees and inlines them):
+ * the floor any codec of this wire layout and this message struct can reach, to tell the cost of the
+ * layout itself from the cost of the generated code. "bare" packs and unpacks the seven members and
+ * checks nothing; "checked" adds exactly the generated codec's checks (mode is a member of the enum,
+ * reserved bits zero, length), minus the NULL and capacity checks the call site makes constant. */
+static inline void hand_status_pack(const urb_motor_status_t *m, uint8_t *b) {
+    uint16_t const t = (uint16_t)m->case_temp;
+    b[0] = (uint8_t)t;
+    b[1] = (uint8_t)(t >> 8);
+    b[2] = (uint8_t)((unsigned)m->mode | ((unsigned)m->hall << 2) | ((unsigned)m->overcurrent << 3) |
+                     ((unsigned)m->overtemp << 4));
+    b[3] = m->missed_commands;
+}
+
+static inline void hand_status_unpack(urb_motor_status_t *m, const uint8_t *b) {
+    m->case_temp = (int16_t)(uint16_t)((unsigned)b[0] | ((unsigned)b[1] << 8));
+    m->mode = (uint8_t)(b[2] & 3u);
+    m->hall = (b[2] & 4u) != 0u;
+    m->overcurrent = (b[2] & 8u) != 0u;
+    m->overtemp = (b[2] & 16u) != 0u;
+    m->missed_commands = b[3];
+}
+
+static inline uint64_t status_sum(const urb_motor_status_t *m) {
+    return (uint64_t)(int64_t)m->case_temp + (uint64_t)m->mode + (uint64_t)m->hall +
+           (uint64_t)m->overcurrent + (uint64_t)m->overtemp + (uint64_t)m->missed_commands;
+}
+
+__attribute__((noinline)) static uint64_t case_hand_status_bare(uint64_t n) {
+    uint64_t acc = 0;
+    uint8_t buf[8];
+    for (uint64_t i = 0; i < n; i++) {
+        hand_status_pack(&status_inputs[i % NINPUTS], buf);
+        clobber(buf);
+        urb_motor_status_t out;
+        hand_status_unpack(&out, buf);
+        acc += status_sum(&out);
+    }
+    return acc;
+}
+
+__attribute__((noinline)) static uint64_t case_hand_status_checked(uint64_t n) {
+    uint64_t acc = 0, bad = 0;
+    uint8_t buf[8];
+    for (uint64_t i = 0; i < n; i++) {
+        const urb_motor_status_t *in = &status_inputs[i % NINPUTS];
+        size_t w = 0;
+        if (in->mode <= 2u) { /* DISABLED, VOLTAGE, LOCAL_PD */
+            hand_status_pack(in, buf);
+            w = 4;
+        }
+        clobber(buf);
+        urb_motor_status_t out;
+        hand_status_unpack(&out, buf);
+        bad += (w != 4) | (out.mode > 2u) | ((buf[2] & 0xE0u) != 0u);
+        acc += status_sum(&out);
+    }
+    errors += bad;
+    return acc;
+}
+
 __attribute__((noinline)) static uint64_t case_urb_read_request(uint64_t n) {
     uint64_t acc = 0, bad = 0;
     uint8_t buf[8];
@@ -284,6 +347,8 @@ static const struct {
     {"memcpy4", case_memcpy4},
 #if URB_HAVE_C_CODECS
     {"urb_status", case_urb_status},
+    {"hand_status_bare", case_hand_status_bare},
+    {"hand_status_checked", case_hand_status_checked},
     {"urb_read_request", case_urb_read_request},
     {"urb_frame", case_urb_frame},
 #endif
