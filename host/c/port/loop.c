@@ -585,18 +585,14 @@ int32_t urb_loop_service(urb_loop_t *loop)
     if (!may_run(loop)) {
         return URB_HOST_ESTATE;
     }
-    lock(loop);
+    lock(loop); /* held throughout: nothing below waits */
     loop->self_waits = true; /* the application wakes itself at its period: no timer for it */
-    unlock(loop);
     struct epoll_event ev[EVENTS];
     bool again = true;
     for (uint32_t pass = 0u; again && (pass < URB_LOOP_SERVICE_PASSES); pass++) {
-        int const n = wait_events(loop, ev, 0); /* what is ready now: never waits */
-        lock(loop);
+        int const n = wait_events(loop, ev, 0); /* what is ready now: a zero timeout */
         again = (n > 0) && take_events(loop, ev, n, urb_now_ns()); /* a USB port read: ask again */
-        unlock(loop);
     }
-    lock(loop);
     return dispatch_due(loop, urb_now_ns());
 }
 
