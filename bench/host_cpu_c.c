@@ -14,8 +14,11 @@
  *             wake-up per tick.
  *
  *     host_cpu_c USB_FD0 USB_FD1 RS232_PORT SECONDS [slow] [poll|cyclic]
- *     host_cpu_c floor SECONDS PERIOD_NS     the loop with no bridge, woken every PERIOD_NS: the
- *                                            cost of the wake-ups alone
+ *     host_cpu_c floor SECONDS PERIOD_NS [cyclic]
+ *                                            the loop with no bridge, woken every PERIOD_NS: the
+ *                                            cost of the wake-ups alone (by urb_loop_run_once's
+ *                                            timeout, or with `cyclic` by urb_sleep_until, then
+ *                                            urb_loop_service)
  *
  * Prints one JSON object: the measured window's wall and CPU time (getrusage of this process: the
  * library, its system calls and the loop; the bridges run in other processes), requests per kind and
@@ -142,10 +145,11 @@ static int fail(const char *what, const char *err)
     return 1;
 }
 
-/* The floor: the library's loop with no bridge, woken every `period` by its own timeout and doing
- * nothing else, for `seconds`; prints its CPU per wake-up. What any program waking that often pays
- * on this machine (the kernel's sleep and wake-up, the timer), whatever it does when awake. */
-static int floor_run(double seconds, urb_ns_t period)
+/* The floor: the library's loop with no bridge, woken every `period` by its own timeout (`cyclic`:
+ * urb_sleep_until, then urb_loop_service) and doing nothing else, for `seconds`; prints its CPU per
+ * wake-up. What any program waking that often pays on this machine (the kernel's sleep and wake-up,
+ * the timer), whatever it does when awake. */
+static int floor_run(double seconds, urb_ns_t period, bool cyclic)
 {
     if ((urb_loop_init(&loop, NULL) != URB_HOST_OK) || (period <= 0)) {
         return fail("floor", "cannot create the loop");
@@ -157,7 +161,12 @@ static int floor_run(double seconds, urb_ns_t period)
     long const sleeps0 = sleeps();
     for (uint64_t i = 0u; i < wakes;) {
         urb_ns_t const now = urb_now_ns();
-        (void)urb_loop_run_once(&loop, (next > now) ? next - now : 0);
+        if (cyclic) {
+            urb_sleep_until(next);
+            (void)urb_loop_service(&loop);
+        } else {
+            (void)urb_loop_run_once(&loop, (next > now) ? next - now : 0);
+        }
         if (urb_now_ns() >= next) {
             i++;
             next += period;
@@ -172,8 +181,8 @@ static int floor_run(double seconds, urb_ns_t period)
 
 int main(int argc, char **argv)
 {
-    if ((argc == 4) && (strcmp(argv[1], "floor") == 0)) {
-        return floor_run(atof(argv[2]), (urb_ns_t)atoll(argv[3]));
+    if (((argc == 4) || ((argc == 5) && (strcmp(argv[4], "cyclic") == 0))) && (strcmp(argv[1], "floor") == 0)) {
+        return floor_run(atof(argv[2]), (urb_ns_t)atoll(argv[3]), argc == 5);
     }
     bool slow = false;
     bool poll_fd = false;

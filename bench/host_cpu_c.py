@@ -73,19 +73,21 @@ def make(*targets: str) -> None:
         sys.exit(f"host_cpu_c: cannot build {' '.join(targets)}:\n{proc.stdout[-2000:]}{proc.stderr[-3000:]}")
 
 
-def run_floor(seconds: float, wakes_per_ms: float) -> dict[str, Any]:
-    """The host program's loop with no bridge, woken `wakes_per_ms` times per ms by its own timeout
-    and doing nothing else: what the wake-ups alone cost on this machine."""
+CYCLIC, EVENT, POLL = "cyclic", "", "poll"  # the host program's patterns (bench/host_cpu_c.c)
+
+
+def run_floor(seconds: float, wakes_per_ms: float, mode: str = "") -> dict[str, Any]:
+    """The host program's loop with no bridge, woken `wakes_per_ms` times per ms (by its own timeout,
+    or in the cyclic pattern by urb_sleep_until, then urb_loop_service) and doing nothing else: what
+    the wake-ups alone cost on this machine."""
     period_ns = int(1e6 / max(wakes_per_ms, 0.1))
-    proc = subprocess.run([str(HOST), "floor", str(seconds), str(period_ns)], capture_output=True, text=True,
+    proc = subprocess.run([str(HOST), "floor", str(seconds), str(period_ns)] + ([CYCLIC] if mode == CYCLIC else []),
+                          capture_output=True, text=True,
                           timeout=seconds * 20 + 60)
     if proc.returncode != 0:
         sys.exit(f"host_cpu_c: the floor run failed (exit {proc.returncode}):\n{proc.stderr[-3000:]}")
     result: dict[str, Any] = json.loads(proc.stdout.strip().splitlines()[-1])
     return result
-
-
-CYCLIC, EVENT, POLL = "cyclic", "", "poll"  # the host program's patterns (bench/host_cpu_c.c)
 
 
 def run_load(seconds: float, prefix: list[str], slow: bool = False, mode: str = CYCLIC) -> dict[str, Any]:
@@ -222,7 +224,7 @@ def measure(seconds: float, mode: str) -> dict[str, Any]:
     us_per_request = float(res["cpu_s"]) * 1e6 / max(1, requests)
     # the wake-ups while ticking, not those of the settling after the last tick
     wakes_per_ms = float(res["tick_sleeps"]) / max(1.0, float(res["tick_wall_s"]) * 1000)
-    floor = run_floor(min(seconds, 2.0), wakes_per_ms)
+    floor = run_floor(min(seconds, 2.0), wakes_per_ms, mode)
     return {"run": res, "share": float(res["cpu_s"]) / float(res["wall_s"]),
             "per_s": requests / float(res["wall_s"]), "us_per_request": us_per_request,
             "share_at_12300": us_per_request * PER_MS * 1000 / 1e6,  # what the load costs at its rate
