@@ -3,14 +3,22 @@
  * bridges with three motor drivers each, every motor read (MotorFeedback) and commanded
  * (MotorCommand) every millisecond, and three sensors (BatteryManager, Imu, IrDistance) read at
  * 100 Hz over RS232: 12.3 requests per millisecond. The loop is embedded in the program's one thread,
- * as a robot's control thread would run it: urb_loop_run_once waits until input, the library's
- * deadline or the program's next 1-ms tick (one wait per wake-up); with `poll`, the program instead
- * ppolls the library's descriptor until the earlier of its tick and urb_loop_next_deadline, then
- * calls urb_loop_run_once(0), as a program with descriptors of its own would (two waits per wake-up).
+ * as a robot's control thread would run it, in one of three ways:
+ *   (default) urb_loop_run_once waits until input, the library's deadline or the program's next 1-ms
+ *             tick (one wait per wake-up: the tick, every IN transfer, every RS232 response);
+ *   `poll`    the program ppolls the library's descriptor until the earlier of its tick and
+ *             urb_loop_next_deadline, then calls urb_loop_run_once(0), as a program with descriptors of
+ *             its own would (two waits per wake-up);
+ *   `cyclic`  the cyclic pattern (urb_loop.h): urb_sleep_until the 1-ms tick, then urb_loop_service
+ *             (everything that came during the period, without waiting), then the submissions: one
+ *             wake-up per tick.
  *
- *     host_cpu_c USB_FD0 USB_FD1 RS232_PORT SECONDS [slow] [poll]
- *     host_cpu_c floor SECONDS PERIOD_NS     the loop with no bridge, woken every PERIOD_NS: the
- *                                            cost of the wake-ups alone
+ *     host_cpu_c USB_FD0 USB_FD1 RS232_PORT SECONDS [slow] [poll|cyclic]
+ *     host_cpu_c floor SECONDS PERIOD_NS [cyclic]
+ *                                            the loop with no bridge, woken every PERIOD_NS: the
+ *                                            cost of the wake-ups alone (by urb_loop_run_once's
+ *                                            timeout, or with `cyclic` by urb_sleep_until, then
+ *                                            urb_loop_service)
  *
  * Prints one JSON object: the measured window's wall and CPU time (getrusage of this process: the
  * library, its system calls and the loop; the bridges run in other processes), requests per kind and
@@ -137,10 +145,11 @@ static int fail(const char *what, const char *err)
     return 1;
 }
 
-/* The floor: the library's loop with no bridge, woken every `period` by its own timeout and doing
- * nothing else, for `seconds`; prints its CPU per wake-up. What any program waking that often pays
- * on this machine (the kernel's sleep and wake-up, the timer), whatever it does when awake. */
-static int floor_run(double seconds, urb_ns_t period)
+/* The floor: the library's loop with no bridge, woken every `period` by its own timeout (`cyclic`:
+ * urb_sleep_until, then urb_loop_service) and doing nothing else, for `seconds`; prints its CPU per
+ * wake-up. What any program waking that often pays on this machine (the kernel's sleep and wake-up,
+ * the timer), whatever it does when awake. */
+static int floor_run(double seconds, urb_ns_t period, bool cyclic)
 {
     if ((urb_loop_init(&loop, NULL) != URB_HOST_OK) || (period <= 0)) {
         return fail("floor", "cannot create the loop");
@@ -152,7 +161,12 @@ static int floor_run(double seconds, urb_ns_t period)
     long const sleeps0 = sleeps();
     for (uint64_t i = 0u; i < wakes;) {
         urb_ns_t const now = urb_now_ns();
-        (void)urb_loop_run_once(&loop, (next > now) ? next - now : 0);
+        if (cyclic) {
+            urb_sleep_until(next);
+            (void)urb_loop_service(&loop);
+        } else {
+            (void)urb_loop_run_once(&loop, (next > now) ? next - now : 0);
+        }
         if (urb_now_ns() >= next) {
             i++;
             next += period;
@@ -167,17 +181,20 @@ static int floor_run(double seconds, urb_ns_t period)
 
 int main(int argc, char **argv)
 {
-    if ((argc == 4) && (strcmp(argv[1], "floor") == 0)) {
-        return floor_run(atof(argv[2]), (urb_ns_t)atoll(argv[3]));
+    if (((argc == 4) || ((argc == 5) && (strcmp(argv[4], "cyclic") == 0))) && (strcmp(argv[1], "floor") == 0)) {
+        return floor_run(atof(argv[2]), (urb_ns_t)atoll(argv[3]), argc == 5);
     }
     bool slow = false;
     bool poll_fd = false;
+    bool cyclic = false;
     for (int i = 5; i < argc; i++) {
         slow = slow || (strcmp(argv[i], "slow") == 0);
         poll_fd = poll_fd || (strcmp(argv[i], "poll") == 0);
+        cyclic = cyclic || (strcmp(argv[i], "cyclic") == 0);
     }
-    if ((argc < 5) || (argc > 7) || ((size_t)(argc - 5) != (size_t)slow + (size_t)poll_fd)) {
-        (void)fprintf(stderr, "usage: host_cpu_c USB_FD0 USB_FD1 RS232_PORT SECONDS [slow] [poll]\n");
+    if ((argc < 5) || (argc > 7) || ((size_t)(argc - 5) != (size_t)slow + (size_t)poll_fd + (size_t)cyclic) ||
+        (poll_fd && cyclic)) {
+        (void)fprintf(stderr, "usage: host_cpu_c USB_FD0 USB_FD1 RS232_PORT SECONDS [slow] [poll|cyclic]\n");
         return 2;
     }
     urb_core_config_t usb_cfg;
@@ -236,7 +253,10 @@ int main(int argc, char **argv)
     struct pollfd p = {urb_loop_fd(&loop), POLLIN, 0};
     for (uint64_t tick = 0u; tick < ticks;) {
         urb_ns_t const now = urb_now_ns();
-        if (poll_fd) { /* an application waiting on descriptors of its own too */
+        if (cyclic) { /* one wake-up per tick: the responses of the period are read at the tick */
+            urb_sleep_until(next);
+            (void)urb_loop_service(&loop);
+        } else if (poll_fd) { /* an application waiting on descriptors of its own too */
             urb_ns_t deadline = urb_loop_next_deadline(&loop);
             deadline = (next < deadline) ? next : deadline;
             if (deadline > now) {
@@ -270,6 +290,8 @@ int main(int argc, char **argv)
             next = (t / period + 1) * period;
         }
     }
+    long const tick_sleeps = sleeps() - sleeps0; /* the wake-ups of the ticks alone, without the settling */
+    double const tick_wall = (double)(urb_now_ns() - start) * 1e-9;
     urb_ns_t const settle = urb_now_ns() + 300 * URB_NS_PER_MS; /* the last callbacks */
     while ((done_ok + done_failed + not_submitted < submitted) && (urb_now_ns() < settle)) {
         (void)urb_loop_run_once(&loop, 5 * URB_NS_PER_MS);
@@ -280,11 +302,12 @@ int main(int argc, char **argv)
     double const wall = (double)(urb_now_ns() - start) * 1e-9;
     (void)printf("{\"ticks\": %llu, \"submitted\": %llu, \"ok\": %llu, \"failed\": %llu, \"not_submitted\": %llu, "
                  "\"late_ticks\": %llu, \"wall_s\": %.6f, \"cpu_s\": %.6f, \"sys_s\": %.6f, \"sleeps\": %ld, "
+                 "\"tick_sleeps\": %ld, \"tick_wall_s\": %.6f, "
                  "\"usb_latency_mean_us\": %.1f, \"usb_latency_max_us\": %.1f, \"rs232_latency_mean_us\": %.1f, "
                  "\"rs232_latency_max_us\": %.1f}\n",
                  (unsigned long long)ticks, (unsigned long long)submitted, (unsigned long long)done_ok,
                  (unsigned long long)done_failed, (unsigned long long)not_submitted, (unsigned long long)late, wall, cpu,
-                 sys, slept, (double)latency_sum[0] / 1e3 / (double)((latency_count[0] > 0u) ? latency_count[0] : 1u),
+                 sys, slept, tick_sleeps, tick_wall, (double)latency_sum[0] / 1e3 / (double)((latency_count[0] > 0u) ? latency_count[0] : 1u),
                  (double)latency_max[0] / 1e3,
                  (double)latency_sum[1] / 1e3 / (double)((latency_count[1] > 0u) ? latency_count[1] : 1u),
                  (double)latency_max[1] / 1e3);

@@ -10,14 +10,20 @@ read = one bulk-IN, as a kernel driver's character device), the RS232 one the ho
 a pty. What is measured is the host process's CPU time (getrusage: the library, its system calls and
 the control loop), per request completed, and that times 12.3 requests per ms as a share of one core
 (the share over the run's wall time too: lower when other jobs stall the run below the load's rate).
-The program waits in urb_loop_run_once (one wait per wake-up); a second run has it ppoll the loop's
+The load runs in the two patterns a 1-kHz control program can use (urb_loop.h), each printed as a row:
+cyclic, the goal's row (the program sleeps until its 1-ms tick with urb_sleep_until, calls
+urb_loop_service, which reads everything that came during the period without waiting, and submits: one
+wake-up per tick, the EtherCAT master's pattern; what a fixed-period control program uses, since it
+only reads its responses at the tick anyway), and event-driven (it waits in urb_loop_run_once until
+input, the library's deadline or its tick: a wake-up for every IN transfer and RS232 response, the
+callbacks up to a period earlier). A third run has the event-driven program ppoll the loop's
 descriptor and call urb_loop_run_once(0), as a program with descriptors of its own would. The
-wake-ups per ms (voluntary context switches) are counted, and the floor is measured: the same
-program's loop with no bridge, woken as often by its own timeout and doing nothing else.
+wake-ups per ms (voluntary context switches) are counted, and the floor is measured for each pattern:
+the same program's loop with no bridge, woken as often by its own timeout and doing nothing else.
 
 Then the same program under valgrind's callgrind, for --cg-seconds of load and for none, gives the
 user-space instructions per request (the difference, so start-up cancels), and under strace -c the
-system calls per request. This VM has no hardware counters (perf counts no instructions) and its
+system calls per request, for each pattern. This VM has no hardware counters (perf counts no instructions) and its
 getrusage splits user and system time unreliably, so the kernel's instructions are estimated: KERNEL_INSTR_PER_CALL (4000) per system call, about what a read, write or epoll_wait on a
 socket or pty costs in a current Linux kernel (0.5 to 2 us on a 2-4 GHz core). The projection for a
 500-MHz Geode-class core is (user instructions + system calls x 4000) per second of the load / (500
@@ -67,11 +73,16 @@ def make(*targets: str) -> None:
         sys.exit(f"host_cpu_c: cannot build {' '.join(targets)}:\n{proc.stdout[-2000:]}{proc.stderr[-3000:]}")
 
 
-def run_floor(seconds: float, wakes_per_ms: float) -> dict[str, Any]:
-    """The host program's loop with no bridge, woken `wakes_per_ms` times per ms by its own timeout
-    and doing nothing else: what the wake-ups alone cost on this machine."""
+CYCLIC, EVENT, POLL = "cyclic", "", "poll"  # the host program's patterns (bench/host_cpu_c.c)
+
+
+def run_floor(seconds: float, wakes_per_ms: float, mode: str = "") -> dict[str, Any]:
+    """The host program's loop with no bridge, woken `wakes_per_ms` times per ms (by its own timeout,
+    or in the cyclic pattern by urb_sleep_until, then urb_loop_service) and doing nothing else: what
+    the wake-ups alone cost on this machine."""
     period_ns = int(1e6 / max(wakes_per_ms, 0.1))
-    proc = subprocess.run([str(HOST), "floor", str(seconds), str(period_ns)], capture_output=True, text=True,
+    proc = subprocess.run([str(HOST), "floor", str(seconds), str(period_ns)] + ([CYCLIC] if mode == CYCLIC else []),
+                          capture_output=True, text=True,
                           timeout=seconds * 20 + 60)
     if proc.returncode != 0:
         sys.exit(f"host_cpu_c: the floor run failed (exit {proc.returncode}):\n{proc.stderr[-3000:]}")
@@ -79,9 +90,10 @@ def run_floor(seconds: float, wakes_per_ms: float) -> dict[str, Any]:
     return result
 
 
-def run_load(seconds: float, prefix: list[str], slow: bool = False, poll: bool = False) -> dict[str, Any]:
-    """One run of the load: bridges up, the host program (maybe under `prefix`), its JSON. `poll`: the
-    program ppolls the loop's descriptor and calls urb_loop_run_once(0) instead of waiting in it."""
+def run_load(seconds: float, prefix: list[str], slow: bool = False, mode: str = CYCLIC) -> dict[str, Any]:
+    """One run of the load: bridges up, the host program (maybe under `prefix`), its JSON. `mode`: CYCLIC
+    (urb_loop_service once per tick), EVENT (waits in urb_loop_run_once) or POLL (ppolls the loop's
+    descriptor, then urb_loop_run_once(0))."""
     with tempfile.TemporaryDirectory() as tmp:
         link = Path(tmp) / "pty"
         rs232 = subprocess.Popen([str(HOSTED), "--node", "battery,0,0x30", "--node", "imu,0,0x31", "--node", "ir,0,0x32",
@@ -101,7 +113,7 @@ def run_load(seconds: float, prefix: list[str], slow: bool = False, poll: bool =
             bridges.stdout.readline()  # "ready"
             env = dict(os.environ, URB_STATE_DIR=tmp)
             proc = subprocess.run([*prefix, str(HOST), *map(str, host_fds), str(link), str(seconds)] + (["slow"] if slow else [])
-                                  + (["poll"] if poll else []),
+                                  + ([mode] if mode else []),
                                   pass_fds=host_fds,
                                   capture_output=True, text=True, env=env, timeout=seconds * 200 + 120)
         finally:
@@ -117,11 +129,11 @@ def run_load(seconds: float, prefix: list[str], slow: bool = False, poll: bool =
         return result
 
 
-def callgrind_ir(seconds: float) -> tuple[int, int]:
+def callgrind_ir(seconds: float, mode: str) -> tuple[int, int]:
     """(instructions, requests completed) of the host program under callgrind."""
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "cg.out"
-        res = run_load(seconds, ["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}"], slow=True)
+        res = run_load(seconds, ["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}"], slow=True, mode=mode)
         m = re.search(r"Collected : (\d+)", res["stderr"])
         if m is None:
             text = out.read_text(encoding="utf-8", errors="replace")
@@ -131,12 +143,12 @@ def callgrind_ir(seconds: float) -> tuple[int, int]:
         return int(m.group(1)), int(res["ok"]) + int(res["failed"])
 
 
-def syscalls_per_request(seconds: float) -> tuple[float, dict[str, float]]:
+def syscalls_per_request(seconds: float, mode: str) -> tuple[float, dict[str, float]]:
     """System calls of the host program per request completed, in all and per call name (strace -c)."""
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "strace.txt"
-        base = run_load(0, ["strace", "-c", "-f", "-o", str(Path(tmp) / "base.txt")])
-        res = run_load(seconds, ["strace", "-c", "-f", "-o", str(out)])
+        base = run_load(0, ["strace", "-c", "-f", "-o", str(Path(tmp) / "base.txt")], mode=mode)
+        res = run_load(seconds, ["strace", "-c", "-f", "-o", str(out)], mode=mode)
         del base
 
         def calls(path: Path) -> dict[str, int]:
@@ -205,6 +217,37 @@ def side_by_side(py: dict[str, float], on_c: dict[str, float] | None, c_share: f
               f"{on_c['cycle_share'] / GOAL_SHARE_PY_ON_C:.2f} | | | |")
 
 
+def measure(seconds: float, mode: str) -> dict[str, Any]:
+    """The load in one pattern, and the floor at its rate of wake-ups."""
+    res = run_load(seconds, [], mode=mode)
+    requests = int(res["ok"]) + int(res["failed"])
+    us_per_request = float(res["cpu_s"]) * 1e6 / max(1, requests)
+    # the wake-ups while ticking, not those of the settling after the last tick
+    wakes_per_ms = float(res["tick_sleeps"]) / max(1.0, float(res["tick_wall_s"]) * 1000)
+    floor = run_floor(min(seconds, 2.0), wakes_per_ms, mode)
+    return {"run": res, "share": float(res["cpu_s"]) / float(res["wall_s"]),
+            "per_s": requests / float(res["wall_s"]), "us_per_request": us_per_request,
+            "share_at_12300": us_per_request * PER_MS * 1000 / 1e6,  # what the load costs at its rate
+            "wakes_per_ms": wakes_per_ms, "floor": floor,
+            "floor_share": float(floor["cpu_s"]) / float(floor["wall_s"])}
+
+
+def instructions(cg_seconds: float, mode: str) -> dict[str, Any]:
+    """User instructions (callgrind) and system calls (strace) per request of one pattern, and the
+    projection for a 500-MHz core."""
+    ir_load, n_load = callgrind_ir(cg_seconds, mode)
+    ir_base, _ = callgrind_ir(0, mode)
+    ir_per_request = (ir_load - ir_base) / max(1, n_load)
+    calls_per_request, calls = syscalls_per_request(cg_seconds, mode)
+    instr_per_s = (ir_per_request + calls_per_request * KERNEL_INSTR_PER_CALL) * PER_MS * 1000
+    cg: dict[str, Any] = {"ir_load": ir_load, "ir_base": ir_base, "requests": n_load, "ir_per_request": ir_per_request,
+                          "syscalls_per_request": calls_per_request, "syscalls": calls,
+                          "instr_per_s_at_12300": instr_per_s}
+    for ipc in (1.0, 0.5):
+        cg[f"geode_share_ipc{ipc}"] = instr_per_s / (GEODE_HZ * ipc)
+    return cg
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seconds", type=float, default=5.0, help="load run in real time (default 5)")
@@ -215,69 +258,75 @@ def main(argv: list[str] | None = None) -> int:
                     help="bench/host_cpu.py's numbers on the C core (default build/bench/host_cpu_native.json)")
     args = ap.parse_args(argv)
     make("bridge-hosted", "host-c-bench")
-    res = run_load(args.seconds, [])
-    requests = int(res["ok"]) + int(res["failed"])
-    share = float(res["cpu_s"]) / float(res["wall_s"])
-    per_s = requests / float(res["wall_s"])
-    us_per_request = float(res["cpu_s"]) * 1e6 / max(1, requests)
-    share_at_rate = us_per_request * PER_MS * 1000 / 1e6  # what the load costs when it runs at its rate
-    wakes_per_ms = float(res["sleeps"]) / max(1.0, float(res["wall_s"]) * 1000)
-    floor = run_floor(min(args.seconds, 2.0), wakes_per_ms)
-    floor_share = float(floor["cpu_s"]) / float(floor["wall_s"])
-    polled = run_load(args.seconds, [], poll=True)
+    runs = {mode: measure(args.seconds, mode) for mode in (CYCLIC, EVENT)}
+    polled = run_load(args.seconds, [], mode=POLL)
     polled_us = float(polled["cpu_s"]) * 1e6 / max(1, int(polled["ok"]) + int(polled["failed"]))
-    rows: dict[str, Any] = {"run": res, "share": share, "us_per_request": us_per_request,
-                            "share_at_12300": share_at_rate, "wakes_per_ms": wakes_per_ms, "floor": floor,
-                            "floor_share": floor_share, "poll_run": polled, "poll_us_per_request": polled_us,
-                            "poll_share_at_12300": polled_us * PER_MS * 1000 / 1e6}
-    cg: dict[str, Any] = {}
     if shutil.which("valgrind") and shutil.which("strace"):
-        ir_load, n_load = callgrind_ir(args.cg_seconds)
-        ir_base, _ = callgrind_ir(0)
-        ir_per_request = (ir_load - ir_base) / max(1, n_load)
-        calls_per_request, calls = syscalls_per_request(args.cg_seconds)
-        instr_per_s = (ir_per_request + calls_per_request * KERNEL_INSTR_PER_CALL) * PER_MS * 1000
-        cg = {"ir_load": ir_load, "ir_base": ir_base, "requests": n_load, "ir_per_request": ir_per_request,
-              "syscalls_per_request": calls_per_request, "syscalls": calls, "instr_per_s_at_12300": instr_per_s}
-        for ipc in (1.0, 0.5):
-            cg[f"geode_share_ipc{ipc}"] = instr_per_s / (GEODE_HZ * ipc)
-    rows["callgrind"] = cg
-    print(f"SensoRHex load through the C host library, {args.seconds:.0f} s real time "
-          f"({platform.machine()}, {os.cpu_count()} CPUs; other jobs share this machine)")
+        for mode, row in runs.items():
+            row["callgrind"] = instructions(args.cg_seconds, mode)
+    goal, event = runs[CYCLIC], runs[EVENT]
+    res = goal["run"]
+    rows: dict[str, Any] = {"cyclic": goal, "event": event, "poll_run": polled, "poll_us_per_request": polled_us,
+                            "poll_share_at_12300": polled_us * PER_MS * 1000 / 1e6,
+                            # the goal's numbers under the keys earlier versions wrote
+                            "run": res, "share": goal["share"], "us_per_request": goal["us_per_request"],
+                            "share_at_12300": goal["share_at_12300"], "wakes_per_ms": goal["wakes_per_ms"],
+                            "floor": goal["floor"], "floor_share": goal["floor_share"],
+                            "callgrind": goal.get("callgrind", {})}
+    print(f"SensoRHex load through the C host library, {args.seconds:.0f} s real time each "
+          f"({platform.machine()}, {os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f}; other jobs share "
+          "this machine)")
     print()
-    print("| measure | value | goal | ratio to goal |")
-    print("|---|---:|---:|---:|")
-    print(f"| requests per ms (12.3 wanted) | {per_s / 1000:.2f} | {PER_MS} | {per_s / 1000 / PER_MS:.2f} |")
-    print(f"| requests ok / failed / not submitted | {res['ok']} / {res['failed']} / {res['not_submitted']} | all ok | |")
-    print(f"| ticks late by more than 0.5 ms | {res['late_ticks']} of {res['ticks']} | | |")
-    print(f"| CPU of one core over the run (user + system) | {share * 100:.2f} % | | |")
-    print(f"| CPU per request x 12.3 requests/ms: share of one core | {share_at_rate * 100:.2f} % | "
-          f"{GOAL_SHARE * 100:.0f} % | {share_at_rate / GOAL_SHARE:.2f} |")
-    print(f"| of which system (kernel) | {float(res['sys_s']) / float(res['wall_s']) * 100:.2f} % | | |")
-    print(f"| CPU per request | {us_per_request:.2f} us | | |")
-    print(f"| latency, submission to callback, mean / largest: USB | {float(res['usb_latency_mean_us']) / 1e3:.2f} / "
-          f"{float(res['usb_latency_max_us']) / 1e3:.1f} ms (the bridge model's queue: it varies with the machine's load) | | |")
-    print(f"| ... RS232 | {float(res['rs232_latency_mean_us']) / 1e3:.2f} / {float(res['rs232_latency_max_us']) / 1e3:.1f} ms | | |")
-    print(f"| wake-ups per ms (the tick, the IN transfers, the RS232 responses) | {wakes_per_ms:.2f} | | |")
-    print(f"| floor: the loop with no bridge woken {wakes_per_ms:.2f} times per ms, share of one core | "
-          f"{floor_share * 100:.2f} % ({float(floor['cpu_s']) * 1e6 / max(1, int(floor['wakes'])):.1f} us per wake-up) | | |")
-    print(f"| the load above that floor, share of one core | {(share_at_rate - floor_share) * 100:.2f} % | | |")
-    print(f"| the same load, the program ppolling urb_loop_fd() + run_once(0): share of one core | "
+    print("Two patterns (urb_loop.h): cyclic = sleep to the 1-ms tick (urb_sleep_until), urb_loop_service "
+          "(every response of the period, without waiting), submit: one wake-up per tick, what a fixed-period "
+          "control program uses (the goal's row); event-driven = wait in urb_loop_run_once until input, a "
+          "deadline or the tick: a wake-up per IN transfer and RS232 response, callbacks up to a period earlier.")
+    print()
+    print("| measure | cyclic (urb_loop_service) | event-driven (urb_loop_run_once) | goal | cyclic: ratio to goal |")
+    print("|---|---:|---:|---:|---:|")
+
+    def both(label: str, fmt: Any, goal_text: str = "", ratio: str = "") -> None:
+        print(f"| {label} | {fmt(goal)} | {fmt(event)} | {goal_text} | {ratio} |")
+
+    both("requests per ms (12.3 wanted)", lambda r: f"{r['per_s'] / 1000:.2f}", f"{PER_MS}",
+         f"{goal['per_s'] / 1000 / PER_MS:.2f}")
+    both("requests ok / failed / not submitted",
+         lambda r: f"{r['run']['ok']} / {r['run']['failed']} / {r['run']['not_submitted']}", "all ok")
+    both("ticks late by more than 0.5 ms", lambda r: f"{r['run']['late_ticks']} of {r['run']['ticks']}")
+    both("CPU of one core over the run (user + system)", lambda r: f"{r['share'] * 100:.2f} %")
+    both("**CPU per request x 12.3 requests/ms: share of one core**", lambda r: f"{r['share_at_12300'] * 100:.2f} %",
+         f"{GOAL_SHARE * 100:.0f} %", f"{goal['share_at_12300'] / GOAL_SHARE:.2f}")
+    both("of which system (kernel), over the run",
+         lambda r: f"{float(r['run']['sys_s']) / float(r['run']['wall_s']) * 100:.2f} %")
+    both("CPU per request", lambda r: f"{r['us_per_request']:.2f} us")
+    both("latency, submission to callback, mean / largest: USB (the bridge model's queue: it varies with the "
+         "machine's load)", lambda r: f"{float(r['run']['usb_latency_mean_us']) / 1e3:.2f} / "
+         f"{float(r['run']['usb_latency_max_us']) / 1e3:.1f} ms")
+    both("... RS232", lambda r: f"{float(r['run']['rs232_latency_mean_us']) / 1e3:.2f} / "
+         f"{float(r['run']['rs232_latency_max_us']) / 1e3:.1f} ms")
+    both("wake-ups per ms while ticking (voluntary context switches)", lambda r: f"{r['wakes_per_ms']:.2f}")
+    both("floor: the loop with no bridge woken as often, share of one core",
+         lambda r: f"{r['floor_share'] * 100:.2f} % ({float(r['floor']['cpu_s']) * 1e6 / max(1, int(r['floor']['wakes'])):.1f} "
+         "us per wake-up)")
+    both("the load above that floor, share of one core", lambda r: f"{(r['share_at_12300'] - r['floor_share']) * 100:.2f} %")
+    print(f"| event-driven, the program ppolling urb_loop_fd() + run_once(0): share of one core | | "
           f"{rows['poll_share_at_12300'] * 100:.2f} % ({polled_us:.2f} us per request) | | |")
-    if per_s / 1000 < 0.95 * PER_MS or int(res["not_submitted"]) > 0:
-        print("| note: the run did not keep the load's rate (other jobs stalled it): the share over the run "
-              "is too low, the share from CPU per request is the one to read | | | |")
-    if cg:
-        print(f"| user instructions per request (callgrind) | {cg['ir_per_request']:.0f} | | |")
-        top = ", ".join(f"{k} {v:.2f}" for k, v in sorted(cg["syscalls"].items(), key=lambda kv: -kv[1])[:4])
-        print(f"| system calls per request (strace) | {cg['syscalls_per_request']:.2f} ({top}) | | |")
-        print(f"| instructions per second at 12.3 requests/ms (user + {KERNEL_INSTR_PER_CALL} per call) | "
-              f"{cg['instr_per_s_at_12300'] / 1e6:.1f} M | | |")
+    if goal["per_s"] / 1000 < 0.95 * PER_MS or int(res["not_submitted"]) > 0:
+        print("| note: a run did not keep the load's rate (other jobs stalled it): the share over the run "
+              "is too low, the share from CPU per request is the one to read | | | | |")
+    if "callgrind" in goal:
+        both("user instructions per request (callgrind)", lambda r: f"{r['callgrind']['ir_per_request']:.0f}")
+        both("system calls per request (strace)", lambda r: f"{r['callgrind']['syscalls_per_request']:.2f} (" + ", ".join(
+            f"{k} {v:.2f}" for k, v in sorted(r["callgrind"]["syscalls"].items(), key=lambda kv: -kv[1])[:4]) + ")")
+        both(f"instructions per second at 12.3 requests/ms (user + {KERNEL_INSTR_PER_CALL} per call)",
+             lambda r: f"{r['callgrind']['instr_per_s_at_12300'] / 1e6:.1f} M")
         for ipc in (1.0, 0.5):
-            s = cg[f"geode_share_ipc{ipc}"]
-            print(f"| projected share of a 500-MHz core at IPC {ipc} | {s * 100:.1f} % | 100 % | {s:.2f} |")
+            both(f"projected share of a 500-MHz core at IPC {ipc}",
+                 lambda r, ipc=ipc: f"{r['callgrind'][f'geode_share_ipc{ipc}'] * 100:.1f} %", "100 %",
+                 f"{goal['callgrind'][f'geode_share_ipc{ipc}']:.2f}")
     else:
-        print("| instructions | valgrind or strace not installed: no projection | | |")
+        print("| instructions | valgrind or strace not installed: no projection | | | |")
+    share_at_rate, us_per_request = goal["share_at_12300"], goal["us_per_request"]
     py = python_numbers(args.python_json)
     on_c = python_numbers(args.native_json)
     rows["python"] = py

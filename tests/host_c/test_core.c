@@ -215,6 +215,31 @@ static void test_placeholder_expires_after_its_lifetime(void **state)
     assert_int_equal(core.m.released_placeholders, 1u);
 }
 
+/* The matcher's slots form a ring: with the requests in flight straddling its end, a timeout in its
+ * first slot is found as one in its last (the core's check before urb_matcher_time_out walks the ring). */
+static void test_a_timeout_across_the_end_of_the_ring(void **state)
+{
+    (void)state;
+    for (size_t i = 0u; i < URB_MATCHER_SLOTS - 1u; i++) { /* answered one by one: the head moves to the last slot */
+        urb_transfer_t *t = submit_read(&pool, i, &core, 6u, 0);
+        send_all(&core, 0);
+        answer(t, 0u, 1u, 0);
+    }
+    assert_int_equal(pool_take(&pool, &core), URB_MATCHER_SLOTS - 1u);
+    assert_int_equal(core.m.head, URB_MATCHER_SLOTS - 1u);
+    urb_transfer_t *a = submit_read(&pool, 20, &core, 6u, 0); /* the ring's last slot */
+    send_all(&core, 0);
+    urb_transfer_t *b = submit_read(&pool, 21, &core, 6u, 10 * MS); /* its first */
+    send_all(&core, 10 * MS);
+    (void)urb_core_poll(&core, 100 * MS); /* a times out and stays a placeholder */
+    assert_int_equal(pool_take(&pool, &core), 1u);
+    assert_int_equal(a->flags, URB_FLAG_UPLINK_TIMEOUT);
+    (void)urb_core_poll(&core, 110 * MS); /* b's timeout, behind a placeholder that is not due */
+    assert_int_equal(pool_take(&pool, &core), 1u);
+    assert_int_equal(b->flags, URB_FLAG_UPLINK_TIMEOUT);
+    assert_int_equal(urb_core_placeholders(&core), 2u);
+}
+
 static void test_a_full_window_of_placeholders_holds_new_requests_back(void **state)
 {
     (void)state;
@@ -480,6 +505,7 @@ int run_core_tests(void)
         cmocka_unit_test_setup(test_bytes_with_nothing_pending_are_counted_and_dropped, setup_rs232),
         cmocka_unit_test_setup(test_timeout_keeps_a_placeholder_until_its_late_response, setup_rs232),
         cmocka_unit_test_setup(test_placeholder_expires_after_its_lifetime, setup_rs232),
+        cmocka_unit_test_setup(test_a_timeout_across_the_end_of_the_ring, setup_rs232),
         cmocka_unit_test_setup(test_a_full_window_of_placeholders_holds_new_requests_back, setup_rs232),
         cmocka_unit_test_setup(test_idle_gap_drops_the_first_byte_of_a_stalled_candidate, setup_rs232),
         cmocka_unit_test_setup(test_silence_with_requests_outstanding_loses_the_bridge, setup_rs232),

@@ -7,7 +7,10 @@
  * The USB ports here are SOCK_SEQPACKET pairs with no bridge behind them: nothing answers.
  * On a kernel without epoll_pwait2 (before 5.11) the loop falls back to epoll_wait, whose timeout
  * counts in ms: the test binary is linked with -Wl,--wrap=epoll_pwait2, so a test can make the call
- * fail with ENOSYS as such a kernel does.
+ * fail with ENOSYS as such a kernel does, and see every timeout the loop asked for.
+ * The cyclic pattern (urb_loop_service, once per period after urb_sleep_until): it never waits, reads
+ * every queued IN transfer, still times requests out and sends a batch per tick, and runs every
+ * callback exactly once against the bridge firmware.
  */
 #include "host_test.h"
 
@@ -18,6 +21,8 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include "urb_sensorhex.h"
+
 int __real_epoll_pwait2(int epfd, struct epoll_event *events, int maxevents, const struct timespec *timeout,
                         const sigset_t *sigmask);
 int __wrap_epoll_pwait2(int epfd, struct epoll_event *events, int maxevents, const struct timespec *timeout,
@@ -25,11 +30,16 @@ int __wrap_epoll_pwait2(int epfd, struct epoll_event *events, int maxevents, con
 
 static bool old_kernel;        /* epoll_pwait2 fails with ENOSYS, as before Linux 5.11 */
 static unsigned pwait2_calls;  /* how often the loop called it */
+static urb_ns_t longest_wait;  /* the longest timeout it was given (-1: one without a timeout) */
 
 int __wrap_epoll_pwait2(int epfd, struct epoll_event *events, int maxevents, const struct timespec *timeout,
                         const sigset_t *sigmask)
 {
     pwait2_calls++;
+    urb_ns_t const wait = (timeout == NULL) ? -1 : (urb_ns_t)timeout->tv_sec * URB_NS_PER_S + timeout->tv_nsec;
+    if (longest_wait >= 0) {
+        longest_wait = ((wait < 0) || (wait > longest_wait)) ? wait : longest_wait;
+    }
     if (old_kernel) {
         errno = ENOSYS;
         return -1;
@@ -208,6 +218,110 @@ static void test_without_epoll_pwait2_waits_count_in_whole_ms(void **state)
     assert_int_equal(pwait2_calls, 1u);
 }
 
+/* urb_loop_service: a wait of 0 every time (nothing ready is no wait), and every IN transfer queued
+ * on a USB port read in one call (the kernel asked again after each), none left behind a first. */
+static void test_service_never_waits_and_reads_every_queued_transfer(void **state)
+{
+    (void)state;
+    urb_manager_t *m = usb_manager();
+    uint8_t const in[3][URB_USB_HEADER_SIZE] = {{1u, 0u, 0u, 0u}, {2u, 0u, 0u, 0u}, {3u, 0u, 0u, 0u}};
+    for (size_t i = 0u; i < 3u; i++) {
+        assert_int_equal(write(sv[1], in[i], sizeof in[i]), (ssize_t)sizeof in[i]);
+    }
+    pwait2_calls = 0u;
+    longest_wait = 0;
+    assert_int_equal(urb_loop_service(&loop), 0);
+    assert_int_equal(m->core.transfers_in, 3u); /* all three in one call */
+    assert_int_equal(urb_loop_service(&loop), 0); /* nothing queued: returns without waiting */
+    assert_int_equal(m->core.transfers_in, 3u);
+    assert_true(pwait2_calls >= 2u);
+    assert_int_equal(longest_wait, 0);
+}
+
+/* The cyclic pattern on a bridge that never answers: one batch per tick while the request is in
+ * flight, then its timeout at the first service after its deadline, its callback run by that service. */
+static void test_a_cyclic_program_times_out_and_sends_a_batch_per_tick(void **state)
+{
+    (void)state;
+    urb_manager_t *m = usb_manager();
+    urb_ns_t tick = (urb_now_ns() / MS + 1) * MS;
+    urb_sleep_until(tick);
+    assert_int_equal(urb_loop_service(&loop), 0);
+    submit_one(m, 0u);
+    int32_t ran = 0;
+    size_t services = 0u;
+    size_t batches = 0u;
+    uint8_t out[URB_USB_BATCH_MAX];
+    urb_ns_t const end = urb_now_ns() + 2 * URB_NS_PER_S;
+    while ((pool.count == 0u) && (urb_now_ns() < end)) {
+        tick += MS;
+        urb_sleep_until(tick);
+        int32_t const n = urb_loop_service(&loop);
+        assert_true(n >= 0);
+        ran += n;
+        services++;
+        while (read(sv[1], out, sizeof out) > 0) {
+            batches++;
+        }
+    }
+    pool_all_once(&pool, 1u);
+    assert_int_equal(ran, 1); /* its callback ran inside a service */
+    assert_int_equal(pool.t[0].flags, URB_FLAG_UPLINK_TIMEOUT);
+    assert_true(pool.t[0].completed_ns - pool.t[0].sent_ns >= 20 * MS); /* never before its deadline */
+    assert_true(batches >= 2u);        /* the request, then fetches while it was in flight */
+    assert_true(batches <= services); /* at most one batch per service */
+}
+
+/* The cyclic pattern against the bridge firmware over a SOCK_SEQPACKET pair: two motors read every
+ * tick for 40 ticks; every request ends in exactly one callback, all run inside urb_loop_service. */
+static void test_a_cyclic_program_against_the_firmware(void **state)
+{
+    (void)state;
+    bridge_thread_t bridge;
+    bridge_thread_start(&bridge, sv[1], true);
+    assert_int_equal(urb_loop_init(&loop, NULL), URB_HOST_OK);
+    urb_manager_t *m = NULL;
+    assert_int_equal(urb_loop_add_usb_fd(&loop, sv[0], "usb-cyclic", NULL, &m), URB_HOST_OK);
+    char err[600] = "";
+    assert_int_equal(urb_loop_discover(&loop, m, true, 5 * URB_NS_PER_S, err, sizeof err), URB_HOST_OK);
+    urb_node_t motor[2];
+    for (uint8_t k = 0u; k < 2u; k++) {
+        assert_int_equal(urb_loop_find_node(&loop, URB_NODE_MOTOR_DRIVER_CLASS, k, &motor[k], err, sizeof err),
+                         URB_HOST_OK);
+    }
+    size_t const ticks = 40u;
+    urb_ns_t tick = (urb_now_ns() / MS + 1) * MS;
+    int32_t ran = 0;
+    for (size_t i = 0u; i < ticks; i++) {
+        urb_sleep_until(tick);
+        int32_t const n = urb_loop_service(&loop);
+        assert_true(n >= 0);
+        ran += n;
+        for (size_t k = 0u; k < 2u; k++) {
+            urb_transfer_t *t = &pool.t[2u * i + k];
+            assert_int_equal(urb_transfer_read(t, 0u, 1u, urb_node_mailbox_size(&motor[k], true, 1u)), URB_HOST_OK);
+            assert_int_equal(urb_transfer_set_callback(t, pool_record, &pool), URB_HOST_OK);
+            assert_int_equal(urb_node_submit(&motor[k], t), URB_HOST_OK);
+        }
+        tick += MS;
+    }
+    urb_ns_t const end = urb_now_ns() + 3 * URB_NS_PER_S;
+    while ((pool.count < 2u * ticks) && (urb_now_ns() < end)) {
+        urb_sleep_until(tick);
+        int32_t const n = urb_loop_service(&loop);
+        assert_true(n >= 0);
+        ran += n;
+        tick += MS;
+    }
+    pool_all_once(&pool, 2u * ticks);
+    assert_int_equal(ran, (int32_t)(2u * ticks)); /* every callback ran inside urb_loop_service */
+    for (size_t i = 0u; i < 2u * ticks; i++) {
+        assert_true(urb_transfer_ok(&pool.t[i]));
+    }
+    urb_loop_destroy(&loop);
+    bridge_thread_stop(&bridge);
+}
+
 int run_loop_wait_tests(void)
 {
     const struct CMUnitTest tests[] = {
@@ -217,6 +331,11 @@ int run_loop_wait_tests(void)
         cmocka_unit_test_setup_teardown(test_usb_reads_one_transfer_per_readiness_and_keeps_the_rest, open_pair,
                                         close_pair),
         cmocka_unit_test_setup_teardown(test_without_epoll_pwait2_waits_count_in_whole_ms, open_pair, close_pair),
+        cmocka_unit_test_setup_teardown(test_service_never_waits_and_reads_every_queued_transfer, open_pair,
+                                        close_pair),
+        cmocka_unit_test_setup_teardown(test_a_cyclic_program_times_out_and_sends_a_batch_per_tick, open_pair,
+                                        close_pair),
+        cmocka_unit_test_setup_teardown(test_a_cyclic_program_against_the_firmware, open_pair, close_pair),
     };
     return cmocka_run_group_tests_name("host_c_loop_waits", tests, NULL, NULL);
 }

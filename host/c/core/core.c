@@ -130,6 +130,32 @@ static urb_ns_t lifetime_ns(const urb_core_t *core)
     return max_ns(core->cfg.placeholder_ns, core->cfg.timeout_ns);
 }
 
+/* Is anything in flight due by `now`: a placeholder whose lifetime is over, or (with `live`) a live
+ * request whose timeout has come? What urb_matcher_expire (placeholders) and urb_matcher_time_out
+ * (both) look for: when nothing is, they change nothing and are skipped. This walk steps the ring
+ * index instead of computing urbh_at's modulo for every slot, at a quarter of their cost: they run
+ * once per submission and per poll, and the answer is almost always no. */
+static bool due_in_flight(const urb_matcher_t *m, urb_ns_t now, bool live)
+{
+    uint32_t x = m->head;
+    for (uint32_t i = 0u; i < m->count; i++) {
+        bool const placeholder = (m->slot[x].t == NULL);
+        if (placeholder ? (now >= m->slot[x].expires_ns) : (live && (now >= m->slot[x].due_ns))) {
+            return true;
+        }
+        x = (x + 1u == URB_MATCHER_SLOTS) ? 0u : x + 1u;
+    }
+    return false;
+}
+
+/* urb_matcher_expire, when it has a placeholder to release. */
+static void expire(urb_core_t *core, urb_ns_t now)
+{
+    if (due_in_flight(&core->m, now, false)) {
+        urb_matcher_expire(&core->m, now);
+    }
+}
+
 urb_ns_t urb_core_busy_until(const urb_core_t *core)
 {
     if ((core == NULL) || (core->m.count == 0u)) {
@@ -201,7 +227,7 @@ int32_t urb_core_submit(urb_core_t *core, urb_transfer_t *t, urb_ns_t now)
         urbh_lose(&core->m, t, now, core->lost ? core->lost_reason : URBH_CLOSED_REASON);
         return URB_HOST_OK;
     }
-    urb_matcher_expire(&core->m, now);
+    expire(core, now);
     if ((core->queued == 0u) && (core->m.count == 0u)) {
         core->active_since_ns = now;
     }
@@ -243,7 +269,7 @@ void urb_core_reset(urb_core_t *core, urb_ns_t now)
     core->last_heard_ns = now;
     core->active_since_ns = now;
     core->silent_timeouts = 0u;
-    urb_matcher_expire(&core->m, now);
+    expire(core, now);
 }
 
 bool urb_core_drained(const urb_core_t *core)
@@ -296,6 +322,9 @@ static void matched(urb_core_t *core)
 
 static uint32_t time_out(urb_core_t *core, urb_ns_t now)
 {
+    if (!due_in_flight(&core->m, now, true)) {
+        return 0u; /* urb_matcher_time_out would time out and release nothing */
+    }
     uint32_t const n = urb_matcher_time_out(&core->m, now);
     core->silent_timeouts += n;
     return n;
@@ -331,7 +360,10 @@ static size_t send(urb_core_t *core, urb_ns_t now, uint8_t *buf, size_t cap)
     uint8_t const seq = core->next_seq;
     core->next_seq = (uint8_t)((core->next_seq + 1u) % URB_SEQ_MOD);
     t->sent_ns = now;
-    urb_ns_t const start = max_ns(now, urb_matcher_long_until(&core->m)); /* served after a long request */
+    /* served after a long request ahead of it; quiet_until_ns is 0 only while none is in flight (it
+     * is set when one is sent and lowered to urb_matcher_long_until, 0 without one, after matching;
+     * all times are >= 0 on urb_now_ns's clock), and then urb_matcher_long_until's walk would give 0 */
+    urb_ns_t const start = max_ns(now, (core->quiet_until_ns == 0) ? 0 : urb_matcher_long_until(&core->m));
     urb_ns_t const due = start + max_ns(core->cfg.timeout_ns, t->answer_within_ns);
     urb_ns_t const expires = start + max_ns(lifetime_ns(core), t->answer_within_ns);
     if (t->answer_within_ns > 0) {
@@ -468,7 +500,7 @@ int32_t urb_core_next_frame(urb_core_t *core, urb_ns_t now, uint8_t *buf, size_t
         return 0;
     }
     if (core->queued > 0u) {
-        urb_matcher_expire(&core->m, now); /* whatever the polling cadence */
+        expire(core, now); /* whatever the polling cadence */
     }
     if ((core->queued == 0u) || (core->m.count >= core->cfg.window) || core->lost) {
         return 0;
@@ -535,7 +567,7 @@ int32_t urb_core_frame_out(urb_core_t *core, urb_ns_t now, uint8_t *buf, size_t 
         return 0;
     }
     if (core->queued > 0u) {
-        urb_matcher_expire(&core->m, now); /* whatever the polling cadence */
+        expire(core, now); /* whatever the polling cadence */
     }
     /* the OUT transfer of UsbUplink.tla UsbWrite: at most MaxBatch, no more than the window leaves room for */
     size_t out_bytes = URB_USB_HEADER_SIZE;

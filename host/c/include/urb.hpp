@@ -8,7 +8,8 @@
 //     req->read(URB_NODE_MOTOR_DRIVER_OUTBOX_MOTOR_FEEDBACK);             // size from the schema
 //     req->setCallback(read_callback);                                    // void (*)(NodeRequest *, void *)
 //     node->submitRequest(req);                                           // read_callback runs once
-//     intf->startThread();   // or: poll(intf->fd()) / intf->runOnce(timeout) in your own loop
+//     intf->startThread();   // or: poll(intf->fd()) / intf->runOnce(timeout) in your own loop,
+//                            // or a cyclic program's urb_sleep_until(tick) + intf->service()
 //
 // Errors. Nothing here throws, in setup or in the real-time path; the header builds with
 // -fno-exceptions. Setup calls return a URB_HOST_* code (or nullptr) and lastError() says what
@@ -461,6 +462,10 @@ public:
     /** Does what is due after waiting at most timeoutNs for input or the next deadline (0: after
      *  polling fd(), which it then arms; urb_loop_run_once); the number of callbacks run, or < 0. */
     int32_t runOnce(int64_t timeoutNs) noexcept { return ok() ? urb_loop_run_once(loop_.get(), timeoutNs) : URB_HOST_EINVAL; }
+    /** A cyclic program's call once per period, after sleeping to its tick (urb_sleep_until): does
+     *  what came and what is due without waiting (urb_loop_service; its latency trade-off in
+     *  urb_loop.h); the number of callbacks run, or < 0. */
+    int32_t service() noexcept { return ok() ? urb_loop_service(loop_.get()) : URB_HOST_EINVAL; }
     /** Runs the loop on a thread of its own (callbacks run there). */
     int32_t startThread() noexcept { return ok() ? urb_loop_start_thread(loop_.get()) : URB_HOST_EINVAL; }
     int32_t stopThread() noexcept { return ok() ? urb_loop_stop_thread(loop_.get()) : URB_HOST_EINVAL; }

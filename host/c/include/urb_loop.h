@@ -41,6 +41,30 @@
  * Linux before 5.11 (no epoll_pwait2) the timeouts count in ms, rounded up; the timerfd still wakes
  * the loop at its own deadlines.
  *
+ * A cyclic control program (a fixed period, e.g. 1 kHz: the pattern of an EtherCAT master such as
+ * SOEM: send, then at the next tick receive everything that came) wakes once per period and
+ * services the loop there, without waiting in it:
+ *     urb_ns_t next_tick = (urb_now_ns() / URB_NS_PER_MS + 1) * URB_NS_PER_MS;  // on the USB frame grid
+ *     for (;;) {
+ *         urb_sleep_until(next_tick);    // the program's only wait: one wake-up per period
+ *         urb_loop_service(loop);        // what came during the period, deadlines, frames, callbacks
+ *         control(); submit...;          // RS232 frames go out now, USB ones at the next boundary
+ *         next_tick += URB_NS_PER_MS;
+ *     }
+ * urb_loop_service never waits: a response that arrives during the period is not a wake-up (with
+ * urb_loop_run_once every USB IN transfer and RS232 response is one; measured for the SensoRHex load
+ * in bench/README.md: 2.4 wake-ups per ms against 1). The price is latency: a callback runs at the
+ * first service after its response arrived (up to one period later than urb_loop_run_once would
+ * run it), a timeout or a lost bridge at the first service after its deadline (up to one period
+ * late), and a USB batch goes out at the first service at or after each 1-ms boundary (one per
+ * call: a period longer than 1 ms sends fewer batches). A program that only reads its responses at
+ * its tick sees the same data either way: what arrives during period k is used at tick k+1 with
+ * both. Chained requests (submitted from a callback) go out up to a period later, and an RS232
+ * bridge's window frees only at a service (at most `window` requests per period). Keep the tick on
+ * the 1-ms grid (as above): then each USB batch leaves at the tick the requests were made for.
+ * Between services other threads may submit (their RS232 frames are written at once); nothing wakes
+ * the program for them.
+ *
  * Or on a thread of its own: urb_loop_start_thread(loop); callbacks then run on that thread, and
  * any thread may submit.
  *
@@ -72,6 +96,9 @@ extern "C" {
 
 #ifndef URB_LOOP_MAX_MANAGERS
 #define URB_LOOP_MAX_MANAGERS 4u  /**< Bridges per loop (override with -D; ~45 KiB each) */
+#endif
+#ifndef URB_LOOP_SERVICE_PASSES
+#define URB_LOOP_SERVICE_PASSES 4u /**< urb_loop_service: IN transfers read per USB port and call, at most */
 #endif
 #define URB_MANAGER_OUT 1024u     /**< RS232: bytes of frames waiting for a writable port */
 
@@ -260,6 +287,19 @@ urb_ns_t urb_loop_next_deadline(urb_loop_t *loop);
  * thread runs (only it may call this) or inside a callback.
  */
 int32_t urb_loop_run_once(urb_loop_t *loop, urb_ns_t timeout_ns);
+
+/**
+ * Services the loop once without waiting (a cyclic program's call, once per period: see the top of
+ * this file for the pattern and its latency): reads everything the ports have queued (asking the
+ * kernel again while a USB port gave an IN transfer, at most URB_LOOP_SERVICE_PASSES times, so that
+ * no transfer waits behind another), then does what urb_loop_run_once does after its wait: feeds
+ * the cores, applies timeouts and the lost-bridge rules, writes what is due (a USB batch once the
+ * frame boundary is reached) and runs the callbacks (the lost listener first). Every submitted
+ * request still ends in exactly one callback. It arms no timer: the program's own period wakes it.
+ * Returns the number of callbacks run, URB_HOST_EINVAL for NULL, URB_HOST_ESTATE when the loop's
+ * thread runs or inside a callback. O(ready descriptors + requests due).
+ */
+int32_t urb_loop_service(urb_loop_t *loop);
 
 /** Runs the loop on a new thread (callbacks run there) until urb_loop_stop_thread. Returns
  *  URB_HOST_OK, URB_HOST_ESTATE when already running, URB_HOST_EIO when no thread could be made. */

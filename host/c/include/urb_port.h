@@ -127,6 +127,11 @@ int32_t urb_handover_settle(urb_handover_t *h, urb_ns_t until_ns, urb_ns_t now_n
 /** The monotonic clock (CLOCK_MONOTONIC) in ns: the clock every port function and urb_loop use. */
 urb_ns_t urb_now_ns(void);
 
+/** Sleeps until `when` on urb_now_ns()'s clock (clock_nanosleep with TIMER_ABSTIME: a period kept
+ *  this way does not drift), sleeping on after a signal; returns at once when `when` has passed. The
+ *  wait of a cyclic program between its calls of urb_loop_service (urb_loop.h). */
+void urb_sleep_until(urb_ns_t when);
+
 #ifdef __cplusplus
 }
 #endif

@@ -471,36 +471,11 @@ static int wait_events(urb_loop_t *loop, struct epoll_event *ev, urb_ns_t wait)
 
 /* ----- one step ---------------------------------------------------------------------------------- */
 
-static int32_t run_once(urb_loop_t *loop, urb_ns_t timeout_ns)
+/* Handles what one wait returned (lock held): drains the wake-up eventfd, notes the timer's expiry,
+ * flushes and reads the ports. Returns whether a USB port was read: it may hold another IN transfer. */
+static bool take_events(urb_loop_t *loop, const struct epoll_event *ev, int n, urb_ns_t now)
 {
-    lock(loop);
-    urb_ns_t now = urb_now_ns();
-    urb_ns_t const deadline = next_deadline_locked(loop, now);
-    urb_ns_t wait = timeout_ns;
-    if (deadline != URB_NEVER) {
-        urb_ns_t const left = (deadline > now) ? deadline - now : 0;
-        wait = ((wait < 0) || (left < wait)) ? left : wait;
-    }
-    if (loop->ms_waits && (deadline > now)) {
-        arm_timer(loop, deadline); /* epoll_wait's ms would overshoot it */
-    }
-    urb_ns_t const until = (wait < 0) ? URB_NEVER : now + wait;
-    loop->waiting_until = (until > loop->waiting_until) ? until : loop->waiting_until; /* the latest waiter's */
-    loop->waiters++;
-    unlock(loop);
-
-    struct epoll_event ev[EVENTS];
-    int n = wait_events(loop, ev, wait);
-    if (n < 0) {
-        n = 0; /* EINTR: a signal; do what is due */
-    }
-
-    lock(loop);
-    loop->waiters--;
-    if (loop->waiters == 0u) {
-        loop->waiting_until = 0;
-    }
-    now = urb_now_ns();
+    bool usb_read = false;
     for (int i = 0; i < n; i++) {
         uint64_t const tag = ev[i].data.u64;
         if (tag == TAG_WAKE) {
@@ -517,9 +492,17 @@ static int32_t run_once(urb_loop_t *loop, urb_ns_t timeout_ns)
             }
             if ((ev[i].events & (EPOLLIN | EPOLLHUP | EPOLLERR)) != 0u) {
                 read_port(m, now);
+                usb_read = usb_read || (m->kind == URB_LINK_USB);
             }
         }
     }
+    return usb_read;
+}
+
+/* Everything due after the input was taken: timeouts and the lost-bridge rules, frames out, then the
+ * callbacks (outside the lock). Lock held on entry, released on return. Returns the callbacks run. */
+static int32_t dispatch_due(urb_loop_t *loop, urb_ns_t now)
+{
     batch_t batches[URB_LOOP_MAX_MANAGERS + 1u];
     memset(batches, 0, sizeof batches);
     for (uint32_t i = 0u; i < loop->manager_count; i++) {
@@ -554,12 +537,71 @@ static int32_t run_once(urb_loop_t *loop, urb_ns_t timeout_ns)
     return (int32_t)ran;
 }
 
+static int32_t run_once(urb_loop_t *loop, urb_ns_t timeout_ns)
+{
+    lock(loop);
+    urb_ns_t now = urb_now_ns();
+    urb_ns_t const deadline = next_deadline_locked(loop, now);
+    urb_ns_t wait = timeout_ns;
+    if (deadline != URB_NEVER) {
+        urb_ns_t const left = (deadline > now) ? deadline - now : 0;
+        wait = ((wait < 0) || (left < wait)) ? left : wait;
+    }
+    if (loop->ms_waits && (deadline > now)) {
+        arm_timer(loop, deadline); /* epoll_wait's ms would overshoot it */
+    }
+    urb_ns_t const until = (wait < 0) ? URB_NEVER : now + wait;
+    loop->waiting_until = (until > loop->waiting_until) ? until : loop->waiting_until; /* the latest waiter's */
+    loop->waiters++;
+    unlock(loop);
+
+    struct epoll_event ev[EVENTS];
+    int n = wait_events(loop, ev, wait);
+    if (n < 0) {
+        n = 0; /* EINTR: a signal; do what is due */
+    }
+
+    lock(loop);
+    loop->waiters--;
+    if (loop->waiters == 0u) {
+        loop->waiting_until = 0;
+    }
+    now = urb_now_ns();
+    (void)take_events(loop, ev, n, now);
+    return dispatch_due(loop, now);
+}
+
+/* Is the calling thread allowed to run the loop (not inside a callback, not beside the loop's thread)? */
+static bool may_run(const urb_loop_t *loop)
+{
+    return !in_callback(loop) && !(loop->thread_running && !pthread_equal(pthread_self(), loop->thread));
+}
+
+int32_t urb_loop_service(urb_loop_t *loop)
+{
+    if (loop == NULL) {
+        return URB_HOST_EINVAL;
+    }
+    if (!may_run(loop)) {
+        return URB_HOST_ESTATE;
+    }
+    lock(loop); /* held throughout: nothing below waits */
+    loop->self_waits = true; /* the application wakes itself at its period: no timer for it */
+    struct epoll_event ev[EVENTS];
+    bool again = true;
+    for (uint32_t pass = 0u; again && (pass < URB_LOOP_SERVICE_PASSES); pass++) {
+        int const n = wait_events(loop, ev, 0); /* what is ready now: a zero timeout */
+        again = (n > 0) && take_events(loop, ev, n, urb_now_ns()); /* a USB port read: ask again */
+    }
+    return dispatch_due(loop, urb_now_ns());
+}
+
 int32_t urb_loop_run_once(urb_loop_t *loop, urb_ns_t timeout_ns)
 {
     if (loop == NULL) {
         return URB_HOST_EINVAL;
     }
-    if (in_callback(loop) || (loop->thread_running && !pthread_equal(pthread_self(), loop->thread))) {
+    if (!may_run(loop)) {
         return URB_HOST_ESTATE;
     }
     lock(loop);

@@ -26,6 +26,17 @@ urb_ns_t urb_now_ns(void)
     return (urb_ns_t)ts.tv_sec * URB_NS_PER_S + (urb_ns_t)ts.tv_nsec;
 }
 
+void urb_sleep_until(urb_ns_t when)
+{
+    if (when <= 0) {
+        return;
+    }
+    struct timespec const ts = {(time_t)(when / URB_NS_PER_S), (long)(when % URB_NS_PER_S)};
+    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL) == EINTR) {
+        /* a signal: sleep on until `when` (an absolute time: nothing to recompute) */
+    }
+}
+
 static void say(char *err, size_t size, const char *fmt, const char *a, const char *b)
 {
     if ((err != NULL) && (size > 0u)) {
