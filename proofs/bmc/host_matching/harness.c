@@ -13,9 +13,9 @@
  *     covered bytes), and all n bytes are held (n <= rx_len).
  * The harness assumes exactly this and nothing more about the candidate.
  *
- * The matcher's invariant (as host_matcher's): the ring (head < SLOTS, count <= SLOTS) of
- * distinct numbers below 16 and lengths 1..32, a live slot pointing to its own IN_FLIGHT transfer,
- * the held bytes within rx, a NULL-terminated list of 0..2 COMPLETED transfers ending at done_tail.
+ * The matcher's invariant and how the state is built: proofs/bmc/include/host_matcher_state.h (shared
+ * with host_matcher): distinct numbers below 16, lengths URB_LEN_MIN..URB_LEN, a live slot pointing to
+ * its own IN_FLIGHT transfer, the held bytes within rx, 0..2 COMPLETED transfers waiting.
  *
  * The contract (header urb_host_internal.h; the Python reference rs232_core.ResponseMatcher.parse;
  * Bridge.tla HostMatch):
@@ -35,130 +35,35 @@
  *     without walking it through pointers); every other live request is in exactly one slot.
  * Memory safety, overflow and shift checks are ESBMC's (always on).
  *
- * Bounds (the Makefile): a ring of URB_MATCHER_SLOTS slots whose head index (HEAD), requests in flight
- * (COUNT) and answered position (K) are constants of the sweep item, every combination at a ring of
- * 2 and the wrapping ones at 3 (a symbolic ring index turns each store into an update of the whole
- * matcher); each request live or a placeholder, any numbers, directions, corrupt-bytes marks and
- * times 0..255 ns; 0..2 completions waiting; rx_start and rx_len arbitrary within the library's
- * 64-byte rx. Requests of 1..URB_LEN bytes (the OK read's data copy runs data_len rounds): URB_LEN 2
- * in the ring items; the LONGEST=1 item has one request of 32 bytes (the longest response, 35
- * bytes, a 2-byte check).
+ * Bounds (the Makefile): a ring of URB_MATCHER_SLOTS slots whose head index (HEAD), requests in
+ * flight (COUNT) and answered position (K) are constants of the sweep item: every combination at a
+ * ring of 2 (the answer to the first or the second request, with and without the ring wrapping);
+ * each request live or a placeholder, any numbers, directions, corrupt-bytes marks and times
+ * 0..255 ns; 0..2 completions waiting; rx_start and rx_len arbitrary within the library's 64-byte rx.
+ * Requests of 1..URB_LEN bytes: 2 in the ring items (the OK read's data copy runs data_len rounds),
+ * 32 in the LEN=32 item at a ring of 1 (every length, the longest response of 35 bytes with its
+ * 2-byte check, the check-width switch at 14 covered bytes).
  */
 /* lobster-trace: urb.HOST_002 (a response completes the oldest request in flight with its number, never another) */
 /* lobster-trace: urb.HOST_001 (matching completes every request it passes exactly once) */
 #include "urb_verify.h"
 
+#include "host_matcher_state.h"
 #include "urb_host_core.h"
 #include "urb_host_internal.h"
 
 URB_PROOF_COST_STORAGE;
 
-#define SLOTS URB_MATCHER_SLOTS
-
-#ifndef URB_LEN
-#define URB_LEN 2
-#endif
-#ifndef URB_LEN_MIN
-#define URB_LEN_MIN 1
-#endif
-#if !defined(URB_HEAD) || !defined(URB_COUNT) || !defined(URB_K) || (URB_COUNT > 3) || (URB_COUNT < 1) || \
-    (URB_COUNT > URB_MATCHER_SLOTS) || (URB_K >= URB_COUNT) || (URB_HEAD >= URB_MATCHER_SLOTS)
-#error "an item sets URB_MATCHER_SLOTS, URB_HEAD < SLOTS, URB_COUNT in 1..min(SLOTS, 3) and URB_K < URB_COUNT"
+#if !defined(URB_COUNT) || !defined(URB_K) || (URB_COUNT < 1) || (URB_COUNT > URB_MATCHER_SLOTS) || (URB_K >= URB_COUNT)
+#error "an item sets URB_COUNT in 1..URB_MATCHER_SLOTS and URB_K < URB_COUNT"
 #endif
 
-/* What position i of the ring held before the step. */
-typedef struct {
-    bool live;
-    uint8_t seq;
-    uint8_t length;
-    bool read;
-    bool garbage;
-    urb_ns_t due;
-    urb_ns_t expires;
-} position_t;
-
-/* Distinct objects, not an array: a pointer into an array of transfers is an index ESBMC carries
- * through every dereference (the list, the slots), which made Boolector run out of memory. */
-static urb_transfer_t tr0, tr1, tr2; /* the live request at position 0, 1, 2 */
-static urb_transfer_t wait0, wait1;  /* completions waiting before the step */
-static position_t pos[SLOTS];
-static uint32_t waiting0;
-
-static urb_transfer_t *transfer_at(uint32_t i)
-{
-    return (i == 0u) ? &tr0 : ((i == 1u) ? &tr1 : &tr2);
-}
-
-/* The ring index of position i, from the item's constant head (the harness never reads m->head to
- * index: ESBMC propagates no constant out of a struct that holds arbitrary values, and a store at a
- * symbolic index into the matcher becomes a byte-level update of the whole matcher). */
-#define RING(head, i) (((uint32_t)(head) + (uint32_t)(i)) % SLOTS)
 #define HEAD_AFTER RING(URB_HEAD, URB_K + 1u)
 
 /* The bridge Status as its flag (urb_flags.h: the low eight bits, one per status), written out. */
 static const urb_flags_t flag_of_status[9] = {
     URB_FLAG_NONE,          URB_FLAG_TIMEOUT,     URB_FLAG_CHECKSUM,    URB_FLAG_BUSY,      URB_FLAG_NO_NODE,
     URB_FLAG_SIZE_MISMATCH, URB_FLAG_BAD_REQUEST, URB_FLAG_BUS_STUCK, URB_FLAG_NODE_BUSY};
-
-/* An arbitrary matcher within the invariant, every field stored (an uninitialised matcher's
- * arbitrary pointers cost ESBMC minutes). */
-static void arbitrary_state(urb_matcher_t *m)
-{
-    m->head = (uint8_t)URB_HEAD;
-    m->count = (uint8_t)URB_COUNT;
-    m->rx_start = URB_NONDET_U8();
-    m->rx_len = URB_NONDET_U8();
-    URB_ASSUME((uint32_t)m->rx_start + m->rx_len <= URB_MATCHER_RX);
-    m->stray_bytes = URB_NONDET_U32();
-    m->late_responses = URB_NONDET_U32();
-    m->released_placeholders = URB_NONDET_U32();
-    for (uint32_t i = 0u; i < SLOTS; i++) {
-        uint32_t const x = RING(URB_HEAD, i);
-        urb_transfer_t *const t = transfer_at(i); /* used only for i < COUNT <= 3 */
-        m->slot[x].t = NULL;
-        m->slot[x].seq = URB_NONDET_U8();
-        m->slot[x].length = URB_NONDET_U8();
-        m->slot[x].read = URB_NONDET_BOOL();
-        m->slot[x].garbage = URB_NONDET_BOOL();
-        m->slot[x].long_answer = URB_NONDET_BOOL();
-        m->slot[x].due_ns = (urb_ns_t)URB_NONDET_U8();
-        m->slot[x].expires_ns = (urb_ns_t)URB_NONDET_U8();
-        pos[i].live = false;
-        if (i < URB_COUNT) {
-            bool const live = URB_NONDET_BOOL();
-            t->state = URB_XFER_IDLE;
-            t->next = NULL;
-            URB_ASSUME(m->slot[x].seq < URB_SEQ_MOD && m->slot[x].length >= URB_LEN_MIN && m->slot[x].length <= URB_LEN);
-            for (uint32_t j = 0u; j < i; j++) {
-                URB_ASSUME(pos[j].seq != m->slot[x].seq); /* the window < 16 keeps numbers distinct */
-            }
-            m->slot[x].t = live ? t : NULL;
-            pos[i].live = live;
-            pos[i].seq = m->slot[x].seq;
-            pos[i].length = m->slot[x].length;
-            pos[i].read = m->slot[x].read;
-            pos[i].garbage = m->slot[x].garbage;
-            pos[i].due = m->slot[x].due_ns;
-            pos[i].expires = m->slot[x].expires_ns;
-            if (live) {
-                t->state = URB_XFER_IN_FLIGHT;
-                t->seq = (int8_t)m->slot[x].seq;
-                t->length = m->slot[x].length;
-                t->read = m->slot[x].read;
-                t->status = -1;
-                t->response_len = 0u;
-            }
-        }
-    }
-    waiting0 = URB_NONDET_U8();
-    URB_ASSUME(waiting0 <= 2u);
-    wait0.state = URB_XFER_COMPLETED;
-    wait1.state = URB_XFER_COMPLETED;
-    wait0.next = (waiting0 == 2u) ? &wait1 : NULL;
-    wait1.next = NULL;
-    m->done_head = (waiting0 == 0u) ? NULL : &wait0;
-    m->done_tail = (waiting0 == 0u) ? NULL : ((waiting0 == 1u) ? &wait0 : &wait1);
-}
 
 /* Exactly once: the completion list is the expected sequence (waiting ones, then the live positions
  * 0..K in order). Each node is a known object, so the list is that sequence exactly when done_head is
