@@ -4,15 +4,10 @@
  * invariant and the operation's contract after it (an inductive step instead of operation
  * sequences, which ran ESBMC out of its 4 GB, host/c/README.md).
  *
- * The invariant (what urb_matcher_init establishes and every operation keeps):
- *   - at most URB_MATCHER_SLOTS requests in flight in the ring (head, count), oldest first, their
- *     sequence numbers below 16 and distinct (the window < 16 guarantees it: Bridge.tla HostWindow);
- *   - a live slot points to its transfer (state IN_FLIGHT, its sequence number, length and
- *     direction); no transfer is in two places (two slots, a slot and the completion list);
- *   - the bytes held lie within rx and are fewer than the longest response of the requests;
- *   - the completion list is a NULL-terminated list of COMPLETED transfers ending at done_tail.
- * Position i of the ring (the i-th oldest) holds transfer tr[i] when it is live: the names are
- * arbitrary, the harness fixes them to tell the transfers apart.
+ * The invariant and the arbitrary state: proofs/bmc/include/host_matcher_state.h (shared with
+ * host_matching); here the held bytes are also fewer than the longest response (a parse leaves at
+ * most a partial candidate). Position i of the ring (the i-th oldest) holds transfer transfer_at(i)
+ * when it is live: the names are arbitrary, the harness fixes them to tell the transfers apart.
  *
  * Parts (URB_PART):
  *   1 time_out  urb_matcher_time_out(now) (and urb_matcher_expire in it), any due times, lifetimes
@@ -37,38 +32,13 @@
 /* lobster-trace: urb.HOST_001 (the requirements this proof verifies: exactly once; the matching by number, HOST_002, needs urb_matcher_feed, not proved here) */
 #include "urb_verify.h"
 
+#include "host_matcher_state.h"
 #include "urb_host_core.h"
 
 URB_PROOF_COST_STORAGE;
 
-#define SLOTS URB_MATCHER_SLOTS
-
-#ifndef URB_LEN
-#define URB_LEN 2
-#endif
-#ifndef URB_HEAD
-#define URB_HEAD 1
-#endif
-
 /* The longest response to a request of at most URB_LEN bytes (an OK read): what can be held is shorter. */
 #define RESPONSE_MAX ((1u + URB_LEN) + (((1u + URB_LEN) <= 14u) ? 1u : 2u))
-
-/* What position i of the ring held before the step. */
-typedef struct {
-    bool live;
-    uint8_t seq;
-    uint8_t length;
-    bool read;
-    bool garbage;
-    urb_ns_t due;
-    urb_ns_t expires;
-} position_t;
-
-static urb_transfer_t tr[SLOTS];
-static urb_transfer_t waiting[2]; /* completions not yet taken before the step */
-static position_t pos[SLOTS];
-static uint32_t count0;
-static uint32_t waiting0;
 
 static uint32_t ring(const urb_matcher_t *m, uint32_t i)
 {
@@ -80,73 +50,18 @@ static urb_ns_t small_time(void)
     return (urb_ns_t)URB_NONDET_U8();
 }
 
-/* An arbitrary matcher within the invariant. Every field is stored explicitly: ESBMC 8.4 takes
- * minutes over the pointers of an uninitialised matcher (arbitrary pointers in every slot). */
-static void arbitrary_state(urb_matcher_t *m)
+/* The matcher between operations: the shared invariant, and fewer bytes held than a response. */
+static void arbitrary_between_operations(urb_matcher_t *m)
 {
-    m->head = (uint8_t)URB_HEAD; /* a constant per item: ESBMC then resolves the ring positions */
-    m->count = URB_NONDET_U8();
-    URB_ASSUME(m->count <= SLOTS);
-    m->rx_start = URB_NONDET_U8();
-    m->rx_len = URB_NONDET_U8();
-    URB_ASSUME((uint32_t)m->rx_start + m->rx_len <= URB_MATCHER_RX && m->rx_len < RESPONSE_MAX);
-    m->stray_bytes = URB_NONDET_U32();
-    m->late_responses = URB_NONDET_U32();
-    m->released_placeholders = URB_NONDET_U32();
-    count0 = m->count;
-    for (uint32_t i = 0u; i < SLOTS; i++) {
-        uint32_t const x = ring(m, i);
-        tr[i].state = URB_XFER_IDLE;
-        tr[i].next = NULL;
-        m->slot[x].t = NULL;
-        m->slot[x].seq = URB_NONDET_U8();
-        m->slot[x].length = URB_NONDET_U8();
-        m->slot[x].read = URB_NONDET_BOOL();
-        m->slot[x].garbage = URB_NONDET_BOOL();
-        m->slot[x].long_answer = URB_NONDET_BOOL();
-        m->slot[x].due_ns = 0;
-        m->slot[x].expires_ns = 0;
-        if (i < count0) {
-            bool const live = URB_NONDET_BOOL();
-            URB_ASSUME(m->slot[x].seq < URB_SEQ_MOD && m->slot[x].length >= 1u && m->slot[x].length <= URB_LEN);
-            for (uint32_t j = 0u; j < i; j++) {
-                URB_ASSUME(pos[j].seq != m->slot[x].seq);
-            }
-            m->slot[x].t = live ? &tr[i] : NULL;
-            pos[i].live = live;
-            pos[i].seq = m->slot[x].seq;
-            pos[i].length = m->slot[x].length;
-            pos[i].read = m->slot[x].read;
-            pos[i].garbage = m->slot[x].garbage;
-            m->slot[x].due_ns = small_time();
-            m->slot[x].expires_ns = small_time();
-            pos[i].due = m->slot[x].due_ns;
-            pos[i].expires = m->slot[x].expires_ns;
-            if (live) {
-                tr[i].state = URB_XFER_IN_FLIGHT;
-                tr[i].seq = (int8_t)m->slot[x].seq;
-                tr[i].length = m->slot[x].length;
-                tr[i].read = m->slot[x].read;
-                tr[i].status = -1;
-                tr[i].response_len = 0u;
-            }
-        }
-    }
-    waiting0 = URB_NONDET_U8();
-    URB_ASSUME(waiting0 <= 2u);
-    waiting[0].state = URB_XFER_COMPLETED;
-    waiting[1].state = URB_XFER_COMPLETED;
-    waiting[0].next = (waiting0 == 2u) ? &waiting[1] : NULL;
-    waiting[1].next = NULL;
-    m->done_head = (waiting0 == 0u) ? NULL : &waiting[0];
-    m->done_tail = (waiting0 == 0u) ? NULL : &waiting[waiting0 - 1u];
+    arbitrary_state(m);
+    URB_ASSUME(m->rx_len < RESPONSE_MAX);
 }
 
-/* The index in tr of t, or SLOTS when t is none of them. */
+/* The position whose live transfer t is, or SLOTS when t is none of them. */
 static uint32_t index_of(const urb_transfer_t *t)
 {
     for (uint32_t j = 0u; j < SLOTS; j++) {
-        if (t == &tr[j]) {
+        if (t == transfer_at(j)) {
             return j;
         }
     }
@@ -167,7 +82,7 @@ static void check_exactly_once(const urb_matcher_t *m, const urb_transfer_t *pus
     uint32_t next_index = 0u;
     while ((p != NULL) && (n < SLOTS + 2u)) {
         if (n < waiting0) {
-            URB_ASSERT(p == &waiting[n], "completions: the waiting ones stay first, in order");
+            URB_ASSERT(p == ((n == 0u) ? &wait0 : &wait1), "completions: the waiting ones stay first, in order");
         } else {
             uint32_t const j = index_of(p);
             URB_ASSERT(j < SLOTS && pos[j].live && j >= next_index, "completions: live requests only, in request order");
@@ -192,10 +107,10 @@ static void check_exactly_once(const urb_matcher_t *m, const urb_transfer_t *pus
         if ((j < count0) && pos[j].live) {
             uint32_t in_slots = 0u;
             for (uint32_t k = 0u; k < SLOTS; k++) {
-                in_slots += ((k < m->count) && (m->slot[ring(m, k)].t == &tr[j])) ? 1u : 0u;
+                in_slots += ((k < m->count) && (m->slot[ring(m, k)].t == transfer_at(j))) ? 1u : 0u;
             }
-            URB_ASSERT((tr[j].state == URB_XFER_IN_FLIGHT && in_slots == 1u && in_done[j] == 0u) ||
-                           (tr[j].state == URB_XFER_COMPLETED && in_slots == 0u && in_done[j] == 1u),
+            URB_ASSERT((transfer_at(j)->state == URB_XFER_IN_FLIGHT && in_slots == 1u && in_done[j] == 0u) ||
+                           (transfer_at(j)->state == URB_XFER_COMPLETED && in_slots == 0u && in_done[j] == 1u),
                        "exactly once: in flight in one slot, or completed once");
         }
     }
@@ -205,7 +120,7 @@ static void check_exactly_once(const urb_matcher_t *m, const urb_transfer_t *pus
 void harness(void)
 {
     static urb_matcher_t m;
-    arbitrary_state(&m);
+    arbitrary_between_operations(&m);
     uint8_t const rx_start = m.rx_start;
     uint8_t const rx_len = m.rx_len;
     uint64_t const released = m.released_placeholders;
@@ -223,10 +138,10 @@ void harness(void)
         bool const stays_live = pos[i].live && !times_out;
         if (times_out) {
             timed++;
-            URB_ASSERT(tr[i].state == URB_XFER_COMPLETED && tr[i].status == -1 && tr[i].response_len == 0u &&
-                           tr[i].completed_ns == now,
+            URB_ASSERT(transfer_at(i)->state == URB_XFER_COMPLETED && transfer_at(i)->status == -1 && transfer_at(i)->response_len == 0u &&
+                           transfer_at(i)->completed_ns == now,
                        "time_out: a request due by now completes now, without a response");
-            URB_ASSERT(tr[i].flags == (pos[i].garbage ? URB_FLAG_UPLINK_CHECKSUM : URB_FLAG_UPLINK_TIMEOUT),
+            URB_ASSERT(transfer_at(i)->flags == (pos[i].garbage ? URB_FLAG_UPLINK_CHECKSUM : URB_FLAG_UPLINK_TIMEOUT),
                        "time_out: UPLINK_CHECKSUM exactly when corrupt bytes stood in its place");
             URB_COVER("timeout");
             if (pos[i].garbage) {
@@ -234,7 +149,7 @@ void harness(void)
             }
         }
         if (stays_live) {
-            URB_ASSERT(tr[i].state == URB_XFER_IN_FLIGHT, "time_out: a request not due stays live");
+            URB_ASSERT(transfer_at(i)->state == URB_XFER_IN_FLIGHT, "time_out: a request not due stays live");
         }
         if (!stays_live && (pos[i].expires <= now)) {
             gone++;
@@ -250,7 +165,7 @@ void harness(void)
             URB_ASSERT(s->seq == pos[i].seq && s->due_ns == pos[i].due && s->expires_ns == pos[i].expires &&
                            s->length == pos[i].length && s->read == pos[i].read,
                        "time_out: the kept slots in their order, unchanged");
-            URB_ASSERT(s->t == (stays_live ? &tr[i] : NULL), "time_out: a timed-out request stays as a placeholder");
+            URB_ASSERT(s->t == (stays_live ? transfer_at(i) : NULL), "time_out: a timed-out request stays as a placeholder");
             kept++;
         }
     }
@@ -266,7 +181,7 @@ static urb_transfer_t fresh;
 void harness(void)
 {
     static urb_matcher_t m;
-    arbitrary_state(&m);
+    arbitrary_between_operations(&m);
     fresh.state = URB_XFER_QUEUED;
     fresh.read = URB_NONDET_BOOL();
     fresh.length = URB_NONDET_U8();
@@ -293,16 +208,16 @@ void harness(void)
     }
     for (uint32_t i = 0u; i < SLOTS; i++) {
         urb_slot_t const *const s = &m.slot[ring(&m, i)];
-        URB_ASSERT(i >= count0 || (s->t == (pos[i].live ? &tr[i] : NULL) && s->seq == pos[i].seq), "push: the others unchanged");
+        URB_ASSERT(i >= count0 || (s->t == (pos[i].live ? transfer_at(i) : NULL) && s->seq == pos[i].seq), "push: the others unchanged");
     }
     check_exactly_once(&m, &fresh);
     urb_transfer_t *const got = urb_matcher_take(&m);
     if (waiting0 == 0u) {
         URB_ASSERT(got == NULL && m.done_head == NULL && m.done_tail == NULL, "take: nothing to take");
     } else {
-        URB_ASSERT(got == &waiting[0] && got->state == URB_XFER_DONE && got->next == NULL, "take: the oldest completion, handed back");
-        URB_ASSERT(m.done_head == ((waiting0 == 2u) ? &waiting[1] : NULL) &&
-                       m.done_tail == ((waiting0 == 2u) ? &waiting[1] : NULL),
+        URB_ASSERT(got == &wait0 && got->state == URB_XFER_DONE && got->next == NULL, "take: the oldest completion, handed back");
+        URB_ASSERT(m.done_head == ((waiting0 == 2u) ? &wait1 : NULL) &&
+                       m.done_tail == ((waiting0 == 2u) ? &wait1 : NULL),
                    "take: the others stay");
         URB_COVER("taken");
         if (waiting0 == 2u) {
