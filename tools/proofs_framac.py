@@ -22,7 +22,12 @@ expected.json (what the run must give). unit.json:
      "args": [more frama-c options, e.g. -wp-fct or -main],
      "mutants": [{"name", "file", "find", "replace", "why", "args": [options for the mutant run only]}]}
 
-("mutant": {...} names a single one.) Eva units may set their own Eva options in "args" (for
+("mutant": {...} names a single one.) "annotations": [{"file", "before", "acsl"}] puts ACSL that C
+cannot take from another file (loop invariants, variants, loop assigns) into a copy of a source: each
+`acsl` (one /*@ ... */ comment) goes on its own line before the line that starts with `before` (which
+must occur exactly once, at the start of a line). The copy must be the original's code with comments
+added and nothing else, so the proof is the original's and the file's bytes (which the BMC records
+read) stay as they are; mutants apply to the annotated copy. Eva units may set their own Eva options in "args" (for
 example -eva-precision or -eva-partition-history): they come after the runner's defaults.
 
 WP units run `-wp -wp-rte` with the provers z3 and cvc4 through why3 (Alt-Ergo is not available),
@@ -118,6 +123,7 @@ class Unit:
     args: list[str]
     mutants: list[dict[str, Any]]
     expected: dict[str, Any]
+    annotations: list[dict[str, str]] = field(default_factory=list)
 
 
 def load_unit(folder: Path) -> Unit:
@@ -143,8 +149,13 @@ def load_unit(folder: Path) -> Unit:
     names = [m.get("name") for m in mutants]
     if len(set(names)) != len(names):
         raise SetupError(f"{folder.name}/unit.json: two mutants share a name: {names}")
+    annotations = list(cfg.get("annotations", []))
+    for note in annotations:
+        if not (ROOT / note.get("file", "")).is_file() or not note.get("before") or not note.get("acsl"):
+            raise SetupError(f"{folder.name}/unit.json: an annotation needs an existing `file`, a `before` line and "
+                             f"its `acsl`: {note}")
     return Unit(folder.name, folder, tool, purpose, list(cfg["sources"]), list(cfg.get("cpp", [])),
-                list(cfg.get("args", [])), mutants, expected)
+                list(cfg.get("args", [])), mutants, expected, annotations)
 
 
 def discover(only: list[str], exact: list[str] | None = None) -> list[Unit]:
@@ -191,23 +202,61 @@ class FramacRun:
     key: str = ""
 
 
+def annotated(unit: Unit, target: str) -> str:
+    """The text of `target` with the unit's annotations for it (see unit.json "annotations"). Refuses
+    an anchor that is not exactly one line start, an `acsl` that is not one ACSL comment, and any
+    result whose code (comments and whitespace aside) differs from the original's."""
+    original = (ROOT / target).read_text(encoding="utf-8")
+    text = original
+    for note in (n for n in unit.annotations if n["file"] == target):
+        anchor, acsl = "\n" + note["before"], note["acsl"].rstrip()
+        if text.count(anchor) != 1:
+            raise SetupError(f"{unit.name}: the annotation anchor {note['before']!r} starts {text.count(anchor)} lines "
+                             f"of {target} (must be one): update unit.json to the current code")
+        if not (acsl.lstrip().startswith("/*@") and acsl.endswith("*/") and acsl.count("*/") == 1):
+            raise SetupError(f"{unit.name}: an annotation must be one /*@ ... */ comment, not {acsl[:60]!r}")
+        text = text.replace(anchor, "\n" + acsl + anchor)
+
+    def tokens(source: str) -> str:
+        return " ".join(c_source.code_of(source).split())
+
+    if tokens(text) != tokens(original):
+        raise SetupError(f"{unit.name}: the annotations of {target} change its code, not only its comments")
+    return text
+
+
+def annotate_sources(unit: Unit, work: Path) -> tuple[list[str], list[str]]:
+    """Sources and cpp options of a unit with annotations: each annotated file is a copy under `work`,
+    whose directory comes first for includes (the spec file's `#include` then finds the copy)."""
+    files = sorted({n["file"] for n in unit.annotations})
+    if not files:
+        return unit.sources, unit.cpp
+    work.mkdir(parents=True, exist_ok=True)
+    for target in files:
+        (work / Path(target).name).write_text(annotated(unit, target), encoding="utf-8")
+    sources = [str(work / Path(s).name) if s in files else s for s in unit.sources]
+    return sources, [f"-I{work}"] + [f"-I{(ROOT / f).parent}" for f in files] + unit.cpp
+
+
 def apply_mutant(unit: Unit, mutant: dict[str, Any], work: Path) -> tuple[list[str], list[str]]:
-    """Sources and cpp options of the mutant run: the mutated file is a copy under `work`."""
+    """Sources and cpp options of the mutant run: the mutated file is a copy under `work` (of the
+    annotated text when the unit annotates that file; the unit's other annotated files beside it)."""
     target = mutant["file"]
     if target not in unit.sources and not (ROOT / target).is_file():
         raise SetupError(f"{unit.name}: mutant file {target} does not exist")
-    text = (ROOT / target).read_text(encoding="utf-8")
+    text = annotated(unit, target)
     find = mutant["find"]
     if text.count(find) != 1:
         raise SetupError(f"{unit.name}: the `find` text of mutant {mutant.get('name')} occurs {text.count(find)} "
                          f"times in {target} (must be once): update unit.json to the current code")
+    sources, cpp = annotate_sources(unit, work)
     work.mkdir(parents=True, exist_ok=True)
     copy = work / Path(target).name
     copy.write_text(text.replace(find, mutant["replace"]), encoding="utf-8")
     # The copy's own directory comes first for "..." includes, so the original directory must
     # follow to resolve its neighbours (and a mutated header shadows the original one).
-    cpp = [f"-I{work}", f"-I{(ROOT / target).parent}"] + unit.cpp
-    sources = [str(copy) if s == target else s for s in unit.sources]
+    cpp = [f"-I{work}", f"-I{(ROOT / target).parent}"] + [c for c in cpp if c != f"-I{work}"]
+    sources = [str(copy) if s == target else s for s in sources]
     return sources, cpp
 
 
@@ -718,7 +767,8 @@ def run_unit(unit: Unit, mutant: dict[str, Any] | None, jobs: int, cache: str, c
     tag = f"{unit.name}.mutant.{mutant['name']}" if mutant else unit.name
     report = OUT_DIR / "reports" / (tag + (".json" if unit.tool == "wp" else ".csv"))
     report.parent.mkdir(parents=True, exist_ok=True)
-    sources, cpp, extra = unit.sources, unit.cpp, []
+    sources, cpp = annotate_sources(unit, OUT_DIR / "annotated" / unit.name)
+    extra: list[str] = []
     if mutant:
         sources, cpp = apply_mutant(unit, mutant, OUT_DIR / "mutants" / unit.name / mutant["name"])
         extra = list(mutant.get("args", []))

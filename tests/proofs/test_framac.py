@@ -612,3 +612,59 @@ def test_prune_refuses_when_nothing_was_read(tmp_path: Path) -> None:
 def test_prune_needs_the_whole_run(capsys: pytest.CaptureFixture[str]) -> None:
     assert RUNNER.main(["--prune-cache", "--only", "mailbox"]) == 2
     assert "needs the whole run" in capsys.readouterr().err
+
+
+# ----------------------------------------------------------------------------- annotations
+
+
+def _annotated_unit(before: str, acsl: str) -> Any:
+    unit = _unit("dl_can_layout")
+    unit.annotations = [{"file": "firmware/downlink/can/urb_can_transfer.c", "before": before, "acsl": acsl}]
+    return unit
+
+
+def test_loop_annotations_add_comments_only(tmp_path: Path) -> None:
+    """dl_can_layout's copy of urb_can_transfer.c is the original with its loop annotations added."""
+    unit = _unit("dl_can_layout")
+    original = (ROOT / "firmware/downlink/can/urb_can_transfer.c").read_text(encoding="utf-8")
+    sources, cpp = RUNNER.annotate_sources(unit, tmp_path)
+    copy = (tmp_path / "urb_can_transfer.c").read_text(encoding="utf-8")
+    assert cpp[0] == f"-I{tmp_path}" and sources == unit.sources
+    assert len(unit.annotations) == 4 and all(n["acsl"] in copy for n in unit.annotations)
+    assert copy.count("loop invariant") > original.count("loop invariant")
+    stripped = copy
+    for note in unit.annotations:
+        stripped = stripped.replace(note["acsl"] + "\n", "")
+    assert stripped == original
+
+
+def test_annotation_anchor_must_start_exactly_one_line() -> None:
+    with pytest.raises(RUNNER.SetupError, match="starts 0 lines"):
+        RUNNER.annotated(_annotated_unit("no such line", "/*@ assert \\true; */"), "firmware/downlink/can/urb_can_transfer.c")
+    with pytest.raises(RUNNER.SetupError, match="starts 2 lines"):
+        RUNNER.annotated(_annotated_unit("    for (uint8_t i", "/*@ assert \\true; */"),
+                         "firmware/downlink/can/urb_can_transfer.c")
+
+
+def test_annotation_must_be_one_acsl_comment() -> None:
+    with pytest.raises(RUNNER.SetupError, match="one /\\*@"):
+        RUNNER.annotated(_annotated_unit("    do {", "left = 0;"), "firmware/downlink/can/urb_can_transfer.c")
+    with pytest.raises(RUNNER.SetupError, match="one /\\*@"):
+        RUNNER.annotated(_annotated_unit("    do {", "/*@ assert \\true; */ left = 0; /*@ assert \\true; */"),
+                         "firmware/downlink/can/urb_can_transfer.c")
+
+
+def test_annotation_inside_a_comment_is_refused() -> None:
+    """Inserted inside the file's header comment, the annotation's `*/` would end that comment and
+    turn the rest of it into code: the code check refuses it."""
+    with pytest.raises(RUNNER.SetupError, match="change its code"):
+        RUNNER.annotated(_annotated_unit(" * Seeded bugs for the mutant checks", "/*@ assert \\true; */"),
+                         "firmware/downlink/can/urb_can_transfer.c")
+
+
+def test_a_mutant_applies_to_the_annotated_copy(tmp_path: Path) -> None:
+    unit = _unit("dl_can_layout")
+    mutant = next(m for m in unit.mutants if m["name"] == "rx_stores_at_cap")
+    sources, cpp = RUNNER.apply_mutant(unit, mutant, tmp_path)
+    copy = (tmp_path / "urb_can_transfer.c").read_text(encoding="utf-8")
+    assert mutant["replace"] in copy and "loop variant n - i;" in copy and cpp[0] == f"-I{tmp_path}"
