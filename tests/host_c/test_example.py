@@ -51,7 +51,7 @@ def test_pd_control_runs_the_loop_against_the_hosted_bridge(motor_bridge: Path) 
     text = out.stdout
     assert out.returncode == 0, text + out.stderr
     assert "pd_control: bridge " in text and "MotorDriver:0 at address 32" in text
-    assert re.search(r"^pd_control: 200 cycles at 100 Hz, \d+ late", text, re.M), text
+    assert re.search(r"^pd_control: 200 cycles at 100 Hz \(runOnce\), \d+ late", text, re.M), text
     assert "reads 200 ok 200, commands 200 ok 200, not submitted 0, flags seen OK" in text, text
     m = re.search(r"read latency median (\d+) us", text)
     assert m is not None and int(m.group(1)) < 100_000
@@ -71,6 +71,18 @@ def test_pd_control_runs_the_loop_against_the_hosted_bridge(motor_bridge: Path) 
 
     rounding = 8.0 * 0.00005 + 0.0005 + 1e-9  # ref printed to 4 decimals, the command to 3
     assert clamp(kp * ref - kd * slope) - rounding <= cmd <= clamp(kp * ref + kd * slope) + rounding, text
+    assert "every request succeeded" in text
+
+
+def test_pd_control_cyclic_sleeps_and_services_each_tick(motor_bridge: Path) -> None:
+    """--cyclic: the fixed-period pattern (urb_sleep_until, then service() once per tick): every read
+    is called back and every command it writes succeeds, with one wait per tick instead of runOnce's."""
+    exe = build("build/host_c/pd_control")
+    out = run([str(exe), str(motor_bridge), "--seconds", "2", "--hz", "100", "--timeout-ms", "1000", "--cyclic"])
+    text = out.stdout
+    assert out.returncode == 0, text + out.stderr
+    assert re.search(r"^pd_control: 200 cycles at 100 Hz \(cyclic: sleep, service\), \d+ late", text, re.M), text
+    assert "reads 200 ok 200, commands 200 ok 200, not submitted 0, flags seen OK" in text, text
     assert "every request succeeded" in text
 
 

@@ -3,9 +3,13 @@
 // computes u = Kp e + Kd de/dt against a 0.5-Hz sinusoid and writes MotorCommand. The loop is
 // embedded in the program's own: runOnce waits until input, the library's next deadline or the next
 // control tick (one wait per wake-up; a program with descriptors of its own would poll them with
-// fd() and call runOnce(0), urb_loop.h).
+// fd() and call runOnce(0), urb_loop.h). With --cyclic it is a fixed-period program instead: it
+// sleeps to each tick (urb_sleep_until) and calls service(), which handles every response of the
+// period without waiting: one wake-up per tick, the feedback's callback (and so the command it
+// writes) up to one period later than with runOnce (urb_loop.h, urb_loop_service).
 //
 //     build/host_c/pd_control PORT [--seconds S] [--hz F] [--kp V/rad] [--kd Vs/rad] [--timeout-ms MS]
+//                                  [--cyclic]
 //     (against the hosted bridge: build/firmware/urb-bridge-hosted --node motor,0,0x20 --link /tmp/urbX)
 //
 // It prints what it did: cycles, late ticks, reads and commands with their outcomes, the read
@@ -105,7 +109,7 @@ void onSignal(int) { stopRequested = 1; }
 int usage(const char *why)
 {
     std::fprintf(stderr, "pd_control: %s\nusage: pd_control PORT [--seconds S] [--hz F] [--kp V/rad] [--kd Vs/rad] "
-                 "[--timeout-ms MS]\n",
+                 "[--timeout-ms MS] [--cyclic]\n",
                  why);
     return 2;
 }
@@ -122,7 +126,13 @@ int main(int argc, char **argv)
     Axis axis;
     urb_core_config_t link;
     urb_core_default_config(&link, URB_LINK_RS232);
+    bool cyclic = false;
     for (int i = 2; i < argc; i += 2) {
+        if (std::strcmp(argv[i], "--cyclic") == 0) {
+            cyclic = true;
+            i--;  // a flag without a value
+            continue;
+        }
         if (i + 1 >= argc) {
             return usage("an option lacks its value");
         }
@@ -176,7 +186,12 @@ int main(int argc, char **argv)
     int64_t worstLate = 0;
     while ((done < cycles) && !stopRequested) {
         int64_t const now = urb_now_ns();
-        intf->runOnce((next > now) ? next - now : 0);
+        if (cyclic) {
+            urb_sleep_until(next);
+            intf->service();
+        } else {
+            intf->runOnce((next > now) ? next - now : 0);
+        }
         int64_t const t = urb_now_ns();
         if (t >= next) {
             int64_t const lateness = t - next;
@@ -208,8 +223,9 @@ int main(int argc, char **argv)
     double const worst = lat.empty() ? 0.0 : static_cast<double>(lat.back()) / 1e3;
     char flags[200];
     (void)urb_flags_describe(static_cast<urb_flags_t>(axis.flagsSeen), flags, sizeof flags);
-    std::printf("pd_control: %llu cycles at %.0f Hz, %llu late by more than half a period (worst %.0f us)\n",
-                static_cast<unsigned long long>(done), hz, static_cast<unsigned long long>(late),
+    std::printf("pd_control: %llu cycles at %.0f Hz (%s), %llu late by more than half a period (worst %.0f us)\n",
+                static_cast<unsigned long long>(done), hz, cyclic ? "cyclic: sleep, service" : "runOnce",
+                static_cast<unsigned long long>(late),
                 static_cast<double>(worstLate) / 1e3);
     std::printf("pd_control: reads %llu ok %llu, commands %llu ok %llu, not submitted %llu, flags seen %s\n",
                 static_cast<unsigned long long>(axis.reads), static_cast<unsigned long long>(axis.readsOk),
