@@ -18,7 +18,11 @@ def _run(seed: int, synced: bool, internode_max_us: float) -> sync.Run:
 
 
 def _table1(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, internode_max_us: float) -> Result:
-    monkeypatch.setattr(sync, "one_run", lambda seed, synced, duration: _run(seed, synced, internode_max_us))
+    def fake_run(seed: int, synced: bool, duration: int, host: str = "python",
+                 record: list[object] | None = None) -> sync.Run:
+        return _run(seed, synced, internode_max_us)  # records no reads: both hosts agree on none
+
+    monkeypatch.setattr(sync, "one_run", fake_run)
     monkeypatch.setattr(sync, "_plot", lambda path, *runs: path)  # the figure is not what is tested
     return sync.table1(tmp_path, quick=True)
 
