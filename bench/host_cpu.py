@@ -143,9 +143,10 @@ def _bridge_child(sock: socket.socket) -> None:
 
 
 @contextlib.contextmanager
-def usb_motor_bridge() -> Iterator[tuple[URBInterface, list[NodeAccessor]]]:
+def usb_motor_bridge(cyclic: bool = False) -> Iterator[tuple[URBInterface, list[NodeAccessor]]]:
     """One SensoRHex USB bridge with its three motors in a child process, and the host's
-    interface to it; on exit the interface closes and the child sees the end of its socket."""
+    interface to it; on exit the interface closes and the child sees the end of its socket.
+    `cyclic`: the manager is made with cyclic=True (no thread; the loop calls `urb.service()`)."""
     host_sock, dev_sock = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
     pid = os.fork()
     if pid == 0:
@@ -156,7 +157,7 @@ def usb_motor_bridge() -> Iterator[tuple[URBInterface, list[NodeAccessor]]]:
     host_sock.close()
     urb = URBInterface()
     try:
-        urb.add_bus_manager(USBManager(CharDeviceTransport(fd=fd), timeout_s=1.0, name="usb"))
+        urb.add_bus_manager(USBManager(CharDeviceTransport(fd=fd), timeout_s=1.0, name="usb", cyclic=cyclic))
         yield urb, [urb.find_node("MotorDriver", i) for i in range(3)]
     finally:
         urb.close()
@@ -177,9 +178,10 @@ def every_ms(seconds: float) -> Iterator[None]:
         yield
 
 
-def usb_sensorhex(seconds: float) -> dict[str, Any]:
-    """Case 2: one SensoRHex USB bridge's motor load in real time."""
-    with usb_motor_bridge() as (urb, motors):
+def usb_sensorhex(seconds: float, cyclic: bool = False) -> dict[str, Any]:
+    """Case 2: one SensoRHex USB bridge's motor load in real time. `cyclic`: the cyclic runtime
+    (no thread: the loop calls `urb.service()` at each tick, and the callbacks run in it)."""
+    with usb_motor_bridge(cyclic) as (urb, motors):
         count, failed = [0], [0]
 
         def done(r: NodeRequest) -> None:
@@ -190,6 +192,8 @@ def usb_sensorhex(seconds: float) -> dict[str, Any]:
         sent = 0
         cpu0, wall0 = time.process_time(), time.perf_counter()
         for _ in every_ms(seconds):
+            if cyclic:
+                urb.service()
             for node in motors:
                 node.submit_request(node.new_request().read_message(MotorFeedback).set_callback(done))
                 node.submit_request(node.new_request().write_message(MotorCommand(voltage=1)).set_callback(done))
@@ -197,6 +201,8 @@ def usb_sensorhex(seconds: float) -> dict[str, Any]:
         deadline = time.monotonic() + 2.0
         while count[0] < sent and time.monotonic() < deadline:
             time.sleep(0.001)
+            if cyclic:
+                urb.service()
         cpu, wall = time.process_time() - cpu0, time.perf_counter() - wall0
         after = thread_split(1)
     split = {k: (after.get(k, 0.0) - before.get(k, 0.0)) / max(1, count[0]) for k in after}
@@ -210,14 +216,15 @@ submission (more when other jobs delay the threads), so the cycle of a tick is s
 the next tick's start."""
 
 
-def usb_sensorhex_cycle(seconds: float, polled: bool = True) -> dict[str, Any]:
+def usb_sensorhex_cycle(seconds: float, polled: bool = True, cyclic: bool = False) -> dict[str, Any]:
     """Case 2 through the cycle API (urb.cycle.Cycle): the same load, each tick's six requests one
     cycle (three MotorFeedback reads, three MotorCommand writes given new messages every tick),
     submitted at once; CYCLE_RING cycles in rotation. `polled`: the loop looks at a cycle's
     outcome when it comes round again (`Cycle.poll`, no dispatcher wake-up); else one callback
     per cycle on the dispatcher. A cycle still in flight when it comes round is an overrun: that
-    tick submits nothing (counted)."""
-    with usb_motor_bridge() as (urb, motors):
+    tick submits nothing (counted). `cyclic`: the cyclic runtime, `urb.service()` at each tick
+    before the cycle is looked at."""
+    with usb_motor_bridge(cyclic) as (urb, motors):
         count, failed, overruns = [0], [0], [0]
 
         def done(c: Cycle) -> None:
@@ -234,6 +241,8 @@ def usb_sensorhex_cycle(seconds: float, polled: bool = True) -> dict[str, Any]:
         sent = ticks = 0
         cpu0, wall0 = time.process_time(), time.perf_counter()
         for _ in every_ms(seconds):
+            if cyclic:
+                urb.service()
             cycle, commands = ring[ticks % CYCLE_RING]
             ticks += 1
             if polled and cycle.in_flight and cycle.poll():
@@ -248,6 +257,8 @@ def usb_sensorhex_cycle(seconds: float, polled: bool = True) -> dict[str, Any]:
         deadline = time.monotonic() + 2.0
         while count[0] < sent and time.monotonic() < deadline:
             time.sleep(0.001)
+            if cyclic:
+                urb.service()
             for cycle, _ in ring if polled else ():
                 if cycle.in_flight and cycle.poll():
                     done(cycle)

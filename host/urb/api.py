@@ -520,6 +520,15 @@ class URBInterface:
         self._merge(box[0])
         return box[0]
 
+    def service(self) -> int:
+        """The cyclic runtime's step for every registered manager made with `cyclic=True`
+        (`ThreadedManager.service`): what arrived, the deadlines, what is due to be sent, then
+        their callbacks on the calling thread. Never waits. Returns the callbacks run. Managers
+        that run their own threads are left to them. The pattern (host/urb/README.md, "The cyclic
+        runtime"): sleep to each 1-ms tick, `service()`, then the control step and its
+        submissions, which leave at the next tick's `service()`."""
+        return sum(report.manager.service() for report in list(self.reports.values()) if report.manager.cyclic)
+
     def close(self, *, drain: bool = True) -> None:
         """Close every registered manager (`BusManager.close`: each drains its requests in flight
         first, unless `drain=False`)."""

@@ -56,6 +56,10 @@ typedef struct {
     bool has_handover;
     urb_handover_t handover;   /* the port's hand-over record, covered before every write */
     bool handover_warned;
+    /* USB serviced by the caller (_pump_open/_pump_service, a cyclic manager: no thread) */
+    bool serviced;             /* _pump_open set the fields up; _pump_stop clears it */
+    bool reading;              /* the IN stream has not ended */
+    urb_ns_t next_frame;       /* the next 1-ms boundary at which a batch goes out */
     /* guarded by the core's lock */
     bool kicked;               /* Python queued something for its dispatcher: wake it */
     bool notified;             /* RS232: wake_fd was written and the thread has not taken it yet */
@@ -106,6 +110,8 @@ PyObject *native_pump_wait(native_core_t *self, PyObject *arg);
 PyObject *native_pump_kick(native_core_t *self, PyObject *unused);
 PyObject *native_pump_running(native_core_t *self, PyObject *unused);
 PyObject *native_pump_notify(native_core_t *self, PyObject *unused);
+PyObject *native_pump_open(native_core_t *self, PyObject *args);
+PyObject *native_pump_service(native_core_t *self, PyObject *unused);
 PyObject *native_has_completed(native_core_t *self, PyObject *unused);
 /* Interned attribute names: each part interns the ones it uses at module import. */
 typedef struct {

@@ -34,6 +34,9 @@
 #include <time.h>
 #include <unistd.h>
 
+/* IN transfers one _pump_service reads at most. */
+#define NATIVE_SERVICE_READS 8u
+
 urb_ns_t native_monotonic_ns(void)
 {
     struct timespec ts;
@@ -230,7 +233,9 @@ int native_adopt_pump_reason(native_core_t *self)
     return rc;
 }
 
-PyObject *native_pump_start(native_core_t *self, PyObject *args)
+/* Parses the arguments of _pump_start and _pump_open and sets the pump's fields up (no thread yet).
+ * Returns 0, or -1 with a Python error. */
+static int pump_configure(native_core_t *self, PyObject *args)
 {
     int fd = -1;
     const char *name = NULL;
@@ -238,31 +243,32 @@ PyObject *native_pump_start(native_core_t *self, PyObject *args)
     const char *port = NULL;
     const char *directory = NULL;
     if (!PyArg_ParseTuple(args, "isLzz", &fd, &name, &frame_ns, &port, &directory)) {
-        return NULL;
+        return -1;
     }
     if (!self->ready) {
         PyErr_SetString(PyExc_RuntimeError, "the pump drives a core that is set up (NativeUsbCore, NativeRs232Core)");
-        return NULL;
+        return -1;
     }
-    if (self->pump.running) {
+    if (self->pump.running || self->pump.serviced) {
         PyErr_SetString(PyExc_RuntimeError, "the pump runs already (stop it first)");
-        return NULL;
+        return -1;
     }
     bool const usb = self->core.kind == URB_LINK_USB;
     if ((fd < 0) || (usb ? (frame_ns <= 0) : (frame_ns != 0))) {
         PyErr_SetString(PyExc_ValueError, "the pump needs an open descriptor, and a frame period above 0 on USB (0 on RS232)");
-        return NULL;
+        return -1;
     }
     native_pump_t *p = &self->pump;
     urb_handover_t *handover = &p->handover;
     if ((port != NULL) && (urb_handover_init(handover, port, directory) != URB_HOST_OK)) {
         PyErr_Format(PyExc_ValueError, "%s: the port's hand-over record path is too long", port);
-        return NULL;
+        return -1;
     }
     if (!usb && (p->wake_fd < 0)) { /* kept until the core is released: a _pump_notify may still write to it */
         p->wake_fd = eventfd(0u, EFD_NONBLOCK | EFD_CLOEXEC);
         if (p->wake_fd < 0) {
-            return PyErr_SetFromErrno(PyExc_OSError);
+            (void)PyErr_SetFromErrno(PyExc_OSError);
+            return -1;
         }
     } else if (!usb) {
         uint64_t stale;
@@ -279,6 +285,16 @@ PyObject *native_pump_start(native_core_t *self, PyObject *args)
     p->kicked = false;
     p->io_ended = false;
     native_core_unlock(self);
+    return 0;
+}
+
+PyObject *native_pump_start(native_core_t *self, PyObject *args)
+{
+    if (pump_configure(self, args) < 0) {
+        return NULL;
+    }
+    native_pump_t *p = &self->pump;
+    bool const usb = self->core.kind == URB_LINK_USB;
     int const rc = pthread_create(&p->thread, NULL, usb ? pump_main : native_rs232_pump_main, self);
     if (rc != 0) {
         errno = rc;
@@ -287,6 +303,78 @@ PyObject *native_pump_start(native_core_t *self, PyObject *args)
     (void)pthread_setname_np(p->thread, "urb-pump"); /* what /proc/<pid>/task/<tid>/comm shows */
     p->running = true;
     Py_RETURN_NONE;
+}
+
+PyObject *native_pump_open(native_core_t *self, PyObject *args)
+{
+    if (self->ready && (self->core.kind != URB_LINK_USB)) {
+        PyErr_SetString(PyExc_ValueError, "_pump_open services a USB core (RS232 runs its pump on a thread)");
+        return NULL;
+    }
+    if (pump_configure(self, args) < 0) {
+        return NULL;
+    }
+    native_pump_t *p = &self->pump;
+    p->serviced = true;
+    p->reading = true;
+    p->next_frame = ((native_monotonic_ns() / p->frame_ns) + 1) * p->frame_ns;
+    Py_RETURN_NONE;
+}
+
+/* One service of a USB pump opened by _pump_open, without waiting: the IN transfers that arrived
+ * (at most NATIVE_SERVICE_READS, so that a babbling device cannot hold the caller), then the
+ * deadlines, and the batch when a 1-ms boundary has passed since the last one (one batch per call,
+ * an overslept boundary skipped as pump_main skips it). The same steps in the same order as
+ * pump_main, only driven by the caller's tick instead of the thread's wake-ups. Returns false once
+ * the I/O ended (a failed write or a closed descriptor: the bridge is lost). */
+static bool pump_service_pass(native_core_t *self)
+{
+    native_pump_t *p = &self->pump;
+    uint8_t in[4096];
+    uint8_t out[URB_USB_BATCH_MAX];
+    if (p->reading) {
+        struct pollfd fds = {p->fd, POLLIN, 0};
+        unsigned reads = 0u;
+        while (p->reading && (reads < NATIVE_SERVICE_READS) && (poll(&fds, 1u, 0) > 0) &&
+               ((fds.revents & (POLLIN | POLLHUP | POLLERR)) != 0)) {
+            p->reading = pump_read(self, in, sizeof in);
+            reads++;
+        }
+        if (pump_descriptor_closed(self, fds.revents)) {
+            return false;
+        }
+    }
+    urb_ns_t const now = native_monotonic_ns();
+    if (now < p->next_frame) {
+        (void)pthread_mutex_lock(&self->lock);
+        (void)urb_core_poll(&self->core, now);
+        (void)pthread_mutex_unlock(&self->lock);
+        return true;
+    }
+    p->next_frame += p->frame_ns;
+    if (p->next_frame <= now) {
+        p->next_frame = ((now / p->frame_ns) + 1) * p->frame_ns;
+    }
+    return pump_frame(self, out, sizeof out);
+}
+
+PyObject *native_pump_service(native_core_t *self, PyObject *unused)
+{
+    (void)unused;
+    native_pump_t *p = &self->pump;
+    if (!p->serviced) {
+        PyErr_SetString(PyExc_RuntimeError, "_pump_service: the pump is not open for service (_pump_open first)");
+        return NULL;
+    }
+    native_core_lock(self);
+    bool on = !p->io_ended;
+    native_core_unlock(self);
+    if (on) {
+        Py_BEGIN_ALLOW_THREADS
+        on = pump_service_pass(self);
+        Py_END_ALLOW_THREADS
+    }
+    return PyBool_FromLong(on);
 }
 
 /* Tells the thread to stop and wakes it (an RS232 pump may wait on its descriptors without a
@@ -302,6 +390,7 @@ static void pump_signal_stop(native_pump_t *p)
 
 void native_pump_join(native_core_t *self)
 {
+    self->pump.serviced = false;
     if (self->pump.running) {
         pump_signal_stop(&self->pump);
         (void)pthread_join(self->pump.thread, NULL);
@@ -316,6 +405,7 @@ void native_pump_join(native_core_t *self)
 PyObject *native_pump_stop(native_core_t *self, PyObject *unused)
 {
     (void)unused;
+    self->pump.serviced = false;
     if (self->pump.running) {
         pump_signal_stop(&self->pump);
         Py_BEGIN_ALLOW_THREADS
@@ -387,7 +477,7 @@ PyObject *native_pump_running(native_core_t *self, PyObject *unused)
 {
     (void)unused;
     native_core_lock(self);
-    bool const on = self->pump.running && !self->pump.io_ended;
+    bool const on = (self->pump.running || self->pump.serviced) && !self->pump.io_ended;
     native_core_unlock(self);
     return PyBool_FromLong(on);
 }

@@ -410,6 +410,17 @@ class BusManager(ABC):
     def set_window(self, window: int) -> None:
         """Bound the requests outstanding on the bridge (learnt from BridgeInfo.fifo_depth)."""
 
+    @property
+    def cyclic(self) -> bool:
+        """The application services this manager (`service()`, made with `cyclic=True`): no thread
+        of the manager runs; callbacks run inside `service()` on the caller's thread."""
+        return False
+
+    def service(self) -> int:
+        """One pass of a cyclic manager's I/O without waiting (see `ThreadedManager.service`);
+        returns the callbacks run. A manager that runs its own threads has nothing to do: 0."""
+        return 0
+
     def new_cycle_state(self, specs: tuple[tuple[int, int, bool, int], ...]) -> CycleState | None:
         """The C core's record of a cycle's requests on this bridge (`urb.cycle.Cycle`; `specs`:
         (address, mailbox, read, length) per item), or None when this manager's core takes single
@@ -447,9 +458,17 @@ class ThreadedManager(BusManager):
     thread that submits runs the callbacks itself, inside `submit`/`reject`, so every `on_done`
     still runs exactly once."""
 
-    def __init__(self, core: Core, name: str) -> None:
+    def __init__(self, core: Core, name: str, *, cyclic: bool = False) -> None:
         self.name = name
         self._core = core
+        self._cyclic = cyclic
+        self._serviced = False
+        """A cyclic manager between `start()` and `close()`: the application's `service()` does the
+        I/O and runs the callbacks (no dispatcher, no I/O thread)."""
+        self._service_lock = threading.Lock()
+        """One `service()` at a time (the application's tick and a blocking call on another thread)."""
+        self._calling_back: threading.Thread | None = None
+        """The thread running callbacks inside `service()` (a blocking call from it is refused)."""
         self._lock = threading.RLock()
         self._changed = threading.Condition(self._lock)
         self._dispatch_q: queue.SimpleQueue[Transfer | Callable[[], None] | None] = queue.SimpleQueue()
@@ -468,6 +487,11 @@ class ThreadedManager(BusManager):
         then skips `_collect`); None for the Python cores."""
 
     # -- subclass hooks --------------------------------------------------------------------
+    def _service_io(self) -> None:
+        """A cyclic manager's I/O, one pass without waiting: what arrived, the deadlines, what is
+        due to be sent (lock not held; `_collect` it)."""
+        raise NotImplementedError
+
     def _wake_io(self) -> None:
         """Tell the I/O threads there may be something to send."""
 
@@ -480,6 +504,61 @@ class ThreadedManager(BusManager):
     # -- BusManager --------------------------------------------------------------------------
     def now_ns(self) -> int:
         return time.monotonic_ns()
+
+    @property
+    def cyclic(self) -> bool:
+        return self._cyclic
+
+    # lobster-trace: urb.HOST_005
+    def service(self) -> int:
+        """The cyclic runtime's one step (a manager made with `cyclic=True`; host/urb/README.md,
+        "The cyclic runtime"): read what the uplink delivered since the last call, apply the
+        deadlines, send what is due (a USB batch when a 1-ms boundary has passed since the last
+        one), then run the callbacks of everything that completed, in completion order, on the
+        calling thread. Never waits for the uplink. Returns the number of callbacks run (lost
+        listeners' notices included). Call it once per control period, e.g. at every 1-ms tick;
+        between calls nothing of the manager runs. Blocking calls (`read`, `NodeRequest.wait`,
+        discovery, a draining `close`) service the manager themselves while they wait. Inside a
+        callback it raises RuntimeError, as blocking calls do; on a manager that runs its own
+        threads (`cyclic=False`) it is RuntimeError too. After `close()` it runs the callbacks left
+        (none: close runs them) and returns."""
+        if not self._cyclic:
+            raise RuntimeError(f"{self.name}: service() drives a manager made with cyclic=True; this one runs "
+                               "its own threads (nothing to call)")
+        if self._calling_back is threading.current_thread():
+            raise RuntimeError("service() inside a callback would run callbacks inside callbacks; "
+                               "return from the callback and let the next service() run them")
+        with self._service_lock:
+            return self._service_locked()
+
+    def _service_locked(self) -> int:
+        if self._serviced:
+            self._service_io()
+        with self._lock:
+            if self._has_completed is None or self._has_completed():
+                self._collect()
+        return self._run_callbacks()
+
+    def _run_callbacks(self) -> int:
+        """Run the queued callbacks and notices on the calling thread (marked as calling back, so
+        that a blocking call from a callback is refused), then wake the blocking waiters once."""
+        ran = 0
+        previous, self._calling_back = self._calling_back, threading.current_thread()
+        try:
+            while True:
+                try:
+                    item = self._dispatch_q.get_nowait()
+                except queue.Empty:
+                    break
+                if item is not None:
+                    _run_item(item)
+                    ran += 1
+        finally:
+            self._calling_back = previous
+        if ran:
+            with self._changed:
+                self._changed.notify_all()
+        return ran
 
     @property
     def lost_reason(self) -> str | None:
@@ -532,8 +611,10 @@ class ThreadedManager(BusManager):
         self._complete_without_dispatcher()
 
     def wait_until(self, predicate: Callable[[], bool], timeout_s: float) -> bool:
-        if threading.current_thread() is self._dispatcher:
+        if threading.current_thread() in (self._dispatcher, self._calling_back):
             raise RuntimeError(BLOCKING_IN_CALLBACK)
+        if self._serviced:
+            return self._service_until(predicate, timeout_s)
         deadline = time.monotonic() + timeout_s
         with self._changed:
             while not predicate():
@@ -543,7 +624,29 @@ class ThreadedManager(BusManager):
                 self._changed.wait(min(left, 0.05))
         return True
 
+    def _service_until(self, predicate: Callable[[], bool], timeout_s: float) -> bool:
+        """`wait_until` of a cyclic manager: service it at every 1-ms boundary until `predicate()`
+        holds (when another thread is in `service()`, wait for the callbacks it runs instead)."""
+        deadline = time.monotonic_ns() + int(timeout_s * NS_PER_S)
+        while not predicate():
+            if self._serviced and self._service_lock.acquire(blocking=False):
+                try:
+                    self._service_locked()
+                finally:
+                    self._service_lock.release()
+                if predicate():
+                    break
+            now = time.monotonic_ns()
+            if now >= deadline:
+                return False
+            tick = min(deadline, (now // NS_PER_MS + 1) * NS_PER_MS)
+            with self._changed:
+                self._changed.wait((tick - now) / NS_PER_S)
+        return True
+
     def _start_dispatcher(self) -> None:
+        if self._cyclic:  # the application's service() runs the callbacks
+            return
         self._running = True
         self._dispatcher = threading.Thread(target=self._dispatch_loop, name=f"urb-dispatch {self.name}", daemon=True)
         self._dispatcher.start()
@@ -583,6 +686,9 @@ class ThreadedManager(BusManager):
         """The start of a draining `close()`: wait, the I/O threads still running, until the
         requests in flight are answered or their lifetime is over (`MatchingCore.start_drain`),
         then apply the timeouts due by then, so that they complete with their usual error."""
+        if self._serviced:
+            self._drain_serviced()
+            return
         with self._changed:
             deadline = self._core.start_drain(self.now_ns())
             self._collect()
@@ -596,6 +702,20 @@ class ThreadedManager(BusManager):
                 self._collect()
             finally:
                 self._draining = False
+
+    def _drain_serviced(self) -> None:
+        """`_drain` of a cyclic manager: the closing thread services it until drained."""
+        with self._lock:
+            deadline = self._core.start_drain(self.now_ns())
+            self._collect()
+        if deadline is not None:
+            def drained() -> bool:
+                with self._lock:
+                    return self._core.drained()
+            self._service_until(drained, max(0, deadline - self.now_ns()) / NS_PER_S)
+            with self._lock:
+                self._core.poll(self.now_ns())
+                self._collect()
 
     def _finish_close(self) -> None:
         """The end of `close()`, once the I/O threads are stopped: outstanding requests complete
@@ -716,8 +836,9 @@ class ThreadedManager(BusManager):
 
     def _complete_without_dispatcher(self) -> None:
         """After a submission: without a dispatcher (closed), run its callback now. A completion
-        queued before `close()` cleared `_dispatcher` is run by close()'s own drain."""
-        if self._dispatcher is None:
+        queued before `close()` cleared `_dispatcher` is run by close()'s own drain. A cyclic
+        manager's callbacks run in its next `service()` while it is open."""
+        if self._dispatcher is None and not self._serviced:
             self._drain_completions_inline()
 
 

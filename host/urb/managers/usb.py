@@ -17,6 +17,13 @@ boundaries, one write per batch, one read per IN transfer, the hand-over record 
 each write), which never takes the GIL; the dispatcher wakes once per batch of completions
 (`ThreadedManager._dispatch_batches`). A core with `trace` set keeps the Python threads (the trace
 records each step as it happens).
+
+With `cyclic=True` no thread runs at all: the application calls `service()` (or
+`URBInterface.service()`) once per tick, and each call reads the IN transfers that arrived, applies
+the deadlines, writes ONE batch when a 1-ms boundary has passed since the last one, and runs the
+callbacks on the calling thread (host/urb/README.md, "The cyclic runtime"). On the C core over a
+`CharDeviceTransport` that pass is one call into C (`_pump_open`, `_pump_service`: the pump's steps
+without its thread); otherwise the same steps in Python, on either core.
 """
 
 from __future__ import annotations
@@ -36,6 +43,10 @@ from .native import new_usb_core
 from .rs232_core import PLACEHOLDER_NS
 from .usb_core import FRAME_NS
 
+SERVICE_READS = 8
+"""IN transfers one `service()` reads at most (as the C pump's NATIVE_SERVICE_READS), so that a
+babbling device cannot hold the application's tick."""
+
 USE_PUMP = True
 """Run the uplink's I/O on the C core's pump when the core and transport allow it (see above);
 bench/host_cpu.py --usb-ab turns it off to compare both runtimes under the same load."""
@@ -46,13 +57,14 @@ class USBManager(ThreadedManager):
 
     def __init__(self, transport: object, *, max_batch: int = 14, timeout_s: float = 0.05,
                  lost_after_s: float = 0.5, placeholder_s: float = PLACEHOLDER_NS / 1e9,
-                 name: str | None = None) -> None:
+                 name: str | None = None, cyclic: bool = False) -> None:
         """`transport`: a `FrameTransport`, or a device path (str) opened with
         `CharDeviceTransport`. `max_batch`: requests per 1-ms batch (at most 15 are in flight; the
         3-ms round trip holds up to 7 requests per frame, see `usb_core`).
         `timeout_s`: a response not back this long after its batch was written completes
         UPLINK_TIMEOUT. `lost_after_s` and `placeholder_s` (how long a timed-out request keeps
-        its sequence number and window slot): as `RS232Manager`'s."""
+        its sequence number and window slot): as `RS232Manager`'s. `cyclic`: no thread; the
+        application calls `service()` every tick (module docstring)."""
         core = new_usb_core(max_batch=max_batch, timeout_ns=int(timeout_s * 1e9), lost_after_ns=int(lost_after_s * 1e9),
                        placeholder_ns=int(placeholder_s * 1e9))
         if isinstance(transport, str):
@@ -60,7 +72,7 @@ class USBManager(ThreadedManager):
             transport = CharDeviceTransport(transport)
         else:
             label = type(transport).__name__
-        super().__init__(core, name or label)
+        super().__init__(core, name or label, cyclic=cyclic)
         from .base import FrameTransport
 
         if not isinstance(transport, FrameTransport):
@@ -73,16 +85,21 @@ class USBManager(ThreadedManager):
         self._thread: threading.Thread | None = None
         self._io_running = False
         self._pump_on = False
+        self._serviced_fd: int | None = None
+        """A cyclic manager's descriptor read by `_service_io` in Python (None: the transport pushes
+        its IN transfers, or the C pump reads them)."""
+        self._poller: select.poll | None = None
+        self._next_frame = 0
 
     def _can_pump(self) -> bool:
         return (USE_PUMP and isinstance(self.transport, CharDeviceTransport) and hasattr(self._usb, "_pump_start")
                 and self._usb.trace is None)
 
     def start(self) -> None:
-        if self._thread is not None or self._pump_on:
+        if self._thread is not None or self._pump_on or self._serviced:
             return
         self._pumped = self._can_pump()
-        if isinstance(self.transport, CharDeviceTransport) and self._pumped:
+        if isinstance(self.transport, CharDeviceTransport) and (self._pumped or self._cyclic):
             self.transport.open_descriptor()
         else:
             opener = getattr(self.transport, "open", None)
@@ -93,6 +110,9 @@ class USBManager(ThreadedManager):
 
     def _start_io(self) -> None:
         self._io_running = True
+        if self._cyclic:
+            self._open_serviced()
+            return
         if self._pumped:
             assert isinstance(self.transport, CharDeviceTransport) and self.transport.fd is not None
             record = self._handover
@@ -104,8 +124,58 @@ class USBManager(ThreadedManager):
         self._thread = threading.Thread(target=self._frame_loop, name=f"urb-usb {self.name}", daemon=True)
         self._thread.start()
 
+    def _open_serviced(self) -> None:
+        """`_start_io` of a cyclic manager: the C pump opened for service, or the descriptor (when
+        there is one) polled by `_service_io`."""
+        record = self._handover
+        port = self.transport.path if isinstance(self.transport, CharDeviceTransport) and record is not None else None
+        if self._pumped:
+            assert isinstance(self.transport, CharDeviceTransport) and self.transport.fd is not None
+            self._usb._pump_open(self.transport.fd, self.name, FRAME_NS, port,  # type: ignore[attr-defined]
+                                 str(record.path.parent) if record is not None else None)
+            self._pump_on = True
+        elif isinstance(self.transport, CharDeviceTransport):
+            assert self.transport.fd is not None
+            self._serviced_fd = self.transport.fd
+            self._poller = select.poll()
+            self._poller.register(self._serviced_fd, select.POLLIN)
+        self._next_frame = (time.monotonic_ns() // FRAME_NS + 1) * FRAME_NS
+        self._serviced = True
+
+    def _service_io(self) -> None:
+        if self._pump_on:
+            self._usb._pump_service()  # type: ignore[attr-defined]
+            return
+        if not self._io_running:
+            return
+        reads = 0
+        while self._serviced_fd is not None and self._poller is not None and reads < SERVICE_READS:
+            try:
+                if not self._poller.poll(0):
+                    break
+                data = os.read(self._serviced_fd, 4096)
+            except OSError:  # as CharDeviceTransport's reader: the reading ends, the next write says why
+                data = b""
+            if not data:
+                self._serviced_fd = None
+                break
+            self._on_in(data)
+            reads += 1
+        now = self.now_ns()
+        if now < self._next_frame:
+            with self._lock:
+                self._usb.poll(now)
+            return
+        self._next_frame += FRAME_NS
+        if self._next_frame <= now:  # overslept: skip to the next boundary, never burst
+            self._next_frame = (now // FRAME_NS + 1) * FRAME_NS
+        self._send_frame(now)
+
     def _stop_io(self) -> None:
         self._io_running = False
+        self._serviced = False
+        self._serviced_fd = None
+        self._poller = None
         if self._pump_on:
             self._usb._pump_stop()  # type: ignore[attr-defined]
             self._pump_on = False
@@ -130,7 +200,7 @@ class USBManager(ThreadedManager):
         reset the protocol and start new threads. When the transport cannot be reopened, raises
         `PortError` and leaves the manager lost (`lost_reason` says why); call it again later."""
         self._stop_io()
-        reopen = "open_descriptor" if self._pumped else "open"
+        reopen = "open_descriptor" if self._pumped or (self._cyclic and isinstance(self.transport, CharDeviceTransport)) else "open"
         try:
             for name in ("close", reopen):
                 fn = getattr(self.transport, name, None)
@@ -156,20 +226,24 @@ class USBManager(ThreadedManager):
             next_frame += FRAME_NS
             if next_frame <= now:  # overslept: skip to the next boundary, never burst
                 next_frame = (now // FRAME_NS + 1) * FRAME_NS
-            with self._lock:
-                self._usb.poll(now)
-                out = self._usb.frame_out(now)
-                self._collect()
-            if out is not None:
-                self._note_sending(now)
-                try:
-                    self.transport.write_batch(out)
-                except OSError as exc:
-                    with self._lock:
-                        self._core.link_lost(self.now_ns(), f"{self.name}: {exc}")
-                        self._collect()
-                    self._io_running = False
-                    return
+            self._send_frame(now)
+
+    def _send_frame(self, now: int) -> None:
+        """One 1-ms boundary: the timeouts, then ONE batch written; a failed write loses the bridge
+        and ends the I/O."""
+        with self._lock:
+            self._usb.poll(now)
+            out = self._usb.frame_out(now)
+            self._collect()
+        if out is not None:
+            self._note_sending(now)
+            try:
+                self.transport.write_batch(out)
+            except OSError as exc:
+                with self._lock:
+                    self._core.link_lost(self.now_ns(), f"{self.name}: {exc}")
+                    self._collect()
+                self._io_running = False
 
 
 class CharDeviceTransport:

@@ -1,0 +1,227 @@
+#!/usr/bin/env python3
+"""The whole SensoRHex load from the Python API in one process, measured as a share of one core.
+
+bench/host_cpu.py measures one USB bridge and projects the robot from it. This one runs the robot:
+two USB bridges with three motor drivers each (every motor's MotorFeedback read and MotorCommand
+written every millisecond: 12 requests per ms) and an RS232 bridge with the battery manager, the
+IMU and the IR distance node read at 100 Hz (300 requests per s), all from one Python program, and
+reads its CPU time (time.process_time: every thread of the library, the loop, the callbacks)
+against the wall clock. The bridges run in other processes and are not counted: the USB ones are
+the Python bridge model behind SOCK_SEQPACKET pairs (a kernel driver's character device keeps
+transfer boundaries the same way), the RS232 one the bridge firmware compiled for the host
+(`make bridge-hosted`) on a pseudo-terminal.
+
+Four programs, each the same load:
+
+  API         how the motors are driven
+  per-request new_request ... submit_request, one callback per request (the paper's API)
+  cycle       urb.cycle.Cycle: the tick's 12 motor requests built once, submitted at once, polled
+              (Cycle.poll) when the cycle comes round again
+
+  runtime     who does the I/O
+  threaded    the managers' own threads (on the C core: the pump's C thread and a dispatcher)
+  cyclic      USB managers made with cyclic=True: no thread; the loop sleeps to each 1-ms tick and
+              calls urb.service(), which reads, sends the batch and runs the callbacks
+              (host/urb/README.md, "The cyclic runtime"). The RS232 manager keeps its threads in
+              both (the cyclic runtime is USB only).
+
+The sensors are read through the per-request API in all four. The goal of issue #38 is 10 % of one
+core from the Python API on the C core; the ratio printed is share / 10 %. Nothing is asserted:
+the numbers go to build/bench/host_cpu_sensorhex.json. Best of --repeats (other jobs on the machine
+only ever add CPU time). Run it on a quiet machine: at load 2 on 2 cores the figures double.
+
+    python3 bench/host_cpu_sensorhex.py                 # 4 programs x 3 runs x 5 s
+    python3 bench/host_cpu_sensorhex.py --seconds 2 --repeats 1
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import os
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+HERE = Path(__file__).resolve().parent
+REPO = HERE.parent
+sys.path.insert(0, str(REPO / "tests" / "host"))
+
+from bridge_proc import build_hosted_bridge, serve_usb_transfers  # noqa: E402
+from urb.api import NodeAccessor, NodeRequest, URBInterface  # noqa: E402
+from urb.cycle import Cycle, CycleItem  # noqa: E402
+from urb.managers import BridgeModel, CharDeviceTransport, RS232Manager, USBManager, fake_node, native  # noqa: E402
+from urb.managers.base import NS_PER_MS  # noqa: E402
+from urb_msgs import _codec  # noqa: E402
+from urb_msgs.sensorhex import MotorCommand, MotorFeedback  # noqa: E402
+
+OUT = REPO / "build" / "bench"
+GOAL = 0.10
+CYCLE_RING = 8
+"""Cycles in rotation: a USB request completes 2-3 frames after its submission, so the cycle of a
+tick is still in flight at the next tick; a tick whose cycle has not come back skips (counted)."""
+SENSORS = [("BatteryManager", "battery,0,0x20"), ("Imu", "imu,0,0x30"), ("IrDistance", "ir,0,0x31")]
+
+
+def _usb_child(sock: socket.socket, first: int) -> None:
+    """One USB bridge with motor drivers `first`..`first`+2 in a child process, until the host
+    closes its end."""
+    nodes = dict(fake_node(f"MotorDriver:{first + i}@{16 + i}") for i in range(3))
+    serve_usb_transfers(sock, BridgeModel(nodes, fifo_depth=15))
+    os._exit(0)
+
+
+@contextlib.contextmanager
+def sensorhex(cyclic: bool) -> Iterator[tuple[URBInterface, list[NodeAccessor], list[NodeAccessor]]]:
+    """The robot's three bridges and the host's interface to them: (urb, 6 motors, 3 sensors)."""
+    children: list[int] = []
+    fds: list[int] = []
+    link = OUT / "host_cpu_sensorhex-pty"
+    OUT.mkdir(parents=True, exist_ok=True)
+    argv = [str(build_hosted_bridge())]
+    for _, spec in SENSORS:
+        argv += ["--node", spec]
+    rs232 = subprocess.Popen(argv + ["--link", str(link), "--seconds", "600"], stdout=subprocess.PIPE, text=True)
+    urb = URBInterface()
+    try:
+        assert rs232.stdout is not None
+        rs232.stdout.readline()  # "pty: ..." once the link exists
+        for first in (0, 3):
+            host_sock, dev_sock = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
+            pid = os.fork()
+            if pid == 0:
+                host_sock.close()
+                _usb_child(dev_sock, first)
+            dev_sock.close()
+            fds.append(os.dup(host_sock.fileno()))
+            host_sock.close()
+            children.append(pid)
+            urb.add_bus_manager(USBManager(CharDeviceTransport(fd=fds[-1]), timeout_s=1.0, name=f"usb{first // 3}",
+                                           cyclic=cyclic))
+        urb.add_bus_manager(RS232Manager(str(link), timeout_s=1.0))
+        motors = [urb.find_node("MotorDriver", i) for i in range(6)]
+        sensors = [urb.find_node(name, 0) for name, _ in SENSORS]
+        yield urb, motors, sensors
+    finally:
+        urb.close()
+        for fd in fds:
+            os.close(fd)
+        for pid in children:
+            os.waitpid(pid, 0)
+        rs232.terminate()
+        rs232.wait(5)
+
+
+def every_ms(seconds: float) -> Iterator[int]:
+    """Yields the tick number once per millisecond of real time for `seconds`, sleeping to each
+    tick on the 1-ms grid (a tick already past is not waited for: the loop catches up)."""
+    tick = (time.monotonic_ns() // NS_PER_MS + 1) * NS_PER_MS
+    end = tick + int(seconds * 1e9)
+    k = 0
+    while tick < end:
+        delay = tick - time.monotonic_ns()
+        if delay > 0:
+            time.sleep(delay / 1e9)
+        yield k
+        k += 1
+        tick += NS_PER_MS
+
+
+def run(api: str, cyclic: bool, seconds: float) -> dict[str, Any]:
+    """One program for `seconds`: CPU time of this process over the wall clock."""
+    with sensorhex(cyclic) as (urb, motors, sensors):
+        count, failed, overruns, sent = [0], [0], [0], [0]
+
+        def done(r: NodeRequest) -> None:
+            count[0] += 1
+            failed[0] += not r.ok
+
+        ring: list[tuple[Cycle, list[CycleItem]]] = []
+        if api == "cycle":
+            for _ in range(CYCLE_RING):
+                cycle = Cycle()
+                for node in motors:
+                    cycle.read(node, MotorFeedback)
+                ring.append((cycle, [cycle.write(node, MotorCommand) for node in motors]))
+
+        def poll_cycles() -> None:
+            for cycle, _ in ring:
+                if cycle.in_flight and cycle.poll():
+                    count[0] += len(cycle.items)
+                    failed[0] += cycle.failed
+
+        cpu0, wall0 = time.process_time(), time.perf_counter()
+        for k in every_ms(seconds):
+            if cyclic:
+                urb.service()
+            if api == "cycle":
+                cycle, commands = ring[k % CYCLE_RING]
+                if cycle.in_flight and cycle.poll():
+                    count[0] += len(cycle.items)
+                    failed[0] += cycle.failed
+                if cycle.in_flight:
+                    overruns[0] += 1
+                else:
+                    for item in commands:
+                        item.set(MotorCommand(voltage=k & 0x7FFF))
+                    cycle.submit()
+                    sent[0] += len(cycle.items)
+            else:
+                for node in motors:
+                    node.submit_request(node.new_request().read_message(MotorFeedback).set_callback(done))
+                    node.submit_request(node.new_request().write_message(MotorCommand(voltage=k & 0x7FFF))
+                                        .set_callback(done))
+                sent[0] += 12
+            if k % 10 == 0:
+                for node in sensors:
+                    node.submit_request(node.new_request().read(1).set_callback(done))
+                sent[0] += 3
+        deadline = time.monotonic() + 3.0
+        while count[0] < sent[0] and time.monotonic() < deadline:
+            time.sleep(0.001)
+            if cyclic:
+                urb.service()
+            poll_cycles()
+        cpu, wall = time.process_time() - cpu0, time.perf_counter() - wall0
+    return {"api": api, "runtime": "cyclic" if cyclic else "threaded", "requests": sent[0], "completed": count[0],
+            "failed": failed[0], "overruns": overruns[0], "cpu_s": cpu, "wall_s": wall, "share": cpu / wall,
+            "requests_per_ms": sent[0] / (wall * 1000)}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--seconds", type=float, default=5.0, help="length of each run (default 5)")
+    ap.add_argument("--repeats", type=int, default=3, metavar="N", help="runs of each program; the cheapest is kept")
+    ap.add_argument("--json", type=Path, default=OUT / "host_cpu_sensorhex.json", help="where the numbers go")
+    args = ap.parse_args(argv)
+    if args.repeats < 1 or args.seconds <= 0:
+        ap.error("--repeats must be 1 or more and --seconds above 0")
+    print(f"SensoRHex from the Python API, whole load in one process (best of {args.repeats} x {args.seconds:g} s; "
+          f"protocol core: {native.BACKEND}, codecs: {_codec.BACKEND}, load average {os.getloadavg()[0]:.1f} on "
+          f"{os.cpu_count()} CPUs)")
+    rows = []
+    print("| API for the motors | runtime | share of one core | / 10 % goal | requests per ms | completed | failed | "
+          "ticks skipped |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|")
+    for api in ("per-request", "cycle"):
+        for cyclic in (False, True):
+            best = min((run(api, cyclic, args.seconds) for _ in range(args.repeats)), key=lambda r: float(r["share"]))
+            rows.append(best)
+            print(f"| {api} | {best['runtime']} | {best['share'] * 100:.2f} % | {best['share'] / GOAL:.2f} | "
+                  f"{best['requests_per_ms']:.2f} | {best['completed']} of {best['requests']} | {best['failed']} | "
+                  f"{best['overruns']} |", flush=True)
+    args.json.parent.mkdir(parents=True, exist_ok=True)
+    args.json.write_text(json.dumps({"rows": rows, "core": native.BACKEND, "codecs": _codec.BACKEND,
+                                     "seconds": args.seconds, "repeats": args.repeats,
+                                     "load_average": os.getloadavg()[0]}, indent=2) + "\n")
+    print(f"written {args.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
