@@ -81,6 +81,7 @@ bench: setup accel host-c-py bridge-hosted host-c-bench
 	$(PYTHON) bench/codec_bench.py
 	URB_HOST_CORE=python $(PYTHON) bench/host_cpu.py --json build/bench/host_cpu.json
 	URB_HOST_CORE=c $(PYTHON) bench/host_cpu.py --json build/bench/host_cpu_native.json
+	URB_HOST_CORE=c $(PYTHON) bench/host_cpu_sensorhex.py
 	$(PYTHON) bench/host_cpu_c.py
 
 clean:

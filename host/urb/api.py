@@ -152,6 +152,9 @@ class NodeAccessor:
         self.failed = 0
         self._boxes: dict[tuple[type[Message], str], int] = {}
         """`mailbox_of`'s answers (asked for every request built with read_message/write_message)."""
+        self._sizes: dict[tuple[bool, int], int] = {(m.direction == "outbox", m.number): m.size
+                                                     for m in layout.mailboxes}
+        """(is a read, mailbox) -> the layout's size, looked up for every request (`schema_size`)."""
 
     @property
     def manager(self) -> BusManager:
@@ -171,6 +174,10 @@ class NodeAccessor:
     def set_callback(self, fn: Callback | None) -> None:
         """Default callback for requests that have none of their own."""
         self._default_callback = fn
+
+    def schema_size(self, read: bool, mbox: int) -> int | None:
+        """The size of outbox (`read`) or inbox `mbox` in this node's layout, None when it has none."""
+        return self._sizes.get((read, mbox))
 
     def mailbox_of(self, cls: type[Message], direction: str) -> int:
         """The number of the `direction` mailbox holding `cls` in the schema."""
@@ -201,10 +208,9 @@ class NodeAccessor:
         rec = self.record
         if not rec.active:
             return ErrorFlag.UNKNOWN_NODE
-        if MISMATCH in rec.flags and not self.own_layout:
+        if rec.flags and MISMATCH in rec.flags and not self.own_layout:
             return ErrorFlag.FINGERPRINT_MISMATCH
-        mb = self.info.mailbox("outbox" if req.is_read else "inbox", req.mailbox)
-        if mb is None or mb.size != req.size:
+        if self._sizes.get((req.is_read, req.mailbox)) != req.size:  # None: no such mailbox
             return ErrorFlag.HOST_SIZE_MISMATCH
         return ErrorFlag.NONE
 

@@ -47,10 +47,9 @@ class NodeRequest:
         _check_mbox(mbox)
         if size is not None and not 1 <= size <= 32:
             raise ValueError(f"size = {size}: a mailbox holds 1..32 bytes")
-        mb = self.node.info.mailbox("outbox", mbox)
         self._mailbox, self._read = mbox, True
         # an outbox the schema does not have: size 0, refused with HOST_SIZE_MISMATCH on submission
-        self._size = size if size is not None else (mb.size if mb is not None else 0)
+        self._size = size if size is not None else (self.node.schema_size(True, mbox) or 0)
         return self
 
     def write(self, mbox: int, data: bytes | Message) -> NodeRequest:

@@ -15,6 +15,7 @@ REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "bench"))
 
 import host_cpu  # noqa: E402
+import host_cpu_sensorhex  # noqa: E402
 
 
 def test_quick_run_completes_every_request(tmp_path: Path) -> None:
@@ -32,3 +33,16 @@ def test_quick_run_completes_every_request(tmp_path: Path) -> None:
         assert cyc["failed"] == 0 and cyc["completed"] == cyc["requests"] >= 6 * 500
         assert cyc["cycles_in_c"] == (r["core"] == "c")
     assert 0 < r["sensorhex_cycle_share"] < 1
+
+
+def test_the_whole_sensorhex_load_runs_in_every_program(tmp_path: Path) -> None:
+    """bench/host_cpu_sensorhex.py: each of its four programs (per-request and cycle API, threaded
+    and cyclic runtime) completes every request it submitted, motors and sensors, without a failure
+    (the shares it prints are not checked: timing goals are not tests)."""
+    out = tmp_path / "host_cpu_sensorhex.json"
+    assert host_cpu_sensorhex.main(["--seconds", "0.5", "--repeats", "1", "--json", str(out)]) == 0
+    rows = json.loads(out.read_text())["rows"]
+    assert [(r["api"], r["runtime"]) for r in rows] == [("per-request", "threaded"), ("per-request", "cyclic"),
+                                                       ("cycle", "threaded"), ("cycle", "cyclic")]
+    for r in rows:
+        assert r["failed"] == 0 and r["completed"] == r["requests"] >= 12 * 400, r

@@ -20,9 +20,9 @@ import pytest
 
 from bridge_proc import serve_usb_transfers
 from urb.api import NodeAccessor, NodeRequest, URBInterface
-from urb.errors import ErrorFlag
+from urb.errors import ErrorFlag, RequestFailed
 from urb.managers import BridgeModel, CharDeviceTransport, LoopbackUsbTransport, USBManager, fake_node, native, usb
-from urb.managers.base import NS_PER_MS, BusManager, Transfer
+from urb.managers.base import NS_PER_MS, BusManager, ThreadedManager, Transfer
 from urb.managers.usb_core import UsbCore
 from urb_msgs import sensorhex as sx
 
@@ -114,6 +114,48 @@ def service_until(urb: URBInterface, done: Any, limit_s: float = 10.0) -> None:
         tick(urb)
 
 
+def exercise(urb: URBInterface, m: USBManager, limit_s: float = 10.0) -> None:
+    """40 ticks of the cyclic pattern with reads and writes on two motors, then the checks: one
+    callback per request, in submission order, each inside service() on this thread, every one OK
+    with the data written, completion times in order."""
+    motors = [urb.find_node("MotorDriver", i) for i in range(2)]
+    motors[1].write_message(sx.MotorCommand(voltage=4321))  # blocking calls service too
+    assert motors[1].read_message(sx.MotorFeedback).voltage == 4321
+    in_service = [False]
+    seen: list[tuple[NodeRequest, bool, threading.Thread]] = []
+
+    def cb(r: NodeRequest) -> None:
+        seen.append((r, in_service[0], threading.current_thread()))
+
+    reqs: list[NodeRequest] = []
+    refused: list[NodeRequest] = []
+    for k in range(40):
+        for node in motors:
+            reqs.append(node.submit_request(node.new_request().read_message(sx.MotorFeedback).set_callback(cb)))
+        if k % 3 == 0:
+            reqs.append(motors[0].submit_request(
+                motors[0].new_request().write_message(sx.MotorCommand(voltage=k)).set_callback(cb)))
+        if k % 10 == 5:  # refused on the host (HOST_SIZE_MISMATCH): its callback too waits for service()
+            refused.append(motors[1].submit_request(motors[1].new_request().read(1, size=2).set_callback(cb)))
+            reqs.append(refused[-1])
+        in_service[0] = True
+        tick(urb)
+        in_service[0] = False
+    in_service[0] = True
+    service_until(urb, lambda: all(r.done for r in reqs), limit_s)
+    sent = [r for r in reqs if r not in refused]  # a refusal completes at once, ahead of requests in flight
+    assert sorted(map(id, (r for r, _, _ in seen))) == sorted(map(id, reqs)), "not one callback per request"
+    assert [r for r, _, _ in seen if r not in refused] == sent, "callbacks out of submission order"
+    assert all(inside for _, inside, _ in seen), "a callback ran outside service()"
+    assert all(thread is threading.current_thread() for _, _, thread in seen)
+    assert len(refused) == 4 and all(r.flags == ErrorFlag.HOST_SIZE_MISMATCH for r in refused)
+    assert all(r.ok for r in sent), [r.error for r in sent if not r.ok]
+    assert reqs[1].message().voltage == 4321 and m.stats.completed >= len(reqs)  # motors[1]
+    late = [r.completed_ns for r in sent]
+    assert late == sorted(late)
+
+
+# lobster-trace: urb.HOST_005
 def test_no_thread_runs_and_callbacks_run_inside_service_in_order(runtime: str, far: Far) -> None:
     before = os_threads()
     urb = URBInterface()
@@ -121,39 +163,45 @@ def test_no_thread_runs_and_callbacks_run_inside_service_in_order(runtime: str, 
     try:
         urb.add_bus_manager(m)  # discovery services the manager itself while it waits
         uses_runtime(m, runtime)
-        assert os_threads() == before  # no Python thread, no C pump thread
-        motors = [urb.find_node("MotorDriver", i) for i in range(2)]
-        motors[1].write_message(sx.MotorCommand(voltage=4321))  # blocking calls service too
-        assert motors[1].read_message(sx.MotorFeedback).voltage == 4321
-
-        in_service = [False]
-        seen: list[tuple[NodeRequest, bool, threading.Thread]] = []
-
-        def cb(r: NodeRequest) -> None:
-            seen.append((r, in_service[0], threading.current_thread()))
-
-        reqs: list[NodeRequest] = []
-        for k in range(40):
-            for node in motors:
-                reqs.append(node.submit_request(node.new_request().read_message(sx.MotorFeedback).set_callback(cb)))
-            if k % 3 == 0:
-                reqs.append(motors[0].submit_request(
-                    motors[0].new_request().write_message(sx.MotorCommand(voltage=k)).set_callback(cb)))
-            assert not any(r.done for r in reqs[-3:]), "a callback ran outside service()"
-            in_service[0] = True
-            tick(urb)
-            in_service[0] = False
-        in_service[0] = True
-        service_until(urb, lambda: all(r.done for r in reqs))
-        assert [r for r, _, _ in seen] == reqs  # submission order, one callback each
-        assert all(inside and thread is threading.current_thread() for _, inside, thread in seen)
-        assert all(r.ok for r in reqs), [r.error for r in reqs if not r.ok]
-        assert reqs[1].message().voltage == 4321 and m.stats.completed >= len(reqs)  # motors[1]
-        late = [r.completed_ns for r in reqs]
-        assert late == sorted(late)
+        assert os_threads() <= before  # no new thread: no Python thread, no C pump thread
+        exercise(urb, m)
     finally:
         urb.close()
     assert not m._serviced and (not m._pump_on)
+
+
+def _callbacks_at_submission(self: ThreadedManager) -> None:
+    self._drain_completions_inline()  # the closed manager's rule applied while serviced
+
+
+def _reversed_batch(self: ThreadedManager, batch: list[Any], run: Any = ThreadedManager._run_callbacks) -> int:
+    return int(run(self, list(reversed(batch))))
+
+
+SEEDED_BUGS: dict[str, tuple[str, Any, type[Exception], str]] = {
+    "callbacks run at submission": ("_complete_without_dispatcher", _callbacks_at_submission, AssertionError,
+                                    "a callback ran outside service()"),
+    "a batch's callbacks reversed": ("_run_callbacks", _reversed_batch, AssertionError,
+                                     "callbacks out of submission order"),
+    "service does no I/O": ("_service_io", lambda self: None, RequestFailed, "no completion within"),
+}
+
+
+@pytest.mark.parametrize("bug", sorted(SEEDED_BUGS))
+def test_the_checks_reject_seeded_runtime_bugs(bug: str, far: Far, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Each seeded bug in the cyclic runtime (applied after discovery) fails `exercise` on the
+    check written for it; the unchanged runtime passes it (the test above)."""
+    name, replacement, error, message = SEEDED_BUGS[bug]
+    urb = URBInterface()
+    m = manager(far)
+    try:
+        urb.add_bus_manager(m)
+        monkeypatch.setattr(USBManager if name == "_service_io" else ThreadedManager, name, replacement)
+        with pytest.raises(error, match=message):
+            exercise(urb, m, limit_s=1.0)
+    finally:
+        monkeypatch.undo()
+        urb.close()
 
 
 def test_both_cores_give_the_same_outcomes(runtime: str) -> None:
@@ -289,7 +337,7 @@ def test_reconnect_of_a_cyclic_manager_starts_no_thread(runtime: str, far: Far) 
     try:
         urb.add_bus_manager(m)
         urb.reconnect(m)
-        assert os_threads() == before
+        assert os_threads() <= before  # no new thread
         motor = urb.find_node("MotorDriver", 0)
         assert motor.read_message(sx.MotorFeedback).voltage == 0
     finally:

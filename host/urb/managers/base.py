@@ -534,22 +534,22 @@ class ThreadedManager(BusManager):
     def _service_locked(self) -> int:
         if self._serviced:
             self._service_io()
-        with self._lock:
+        batch: list[Transfer | Callable[[], None] | None] = []
+        q = self._dispatch_q
+        with self._lock:  # what was queued first (refusals, older), then the core's completions
+            while not q.empty():
+                batch.append(q.get_nowait())
             if self._has_completed is None or self._has_completed():
-                self._collect()
-        return self._run_callbacks()
+                self._queue_completed(self._core, batch.append)
+        return self._run_callbacks(batch) if batch else 0
 
-    def _run_callbacks(self) -> int:
-        """Run the queued callbacks and notices on the calling thread (marked as calling back, so
+    def _run_callbacks(self, batch: list[Transfer | Callable[[], None] | None]) -> int:
+        """Run `batch`'s callbacks and notices on the calling thread (marked as calling back, so
         that a blocking call from a callback is refused), then wake the blocking waiters once."""
         ran = 0
         previous, self._calling_back = self._calling_back, threading.current_thread()
         try:
-            while True:
-                try:
-                    item = self._dispatch_q.get_nowait()
-                except queue.Empty:
-                    break
+            for item in batch:
                 if item is not None:
                     _run_item(item)
                     ran += 1
@@ -846,8 +846,9 @@ def _run_item(item: Transfer | Callable[[], None]) -> None:
     """Run one dispatcher item: a transfer's `on_done`, or a notice; exceptions are reported."""
     try:
         if isinstance(item, Transfer):
-            if item.on_done is not None:
-                item.on_done(item)
+            on_done = item.on_done
+            if on_done is not None:
+                on_done(item)
         else:
             item()
     except Exception as exc:  # a user callback must not kill the dispatcher

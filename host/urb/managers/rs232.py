@@ -15,6 +15,13 @@ core's pump, `_native_pump_rs232.c`: the same reads, one write() per frame, the 
 covered before the writes, the same lost reasons), which never takes the GIL and sleeps until the
 port has bytes, the core's next deadline or a submission; the dispatcher wakes once per batch of
 completions (`ThreadedManager._dispatch_batches`).
+
+With `cyclic=True` no thread runs (host/urb/README.md, "The cyclic runtime"): a submission's frames
+are written at once on the submitting thread (one write() per frame, as the writer does), and the
+application's `service()` reads what the port received, applies the deadlines, writes the frames
+a freed window lets go, and runs the callbacks on the calling thread. The I/O is in Python on
+either core (300 requests per second in SensoRHex: a wake-up less per request matters more than
+the C pump's speed).
 """
 
 from __future__ import annotations
@@ -47,7 +54,7 @@ class RS232Manager(ThreadedManager):
 
     def __init__(self, port: str, baud: int = 115200, *, window: int = 4, timeout_s: float = 0.1,
                  lost_after_s: float = 0.5, placeholder_s: float = PLACEHOLDER_NS / 1e9,
-                 name: str | None = None) -> None:
+                 name: str | None = None, cyclic: bool = False) -> None:
         """`port`: device path (e.g. /dev/ttyS0). `window`: requests outstanding on the bridge
         before discovery tells its FIFO depth. `timeout_s`: a request without response after
         this long completes UPLINK_TIMEOUT. `lost_after_s`: the bridge is declared lost
@@ -57,10 +64,11 @@ class RS232Manager(ThreadedManager):
         its sequence number and its place in the window this long after it was sent (the bridge
         may still answer it; default 0.3 s, the firmware's worst case at 100 kb/s, see
         `rs232_core.PLACEHOLDER_NS`), unless a response releases it first; keep it below
-        `lost_after_s`. Nothing is opened until `start`."""
+        `lost_after_s`. `cyclic`: no thread; the application calls `service()` every tick
+        (module docstring). Nothing is opened until `start`."""
         core = new_rs232_core(window=window, timeout_ns=int(timeout_s * 1e9), lost_after_ns=int(lost_after_s * 1e9),
                          placeholder_ns=int(placeholder_s * 1e9))
-        super().__init__(core, name or port)
+        super().__init__(core, name or port, cyclic=cyclic)
         self.port = port
         self.baud = baud
         self._rs = core
@@ -70,6 +78,9 @@ class RS232Manager(ThreadedManager):
         self._io_running = False
         self._pump_on = False
         self._wake = threading.Event()
+        self._write_lock = threading.Lock()
+        """A cyclic manager's frames are taken from the core and written under it, so that a
+        submission on one thread and a service on another write them in the core's order."""
         self._handover = PortHandover(port)
 
     # -- lifecycle ------------------------------------------------------------------------------
@@ -78,11 +89,15 @@ class RS232Manager(ThreadedManager):
         if self._serial is not None:
             return
         self._serial = open_serial(self.port, self.baud)
-        self._pumped = USE_PUMP and hasattr(self._rs, "_pump_start")
+        self._pumped = USE_PUMP and hasattr(self._rs, "_pump_start") and not self._cyclic
         self._start_threads(self._start_io)
 
     def _start_io(self) -> None:
         self._io_running = True
+        if self._cyclic:
+            self._serviced = True
+            self._send_frames()  # what was submitted before (the hand-over wait may hold it back)
+            return
         if self._pumped:
             assert self._serial is not None
             record = self._handover
@@ -98,6 +113,7 @@ class RS232Manager(ThreadedManager):
 
     def _stop_io(self) -> None:
         self._io_running = False
+        self._serviced = False
         if self._pump_on:
             self._rs._pump_stop()  # type: ignore[attr-defined]
             self._pump_on = False
@@ -137,7 +153,9 @@ class RS232Manager(ThreadedManager):
 
     # -- threads --------------------------------------------------------------------------------
     def _wake_io(self) -> None:
-        if self._pump_on:
+        if self._serviced:
+            self._send_frames()
+        elif self._pump_on:
             self._rs._pump_notify()  # type: ignore[attr-defined]
         else:
             self._wake.set()
@@ -149,6 +167,40 @@ class RS232Manager(ThreadedManager):
         self._io_running = False
         with self._changed:
             self._changed.notify_all()
+
+    def _service_io(self) -> None:
+        ser = self._serial
+        if not self._io_running or ser is None:
+            return
+        try:
+            data = read_available(ser, 0.0)
+        except (OSError, serial.SerialException, TypeError) as exc:
+            self._lost(exc)
+            return
+        now = self.now_ns()
+        with self._lock:
+            if data:
+                self._rs.receive(data, now)
+            self._rs.poll(now)
+        self._send_frames()
+
+    def _send_frames(self) -> None:
+        """A cyclic manager's writer: the frames the window lets go, one write() each."""
+        ser = self._serial
+        if not self._io_running or ser is None:
+            return
+        with self._write_lock:
+            now = self.now_ns()
+            with self._lock:
+                frames = self._rs.frames_to_send(now)
+            if not frames:
+                return
+            self._note_sending(now)
+            try:
+                for frame in frames:
+                    ser.write(frame)
+            except (OSError, serial.SerialException) as exc:
+                self._lost(exc)
 
     def _write_loop(self) -> None:
         ser = self._serial
@@ -190,15 +242,15 @@ class RS232Manager(ThreadedManager):
                 self._wake.set()
 
 
-def read_available(ser: serial.Serial) -> bytes:
-    """What the port has received, waiting up to READ_POLL_S for the first byte (b"": nothing).
+def read_available(ser: serial.Serial, wait_s: float = READ_POLL_S) -> bytes:
+    """What the port has received, waiting up to `wait_s` for the first byte (b"": nothing).
     One select and one read of everything there: pyserial's `in_waiting` + `read(1)` returned
     after a response's first byte and woke the reader again for the rest (twice the wake-ups,
     ~20 % more CPU per RS232 request, bench/host_cpu.py). Raises
     `SerialException` as pyserial does when a port that reports data returns none (a USB
     adapter unplugged), `OSError` when the read fails."""
     fd = ser.fileno()
-    ready, _, _ = select.select([fd], [], [], READ_POLL_S)
+    ready, _, _ = select.select([fd], [], [], wait_s)
     if not ready:
         return b""
     try:
