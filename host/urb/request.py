@@ -199,10 +199,11 @@ class NodeRequest:
         return t
 
     def _on_done(self, t: Transfer) -> None:
-        self.callback_ns = self.node.manager.now_ns()
+        node = self.node
+        self.callback_ns = node.record.bridge.now_ns()  # node.manager
         try:
-            self.node._note(self)
-            cb = self._callback or self.node._default_callback
+            node._note(self)
+            cb = self._callback or node._default_callback
             if cb is not None:
                 cb(self)
         finally:

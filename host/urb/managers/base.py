@@ -575,10 +575,12 @@ class ThreadedManager(BusManager):
             t.submitted_ns = now
             self.stats.submitted += 1
             self._core.submit(t, now)
-            if self._has_completed is None or self._has_completed():
+            serviced = self._serviced  # a cyclic manager's service() collects what completed
+            if not serviced and (self._has_completed is None or self._has_completed()):
                 self._collect()
         self._wake_io()
-        self._complete_without_dispatcher()
+        if not serviced:
+            self._complete_without_dispatcher()
 
     def new_cycle_state(self, specs: tuple[tuple[int, int, bool, int], ...]) -> CycleState | None:
         return cycle_state_of(self._core, specs)
