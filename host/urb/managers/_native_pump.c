@@ -21,7 +21,11 @@
  * It never takes the GIL: completed transfers stay in the C core's completion list, and the
  * dispatcher's wait (_pump_wait) returns once per batch; the Python objects get their outcome
  * when the dispatcher takes them (take_completed, one GIL hold for the whole batch). What it sent
- * (sequence number, sending time, deadline, lifetime) is written to each Python transfer then too.
+ * (sequence number, sending time, deadline, lifetime) is written to each Python transfer then too. *
+ * A cyclic USBManager (usb.py, cyclic=True) runs the same steps without the thread: _pump_open sets
+ * the pump up, and each _pump_service (the application's service(), GIL released) reads the IN
+ * transfers that arrived, applies the deadlines and writes the batch when a 1-ms boundary has
+ * passed, in pump_main's order.
  */
 #include "_native.h"
 
