@@ -65,6 +65,20 @@ FAULTS = ["TIMEOUT", "CHECKSUM", "BUS_STUCK", "NODE_BUSY", "NO_NODE"]  #: Bridge
 BER = 3e-3  #: I2C bit error rate of the fault trace: about one request in four fails
 
 
+def run_c_host(s: System, chost: CHost, cycles: int, tail_ms: int) -> None:
+    """The C host's loop for `cycles` 1-ms periods (tick k is the loop's period k), `tail_ms` more for
+    the last answers, then its close."""
+    chost.loop(NS_PER_MS, cycles, 0)
+    chost.advance_to(s.world.now + (cycles + tail_ms) * NS_PER_MS)
+    chost.close()
+
+
+def run_python_host(s: System, tick: Callable[[], None], cycles: int, tail_ms: int) -> None:
+    """`tick` on the Python host every millisecond for `cycles` ticks, then `tail_ms` more."""
+    Loop(s.host, NS_PER_MS, tick, count=cycles)
+    s.host.advance((cycles + tail_ms) * NS_PER_MS)
+
+
 def bridge_trace_name(uplink: str, ber: float = 0.0) -> str:
     return f"trace_{uplink}{'_ber' if ber else ''}.ndjson"
 
@@ -93,9 +107,7 @@ def record(uplink: str, seed: int, cycles: int, out: Path, ber: float = 0.0, hos
             chost.first(chost.read(b, 0x11, 1, 6, 2), 1)
             chost.read(b, 0x10, 1, 6, 2)
         chost.write(b, 0x10, 1, b"abcdef", 3)
-        chost.loop(NS_PER_MS, cycles, 0)
-        chost.advance_to(s.world.now + (cycles + 300) * NS_PER_MS)
-        chost.close()
+        run_c_host(s, chost, cycles, 300)
         s.world.flush_trace()
         events = bridge_trace(path, f"{uplink}{b}")
         s.close()
@@ -113,8 +125,7 @@ def record(uplink: str, seed: int, cycles: int, out: Path, ber: float = 0.0, hos
         if k[0] % 3 == 0:
             acc[0].submit_request(acc[0].new_request().write(1, b"abcdef"))
 
-    Loop(s.host, NS_PER_MS, tick, count=cycles)
-    s.host.advance((cycles + 300) * NS_PER_MS)
+    run_python_host(s, tick, cycles, 300)
     s.world.flush_trace()
     events = bridge_trace(path, f"{uplink}{b}")
     s.close()
@@ -137,17 +148,14 @@ def record_outbox(seed: int, cycles: int, out: Path, host: str = "python",
     if host == "c":
         chost = CHost(s)
         chost.read(b, 0x10, 1, 6, 1)
-        chost.loop(NS_PER_MS, cycles, 0)
-        chost.advance_to(s.world.now + (cycles + 20) * NS_PER_MS)
-        chost.close()
+        run_c_host(s, chost, cycles, 20)
     else:
         node = s.urb.find_node(0x7E, 0)
 
         def tick() -> None:
             node.submit_request(node.new_request().read(1, 6))
 
-        Loop(s.host, NS_PER_MS, tick, count=cycles)
-        s.host.advance((cycles + 20) * NS_PER_MS)
+        run_python_host(s, tick, cycles, 20)
     s.world.flush_trace()
     events = outbox_trace(path, f"usb{b}/n16")
     s.close()
@@ -177,9 +185,7 @@ def record_inbox(seed: int, cycles: int, out: Path, host: str = "python",
     if host == "c":
         chost = CHost(s)
         chost.counter(chost.write(b, 0x10, 1, bytes(INBOX_SIZE), 1))
-        chost.loop(NS_PER_MS, cycles, 0)
-        chost.advance_to(s.world.now + (cycles + 20) * NS_PER_MS)
-        chost.close()
+        run_c_host(s, chost, cycles, 20)
     else:
         node = s.urb.find_node(0x7E, 0)
         k = [0]
@@ -188,8 +194,7 @@ def record_inbox(seed: int, cycles: int, out: Path, host: str = "python",
             k[0] += 1
             node.submit_request(node.new_request().write(1, bytes([k[0] & 0xFF]) * INBOX_SIZE))
 
-        Loop(s.host, NS_PER_MS, tick, count=cycles)
-        s.host.advance((cycles + 20) * NS_PER_MS)
+        run_python_host(s, tick, cycles, 20)
     s.world.flush_trace()
     events = inbox_trace(path, f"usb{b}/n16")
     s.close()
