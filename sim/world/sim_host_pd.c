@@ -227,43 +227,58 @@ int urbsim_chost_axis(urbsim_chost_t *h, int bridge, int node, int address, doub
     return h->n_axes++;
 }
 
+/* The axis `axis` of `h`, or NULL when there is no such axis. */
+static const ch_axis_t *axis_at(const urbsim_chost_t *h, int axis)
+{
+    return (h && axis >= 0 && axis < h->n_axes) ? &h->axis[axis] : NULL;
+}
+
+/* How many of the `have` entries recorded, starting at `from`, fit in `cap`. */
+static uint32_t span(uint32_t from, uint32_t have, uint32_t cap)
+{
+    if (from >= have) {
+        return 0;
+    }
+    return (have - from < cap) ? have - from : cap;
+}
+
 int urbsim_chost_samples(urbsim_chost_t *h, int axis, uint32_t from, int64_t *t, double *pos, double *ref, uint32_t cap)
 {
-    if (!h || axis < 0 || axis >= h->n_axes || !t || !pos || !ref) {
+    const ch_axis_t *a = axis_at(h, axis);
+    if (!a || !t || !pos || !ref) {
         return -1;
     }
-    const ch_axis_t *a = &h->axis[axis];
-    uint32_t n = 0;
-    for (; n < cap && from + n < a->n_s; n++) {
-        t[n] = a->st[from + n];
-        pos[n] = a->spos[from + n];
-        ref[n] = a->sref[from + n];
+    uint32_t const n = span(from, a->n_s, cap);
+    if (n > 0) {
+        memcpy(t, &a->st[from], n * sizeof *t);
+        memcpy(pos, &a->spos[from], n * sizeof *pos);
+        memcpy(ref, &a->sref[from], n * sizeof *ref);
     }
     return (int)n;
 }
 
 int urbsim_chost_commands(urbsim_chost_t *h, int axis, uint32_t from, int32_t *mv, uint32_t cap)
 {
-    if (!h || axis < 0 || axis >= h->n_axes || !mv) {
+    const ch_axis_t *a = axis_at(h, axis);
+    if (!a || !mv) {
         return -1;
     }
-    const ch_axis_t *a = &h->axis[axis];
-    uint32_t n = 0;
-    for (; n < cap && from + n < a->n_mv; n++) {
-        mv[n] = a->mv[from + n];
+    uint32_t const n = span(from, a->n_mv, cap);
+    if (n > 0) {
+        memcpy(mv, &a->mv[from], n * sizeof *mv);
     }
     return (int)n;
 }
 
 int urbsim_chost_log(urbsim_chost_t *h, int axis, uint32_t from, double *rows, uint32_t cap)
 {
-    if (!h || axis < 0 || axis >= h->n_axes || !rows) {
+    const ch_axis_t *a = axis_at(h, axis);
+    if (!a || !rows) {
         return -1;
     }
-    const ch_axis_t *a = &h->axis[axis];
-    uint32_t n = 0;
-    for (; n < cap && from + n < a->n_log; n++) {
-        memcpy(&rows[n * CH_LOG_COLS], &a->log[(from + n) * CH_LOG_COLS], CH_LOG_COLS * sizeof *rows);
+    uint32_t const n = span(from, a->n_log, cap);
+    if (n > 0) {
+        memcpy(rows, &a->log[(size_t)from * CH_LOG_COLS], (size_t)n * CH_LOG_COLS * sizeof *rows);
     }
     return (int)n;
 }
