@@ -32,9 +32,12 @@ MHz x IPC), at IPC 1 (Geode LX's best case for integer code) and 0.5.
 Next to it, the Python library on the same load, from bench/host_cpu.py's numbers (`make bench`
 runs that first, twice): on its Python reference cores (build/bench/host_cpu.json) and on the C core
 through urb.managers._native (build/bench/host_cpu_native.json; issue #38's goal: at most 10 % of
-one core): CPU per request and share of a core, and the ratios.
+one core): CPU per request and share of a core, and the ratios. Then the whole load run from one
+Python program on the C core (bench/host_cpu_sensorhex.py's build/bench/host_cpu_sensorhex.json: both
+APIs, threaded and cyclic runtime, on these same bridges), each row next to the goal and to the C
+library's cyclic row.
 
-    python3 bench/host_cpu_c.py [--seconds 5] [--cg-seconds 2] [--python-json PATH]
+    python3 bench/host_cpu_c.py [--seconds 5] [--cg-seconds 2] [--python-json PATH] [--sensorhex-json PATH]
 
 Prints a table with ratios; never fails on timing (it fails, saying why, when it cannot measure).
 Numbers also go to build/bench/host_cpu_c.json.
@@ -179,6 +182,16 @@ def python_numbers(path: Path) -> dict[str, float] | None:
         return None
 
 
+def whole_load_rows(path: Path) -> list[dict[str, Any]] | None:
+    """bench/host_cpu_sensorhex.py's rows (the whole load from one Python program), or None."""
+    try:
+        rows = json.loads(path.read_text(encoding="utf-8"))["rows"]
+        return [{"api": str(r["api"]), "runtime": str(r["runtime"]), "us_per_request": float(r["us_per_request"]),
+                 "share_at_12300": float(r["share_at_12300"])} for r in rows]
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
 def side_by_side(py: dict[str, float], on_c: dict[str, float] | None, c_share: float, c_us: float) -> None:
     """The C library and the Python API on the C core (`on_c`, when measured) next to the Python
     library on its Python cores on the SensoRHex load, as ratios to it."""
@@ -256,6 +269,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="bench/host_cpu.py's numbers for the side-by-side table (default build/bench/host_cpu.json)")
     ap.add_argument("--native-json", type=Path, default=OUT / "host_cpu_native.json",
                     help="bench/host_cpu.py's numbers on the C core (default build/bench/host_cpu_native.json)")
+    ap.add_argument("--sensorhex-json", type=Path, default=OUT / "host_cpu_sensorhex.json",
+                    help="bench/host_cpu_sensorhex.py's numbers (default build/bench/host_cpu_sensorhex.json)")
     args = ap.parse_args(argv)
     make("bridge-hosted", "host-c-bench")
     runs = {mode: measure(args.seconds, mode) for mode in (CYCLIC, EVENT)}
@@ -337,6 +352,24 @@ def main(argv: list[str] | None = None) -> int:
               "`make bench` does): no side-by-side table")
     else:
         side_by_side(py, on_c, share_at_rate, us_per_request)
+    whole = whole_load_rows(args.sensorhex_json)
+    rows["python_whole_load"] = whole
+    print()
+    if whole is None:
+        print(f"Python API, whole load: no numbers in {args.sensorhex_json} (run `python3 bench/host_cpu_sensorhex.py` "
+              "first; `make bench` does)")
+    else:
+        print("The whole SensoRHex load from one Python program on the C core (bench/host_cpu_sensorhex.py: the "
+              "same bridges and load as the C library above, measured, not scaled), next to the C library's "
+              "cyclic row:")
+        print()
+        print("| program | CPU per request | x 12.3 requests/ms: share of one core | / 10 % goal | / C library |")
+        print("|---|---:|---:|---:|---:|")
+        for r in whole:
+            print(f"| Python, {r['api']} API, {r['runtime']} runtime | {r['us_per_request']:.2f} us | "
+                  f"{r['share_at_12300'] * 100:.2f} % | {r['share_at_12300'] / GOAL_SHARE_PY_ON_C:.2f} | "
+                  f"{r['us_per_request'] / us_per_request:.1f} |")
+        print(f"| C library, cyclic pattern | {us_per_request:.2f} us | {share_at_rate * 100:.2f} % | | 1.0 |")
     OUT.mkdir(parents=True, exist_ok=True)
     (OUT / "host_cpu_c.json").write_text(json.dumps(rows, indent=1, default=str) + "\n", encoding="utf-8")
     return 0

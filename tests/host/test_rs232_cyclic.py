@@ -20,7 +20,7 @@ from urb.api import NodeRequest, URBInterface
 from urb.errors import ErrorFlag
 from urb.managers import RS232Manager, native, rs232
 from urb.managers.base import NS_PER_MS
-from urb.managers.rs232_core import Rs232Core
+from urb.managers.rs232_core import Rs232Core as ReferenceRs232Core  # not the name conftest swaps (URB_TEST_CORES=c)
 from urb_msgs import sensorhex as sx
 
 NODES = ["MotorDriver:0@16", "MotorDriver:1@17", "Imu:0@48"]
@@ -32,7 +32,7 @@ def core(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str
     if name == "c" and native.BACKEND != "c":
         pytest.fail(f"the C core is not in use ({native.REASON}): `make host-c-py` builds it")
     if name == "python":
-        monkeypatch.setattr(rs232, "new_rs232_core", lambda **kw: Rs232Core(**kw))
+        monkeypatch.setattr(rs232, "new_rs232_core", lambda **kw: ReferenceRs232Core(**kw))
     return name
 
 
@@ -65,7 +65,7 @@ def test_no_thread_and_callbacks_in_order_inside_service(core: str, fake_bridge:
     try:
         urb.add_bus_manager(m)  # discovery services the manager while it waits
         assert os_threads() <= before and m.cyclic and not m._pump_on
-        assert (type(m._rs) is Rs232Core) == (core == "python")
+        assert (type(m._rs) is ReferenceRs232Core) == (core == "python")
         motors = [urb.find_node("MotorDriver", i) for i in range(2)]
         motors[0].write_message(sx.MotorCommand(voltage=1234))
         assert motors[0].read_message(sx.MotorFeedback).voltage == 1234

@@ -23,7 +23,7 @@ from urb.api import NodeAccessor, NodeRequest, URBInterface
 from urb.errors import ErrorFlag, RequestFailed
 from urb.managers import BridgeModel, CharDeviceTransport, LoopbackUsbTransport, USBManager, fake_node, native, usb
 from urb.managers.base import NS_PER_MS, BusManager, ThreadedManager, Transfer
-from urb.managers.usb_core import UsbCore
+from urb.managers.usb_core import UsbCore as ReferenceUsbCore  # not the name conftest swaps (URB_TEST_CORES=c)
 from urb_msgs import sensorhex as sx
 
 NODES = ["MotorDriver:0@16", "MotorDriver:1@17", "Imu:0@48"]
@@ -41,7 +41,7 @@ def runtime(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> 
     if name.startswith("c-") and native.BACKEND != "c":
         pytest.fail(f"the C core is not in use ({native.REASON}): `make host-c-py` builds it")
     if name == "python-core":
-        monkeypatch.setattr(usb, "new_usb_core", lambda **kw: UsbCore(**kw))
+        monkeypatch.setattr(usb, "new_usb_core", lambda **kw: ReferenceUsbCore(**kw))
     if name == "c-core-python-io":
         monkeypatch.setattr(usb, "USE_PUMP", False)
     return name
@@ -93,7 +93,7 @@ def uses_runtime(m: USBManager, runtime: str) -> None:
     """The manager really runs the path the test is named after."""
     assert m.cyclic and m._serviced
     assert m._pump_on == (runtime == "c-pump")
-    assert (type(m._usb) is UsbCore) == (runtime == "python-core")
+    assert (type(m._usb) is ReferenceUsbCore) == (runtime == "python-core")
 
 
 def tick(urb: URBInterface | BusManager, ms: int = 1) -> int:
@@ -228,7 +228,7 @@ def test_both_cores_give_the_same_outcomes(runtime: str) -> None:
     try:
         got = script(manager(f))
         with pytest.MonkeyPatch.context() as mp:  # the reference: the Python core, I/O in Python
-            mp.setattr(usb, "new_usb_core", lambda **kw: UsbCore(**kw))
+            mp.setattr(usb, "new_usb_core", lambda **kw: ReferenceUsbCore(**kw))
             want = script(manager(g))
     finally:
         for x in (f, g):
@@ -362,12 +362,12 @@ def test_a_cyclic_manager_over_a_push_transport(core: str, monkeypatch: pytest.M
     the cyclic manager sends one batch per boundary and runs the callbacks in service() (the
     I/O path in Python, on either core)."""
     if core == "python":
-        monkeypatch.setattr(usb, "new_usb_core", lambda **kw: UsbCore(**kw))
+        monkeypatch.setattr(usb, "new_usb_core", lambda **kw: ReferenceUsbCore(**kw))
     urb = URBInterface()
     m = USBManager(LoopbackUsbTransport(model()), timeout_s=1.0, cyclic=True)
     try:
         urb.add_bus_manager(m)
-        assert (type(m._usb) is UsbCore) == (core == "python" or native.BACKEND != "c") and not m._pump_on
+        assert (type(m._usb) is ReferenceUsbCore) == (core == "python" or native.BACKEND != "c") and not m._pump_on
         node: NodeAccessor = urb.find_node("MotorDriver", 1)
         frames = m._usb.frames_written
         reqs = [node.submit_request(node.new_request().read(1)) for _ in range(10)]
