@@ -8,18 +8,17 @@ fake bridge process on a pseudo-terminal (tests/host/fake_bridge.py).
 
 from __future__ import annotations
 
-import os
 import threading
 import time
 from collections.abc import Callable
 
 import pytest
 
+from cyclic_ticks import os_threads, service_until, tick
 from bridge_proc import BridgeProc, fake_bridge  # noqa: F401 (fixture)
 from urb.api import NodeRequest, URBInterface
 from urb.errors import ErrorFlag
 from urb.managers import RS232Manager, native, rs232
-from urb.managers.base import NS_PER_MS
 from urb.managers.rs232_core import Rs232Core as ReferenceRs232Core  # not the name conftest swaps (URB_TEST_CORES=c)
 from urb_msgs import sensorhex as sx
 
@@ -34,26 +33,6 @@ def core(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str
     if name == "python":
         monkeypatch.setattr(rs232, "new_rs232_core", lambda **kw: ReferenceRs232Core(**kw))
     return name
-
-
-def os_threads() -> set[str]:
-    return set(os.listdir("/proc/self/task"))
-
-
-def tick(urb: URBInterface, ms: int = 1) -> int:
-    ran = 0
-    for _ in range(ms):
-        now = time.monotonic_ns()
-        time.sleep(((now // NS_PER_MS + 1) * NS_PER_MS - now) / 1e9)
-        ran += urb.service()
-    return ran
-
-
-def service_until(urb: URBInterface, done: Callable[[], bool], limit_s: float = 10.0) -> None:
-    end = time.monotonic() + limit_s
-    while not done():
-        assert time.monotonic() < end, "the requests did not complete while serviced"
-        tick(urb)
 
 
 # lobster-trace: urb.HOST_005

@@ -18,11 +18,12 @@ from typing import Any
 
 import pytest
 
+from cyclic_ticks import os_threads, service_until, tick
 from bridge_proc import serve_usb_transfers
 from urb.api import NodeAccessor, NodeRequest, URBInterface
 from urb.errors import ErrorFlag, RequestFailed
 from urb.managers import BridgeModel, CharDeviceTransport, LoopbackUsbTransport, USBManager, fake_node, native, usb
-from urb.managers.base import NS_PER_MS, BusManager, ThreadedManager, Transfer
+from urb.managers.base import ThreadedManager, Transfer
 from urb.managers.usb_core import UsbCore as ReferenceUsbCore  # not the name conftest swaps (URB_TEST_CORES=c)
 from urb_msgs import sensorhex as sx
 
@@ -84,34 +85,11 @@ def manager(f: Far, **kw: Any) -> USBManager:
     return USBManager(CharDeviceTransport(fd=os.dup(f.host_sock.fileno())), cyclic=True, **settings)
 
 
-def os_threads() -> set[str]:
-    """The process's threads as the kernel lists them (C threads included)."""
-    return set(os.listdir("/proc/self/task"))
-
-
 def uses_runtime(m: USBManager, runtime: str) -> None:
     """The manager really runs the path the test is named after."""
     assert m.cyclic and m._serviced
     assert m._pump_on == (runtime == "c-pump")
     assert (type(m._usb) is ReferenceUsbCore) == (runtime == "python-core")
-
-
-def tick(urb: URBInterface | BusManager, ms: int = 1) -> int:
-    """`ms` ticks of the cyclic pattern: sleep to the next 1-ms boundary, service. Returns the
-    callbacks run."""
-    ran = 0
-    for _ in range(ms):
-        now = time.monotonic_ns()
-        time.sleep(((now // NS_PER_MS + 1) * NS_PER_MS - now) / 1e9)
-        ran += urb.service()
-    return ran
-
-
-def service_until(urb: URBInterface, done: Any, limit_s: float = 10.0) -> None:
-    end = time.monotonic() + limit_s
-    while not done():
-        assert time.monotonic() < end, "the requests did not complete while serviced"
-        tick(urb)
 
 
 def exercise(urb: URBInterface, m: USBManager, limit_s: float = 10.0) -> None:

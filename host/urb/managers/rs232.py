@@ -172,35 +172,51 @@ class RS232Manager(ThreadedManager):
         ser = self._serial
         if not self._io_running or ser is None:
             return
-        try:
-            data = read_available(ser, 0.0)
-        except (OSError, serial.SerialException, TypeError) as exc:
-            self._lost(exc)
+        if self._take_input(ser, 0.0) is not None:
+            self._send_frames()
+
+    def _send_frames(self) -> None:
+        """A cyclic manager's writer: the frames the window lets go, on the calling thread."""
+        ser = self._serial
+        if not self._io_running or ser is None:
             return
+        with self._write_lock:
+            self._write_due(ser)
+
+    def _write_due(self, ser: serial.Serial) -> bool:
+        """Writes the frames the window lets go, one write() each (its bytes go back to back).
+        Returns False when none was due or the port failed (the bridge is then lost)."""
+        now = self.now_ns()
+        with self._lock:
+            frames = self._rs.frames_to_send(now)
+        if not frames:
+            return False
+        self._note_sending(now)
+        try:
+            for frame in frames:
+                ser.write(frame)
+        except (OSError, serial.SerialException) as exc:
+            self._lost(exc)
+            return False
+        return True
+
+    def _take_input(self, ser: serial.Serial, wait_s: float) -> bool | None:
+        """What the port received (waiting up to `wait_s` for it) to the core, then its timeouts;
+        what completed goes to the dispatcher's queue. Returns whether requests wait for the
+        window, or None when the port failed (the bridge is then lost)."""
+        try:
+            data = read_available(ser, wait_s)
+        except (OSError, serial.SerialException, TypeError) as exc:
+            if self._io_running:
+                self._lost(exc)
+            return None
         now = self.now_ns()
         with self._lock:
             if data:
                 self._rs.receive(data, now)
             self._rs.poll(now)
-        self._send_frames()
-
-    def _send_frames(self) -> None:
-        """A cyclic manager's writer: the frames the window lets go, one write() each."""
-        ser = self._serial
-        if not self._io_running or ser is None:
-            return
-        with self._write_lock:
-            now = self.now_ns()
-            with self._lock:
-                frames = self._rs.frames_to_send(now)
-            if not frames:
-                return
-            self._note_sending(now)
-            try:
-                for frame in frames:
-                    ser.write(frame)
-            except (OSError, serial.SerialException) as exc:
-                self._lost(exc)
+            self._collect()
+            return bool(self._rs.has_queued)
 
     def _write_loop(self) -> None:
         ser = self._serial
@@ -208,36 +224,16 @@ class RS232Manager(ThreadedManager):
         while self._io_running:
             self._wake.wait(READ_POLL_S * 5)
             self._wake.clear()
-            while self._io_running:
-                with self._lock:
-                    frames = self._rs.frames_to_send(self.now_ns())
-                if not frames:
-                    break
-                self._note_sending(self.now_ns())
-                try:
-                    for frame in frames:
-                        ser.write(frame)  # one write() per frame: its bytes go back to back
-                except (OSError, serial.SerialException) as exc:
-                    self._lost(exc)
-                    return
+            while self._io_running and self._write_due(ser):
+                pass
 
     def _read_loop(self) -> None:
         ser = self._serial
         assert ser is not None
         while self._io_running:
-            try:
-                data = read_available(ser)
-            except (OSError, serial.SerialException, TypeError) as exc:
-                if self._io_running:
-                    self._lost(exc)
+            more = self._take_input(ser, READ_POLL_S)
+            if more is None:
                 return
-            now = self.now_ns()
-            with self._lock:
-                if data:
-                    self._rs.receive(data, now)
-                self._rs.poll(now)
-                self._collect()
-                more = self._rs.has_queued
             if more:
                 self._wake.set()
 
