@@ -214,34 +214,42 @@ def test_usb_hand_over_in_the_bridge_model() -> None:
 
 # -- real processes: a killed one, then the next, over a pty to the fake bridge ---------------
 
-KILLED_CLIENT = """
+KILLED_STRETCH_MS = 1200
+"""How late the slow node answers the killed process: longer than a loaded machine takes to end the
+killed process and start the next (300 ms was not, at load 4 on 2 cores: the answer came before the
+next process opened the port, and the open discarded it), so the answer always comes while the
+next process waits (or, without the record, while its request queues behind the slow one)."""
+
+KILLED_CLIENT = f"""
 import os, signal, sys, time
 from urb.managers import RS232Manager
 from urb.managers.base import Transfer
-m = RS232Manager(sys.argv[1], timeout_s=0.1, placeholder_s=0.6, lost_after_s=1.5)
+m = RS232Manager(sys.argv[1], timeout_s=0.1, placeholder_s={KILLED_STRETCH_MS / 1000 + 0.8}, lost_after_s=4.0)
 m.start()
 t = Transfer(address=int(sys.argv[2]), mailbox=0, read=True, length=int(sys.argv[3]))
 m.submit(t)
 deadline = time.monotonic() + 2
 while t.sent_ns is None and time.monotonic() < deadline:
     time.sleep(0.001)
-time.sleep(0.05)  # the writer thread writes the frame (the node answers 300 ms later)
-print(t.seq, flush=True)
+time.sleep(0.05)  # the writer thread writes the frame (the node answers KILLED_STRETCH_MS later)
+print(t.seq, t.sent_ns, flush=True)
 os.kill(os.getpid(), signal.SIGKILL)
 """
 
 
-def killed_after_sending(link: Path) -> int:
-    """Run a process that sends a read of SLOW and is killed at once; its request's number."""
+def killed_after_sending(link: Path) -> tuple[int, int]:
+    """Run a process that sends a read of SLOW and is killed at once; its request's number and
+    sending time (CLOCK_MONOTONIC, the same in every process)."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(HOST), os.environ.get("PYTHONPATH", "")]))
     proc = subprocess.run([sys.executable, "-c", KILLED_CLIENT, str(link), str(SLOW), str(Identification.SIZE)],
                           capture_output=True, text=True, timeout=30, env=env)
     assert proc.returncode == -signal.SIGKILL, proc.stderr
-    return int(proc.stdout.split()[0])
+    seq, sent_ns = proc.stdout.split()
+    return int(seq), int(sent_ns)
 
 
 def next_process_reads_fast(link: Path) -> tuple[Transfer, RS232Manager]:
-    m = RS232Manager(str(link), timeout_s=1.0, placeholder_s=0.6, lost_after_s=1.5)
+    m = RS232Manager(str(link), timeout_s=3.0, placeholder_s=0.6, lost_after_s=4.0)  # above KILLED_STRETCH_MS
     m.start()
     try:
         t = read_ident(FAST)
@@ -259,17 +267,16 @@ def test_killed_process_late_response_does_not_reach_the_next_one(
     """The `urb` CLI's case with `kill -9`. The mutant (the record ignored) shows the test
     failing the way the code did: the new process gets the slow node's identification."""
     bp = fake_bridge([f"MotorDriver:0@{SLOW}", f"MotorDriver:1@{FAST}"])
-    bp.cmd(f"stretch {SLOW} 300")
+    bp.cmd(f"stretch {SLOW} {KILLED_STRETCH_MS}")
     if not handed_over:
         monkeypatch.setattr(PortHandover, "predecessor_until", lambda self, now_ns: None)
-    old_seq = killed_after_sending(bp.link)
-    started = time.monotonic_ns()
+    old_seq, old_sent_ns = killed_after_sending(bp.link)
     new, m = next_process_reads_fast(bp.link)
     assert new.seq == old_seq == 1
     if handed_over:
         assert index_of(new) == 1
         assert m.stats.stray_bytes >= len(ident_response(1, 0))  # the late response, discarded
-        assert new.sent_ns is not None and new.sent_ns - started >= 300 * MS
+        assert new.sent_ns is not None and new.sent_ns - old_sent_ns >= KILLED_STRETCH_MS * MS  # waited for it
     else:
         assert index_of(new) == 0
 
