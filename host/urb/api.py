@@ -196,28 +196,24 @@ class NodeAccessor:
         """Send the request; its callback runs once it completes. Returns the request."""
         if req.node is not self:
             raise ValueError("the request belongs to another node; make it with this node's new_request()")
-        t = req._make_transfer()
-        refused = self._refusal(req)
-        if refused:
-            self.manager.reject(t, refused)
+        rec = self.record
+        t = req._make_transfer(rec.address)
+        # the host's refusals, in this order (urb.cycle's items apply the same rules)
+        if not rec.active:
+            rec.bridge.reject(t, ErrorFlag.UNKNOWN_NODE)
+        elif rec.flags and MISMATCH in rec.flags and not self.own_layout:
+            rec.bridge.reject(t, ErrorFlag.FINGERPRINT_MISMATCH)
+        elif self._sizes.get((t.read, t.mailbox)) != t.length:  # None: no such mailbox
+            rec.bridge.reject(t, ErrorFlag.HOST_SIZE_MISMATCH)
         else:
-            self.manager.submit(t)
+            rec.bridge.submit(t)
         return req
 
-    def _refusal(self, req: NodeRequest) -> ErrorFlag:
-        rec = self.record
-        if not rec.active:
-            return ErrorFlag.UNKNOWN_NODE
-        if rec.flags and MISMATCH in rec.flags and not self.own_layout:
-            return ErrorFlag.FINGERPRINT_MISMATCH
-        if self._sizes.get((req.is_read, req.mailbox)) != req.size:  # None: no such mailbox
-            return ErrorFlag.HOST_SIZE_MISMATCH
-        return ErrorFlag.NONE
-
-    def _note(self, req: NodeRequest) -> None:
+    def _note(self, ok: bool) -> None:
+        """A request of this node completed (`ok`: without error)."""
         with self._stats_lock:
             self.completed += 1
-            if not req.ok:
+            if not ok:
                 self.failed += 1
 
     # -- blocking conveniences ----------------------------------------------------------------

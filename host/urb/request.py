@@ -44,7 +44,8 @@ class NodeRequest:
     def read(self, mbox: int, size: int | None = None) -> NodeRequest:
         """Read outbox `mbox`; `size` defaults to the schema's size (a different size is refused
         with HOST_SIZE_MISMATCH when submitted)."""
-        _check_mbox(mbox)
+        if mbox.__class__ is not int or not 0 <= mbox <= 7:
+            _check_mbox(mbox)
         if size is not None and not 1 <= size <= 32:
             raise ValueError(f"size = {size}: a mailbox holds 1..32 bytes")
         self._mailbox, self._read = mbox, True
@@ -188,12 +189,13 @@ class NodeRequest:
         return f"<NodeRequest {self.node.label} {kind} {self._mailbox} {state}>"
 
     # -- internal -----------------------------------------------------------------------------
-    def _make_transfer(self) -> Transfer:
+    def _make_transfer(self, address: int) -> Transfer:
+        """The request's transfer to downlink `address` (its node's, read once by the caller)."""
         if self._mailbox is None:
             raise ValueError("call read() or write() on the request before submitting it")
         if self._transfer is not None:
             raise RuntimeError("this NodeRequest was already submitted; make a new one with node.new_request()")
-        t = Transfer(address=self.node.address, mailbox=self._mailbox, read=self._read,
+        t = Transfer(address=address, mailbox=self._mailbox, read=self._read,
                      length=self._size, data=self._payload, on_done=self._on_done, owner=self)
         self._transfer = t
         return t
@@ -202,7 +204,7 @@ class NodeRequest:
         node = self.node
         self.callback_ns = node.record.bridge.now_ns()  # node.manager
         try:
-            node._note(self)
+            node._note(t.flags == ErrorFlag.NONE)
             cb = self._callback or node._default_callback
             if cb is not None:
                 cb(self)
