@@ -192,6 +192,14 @@ def whole_load_rows(path: Path) -> list[dict[str, Any]] | None:
         return None
 
 
+def whole_load_projections(path: Path) -> list[dict[str, Any]]:
+    """bench/host_cpu_sensorhex.py's 500-MHz projections of the cyclic Python programs ([] without)."""
+    try:
+        return list(json.loads(path.read_text(encoding="utf-8")).get("projections", []))
+    except (OSError, ValueError, TypeError, AttributeError):
+        return []
+
+
 def side_by_side(py: dict[str, float], on_c: dict[str, float] | None, c_share: float, c_us: float) -> None:
     """The C library and the Python API on the C core (`on_c`, when measured) next to the Python
     library on its Python cores on the SensoRHex load, as ratios to it."""
@@ -370,6 +378,21 @@ def main(argv: list[str] | None = None) -> int:
                   f"{r['share_at_12300'] * 100:.2f} % | {r['share_at_12300'] / GOAL_SHARE_PY_ON_C:.2f} | "
                   f"{r['us_per_request'] / us_per_request:.1f} |")
         print(f"| C library, cyclic pattern | {us_per_request:.2f} us | {share_at_rate * 100:.2f} % | | 1.0 |")
+        projections = whole_load_projections(args.sensorhex_json)
+        if projections and goal.get("callgrind"):
+            cg = goal["callgrind"]
+            print()
+            print("Projection for a 500-MHz Geode-class core (user instructions + 4000 per system call, per request, "
+                  "x 12.3 requests/ms), the cyclic programs:")
+            print()
+            print("| program | user instructions per request | system calls per request | IPC 1 | IPC 0.5 |")
+            print("|---|---:|---:|---:|---:|")
+            for p in projections:
+                print(f"| Python, {p['api']} API, cyclic runtime | {p['instructions_per_request']:.0f} | "
+                      f"{p['syscalls_per_request']:.2f} | {p['geode_share_ipc1'] * 100:.0f} % | "
+                      f"{p['geode_share_ipc0.5'] * 100:.0f} % |")
+            print(f"| C library, cyclic pattern | {cg['ir_per_request']:.0f} | {cg['syscalls_per_request']:.2f} | "
+                  f"{cg['geode_share_ipc1.0'] * 100:.1f} % | {cg['geode_share_ipc0.5'] * 100:.1f} % |")
     OUT.mkdir(parents=True, exist_ok=True)
     (OUT / "host_cpu_c.json").write_text(json.dumps(rows, indent=1, default=str) + "\n", encoding="utf-8")
     return 0

@@ -40,9 +40,17 @@ def test_the_whole_sensorhex_load_runs_in_every_program(tmp_path: Path) -> None:
     and cyclic runtime) completes every request it submitted, motors and sensors, without a failure
     (the shares it prints are not checked: timing goals are not tests)."""
     out = tmp_path / "host_cpu_sensorhex.json"
-    assert host_cpu_sensorhex.main(["--seconds", "0.5", "--repeats", "1", "--json", str(out)]) == 0
+    assert host_cpu_sensorhex.main(["--seconds", "0.5", "--repeats", "1", "--cg-seconds", "0", "--json", str(out)]) == 0
     rows = json.loads(out.read_text())["rows"]
     assert [(r["api"], r["runtime"]) for r in rows] == [("per-request", "threaded"), ("per-request", "cyclic"),
                                                        ("cycle", "threaded"), ("cycle", "cyclic")]
     for r in rows:
         assert r["failed"] == 0 and r["completed"] == r["requests"] >= 12 * 400, r
+
+
+def test_the_projection_counts_the_cyclic_programs_instructions() -> None:
+    """The 500-MHz projection's runs (callgrind and strace, each with load and without) complete
+    their requests, and the differences give a positive count per request."""
+    p = host_cpu_sensorhex.instructions("cycle", 0.3)
+    assert p["requests"] >= 12 * 10 and p["failed"] == 0, p
+    assert p["instructions_per_request"] > 0 and p["syscalls_per_request"] > 0 and p["geode_share_ipc1"] > 0
