@@ -529,7 +529,11 @@ class URBInterface:
         that run their own threads are left to them. The pattern (host/urb/README.md, "The cyclic
         runtime"): sleep to each 1-ms tick, `service()`, then the control step and its
         submissions, which leave at the next tick's `service()`."""
-        return sum(report.manager.service() for report in list(self.reports.values()) if report.manager.cyclic)
+        ran = 0
+        for report in list(self.reports.values()):
+            if report.manager.cyclic:
+                ran += report.manager.service()
+        return ran
 
     def close(self, *, drain: bool = True) -> None:
         """Close every registered manager (`BusManager.close`: each drains its requests in flight

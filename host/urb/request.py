@@ -55,7 +55,8 @@ class NodeRequest:
 
     def write(self, mbox: int, data: bytes | Message) -> NodeRequest:
         """Write inbox `mbox` with raw bytes or a message (encoded here)."""
-        _check_mbox(mbox)
+        if mbox.__class__ is not int or not 0 <= mbox <= 7:
+            _check_mbox(mbox)
         payload = encode_message(data) if isinstance(data, Message) else bytes(data)
         if not 1 <= len(payload) <= 32:
             raise ValueError(f"{len(payload)} data bytes: a mailbox holds 1..32 bytes")

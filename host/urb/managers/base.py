@@ -410,11 +410,9 @@ class BusManager(ABC):
     def set_window(self, window: int) -> None:
         """Bound the requests outstanding on the bridge (learnt from BridgeInfo.fifo_depth)."""
 
-    @property
-    def cyclic(self) -> bool:
-        """The application services this manager (`service()`, made with `cyclic=True`): no thread
-        of the manager runs; callbacks run inside `service()` on the caller's thread."""
-        return False
+    cyclic: bool = False
+    """The application services this manager (`service()`, made with `cyclic=True`): no thread of
+    the manager runs; callbacks run inside `service()` on the caller's thread."""
 
     def service(self) -> int:
         """One pass of a cyclic manager's I/O without waiting (see `ThreadedManager.service`);
@@ -461,14 +459,15 @@ class ThreadedManager(BusManager):
     def __init__(self, core: Core, name: str, *, cyclic: bool = False) -> None:
         self.name = name
         self._core = core
-        self._cyclic = cyclic
+        self.cyclic = cyclic
         self._serviced = False
         """A cyclic manager between `start()` and `close()`: the application's `service()` does the
         I/O and runs the callbacks (no dispatcher, no I/O thread)."""
         self._service_lock = threading.Lock()
         """One `service()` at a time (the application's tick and a blocking call on another thread)."""
-        self._calling_back: threading.Thread | None = None
-        """The thread running callbacks inside `service()` (a blocking call from it is refused)."""
+        self._calling_back: int | None = None
+        """The thread (`threading.get_ident()`) running callbacks inside `service()` (a blocking
+        call from it is refused)."""
         self._lock = threading.RLock()
         self._changed = threading.Condition(self._lock)
         self._dispatch_q: queue.SimpleQueue[Transfer | Callable[[], None] | None] = queue.SimpleQueue()
@@ -487,6 +486,9 @@ class ThreadedManager(BusManager):
         then skips `_collect`); None for the Python cores."""
 
     # -- subclass hooks --------------------------------------------------------------------
+    WAKES_IO = False
+    """The manager has I/O to wake after a submission (`_wake_io`); False skips the call."""
+
     def _service_io(self) -> None:
         """A cyclic manager's I/O, one pass without waiting: what arrived, the deadlines, what is
         due to be sent (lock not held; `_collect` it)."""
@@ -502,12 +504,8 @@ class ThreadedManager(BusManager):
             self._core._pump_kick()  # type: ignore[attr-defined]
 
     # -- BusManager --------------------------------------------------------------------------
-    def now_ns(self) -> int:
-        return time.monotonic_ns()
-
-    @property
-    def cyclic(self) -> bool:
-        return self._cyclic
+    now_ns = staticmethod(time.monotonic_ns)
+    """The real-time managers' clock (the builtin itself: no Python frame per request)."""
 
     # lobster-trace: urb.HOST_005
     def service(self) -> int:
@@ -522,10 +520,10 @@ class ThreadedManager(BusManager):
         callback it raises RuntimeError, as blocking calls do; on a manager that runs its own
         threads (`cyclic=False`) it is RuntimeError too. After `close()` it runs the callbacks left
         (none: close runs them) and returns."""
-        if not self._cyclic:
+        if not self.cyclic:
             raise RuntimeError(f"{self.name}: service() drives a manager made with cyclic=True; this one runs "
                                "its own threads (nothing to call)")
-        if self._calling_back is threading.current_thread():
+        if self._calling_back == threading.get_ident():
             raise RuntimeError("service() inside a callback would run callbacks inside callbacks; "
                                "return from the callback and let the next service() run them")
         with self._service_lock:
@@ -547,7 +545,7 @@ class ThreadedManager(BusManager):
         """Run `batch`'s callbacks and notices on the calling thread (marked as calling back, so
         that a blocking call from a callback is refused), then wake the blocking waiters once."""
         ran = 0
-        previous, self._calling_back = self._calling_back, threading.current_thread()
+        previous, self._calling_back = self._calling_back, threading.get_ident()
         try:
             for item in batch:
                 if item is not None:
@@ -578,7 +576,8 @@ class ThreadedManager(BusManager):
             serviced = self._serviced  # a cyclic manager's service() collects what completed
             if not serviced and (self._has_completed is None or self._has_completed()):
                 self._collect()
-        self._wake_io()
+        if self.WAKES_IO:
+            self._wake_io()
         if not serviced:
             self._complete_without_dispatcher()
 
@@ -613,7 +612,7 @@ class ThreadedManager(BusManager):
         self._complete_without_dispatcher()
 
     def wait_until(self, predicate: Callable[[], bool], timeout_s: float) -> bool:
-        if threading.current_thread() in (self._dispatcher, self._calling_back):
+        if threading.current_thread() is self._dispatcher or self._calling_back == threading.get_ident():
             raise RuntimeError(BLOCKING_IN_CALLBACK)
         if self._serviced:
             return self._service_until(predicate, timeout_s)
@@ -647,7 +646,7 @@ class ThreadedManager(BusManager):
         return True
 
     def _start_dispatcher(self) -> None:
-        if self._cyclic:  # the application's service() runs the callbacks
+        if self.cyclic:  # the application's service() runs the callbacks
             return
         self._running = True
         self._dispatcher = threading.Thread(target=self._dispatch_loop, name=f"urb-dispatch {self.name}", daemon=True)

@@ -89,12 +89,12 @@ class RS232Manager(ThreadedManager):
         if self._serial is not None:
             return
         self._serial = open_serial(self.port, self.baud)
-        self._pumped = USE_PUMP and hasattr(self._rs, "_pump_start") and not self._cyclic
+        self._pumped = USE_PUMP and hasattr(self._rs, "_pump_start") and not self.cyclic
         self._start_threads(self._start_io)
 
     def _start_io(self) -> None:
         self._io_running = True
-        if self._cyclic:
+        if self.cyclic:
             self._serviced = True
             self._send_frames()  # what was submitted before (the hand-over wait may hold it back)
             return
@@ -152,6 +152,8 @@ class RS232Manager(ThreadedManager):
         self._restart(self._start_io)
 
     # -- threads --------------------------------------------------------------------------------
+    WAKES_IO = True
+
     def _wake_io(self) -> None:
         if self._serviced:
             self._send_frames()

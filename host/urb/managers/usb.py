@@ -99,7 +99,7 @@ class USBManager(ThreadedManager):
         if self._thread is not None or self._pump_on or self._serviced:
             return
         self._pumped = self._can_pump()
-        if isinstance(self.transport, CharDeviceTransport) and (self._pumped or self._cyclic):
+        if isinstance(self.transport, CharDeviceTransport) and (self._pumped or self.cyclic):
             self.transport.open_descriptor()
         else:
             opener = getattr(self.transport, "open", None)
@@ -110,7 +110,7 @@ class USBManager(ThreadedManager):
 
     def _start_io(self) -> None:
         self._io_running = True
-        if self._cyclic:
+        if self.cyclic:
             self._open_serviced()
             return
         if self._pumped:
@@ -200,7 +200,7 @@ class USBManager(ThreadedManager):
         reset the protocol and start new threads. When the transport cannot be reopened, raises
         `PortError` and leaves the manager lost (`lost_reason` says why); call it again later."""
         self._stop_io()
-        reopen = "open_descriptor" if self._pumped or (self._cyclic and isinstance(self.transport, CharDeviceTransport)) else "open"
+        reopen = "open_descriptor" if self._pumped or (self.cyclic and isinstance(self.transport, CharDeviceTransport)) else "open"
         try:
             for name in ("close", reopen):
                 fn = getattr(self.transport, name, None)
