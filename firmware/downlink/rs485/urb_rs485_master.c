@@ -181,17 +181,42 @@ static void frame_end(urb_rs485_master_t *m)
 /* The frame cut after its n-th byte, `last` as the line carried it: would a node's receiver find
  * it a frame for itself (a select byte and a check that passes: urb_rs485_frame.c)? With CRC-8
  * on short frames, about one cut in 256 does (found by fuzz_rs485, 2026-11-29: a 31-byte write
- * cut at its 9th byte was stored as a 6-byte write while the bridge said BUS_STUCK). */
+ * cut at its 9th byte was stored as a 6-byte write while the bridge said BUS_STUCK).
+ * In constant time, from the receiver's running CRCs (issue #39): recomputing the check over the
+ * cut bytes took up to 33 CRC steps inside the byte's interrupt, 570 model cycles already for a
+ * 4-byte write against one character at 1 Mb/s (480; found by fw_rs485_master). The receiver's
+ * frame is the cut frame: send() starts on a silent line, so the first echo started that frame
+ * and every echo as sent joined it; `last` joined it too (rx.n == n) unless a silence over t1.5
+ * before it broke the frame (rx.n == n - 1: the receiver then left its state as it was). Its
+ * CRCs cover every byte of its frame but the last two (urb_rs485.h), so buf[0 .. rx.n - 3], and
+ * at most two steps over the bytes sent finish the cut frame's check, whatever its length. Same
+ * verdict as the recomputation (tests/firmware/rs485/test_rs485.c: test_master_cut_verdict). */
 static bool cut_frame_passes_check(const urb_rs485_master_t *m, uint8_t n, uint8_t last)
 {
     uint8_t const cl = urb_rs485_check_len(n);
+    uint8_t const have = m->rx.n;
     if ((n < 3u) || (cl == 0u)) {
         return false;
     }
-    uint32_t const c = urb_link_check(m->buf, (size_t)n - (size_t)cl, NULL, 0u);
-    if (cl == 1u) {
-        return (uint8_t)c == last;
+    if ((have != n) && ((uint8_t)(have + 1u) != n)) {
+        return true; /* not the cut frame (not reached, see above): TIMEOUT, which claims nothing */
     }
+    uint8_t const covered = (uint8_t)(n - cl); /* the check covers buf[0 .. covered - 1] */
+    uint8_t i = (uint8_t)(have - 2u);          /* the receiver's CRCs cover buf[0 .. i - 1] */
+    if (cl == 1u) {
+        uint8_t c = m->rx.crc8;
+        if ((uint8_t)(i + 1u) < covered) {
+            c = urb_crc8_link_check_byte(c, m->buf[i]); /* `last` broke the frame: one step more */
+            i++;
+        }
+        c = urb_crc8_link_check_byte(c, m->buf[i]);
+        return urb_crc8_link_check_final(c) == last;
+    }
+    uint16_t c = m->rx.crc16;
+    if (i < covered) {
+        c = urb_crc16_link_check_byte(c, m->buf[i]); /* `last` broke the frame */
+    }
+    c = urb_crc16_link_check_final(c);
     return ((uint8_t)c == m->buf[n - 2u]) && ((uint8_t)(c >> 8) == last);
 }
 
@@ -218,11 +243,15 @@ void urb_rs485_master_rx(urb_rs485_master_t *m, uint8_t byte, uint32_t t)
         }
         /* Rs485Poll.tla: CollideMid. Stop driving; a frame cut before its last byte reaches nobody,
          * unless what the line carried is itself a well-formed shorter frame (a frame's length is
-         * its byte count): then the node may have taken it, and only TIMEOUT is true. */
+         * its byte count): then the node may have taken it, and only TIMEOUT is true. A cut drains
+         * even when its frame passes (TIMEOUT at its end): in SENT, bytes joining it up to the
+         * request's length made it look like the request sent whole, and the node's silence was
+         * reported NO_NODE (found by fw_rs485_master, PART=1,OP=1, 2026-11-30). */
         m->hal->tx_abort(m->hal->ctx);
         m->stats.collisions++;
-        m->cut = ((uint8_t)(k + 1u) < m->n_tx) && !cut_frame_passes_check(m, (uint8_t)(k + 1u), byte);
-        if (m->cut || (m->op == URB_DL_SYNC)) {
+        bool const last_byte = (uint8_t)(k + 1u) >= m->n_tx;
+        m->cut = !last_byte && !cut_frame_passes_check(m, (uint8_t)(k + 1u), byte);
+        if (!last_byte || (m->op == URB_DL_SYNC)) {
             m->phase = PH_DRAIN;
         } else {
             m->phase = PH_SENT; /* the last byte: the node's check decides */

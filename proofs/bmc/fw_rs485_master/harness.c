@@ -33,7 +33,8 @@
  *    request whole (every byte but possibly the last as sent: the node's check decides the last) and
  *    A passed its check, decodes as an Rs485Response for the request's mailbox, with status OK (a
  *    read: with `length` bytes, which are then in data[]; a write: with none; a probe: any answer);
- *    a SYNC OK only when all its bytes were echoed; a CLEAR OK only after t3.5 of silence; NO_NODE
+ *    a SYNC OK only when R holds its bytes (each as sent, by whoever: the master hears only the
+ *    line); a CLEAR OK only after t3.5 of silence; NO_NODE
  *    only when R carried the request and nothing was heard for the node's whole turn (t3.5 + the
  *    turnaround after R's last byte); a node's refusal (NODE_BUSY, SIZE_MISMATCH, BAD_REQUEST, a
  *    write's or probe's CHECKSUM) only when A is a well-formed answer carrying it (a read's
@@ -329,6 +330,21 @@ static bool r_carried_request(void)
     return ended(0u) && !r_broken && (rn == req_n) && (echo_good + 1u >= req_n);
 }
 
+/* R holds the request's bytes: the line carried them, each as sent (by whoever: a SYNC's last echo
+ * lost while another talker sends the same value in its slot is the same frame to every node), at
+ * the start of one frame that ended whole (bytes joining after them: SYNC OK all the same, as
+ * urb_rs485_master.h says, "OK once sent"). What the master, which hears only the line, can know. */
+static bool r_holds_request(void)
+{
+    bool same = ended(0u) && !r_broken && (rn >= req_n);
+    for (uint8_t i = 0u; i < (uint8_t)REQ_MAX; i++) {
+        if (i < req_n) {
+            same = same && (i < rn) && (rb[i] == req[i]);
+        }
+    }
+    return same;
+}
+
 /* ----- the status ----- */
 static uint8_t statuses;
 static urb_rs485_response_t ar;
@@ -412,7 +428,7 @@ static void status_judged(void)
     bool const exact = r_carried_request() && (echo_good == req_n);
     if (s == URB_STATUS_OK) {
 #if URB_OP == 2
-        URB_ASSERT(echo_same == req_n, "SYNC OK: every byte echoed as sent");
+        URB_ASSERT(r_holds_request(), "SYNC OK: the line carried the SYNC's bytes");
 #elif URB_OP == 3
         URB_ASSERT((uint32_t)(now - line_t) >= GAP_END, "CLEAR OK: only after t3.5 of silence");
 #else

@@ -733,7 +733,7 @@ static void test_master_collisions(void **state)
     assert_int_equal(cut_at(20u, 1, 1), URB_STATUS_TIMEOUT);
     urb_rs485_master_stats_t st;
     urb_rs485_master_stats(&L.master, &st);
-    assert_int_equal(st.collisions, 5u); /* the last cut counts twice: its byte and its short frame */
+    assert_int_equal(st.collisions, 4u); /* one each: a cut that passes drains, its frame not counted again */
     /* the echo right but broken by a silence over t1.5 inside the frame: a collision too */
     master_begin_at(URB_DL_READ, 20u, 1u, 6u);
     uint8_t b0, b1;
@@ -750,7 +750,156 @@ static void test_master_collisions(void **state)
     mt += 1u;
     assert_int_equal(L.dl.poll(L.dl.ctx, mt), URB_STATUS_BUS_STUCK);
     urb_rs485_master_stats(&L.master, &st);
-    assert_int_equal(st.collisions, 6u);
+    assert_int_equal(st.collisions, 5u);
+}
+
+/* The cut frame's verdict as the master computed it before issue #39's fix: the link check
+ * recomputed over the cut bytes (up to 33 CRC steps inside the byte's interrupt). The master now
+ * finishes the receiver's running CRCs in at most two steps; its verdict must be this one. */
+static bool cut_passes_recomputed(const uint8_t *buf, uint8_t n, uint8_t last)
+{
+    uint8_t const cl = urb_rs485_check_len(n);
+    if ((n < 3u) || (cl == 0u)) {
+        return false;
+    }
+    uint32_t const c = urb_link_check(buf, (size_t)n - (size_t)cl, NULL, 0u);
+    if (cl == 1u) {
+        return (uint8_t)c == last;
+    }
+    return ((uint8_t)c == buf[n - 2u]) && ((uint8_t)(c >> 8) == last);
+}
+
+/* A write of `len` bytes cut after its n-th byte, `last` on the line in its slot, right after the
+ * previous byte or after a silence over t1.5 (the frame breaks); returns the master's `cut`
+ * (true: the cut frame reaches nobody) and checks it against the recomputed verdict. */
+static bool cut_verdict(uint8_t len, uint8_t n, uint8_t last, bool breaks, uint8_t *passes)
+{
+    master_begin_at(URB_DL_WRITE, 20u, 2u, len);
+    uint8_t sent[URB_RS485_MAX_FRAME];
+    assert_int_equal(master_echo(sent, (uint8_t)(n - 1u)), n - 1u);
+    uint8_t b;
+    assert_true(urb_rs485_master_tx_next(&L.master, &b));
+    sent[n - 1u] = b;
+    uint8_t const n_tx = L.master.n_tx;
+    mt += breaks ? 26u : 10u;
+    urb_rs485_master_rx(&L.master, last, mt); /* the collision */
+    assert_false(L.bridge.driving);
+    bool const ok = cut_passes_recomputed(sent, n, last);
+    *passes = (uint8_t)(*passes + ((ok && (n < n_tx)) ? 1u : 0u));
+    bool const cut = L.master.cut;
+    assert_int_equal(cut, (n < n_tx) && !ok);
+    int out = URB_DOWNLINK_BUSY; /* back to idle */
+    for (uint32_t i = 0u; (i < 40u) && (out == URB_DOWNLINK_BUSY); i++) {
+        mt += 100u;
+        out = L.dl.poll(L.dl.ctx, mt);
+    }
+    /* a collision on the last byte (unbroken) leaves the node's check to decide: then silence */
+    assert_true((out == URB_STATUS_TIMEOUT) || (out == URB_STATUS_BUS_STUCK) ||
+                ((out == URB_STATUS_NO_NODE) && (n == n_tx) && !breaks));
+    L.bridge.driving = true;
+    return cut;
+}
+
+/* Every cut position of writes of 1..32 bytes (CRC-8 and CRC-16 requests, the 16-byte cut without
+ * a check, the cut on the last byte), the line's byte in the slot making the cut frame pass its
+ * check or not, joined or breaking the frame: the master's verdict is the recomputed one. */
+static void test_master_cut_verdict(void **state)
+{
+    (void)state;
+    mt = 0u;
+    L.bridge.driving = true;
+    static const uint8_t lens[6] = {1u, 5u, 11u, 12u, 13u, 32u};
+    uint8_t passes[2][2] = {{0u, 0u}, {0u, 0u}}; /* [CRC-16][breaks] */
+    for (uint8_t li = 0u; li < 6u; li++) {
+        uint8_t const len = lens[li];
+        uint8_t const n_tx = (uint8_t)(len + ((len <= 12u) ? 3u : 4u));
+        for (uint8_t n = 1u; n <= n_tx; n++) {
+            for (uint8_t tune = 0u; tune < 2u; tune++) {
+                urb_rs485_request_t q;
+                memset(&q, 0, sizeof q);
+                q.address = 20u;
+                q.select.mailbox = 2u;
+                q.data_len = len;
+                for (uint8_t i = 0u; i < 32u; i++) {
+                    q.data[i] = (uint8_t)(i * 29u + len);
+                }
+                uint8_t req[URB_RS485_MAX_FRAME + 2u];
+                assert_int_equal(urb_rs485_request_encode(&q, req, sizeof req), n_tx);
+                if ((tune != 0u) && (n >= 6u) && ((uint8_t)(n - 4u) < len)) {
+                    /* the data byte before the slot is the check's low byte: a CRC-16 cut passes */
+                    q.data[n - 4u] = (uint8_t)urb_link_check(req, (size_t)n - 2u, NULL, 0u);
+                    assert_int_equal(urb_rs485_request_encode(&q, req, sizeof req), n_tx);
+                }
+                memcpy(L.data, q.data, sizeof q.data);
+                uint8_t const cl = urb_rs485_check_len(n);
+                uint32_t const c = urb_link_check(req, (size_t)n - ((cl == 2u) ? 2u : 1u), NULL, 0u);
+                uint8_t const good = (uint8_t)((cl == 2u) ? (c >> 8) : c); /* the passing byte */
+                uint8_t const lasts[3] = {good, (uint8_t)~good, (uint8_t)(good ^ 0x5Au)};
+                for (uint8_t bi = 0u; bi < 2u; bi++) {
+                    for (uint8_t j = 0u; j < 3u; j++) {
+                        if (((bi == 0u) || (n == 1u)) && (lasts[j] == req[n - 1u])) {
+                            continue; /* the byte sent, unbroken (a first byte breaks nothing): its echo */
+                        }
+                        (void)cut_verdict(len, n, lasts[j], bi != 0u, &passes[cl == 2u][bi]);
+                    }
+                }
+            }
+        }
+    }
+    /* not vacuous: cut frames that pass, with each tier, the last byte joined or breaking */
+    assert_true(passes[0][0] > 0u);
+    assert_true(passes[0][1] > 0u);
+    assert_true(passes[1][0] > 0u);
+    assert_true(passes[1][1] > 0u);
+}
+
+/* A cut frame that passes its check, then the other talker's byte brings the line's frame to the
+ * request's length: the request never went out whole, so neither the node's silence (NO_NODE)
+ * nor its answer may be reported as the request's (found by fw_rs485_master PART=1,OP=1 after the
+ * issue #39 fix: the master took the passing cut for a collision on the last byte and waited for
+ * the node's turn when the frame ended with the request's length). */
+static int cut_passes_then_joined(bool answer)
+{
+    L.data[0] = 0x55u;
+    master_begin_at(URB_DL_WRITE, 20u, 2u, 1u); /* 4 bytes: 20, 2, 0x55, check */
+    uint8_t sent[URB_RS485_MAX_FRAME];
+    assert_int_equal(master_echo(sent, 2u), 2u);
+    uint8_t b;
+    assert_true(urb_rs485_master_tx_next(&L.master, &b));
+    uint8_t const x = (uint8_t)urb_link_check(sent, 2u, NULL, 0u); /* [20, 2, x] passes */
+    assert_true(x != b);
+    mt += 10u;
+    urb_rs485_master_rx(&L.master, x, mt);
+    assert_false(L.bridge.driving);
+    mt += 10u;
+    urb_rs485_master_rx(&L.master, 0x99u, mt); /* the other talker: 4 bytes on the line */
+    mt += 50u;
+    int out = L.dl.poll(L.dl.ctx, mt);
+    if (answer && (out == URB_DOWNLINK_BUSY)) {
+        urb_rs485_response_t r; /* the node's OK to a write of mailbox 2 */
+        memset(&r, 0, sizeof r);
+        r.status = URB_STATUS_OK;
+        r.mailbox = 2u;
+        uint8_t a[URB_RS485_MAX_FRAME];
+        int32_t const an = urb_rs485_response_encode(&r, a, sizeof a);
+        assert_true(an > 0);
+        out = master_answer(a, (uint8_t)an);
+    }
+    for (uint32_t i = 0u; (i < 40u) && (out == URB_DOWNLINK_BUSY); i++) {
+        mt += 100u;
+        out = L.dl.poll(L.dl.ctx, mt);
+    }
+    return out;
+}
+
+static void test_master_cut_passes_then_joined(void **state)
+{
+    (void)state;
+    mt = 0u;
+    L.bridge.driving = true;
+    assert_int_equal(cut_passes_then_joined(false), URB_STATUS_TIMEOUT);
+    L.bridge.driving = true;
+    assert_int_equal(cut_passes_then_joined(true), URB_STATUS_TIMEOUT);
 }
 
 /* A collision cuts a write, and the other talker goes on: the frame the line carried is the cut
@@ -1131,7 +1280,9 @@ int main(void)
         cmocka_unit_test(test_slave_read_latch_released_when_answer_cut),
         cmocka_unit_test_setup(test_master_answers, line_setup),
         cmocka_unit_test_setup(test_master_collisions, line_setup),
+        cmocka_unit_test_setup(test_master_cut_verdict, line_setup),
         cmocka_unit_test_setup(test_master_cut_then_joined, line_setup),
+        cmocka_unit_test_setup(test_master_cut_passes_then_joined, line_setup),
         cmocka_unit_test_setup(test_master_request_split_by_stall, line_setup),
         cmocka_unit_test_setup(test_master_drain_never_quiet, line_setup),
         cmocka_unit_test_setup(test_master_edges, line_setup),
