@@ -135,7 +135,8 @@ int eva_main(void)
          * segmenter holds the transfer the begin() that set PH_SEND started: the SYNC's counter
          * byte, the WRITE's payload (the caller's buffer, at most 32 bytes), nothing for a READ or
          * PROBE. master_begin sets PH_SEND only right after urb_can_tx_init with exactly those
-         * arguments, and no other function writes `tx` or sets PH_SEND (urb_can_master.c; ESBMC
+         * arguments, and no other function sets PH_SEND or writes `tx.payload` or `tx.len`
+         * (urb_can_tx_next advances only its position, CRC and tail; urb_can_master.c; ESBMC
          * checks the frames sent are the request's, proofs/bmc/fw_can_master). Eva cannot keep it:
          * it joins master_begin's paths at its return (a bus-off path keeps the previous
          * transaction's `tx` with the new kind), so a SYNC's frame would seem to read a WRITE's
@@ -194,7 +195,8 @@ int eva_main(void)
         /* Hypothesis (eva_alarms.md, eva_dl_can): the slave's segmenter holds the answer answer()
          * started: no payload and length 0, its one-byte refusal, or an outbox of outbox_size
          * bytes (every stub outbox holds 32, so any length <= 32 is in bounds). answer() is the only
-         * writer of `tx` after init (urb_can_tx_init(NULL, 0) there), called with exactly these
+         * writer of `tx.payload` and `tx.len` after init (urb_can_tx_init(NULL, 0) there; tx_next
+         * advances only the position, CRC and tail), called with exactly these
          * pairs (urb_can_slave.c: request_done, refuse). Eva joins urb_can_slave_rx's paths at its
          * return and loses which length goes with which buffer. */
         /*@ admit (eva_can_slave.tx.payload == \null ==> eva_can_slave.tx.len == 0) &&
