@@ -14,7 +14,7 @@
  * fuzzer found this at once); the bridge core probes a present node after NO_NODE and answers the
  * host TIMEOUT when the probe is answered (bridge.c served/probed), so the host is not told a lie.
  */
-/* lobster-trace: urb.DLK_002, urb.DLK_003 (the requirements this fuzz target verifies) */
+/* lobster-trace: urb.DLK_002, urb.DLK_003, urb.MEM_006 (the requirements this fuzz target verifies) */
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>

@@ -11,7 +11,7 @@
  * BAD_REQUEST, NO_NODE or BUS_STUCK stored nothing (Rs485Poll.tla StatusTruthful); the receivers
  * never hold more than 36 bytes.
  */
-/* lobster-trace: urb.DLK_006 (the requirements this fuzz target verifies) */
+/* lobster-trace: urb.DLK_006, urb.MEM_006 (the requirements this fuzz target verifies) */
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
