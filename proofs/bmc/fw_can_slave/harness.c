@@ -52,8 +52,8 @@
  * The CRC step is the linear stand-in of stubs/fw_can_crc_stub.c (fw_can_transfer proves the CRC
  * and the reassembly themselves).
  */
-/* Requirements it is to verify (the traceability marker is added when the folder leaves wip/ and
- * runs: an unrun proof is no evidence): urb.DLK_002, urb.DLK_003. */
+/* lobster-trace: urb.DLK_002, urb.DLK_003 (the requirements this proof verifies: the fast tier's
+ * items; the dup-after-start scenario item PART=1,OP=3 is full tier and not yet seen to finish) */
 #include "urb_verify.h"
 
 #include "fw_budgets.h"
