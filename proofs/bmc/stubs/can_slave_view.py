@@ -1,4 +1,4 @@
-"""Proof view of urb_can_slave_t (wip/fw_can_slave): the queued frame and the refusal byte moved out
+"""Proof view of urb_can_slave_t (fw_can_slave): the queued frame and the refusal byte moved out
 of the struct, as stubs/can_master_view.py does for the master (which says why: ESBMC 8.4 updates a
 struct reached through a pointer byte by byte as a whole when an array inside it is stored at a
 variable index, and the segmenter writes a frame's tail at its byte count).

@@ -15,6 +15,9 @@
  *    frame drops the transfer in progress, a repeat of the request completed last within
  *    dup_window_us is ignored, bus-off drops it) completed the transfer in this frame, its length
  *    is the inbox size and the buffer holds its bytes;
+ *  - and every such write is committed: when the reference completes a write (not a probe) with a
+ *    good CRC whose length is the inbox's size (not 0) and write_begin took its start, the slave
+ *    commits it in that frame (nothing in between, such as a repeated earlier request, drops it);
  *  - the duplicate filter: a repeat of the last completed request (same session and transfer id,
  *    its start within dup_window_us) is neither committed nor answered again;
  *  - the mailbox calling rules (MailboxInbox.tla, MailboxOutbox.tla): a write begun is committed or
@@ -37,13 +40,20 @@
  * OP=0 any event (above); OP=1 every event a frame on the run's session's request identifier (any
  * length, tail and bytes: multi-frame transfers, CRC failures, repeats, new starts over a request or
  * an answer in progress); OP=2 the first event such a frame, every later one a frame reported sent or
- * a controller state (the answer's end, bus-off over a request or an answer). Bounds: URB_STEPS
- * events, mailboxes of at most URB_LEN_MAX bytes.
+ * a controller state (the answer's end, bus-off over a request or an answer); OP=3 as OP=1, with the
+ * first frame a probe (one byte, start, end and toggle bits), the second a start frame without the
+ * end bit, the third a one-byte start frame (a probe completed, a multi-frame request begun, then
+ * a repeat of the probe, which may not disturb the request in progress, or another request's start;
+ * the probe and the third frame have their length set, so symbolic execution does not unroll them;
+ * node 20, mailbox 1 only).
+ * Bounds: URB_STEPS events, mailboxes of at most URB_LEN_MAX bytes, every frame at most
+ * URB_FLEN bytes long (8, a whole CAN frame, unless the item says less: two frames of at most 3
+ * bytes still carry a multi-frame transfer, its CRC and a repeat, at a fraction of the solver's work).
  * The CRC step is the linear stand-in of stubs/fw_can_crc_stub.c (fw_can_transfer proves the CRC
  * and the reassembly themselves).
  */
-/* Requirements it is to verify (the traceability marker is added when the folder leaves wip/ and
- * runs: an unrun proof is no evidence): urb.DLK_002, urb.DLK_003. */
+/* lobster-trace: urb.DLK_002, urb.DLK_003 (the requirements this proof verifies: the fast tier's
+ * items; the dup-after-start scenario item PART=1,OP=3 is full tier and not yet seen to finish) */
 #include "urb_verify.h"
 
 #include "fw_budgets.h"
@@ -64,6 +74,9 @@ URB_PROOF_COST_STORAGE;
 #endif
 #ifndef URB_LEN_MAX
 #define URB_LEN_MAX 8u
+#endif
+#ifndef URB_FLEN
+#define URB_FLEN 8u
 #endif
 #define CAN_SLOTS 3u
 /* Cover points scoped to the items that can reach them (a point compiled into an item must be
@@ -331,7 +344,7 @@ static void mb_fault(void *ctx, uint8_t code)
 
 /* ----- events ----- */
 
-static void ev_rx(urb_can_slave_t *s)
+static void ev_rx(urb_can_slave_t *s, uint8_t k)
 {
     urb_can_frame_t f;
     bool const mine = (URB_OP != 0) || URB_NONDET_BOOL();
@@ -341,8 +354,25 @@ static void ev_rx(urb_can_slave_t *s)
      * number, except that one drops the request in progress, which the run's session shows too */
     URB_ASSUME(mine || ((f.id >> 10) != URB_CAN_REQUEST) || (((f.id >> 4) & 0x3Fu) != own) || ((f.id & 15u) == sess));
     f.len = URB_NONDET_U8();
-    URB_ASSUME(f.len <= URB_CAN_MTU);
+    URB_ASSUME((f.len <= URB_CAN_MTU) && (f.len <= URB_FLEN));
     URB_NONDET_BYTES(f.data, sizeof f.data);
+    if (URB_OP == 3) {
+        /* the scenario's first three frames (harness header): a probe, the start of a multi-frame
+         * request, another start frame */
+        uint8_t const se = URB_CAN_TAIL_START | URB_CAN_TAIL_END;
+        uint8_t const st = URB_CAN_TAIL_START | URB_CAN_TAIL_TOGGLE;
+        if (k == 0u) {
+            f.len = 1u; /* a probe, set rather than assumed: symbolic execution sees its length */
+            f.data[0] = (uint8_t)(f.data[0] | se | st);
+        } else if (k == 1u) {
+            URB_ASSUME((f.len >= 1u) && ((f.data[f.len - 1u] & (se | st)) == st));
+        } else if (k == 2u) {
+            f.len = 1u; /* a one-byte start frame: the probe repeated, or another probe or start */
+            f.data[0] = (uint8_t)(f.data[0] | st);
+        } else {
+            /* any frame on the session */
+        }
+    }
     now += URB_NONDET_U16();
     done_now = false;
     crc_now = false;
@@ -407,6 +437,10 @@ static void ev_rx(urb_can_slave_t *s)
     }
     URB_ASSERT(ibuf[URB_LEN_MAX] == guard, "rx: no byte past the inbox size");
     URB_ASSERT(sync_seen == sync_expected, "sync: every well-formed SYNC frame passed on, nothing else");
+    if ((URB_PART == 1) && done_now && !ref_probe && !begin_refused && (box_size > 0u) &&
+        (urb_can_rx_len(&ref_rx) == box_size)) {
+        URB_ASSERT(ans_committed, "commit: every whole accepted write of the inbox's size is committed");
+    }
     if (done_now || crc_now) {
         URB_ASSERT(!write_open, "a completed write request leaves no write open");
         if (ref_probe && done_now && (URB_PART == 1)) {
@@ -457,8 +491,14 @@ void harness(void)
 {
     own = URB_NONDET_U8();
     URB_ASSUME((own >= URB_CAN_FIRST_ADDRESS) && (own <= URB_CAN_LAST_ADDRESS));
-    uint8_t const box = URB_NONDET_U8();
+    uint8_t box = URB_NONDET_U8();
     URB_ASSUME(box <= 7u);
+    if (URB_OP == 3) {
+        /* one node address and mailbox (the identifier then a constant: symbolic execution takes
+         * only the write session's paths); the other items cover every address and mailbox */
+        own = 20u;
+        box = 1u;
+    }
     sess = (URB_PART == 2) ? (uint8_t)(box | 8u) : box;
     box_size = URB_NONDET_U8();
     URB_ASSUME(box_size <= URB_LEN_MAX);
@@ -491,7 +531,7 @@ void harness(void)
     URB_ASSERT(ok, "init: a valid address and a complete table are taken");
     for (uint8_t k = 0u; k < URB_STEPS; k++) {
         uint8_t e = URB_NONDET_U8();
-        if ((URB_OP == 1) || ((URB_OP == 2) && (k == 0u))) {
+        if ((URB_OP == 1) || (URB_OP == 3) || ((URB_OP == 2) && (k == 0u))) {
             e = 2u; /* a frame on the run's session */
         } else if (URB_OP == 2) {
             URB_ASSUME(e <= 1u); /* sent, or a controller state */
@@ -503,7 +543,7 @@ void harness(void)
         } else if (e == 1u) {
             ev_state(&slave);
         } else {
-            ev_rx(&slave);
+            ev_rx(&slave, k);
         }
     }
 }
