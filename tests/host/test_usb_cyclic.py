@@ -355,3 +355,25 @@ def test_a_cyclic_manager_over_a_push_transport(core: str, monkeypatch: pytest.M
         assert m._usb.frames_written - frames <= 4  # batched: 10 requests in a few 1-ms batches
     finally:
         urb.close()
+
+
+def test_a_descriptor_closed_with_nothing_in_flight_is_a_loss_told_in_service(far: Far) -> None:
+    """On the C pump a descriptor closed under the manager is a loss at once, even with nothing in
+    flight: service() must hand the lost listeners their notice although no request completed."""
+    if native.BACKEND != "c":
+        pytest.fail(f"the C core is not in use ({native.REASON}): `make host-c-py` builds it")
+    fd = os.dup(far.host_sock.fileno())
+    m = USBManager(CharDeviceTransport(fd=fd), timeout_s=1.0, lost_after_s=2.0, name="closed", cyclic=True)
+    m.start()
+    told: list[str] = []
+    m.add_lost_listener(lambda mgr, why: told.append(why))
+    try:
+        assert m._pump_on
+        os.close(fd)
+        end = time.monotonic() + 5
+        while not told:
+            assert time.monotonic() < end, "the loss was never told"
+            tick(m)
+        assert m.lost_reason is not None and "Errno" in told[0]
+    finally:
+        m.close(drain=False)

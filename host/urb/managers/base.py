@@ -532,14 +532,23 @@ class ThreadedManager(BusManager):
     def _service_locked(self) -> int:
         if self._serviced:
             self._service_io()
+        batch = self._take_batch()
+        return self._run_callbacks(batch) if batch else 0
+
+    def _take_batch(self) -> list[Transfer | Callable[[], None] | None]:
+        """What is to run now, in order: the items other threads queued (older: refusals, notices,
+        a stop), then the core's completions; wakes a draining close() once the core is drained."""
         batch: list[Transfer | Callable[[], None] | None] = []
         q = self._dispatch_q
-        with self._lock:  # what was queued first (refusals, older), then the core's completions
+        with self._lock:
             while not q.empty():
                 batch.append(q.get_nowait())
-            if self._has_completed is None or self._has_completed():
-                self._queue_completed(self._core, batch.append)
-        return self._run_callbacks(batch) if batch else 0
+            # always, not only when something completed: a loss with nothing in flight still
+            # owes the lost listeners their notice, and the stats take the core's counters
+            self._queue_completed(self._core, batch.append)
+            if self._draining and self._core.drained():
+                self._changed.notify_all()
+        return batch
 
     def _run_callbacks(self, batch: list[Transfer | Callable[[], None] | None]) -> int:
         """Run `batch`'s callbacks and notices on the calling thread (marked as calling back, so
@@ -794,16 +803,7 @@ class ThreadedManager(BusManager):
         q = self._dispatch_q
         while True:
             wait(BATCH_WAIT_S)
-            batch: list[Transfer | Callable[[], None] | None] = []
-            with self._lock:  # what other threads queued first (older), then the core's batch
-                while True:
-                    try:
-                        batch.append(q.get_nowait())
-                    except queue.Empty:
-                        break
-                self._queue_completed(self._core, batch.append)
-                if self._draining and self._core.drained():
-                    self._changed.notify_all()
+            batch = self._take_batch()
             ran = 0
             for item in batch:
                 if item is None:
