@@ -47,6 +47,18 @@ SERVICE_READS = 8
 """IN transfers one `service()` reads at most (as the C pump's NATIVE_SERVICE_READS), so that a
 babbling device cannot hold the application's tick."""
 
+def boundary_after(now: int) -> int:
+    """The first 1-ms frame boundary after `now`."""
+    return (now // FRAME_NS + 1) * FRAME_NS
+
+
+def next_boundary(boundary: int, now: int) -> int:
+    """The boundary after `boundary`, the one that was just served at `now`; an overslept one is
+    skipped (the next after `now`), never made up in a burst."""
+    boundary += FRAME_NS
+    return boundary if boundary > now else boundary_after(now)
+
+
 USE_PUMP = True
 """Run the uplink's I/O on the C core's pump when the core and transport allow it (see above);
 bench/host_cpu.py --usb-ab turns it off to compare both runtimes under the same load."""
@@ -91,6 +103,11 @@ class USBManager(ThreadedManager):
         self._poller: select.poll | None = None
         self._next_frame = 0
 
+    def _reads_descriptor(self) -> bool:
+        """The manager reads the transport's descriptor itself (the C pump, or a cyclic manager's
+        service()): the transport is opened without its reader thread."""
+        return isinstance(self.transport, CharDeviceTransport) and (self._pumped or self.cyclic)
+
     def _can_pump(self) -> bool:
         return (USE_PUMP and isinstance(self.transport, CharDeviceTransport) and hasattr(self._usb, "_pump_start")
                 and self._usb.trace is None)
@@ -99,7 +116,7 @@ class USBManager(ThreadedManager):
         if self._thread is not None or self._pump_on or self._serviced:
             return
         self._pumped = self._can_pump()
-        if isinstance(self.transport, CharDeviceTransport) and (self._pumped or self.cyclic):
+        if isinstance(self.transport, CharDeviceTransport) and self._reads_descriptor():
             self.transport.open_descriptor()
         else:
             opener = getattr(self.transport, "open", None)
@@ -139,7 +156,7 @@ class USBManager(ThreadedManager):
             self._serviced_fd = self.transport.fd
             self._poller = select.poll()
             self._poller.register(self._serviced_fd, select.POLLIN)
-        self._next_frame = (time.monotonic_ns() // FRAME_NS + 1) * FRAME_NS
+        self._next_frame = boundary_after(time.monotonic_ns())
         self._serviced = True
 
     def _service_io(self) -> None:
@@ -166,9 +183,7 @@ class USBManager(ThreadedManager):
             with self._lock:
                 self._usb.poll(now)
             return
-        self._next_frame += FRAME_NS
-        if self._next_frame <= now:  # overslept: skip to the next boundary, never burst
-            self._next_frame = (now // FRAME_NS + 1) * FRAME_NS
+        self._next_frame = next_boundary(self._next_frame, now)
         self._send_frame(now)
 
     def _stop_io(self) -> None:
@@ -200,7 +215,7 @@ class USBManager(ThreadedManager):
         reset the protocol and start new threads. When the transport cannot be reopened, raises
         `PortError` and leaves the manager lost (`lost_reason` says why); call it again later."""
         self._stop_io()
-        reopen = "open_descriptor" if self._pumped or (self.cyclic and isinstance(self.transport, CharDeviceTransport)) else "open"
+        reopen = "open_descriptor" if self._reads_descriptor() else "open"
         try:
             for name in ("close", reopen):
                 fn = getattr(self.transport, name, None)
@@ -217,15 +232,13 @@ class USBManager(ThreadedManager):
             self._collect()
 
     def _frame_loop(self) -> None:
-        next_frame = (time.monotonic_ns() // FRAME_NS + 1) * FRAME_NS
+        next_frame = boundary_after(time.monotonic_ns())
         while self._io_running:
             delay = next_frame - time.monotonic_ns()
             if delay > 0:
                 time.sleep(delay / 1e9)
             now = self.now_ns()
-            next_frame += FRAME_NS
-            if next_frame <= now:  # overslept: skip to the next boundary, never burst
-                next_frame = (now // FRAME_NS + 1) * FRAME_NS
+            next_frame = next_boundary(next_frame, now)
             self._send_frame(now)
 
     def _send_frame(self, now: int) -> None:
