@@ -21,7 +21,8 @@
  * It never takes the GIL: completed transfers stay in the C core's completion list, and the
  * dispatcher's wait (_pump_wait) returns once per batch; the Python objects get their outcome
  * when the dispatcher takes them (take_completed, one GIL hold for the whole batch). What it sent
- * (sequence number, sending time, deadline, lifetime) is written to each Python transfer then too. *
+ * (sequence number, sending time, deadline, lifetime) is written to each Python transfer then too.
+ *
  * A cyclic USBManager (usb.py, cyclic=True) runs the same steps without the thread: _pump_open sets
  * the pump up, and each _pump_service (the application's service(), GIL released) reads the IN
  * transfers that arrived, applies the deadlines and writes the batch when a 1-ms boundary has
@@ -30,6 +31,7 @@
 #include "_native.h"
 
 #include <errno.h>
+#include <limits.h>
 #include <poll.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -181,6 +183,37 @@ static bool pump_descriptor_closed(native_core_t *self, short revents)
     return true;
 }
 
+/* The first frame boundary after `now`. */
+static urb_ns_t boundary_after(urb_ns_t now, urb_ns_t period)
+{
+    return ((now / period) + 1) * period;
+}
+
+/* The boundary after `boundary`, which was just served at `now`: an overslept one is skipped (the
+ * next after `now`), never made up in a burst. */
+static urb_ns_t next_boundary(urb_ns_t boundary, urb_ns_t now, urb_ns_t period)
+{
+    boundary += period;
+    return (boundary > now) ? boundary : boundary_after(now, period);
+}
+
+/* The IN transfers that arrived while nobody read, without waiting: at most `max` of them (so that
+ * a babbling device cannot hold a caller's tick); *reading turns false when the IN stream ended.
+ * Returns false when the descriptor was closed under the pump (the bridge is then lost). */
+static bool pump_drain(native_core_t *self, bool *reading, uint8_t *buf, size_t cap, unsigned max)
+{
+    if (!*reading) {
+        return true;
+    }
+    struct pollfd fds = {self->pump.fd, POLLIN, 0};
+    unsigned reads = 0u;
+    while (*reading && (reads < max) && (poll(&fds, 1u, 0) > 0) && ((fds.revents & (POLLIN | POLLHUP | POLLERR)) != 0)) {
+        *reading = pump_read(self, buf, cap);
+        reads++;
+    }
+    return !pump_descriptor_closed(self, fds.revents);
+}
+
 static void *pump_main(void *arg)
 {
     native_core_t *self = arg;
@@ -188,7 +221,7 @@ static void *pump_main(void *arg)
     uint8_t in[4096];
     uint8_t out[URB_USB_BATCH_MAX];
     bool reading = true;
-    urb_ns_t next_frame = ((native_monotonic_ns() / p->frame_ns) + 1) * p->frame_ns;
+    urb_ns_t next_frame = boundary_after(native_monotonic_ns(), p->frame_ns);
     while (!p->stop) {
         urb_ns_t const wait = next_frame - native_monotonic_ns();
         if (wait > 0) {
@@ -203,20 +236,11 @@ static void *pump_main(void *arg)
             }
             continue;
         }
-        if (reading) { /* what arrived while this thread was not running answers before the timeouts apply */
-            struct pollfd fds = {p->fd, POLLIN, 0};
-            while (reading && (poll(&fds, 1u, 0) > 0) && ((fds.revents & (POLLIN | POLLHUP | POLLERR)) != 0)) {
-                reading = pump_read(self, in, sizeof in);
-            }
-            if (pump_descriptor_closed(self, fds.revents)) {
-                break;
-            }
+        /* what arrived while this thread was not running answers before the timeouts apply */
+        if (!pump_drain(self, &reading, in, sizeof in, UINT_MAX)) {
+            break;
         }
-        urb_ns_t const now = native_monotonic_ns();
-        next_frame += p->frame_ns;
-        if (next_frame <= now) { /* overslept: skip to the next boundary, never burst */
-            next_frame = ((now / p->frame_ns) + 1) * p->frame_ns;
-        }
+        next_frame = next_boundary(next_frame, native_monotonic_ns(), p->frame_ns);
         if (!pump_frame(self, out, sizeof out)) {
             break;
         }
@@ -321,7 +345,7 @@ PyObject *native_pump_open(native_core_t *self, PyObject *args)
     native_pump_t *p = &self->pump;
     p->serviced = true;
     p->reading = true;
-    p->next_frame = ((native_monotonic_ns() / p->frame_ns) + 1) * p->frame_ns;
+    p->next_frame = boundary_after(native_monotonic_ns(), p->frame_ns);
     Py_RETURN_NONE;
 }
 
@@ -336,17 +360,8 @@ static bool pump_service_pass(native_core_t *self)
     native_pump_t *p = &self->pump;
     uint8_t in[4096];
     uint8_t out[URB_USB_BATCH_MAX];
-    if (p->reading) {
-        struct pollfd fds = {p->fd, POLLIN, 0};
-        unsigned reads = 0u;
-        while (p->reading && (reads < NATIVE_SERVICE_READS) && (poll(&fds, 1u, 0) > 0) &&
-               ((fds.revents & (POLLIN | POLLHUP | POLLERR)) != 0)) {
-            p->reading = pump_read(self, in, sizeof in);
-            reads++;
-        }
-        if (pump_descriptor_closed(self, fds.revents)) {
-            return false;
-        }
+    if (!pump_drain(self, &p->reading, in, sizeof in, NATIVE_SERVICE_READS)) {
+        return false;
     }
     urb_ns_t const now = native_monotonic_ns();
     if (now < p->next_frame) {
@@ -355,10 +370,7 @@ static bool pump_service_pass(native_core_t *self)
         (void)pthread_mutex_unlock(&self->lock);
         return true;
     }
-    p->next_frame += p->frame_ns;
-    if (p->next_frame <= now) {
-        p->next_frame = ((now / p->frame_ns) + 1) * p->frame_ns;
-    }
+    p->next_frame = next_boundary(p->next_frame, now, p->frame_ns);
     return pump_frame(self, out, sizeof out);
 }
 
