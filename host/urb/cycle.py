@@ -454,7 +454,7 @@ class _Group(ABC):
         self._per_node = [(n, sum(1 for i in items if i.node is n)) for n in self._nodes]
 
     def refusals(self) -> tuple[int, ...] | None:
-        """The host's refusal of each item (`NodeAccessor._refusal`'s rules), or None: none."""
+        """The host's refusal of each item (the rules of `NodeAccessor.submit_request`), or None: none."""
         for node in self._nodes:
             rec = node.record
             if not rec.active or (rec.flags and MISMATCH in rec.flags and not node.own_layout):

@@ -44,8 +44,7 @@ class NodeRequest:
     def read(self, mbox: int, size: int | None = None) -> NodeRequest:
         """Read outbox `mbox`; `size` defaults to the schema's size (a different size is refused
         with HOST_SIZE_MISMATCH when submitted)."""
-        if mbox.__class__ is not int or not 0 <= mbox <= 7:
-            _check_mbox(mbox)
+        _check_mbox(mbox)
         if size is not None and not 1 <= size <= 32:
             raise ValueError(f"size = {size}: a mailbox holds 1..32 bytes")
         self._mailbox, self._read = mbox, True
@@ -55,8 +54,7 @@ class NodeRequest:
 
     def write(self, mbox: int, data: bytes | Message) -> NodeRequest:
         """Write inbox `mbox` with raw bytes or a message (encoded here)."""
-        if mbox.__class__ is not int or not 0 <= mbox <= 7:
-            _check_mbox(mbox)
+        _check_mbox(mbox)
         payload = encode_message(data) if isinstance(data, Message) else bytes(data)
         if not 1 <= len(payload) <= 32:
             raise ValueError(f"{len(payload)} data bytes: a mailbox holds 1..32 bytes")
