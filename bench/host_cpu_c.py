@@ -137,13 +137,19 @@ def callgrind_ir(seconds: float, mode: str) -> tuple[int, int]:
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "cg.out"
         res = run_load(seconds, ["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}"], slow=True, mode=mode)
-        m = re.search(r"Collected : (\d+)", res["stderr"])
-        if m is None:
-            text = out.read_text(encoding="utf-8", errors="replace")
-            m = re.search(r"^summary: (\d+)", text, re.M) or re.search(r"^totals: (\d+)", text, re.M)
-        if m is None:
-            sys.exit("host_cpu_c: callgrind gave no instruction count")
-        return int(m.group(1)), int(res["ok"]) + int(res["failed"])
+        return callgrind_total(res["stderr"], out, "host_cpu_c"), int(res["ok"]) + int(res["failed"])
+
+
+def callgrind_total(stderr: str, out: Path, who: str) -> int:
+    """The instructions callgrind counted in a run: from its summary on stderr, else from its output
+    file; exits naming `who` when neither has one."""
+    m = re.search(r"Collected : (\d+)", stderr)
+    if m is None:
+        text = out.read_text(encoding="utf-8", errors="replace")
+        m = re.search(r"^summary: (\d+)", text, re.M) or re.search(r"^totals: (\d+)", text, re.M)
+    if m is None:
+        sys.exit(f"{who}: callgrind gave no instruction count")
+    return int(m.group(1))
 
 
 def syscalls_per_request(seconds: float, mode: str) -> tuple[float, dict[str, float]]:

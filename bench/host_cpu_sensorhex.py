@@ -47,7 +47,6 @@ import argparse
 import contextlib
 import json
 import os
-import re
 import shutil
 import socket
 import subprocess
@@ -61,8 +60,10 @@ from typing import Any
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 sys.path.insert(0, str(REPO / "tests" / "host"))
+sys.path.insert(0, str(HERE))  # bench/host_cpu_c.py
 
 from bridge_proc import build_hosted_bridge  # noqa: E402
+from host_cpu_c import GEODE_HZ, KERNEL_INSTR_PER_CALL, callgrind_total  # noqa: E402  (the C library's projection)
 from urb.api import NodeAccessor, NodeRequest, URBInterface  # noqa: E402
 from urb.cycle import Cycle, CycleItem  # noqa: E402
 from urb.managers import CharDeviceTransport, RS232Manager, USBManager, native  # noqa: E402
@@ -85,9 +86,7 @@ TRACE_PERIOD_MS = 20
 """The tick of the runs under callgrind and strace: valgrind runs Python some 50 times slower, so a
 1-ms tick cannot be kept; each tick does the same work (12 motor requests, the sensors every 10th),
 so the instructions per request are those of the 1-ms program."""
-GEODE_HZ = 500e6
-KERNEL_INSTR_PER_CALL = 4000
-"""Kernel instructions assumed per system call, as bench/host_cpu_c.py assumes for the C library."""
+
 """The bridge firmware compiled for the host, one per SOCK_SEQPACKET pair, three motor drivers each
 (bench/host_cpu_c_bridges.c, `make host-c-bench`)."""
 
@@ -248,11 +247,7 @@ def instructions(api: str, seconds: float) -> dict[str, float]:
         for secs in (seconds, 0.0):
             out = Path(tmp) / f"cg-{secs}"
             r = traced_run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}"], api, secs, ends)
-            m = re.search(r"Collected : (\d+)", r["stderr"]) or re.search(
-                r"^(?:summary|totals): (\d+)", out.read_text(encoding="utf-8", errors="replace"), re.M)
-            if m is None:
-                sys.exit("host_cpu_sensorhex: callgrind gave no instruction count")
-            counts.append((int(m.group(1)), int(r["completed"]), int(r["failed"])))
+            counts.append((callgrind_total(r["stderr"], out, "host_cpu_sensorhex"), int(r["completed"]), int(r["failed"])))
         calls = []
         for secs in (seconds, 0.0):
             out = Path(tmp) / f"strace-{secs}"
