@@ -187,13 +187,15 @@ class ProofEvidence:
     covers: list[CoverVerdict]
     cost: int | None
     budget: int | None
+    #: COST_CHECK = separate (proofs/bmc/Makefile.common): the [cost probe] row, the probes at COST
+    cost_row: dict[str, Any] | None = None
 
 
 def proof_items(e: ProofEvidence) -> list[dict[str, Any]]:
     """The evidence items of one proof: bmc:, bmc-mutant:, bmc-cover: (as keyword dicts of records.Item)."""
     source = f"proofs/bmc/{e.folder}/harness.c"
     rerun = f"python3 tools/proofs.py --tier {e.tier} --only {e.folder}"
-    parts = [e.proof_row] + [r for r in (e.reach_row, e.tight_row) if r is not None]
+    parts = [e.proof_row] + [r for r in (e.reach_row, e.cost_row, e.tight_row) if r is not None]
     ok = all(bool(r["expected"]) for r in parts)
     measured = "; ".join(f"{r['function'].removeprefix(e.folder).strip() or 'proof'}: {r['result']}" for r in parts)
     worst = {"worst_case_cycles": e.cost, "budget_cycles": e.budget,
@@ -201,12 +203,14 @@ def proof_items(e: ProofEvidence) -> list[dict[str, Any]]:
     items: list[dict[str, Any]] = [{
         "id": f"bmc:{e.folder}", "kind": "proof", "verdict": _verdict(ok, str(e.proof_row["result"])),
         "expected": "proved on every run of the tier; the harness's end reachable"
+                    + ("; no entry above the recorded worst case (COST probes)" if e.cost_row is not None else "")
                     + ("; the recorded worst case reached" if e.tight_row is not None else ""),
         "measured": measured, "source": source, "rerun": rerun,
         "data": {"tier": e.tier, "purpose": e.purpose, "properties": e.properties, "bound": e.bound,
                  "result": e.proof_row["result"], "detail": e.proof_row["detail"],
                  "reach": e.reach_row["result"] if e.reach_row else None,
                  "worst_case_witness": e.tight_row["result"] if e.tight_row else None,
+                 "worst_case_probe": e.cost_row["result"] if e.cost_row else None,
                  **worst, "time_s": e.proof_row["time_s"], "cpu_s": e.proof_row.get("cpu_s"),
                  "runs_replayed_from_cache": sum(int(r.get("replayed", 0)) for r in parts),
                  "runs": sum(int(r.get("runs", 0)) for r in parts), **e.settings}}]

@@ -8,6 +8,8 @@
     python3 tools/proofs.py --only crc8        # folders whose name contains "crc8" (repeatable)
     python3 tools/proofs.py --no-mutants       # the proofs only
     python3 tools/proofs.py --update-costs     # (re)record each proof's worst-case cycles (COST files)
+    python3 tools/proofs.py --update-costs --tier full --only fw_can_transfer
+                                               # a COST_CHECK = separate folder's COST (full tier only)
     python3 tools/proofs.py --list             # the proofs and their settings, nothing run
     python3 tools/proofs.py summary            # merge build/proofs/<part>/ into build/proofs/summary.md
 
@@ -23,9 +25,15 @@ alternatives. Items run until the first failure; only a failure on an expected p
 Y), an error or a timeout is not a kill, and a mutant without "expect" is a broken folder (exit 2).
 Mutant runs leave out the recorded-COST assertion (Makefile.common). A seeded bug marked "tier": "full"
 needs a bound only the full tier has, and only that tier runs it. In the full tier, a folder with a
-COST file also runs its worst-case witness (`make tight`), which must fail, showing the recorded worst
-case is reached. The vacuity check (`make reach`) of every item gives each proof a [reach] row. With
---covers (make proofs-bmc, so make check; make proofs-cover, make proofs-full) the same runs check the
+COST file also runs its worst-case witness (`make tight`), which must fail on "tight:", showing the
+recorded worst case is reached ([worst case] row). Where COST is checked is the folder's COST_CHECK
+(Makefile.common): `proof` (default) compiles it into every proof run; `separate` leaves it out of the
+proof, mutant and reach runs (so recording a COST re-keys none of the folder's recorded runs) and
+checks it with a probe per item of the tier (`make probe COST_PROBE=COST`, must pass: no entry costs
+more; a [cost probe] row) besides the full tier's witness. Its COST is the worst case over the full
+tier's items: --update-costs records it only with --tier full. The vacuity check (`make reach`) of
+every item gives each proof a [reach] row. With --covers (make proofs-bmc, so make check; make
+proofs-cover, make proofs-full) the same runs check the
 harness's cover points (URB_COVER; tools/bmc_evidence.py): a [cover] row fails naming each point that
 no item of its part reaches, and each part needs at least one point. Cover runs go through the result
 cache like every run, so make check replays them; --covers-deferred FILE names folders (each with its
@@ -271,9 +279,12 @@ class Run:
     replayed: str = ""
     #: a recorded run that the cache's spot check ran again for real (and found the same)
     spot_checked: bool = False
+    #: where the violated property is: "harness.c line 355 (harness)"
+    violated_at: str = ""
 
 
-_VIOLATED_RE = re.compile(r"Violated property:\n\s+file .*\n\s+(.*)\n")
+_VIOLATED_RE = re.compile(r"Violated property:\n\s+file (.*)\n\s+(.*)\n")
+_AT_RE = re.compile(r"^(\S+) line (\d+)(?: column \d+)?(?: function (\S+))?")
 _COST_RE = re.compile(r"^\s+urb_proof_cost_seen = (\d+)", re.MULTILINE)
 _CPU_RE = re.compile(r"^urb-cpu-seconds ([\d.]+) ([\d.]+)$", re.MULTILINE)
 _HIT_RE = re.compile(r"^urb-bmc-cache: hit \S+ cpu ([\d.]+) commit (\S+) date (\S+)$", re.MULTILINE)
@@ -296,10 +307,12 @@ def parse_esbmc(text: str, seconds: float) -> Run:
     hit = _HIT_RE.search(text)
     # A replayed run's CPU is the recorded ESBMC run's, not the replay's.
     cpu_s = float(hit.group(1)) if hit else (float(cpu[-1][0]) + float(cpu[-1][1]) if cpu else 0.0)
-    return Run(outcome, seconds, m.group(1).strip() if m else "", cost_seen=int(costs[-1]) if costs else None,
+    at = _AT_RE.match(m.group(1).strip()) if m else None
+    return Run(outcome, seconds, m.group(2).strip() if m else "", cost_seen=int(costs[-1]) if costs else None,
                cpu_s=cpu_s, claims=bmc_evidence.parse_claims(text), points=bmc_evidence.parse_cover_points(text),
                replayed=f"{hit.group(2)} {hit.group(3)}" if hit else "",
-               spot_checked="urb-bmc-cache: spot-checked " in text)
+               spot_checked="urb-bmc-cache: spot-checked " in text,
+               violated_at=(f"{at.group(1)} line {at.group(2)}" + (f" ({at.group(3)})" if at.group(3) else "")) if at else "")
 
 
 def esbmc_path() -> str:
@@ -334,6 +347,11 @@ class Proof:
     def items(self, tier: str) -> list[str]:
         text = self.config.get("fast_sweep" if tier == "fast" else "sweep", "")
         return text.split() if text else [""]
+
+    def cost_check(self) -> str:
+        """Where COST is checked (Makefile.common COST_CHECK): "proof" (every proof run asserts it) or
+        "separate" (probe runs at COST and the witness only)."""
+        return self.config.get("cost_check", "") or "proof"
 
     def mutants_of(self, tier: str) -> list[dict[str, Any]]:
         """The seeded bugs the tier runs: all in the full tier, those not marked "tier": "full" in the fast."""
@@ -584,14 +602,46 @@ def _kind(outcome: str) -> str:
     return {"fail": "FAILED", "timeout": "TIMEOUT", "error": "ERROR", "pass": "proved"}[outcome]
 
 
+@dataclass(frozen=True)
+class CostRun:
+    """One run that checks a folder's COST: `make <target> SWEEP_ITEM=<item> <extra>`."""
+
+    target: str  # "probe" (no entry costs more than COST: must pass) or "tight" (COST reached: must fail)
+    item: str
+    extra: tuple[str, ...] = ()
+    tag: str = ""
+
+
+def cost_runs(proof: Proof, tier: str) -> list[CostRun]:
+    """The runs that check the folder's COST in this tier, besides its proof runs.
+
+    COST_CHECK = proof (the default): the proof runs assert COST themselves; the full tier adds the
+    witness on COST's item. COST_CHECK = separate: a probe at COST on every item of the tier (the
+    same run `--update-costs` makes, so its last probe of an item replays from the cache), and in the
+    full tier the witness. A folder without a COST file has none."""
+    if proof.cost is None:
+        return []
+    runs: list[CostRun] = []
+    if proof.cost_check() == "separate":
+        runs += [CostRun("probe", item, (f"COST_PROBE={proof.cost}",), f"-probe{proof.cost}") for item in proof.items(tier)]
+    if tier == "full":
+        item = proof.cost_item if proof.cost_item in proof.items("full") else ""
+        if proof.items("full") != [""] and not item:
+            item = item_order(proof.items("full"))[0]
+        runs.append(CostRun("tight", item))
+    return runs
+
+
 @dataclass
 class Plan:
-    """The runs of one proof: its items, its mutants, its worst-case witness."""
+    """The runs of one proof: its items, its mutants, its COST probes and worst-case witness."""
 
     proof: Proof
     runs: dict[str, Future[Run]] = field(default_factory=dict)
     mutants: dict[str, Future[list[tuple[str, Run]]]] = field(default_factory=dict)
     tight: Future[Run] | None = None
+    #: COST_CHECK = separate: item -> the probe at COST on it (must pass)
+    cost_probes: dict[str, Future[Run]] = field(default_factory=dict)
     reach: dict[str, Future[Run]] = field(default_factory=dict)
     #: the reach runs checked the cover points (tools/proofs.py --covers): collect() gives a [cover] row
     covers: bool = True
@@ -628,11 +678,12 @@ def bmc(proofs: list[Proof], tier: str, jobs: int, mutants: bool, out_root: Path
             if mutants:
                 for m in plan.proof.mutants_of(tier):
                     plan.mutants[str(m["name"])] = pool.submit(run_mutant, plan.proof, tier, out_root, str(m["name"]))
-            if tier == "full" and plan.proof.cost is not None:
-                item = plan.proof.cost_item if plan.proof.cost_item in plan.proof.items("full") else ""
-                if plan.proof.items("full") != [""] and not item:
-                    item = item_order(plan.proof.items("full"))[0]
-                plan.tight = pool.submit(run_make, plan.proof, "tight", "full", out_root, item)
+            for c in cost_runs(plan.proof, tier):
+                fut = pool.submit(run_make, plan.proof, c.target, tier, out_root, c.item, "", c.extra, c.tag)
+                if c.target == "tight":
+                    plan.tight = fut
+                else:
+                    plan.cost_probes[c.item] = fut
         rows: list[dict[str, Any]] = []
         for plan in plans:
             rows += collect(plan, tier)
@@ -740,21 +791,70 @@ def collect(plan: Plan, tier: str) -> list[dict[str, Any]]:
                              f"not judged here, only the plain vacuity check: {plan.covers_deferred} (listed in "
                              f"{bmc_evidence.DEFERRED_FILE}; judge them with python3 tools/proofs.py --covers "
                              f"--no-mutants --only {p.name})"))
+    update = f"python3 tools/proofs.py --update-costs --tier full --only {p.name}"
+    if plan.cost_probes:
+        probes = {item: f.result() for item, f in plan.cost_probes.items()}
+        above = [(item, r) for item, r in probes.items() if r.outcome == "fail"]
+        lost = [(item, r) for item, r in probes.items() if r.outcome not in ("pass", "fail")]
+        if above:
+            item, r = above[0]
+            seen = f"{r.cost_seen} cycles" if r.cost_seen is not None and r.cost_seen > (p.cost or 0) else "more"
+            result = "ABOVE COST"
+            detail = (f"{len(above)} of {len(probes)} runs; {item or 'run'}: an entry costs {seen} than COST "
+                      f"{p.cost} allows{cost_entry(p, r.violated_at)} (log {r.log}); the worst case grew: find "
+                      f"what made the code slower, or re-record COST ({update}) and commit it")
+        elif lost:
+            item, r = lost[0]
+            result = _kind(r.outcome)
+            detail = (f"{len(lost)} of {len(probes)} runs gave no verdict; {item or 'run'}: {r.violated or r.outcome} "
+                      f"(log {r.log}): COST is not checked; rerun, or raise the folder's TIMEOUT")
+        else:
+            result, detail = "within COST", f"no measured entry costs more than {p.cost} cycles on any run of the tier"
+        rows.append(make_row(f"{p.name} [cost probe]", "ESBMC", f"every measured entry costs at most COST ({p.cost} "
+                             "cycles; probe run: URB_COST_PROBE)", bound, result, not above and not lost,
+                             sum(r.seconds for r in probes.values()), detail))
+        _account(rows[-1], probes.values())
     if plan.tight is not None:
         r = plan.tight.result()
         reached = r.outcome == "fail" and r.violated.startswith("tight:")
-        result = "reached" if reached else ("NOT REACHED" if r.outcome == "pass" else _kind(r.outcome))
+        if reached:
+            result, detail = "reached", f"COST {p.cost} reached{cost_entry(p, r.violated_at)}"
+        elif r.outcome == "pass":
+            result = "NOT REACHED"
+            detail = (f"no input of {p.cost_item or 'the run'} costs COST {p.cost} cycles: the worst case is lower "
+                      f"(log {r.log}); re-record COST ({update}) and commit it")
+        elif r.outcome == "fail":
+            result = "FAILED"
+            detail = (f"failed on \"{r.violated or 'an unnamed property'}\", not on the witness (\"tight: ...\"): "
+                      f"the harness fails on {p.cost_item or 'the run'} (log {r.log})")
+        else:
+            result, detail = _kind(r.outcome), f"{r.violated or r.outcome} (log {r.log}): rerun, or raise TIMEOUT"
         rows.append(make_row(f"{p.name} [worst case]", "ESBMC", "cost reaches COST (witness)",
-                             f"unwind {p.unwind('full')} {p.cost_item}".strip(), result, reached, r.seconds,
-                             "" if reached else f"{r.violated or r.outcome} (log {r.log}); rerun --update-costs"))
+                             f"unwind {p.unwind('full')} {p.cost_item}".strip(), result, reached, r.seconds, detail))
         _account(rows[-1], [r])
     plan.evidence = bmc_evidence.ProofEvidence(
         p.name, tier, p.purpose, properties_of(p), bound,
         {k: p.config.get(k, "") for k in ("checks", "extra", "timeout", "unwind", "fast_unwind", "tier_defines")},
         rows[0], reach_row, next((r for r in rows if r["function"].endswith("[worst case]")), None),
         {r["function"].split("[mutant ", 1)[1].rstrip("]"): r for r in rows if "[mutant " in r["function"]},
-        p.mutants, covers, p.cost, p.budget())
+        p.mutants, covers, p.cost, p.budget(), next((r for r in rows if r["function"].endswith("[cost probe]")), None))
     return rows
+
+
+def cost_entry(proof: Proof, at: str) -> str:
+    """Which measured entry a violated cost property is at, from its location ("harness.c line 355
+    (harness)"): " at harness.c line 355 (harness): URB_COST_END(FW_CAN_FRAME_BUDGET)", the entry and
+    the budget it asserts; "" when the run named no location."""
+    if not at:
+        return ""
+    m = re.match(r"(\S+) line (\d+)", at)
+    text = ""
+    if m and (proof.folder / m.group(1)).is_file():
+        lines = (proof.folder / m.group(1)).read_text(encoding="utf-8").splitlines()
+        n = int(m.group(2))
+        if 0 < n <= len(lines) and (end := re.search(r"URB_COST_END\s*\(([^;]*)\)\s*;", lines[n - 1])):
+            text = f": URB_COST_END({end.group(1).strip()})"
+    return f" at {at}{text}"
 
 
 CACHE_DIR = BMC_DIR / "cache"
@@ -797,7 +897,9 @@ def update_costs(proofs: list[Proof], jobs: int, tier: str, out_root: Path) -> i
 
     A probe checks only `cost <= n`; each counterexample shows a larger reachable cost, which is the
     next probe, so the search ends at the worst case in a few runs per item. Only proofs whose
-    harness measures a cost (URB_COST_END) are probed."""
+    harness measures a cost (URB_COST_END) are probed. A COST_CHECK = separate folder's COST is the
+    worst case over its full tier's items (its full tier probes every one at COST), so it is searched
+    only with tier "full"; in the fast tier it is skipped with a message."""
     def holds(p: Proof, item: str, bound: int) -> Run:
         r = run_make(p, "probe", tier, out_root, item=item, extra=(f"COST_PROBE={bound}",), tag=f"-probe{bound}")
         if r.outcome not in ("pass", "fail"):
@@ -839,6 +941,11 @@ def update_costs(proofs: list[Proof], jobs: int, tier: str, out_root: Path) -> i
         return best, best_item
 
     measured = [p for p in proofs if "URB_COST_END" in (p.folder / "harness.c").read_text(encoding="utf-8")]
+    if tier != "full":
+        for p in [p for p in measured if p.cost_check() == "separate"]:
+            print(f"  {p.name}: skipped: COST_CHECK = separate, its COST is the worst case over the full tier's items; "
+                  f"record it with python3 tools/proofs.py --update-costs --tier full --only {p.name}")
+        measured = [p for p in measured if p.cost_check() != "separate"]
     with ThreadPoolExecutor(max_workers=jobs) as pool:
         futures = [(p, pool.submit(worst, p)) for p in measured]
         for p, fut in futures:
@@ -847,7 +954,9 @@ def update_costs(proofs: list[Proof], jobs: int, tier: str, out_root: Path) -> i
                 print(f"  {p.name}: cost 0 on every run; no COST written")
                 continue
             (p.folder / "COST").write_text(f"{cost} {item}".strip() + "\n", encoding="utf-8")
-            print(f"  {p.name}: worst case {cost} cycles{f' at {item}' if item else ''}")
+            print(f"  {p.name}: worst case {cost} cycles{f' at {item}' if item else ''}"
+                  + (f"; COST_CHECK = separate: check it (probes at COST, the witness) with python3 tools/proofs.py "
+                     f"--tier full --only {p.name}" if p.cost_check() == "separate" else ""))
     return 0
 
 
@@ -899,7 +1008,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="with --covers: the folders listed in FILE (JSON: folder -> {\"reason\", ...}) run the plain "
                          "vacuity check and get a [cover] row 'deferred' with the reason (make check: "
                          f"{bmc_evidence.DEFERRED_FILE})")
-    ap.add_argument("--update-costs", action="store_true", help="record worst-case costs (COST files) and stop")
+    ap.add_argument("--update-costs", action="store_true",
+                    help="record worst-case costs (COST files: the worst case over the tier's items) and stop; a "
+                         "COST_CHECK = separate folder only with --tier full")
     ap.add_argument("--list", action="store_true", help="list the proofs and their settings and stop")
     ap.add_argument("--out", type=Path, default=OUT_ROOT, help="results folder (default build/proofs)")
     ap.add_argument("--prune-cache", action="store_true",
@@ -920,7 +1031,8 @@ def main(argv: list[str] | None = None) -> int:
         if args.list:
             for p in proofs:
                 print(f"{p.name:40} unwind {p.unwind('full'):>4}  runs {len(p.items('full')):>3} full "
-                      f"{len(p.items('fast')):>3} fast  mutants {len(p.mutants)}  cost {p.cost}  budget {p.budget()}")
+                      f"{len(p.items('fast')):>3} fast  mutants {len(p.mutants)}  cost {p.cost}  budget {p.budget()}"
+                      + ("  cost_check separate" if p.cost_check() == "separate" else ""))
             return 0
         esbmc_path()
         if args.update_costs:
