@@ -30,6 +30,9 @@
  *    SIZE_MISMATCH only for a transfer of another length; a read's answer carries the published
  *    buffer's bytes in order (read_begin's), or is empty when there is no such outbox;
  *  - SYNC passed on with the frame's counter and time stamp;
+ *  - the segmenter holds the answer answer() started (after init and after every event, on the
+ *    slave's own state; the Frama-C unit eva_dl_can admits it as a hypothesis): no payload and
+ *    length 0, the one refusal byte and length 1, or the published outbox and its outbox_size;
  *  - each entry (rx, tx_done, state) within FW_CAN_FRAME_BUDGET (fw_budgets.h).
  * Cover points: a write committed, each refusal, a probe answered, a duplicate ignored, a read
  * begun and ended complete, a read abandoned for a new request or bus-off, a SYNC passed on.
@@ -40,12 +43,14 @@
  * OP=0 any event (above); OP=1 every event a frame on the run's session's request identifier (any
  * length, tail and bytes: multi-frame transfers, CRC failures, repeats, new starts over a request or
  * an answer in progress); OP=2 the first event such a frame, every later one a frame reported sent or
- * a controller state (the answer's end, bus-off over a request or an answer); OP=3 as OP=1, with the
- * first frame a probe (one byte, start, end and toggle bits), the second a start frame without the
- * end bit, the third a one-byte start frame (a probe completed, a multi-frame request begun, then
- * a repeat of the probe, which may not disturb the request in progress, or another request's start;
- * the probe and the third frame have their length set, so symbolic execution does not unroll them;
- * node 20, mailbox 1 only).
+ * a controller state (the answer's end, bus-off over a request or an answer); OP=3 the
+ * dup-after-start scenario, as OP=1 from a slave that has completed and answered a request on the
+ * session (its last session, transfer id and time set after init, and the reference's, to any
+ * values: the state such a request leaves, with no write or answer in progress), every frame
+ * URB_FLEN bytes long (set, so symbolic execution does not unroll the length), node 20, mailbox 1:
+ * the first frame a start frame without the end bit (a multi-frame write begun), the second a
+ * one-byte start frame (a repeat of the request completed last, which may not disturb the write in
+ * progress, or another request's start), the third any frame of that length (the write's end).
  * Bounds: URB_STEPS events, mailboxes of at most URB_LEN_MAX bytes, every frame at most
  * URB_FLEN bytes long (8, a whole CAN frame, unless the item says less: two frames of at most 3
  * bytes still carry a multi-frame transfer, its CRC and a repeat, at a fraction of the solver's work).
@@ -125,7 +130,8 @@ static uint8_t own;        /* this node's address */
 static uint8_t sess;       /* the run's session (mailbox | 8 for a read) */
 static uint8_t box_size;   /* inbox or outbox size of the session's mailbox */
 static uint8_t ibuf[URB_LEN_MAX + 1u];
-static uint8_t obuf[URB_LEN_MAX];
+static uint8_t obuf[URB_LEN_MAX + 1u]; /* one byte past the largest outbox: a segmenter told a length
+                                        * past its outbox fails "tx state", not the array bound */
 static uint8_t queued;
 static uint32_t now;
 
@@ -357,20 +363,17 @@ static void ev_rx(urb_can_slave_t *s, uint8_t k)
     URB_ASSUME((f.len <= URB_CAN_MTU) && (f.len <= URB_FLEN));
     URB_NONDET_BYTES(f.data, sizeof f.data);
     if (URB_OP == 3) {
-        /* the scenario's first three frames (harness header): a probe, the start of a multi-frame
-         * request, another start frame */
-        uint8_t const se = URB_CAN_TAIL_START | URB_CAN_TAIL_END;
+        /* the scenario's frames (harness header), their lengths set rather than assumed: a start
+         * frame without the end bit, a one-byte start frame, then any frame */
         uint8_t const st = URB_CAN_TAIL_START | URB_CAN_TAIL_TOGGLE;
         if (k == 0u) {
-            f.len = 1u; /* a probe, set rather than assumed: symbolic execution sees its length */
-            f.data[0] = (uint8_t)(f.data[0] | se | st);
+            f.len = (uint8_t)URB_FLEN;
+            f.data[URB_FLEN - 1u] = (uint8_t)((f.data[URB_FLEN - 1u] & URB_CAN_TAIL_TID) | st);
         } else if (k == 1u) {
-            URB_ASSUME((f.len >= 1u) && ((f.data[f.len - 1u] & (se | st)) == st));
-        } else if (k == 2u) {
-            f.len = 1u; /* a one-byte start frame: the probe repeated, or another probe or start */
+            f.len = 1u; /* the request completed last repeated, or another probe or start */
             f.data[0] = (uint8_t)(f.data[0] | st);
         } else {
-            /* any frame on the session */
+            f.len = (uint8_t)URB_FLEN; /* any frame on the session, the write's end among them */
         }
     }
     now += URB_NONDET_U16();
@@ -487,6 +490,19 @@ static urb_can_slave_t slave;
 urb_can_frame_t urb_view_slave_frame;
 uint8_t urb_view_slave_answer[1];
 
+/* The segmenter's payload and length are a pair answer() set (the only writer after init, which
+ * sets NULL and 0; urb_can_tx_next advances only the position, CRC and tail): what the Frama-C unit
+ * eva_dl_can admits, here checked on the slave's own state between events. The outbox pair is the
+ * published buffer and outbox_size (PART=2 only: no read in a write session). */
+static void check_tx_state(void)
+{
+    const uint8_t *const p = slave.tx.payload;
+    uint8_t const n = slave.tx.len;
+    URB_ASSERT(((p == NULL) && (n == 0u)) || ((p == urb_view_slave_answer) && (n == 1u)) ||
+                   ((URB_PART == 2) && (p == obuf) && (n == box_size)),
+               "tx state: the answer answer() started (none and 0, the refusal byte and 1, the outbox and its size)");
+}
+
 void harness(void)
 {
     own = URB_NONDET_U8();
@@ -506,6 +522,7 @@ void harness(void)
         obuf[i] = URB_NONDET_U8();
         ibuf[i] = URB_NONDET_U8();
     }
+    obuf[URB_LEN_MAX] = URB_NONDET_U8();
     ibuf[URB_LEN_MAX] = URB_NONDET_U8();
     now = URB_NONDET_U32();
     urb_can_rx_reset(&ref_rx);
@@ -529,6 +546,17 @@ void harness(void)
     mb.fault = URB_NONDET_BOOL() ? mb_fault : NULL;
     bool const ok = urb_can_slave_init(&slave, &hal, &mb, own, DUP_WINDOW);
     URB_ASSERT(ok, "init: a valid address and a complete table are taken");
+    if (URB_OP == 3) {
+        /* a request on the session completed and answered before the run (harness header): the
+         * slave's duplicate filter and the reference's hold the same last request */
+        slave.last_session = sess;
+        slave.last_tid = (uint8_t)(URB_NONDET_U8() & URB_CAN_TAIL_TID);
+        slave.last_t = URB_NONDET_U32();
+        last_valid = true;
+        last_tid = slave.last_tid;
+        last_t = slave.last_t;
+    }
+    check_tx_state();
     for (uint8_t k = 0u; k < URB_STEPS; k++) {
         uint8_t e = URB_NONDET_U8();
         if ((URB_OP == 1) || (URB_OP == 3) || ((URB_OP == 2) && (k == 0u))) {
@@ -545,5 +573,6 @@ void harness(void)
         } else {
             ev_rx(&slave, k);
         }
+        check_tx_state();
     }
 }

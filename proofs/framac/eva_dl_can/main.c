@@ -197,8 +197,9 @@ int eva_main(void)
          * bytes (every stub outbox holds 32, so any length <= 32 is in bounds). answer() is the only
          * writer of `tx.payload` and `tx.len` after init (urb_can_tx_init(NULL, 0) there; tx_next
          * advances only the position, CRC and tail), called with exactly these
-         * pairs (urb_can_slave.c: request_done, refuse). Eva joins urb_can_slave_rx's paths at its
-         * return and loses which length goes with which buffer. */
+         * pairs (urb_can_slave.c: request_done, refuse; ESBMC checks the pairing on the slave's
+         * state after every event, proofs/bmc/fw_can_slave "tx state"). Eva joins
+         * urb_can_slave_rx's paths at its return and loses which length goes with which buffer. */
         /*@ admit (eva_can_slave.tx.payload == \null ==> eva_can_slave.tx.len == 0) &&
                   (eva_can_slave.tx.payload == &eva_can_slave.answer[0] ==> eva_can_slave.tx.len == 1) &&
                   eva_can_slave.tx.len <= 32; */
