@@ -262,7 +262,7 @@ void urb_rs485_master_rx(urb_rs485_master_t *m, uint8_t byte, uint32_t t)
         return;
     }
     if ((ph == PH_SENT) && ((ev & URB_RS485_EV_BROKEN) != 0u)) {
-        /* Rs485Poll.tla BreakSent: the request's last byte was out, then a byte after a silence over
+        /* Rs485Poll.tla BabbleStartWith (its break): the request's last byte was out, then a byte after a silence over
          * t1.5 (another talker, noise) broke its frame before its t3.5 (or made it longer than any
          * frame). Every node's receiver discards it (urb_rs485.h), so no node took the request:
          * BUS_STUCK (not executed) once the line is silent again. Staying in SENT was wrong: the
