@@ -19,7 +19,11 @@
  * with the bytes the other talker added to it, which a node may have taken: TIMEOUT; the same
  * when the UART stalls for t3.5 inside the request (the line carried a shorter frame: the bridge
  * stops); a collision on the last byte leaves it to the node's check (the answer, or its
- * absence, decides). No answer started within t3.5 + the turnaround +
+ * absence, decides). A request whose frame breaks on or after its last byte (a byte after a
+ * silence over t1.5 before its t3.5 end, or a frame grown past 36 bytes by another talker's bytes)
+ * reached no node (every receiver discards a broken frame): BUS_STUCK (not executed) once the
+ * line is silent again (TIMEOUT if another talker's frame that passes its check ends first),
+ * never the node's silence or answer. No answer started within t3.5 + the turnaround +
  * one character of the request's end -> NO_NODE (silence). An answer broken by a silence over
  * t1.5 -> TIMEOUT; one that fails its check, is too long or is not a well-formed Rs485Response
  * for this mailbox -> CHECKSUM. A line never silent for t3.5 before sending (a babbler) ->
@@ -43,7 +47,8 @@ extern "C" {
 
 /** Counters for diagnostics (urb_rs485_master_stats). */
 typedef struct {
-    uint32_t collisions; /**< echoes that differed from the byte sent */
+    uint32_t collisions; /**< echoes that differed from the byte sent, and bytes that joined or broke
+                              the request's frame after its last byte */
     uint32_t silences;   /**< requests no node answered (NO_NODE) */
     uint32_t babble;     /**< bytes heard while no answer was awaited */
     uint32_t bad;        /**< answers that failed their check or were malformed (CHECKSUM) */
@@ -65,7 +70,8 @@ typedef struct {
     volatile uint8_t echo;        /* echo bytes that matched */
     volatile uint8_t phase;
     volatile uint8_t result;
-    bool cut;            /* a collision cut the frame before its last byte */
+    bool cut;            /* no node can take the request's frame: a collision cut it before its last
+                            byte (and its bytes pass no check), or it broke on or after its last byte */
     uint32_t t0;         /* begin() time */
     uint32_t t_sent;     /* time stamp of the request's last echo byte */
     urb_rs485_master_stats_t stats;

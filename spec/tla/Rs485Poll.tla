@@ -16,12 +16,16 @@
 (* node may or may not take the frame.  The polled node, if present and    *)
 (* if its frame arrived whole, takes it at the frame's end (t3.5 of        *)
 (* silence) and answers at once; a babbler that talks before that breaks   *)
-(* the frame (Modbus: discarded).  No answer: the bridge's silence timeout *)
+(* the frame (Modbus: discarded): no node takes it, and the bridge, which  *)
+(* hears the break, drains and reports BUS_STUCK (issue #39: it used to    *)
+(* wait on, take the babbler's frame end for its request's and report the  *)
+(* node's silence NO_NODE).  No answer: the bridge's silence timeout      *)
 (* (t3.5 + turnaround + a character) gives NO_NODE.  A babbler may talk at *)
 (* any time; bytes the bridge hears while nobody was polled are counted.   *)
 (* Outcomes (status names of core.urbs): OK, CHECKSUM (the node's check    *)
 (* failed: not stored), TIMEOUT (a corrupted answer, or a cut whose bytes  *)
-(* pass a check: unknown), NO_NODE, BUS_STUCK (cut: not executed).         *)
+(* pass a check: unknown), NO_NODE, BUS_STUCK (cut or broken: not         *)
+(* executed).                                                              *)
 (***************************************************************************)
 EXTENDS Naturals, Sequences, FiniteSets
 
@@ -48,7 +52,8 @@ VARIABLES
                 \* line carried are no frame a check accepts (the master's `cut`)
     due,        \* the node that will answer (it took the request or must refuse it), or NOBODY
     got,        \* what the polled node received: "none", "intact", "corrupt", or "short"
-                \* (the frame cut by a collision, whose bytes pass its check)
+                \* (the frame cut by a collision, whose bytes pass its check); "broken": the
+                \* request's frame, out whole, broke before its t3.5 (no node received it)
     stored,     \* ghost: what the polled node stored (Stores)
     storesOf,   \* ghost: storesOf[i], how many times the node polled i-th stored a frame of that poll
     garbled,    \* the answer heard was overlapped by the babbler
@@ -68,7 +73,7 @@ TypeOK ==
     /\ k \in 1..Len(Polls) + 1
     /\ phase \in {"idle", "send", "wait", "answer", "drain", "done"}
     /\ drivers \subseteq Talkers /\ cut \in BOOLEAN
-    /\ due \in Nodes \cup {NOBODY} /\ got \in {"none", "intact", "corrupt", "short"}
+    /\ due \in Nodes \cup {NOBODY} /\ got \in {"none", "intact", "corrupt", "short", "broken"}
     /\ stored \in Stores /\ storesOf \in [1..Len(Polls) -> Nat] /\ garbled \in BOOLEAN /\ from \in Talkers \cup {NOBODY}
     /\ result \in Results /\ babbleLeft \in 0..MaxBabble
     /\ babbledIdle \in BOOLEAN /\ heard \in 0..1
@@ -181,20 +186,38 @@ Report ==
 (* frame the node waits on (the request's, or a cut one that passes a     *)
 (* check); during an answer it garbles it; in the bridge's wait it is     *)
 (* heard as an answer that will not check.                                 *)
+(* "wait" on a silent line folds two firmware phases: SENT (the request's *)
+(* last byte out, its t3.5 to come) and WAIT (the node's turn).  A talker  *)
+(* in SENT (`breaks`) breaks the request's frame: no node takes it (got =  *)
+(* "broken"); the bridge hears the break (the receiver's EV_BROKEN) and,   *)
+(* if it reacts (the firmware since issue #39's fix), drains: BUS_STUCK at *)
+(* silence.  One that does not (Rs485Poll_SentIgnoresBreak, the firmware   *)
+(* before) stays in "wait": the babbler's frame end, when it stops, is     *)
+(* taken for the request's, and the silence after it is NO_NODE.  A       *)
+(* talker in WAIT is heard as an answer; only when no node is due (a due   *)
+(* node's answer starts at the t3.5, folded into Answer).                  *)
 (***************************************************************************)
-BabbleStartWith(counted) ==   \* counted: the phases in which the bridge counts babble
+BabbleStartWith(counted, reacts) ==   \* counted: the phases in which the bridge counts babble
     /\ babbleLeft > 0 /\ BABBLER \notin drivers
     /\ drivers' = drivers \cup {BABBLER} /\ babbleLeft' = babbleLeft - 1
     /\ babbledIdle' = (babbledIdle \/ phase \in {"idle", "done"})
     /\ heard' = IF phase \in counted THEN 1 ELSE heard
     /\ due' = IF drivers = {} /\ phase \in {"wait", "drain"} THEN NOBODY ELSE due
-    /\ garbled' = (garbled \/ phase = "answer" \/ (phase = "wait" /\ drivers = {}))
-    /\ IF phase = "wait" /\ drivers = {}
-       THEN phase' = "answer" /\ from' = BABBLER
-       ELSE UNCHANGED <<phase, from>>
-    /\ UNCHANGED <<k, cut, got, stored, storesOf, result, reported>>
+    /\ \E breaks \in IF phase = "wait" /\ drivers = {}
+                     THEN (IF due = NOBODY THEN BOOLEAN ELSE {TRUE}) ELSE {FALSE} :
+          /\ got' = IF breaks THEN "broken" ELSE got
+          /\ garbled' = (garbled \/ phase = "answer" \/ (phase = "wait" /\ drivers = {} /\ ~breaks))
+          /\ IF breaks
+             THEN /\ from' = from
+                  /\ phase' = IF reacts THEN "drain" ELSE phase
+                  /\ cut' = (reacts \/ cut)
+             ELSE /\ cut' = cut
+                  /\ IF phase = "wait" /\ drivers = {}
+                     THEN phase' = "answer" /\ from' = BABBLER
+                     ELSE UNCHANGED <<phase, from>>
+    /\ UNCHANGED <<k, stored, storesOf, result, reported>>
 
-BabbleStart == BabbleStartWith({"idle", "done"})
+BabbleStart == BabbleStartWith({"idle", "done"}, TRUE)
 
 BabbleStop ==
     /\ BABBLER \in drivers
@@ -243,6 +266,14 @@ StatusTruthful == \A i \in DOMAIN reported :
 \* lobster-trace: urb.DLK_004
 StoredAtMostOnce == \A i \in DOMAIN storesOf : storesOf[i] <= 1
 
+(* NO_NODE only for a request whose frame went out whole and unbroken: the *)
+(* node's silence says nothing about a request no node received (issue    *)
+(* #39: a frame broken after its last byte, or cut, is no poll).  Checked  *)
+(* where the outcome is ready (phase "done": got is that poll's until the  *)
+(* next Poll, after Report).                                               *)
+\* lobster-trace: urb.DLK_004
+NoNodeOnlyWhole == (phase = "done" /\ result = "NO_NODE") => got \notin {"broken", "short"}
+
 (* Bytes heard while nobody was polled are counted (babbling detected).    *)
 \* lobster-trace: urb.DLK_005
 BabbleCounted == babbledIdle => heard > 0
@@ -253,14 +284,16 @@ BabbleCounted == babbledIdle => heard > 0
 NoFalseBabble == heard > 0 => babbledIdle
 
 THEOREM Spec => [](TypeOK /\ OneTalker /\ OnlyPolledNodeTalks /\ StatusTruthful /\ StoredAtMostOnce
-                   /\ BabbleCounted /\ NoFalseBabble)
+                   /\ NoNodeOnlyWhole /\ BabbleCounted /\ NoFalseBabble)
 
 -----------------------------------------------------------------------------
 (* Reachability witnesses (manifest.json "witnesses", tools/tla_witness.py):*)
 (* the situations the invariants are about, each of which a model must     *)
 (* reach in its own run.                                                   *)
 Reported(r, s) == \E i \in DOMAIN reported : reported[i].result = r /\ reported[i].stored \in s
-ReachCollisionDetected == Reported("BUS_STUCK", Stores)  \* a collision cut a request
+\* a collision cut a request (its outcome ready: a break after the request's last byte, also
+\* BUS_STUCK, is ReachBrokenAfterSent)
+ReachCollisionDetected == phase = "done" /\ result = "BUS_STUCK" /\ got # "broken"
 ReachSilentNode == Reported("NO_NODE", Stores)           \* the absent node
 ReachBabblerCounted == heard > 0                          \* bytes heard while nobody was polled
 ReachAnswerOk == Reported("OK", Stores)
@@ -270,4 +303,7 @@ ReachNodeChecksum == Reported("CHECKSUM", Stores)         \* a request corrupted
 \* a write cut by a collision whose bytes passed the node's check: stored as a shorter write,
 \* reported TIMEOUT (issue #39; fuzz_rs485's regress-rs485-cut-frame-passes-check)
 ReachCutFrameStored == Reported("TIMEOUT", {"shorter"})
+\* the request went out whole and a babbler broke its frame before its t3.5: BUS_STUCK (issue #39;
+\* fw_rs485_master's cover point broken-after-request-bus-stuck)
+ReachBrokenAfterSent == phase = "done" /\ result = "BUS_STUCK" /\ got = "broken"
 =============================================================================

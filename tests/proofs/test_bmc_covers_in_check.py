@@ -96,11 +96,15 @@ def test_the_runner_rejects_a_deferral_without_reason(tmp_path: Path, capsys: An
 
 
 def _first_items_per_part(folder: Path) -> dict[str, str]:
-    """The item of each harness part that the runner's cover run checks first (largest first)."""
+    """The item of each harness part that the runner's cover run checks first (largest first), skipping
+    the items that compile no cover point (proofs.run_reach_part runs those with COVERS=0: the plain
+    vacuity check, as fw_rs485_master's PART=1,OP=0,AFTER=4, which goes before PART=1,OP=0)."""
     proof = proofs.load(folder, "fast")
     firsts: dict[str, str] = {}
     for item in proofs.item_order(proof.items("fast")):
-        firsts.setdefault(ev.part_of(item), item)
+        part = ev.part_of(item)
+        if part not in firsts and proofs.cover_points(proof, "fast", item) != []:
+            firsts[part] = item
     return firsts
 
 

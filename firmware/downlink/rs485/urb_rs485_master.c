@@ -3,8 +3,8 @@
  *
  * Phases (the bridge side of Rs485Poll.tla): QUIET (waiting for t3.5 of silence before sending), SEND (driving
  * the line, echo checked byte by byte), SENT (own frame out, waiting for its t3.5 end), WAIT (the
- * node's turn, nothing heard yet), ANSWER (its answer arriving), DRAIN (after a collision: waiting
- * for silence), DONE (outcome ready for poll).
+ * node's turn, nothing heard yet), ANSWER (its answer arriving), DRAIN (after a collision, or the
+ * request's frame broken after its last byte: waiting for silence), DONE (outcome ready for poll).
  *
  * Seeded bugs for the mutant checks: URB_MUTANT_RS485_NO_ECHO_CHECK (a collision goes unnoticed),
  * URB_MUTANT_RS485_SEND_WHILE_BUSY (the bridge sends without waiting for silence),
@@ -250,12 +250,28 @@ void urb_rs485_master_rx(urb_rs485_master_t *m, uint8_t byte, uint32_t t)
         m->hal->tx_abort(m->hal->ctx);
         m->stats.collisions++;
         bool const last_byte = (uint8_t)(k + 1u) >= m->n_tx;
-        m->cut = !last_byte && !cut_frame_passes_check(m, (uint8_t)(k + 1u), byte);
-        if (!last_byte || (m->op == URB_DL_SYNC)) {
+        bool const broke = (ev & URB_RS485_EV_BROKEN) != 0u;
+        /* the last byte came after a silence over t1.5 and broke the frame: no node takes it, as
+         * when a byte breaks it after the last (below) */
+        m->cut = last_byte ? broke : !cut_frame_passes_check(m, (uint8_t)(k + 1u), byte);
+        if (!last_byte || broke || (m->op == URB_DL_SYNC)) {
             m->phase = PH_DRAIN;
         } else {
             m->phase = PH_SENT; /* the last byte: the node's check decides */
         }
+        return;
+    }
+    if ((ph == PH_SENT) && ((ev & URB_RS485_EV_BROKEN) != 0u)) {
+        /* Rs485Poll.tla BabbleStartWith (its break): the request's last byte was out, then a byte after a silence over
+         * t1.5 (another talker, noise) broke its frame before its t3.5 (or made it longer than any
+         * frame). Every node's receiver discards it (urb_rs485.h), so no node took the request:
+         * BUS_STUCK (not executed) once the line is silent again. Staying in SENT was wrong: the
+         * receiver drops a broken frame without an end event, so the next frame that ended (another
+         * talker's) was taken for the request's, and with the request's length the node's silence
+         * was reported NO_NODE (issue #39, 2026-11-30: test_master_broken_after_sent). */
+        m->stats.collisions++;
+        m->cut = true;
+        m->phase = PH_DRAIN;
         return;
     }
     if ((ph == PH_WAIT) && ((ev & URB_RS485_EV_START) != 0u)) {

@@ -19,25 +19,29 @@
  * each after any silence up to 200 us;
  * both parts end with two polls after the timeout and the node's turn (at least 136 us after the
  * last byte on the line).
- * Bounds: URB_LEN 1 (the fast tier: a read's answer of 3 bytes, a write of 4), URB_AFTER 1,
- * URB_ANS = the longest answer (3 for a 1-byte read, 2 otherwise); the full tier's
+ * Bounds: URB_LEN 1 (the fast tier: a read's answer of 3 bytes, a write of 4), URB_AFTER 1 (the
+ * fast tier's PART=1,OP=0,AFTER=4 item: the request's length + 1, so a byte that breaks the request's
+ * frame after its last byte, then another talker's frame of the request's length: issue #39's
+ * untrue NO_NODE), URB_ANS = the longest answer (3 for a 1-byte read, 2 otherwise); the full tier's
  * PART=2,OP=1,LEN=32,LEN_MIN=32 item is the full-size write (36 bytes, CRC-16).
  * A reference receiver in the harness (urb_rs485.h's rules: a frame is the bytes between silences of
  * t3.5, a silence over t1.5 inside or a 37th byte discards it) tracks R, the frame that starts with
- * the request's first echo (whatever joins it), and A, the frame after it (the answer).
+ * the first byte after tx_start (the request's first echo, or another talker's byte in its slot;
+ * whatever joins it), and A, the frame after it (the answer).
  *
  * Properties (the contract):
  *  - exactly one status per transaction: poll() returns BUSY until it returns one status, then
  *    IDLE; the status has come by the second final poll; begin() is taken (the master was idle);
  *  - the status is true (Rs485Poll.tla StatusTruthful, DLK_004): OK only when R carried the
- *    request whole (every byte but possibly the last as sent: the node's check decides the last) and
+ *    request whole (every byte but possibly the last as sent, by whoever: the master hears only
+ *    the line; the node's check decides the last) and
  *    A passed its check, decodes as an Rs485Response for the request's mailbox, with status OK (a
  *    read: with `length` bytes, which are then in data[]; a write: with none; a probe: any answer);
  *    a SYNC OK only when R holds its bytes (each as sent, by whoever: the master hears only the
- *    line); a CLEAR OK only after t3.5 of silence; NO_NODE
- *    only when R carried the request and nothing was heard for the node's whole turn (t3.5 + the
- *    turnaround after R's last byte); a node's refusal (NODE_BUSY, SIZE_MISMATCH, BAD_REQUEST, a
- *    write's or probe's CHECKSUM) only when A is a well-formed answer carrying it (a read's
+ *    line); a CLEAR OK only after t3.5 of silence; NO_NODE only when R carried the request
+ *    (whole and unbroken: Rs485Poll.tla NoNodeOnlyWhole) and nothing was heard for the node's
+ *    whole turn (t3.5 + the turnaround after R's last byte); a node's refusal (NODE_BUSY,
+ *    SIZE_MISMATCH, BAD_REQUEST, a write's or probe's CHECKSUM) only when A is a well-formed answer carrying it (a read's
  *    SIZE_MISMATCH also for an OK answer of another length); a read's CHECKSUM only when an answer
  *    was heard; BUS_STUCK (not executed) only when no node can have taken the request: R was broken,
  *    too short, for another address or failed its check (the cut frame that passes a check is
@@ -109,6 +113,13 @@ URB_PROOF_COST_STORAGE;
 #endif
 #endif
 #define R_CAP (REQ_MAX + ((URB_ANS > URB_AFTER) ? URB_ANS : URB_AFTER))
+/* A's bytes: part 1's bytes after the request may all fall in A (AFTER over ANS: the item with the
+ * bytes after a break, below) */
+#if (URB_PART == 1) && (URB_AFTER > URB_ANS)
+#define A_CAP URB_AFTER
+#else
+#define A_CAP URB_ANS
+#endif
 #define PLAN_CAP (URB_LEN + 4u)
 
 #define CHAR_US 10u
@@ -130,8 +141,9 @@ URB_PROOF_COST_STORAGE;
 #ifndef URB_PART
 #define URB_PART 1
 #endif
-/* cover points: in the read items of both parts (the fast tier's items) */
-#if (URB_PART == 1) && (URB_OP == 0)
+/* cover points: in the read items of both parts (the fast tier's items; part 1's with one byte
+ * after the request: the AFTER=4 item's reach run is the plain vacuity check, which keeps it cheap) */
+#if (URB_PART == 1) && (URB_OP == 0) && (URB_AFTER == 1)
 #define COVER1(name) URB_COVER(name)
 #else
 #define COVER1(name) ((void)0)
@@ -231,7 +243,7 @@ static uint8_t fcount;         /* bytes of the frame in progress */
 static uint8_t rb[R_CAP], rn;
 static bool r_broken;
 static uint32_t r_t_last;
-static uint8_t ab[URB_ANS], an;
+static uint8_t ab[A_CAP], an;
 static bool a_started, a_broken;
 static uint8_t echo_good; /* leading echoes as sent, each joining the frame (R holds them) */
 static uint8_t echo_same; /* leading echoes as sent, none breaking the frame (one may split it) */
@@ -255,9 +267,12 @@ static void line_byte(uint8_t b, uint32_t t, bool own)
     uint32_t const d = t - line_t;
     line_t = t;
     if (fcur == NOFRAME) {
-        if (!own) {
+        if (!own && (n_tx_start == 0u)) {
             return; /* before the request: babble */
         }
+        /* the first byte after tx_start: the request's first echo, or another talker's byte in its
+         * slot when the echo is lost (the master hears only the line; found by the AFTER=4 item,
+         * 2026-11-30: a talker sending the request's bytes was a request the reference missed) */
         URB_ASSERT(d >= GAP_END, "the request's first byte starts a frame");
         fcur = 0u;
         f_open = true;
@@ -290,7 +305,7 @@ static void line_byte(uint8_t b, uint32_t t, bool own)
         rn++;
         r_t_last = t;
     } else if (fcur == 1u) {
-        URB_ASSUME(an < URB_ANS);
+        URB_ASSUME(an < A_CAP);
         ab[an] = b;
         an++;
     } else {
@@ -324,10 +339,19 @@ static bool r_may_be_taken(void)
     return ended(0u) && !r_broken && (rn >= 3u) && check_good(rb, rn) && (rb[0] == req[0]);
 }
 
-/* R carried the request: every byte but possibly the last as sent, nothing joined. */
+/* R carried the request: every byte but possibly the last as sent, by whoever (the master hears only
+ * the line: its echo lost, a talker sending the same bytes in their slots is the same frame to
+ * every node; found by the AFTER=4 item, 2026-11-30: the own echoes alone, echo_good, were too
+ * strong), nothing joined. */
 static bool r_carried_request(void)
 {
-    return ended(0u) && !r_broken && (rn == req_n) && (echo_good + 1u >= req_n);
+    bool same = ended(0u) && !r_broken && (rn == req_n);
+    for (uint8_t i = 0u; (uint8_t)(i + 1u) < (uint8_t)REQ_MAX; i++) {
+        if ((uint8_t)(i + 1u) < req_n) {
+            same = same && (rb[i] == req[i]);
+        }
+    }
+    return same;
 }
 
 /* R holds the request's bytes: the line carried them, each as sent (by whoever: a SYNC's last echo
@@ -455,6 +479,9 @@ static void status_judged(void)
         URB_ASSERT(!r_may_be_taken(), "BUS_STUCK: no node can have taken what the line carried");
         if (echo_differed) {
             COVER1("cut-bus-stuck");
+        }
+        if ((echo_good == req_n) && r_broken) {
+            COVER1("broken-after-request-bus-stuck"); /* Rs485Poll.tla ReachBrokenAfterSent */
         }
     } else if (s == URB_STATUS_TIMEOUT) {
         if (echo_differed && r_may_be_taken()) {

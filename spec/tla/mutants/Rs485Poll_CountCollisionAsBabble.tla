@@ -4,5 +4,5 @@
 EXTENDS MCRs485Poll
 
 MutSpec == Init /\ [][NextWith(CollideMid, SendEnd, Silence,
-                               BabbleStartWith({"idle", "send", "wait", "answer", "drain", "done"}))]_vars
+                               BabbleStartWith({"idle", "send", "wait", "answer", "drain", "done"}, TRUE))]_vars
 =============================================================================

@@ -3,5 +3,5 @@
 (* Expected: BabbleCounted *)
 EXTENDS MCRs485Poll
 
-MutSpec == Init /\ [][NextWith(CollideMid, SendEnd, Silence, BabbleStartWith({}))]_vars
+MutSpec == Init /\ [][NextWith(CollideMid, SendEnd, Silence, BabbleStartWith({}, TRUE))]_vars
 =============================================================================

@@ -787,7 +787,8 @@ static bool cut_verdict(uint8_t len, uint8_t n, uint8_t last, bool breaks, uint8
     bool const ok = cut_passes_recomputed(sent, n, last);
     *passes = (uint8_t)(*passes + ((ok && (n < n_tx)) ? 1u : 0u));
     bool const cut = L.master.cut;
-    assert_int_equal(cut, (n < n_tx) && !ok);
+    /* the last byte: cut only when it broke the frame (nobody takes a broken frame) */
+    assert_int_equal(cut, (n < n_tx) ? !ok : breaks);
     int out = URB_DOWNLINK_BUSY; /* back to idle */
     for (uint32_t i = 0u; (i < 40u) && (out == URB_DOWNLINK_BUSY); i++) {
         mt += 100u;
@@ -942,6 +943,94 @@ static void test_master_cut_then_joined(void **state)
     assert_int_equal(cut_then_joined(false), URB_STATUS_BUS_STUCK);
 }
 
+/* The request's frame breaks on or after its last byte: a byte after a silence over t1.5 and before
+ * its t3.5 end (`how` 0: after the last echo; 1: the last echo itself comes late), or another
+ * talker's bytes joining until the frame is longer than any (2). Every receiver discards a broken
+ * frame (without an end event), so no node took the request: BUS_STUCK. Then another talker's
+ * frame of the request's length (`line_n` bytes, the last making its check fail or pass) ends with
+ * no poll in the silence before it: the master took it for the request's end, waited for the node's
+ * turn and reported its silence NO_NODE (a SYNC: OK), for a request no node received (issue #39,
+ * fw_rs485_master's "Found, not fixed" of 2026-11-30, outside its one byte after the request). */
+static int broken_after_sent(uint8_t op, uint8_t how, bool line_passes)
+{
+    L.data[0] = 0x55u;
+    if (op == URB_DL_SYNC) {
+        master_begin_at(URB_DL_SYNC, 0u, 0u, 0u); /* 3 bytes: 0, counter, check */
+    } else {
+        master_begin_at(URB_DL_WRITE, 20u, 2u, 1u); /* 4 bytes: 20, 2, 0x55, check */
+    }
+    uint8_t const n_tx = L.master.n_tx;
+    uint8_t sent[URB_RS485_MAX_FRAME];
+    assert_int_equal(master_echo(sent, (uint8_t)(n_tx - 1u)), n_tx - 1u);
+    assert_true(urb_rs485_master_tx_next(&L.master, &sent[n_tx - 1u]));
+    mt += (how == 1u) ? 30u : 10u; /* 30: a silence of 20 us (over t1.5, 15) before the last echo */
+    urb_rs485_master_rx(&L.master, sent[n_tx - 1u], mt);
+    if (how == 0u) {
+        mt += 30u;
+        urb_rs485_master_rx(&L.master, 0xA5u, mt); /* the byte that breaks the request's frame */
+    } else if (how == 2u) {
+        for (uint8_t i = n_tx; i <= URB_RS485_MAX_FRAME; i++) {
+            mt += 10u;
+            urb_rs485_master_rx(&L.master, 0xA5u, mt); /* joins it, and the 37th byte breaks it */
+        }
+    } else {
+        /* the late last echo broke it */
+    }
+    /* another talker's frame of the request's length, after t3.5 of silence (no poll in it) */
+    uint8_t line[URB_RS485_MAX_FRAME] = {0x21u, 0x02u, 0x33u, 0u};
+    uint8_t const c = (uint8_t)urb_link_check(line, (size_t)n_tx - 1u, NULL, 0u);
+    line[n_tx - 1u] = line_passes ? c : (uint8_t)(c ^ 1u);
+    mt += 10u + 40u;
+    for (uint8_t i = 0u; i < n_tx; i++) {
+        urb_rs485_master_rx(&L.master, line[i], mt);
+        mt += 10u;
+    }
+    int out = URB_DOWNLINK_BUSY;
+    for (uint32_t i = 0u; (i < 40u) && (out == URB_DOWNLINK_BUSY); i++) {
+        mt += 50u;
+        out = L.dl.poll(L.dl.ctx, mt);
+    }
+    L.bridge.driving = true;
+    return out;
+}
+
+static void test_master_broken_after_sent(void **state)
+{
+    (void)state;
+    mt = 0u;
+    L.bridge.driving = true;
+    urb_rs485_master_stats_t st;
+    for (uint8_t how = 0u; how < 3u; how++) {
+        /* the other talker's frame fails its check: it is no frame, and the request reached nobody */
+        assert_int_equal(broken_after_sent(URB_DL_WRITE, how, false), URB_STATUS_BUS_STUCK);
+        assert_int_equal(broken_after_sent(URB_DL_SYNC, how, false), URB_STATUS_BUS_STUCK);
+        /* it passes its check: the drain takes it for what a node may have stored (TIMEOUT, which
+         * claims nothing), never for the request's end */
+        assert_int_equal(broken_after_sent(URB_DL_WRITE, how, true), URB_STATUS_TIMEOUT);
+    }
+    urb_rs485_master_stats(&L.master, &st);
+    assert_int_equal(st.collisions, 9u); /* one per transaction */
+    assert_int_equal(st.silences, 0u);
+    /* a poll in the silence after the break ends the drain there: BUS_STUCK */
+    L.data[0] = 0x55u;
+    master_begin_at(URB_DL_WRITE, 20u, 2u, 1u);
+    uint8_t sent[URB_RS485_MAX_FRAME];
+    assert_int_equal(master_echo(sent, URB_RS485_MAX_FRAME), 4u);
+    mt += 30u;
+    urb_rs485_master_rx(&L.master, 0xA5u, mt);
+    assert_int_equal(L.dl.poll(L.dl.ctx, mt + 44u), URB_DOWNLINK_BUSY);
+    assert_int_equal(L.dl.poll(L.dl.ctx, mt + 45u), URB_STATUS_BUS_STUCK);
+    /* a byte that joins the request's frame (within t1.5) is a longer frame, not a break: its end
+     * is the request's end with bytes joined, TIMEOUT as before */
+    L.bridge.driving = true;
+    master_begin_at(URB_DL_WRITE, 20u, 2u, 1u);
+    assert_int_equal(master_echo(sent, URB_RS485_MAX_FRAME), 4u);
+    mt += 10u;
+    urb_rs485_master_rx(&L.master, 0xA5u, mt);
+    mt += 50u;
+    assert_int_equal(L.dl.poll(L.dl.ctx, mt), URB_STATUS_TIMEOUT);
+}
+
 /* The UART stalls for t3.5 inside the request: the line carried a shorter frame that ended. When
  * its check passes (a write's data byte equal to the check of the bytes before it) a node may have
  * taken it: the bridge stops and reports TIMEOUT (found by fw_rs485_master, 2026-11-29); when it
@@ -987,8 +1076,9 @@ static void test_master_request_split_by_stall(void **state)
     assert_int_equal(L.dl.poll(L.dl.ctx, mt), URB_DOWNLINK_BUSY);
     mt += 200u;
     assert_int_equal(L.dl.poll(L.dl.ctx, mt), URB_STATUS_NO_NODE);
-    /* a SYNC whose last echo comes after a silence over t1.5: a collision on its last byte (not a
-     * cut), its frame broken without an end event: the drain ends at t3.5 of silence, TIMEOUT */
+    /* a SYNC whose last echo comes after a silence over t1.5: a collision on its last byte that
+     * broke its frame (without an end event): it reached no node, and the drain ends at t3.5 of
+     * silence: BUS_STUCK (TIMEOUT before issue #39's fix for frames broken on the last byte) */
     L.bridge.driving = true;
     master_begin_at(URB_DL_SYNC, 0u, 0u, 0u);
     assert_int_equal(master_echo(sent, 2u), 2u);
@@ -997,7 +1087,7 @@ static void test_master_request_split_by_stall(void **state)
     urb_rs485_master_rx(&L.master, b, mt);
     assert_false(L.bridge.driving);
     assert_int_equal(L.dl.poll(L.dl.ctx, mt + 44u), URB_DOWNLINK_BUSY);
-    assert_int_equal(L.dl.poll(L.dl.ctx, mt + 45u), URB_STATUS_TIMEOUT);
+    assert_int_equal(L.dl.poll(L.dl.ctx, mt + 45u), URB_STATUS_BUS_STUCK);
 }
 
 /* After a collision the other talker never stops: its bytes come with gaps over t1.5 (each breaks
@@ -1283,6 +1373,7 @@ int main(void)
         cmocka_unit_test_setup(test_master_cut_verdict, line_setup),
         cmocka_unit_test_setup(test_master_cut_then_joined, line_setup),
         cmocka_unit_test_setup(test_master_cut_passes_then_joined, line_setup),
+        cmocka_unit_test_setup(test_master_broken_after_sent, line_setup),
         cmocka_unit_test_setup(test_master_request_split_by_stall, line_setup),
         cmocka_unit_test_setup(test_master_drain_never_quiet, line_setup),
         cmocka_unit_test_setup(test_master_edges, line_setup),
